@@ -1,0 +1,54 @@
+#pragma once
+// Cameras in the scene frame and camera files (DESIGN §8):
+//   {"eye": {"lon","lat","h"}, "target": {"lon","lat","h"}, "fov_y_deg"}  — heights in the DEM's
+//   vertical units — or frame coordinates "eye_xyz", "target_xyz" (preferred when both exist).
+#include <optional>
+#include <string>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+#include <nlohmann/json_fwd.hpp>
+
+#include "core/diagnostics.hpp"
+#include "geo/frame.hpp"
+
+namespace gis::app {
+
+/// A camera as a file states it, before it is placed in a frame.
+struct CameraSpec {
+  std::optional<glm::dvec3> eyeLonLatH;
+  std::optional<glm::dvec3> targetLonLatH;
+  std::optional<glm::dvec3> eyeXyz;
+  std::optional<glm::dvec3> targetXyz;
+  double fovYDeg = 45.0;
+  std::optional<double> nearPlane;  ///< "near", metres
+};
+
+/// A camera placed in the scene frame.
+struct Camera {
+  glm::dvec3 eye{0.0};
+  glm::dvec3 target{0.0, 1.0, 0.0};
+  glm::dvec3 up{0.0, 0.0, 1.0};
+  double fovYDeg = 45.0;
+  double nearPlane = 1.0;  ///< metres; reversed-Z float depth keeps precision far beyond it
+
+  [[nodiscard]] glm::dmat4 view() const;
+  /// Infinite reversed-Z projection for the given aspect (width / height).
+  [[nodiscard]] glm::dmat4 projection(double aspect) const;
+};
+
+Result<CameraSpec> parseCameraSpec(const nlohmann::json& j, const std::string& file);
+Result<CameraSpec> loadCameraFile(const std::string& path);
+
+/// Places a spec in the frame (lon/lat/h converted through the frame). Fails if neither
+/// frame nor geographic coordinates are given for eye or target.
+Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame, const std::string& file);
+
+/// An oblique overview of a box (frame coordinates): from the south, 35° down, whole box in view.
+Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double fovYDeg = 45.0);
+
+/// camera.json as overlay_render writes it: width, height, column-major view and proj, depth
+/// convention, frame (crs, origin) and the camera itself in both forms (readable as --camera).
+nlohmann::json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width, int height);
+
+}  // namespace gis::app

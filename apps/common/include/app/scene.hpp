@@ -1,0 +1,43 @@
+#pragma once
+// Scene files (samples/olinda/scene.json): the DEM, the imagery, the vector layers with their
+// styles and an optional start camera. Paths are relative to the scene file.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "app/camera.hpp"
+#include "core/diagnostics.hpp"
+#include "vector_overlay/style.hpp"
+
+namespace gis::app {
+
+struct LayerDescription {
+  std::string name;
+  overlay::LayerKind kind = overlay::LayerKind::Polygon;
+  std::string source;       ///< absolute path
+  std::string sourceLayer;  ///< OGR layer name; empty = first
+  overlay::LayerStyle style;
+  bool visible = true;
+};
+
+struct SceneDescription {
+  std::string path;  ///< the scene file
+  std::string name;
+  std::string dem;   ///< absolute path
+  int demBand = 1;
+  double verticalExaggeration = 1.0;
+  std::optional<std::string> imagery;  ///< absolute path
+  std::vector<int> imageryBands{1, 2, 3};
+  std::vector<LayerDescription> layers;
+  std::optional<CameraSpec> camera;
+};
+
+/// Reads and validates a scene file. Unknown keys are warnings; a missing DEM or a malformed
+/// value is an error naming the scene file and the key.
+Result<SceneDescription> loadSceneFile(const std::string& path);
+/// Same from JSON text (`path` only names the file in messages and anchors relative paths).
+Result<SceneDescription> parseScene(const std::string& text, const std::string& path);
+
+}  // namespace gis::app

@@ -1,0 +1,165 @@
+#include "app/camera.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+
+#include "gfx/camera.hpp"
+
+namespace gis::app {
+namespace {
+
+using nlohmann::json;
+
+std::optional<glm::dvec3> readLonLatH(const json& j, const std::string& key, const std::string& file,
+                                      Diagnostics& diag) {
+  if (!j.contains(key)) return std::nullopt;
+  const json& p = j.at(key);
+  try {
+    return glm::dvec3(p.at("lon").get<double>(), p.at("lat").get<double>(), p.value("h", 0.0));
+  } catch (const json::exception& e) {
+    diag.add({Severity::Error, file, "", "", "camera '" + key + "': expected {\"lon\", \"lat\", \"h\"}: " + e.what()});
+    return std::nullopt;
+  }
+}
+
+std::optional<glm::dvec3> readXyz(const json& j, const std::string& key, const std::string& file, Diagnostics& diag) {
+  if (!j.contains(key)) return std::nullopt;
+  try {
+    const auto v = j.at(key).get<std::vector<double>>();
+    if (v.size() != 3) throw std::runtime_error("needs 3 numbers");
+    return glm::dvec3(v[0], v[1], v[2]);
+  } catch (const std::exception& e) {
+    diag.add({Severity::Error, file, "", "", "camera '" + key + "': expected [x, y, z]: " + e.what()});
+    return std::nullopt;
+  }
+}
+
+json matrixToJson(const glm::dmat4& m) {
+  json a = json::array();
+  const double* v = glm::value_ptr(m);
+  for (int i = 0; i < 16; ++i) a.push_back(v[i]);
+  return a;
+}
+
+}  // namespace
+
+glm::dmat4 Camera::view() const { return gfx::lookAt(eye, target, up); }
+
+glm::dmat4 Camera::projection(double aspect) const {
+  return gfx::reversedInfinitePerspective(fovYDeg * std::numbers::pi / 180.0, aspect, nearPlane);
+}
+
+Result<CameraSpec> parseCameraSpec(const json& j, const std::string& file) {
+  Result<CameraSpec> result;
+  if (!j.is_object()) return Result<CameraSpec>::failure({Severity::Error, file, "", "", "camera: expected an object"});
+  CameraSpec spec;
+  spec.eyeLonLatH = readLonLatH(j, "eye", file, result.diagnostics);
+  spec.targetLonLatH = readLonLatH(j, "target", file, result.diagnostics);
+  spec.eyeXyz = readXyz(j, "eye_xyz", file, result.diagnostics);
+  spec.targetXyz = readXyz(j, "target_xyz", file, result.diagnostics);
+  if (j.contains("fov_y_deg")) {
+    if (!j["fov_y_deg"].is_number() || !(j["fov_y_deg"].get<double>() > 0.0 && j["fov_y_deg"].get<double>() < 180.0)) {
+      result.diagnostics.add({Severity::Error, file, "", "", "camera 'fov_y_deg': expected a number in (0, 180)"});
+    } else {
+      spec.fovYDeg = j["fov_y_deg"].get<double>();
+    }
+  }
+  if (j.contains("near")) {
+    if (!j["near"].is_number() || !(j["near"].get<double>() > 0.0)) {
+      result.diagnostics.add({Severity::Error, file, "", "", "camera 'near': expected a positive number (metres)"});
+    } else {
+      spec.nearPlane = j["near"].get<double>();
+    }
+  }
+  if (!spec.eyeXyz && !spec.eyeLonLatH) {
+    result.diagnostics.add({Severity::Error, file, "", "", "camera: needs 'eye' (lon/lat/h) or 'eye_xyz'"});
+  }
+  if (!spec.targetXyz && !spec.targetLonLatH) {
+    result.diagnostics.add({Severity::Error, file, "", "", "camera: needs 'target' (lon/lat/h) or 'target_xyz'"});
+  }
+  if (!result.diagnostics.hasErrors()) result.value = spec;
+  return result;
+}
+
+Result<CameraSpec> loadCameraFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Result<CameraSpec>::failure({Severity::Error, path, "", "", "cannot open camera file"});
+  json j;
+  try {
+    in >> j;
+  } catch (const json::exception& e) {
+    return Result<CameraSpec>::failure({Severity::Error, path, "", "", std::string("not JSON: ") + e.what()});
+  }
+  return parseCameraSpec(j, path);
+}
+
+Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame, const std::string& file) {
+  auto place = [&](const std::optional<glm::dvec3>& xyz, const std::optional<glm::dvec3>& lonLatH,
+                   const char* what) -> std::optional<glm::dvec3> {
+    if (xyz) return xyz;
+    if (lonLatH) return frame.fromLonLat(lonLatH->x, lonLatH->y, lonLatH->z);
+    (void)what;
+    return std::nullopt;
+  };
+  const std::optional<glm::dvec3> eye = place(spec.eyeXyz, spec.eyeLonLatH, "eye");
+  const std::optional<glm::dvec3> target = place(spec.targetXyz, spec.targetLonLatH, "target");
+  if (!eye || !target) {
+    return Result<Camera>::failure({Severity::Error, file, "", "", "camera: eye or target cannot be placed in the frame"});
+  }
+  if (glm::length(*target - *eye) <= 0.0) {
+    return Result<Camera>::failure({Severity::Error, file, "", "", "camera: eye and target coincide"});
+  }
+  Camera camera;
+  camera.eye = *eye;
+  camera.target = *target;
+  camera.fovYDeg = spec.fovYDeg;
+  if (spec.nearPlane) camera.nearPlane = *spec.nearPlane;
+  Result<Camera> result;
+  result.value = camera;
+  return result;
+}
+
+Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double fovYDeg) {
+  const glm::dvec3 centre = (boxMin + boxMax) * 0.5;
+  const double radius = 0.5 * glm::length(boxMax - boxMin);
+  const double distance = radius / std::sin(0.5 * fovYDeg * std::numbers::pi / 180.0);
+  const double pitch = 35.0 * std::numbers::pi / 180.0;
+  Camera camera;
+  camera.target = centre;
+  camera.eye = centre + glm::dvec3(0.0, -std::cos(pitch), std::sin(pitch)) * distance;
+  camera.fovYDeg = fovYDeg;
+  camera.nearPlane = std::max(0.1, distance * 1e-3);
+  return camera;
+}
+
+json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width, int height) {
+  json j;
+  j["width"] = width;
+  j["height"] = height;
+  j["view"] = matrixToJson(camera.view());
+  j["proj"] = matrixToJson(camera.projection(static_cast<double>(width) / static_cast<double>(height)));
+  j["depth"] = {{"convention", "reversed-z"},
+                {"clip_control", "GL_LOWER_LEFT, GL_ZERO_TO_ONE"},
+                {"format", "float32 GL_DEPTH32F_STENCIL8"},
+                {"near", camera.nearPlane},
+                {"far", "infinite"},
+                {"background", 0.0},
+                {"note", "depth = near / distance along the view axis; view and proj map frame coordinates"}};
+  const std::optional<int> epsg = frame.epsg();
+  j["crs"] = epsg ? json("EPSG:" + std::to_string(*epsg)) : json(frame.crsWkt());
+  j["crs_wkt"] = frame.crsWkt();
+  j["origin"] = {frame.origin().x, frame.origin().y, frame.origin().z};
+  j["eye_xyz"] = {camera.eye.x, camera.eye.y, camera.eye.z};
+  j["target_xyz"] = {camera.target.x, camera.target.y, camera.target.z};
+  if (const auto e = frame.toLonLat(camera.eye)) j["eye"] = {{"lon", e->x}, {"lat", e->y}, {"h", e->z}};
+  if (const auto t = frame.toLonLat(camera.target)) j["target"] = {{"lon", t->x}, {"lat", t->y}, {"h", t->z}};
+  j["fov_y_deg"] = camera.fovYDeg;
+  j["near"] = camera.nearPlane;
+  return j;
+}
+
+}  // namespace gis::app

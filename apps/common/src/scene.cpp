@@ -1,0 +1,190 @@
+#include "app/scene.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace gis::app {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+class SceneParser {
+public:
+  SceneParser(std::string path, Diagnostics& diagnostics)
+      : path_(std::move(path)), base_(fs::absolute(fs::path(path_)).parent_path()), diag_(diagnostics) {}
+
+  void error(const std::string& key, const std::string& message) {
+    diag_.add({Severity::Error, path_, "", "", "'" + key + "': " + message});
+  }
+  void warning(const std::string& key, const std::string& message) {
+    diag_.add({Severity::Warning, path_, "", "", "'" + key + "': " + message});
+  }
+
+  std::string resolve(const std::string& relative) const {
+    const fs::path p(relative);
+    return (p.is_absolute() ? p : (base_ / p)).lexically_normal().string();
+  }
+
+  void warnUnknownKeys(const json& object, const std::set<std::string>& known, const std::string& where) {
+    for (const auto& [key, value] : object.items()) {
+      if (known.count(key) == 0) warning(where + key, "unknown key (ignored)");
+    }
+  }
+
+  template <typename T>
+  bool read(const json& object, const std::string& key, const std::string& where, T& out) {
+    if (!object.contains(key)) return false;
+    try {
+      out = object.at(key).get<T>();
+      return true;
+    } catch (const json::exception& e) {
+      error(where + key, std::string("wrong type: ") + e.what());
+      return false;
+    }
+  }
+
+  void color(const json& object, const std::string& key, const std::string& where, glm::vec4& out) {
+    std::string text;
+    if (read(object, key, where, text) && !overlay::parseHexColor(text, out)) {
+      error(where + key, "expected a colour like \"#ff8800\" or \"#ff8800cc\", got \"" + text + "\"");
+    }
+  }
+
+  LayerDescription layer(const json& j, std::size_t index) {
+    const std::string where = "layers[" + std::to_string(index) + "].";
+    LayerDescription layer;
+    warnUnknownKeys(j, {"name", "kind", "source", "layer", "style", "visible"}, where);
+    read(j, "name", where, layer.name);
+    if (layer.name.empty()) layer.name = "layer " + std::to_string(index);
+    std::string kind;
+    if (!read(j, "kind", where, kind)) error(where + "kind", "missing (\"polygon\" or \"line\")");
+    else if (kind == "polygon") layer.kind = overlay::LayerKind::Polygon;
+    else if (kind == "line") layer.kind = overlay::LayerKind::Line;
+    else error(where + "kind", "expected \"polygon\" or \"line\", got \"" + kind + "\"");
+    std::string source;
+    if (!read(j, "source", where, source) || source.empty()) error(where + "source", "missing vector file");
+    else layer.source = resolve(source);
+    read(j, "layer", where, layer.sourceLayer);
+    read(j, "visible", where, layer.visible);
+    if (j.contains("style")) style(j.at("style"), where + "style.", layer.style);
+    return layer;
+  }
+
+  void style(const json& j, const std::string& where, overlay::LayerStyle& s) {
+    if (!j.is_object()) {
+      error(where, "expected an object");
+      return;
+    }
+    warnUnknownKeys(j, {"color", "opacity", "outline_width_m", "outline_color", "width_m", "width_attribute",
+                        "join", "cap", "miter_limit"},
+                    where);
+    color(j, "color", where, s.color);
+    color(j, "outline_color", where, s.outlineColor);
+    if (read(j, "opacity", where, s.opacity) && (s.opacity < 0.0F || s.opacity > 1.0F)) {
+      error(where + "opacity", "must be in [0, 1]");
+    }
+    if (read(j, "outline_width_m", where, s.outlineWidthMetres) && s.outlineWidthMetres < 0.0F) {
+      error(where + "outline_width_m", "must not be negative");
+    }
+    if (read(j, "width_m", where, s.widthMetres) && !(s.widthMetres > 0.0)) {
+      error(where + "width_m", "must be positive");
+    }
+    read(j, "width_attribute", where, s.widthAttribute);
+    read(j, "miter_limit", where, s.miterLimit);
+    std::string text;
+    bool ok = true;
+    if (read(j, "join", where, text)) {
+      s.join = overlay::parseLineJoin(text, ok);
+      if (!ok) error(where + "join", "expected round, miter or bevel");
+    }
+    if (read(j, "cap", where, text)) {
+      s.cap = overlay::parseLineCap(text, ok);
+      if (!ok) error(where + "cap", "expected round, flat or square");
+    }
+  }
+
+private:
+  std::string path_;
+  fs::path base_;
+  Diagnostics& diag_;
+};
+
+}  // namespace
+
+Result<SceneDescription> parseScene(const std::string& text, const std::string& path) {
+  Result<SceneDescription> result;
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::exception& e) {
+    return Result<SceneDescription>::failure({Severity::Error, path, "", "", std::string("not JSON: ") + e.what()});
+  }
+  if (!root.is_object()) {
+    return Result<SceneDescription>::failure({Severity::Error, path, "", "", "a scene file is a JSON object"});
+  }
+  SceneParser p(path, result.diagnostics);
+  SceneDescription scene;
+  scene.path = path;
+  p.warnUnknownKeys(root, {"name", "terrain", "imagery", "layers", "camera"}, "");
+  p.read(root, "name", "", scene.name);
+
+  if (!root.contains("terrain") || !root["terrain"].is_object()) {
+    p.error("terrain", "missing (an object with \"dem\")");
+  } else {
+    const json& t = root["terrain"];
+    p.warnUnknownKeys(t, {"dem", "band", "vertical_exaggeration"}, "terrain.");
+    std::string dem;
+    if (!p.read(t, "dem", "terrain.", dem) || dem.empty()) p.error("terrain.dem", "missing DEM file");
+    else scene.dem = p.resolve(dem);
+    if (p.read(t, "band", "terrain.", scene.demBand) && scene.demBand < 1) p.error("terrain.band", "bands start at 1");
+    if (p.read(t, "vertical_exaggeration", "terrain.", scene.verticalExaggeration) &&
+        !(scene.verticalExaggeration > 0.0)) {
+      p.error("terrain.vertical_exaggeration", "must be positive");
+    }
+  }
+  if (root.contains("imagery")) {
+    const json& im = root["imagery"];
+    p.warnUnknownKeys(im, {"path", "bands"}, "imagery.");
+    std::string imagery;
+    if (p.read(im, "path", "imagery.", imagery) && !imagery.empty()) scene.imagery = p.resolve(imagery);
+    if (p.read(im, "bands", "imagery.", scene.imageryBands) && scene.imageryBands.size() != 1 &&
+        scene.imageryBands.size() != 3) {
+      p.error("imagery.bands", "give 1 (grey) or 3 (red, green, blue) band numbers");
+    }
+  }
+  if (root.contains("layers")) {
+    if (!root["layers"].is_array()) {
+      p.error("layers", "expected an array");
+    } else {
+      // A broken layer entry is reported and left out; the other layers and the terrain load.
+      for (std::size_t i = 0; i < root["layers"].size(); ++i) {
+        const std::size_t errorsBefore = result.diagnostics.count(Severity::Error);
+        LayerDescription layer = p.layer(root["layers"][i], i);
+        if (result.diagnostics.count(Severity::Error) == errorsBefore) scene.layers.push_back(std::move(layer));
+      }
+    }
+  }
+  if (root.contains("camera")) {
+    Result<CameraSpec> camera = parseCameraSpec(root["camera"], path);
+    result.diagnostics.append(camera.diagnostics);
+    if (camera) scene.camera = *camera;
+  }
+  // Without a DEM there is nothing to draw; everything else degrades with a message.
+  if (!scene.dem.empty()) result.value = std::move(scene);
+  return result;
+}
+
+Result<SceneDescription> loadSceneFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Result<SceneDescription>::failure({Severity::Error, path, "", "", "cannot open scene file"});
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parseScene(text.str(), path);
+}
+
+}  // namespace gis::app

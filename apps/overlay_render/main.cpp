@@ -1,0 +1,260 @@
+// overlay_render: draws a scene headless and writes what tests, scripts and people need
+// (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png).
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "app/camera.hpp"
+#include "app/scene.hpp"
+#include "app/scene_loader.hpp"
+#include "app/scene_renderer.hpp"
+#include "core/log.hpp"
+#include "gfx/context.hpp"
+#include "gfx/image_io.hpp"
+#include "gfx/render_target.hpp"
+
+namespace {
+
+using nlohmann::json;
+using namespace gis;
+
+constexpr const char* kUsage =
+    "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
+    "                      [--lasso L.json] --out DIR\n"
+    "Draws the scene headless (OpenGL 4.5 core via EGL) and writes into DIR:\n"
+    "  color.png   the frame, top row first\n"
+    "  depth.tiff  float32 depth as stored (reversed-Z: 1 at the near plane, 0 = background)\n"
+    "  mask.png    8-bit, bit i set where overlay layer i is drawn\n"
+    "  camera.json view/proj (column-major), depth convention, frame crs and origin\n"
+    "  stats.json  sizes, GPU times, pipeline statistics, load messages\n";
+
+struct Options {
+  std::string scene;
+  std::string camera;
+  std::string lasso;
+  std::string out;
+  int width = 1024;
+  int height = 768;
+  int msaa = 0;
+};
+
+std::optional<int> parseInt(std::string_view text) {
+  int value = 0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || ptr != text.data() + text.size()) return std::nullopt;
+  return value;
+}
+
+/// Returns an error message, or an empty string when the options are good.
+std::string parseArgs(int argc, char** argv, Options& o) {
+  const std::vector<std::string_view> args(argv + 1, argv + argc);
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string_view a = args[i];
+    auto value = [&]() -> std::optional<std::string_view> {
+      if (i + 1 >= args.size()) return std::nullopt;
+      return args[++i];
+    };
+    auto setString = [&](std::string& target) {
+      const auto v = value();
+      if (!v) return std::string(a) + " needs a value";
+      target = std::string(*v);
+      return std::string();
+    };
+    auto setInt = [&](int& target, int lo, int hi) {
+      const auto v = value();
+      const std::optional<int> n = v ? parseInt(*v) : std::nullopt;
+      if (!n || *n < lo || *n > hi) {
+        return std::string(a) + " needs an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+      }
+      target = *n;
+      return std::string();
+    };
+    std::string error;
+    if (a == "--scene") error = setString(o.scene);
+    else if (a == "--camera") error = setString(o.camera);
+    else if (a == "--lasso") error = setString(o.lasso);
+    else if (a == "--out") error = setString(o.out);
+    else if (a == "--width") error = setInt(o.width, 1, 16384);
+    else if (a == "--height") error = setInt(o.height, 1, 16384);
+    else if (a == "--msaa") error = setInt(o.msaa, 0, 32);
+    else error = "unknown argument '" + std::string(a) + "'";
+    if (!error.empty()) return error;
+  }
+  if (o.scene.empty()) return "--scene is required";
+  if (o.out.empty()) return "--out is required";
+  return {};
+}
+
+void report(const Diagnostics& diagnostics) {
+  for (const Diagnostic& d : diagnostics.items()) {
+    log(d.severity == Severity::Error ? LogLevel::Error
+        : d.severity == Severity::Warning ? LogLevel::Warning
+                                          : LogLevel::Info,
+        d.toString());
+  }
+}
+
+json diagnosticsJson(const Diagnostics& diagnostics) {
+  json a = json::array();
+  for (const Diagnostic& d : diagnostics.items()) a.push_back(d.toString());
+  return a;
+}
+
+json countsJson(const gfx::PipelineCounts& c) {
+  return {{"vertices_submitted", c.verticesSubmitted},
+          {"primitives_submitted", c.primitivesSubmitted},
+          {"vertex_shader_invocations", c.vertexShaderInvocations},
+          {"clipping_input_primitives", c.clippingInputPrimitives},
+          {"clipping_output_primitives", c.clippingOutputPrimitives},
+          {"fragment_shader_invocations", c.fragmentShaderInvocations},
+          {"samples_passed", c.samplesPassed}};
+}
+
+bool writeJson(const std::filesystem::path& path, const json& j) {
+  std::ofstream out(path);
+  out << j.dump(2) << "\n";
+  return static_cast<bool>(out);
+}
+
+int run(const Options& o) {
+  Diagnostics all;
+  if (!o.lasso.empty()) {
+    logError("--lasso " + o.lasso + ": lasso selection volumes are not available in this version yet");
+    return 2;
+  }
+  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
+  report(description.diagnostics);
+  all.append(description.diagnostics);
+  if (!description) return 1;
+
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  report(scene.diagnostics);
+  all.append(scene.diagnostics);
+  if (!scene) return 1;
+
+  std::optional<app::Camera> camera;
+  if (!o.camera.empty()) {
+    Result<app::CameraSpec> spec = app::loadCameraFile(o.camera);
+    report(spec.diagnostics);
+    if (!spec) return 1;
+    Result<app::Camera> placed = app::placeCamera(*spec, scene->frame, o.camera);
+    report(placed.diagnostics);
+    if (!placed) return 1;
+    camera = *placed;
+  } else if (description->camera) {
+    Result<app::Camera> placed = app::placeCamera(*description->camera, scene->frame, o.scene);
+    report(placed.diagnostics);
+    if (!placed) return 1;
+    camera = *placed;
+  } else {
+    glm::dvec3 lo, hi;
+    app::terrainBox(*scene, lo, hi);
+    camera = app::overviewCamera(lo, hi);
+  }
+
+  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
+  report(context.diagnostics);
+  if (!context) return 1;
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  report(renderer.diagnostics);
+  if (!renderer) return 1;
+
+  gfx::StateCache cache;
+  gfx::RenderTarget target(o.width, o.height, o.msaa);
+  const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, true);
+  std::optional<gfx::RenderTarget> resolved;
+  const gfx::RenderTarget* readable = &target;
+  if (target.multisampled()) {
+    resolved.emplace(o.width, o.height, 0);
+    target.resolveInto(*resolved);
+    readable = &*resolved;
+  }
+  std::vector<std::uint8_t> rgba = gfx::readColorRgba8(*readable);
+  const std::vector<float> depth = gfx::readDepth(*readable);
+  // Overlay layers are not drawn by this version: no mask bit is set by any pass.
+  const std::vector<std::uint8_t> mask(static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height), 0);
+
+  std::vector<std::uint8_t> rgb(rgba.size() / 4 * 3);
+  for (std::size_t i = 0, n = rgba.size() / 4; i < n; ++i) {
+    for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = rgba[i * 4 + c];
+  }
+
+  const std::filesystem::path out(o.out);
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) {
+    logError(o.out + ": cannot create output directory: " + ec.message());
+    return 1;
+  }
+  bool ok = true;
+  for (const auto& written : {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, rgb),
+                              gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, depth),
+                              gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, mask)}) {
+    report(written.diagnostics);
+    ok = ok && written.ok();
+  }
+
+  std::size_t terrainPixels = 0;
+  for (float d : depth) terrainPixels += d > 0.0F ? 1 : 0;
+  json layers = json::array();
+  for (const app::LoadedLayer& layer : scene->layers) {
+    layers.push_back({{"name", layer.description.name},
+                      {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
+                      {"source", layer.description.source},
+                      {"features", layer.data.features.size()},
+                      {"vertices", layer.data.vertexCount()},
+                      {"skipped_features", layer.skippedFeatures},
+                      {"drawn", false}});
+  }
+  const gfx::Context& ctx = **context;
+  json stats = {
+      {"scene", o.scene},
+      {"width", o.width},
+      {"height", o.height},
+      {"msaa", target.samples()},
+      {"gl", {{"renderer", ctx.info().renderer}, {"version", ctx.info().version}}},
+      {"load_seconds", scene->loadSeconds},
+      {"terrain",
+       {{"posts", scene->demWidth * scene->demHeight},
+        {"dem_size", {scene->demWidth, scene->demHeight}},
+        {"nodata_posts", scene->mesh.skippedNodataPosts},
+        {"triangles", renderer->terrainTriangles()},
+        {"min_height", scene->mesh.minHeight},
+        {"max_height", scene->mesh.maxHeight},
+        {"imagery", scene->orthophoto.has_value()},
+        {"pixels", terrainPixels}}},
+      {"layers", layers},
+      {"passes", {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
+      {"errors", all.count(Severity::Error)},
+      {"warnings", all.count(Severity::Warning)},
+      {"diagnostics", diagnosticsJson(all)},
+      {"gl_errors", (*context)->debug().errorCount()}};
+  ok = writeJson(out / "camera.json", app::cameraToJson(*camera, scene->frame, o.width, o.height)) && ok;
+  ok = writeJson(out / "stats.json", stats) && ok;
+  if (!ok) return 1;
+  std::printf("%s\n", (std::filesystem::absolute(out) / "color.png").string().c_str());
+  return (*context)->debug().errorCount() == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  Options options;
+  const std::string error = parseArgs(argc, argv, options);
+  if (!error.empty()) {
+    std::fprintf(stderr, "overlay_render: %s\n%s", error.c_str(), kUsage);
+    return 2;
+  }
+  return run(options);
+}

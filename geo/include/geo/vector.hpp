@@ -1,0 +1,77 @@
+#pragma once
+// Vector reading through OGR (GeoJSON, Shapefile, GeoPackage and whatever else OGR reads):
+// polygons with holes, multi-parts and line strings with their attributes, reprojected into
+// the scene frame; long edges in geographic CRSs densified along geodesics first.
+#include <cstdint>
+#include <map>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "core/diagnostics.hpp"
+#include "geo/frame.hpp"
+
+namespace gis::geo {
+
+/// A ring in frame coordinates. Not closed: the last point is not a copy of the first.
+using Ring = std::vector<glm::dvec2>;
+using LineString = std::vector<glm::dvec2>;
+
+struct Polygon {
+  Ring outer;
+  std::vector<Ring> holes;
+};
+
+using AttributeValue = std::variant<std::monostate, std::int64_t, double, std::string>;
+
+enum class GeometryKind { Polygon, Line, Mixed, Empty };
+
+/// One OGR feature. A multi-polygon has several polygons; a multi-line several lines.
+struct Feature {
+  std::int64_t fid = -1;
+  std::vector<Polygon> polygons;
+  std::vector<LineString> lines;
+  std::map<std::string, AttributeValue> attributes;
+
+  [[nodiscard]] std::size_t vertexCount() const;
+};
+
+struct VectorLayer {
+  std::string path;
+  std::string name;
+  std::string sourceCrsWkt;
+  GeometryKind kind = GeometryKind::Empty;
+  std::vector<Feature> features;  ///< only the good ones; the broken ones are in diagnostics
+
+  [[nodiscard]] std::size_t vertexCount() const;
+};
+
+struct VectorReadOptions {
+  /// Layer to read; empty = the first layer of the data source.
+  std::string layer;
+  /// When the source CRS is geographic, edges longer than this (metres, on the ellipsoid) are
+  /// densified along the geodesic before projection.
+  double maxGeodesicSegmentMetres = 100.0;
+  /// CRS assumed when the file has none (OGR user input, e.g. "OGC:CRS84"); empty = error.
+  std::string assumedCrs;
+};
+
+/// Names of the layers in a vector data source.
+Result<std::vector<std::string>> listVectorLayers(const std::string& path);
+
+/// Reads one layer into the frame. A broken feature (empty or unsupported geometry, NaN/Inf
+/// coordinates, a point that cannot be projected, a ring with fewer than 3 distinct points)
+/// is left out with an error naming file, layer and feature; the good features still load.
+/// Only a file that cannot be opened, a missing layer or an unknown CRS fail as a whole.
+Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& frame,
+                                    const VectorReadOptions& options = {});
+
+/// Points along the geodesic from a to b (lon/lat degrees, on the given ellipsoid) such that no
+/// piece is longer than maxSegmentMetres; includes a, excludes b.
+std::vector<glm::dvec2> densifyGeodesic(const glm::dvec2& a, const glm::dvec2& b,
+                                        double maxSegmentMetres, double semiMajor,
+                                        double flattening);
+
+}  // namespace gis::geo

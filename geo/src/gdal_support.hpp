@@ -1,0 +1,87 @@
+#pragma once
+// Private helpers shared by the GDAL-based readers: one-time driver registration, a guard that
+// keeps GDAL from printing (its errors become Diagnostics instead) and spatial-reference
+// helpers that always use the traditional GIS axis order (x = lon/easting, y = lat/northing).
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+namespace gis::geo::detail {
+
+/// Registers GDAL's drivers exactly once per process (safe from any thread).
+inline void ensureGdalRegistered() {
+  static std::once_flag once;
+  std::call_once(once, [] { GDALAllRegister(); });
+}
+
+/// While alive, GDAL errors on this thread go nowhere instead of stderr; the last message is
+/// still available through lastMessage(). CPL's handler stack is per thread.
+class QuietGdal {
+ public:
+  QuietGdal() {
+    CPLPushErrorHandler(CPLQuietErrorHandler);
+    CPLErrorReset();
+  }
+  ~QuietGdal() { CPLPopErrorHandler(); }
+  QuietGdal(const QuietGdal&) = delete;
+  QuietGdal& operator=(const QuietGdal&) = delete;
+
+  /// GDAL's last error message, or `fallback` when GDAL said nothing.
+  [[nodiscard]] static std::string lastMessage(const std::string& fallback) {
+    const char* msg = CPLGetLastErrorMsg();
+    if (msg == nullptr || *msg == '\0') return fallback;
+    return msg;
+  }
+};
+
+struct SrsDeleter {
+  void operator()(OGRSpatialReference* srs) const {
+    if (srs != nullptr) srs->Release();
+  }
+};
+using SrsPtr = std::unique_ptr<OGRSpatialReference, SrsDeleter>;
+
+/// A copy of `srs` with traditional GIS axis order.
+inline SrsPtr cloneTraditional(const OGRSpatialReference& srs) {
+  SrsPtr out(srs.Clone());
+  if (out) out->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  return out;
+}
+
+/// WKT2 (2019) of a spatial reference: keeps bound CRSs and axis definitions intact, so
+/// SetFromUserInput() gives the same CRS back. Empty if export fails.
+inline std::string toWkt(const OGRSpatialReference& srs) {
+  char* wkt = nullptr;
+  const char* const options[] = {"FORMAT=WKT2_2019", nullptr};
+  std::string out;
+  if (srs.exportToWkt(&wkt, options) == OGRERR_NONE && wkt != nullptr) out = wkt;
+  CPLFree(wkt);
+  return out;
+}
+
+/// Parses user input (EPSG:xxxx, WKT, PROJ string, OGC:CRS84...) into an SRS with traditional
+/// axis order; null with `error` set when OGR does not understand it.
+inline SrsPtr parseSrs(const std::string& input, std::string& error) {
+  ensureGdalRegistered();
+  QuietGdal quiet;
+  if (input.empty()) {
+    error = "empty CRS definition";
+    return nullptr;
+  }
+  SrsPtr srs(new OGRSpatialReference());
+  const char* const options[] = {"ALLOW_NETWORK_ACCESS=NO", nullptr};
+  if (srs->SetFromUserInput(input.c_str(), options) != OGRERR_NONE || srs->IsEmpty()) {
+    error = "unknown CRS '" + (input.size() > 80 ? input.substr(0, 80) + "..." : input) +
+            "': " + QuietGdal::lastMessage("OGR cannot parse it");
+    return nullptr;
+  }
+  srs->SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  return srs;
+}
+
+}  // namespace gis::geo::detail

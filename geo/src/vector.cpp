@@ -1,0 +1,383 @@
+#include "geo/vector.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include <ogrsf_frmts.h>
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
+
+#include "gdal_support.hpp"
+
+namespace gis::geo {
+
+std::size_t Feature::vertexCount() const {
+  std::size_t n = 0;
+  for (const Polygon& p : polygons) {
+    n += p.outer.size();
+    for (const Ring& h : p.holes) n += h.size();
+  }
+  for (const LineString& l : lines) n += l.size();
+  return n;
+}
+
+std::size_t VectorLayer::vertexCount() const {
+  std::size_t n = 0;
+  for (const Feature& f : features) n += f.vertexCount();
+  return n;
+}
+
+namespace {
+
+/// Appends a and the points strictly between a and b along the geodesic, equally spaced in
+/// distance so that no piece is longer than maxSegmentMetres.
+void appendGeodesic(const GeographicLib::Geodesic& geodesic, const glm::dvec2& a, const glm::dvec2& b,
+                    double maxSegmentMetres, std::vector<glm::dvec2>& out) {
+  out.push_back(a);
+  if (!(maxSegmentMetres > 0.0) || !std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) ||
+      !std::isfinite(b.y)) {
+    return;
+  }
+  const GeographicLib::GeodesicLine line = geodesic.InverseLine(a.y, a.x, b.y, b.x);
+  const double length = line.Distance();
+  const double pieces = std::ceil(length / maxSegmentMetres);
+  if (!std::isfinite(pieces) || pieces <= 1.0) return;
+  // A guard against absurd requests (e.g. 1 mm steps around the globe): beyond this many
+  // pieces the caller gets longer pieces rather than an out-of-memory crash.
+  constexpr double kMaxPieces = 1 << 22;
+  const auto n = static_cast<int>(std::min(pieces, kMaxPieces));
+  const double step = length / n;
+  for (int i = 1; i < n; ++i) {
+    double lat = 0.0;
+    double lon = 0.0;
+    double unused = 0.0;
+    // LONG_UNROLL: longitudes continue from a's (no jump at the antimeridian).
+    line.GenPosition(false, step * i,
+                     GeographicLib::GeodesicLine::LATITUDE | GeographicLib::GeodesicLine::LONGITUDE |
+                         GeographicLib::GeodesicLine::LONG_UNROLL,
+                     lat, lon, unused, unused, unused, unused, unused, unused);
+    out.emplace_back(lon, lat);
+  }
+}
+
+}  // namespace
+
+std::vector<glm::dvec2> densifyGeodesic(const glm::dvec2& a, const glm::dvec2& b, double maxSegmentMetres,
+                                        double semiMajor, double flattening) {
+  std::vector<glm::dvec2> out;
+  try {
+    const GeographicLib::Geodesic geodesic(semiMajor, flattening);
+    appendGeodesic(geodesic, a, b, maxSegmentMetres, out);
+  } catch (const std::exception&) {
+    // Invalid ellipsoid: no densification possible; the edge stays straight.
+    out.assign(1, a);
+  }
+  return out;
+}
+
+namespace {
+
+struct DatasetDeleter {
+  void operator()(GDALDataset* ds) const {
+    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
+  }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, DatasetDeleter>;
+
+/// Opens a vector data source; null with `error` set. Call inside a QuietGdal.
+DatasetPtr openVector(const std::string& path, std::string& error) {
+  detail::ensureGdalRegistered();
+  DatasetPtr ds(GDALDataset::FromHandle(
+      GDALOpenEx(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  if (!ds) {
+    error = "cannot open as vector data: " + detail::QuietGdal::lastMessage("not a vector format OGR can read");
+  } else if (ds->GetLayerCount() == 0) {
+    error = "the data source has no vector layers";
+    ds.reset();
+  }
+  return ds;
+}
+
+std::string formatPoint(const glm::dvec2& p) {
+  std::ostringstream s;
+  s.precision(10);
+  s << '(' << p.x << ", " << p.y << ')';
+  return s.str();
+}
+
+/// Turns OGR geometries of one layer into frame coordinates. Each method returns an empty
+/// string on success, else what was wrong (the caller names file, layer and feature).
+class GeometryConverter {
+ public:
+  GeometryConverter(const SceneFrame& frame, const CrsTransform& toFrame,
+                    std::optional<GeographicLib::Geodesic> geodesic, double maxSegment)
+      : frame_(frame), toFrame_(toFrame), geodesic_(std::move(geodesic)), maxSegment_(maxSegment) {}
+
+  std::string convert(const OGRGeometry& geometry, Feature& out) const {
+    switch (wkbFlatten(geometry.getGeometryType())) {
+      case wkbPolygon:
+        return addPolygon(*geometry.toPolygon(), out);
+      case wkbMultiPolygon:
+        for (const OGRPolygon* polygon : *geometry.toMultiPolygon()) {
+          if (std::string e = addPolygon(*polygon, out); !e.empty()) return e;
+        }
+        return {};
+      case wkbLineString:
+        return addLine(*geometry.toLineString(), out);
+      case wkbMultiLineString:
+        for (const OGRLineString* line : *geometry.toMultiLineString()) {
+          if (std::string e = addLine(*line, out); !e.empty()) return e;
+        }
+        return {};
+      default:
+        return std::string("unsupported geometry type ") + OGRGeometryTypeToName(geometry.getGeometryType());
+    }
+  }
+
+ private:
+  std::string addPolygon(const OGRPolygon& polygon, Feature& out) const {
+    const OGRLinearRing* exterior = polygon.getExteriorRing();
+    if (exterior == nullptr || exterior->IsEmpty()) return "polygon without exterior ring";
+    Polygon p;
+    if (std::string e = convertPart(*exterior, true, p.outer); !e.empty()) return "exterior ring: " + e;
+    for (int i = 0; i < polygon.getNumInteriorRings(); ++i) {
+      Ring hole;
+      if (std::string e = convertPart(*polygon.getInteriorRing(i), true, hole); !e.empty())
+        return "hole " + std::to_string(i + 1) + ": " + e;
+      p.holes.push_back(std::move(hole));
+    }
+    out.polygons.push_back(std::move(p));
+    return {};
+  }
+
+  std::string addLine(const OGRLineString& line, Feature& out) const {
+    LineString l;
+    if (std::string e = convertPart(line, false, l); !e.empty()) return "line: " + e;
+    out.lines.push_back(std::move(l));
+    return {};
+  }
+
+  /// One ring (closed = true; the closing duplicate is dropped) or one line string.
+  std::string convertPart(const OGRSimpleCurve& curve, bool closed, std::vector<glm::dvec2>& out) const {
+    const int n = curve.getNumPoints();
+    std::vector<glm::dvec2> pts;
+    pts.reserve(static_cast<std::size_t>(std::max(n, 0)));
+    for (int i = 0; i < n; ++i) {
+      const glm::dvec2 p(curve.getX(i), curve.getY(i));
+      if (!std::isfinite(p.x) || !std::isfinite(p.y)) return "non-finite coordinate at vertex " + std::to_string(i);
+      if (geodesic_ && (std::abs(p.y) > 90.0 || std::abs(p.x) > 360.0))
+        return "vertex " + std::to_string(i) + " " + formatPoint(p) + " is outside the range of longitude/latitude";
+      // Repeated vertices carry no shape and make zero-length edges; keep one.
+      if (pts.empty() || pts.back() != p) pts.push_back(p);
+    }
+    if (closed) {
+      while (pts.size() > 1 && pts.back() == pts.front()) pts.pop_back();
+    }
+    std::vector<glm::dvec2> distinct = pts;
+    std::sort(distinct.begin(), distinct.end(),
+              [](const glm::dvec2& a, const glm::dvec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+    if (closed && distinct.size() < 3)
+      return "ring has " + std::to_string(distinct.size()) + " distinct point(s); at least 3 needed";
+    if (!closed && distinct.size() < 2)
+      return "line has " + std::to_string(distinct.size()) + " distinct point(s); at least 2 needed";
+
+    if (geodesic_ && std::isfinite(maxSegment_)) pts = densify(pts, closed);
+
+    std::vector<glm::dvec2> projected = pts;
+    if (!toFrame_.transform(projected.data(), projected.size())) {
+      for (std::size_t i = 0; i < projected.size(); ++i) {
+        if (!std::isfinite(projected[i].x))
+          return "point " + formatPoint(pts[i]) + " cannot be projected into the frame CRS";
+      }
+      return "points cannot be projected into the frame CRS";
+    }
+    const glm::dvec2 origin(frame_.origin());
+    for (glm::dvec2& p : projected) p -= origin;
+    out = std::move(projected);
+    return {};
+  }
+
+  /// Inserts geodesic points on every edge longer than maxSegment_ (for a ring including the
+  /// closing edge).
+  std::vector<glm::dvec2> densify(const std::vector<glm::dvec2>& pts, bool closed) const {
+    std::vector<glm::dvec2> out;
+    out.reserve(pts.size());
+    const std::size_t edges = closed ? pts.size() : pts.size() - 1;
+    for (std::size_t i = 0; i < edges; ++i) {
+      appendGeodesic(*geodesic_, pts[i], pts[(i + 1) % pts.size()], maxSegment_, out);
+    }
+    if (!closed) out.push_back(pts.back());
+    return out;
+  }
+
+  const SceneFrame& frame_;
+  const CrsTransform& toFrame_;
+  std::optional<GeographicLib::Geodesic> geodesic_;  // set when the source is geographic
+  double maxSegment_;
+};
+
+void readAttributes(const OGRFeature& feature, const OGRFeatureDefn& defn, Feature& out) {
+  for (int i = 0; i < defn.GetFieldCount(); ++i) {
+    const OGRFieldDefn* field = defn.GetFieldDefn(i);
+    AttributeValue value;
+    if (feature.IsFieldSetAndNotNull(i)) {
+      switch (field->GetType()) {
+        case OFTInteger:
+        case OFTInteger64:
+          value = static_cast<std::int64_t>(feature.GetFieldAsInteger64(i));
+          break;
+        case OFTReal:
+          value = feature.GetFieldAsDouble(i);
+          break;
+        default:
+          value = std::string(feature.GetFieldAsString(i));
+          break;
+      }
+    }
+    out.attributes[field->GetNameRef()] = std::move(value);
+  }
+}
+
+struct FeatureDeleter {
+  void operator()(OGRFeature* f) const { OGRFeature::DestroyFeature(f); }
+};
+
+}  // namespace
+
+Result<std::vector<std::string>> listVectorLayers(const std::string& path) {
+  detail::QuietGdal quiet;
+  std::string error;
+  DatasetPtr ds = openVector(path, error);
+  if (!ds) return Result<std::vector<std::string>>::failure({Severity::Error, path, "", "", error});
+  Result<std::vector<std::string>> r;
+  r.value.emplace();
+  for (int i = 0; i < ds->GetLayerCount(); ++i) r.value->emplace_back(ds->GetLayer(i)->GetName());
+  return r;
+}
+
+Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& frame,
+                                    const VectorReadOptions& options) {
+  detail::QuietGdal quiet;
+  auto fail = [&path](const std::string& layer, const std::string& message) {
+    return Result<VectorLayer>::failure({Severity::Error, path, layer, "", message});
+  };
+  if (std::isnan(options.maxGeodesicSegmentMetres) || options.maxGeodesicSegmentMetres <= 0.0)
+    return fail(options.layer, "maxGeodesicSegmentMetres must be > 0");
+
+  std::string error;
+  DatasetPtr ds = openVector(path, error);
+  if (!ds) return fail("", error);
+
+  OGRLayer* layer = nullptr;
+  if (options.layer.empty()) {
+    layer = ds->GetLayer(0);
+  } else {
+    layer = ds->GetLayerByName(options.layer.c_str());
+    if (layer == nullptr) {
+      std::string names;
+      for (int i = 0; i < ds->GetLayerCount(); ++i)
+        names += (i > 0 ? ", " : "") + std::string(ds->GetLayer(i)->GetName());
+      return fail(options.layer, "no such layer (the data source has: " + names + ")");
+    }
+  }
+  if (layer == nullptr) return fail("", "cannot read the first layer");
+
+  VectorLayer result;
+  result.path = path;
+  result.name = layer->GetName();
+
+  // Source CRS: the layer's, else the assumed one.
+  if (const OGRSpatialReference* srs = layer->GetSpatialRef(); srs != nullptr && !srs->IsEmpty()) {
+    result.sourceCrsWkt = detail::toWkt(*srs);
+    if (result.sourceCrsWkt.empty()) return fail(result.name, "cannot export the layer CRS as WKT");
+  } else if (!options.assumedCrs.empty()) {
+    const detail::SrsPtr assumed = detail::parseSrs(options.assumedCrs, error);
+    if (!assumed) return fail(result.name, "the layer has no CRS and the assumed CRS is bad: " + error);
+    result.sourceCrsWkt = detail::toWkt(*assumed);
+  } else {
+    return fail(result.name, "the layer has no CRS and no CRS to assume was given");
+  }
+  Result<CrsTransform> toFrame = frame.transformFrom(result.sourceCrsWkt);
+  if (!toFrame) {
+    const auto& items = toFrame.diagnostics.items();
+    return fail(result.name, items.empty() ? "cannot transform into the frame" : items.front().message);
+  }
+
+  std::optional<GeographicLib::Geodesic> geodesic;
+  if (toFrame->sourceIsGeographic()) {
+    try {
+      geodesic.emplace(toFrame->sourceSemiMajor(), toFrame->sourceFlattening());
+    } catch (const std::exception& e) {
+      return fail(result.name, std::string("invalid ellipsoid of the source CRS: ") + e.what());
+    }
+  }
+  const GeometryConverter converter(frame, *toFrame, std::move(geodesic), options.maxGeodesicSegmentMetres);
+
+  Result<VectorLayer> r;
+  const OGRFeatureDefn* defn = layer->GetLayerDefn();
+  layer->ResetReading();
+  std::int64_t index = 0;
+  for (;; ++index) {
+    CPLErrorReset();
+    std::unique_ptr<OGRFeature, FeatureDeleter> feature(layer->GetNextFeature());
+    if (!feature) {
+      if (CPLGetLastErrorType() == CE_Failure || CPLGetLastErrorType() == CE_Fatal) {
+        r.diagnostics.add({Severity::Error, path, result.name, "",
+                           "reading stopped after " + std::to_string(index) +
+                               " features: " + detail::QuietGdal::lastMessage("read error")});
+      }
+      break;
+    }
+    Feature f;
+    f.fid = feature->GetFID();
+    const std::string fid = f.fid != OGRNullFID ? std::to_string(f.fid) : "#" + std::to_string(index);
+    auto reject = [&](const std::string& message) {
+      r.diagnostics.add({Severity::Error, path, result.name, fid, message});
+    };
+
+    const OGRGeometry* geometry = feature->GetGeometryRef();
+    if (geometry == nullptr) {
+      reject("feature has no geometry");
+      continue;
+    }
+    if (geometry->IsEmpty()) {
+      reject("empty geometry");
+      continue;
+    }
+    std::unique_ptr<OGRGeometry> linear;
+    if (geometry->hasCurveGeometry()) {
+      linear.reset(geometry->getLinearGeometry());
+      if (!linear) {
+        reject("cannot approximate the curve geometry by line segments");
+        continue;
+      }
+      geometry = linear.get();
+    }
+    if (const std::string e = converter.convert(*geometry, f); !e.empty()) {
+      reject(e);
+      continue;
+    }
+    readAttributes(*feature, *defn, f);
+    result.features.push_back(std::move(f));
+  }
+
+  bool anyPolygon = false;
+  bool anyLine = false;
+  for (const Feature& f : result.features) {
+    anyPolygon = anyPolygon || !f.polygons.empty();
+    anyLine = anyLine || !f.lines.empty();
+  }
+  result.kind = anyPolygon && anyLine ? GeometryKind::Mixed
+                : anyPolygon          ? GeometryKind::Polygon
+                : anyLine             ? GeometryKind::Line
+                                      : GeometryKind::Empty;
+  r.value = std::move(result);
+  return r;
+}
+
+}  // namespace gis::geo

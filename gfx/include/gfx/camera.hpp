@@ -1,0 +1,23 @@
+#pragma once
+// Camera maths in double: reversed-Z infinite projection and eye-relative view matrices.
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+namespace gis::gfx {
+
+/// Infinite reversed-Z perspective for glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE):
+/// depth = near / distance along the view axis: 1 at the near plane, → 0 at infinity.
+glm::dmat4 reversedInfinitePerspective(double fovYRadians, double aspect, double near);
+
+/// Right-handed look-at (camera looks along −z of its own frame). `up` must not be parallel to
+/// target − eye; a fallback up is chosen then.
+glm::dmat4 lookAt(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up);
+
+/// proj · view · translate(centre), formed in double and narrowed once: vertices stored relative
+/// to `centre` in float keep their precision however far the frame coordinates are.
+glm::mat4 relativeToCentre(const glm::dmat4& viewProj, const glm::dvec3& centre);
+
+/// Turns on reversed-Z clip control on the current context (glClipControl, GL 4.5).
+void enableReversedZ();
+
+}  // namespace gis::gfx

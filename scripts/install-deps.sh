@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package the build, the programs and the tests use.
+# Idempotent: packages already present are left alone; safe to run again.
+# Must run as root (or through sudo) on Debian 12 (bookworm).
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git clang libclang-rt-14-dev clang-format
+  # OpenGL: libepoxy for entry points, Mesa for EGL (surfaceless) and GLX on llvmpipe
+  libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev mesa-utils
+  # windowing and UI
+  libglfw3-dev libimgui-dev xvfb xauth
+  # maths, geodesy, geometry, geodata, images, json
+  libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev
+  # tests
+  libgtest-dev libgmock-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

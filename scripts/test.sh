@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Sets everything up and runs all tests: installs the Debian packages, checks formatting, builds
+# the release configuration and the AddressSanitizer + UndefinedBehaviorSanitizer configuration,
+# and runs every test (unit, headless GL, program runs) in both.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bash scripts/install-deps.sh
+bash scripts/check-format.sh
+
+jobs=$(nproc)
+cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo
+cmake --build build -j "$jobs"
+ctest --test-dir build --output-on-failure -j "$jobs"
+
+# Sanitizers: the viewer needs a display and is exercised in the release build only.
+cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTENCIL_GIS_SANITIZE=ON \
+  -DSTENCIL_GIS_WITH_VIEWER=OFF
+cmake --build build-asan -j "$jobs"
+ctest --test-dir build-asan --output-on-failure -j "$jobs"

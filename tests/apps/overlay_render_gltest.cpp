@@ -1,0 +1,189 @@
+// Runs the real overlay_render program on the Olinda sample and checks its outputs: files exist
+// with the asked size; terrain pixels are not background and carry imagery colour; depth is
+// finite and 0 only on background; and every terrain pixel unprojected through camera.json
+// lands on the DEM surface as drawn (same triangulation), within a stated tolerance.
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat4x4.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "geo/frame.hpp"
+#include "geo/raster.hpp"
+#include "gfx/image_io.hpp"
+
+namespace gis::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const std::string kSamples = STENCIL_GIS_SAMPLES_DIR;
+constexpr int kWidth = 256;
+constexpr int kHeight = 192;
+// Float depth at ~15 km and float vertices relative to the mesh centre: a few centimetres.
+constexpr double kSurfaceTolerance = 0.25;  // metres, vertical
+
+int runOverlayRender(const std::string& args, const fs::path& log) {
+  const std::string command = std::string(OVERLAY_RENDER_EXE) + " " + args + " > " + log.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string readText(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+glm::dmat4 matrix(const json& a) {
+  glm::dmat4 m(0.0);
+  for (int i = 0; i < 16; ++i) glm::value_ptr(m)[i] = a.at(static_cast<std::size_t>(i)).get<double>();
+  return m;
+}
+
+/// Height of the drawn surface at frame (x, y): the mesh's triangles a-d-e and a-e-b per cell.
+std::optional<double> drawnHeight(const geo::Raster& dem, const geo::SceneFrame& frame, double x, double y) {
+  const auto& gt = dem.info.geoTransform.c;
+  const glm::dvec3 p = frame.frameToProjected({x, y, 0});
+  const double col = (p.x - gt[0]) / gt[1] - 0.5;
+  const double row = (p.y - gt[3]) / gt[5] - 0.5;
+  const int c = static_cast<int>(std::floor(col));
+  const int r = static_cast<int>(std::floor(row));
+  if (c < 0 || r < 0 || c + 1 >= dem.info.width || r + 1 >= dem.info.height) return std::nullopt;
+  const double fx = col - c, fy = row - r;
+  const double a = dem.at(c, r), b = dem.at(c + 1, r), d = dem.at(c, r + 1), e = dem.at(c + 1, r + 1);
+  if (fy >= fx) return a + fy * (d - a) + fx * (e - d);
+  return a + fx * (b - a) + fy * (e - b);
+}
+
+class OverlayRenderTest : public ::testing::Test {
+protected:
+  static void SetUpTestSuite() {
+    out_ = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "olinda";
+    fs::remove_all(out_);
+    fs::create_directories(out_);
+    status_ = runOverlayRender("--scene " + kSamples + "/olinda/scene.json --width " + std::to_string(kWidth) +
+                                   " --height " + std::to_string(kHeight) + " --out " + out_.string(),
+                               out_ / "log.txt");
+  }
+  static fs::path out_;
+  static int status_;
+};
+fs::path OverlayRenderTest::out_;
+int OverlayRenderTest::status_ = -1;
+
+TEST_F(OverlayRenderTest, WritesEveryOutput) {
+  ASSERT_EQ(status_, 0) << readText(out_ / "log.txt");
+  for (const char* name : {"color.png", "depth.tiff", "mask.png", "camera.json", "stats.json"}) {
+    EXPECT_TRUE(fs::exists(out_ / name)) << name;
+  }
+  EXPECT_NE(readText(out_ / "log.txt").find("color.png"), std::string::npos) << "prints where the PNG is";
+  const json stats = json::parse(readText(out_ / "stats.json"));
+  EXPECT_EQ(stats["gl_errors"].get<int>(), 0);
+  EXPECT_EQ(stats["errors"].get<int>(), 0) << stats["diagnostics"].dump(2);
+  EXPECT_EQ(stats["terrain"]["triangles"].get<int>(), 110 * 110 * 2);  // 111 × 111 posts, no nodata
+  EXPECT_TRUE(stats["terrain"]["imagery"].get<bool>());
+  EXPECT_GT(stats["passes"]["terrain"]["pipeline"]["fragment_shader_invocations"].get<double>(), 0.0);
+  ASSERT_EQ(stats["layers"].size(), 2u);
+  EXPECT_EQ(stats["layers"][0]["features"].get<int>(), 470);
+  EXPECT_EQ(stats["layers"][1]["features"].get<int>(), 1421);
+  const gfx::Image8 mask = *gfx::readImage8((out_ / "mask.png").string());
+  EXPECT_EQ(mask.width, kWidth);
+  EXPECT_EQ(mask.channels, 1);
+}
+
+TEST_F(OverlayRenderTest, TerrainPixelsAreImageryAndLieOnTheDrawnSurface) {
+  ASSERT_EQ(status_, 0);
+  Result<gfx::Image8> color = gfx::readImage8((out_ / "color.png").string());
+  Result<gfx::ImageFloat> depth = gfx::readImageFloat((out_ / "depth.tiff").string());
+  ASSERT_TRUE(color.ok() && depth.ok());
+  ASSERT_EQ(color->width, kWidth);
+  ASSERT_EQ(color->height, kHeight);
+  ASSERT_EQ(depth->width, kWidth);
+  const json camera = json::parse(readText(out_ / "camera.json"));
+  EXPECT_EQ(camera["width"].get<int>(), kWidth);
+  EXPECT_EQ(camera["depth"]["convention"].get<std::string>(), "reversed-z");
+  const glm::dmat4 inverse = glm::inverse(matrix(camera["proj"]) * matrix(camera["view"]));
+
+  Result<geo::Raster> dem = geo::readRaster(kSamples + "/olinda/olinda_dem_utm25s.tif");
+  ASSERT_TRUE(dem.ok());
+  Result<geo::SceneFrame> frame = geo::SceneFrame::fromCrs(
+      camera["crs_wkt"].get<std::string>(),
+      {camera["origin"][0].get<double>(), camera["origin"][1].get<double>(), camera["origin"][2].get<double>()});
+  ASSERT_TRUE(frame.ok());
+
+  const std::uint8_t background[3] = {15, 18, 23};  // kBackground in 8 bits
+  std::size_t terrain = 0, checked = 0, offSurface = 0, backgroundColoured = 0, nonFinite = 0;
+  double worst = 0.0;
+  double sum[3] = {0, 0, 0};
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y * kWidth + x);
+      const float d = depth->pixels[i];
+      const std::uint8_t* c = &color->pixels[i * 3];
+      if (!std::isfinite(d) || d < 0.0F || d > 1.0F) { ++nonFinite; continue; }
+      if (d == 0.0F) continue;
+      ++terrain;
+      for (int k = 0; k < 3; ++k) sum[k] += c[k];
+      if (std::abs(c[0] - background[0]) <= 1 && std::abs(c[1] - background[1]) <= 1 &&
+          std::abs(c[2] - background[2]) <= 1) {
+        ++backgroundColoured;
+      }
+      const glm::dvec4 ndc((x + 0.5) / kWidth * 2.0 - 1.0, 1.0 - (y + 0.5) / kHeight * 2.0, d, 1.0);
+      const glm::dvec4 h = inverse * ndc;
+      const glm::dvec3 p = glm::dvec3(h) / h.w;
+      const std::optional<double> surface = drawnHeight(*dem, *frame, p.x, p.y);
+      if (!surface) continue;  // within half a post of the DEM border
+      ++checked;
+      const double err = std::abs(p.z - *surface);
+      worst = std::max(worst, err);
+      offSurface += err > kSurfaceTolerance;
+    }
+  }
+  EXPECT_EQ(nonFinite, 0u);
+  EXPECT_GT(terrain, static_cast<std::size_t>(kWidth * kHeight / 4)) << "terrain should fill much of the view";
+  EXPECT_LT(terrain, static_cast<std::size_t>(kWidth * kHeight)) << "the overview shows some sky";
+  EXPECT_EQ(backgroundColoured, 0u);
+  EXPECT_GT(checked, terrain * 9 / 10);
+  EXPECT_EQ(offSurface, 0u) << "worst vertical error " << worst << " m";
+  // Landsat true colour of Olinda (town, vegetation, sea): not the grey hillshade, not flat.
+  const double mean[3] = {sum[0] / double(terrain), sum[1] / double(terrain), sum[2] / double(terrain)};
+  EXPECT_GT(std::abs(mean[0] - mean[1]) + std::abs(mean[1] - mean[2]), 3.0)
+      << "mean colour " << mean[0] << " " << mean[1] << " " << mean[2];
+}
+
+TEST(OverlayRenderCli, BadArgumentsAndFilesGiveClearErrors) {
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "cli";
+  fs::create_directories(dir);
+  EXPECT_EQ(runOverlayRender("--width", dir / "a.txt"), 2);
+  EXPECT_NE(readText(dir / "a.txt").find("usage"), std::string::npos);
+  EXPECT_EQ(runOverlayRender("--scene x.json --out " + dir.string() + " --msaa lots", dir / "b.txt"), 2);
+  EXPECT_EQ(runOverlayRender("--scene /nonexistent/scene.json --out " + dir.string(), dir / "c.txt"), 1);
+  EXPECT_NE(readText(dir / "c.txt").find("/nonexistent/scene.json"), std::string::npos);
+  EXPECT_EQ(runOverlayRender("--help", dir / "d.txt"), 0);
+}
+
+TEST(OverlayRenderCli, MsaaAndCameraFileRoundTrip) {
+  // The camera.json of one run is a valid --camera for the next: same view, same image size.
+  const fs::path first = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "msaa_first";
+  const fs::path second = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "msaa_second";
+  const std::string scene = "--scene " + kSamples + "/olinda/scene.json --width 96 --height 64";
+  ASSERT_EQ(runOverlayRender(scene + " --out " + first.string(), first.string() + ".log"), 0);
+  ASSERT_EQ(runOverlayRender(scene + " --msaa 4 --camera " + (first / "camera.json").string() + " --out " +
+                                 second.string(),
+                             second.string() + ".log"),
+            0)
+      << readText(second.string() + ".log");
+  const json a = json::parse(readText(first / "camera.json"));
+  const json b = json::parse(readText(second / "camera.json"));
+  for (std::size_t i = 0; i < 16; ++i) EXPECT_NEAR(a["view"][i].get<double>(), b["view"][i].get<double>(), 1e-6);
+  EXPECT_EQ(json::parse(readText(second / "stats.json"))["msaa"].get<int>(), 4);
+}
+
+}  // namespace
+}  // namespace gis::test

@@ -1,0 +1,102 @@
+// Scene and camera files: the sample parses into what it names; bad files give errors that
+// name the file and the key, and a broken layer entry does not take the scene down.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "app/camera.hpp"
+#include "app/scene.hpp"
+
+namespace gis::test {
+namespace {
+
+const std::string kSamples = STENCIL_GIS_SAMPLES_DIR;
+
+bool mentions(const Diagnostics& d, const std::string& text) {
+  for (const Diagnostic& item : d.items()) {
+    if (item.toString().find(text) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST(SceneFile, OlindaSampleNamesItsData) {
+  Result<app::SceneDescription> scene = app::loadSceneFile(kSamples + "/olinda/scene.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_EQ(scene.diagnostics.count(Severity::Error), 0u);
+  EXPECT_EQ(scene.diagnostics.count(Severity::Warning), 0u);
+  EXPECT_TRUE(std::filesystem::exists(scene->dem)) << scene->dem;
+  ASSERT_TRUE(scene->imagery.has_value());
+  EXPECT_TRUE(std::filesystem::exists(*scene->imagery));
+  EXPECT_EQ(scene->imageryBands, (std::vector<int>{3, 2, 1}));
+  ASSERT_EQ(scene->layers.size(), 2u);
+  EXPECT_EQ(scene->layers[0].kind, overlay::LayerKind::Polygon);
+  EXPECT_EQ(scene->layers[1].kind, overlay::LayerKind::Line);
+  EXPECT_EQ(scene->layers[1].style.widthAttribute, "width_m");
+  for (const auto& layer : scene->layers) EXPECT_TRUE(std::filesystem::exists(layer.source)) << layer.source;
+}
+
+TEST(SceneFile, PathsAreRelativeToTheSceneFile) {
+  Result<app::SceneDescription> scene =
+      app::parseScene(R"({"terrain": {"dem": "../x/dem.tif"}})", "/data/scenes/a.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_EQ(scene->dem, "/data/x/dem.tif");
+}
+
+TEST(SceneFile, NotJsonIsAnErrorNamingTheFile) {
+  Result<app::SceneDescription> scene = app::parseScene("{ nope", "broken.json");
+  EXPECT_FALSE(scene.ok());
+  EXPECT_TRUE(mentions(scene.diagnostics, "broken.json"));
+}
+
+TEST(SceneFile, MissingDemFailsTheScene) {
+  Result<app::SceneDescription> scene = app::parseScene(R"({"name": "x"})", "s.json");
+  EXPECT_FALSE(scene.ok());
+  EXPECT_TRUE(mentions(scene.diagnostics, "terrain"));
+}
+
+TEST(SceneFile, BrokenLayerIsLeftOutWithAMessageAndTheRestLoads) {
+  const char* text = R"({
+    "terrain": {"dem": "dem.tif"},
+    "layers": [
+      {"name": "good", "kind": "line", "source": "a.geojson", "style": {"color": "#112233"}},
+      {"name": "bad", "kind": "volcano", "source": "b.geojson"},
+      {"name": "bad colour", "kind": "polygon", "source": "c.shp", "style": {"color": "red"}}
+    ]})";
+  Result<app::SceneDescription> scene = app::parseScene(text, "s.json");
+  ASSERT_TRUE(scene.ok());
+  ASSERT_EQ(scene->layers.size(), 1u);
+  EXPECT_EQ(scene->layers[0].name, "good");
+  EXPECT_EQ(scene.diagnostics.count(Severity::Error), 2u);
+  EXPECT_TRUE(mentions(scene.diagnostics, "layers[1].kind"));
+  EXPECT_TRUE(mentions(scene.diagnostics, "layers[2].style.color"));
+}
+
+TEST(SceneFile, UnknownKeysAreWarnings) {
+  Result<app::SceneDescription> scene = app::parseScene(R"({"terrain": {"dem": "d.tif", "colour": 1}})", "s.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_EQ(scene.diagnostics.count(Severity::Warning), 1u);
+  EXPECT_TRUE(mentions(scene.diagnostics, "terrain.colour"));
+}
+
+TEST(CameraFile, LonLatAndFrameFormsParse) {
+  nlohmann::json j = {{"eye", {{"lon", -34.9}, {"lat", -8.0}, {"h", 500.0}}},
+                      {"target_xyz", {1.0, 2.0, 3.0}},
+                      {"fov_y_deg", 30.0}};
+  Result<app::CameraSpec> spec = app::parseCameraSpec(j, "c.json");
+  ASSERT_TRUE(spec.ok());
+  ASSERT_TRUE(spec->eyeLonLatH.has_value());
+  EXPECT_DOUBLE_EQ(spec->eyeLonLatH->z, 500.0);
+  ASSERT_TRUE(spec->targetXyz.has_value());
+  EXPECT_DOUBLE_EQ(spec->fovYDeg, 30.0);
+}
+
+TEST(CameraFile, MissingEyeOrBadFovIsAnError) {
+  Result<app::CameraSpec> spec = app::parseCameraSpec({{"target_xyz", {0, 0, 0}}, {"fov_y_deg", 400}}, "c.json");
+  EXPECT_FALSE(spec.ok());
+  EXPECT_TRUE(mentions(spec.diagnostics, "eye"));
+  EXPECT_TRUE(mentions(spec.diagnostics, "fov_y_deg"));
+}
+
+}  // namespace
+}  // namespace gis::test

@@ -1,0 +1,29 @@
+#pragma once
+// The contract between a terrain and the overlay (DESIGN §5): for a 2D footprint in the scene
+// frame, heights [lo, hi] that contain the surface *as drawn* over it — at whatever level of
+// detail can be on screen there, with vertical exaggeration applied. Our terrain implements it;
+// a GIS client with its own terrain implements it for theirs.
+#include <span>
+
+#include <glm/vec2.hpp>
+
+namespace gis::overlay {
+
+struct HeightBounds {
+  double lo = 0.0;
+  double hi = 0.0;
+  [[nodiscard]] bool valid() const { return lo <= hi; }
+  [[nodiscard]] double span() const { return hi - lo; }
+};
+
+class HeightBoundsProvider {
+public:
+  virtual ~HeightBoundsProvider() = default;
+  /// Bounds over the convex hull of `footprint` (frame coordinates, metres). Outside the
+  /// terrain, implementations return bounds that are still safe (e.g. the global range).
+  [[nodiscard]] virtual HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const = 0;
+  /// Bounds of the whole terrain as drawn.
+  [[nodiscard]] virtual HeightBounds globalBounds() const = 0;
+};
+
+}  // namespace gis::overlay

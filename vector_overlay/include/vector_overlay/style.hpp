@@ -1,0 +1,34 @@
+#pragma once
+// Layer styles as the scene file states them. The overlay core that draws them comes with the
+// overlay issue; the model is here so scenes can name their layers and styles now.
+#include <string>
+
+#include <glm/vec4.hpp>
+
+namespace gis::overlay {
+
+enum class LayerKind { Polygon, Line };
+enum class LineJoin { Round, Miter, Bevel };
+enum class LineCap { Round, Flat, Square };
+
+struct LayerStyle {
+  glm::vec4 color{1.0F, 0.5F, 0.0F, 1.0F};  ///< straight (not premultiplied) RGBA
+  float opacity = 0.5F;
+  // polygons
+  float outlineWidthMetres = 0.0F;
+  glm::vec4 outlineColor{0.0F, 0.0F, 0.0F, 1.0F};
+  // lines
+  double widthMetres = 10.0;
+  std::string widthAttribute;  ///< per-feature width (e.g. "width_m"); falls back to widthMetres
+  LineJoin join = LineJoin::Round;
+  LineCap cap = LineCap::Round;
+  double miterLimit = 4.0;
+};
+
+/// "#rrggbb" or "#rrggbbaa" → RGBA in [0,1]; false if malformed.
+bool parseHexColor(const std::string& text, glm::vec4& out);
+
+LineJoin parseLineJoin(const std::string& text, bool& ok);
+LineCap parseLineCap(const std::string& text, bool& ok);
+
+}  // namespace gis::overlay
