@@ -1,7 +1,7 @@
 # Common settings for every target of the project (one place, called by each folder).
 
 set(STENCIL_GIS_WARNINGS -Wall -Wextra -Wpedantic -Wconversion -Wsign-conversion -Wshadow
-    -Wnon-virtual-dtor -Wold-style-cast -Wnull-dereference -Werror)
+    -Wnon-virtual-dtor -Wold-style-cast -Werror)
 
 # Applies language level, warnings and precision guards to any target of ours.
 function(stencil_gis_configure_target target)

@@ -10,7 +10,7 @@ packages=(
   # OpenGL: libepoxy for entry points, Mesa for EGL (surfaceless) and GLX on llvmpipe
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev mesa-utils
   # windowing and UI
-  libglfw3-dev libimgui-dev xvfb xauth
+  libglfw3-dev libimgui-dev libstb-dev xvfb xauth
   # maths, geodesy, geometry, geodata, images, json
   libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev

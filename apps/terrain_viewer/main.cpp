@@ -7,6 +7,9 @@
 #include <string>
 #include <string_view>
 
+#include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
+
+#define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 #include <imgui_impl_glfw.h>

@@ -285,22 +285,35 @@ std::optional<glm::dvec3> SceneFrame::toLonLat(const glm::dvec3& frame) const {
 }
 
 Result<CrsTransform> SceneFrame::transformFrom(const std::string& sourceCrs) const {
-  auto fail = [](const std::string& message) {
-    return Result<CrsTransform>::failure({Severity::Error, "", "", "", message});
-  };
-  if (!impl_) return fail("scene frame is empty (moved from)");
+  if (!impl_) return Result<CrsTransform>::failure({Severity::Error, "", "", "", "scene frame is empty (moved from)"});
   std::string error;
   const detail::SrsPtr src = detail::parseSrs(sourceCrs, error);
-  if (!src) return fail(error);
+  if (!src) return Result<CrsTransform>::failure({Severity::Error, "", "", "", error});
+  return transformBetween(*src, *impl_->projected, "into the scene frame CRS");
+}
+
+Result<CrsTransform> SceneFrame::transformTo(const std::string& targetCrs) const {
+  if (!impl_) return Result<CrsTransform>::failure({Severity::Error, "", "", "", "scene frame is empty (moved from)"});
+  std::string error;
+  const detail::SrsPtr dst = detail::parseSrs(targetCrs, error);
+  if (!dst) return Result<CrsTransform>::failure({Severity::Error, "", "", "", error});
+  return transformBetween(*impl_->projected, *dst, "from the scene frame CRS");
+}
+
+Result<CrsTransform> SceneFrame::transformBetween(const OGRSpatialReference& src, const OGRSpatialReference& dst,
+                                                  const std::string& what) {
+  std::string error;
   auto impl = std::make_unique<CrsTransform::Impl>();
-  impl->ct = makeTransform(*src, *impl_->projected, error);
-  if (!impl->ct) return fail("cannot transform into the scene frame CRS: " + error);
+  impl->ct = makeTransform(src, dst, error);
+  if (!impl->ct) {
+    return Result<CrsTransform>::failure({Severity::Error, "", "", "", "cannot transform " + what + ": " + error});
+  }
   {
     detail::QuietGdal quiet;
-    impl->sourceGeographic = src->IsGeographic() != 0;
+    impl->sourceGeographic = src.IsGeographic() != 0;
     OGRErr err = OGRERR_NONE;
-    impl->semiMajor = src->GetSemiMajor(&err);
-    const double invFlattening = src->GetInvFlattening(&err);
+    impl->semiMajor = src.GetSemiMajor(&err);
+    const double invFlattening = src.GetInvFlattening(&err);
     impl->flattening = invFlattening != 0.0 ? 1.0 / invFlattening : 0.0;
   }
   Result<CrsTransform> r;

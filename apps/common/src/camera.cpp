@@ -125,9 +125,11 @@ Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame,
 
 Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double fovYDeg) {
   const glm::dvec3 centre = (boxMin + boxMax) * 0.5;
-  const double radius = 0.5 * glm::length(boxMax - boxMin);
-  const double distance = radius / std::sin(0.5 * fovYDeg * std::numbers::pi / 180.0);
-  const double pitch = 35.0 * std::numbers::pi / 180.0;
+  // Fit the box's horizontal half-diagonal into the vertical field of view at 40° down; the
+  // near half of the box then fills the lower part of the picture, the far edge stays in view.
+  const double radius = 0.5 * glm::length(glm::dvec2(boxMax - boxMin));
+  const double distance = 0.8 * radius / std::tan(0.5 * fovYDeg * std::numbers::pi / 180.0) + (boxMax.z - boxMin.z);
+  const double pitch = 40.0 * std::numbers::pi / 180.0;
   Camera camera;
   camera.target = centre;
   camera.eye = centre + glm::dvec3(0.0, -std::cos(pitch), std::sin(pitch)) * distance;

@@ -10,6 +10,8 @@
 
 #include "core/diagnostics.hpp"
 
+class OGRSpatialReference;
+
 namespace gis::geo {
 
 struct RasterInfo;
@@ -60,6 +62,9 @@ public:
 private:
   struct Impl;
   SceneFrame(std::unique_ptr<Impl> impl, const glm::dvec3& origin);
+  /// A CrsTransform between two parsed CRSs; `what` names the direction in messages.
+  static Result<CrsTransform> transformBetween(const OGRSpatialReference& src, const OGRSpatialReference& dst,
+                                               const std::string& what);
   std::unique_ptr<Impl> impl_;
   glm::dvec3 origin_{0.0};
 };

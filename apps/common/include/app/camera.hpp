@@ -44,7 +44,7 @@ Result<CameraSpec> loadCameraFile(const std::string& path);
 /// frame nor geographic coordinates are given for eye or target.
 Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame, const std::string& file);
 
-/// An oblique overview of a box (frame coordinates): from the south, 35° down, whole box in view.
+/// An oblique overview of a box (frame coordinates): from the south, 40° down, the box filling the view.
 Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double fovYDeg = 45.0);
 
 /// camera.json as overlay_render writes it: width, height, column-major view and proj, depth
