@@ -77,14 +77,22 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       return std::string();
     };
     std::string error;
-    if (a == "--scene") error = setString(o.scene);
-    else if (a == "--camera") error = setString(o.camera);
-    else if (a == "--lasso") error = setString(o.lasso);
-    else if (a == "--out") error = setString(o.out);
-    else if (a == "--width") error = setInt(o.width, 1, 16384);
-    else if (a == "--height") error = setInt(o.height, 1, 16384);
-    else if (a == "--msaa") error = setInt(o.msaa, 0, 32);
-    else error = "unknown argument '" + std::string(a) + "'";
+    if (a == "--scene")
+      error = setString(o.scene);
+    else if (a == "--camera")
+      error = setString(o.camera);
+    else if (a == "--lasso")
+      error = setString(o.lasso);
+    else if (a == "--out")
+      error = setString(o.out);
+    else if (a == "--width")
+      error = setInt(o.width, 1, 16384);
+    else if (a == "--height")
+      error = setInt(o.height, 1, 16384);
+    else if (a == "--msaa")
+      error = setInt(o.msaa, 0, 32);
+    else
+      error = "unknown argument '" + std::string(a) + "'";
     if (!error.empty()) return error;
   }
   if (o.scene.empty()) return "--scene is required";
@@ -94,7 +102,7 @@ std::string parseArgs(int argc, char** argv, Options& o) {
 
 void report(const Diagnostics& diagnostics) {
   for (const Diagnostic& d : diagnostics.items()) {
-    log(d.severity == Severity::Error ? LogLevel::Error
+    log(d.severity == Severity::Error     ? LogLevel::Error
         : d.severity == Severity::Warning ? LogLevel::Warning
                                           : LogLevel::Info,
         d.toString());
@@ -231,7 +239,8 @@ int run(const Options& o) {
         {"imagery", scene->orthophoto.has_value()},
         {"pixels", terrainPixels}}},
       {"layers", layers},
-      {"passes", {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
+      {"passes",
+       {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
       {"errors", all.count(Severity::Error)},
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},

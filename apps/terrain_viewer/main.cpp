@@ -36,8 +36,8 @@ struct Orbit {
   [[nodiscard]] app::Camera camera(double fovYDeg) const {
     app::Camera c;
     c.target = target;
-    c.eye = target + distance * glm::dvec3(std::cos(pitch) * std::sin(yaw), -std::cos(pitch) * std::cos(yaw),
-                                           std::sin(pitch));
+    c.eye = target +
+            distance * glm::dvec3(std::cos(pitch) * std::sin(yaw), -std::cos(pitch) * std::cos(yaw), std::sin(pitch));
     c.fovYDeg = fovYDeg;
     c.nearPlane = std::max(0.1, distance * 1e-3);
     return c;
@@ -138,8 +138,7 @@ int runViewer(const std::string& scenePath) {
     const glm::ivec2 size = (*context)->framebufferSize();
     if (size.x > 0 && size.y > 0) {
       const bool measure = frameIndex++ % 30 == 0;  // queries wait for the GPU: sample them
-      const app::FrameStats s =
-          renderer->render(cache, 0, size.x, size.y, orbit.camera(fovY), measure);
+      const app::FrameStats s = renderer->render(cache, 0, size.x, size.y, orbit.camera(fovY), measure);
       if (measure) stats = s;
     }
 
@@ -158,8 +157,8 @@ int runViewer(const std::string& scenePath) {
     ImGui::Separator();
     ImGui::Text("Layers (drawn once the overlay core lands):");
     for (const app::LoadedLayer& layer : scene->layers) {
-      ImGui::BulletText("%s: %zu features, %zu vertices", layer.description.name.c_str(),
-                        layer.data.features.size(), layer.data.vertexCount());
+      ImGui::BulletText("%s: %zu features, %zu vertices", layer.description.name.c_str(), layer.data.features.size(),
+                        layer.data.vertexCount());
     }
     ImGui::End();
     ImGui::Render();

@@ -7,9 +7,15 @@ namespace gis {
 std::string Diagnostic::toString() const {
   std::string out;
   switch (severity) {
-    case Severity::Info: out = "info: "; break;
-    case Severity::Warning: out = "warning: "; break;
-    case Severity::Error: out = "error: "; break;
+    case Severity::Info:
+      out = "info: ";
+      break;
+    case Severity::Warning:
+      out = "warning: ";
+      break;
+    case Severity::Error:
+      out = "error: ";
+      break;
   }
   if (!file.empty()) out += file + ": ";
   if (!layer.empty()) out += "layer '" + layer + "': ";

@@ -21,7 +21,7 @@ Diagnostic eglError(const std::string& what) {
 }
 
 class EglContext final : public Context {
-public:
+ public:
   EglContext(EGLDisplay display, EGLContext context) : display_(display), context_(context) {}
   ~EglContext() override {
     releaseBeforeDestroy();
@@ -35,7 +35,7 @@ public:
   [[nodiscard]] bool headless() const override { return true; }
   void initialise(bool debugOutput) { initialiseAfterMakeCurrent(debugOutput); }
 
-private:
+ private:
   EGLDisplay display_;
   EGLContext context_;
 };
@@ -61,8 +61,7 @@ Result<std::unique_ptr<Context>> createHeadlessContext(const ContextOptions& opt
     eglTerminate(display);
     return R::failure(eglError("desktop OpenGL API not available"));
   }
-  const EGLint configAttribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
-                                  EGL_NONE};
+  const EGLint configAttribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_NONE};
   EGLConfig config = nullptr;
   EGLint configCount = 0;
   EGLBoolean chosen = eglChooseConfig(display, configAttribs, &config, 1, &configCount);

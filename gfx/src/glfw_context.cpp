@@ -17,7 +17,7 @@ std::string lastGlfwError() {
 }
 
 class GlfwContext final : public Context {
-public:
+ public:
   explicit GlfwContext(GLFWwindow* window) : window_(window) {}
   ~GlfwContext() override {
     releaseBeforeDestroy();
@@ -35,7 +35,7 @@ public:
   [[nodiscard]] GLFWwindow* window() const override { return window_; }
   void initialise(bool debugOutput) { initialiseAfterMakeCurrent(debugOutput); }
 
-private:
+ private:
   GLFWwindow* window_;
 };
 

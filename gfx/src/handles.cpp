@@ -44,8 +44,8 @@ QueryHandle createQuery(GLenum /*target*/) {
 BufferHandle createBufferWithData(const void* data, std::size_t bytes, GLbitfield flags) {
   BufferHandle buffer = createBuffer();
   // A zero-sized immutable store is an error in GL; keep one byte so empty layers stay valid.
-  glNamedBufferStorage(buffer.id(), static_cast<GLsizeiptr>(bytes == 0 ? 1 : bytes),
-                       bytes == 0 ? nullptr : data, flags);
+  glNamedBufferStorage(buffer.id(), static_cast<GLsizeiptr>(bytes == 0 ? 1 : bytes), bytes == 0 ? nullptr : data,
+                       flags);
   return buffer;
 }
 

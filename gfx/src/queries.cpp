@@ -3,11 +3,13 @@
 namespace gis::gfx {
 namespace {
 
-constexpr std::array<GLenum, 7> kStatisticTargets{
-    GL_VERTICES_SUBMITTED_ARB,          GL_PRIMITIVES_SUBMITTED_ARB,
-    GL_VERTEX_SHADER_INVOCATIONS_ARB,   GL_CLIPPING_INPUT_PRIMITIVES_ARB,
-    GL_CLIPPING_OUTPUT_PRIMITIVES_ARB,  GL_FRAGMENT_SHADER_INVOCATIONS_ARB,
-    GL_SAMPLES_PASSED};
+constexpr std::array<GLenum, 7> kStatisticTargets{GL_VERTICES_SUBMITTED_ARB,
+                                                  GL_PRIMITIVES_SUBMITTED_ARB,
+                                                  GL_VERTEX_SHADER_INVOCATIONS_ARB,
+                                                  GL_CLIPPING_INPUT_PRIMITIVES_ARB,
+                                                  GL_CLIPPING_OUTPUT_PRIMITIVES_ARB,
+                                                  GL_FRAGMENT_SHADER_INVOCATIONS_ARB,
+                                                  GL_SAMPLES_PASSED};
 
 std::uint64_t queryResult(GLuint id, bool wait, bool* ready) {
   GLint available = GL_TRUE;

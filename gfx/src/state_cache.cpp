@@ -33,24 +33,41 @@ void StateCache::apply(const PipelineState& state) {
 
 void StateCache::applyDepth(const DepthState& s, bool force) {
   const DepthState& c = current_.depth;
-  if (force || s.test != c.test) { setEnabled(GL_DEPTH_TEST, s.test); ++calls_; }
-  if (force || s.write != c.write) { glDepthMask(s.write ? GL_TRUE : GL_FALSE); ++calls_; }
-  if (force || s.func != c.func) { glDepthFunc(detail::toGl(s.func)); ++calls_; }
-  if (force || s.clamp != c.clamp) { setEnabled(GL_DEPTH_CLAMP, s.clamp); ++calls_; }
+  if (force || s.test != c.test) {
+    setEnabled(GL_DEPTH_TEST, s.test);
+    ++calls_;
+  }
+  if (force || s.write != c.write) {
+    glDepthMask(s.write ? GL_TRUE : GL_FALSE);
+    ++calls_;
+  }
+  if (force || s.func != c.func) {
+    glDepthFunc(detail::toGl(s.func));
+    ++calls_;
+  }
+  if (force || s.clamp != c.clamp) {
+    setEnabled(GL_DEPTH_CLAMP, s.clamp);
+    ++calls_;
+  }
 }
 
 void StateCache::applyStencil(const StencilState& s, bool force) {
   const StencilState& c = current_.stencil;
-  if (force || s.test != c.test) { setEnabled(GL_STENCIL_TEST, s.test); ++calls_; }
+  if (force || s.test != c.test) {
+    setEnabled(GL_STENCIL_TEST, s.test);
+    ++calls_;
+  }
   auto face = [&](GLenum glFace, const StencilFace& n, const StencilFace& o) {
     if (force || n.func != o.func || n.ref != o.ref || n.readMask != o.readMask) {
       glStencilFuncSeparate(glFace, detail::toGl(n.func), n.ref, n.readMask);
       ++calls_;
     }
-    if (force || n.writeMask != o.writeMask) { glStencilMaskSeparate(glFace, n.writeMask); ++calls_; }
+    if (force || n.writeMask != o.writeMask) {
+      glStencilMaskSeparate(glFace, n.writeMask);
+      ++calls_;
+    }
     if (force || n.stencilFail != o.stencilFail || n.depthFail != o.depthFail || n.depthPass != o.depthPass) {
-      glStencilOpSeparate(glFace, detail::toGl(n.stencilFail), detail::toGl(n.depthFail),
-                          detail::toGl(n.depthPass));
+      glStencilOpSeparate(glFace, detail::toGl(n.stencilFail), detail::toGl(n.depthFail), detail::toGl(n.depthPass));
       ++calls_;
     }
   };
@@ -60,7 +77,10 @@ void StateCache::applyStencil(const StencilState& s, bool force) {
 
 void StateCache::applyBlend(const BlendState& s, bool force) {
   const BlendState& c = current_.blend;
-  if (force || s.enabled != c.enabled) { setEnabled(GL_BLEND, s.enabled); ++calls_; }
+  if (force || s.enabled != c.enabled) {
+    setEnabled(GL_BLEND, s.enabled);
+    ++calls_;
+  }
   if (force || s.srcColor != c.srcColor || s.dstColor != c.dstColor || s.srcAlpha != c.srcAlpha ||
       s.dstAlpha != c.dstAlpha) {
     glBlendFuncSeparate(detail::toGl(s.srcColor), detail::toGl(s.dstColor), detail::toGl(s.srcAlpha),
@@ -80,7 +100,10 @@ void StateCache::applyRaster(const RasterState& s, bool force) {
     if (s.cull != CullMode::None) glCullFace(s.cull == CullMode::Front ? GL_FRONT : GL_BACK);
     ++calls_;
   }
-  if (force || s.frontFaceCCW != c.frontFaceCCW) { glFrontFace(s.frontFaceCCW ? GL_CCW : GL_CW); ++calls_; }
+  if (force || s.frontFaceCCW != c.frontFaceCCW) {
+    glFrontFace(s.frontFaceCCW ? GL_CCW : GL_CW);
+    ++calls_;
+  }
   if (force || s.colorMask != c.colorMask) {
     glColorMask(s.colorMask.r, s.colorMask.g, s.colorMask.b, s.colorMask.a);
     ++calls_;
@@ -95,7 +118,10 @@ void StateCache::applyRaster(const RasterState& s, bool force) {
     glPolygonOffset(s.polygonOffsetFactor, s.polygonOffsetUnits);
     ++calls_;
   }
-  if (force || s.multisample != c.multisample) { setEnabled(GL_MULTISAMPLE, s.multisample); ++calls_; }
+  if (force || s.multisample != c.multisample) {
+    setEnabled(GL_MULTISAMPLE, s.multisample);
+    ++calls_;
+  }
 }
 
 void StateCache::prepareForClear() {
@@ -127,11 +153,10 @@ PipelineState StateCache::queryGl() {
     f.depthFail = detail::stencilOpFromGl(getEnum(dpfail));
     f.depthPass = detail::stencilOpFromGl(getEnum(dppass));
   };
-  face(s.stencil.front, GL_STENCIL_FUNC, GL_STENCIL_REF, GL_STENCIL_VALUE_MASK, GL_STENCIL_WRITEMASK,
-       GL_STENCIL_FAIL, GL_STENCIL_PASS_DEPTH_FAIL, GL_STENCIL_PASS_DEPTH_PASS);
-  face(s.stencil.back, GL_STENCIL_BACK_FUNC, GL_STENCIL_BACK_REF, GL_STENCIL_BACK_VALUE_MASK,
-       GL_STENCIL_BACK_WRITEMASK, GL_STENCIL_BACK_FAIL, GL_STENCIL_BACK_PASS_DEPTH_FAIL,
-       GL_STENCIL_BACK_PASS_DEPTH_PASS);
+  face(s.stencil.front, GL_STENCIL_FUNC, GL_STENCIL_REF, GL_STENCIL_VALUE_MASK, GL_STENCIL_WRITEMASK, GL_STENCIL_FAIL,
+       GL_STENCIL_PASS_DEPTH_FAIL, GL_STENCIL_PASS_DEPTH_PASS);
+  face(s.stencil.back, GL_STENCIL_BACK_FUNC, GL_STENCIL_BACK_REF, GL_STENCIL_BACK_VALUE_MASK, GL_STENCIL_BACK_WRITEMASK,
+       GL_STENCIL_BACK_FAIL, GL_STENCIL_BACK_PASS_DEPTH_FAIL, GL_STENCIL_BACK_PASS_DEPTH_PASS);
 
   s.blend.enabled = isEnabled(GL_BLEND);
   s.blend.srcColor = detail::blendFactorFromGl(getEnum(GL_BLEND_SRC_RGB));
@@ -142,7 +167,7 @@ PipelineState StateCache::queryGl() {
   s.blend.alphaEquation = detail::blendEquationFromGl(getEnum(GL_BLEND_EQUATION_ALPHA));
 
   RasterState& r = s.raster;
-  r.cull = !isEnabled(GL_CULL_FACE) ? CullMode::None
+  r.cull = !isEnabled(GL_CULL_FACE)                 ? CullMode::None
            : getEnum(GL_CULL_FACE_MODE) == GL_FRONT ? CullMode::Front
                                                     : CullMode::Back;
   r.frontFaceCCW = getEnum(GL_FRONT_FACE) == GL_CCW;

@@ -20,8 +20,8 @@ float percentile(std::vector<float> values, double pct) {
 Result<Orthophoto> makeOrthophoto(const geo::Raster& imagery, const StretchOptions& options) {
   const int channels = imagery.channels();
   if (channels != 1 && channels != 3) {
-    return Result<Orthophoto>::failure({Severity::Error, imagery.info.path, "", "",
-                                        "imagery needs 1 or 3 bands, got " + std::to_string(channels)});
+    return Result<Orthophoto>::failure(
+        {Severity::Error, imagery.info.path, "", "", "imagery needs 1 or 3 bands, got " + std::to_string(channels)});
   }
   const std::size_t pixelCount =
       static_cast<std::size_t>(imagery.info.width) * static_cast<std::size_t>(imagery.info.height);

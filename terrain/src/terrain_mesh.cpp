@@ -111,8 +111,8 @@ Result<TerrainMesh> buildFullResolutionMesh(const geo::Raster& dem, const geo::S
   }
   Result<TerrainMesh> result;
   if (mesh.skippedNodataPosts > 0) {
-    result.diagnostics.add({Severity::Info, info.path, "", "",
-                            std::to_string(mesh.skippedNodataPosts) + " nodata posts left as holes"});
+    result.diagnostics.add(
+        {Severity::Info, info.path, "", "", std::to_string(mesh.skippedNodataPosts) + " nodata posts left as holes"});
   }
   result.value = std::move(mesh);
   return result;

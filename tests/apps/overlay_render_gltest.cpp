@@ -8,9 +8,11 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
+#include <gtest/gtest.h>
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "geo/frame.hpp"
@@ -62,9 +64,10 @@ std::optional<double> drawnHeight(const geo::Raster& dem, const geo::SceneFrame&
 }
 
 class OverlayRenderTest : public ::testing::Test {
-protected:
+ protected:
   static void SetUpTestSuite() {
-    out_ = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "olinda";
+    // ctest runs each test case in its own process, possibly in parallel: one folder per process.
+    out_ = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("olinda_" + std::to_string(getpid()));
     fs::remove_all(out_);
     fs::create_directories(out_);
     status_ = runOverlayRender("--scene " + kSamples + "/olinda/scene.json --width " + std::to_string(kWidth) +
@@ -129,7 +132,10 @@ TEST_F(OverlayRenderTest, TerrainPixelsAreImageryAndLieOnTheDrawnSurface) {
       const std::size_t i = static_cast<std::size_t>(y * kWidth + x);
       const float d = depth->pixels[i];
       const std::uint8_t* c = &color->pixels[i * 3];
-      if (!std::isfinite(d) || d < 0.0F || d > 1.0F) { ++nonFinite; continue; }
+      if (!std::isfinite(d) || d < 0.0F || d > 1.0F) {
+        ++nonFinite;
+        continue;
+      }
       if (d == 0.0F) continue;
       ++terrain;
       for (int k = 0; k < 3; ++k) sum[k] += c[k];
@@ -177,10 +183,10 @@ TEST(OverlayRenderCli, MsaaAndCameraFileRoundTrip) {
   const fs::path second = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "msaa_second";
   const std::string scene = "--scene " + kSamples + "/olinda/scene.json --width 96 --height 64";
   ASSERT_EQ(runOverlayRender(scene + " --out " + first.string(), first.string() + ".log"), 0);
-  ASSERT_EQ(runOverlayRender(scene + " --msaa 4 --camera " + (first / "camera.json").string() + " --out " +
-                                 second.string(),
-                             second.string() + ".log"),
-            0)
+  ASSERT_EQ(
+      runOverlayRender(scene + " --msaa 4 --camera " + (first / "camera.json").string() + " --out " + second.string(),
+                       second.string() + ".log"),
+      0)
       << readText(second.string() + ".log");
   const json a = json::parse(readText(first / "camera.json"));
   const json b = json::parse(readText(second / "camera.json"));

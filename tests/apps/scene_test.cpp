@@ -80,9 +80,8 @@ TEST(SceneFile, UnknownKeysAreWarnings) {
 }
 
 TEST(CameraFile, LonLatAndFrameFormsParse) {
-  nlohmann::json j = {{"eye", {{"lon", -34.9}, {"lat", -8.0}, {"h", 500.0}}},
-                      {"target_xyz", {1.0, 2.0, 3.0}},
-                      {"fov_y_deg", 30.0}};
+  nlohmann::json j = {
+      {"eye", {{"lon", -34.9}, {"lat", -8.0}, {"h", 500.0}}}, {"target_xyz", {1.0, 2.0, 3.0}}, {"fov_y_deg", 30.0}};
   Result<app::CameraSpec> spec = app::parseCameraSpec(j, "c.json");
   ASSERT_TRUE(spec.ok());
   ASSERT_TRUE(spec->eyeLonLatH.has_value());

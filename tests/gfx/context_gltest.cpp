@@ -57,8 +57,8 @@ TEST_F(ContextGlTest, BrokenShaderIsAnErrorNamingTheFile) {
   Result<gfx::Program> missing = gfx::Program::build({{"no_such.vert", {}}});
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(missing.diagnostics.items().front().toString().find("no_such.vert"), std::string::npos);
-  Result<gfx::Program> broken =
-      gfx::Program::fromSources({{GL_FRAGMENT_SHADER, "#version 450 core\nvoid main() { nonsense; }\n"}}, "broken.frag");
+  Result<gfx::Program> broken = gfx::Program::fromSources(
+      {{GL_FRAGMENT_SHADER, "#version 450 core\nvoid main() { nonsense; }\n"}}, "broken.frag");
   ASSERT_FALSE(broken.ok());
   EXPECT_NE(broken.diagnostics.items().front().toString().find("broken.frag"), std::string::npos);
   context()->debug().reset();  // a failed compile may be reported through debug output too
@@ -85,8 +85,8 @@ TEST_F(ContextGlTest, QueriesCountFragmentsAndTime) {
   constexpr int kSize = 64;
   gfx::RenderTarget target(kSize, kSize);
   ASSERT_TRUE(target.complete());
-  Result<gfx::Program> program = gfx::Program::fromSources(
-      {{GL_VERTEX_SHADER, kFullScreenVert}, {GL_FRAGMENT_SHADER, kSolidFrag}}, "solid");
+  Result<gfx::Program> program =
+      gfx::Program::fromSources({{GL_VERTEX_SHADER, kFullScreenVert}, {GL_FRAGMENT_SHADER, kSolidFrag}}, "solid");
   ASSERT_TRUE(program.ok());
   gfx::VertexArrayHandle vao = gfx::createVertexArray();
   gfx::beginRenderPass(cache_, target, {glm::vec4(0.0F), 0.0F, 0});

@@ -39,7 +39,7 @@ struct Case {
 };
 
 class DepthGlTest : public GlTest {
-protected:
+ protected:
   /// Draws a 20 km square of the plane z = centre.z and returns the depth buffer.
   std::vector<float> drawPlane(const Case& c) {
     Result<gfx::Program> program =
@@ -77,7 +77,8 @@ protected:
   static double expectedDepth(const Case& c, int x, int y, bool& onPlane) {
     const double t = std::tan(kFovY / 2);
     const double aspect = double(kWidth) / kHeight;
-    const glm::dvec3 viewDir((2.0 * (x + 0.5) / kWidth - 1.0) * t * aspect, (2.0 * (y + 0.5) / kHeight - 1.0) * t, -1.0);
+    const glm::dvec3 viewDir((2.0 * (x + 0.5) / kWidth - 1.0) * t * aspect, (2.0 * (y + 0.5) / kHeight - 1.0) * t,
+                             -1.0);
     const glm::dmat3 toWorld = glm::transpose(glm::dmat3(gfx::lookAt(c.eye, c.target, {0, 0, 1})));
     const glm::dvec3 dir = toWorld * viewDir;  // its view-axis component is exactly 1
     onPlane = false;

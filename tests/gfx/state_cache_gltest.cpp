@@ -34,8 +34,12 @@ gfx::PipelineState randomState(std::mt19937& rng) {
   gfx::PipelineState s;
   s.depth = {coin(rng), coin(rng), pick<gfx::CompareFunc>(rng, 8), coin(rng)};
   s.stencil = {coin(rng), randomFace(rng), randomFace(rng)};
-  s.blend = {coin(rng), pick<gfx::BlendFactor>(rng, 12), pick<gfx::BlendFactor>(rng, 12),
-             pick<gfx::BlendFactor>(rng, 12), pick<gfx::BlendFactor>(rng, 12), pick<gfx::BlendEquation>(rng, 5),
+  s.blend = {coin(rng),
+             pick<gfx::BlendFactor>(rng, 12),
+             pick<gfx::BlendFactor>(rng, 12),
+             pick<gfx::BlendFactor>(rng, 12),
+             pick<gfx::BlendFactor>(rng, 12),
+             pick<gfx::BlendEquation>(rng, 5),
              pick<gfx::BlendEquation>(rng, 5)};
   s.raster.cull = pick<gfx::CullMode>(rng, 3);
   s.raster.frontFaceCCW = coin(rng);

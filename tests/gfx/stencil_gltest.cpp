@@ -41,16 +41,21 @@ int coversPixelCentre(const Triangle& t, int x, int y) {
   const glm::dvec2 p(x + 0.5, y + 0.5);
   double e0 = edge(a, b, p), e1 = edge(b, c, p), e2 = edge(c, a, p);
   const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-  if (area < 0) { e0 = -e0; e1 = -e1; e2 = -e2; }
+  if (area < 0) {
+    e0 = -e0;
+    e1 = -e1;
+    e2 = -e2;
+  }
   if (std::abs(e0) < kEdgeEps || std::abs(e1) < kEdgeEps || std::abs(e2) < kEdgeEps) return -1;
   return e0 > 0 && e1 > 0 && e2 > 0 ? 1 : 0;
 }
 
 class StencilGlTest : public GlTest {
-protected:
+ protected:
   void SetUp() override {
     GlTest::SetUp();
-    Result<gfx::Program> p = gfx::Program::fromSources({{GL_VERTEX_SHADER, kVert}, {GL_FRAGMENT_SHADER, kFrag}}, "stencil");
+    Result<gfx::Program> p =
+        gfx::Program::fromSources({{GL_VERTEX_SHADER, kVert}, {GL_FRAGMENT_SHADER, kFrag}}, "stencil");
     ASSERT_TRUE(p.ok());
     program_ = std::move(*p);
     vao_ = gfx::createVertexArray();
@@ -70,9 +75,7 @@ protected:
     glBindVertexArray(0);
   }
 
-  static std::vector<glm::vec2> fullScreenQuad() {
-    return {{-1, -1}, {1, -1}, {1, 1}, {-1, -1}, {1, 1}, {-1, 1}};
-  }
+  static std::vector<glm::vec2> fullScreenQuad() { return {{-1, -1}, {1, -1}, {1, 1}, {-1, -1}, {1, 1}, {-1, 1}}; }
 
   gfx::Program program_;
   gfx::VertexArrayHandle vao_;

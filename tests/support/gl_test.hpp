@@ -13,17 +13,17 @@
 namespace gis::test {
 
 class GlTest : public ::testing::Test {
-public:
+ public:
   static void SetUpTestSuite() {
     if (!context()) {
       Result<std::unique_ptr<gfx::Context>> created = gfx::createHeadlessContext({});
       ASSERT_TRUE(created.ok()) << (created.diagnostics.empty() ? std::string("no context")
-                                                                 : created.diagnostics.items().front().toString());
+                                                                : created.diagnostics.items().front().toString());
       context() = std::move(*created);
     }
   }
 
-protected:
+ protected:
   void SetUp() override {
     ASSERT_NE(context(), nullptr);
     context()->makeCurrent();

@@ -108,7 +108,8 @@ Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame,
   const std::optional<glm::dvec3> eye = place(spec.eyeXyz, spec.eyeLonLatH, "eye");
   const std::optional<glm::dvec3> target = place(spec.targetXyz, spec.targetLonLatH, "target");
   if (!eye || !target) {
-    return Result<Camera>::failure({Severity::Error, file, "", "", "camera: eye or target cannot be placed in the frame"});
+    return Result<Camera>::failure(
+        {Severity::Error, file, "", "", "camera: eye or target cannot be placed in the frame"});
   }
   if (glm::length(*target - *eye) <= 0.0) {
     return Result<Camera>::failure({Severity::Error, file, "", "", "camera: eye and target coincide"});

@@ -14,7 +14,7 @@ using nlohmann::json;
 namespace fs = std::filesystem;
 
 class SceneParser {
-public:
+ public:
   SceneParser(std::string path, Diagnostics& diagnostics)
       : path_(std::move(path)), base_(fs::absolute(fs::path(path_)).parent_path()), diag_(diagnostics) {}
 
@@ -62,13 +62,19 @@ public:
     read(j, "name", where, layer.name);
     if (layer.name.empty()) layer.name = "layer " + std::to_string(index);
     std::string kind;
-    if (!read(j, "kind", where, kind)) error(where + "kind", "missing (\"polygon\" or \"line\")");
-    else if (kind == "polygon") layer.kind = overlay::LayerKind::Polygon;
-    else if (kind == "line") layer.kind = overlay::LayerKind::Line;
-    else error(where + "kind", "expected \"polygon\" or \"line\", got \"" + kind + "\"");
+    if (!read(j, "kind", where, kind))
+      error(where + "kind", "missing (\"polygon\" or \"line\")");
+    else if (kind == "polygon")
+      layer.kind = overlay::LayerKind::Polygon;
+    else if (kind == "line")
+      layer.kind = overlay::LayerKind::Line;
+    else
+      error(where + "kind", "expected \"polygon\" or \"line\", got \"" + kind + "\"");
     std::string source;
-    if (!read(j, "source", where, source) || source.empty()) error(where + "source", "missing vector file");
-    else layer.source = resolve(source);
+    if (!read(j, "source", where, source) || source.empty())
+      error(where + "source", "missing vector file");
+    else
+      layer.source = resolve(source);
     read(j, "layer", where, layer.sourceLayer);
     read(j, "visible", where, layer.visible);
     if (j.contains("style")) style(j.at("style"), where + "style.", layer.style);
@@ -80,8 +86,9 @@ public:
       error(where, "expected an object");
       return;
     }
-    warnUnknownKeys(j, {"color", "opacity", "outline_width_m", "outline_color", "width_m", "width_attribute",
-                        "join", "cap", "miter_limit"},
+    warnUnknownKeys(j,
+                    {"color", "opacity", "outline_width_m", "outline_color", "width_m", "width_attribute", "join",
+                     "cap", "miter_limit"},
                     where);
     color(j, "color", where, s.color);
     color(j, "outline_color", where, s.outlineColor);
@@ -108,7 +115,7 @@ public:
     }
   }
 
-private:
+ private:
   std::string path_;
   fs::path base_;
   Diagnostics& diag_;
@@ -139,8 +146,10 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
     const json& t = root["terrain"];
     p.warnUnknownKeys(t, {"dem", "band", "vertical_exaggeration"}, "terrain.");
     std::string dem;
-    if (!p.read(t, "dem", "terrain.", dem) || dem.empty()) p.error("terrain.dem", "missing DEM file");
-    else scene.dem = p.resolve(dem);
+    if (!p.read(t, "dem", "terrain.", dem) || dem.empty())
+      p.error("terrain.dem", "missing DEM file");
+    else
+      scene.dem = p.resolve(dem);
     if (p.read(t, "band", "terrain.", scene.demBand) && scene.demBand < 1) p.error("terrain.band", "bands start at 1");
     if (p.read(t, "vertical_exaggeration", "terrain.", scene.verticalExaggeration) &&
         !(scene.verticalExaggeration > 0.0)) {

@@ -29,8 +29,14 @@ Result<LoadedScene> loadScene(const SceneDescription& description) {
   if (!mesh) return fail(std::move(mesh.diagnostics));
   diagnostics.append(mesh.diagnostics);
 
-  LoadedScene scene{description, std::move(*frame), std::move(*mesh), std::nullopt, {},
-                    static_cast<std::size_t>(dem->info.width), static_cast<std::size_t>(dem->info.height), 0.0};
+  LoadedScene scene{description,
+                    std::move(*frame),
+                    std::move(*mesh),
+                    std::nullopt,
+                    {},
+                    static_cast<std::size_t>(dem->info.width),
+                    static_cast<std::size_t>(dem->info.height),
+                    0.0};
 
   if (description.imagery) {
     Result<geo::Raster> imagery = geo::readRaster(*description.imagery, description.imageryBands);

@@ -22,8 +22,7 @@ Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene) {
 FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int width, int height,
                                  const Camera& camera, bool measure) {
   gfx::enableReversedZ();
-  gfx::beginRenderPass(cache, framebuffer, width, height,
-                       {kBackground, gfx::kReversedZFar, 0});
+  gfx::beginRenderPass(cache, framebuffer, width, height, {kBackground, gfx::kReversedZFar, 0});
   const double aspect = static_cast<double>(width) / static_cast<double>(std::max(height, 1));
   const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
 

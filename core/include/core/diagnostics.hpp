@@ -24,17 +24,15 @@ struct Diagnostic {
 
 /// A list of diagnostics with helpers to add and query them.
 class Diagnostics {
-public:
+ public:
   void add(Diagnostic d) { items_.push_back(std::move(d)); }
-  void append(const Diagnostics& other) {
-    items_.insert(items_.end(), other.items_.begin(), other.items_.end());
-  }
+  void append(const Diagnostics& other) { items_.insert(items_.end(), other.items_.begin(), other.items_.end()); }
   [[nodiscard]] const std::vector<Diagnostic>& items() const { return items_; }
   [[nodiscard]] std::size_t count(Severity s) const;
   [[nodiscard]] bool hasErrors() const { return count(Severity::Error) > 0; }
   [[nodiscard]] bool empty() const { return items_.empty(); }
 
-private:
+ private:
   std::vector<Diagnostic> items_;
 };
 

@@ -21,7 +21,7 @@ class CrsTransform;
 /// Geographic coordinates (lon, lat in degrees) are on the frame CRS's own geodetic datum,
 /// which is what `gdalinfo` prints for a projected raster.
 class SceneFrame {
-public:
+ public:
   /// `crs` is anything OGR's SetFromUserInput accepts: "EPSG:32725", WKT, PROJ string.
   /// Fails (with a message) if the CRS is unknown or not projected.
   static Result<SceneFrame> fromCrs(const std::string& crs, const glm::dvec3& origin);
@@ -59,7 +59,7 @@ public:
   /// The reverse: from this frame's projected CRS (not minus origin) into another CRS.
   [[nodiscard]] Result<CrsTransform> transformTo(const std::string& targetCrs) const;
 
-private:
+ private:
   struct Impl;
   SceneFrame(std::unique_ptr<Impl> impl, const glm::dvec3& origin);
   /// A CrsTransform between two parsed CRSs; `what` names the direction in messages.
@@ -72,7 +72,7 @@ private:
 /// A coordinate transform between two CRSs, with traditional GIS axis order (x = easting or
 /// longitude, y = northing or latitude) on both sides.
 class CrsTransform {
-public:
+ public:
   CrsTransform(CrsTransform&&) noexcept;
   CrsTransform& operator=(CrsTransform&&) noexcept;
   ~CrsTransform();
@@ -86,7 +86,7 @@ public:
   [[nodiscard]] double sourceSemiMajor() const;
   [[nodiscard]] double sourceFlattening() const;
 
-private:
+ private:
   friend class SceneFrame;
   struct Impl;
   explicit CrsTransform(std::unique_ptr<Impl> impl);

@@ -28,15 +28,13 @@ struct RasterInfo {
   int height = 0;
   int bandCount = 0;
   GeoTransform geoTransform;
-  std::string crsWkt;           ///< empty when the file has no CRS
+  std::string crsWkt;  ///< empty when the file has no CRS
   bool crsIsGeographic = false;
   bool crsIsProjected = false;
-  std::optional<double> nodata; ///< of the first band
+  std::optional<double> nodata;  ///< of the first band
 
   /// CRS coordinates of the centre of pixel (col, row).
-  [[nodiscard]] glm::dvec2 pixelCentre(int col, int row) const {
-    return geoTransform.pixelToCrs(col + 0.5, row + 0.5);
-  }
+  [[nodiscard]] glm::dvec2 pixelCentre(int col, int row) const { return geoTransform.pixelToCrs(col + 0.5, row + 0.5); }
 };
 
 /// Samples of selected bands, pixel-interleaved, top row first:
@@ -49,7 +47,9 @@ struct Raster {
   [[nodiscard]] int channels() const { return static_cast<int>(bands.size()); }
   [[nodiscard]] float at(int col, int row, int channel = 0) const {
     return samples[(static_cast<std::size_t>(row) * static_cast<std::size_t>(info.width) +
-                    static_cast<std::size_t>(col)) * bands.size() + static_cast<std::size_t>(channel)];
+                    static_cast<std::size_t>(col)) *
+                       bands.size() +
+                   static_cast<std::size_t>(channel)];
   }
 };
 

@@ -70,8 +70,7 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
 
 /// Points along the geodesic from a to b (lon/lat degrees, on the given ellipsoid) such that no
 /// piece is longer than maxSegmentMetres; includes a, excludes b.
-std::vector<glm::dvec2> densifyGeodesic(const glm::dvec2& a, const glm::dvec2& b,
-                                        double maxSegmentMetres, double semiMajor,
-                                        double flattening);
+std::vector<glm::dvec2> densifyGeodesic(const glm::dvec2& a, const glm::dvec2& b, double maxSegmentMetres,
+                                        double semiMajor, double flattening);
 
 }  // namespace gis::geo

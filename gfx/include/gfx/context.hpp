@@ -14,12 +14,12 @@ struct GLFWwindow;
 namespace gis::gfx {
 
 struct ContextOptions {
-  int width = 1280;      ///< window size (ignored when headless: render into RenderTargets)
+  int width = 1280;  ///< window size (ignored when headless: render into RenderTargets)
   int height = 800;
   std::string title = "stencil-gis";
-  bool debug = true;     ///< KHR_debug context with synchronous debug output
+  bool debug = true;  ///< KHR_debug context with synchronous debug output
   bool vsync = true;
-  int samples = 0;       ///< window back buffer MSAA samples
+  int samples = 0;  ///< window back buffer MSAA samples
 };
 
 /// Vendor, renderer and version strings plus the capabilities later passes rely on.
@@ -36,7 +36,7 @@ struct GlInfo {
 };
 
 class Context {
-public:
+ public:
   virtual ~Context() = default;
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
@@ -54,14 +54,14 @@ public:
   /// Debug output of this context (errors counted; messages go to the logger).
   [[nodiscard]] DebugOutput& debug() { return *debug_; }
 
-protected:
+ protected:
   Context() = default;
   /// Queries GlInfo and installs the debug callback; called by implementations once current.
   void initialiseAfterMakeCurrent(bool debugOutput);
   /// Detaches the debug callback; implementations call it while the context is still current.
   void releaseBeforeDestroy() { debug_.reset(); }
 
-private:
+ private:
   GlInfo info_;
   std::unique_ptr<DebugOutput> debug_;
 };

@@ -9,7 +9,7 @@
 namespace gis::gfx {
 
 class DebugOutput {
-public:
+ public:
   /// Installs the callback on the current context (synchronous output).
   DebugOutput();
   ~DebugOutput();
@@ -25,7 +25,7 @@ public:
   /// Called from the GL callback.
   void receive(unsigned source, unsigned type, unsigned id, unsigned severity, const char* message);
 
-private:
+ private:
   std::atomic<std::size_t> errors_{0};
   mutable std::mutex mutex_;
   std::vector<std::string> errorTexts_;

@@ -9,7 +9,7 @@ namespace gis::gfx {
 /// Owns one GL object name; `Deleter::destroy(GLuint)` releases it. Move-only.
 template <typename Deleter>
 class Handle {
-public:
+ public:
   Handle() = default;
   explicit Handle(GLuint id) : id_(id) {}
   ~Handle() { reset(); }
@@ -31,19 +31,35 @@ public:
     id_ = 0;
   }
 
-private:
+ private:
   GLuint id_ = 0;
 };
 
 namespace detail {
-struct BufferDeleter { static void destroy(GLuint id) { glDeleteBuffers(1, &id); } };
-struct VertexArrayDeleter { static void destroy(GLuint id) { glDeleteVertexArrays(1, &id); } };
-struct TextureDeleter { static void destroy(GLuint id) { glDeleteTextures(1, &id); } };
-struct RenderbufferDeleter { static void destroy(GLuint id) { glDeleteRenderbuffers(1, &id); } };
-struct FramebufferDeleter { static void destroy(GLuint id) { glDeleteFramebuffers(1, &id); } };
-struct ProgramDeleter { static void destroy(GLuint id) { glDeleteProgram(id); } };
-struct ShaderDeleter { static void destroy(GLuint id) { glDeleteShader(id); } };
-struct QueryDeleter { static void destroy(GLuint id) { glDeleteQueries(1, &id); } };
+struct BufferDeleter {
+  static void destroy(GLuint id) { glDeleteBuffers(1, &id); }
+};
+struct VertexArrayDeleter {
+  static void destroy(GLuint id) { glDeleteVertexArrays(1, &id); }
+};
+struct TextureDeleter {
+  static void destroy(GLuint id) { glDeleteTextures(1, &id); }
+};
+struct RenderbufferDeleter {
+  static void destroy(GLuint id) { glDeleteRenderbuffers(1, &id); }
+};
+struct FramebufferDeleter {
+  static void destroy(GLuint id) { glDeleteFramebuffers(1, &id); }
+};
+struct ProgramDeleter {
+  static void destroy(GLuint id) { glDeleteProgram(id); }
+};
+struct ShaderDeleter {
+  static void destroy(GLuint id) { glDeleteShader(id); }
+};
+struct QueryDeleter {
+  static void destroy(GLuint id) { glDeleteQueries(1, &id); }
+};
 }  // namespace detail
 
 using BufferHandle = Handle<detail::BufferDeleter>;

@@ -12,8 +12,18 @@ namespace gis::gfx {
 enum class CompareFunc : std::uint8_t { Never, Less, LessEqual, Equal, NotEqual, GreaterEqual, Greater, Always };
 enum class StencilOp : std::uint8_t { Keep, Zero, Replace, Incr, IncrWrap, Decr, DecrWrap, Invert };
 enum class BlendFactor : std::uint8_t {
-  Zero, One, SrcColor, OneMinusSrcColor, DstColor, OneMinusDstColor,
-  SrcAlpha, OneMinusSrcAlpha, DstAlpha, OneMinusDstAlpha, ConstantColor, ConstantAlpha
+  Zero,
+  One,
+  SrcColor,
+  OneMinusSrcColor,
+  DstColor,
+  OneMinusDstColor,
+  SrcAlpha,
+  OneMinusSrcAlpha,
+  DstAlpha,
+  OneMinusDstAlpha,
+  ConstantColor,
+  ConstantAlpha
 };
 enum class BlendEquation : std::uint8_t { Add, Subtract, ReverseSubtract, Min, Max };
 enum class CullMode : std::uint8_t { None, Front, Back };
@@ -89,15 +99,17 @@ inline constexpr PipelineState kOpaque{};
 /// The state GL has on a fresh context (depth test off, LESS, no culling): what third-party
 /// code expects, and what the cache restores before handing the context to it.
 inline constexpr PipelineState kGlDefault{
-    DepthState{false, true, CompareFunc::Less, false},
-    StencilState{},
-    BlendState{},
+    DepthState{false, true, CompareFunc::Less, false}, StencilState{}, BlendState{},
     RasterState{CullMode::None, true, ColorMask{}, PolygonMode::Fill, 0.0F, 0.0F, true}};
 
 /// Premultiplied-alpha "over" blending: dst = src + (1 − src.a)·dst.
-inline constexpr BlendState kBlendPremultipliedOver{
-    true, BlendFactor::One, BlendFactor::OneMinusSrcAlpha, BlendFactor::One,
-    BlendFactor::OneMinusSrcAlpha, BlendEquation::Add, BlendEquation::Add};
+inline constexpr BlendState kBlendPremultipliedOver{true,
+                                                    BlendFactor::One,
+                                                    BlendFactor::OneMinusSrcAlpha,
+                                                    BlendFactor::One,
+                                                    BlendFactor::OneMinusSrcAlpha,
+                                                    BlendEquation::Add,
+                                                    BlendEquation::Add};
 
 std::string toString(CompareFunc f);
 std::string toString(StencilOp op);

@@ -23,7 +23,7 @@ struct ShaderStage {
 };
 
 class Program {
-public:
+ public:
   Program() = default;
   /// Compiles and links; the log of a failing stage names the file. Needs a current context.
   static Result<Program> build(const std::vector<ShaderStage>& stages);
@@ -43,7 +43,7 @@ public:
   void set(std::string_view name, const glm::vec4& v);
   void set(std::string_view name, const glm::mat4& m);
 
-private:
+ private:
   ProgramHandle handle_;
   std::unordered_map<std::string, GLint> locations_;
 };

@@ -11,14 +11,14 @@ namespace gis::gfx {
 
 /// GL_TIME_ELAPSED around a range of commands. Only one may be active at a time (GL rule).
 class GpuTimer {
-public:
+ public:
   GpuTimer();
   void begin();
   void end();
   /// Nanoseconds; waits for the GPU when `wait`, otherwise nullopt until available.
   [[nodiscard]] std::optional<std::uint64_t> nanoseconds(bool wait = true) const;
 
-private:
+ private:
   QueryHandle query_;
 };
 
@@ -37,7 +37,7 @@ struct PipelineCounts {
 };
 
 class PipelineStatistics {
-public:
+ public:
   /// `available()` is false when the extension is missing; then begin/end do nothing.
   PipelineStatistics();
   [[nodiscard]] bool available() const { return available_; }
@@ -46,7 +46,7 @@ public:
   /// Waits for the results.
   [[nodiscard]] PipelineCounts result() const;
 
-private:
+ private:
   static constexpr std::size_t kCount = 7;
   bool available_ = false;
   std::array<QueryHandle, kCount> queries_;

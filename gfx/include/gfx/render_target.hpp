@@ -13,7 +13,7 @@
 namespace gis::gfx {
 
 class RenderTarget {
-public:
+ public:
   /// `samples` 0 or 1 = single-sampled (textures); >1 = multisampled textures, resolve with
   /// resolveInto() before reading back.
   RenderTarget(int width, int height, int samples = 0);
@@ -32,7 +32,7 @@ public:
   /// averaged over samples; depth and stencil of one sample per pixel, as GL defines).
   void resolveInto(const RenderTarget& single) const;
 
-private:
+ private:
   int width_;
   int height_;
   int samples_;
@@ -52,8 +52,7 @@ inline constexpr float kReversedZFar = 0.0F;
 
 /// Binds the target (0 = the default framebuffer with the given size), sets the viewport and
 /// clears what `params` names, through the state cache.
-void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height,
-                     const RenderPassParams& params);
+void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params);
 inline void beginRenderPass(StateCache& cache, const RenderTarget& target, const RenderPassParams& params) {
   beginRenderPass(cache, target.framebuffer(), target.width(), target.height(), params);
 }

@@ -6,7 +6,7 @@
 namespace gis::gfx {
 
 class StateCache {
-public:
+ public:
   /// Makes GL's state equal to `state`, issuing calls only for what differs from the cached
   /// state (all of it after invalidate()).
   void apply(const PipelineState& state);
@@ -26,7 +26,7 @@ public:
 
   [[nodiscard]] const PipelineState& cached() const { return current_; }
 
-private:
+ private:
   void applyDepth(const DepthState& s, bool force);
   void applyStencil(const StencilState& s, bool force);
   void applyBlend(const BlendState& s, bool force);

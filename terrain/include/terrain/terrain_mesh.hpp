@@ -17,7 +17,7 @@ namespace gis::terrain {
 struct TerrainVertex {
   glm::vec3 position;  ///< relative to TerrainMesh::centre, metres
   glm::vec3 normal;
-  glm::vec2 imageryUv; ///< into the orthophoto; outside [0,1] where the imagery has no data
+  glm::vec2 imageryUv;  ///< into the orthophoto; outside [0,1] where the imagery has no data
 };
 
 struct TerrainMesh {
@@ -26,7 +26,7 @@ struct TerrainMesh {
   std::vector<std::uint32_t> indices;  ///< triangles, counter-clockwise seen from above
   double minHeight = 0.0;              ///< of the drawn vertices (exaggeration applied)
   double maxHeight = 0.0;
-  glm::dvec2 frameMin{0.0};            ///< horizontal extent in frame coordinates
+  glm::dvec2 frameMin{0.0};  ///< horizontal extent in frame coordinates
   glm::dvec2 frameMax{0.0};
   std::size_t skippedNodataPosts = 0;
 

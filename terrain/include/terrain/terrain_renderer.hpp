@@ -13,7 +13,7 @@
 namespace gis::terrain {
 
 class TerrainRenderer {
-public:
+ public:
   /// Uploads the mesh and the orthophoto (may be null). Needs a current GL 4.5 context.
   static Result<TerrainRenderer> create(const TerrainMesh& mesh, const Orthophoto* orthophoto);
 
@@ -22,7 +22,7 @@ public:
 
   [[nodiscard]] std::size_t triangleCount() const { return indexCount_ / 3; }
 
-private:
+ private:
   TerrainRenderer() = default;
   mutable gfx::Program program_;
   gfx::VertexArrayHandle vao_;

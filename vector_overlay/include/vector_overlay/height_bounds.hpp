@@ -17,7 +17,7 @@ struct HeightBounds {
 };
 
 class HeightBoundsProvider {
-public:
+ public:
   virtual ~HeightBoundsProvider() = default;
   /// Bounds over the convex hull of `footprint` (frame coordinates, metres). Outside the
   /// terrain, implementations return bounds that are still safe (e.g. the global range).

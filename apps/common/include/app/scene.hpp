@@ -25,7 +25,7 @@ struct LayerDescription {
 struct SceneDescription {
   std::string path;  ///< the scene file
   std::string name;
-  std::string dem;   ///< absolute path
+  std::string dem;  ///< absolute path
   int demBand = 1;
   double verticalExaggeration = 1.0;
   std::optional<std::string> imagery;  ///< absolute path

@@ -26,7 +26,7 @@ struct FrameStats {
 inline constexpr glm::vec4 kBackground{0.06F, 0.07F, 0.09F, 1.0F};
 
 class SceneRenderer {
-public:
+ public:
   /// Uploads the scene to the current context.
   static Result<SceneRenderer> create(const LoadedScene& scene);
 
@@ -37,7 +37,7 @@ public:
 
   [[nodiscard]] std::size_t terrainTriangles() const { return terrain_->triangleCount(); }
 
-private:
+ private:
   SceneRenderer() = default;
   std::optional<terrain::TerrainRenderer> terrain_;
   std::optional<gfx::GpuTimer> timer_;
