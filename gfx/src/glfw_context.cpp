@@ -42,10 +42,11 @@ class GlfwContext final : public Context {
 }  // namespace
 
 bool windowSystemAvailable() {
+  // GLFW stays initialised on success (createWindowContext's glfwInit is then a no-op; the
+  // context's destructor terminates it): connecting twice in a row can hit an X server that
+  // resets when its last client leaves (Xvfb without -noreset).
   glfwSetErrorCallback(nullptr);
-  if (glfwInit() != GLFW_TRUE) return false;
-  glfwTerminate();
-  return true;
+  return glfwInit() == GLFW_TRUE;
 }
 
 Result<std::unique_ptr<Context>> createWindowContext(const ContextOptions& options) {
