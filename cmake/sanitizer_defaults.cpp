@@ -1,5 +1,30 @@
 // Linked into every executable of a sanitizer build (STENCIL_GIS_SANITIZE=ON).
 // The sanitizer runtimes call these weak hooks at start-up.
+#include <dlfcn.h>
+
+#include <cstdlib>
+#include <initializer_list>
+
+namespace {
+
+// Mesa unloads its DRI driver when the last display closes (glfwTerminate, eglTerminate), and
+// LeakSanitizer can then no longer name the frames of what the driver leaked ("<unknown
+// module>"), so the suppressions below cannot match them. Pinning the driver with RTLD_NODELETE
+// keeps its frames nameable; leaks in our own code are reported as before.
+//
+// llvmpipe also runs rasteriser threads; under load, LeakSanitizer's stop-the-world at exit
+// occasionally crashed ("Tracer caught signal 11") while stopping them. Sanitizer builds run
+// llvmpipe single-threaded (LP_NUM_THREADS=0, unless the caller set it): same pixels, no race.
+struct PinMesaDriver {
+  PinMesaDriver() {
+    setenv("LP_NUM_THREADS", "0", 0);
+    for (const char* path : {"/usr/lib/x86_64-linux-gnu/dri/swrast_dri.so", "/usr/lib/dri/swrast_dri.so"}) {
+      if (dlopen(path, RTLD_LAZY | RTLD_LOCAL | RTLD_NODELETE) != nullptr) break;
+    }
+  }
+} pinMesaDriver;
+
+}  // namespace
 
 extern "C" {
 

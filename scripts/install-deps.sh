@@ -8,9 +8,9 @@ packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git clang libclang-rt-14-dev clang-format
   # OpenGL: libepoxy for entry points, Mesa for EGL (surfaceless) and GLX on llvmpipe
-  libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri libgles-dev mesa-utils
+  libepoxy-dev libegl-dev libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri
   # windowing and UI
-  libglfw3-dev libimgui-dev libstb-dev xvfb xauth
+  libglfw3-dev libimgui-dev libstb-dev libfreetype-dev xvfb xauth
   # maths, geodesy, geometry, geodata, images, json
   libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev

@@ -27,7 +27,9 @@ class EglContext final : public Context {
     releaseBeforeDestroy();
     eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(display_, context_);
-    eglTerminate(display_);
+    // No eglTerminate: the display is one per process and shared by every context on it, so
+    // terminating it here would break other live contexts. (It also keeps Mesa's driver loaded
+    // until exit, so LeakSanitizer can name Mesa's own frames in its reports.)
   }
   void makeCurrent() override { eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_); }
   void swapBuffers() override {}
