@@ -1,0 +1,64 @@
+#pragma once
+// Height bounds under the bounds contract (DESIGN §5): for a footprint, [lo, hi] contains the
+// surface as drawn at *any* level of detail that can be on screen there — any level of the
+// quadtree, stitched or not, including a coarse parent drawn while a tile loads — with
+// vertical exaggeration applied.
+//
+// Why it holds: a level-l chunk draws, over a point p, a convex combination of the corners of the
+// level-l cell containing p, except along a stitched edge, where the odd edge vertices are
+// averages of the corners of the level-(l+1) cell containing p. So the union, over levels, of the
+// corner heights of the level-l cells meeting the footprint bounds every surface that can be
+// drawn there. The bound is static (no per-frame record) and gets looser where coarse levels'
+// cells reach far outside a small footprint; docs/terrain.md gives measured tightness.
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "terrain/quadtree.hpp"
+#include "vector_overlay/height_bounds.hpp"
+
+namespace gis::terrain {
+
+/// Min/max over rectangles of posts, exact, in O(perimeter) via a 2×2 min/max pyramid.
+class MinMaxPyramid {
+ public:
+  explicit MinMaxPyramid(const TerrainGrid& grid);
+  /// Min and max of the valid posts in [c0, c1] × [r0, r1] (inclusive, clamped to the grid);
+  /// lo > hi when there is none.
+  void query(int c0, int r0, int c1, int r1, float& lo, float& hi) const;
+  [[nodiscard]] std::size_t bytes() const;
+
+ private:
+  struct Level {
+    int width = 0, height = 0;
+    std::vector<float> lo, hi;
+  };
+  void queryLevel(std::size_t k, int c0, int r0, int c1, int r1, float& lo, float& hi) const;
+  const TerrainGrid& grid_;
+  std::vector<Level> levels_;  ///< levels_[k] holds blocks of 2^(k+1) posts a side
+};
+
+class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
+ public:
+  explicit QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree> tree, double exaggeration = 1.0);
+
+  void setExaggeration(double exaggeration) { exaggeration_ = exaggeration; }
+  [[nodiscard]] double exaggeration() const { return exaggeration_; }
+
+  [[nodiscard]] overlay::HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const override;
+  [[nodiscard]] overlay::HeightBounds globalBounds() const override;
+
+  /// Bounds for drawing only levels ≥ `finestLevel` (for measuring what finer LODs would gain).
+  [[nodiscard]] overlay::HeightBounds boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
+                                                       int coarsestLevel) const;
+
+  /// Height of the full-resolution DEM surface (exaggerated); NaN at nodata.
+  [[nodiscard]] double fullResolutionHeightAt(const glm::dvec2& frameXy) const;
+
+ private:
+  std::shared_ptr<const TerrainQuadtree> tree_;
+  MinMaxPyramid pyramid_;
+  double exaggeration_;
+};
+
+}  // namespace gis::terrain

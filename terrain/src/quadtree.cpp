@@ -1,0 +1,163 @@
+#include "terrain/quadtree.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+namespace gis::terrain {
+namespace {
+
+/// Running min/max of valid heights.
+struct Range {
+  float lo = std::numeric_limits<float>::infinity();
+  float hi = -std::numeric_limits<float>::infinity();
+  void add(float h) {
+    if (!std::isnan(h)) {
+      lo = std::min(lo, h);
+      hi = std::max(hi, h);
+    }
+  }
+  [[nodiscard]] bool valid() const { return lo <= hi; }
+};
+
+}  // namespace
+
+TerrainQuadtree::TerrainQuadtree(std::shared_ptr<const TerrainGrid> grid, int chunkCells)
+    : grid_(std::move(grid)), chunkCells_(chunkCells) {
+  assert(chunkCells_ >= 2 && (chunkCells_ & (chunkCells_ - 1)) == 0 && "chunk size must be a power of two");
+  const int cells = std::max(grid_->width, grid_->height) - 1;
+  while ((chunkCells_ << rootLevel_) < cells) ++rootLevel_;
+  std::size_t offset = 0;
+  for (int level = 0; level <= rootLevel_; ++level) {
+    levelOffset_.push_back(offset);
+    offset += static_cast<std::size_t>(nodesPerSide(level)) * static_cast<std::size_t>(nodesPerSide(level));
+  }
+  nodes_.resize(offset);
+  computeLevel0();
+  for (int level = 1; level <= rootLevel_; ++level) computeLevel(level);
+}
+
+const NodeInfo& TerrainQuadtree::info(const NodeId& n) const { return nodes_[index(n)]; }
+
+std::size_t TerrainQuadtree::nodeCount() const { return nodes_.size(); }
+
+void TerrainQuadtree::computeLevel0() {
+  const int side = nodesPerSide(0);
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      Range range;
+      const int c0 = x * chunkCells_, r0 = y * chunkCells_;
+      const int c1 = std::min(c0 + chunkCells_, grid_->width - 1), r1 = std::min(r0 + chunkCells_, grid_->height - 1);
+      for (int r = r0; r <= r1; ++r) {
+        for (int c = c0; c <= c1; ++c) range.add(grid_->at(c, r));
+      }
+      NodeInfo& node = nodes_[index({0, x, y})];
+      node.hasData = range.valid();
+      node.minHeight = node.hasData ? range.lo : 0.0F;
+      node.maxHeight = node.hasData ? range.hi : 0.0F;
+      node.geometricError = 0.0F;
+    }
+  }
+}
+
+void TerrainQuadtree::computeLevel(int level) {
+  const int side = nodesPerSide(level);
+  const int childStride = 1 << (level - 1);
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const NodeId id{level, x, y};
+      NodeInfo& node = nodes_[index(id)];
+      Range range;
+      float childError = 0.0F;
+      for (const NodeId& child : id.children()) {
+        const NodeInfo& c = info(child);
+        if (!c.hasData) continue;
+        range.add(c.minHeight);
+        range.add(c.maxHeight);
+        childError = std::max(childError, c.geometricError);
+      }
+      node.hasData = range.valid();
+      node.minHeight = node.hasData ? range.lo : 0.0F;
+      node.maxHeight = node.hasData ? range.hi : 0.0F;
+      if (!node.hasData) continue;
+      // The child level's surface refines this level's (same diagonal direction), so their
+      // largest distance is at the child level's posts; add the children's own error.
+      double own = 0.0;
+      const int c0 = x * chunkCells_ << level, r0 = y * chunkCells_ << level;
+      for (int j = 0; j <= 2 * chunkCells_; ++j) {
+        const int row = r0 + j * childStride;
+        if (row >= grid_->height) break;
+        for (int i = 0; i <= 2 * chunkCells_; ++i) {
+          const int col = c0 + i * childStride;
+          if (col >= grid_->width) break;
+          const float h = grid_->at(col, row);
+          if (std::isnan(h)) continue;
+          const double coarse = levelSurface(level, col, row);
+          if (!std::isnan(coarse)) own = std::max(own, std::abs(coarse - static_cast<double>(h)));
+        }
+      }
+      // Round up so that the float bound is never below the double value.
+      const double total = own + static_cast<double>(childError);
+      node.geometricError =
+          total > 0.0 ? std::nextafter(static_cast<float>(total), std::numeric_limits<float>::infinity()) : 0.0F;
+    }
+  }
+}
+
+float TerrainQuadtree::drawnVertexHeight(const NodeId& n, std::uint8_t stitchMask, int i, int j) const {
+  const int last = chunkCells_;
+  auto at = [&](int ii, int jj) {
+    const glm::ivec2 p = vertexPost(n, ii, jj);
+    return post(p.x, p.y);
+  };
+  if ((i & 1) == 1 && (((stitchMask & kEdgeNorth) && j == 0) || ((stitchMask & kEdgeSouth) && j == last))) {
+    return 0.5F * (at(i - 1, j) + at(i + 1, j));
+  }
+  if ((j & 1) == 1 && (((stitchMask & kEdgeWest) && i == 0) || ((stitchMask & kEdgeEast) && i == last))) {
+    return 0.5F * (at(i, j - 1) + at(i, j + 1));
+  }
+  return at(i, j);
+}
+
+double TerrainQuadtree::levelSurface(int level, double col, double row) const {
+  const double s = static_cast<double>(1 << level);
+  const int maxCell = (chunkCells_ << (rootLevel_ - level)) - 1;
+  const double u = col / s, v = row / s;
+  const int c = std::clamp(static_cast<int>(std::floor(u)), 0, maxCell);
+  const int r = std::clamp(static_cast<int>(std::floor(v)), 0, maxCell);
+  const double fx = std::clamp(u - c, 0.0, 1.0), fy = std::clamp(v - r, 0.0, 1.0);
+  const int st = 1 << level;
+  const double a = post(c * st, r * st), b = post((c + 1) * st, r * st);
+  const double d = post(c * st, (r + 1) * st), e = post((c + 1) * st, (r + 1) * st);
+  return interpolateCell(a, b, d, e, fx, fy);  // NaN propagates from any nodata corner
+}
+
+double TerrainQuadtree::chunkSurface(const NodeId& n, std::uint8_t stitchMask, double col, double row) const {
+  const double s = static_cast<double>(1 << n.level);
+  const double u = col / s - n.x * chunkCells_, v = row / s - n.y * chunkCells_;
+  const int i = std::clamp(static_cast<int>(std::floor(u)), 0, chunkCells_ - 1);
+  const int j = std::clamp(static_cast<int>(std::floor(v)), 0, chunkCells_ - 1);
+  const double fx = std::clamp(u - i, 0.0, 1.0), fy = std::clamp(v - j, 0.0, 1.0);
+  const double a = drawnVertexHeight(n, stitchMask, i, j), b = drawnVertexHeight(n, stitchMask, i + 1, j);
+  const double d = drawnVertexHeight(n, stitchMask, i, j + 1), e = drawnVertexHeight(n, stitchMask, i + 1, j + 1);
+  return interpolateCell(a, b, d, e, fx, fy);
+}
+
+std::array<glm::dvec2, 2> TerrainQuadtree::frameExtent(const NodeId& n) const {
+  const glm::ivec2 p0 = vertexPost(n, 0, 0);
+  const glm::ivec2 p1 = vertexPost(n, chunkCells_, chunkCells_);
+  const glm::dvec2 a = grid_->postPosition(p0.x, p0.y), b = grid_->postPosition(p1.x, p1.y);
+  return {glm::min(a, b), glm::max(a, b)};
+}
+
+NodeId TerrainQuadtree::nodeAt(int level, double col, double row) const {
+  const double size = static_cast<double>(chunkCells_ << level);
+  const int last = nodesPerSide(level) - 1;
+  return {level, std::clamp(static_cast<int>(std::floor(col / size)), 0, last),
+          std::clamp(static_cast<int>(std::floor(row / size)), 0, last)};
+}
+
+}  // namespace gis::terrain

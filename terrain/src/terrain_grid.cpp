@@ -1,0 +1,46 @@
+#include "terrain/terrain_grid.hpp"
+
+#include <cmath>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+namespace gis::terrain {
+
+Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame& frame) {
+  const geo::RasterInfo& info = dem.info;
+  const auto& c = info.geoTransform.c;
+  auto fail = [&](const std::string& message) {
+    return Result<TerrainGrid>::failure({Severity::Error, info.path, "", "", message});
+  };
+  if (c[2] != 0.0 || c[4] != 0.0) return fail("rotated geotransforms are not supported by the terrain quadtree");
+  if (!(c[1] > 0.0) || !(c[5] < 0.0)) return fail("the terrain quadtree needs a north-up raster");
+  if (info.width < 2 || info.height < 2) return fail("DEM needs at least 2x2 posts");
+  // The frame must be the DEM's own CRS: the grid is then regular in the frame.
+  Result<geo::CrsTransform> toFrame = frame.transformFrom(info.crsWkt);
+  if (!toFrame) {
+    Result<TerrainGrid> r;
+    r.diagnostics = toFrame.diagnostics;
+    return r;
+  }
+  const glm::dvec2 p0 = info.pixelCentre(0, 0);
+  const glm::dvec2 p1 = info.pixelCentre(info.width - 1, info.height - 1);
+  const std::optional<glm::dvec2> q0 = toFrame->transform(p0);
+  const std::optional<glm::dvec2> q1 = toFrame->transform(p1);
+  if (!q0 || !q1 || glm::length(*q0 - p0) > 1e-6 || glm::length(*q1 - p1) > 1e-6) {
+    return fail("the DEM's CRS differs from the scene frame's; reproject the DEM first");
+  }
+  TerrainGrid grid;
+  grid.width = info.width;
+  grid.height = info.height;
+  grid.origin = glm::dvec2(frame.projectedToFrame(glm::dvec3(p0, 0.0)));
+  grid.step = glm::dvec2(c[1], c[5]);
+  grid.heights.resize(static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height));
+  const std::size_t stride = dem.bands.size();
+  for (std::size_t i = 0; i < grid.heights.size(); ++i) grid.heights[i] = dem.samples[i * stride];
+  Result<TerrainGrid> r;
+  r.value = std::move(grid);
+  return r;
+}
+
+}  // namespace gis::terrain
