@@ -1,6 +1,7 @@
 // overlay_render: draws a scene headless and writes what tests, scripts and people need
 // (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png).
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -27,13 +28,15 @@ using namespace gis;
 
 constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
-    "                      [--lasso L.json] --out DIR\n"
+    "                      [--lasso L.json] [--lod-tolerance PX] [--exaggeration X] --out DIR\n"
     "Draws the scene headless (OpenGL 4.5 core via EGL) and writes into DIR:\n"
     "  color.png   the frame, top row first\n"
     "  depth.tiff  float32 depth as stored (reversed-Z: 1 at the near plane, 0 = background)\n"
     "  mask.png    8-bit, bit i set where overlay layer i is drawn\n"
     "  camera.json view/proj (column-major), depth convention, frame crs and origin\n"
-    "  stats.json  sizes, GPU times, pipeline statistics, load messages\n";
+    "  stats.json  sizes, GPU times, pipeline statistics, load messages\n"
+    "--lod-tolerance: largest projected terrain error in pixels (default 1.5; 0 = exact DEM)\n"
+    "--exaggeration: vertical exaggeration (default: the scene's)\n";
 
 struct Options {
   std::string scene;
@@ -43,7 +46,16 @@ struct Options {
   int width = 1024;
   int height = 768;
   int msaa = 0;
+  double lodTolerance = 1.5;
+  std::optional<double> exaggeration;
 };
+
+std::optional<double> parseDouble(std::string_view text) {
+  double value = 0.0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value)) return std::nullopt;
+  return value;
+}
 
 std::optional<int> parseInt(std::string_view text) {
   int value = 0;
@@ -76,6 +88,15 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       target = *n;
       return std::string();
     };
+    auto setDouble = [&](double& target, double lo, double hi) {
+      const auto v = value();
+      const std::optional<double> x = v ? parseDouble(*v) : std::nullopt;
+      if (!x || *x < lo || *x > hi) {
+        return std::string(a) + " needs a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+      }
+      target = *x;
+      return std::string();
+    };
     std::string error;
     if (a == "--scene")
       error = setString(o.scene);
@@ -91,7 +112,13 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       error = setInt(o.height, 1, 16384);
     else if (a == "--msaa")
       error = setInt(o.msaa, 0, 32);
-    else
+    else if (a == "--lod-tolerance")
+      error = setDouble(o.lodTolerance, 0.0, 1000.0);
+    else if (a == "--exaggeration") {
+      double x = 1.0;
+      error = setDouble(x, 0.001, 1000.0);
+      o.exaggeration = x;
+    } else
       error = "unknown argument '" + std::string(a) + "'";
     if (!error.empty()) return error;
   }
@@ -147,6 +174,8 @@ int run(const Options& o) {
   all.append(scene.diagnostics);
   if (!scene) return 1;
 
+  const double exaggeration = o.exaggeration.value_or(description->verticalExaggeration);
+  scene->bounds->setExaggeration(exaggeration);
   std::optional<app::Camera> camera;
   if (!o.camera.empty()) {
     Result<app::CameraSpec> spec = app::loadCameraFile(o.camera);
@@ -163,7 +192,7 @@ int run(const Options& o) {
     camera = *placed;
   } else {
     glm::dvec3 lo, hi;
-    app::terrainBox(*scene, lo, hi);
+    app::terrainBox(*scene, exaggeration, lo, hi);
     camera = app::overviewCamera(lo, hi);
   }
 
@@ -176,7 +205,11 @@ int run(const Options& o) {
 
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, o.msaa);
-  const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, true);
+  app::RenderSettings settings;
+  settings.lodTolerancePixels = o.lodTolerance;
+  settings.verticalExaggeration = exaggeration;
+  settings.measure = true;
+  const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, settings);
   std::optional<gfx::RenderTarget> resolved;
   const gfx::RenderTarget* readable = &target;
   if (target.multisampled()) {
@@ -222,6 +255,9 @@ int run(const Options& o) {
                       {"drawn", false}});
   }
   const gfx::Context& ctx = **context;
+  const terrain::TerrainQuadtree& tree = *scene->quadtree;
+  const terrain::TerrainGrid& grid = tree.grid();
+  const terrain::NodeInfo& rootInfo = tree.info(tree.root());
   json stats = {
       {"scene", o.scene},
       {"width", o.width},
@@ -230,12 +266,22 @@ int run(const Options& o) {
       {"gl", {{"renderer", ctx.info().renderer}, {"version", ctx.info().version}}},
       {"load_seconds", scene->loadSeconds},
       {"terrain",
-       {{"posts", scene->demWidth * scene->demHeight},
-        {"dem_size", {scene->demWidth, scene->demHeight}},
-        {"nodata_posts", scene->mesh.skippedNodataPosts},
-        {"triangles", renderer->terrainTriangles()},
-        {"min_height", scene->mesh.minHeight},
-        {"max_height", scene->mesh.maxHeight},
+       {{"posts", grid.heights.size()},
+        {"dem_size", {grid.width, grid.height}},
+        {"nodata_posts", scene->nodataPosts},
+        {"quadtree_levels", tree.rootLevel() + 1},
+        {"chunk_cells", tree.chunkCells()},
+        {"lod_tolerance_px", o.lodTolerance},
+        {"vertical_exaggeration", exaggeration},
+        {"chunks", frame.terrainDraw.chunks},
+        {"chunks_culled", frame.terrainCulled},
+        {"finest_level", frame.finestLevel},
+        {"coarsest_level", frame.coarsestLevel},
+        {"triangles", frame.terrainDraw.triangles},
+        {"select_ms", frame.selectMilliseconds},
+        {"gpu_bytes", renderer->terrainEngine().gpuBytes()},
+        {"min_height", rootInfo.minHeight},
+        {"max_height", rootInfo.maxHeight},
         {"imagery", scene->orthophoto.has_value()},
         {"pixels", terrainPixels}}},
       {"layers", layers},

@@ -93,7 +93,9 @@ int runViewer(const std::string& scenePath) {
   ImGui_ImplOpenGL3_Init("#version 450 core");
 
   glm::dvec3 boxMin, boxMax;
-  app::terrainBox(*scene, boxMin, boxMax);
+  app::RenderSettings settings;
+  settings.verticalExaggeration = description->verticalExaggeration;
+  app::terrainBox(*scene, settings.verticalExaggeration, boxMin, boxMax);
   const app::Camera home = app::overviewCamera(boxMin, boxMax);
   Orbit orbit = orbitFrom(home);
   double fovY = home.fovYDeg;
@@ -137,9 +139,15 @@ int runViewer(const std::string& scenePath) {
 
     const glm::ivec2 size = (*context)->framebufferSize();
     if (size.x > 0 && size.y > 0) {
-      const bool measure = frameIndex++ % 30 == 0;  // queries wait for the GPU: sample them
-      const app::FrameStats s = renderer->render(cache, 0, size.x, size.y, orbit.camera(fovY), measure);
-      if (measure) stats = s;
+      settings.measure = frameIndex++ % 30 == 0;  // queries wait for the GPU: sample them
+      const app::FrameStats s = renderer->render(cache, 0, size.x, size.y, orbit.camera(fovY), settings);
+      if (settings.measure) {
+        stats = s;
+      } else {
+        stats.terrainDraw = s.terrainDraw;
+        stats.finestLevel = s.finestLevel;
+        stats.coarsestLevel = s.coarsestLevel;
+      }
     }
 
     ImGui_ImplOpenGL3_NewFrame();
@@ -149,7 +157,19 @@ int runViewer(const std::string& scenePath) {
     ImGui::Begin("Scene");
     ImGui::Text("%s", description->name.c_str());
     ImGui::Text("%.1f fps (%.2f ms)", 1000.0 / smoothedFrameMs, smoothedFrameMs);
-    ImGui::Text("terrain: %zu triangles, GPU %.2f ms", renderer->terrainTriangles(), stats.terrain.gpuMilliseconds);
+    ImGui::Text("terrain: %zu chunks (levels %d-%d), %zu triangles", stats.terrainDraw.chunks, stats.finestLevel,
+                stats.coarsestLevel, stats.terrainDraw.triangles);
+    ImGui::Text("terrain GPU %.2f ms, %.1f MiB cached", stats.terrain.gpuMilliseconds,
+                static_cast<double>(renderer->terrainEngine().gpuBytes()) / (1024.0 * 1024.0));
+    float tolerance = static_cast<float>(settings.lodTolerancePixels);
+    if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
+      settings.lodTolerancePixels = static_cast<double>(tolerance);
+    }
+    float exaggeration = static_cast<float>(settings.verticalExaggeration);
+    if (ImGui::SliderFloat("vertical exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f", ImGuiSliderFlags_Logarithmic)) {
+      settings.verticalExaggeration = static_cast<double>(exaggeration);
+    }
+    ImGui::Checkbox("wireframe", &settings.wireframe);
     ImGui::Text("fragments: %llu", static_cast<unsigned long long>(stats.terrain.counts.fragmentShaderInvocations));
     float fov = static_cast<float>(fovY);
     if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F)) fovY = static_cast<double>(fov);

@@ -4,6 +4,8 @@
 #include <limits>
 #include <new>
 
+#include <gdalwarper.h>
+
 #include "gdal_support.hpp"
 
 namespace gis::geo {
@@ -67,6 +69,8 @@ RasterInfo describe(GDALDataset& ds, const std::string& path, Diagnostics& diagn
   return info;
 }
 
+Result<Raster> readSamples(GDALDataset& dataset, const std::string& path, const std::vector<int>& bands);
+
 }  // namespace
 
 Result<RasterInfo> inspectRaster(const std::string& path) {
@@ -84,7 +88,34 @@ Result<Raster> readRaster(const std::string& path, const std::vector<int>& bands
   std::string error;
   DatasetPtr ds = openRaster(path, error);
   if (!ds) return Result<Raster>::failure(rasterError(path, error));
+  return readSamples(*ds, path, bands);
+}
 
+Result<Raster> readRasterInCrs(const std::string& path, const std::vector<int>& bands, const std::string& targetCrs) {
+  detail::QuietGdal quiet;
+  std::string error;
+  DatasetPtr ds = openRaster(path, error);
+  if (!ds) return Result<Raster>::failure(rasterError(path, error));
+  const OGRSpatialReference* source = ds->GetSpatialRef();
+  if (source == nullptr || source->IsEmpty()) return Result<Raster>::failure(rasterError(path, "raster has no CRS"));
+  const detail::SrsPtr target = detail::parseSrs(targetCrs, error);
+  if (!target) return Result<Raster>::failure(rasterError(path, error));
+  if (source->IsSame(target.get()) != 0) return readSamples(*ds, path, bands);
+  // Resampled once into the target CRS (bilinear, 1/8 pixel approximation error).
+  const std::string targetWkt = detail::toWkt(*target);
+  DatasetPtr warped(GDALDataset::FromHandle(GDALAutoCreateWarpedVRT(GDALDataset::ToHandle(ds.get()), nullptr,
+                                                                    targetWkt.c_str(), GRA_Bilinear, 0.125, nullptr)));
+  if (!warped) {
+    return Result<Raster>::failure(
+        rasterError(path, "cannot reproject into the scene CRS: " + detail::QuietGdal::lastMessage("warp failed")));
+  }
+  return readSamples(*warped, path, bands);
+}
+
+namespace {
+
+Result<Raster> readSamples(GDALDataset& dataset, const std::string& path, const std::vector<int>& bands) {
+  GDALDataset* ds = &dataset;
   Result<Raster> r;
   Raster raster;
   raster.info = describe(*ds, path, r.diagnostics);
@@ -139,5 +170,7 @@ Result<Raster> readRaster(const std::string& path, const std::vector<int>& bands
   r.value = std::move(raster);
   return r;
 }
+
+}  // namespace
 
 }  // namespace gis::geo

@@ -62,36 +62,4 @@ Result<Orthophoto> makeOrthophoto(const geo::Raster& imagery, const StretchOptio
   return result;
 }
 
-Diagnostics assignImageryUv(TerrainMesh& mesh, const geo::RasterInfo& imagery, const geo::SceneFrame& frame) {
-  Diagnostics diagnostics;
-  Result<geo::CrsTransform> toImagery = frame.transformTo(imagery.crsWkt);
-  if (!toImagery) {
-    diagnostics.append(toImagery.diagnostics);
-    return diagnostics;
-  }
-  std::vector<glm::dvec2> points(mesh.vertices.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const glm::dvec3 f = mesh.centre + glm::dvec3(mesh.vertices[i].position);
-    points[i] = glm::dvec2(frame.frameToProjected(f));
-  }
-  toImagery->transform(points.data(), points.size());
-  std::size_t outside = 0;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const std::optional<glm::dvec2> px = imagery.geoTransform.crsToPixel(points[i]);
-    if (!px || !std::isfinite(px->x) || !std::isfinite(px->y)) {
-      mesh.vertices[i].imageryUv = glm::vec2(-1.0F);
-      ++outside;
-      continue;
-    }
-    const glm::dvec2 uv(px->x / imagery.width, px->y / imagery.height);
-    if (uv.x < 0.0 || uv.x > 1.0 || uv.y < 0.0 || uv.y > 1.0) ++outside;
-    mesh.vertices[i].imageryUv = glm::vec2(uv);
-  }
-  if (outside > 0) {
-    diagnostics.add({Severity::Info, imagery.path, "", "",
-                     std::to_string(outside) + " terrain vertices lie outside the imagery (shaded instead)"});
-  }
-  return diagnostics;
-}
-
 }  // namespace gis::terrain

@@ -31,15 +31,15 @@ std::vector<std::uint8_t> renderOlinda(bool window) {
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
   EXPECT_TRUE(renderer.ok());
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene, lo, hi);
+  app::terrainBox(*scene, 1.0, lo, hi);
   gfx::StateCache cache;
   gfx::RenderTarget target(kSize, kSize);
-  renderer->render(cache, target.framebuffer(), kSize, kSize, app::overviewCamera(lo, hi), false);
+  renderer->render(cache, target.framebuffer(), kSize, kSize, app::overviewCamera(lo, hi), {});
   std::vector<std::uint8_t> pixels = gfx::readColorRgba8(target);
   EXPECT_EQ((*context)->debug().errorCount(), 0u);
   if (window) {
     // Also into the window's own back buffer, as the viewer draws.
-    renderer->render(cache, 0, kSize, kSize, app::overviewCamera(lo, hi), false);
+    renderer->render(cache, 0, kSize, kSize, app::overviewCamera(lo, hi), {});
     (*context)->swapBuffers();
     EXPECT_EQ((*context)->debug().errorCount(), 0u);
   }

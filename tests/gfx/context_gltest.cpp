@@ -47,8 +47,9 @@ TEST_F(ContextGlTest, DebugOutputCountsErrors) {
 
 TEST_F(ContextGlTest, EmbeddedShadersCompile) {
   const auto names = shaders::names();
-  EXPECT_NE(std::find(names.begin(), names.end(), "terrain.vert"), names.end());
-  Result<gfx::Program> program = gfx::Program::build({{"terrain.vert", {}}, {"terrain.frag", {"UNUSED_DEFINE 1"}}});
+  EXPECT_NE(std::find(names.begin(), names.end(), "terrain_chunk.vert"), names.end());
+  Result<gfx::Program> program =
+      gfx::Program::build({{"terrain_chunk.vert", {}}, {"terrain_chunk.frag", {"UNUSED_DEFINE 1"}}});
   ASSERT_TRUE(program.ok()) << program.diagnostics.items().front().toString();
   EXPECT_NE(program->id(), 0u);
 }

@@ -1,6 +1,7 @@
 #include "app/scene_loader.hpp"
 
 #include <chrono>
+#include <cmath>
 
 #include "core/log.hpp"
 #include "geo/raster.hpp"
@@ -22,31 +23,33 @@ Result<LoadedScene> loadScene(const SceneDescription& description) {
   diagnostics.append(dem.diagnostics);
   Result<geo::SceneFrame> frame = geo::SceneFrame::forRaster(dem->info);
   if (!frame) return fail(std::move(frame.diagnostics));
+  Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(*dem, *frame);
+  if (!grid) return fail(std::move(grid.diagnostics));
+  dem.value.reset();  // the grid holds the heights now
 
-  terrain::MeshOptions meshOptions;
-  meshOptions.verticalExaggeration = description.verticalExaggeration;
-  Result<terrain::TerrainMesh> mesh = terrain::buildFullResolutionMesh(*dem, *frame, meshOptions);
-  if (!mesh) return fail(std::move(mesh.diagnostics));
-  diagnostics.append(mesh.diagnostics);
-
-  LoadedScene scene{description,
-                    std::move(*frame),
-                    std::move(*mesh),
-                    std::nullopt,
-                    {},
-                    static_cast<std::size_t>(dem->info.width),
-                    static_cast<std::size_t>(dem->info.height),
-                    0.0};
+  std::size_t nodata = 0;
+  for (float h : grid->heights) nodata += std::isnan(h) ? 1u : 0u;
+  if (nodata > 0) {
+    diagnostics.add({Severity::Info, description.dem, "", "", std::to_string(nodata) + " nodata posts left as holes"});
+  }
+  auto quadtree =
+      std::make_shared<const terrain::TerrainQuadtree>(std::make_shared<const terrain::TerrainGrid>(std::move(*grid)));
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(quadtree, description.verticalExaggeration);
+  LoadedScene scene{description, std::move(*frame), quadtree, bounds, std::nullopt, {}, nodata, 0.0};
 
   if (description.imagery) {
-    Result<geo::Raster> imagery = geo::readRaster(*description.imagery, description.imageryBands);
+    // Resampled once into the scene frame's CRS, so texture coordinates are affine in the frame.
+    Result<geo::Raster> imagery =
+        geo::readRasterInCrs(*description.imagery, description.imageryBands, scene.frame.crsWkt());
     diagnostics.append(imagery.diagnostics);
     if (imagery) {
       Result<terrain::Orthophoto> photo = terrain::makeOrthophoto(*imagery);
       diagnostics.append(photo.diagnostics);
       if (photo) {
-        diagnostics.append(terrain::assignImageryUv(scene.mesh, imagery->info, scene.frame));
-        scene.orthophoto = std::move(*photo);
+        geo::GeoTransform t = imagery->info.geoTransform;
+        t.c[0] -= scene.frame.origin().x;
+        t.c[3] -= scene.frame.origin().y;
+        scene.orthophoto = terrain::FrameOrthophoto{std::move(*photo), t};
       }
     }
   }
@@ -73,9 +76,13 @@ Result<LoadedScene> loadScene(const SceneDescription& description) {
   return result;
 }
 
-void terrainBox(const LoadedScene& scene, glm::dvec3& boxMin, glm::dvec3& boxMax) {
-  boxMin = glm::dvec3(scene.mesh.frameMin, scene.mesh.minHeight);
-  boxMax = glm::dvec3(scene.mesh.frameMax, scene.mesh.maxHeight);
+void terrainBox(const LoadedScene& scene, double exaggeration, glm::dvec3& boxMin, glm::dvec3& boxMax) {
+  const terrain::TerrainGrid& g = scene.quadtree->grid();
+  const glm::dvec2 a = g.postPosition(0, 0), b = g.postPosition(g.width - 1, g.height - 1);
+  const terrain::NodeInfo& root = scene.quadtree->info(scene.quadtree->root());
+  const double z0 = root.minHeight * exaggeration, z1 = root.maxHeight * exaggeration;
+  boxMin = glm::dvec3(glm::min(a, b), std::min(z0, z1));
+  boxMax = glm::dvec3(glm::max(a, b), std::max(z0, z1));
 }
 
 }  // namespace gis::app

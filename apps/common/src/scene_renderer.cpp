@@ -1,18 +1,21 @@
 #include "app/scene_renderer.hpp"
 
+#include <chrono>
+#include <numbers>
+
 #include "gfx/camera.hpp"
 #include "gfx/render_target.hpp"
 
 namespace gis::app {
 
 Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene) {
-  Result<terrain::TerrainRenderer> terrain =
-      terrain::TerrainRenderer::create(scene.mesh, scene.orthophoto ? &*scene.orthophoto : nullptr);
+  Result<terrain::TerrainEngine> engine =
+      terrain::TerrainEngine::create(scene.quadtree, scene.orthophoto ? &*scene.orthophoto : nullptr);
   Result<SceneRenderer> result;
-  result.diagnostics = terrain.diagnostics;
-  if (!terrain) return result;
+  result.diagnostics = engine.diagnostics;
+  if (!engine) return result;
   SceneRenderer renderer;
-  renderer.terrain_ = std::move(*terrain);
+  renderer.terrain_ = std::move(*engine);
   renderer.timer_.emplace();
   renderer.statistics_.emplace();
   result.value = std::move(renderer);
@@ -20,19 +23,39 @@ Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene) {
 }
 
 FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int width, int height,
-                                 const Camera& camera, bool measure) {
+                                 const Camera& camera, const RenderSettings& settings) {
   gfx::enableReversedZ();
   gfx::beginRenderPass(cache, framebuffer, width, height, {kBackground, gfx::kReversedZFar, 0});
   const double aspect = static_cast<double>(width) / static_cast<double>(std::max(height, 1));
   const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
 
   FrameStats stats;
-  if (measure) {
+  const auto selectStart = std::chrono::steady_clock::now();
+  terrain::LodView view;
+  view.eye = camera.eye;
+  view.viewProj = viewProj;
+  view.viewportHeight = height;
+  view.fovYRadians = camera.fovYDeg * std::numbers::pi / 180.0;
+  terrain::LodOptions options;
+  options.pixelTolerance = settings.lodTolerancePixels;
+  options.exaggeration = settings.verticalExaggeration;
+  selection_ = terrain::selectLod(terrain_->tree(), view, options);
+  stats.selectMilliseconds =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - selectStart).count();
+  stats.terrainCulled = selection_.culled;
+  stats.finestLevel = terrain_->tree().rootLevel();
+  for (const terrain::SelectedChunk& c : selection_.chunks) {
+    stats.finestLevel = std::min(stats.finestLevel, c.id.level);
+    stats.coarsestLevel = std::max(stats.coarsestLevel, c.id.level);
+  }
+
+  if (settings.measure) {
     timer_->begin();
     statistics_->begin();
   }
-  terrain_->draw(cache, viewProj);
-  if (measure) {
+  terrain_->setWireframe(settings.wireframe);
+  stats.terrainDraw = terrain_->draw(cache, viewProj, selection_, settings.verticalExaggeration);
+  if (settings.measure) {
     statistics_->end();
     timer_->end();
     stats.terrain.gpuMilliseconds = static_cast<double>(timer_->nanoseconds().value_or(0)) * 1e-6;

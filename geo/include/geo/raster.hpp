@@ -60,4 +60,9 @@ Result<RasterInfo> inspectRaster(const std::string& path);
 /// of range is an error naming the file and the band.
 Result<Raster> readRaster(const std::string& path, const std::vector<int>& bands = {1});
 
+/// Reads the bands resampled (bilinear, once) into another CRS (e.g. the scene frame's); the
+/// result's geotransform and CRS are those of the target grid. Reads directly when the CRSs
+/// are the same.
+Result<Raster> readRasterInCrs(const std::string& path, const std::vector<int>& bands, const std::string& targetCrs);
+
 }  // namespace gis::geo

@@ -7,7 +7,6 @@
 #include "core/diagnostics.hpp"
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
-#include "terrain/terrain_mesh.hpp"
 
 namespace gis::terrain {
 
@@ -26,9 +25,5 @@ struct StretchOptions {
 
 /// Imagery with 1 (grey) or 3 (RGB) channels → RGBA8 with a percentile stretch per channel.
 Result<Orthophoto> makeOrthophoto(const geo::Raster& imagery, const StretchOptions& options = {});
-
-/// Sets every vertex's imageryUv from its frame position through the imagery's CRS and
-/// geotransform (u along columns, v along rows from the top, both in [0,1] inside the image).
-Diagnostics assignImageryUv(TerrainMesh& mesh, const geo::RasterInfo& imagery, const geo::SceneFrame& frame);
 
 }  // namespace gis::terrain

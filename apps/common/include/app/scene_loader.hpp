@@ -1,7 +1,8 @@
 #pragma once
-// Loads what a scene file names (CPU side): the frame, the terrain mesh, the orthophoto and the
-// vector layers, collecting every message. Only a DEM that cannot be read fails the scene;
-// broken imagery or layers are reported and left out, the rest still renders.
+// Loads what a scene file names (CPU side): the frame, the terrain quadtree and its height
+// bounds, the orthophoto resampled into the frame, and the vector layers, collecting every
+// message. Only a DEM that cannot be read fails the scene; broken imagery or layers are reported
+// and left out, the rest still renders.
 #include <memory>
 #include <optional>
 #include <vector>
@@ -10,8 +11,9 @@
 #include "core/diagnostics.hpp"
 #include "geo/frame.hpp"
 #include "geo/vector.hpp"
-#include "terrain/orthophoto.hpp"
-#include "terrain/terrain_mesh.hpp"
+#include "terrain/height_bounds.hpp"
+#include "terrain/quadtree.hpp"
+#include "terrain/terrain_engine.hpp"
 
 namespace gis::app {
 
@@ -24,17 +26,17 @@ struct LoadedLayer {
 struct LoadedScene {
   SceneDescription description;
   geo::SceneFrame frame;
-  terrain::TerrainMesh mesh;
-  std::optional<terrain::Orthophoto> orthophoto;
+  std::shared_ptr<const terrain::TerrainQuadtree> quadtree;
+  std::shared_ptr<terrain::QuadtreeHeightBounds> bounds;
+  std::optional<terrain::FrameOrthophoto> orthophoto;
   std::vector<LoadedLayer> layers;
-  std::size_t demWidth = 0;
-  std::size_t demHeight = 0;
+  std::size_t nodataPosts = 0;
   double loadSeconds = 0.0;
 };
 
 Result<LoadedScene> loadScene(const SceneDescription& description);
 
-/// The box that holds the terrain (frame coordinates).
-void terrainBox(const LoadedScene& scene, glm::dvec3& boxMin, glm::dvec3& boxMax);
+/// The box that holds the terrain (frame coordinates, with the given exaggeration).
+void terrainBox(const LoadedScene& scene, double exaggeration, glm::dvec3& boxMin, glm::dvec3& boxMax);
 
 }  // namespace gis::app

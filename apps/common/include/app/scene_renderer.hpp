@@ -10,9 +10,16 @@
 #include "app/scene_loader.hpp"
 #include "gfx/queries.hpp"
 #include "gfx/state_cache.hpp"
-#include "terrain/terrain_renderer.hpp"
+#include "terrain/terrain_engine.hpp"
 
 namespace gis::app {
+
+struct RenderSettings {
+  double lodTolerancePixels = 1.5;
+  double verticalExaggeration = 1.0;
+  bool wireframe = false;
+  bool measure = false;  ///< wrap passes in GPU timer and pipeline-statistics queries (waits)
+};
 
 struct PassStats {
   double gpuMilliseconds = 0.0;
@@ -21,6 +28,11 @@ struct PassStats {
 
 struct FrameStats {
   PassStats terrain;
+  terrain::TerrainDrawStats terrainDraw;
+  std::size_t terrainCulled = 0;
+  int finestLevel = 0;
+  int coarsestLevel = 0;
+  double selectMilliseconds = 0.0;  ///< CPU time of the LOD selection
 };
 
 inline constexpr glm::vec4 kBackground{0.06F, 0.07F, 0.09F, 1.0F};
@@ -30,16 +42,18 @@ class SceneRenderer {
   /// Uploads the scene to the current context.
   static Result<SceneRenderer> create(const LoadedScene& scene);
 
-  /// Clears colour, depth (reversed-Z: 0) and stencil and draws all passes. With `measure`,
-  /// every pass is wrapped in a GPU timer and pipeline-statistics queries (waits for them).
+  /// Clears colour, depth (reversed-Z: 0) and stencil, selects the terrain chunks for this view
+  /// and draws all passes.
   FrameStats render(gfx::StateCache& cache, GLuint framebuffer, int width, int height, const Camera& camera,
-                    bool measure);
+                    const RenderSettings& settings);
 
-  [[nodiscard]] std::size_t terrainTriangles() const { return terrain_->triangleCount(); }
+  [[nodiscard]] const terrain::TerrainEngine& terrainEngine() const { return *terrain_; }
+  [[nodiscard]] const terrain::LodSelection& lastSelection() const { return selection_; }
 
  private:
   SceneRenderer() = default;
-  std::optional<terrain::TerrainRenderer> terrain_;
+  std::optional<terrain::TerrainEngine> terrain_;
+  terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
   std::optional<gfx::PipelineStatistics> statistics_;
 };

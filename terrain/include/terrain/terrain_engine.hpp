@@ -1,0 +1,82 @@
+#pragma once
+// Draws the quadtree's chunks chosen by the LOD selection: one vertex buffer per chunk, made on
+// first use and kept in an LRU cache under a GPU memory budget; one shared index buffer for
+// chunks without nodata; odd edge vertices take the coarser neighbour's heights in the vertex
+// shader where the chunk's stitch mask says so; vertical exaggeration is a uniform.
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <optional>
+#include <unordered_map>
+
+#include <glm/mat4x4.hpp>
+
+#include "geo/raster.hpp"
+#include "gfx/handles.hpp"
+#include "gfx/program.hpp"
+#include "gfx/state_cache.hpp"
+#include "terrain/lod.hpp"
+#include "terrain/orthophoto.hpp"
+#include "terrain/quadtree.hpp"
+
+namespace gis::terrain {
+
+/// Orthophoto resampled into the scene frame: texels on a north-up grid whose geotransform is in
+/// frame coordinates.
+struct FrameOrthophoto {
+  Orthophoto image;
+  geo::GeoTransform frameTransform;  ///< pixel corner → frame coordinates
+};
+
+struct TerrainDrawStats {
+  std::size_t chunks = 0;
+  std::size_t triangles = 0;
+  std::size_t chunksBuilt = 0;  ///< vertex buffers made this frame
+};
+
+class TerrainEngine {
+ public:
+  static constexpr std::size_t kDefaultGpuBudgetBytes = 512u << 20;
+
+  /// Needs a current GL 4.5 context. `photo` may be null (hillshade).
+  static Result<TerrainEngine> create(std::shared_ptr<const TerrainQuadtree> tree, const FrameOrthophoto* photo,
+                                      std::size_t gpuBudgetBytes = kDefaultGpuBudgetBytes);
+
+  /// Draws the chunks of `selection` (depth test and write, reversed-Z).
+  TerrainDrawStats draw(gfx::StateCache& cache, const glm::dmat4& viewProj, const LodSelection& selection,
+                        double exaggeration);
+
+  [[nodiscard]] const TerrainQuadtree& tree() const { return *tree_; }
+  [[nodiscard]] std::size_t gpuBytes() const { return gpuBytes_; }
+  [[nodiscard]] std::size_t cachedChunks() const { return chunks_.size(); }
+  void setWireframe(bool on) { wireframe_ = on; }
+
+ private:
+  struct GpuChunk {
+    gfx::BufferHandle vertices;
+    gfx::BufferHandle indices;  ///< empty: the shared full-chunk index buffer
+    gfx::VertexArrayHandle vao;
+    GLsizei indexCount = 0;
+    glm::dvec2 centre{0.0};
+    std::size_t bytes = 0;
+    std::list<std::uint64_t>::iterator lru;
+  };
+  TerrainEngine() = default;
+  GpuChunk& chunk(const NodeId& id, TerrainDrawStats& stats);
+  void evictTo(std::size_t budget);
+
+  std::shared_ptr<const TerrainQuadtree> tree_;
+  gfx::Program program_;
+  gfx::BufferHandle sharedIndices_;
+  GLsizei sharedIndexCount_ = 0;
+  gfx::TextureHandle imagery_;
+  std::optional<geo::GeoTransform> imageryTransform_;
+  glm::dvec2 imagerySize_{1.0};
+  std::unordered_map<std::uint64_t, GpuChunk> chunks_;
+  std::list<std::uint64_t> lru_;  ///< most recently used first
+  std::size_t gpuBytes_ = 0;
+  std::size_t gpuBudget_ = kDefaultGpuBudgetBytes;
+  bool wireframe_ = false;
+};
+
+}  // namespace gis::terrain
