@@ -107,19 +107,15 @@ void TerrainQuadtree::computeLevel(int level) {
   }
 }
 
-float TerrainQuadtree::drawnVertexHeight(const NodeId& n, std::uint8_t stitchMask, int i, int j) const {
+glm::ivec2 TerrainQuadtree::stitchedVertex(std::uint8_t stitchMask, int i, int j) const {
   const int last = chunkCells_;
-  auto at = [&](int ii, int jj) {
-    const glm::ivec2 p = vertexPost(n, ii, jj);
-    return post(p.x, p.y);
-  };
   if ((i & 1) == 1 && (((stitchMask & kEdgeNorth) && j == 0) || ((stitchMask & kEdgeSouth) && j == last))) {
-    return 0.5F * (at(i - 1, j) + at(i + 1, j));
+    return {i - 1, j};
   }
   if ((j & 1) == 1 && (((stitchMask & kEdgeWest) && i == 0) || ((stitchMask & kEdgeEast) && i == last))) {
-    return 0.5F * (at(i, j - 1) + at(i, j + 1));
+    return {i, j - 1};
   }
-  return at(i, j);
+  return {i, j};
 }
 
 double TerrainQuadtree::levelSurface(int level, double col, double row) const {
@@ -137,13 +133,41 @@ double TerrainQuadtree::levelSurface(int level, double col, double row) const {
 
 double TerrainQuadtree::chunkSurface(const NodeId& n, std::uint8_t stitchMask, double col, double row) const {
   const double s = static_cast<double>(1 << n.level);
-  const double u = col / s - n.x * chunkCells_, v = row / s - n.y * chunkCells_;
-  const int i = std::clamp(static_cast<int>(std::floor(u)), 0, chunkCells_ - 1);
-  const int j = std::clamp(static_cast<int>(std::floor(v)), 0, chunkCells_ - 1);
-  const double fx = std::clamp(u - i, 0.0, 1.0), fy = std::clamp(v - j, 0.0, 1.0);
-  const double a = drawnVertexHeight(n, stitchMask, i, j), b = drawnVertexHeight(n, stitchMask, i + 1, j);
-  const double d = drawnVertexHeight(n, stitchMask, i, j + 1), e = drawnVertexHeight(n, stitchMask, i + 1, j + 1);
-  return interpolateCell(a, b, d, e, fx, fy);
+  const glm::dvec2 p(col / s - n.x * chunkCells_, row / s - n.y * chunkCells_);
+  const int ci = std::clamp(static_cast<int>(std::floor(p.x)), 0, chunkCells_ - 1);
+  const int cj = std::clamp(static_cast<int>(std::floor(p.y)), 0, chunkCells_ - 1);
+  auto height = [&](const glm::ivec2& v) {
+    const glm::ivec2 g = vertexPost(n, v.x, v.y);
+    return static_cast<double>(post(g.x, g.y));
+  };
+  if (stitchMask == 0) {
+    return interpolateCell(height({ci, cj}), height({ci + 1, cj}), height({ci, cj + 1}), height({ci + 1, cj + 1}),
+                           std::clamp(p.x - ci, 0.0, 1.0), std::clamp(p.y - cj, 0.0, 1.0));
+  }
+  // With collapsed edge vertices a cell's triangles may reach into the next cell: search the
+  // triangles of the cells around, as the index buffer draws them.
+  double best = std::numeric_limits<double>::quiet_NaN();
+  double bestInside = -std::numeric_limits<double>::infinity();
+  for (int j = std::max(cj - 1, 0); j <= std::min(cj + 1, chunkCells_ - 1); ++j) {
+    for (int i = std::max(ci - 1, 0); i <= std::min(ci + 1, chunkCells_ - 1); ++i) {
+      const glm::ivec2 a = stitchedVertex(stitchMask, i, j), b = stitchedVertex(stitchMask, i + 1, j);
+      const glm::ivec2 d = stitchedVertex(stitchMask, i, j + 1), e = stitchedVertex(stitchMask, i + 1, j + 1);
+      for (const std::array<glm::ivec2, 3>& t : {std::array{a, d, e}, std::array{a, e, b}}) {
+        const glm::dvec2 v0(t[0]), v1(t[1]), v2(t[2]);
+        const double area = (v1.x - v0.x) * (v2.y - v0.y) - (v1.y - v0.y) * (v2.x - v0.x);
+        if (area == 0.0) continue;  // collapsed
+        const double w1 = ((p.x - v0.x) * (v2.y - v0.y) - (p.y - v0.y) * (v2.x - v0.x)) / area;
+        const double w2 = ((v1.x - v0.x) * (p.y - v0.y) - (v1.y - v0.y) * (p.x - v0.x)) / area;
+        const double w0 = 1.0 - w1 - w2;
+        const double inside = std::min({w0, w1, w2});  // ≥ 0 inside; the least negative wins at edges
+        if (inside > bestInside) {
+          bestInside = inside;
+          best = w0 * height(t[0]) + w1 * height(t[1]) + w2 * height(t[2]);
+        }
+      }
+    }
+  }
+  return best;
 }
 
 std::array<glm::dvec2, 2> TerrainQuadtree::frameExtent(const NodeId& n) const {

@@ -1,5 +1,6 @@
 #include "terrain/terrain_engine.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gfx/camera.hpp"
@@ -8,27 +9,23 @@ namespace gis::terrain {
 namespace {
 
 struct ChunkVertex {
-  float x, y;           ///< relative to the chunk centre, metres
-  float height;         ///< unexaggerated
-  float stitchHeight;   ///< height when the vertex's edge is stitched
-  std::uint32_t edges;  ///< ChunkEdge bits of the edge this odd vertex lies on (0 for others)
+  std::uint16_t i, j;  ///< vertex of the chunk's (N + 1)² grid; the shader derives the position
+  float height;        ///< unexaggerated; nodata posts hold 0 and are never referenced
 };
-static_assert(sizeof(ChunkVertex) == 20);
-
-std::uint32_t oddEdgeBits(int i, int j, int n) {
-  std::uint32_t bits = 0;
-  if ((i & 1) == 1 && j == 0) bits |= kEdgeNorth;
-  if ((i & 1) == 1 && j == n) bits |= kEdgeSouth;
-  if ((j & 1) == 1 && i == 0) bits |= kEdgeWest;
-  if ((j & 1) == 1 && i == n) bits |= kEdgeEast;
-  return bits;
-}
+static_assert(sizeof(ChunkVertex) == 8);
 
 /// Cell (i, j) of an n × n chunk as two triangles a-d-e, a-e-b (counter-clockwise seen from
-/// above for a north-up grid, where j grows southwards).
-void pushCell(std::vector<std::uint32_t>& out, int i, int j, int n) {
-  const auto v = [n](int ii, int jj) { return static_cast<std::uint32_t>(jj * (n + 1) + ii); };
-  out.insert(out.end(), {v(i, j), v(i, j + 1), v(i + 1, j + 1), v(i, j), v(i + 1, j + 1), v(i + 1, j)});
+/// above for a north-up grid, where j grows southwards), with odd vertices of stitched edges
+/// collapsed onto their even predecessor; collapsed (zero-area) triangles are left out.
+void pushCell(std::vector<std::uint32_t>& out, const TerrainQuadtree& tree, std::uint8_t mask, int i, int j) {
+  const int n = tree.chunkCells();
+  const auto v = [&](int ii, int jj) {
+    const glm::ivec2 c = tree.stitchedVertex(mask, ii, jj);
+    return static_cast<std::uint32_t>(c.y * (n + 1) + c.x);
+  };
+  const std::uint32_t a = v(i, j), b = v(i + 1, j), d = v(i, j + 1), e = v(i + 1, j + 1);
+  if (a != d && d != e && a != e) out.insert(out.end(), {a, d, e});
+  if (a != e && e != b && a != b) out.insert(out.end(), {a, e, b});
 }
 
 }  // namespace
@@ -46,12 +43,14 @@ Result<TerrainEngine> TerrainEngine::create(std::shared_ptr<const TerrainQuadtre
   e.program_ = std::move(*program);
   e.gpuBudget_ = gpuBudgetBytes;
   const int n = e.tree_->chunkCells();
-  std::vector<std::uint32_t> indices;
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) pushCell(indices, i, j, n);
+  for (std::uint8_t mask = 0; mask < 16; ++mask) {
+    std::vector<std::uint32_t> indices;
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) pushCell(indices, *e.tree_, mask, i, j);
+    }
+    e.sharedIndices_[mask] = gfx::createBufferWithData(indices.data(), indices.size() * sizeof(std::uint32_t));
+    e.sharedIndexCount_[mask] = static_cast<GLsizei>(indices.size());
   }
-  e.sharedIndices_ = gfx::createBufferWithData(indices.data(), indices.size() * sizeof(std::uint32_t));
-  e.sharedIndexCount_ = static_cast<GLsizei>(indices.size());
 
   if (photo != nullptr && photo->image.width > 0) {
     const Orthophoto& img = photo->image;
@@ -85,71 +84,60 @@ TerrainEngine::GpuChunk& TerrainEngine::chunk(const NodeId& id, TerrainDrawStats
   }
   const TerrainQuadtree& tree = *tree_;
   const int n = tree.chunkCells();
-  const auto extent = tree.frameExtent(id);
   GpuChunk c;
-  c.centre = (extent[0] + extent[1]) * 0.5;
   std::vector<ChunkVertex> vertices;
   vertices.reserve(static_cast<std::size_t>((n + 1) * (n + 1)));
-  bool hasNodata = false;
   for (int j = 0; j <= n; ++j) {
     for (int i = 0; i <= n; ++i) {
       const glm::ivec2 p = tree.vertexPost(id, i, j);
       const float h = tree.post(p.x, p.y);
-      const std::uint32_t edges = oddEdgeBits(i, j, n);
-      float stitched = h;
-      if (edges != 0) {
-        const std::uint8_t mask = static_cast<std::uint8_t>(edges);
-        stitched = tree.drawnVertexHeight(id, mask, i, j);
-        if (std::isnan(stitched)) stitched = h;  // a neighbour with nodata: that coarse cell is not drawn
-      }
-      hasNodata = hasNodata || std::isnan(h);
-      const glm::dvec2 xy = tree.grid().postPosition(p.x, p.y) - c.centre;
-      vertices.push_back({static_cast<float>(xy.x), static_cast<float>(xy.y), std::isnan(h) ? 0.0F : h,
-                          std::isnan(stitched) ? 0.0F : stitched, edges});
+      c.hasNodata = c.hasNodata || std::isnan(h);
+      vertices.push_back({static_cast<std::uint16_t>(i), static_cast<std::uint16_t>(j), std::isnan(h) ? 0.0F : h});
     }
   }
   c.vertices = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(ChunkVertex));
   c.bytes = vertices.size() * sizeof(ChunkVertex);
-  GLuint indexBuffer = sharedIndices_.id();
-  c.indexCount = sharedIndexCount_;
-  if (hasNodata) {
-    // Cells with a nodata corner are holes, not spikes: leave them out.
-    std::vector<std::uint32_t> indices;
-    auto valid = [&](int i, int j) {
-      const glm::ivec2 p = tree.vertexPost(id, i, j);
-      return !std::isnan(tree.post(p.x, p.y));
-    };
-    for (int j = 0; j < n; ++j) {
-      for (int i = 0; i < n; ++i) {
-        if (valid(i, j) && valid(i + 1, j) && valid(i, j + 1) && valid(i + 1, j + 1)) pushCell(indices, i, j, n);
-      }
-    }
-    c.indices = gfx::createBufferWithData(indices.data(), indices.size() * sizeof(std::uint32_t));
-    c.indexCount = static_cast<GLsizei>(indices.size());
-    c.bytes += indices.size() * sizeof(std::uint32_t);
-    indexBuffer = c.indices.id();
-  }
   c.vao = gfx::createVertexArray();
   const GLuint vao = c.vao.id();
   glVertexArrayVertexBuffer(vao, 0, c.vertices.id(), 0, sizeof(ChunkVertex));
-  glVertexArrayElementBuffer(vao, indexBuffer);
-  auto floatAttribute = [vao](GLuint index, GLint size, std::size_t offset) {
-    glEnableVertexArrayAttrib(vao, index);
-    glVertexArrayAttribFormat(vao, index, size, GL_FLOAT, GL_FALSE, static_cast<GLuint>(offset));
-    glVertexArrayAttribBinding(vao, index, 0);
-  };
-  floatAttribute(0, 2, offsetof(ChunkVertex, x));
-  floatAttribute(1, 1, offsetof(ChunkVertex, height));
-  floatAttribute(2, 1, offsetof(ChunkVertex, stitchHeight));
-  glEnableVertexArrayAttrib(vao, 3);
-  glVertexArrayAttribIFormat(vao, 3, 1, GL_UNSIGNED_INT, static_cast<GLuint>(offsetof(ChunkVertex, edges)));
-  glVertexArrayAttribBinding(vao, 3, 0);
+  glEnableVertexArrayAttrib(vao, 0);
+  glVertexArrayAttribIFormat(vao, 0, 2, GL_UNSIGNED_SHORT, static_cast<GLuint>(offsetof(ChunkVertex, i)));
+  glVertexArrayAttribBinding(vao, 0, 0);
+  glEnableVertexArrayAttrib(vao, 1);
+  glVertexArrayAttribFormat(vao, 1, 1, GL_FLOAT, GL_FALSE, static_cast<GLuint>(offsetof(ChunkVertex, height)));
+  glVertexArrayAttribBinding(vao, 1, 0);
 
   ++stats.chunksBuilt;
   gpuBytes_ += c.bytes;
   lru_.push_front(id.key());
   c.lru = lru_.begin();
   return chunks_.emplace(id.key(), std::move(c)).first->second;
+}
+
+std::pair<GLuint, GLsizei> TerrainEngine::indicesFor(const NodeId& id, GpuChunk& c, std::uint8_t mask) {
+  if (!c.hasNodata) return {sharedIndices_[mask].id(), sharedIndexCount_[mask]};
+  auto& own = c.ownIndices[mask];
+  if (!own.first) {
+    // Cells with a nodata corner are holes, not spikes: leave them out.
+    const TerrainQuadtree& tree = *tree_;
+    const int n = tree.chunkCells();
+    auto valid = [&](int i, int j) {
+      const glm::ivec2 p = tree.vertexPost(id, i, j);
+      return !std::isnan(tree.post(p.x, p.y));
+    };
+    std::vector<std::uint32_t> indices;
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        if (valid(i, j) && valid(i + 1, j) && valid(i, j + 1) && valid(i + 1, j + 1))
+          pushCell(indices, tree, mask, i, j);
+      }
+    }
+    own.first = gfx::createBufferWithData(indices.data(), indices.size() * sizeof(std::uint32_t));
+    own.second = static_cast<GLsizei>(indices.size());
+    c.bytes += indices.size() * sizeof(std::uint32_t);
+    gpuBytes_ += indices.size() * sizeof(std::uint32_t);
+  }
+  return {own.first.id(), own.second};
 }
 
 void TerrainEngine::evictTo(std::size_t budget) {
@@ -161,35 +149,48 @@ void TerrainEngine::evictTo(std::size_t budget) {
   }
 }
 
-TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& viewProj, const LodSelection& selection,
-                                     double exaggeration) {
+TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& viewProj, const glm::dvec3& eye,
+                                     const LodSelection& selection, double exaggeration) {
   TerrainDrawStats stats;
   gfx::PipelineState state = gfx::kOpaque;
   if (wireframe_) state.raster.polygonMode = gfx::PolygonMode::Line;
   cache.apply(state);
   program_.use();
+  const TerrainGrid& grid = tree_->grid();
+  // One frame-wide matrix, centred on the post nearest the eye: every chunk computes a shared
+  // vertex from the same integers with the same float operations, so edges meet bit for bit.
+  const glm::dvec2 eyeGrid = grid.gridCoordinates(glm::dvec2(eye));
+  const glm::ivec2 eyePost(static_cast<int>(std::lround(std::clamp(eyeGrid.x, -1e6, 1e6))),
+                           static_cast<int>(std::lround(std::clamp(eyeGrid.y, -1e6, 1e6))));
+  const glm::dvec2 centre = grid.postPosition(eyePost.x, eyePost.y);
+  program_.set("u_modelViewProj", gfx::relativeToCentre(viewProj, glm::dvec3(centre, 0.0)));
+  glProgramUniform2i(program_.id(), program_.location("u_eyePost"), eyePost.x, eyePost.y);
+  program_.set("u_step", glm::vec2(grid.step));
   program_.set("u_exaggeration", static_cast<float>(exaggeration));
-  if (imageryTransform_) glBindTextureUnit(0, imagery_.id());
-  const GLint stitchLocation = program_.location("u_stitchMask");
+  if (imageryTransform_) {
+    // uv = (frame − imagery corner) / imagery size: a double base at the centre, a float slope.
+    const glm::dvec2 pixel = *imageryTransform_->crsToPixel(centre);
+    const auto& g = imageryTransform_->c;
+    program_.set("u_uvBase", glm::vec2(pixel / imagerySize_));
+    program_.set("u_uvScale", glm::vec2(1.0 / (g[1] * imagerySize_.x), 1.0 / (g[5] * imagerySize_.y)));
+    glBindTextureUnit(0, imagery_.id());
+  }
+  const GLint baseLocation = program_.location("u_chunkBase");
+  const GLint levelLocation = program_.location("u_level");
   for (const SelectedChunk& s : selection.chunks) {
     GpuChunk& c = chunk(s.id, stats);
-    program_.set("u_modelViewProj", gfx::relativeToCentre(viewProj, glm::dvec3(c.centre, 0.0)));
-    glProgramUniform1ui(program_.id(), stitchLocation, s.stitchMask);
-    if (imageryTransform_) {
-      // uv = (frame − imagery corner) / imagery size, split into a double base and a float slope.
-      const glm::dvec2 pixel = *imageryTransform_->crsToPixel(c.centre);
-      const auto& g = imageryTransform_->c;
-      program_.set("u_uvBase", glm::vec2(pixel / imagerySize_));
-      program_.set("u_uvScale", glm::vec2(1.0 / (g[1] * imagerySize_.x), 1.0 / (g[5] * imagerySize_.y)));
-    }
+    const auto [indexBuffer, indexCount] = indicesFor(s.id, c, s.stitchMask);
+    const glm::ivec2 base = tree_->vertexPost(s.id, 0, 0);
+    glProgramUniform2i(program_.id(), baseLocation, base.x, base.y);
+    glProgramUniform1i(program_.id(), levelLocation, s.id.level);
+    glVertexArrayElementBuffer(c.vao.id(), indexBuffer);
     glBindVertexArray(c.vao.id());
-    glDrawElements(GL_TRIANGLES, c.indexCount, GL_UNSIGNED_INT, nullptr);
+    glDrawElements(GL_TRIANGLES, indexCount, GL_UNSIGNED_INT, nullptr);
     ++stats.chunks;
-    stats.triangles += static_cast<std::size_t>(c.indexCount) / 3;
+    stats.triangles += static_cast<std::size_t>(indexCount) / 3;
   }
   glBindVertexArray(0);
-  // Keep this frame's chunks; drop the least recently used beyond the budget.
-  evictTo(std::max(gpuBudget_, std::size_t{0}));
+  evictTo(gpuBudget_);  // this frame's chunks are the most recent; the oldest go first
   return stats;
 }
 

@@ -54,7 +54,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     statistics_->begin();
   }
   terrain_->setWireframe(settings.wireframe);
-  stats.terrainDraw = terrain_->draw(cache, viewProj, selection_, settings.verticalExaggeration);
+  stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, settings.verticalExaggeration);
   if (settings.measure) {
     statistics_->end();
     timer_->end();

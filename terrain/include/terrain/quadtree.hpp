@@ -45,7 +45,9 @@ struct NodeInfo {
 };
 
 /// Edges of a chunk, as bits of a stitch mask: a set bit means the neighbour across that edge
-/// is one level coarser, and the chunk's odd edge vertices take the coarser edge's heights.
+/// is one level coarser. The chunk then drops its odd vertices on that edge: each is replaced
+/// by its even predecessor along the edge, so the cells along the edge become fans whose outer
+/// edges are exactly the coarser neighbour's edges (no T-junctions, no skirts).
 enum ChunkEdge : std::uint8_t { kEdgeWest = 1, kEdgeEast = 2, kEdgeNorth = 4, kEdgeSouth = 8 };
 // (north = the node's first row of posts, south = its last; for a north-up DEM these are the
 // geographic directions.)
@@ -78,9 +80,9 @@ class TerrainQuadtree {
   [[nodiscard]] glm::ivec2 vertexPost(const NodeId& n, int i, int j) const {
     return {(n.x * chunkCells_ + i) << n.level, (n.y * chunkCells_ + j) << n.level};
   }
-  /// Vertex height of a chunk as drawn with the given stitch mask (odd edge vertices take the
-  /// average of their edge neighbours where the mask says the neighbour is coarser).
-  [[nodiscard]] float drawnVertexHeight(const NodeId& n, std::uint8_t stitchMask, int i, int j) const;
+  /// The vertex that vertex (i, j) of a chunk becomes under a stitch mask: odd vertices on a
+  /// stitched edge collapse onto their even predecessor along that edge.
+  [[nodiscard]] glm::ivec2 stitchedVertex(std::uint8_t stitchMask, int i, int j) const;
 
   /// The surface of level `level` (no stitching) at continuous global post coordinates; NaN
   /// where the containing cell has a nodata corner (such cells are not drawn).

@@ -3,11 +3,13 @@
 // first use and kept in an LRU cache under a GPU memory budget; one shared index buffer for
 // chunks without nodata; odd edge vertices take the coarser neighbour's heights in the vertex
 // shader where the chunk's stitch mask says so; vertical exaggeration is a uniform.
+#include <array>
 #include <cstdint>
 #include <list>
 #include <memory>
 #include <optional>
 #include <unordered_map>
+#include <utility>
 
 #include <glm/mat4x4.hpp>
 
@@ -42,9 +44,10 @@ class TerrainEngine {
   static Result<TerrainEngine> create(std::shared_ptr<const TerrainQuadtree> tree, const FrameOrthophoto* photo,
                                       std::size_t gpuBudgetBytes = kDefaultGpuBudgetBytes);
 
-  /// Draws the chunks of `selection` (depth test and write, reversed-Z).
-  TerrainDrawStats draw(gfx::StateCache& cache, const glm::dmat4& viewProj, const LodSelection& selection,
-                        double exaggeration);
+  /// Draws the chunks of `selection` (depth test and write, reversed-Z). `eye` (frame
+  /// coordinates) picks the frame-wide centre that vertices are made relative to.
+  TerrainDrawStats draw(gfx::StateCache& cache, const glm::dmat4& viewProj, const glm::dvec3& eye,
+                        const LodSelection& selection, double exaggeration);
 
   [[nodiscard]] const TerrainQuadtree& tree() const { return *tree_; }
   [[nodiscard]] std::size_t gpuBytes() const { return gpuBytes_; }
@@ -54,21 +57,22 @@ class TerrainEngine {
  private:
   struct GpuChunk {
     gfx::BufferHandle vertices;
-    gfx::BufferHandle indices;  ///< empty: the shared full-chunk index buffer
     gfx::VertexArrayHandle vao;
-    GLsizei indexCount = 0;
-    glm::dvec2 centre{0.0};
+    bool hasNodata = false;
+    /// Index buffers per stitch mask of chunks with nodata (others share the engine's).
+    std::array<std::pair<gfx::BufferHandle, GLsizei>, 16> ownIndices;
     std::size_t bytes = 0;
     std::list<std::uint64_t>::iterator lru;
   };
   TerrainEngine() = default;
   GpuChunk& chunk(const NodeId& id, TerrainDrawStats& stats);
+  std::pair<GLuint, GLsizei> indicesFor(const NodeId& id, GpuChunk& c, std::uint8_t mask);
   void evictTo(std::size_t budget);
 
   std::shared_ptr<const TerrainQuadtree> tree_;
   gfx::Program program_;
-  gfx::BufferHandle sharedIndices_;
-  GLsizei sharedIndexCount_ = 0;
+  std::array<gfx::BufferHandle, 16> sharedIndices_;  ///< per stitch mask
+  std::array<GLsizei, 16> sharedIndexCount_{};
   gfx::TextureHandle imagery_;
   std::optional<geo::GeoTransform> imageryTransform_;
   glm::dvec2 imagerySize_{1.0};

@@ -1,0 +1,203 @@
+// terrain_synth: writes a deterministic synthetic DEM (Float32 GeoTIFF) with fractal relief,
+// vertical cliffs, isolated spikes, flat plains and nodata holes for the terrain engine's stiff
+// cases and the benchmark; optionally a scene file that shows it.
+#include <charconv>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <type_traits>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "synth/synthetic_dem.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using gis::synth::SyntheticDemOptions;
+using gis::synth::SyntheticDemSummary;
+
+constexpr const char* kUsage =
+    "usage: terrain_synth --out FILE.tif [--size N] [--seed S] [--spacing M] [--relief M]\n"
+    "                     [--no-cliffs] [--no-spikes] [--no-plains] [--no-holes] [--nodata-border]\n"
+    "                     [--crs CRS] [--scene SCENE.json]\n"
+    "Writes a deterministic synthetic DEM: N x N posts (default 1025, 33 .. 65537) of fractal\n"
+    "relief (--relief metres, default 600) at --spacing metres (default 20), EPSG:32633 unless\n"
+    "--crs, with vertical cliffs (>= 300 m), single-post spikes (>= 500 m), perfectly flat plains\n"
+    "and nodata holes placed from --seed (default 1). --nodata-border makes everything outside an\n"
+    "irregular boundary nodata. --scene also writes a scene file for overlay_render and\n"
+    "terrain_viewer. Exit status: 0 ok, 1 I/O error, 2 bad arguments.\n";
+
+struct Options {
+  SyntheticDemOptions dem;
+  std::string out;
+  std::string scene;
+};
+
+template <typename T>
+std::optional<T> parseNumber(std::string_view text) {
+  T value{};
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (ec != std::errc() || ptr != text.data() + text.size()) return std::nullopt;
+  return value;
+}
+
+/// Returns an error message, or an empty string when the options are good.
+std::string parseArgs(int argc, char** argv, Options& o) {
+  const std::vector<std::string_view> args(argv + 1, argv + argc);
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string_view a = args[i];
+    auto value = [&]() -> std::optional<std::string_view> {
+      if (i + 1 >= args.size()) return std::nullopt;
+      return args[++i];
+    };
+    auto setString = [&](std::string& target) {
+      const auto v = value();
+      if (!v || v->empty()) return std::string(a) + " needs a value";
+      target = std::string(*v);
+      return std::string();
+    };
+    auto setNumber = [&](auto& target, const char* what) {
+      const auto v = value();
+      using T = std::remove_reference_t<decltype(target)>;
+      const std::optional<T> n = v ? parseNumber<T>(*v) : std::nullopt;
+      if (!n) return std::string(a) + " needs " + what + (v ? ", not '" + std::string(*v) + "'" : std::string());
+      target = *n;
+      return std::string();
+    };
+    std::string error;
+    if (a == "--out")
+      error = setString(o.out);
+    else if (a == "--scene")
+      error = setString(o.scene);
+    else if (a == "--crs")
+      error = setString(o.dem.crs);
+    else if (a == "--size")
+      error = setNumber(o.dem.size, "an integer");
+    else if (a == "--seed")
+      error = setNumber(o.dem.seed, "an unsigned 64-bit integer");
+    else if (a == "--spacing")
+      error = setNumber(o.dem.spacing, "a number");
+    else if (a == "--relief")
+      error = setNumber(o.dem.reliefMetres, "a number");
+    else if (a == "--no-cliffs")
+      o.dem.cliffs = false;
+    else if (a == "--no-spikes")
+      o.dem.spikes = false;
+    else if (a == "--no-plains")
+      o.dem.plains = false;
+    else if (a == "--no-holes")
+      o.dem.nodataHoles = false;
+    else if (a == "--nodata-border")
+      o.dem.nodataBorder = true;
+    else
+      error = "unknown argument '" + std::string(a) + "'";
+    if (!error.empty()) return error;
+  }
+  if (o.out.empty()) return "--out is required";
+  return gis::synth::checkSyntheticDemOptions(o.dem);
+}
+
+/// "[#########               ]  37%" on stderr, redrawn when the percentage changes.
+class ProgressBar {
+ public:
+  void operator()(double fraction) {
+    const int percent = static_cast<int>(fraction * 100.0);
+    if (percent == last_) return;
+    last_ = percent;
+    const auto filled = static_cast<std::size_t>(percent) * kWidth / 100;
+    std::fprintf(stderr, "\r[%s%s] %3d%%", std::string(filled, '#').c_str(), std::string(kWidth - filled, ' ').c_str(),
+                 percent);
+    std::fflush(stderr);
+  }
+  void finish() const {
+    if (last_ >= 0) std::fputc('\n', stderr);
+  }
+
+ private:
+  static constexpr std::size_t kWidth = 40;
+  int last_ = -1;
+};
+
+/// The scene file: the DEM, named relative to the scene's folder, and no overlay layers.
+bool writeScene(const Options& o, std::string& error) {
+  const fs::path scene = fs::absolute(o.scene);
+  std::error_code ec;
+  fs::path dem = fs::relative(fs::absolute(o.out), scene.parent_path(), ec);
+  if (ec || dem.empty()) dem = fs::absolute(o.out);
+  nlohmann::ordered_json j;
+  j["name"] = "synthetic terrain, seed " + std::to_string(o.dem.seed) + ", " + std::to_string(o.dem.size) + " x " +
+              std::to_string(o.dem.size) + " posts";
+  j["terrain"] = {{"dem", dem.generic_string()}, {"band", 1}, {"vertical_exaggeration", 1.0}};
+  j["layers"] = nlohmann::json::array();
+  std::ofstream out(scene);
+  out << j.dump(2) << "\n";
+  out.close();
+  if (!out) error = o.scene + ": cannot write the scene file";
+  return static_cast<bool>(out);
+}
+
+int run(const Options& o) {
+  // Check the scene's folder first: a big DEM takes minutes.
+  if (!o.scene.empty()) {
+    const fs::path folder = fs::absolute(o.scene).parent_path();
+    std::error_code ec;
+    if (!fs::is_directory(folder, ec)) {
+      std::fprintf(stderr, "terrain_synth: %s: cannot write the scene file: folder %s does not exist\n",
+                   o.scene.c_str(), folder.string().c_str());
+      return 1;
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  ProgressBar bar;
+  gis::Result<SyntheticDemSummary> written =
+      gis::synth::writeSyntheticDem(o.out, o.dem, [&bar](double fraction) { bar(fraction); });
+  bar.finish();
+  for (const gis::Diagnostic& d : written.diagnostics.items())
+    std::fprintf(stderr, "terrain_synth: %s\n", d.toString().c_str());
+  if (!written) return 1;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  const SyntheticDemSummary& s = *written;
+  std::error_code ec;
+  const auto bytes = fs::file_size(o.out, ec);
+  std::printf(
+      "%s: %d x %d posts at %g m, seed %llu: heights %.2f .. %.2f m; %zu cliffs, %zu spikes, %zu plains, %zu holes%s; "
+      "%zu nodata posts; %.1f MB in %.2f s\n",
+      o.out.c_str(), s.size, s.size, s.spacing, static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight,
+      s.cliffs.size(), s.spikes.size(), s.plains.size(), s.holes.size(), s.border.enabled ? ", nodata border" : "",
+      s.nodataPosts, ec ? 0.0 : static_cast<double>(bytes) / 1e6, seconds);
+
+  if (!o.scene.empty()) {
+    std::string error;
+    if (!writeScene(o, error)) {
+      std::fprintf(stderr, "terrain_synth: %s\n", error.c_str());
+      return 1;
+    }
+    std::printf("scene: %s\n", o.scene.c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  Options options;
+  const std::string error = parseArgs(argc, argv, options);
+  if (!error.empty()) {
+    std::fprintf(stderr, "terrain_synth: %s\n%s", error.c_str(), kUsage);
+    return 2;
+  }
+  return run(options);
+}
