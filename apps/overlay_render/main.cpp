@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/camera.hpp"
+#include "app/cli.hpp"
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
@@ -25,6 +26,9 @@ namespace {
 
 using nlohmann::json;
 using namespace gis;
+using app::parseDouble;
+using app::parseInt;
+using app::report;
 
 constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
@@ -49,20 +53,6 @@ struct Options {
   double lodTolerance = 1.5;
   std::optional<double> exaggeration;
 };
-
-std::optional<double> parseDouble(std::string_view text) {
-  double value = 0.0;
-  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc() || ptr != text.data() + text.size() || !std::isfinite(value)) return std::nullopt;
-  return value;
-}
-
-std::optional<int> parseInt(std::string_view text) {
-  int value = 0;
-  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (ec != std::errc() || ptr != text.data() + text.size()) return std::nullopt;
-  return value;
-}
 
 /// Returns an error message, or an empty string when the options are good.
 std::string parseArgs(int argc, char** argv, Options& o) {
@@ -125,15 +115,6 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   if (o.scene.empty()) return "--scene is required";
   if (o.out.empty()) return "--out is required";
   return {};
-}
-
-void report(const Diagnostics& diagnostics) {
-  for (const Diagnostic& d : diagnostics.items()) {
-    log(d.severity == Severity::Error     ? LogLevel::Error
-        : d.severity == Severity::Warning ? LogLevel::Warning
-                                          : LogLevel::Info,
-        d.toString());
-  }
 }
 
 json diagnosticsJson(const Diagnostics& diagnostics) {
