@@ -16,7 +16,12 @@ namespace gis::geo::detail {
 /// Registers GDAL's drivers exactly once per process (safe from any thread).
 inline void ensureGdalRegistered() {
   static std::once_flag once;
-  std::call_once(once, [] { GDALAllRegister(); });
+  std::call_once(once, [] {
+    GDALAllRegister();
+    // GDAL's block cache defaults to 5 % of RAM; we read each raster once into our own arrays,
+    // so a large cache only doubles peak memory on big DEMs. Respect a user's GDAL_CACHEMAX.
+    if (CPLGetConfigOption("GDAL_CACHEMAX", nullptr) == nullptr) GDALSetCacheMax64(64LL << 20);
+  });
 }
 
 /// While alive, GDAL errors on this thread go nowhere instead of stderr; the last message is

@@ -7,7 +7,10 @@
 
 namespace gis::terrain {
 
-Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame& frame) {
+namespace {
+
+/// Checks the raster and fills everything but the heights.
+Result<TerrainGrid> gridGeometry(const geo::Raster& dem, const geo::SceneFrame& frame) {
   const geo::RasterInfo& info = dem.info;
   const auto& c = info.geoTransform.c;
   auto fail = [&](const std::string& message) {
@@ -35,11 +38,26 @@ Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame
   grid.height = info.height;
   grid.origin = glm::dvec2(frame.projectedToFrame(glm::dvec3(p0, 0.0)));
   grid.step = glm::dvec2(c[1], c[5]);
-  grid.heights.resize(static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height));
-  const std::size_t stride = dem.bands.size();
-  for (std::size_t i = 0; i < grid.heights.size(); ++i) grid.heights[i] = dem.samples[i * stride];
   Result<TerrainGrid> r;
   r.value = std::move(grid);
+  return r;
+}
+
+}  // namespace
+
+Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame& frame) {
+  Result<TerrainGrid> r = gridGeometry(dem, frame);
+  if (!r) return r;
+  r->heights.resize(static_cast<std::size_t>(r->width) * static_cast<std::size_t>(r->height));
+  const std::size_t stride = dem.bands.size();
+  for (std::size_t i = 0; i < r->heights.size(); ++i) r->heights[i] = dem.samples[i * stride];
+  return r;
+}
+
+Result<TerrainGrid> gridFromRaster(geo::Raster&& dem, const geo::SceneFrame& frame) {
+  if (dem.bands.size() != 1) return gridFromRaster(static_cast<const geo::Raster&>(dem), frame);
+  Result<TerrainGrid> r = gridGeometry(dem, frame);
+  if (r) r->heights = std::move(dem.samples);
   return r;
 }
 

@@ -23,9 +23,9 @@ Result<LoadedScene> loadScene(const SceneDescription& description) {
   diagnostics.append(dem.diagnostics);
   Result<geo::SceneFrame> frame = geo::SceneFrame::forRaster(dem->info);
   if (!frame) return fail(std::move(frame.diagnostics));
-  Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(*dem, *frame);
+  Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(std::move(*dem), *frame);  // takes the samples
   if (!grid) return fail(std::move(grid.diagnostics));
-  dem.value.reset();  // the grid holds the heights now
+  dem.value.reset();
 
   std::size_t nodata = 0;
   for (float h : grid->heights) nodata += std::isnan(h) ? 1u : 0u;

@@ -32,5 +32,8 @@ struct TerrainGrid {
 /// rotation (the case of a frame made by SceneFrame::forRaster from a projected DEM).
 /// Fails with a message otherwise.
 Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame& frame);
+/// The same, taking over the samples of a one-band raster instead of copying them (a DEM of
+/// 16385² posts is 1 GiB of floats).
+Result<TerrainGrid> gridFromRaster(geo::Raster&& dem, const geo::SceneFrame& frame);
 
 }  // namespace gis::terrain
