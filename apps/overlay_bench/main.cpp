@@ -167,15 +167,8 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
-    std::fputs(kUsage, stdout);
-    return 0;
-  }
   Options options;
-  const std::string error = parseArgs(argc, argv, options);
-  if (!error.empty()) {
-    std::fprintf(stderr, "overlay_bench: %s\n%s", error.c_str(), kUsage);
-    return 2;
-  }
-  return run(options);
+  return gis::app::programMain(
+      argc, argv, "overlay_bench", kUsage, [&](int n, char** v) { return parseArgs(n, v, options); },
+      [&] { return run(options); });
 }

@@ -2,7 +2,10 @@
 // Small helpers shared by the command-line programs.
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "core/diagnostics.hpp"
@@ -32,6 +35,22 @@ inline void report(const Diagnostics& diagnostics) {
                                           : LogLevel::Info,
         d.toString());
   }
+}
+
+/// The common shape of our programs' main(): --help prints the usage; `parse` returns an error
+/// message (printed with the usage, exit status 2) or an empty string; then `run` decides.
+inline int programMain(int argc, char** argv, const char* name, const char* usage,
+                       const std::function<std::string(int, char**)>& parse, const std::function<int()>& run) {
+  if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
+    std::fputs(usage, stdout);
+    return 0;
+  }
+  const std::string error = parse(argc, argv);
+  if (!error.empty()) {
+    std::fprintf(stderr, "%s: %s\n%s", name, error.c_str(), usage);
+    return 2;
+  }
+  return run();
 }
 
 }  // namespace gis::app
