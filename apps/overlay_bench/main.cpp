@@ -22,6 +22,7 @@
 #include "app/scene_renderer.hpp"
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
+#include "terrain/tile_pager.hpp"
 
 namespace {
 
@@ -30,12 +31,13 @@ using namespace gis;
 
 constexpr const char* kUsage =
     "usage: overlay_bench --scene S.json [--mode terrain] [--width W --height H] [--frames N]\n"
-    "                     [--lod-tolerance PX] --out DIR\n";
+    "                     [--lod-tolerance PX] [--paging auto|always|never] --out DIR\n";
 
 struct Options {
   std::string scene, out, mode = "terrain";
   int width = 1200, height = 1000, frames = 90;
   double lodTolerance = 1.5;
+  std::optional<app::TerrainPaging> paging;
 };
 
 /// "VmRSS" or "VmHWM" of this process in bytes (Linux).
@@ -76,6 +78,12 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       o.frames = *n;
     else if (a == "--lod-tolerance" && app::parseDouble(v) && *app::parseDouble(v) >= 0.0)
       o.lodTolerance = *app::parseDouble(v);
+    else if (a == "--paging" && v == "auto")
+      o.paging = app::TerrainPaging::Auto;
+    else if (a == "--paging" && v == "always")
+      o.paging = app::TerrainPaging::Always;
+    else if (a == "--paging" && v == "never")
+      o.paging = app::TerrainPaging::Never;
     else
       return "bad argument " + std::string(a) + " " + std::string(v);
   }
@@ -90,7 +98,9 @@ int run(const Options& o) {
   app::report(description.diagnostics);
   if (!description) return 1;
   description->layers.clear();  // terrain mode
-  Result<app::LoadedScene> scene = app::loadScene(*description);
+  app::LoadOptions loadOptions;
+  loadOptions.paging = o.paging;
+  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
   app::report(scene.diagnostics);
   if (!scene) return 1;
   const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
@@ -112,10 +122,12 @@ int run(const Options& o) {
 
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
-  csv << "frame,segment,frame_ms,select_ms,chunks,triangles,chunks_built,finest_level,fragments\n";
+  csv << "frame,segment,frame_ms,select_ms,chunks,triangles,chunks_built,finest_level,fragments,tiles_missing,"
+         "tiles_arrived,tile_bytes\n";
   std::vector<double> frameMs;
   std::map<std::string, std::vector<double>> bySegment;
   std::vector<double> triangles, chunks;
+  std::size_t framesWaiting = 0, tileBytesPeak = 0;
   for (std::size_t k = 0; k < path.size(); ++k) {
     // Every 10th frame also counts fragments (the query waits, so it is not timed).
     settings.measure = k % 10 == 0;
@@ -133,7 +145,10 @@ int run(const Options& o) {
     chunks.push_back(static_cast<double>(s.terrainDraw.chunks));
     csv << k << ',' << path[k].segment << ',' << ms << ',' << s.selectMilliseconds << ',' << s.terrainDraw.chunks << ','
         << s.terrainDraw.triangles << ',' << s.terrainDraw.chunksBuilt << ',' << s.finestLevel << ','
-        << (settings.measure ? std::to_string(s.terrain.counts.fragmentShaderInvocations) : "") << '\n';
+        << (settings.measure ? std::to_string(s.terrain.counts.fragmentShaderInvocations) : "") << ',' << s.tilesMissing
+        << ',' << s.tilesArrived << ',' << s.pager.residentBytes + s.pager.pinnedBytes << '\n';
+    framesWaiting += s.tilesMissing > 0 ? 1u : 0u;
+    tileBytesPeak = std::max(tileBytesPeak, s.pager.residentBytes + s.pager.pinnedBytes);
   }
   const terrain::TerrainGrid& grid = scene->quadtree->grid();
   json segments;
@@ -155,6 +170,11 @@ int run(const Options& o) {
                  {"triangles_per_frame", {{"median", percentile(triangles, 50)}, {"max", percentile(triangles, 100)}}},
                  {"chunks_per_frame", {{"median", percentile(chunks, 50)}, {"max", percentile(chunks, 100)}}},
                  {"gpu_bytes", renderer->terrainEngine().gpuBytes()},
+                 {"paged", scene->paged()},
+                 {"pyramid_build_seconds", scene->pyramidBuild ? json(scene->pyramidBuild->seconds) : json(nullptr)},
+                 {"frames_drawing_parents_of_loading_tiles", framesWaiting},
+                 {"tile_cache_peak_bytes", tileBytesPeak},
+                 {"tile_cache_budget_bytes", scene->paged() ? scene->quadtree->pager()->budgetBytes() : std::size_t{0}},
                  {"cpu_rss_bytes", processMemory("VmRSS")},
                  {"cpu_peak_bytes", processMemory("VmHWM")},
                  {"renderer", (*context)->info().renderer},

@@ -190,6 +190,7 @@ int run(const Options& o) {
   settings.lodTolerancePixels = o.lodTolerance;
   settings.verticalExaggeration = exaggeration;
   settings.measure = true;
+  settings.waitForTiles = true;  // a still image: every tile the view needs
   const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, settings);
   std::optional<gfx::RenderTarget> resolved;
   const gfx::RenderTarget* readable = &target;
@@ -247,7 +248,8 @@ int run(const Options& o) {
       {"gl", {{"renderer", ctx.info().renderer}, {"version", ctx.info().version}}},
       {"load_seconds", scene->loadSeconds},
       {"terrain",
-       {{"posts", grid.heights.size()},
+       {{"posts", static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height)},
+        {"paged", tree.paged()},
         {"dem_size", {grid.width, grid.height}},
         {"nodata_posts", scene->nodataPosts},
         {"quadtree_levels", tree.rootLevel() + 1},

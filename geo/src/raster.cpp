@@ -71,6 +71,20 @@ RasterInfo describe(GDALDataset& ds, const std::string& path, Diagnostics& diagn
 
 Result<Raster> readSamples(GDALDataset& dataset, const std::string& path, const std::vector<int>& bands);
 
+/// Replaces the band's nodata value by NaN in samples[first], samples[first + stride], ...
+void nodataToNan(GDALRasterBand& band, std::vector<float>& samples, std::size_t first, std::size_t stride) {
+  int hasNodata = 0;
+  const double nodata = band.GetNoDataValue(&hasNodata);
+  if (hasNodata == 0 || std::isnan(nodata)) return;  // NaN nodata is NaN already
+  // A nodata value a float cannot hold cannot occur among float samples either.
+  if (std::isfinite(nodata) && std::abs(nodata) > static_cast<double>(std::numeric_limits<float>::max())) return;
+  const auto value = static_cast<float>(nodata);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = first; i < samples.size(); i += stride) {
+    if (samples[i] == value) samples[i] = nan;
+  }
+}
+
 }  // namespace
 
 Result<RasterInfo> inspectRaster(const std::string& path) {
@@ -155,22 +169,64 @@ Result<Raster> readSamples(GDALDataset& dataset, const std::string& path, const 
   }
 
   // Nodata → NaN, per band (imagery bands may define nodata too).
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (std::size_t k = 0; k < nb; ++k) {
-    int hasNodata = 0;
-    const double nodata = ds->GetRasterBand(bands[k])->GetNoDataValue(&hasNodata);
-    if (hasNodata == 0 || std::isnan(nodata)) continue;  // NaN nodata is NaN already
-    // A nodata value a float cannot hold cannot occur among float samples either.
-    if (std::isfinite(nodata) && std::abs(nodata) > static_cast<double>(std::numeric_limits<float>::max())) continue;
-    const auto value = static_cast<float>(nodata);
-    for (std::size_t i = k; i < raster.samples.size(); i += nb) {
-      if (raster.samples[i] == value) raster.samples[i] = nan;
-    }
-  }
+  for (std::size_t k = 0; k < nb; ++k) nodataToNan(*ds->GetRasterBand(bands[k]), raster.samples, k, nb);
   r.value = std::move(raster);
   return r;
 }
 
 }  // namespace
+
+struct RasterStripReader::State {
+  DatasetPtr dataset;
+  GDALRasterBand* band = nullptr;
+  RasterInfo info;
+};
+
+RasterStripReader::RasterStripReader(std::unique_ptr<State> state) : state_(std::move(state)) {}
+RasterStripReader::RasterStripReader(RasterStripReader&&) noexcept = default;
+RasterStripReader& RasterStripReader::operator=(RasterStripReader&&) noexcept = default;
+RasterStripReader::~RasterStripReader() = default;
+
+const RasterInfo& RasterStripReader::info() const { return state_->info; }
+
+Result<RasterStripReader> RasterStripReader::open(const std::string& path, int band) {
+  detail::QuietGdal quiet;
+  std::string error;
+  DatasetPtr ds = openRaster(path, error);
+  if (!ds) return Result<RasterStripReader>::failure(rasterError(path, error));
+  Result<RasterStripReader> r;
+  auto state = std::make_unique<State>();
+  state->info = describe(*ds, path, r.diagnostics);
+  if (band < 1 || band > state->info.bandCount) {
+    return Result<RasterStripReader>::failure(
+        rasterError(path, "band " + std::to_string(band) + " does not exist (the raster has " +
+                              std::to_string(state->info.bandCount) + ", numbered from 1)"));
+  }
+  state->band = ds->GetRasterBand(band);
+  state->dataset = std::move(ds);
+  r.value = RasterStripReader(std::move(state));
+  return r;
+}
+
+bool RasterStripReader::read(int row0, int rows, std::vector<float>& out, Diagnostics& diagnostics) {
+  detail::QuietGdal quiet;
+  const RasterInfo& info = state_->info;
+  if (row0 < 0 || rows < 0 || row0 + rows > info.height) {
+    diagnostics.add(rasterError(info.path, "rows " + std::to_string(row0) + "+" + std::to_string(rows) +
+                                               " are outside the raster's " + std::to_string(info.height)));
+    return false;
+  }
+  out.resize(static_cast<std::size_t>(rows) * static_cast<std::size_t>(info.width));
+  if (rows == 0) return true;
+  const CPLErr err = state_->band->RasterIO(GF_Read, 0, row0, info.width, rows, out.data(), info.width, rows,
+                                            GDT_Float32, 0, 0, nullptr);
+  if (err != CE_None) {
+    diagnostics.add(rasterError(info.path, "cannot read rows " + std::to_string(row0) + "+" + std::to_string(rows) +
+                                               ": " + detail::QuietGdal::lastMessage("RasterIO failed")));
+    return false;
+  }
+  nodataToNan(*state_->band, out, 0, 1);
+  return true;
+}
 
 }  // namespace gis::geo

@@ -7,6 +7,8 @@
 #include <glm/geometric.hpp>
 #include <limits>
 
+#include "terrain/tile_pager.hpp"
+
 namespace gis::terrain {
 namespace {
 
@@ -19,18 +21,38 @@ void merge(float& lo, float& hi, float l, float h) {
 
 }  // namespace
 
-MinMaxPyramid::MinMaxPyramid(const TerrainGrid& grid) : grid_(grid) {
-  int w = grid.width, h = grid.height;
-  // Level 0 of the pyramid reduces posts 2×2; the posts themselves are the grid.
-  auto sourceLo = [&](std::size_t k, int c, int r) -> float {
-    if (k == 0) return c < grid.width && r < grid.height ? grid.at(c, r) : kInf;
+MinMaxPyramid::MinMaxPyramid(const TerrainGrid& grid) : grid_(&grid), width_(grid.width), height_(grid.height) {
+  build();
+}
+
+MinMaxPyramid::MinMaxPyramid(int width, int height, std::span<const float> lo, std::span<const float> hi)
+    : width_(width), height_(height), baseLo_(lo), baseHi_(hi) {
+  build();
+}
+
+void MinMaxPyramid::baseRange(int c, int r, float& lo, float& hi) const {
+  if (grid_ != nullptr) {
+    const float v = grid_->at(c, r);
+    if (!std::isnan(v)) merge(lo, hi, v, v);  // nodata posts (NaN) are ignored
+    return;
+  }
+  const auto i = static_cast<std::size_t>(r) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(c);
+  merge(lo, hi, baseLo_[i], baseHi_[i]);
+}
+
+void MinMaxPyramid::build() {
+  int w = width_, h = height_;
+  // Level 0 of the pyramid reduces the base 2×2; the base is the grid's posts or given ranges.
+  auto source = [&](std::size_t k, int c, int r, float& lo, float& hi) {
+    if (k == 0) {
+      if (c < width_ && r < height_) baseRange(c, r, lo, hi);
+      return;
+    }
     const Level& s = levels_[k - 1];
-    return c < s.width && r < s.height ? s.lo[static_cast<std::size_t>(r * s.width + c)] : kInf;
-  };
-  auto sourceHi = [&](std::size_t k, int c, int r) -> float {
-    if (k == 0) return c < grid.width && r < grid.height ? grid.at(c, r) : -kInf;
-    const Level& s = levels_[k - 1];
-    return c < s.width && r < s.height ? s.hi[static_cast<std::size_t>(r * s.width + c)] : -kInf;
+    if (c < s.width && r < s.height) {
+      const auto i = static_cast<std::size_t>(r * s.width + c);
+      merge(lo, hi, s.lo[i], s.hi[i]);
+    }
   };
   for (std::size_t k = 0; w > 1 || h > 1; ++k) {
     Level level;
@@ -43,11 +65,7 @@ MinMaxPyramid::MinMaxPyramid(const TerrainGrid& grid) : grid_(grid) {
       for (int c = 0; c < level.width; ++c) {
         float lo = kInf, hi = -kInf;
         for (int dr = 0; dr < 2; ++dr) {
-          for (int dc = 0; dc < 2; ++dc) {
-            const float l = sourceLo(k, 2 * c + dc, 2 * r + dr), u = sourceHi(k, 2 * c + dc, 2 * r + dr);
-            if (!std::isnan(l)) lo = std::min(lo, l);  // nodata posts (NaN) are ignored
-            if (!std::isnan(u)) hi = std::max(hi, u);
-          }
+          for (int dc = 0; dc < 2; ++dc) source(k, 2 * c + dc, 2 * r + dr, lo, hi);
         }
         level.lo[static_cast<std::size_t>(r * level.width + c)] = lo;
         level.hi[static_cast<std::size_t>(r * level.width + c)] = hi;
@@ -70,8 +88,8 @@ void MinMaxPyramid::query(int c0, int r0, int c1, int r1, float& lo, float& hi) 
   hi = -kInf;
   c0 = std::max(c0, 0);
   r0 = std::max(r0, 0);
-  c1 = std::min(c1, grid_.width - 1);
-  r1 = std::min(r1, grid_.height - 1);
+  c1 = std::min(c1, width_ - 1);
+  r1 = std::min(r1, height_ - 1);
   if (c0 > c1 || r0 > r1) return;
   queryLevel(0, c0, r0, c1, r1, lo, hi);
 }
@@ -82,8 +100,7 @@ void MinMaxPyramid::queryLevel(std::size_t k, int c0, int r0, int c1, int r1, fl
   if (c0 > c1 || r0 > r1) return;
   auto read = [&](int c, int r) {
     if (k == 0) {
-      const float h = grid_.at(c, r);
-      if (!std::isnan(h)) merge(lo, hi, h, h);
+      baseRange(c, r, lo, hi);
       return;
     }
     const Level& l = levels_[k - 1];
@@ -113,7 +130,14 @@ void MinMaxPyramid::queryLevel(std::size_t k, int c0, int r0, int c1, int r1, fl
 }
 
 QuadtreeHeightBounds::QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree> tree, double exaggeration)
-    : tree_(std::move(tree)), pyramid_(tree_->grid()), exaggeration_(exaggeration) {}
+    : tree_(std::move(tree)), exaggeration_(exaggeration) {
+  if (const TilePager* pager = tree_->pager()) {
+    const TilePyramidFile& file = pager->file();
+    pyramid_.emplace(file.cellRangeWidth(), file.cellRangeHeight(), file.cellLo(), file.cellHi());
+  } else {
+    pyramid_.emplace(tree_->grid());
+  }
+}
 
 overlay::HeightBounds QuadtreeHeightBounds::globalBounds() const {
   const NodeInfo& root = tree_->info(tree_->root());
@@ -139,27 +163,48 @@ overlay::HeightBounds QuadtreeHeightBounds::boundsOverLevels(std::span<const glm
   }
   float zlo = kInf, zhi = -kInf;
   const int maxPost = std::max(grid.width, grid.height) - 1;
-  for (int level = std::max(finestLevel, 0); level <= std::min(coarsestLevel, tree_->rootLevel()); ++level) {
+  // Cells of a level (size s posts) meeting the box; a box edge on a cell border meets both.
+  auto cellsMeeting = [&](int s, int& c0, int& r0, int& c1, int& r1) {
+    c0 = static_cast<int>(std::ceil(lo.x / s)) - 1;
+    c1 = static_cast<int>(std::floor(hi.x / s));
+    r0 = static_cast<int>(std::ceil(lo.y / s)) - 1;
+    r1 = static_cast<int>(std::floor(hi.y / s));
+  };
+  const int pinned = tree_->pinnedLevel();  // 0 for a tree in memory
+  const int first = std::max(finestLevel, 0), last = std::min(coarsestLevel, tree_->rootLevel());
+  if (tree_->paged() && first < pinned) {
+    // Below the pinned level a paged tree has no posts in memory: every finer cell meeting the
+    // box lies in a pinned-level cell meeting it, whose full-resolution range the pyramid holds.
+    int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
+    cellsMeeting(1 << pinned, c0, r0, c1, r1);
+    float l = kInf, h = -kInf;
+    pyramid_->query(c0, r0, c1, r1, l, h);
+    merge(zlo, zhi, l, h);
+  }
+  for (int level = tree_->paged() ? std::max(first, pinned) : first; level <= last; ++level) {
     const int s = 1 << level;
-    // Cells of this level meeting the box (a box edge on a cell border meets both cells).
-    const int cc0 = static_cast<int>(std::ceil(lo.x / s)) - 1, cc1 = static_cast<int>(std::floor(hi.x / s));
-    const int cr0 = static_cast<int>(std::ceil(lo.y / s)) - 1, cr1 = static_cast<int>(std::floor(hi.y / s));
+    int cc0 = 0, cr0 = 0, cc1 = 0, cr1 = 0;
+    cellsMeeting(s, cc0, cr0, cc1, cr1);
     // Their corner posts, as post indices of this level.
     const int p0c = std::max(cc0, 0), p1c = std::min(cc1 + 1, maxPost / s + 1);
     const int p0r = std::max(cr0, 0), p1r = std::min(cr1 + 1, maxPost / s + 1);
     if (p0c > p1c || p0r > p1r) continue;
     const long long count = static_cast<long long>(p1c - p0c + 1) * (p1r - p0r + 1);
     float l = kInf, h = -kInf;
-    if (level == 0 || count > 256) {
-      // Every post in the rectangle: exact at level 0, a superset of the corners above it.
-      pyramid_.query(p0c * s, p0r * s, p1c * s, p1r * s, l, h);
-    } else {
+    if (count <= 256 && (tree_->paged() || level > 0)) {
       for (int r = p0r; r <= p1r; ++r) {
         for (int c = p0c; c <= p1c; ++c) {
-          const float v = tree_->post(c * s, r * s);
+          const float v = tree_->levelPost(level, c, r);
           if (!std::isnan(v)) merge(l, h, v, v);
         }
       }
+    } else if (!tree_->paged()) {
+      // Every post in the rectangle: exact at level 0, a superset of the corners above it.
+      pyramid_->query(p0c * s, p0r * s, p1c * s, p1r * s, l, h);
+    } else {
+      // The pinned-level cells holding the rectangle's posts (a superset of the corners).
+      const int cs = 1 << pinned;
+      pyramid_->query(p0c * s / cs, p0r * s / cs, p1c * s / cs, p1r * s / cs, l, h);
     }
     merge(zlo, zhi, l, h);
   }

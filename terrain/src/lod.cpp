@@ -8,6 +8,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "terrain/geometric_error.hpp"
+
 namespace gis::terrain {
 namespace {
 
@@ -41,6 +43,10 @@ class Selector {
     LodSelection out;
     out.balanceSplits = splits_;
     out.balanceMerges = merges_;
+    out.missing = std::move(missing_);
+    // Coarse first: a parent's tile is wanted before its children's.
+    std::stable_sort(out.missing.begin(), out.missing.end(),
+                     [](const NodeId& a, const NodeId& b) { return a.level > b.level; });
     for (const auto& [key, id] : cut_) {
       out.cut.push_back(id);
       const NodeInfo& info = tree_.info(id);
@@ -62,7 +68,15 @@ class Selector {
   }
 
  private:
-  [[nodiscard]] bool resident(const NodeId& n) const { return !options_.resident || options_.resident(n); }
+  [[nodiscard]] bool resident(const NodeId& n) const {
+    return options_.resident ? options_.resident(n) : tree_.resident(n);
+  }
+  /// Notes the children of n that are not resident (wanted: the view needs n refined).
+  void want(const NodeId& n) {
+    for (const NodeId& c : n.children()) {
+      if (!resident(c) && wanted_.emplace(c.key()).second) missing_.push_back(c);
+    }
+  }
   [[nodiscard]] bool childrenResident(const NodeId& n) const {
     if (n.level == 0) return false;
     for (const NodeId& c : n.children()) {
@@ -75,18 +89,24 @@ class Selector {
     return boxInFrustum(planes_, box.lo, box.hi);
   }
   [[nodiscard]] double screenError(const NodeId& n) const {
-    const double error = tree_.info(n).geometricError * std::abs(options_.exaggeration);
+    const double error = exaggeratedError(tree_.info(n).geometricError, options_.exaggeration);
     if (error == 0.0) return 0.0;
     const double distance = distanceToBox(view_.eye, nodeBox(tree_, n, options_.exaggeration));
     if (distance <= 0.0) return std::numeric_limits<double>::infinity();
     return error * pixelsPerRadian_ / distance;
   }
-  [[nodiscard]] bool wantsRefinement(const NodeId& n) const {
-    if (n.level == 0 || !tree_.info(n).hasData || !childrenResident(n)) return false;
+  [[nodiscard]] bool needsRefinement(const NodeId& n) const {
+    if (n.level == 0 || !tree_.info(n).hasData) return false;
     if (options_.coarsestAllowedLevel >= 0 && n.level <= options_.coarsestAllowedLevel) return false;
     if (options_.finestForcedLevel >= 0 && n.level > options_.finestForcedLevel) return true;
     if (!visible(n)) return false;
     return screenError(n) > options_.pixelTolerance;
+  }
+  bool wantsRefinement(const NodeId& n) {
+    if (!needsRefinement(n)) return false;
+    if (childrenResident(n)) return true;
+    want(n);  // drawn coarse meanwhile
+    return false;
   }
 
   void descend(const NodeId& n) {
@@ -134,6 +154,7 @@ class Selector {
           }
           ++splits_;
         } else {
+          want(coarse);
           mergeInto(n.parent());
           work.push_back(n.parent());
           ++merges_;
@@ -171,6 +192,8 @@ class Selector {
   std::unordered_map<std::uint64_t, NodeId> cut_;
   std::size_t splits_ = 0;
   std::size_t merges_ = 0;
+  std::vector<NodeId> missing_;
+  std::unordered_set<std::uint64_t> wanted_;
 };
 
 }  // namespace

@@ -7,6 +7,9 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "terrain/geometric_error.hpp"
+#include "terrain/tile_pager.hpp"
+
 namespace gis::terrain {
 namespace {
 
@@ -40,6 +43,49 @@ TerrainQuadtree::TerrainQuadtree(std::shared_ptr<const TerrainGrid> grid, int ch
   for (int level = 1; level <= rootLevel_; ++level) computeLevel(level);
 }
 
+TerrainQuadtree::TerrainQuadtree(std::shared_ptr<TilePager> pager)
+    : pager_(std::move(pager)), chunkCells_(pager_->file().chunkCells()) {
+  const TilePyramidFile& file = pager_->file();
+  grid_ = std::make_shared<const TerrainGrid>(file.geometry());
+  rootLevel_ = file.rootLevel();
+  pinnedLevel_ = file.pinnedLevel();
+  std::size_t offset = 0;
+  for (int level = 0; level <= rootLevel_; ++level) {
+    levelOffset_.push_back(offset);
+    offset += static_cast<std::size_t>(nodesPerSide(level)) * static_cast<std::size_t>(nodesPerSide(level));
+  }
+  nodes_ = file.nodes();
+  assert(nodes_.size() == offset);
+}
+
+float TerrainQuadtree::pagedPost(int level, int i, int j) const {
+  const NodeId id{level, std::min(i / chunkCells_, nodesPerSide(level) - 1),
+                  std::min(j / chunkCells_, nodesPerSide(level) - 1)};
+  const int ti = i - id.x * chunkCells_, tj = j - id.y * chunkCells_;
+  const auto k = static_cast<std::size_t>(tj * (chunkCells_ + 1) + ti);
+  if (level >= pinnedLevel_) {
+    const float* tile = pager_->pinnedTile(id);
+    return tile == nullptr ? kNoData : tile[k];
+  }
+  const TileData tile = pager_->load(id);
+  return tile ? (*tile)[k] : kNoData;
+}
+
+bool TerrainQuadtree::resident(const NodeId& n) const { return !pager_ || pager_->resident(n); }
+
+TileData TerrainQuadtree::chunkPosts(const NodeId& n) const {
+  if (pager_) return pager_->find(n);
+  auto posts = std::make_shared<std::vector<float>>();
+  posts->reserve(static_cast<std::size_t>((chunkCells_ + 1) * (chunkCells_ + 1)));
+  for (int j = 0; j <= chunkCells_; ++j) {
+    for (int i = 0; i <= chunkCells_; ++i) {
+      const glm::ivec2 p = vertexPost(n, i, j);
+      posts->push_back(post(p.x, p.y));
+    }
+  }
+  return posts;
+}
+
 const NodeInfo& TerrainQuadtree::info(const NodeId& n) const { return nodes_[index(n)]; }
 
 std::size_t TerrainQuadtree::nodeCount() const { return nodes_.size(); }
@@ -66,6 +112,7 @@ void TerrainQuadtree::computeLevel0() {
 void TerrainQuadtree::computeLevel(int level) {
   const int side = nodesPerSide(level);
   const int childStride = 1 << (level - 1);
+  std::vector<float> window(static_cast<std::size_t>((2 * chunkCells_ + 1) * (2 * chunkCells_ + 1)));
   for (int y = 0; y < side; ++y) {
     for (int x = 0; x < side; ++x) {
       const NodeId id{level, x, y};
@@ -83,22 +130,18 @@ void TerrainQuadtree::computeLevel(int level) {
       node.minHeight = node.hasData ? range.lo : 0.0F;
       node.maxHeight = node.hasData ? range.hi : 0.0F;
       if (!node.hasData) continue;
-      // The child level's surface refines this level's (same diagonal direction), so their
-      // largest distance is at the child level's posts; add the children's own error.
-      double own = 0.0;
+      // The child level's surface refines this level's (same diagonal direction): compare the
+      // two on the node's (2N + 1)² child-level posts; add the children's own error (triangle
+      // inequality of the Hausdorff distance).
       const int c0 = x * chunkCells_ << level, r0 = y * chunkCells_ << level;
       for (int j = 0; j <= 2 * chunkCells_; ++j) {
-        const int row = r0 + j * childStride;
-        if (row >= grid_->height) break;
         for (int i = 0; i <= 2 * chunkCells_; ++i) {
-          const int col = c0 + i * childStride;
-          if (col >= grid_->width) break;
-          const float h = grid_->at(col, row);
-          if (std::isnan(h)) continue;
-          const double coarse = levelSurface(level, col, row);
-          if (!std::isnan(coarse)) own = std::max(own, std::abs(coarse - static_cast<double>(h)));
+          window[static_cast<std::size_t>(j * (2 * chunkCells_ + 1) + i)] =
+              post(c0 + i * childStride, r0 + j * childStride);
         }
       }
+      const double own =
+          simplificationError(window, chunkCells_, glm::abs(grid_->step) * static_cast<double>(childStride));
       // Round up so that the float bound is never below the double value.
       const double total = own + static_cast<double>(childError);
       node.geometricError =
@@ -125,9 +168,8 @@ double TerrainQuadtree::levelSurface(int level, double col, double row) const {
   const int c = std::clamp(static_cast<int>(std::floor(u)), 0, maxCell);
   const int r = std::clamp(static_cast<int>(std::floor(v)), 0, maxCell);
   const double fx = std::clamp(u - c, 0.0, 1.0), fy = std::clamp(v - r, 0.0, 1.0);
-  const int st = 1 << level;
-  const double a = post(c * st, r * st), b = post((c + 1) * st, r * st);
-  const double d = post(c * st, (r + 1) * st), e = post((c + 1) * st, (r + 1) * st);
+  const double a = levelPost(level, c, r), b = levelPost(level, c + 1, r);
+  const double d = levelPost(level, c, r + 1), e = levelPost(level, c + 1, r + 1);
   return interpolateCell(a, b, d, e, fx, fy);  // NaN propagates from any nodata corner
 }
 
@@ -137,8 +179,7 @@ double TerrainQuadtree::chunkSurface(const NodeId& n, std::uint8_t stitchMask, d
   const int ci = std::clamp(static_cast<int>(std::floor(p.x)), 0, chunkCells_ - 1);
   const int cj = std::clamp(static_cast<int>(std::floor(p.y)), 0, chunkCells_ - 1);
   auto height = [&](const glm::ivec2& v) {
-    const glm::ivec2 g = vertexPost(n, v.x, v.y);
-    return static_cast<double>(post(g.x, g.y));
+    return static_cast<double>(levelPost(n.level, n.x * chunkCells_ + v.x, n.y * chunkCells_ + v.y));
   };
   if (stitchMask == 0) {
     return interpolateCell(height({ci, cj}), height({ci + 1, cj}), height({ci, cj + 1}), height({ci + 1, cj + 1}),

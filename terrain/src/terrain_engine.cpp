@@ -76,24 +76,33 @@ Result<TerrainEngine> TerrainEngine::create(std::shared_ptr<const TerrainQuadtre
   return r;
 }
 
-TerrainEngine::GpuChunk& TerrainEngine::chunk(const NodeId& id, TerrainDrawStats& stats) {
+bool TerrainEngine::hasChunk(const NodeId& id) const { return chunks_.count(id.key()) != 0; }
+
+TerrainEngine::GpuChunk* TerrainEngine::chunk(const NodeId& id, TerrainDrawStats& stats) {
   const auto found = chunks_.find(id.key());
   if (found != chunks_.end()) {
     lru_.splice(lru_.begin(), lru_, found->second.lru);
-    return found->second;
+    return &found->second;
   }
-  const TerrainQuadtree& tree = *tree_;
-  const int n = tree.chunkCells();
+  const TileData posts = tree_->chunkPosts(id);
+  if (!posts) {
+    ++stats.chunksMissing;  // not resident: the LOD selection should not have chosen it
+    return nullptr;
+  }
+  const int n = tree_->chunkCells();
   GpuChunk c;
   std::vector<ChunkVertex> vertices;
-  vertices.reserve(static_cast<std::size_t>((n + 1) * (n + 1)));
+  vertices.reserve(posts->size());
   for (int j = 0; j <= n; ++j) {
     for (int i = 0; i <= n; ++i) {
-      const glm::ivec2 p = tree.vertexPost(id, i, j);
-      const float h = tree.post(p.x, p.y);
+      const float h = (*posts)[static_cast<std::size_t>(j * (n + 1) + i)];
       c.hasNodata = c.hasNodata || std::isnan(h);
       vertices.push_back({static_cast<std::uint16_t>(i), static_cast<std::uint16_t>(j), std::isnan(h) ? 0.0F : h});
     }
+  }
+  if (c.hasNodata) {
+    c.valid.resize(posts->size());
+    for (std::size_t k = 0; k < posts->size(); ++k) c.valid[k] = !std::isnan((*posts)[k]);
   }
   c.vertices = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(ChunkVertex));
   c.bytes = vertices.size() * sizeof(ChunkVertex);
@@ -111,25 +120,21 @@ TerrainEngine::GpuChunk& TerrainEngine::chunk(const NodeId& id, TerrainDrawStats
   gpuBytes_ += c.bytes;
   lru_.push_front(id.key());
   c.lru = lru_.begin();
-  return chunks_.emplace(id.key(), std::move(c)).first->second;
+  return &chunks_.emplace(id.key(), std::move(c)).first->second;
 }
 
-std::pair<GLuint, GLsizei> TerrainEngine::indicesFor(const NodeId& id, GpuChunk& c, std::uint8_t mask) {
+std::pair<GLuint, GLsizei> TerrainEngine::indicesFor(GpuChunk& c, std::uint8_t mask) {
   if (!c.hasNodata) return {sharedIndices_[mask].id(), sharedIndexCount_[mask]};
   auto& own = c.ownIndices[mask];
   if (!own.first) {
     // Cells with a nodata corner are holes, not spikes: leave them out.
-    const TerrainQuadtree& tree = *tree_;
-    const int n = tree.chunkCells();
-    auto valid = [&](int i, int j) {
-      const glm::ivec2 p = tree.vertexPost(id, i, j);
-      return !std::isnan(tree.post(p.x, p.y));
-    };
+    const int n = tree_->chunkCells();
+    auto valid = [&](int i, int j) { return c.valid[static_cast<std::size_t>(j * (n + 1) + i)]; };
     std::vector<std::uint32_t> indices;
     for (int j = 0; j < n; ++j) {
       for (int i = 0; i < n; ++i) {
         if (valid(i, j) && valid(i + 1, j) && valid(i, j + 1) && valid(i + 1, j + 1))
-          pushCell(indices, tree, mask, i, j);
+          pushCell(indices, *tree_, mask, i, j);
       }
     }
     own.first = gfx::createBufferWithData(indices.data(), indices.size() * sizeof(std::uint32_t));
@@ -178,13 +183,14 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
   const GLint baseLocation = program_.location("u_chunkBase");
   const GLint levelLocation = program_.location("u_level");
   for (const SelectedChunk& s : selection.chunks) {
-    GpuChunk& c = chunk(s.id, stats);
-    const auto [indexBuffer, indexCount] = indicesFor(s.id, c, s.stitchMask);
+    GpuChunk* c = chunk(s.id, stats);
+    if (c == nullptr) continue;
+    const auto [indexBuffer, indexCount] = indicesFor(*c, s.stitchMask);
     const glm::ivec2 base = tree_->vertexPost(s.id, 0, 0);
     glProgramUniform2i(program_.id(), baseLocation, base.x, base.y);
     glProgramUniform1i(program_.id(), levelLocation, s.id.level);
-    glVertexArrayElementBuffer(c.vao.id(), indexBuffer);
-    glBindVertexArray(c.vao.id());
+    glVertexArrayElementBuffer(c->vao.id(), indexBuffer);
+    glBindVertexArray(c->vao.id());
     glDrawElements(GL_TRIANGLES, indexCount, GL_UNSIGNED_INT, nullptr);
     ++stats.chunks;
     stats.triangles += static_cast<std::size_t>(indexCount) / 3;

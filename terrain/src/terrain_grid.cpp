@@ -7,11 +7,7 @@
 
 namespace gis::terrain {
 
-namespace {
-
-/// Checks the raster and fills everything but the heights.
-Result<TerrainGrid> gridGeometry(const geo::Raster& dem, const geo::SceneFrame& frame) {
-  const geo::RasterInfo& info = dem.info;
+Result<TerrainGrid> gridGeometry(const geo::RasterInfo& info, const geo::SceneFrame& frame) {
   const auto& c = info.geoTransform.c;
   auto fail = [&](const std::string& message) {
     return Result<TerrainGrid>::failure({Severity::Error, info.path, "", "", message});
@@ -43,10 +39,8 @@ Result<TerrainGrid> gridGeometry(const geo::Raster& dem, const geo::SceneFrame& 
   return r;
 }
 
-}  // namespace
-
 Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame& frame) {
-  Result<TerrainGrid> r = gridGeometry(dem, frame);
+  Result<TerrainGrid> r = gridGeometry(dem.info, frame);
   if (!r) return r;
   r->heights.resize(static_cast<std::size_t>(r->width) * static_cast<std::size_t>(r->height));
   const std::size_t stride = dem.bands.size();
@@ -56,7 +50,7 @@ Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame
 
 Result<TerrainGrid> gridFromRaster(geo::Raster&& dem, const geo::SceneFrame& frame) {
   if (dem.bands.size() != 1) return gridFromRaster(static_cast<const geo::Raster&>(dem), frame);
-  Result<TerrainGrid> r = gridGeometry(dem, frame);
+  Result<TerrainGrid> r = gridGeometry(dem.info, frame);
   if (r) r->heights = std::move(dem.samples);
   return r;
 }

@@ -11,6 +11,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "gfx/camera.hpp"
+#include "paged_terrain.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
 #include "test_terrain.hpp"
@@ -64,11 +65,24 @@ struct Scenario {
   double exaggeration;
 };
 
-class BoundsTest : public ::testing::Test {
+/// The same stiff terrain held in memory (exact post ranges) or paged from a tile pyramid
+/// (pinned-level cell ranges below the pinned level): the contract holds for both.
+class BoundsTest : public ::testing::TestWithParam<bool> {
  protected:
-  BoundsTest()
-      : tree_(std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 257, .height = 257, .seed = 21}),
-                                                         16)) {}
+  static void SetUpTestSuite() {
+    auto grid = makeStiffTerrain({.width = 257, .height = 257, .seed = 21});
+    memory_ = std::make_shared<terrain::TerrainQuadtree>(grid, 16);
+    terrain_ =
+        makePagedTerrain(*grid, std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/bounds", 16, 4, std::size_t{1} << 30);
+  }
+  static void TearDownTestSuite() {
+    memory_.reset();
+    terrain_ = {};
+  }
+  void SetUp() override {
+    tree_ = GetParam() ? terrain_.paged : memory_;
+    ASSERT_TRUE(tree_);
+  }
 
   /// A random LOD: random camera and tolerance, or forced levels, or tiles loading.
   Scenario randomScenario(std::mt19937& rng) {
@@ -100,15 +114,18 @@ class BoundsTest : public ::testing::Test {
         options.resident = [salt](const NodeId& n) { return ((n.key() * 2654435761u) ^ salt) % 3 != 0 || n.level > 3; };
       }
     }
+    if (!options.resident) options.resident = [](const NodeId&) { return true; };  // paged: read as needed
     options.includeCulled = true;  // the bound must hold for chunks off screen too
     s.selection = terrain::selectLod(*tree_, view, options);
     return s;
   }
 
+  static inline std::shared_ptr<terrain::TerrainQuadtree> memory_;
+  static inline PagedTerrain terrain_;
   std::shared_ptr<terrain::TerrainQuadtree> tree_;
 };
 
-TEST_F(BoundsTest, DrawnSurfaceNeverLeavesTheBoundsOfAnyFootprint) {
+TEST_P(BoundsTest, DrawnSurfaceNeverLeavesTheBoundsOfAnyFootprint) {
   std::mt19937 rng(2026);
   terrain::QuadtreeHeightBounds bounds(tree_);
   const auto extent = tree_->frameExtent(tree_->root());
@@ -164,7 +181,7 @@ TEST_F(BoundsTest, DrawnSurfaceNeverLeavesTheBoundsOfAnyFootprint) {
   std::printf("bounds span / drawn span over %zu footprints: %.3f\n", footprints, spanSum / actualSum);
 }
 
-TEST_F(BoundsTest, NodataAndNonFiniteFootprintsAreSafe) {
+TEST_P(BoundsTest, NodataAndNonFiniteFootprintsAreSafe) {
   terrain::QuadtreeHeightBounds bounds(tree_);
   const overlay::HeightBounds global = bounds.globalBounds();
   const std::vector<glm::dvec2> nan{{std::nan(""), 0.0}, {1.0, 1.0}, {2.0, 0.0}};
@@ -174,12 +191,12 @@ TEST_F(BoundsTest, NodataAndNonFiniteFootprintsAreSafe) {
   EXPECT_EQ(bounds.boundsOver({}).lo, global.lo);
 }
 
-TEST_F(BoundsTest, FullResolutionHeightsAreThePosts) {
+TEST_P(BoundsTest, FullResolutionHeightsAreThePosts) {
   terrain::QuadtreeHeightBounds bounds(tree_, 2.0);
-  const terrain::TerrainGrid& g = tree_->grid();
+  const terrain::TerrainGrid& g = memory_->grid();
   for (int r = 0; r < g.height; r += 7) {
     for (int c = 0; c < g.width; c += 5) {
-      const double h = bounds.fullResolutionHeightAt(g.postPosition(c, r));
+      const double h = bounds.fullResolutionHeightAt(tree_->grid().postPosition(c, r));
       if (std::isnan(g.at(c, r))) {
         EXPECT_TRUE(std::isnan(h));
       } else {
@@ -188,6 +205,33 @@ TEST_F(BoundsTest, FullResolutionHeightsAreThePosts) {
     }
   }
 }
+
+TEST(PagedBounds, ContainTheExactInMemoryBounds) {
+  auto grid = makeStiffTerrain({.width = 257, .height = 257, .seed = 22});
+  const PagedTerrain t =
+      makePagedTerrain(*grid, std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/contain", 16, 4, std::size_t{1} << 30);
+  ASSERT_TRUE(t.paged && t.memory);
+  terrain::QuadtreeHeightBounds exact(t.memory), paged(t.paged);
+  std::mt19937 rng(5);
+  const auto extent = t.memory->frameExtent(t.memory->root());
+  std::uniform_real_distribution<double> ux(extent[0].x, extent[1].x), uy(extent[0].y, extent[1].y);
+  std::uniform_real_distribution<double> logSize(0.0, 3.5);
+  double exactSpan = 0.0, pagedSpan = 0.0;
+  for (int f = 0; f < 2000; ++f) {
+    const glm::dvec2 c(ux(rng), uy(rng));
+    const double r = std::pow(10.0, logSize(rng));
+    const std::vector<glm::dvec2> box{c - r, glm::dvec2(c.x + r, c.y - r), c + r};
+    const overlay::HeightBounds a = exact.boundsOver(box), b = paged.boundsOver(box);
+    ASSERT_LE(b.lo, a.lo);
+    ASSERT_GE(b.hi, a.hi);
+    exactSpan += a.span();
+    pagedSpan += b.span();
+  }
+  std::printf("paged bounds span / in-memory bounds span: %.3f\n", pagedSpan / exactSpan);
+}
+
+INSTANTIATE_TEST_SUITE_P(InMemoryAndPaged, BoundsTest, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "Paged" : "InMemory"; });
 
 }  // namespace
 }  // namespace gis::test

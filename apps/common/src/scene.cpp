@@ -144,7 +144,9 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
     p.error("terrain", "missing (an object with \"dem\")");
   } else {
     const json& t = root["terrain"];
-    p.warnUnknownKeys(t, {"dem", "band", "vertical_exaggeration"}, "terrain.");
+    p.warnUnknownKeys(
+        t, {"dem", "band", "vertical_exaggeration", "paging", "memory_budget_mb", "gpu_budget_mb", "cache_dir"},
+        "terrain.");
     std::string dem;
     if (!p.read(t, "dem", "terrain.", dem) || dem.empty())
       p.error("terrain.dem", "missing DEM file");
@@ -155,6 +157,28 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
         !(scene.verticalExaggeration > 0.0)) {
       p.error("terrain.vertical_exaggeration", "must be positive");
     }
+    std::string paging;
+    if (p.read(t, "paging", "terrain.", paging)) {
+      if (paging == "auto") {
+        scene.paging = TerrainPaging::Auto;
+      } else if (paging == "always") {
+        scene.paging = TerrainPaging::Always;
+      } else if (paging == "never") {
+        scene.paging = TerrainPaging::Never;
+      } else {
+        p.error("terrain.paging", "expected \"auto\", \"always\" or \"never\", got \"" + paging + "\"");
+      }
+    }
+    if (p.read(t, "memory_budget_mb", "terrain.", scene.memoryBudgetMb) && !(scene.memoryBudgetMb >= 16.0)) {
+      p.error("terrain.memory_budget_mb", "must be at least 16");
+      scene.memoryBudgetMb = 1024.0;
+    }
+    if (p.read(t, "gpu_budget_mb", "terrain.", scene.gpuBudgetMb) && !(scene.gpuBudgetMb >= 16.0)) {
+      p.error("terrain.gpu_budget_mb", "must be at least 16");
+      scene.gpuBudgetMb = 512.0;
+    }
+    std::string cacheDir;
+    if (p.read(t, "cache_dir", "terrain.", cacheDir) && !cacheDir.empty()) scene.cacheDir = p.resolve(cacheDir);
   }
   if (root.contains("imagery")) {
     const json& im = root["imagery"];

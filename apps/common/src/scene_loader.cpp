@@ -1,14 +1,123 @@
 #include "app/scene_loader.hpp"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 
 #include "core/log.hpp"
 #include "geo/raster.hpp"
+#include "terrain/tile_pager.hpp"
 
 namespace gis::app {
 
-Result<LoadedScene> loadScene(const SceneDescription& description) {
+namespace {
+
+/// FNV-1a: a stable short name for a path.
+std::string pathHash(const std::string& text) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (const char c : text) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ULL;
+  }
+  char out[17];
+  std::snprintf(out, sizeof(out), "%016llx", static_cast<unsigned long long>(h));
+  return std::string(out, 8);
+}
+
+bool usableDirectory(const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  return std::filesystem::is_directory(dir, ec) && ::access(dir.c_str(), W_OK) == 0;
+}
+
+/// The paged terrain: the pyramid (built when missing or stale), its pager and tree.
+Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const SceneDescription& description,
+                                                                     const geo::SceneFrame& frame,
+                                                                     const LoadOptions& options, LoadedScene& scene) {
+  using R = Result<std::shared_ptr<const terrain::TerrainQuadtree>>;
+  R r;
+  Result<terrain::PyramidSource> source = terrain::PyramidSource::of(description.dem, description.demBand);
+  if (!source) {
+    r.diagnostics = std::move(source.diagnostics);
+    return r;
+  }
+  scene.pyramidPath = pyramidPathFor(description);
+  Result<std::shared_ptr<const terrain::TilePyramidFile>> file =
+      terrain::TilePyramidFile::open(scene.pyramidPath, *source);
+  if (!file) {
+    const std::string why = file.diagnostics.empty() ? "" : file.diagnostics.items().front().message;
+    logInfo("building the tile pyramid of " + description.dem + " into " + scene.pyramidPath + " (" + why + ")");
+    Result<terrain::PyramidBuildStats> built = terrain::buildTilePyramid(
+        *source, frame, scene.pyramidPath, options.progress ? options.progress : consoleProgress("tile pyramid"));
+    r.diagnostics.append(built.diagnostics);
+    if (!built) return r;
+    scene.pyramidBuild = *built;
+    char line[160];
+    std::snprintf(line, sizeof(line), "tile pyramid built in %.1f s: %zu tiles, %.0f MB", built->seconds, built->tiles,
+                  static_cast<double>(built->fileBytes) / 1e6);
+    logInfo(line);
+    file = terrain::TilePyramidFile::open(scene.pyramidPath, *source);
+    if (!file) {
+      r.diagnostics.append(file.diagnostics);
+      return r;
+    }
+  }
+  const auto tileBudget = static_cast<std::size_t>(description.memoryBudgetMb / 3.0 * 1024.0 * 1024.0);
+  auto pager = std::make_shared<terrain::TilePager>(*file, tileBudget);
+  scene.nodataPosts = (*file)->nodataPosts();
+  r.value = std::make_shared<const terrain::TerrainQuadtree>(std::move(pager));
+  return r;
+}
+
+}  // namespace
+
+std::string pyramidPathFor(const SceneDescription& description) {
+  namespace fs = std::filesystem;
+  const fs::path dem = fs::absolute(description.dem).lexically_normal();
+  const std::string name =
+      dem.stem().string() + "-b" + std::to_string(description.demBand) + "-" + pathHash(dem.string()) + ".sgpyr";
+  fs::path dir = description.cacheDir.empty() ? fs::absolute(description.path).parent_path() / ".stencil-gis-cache"
+                                              : fs::path(description.cacheDir);
+  if (!usableDirectory(dir)) {
+    const char* xdg = std::getenv("XDG_CACHE_HOME");
+    const char* home = std::getenv("HOME");
+    const fs::path fallback = xdg != nullptr && *xdg != '\0' ? fs::path(xdg) / "stencil-gis"
+                              : home != nullptr              ? fs::path(home) / ".cache" / "stencil-gis"
+                                                             : fs::temp_directory_path() / "stencil-gis";
+    logWarning("cannot write the cache directory " + dir.string() + "; using " + fallback.string());
+    dir = fallback;
+    usableDirectory(dir);
+  }
+  return (dir / name).string();
+}
+
+terrain::PyramidProgress consoleProgress(std::string label) {
+  const bool terminal = ::isatty(STDERR_FILENO) != 0;
+  auto start = std::chrono::steady_clock::now();
+  auto lastDecile = std::make_shared<int>(-1);
+  return [label = std::move(label), terminal, start, lastDecile](double fraction) {
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const int percent = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * 100.0);
+    if (terminal) {
+      constexpr int kWidth = 40;
+      std::string bar(static_cast<std::size_t>(kWidth), ' ');
+      std::fill_n(bar.begin(), percent * kWidth / 100, '#');
+      std::fprintf(stderr, "\r%s [%s] %3d%% %5.0f s", label.c_str(), bar.c_str(), percent, seconds);
+      if (fraction >= 1.0) std::fputc('\n', stderr);
+      std::fflush(stderr);
+    } else if (percent / 10 != *lastDecile) {
+      *lastDecile = percent / 10;
+      std::fprintf(stderr, "%s: %d%% (%.0f s)\n", label.c_str(), percent, seconds);
+    }
+  };
+}
+
+Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   Diagnostics diagnostics;
   auto fail = [&](Diagnostics&& more) {
@@ -18,24 +127,40 @@ Result<LoadedScene> loadScene(const SceneDescription& description) {
     return r;
   };
 
-  Result<geo::Raster> dem = geo::readRaster(description.dem, {description.demBand});
-  if (!dem) return fail(std::move(dem.diagnostics));
-  diagnostics.append(dem.diagnostics);
-  Result<geo::SceneFrame> frame = geo::SceneFrame::forRaster(dem->info);
+  Result<geo::RasterInfo> demInfo = geo::inspectRaster(description.dem);
+  if (!demInfo) return fail(std::move(demInfo.diagnostics));
+  diagnostics.append(demInfo.diagnostics);
+  Result<geo::SceneFrame> frame = geo::SceneFrame::forRaster(*demInfo);
   if (!frame) return fail(std::move(frame.diagnostics));
-  Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(std::move(*dem), *frame);  // takes the samples
-  if (!grid) return fail(std::move(grid.diagnostics));
-  dem.value.reset();
 
-  std::size_t nodata = 0;
-  for (float h : grid->heights) nodata += std::isnan(h) ? 1u : 0u;
-  if (nodata > 0) {
-    diagnostics.add({Severity::Info, description.dem, "", "", std::to_string(nodata) + " nodata posts left as holes"});
+  // About 7 bytes a post in memory: the heights and the min/max pyramid of the bounds.
+  const double inMemoryMb = 7.0 * static_cast<double>(demInfo->width) * demInfo->height / (1024.0 * 1024.0);
+  const TerrainPaging paging = options.paging.value_or(description.paging);
+  const bool paged =
+      paging == TerrainPaging::Always || (paging == TerrainPaging::Auto && inMemoryMb > description.memoryBudgetMb);
+
+  LoadedScene scene{description, std::move(*frame), nullptr, nullptr, std::nullopt, {}, 0, 0.0, {}, std::nullopt};
+  if (paged) {
+    Result<std::shared_ptr<const terrain::TerrainQuadtree>> tree =
+        pagedTerrain(description, scene.frame, options, scene);
+    if (!tree) return fail(std::move(tree.diagnostics));
+    diagnostics.append(tree.diagnostics);
+    scene.quadtree = std::move(*tree);
+  } else {
+    Result<geo::Raster> dem = geo::readRaster(description.dem, {description.demBand});
+    if (!dem) return fail(std::move(dem.diagnostics));
+    Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(std::move(*dem), scene.frame);  // takes the samples
+    if (!grid) return fail(std::move(grid.diagnostics));
+    dem.value.reset();
+    for (float h : grid->heights) scene.nodataPosts += std::isnan(h) ? 1u : 0u;
+    scene.quadtree = std::make_shared<const terrain::TerrainQuadtree>(
+        std::make_shared<const terrain::TerrainGrid>(std::move(*grid)));
   }
-  auto quadtree =
-      std::make_shared<const terrain::TerrainQuadtree>(std::make_shared<const terrain::TerrainGrid>(std::move(*grid)));
-  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(quadtree, description.verticalExaggeration);
-  LoadedScene scene{description, std::move(*frame), quadtree, bounds, std::nullopt, {}, nodata, 0.0};
+  if (scene.nodataPosts > 0) {
+    diagnostics.add(
+        {Severity::Info, description.dem, "", "", std::to_string(scene.nodataPosts) + " nodata posts left as holes"});
+  }
+  scene.bounds = std::make_shared<terrain::QuadtreeHeightBounds>(scene.quadtree, description.verticalExaggeration);
 
   if (description.imagery) {
     // Resampled once into the scene frame's CRS, so texture coordinates are affine in the frame.
@@ -55,9 +180,9 @@ Result<LoadedScene> loadScene(const SceneDescription& description) {
   }
 
   for (const LayerDescription& layer : description.layers) {
-    geo::VectorReadOptions options;
-    options.layer = layer.sourceLayer;
-    Result<geo::VectorLayer> data = geo::readVectorLayer(layer.source, scene.frame, options);
+    geo::VectorReadOptions readOptions;
+    readOptions.layer = layer.sourceLayer;
+    Result<geo::VectorLayer> data = geo::readVectorLayer(layer.source, scene.frame, readOptions);
     // Name our layer in every message about it, beside the file's own layer name.
     for (const Diagnostic& d : data.diagnostics.items()) {
       Diagnostic named = d;

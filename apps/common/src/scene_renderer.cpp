@@ -5,12 +5,14 @@
 
 #include "gfx/camera.hpp"
 #include "gfx/render_target.hpp"
+#include "terrain/tile_pager.hpp"
 
 namespace gis::app {
 
 Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene) {
   Result<terrain::TerrainEngine> engine =
-      terrain::TerrainEngine::create(scene.quadtree, scene.orthophoto ? &*scene.orthophoto : nullptr);
+      terrain::TerrainEngine::create(scene.quadtree, scene.orthophoto ? &*scene.orthophoto : nullptr,
+                                     static_cast<std::size_t>(scene.description.gpuBudgetMb * 1024.0 * 1024.0));
   Result<SceneRenderer> result;
   result.diagnostics = engine.diagnostics;
   if (!engine) return result;
@@ -39,7 +41,26 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   terrain::LodOptions options;
   options.pixelTolerance = settings.lodTolerancePixels;
   options.exaggeration = settings.verticalExaggeration;
-  selection_ = terrain::selectLod(terrain_->tree(), view, options);
+  const terrain::TerrainQuadtree& tree = terrain_->tree();
+  terrain::TilePager* pager = tree.pager();
+  if (pager != nullptr) {
+    // Drawable: on the GPU already, or its posts in memory.
+    options.resident = [&](const terrain::NodeId& n) { return terrain_->hasChunk(n) || tree.resident(n); };
+    stats.tilesArrived = pager->update();
+  }
+  selection_ = terrain::selectLod(tree, view, options);
+  if (pager != nullptr) {
+    // A still image waits for its tiles (each round refines one level further); a flight asks
+    // for them and draws the coarser parents meanwhile.
+    while (settings.waitForTiles && !selection_.missing.empty()) {
+      pager->request(selection_.missing);
+      pager->waitIdle();
+      selection_ = terrain::selectLod(tree, view, options);
+    }
+    pager->request(selection_.missing);
+    stats.tilesMissing = selection_.missing.size();
+    stats.pager = pager->stats();
+  }
   stats.selectMilliseconds =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - selectStart).count();
   stats.terrainCulled = selection_.culled;

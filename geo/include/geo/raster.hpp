@@ -1,6 +1,7 @@
 #pragma once
 // Raster reading through GDAL: DEMs (any GDAL format, GeoTIFF first) and multi-band imagery.
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -64,5 +65,25 @@ Result<Raster> readRaster(const std::string& path, const std::vector<int>& bands
 /// result's geotransform and CRS are those of the target grid. Reads directly when the CRSs
 /// are the same.
 Result<Raster> readRasterInCrs(const std::string& path, const std::vector<int>& bands, const std::string& targetCrs);
+
+/// Reads one band of a raster in strips of rows, for rasters too big to hold at once (the tile
+/// pyramid builder streams a 16385² DEM through it). Nodata samples are NaN.
+class RasterStripReader {
+ public:
+  static Result<RasterStripReader> open(const std::string& path, int band = 1);
+  RasterStripReader(RasterStripReader&&) noexcept;
+  RasterStripReader& operator=(RasterStripReader&&) noexcept;
+  ~RasterStripReader();
+
+  [[nodiscard]] const RasterInfo& info() const;
+  /// Rows [row0, row0 + rows) into `out` (resized to rows × width); false with a message
+  /// naming the file on a read error.
+  bool read(int row0, int rows, std::vector<float>& out, Diagnostics& diagnostics);
+
+ private:
+  struct State;
+  explicit RasterStripReader(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace gis::geo

@@ -11,6 +11,7 @@
 // drawn there. The bound is static (no per-frame record) and gets looser where coarse levels'
 // cells reach far outside a small footprint; docs/terrain.md gives measured tightness.
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -19,12 +20,16 @@
 
 namespace gis::terrain {
 
-/// Min/max over rectangles of posts, exact, in O(perimeter) via a 2×2 min/max pyramid.
+/// Min/max over rectangles of a grid, exact, in O(perimeter) via a 2×2 min/max pyramid. The
+/// base is either a DEM's posts (NaN = nodata, ignored) or given per-cell ranges (lo > hi =
+/// empty), e.g. a tile pyramid's pinned-level cells.
 class MinMaxPyramid {
  public:
   explicit MinMaxPyramid(const TerrainGrid& grid);
-  /// Min and max of the valid posts in [c0, c1] × [r0, r1] (inclusive, clamped to the grid);
-  /// lo > hi when there is none.
+  /// Ranges of a width × height grid of cells; the spans must outlive the pyramid.
+  MinMaxPyramid(int width, int height, std::span<const float> lo, std::span<const float> hi);
+  /// Min and max over [c0, c1] × [r0, r1] (inclusive, clamped to the grid); lo > hi when
+  /// there is no data.
   void query(int c0, int r0, int c1, int r1, float& lo, float& hi) const;
   [[nodiscard]] std::size_t bytes() const;
 
@@ -33,9 +38,13 @@ class MinMaxPyramid {
     int width = 0, height = 0;
     std::vector<float> lo, hi;
   };
+  void build();
+  void baseRange(int c, int r, float& lo, float& hi) const;
   void queryLevel(std::size_t k, int c0, int r0, int c1, int r1, float& lo, float& hi) const;
-  const TerrainGrid& grid_;
-  std::vector<Level> levels_;  ///< levels_[k] holds blocks of 2^(k+1) posts a side
+  const TerrainGrid* grid_ = nullptr;
+  int width_ = 0, height_ = 0;
+  std::span<const float> baseLo_, baseHi_;
+  std::vector<Level> levels_;  ///< levels_[k] holds blocks of 2^(k+1) base cells a side
 };
 
 class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
@@ -57,7 +66,7 @@ class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
 
  private:
   std::shared_ptr<const TerrainQuadtree> tree_;
-  MinMaxPyramid pyramid_;
+  std::optional<MinMaxPyramid> pyramid_;
   double exaggeration_;
 };
 

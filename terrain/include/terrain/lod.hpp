@@ -23,8 +23,8 @@ struct LodView {
 struct LodOptions {
   double pixelTolerance = 1.5;  ///< largest allowed projected geometric error
   double exaggeration = 1.0;
-  /// Which nodes have their data in memory; empty = all. A node is refined only if all four
-  /// children are resident, so a loading tile's parent is drawn meanwhile.
+  /// Which nodes can be drawn now; empty = TerrainQuadtree::resident. A node is refined only if
+  /// all four children are resident, so a loading tile's parent is drawn meanwhile.
   std::function<bool(const NodeId&)> resident;
   /// For tests: never refine beyond this level (forced coarse LOD); -1 = no limit.
   int coarsestAllowedLevel = -1;
@@ -43,6 +43,9 @@ struct SelectedChunk {
 struct LodSelection {
   std::vector<SelectedChunk> chunks;  ///< visible chunks with data: what is drawn
   std::vector<NodeId> cut;            ///< every leaf of the refined tree (also culled and empty ones)
+  /// Nodes the view wants refined further but whose tiles are not resident (coarsest first):
+  /// what to page in next.
+  std::vector<NodeId> missing;
   std::size_t culled = 0;
   std::size_t balanceSplits = 0;
   std::size_t balanceMerges = 0;

@@ -52,14 +52,33 @@ enum ChunkEdge : std::uint8_t { kEdgeWest = 1, kEdgeEast = 2, kEdgeNorth = 4, kE
 // (north = the node's first row of posts, south = its last; for a north-up DEM these are the
 // geographic directions.)
 
+/// The (N + 1)² posts of a chunk at its level, row-major, NaN at nodata.
+using TileData = std::shared_ptr<const std::vector<float>>;
+
+class TilePager;
+
 class TerrainQuadtree {
  public:
   static constexpr int kDefaultChunkCells = 64;
 
+  /// A DEM held in memory.
   explicit TerrainQuadtree(std::shared_ptr<const TerrainGrid> grid, int chunkCells = kDefaultChunkCells);
+  /// A DEM paged from a tile pyramid on disk: node ranges and errors come from the pyramid,
+  /// posts from its tiles.
+  explicit TerrainQuadtree(std::shared_ptr<TilePager> pager);
 
+  /// The DEM's grid; in a paged tree without heights (use post()).
   [[nodiscard]] const TerrainGrid& grid() const { return *grid_; }
   [[nodiscard]] std::shared_ptr<const TerrainGrid> gridPtr() const { return grid_; }
+  [[nodiscard]] bool paged() const { return pager_ != nullptr; }
+  /// The pager of a paged tree, else null.
+  [[nodiscard]] TilePager* pager() const { return pager_.get(); }
+  /// Levels from this one up are always in memory (0 for an in-memory tree).
+  [[nodiscard]] int pinnedLevel() const { return pinnedLevel_; }
+  /// True if the node's posts are in memory (always for an in-memory tree).
+  [[nodiscard]] bool resident(const NodeId& n) const;
+  /// The node's chunk posts if resident, else null (a paged tree then needs the tile loaded).
+  [[nodiscard]] TileData chunkPosts(const NodeId& n) const;
   [[nodiscard]] int chunkCells() const { return chunkCells_; }
   [[nodiscard]] int rootLevel() const { return rootLevel_; }
   [[nodiscard]] NodeId root() const { return {rootLevel_, 0, 0}; }
@@ -71,10 +90,18 @@ class TerrainQuadtree {
   [[nodiscard]] const NodeInfo& info(const NodeId& n) const;
   [[nodiscard]] std::size_t nodeCount() const;
 
-  /// Full-resolution post height; NaN outside the DEM or at nodata.
+  /// Full-resolution post height; NaN outside the DEM or at nodata. In a paged tree this reads
+  /// the level-0 tile if needed (blocking): meant for queries, not for loops over the DEM.
   [[nodiscard]] float post(int col, int row) const {
     if (col < 0 || row < 0 || col >= grid_->width || row >= grid_->height) return kNoData;
-    return grid_->at(col, row);
+    return pager_ ? pagedPost(0, col, row) : grid_->at(col, row);
+  }
+  /// Post (i, j) of level `level`'s grid (= post(i·2^level, j·2^level)); from memory without
+  /// blocking at levels ≥ pinnedLevel().
+  [[nodiscard]] float levelPost(int level, int i, int j) const {
+    const int col = i << level, row = j << level;
+    if (col < 0 || row < 0 || col >= grid_->width || row >= grid_->height) return kNoData;
+    return pager_ ? pagedPost(level, i, j) : grid_->at(col, row);
   }
   /// Global post index of vertex (i, j) ∈ [0, N]² of node n.
   [[nodiscard]] glm::ivec2 vertexPost(const NodeId& n, int i, int j) const {
@@ -99,6 +126,7 @@ class TerrainQuadtree {
   static constexpr float kNoData = std::numeric_limits<float>::quiet_NaN();
 
  private:
+  [[nodiscard]] float pagedPost(int level, int i, int j) const;
   void computeLevel0();
   void computeLevel(int level);
   [[nodiscard]] std::size_t index(const NodeId& n) const {
@@ -108,6 +136,8 @@ class TerrainQuadtree {
   }
 
   std::shared_ptr<const TerrainGrid> grid_;
+  std::shared_ptr<TilePager> pager_;
+  int pinnedLevel_ = 0;
   int chunkCells_;
   int rootLevel_ = 0;
   std::vector<std::size_t> levelOffset_;

@@ -10,6 +10,7 @@
 #include <optional>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include <glm/mat4x4.hpp>
 
@@ -33,7 +34,8 @@ struct FrameOrthophoto {
 struct TerrainDrawStats {
   std::size_t chunks = 0;
   std::size_t triangles = 0;
-  std::size_t chunksBuilt = 0;  ///< vertex buffers made this frame
+  std::size_t chunksBuilt = 0;    ///< vertex buffers made this frame
+  std::size_t chunksMissing = 0;  ///< selected but neither on the GPU nor resident (not drawn)
 };
 
 class TerrainEngine {
@@ -52,6 +54,8 @@ class TerrainEngine {
   [[nodiscard]] const TerrainQuadtree& tree() const { return *tree_; }
   [[nodiscard]] std::size_t gpuBytes() const { return gpuBytes_; }
   [[nodiscard]] std::size_t cachedChunks() const { return chunks_.size(); }
+  /// True if the chunk's buffers are on the GPU (drawable without its posts in memory).
+  [[nodiscard]] bool hasChunk(const NodeId& id) const;
   void setWireframe(bool on) { wireframe_ = on; }
 
  private:
@@ -59,14 +63,15 @@ class TerrainEngine {
     gfx::BufferHandle vertices;
     gfx::VertexArrayHandle vao;
     bool hasNodata = false;
+    std::vector<bool> valid;  ///< per vertex, for chunks with nodata
     /// Index buffers per stitch mask of chunks with nodata (others share the engine's).
     std::array<std::pair<gfx::BufferHandle, GLsizei>, 16> ownIndices;
     std::size_t bytes = 0;
     std::list<std::uint64_t>::iterator lru;
   };
   TerrainEngine() = default;
-  GpuChunk& chunk(const NodeId& id, TerrainDrawStats& stats);
-  std::pair<GLuint, GLsizei> indicesFor(const NodeId& id, GpuChunk& c, std::uint8_t mask);
+  GpuChunk* chunk(const NodeId& id, TerrainDrawStats& stats);
+  std::pair<GLuint, GLsizei> indicesFor(GpuChunk& c, std::uint8_t mask);
   void evictTo(std::size_t budget);
 
   std::shared_ptr<const TerrainQuadtree> tree_;

@@ -28,6 +28,9 @@ struct TerrainGrid {
   [[nodiscard]] glm::dvec2 gridCoordinates(const glm::dvec2& frameXy) const { return (frameXy - origin) / step; }
 };
 
+/// Checks that a DEM fits the frame (below) and returns its grid without heights.
+Result<TerrainGrid> gridGeometry(const geo::RasterInfo& dem, const geo::SceneFrame& frame);
+
 /// The grid of a DEM whose CRS is the frame's and whose geotransform is north-up without
 /// rotation (the case of a frame made by SceneFrame::forRaster from a projected DEM).
 /// Fails with a message otherwise.

@@ -22,12 +22,21 @@ struct LayerDescription {
   bool visible = true;
 };
 
+/// Whether the DEM is held in memory or paged from a tile pyramid on disk.
+enum class TerrainPaging { Auto, Always, Never };
+
 struct SceneDescription {
   std::string path;  ///< the scene file
   std::string name;
   std::string dem;  ///< absolute path
   int demBand = 1;
   double verticalExaggeration = 1.0;
+  /// Auto: paged when the DEM in memory (about 7 bytes a post with its bounds) would exceed
+  /// memoryBudgetMb; a paged DEM keeps a third of the budget for tiles.
+  TerrainPaging paging = TerrainPaging::Auto;
+  double memoryBudgetMb = 1024.0;
+  double gpuBudgetMb = 512.0;
+  std::string cacheDir;                ///< where tile pyramids go; empty = ".stencil-gis-cache" beside the scene
   std::optional<std::string> imagery;  ///< absolute path
   std::vector<int> imageryBands{1, 2, 3};
   std::vector<LayerDescription> layers;

@@ -14,6 +14,7 @@
 #include "terrain/height_bounds.hpp"
 #include "terrain/quadtree.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "terrain/tile_pyramid.hpp"
 
 namespace gis::app {
 
@@ -32,9 +33,27 @@ struct LoadedScene {
   std::vector<LoadedLayer> layers;
   std::size_t nodataPosts = 0;
   double loadSeconds = 0.0;
+  /// For a paged DEM: the tile pyramid, and its build statistics if it was built this time.
+  std::string pyramidPath;
+  std::optional<terrain::PyramidBuildStats> pyramidBuild;
+  [[nodiscard]] bool paged() const { return quadtree->paged(); }
 };
 
-Result<LoadedScene> loadScene(const SceneDescription& description);
+struct LoadOptions {
+  /// Overrides the scene's paging choice.
+  std::optional<TerrainPaging> paging;
+  /// Progress of a tile-pyramid build; empty = a progress bar on stderr.
+  terrain::PyramidProgress progress;
+};
+
+Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOptions& options = {});
+
+/// Where the tile pyramid of the scene's DEM lives (the scene's cache directory, made if needed,
+/// else the user's cache directory).
+std::string pyramidPathFor(const SceneDescription& description);
+
+/// A progress bar on stderr (redrawn in place on a terminal, a line per 10 % otherwise).
+terrain::PyramidProgress consoleProgress(std::string label);
 
 /// The box that holds the terrain (frame coordinates, with the given exaggeration).
 void terrainBox(const LoadedScene& scene, double exaggeration, glm::dvec3& boxMin, glm::dvec3& boxMax);

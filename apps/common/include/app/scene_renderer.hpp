@@ -11,6 +11,7 @@
 #include "gfx/queries.hpp"
 #include "gfx/state_cache.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "terrain/tile_pager.hpp"
 
 namespace gis::app {
 
@@ -19,6 +20,9 @@ struct RenderSettings {
   double verticalExaggeration = 1.0;
   bool wireframe = false;
   bool measure = false;  ///< wrap passes in GPU timer and pipeline-statistics queries (waits)
+  /// Paged terrain: wait until every tile the view wants is loaded (still images), instead of
+  /// drawing coarser parents while they load (flights).
+  bool waitForTiles = false;
 };
 
 struct PassStats {
@@ -33,6 +37,9 @@ struct FrameStats {
   int finestLevel = 0;
   int coarsestLevel = 0;
   double selectMilliseconds = 0.0;  ///< CPU time of the LOD selection
+  std::size_t tilesMissing = 0;     ///< paged terrain: tiles wanted but not loaded (parents drawn)
+  std::size_t tilesArrived = 0;     ///< paged terrain: tiles that became resident this frame
+  terrain::TilePagerStats pager;
 };
 
 inline constexpr glm::vec4 kBackground{0.06F, 0.07F, 0.09F, 1.0F};
