@@ -11,6 +11,7 @@
 
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "paged_terrain.hpp"
 #include "terrain/terrain_engine.hpp"
 #include "test_terrain.hpp"
 
@@ -95,6 +96,63 @@ TEST_F(TerrainCracksGlTest, NoBackgroundLeaksAtLodBoundariesOfEveryLevelPair) {
   for (int level = 0; level + 1 < tree->rootLevel(); ++level) {
     EXPECT_TRUE(pairs.count(level)) << "no boundary between levels " << level << " and " << level + 1 << " was drawn";
   }
+}
+
+// A paged DEM: from the first frame (only the pinned levels resident) through every round of
+// tile loads, the parents drawn meanwhile leave no cracks; once loaded, the image is the
+// in-memory terrain's, pixel for pixel.
+TEST_F(TerrainCracksGlTest, PagedTerrainHasNoCracksWhileLoadingAndMatchesWhenLoaded) {
+  auto grid = makeStiffTerrain({.width = 385, .height = 385, .seed = 9, .holes = false});
+  const PagedTerrain t =
+      makePagedTerrain(*grid, std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/paged", 16, 4, std::size_t{64} << 20);
+  ASSERT_TRUE(t.paged && t.memory);
+  Result<terrain::TerrainEngine> memoryEngine = terrain::TerrainEngine::create(t.memory, nullptr);
+  ASSERT_TRUE(memoryEngine.ok());
+  gfx::RenderTarget target(kSize, kSize);
+  const terrain::TerrainGrid& g = t.memory->grid();
+  const glm::dvec2 lo = g.postPosition(0, g.height - 1), hi = g.postPosition(g.width - 1, 0);
+  const glm::dvec2 centre = 0.5 * (lo + hi);
+  const terrain::NodeInfo& root = t.memory->info(t.memory->root());
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> offset(-600.0, 600.0), above(300.0, 1500.0);
+  int rounds = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    auto tree = std::make_shared<terrain::TerrainQuadtree>(std::make_shared<terrain::TilePager>(t.file, 64u << 20));
+    Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+    ASSERT_TRUE(engine.ok());
+    // Straight down from above the middle: every pixel sees terrain.
+    const glm::dvec3 eye(centre.x + offset(rng), centre.y + offset(rng), root.maxHeight + above(rng));
+    const glm::dmat4 viewProj = gfx::reversedInfinitePerspective(glm::radians(30.0), 1.0, 1.0) *
+                                glm::lookAtRH(eye, eye - glm::dvec3(0, 0, 1), glm::dvec3(0, 1, 0));
+    terrain::LodView view{eye, viewProj, kSize, glm::radians(30.0)};
+    terrain::LodOptions options;
+    options.pixelTolerance = 0.5;
+    options.resident = [&](const terrain::NodeId& n) { return engine->hasChunk(n) || tree->resident(n); };
+    auto drawDepth = [&](terrain::TerrainEngine& e, const terrain::LodSelection& s) {
+      gfx::beginRenderPass(cache_, target, {glm::vec4(1, 0, 1, 1), gfx::kReversedZFar, 0});
+      e.draw(cache_, viewProj, eye, s, 1.0);
+      return gfx::readDepth(target);
+    };
+    terrain::LodSelection s = terrain::selectLod(*tree, view, options);
+    EXPECT_FALSE(s.missing.empty()) << "the first frame should want tiles";
+    for (;;) {
+      const std::vector<float> depth = drawDepth(*engine, s);
+      EXPECT_EQ(std::count(depth.begin(), depth.end(), 0.0F), 0) << "trial " << trial << " round " << rounds;
+      if (s.missing.empty()) break;
+      tree->pager()->request(s.missing);
+      tree->pager()->waitIdle();
+      s = terrain::selectLod(*tree, view, options);
+      ++rounds;
+    }
+    const std::vector<float> paged = gfx::readDepth(target);
+    const std::vector<std::uint8_t> pagedColour = gfx::readColorRgba8(target);
+    terrain::LodOptions memoryOptions;
+    memoryOptions.pixelTolerance = options.pixelTolerance;
+    const std::vector<float> memory = drawDepth(*memoryEngine, terrain::selectLod(*t.memory, view, memoryOptions));
+    EXPECT_EQ(paged, memory) << "trial " << trial;
+    EXPECT_EQ(pagedColour, gfx::readColorRgba8(target)) << "trial " << trial;
+  }
+  EXPECT_GT(rounds, 6);
 }
 
 }  // namespace
