@@ -21,6 +21,7 @@
 #include "app/scene_renderer.hpp"
 #include "core/log.hpp"
 #include "gfx/context.hpp"
+#include "terrain/tile_pager.hpp"
 
 namespace {
 
@@ -147,6 +148,8 @@ int runViewer(const std::string& scenePath) {
         stats.terrainDraw = s.terrainDraw;
         stats.finestLevel = s.finestLevel;
         stats.coarsestLevel = s.coarsestLevel;
+        stats.tilesMissing = s.tilesMissing;
+        stats.pager = s.pager;
       }
     }
 
@@ -161,6 +164,12 @@ int runViewer(const std::string& scenePath) {
                 stats.coarsestLevel, stats.terrainDraw.triangles);
     ImGui::Text("terrain GPU %.2f ms, %.1f MiB cached", stats.terrain.gpuMilliseconds,
                 static_cast<double>(renderer->terrainEngine().gpuBytes()) / (1024.0 * 1024.0));
+    if (scene->paged()) {
+      ImGui::Text("tiles: %zu resident (%.0f of %.0f MiB), %zu loading", stats.pager.residentTiles,
+                  static_cast<double>(stats.pager.residentBytes) / (1024.0 * 1024.0),
+                  static_cast<double>(scene->quadtree->pager()->budgetBytes()) / (1024.0 * 1024.0),
+                  stats.pager.pending);
+    }
     float tolerance = static_cast<float>(settings.lodTolerancePixels);
     if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
       settings.lodTolerancePixels = static_cast<double>(tolerance);

@@ -79,6 +79,30 @@ TEST(SceneFile, UnknownKeysAreWarnings) {
   EXPECT_TRUE(mentions(scene.diagnostics, "terrain.colour"));
 }
 
+TEST(SceneFile, TerrainPagingKeys) {
+  Result<app::SceneDescription> scene = app::parseScene(
+      R"({"terrain": {"dem": "d.tif", "paging": "always", "chunk_cells": 32, "memory_budget_mb": 300,
+                      "gpu_budget_mb": 200, "cache_dir": "cache"}})",
+      "/data/s.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_TRUE(scene.diagnostics.empty());
+  EXPECT_EQ(scene->paging, app::TerrainPaging::Always);
+  EXPECT_EQ(scene->chunkCells, 32);
+  EXPECT_EQ(scene->memoryBudgetMb, 300.0);
+  EXPECT_EQ(scene->gpuBudgetMb, 200.0);
+  EXPECT_EQ(scene->cacheDir, "/data/cache");
+
+  Result<app::SceneDescription> bad = app::parseScene(
+      R"({"terrain": {"dem": "d.tif", "paging": "sometimes", "chunk_cells": 48, "memory_budget_mb": 1}})", "s.json");
+  ASSERT_TRUE(bad.ok());  // the terrain still loads, with the defaults
+  EXPECT_EQ(bad.diagnostics.count(Severity::Error), 3u);
+  EXPECT_TRUE(mentions(bad.diagnostics, "terrain.paging"));
+  EXPECT_TRUE(mentions(bad.diagnostics, "terrain.chunk_cells"));
+  EXPECT_TRUE(mentions(bad.diagnostics, "terrain.memory_budget_mb"));
+  EXPECT_EQ(bad->paging, app::TerrainPaging::Auto);
+  EXPECT_EQ(bad->chunkCells, 64);
+}
+
 TEST(CameraFile, LonLatAndFrameFormsParse) {
   nlohmann::json j = {
       {"eye", {{"lon", -34.9}, {"lat", -8.0}, {"h", 500.0}}}, {"target_xyz", {1.0, 2.0, 3.0}}, {"fov_y_deg", 30.0}};

@@ -144,9 +144,10 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
     p.error("terrain", "missing (an object with \"dem\")");
   } else {
     const json& t = root["terrain"];
-    p.warnUnknownKeys(
-        t, {"dem", "band", "vertical_exaggeration", "paging", "memory_budget_mb", "gpu_budget_mb", "cache_dir"},
-        "terrain.");
+    p.warnUnknownKeys(t,
+                      {"dem", "band", "vertical_exaggeration", "paging", "chunk_cells", "memory_budget_mb",
+                       "gpu_budget_mb", "cache_dir"},
+                      "terrain.");
     std::string dem;
     if (!p.read(t, "dem", "terrain.", dem) || dem.empty())
       p.error("terrain.dem", "missing DEM file");
@@ -176,6 +177,11 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
     if (p.read(t, "gpu_budget_mb", "terrain.", scene.gpuBudgetMb) && !(scene.gpuBudgetMb >= 16.0)) {
       p.error("terrain.gpu_budget_mb", "must be at least 16");
       scene.gpuBudgetMb = 512.0;
+    }
+    if (p.read(t, "chunk_cells", "terrain.", scene.chunkCells) &&
+        (scene.chunkCells < 8 || scene.chunkCells > 256 || (scene.chunkCells & (scene.chunkCells - 1)) != 0)) {
+      p.error("terrain.chunk_cells", "must be a power of two from 8 to 256");
+      scene.chunkCells = 64;
     }
     std::string cacheDir;
     if (p.read(t, "cache_dir", "terrain.", cacheDir) && !cacheDir.empty()) scene.cacheDir = p.resolve(cacheDir);

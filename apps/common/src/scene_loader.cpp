@@ -41,7 +41,8 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
                                                                      const LoadOptions& options, LoadedScene& scene) {
   using R = Result<std::shared_ptr<const terrain::TerrainQuadtree>>;
   R r;
-  Result<terrain::PyramidSource> source = terrain::PyramidSource::of(description.dem, description.demBand);
+  Result<terrain::PyramidSource> source =
+      terrain::PyramidSource::of(description.dem, description.demBand, description.chunkCells);
   if (!source) {
     r.diagnostics = std::move(source.diagnostics);
     return r;
@@ -154,7 +155,7 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     dem.value.reset();
     for (float h : grid->heights) scene.nodataPosts += std::isnan(h) ? 1u : 0u;
     scene.quadtree = std::make_shared<const terrain::TerrainQuadtree>(
-        std::make_shared<const terrain::TerrainGrid>(std::move(*grid)));
+        std::make_shared<const terrain::TerrainGrid>(std::move(*grid)), description.chunkCells);
   }
   if (scene.nodataPosts > 0) {
     diagnostics.add(

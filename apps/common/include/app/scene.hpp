@@ -34,6 +34,7 @@ struct SceneDescription {
   /// Auto: paged when the DEM in memory (about 7 bytes a post with its bounds) would exceed
   /// memoryBudgetMb; a paged DEM keeps a third of the budget for tiles.
   TerrainPaging paging = TerrainPaging::Auto;
+  int chunkCells = 64;  ///< cells a side of a quadtree chunk (a power of two, 8 … 256)
   double memoryBudgetMb = 1024.0;
   double gpuBudgetMb = 512.0;
   std::string cacheDir;                ///< where tile pyramids go; empty = ".stencil-gis-cache" beside the scene
