@@ -1,6 +1,8 @@
 // A scene whose DEM is paged: the loader builds the tile pyramid into the scene's cache
 // directory once, reuses it on the next load, and the rendered image (still images wait for
 // their tiles) is the in-memory terrain's, pixel for pixel, from several cameras.
+#include <unistd.h>
+
 #include <filesystem>
 
 #include <gtest/gtest.h>
@@ -23,7 +25,7 @@ TEST_F(PagedSceneGlTest, PyramidIsBuiltOnceAndRendersLikeMemory) {
   ASSERT_TRUE(description.ok());
   description->layers.clear();
   description->chunkCells = 16;  // a deeper tree for a small DEM
-  description->cacheDir = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/cache";
+  description->cacheDir = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/cache-" + std::to_string(::getpid());
   std::filesystem::remove_all(description->cacheDir);
 
   app::LoadOptions memoryOptions, pagedOptions;
@@ -64,6 +66,7 @@ TEST_F(PagedSceneGlTest, PyramidIsBuiltOnceAndRendersLikeMemory) {
     EXPECT_EQ(s.terrainDraw.chunksMissing, 0u);
     EXPECT_EQ(gfx::readColorRgba8(target), expected) << "eye offset " << offset.x << " " << offset.y;
   }
+  std::filesystem::remove_all(description->cacheDir);
 }
 
 }  // namespace

@@ -6,6 +6,8 @@
 #include <memory>
 #include <string>
 
+#include <unistd.h>
+
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
@@ -42,7 +44,17 @@ inline void writeGridGeoTiff(const terrain::TerrainGrid& grid, const std::string
   GDALClose(GDALDataset::ToHandle(ds));
 }
 
+/// Removes a directory when the last owner goes.
+struct ScratchDirectory {
+  std::string path;
+  ~ScratchDirectory() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
 struct PagedTerrain {
+  std::shared_ptr<ScratchDirectory> scratch;  ///< declared first: removed after the file closes
   std::string demPath;
   std::string pyramidPath;
   terrain::PyramidSource source;
@@ -51,12 +63,16 @@ struct PagedTerrain {
   std::shared_ptr<terrain::TerrainQuadtree> paged;   ///< the same DEM paged from the pyramid
 };
 
-/// Writes `grid` into `dir`, builds its pyramid and opens both trees. A non-fatal test failure
-/// leaves the trees null.
-inline PagedTerrain makePagedTerrain(const terrain::TerrainGrid& grid, const std::string& dir, int chunkCells,
+/// Writes `grid` into a subdirectory of `parent` of this process's own (CTest runs the cases of
+/// one test program in parallel processes), builds its pyramid and opens both trees. A
+/// non-fatal test failure leaves the trees null.
+inline PagedTerrain makePagedTerrain(const terrain::TerrainGrid& grid, const std::string& parent, int chunkCells,
                                      int pinnedTilesPerSide, std::size_t budgetBytes) {
   PagedTerrain t;
+  const std::string dir = parent + "/" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
+  t.scratch = std::make_shared<ScratchDirectory>();
+  t.scratch->path = dir;
   t.demPath = dir + "/dem.tif";
   t.pyramidPath = dir + "/dem.sgpyr";
   std::filesystem::remove(t.pyramidPath);

@@ -3,6 +3,8 @@
 // same DEM and rejected when truncated or stale; tiles page in asynchronously under a CPU budget;
 // while they load the LOD selection draws their parents, and once loaded it is the in-memory
 // selection, chunk for chunk.
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -126,7 +128,7 @@ TEST_F(TilePyramidTest, PostsAndSurfacesMatchThroughThePager) {
 }
 
 TEST_F(TilePyramidTest, ReusedOnlyForTheSameIntactSource) {
-  const std::string dir = outputDir("validation");
+  const std::string dir = outputDir("validation-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string copy = dir + "/copy.sgpyr";
   std::filesystem::copy_file(terrain_.pyramidPath, copy, std::filesystem::copy_options::overwrite_existing);
@@ -150,6 +152,7 @@ TEST_F(TilePyramidTest, ReusedOnlyForTheSameIntactSource) {
   std::ofstream(copy, std::ios::trunc) << "not a pyramid, just text that is long enough? no.";
   EXPECT_FALSE(terrain::TilePyramidFile::open(copy, terrain_.source).ok());
   EXPECT_FALSE(terrain::TilePyramidFile::open(dir + "/missing.sgpyr", terrain_.source).ok());
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(TilePyramidTest, PagerLoadsAsynchronouslyUnderItsBudget) {
