@@ -185,7 +185,7 @@ int run(const Options& o) {
   if (!renderer) return 1;
 
   gfx::StateCache cache;
-  gfx::RenderTarget target(o.width, o.height, o.msaa);
+  gfx::RenderTarget target(o.width, o.height, o.msaa, true);
   app::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
   settings.verticalExaggeration = exaggeration;
@@ -194,15 +194,45 @@ int run(const Options& o) {
   const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, settings);
   std::optional<gfx::RenderTarget> resolved;
   const gfx::RenderTarget* readable = &target;
+  const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
+  // The GPU mask has a bit per overlay layer (fills and outlines); mask.png a bit per scene
+  // layer. With MSAA a pixel has a layer's bit when at least half its samples do.
+  std::vector<std::uint8_t> mask(pixels, 0);
+  auto addMask = [&](const std::vector<std::uint32_t>& bits, std::vector<int>& votes) {
+    for (std::size_t i = 0; i < pixels; ++i) {
+      for (std::size_t j = 0; j < renderer->overlaySources().size() && j < 32; ++j) {
+        const std::size_t layer = renderer->overlaySources()[j].first;
+        if ((bits[i] >> j) & 1u && layer < 8) ++votes[i * 8 + layer];
+      }
+    }
+  };
+  std::vector<int> votes(pixels * 8, 0);
+  int samples = 1;
   if (target.multisampled()) {
-    resolved.emplace(o.width, o.height, 0);
+    resolved.emplace(o.width, o.height, 0, true);
+    samples = target.samples();
+    for (int k = 0; k < samples; ++k) {
+      target.copySampleInto(*resolved, k);
+      std::vector<std::uint32_t> bits = gfx::readMask(*resolved);
+      // A sample covered by several overlay layers of one scene layer (fill and outline) votes once.
+      std::vector<int> sampleVotes(pixels * 8, 0);
+      addMask(bits, sampleVotes);
+      for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sampleVotes[i] > 0 ? 1 : 0;
+    }
     target.resolveInto(*resolved);
     readable = &*resolved;
+  } else {
+    std::vector<int> sampleVotes(pixels * 8, 0);
+    addMask(gfx::readMask(target), sampleVotes);
+    for (std::size_t i = 0; i < votes.size(); ++i) votes[i] = sampleVotes[i] > 0 ? 1 : 0;
+  }
+  for (std::size_t i = 0; i < pixels; ++i) {
+    for (std::size_t layer = 0; layer < 8; ++layer) {
+      if (2 * votes[i * 8 + layer] >= samples) mask[i] = static_cast<std::uint8_t>(mask[i] | (1u << layer));
+    }
   }
   std::vector<std::uint8_t> rgba = gfx::readColorRgba8(*readable);
   const std::vector<float> depth = gfx::readDepth(*readable);
-  // Overlay layers are not drawn by this version: no mask bit is set by any pass.
-  const std::vector<std::uint8_t> mask(static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height), 0);
 
   std::vector<std::uint8_t> rgb(rgba.size() / 4 * 3);
   for (std::size_t i = 0, n = rgba.size() / 4; i < n; ++i) {
@@ -227,14 +257,41 @@ int run(const Options& o) {
   std::size_t terrainPixels = 0;
   for (float d : depth) terrainPixels += d > 0.0F ? 1 : 0;
   json layers = json::array();
-  for (const app::LoadedLayer& layer : scene->layers) {
+  for (std::size_t i = 0; i < scene->layers.size(); ++i) {
+    const app::LoadedLayer& layer = scene->layers[i];
+    std::size_t coveredPixels = 0;
+    for (std::uint8_t m : mask) coveredPixels += i < 8 && ((m >> i) & 1u) ? 1u : 0u;
+    json passes = json::array();
+    std::size_t skippedInBuild = 0;
+    bool drawn = false;
+    for (std::size_t j = 0; j < renderer->overlaySources().size(); ++j) {
+      if (renderer->overlaySources()[j].first != i) continue;
+      drawn = true;
+      const overlay::OverlayLayer& built = renderer->overlayLayers()[j];
+      skippedInBuild += built.stats().skippedFeatures;
+      const overlay::LayerFrameStats f = j < frame.layers.size() ? frame.layers[j] : overlay::LayerFrameStats{};
+      passes.push_back({{"name", built.name()},
+                        {"pieces", built.stats().pieces},
+                        {"triangles", built.stats().triangles},
+                        {"gpu_bytes", built.stats().gpuBytes},
+                        {"build_seconds", built.stats().buildSeconds},
+                        {"z_pass_pieces", f.zPassPieces},
+                        {"z_fail_pieces", f.zFailPieces},
+                        {"culled_pieces", f.culledPieces},
+                        {"gpu_ms", f.gpuMilliseconds},
+                        {"mark_fragments", f.markFragments},
+                        {"cover_fragments", f.coverFragments}});
+    }
     layers.push_back({{"name", layer.description.name},
                       {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
                       {"source", layer.description.source},
                       {"features", layer.data.features.size()},
                       {"vertices", layer.data.vertexCount()},
-                      {"skipped_features", layer.skippedFeatures},
-                      {"drawn", false}});
+                      {"skipped_features", layer.skippedFeatures + skippedInBuild},
+                      {"drawn", drawn},
+                      {"mask_bit", i < 8 ? json(i) : json(nullptr)},
+                      {"covered_pixels", coveredPixels},
+                      {"passes", passes}});
   }
   const gfx::Context& ctx = **context;
   const terrain::TerrainQuadtree& tree = *scene->quadtree;

@@ -34,4 +34,23 @@ glm::mat4 relativeToCentre(const glm::dmat4& viewProj, const glm::dvec3& centre)
 
 void enableReversedZ() { glClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE); }
 
+std::array<glm::dvec4, 6> frustumPlanes(const glm::dmat4& m) {
+  auto row = [&](int i) { return glm::dvec4(m[0][i], m[1][i], m[2][i], m[3][i]); };
+  const glm::dvec4 r0 = row(0), r1 = row(1), r2 = row(2), r3 = row(3);
+  // Clip space of GL_ZERO_TO_ONE: −w ≤ x, y ≤ w and 0 ≤ z ≤ w (reversed-Z: z = w at the near
+  // plane, z → 0 at infinity).
+  return {r3 + r0, r3 - r0, r3 + r1, r3 - r1, r3 - r2, r2};
+}
+
+bool boxInFrustum(const std::array<glm::dvec4, 6>& planes, const glm::dvec3& lo, const glm::dvec3& hi,
+                  bool nearPlane) {
+  for (std::size_t i = 0; i < planes.size(); ++i) {
+    if (!nearPlane && i >= 4) break;
+    const glm::dvec4& p = planes[i];
+    const glm::dvec3 positive(p.x >= 0 ? hi.x : lo.x, p.y >= 0 ? hi.y : lo.y, p.z >= 0 ? hi.z : lo.z);
+    if (p.x * positive.x + p.y * positive.y + p.z * positive.z + p.w < 0.0) return false;
+  }
+  return true;
+}
+
 }  // namespace gis::gfx

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cmath>
 #include <string>
 
 #include "core/log.hpp"
+#include "gfx/program.hpp"
 
 namespace gis::gfx {
 namespace {
@@ -49,14 +51,21 @@ std::vector<T> readPixels(const RenderTarget& target, GLenum readBuffer, GLenum 
 
 }  // namespace
 
-RenderTarget::RenderTarget(int width, int height, int samples)
+RenderTarget::RenderTarget(int width, int height, int samples, bool mask)
     : width_(width), height_(height), samples_(samples > 1 ? samples : 0) {
   color_ = makeAttachment(GL_RGBA8, width, height, samples_);
   depthStencil_ = makeAttachment(GL_DEPTH32F_STENCIL8, width, height, samples_);
   fbo_ = createFramebuffer();
   glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0);
   glNamedFramebufferTexture(fbo_.id(), GL_DEPTH_STENCIL_ATTACHMENT, depthStencil_.id(), 0);
-  glNamedFramebufferDrawBuffer(fbo_.id(), GL_COLOR_ATTACHMENT0);
+  if (mask) {
+    mask_ = makeAttachment(GL_R32F, width, height, samples_);
+    glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT1, mask_.id(), 0);
+    const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(fbo_.id(), 2, buffers);
+  } else {
+    glNamedFramebufferDrawBuffer(fbo_.id(), GL_COLOR_ATTACHMENT0);
+  }
   if (!complete()) logError("render target " + std::to_string(width) + "x" + std::to_string(height) + " incomplete");
 }
 
@@ -70,6 +79,77 @@ void RenderTarget::resolveInto(const RenderTarget& single) const {
                          GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT, GL_NEAREST);
 }
 
+void RenderTarget::copySampleInto(const RenderTarget& single, int sample) const {
+  assert(multisampled() && !single.multisampled() && single.width_ == width_ && single.height_ == height_);
+  Result<Program> program = Program::build({{"sample_copy.vert", {}}, {"sample_copy.frag", {}}});
+  if (!program) {
+    for (const Diagnostic& d : program.diagnostics.items()) logError(d.toString());
+    return;
+  }
+  // Outside the state cache: save and restore what this pass touches.
+  GLint previousFramebuffer = 0, previousProgram = 0, previousVao = 0;
+  GLint viewport[4] = {0, 0, 0, 0};
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &previousFramebuffer);
+  glGetIntegerv(GL_CURRENT_PROGRAM, &previousProgram);
+  glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &previousVao);
+  glGetIntegerv(GL_VIEWPORT, viewport);
+  const GLboolean depthTest = glIsEnabled(GL_DEPTH_TEST), stencilTest = glIsEnabled(GL_STENCIL_TEST),
+                  blend = glIsEnabled(GL_BLEND), cull = glIsEnabled(GL_CULL_FACE);
+  GLint depthFunc = GL_LESS;
+  GLboolean depthMask = GL_TRUE;
+  GLboolean colorMask[4] = {GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE};
+  glGetIntegerv(GL_DEPTH_FUNC, &depthFunc);
+  glGetBooleanv(GL_DEPTH_WRITEMASK, &depthMask);
+  glGetBooleanv(GL_COLOR_WRITEMASK, colorMask);
+
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, single.fbo_.id());
+  glViewport(0, 0, width_, height_);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_ALWAYS);
+  glDepthMask(GL_TRUE);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glDisable(GL_STENCIL_TEST);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  VertexArrayHandle vao = createVertexArray();
+  glBindVertexArray(vao.id());
+  program->use();
+  program->set("u_color", 0);
+  program->set("u_mask", 1);
+  program->set("u_depth", 2);
+  program->set("u_sample", sample);
+  program->set("u_hasMask", hasMask() ? 1 : 0);
+  glBindTextureUnit(0, color_.id());
+  glBindTextureUnit(1, hasMask() ? mask_.id() : color_.id());
+  glBindTextureUnit(2, depthStencil_.id());
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glBindTextureUnit(0, 0);
+  glBindTextureUnit(1, 0);
+  glBindTextureUnit(2, 0);
+
+  glBindVertexArray(static_cast<GLuint>(previousVao));
+  glUseProgram(static_cast<GLuint>(previousProgram));
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previousFramebuffer));
+  glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
+  (depthTest ? glEnable : glDisable)(GL_DEPTH_TEST);
+  (stencilTest ? glEnable : glDisable)(GL_STENCIL_TEST);
+  (blend ? glEnable : glDisable)(GL_BLEND);
+  (cull ? glEnable : glDisable)(GL_CULL_FACE);
+  glDepthFunc(static_cast<GLenum>(depthFunc));
+  glDepthMask(depthMask);
+  glColorMask(colorMask[0], colorMask[1], colorMask[2], colorMask[3]);
+}
+
+void enableMaskWrites(GLuint framebuffer, bool enabled) {
+  if (framebuffer == 0) return;
+  GLint attached = GL_NONE;
+  glGetNamedFramebufferAttachmentParameteriv(framebuffer, GL_COLOR_ATTACHMENT1, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE,
+                                             &attached);
+  if (attached == GL_NONE) return;
+  const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, enabled ? GLenum{GL_COLOR_ATTACHMENT1} : GLenum{GL_NONE}};
+  glNamedFramebufferDrawBuffers(framebuffer, 2, buffers);
+}
+
 void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params) {
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
   glViewport(0, 0, width, height);
@@ -79,6 +159,16 @@ void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int heigh
     const glm::vec4& c = *params.clearColor;
     const GLfloat value[4] = {c.x, c.y, c.z, c.w};
     glClearNamedFramebufferfv(framebuffer, GL_COLOR, 0, value);
+    GLint attached = GL_NONE;
+    if (framebuffer != 0) {
+      glGetNamedFramebufferAttachmentParameteriv(framebuffer, GL_COLOR_ATTACHMENT1,
+                                                 GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &attached);
+    }
+    if (attached != GL_NONE) {  // the mask: cleared to 0 through its own draw buffer slot
+      enableMaskWrites(framebuffer, true);
+      const GLfloat zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
+      glClearNamedFramebufferfv(framebuffer, GL_COLOR, 1, zero);
+    }
   }
   if (params.clearDepth && params.clearStencil) {
     glClearNamedFramebufferfi(framebuffer, GL_DEPTH_STENCIL, 0, *params.clearDepth, *params.clearStencil);
@@ -99,6 +189,14 @@ std::vector<float> readDepth(const RenderTarget& target) {
 
 std::vector<std::uint8_t> readStencil(const RenderTarget& target) {
   return readPixels<std::uint8_t>(target, GL_COLOR_ATTACHMENT0, GL_STENCIL_INDEX, GL_UNSIGNED_BYTE, 1);
+}
+
+std::vector<std::uint32_t> readMask(const RenderTarget& target) {
+  assert(target.hasMask());
+  const std::vector<float> values = readPixels<float>(target, GL_COLOR_ATTACHMENT1, GL_RED, GL_FLOAT, 1);
+  std::vector<std::uint32_t> bits(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) bits[i] = static_cast<std::uint32_t>(std::lround(values[i]));
+  return bits;
 }
 
 }  // namespace gis::gfx

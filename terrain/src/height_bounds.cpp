@@ -134,8 +134,11 @@ QuadtreeHeightBounds::QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree
   if (const TilePager* pager = tree_->pager()) {
     const TilePyramidFile& file = pager->file();
     pyramid_.emplace(file.cellRangeWidth(), file.cellRangeHeight(), file.cellLo(), file.cellHi());
+    hasNodata_ = file.nodataPosts() > 0;
   } else {
     pyramid_.emplace(tree_->grid());
+    hasNodata_ = std::any_of(tree_->grid().heights.begin(), tree_->grid().heights.end(),
+                             [](float h) { return std::isnan(h); });
   }
 }
 
@@ -144,6 +147,16 @@ overlay::HeightBounds QuadtreeHeightBounds::globalBounds() const {
   if (!root.hasData) return {0.0, 0.0};
   const double a = root.minHeight * exaggeration_, b = root.maxHeight * exaggeration_;
   return {std::min(a, b), std::max(a, b)};
+}
+
+bool QuadtreeHeightBounds::coversFootprint(std::span<const glm::dvec2> footprint) const {
+  if (hasNodata_ || footprint.empty()) return false;
+  const TerrainGrid& grid = tree_->grid();
+  for (const glm::dvec2& p : footprint) {
+    const glm::dvec2 g = grid.gridCoordinates(p);
+    if (!(g.x >= 0.0 && g.y >= 0.0 && g.x <= grid.width - 1 && g.y <= grid.height - 1)) return false;
+  }
+  return true;
 }
 
 overlay::HeightBounds QuadtreeHeightBounds::boundsOver(std::span<const glm::dvec2> footprint) const {

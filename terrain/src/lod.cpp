@@ -8,6 +8,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "gfx/camera.hpp"
 #include "terrain/geometric_error.hpp"
 
 namespace gis::terrain {
@@ -33,7 +34,7 @@ double distanceToBox(const glm::dvec3& p, const NodeBox& box) {
 class Selector {
  public:
   Selector(const TerrainQuadtree& tree, const LodView& view, const LodOptions& options)
-      : tree_(tree), view_(view), options_(options), planes_(frustumPlanes(view.viewProj)) {
+      : tree_(tree), view_(view), options_(options), planes_(gfx::frustumPlanes(view.viewProj)) {
     pixelsPerRadian_ = view.viewportHeight / (2.0 * std::tan(view.fovYRadians / 2.0));
   }
 
@@ -86,7 +87,7 @@ class Selector {
   }
   [[nodiscard]] bool visible(const NodeId& n) const {
     const NodeBox box = nodeBox(tree_, n, options_.exaggeration);
-    return boxInFrustum(planes_, box.lo, box.hi);
+    return gfx::boxInFrustum(planes_, box.lo, box.hi);
   }
   [[nodiscard]] double screenError(const NodeId& n) const {
     const double error = exaggeratedError(tree_.info(n).geometricError, options_.exaggeration);
@@ -197,22 +198,6 @@ class Selector {
 };
 
 }  // namespace
-
-std::array<glm::dvec4, 6> frustumPlanes(const glm::dmat4& m) {
-  auto row = [&](int i) { return glm::dvec4(m[0][i], m[1][i], m[2][i], m[3][i]); };
-  const glm::dvec4 r0 = row(0), r1 = row(1), r2 = row(2), r3 = row(3);
-  // Clip space of GL_ZERO_TO_ONE: −w ≤ x, y ≤ w and 0 ≤ z ≤ w (reversed-Z: z = w at the near
-  // plane, z → 0 at infinity).
-  return {r3 + r0, r3 - r0, r3 + r1, r3 - r1, r3 - r2, r2};
-}
-
-bool boxInFrustum(const std::array<glm::dvec4, 6>& planes, const glm::dvec3& lo, const glm::dvec3& hi) {
-  for (const glm::dvec4& p : planes) {
-    const glm::dvec3 positive(p.x >= 0 ? hi.x : lo.x, p.y >= 0 ? hi.y : lo.y, p.z >= 0 ? hi.z : lo.z);
-    if (p.x * positive.x + p.y * positive.y + p.z * positive.z + p.w < 0.0) return false;
-  }
-  return true;
-}
 
 LodSelection selectLod(const TerrainQuadtree& tree, const LodView& view, const LodOptions& options) {
   return Selector(tree, view, options).run();

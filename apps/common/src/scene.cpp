@@ -88,7 +88,7 @@ class SceneParser {
     }
     warnUnknownKeys(j,
                     {"color", "opacity", "outline_width_m", "outline_color", "width_m", "width_attribute", "join",
-                     "cap", "miter_limit"},
+                     "cap", "miter_limit", "color_attribute", "categories"},
                     where);
     color(j, "color", where, s.color);
     color(j, "outline_color", where, s.outlineColor);
@@ -102,6 +102,21 @@ class SceneParser {
       error(where + "width_m", "must be positive");
     }
     read(j, "width_attribute", where, s.widthAttribute);
+    read(j, "color_attribute", where, s.colorAttribute);
+    if (j.contains("categories")) {
+      if (!j["categories"].is_object()) {
+        error(where + "categories", "expected an object mapping attribute values to colours");
+      } else {
+        for (const auto& [value, colour] : j["categories"].items()) {
+          glm::vec4 c;
+          if (!colour.is_string() || !overlay::parseHexColor(colour.get<std::string>(), c)) {
+            error(where + "categories." + value, "expected a colour like \"#ff8800\"");
+          } else {
+            s.categories[value] = c;
+          }
+        }
+      }
+    }
     read(j, "miter_limit", where, s.miterLimit);
     std::string text;
     bool ok = true;

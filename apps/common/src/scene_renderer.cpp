@@ -1,7 +1,10 @@
 #include "app/scene_renderer.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <numbers>
+
+#include <glm/common.hpp>
 
 #include "gfx/camera.hpp"
 #include "gfx/render_target.hpp"
@@ -9,7 +12,84 @@
 
 namespace gis::app {
 
-Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene) {
+namespace {
+
+/// A polygon feature's rings as closed lines (the outline is a line layer along them).
+std::vector<geo::Feature> outlineFeatures(const std::vector<geo::Feature>& polygons) {
+  std::vector<geo::Feature> out;
+  out.reserve(polygons.size());
+  for (const geo::Feature& f : polygons) {
+    geo::Feature line;
+    line.fid = f.fid;
+    line.attributes = f.attributes;
+    for (const geo::Polygon& p : f.polygons) {
+      for (const geo::Ring* ring : [&] {
+             std::vector<const geo::Ring*> rings{&p.outer};
+             for (const geo::Ring& h : p.holes) rings.push_back(&h);
+             return rings;
+           }()) {
+        if (ring->size() < 2) continue;
+        geo::LineString closed = *ring;
+        closed.push_back(ring->front());
+        line.lines.push_back(std::move(closed));
+      }
+    }
+    out.push_back(std::move(line));
+  }
+  return out;
+}
+
+}  // namespace
+
+Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const OverlayBuildSettings& settings) {
+  Diagnostics diagnostics;
+  layers_.clear();
+  sources_.clear();
+  const terrain::TerrainGrid& grid = scene.quadtree->grid();
+  overlay::LayerBuildOptions options;
+  options.paperVariant = settings.method == OverlayMethod::Paper;
+  options.footprints.chordTolerance = settings.chordToleranceMetres;
+  const glm::dvec2 a = grid.postPosition(0, 0), b = grid.postPosition(grid.width - 1, grid.height - 1);
+  overlay::CellGrid cells;
+  cells.origin = glm::min(a, b);
+  cells.cellSize = settings.cellPosts * std::max(std::abs(grid.step.x), std::abs(grid.step.y));
+  const glm::dvec2 extent = glm::max(a, b) - cells.origin;
+  cells.columns = std::max(1, static_cast<int>(std::ceil(extent.x / cells.cellSize)));
+  cells.rows = std::max(1, static_cast<int>(std::ceil(extent.y / cells.cellSize)));
+  options.footprints.cells = cells;
+  for (std::size_t i = 0; i < scene.layers.size(); ++i) {
+    const LoadedLayer& source = scene.layers[i];
+    if (!source.description.visible) continue;
+    const overlay::LayerStyle& style = source.description.style;
+    Result<overlay::OverlayLayer> layer =
+        overlay::OverlayLayer::build(source.description.name, source.description.kind, style, source.data.features,
+                                     *scene.bounds, options);
+    diagnostics.append(layer.diagnostics);
+    if (!layer) continue;
+    layers_.push_back(std::move(*layer));
+    sources_.emplace_back(i, false);
+    if (source.description.kind == overlay::LayerKind::Polygon && style.outlineWidthMetres > 0.0F) {
+      overlay::LayerStyle outline = style;
+      outline.color = style.outlineColor;
+      outline.opacity = 1.0F;
+      outline.colorAttribute.clear();
+      outline.widthMetres = style.outlineWidthMetres;
+      outline.widthAttribute.clear();
+      outline.join = overlay::LineJoin::Round;
+      outline.cap = overlay::LineCap::Round;
+      Result<overlay::OverlayLayer> lines =
+          overlay::OverlayLayer::build(source.description.name + " (outline)", overlay::LayerKind::Line, outline,
+                                       outlineFeatures(source.data.features), *scene.bounds, options);
+      diagnostics.append(lines.diagnostics);
+      if (!lines) continue;
+      layers_.push_back(std::move(*lines));
+      sources_.emplace_back(i, true);
+    }
+  }
+  return diagnostics;
+}
+
+Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene, const OverlayBuildSettings& overlays) {
   Result<terrain::TerrainEngine> engine =
       terrain::TerrainEngine::create(scene.quadtree, scene.orthophoto ? &*scene.orthophoto : nullptr,
                                      static_cast<std::size_t>(scene.description.gpuBudgetMb * 1024.0 * 1024.0));
@@ -18,6 +98,11 @@ Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene) {
   if (!engine) return result;
   SceneRenderer renderer;
   renderer.terrain_ = std::move(*engine);
+  Result<overlay::OverlayRenderer> overlayRenderer = overlay::OverlayRenderer::create();
+  result.diagnostics.append(overlayRenderer.diagnostics);
+  if (!overlayRenderer) return result;
+  renderer.overlay_ = std::move(*overlayRenderer);
+  result.diagnostics.append(renderer.buildOverlays(scene, overlays));
   renderer.timer_.emplace();
   renderer.statistics_.emplace();
   result.value = std::move(renderer);
@@ -74,6 +159,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     timer_->begin();
     statistics_->begin();
   }
+  gfx::enableMaskWrites(framebuffer, false);  // the terrain shader has no mask output
   terrain_->setWireframe(settings.wireframe);
   stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, settings.verticalExaggeration);
   if (settings.measure) {
@@ -81,6 +167,21 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     timer_->end();
     stats.terrain.gpuMilliseconds = static_cast<double>(timer_->nanoseconds().value_or(0)) * 1e-6;
     stats.terrain.counts = statistics_->result();
+  }
+  gfx::enableMaskWrites(framebuffer, true);
+  if (settings.overlays && !layers_.empty()) {
+    overlay::OverlayView overlayView;
+    overlayView.viewProj = viewProj;
+    overlayView.eye = camera.eye;
+    overlayView.nearPlane = camera.nearPlane;
+    overlayView.fovYRadians = view.fovYRadians;
+    overlayView.aspect = aspect;
+    std::vector<const overlay::OverlayLayer*> drawn;
+    drawn.reserve(layers_.size());
+    for (const overlay::OverlayLayer& l : layers_) drawn.push_back(&l);
+    overlay::OverlaySettings overlaySettings = settings.overlay;
+    overlaySettings.measure = settings.measure;
+    stats.layers = overlay_->draw(cache, overlayView, drawn, overlaySettings);
   }
   return stats;
 }

@@ -15,8 +15,9 @@ namespace gis::gfx {
 class RenderTarget {
  public:
   /// `samples` 0 or 1 = single-sampled (textures); >1 = multisampled textures, resolve with
-  /// resolveInto() before reading back.
-  RenderTarget(int width, int height, int samples = 0);
+  /// resolveInto() before reading back. `mask` adds a second draw buffer, R32F, for the overlay's
+  /// per-pixel layer bits (cleared to 0 with the colour).
+  RenderTarget(int width, int height, int samples = 0, bool mask = false);
 
   [[nodiscard]] int width() const { return width_; }
   [[nodiscard]] int height() const { return height_; }
@@ -25,12 +26,18 @@ class RenderTarget {
   [[nodiscard]] GLuint framebuffer() const { return fbo_.id(); }
   [[nodiscard]] GLuint colorTexture() const { return color_.id(); }
   [[nodiscard]] GLuint depthStencilTexture() const { return depthStencil_.id(); }
+  [[nodiscard]] bool hasMask() const { return static_cast<bool>(mask_); }
+  [[nodiscard]] GLuint maskTexture() const { return mask_.id(); }
   /// False (with the status logged) if GL did not accept the attachments.
   [[nodiscard]] bool complete() const;
 
   /// Copies colour, depth and stencil into a single-sampled target of the same size (colour
-  /// averaged over samples; depth and stencil of one sample per pixel, as GL defines).
+  /// averaged over samples; depth and stencil of one sample per pixel, as GL defines). The mask
+  /// is not resolved (bits do not average): read it per sample with copySampleInto().
   void resolveInto(const RenderTarget& single) const;
+  /// Copies sample `sample` of colour, mask and depth into a single-sampled target (a shader
+  /// pass with texelFetch): for per-sample comparisons.
+  void copySampleInto(const RenderTarget& single, int sample) const;
 
  private:
   int width_;
@@ -38,6 +45,7 @@ class RenderTarget {
   int samples_;
   TextureHandle color_;
   TextureHandle depthStencil_;
+  TextureHandle mask_;
   FramebufferHandle fbo_;
 };
 
@@ -57,11 +65,18 @@ inline void beginRenderPass(StateCache& cache, const RenderTarget& target, const
   beginRenderPass(cache, target.framebuffer(), target.width(), target.height(), params);
 }
 
+/// Turns writes to a framebuffer's second draw buffer (the overlay mask) off or on. Passes whose
+/// shaders have no second output (the terrain) must run with it off: GL leaves unwritten
+/// outputs undefined. No effect on the default framebuffer (0).
+void enableMaskWrites(GLuint framebuffer, bool enabled);
+
 /// Readback of a single-sampled target, top row first (image order).
 std::vector<std::uint8_t> readColorRgba8(const RenderTarget& target);
 /// Depth as stored (float; reversed-Z: 1 at the near plane, 0 at infinity), top row first.
 std::vector<float> readDepth(const RenderTarget& target);
 /// Stencil values, top row first.
 std::vector<std::uint8_t> readStencil(const RenderTarget& target);
+/// The overlay mask (bit i = layer i), top row first; the target must have a mask.
+std::vector<std::uint32_t> readMask(const RenderTarget& target);
 
 }  // namespace gis::gfx

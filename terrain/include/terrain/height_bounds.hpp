@@ -56,6 +56,8 @@ class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
 
   [[nodiscard]] overlay::HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const override;
   [[nodiscard]] overlay::HeightBounds globalBounds() const override;
+  /// Inside the DEM's posts and no nodata anywhere in the DEM (a conservative answer).
+  [[nodiscard]] bool coversFootprint(std::span<const glm::dvec2> footprint) const override;
 
   /// Bounds for drawing only levels ≥ `finestLevel` (for measuring what finer LODs would gain).
   [[nodiscard]] overlay::HeightBounds boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
@@ -67,6 +69,7 @@ class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
  private:
   std::shared_ptr<const TerrainQuadtree> tree_;
   std::optional<MinMaxPyramid> pyramid_;
+  bool hasNodata_ = true;
   double exaggeration_;
 };
 

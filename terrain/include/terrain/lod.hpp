@@ -53,10 +53,6 @@ struct LodSelection {
 
 LodSelection selectLod(const TerrainQuadtree& tree, const LodView& view, const LodOptions& options = {});
 
-/// Six planes (a, b, c, d with a·x + b·y + c·z + d ≥ 0 inside) of a reversed-Z frustum.
-std::array<glm::dvec4, 6> frustumPlanes(const glm::dmat4& viewProj);
-/// Conservative box test: false only if the box lies entirely outside one plane.
-bool boxInFrustum(const std::array<glm::dvec4, 6>& planes, const glm::dvec3& lo, const glm::dvec3& hi);
 
 /// The chunk of a selection that draws the point at continuous global post coordinates, or
 /// nullptr if none (culled, outside, or nodata).

@@ -24,6 +24,13 @@ class HeightBoundsProvider {
   [[nodiscard]] virtual HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const = 0;
   /// Bounds of the whole terrain as drawn.
   [[nodiscard]] virtual HeightBounds globalBounds() const = 0;
+  /// True if the terrain is drawn over the whole convex hull of `footprint` (inside the DEM, no
+  /// nodata there): then nothing below the surface can be seen through it, and z-pass
+  /// polyhedra leave out their bottom caps. The safe default says no.
+  [[nodiscard]] virtual bool coversFootprint(std::span<const glm::dvec2> footprint) const {
+    (void)footprint;
+    return false;
+  }
 };
 
 }  // namespace gis::overlay

@@ -1,6 +1,6 @@
 #pragma once
-// Layer styles as the scene file states them. The overlay core that draws them comes with the
-// overlay issue; the model is here so scenes can name their layers and styles now.
+// Layer styles as the scene file states them.
+#include <map>
 #include <string>
 
 #include <glm/vec4.hpp>
@@ -14,6 +14,10 @@ enum class LineCap { Round, Flat, Square };
 struct LayerStyle {
   glm::vec4 color{1.0F, 0.5F, 0.0F, 1.0F};  ///< straight (not premultiplied) RGBA
   float opacity = 0.5F;
+  /// Per-feature colour: the value of this attribute (as text) looked up in `categories`;
+  /// features whose value is not listed get `color`.
+  std::string colorAttribute;
+  std::map<std::string, glm::vec4> categories;
   // polygons
   float outlineWidthMetres = 0.0F;
   glm::vec4 outlineColor{0.0F, 0.0F, 0.0F, 1.0F};

@@ -1,6 +1,6 @@
 #pragma once
-// Draws a loaded scene into any framebuffer, headless or windowed, pass by pass (DESIGN §4).
-// For now the terrain pass; the overlay and selection passes join in later issues.
+// Draws a loaded scene into any framebuffer, headless or windowed, pass by pass (DESIGN §4):
+// the terrain, then the vector layers as stencil polyhedra (the selection passes join later).
 #include <cstdint>
 #include <optional>
 
@@ -12,6 +12,8 @@
 #include "gfx/state_cache.hpp"
 #include "terrain/terrain_engine.hpp"
 #include "terrain/tile_pager.hpp"
+#include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
 
 namespace gis::app {
 
@@ -23,6 +25,17 @@ struct RenderSettings {
   /// Paged terrain: wait until every tile the view wants is loaded (still images), instead of
   /// drawing coarser parents while they load (flights).
   bool waitForTiles = false;
+  bool overlays = true;  ///< draw the vector layers
+  overlay::OverlaySettings overlay;
+};
+
+/// How the vector layers are built: ours, or the seed paper's construction (for the benchmark).
+enum class OverlayMethod { Stencil, Paper };
+
+struct OverlayBuildSettings {
+  OverlayMethod method = OverlayMethod::Stencil;
+  int cellPosts = 16;  ///< pieces are split at cells of this many DEM posts (tightness)
+  double chordToleranceMetres = 0.02;
 };
 
 struct PassStats {
@@ -37,6 +50,7 @@ struct FrameStats {
   int finestLevel = 0;
   int coarsestLevel = 0;
   double selectMilliseconds = 0.0;  ///< CPU time of the LOD selection
+  std::vector<overlay::LayerFrameStats> layers;  ///< per drawn overlay layer (fill, then outline)
   std::size_t tilesMissing = 0;     ///< paged terrain: tiles wanted but not loaded (parents drawn)
   std::size_t tilesArrived = 0;     ///< paged terrain: tiles that became resident this frame
   terrain::TilePagerStats pager;
@@ -46,8 +60,11 @@ inline constexpr glm::vec4 kBackground{0.06F, 0.07F, 0.09F, 1.0F};
 
 class SceneRenderer {
  public:
-  /// Uploads the scene to the current context.
-  static Result<SceneRenderer> create(const LoadedScene& scene);
+  /// Uploads the scene to the current context: terrain and the visible vector layers.
+  static Result<SceneRenderer> create(const LoadedScene& scene, const OverlayBuildSettings& overlays = {});
+
+  /// Rebuilds the overlay layers (another method, or after a change of exaggeration).
+  Diagnostics buildOverlays(const LoadedScene& scene, const OverlayBuildSettings& overlays);
 
   /// Clears colour, depth (reversed-Z: 0) and stencil, selects the terrain chunks for this view
   /// and draws all passes.
@@ -56,10 +73,17 @@ class SceneRenderer {
 
   [[nodiscard]] const terrain::TerrainEngine& terrainEngine() const { return *terrain_; }
   [[nodiscard]] const terrain::LodSelection& lastSelection() const { return selection_; }
+  /// The overlay layers in draw order (a polygon layer's outline follows its fill).
+  [[nodiscard]] const std::vector<overlay::OverlayLayer>& overlayLayers() const { return layers_; }
+  /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
+  [[nodiscard]] const std::vector<std::pair<std::size_t, bool>>& overlaySources() const { return sources_; }
 
  private:
   SceneRenderer() = default;
   std::optional<terrain::TerrainEngine> terrain_;
+  std::optional<overlay::OverlayRenderer> overlay_;
+  std::vector<overlay::OverlayLayer> layers_;
+  std::vector<std::pair<std::size_t, bool>> sources_;
   terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
   std::optional<gfx::PipelineStatistics> statistics_;

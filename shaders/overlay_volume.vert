@@ -1,0 +1,21 @@
+#version 450 core
+// A vertex of a stencil polyhedron: (x, y) relative to its origin, the height of its cap (the
+// height bound) and the side (−1 bottom, +1 top). The origin arrives per draw as an instanced
+// attribute (baseInstance), already relative to the eye, so every float stays small near the
+// eye. Caps move out by a pad that grows with the distance from the eye (depth resolution).
+layout(location = 0) in vec4 a_position;
+layout(location = 1) in vec4 a_color;
+layout(location = 2) in vec3 a_origin;
+
+uniform mat4 u_modelViewProj;  // frame → clip, translated to the eye
+uniform float u_padBase;
+uniform float u_padPerMetre;
+
+out vec4 v_color;
+
+void main() {
+  vec3 p = vec3(a_position.xy + a_origin.xy, a_position.z + a_origin.z);
+  p.z += a_position.w * (u_padBase + u_padPerMetre * length(p));
+  v_color = a_color;
+  gl_Position = u_modelViewProj * vec4(p, 1.0);
+}

@@ -1,0 +1,308 @@
+// The overlay core against the CPU reference on the same depth buffer (DESIGN §7): the GPU mask
+// (bit per layer, from the real mark and cover passes) must equal the reference's coverage at
+// every pixel that does not straddle a feature edge, and differ on at most 0.5 % of covered
+// pixels on edges. Olinda (real tracts and streets, with outlines) from top-down, oblique and
+// grazing cameras, with the eye inside polygon and road volumes and the near plane cutting
+// them; stiff synthetic terrain (400 m cliffs, a spike, holes) with features over cliffs, under
+// forced coarse levels of detail and with tiles still loading (the bounds contract).
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "app/scene.hpp"
+#include "app/scene_loader.hpp"
+#include "app/scene_renderer.hpp"
+#include "gfx/camera.hpp"
+#include "gfx/image_io.hpp"
+#include "gfx/render_target.hpp"
+#include "gl_test.hpp"
+#include "terrain/height_bounds.hpp"
+#include "terrain/lod.hpp"
+#include "terrain/terrain_engine.hpp"
+#include "test_terrain.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
+
+namespace gis::test {
+namespace {
+
+constexpr int kWidth = 256;
+constexpr int kHeight = 192;
+
+struct Comparison {
+  std::size_t covered = 0;      ///< pixels the reference covers
+  std::size_t wrong = 0;        ///< differing pixels away from edges
+  std::size_t edgeWrong = 0;    ///< differing pixels on edges
+  std::size_t zFailPieces = 0;  ///< pieces drawn z-fail in this frame
+};
+
+std::vector<overlay::ReferenceLayer> referenceLayers(const std::vector<const overlay::OverlayLayer*>& layers) {
+  std::vector<overlay::ReferenceLayer> out;
+  for (const overlay::OverlayLayer* l : layers) {
+    overlay::ReferenceLayer r;
+    r.name = l->name();
+    r.kind = l->kind();
+    r.features = &l->features();
+    for (const overlay::FeatureStyle& s : l->featureStyles()) {
+      r.shapes.push_back(s.shape);
+      r.visible.push_back(s.visible);
+    }
+    if (r.kind == overlay::LayerKind::Polygon) r.shapes.clear();
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+/// Reads the target back and compares it with the reference.
+Comparison compare(const gfx::RenderTarget& target, const glm::dmat4& viewProj,
+                   const std::vector<const overlay::OverlayLayer*>& layers, const std::string& label) {
+  const std::vector<float> depth = gfx::readDepth(target);
+  const std::vector<std::uint32_t> gpu = gfx::readMask(target);
+  overlay::DepthImage image{kWidth, kHeight, depth, viewProj};
+  const std::vector<overlay::ReferenceLayer> ref = referenceLayers(layers);
+  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
+  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+  Comparison c;
+  int reported = 0;
+  for (std::size_t i = 0; i < gpu.size(); ++i) {
+    c.covered += expected[i] != 0 ? 1u : 0u;
+    if (gpu[i] == expected[i]) continue;
+    if (edges[i] != 0) {
+      ++c.edgeWrong;
+    } else {
+      ++c.wrong;
+      if (reported++ < 5) {
+        ADD_FAILURE() << label << ": pixel (" << i % kWidth << ", " << i / kWidth << ") GPU mask " << gpu[i]
+                      << ", reference " << expected[i] << ", depth " << depth[i];
+      }
+    }
+  }
+  return c;
+}
+
+double percent(std::size_t part, std::size_t whole) {
+  return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
+}
+
+class OverlayGlTest : public GlTest {};
+
+TEST_F(OverlayGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  ASSERT_TRUE(scene.ok());
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  ASSERT_TRUE(renderer.ok());
+  ASSERT_GE(renderer->overlayLayers().size(), 2u);
+  std::vector<const overlay::OverlayLayer*> layers;
+  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) layers.push_back(&l);
+
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene, 1.0, lo, hi);
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  app::RenderSettings settings;
+  std::mt19937 rng(4242);
+  std::uniform_real_distribution<double> ux(lo.x + 300, hi.x - 300), uy(lo.y + 300, hi.y - 300);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  // Street vertices, to put the eye inside road volumes.
+  const overlay::OverlayLayer* streets = nullptr;
+  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) {
+    if (l.kind() == overlay::LayerKind::Line && l.name() == "streets") streets = &l;
+  }
+  ASSERT_NE(streets, nullptr);
+
+  Comparison total;
+  const char* kinds[] = {"top-down", "oblique", "grazing", "inside road", "inside polygon", "near plane cuts"};
+  // The same cameras twice: as classified (z-pass unless a piece may hold the eye or meet the
+  // near plane), then with every piece forced through the z-fail path.
+  for (int trial = 0; trial < 72; ++trial) {
+    if (trial == 36) rng.seed(4242);
+    settings.overlay.forceZFail = trial >= 36;
+    const int kind = trial % 6;
+    app::Camera camera;
+    camera.fovYDeg = 40.0;
+    const glm::dvec2 target2(ux(rng), uy(rng));
+    const double ground = scene->bounds->fullResolutionHeightAt(target2);
+    const double g = std::isnan(ground) ? 0.0 : ground;
+    switch (kind) {
+      case 0:  // straight down (tiny tilt for lookAt)
+        camera.eye = glm::dvec3(target2 + glm::dvec2(0.0, -1.0), g + 300.0 + 2000.0 * unit(rng));
+        camera.target = glm::dvec3(target2, g);
+        break;
+      case 1: {  // oblique
+        const double a = 6.283 * unit(rng), d = 500.0 + 1500.0 * unit(rng);
+        camera.eye = glm::dvec3(target2 + d * glm::dvec2(std::cos(a), std::sin(a)), g + 0.6 * d);
+        camera.target = glm::dvec3(target2, g);
+        break;
+      }
+      case 2: {  // grazing at about 1°
+        const double a = 6.283 * unit(rng), d = 1500.0;
+        camera.eye = glm::dvec3(target2 + d * glm::dvec2(std::cos(a), std::sin(a)), g + 90.0 + d * 0.0175);
+        camera.target = glm::dvec3(target2, g + 90.0);
+        break;
+      }
+      case 3: {  // the eye low over a street vertex: inside its road volume
+        const geo::Feature& f =
+            streets->features()[std::uniform_int_distribution<std::size_t>(0, streets->features().size() - 1)(rng)];
+        if (f.lines.empty() || f.lines.front().empty()) continue;
+        const glm::dvec2 p = f.lines.front().front();
+        const double h = scene->bounds->fullResolutionHeightAt(p);
+        camera.eye = glm::dvec3(p, (std::isnan(h) ? 0.0 : h) + 1.5);
+        camera.target = glm::dvec3(p + glm::dvec2(80.0, 30.0), std::isnan(h) ? 0.0 : h);
+        camera.nearPlane = 0.5;
+        break;
+      }
+      case 4:  // a few metres above the ground inside a tract
+        camera.eye = glm::dvec3(target2, g + 3.0);
+        camera.target = glm::dvec3(target2 + glm::dvec2(200.0, 50.0), g);
+        camera.nearPlane = 0.5;
+        break;
+      default:  // a far near plane that cuts the volumes in front of a low eye
+        camera.eye = glm::dvec3(target2, g + 25.0);
+        camera.target = glm::dvec3(target2 + glm::dvec2(150.0, 0.0), g);
+        camera.nearPlane = 30.0;
+        break;
+    }
+    const app::FrameStats stats = renderer->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+    const double aspect = static_cast<double>(kWidth) / kHeight;
+    Comparison c = compare(target, camera.projection(aspect) * camera.view(), layers,
+                           std::string(kinds[kind]) + " #" + std::to_string(trial));
+    for (const overlay::LayerFrameStats& s : stats.layers) c.zFailPieces += s.zFailPieces;
+    total.covered += c.covered;
+    total.wrong += c.wrong;
+    total.edgeWrong += c.edgeWrong;
+    total.zFailPieces += c.zFailPieces;
+  }
+  std::printf("Olinda: %zu covered pixels, %zu wrong away from edges, %zu on edges (%.3f %%), %zu z-fail pieces\n",
+              total.covered, total.wrong, total.edgeWrong, percent(total.edgeWrong, total.covered), total.zFailPieces);
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 200);
+  EXPECT_GT(total.covered, 100000u);
+  EXPECT_GT(total.zFailPieces, 0u) << "no camera put the eye inside a volume";
+}
+
+/// Random features over a terrain: quads and rotated polygons with a hole, and polylines.
+std::vector<geo::Feature> randomPolygons(std::mt19937& rng, const glm::dvec2& lo, const glm::dvec2& hi, int count) {
+  std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), size(50.0, 1500.0), angle(0.0, 6.283);
+  std::vector<geo::Feature> out;
+  for (int i = 0; i < count; ++i) {
+    geo::Feature f;
+    f.fid = i;
+    const glm::dvec2 c(ux(rng), uy(rng));
+    const double r = size(rng), a0 = angle(rng);
+    geo::Polygon p;
+    const int n = 5 + i % 7;
+    for (int k = 0; k < n; ++k) {
+      const double a = a0 + 6.283 * k / n, rr = r * (0.6 + 0.4 * std::sin(3.0 * a));
+      p.outer.push_back(c + rr * glm::dvec2(std::cos(a), std::sin(a)));
+    }
+    if (i % 3 == 0) {
+      p.holes.assign(1, {});
+      for (int k = 0; k < 4; ++k) {
+        const double a = a0 - 6.283 * k / 4;
+        p.holes[0].push_back(c + 0.25 * r * glm::dvec2(std::cos(a), std::sin(a)));
+      }
+    }
+    f.polygons.push_back(std::move(p));
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+std::vector<geo::Feature> randomLines(std::mt19937& rng, const glm::dvec2& lo, const glm::dvec2& hi, int count) {
+  std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), step(20.0, 400.0), turn(-2.5, 2.5);
+  std::vector<geo::Feature> out;
+  for (int i = 0; i < count; ++i) {
+    geo::Feature f;
+    f.fid = i;
+    f.attributes["width_m"] = std::int64_t{4 + (i % 5) * 6};
+    geo::LineString line{glm::dvec2(ux(rng), uy(rng))};
+    double heading = 6.283 * (i % 8) / 8.0;
+    for (int k = 0; k < 6; ++k) {
+      heading += turn(rng) * 0.5;
+      line.push_back(line.back() + step(rng) * glm::dvec2(std::cos(heading), std::sin(heading)));
+    }
+    f.lines.push_back(std::move(line));
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+TEST_F(OverlayGlTest, StiffTerrainUnderCoarseAndLoadingLodsMissesNoPixel) {
+  auto tree =
+      std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 257, .height = 257, .seed = 3}), 16);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  ASSERT_TRUE(engine.ok());
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(overlays.ok());
+  const terrain::TerrainGrid& grid = tree->grid();
+  const glm::dvec2 lo = grid.postPosition(0, grid.height - 1), hi = grid.postPosition(grid.width - 1, 0);
+
+  std::mt19937 rng(17);
+  overlay::LayerBuildOptions options;
+  overlay::CellGrid cells;
+  cells.origin = lo;
+  cells.cellSize = 16 * grid.step.x;
+  cells.columns = cells.rows = (grid.width - 1) / 16;
+  options.footprints.cells = cells;
+  overlay::LayerStyle area, road;
+  area.opacity = 0.5F;
+  road.widthAttribute = "width_m";
+  road.join = overlay::LineJoin::Miter;
+  road.cap = overlay::LineCap::Square;
+  Result<overlay::OverlayLayer> polygons = overlay::OverlayLayer::build(
+      "areas", overlay::LayerKind::Polygon, area, randomPolygons(rng, lo, hi, 25), *bounds, options);
+  Result<overlay::OverlayLayer> lines = overlay::OverlayLayer::build("roads", overlay::LayerKind::Line, road,
+                                                                     randomLines(rng, lo, hi, 30), *bounds, options);
+  ASSERT_TRUE(polygons.ok() && lines.ok());
+  const std::vector<const overlay::OverlayLayer*> layers{&*polygons, &*lines};
+
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), unit(0.0, 1.0);
+  Comparison total;
+  for (int trial = 0; trial < 24; ++trial) {
+    const glm::dvec2 t(ux(rng), uy(rng));
+    const double a = 6.283 * unit(rng), d = 300.0 + 3000.0 * unit(rng);
+    const glm::dvec3 eye(t + d * glm::dvec2(std::cos(a), std::sin(a)), 600.0 + 2500.0 * unit(rng));
+    const double fov = glm::radians(45.0), aspect = static_cast<double>(kWidth) / kHeight;
+    const glm::dmat4 viewProj =
+        gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, glm::dvec3(t, 0.0), glm::dvec3(0, 0, 1));
+    terrain::LodView view{eye, viewProj, kHeight, fov};
+    terrain::LodOptions lod;
+    lod.pixelTolerance = 1.0;
+    if (trial % 3 == 1) lod.coarsestAllowedLevel = std::uniform_int_distribution<int>(1, tree->rootLevel())(rng);
+    if (trial % 3 == 2) {
+      const unsigned salt = static_cast<unsigned>(rng());
+      lod.resident = [salt](const terrain::NodeId& n) {
+        return ((n.key() * 2654435761u) ^ salt) % 3 != 0 || n.level > 2;
+      };
+    }
+    const terrain::LodSelection selection = terrain::selectLod(*tree, view, lod);
+    gfx::enableReversedZ();
+    gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
+    gfx::enableMaskWrites(target.framebuffer(), false);
+    engine->draw(cache_, viewProj, eye, selection, 1.0);
+    gfx::enableMaskWrites(target.framebuffer(), true);
+    overlay::OverlayView ov{viewProj, eye, 1.0, fov, aspect};
+    overlays->draw(cache_, ov, layers);
+    const Comparison c = compare(target, viewProj, layers, "stiff #" + std::to_string(trial));
+    total.covered += c.covered;
+    total.wrong += c.wrong;
+    total.edgeWrong += c.edgeWrong;
+  }
+  std::printf("stiff: %zu covered pixels, %zu wrong away from edges, %zu on edges (%.3f %%)\n", total.covered,
+              total.wrong, total.edgeWrong, percent(total.edgeWrong, total.covered));
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 200);
+  EXPECT_GT(total.covered, 20000u);
+}
+
+}  // namespace
+}  // namespace gis::test

@@ -1,0 +1,110 @@
+// The overlay passes' render states against the tables they come from: the seed paper's mask
+// creation (Dai 2008 §3.2: z-pass increments front faces and decrements back faces where the
+// depth test passes; z-fail increments back faces and decrements front faces where it fails)
+// and cover (§3.3: stencil NOTEQUAL 0; front faces in z-pass, back faces in z-fail), with
+// DESIGN §4's changes: wrapping ops in one two-sided draw, depth clamp, zeroing cover ops and
+// premultiplied-alpha blending. Each row of the table is written out here and compared with
+// the named state the renderer uses.
+#include <gtest/gtest.h>
+
+#include "vector_overlay/stencil_states.hpp"
+
+namespace gis::test {
+namespace {
+
+using gfx::CompareFunc;
+using gfx::CullMode;
+using gfx::StencilOp;
+
+struct Row {
+  const char* pass;
+  const gfx::PipelineState* state;
+  // What the table says:
+  CullMode drawnFaces;  ///< which faces are culled (None = both drawn in one draw)
+  StencilOp frontDepthPass, frontDepthFail, backDepthPass, backDepthFail;
+  CompareFunc stencilFunc;
+  bool colour, depthTest, depthWrite, depthClamp, blend;
+};
+
+constexpr StencilOp K = StencilOp::Keep;
+
+const Row kTable[] = {
+    // pass            state                    culled           front pass            front fail            back pass
+    // back fail             stencil test           colour depthT depthW clamp  blend
+    {"mark z-pass", &overlay::kMarkZPass, CullMode::None, StencilOp::IncrWrap, K, StencilOp::DecrWrap, K,
+     CompareFunc::Always, false, true, false, true, false},
+    {"mark z-fail", &overlay::kMarkZFail, CullMode::None, K, StencilOp::DecrWrap, K, StencilOp::IncrWrap,
+     CompareFunc::Always, false, true, false, true, false},
+    {"cover z-pass", &overlay::kCoverZPass, CullMode::Back, StencilOp::Zero, StencilOp::Zero, StencilOp::Zero,
+     StencilOp::Zero, CompareFunc::NotEqual, true, false, false, true, true},
+    {"cover z-fail", &overlay::kCoverZFail, CullMode::Front, StencilOp::Zero, StencilOp::Zero, StencilOp::Zero,
+     StencilOp::Zero, CompareFunc::NotEqual, true, false, false, true, true},
+    // The paper's variant: saturating ops, one face set per draw.
+    {"paper z-pass front", &overlay::kPaperMarkZPassFront, CullMode::Back, StencilOp::Incr, K, StencilOp::Incr, K,
+     CompareFunc::Always, false, true, false, true, false},
+    {"paper z-pass back", &overlay::kPaperMarkZPassBack, CullMode::Front, StencilOp::Decr, K, StencilOp::Decr, K,
+     CompareFunc::Always, false, true, false, true, false},
+    {"paper z-fail back", &overlay::kPaperMarkZFailBack, CullMode::Front, K, StencilOp::Incr, K, StencilOp::Incr,
+     CompareFunc::Always, false, true, false, true, false},
+    {"paper z-fail front", &overlay::kPaperMarkZFailFront, CullMode::Back, K, StencilOp::Decr, K, StencilOp::Decr,
+     CompareFunc::Always, false, true, false, true, false},
+    {"paper cover z-pass", &overlay::kPaperCoverZPass, CullMode::Back, StencilOp::Zero, StencilOp::Zero,
+     StencilOp::Zero, StencilOp::Zero, CompareFunc::NotEqual, true, true, false, true, true},
+    {"paper cover z-fail", &overlay::kPaperCoverZFail, CullMode::Front, StencilOp::Zero, StencilOp::Zero,
+     StencilOp::Zero, StencilOp::Zero, CompareFunc::NotEqual, true, false, false, true, true},
+};
+
+TEST(StencilStates, MatchTheTables) {
+  for (const Row& row : kTable) {
+    SCOPED_TRACE(row.pass);
+    const gfx::PipelineState& s = *row.state;
+    EXPECT_EQ(s.raster.cull, row.drawnFaces);
+    EXPECT_TRUE(s.stencil.test);
+    EXPECT_EQ(s.stencil.front.depthPass, row.frontDepthPass);
+    EXPECT_EQ(s.stencil.front.depthFail, row.frontDepthFail);
+    EXPECT_EQ(s.stencil.back.depthPass, row.backDepthPass);
+    EXPECT_EQ(s.stencil.back.depthFail, row.backDepthFail);
+    EXPECT_EQ(s.stencil.front.stencilFail, K);
+    EXPECT_EQ(s.stencil.back.stencilFail, K);
+    EXPECT_EQ(s.stencil.front.func, row.stencilFunc);
+    EXPECT_EQ(s.stencil.back.func, row.stencilFunc);
+    EXPECT_EQ(s.stencil.front.ref, 0);
+    EXPECT_EQ(s.stencil.front.readMask, 0xFF);
+    EXPECT_EQ(s.stencil.front.writeMask, 0xFF);
+    const bool colour = s.raster.colorMask.r || s.raster.colorMask.g || s.raster.colorMask.b || s.raster.colorMask.a;
+    EXPECT_EQ(colour, row.colour);
+    EXPECT_EQ(s.depth.test, row.depthTest);
+    if (s.depth.test) {
+      EXPECT_EQ(s.depth.func, CompareFunc::Greater) << "reversed-Z: nearer passes";
+    }
+    EXPECT_EQ(s.depth.write, row.depthWrite);
+    EXPECT_EQ(s.depth.clamp, row.depthClamp);
+    EXPECT_EQ(s.blend.enabled, row.blend);
+    if (row.blend) {
+      EXPECT_EQ(s.blend, gfx::kBlendPremultipliedOver);
+    }
+  }
+}
+
+// Counting, as the table implies, along one ray: the terrain point is inside k of n closed
+// volumes; z-pass counts crossings in front of the point from an eye outside them all, z-fail
+// counts crossings behind it. Both give k (mod 256, hence the wrapping ops), whatever the order.
+TEST(StencilStates, CountingRulesGiveTheNumberOfVolumesHoldingThePoint) {
+  // Volumes along the ray as [enter, exit] distances; the terrain point at distance 10.
+  const std::pair<double, double> volumes[] = {{2, 4}, {8, 12}, {9, 30}, {11, 13}, {1, 40}};
+  const double point = 10.0;
+  int inside = 0, zPass = 0, zFail = 0;
+  for (const auto& [enter, exit] : volumes) {
+    inside += enter < point && point < exit ? 1 : 0;
+    // z-pass: front face (enter) +1, back face (exit) −1 where nearer than the point.
+    zPass += (enter < point ? 1 : 0) - (exit < point ? 1 : 0);
+    // z-fail: back face (exit) +1, front face (enter) −1 where farther than the point.
+    zFail += (exit > point ? 1 : 0) - (enter > point ? 1 : 0);
+  }
+  EXPECT_EQ(zPass, inside);
+  EXPECT_EQ(zFail, inside);
+  EXPECT_EQ(inside, 3);
+}
+
+}  // namespace
+}  // namespace gis::test

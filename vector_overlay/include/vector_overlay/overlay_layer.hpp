@@ -1,0 +1,153 @@
+#pragma once
+// One vector layer as stencil polyhedra (DESIGN §5): each feature's footprints (footprints.hpp)
+// extruded between the height bounds of their cells into closed, outward-wound polyhedra, kept
+// in GPU buffers with one slot per piece, so that editing a feature rewrites only its pieces.
+//
+// A piece's vertices are stored relative to an origin near it (1 km grid) as
+// (x, y, height, side): height is the bound from the HeightBoundsProvider (lo for side −1, hi
+// for side +1); the shader moves caps by side · pad, with a pad that grows with the distance
+// from the eye (depth precision), so padding is a per-frame setting. Indices of a piece are
+// [bottom cap | walls | top cap], so z-pass draws can leave out the bottom cap.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "core/diagnostics.hpp"
+#include "geo/vector.hpp"
+#include "gfx/handles.hpp"
+#include "vector_overlay/footprints.hpp"
+#include "vector_overlay/height_bounds.hpp"
+#include "vector_overlay/style.hpp"
+
+namespace gis::overlay {
+
+/// How one feature is drawn, resolved from the layer style and its attributes.
+struct FeatureStyle {
+  glm::vec4 color{1.0F};  ///< straight alpha, opacity applied
+  LineShape shape;        ///< line layers
+  bool visible = true;
+};
+
+/// The style of each feature of a layer: colour from `colorAttribute` through the categorical
+/// map (else the layer colour), width from `widthAttribute` (else the layer width).
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
+                                               const std::vector<geo::Feature>& features);
+
+struct LayerBuildOptions {
+  FootprintOptions footprints;
+  /// The seed paper's construction: one bound pair per feature (no split at cells).
+  bool paperVariant = false;
+};
+
+/// A closed polyhedron: a footprint extruded between [lo, hi] (exaggerated metres).
+struct Polyhedron {
+  Footprint footprint;
+  double lo = 0.0;
+  double hi = 0.0;
+  /// The terrain is drawn under the whole footprint (no nodata, inside the DEM), so in z-pass the
+  /// bottom cap can never pass the depth test and is left out.
+  bool overSurface = false;
+  glm::dvec2 boxMin{0.0}, boxMax{0.0};  ///< of the footprint
+};
+
+/// Builds the polyhedra of one feature under the bounds contract.
+std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
+                                       const FeatureStyle& style, const std::string& layerName,
+                                       const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
+                                       Diagnostics& diagnostics);
+
+/// True if the point may lie inside the polyhedron extruded with padding `pad` (exaggerated
+/// metres), within `margin` metres: in the footprint (or within margin of it) and between
+/// lo − pad − margin and hi + pad + margin. Conservative: false means certainly outside.
+bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double margin);
+
+struct LayerStats {
+  std::size_t features = 0;
+  std::size_t skippedFeatures = 0;
+  std::size_t pieces = 0;
+  std::size_t triangles = 0;
+  std::size_t gpuBytes = 0;
+  double buildSeconds = 0.0;
+};
+
+class OverlayLayer {
+ public:
+  /// Builds every feature's polyhedra and uploads them (needs a current GL context). Broken
+  /// features are reported in `diagnostics` and left out; the rest is drawn.
+  static Result<OverlayLayer> build(std::string name, LayerKind kind, const LayerStyle& style,
+                                    std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                    const LayerBuildOptions& options = {});
+
+  [[nodiscard]] const std::string& name() const { return name_; }
+  [[nodiscard]] LayerKind kind() const { return kind_; }
+  [[nodiscard]] const LayerStyle& style() const { return style_; }
+  [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_; }
+  [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
+  [[nodiscard]] const LayerStats& stats() const { return stats_; }
+  [[nodiscard]] bool paperVariant() const { return options_.paperVariant; }
+
+  /// Editing: only the feature's pieces are rebuilt and re-uploaded; the next frame shows it.
+  Diagnostics replaceFeature(std::size_t index, geo::Feature feature);
+  Diagnostics setFeatureStyle(std::size_t index, const FeatureStyle& style);
+  void removeFeature(std::size_t index);  ///< hides it for good (indices stay stable)
+  /// Re-reads the height bounds of every piece (after a change of vertical exaggeration).
+  void refreshBounds(const HeightBoundsProvider& bounds);
+
+  /// Draw-side view of the pieces (the renderer's business).
+  struct PieceSlot {
+    std::uint32_t feature = 0;
+    std::uint32_t origin = 0;         ///< index into origins()
+    std::uint32_t baseVertex = 0;     ///< in the vertex buffer
+    std::uint32_t firstIndex = 0;     ///< in the index buffer
+    std::uint32_t bottomCount = 0;    ///< indices of the bottom cap (first)
+    std::uint32_t indexCount = 0;     ///< all indices
+    std::uint32_t boxFirstIndex = 0;  ///< paper variant: the piece's bounding box (36 indices)
+    bool live = false;
+  };
+  [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
+  [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
+  [[nodiscard]] const std::vector<glm::dvec2>& origins() const { return origins_; }
+  [[nodiscard]] GLuint vertexBuffer() const { return vertices_.id(); }
+  [[nodiscard]] GLuint indexBuffer() const { return indices_.id(); }
+
+ private:
+  OverlayLayer() = default;
+  struct Vertex {
+    float x, y, height, side;
+    std::uint8_t rgba[4];
+  };
+  static_assert(sizeof(Vertex) == 20);
+  void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
+  void freePieces(std::uint32_t feature);
+  std::uint32_t originFor(const Polyhedron& p);
+  void ensureCapacity(std::size_t vertices, std::size_t indices);
+  void appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i);
+
+  std::string name_;
+  LayerKind kind_ = LayerKind::Polygon;
+  LayerStyle style_;
+  LayerBuildOptions options_;
+  std::vector<geo::Feature> features_;
+  std::vector<FeatureStyle> styles_;
+  std::vector<std::vector<std::uint32_t>> featureSlots_;  ///< per feature, its slots
+  std::vector<PieceSlot> slots_;
+  std::vector<Polyhedron> polyhedra_;  ///< per slot
+  std::vector<glm::dvec2> origins_;
+  std::vector<Vertex> cpuVertices_;
+  std::vector<std::uint32_t> cpuIndices_;
+  gfx::BufferHandle vertices_, indices_;
+  std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
+  std::size_t vertexUsed_ = 0, indexUsed_ = 0;
+  std::size_t wastedIndices_ = 0;
+  LayerStats stats_;
+  const HeightBoundsProvider* bounds_ = nullptr;
+};
+
+}  // namespace gis::overlay

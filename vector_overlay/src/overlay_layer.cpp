@@ -1,0 +1,347 @@
+#include "vector_overlay/overlay_layer.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <variant>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+namespace gis::overlay {
+namespace {
+
+std::string attributeText(const geo::AttributeValue& v) {
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
+  if (const auto* d = std::get_if<double>(&v)) {
+    std::ostringstream out;
+    out << *d;
+    return out.str();
+  }
+  if (const auto* s = std::get_if<std::string>(&v)) return *s;
+  return {};
+}
+
+std::optional<double> attributeNumber(const geo::AttributeValue& v) {
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return static_cast<double>(*i);
+  if (const auto* d = std::get_if<double>(&v)) return *d;
+  if (const auto* s = std::get_if<std::string>(&v)) {
+    try {
+      std::size_t used = 0;
+      const double x = std::stod(*s, &used);
+      if (used == s->size()) return x;
+    } catch (...) {
+    }
+  }
+  return std::nullopt;
+}
+
+std::uint8_t unorm8(float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0F, 1.0F) * 255.0F)); }
+
+constexpr double kOriginGrid = 1024.0;  ///< metres: vertices are floats relative to an origin near them
+
+}  // namespace
+
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
+                                               const std::vector<geo::Feature>& features) {
+  std::vector<FeatureStyle> out;
+  out.reserve(features.size());
+  for (const geo::Feature& f : features) {
+    FeatureStyle s;
+    glm::vec4 colour = style.color;
+    if (!style.colorAttribute.empty()) {
+      const auto a = f.attributes.find(style.colorAttribute);
+      if (a != f.attributes.end()) {
+        const auto c = style.categories.find(attributeText(a->second));
+        if (c != style.categories.end()) colour = c->second;
+      }
+    }
+    s.color = glm::vec4(colour.x, colour.y, colour.z, colour.w * style.opacity);
+    if (kind == LayerKind::Line) {
+      s.shape.width = style.widthMetres;
+      if (!style.widthAttribute.empty()) {
+        const auto a = f.attributes.find(style.widthAttribute);
+        if (a != f.attributes.end()) {
+          if (const std::optional<double> w = attributeNumber(a->second); w && *w > 0.0 && std::isfinite(*w)) {
+            s.shape.width = *w;
+          }
+        }
+      }
+      s.shape.join = style.join;
+      s.shape.cap = style.cap;
+      s.shape.miterLimit = style.miterLimit;
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
+                                       const FeatureStyle& style, const std::string& layerName,
+                                       const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
+                                       Diagnostics& diagnostics) {
+  FootprintOptions fo = options.footprints;
+  if (options.paperVariant) fo.cells.reset();
+  std::vector<Footprint> footprints =
+      kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)
+                                 : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
+  std::vector<Polyhedron> out;
+  out.reserve(footprints.size());
+  HeightBounds featureBounds{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  for (Footprint& f : footprints) {
+    if (f.triangles.empty() || f.vertices.empty()) continue;
+    Polyhedron p;
+    p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
+    p.boxMax = -p.boxMin;
+    for (const glm::dvec2& v : f.vertices) {
+      p.boxMin = glm::min(p.boxMin, v);
+      p.boxMax = glm::max(p.boxMax, v);
+    }
+    const HeightBounds b = bounds.boundsOver(f.vertices);
+    p.lo = b.lo;
+    p.hi = b.hi;
+    if (!b.valid() || !std::isfinite(b.lo) || !std::isfinite(b.hi)) {
+      const HeightBounds g = bounds.globalBounds();
+      p.lo = g.lo;
+      p.hi = g.hi;
+    }
+    p.overSurface = bounds.coversFootprint(f.vertices);
+    featureBounds.lo = std::min(featureBounds.lo, p.lo);
+    featureBounds.hi = std::max(featureBounds.hi, p.hi);
+    p.footprint = std::move(f);
+    out.push_back(std::move(p));
+  }
+  if (options.paperVariant) {
+    // One bound pair per feature, as the seed paper builds them.
+    for (Polyhedron& p : out) {
+      p.lo = featureBounds.lo;
+      p.hi = featureBounds.hi;
+    }
+  }
+  return out;
+}
+
+bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double margin) {
+  if (point.z < p.lo - pad - margin || point.z > p.hi + pad + margin) return false;
+  const glm::dvec2 q(point);
+  if (q.x < p.boxMin.x - margin || q.y < p.boxMin.y - margin || q.x > p.boxMax.x + margin ||
+      q.y > p.boxMax.y + margin) {
+    return false;
+  }
+  // Inside the footprint: inside one of its triangles, or within margin of one.
+  const Footprint& f = p.footprint;
+  for (const auto& t : f.triangles) {
+    const glm::dvec2 a = f.vertices[t[0]], b = f.vertices[t[1]], c = f.vertices[t[2]];
+    auto edge = [&](const glm::dvec2& u, const glm::dvec2& v) {
+      // Signed distance of q to the line u→v, positive on the left (inside for a CCW triangle).
+      const glm::dvec2 d = v - u;
+      const double len = glm::length(d);
+      if (len == 0.0) return std::numeric_limits<double>::infinity();
+      return (d.x * (q.y - u.y) - d.y * (q.x - u.x)) / len;
+    };
+    if (edge(a, b) >= -margin && edge(b, c) >= -margin && edge(c, a) >= -margin) return true;
+  }
+  return false;
+}
+
+Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const LayerStyle& style,
+                                         std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                         const LayerBuildOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  OverlayLayer layer;
+  layer.name_ = std::move(name);
+  layer.kind_ = kind;
+  layer.style_ = style;
+  layer.options_ = options;
+  layer.features_ = std::move(features);
+  layer.bounds_ = &bounds;
+  layer.styles_ = resolveFeatureStyles(style, kind, layer.features_);
+  layer.featureSlots_.resize(layer.features_.size());
+  Result<OverlayLayer> r;
+  for (std::size_t i = 0; i < layer.features_.size(); ++i) {
+    if (!layer.styles_[i].visible) continue;
+    const std::size_t errorsBefore = r.diagnostics.count(Severity::Error);
+    std::vector<Polyhedron> pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind,
+                                                    layer.styles_[i], layer.name_, bounds, options, r.diagnostics);
+    if (pieces.empty() && r.diagnostics.count(Severity::Error) > errorsBefore) ++layer.stats_.skippedFeatures;
+    layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces));
+  }
+  layer.stats_.features = layer.features_.size();
+  layer.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.value = std::move(layer);
+  return r;
+}
+
+std::uint32_t OverlayLayer::originFor(const Polyhedron& p) {
+  const glm::dvec2 centre = 0.5 * (p.boxMin + p.boxMax);
+  const glm::dvec2 origin = (glm::floor(centre / kOriginGrid) + 0.5) * kOriginGrid;
+  for (std::size_t i = origins_.size(); i-- > 0;) {  // recent origins first: pieces come in runs
+    if (origins_[i] == origin) return static_cast<std::uint32_t>(i);
+    if (origins_.size() - i > 64) break;
+  }
+  const auto found = std::find(origins_.begin(), origins_.end(), origin);
+  if (found != origins_.end()) return static_cast<std::uint32_t>(found - origins_.begin());
+  origins_.push_back(origin);
+  return static_cast<std::uint32_t>(origins_.size() - 1);
+}
+
+void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces) {
+  const FeatureStyle& style = styles_[feature];
+  const std::uint8_t rgba[4] = {unorm8(style.color.x), unorm8(style.color.y), unorm8(style.color.z),
+                                unorm8(style.color.w)};
+  for (Polyhedron& p : pieces) {
+    const std::size_t slot = slots_.size();
+    PieceSlot s;
+    s.feature = feature;
+    s.origin = originFor(p);
+    s.live = true;
+    const glm::dvec2 origin = origins_[s.origin];
+    const Footprint& f = p.footprint;
+    std::vector<Vertex> v;
+    v.reserve(2 * f.vertices.size() + 8);
+    for (const glm::dvec2& q : f.vertices) {
+      const glm::vec2 rel(q - origin);
+      v.push_back({rel.x, rel.y, static_cast<float>(p.lo), -1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
+      v.push_back({rel.x, rel.y, static_cast<float>(p.hi), 1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
+    }
+    std::vector<std::uint32_t> idx;
+    idx.reserve(6 * f.triangles.size() + 6 * f.boundary.size() + 36);
+    for (const auto& t : f.triangles) idx.insert(idx.end(), {2 * t[0], 2 * t[2], 2 * t[1]});  // bottom: clockwise
+    s.bottomCount = static_cast<std::uint32_t>(idx.size());
+    for (const auto& e : f.boundary) {
+      const std::uint32_t alo = 2 * e[0], ahi = alo + 1, blo = 2 * e[1], bhi = blo + 1;
+      idx.insert(idx.end(), {alo, blo, bhi, alo, bhi, ahi});  // outward: the region is on the edge's left
+    }
+    for (const auto& t : f.triangles) idx.insert(idx.end(), {2 * t[0] + 1, 2 * t[1] + 1, 2 * t[2] + 1});
+    s.indexCount = static_cast<std::uint32_t>(idx.size());
+    // The piece's bounding box, for the paper variant's cover.
+    const auto boxBase = static_cast<std::uint32_t>(v.size());
+    const glm::vec2 b0(p.boxMin - origin), b1(p.boxMax - origin);
+    for (int k = 0; k < 8; ++k) {
+      const bool top = (k & 4) != 0;
+      v.push_back({(k & 1) != 0 ? b1.x : b0.x,
+                   (k & 2) != 0 ? b1.y : b0.y,
+                   static_cast<float>(top ? p.hi : p.lo),
+                   top ? 1.0F : -1.0F,
+                   {rgba[0], rgba[1], rgba[2], rgba[3]}});
+    }
+    s.boxFirstIndex = static_cast<std::uint32_t>(idx.size());
+    // Box faces, outward (vertex k: bit 0 = +x, bit 1 = +y, bit 2 = top).
+    constexpr std::uint32_t kBox[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                        2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
+    stats_.pieces += 1;
+    stats_.triangles += s.indexCount / 3;
+    slots_.push_back(s);
+    polyhedra_.push_back(std::move(p));
+    featureSlots_[feature].push_back(static_cast<std::uint32_t>(slot));
+    appendGeometry(slot, std::move(v), std::move(idx));
+  }
+}
+
+void OverlayLayer::ensureCapacity(std::size_t vertices, std::size_t indices) {
+  if (vertices <= vertexCapacity_ && indices <= indexCapacity_ && vertices_ && indices_) return;
+  vertexCapacity_ = std::max<std::size_t>({vertices, 2 * vertexCapacity_, 1024});
+  indexCapacity_ = std::max<std::size_t>({indices, 2 * indexCapacity_, 4096});
+  // New storage with everything so far (the CPU copy is the source).
+  vertices_ = gfx::createBuffer();
+  indices_ = gfx::createBuffer();
+  glNamedBufferData(vertices_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(Vertex)), nullptr,
+                    GL_DYNAMIC_DRAW);
+  glNamedBufferData(indices_.id(), static_cast<GLsizeiptr>(indexCapacity_ * sizeof(std::uint32_t)), nullptr,
+                    GL_DYNAMIC_DRAW);
+  if (vertexUsed_ > 0) {
+    glNamedBufferSubData(vertices_.id(), 0, static_cast<GLsizeiptr>(vertexUsed_ * sizeof(Vertex)), cpuVertices_.data());
+  }
+  if (indexUsed_ > 0) {
+    glNamedBufferSubData(indices_.id(), 0, static_cast<GLsizeiptr>(indexUsed_ * sizeof(std::uint32_t)),
+                         cpuIndices_.data());
+  }
+  stats_.gpuBytes = vertexCapacity_ * sizeof(Vertex) + indexCapacity_ * sizeof(std::uint32_t);
+}
+
+void OverlayLayer::appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i) {
+  PieceSlot& s = slots_[slot];
+  s.baseVertex = static_cast<std::uint32_t>(vertexUsed_);
+  s.firstIndex = static_cast<std::uint32_t>(indexUsed_);
+  s.boxFirstIndex += s.firstIndex;
+  cpuVertices_.insert(cpuVertices_.end(), v.begin(), v.end());
+  cpuIndices_.insert(cpuIndices_.end(), i.begin(), i.end());
+  ensureCapacity(vertexUsed_ + v.size(), indexUsed_ + i.size());
+  glNamedBufferSubData(vertices_.id(), static_cast<GLintptr>(vertexUsed_ * sizeof(Vertex)),
+                       static_cast<GLsizeiptr>(v.size() * sizeof(Vertex)), v.data());
+  glNamedBufferSubData(indices_.id(), static_cast<GLintptr>(indexUsed_ * sizeof(std::uint32_t)),
+                       static_cast<GLsizeiptr>(i.size() * sizeof(std::uint32_t)), i.data());
+  vertexUsed_ += v.size();
+  indexUsed_ += i.size();
+}
+
+void OverlayLayer::freePieces(std::uint32_t feature) {
+  for (std::uint32_t slot : featureSlots_[feature]) {
+    PieceSlot& s = slots_[slot];
+    if (!s.live) continue;
+    s.live = false;
+    wastedIndices_ += s.indexCount + 36;
+    stats_.pieces -= 1;
+    stats_.triangles -= s.indexCount / 3;
+  }
+  featureSlots_[feature].clear();
+}
+
+Diagnostics OverlayLayer::replaceFeature(std::size_t index, geo::Feature feature) {
+  Diagnostics diagnostics;
+  if (index >= features_.size()) return diagnostics;
+  features_[index] = std::move(feature);
+  const std::vector<geo::Feature> one{features_[index]};
+  FeatureStyle style = resolveFeatureStyles(style_, kind_, one).front();
+  style.visible = styles_[index].visible;
+  styles_[index] = style;
+  freePieces(static_cast<std::uint32_t>(index));
+  if (style.visible && bounds_ != nullptr) {
+    addPieces(static_cast<std::uint32_t>(index), buildPolyhedra(features_[index], static_cast<std::uint32_t>(index),
+                                                                kind_, style, name_, *bounds_, options_, diagnostics));
+  }
+  return diagnostics;
+}
+
+Diagnostics OverlayLayer::setFeatureStyle(std::size_t index, const FeatureStyle& style) {
+  Diagnostics diagnostics;
+  if (index >= features_.size()) return diagnostics;
+  styles_[index] = style;
+  freePieces(static_cast<std::uint32_t>(index));
+  if (style.visible && bounds_ != nullptr) {
+    addPieces(static_cast<std::uint32_t>(index), buildPolyhedra(features_[index], static_cast<std::uint32_t>(index),
+                                                                kind_, style, name_, *bounds_, options_, diagnostics));
+  }
+  return diagnostics;
+}
+
+void OverlayLayer::removeFeature(std::size_t index) {
+  if (index >= features_.size()) return;
+  styles_[index].visible = false;
+  freePieces(static_cast<std::uint32_t>(index));
+}
+
+void OverlayLayer::refreshBounds(const HeightBoundsProvider& bounds) {
+  bounds_ = &bounds;
+  for (std::size_t slot = 0; slot < slots_.size(); ++slot) {
+    PieceSlot& s = slots_[slot];
+    if (!s.live) continue;
+    Polyhedron& p = polyhedra_[slot];
+    const HeightBounds b = bounds.boundsOver(p.footprint.vertices);
+    p.lo = b.valid() ? b.lo : bounds.globalBounds().lo;
+    p.hi = b.valid() ? b.hi : bounds.globalBounds().hi;
+    const std::size_t n = 2 * p.footprint.vertices.size() + 8;
+    for (std::size_t k = 0; k < n; ++k) {
+      Vertex& v = cpuVertices_[s.baseVertex + k];
+      v.height = static_cast<float>(v.side > 0.0F ? p.hi : p.lo);
+    }
+    glNamedBufferSubData(vertices_.id(), static_cast<GLintptr>(s.baseVertex * sizeof(Vertex)),
+                         static_cast<GLsizeiptr>(n * sizeof(Vertex)), cpuVertices_.data() + s.baseVertex);
+  }
+}
+
+}  // namespace gis::overlay

@@ -1,0 +1,298 @@
+#include "vector_overlay/overlay_renderer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include "gfx/camera.hpp"
+#include "vector_overlay/stencil_states.hpp"
+
+namespace gis::overlay {
+namespace {
+
+double distanceToBox(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi) {
+  return glm::length(p - glm::clamp(p, lo, hi));
+}
+
+}  // namespace
+
+Result<OverlayRenderer> OverlayRenderer::create() {
+  Result<gfx::Program> program = gfx::Program::build({{"overlay_volume.vert", {}}, {"overlay_volume.frag", {}}});
+  Result<OverlayRenderer> r;
+  r.diagnostics = program.diagnostics;
+  if (!program) return r;
+  OverlayRenderer renderer;
+  renderer.program_ = std::move(*program);
+  renderer.vao_ = gfx::createVertexArray();
+  const GLuint vao = renderer.vao_.id();
+  glEnableVertexArrayAttrib(vao, 0);
+  glVertexArrayAttribFormat(vao, 0, 4, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribBinding(vao, 0, 0);
+  glEnableVertexArrayAttrib(vao, 1);
+  glVertexArrayAttribFormat(vao, 1, 4, GL_UNSIGNED_BYTE, GL_TRUE, 16);
+  glVertexArrayAttribBinding(vao, 1, 0);
+  glEnableVertexArrayAttrib(vao, 2);
+  glVertexArrayAttribFormat(vao, 2, 3, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribBinding(vao, 2, 1);
+  glVertexArrayBindingDivisor(vao, 1, 1);
+  renderer.timer_.emplace();
+  renderer.markStats_.emplace();
+  renderer.coverStats_.emplace();
+  r.value = std::move(renderer);
+  return r;
+}
+
+void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
+  if (commands.empty()) return;
+  const std::size_t bytes = commands.size() * sizeof(Command);
+  if (!commands_ || commandsCapacity_ < bytes) {
+    commandsCapacity_ = std::max(bytes, 2 * commandsCapacity_);
+    commands_ = gfx::createBuffer();
+    glNamedBufferData(commands_.id(), static_cast<GLsizeiptr>(commandsCapacity_), nullptr, GL_STREAM_DRAW);
+  }
+  glNamedBufferSubData(commands_.id(), 0, static_cast<GLsizeiptr>(bytes), commands.data());
+  glBindBuffer(GL_DRAW_INDIRECT_BUFFER, commands_.id());
+  glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr, static_cast<GLsizei>(commands.size()), 0);
+  glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
+}
+
+GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer,
+                                             const std::vector<std::size_t>& slots, const OverlaySettings& settings) {
+  if (slots.empty()) return 0;
+  // w of clip space is the distance along the view direction; the near plane is at w = near.
+  const glm::dmat4& m = view.viewProj;
+  const glm::dvec3 wRow(m[0][3], m[1][3], m[2][3]);
+  const double wEye = glm::dot(wRow, view.eye) + m[3][3];  // 0 for a perspective through the eye
+  const double wMin = 0.5 * view.nearPlane;
+  struct Out {
+    float x, y, z, side;
+    std::uint8_t rgba[4];
+  };
+  std::vector<Out> out;
+  auto emit = [&](const glm::dvec3& q, const std::uint8_t* rgba) {
+    out.push_back({static_cast<float>(q.x),
+                   static_cast<float>(q.y),
+                   static_cast<float>(q.z),
+                   0.0F,
+                   {rgba[0], rgba[1], rgba[2], rgba[3]}});
+  };
+  // The point where edge (a, b) meets the plane, computed from the endpoints in a fixed order
+  // so that the two faces sharing the edge get the same point, bit for bit.
+  auto cut = [&](glm::dvec3 a, glm::dvec3 b, double wa, double wb) {
+    if (std::tie(b.x, b.y, b.z) < std::tie(a.x, a.y, a.z)) {
+      std::swap(a, b);
+      std::swap(wa, wb);
+    }
+    const double t = (wMin - wa) / (wb - wa);
+    return a + t * (b - a);
+  };
+  for (std::size_t slot : slots) {
+    const Polyhedron& p = layer.polyhedra()[slot];
+    const FeatureStyle& style = layer.featureStyles()[p.footprint.feature];
+    const std::uint8_t rgba[4] = {
+        static_cast<std::uint8_t>(std::lround(std::clamp(style.color.x, 0.0F, 1.0F) * 255.0F)),
+        static_cast<std::uint8_t>(std::lround(std::clamp(style.color.y, 0.0F, 1.0F) * 255.0F)),
+        static_cast<std::uint8_t>(std::lround(std::clamp(style.color.z, 0.0F, 1.0F) * 255.0F)),
+        static_cast<std::uint8_t>(std::lround(std::clamp(style.color.w, 0.0F, 1.0F) * 255.0F))};
+    const Footprint& f = p.footprint;
+    // Vertices relative to the eye, caps padded as the shader pads them.
+    std::vector<glm::dvec3> bottom(f.vertices.size()), top(f.vertices.size());
+    for (std::size_t k = 0; k < f.vertices.size(); ++k) {
+      const glm::dvec2 xy = f.vertices[k] - glm::dvec2(view.eye);
+      for (int side : {-1, 1}) {
+        glm::dvec3 q(xy, (side < 0 ? p.lo : p.hi) - view.eye.z);
+        q.z += side * (settings.padBase + settings.padPerMetre * glm::length(q));
+        (side < 0 ? bottom : top)[k] = q;
+      }
+    }
+    auto triangle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+      const std::array<glm::dvec3, 3> v{a, b, c};
+      std::array<double, 3> w{};
+      int inside = 0;
+      for (int k = 0; k < 3; ++k) {
+        w[static_cast<std::size_t>(k)] = glm::dot(wRow, v[static_cast<std::size_t>(k)]) + wEye;
+        inside += w[static_cast<std::size_t>(k)] >= wMin ? 1 : 0;
+      }
+      if (inside == 0) return;
+      if (inside == 3) {
+        for (const glm::dvec3& q : v) emit(q, rgba);
+        return;
+      }
+      // Sutherland–Hodgman against one plane: a triangle or a quad (two triangles), same winding.
+      std::vector<glm::dvec3> poly;
+      for (std::size_t k = 0; k < 3; ++k) {
+        const std::size_t n = (k + 1) % 3;
+        const bool in = w[k] >= wMin, nextIn = w[n] >= wMin;
+        if (in) poly.push_back(v[k]);
+        if (in != nextIn) poly.push_back(cut(v[k], v[n], w[k], w[n]));
+      }
+      for (std::size_t k = 1; k + 1 < poly.size(); ++k) {
+        emit(poly[0], rgba);
+        emit(poly[k], rgba);
+        emit(poly[k + 1], rgba);
+      }
+    };
+    for (const auto& t : f.triangles) {
+      triangle(bottom[t[0]], bottom[t[2]], bottom[t[1]]);
+      triangle(top[t[0]], top[t[1]], top[t[2]]);
+    }
+    for (const auto& e : f.boundary) {
+      triangle(bottom[e[0]], bottom[e[1]], top[e[1]]);
+      triangle(bottom[e[0]], top[e[1]], top[e[0]]);
+    }
+  }
+  const std::size_t bytes = out.size() * sizeof(Out);
+  if (bytes == 0) return 0;
+  if (!clipped_ || clippedCapacity_ < bytes) {
+    clippedCapacity_ = std::max(bytes, 2 * clippedCapacity_);
+    clipped_ = gfx::createBuffer();
+    glNamedBufferData(clipped_.id(), static_cast<GLsizeiptr>(clippedCapacity_), nullptr, GL_STREAM_DRAW);
+  }
+  glNamedBufferSubData(clipped_.id(), 0, static_cast<GLsizeiptr>(bytes), out.data());
+  return static_cast<GLsizei>(out.size());
+}
+
+std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const OverlayView& view,
+                                                   std::span<const OverlayLayer* const> layers,
+                                                   const OverlaySettings& settings) {
+  std::vector<LayerFrameStats> stats(layers.size());
+  program_.use();
+  program_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
+  program_.set("u_padBase", static_cast<float>(settings.padBase));
+  program_.set("u_padPerMetre", static_cast<float>(settings.padPerMetre));
+  glBindVertexArray(vao_.id());
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    if (layers[i] != nullptr) drawLayer(cache, view, *layers[i], i, settings, stats[i]);
+  }
+  glBindVertexArray(0);
+  return stats;
+}
+
+void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                                std::size_t index, const OverlaySettings& settings, LayerFrameStats& stats) {
+  const auto& slots = layer.slots();
+  const auto& polyhedra = layer.polyhedra();
+  if (slots.empty()) return;
+  const std::array<glm::dvec4, 6> planes = gfx::frustumPlanes(view.viewProj);
+  // A polyhedron closer to the eye than the near plane's corners may be cut by it, or hold the
+  // eye: it is drawn z-fail (exact for any eye position, with depth clamp and closed caps).
+  const double t = std::tan(view.fovYRadians / 2.0);
+  const double margin = view.nearPlane * std::sqrt(1.0 + t * t * (1.0 + view.aspect * view.aspect)) + 0.01;
+
+  std::vector<Command> zPass, zFail, coverZPass, coverZFail;
+  std::vector<std::size_t> zFailSlots;
+  for (const OverlayLayer::PieceSlot& s : slots) {
+    if (!s.live) continue;
+    const Polyhedron& p = polyhedra[static_cast<std::size_t>(&s - slots.data())];
+    const double diagonal = glm::length(p.boxMax - p.boxMin) + (p.hi - p.lo);
+    const glm::dvec3 lo0(p.boxMin, p.lo), hi0(p.boxMax, p.hi);
+    const double pad = settings.padBase + settings.padPerMetre * (distanceToBox(view.eye, lo0, hi0) + diagonal);
+    const glm::dvec3 lo(p.boxMin, p.lo - pad), hi(p.boxMax, p.hi + pad);
+    if (!gfx::boxInFrustum(planes, lo, hi, false)) {
+      ++stats.culledPieces;
+      continue;
+    }
+    const bool fail = settings.forceZFail || (layer.paperVariant() ? distanceToBox(view.eye, lo, hi) <= margin
+                                                                   : mayContain(p, view.eye, pad, margin));
+    const Command whole{s.indexCount, 1, s.firstIndex, static_cast<GLint>(s.baseVertex), s.origin};
+    if (fail) {
+      ++stats.zFailPieces;
+      zFail.push_back(whole);
+      zFailSlots.push_back(static_cast<std::size_t>(&s - slots.data()));
+    } else {
+      ++stats.zPassPieces;
+      // Over drawn terrain the bottom cap is hidden from an eye outside: leave it out.
+      const bool skipBottom = p.overSurface && !layer.paperVariant();
+      zPass.push_back(skipBottom ? Command{s.indexCount - s.bottomCount, 1, s.firstIndex + s.bottomCount,
+                                           static_cast<GLint>(s.baseVertex), s.origin}
+                                 : whole);
+    }
+    if (layer.paperVariant()) {
+      const Command box{36, 1, s.boxFirstIndex, static_cast<GLint>(s.baseVertex), s.origin};
+      (fail ? coverZFail : coverZPass).push_back(box);
+    }
+  }
+  if (!layer.paperVariant()) {
+    coverZPass = zPass;
+    coverZFail = zFail;
+  }
+  stats.drawCommands = zPass.size() + zFail.size() + coverZPass.size() + coverZFail.size();
+  if (zPass.empty() && zFail.empty()) return;
+
+  // Origins relative to the eye, in the order of the layer's origin table.
+  const auto& origins = layer.origins();
+  std::vector<float> offsets;
+  offsets.reserve(3 * origins.size());
+  for (const glm::dvec2& o : origins) {
+    offsets.insert(offsets.end(), {static_cast<float>(o.x - view.eye.x), static_cast<float>(o.y - view.eye.y),
+                                   static_cast<float>(-view.eye.z)});
+  }
+  const auto zeroOrigin = static_cast<GLuint>(origins.size());  // for geometry already relative to the eye
+  offsets.insert(offsets.end(), {0.0F, 0.0F, 0.0F});
+  const std::size_t bytes = offsets.size() * sizeof(float);
+  if (!origins_ || originsCapacity_ < bytes) {
+    originsCapacity_ = std::max(bytes, 2 * originsCapacity_);
+    origins_ = gfx::createBuffer();
+    glNamedBufferData(origins_.id(), static_cast<GLsizeiptr>(originsCapacity_), nullptr, GL_STREAM_DRAW);
+  }
+  glNamedBufferSubData(origins_.id(), 0, static_cast<GLsizeiptr>(bytes), offsets.data());
+  const GLuint vao = vao_.id();
+  glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
+  glVertexArrayVertexBuffer(vao, 1, origins_.id(), 0, 3 * sizeof(float));
+  glVertexArrayElementBuffer(vao, layer.indexBuffer());
+  program_.set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23)));
+
+  if (settings.measure) {
+    timer_->begin();
+    markStats_->begin();
+  }
+  if (layer.paperVariant()) {
+    cache.apply(kPaperMarkZPassFront);
+    multiDraw(zPass);
+    cache.apply(kPaperMarkZPassBack);
+    multiDraw(zPass);
+    cache.apply(kPaperMarkZFailBack);
+    multiDraw(zFail);
+    cache.apply(kPaperMarkZFailFront);
+    multiDraw(zFail);
+  } else {
+    cache.apply(kMarkZPass);
+    multiDraw(zPass);
+  }
+  // Our z-fail pieces are clipped on the CPU just in front of the eye (see clippedPieces).
+  const GLsizei clippedVertices = layer.paperVariant() ? 0 : uploadClippedPieces(view, layer, zFailSlots, settings);
+  auto drawClipped = [&] {
+    if (clippedVertices == 0) return;
+    glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
+    glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, clippedVertices, 1, zeroOrigin);
+    glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
+  };
+  if (!layer.paperVariant()) {
+    cache.apply(kMarkZFail);
+    drawClipped();
+  }
+  if (settings.measure) {
+    markStats_->end();
+    coverStats_->begin();
+  }
+  cache.apply(layer.paperVariant() ? kPaperCoverZPass : kCoverZPass);
+  multiDraw(coverZPass);
+  cache.apply(layer.paperVariant() ? kPaperCoverZFail : kCoverZFail);
+  if (layer.paperVariant()) {
+    multiDraw(coverZFail);
+  } else {
+    drawClipped();
+  }
+  if (settings.measure) {
+    coverStats_->end();
+    timer_->end();
+    stats.gpuMilliseconds = static_cast<double>(timer_->nanoseconds().value_or(0)) * 1e-6;
+    stats.markFragments = markStats_->result().fragmentShaderInvocations;
+    stats.coverFragments = coverStats_->result().fragmentShaderInvocations;
+  }
+}
+
+}  // namespace gis::overlay

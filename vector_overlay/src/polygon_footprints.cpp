@@ -1,0 +1,279 @@
+// Polygon footprints: all rings of a feature go into one constrained Delaunay triangulation
+// (CGAL, exact predicates, intersecting constraints allowed); the faces inside an odd number of
+// rings are found by a flood fill from the infinite face that changes parity across a
+// constrained edge when an odd number of ring edges run along it; the inside triangles are
+// split at the grid cells (footprint_geometry.hpp) and merged into one footprint per cell.
+//
+// Crossing rings: with inexact constructions (Epick, Exact_predicates_tag) CGAL 5.5 rounds the
+// crossing points and, when a rounded point falls outside the two triangles of the crossed edge,
+// snaps the constraint to a vertex of that edge — possibly far from the ring (seen on lattice
+// rings with many concurrent crossings), which would flip the coverage of whole regions. So the
+// fast triangulation is accepted only when every constraint still runs exactly along its ring
+// edge (always true without crossings); otherwise the feature is triangulated again with exact
+// constructions (Epeck, Exact_intersections_tag: each crossing computed once from the original
+// ring edges) and the crossing points are rounded to double at the end.
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <map>
+#include <optional>
+#include <queue>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wold-style-cast"
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Constrained_triangulation_face_base_2.h>
+#include <CGAL/Constrained_triangulation_plus_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_data_structure_2.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
+#include <CGAL/Triangulation_vertex_base_2.h>
+#pragma GCC diagnostic pop
+
+#include "footprint_geometry.hpp"
+#include "vector_overlay/footprints.hpp"
+
+namespace gis::overlay {
+namespace {
+
+struct FaceInfo {
+  int parity = -1;  ///< −1 not reached yet; 0 outside; 1 inside (odd number of rings)
+};
+
+// The "plus" hierarchy remembers which input edges run along each constrained edge: two rings
+// sharing an edge (a hole touching its shell, neighbouring parts of a multipolygon, a spike
+// going out and back) cancel under the even-odd rule, which a plain constrained flag cannot tell.
+template <typename K, typename IntersectionTag>
+using EvenOddTriangulation = CGAL::Constrained_triangulation_plus_2<CGAL::Constrained_Delaunay_triangulation_2<
+    K,
+    CGAL::Triangulation_data_structure_2<
+        CGAL::Triangulation_vertex_base_2<K>,
+        CGAL::Constrained_triangulation_face_base_2<K, CGAL::Triangulation_face_base_with_info_2<FaceInfo, K>>>,
+    IntersectionTag>>;
+
+using FastTriangulation = EvenOddTriangulation<CGAL::Epick, CGAL::Exact_predicates_tag>;
+using ExactTriangulation = EvenOddTriangulation<CGAL::Epeck, CGAL::Exact_intersections_tag>;
+
+using Triangle = std::array<glm::dvec2, 3>;
+
+/// Largest usable |coordinate|: far beyond any frame; products of larger coordinates could
+/// overflow in the area and intersection formulas.
+constexpr double kMaxCoordinate = 1e15;
+
+enum class RingCheck { Ok, NonFinite, TooFewPoints, ZeroArea };
+
+/// Repairs a ring in place (repeated points, closing point) and says whether it can be used.
+RingCheck checkRing(geo::Ring& ring) {
+  for (const auto& p : ring) {
+    if (!detail::finite(p) || std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) {
+      return RingCheck::NonFinite;
+    }
+  }
+  detail::dropRepeatedPoints(ring);
+  if (ring.size() < 3) return RingCheck::TooFewPoints;
+  // Distinct points (not only consecutive ones): a ring A B A B has two.
+  std::vector<glm::dvec2> sorted = ring;
+  std::sort(sorted.begin(), sorted.end(),
+            [](const glm::dvec2& a, const glm::dvec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+  if (std::unique(sorted.begin(), sorted.end()) - sorted.begin() < 3) return RingCheck::TooFewPoints;
+  const glm::dvec2 a = ring[0];
+  std::size_t j = 1;
+  while (ring[j] == a) ++j;
+  const glm::dvec2 b = ring[j];
+  for (const auto& c : ring) {
+    if (detail::orientation(a, b, c) != 0) return RingCheck::Ok;
+  }
+  return RingCheck::ZeroArea;
+}
+
+std::string describe(RingCheck check) {
+  switch (check) {
+    case RingCheck::NonFinite:
+      return "has a NaN, infinite or out-of-range coordinate";
+    case RingCheck::TooFewPoints:
+      return "has fewer than 3 distinct points";
+    case RingCheck::ZeroArea:
+      return "has zero area (all points collinear)";
+    case RingCheck::Ok:
+      break;
+  }
+  return "is valid";
+}
+
+/// Marks every face with the parity of the number of rings around it.
+template <typename Tr>
+void markParity(Tr& cdt) {
+  for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info().parity = -1;
+  std::queue<typename Tr::Face_handle> queue;
+  cdt.infinite_face()->info().parity = 0;
+  queue.push(cdt.infinite_face());
+  while (!queue.empty()) {
+    const auto f = queue.front();
+    queue.pop();
+    for (int i = 0; i < 3; ++i) {
+      const auto g = f->neighbor(i);
+      if (g->info().parity != -1) continue;
+      int flip = 0;
+      if (f->is_constrained(i)) {
+        const auto va = f->vertex(Tr::cw(i));
+        const auto vb = f->vertex(Tr::ccw(i));
+        flip = static_cast<int>(cdt.number_of_enclosing_constraints(va, vb) % 2);
+      }
+      g->info().parity = f->info().parity ^ flip;
+      queue.push(g);
+    }
+  }
+}
+
+/// Whether every constraint of the triangulation runs exactly along its input segment: its
+/// vertices are collinear with the segment's ends and within its bounding box.
+bool constraintsExact(const FastTriangulation& cdt) {
+  for (auto c = cdt.constraints_begin(); c != cdt.constraints_end(); ++c) {
+    const auto first = cdt.vertices_in_constraint_begin(*c);
+    const auto last = cdt.vertices_in_constraint_end(*c);
+    if (first == last) continue;
+    const auto& a = (*first)->point();
+    auto back = last;
+    --back;
+    const auto& b = (*back)->point();
+    for (auto it = first; it != last; ++it) {
+      const auto& p = (*it)->point();
+      if (CGAL::orientation(a, b, p) != CGAL::COLLINEAR) return false;
+      if (p.x() < std::min(a.x(), b.x()) || p.x() > std::max(a.x(), b.x()) || p.y() < std::min(a.y(), b.y()) ||
+          p.y() > std::max(a.y(), b.y())) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+/// Triangulates the rings and returns the triangles inside an odd number of them, with their
+/// vertices rounded to double; nullopt when `requireExact` and a constraint had to bend.
+template <typename Tr>
+std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring>& rings, bool requireExact) {
+  using Point = typename Tr::Point;
+  Tr cdt;
+  std::vector<typename Tr::Vertex_handle> handles;
+  for (const auto& ring : rings) {
+    handles.clear();
+    typename Tr::Face_handle hint;
+    for (const auto& p : ring) {
+      const auto v = cdt.insert(Point(p.x, p.y), hint);
+      hint = v->face();
+      handles.push_back(v);
+    }
+    for (std::size_t i = 0; i < handles.size(); ++i) {
+      const auto va = handles[i];
+      const auto vb = handles[(i + 1) % handles.size()];
+      if (va != vb) cdt.insert_constraint(va, vb);
+    }
+  }
+  if constexpr (std::is_same_v<Tr, FastTriangulation>) {
+    if (requireExact && !constraintsExact(cdt)) return std::nullopt;
+  }
+  std::vector<Triangle> inside;
+  if (cdt.dimension() < 2) return inside;
+  markParity(cdt);
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (f->info().parity != 1) continue;
+    Triangle t;
+    for (int i = 0; i < 3; ++i) {
+      const auto& p = f->vertex(i)->point();
+      t[static_cast<std::size_t>(i)] = glm::dvec2(CGAL::to_double(p.x()), CGAL::to_double(p.y()));
+    }
+    inside.push_back(t);
+  }
+  return inside;
+}
+
+}  // namespace
+
+std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
+                                         const std::string& layerName, const FootprintOptions& options,
+                                         Diagnostics& diagnostics) {
+  std::vector<Footprint> result;
+  if (options.cells) {
+    std::string message;
+    if (!detail::validGrid(*options.cells, message)) {
+      diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid, message + "; feature skipped"));
+      return result;
+    }
+  }
+
+  // Validation and repair, ring by ring.
+  std::vector<geo::Ring> rings;
+  for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
+    const geo::Polygon& polygon = feature.polygons[k];
+    const std::string name = "polygon " + std::to_string(k);
+    geo::Ring outer = polygon.outer;
+    const RingCheck outerCheck = checkRing(outer);
+    if (outerCheck != RingCheck::Ok) {
+      diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid,
+                                           name + ": outer ring " + describe(outerCheck) + "; polygon skipped"));
+      continue;
+    }
+    std::vector<geo::Ring> holes;
+    bool usable = true;
+    for (std::size_t h = 0; h < polygon.holes.size() && usable; ++h) {
+      geo::Ring hole = polygon.holes[h];
+      const RingCheck check = checkRing(hole);
+      const std::string ringName = name + ": hole " + std::to_string(h) + " " + describe(check);
+      if (check == RingCheck::NonFinite) {
+        diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid, ringName + "; polygon skipped"));
+        usable = false;
+      } else if (check != RingCheck::Ok) {
+        // A hole without area changes no point's parity: dropping it keeps the coverage.
+        diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid, ringName + "; hole dropped"));
+      } else {
+        holes.push_back(std::move(hole));
+      }
+    }
+    if (!usable) continue;
+    rings.push_back(std::move(outer));
+    for (auto& hole : holes) rings.push_back(std::move(hole));
+  }
+  if (rings.empty()) return result;
+
+  // Triangulation and even-odd marking.
+  std::vector<Triangle> inside;
+  try {
+    auto fast = insideTriangles<FastTriangulation>(rings, true);
+    inside = fast ? std::move(*fast) : std::move(*insideTriangles<ExactTriangulation>(rings, false));
+  } catch (const std::exception& e) {
+    diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid,
+                                         std::string("triangulation failed (") + e.what() + "); feature skipped"));
+    return result;
+  }
+
+  if (!options.cells) {
+    detail::FootprintBuilder builder;
+    for (const auto& t : inside) builder.addTriangle(t[0], t[1], t[2]);
+    if (!builder.empty()) result.push_back(builder.finish(featureIndex, -1, PieceKind::PolygonPart));
+    return result;
+  }
+
+  // One footprint per cell: every inside triangle clipped to the cells it meets. Neighbouring
+  // triangles compute the points where their shared edge crosses a grid line from the same
+  // segment, so the pieces of one cell share their vertices bit for bit.
+  std::map<int, detail::FootprintBuilder> cells;
+  for (const auto& t : inside) {
+    const detail::ClipPolygon triangle = detail::makeClipPolygon({t[0], t[1], t[2]});
+    detail::splitIntoCells(triangle, *options.cells, [&](int cell, const std::vector<glm::dvec2>& pts) {
+      detail::triangulateConvex(pts, cells[cell]);
+    });
+  }
+  for (auto& [cell, builder] : cells) {
+    if (!builder.empty()) result.push_back(builder.finish(featureIndex, cell, PieceKind::PolygonPart));
+  }
+  return result;
+}
+
+}  // namespace gis::overlay

@@ -1,0 +1,469 @@
+#pragma once
+// Private to the CPU reference (cpu_reference.cpp): the coverage rules of footprints.hpp as
+// point predicates, written independently of the footprint construction.
+// - Polygons: the even-odd rule over the raw rings of one polygon (crossings of the ray from the
+//   point towards +x), union over the feature's polygons.
+// - Lines: a line of a given shape is the union of primitives, each a closed point set:
+//   bands (a segment's rectangle, a square cap, the square of a one-point line), discs (round
+//   joins and caps, exact circles) and convex polygons (bevel triangles, miter quadrilaterals).
+// The grid index in cpu_reference.cpp only selects candidates; both it and the unindexed path
+// call exactly these predicates, so they agree bit for bit.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <initializer_list>
+#include <limits>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "geo/vector.hpp"
+#include "vector_overlay/footprints.hpp"
+#include "vector_overlay/style.hpp"
+
+namespace gis::overlay::reference {
+
+inline double cross(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
+inline double dot(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.x + a.y * b.y; }
+inline bool finite(const glm::dvec2& p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+
+/// An axis-aligned box; empty when lo > hi.
+struct Box {
+  glm::dvec2 lo{std::numeric_limits<double>::infinity()};
+  glm::dvec2 hi{-std::numeric_limits<double>::infinity()};
+
+  void add(const glm::dvec2& p) {
+    lo = glm::dvec2(std::min(lo.x, p.x), std::min(lo.y, p.y));
+    hi = glm::dvec2(std::max(hi.x, p.x), std::max(hi.y, p.y));
+  }
+  void add(const Box& b) {
+    if (b.empty()) return;
+    add(b.lo);
+    add(b.hi);
+  }
+  [[nodiscard]] bool empty() const { return !(lo.x <= hi.x && lo.y <= hi.y); }
+  [[nodiscard]] bool contains(const glm::dvec2& p) const {
+    return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y;
+  }
+  [[nodiscard]] bool intersects(const Box& b) const {
+    return !empty() && !b.empty() && lo.x <= b.hi.x && b.lo.x <= hi.x && lo.y <= b.hi.y && b.lo.y <= hi.y;
+  }
+  [[nodiscard]] Box intersection(const Box& b) const {
+    Box r;
+    r.lo = glm::dvec2(std::max(lo.x, b.lo.x), std::max(lo.y, b.lo.y));
+    r.hi = glm::dvec2(std::min(hi.x, b.hi.x), std::min(hi.y, b.hi.y));
+    return r;
+  }
+  /// Grown by a margin that absorbs the rounding of the predicates (the box is only a filter:
+  /// it must contain every point a predicate accepts).
+  void padForRounding() {
+    if (empty()) return;
+    const double scale = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y), hi.x - lo.x,
+                                   hi.y - lo.y, 1.0});
+    const double pad = 1e-9 * scale;
+    lo -= glm::dvec2(pad);
+    hi += glm::dvec2(pad);
+  }
+};
+
+/// A convex quadrilateral (a pixel's footprint on the ground), vertices in order, either
+/// orientation, possibly degenerate.
+using Quad = std::array<glm::dvec2, 4>;
+
+inline Box boundsOf(const Quad& q) {
+  Box b;
+  for (const glm::dvec2& p : q) b.add(p);
+  return b;
+}
+
+/// Whether two convex polygons (vertices in order, either orientation) share a point, by the
+/// separating axis theorem. Degenerate polygons (segments, points) are handled conservatively:
+/// they may be reported as meeting when they only lie on one line.
+inline bool convexMeet(const glm::dvec2* a, std::size_t na, const glm::dvec2* b, std::size_t nb) {
+  auto separatedByEdgeOf = [&](const glm::dvec2* p, std::size_t np) {
+    for (std::size_t i = 0; i < np; ++i) {
+      const glm::dvec2 e = p[i + 1 == np ? 0 : i + 1] - p[i];
+      const glm::dvec2 axis(-e.y, e.x);
+      if (axis.x == 0.0 && axis.y == 0.0) continue;
+      double aMin = std::numeric_limits<double>::infinity();
+      double aMax = -aMin;
+      double bMin = aMin;
+      double bMax = -aMin;
+      for (std::size_t k = 0; k < na; ++k) {
+        const double t = dot(a[k], axis);
+        aMin = std::min(aMin, t);
+        aMax = std::max(aMax, t);
+      }
+      for (std::size_t k = 0; k < nb; ++k) {
+        const double t = dot(b[k], axis);
+        bMin = std::min(bMin, t);
+        bMax = std::max(bMax, t);
+      }
+      if (aMax < bMin || bMax < aMin) return true;
+    }
+    return false;
+  };
+  return !separatedByEdgeOf(a, na) && !separatedByEdgeOf(b, nb);
+}
+
+inline double segmentDistance(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
+  const glm::dvec2 ab = b - a;
+  const double l2 = dot(ab, ab);
+  const double t = l2 > 0.0 ? std::clamp(dot(p - a, ab) / l2, 0.0, 1.0) : 0.0;
+  const glm::dvec2 d = p - (a + ab * t);
+  return std::sqrt(dot(d, d));
+}
+
+/// Whether the closed disc meets the convex quadrilateral.
+inline bool discMeetsQuad(const glm::dvec2& centre, double radius, const Quad& q) {
+  const glm::dvec2 box[4] = {centre - glm::dvec2(radius), glm::dvec2(centre.x + radius, centre.y - radius),
+                             centre + glm::dvec2(radius), glm::dvec2(centre.x - radius, centre.y + radius)};
+  if (!convexMeet(box, 4, q.data(), 4)) return false;  // quick rejection by the disc's square
+  if (convexMeet(&centre, 1, q.data(), 4)) return true;  // the centre inside the quad
+  for (std::size_t i = 0; i < 4; ++i)
+    if (segmentDistance(centre, q[i], q[(i + 1) % 4]) <= radius) return true;
+  return false;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Polygons
+
+/// Whether the edge a→b toggles the parity of p (the ray from p towards +x crosses it; half-open
+/// in y so a vertex on the ray counts once).
+inline bool crossesRay(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& p) {
+  if ((a.y > p.y) == (b.y > p.y)) return false;
+  const double xi = a.x + (p.y - a.y) * (b.x - a.x) / (b.y - a.y);
+  return p.x < xi;
+}
+
+/// Calls fn(a, b) for every edge of every ring (the closing edge included).
+template <typename Fn>
+void forEachRingEdge(const geo::Polygon& polygon, Fn&& fn) {
+  auto ring = [&fn](const geo::Ring& r) {
+    for (std::size_t i = 0; i < r.size(); ++i) fn(r[i], r[i + 1 == r.size() ? 0 : i + 1]);
+  };
+  ring(polygon.outer);
+  for (const geo::Ring& h : polygon.holes) ring(h);
+}
+
+/// A polygon the footprints skip ("cannot be used"): a non-finite coordinate in any ring, or an
+/// outer ring of zero area (fewer than 3 distinct points, or all points on one line).
+inline bool polygonUsable(const geo::Polygon& polygon) {
+  bool allFinite = true;
+  forEachRingEdge(polygon, [&allFinite](const glm::dvec2& a, const glm::dvec2&) { allFinite = allFinite && finite(a); });
+  if (!allFinite || polygon.outer.empty()) return false;
+  const glm::dvec2 p0 = polygon.outer.front();
+  glm::dvec2 far = p0;
+  double farLength2 = 0.0;
+  for (const glm::dvec2& p : polygon.outer) {
+    const double l2 = dot(p - p0, p - p0);
+    if (l2 > farLength2) {
+      farLength2 = l2;
+      far = p;
+    }
+  }
+  if (farLength2 == 0.0) return false;
+  const double length = std::sqrt(farLength2);
+  const glm::dvec2 axis = (far - p0) / length;
+  for (const glm::dvec2& p : polygon.outer)
+    if (std::abs(cross(axis, p - p0)) > 1e-12 * length) return true;
+  return false;
+}
+
+inline Box polygonBounds(const geo::Polygon& polygon) {
+  Box box;
+  forEachRingEdge(polygon, [&box](const glm::dvec2& a, const glm::dvec2&) { box.add(a); });
+  box.padForRounding();
+  return box;
+}
+
+/// Even-odd rule over all rings of the polygon, by brute force.
+inline bool insideEvenOdd(const geo::Polygon& polygon, const glm::dvec2& p) {
+  bool inside = false;
+  forEachRingEdge(polygon, [&inside, &p](const glm::dvec2& a, const glm::dvec2& b) {
+    if (crossesRay(a, b, p)) inside = !inside;
+  });
+  return inside;
+}
+
+/// The same test with the edges bucketed into horizontal bands: only the edges whose y range
+/// meets the point's band are tried, which always includes every edge that can cross the ray.
+class BandedPolygon {
+ public:
+  BandedPolygon(const geo::Polygon& polygon, std::uint32_t feature) : feature_(feature), box_(polygonBounds(polygon)) {
+    double sumDy = 0.0;
+    forEachRingEdge(polygon, [this, &sumDy](const glm::dvec2& a, const glm::dvec2& b) {
+      edges_.push_back({a, b});
+      sumDy += std::abs(b.y - a.y);
+    });
+    y0_ = box_.lo.y;
+    const double height = box_.hi.y - box_.lo.y;
+    const double edgeCount = static_cast<double>(edges_.size());
+    // About two edges per band, but at most ~8 entries per edge in total (long edges span bands).
+    double bands = std::min(edgeCount / 2.0, sumDy > 0.0 ? 7.0 * edgeCount * height / sumDy : 1.0);
+    bands = std::clamp(bands, 1.0, 65536.0);
+    bandCount_ = static_cast<std::uint32_t>(bands);
+    bandScale_ = height > 0.0 ? static_cast<double>(bandCount_) / height : 0.0;
+    std::vector<std::uint32_t> counts(bandCount_ + 1, 0);
+    for (const auto& e : edges_) {
+      const auto [b0, b1] = bandRange(e[0].y, e[1].y);
+      for (std::uint32_t b = b0; b <= b1; ++b) ++counts[b + 1];
+    }
+    for (std::uint32_t b = 0; b < bandCount_; ++b) counts[b + 1] += counts[b];
+    bandStart_ = counts;
+    bandEdges_.resize(counts[bandCount_]);
+    for (std::uint32_t i = 0; i < edges_.size(); ++i) {
+      const auto [b0, b1] = bandRange(edges_[i][0].y, edges_[i][1].y);
+      for (std::uint32_t b = b0; b <= b1; ++b) bandEdges_[counts[b]++] = i;
+    }
+  }
+
+  [[nodiscard]] std::uint32_t feature() const { return feature_; }
+  [[nodiscard]] const Box& bounds() const { return box_; }
+
+  [[nodiscard]] bool contains(const glm::dvec2& p) const {
+    if (!box_.contains(p)) return false;
+    const std::uint32_t band = bandOf(p.y);
+    bool inside = false;
+    for (std::uint32_t k = bandStart_[band]; k < bandStart_[band + 1]; ++k) {
+      const auto& e = edges_[bandEdges_[k]];
+      if (crossesRay(e[0], e[1], p)) inside = !inside;
+    }
+    return inside;
+  }
+
+  /// Whether some ring edge meets the quadrilateral.
+  [[nodiscard]] bool edgeMeets(const Quad& q) const {
+    const Box qb = boundsOf(q);
+    if (!box_.intersects(qb)) return false;
+    for (std::uint32_t band = bandOf(qb.lo.y), last = bandOf(qb.hi.y); band <= last; ++band) {
+      for (std::uint32_t k = bandStart_[band]; k < bandStart_[band + 1]; ++k) {
+        const auto& e = edges_[bandEdges_[k]];
+        if (convexMeet(e.data(), 2, q.data(), 4)) return true;
+      }
+    }
+    return false;
+  }
+
+ private:
+  [[nodiscard]] std::uint32_t bandOf(double y) const {
+    const double b = std::floor((y - y0_) * bandScale_);
+    if (!(b > 0.0)) return 0;
+    if (b >= static_cast<double>(bandCount_ - 1)) return bandCount_ - 1;
+    return static_cast<std::uint32_t>(b);
+  }
+  [[nodiscard]] std::pair<std::uint32_t, std::uint32_t> bandRange(double ya, double yb) const {
+    return {bandOf(std::min(ya, yb)), bandOf(std::max(ya, yb))};
+  }
+
+  std::uint32_t feature_;
+  Box box_;
+  std::vector<std::array<glm::dvec2, 2>> edges_;
+  double y0_ = 0.0;
+  double bandScale_ = 0.0;
+  std::uint32_t bandCount_ = 1;
+  std::vector<std::uint32_t> bandStart_;
+  std::vector<std::uint32_t> bandEdges_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Lines
+
+/// One closed piece of a line's coverage.
+struct LinePrimitive {
+  enum class Kind : std::uint8_t { Band, Disc, Convex };
+  Kind kind = Kind::Disc;
+  std::uint8_t count = 0;  ///< Convex: number of vertices (3 or 4), counter-clockwise
+  /// Band: v[0] origin, v[1] unit direction; Disc: v[0] centre; Convex: the vertices.
+  std::array<glm::dvec2, 4> v{};
+  double t0 = 0.0;    ///< Band: along-direction range [t0, t1] from the origin
+  double t1 = 0.0;
+  double half = 0.0;  ///< Band: half width; Disc: radius
+
+  /// Band: points whose coordinate along the direction is in [t0, t1] and whose distance to the
+  /// axis is at most `half`.
+  static LinePrimitive band(const glm::dvec2& origin, const glm::dvec2& unit, double t0, double t1, double half) {
+    LinePrimitive p;
+    p.kind = Kind::Band;
+    p.v[0] = origin;
+    p.v[1] = unit;
+    p.t0 = t0;
+    p.t1 = t1;
+    p.half = half;
+    return p;
+  }
+  static LinePrimitive disc(const glm::dvec2& centre, double radius) {
+    LinePrimitive p;
+    p.kind = Kind::Disc;
+    p.v[0] = centre;
+    p.half = radius;
+    return p;
+  }
+  /// A convex polygon given in either orientation; `count` = 0 (covers nothing) when it has no area.
+  static LinePrimitive convex(std::initializer_list<glm::dvec2> vertices) {
+    LinePrimitive p;
+    p.kind = Kind::Convex;
+    std::size_t count = 0;
+    for (const glm::dvec2& q : vertices) p.v[count++] = q;
+    double area2 = 0.0;
+    for (std::size_t i = 0; i < count; ++i) area2 += cross(p.v[i], p.v[(i + 1) % count]);
+    if (area2 < 0.0) std::reverse(p.v.begin(), p.v.begin() + static_cast<std::ptrdiff_t>(count));
+    p.count = area2 == 0.0 ? 0 : static_cast<std::uint8_t>(count);
+    return p;
+  }
+
+  [[nodiscard]] bool contains(const glm::dvec2& p) const {
+    switch (kind) {
+      case Kind::Band: {
+        const glm::dvec2 d = p - v[0];
+        const double t = dot(d, v[1]);
+        return t >= t0 && t <= t1 && std::abs(cross(v[1], d)) <= half;
+      }
+      case Kind::Disc: {
+        const glm::dvec2 d = p - v[0];
+        return dot(d, d) <= half * half;
+      }
+      case Kind::Convex: {
+        if (count < 3) return false;
+        const std::size_t n = count;
+        for (std::size_t i = 0; i < n; ++i) {
+          const glm::dvec2& a = v[i];
+          const glm::dvec2& b = v[(i + 1) % n];
+          if (cross(b - a, p - a) < 0.0) return false;
+        }
+        return true;
+      }
+    }
+    return false;
+  }
+
+  /// Whether the primitive meets the quadrilateral (a point in common).
+  [[nodiscard]] bool meets(const Quad& q) const {
+    switch (kind) {
+      case Kind::Band: {
+        const std::array<glm::dvec2, 4> c = bandCorners();
+        return convexMeet(c.data(), 4, q.data(), 4);
+      }
+      case Kind::Disc:
+        return discMeetsQuad(v[0], half, q);
+      case Kind::Convex:
+        return count >= 3 && convexMeet(v.data(), count, q.data(), 4);
+    }
+    return false;
+  }
+
+  /// Whether the primitive contains the whole quadrilateral (all primitives are convex).
+  [[nodiscard]] bool containsAll(const Quad& q) const {
+    return std::all_of(q.begin(), q.end(), [this](const glm::dvec2& p) { return contains(p); });
+  }
+
+  [[nodiscard]] std::array<glm::dvec2, 4> bandCorners() const {
+    const glm::dvec2 n(-v[1].y, v[1].x);
+    return {v[0] + v[1] * t0 - n * half, v[0] + v[1] * t1 - n * half, v[0] + v[1] * t1 + n * half,
+            v[0] + v[1] * t0 + n * half};
+  }
+
+  [[nodiscard]] Box bounds() const {
+    Box box;
+    switch (kind) {
+      case Kind::Band:
+        for (const glm::dvec2& c : bandCorners()) box.add(c);
+        break;
+      case Kind::Disc:
+        box.add(v[0] - glm::dvec2(half));
+        box.add(v[0] + glm::dvec2(half));
+        break;
+      case Kind::Convex:
+        for (std::size_t i = 0; i < count; ++i) box.add(v[i]);
+        break;
+    }
+    box.padForRounding();
+    return box;
+  }
+};
+
+/// Whether a line shape draws anything at all (a positive, finite width).
+inline bool shapeUsable(const LineShape& shape) { return std::isfinite(shape.width) && shape.width > 0.0; }
+
+/// Calls emit(LinePrimitive) for every piece of one line string drawn with `shape` (whose width
+/// must be usable): after dropping consecutive repeated points, the segments' rectangles, the
+/// joins at interior vertices and the caps at both ends (footprints.hpp). A line with a
+/// non-finite point draws nothing. emit returns true to stop early; the function returns
+/// whether it was stopped.
+template <typename Emit>
+bool forEachLinePrimitive(const geo::LineString& line, const LineShape& shape, Emit&& emit) {
+  std::vector<glm::dvec2> pts;
+  pts.reserve(line.size());
+  for (const glm::dvec2& p : line) {
+    if (!finite(p)) return false;
+    if (pts.empty() || p != pts.back()) pts.push_back(p);
+  }
+  const double h = shape.width / 2.0;
+  if (pts.empty()) return false;
+  if (pts.size() == 1) {
+    switch (shape.cap) {
+      case LineCap::Round:
+        return emit(LinePrimitive::disc(pts[0], h));
+      case LineCap::Square:
+        return emit(LinePrimitive::band(pts[0], glm::dvec2(1.0, 0.0), -h, h, h));
+      case LineCap::Flat:
+        return false;
+    }
+    return false;
+  }
+  const std::size_t n = pts.size();
+  auto unit = [&pts](std::size_t i) {  // direction of segment i → i+1
+    const glm::dvec2 d = pts[i + 1] - pts[i];
+    return d / std::sqrt(dot(d, d));
+  };
+  // Segments.
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    const glm::dvec2 d = pts[i + 1] - pts[i];
+    if (emit(LinePrimitive::band(pts[i], unit(i), 0.0, std::sqrt(dot(d, d)), h))) return true;
+  }
+  // Joins.
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const glm::dvec2 u1 = unit(i - 1);
+    const glm::dvec2 u2 = unit(i);
+    const double turn = cross(u1, u2);
+    const double along = dot(u1, u2);
+    if (turn == 0.0 && along > 0.0) continue;  // straight continuation: no join
+    const glm::dvec2& v = pts[i];
+    if (shape.join == LineJoin::Round) {
+      if (emit(LinePrimitive::disc(v, h))) return true;
+      continue;
+    }
+    if (turn == 0.0) continue;  // a full reversal: bevel and (infinite) miter have no area
+    // Outer side: right of the path for a left turn, left of it for a right turn.
+    auto outer = [turn](const glm::dvec2& u) { return turn > 0.0 ? glm::dvec2(u.y, -u.x) : glm::dvec2(-u.y, u.x); };
+    const glm::dvec2 n1 = outer(u1);
+    const glm::dvec2 n2 = outer(u2);
+    const glm::dvec2 cornerIn = v + n1 * h;
+    const glm::dvec2 cornerOut = v + n2 * h;
+    // θ = π − turn angle; sin(θ/2) = cos(turn/2) = sqrt((1 + cos turn) / 2).
+    const double sinHalfTheta = std::sqrt(std::max(0.0, (1.0 + along) / 2.0));
+    const bool miter = shape.join == LineJoin::Miter && sinHalfTheta > 0.0 && h / sinHalfTheta <= shape.miterLimit * h;
+    if (miter) {
+      // The miter point lies on the bisector of the outer normals at distance h / sin(θ/2).
+      const glm::dvec2 tip = v + (n1 + n2) * (h / (1.0 + along));
+      if (emit(LinePrimitive::convex({v, cornerIn, tip, cornerOut}))) return true;
+    } else {
+      if (emit(LinePrimitive::convex({v, cornerIn, cornerOut}))) return true;
+    }
+  }
+  // Caps.
+  switch (shape.cap) {
+    case LineCap::Round:
+      return emit(LinePrimitive::disc(pts[0], h)) || emit(LinePrimitive::disc(pts[n - 1], h));
+    case LineCap::Square:
+      return emit(LinePrimitive::band(pts[0], unit(0), -h, 0.0, h)) ||
+             emit(LinePrimitive::band(pts[n - 1], unit(n - 2), 0.0, h, h));
+    case LineCap::Flat:
+      return false;
+  }
+  return false;
+}
+
+}  // namespace gis::overlay::reference
