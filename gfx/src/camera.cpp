@@ -42,8 +42,7 @@ std::array<glm::dvec4, 6> frustumPlanes(const glm::dmat4& m) {
   return {r3 + r0, r3 - r0, r3 + r1, r3 - r1, r3 - r2, r2};
 }
 
-bool boxInFrustum(const std::array<glm::dvec4, 6>& planes, const glm::dvec3& lo, const glm::dvec3& hi,
-                  bool nearPlane) {
+bool boxInFrustum(const std::array<glm::dvec4, 6>& planes, const glm::dvec3& lo, const glm::dvec3& hi, bool nearPlane) {
   for (std::size_t i = 0; i < planes.size(); ++i) {
     if (!nearPlane && i >= 4) break;
     const glm::dvec4& p = planes[i];

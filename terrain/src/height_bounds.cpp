@@ -137,8 +137,8 @@ QuadtreeHeightBounds::QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree
     hasNodata_ = file.nodataPosts() > 0;
   } else {
     pyramid_.emplace(tree_->grid());
-    hasNodata_ = std::any_of(tree_->grid().heights.begin(), tree_->grid().heights.end(),
-                             [](float h) { return std::isnan(h); });
+    hasNodata_ =
+        std::any_of(tree_->grid().heights.begin(), tree_->grid().heights.end(), [](float h) { return std::isnan(h); });
   }
 }
 

@@ -158,7 +158,7 @@ class Grid {
     scaleY_ = h > 0.0 ? rows_ / h : 0.0;
     const std::size_t cells = static_cast<std::size_t>(columns_) * static_cast<std::size_t>(rows_);
     std::vector<std::uint32_t> counts(cells + 1, 0);
-    auto forCells = [this, &region](const Box& b, auto&& fn) {
+    auto eachCell = [this, &region](const Box& b, auto&& fn) {
       const Box c = b.intersection(region);
       const int c0 = column(c.lo.x);
       const int c1 = column(c.hi.x);
@@ -169,13 +169,13 @@ class Grid {
           fn(static_cast<std::size_t>(r) * static_cast<std::size_t>(columns_) + static_cast<std::size_t>(col));
     };
     for (const Box& b : boxes)
-      if (b.intersects(region)) forCells(b, [&counts](std::size_t cellIndex) { ++counts[cellIndex + 1]; });
+      if (b.intersects(region)) eachCell(b, [&counts](std::size_t cellIndex) { ++counts[cellIndex + 1]; });
     for (std::size_t c = 0; c < cells; ++c) counts[c + 1] += counts[c];
     start_ = counts;
     items_.resize(counts[cells]);
     for (std::size_t i = 0; i < boxes.size(); ++i)
       if (boxes[i].intersects(region))
-        forCells(boxes[i], [this, &counts, i](std::size_t cellIndex) {
+        eachCell(boxes[i], [this, &counts, i](std::size_t cellIndex) {
           items_[counts[cellIndex]++] = static_cast<std::uint32_t>(i);
         });
   }
@@ -188,8 +188,8 @@ class Grid {
     const Box b = box.intersection(extent_);
     for (int r = row(b.lo.y), r1 = row(b.hi.y); r <= r1; ++r) {
       for (int c = column(b.lo.x), c1 = column(b.hi.x); c <= c1; ++c) {
-        const std::size_t cell = static_cast<std::size_t>(r) * static_cast<std::size_t>(columns_) +
-                                 static_cast<std::size_t>(c);
+        const std::size_t cell =
+            static_cast<std::size_t>(r) * static_cast<std::size_t>(columns_) + static_cast<std::size_t>(c);
         for (std::uint32_t k = start_[cell]; k < start_[cell + 1]; ++k)
           if (fn(items_[k])) return true;
       }
@@ -410,6 +410,78 @@ class Discontinuities {
   const PixelPoints& points_;
 };
 
+/// The 8 probe points of a pixel's square (corners and edge midpoints) on the ground: the probe
+/// rays met with the plane through the pixel's terrain point whose orientation comes from the
+/// neighbouring pixels' points (central differences, one-sided at the image border; the
+/// horizontal plane when they give none).
+class PixelSquares {
+ public:
+  using Probes = std::array<glm::dvec2, 8>;
+  /// Offsets in the pixel (x right, y down): top row, middle row without the centre, bottom row.
+  static constexpr std::array<std::array<double, 2>, 8> kOffsets{
+      {{0.0, 0.0}, {0.5, 0.0}, {1.0, 0.0}, {0.0, 0.5}, {1.0, 0.5}, {0.0, 1.0}, {0.5, 1.0}, {1.0, 1.0}}};
+
+  PixelSquares(const DepthImage& image, const PixelPoints& points, const Unprojector& unprojector)
+      : image_(image), points_(points), unprojector_(unprojector) {}
+
+  /// The probes of a terrain pixel, or nullopt when a probe ray does not meet the plane in front
+  /// of the eye (the square reaches over the plane's horizon).
+  [[nodiscard]] std::optional<Probes> probes(int x, int y) const {
+    const std::size_t i = index(x, y);
+    const glm::dvec3 centre = points_.point[i];
+    const std::optional<glm::dvec3> tx = tangent(x, y, 1, 0);
+    const std::optional<glm::dvec3> ty = tangent(x, y, 0, 1);
+    glm::dvec3 normal(0.0, 0.0, 1.0);
+    if (tx && ty) {
+      const glm::dvec3 c = glm::cross(*tx, *ty);
+      if (glm::length(c) > 1e-12 * glm::length(*tx) * glm::length(*ty)) normal = c;
+    }
+    const double d = points_.depth[i];
+    Probes out{};
+    for (std::size_t k = 0; k < kOffsets.size(); ++k) {
+      const double px = x + kOffsets[k][0];
+      const double py = y + kOffsets[k][1];
+      // Two points of the probe ray: at the centre's depth and twice as far (half the depth);
+      // with the infinite perspective the eye is at parameter −1.
+      const std::optional<glm::dvec3> a = unprojector_.at(px, py, d);
+      const std::optional<glm::dvec3> b = unprojector_.at(px, py, d / 2.0);
+      if (!a || !b) return std::nullopt;
+      const double t = glm::dot(centre - *a, normal) / glm::dot(*b - *a, normal);
+      if (!std::isfinite(t) || t <= -1.0 + 1e-9) return std::nullopt;
+      out[k] = glm::dvec2(*a + (*b - *a) * t);
+      if (!reference::finite(out[k])) return std::nullopt;
+    }
+    return out;
+  }
+
+  /// The corner probes in order round the square.
+  static reference::Quad footprint(const Probes& p) { return {p[0], p[2], p[7], p[5]}; }
+
+ private:
+  [[nodiscard]] std::size_t index(int x, int y) const {
+    return static_cast<std::size_t>(y) * static_cast<std::size_t>(image_.width) + static_cast<std::size_t>(x);
+  }
+  [[nodiscard]] std::optional<glm::dvec3> point(int x, int y) const {
+    if (x < 0 || y < 0 || x >= image_.width || y >= image_.height || points_.valid[index(x, y)] == 0)
+      return std::nullopt;
+    return points_.point[index(x, y)];
+  }
+  /// Neighbours of a pixel off silhouettes are terrain without a depth jump.
+  [[nodiscard]] std::optional<glm::dvec3> tangent(int x, int y, int dx, int dy) const {
+    const std::optional<glm::dvec3> plus = point(x + dx, y + dy);
+    const std::optional<glm::dvec3> minus = point(x - dx, y - dy);
+    const glm::dvec3 centre = points_.point[index(x, y)];
+    if (plus && minus) return *plus - *minus;
+    if (plus) return *plus - centre;
+    if (minus) return centre - *minus;
+    return std::nullopt;
+  }
+
+  const DepthImage& image_;
+  const PixelPoints& points_;
+  const Unprojector& unprojector_;
+};
+
 Box regionOf(const std::vector<glm::dvec3>& points, const std::vector<std::uint8_t>& valid) {
   Box box;
   for (std::size_t i = 0; i < points.size(); ++i)
@@ -450,16 +522,13 @@ std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const Re
   const Unprojector unprojector(image);
   const PixelPoints points = unprojectAll(image, unprojector);
   const Discontinuities jumps(image, points);
-  const std::size_t n = points.point.size();
+  const PixelSquares squares(image, points, unprojector);
   const auto width = static_cast<std::size_t>(image.width);
-  std::vector<std::uint8_t> edge(n, 0);
+  std::vector<std::uint8_t> edge(points.point.size(), 0);
 
-  // Probe points (the 8 points of the pixel square on the local surface plane) of the pixels
-  // that are not at a silhouette; a pixel whose probe ray misses that plane is an edge pixel.
-  constexpr std::array<std::array<double, 2>, 8> kProbes{
-      {{0.0, 0.0}, {0.5, 0.0}, {1.0, 0.0}, {0.0, 0.5}, {1.0, 0.5}, {0.0, 1.0}, {0.5, 1.0}, {1.0, 1.0}}};
-  std::vector<glm::dvec3> probes(n * kProbes.size(), glm::dvec3(0.0));
-  std::vector<std::uint8_t> probed(n, 0);
+  // Silhouettes, and pixels whose square reaches beyond the local surface plane's horizon, are
+  // edges outright; the footprints of the others bound the region to index.
+  std::vector<std::uint8_t> probed(points.point.size(), 0);
   Box region;
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
@@ -469,73 +538,32 @@ std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const Re
         continue;
       }
       if (points.valid[i] == 0) continue;
-      const glm::dvec3 centre = points.point[i];
-      // Surface tangents from the neighbours (central differences, one-sided at the border);
-      // all neighbours are terrain without a jump here.
-      auto neighbour = [&](int nx, int ny) -> std::optional<glm::dvec3> {
-        if (nx < 0 || ny < 0 || nx >= image.width || ny >= image.height) return std::nullopt;
-        const std::size_t k = static_cast<std::size_t>(ny) * width + static_cast<std::size_t>(nx);
-        if (points.valid[k] == 0) return std::nullopt;
-        return points.point[k];
-      };
-      auto tangent = [&](int dx, int dy) -> std::optional<glm::dvec3> {
-        const std::optional<glm::dvec3> plus = neighbour(x + dx, y + dy);
-        const std::optional<glm::dvec3> minus = neighbour(x - dx, y - dy);
-        if (plus && minus) return *plus - *minus;
-        if (plus) return *plus - centre;
-        if (minus) return centre - *minus;
-        return std::nullopt;
-      };
-      const std::optional<glm::dvec3> tx = tangent(1, 0);
-      const std::optional<glm::dvec3> ty = tangent(0, 1);
-      glm::dvec3 normal(0.0, 0.0, 1.0);  // fallback: the horizontal plane through the centre
-      if (tx && ty) {
-        const glm::dvec3 c = glm::cross(*tx, *ty);
-        if (glm::length(c) > 1e-12 * glm::length(*tx) * glm::length(*ty)) normal = c;
-      }
-      const double d = points.depth[i];
-      bool hit = true;
-      for (std::size_t k = 0; k < kProbes.size() && hit; ++k) {
-        const double px = x + kProbes[k][0];
-        const double py = y + kProbes[k][1];
-        // Two points on the probe ray: at the centre's depth and twice as far (depth / 2);
-        // with the infinite perspective the eye is at parameter −1.
-        const std::optional<glm::dvec3> a = unprojector.at(px, py, d);
-        const std::optional<glm::dvec3> b = unprojector.at(px, py, d / 2.0);
-        hit = false;
-        if (!a || !b) break;
-        const double denominator = glm::dot(*b - *a, normal);
-        const double t = glm::dot(centre - *a, normal) / denominator;
-        if (!std::isfinite(t) || t <= -1.0 + 1e-9) break;
-        const glm::dvec3 probe = *a + (*b - *a) * t;
-        if (!std::isfinite(probe.x) || !std::isfinite(probe.y)) break;
-        probes[i * kProbes.size() + k] = probe;
-        region.add(glm::dvec2(probe));
-        hit = true;
-      }
-      if (!hit) {
+      const std::optional<PixelSquares::Probes> probes = squares.probes(x, y);
+      if (!probes) {
         edge[i] = 1;
         continue;
       }
-      region.add(glm::dvec2(centre));
+      for (const glm::dvec2& p : *probes) region.add(p);
+      region.add(glm::dvec2(points.point[i]));
       probed[i] = 1;
     }
   }
   if (region.empty()) return edge;
 
   const MaskIndex index(layers, region);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (probed[i] == 0) continue;
-    const glm::dvec3* probe = &probes[i * kProbes.size()];
-    const std::uint32_t bits = index.bits(glm::dvec2(points.point[i]));
-    bool differs = false;
-    for (std::size_t k = 0; k < kProbes.size() && !differs; ++k) differs = index.bits(glm::dvec2(probe[k])) != bits;
-    // Features narrower than the probe spacing (thin lines, sharp corners, small holes): the
-    // footprint (the quadrilateral of the corner probes) against the layers' pieces.
-    differs = differs || index.straddles({glm::dvec2(probe[0]), glm::dvec2(probe[2]), glm::dvec2(probe[7]),
-                                          glm::dvec2(probe[5])},
-                                         bits);
-    edge[i] = differs ? 1 : 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * width + static_cast<std::size_t>(x);
+      if (probed[i] == 0) continue;
+      const PixelSquares::Probes probes = *squares.probes(x, y);  // as in the first pass
+      const std::uint32_t bits = index.bits(glm::dvec2(points.point[i]));
+      bool differs = false;
+      for (std::size_t k = 0; k < probes.size() && !differs; ++k) differs = index.bits(probes[k]) != bits;
+      // Features narrower than the probe spacing (thin lines, sharp corners, small holes): the
+      // whole footprint (the quadrilateral of the corner probes) against the layers' pieces.
+      differs = differs || index.straddles(PixelSquares::footprint(probes), bits);
+      edge[i] = differs ? 1 : 0;
+    }
   }
   return edge;
 }

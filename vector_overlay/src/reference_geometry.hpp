@@ -60,8 +60,8 @@ struct Box {
   /// it must contain every point a predicate accepts).
   void padForRounding() {
     if (empty()) return;
-    const double scale = std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y), hi.x - lo.x,
-                                   hi.y - lo.y, 1.0});
+    const double scale =
+        std::max({std::abs(lo.x), std::abs(lo.y), std::abs(hi.x), std::abs(hi.y), hi.x - lo.x, hi.y - lo.y, 1.0});
     const double pad = 1e-9 * scale;
     lo -= glm::dvec2(pad);
     hi += glm::dvec2(pad);
@@ -120,7 +120,7 @@ inline double segmentDistance(const glm::dvec2& p, const glm::dvec2& a, const gl
 inline bool discMeetsQuad(const glm::dvec2& centre, double radius, const Quad& q) {
   const glm::dvec2 box[4] = {centre - glm::dvec2(radius), glm::dvec2(centre.x + radius, centre.y - radius),
                              centre + glm::dvec2(radius), glm::dvec2(centre.x - radius, centre.y + radius)};
-  if (!convexMeet(box, 4, q.data(), 4)) return false;  // quick rejection by the disc's square
+  if (!convexMeet(box, 4, q.data(), 4)) return false;    // quick rejection by the disc's square
   if (convexMeet(&centre, 1, q.data(), 4)) return true;  // the centre inside the quad
   for (std::size_t i = 0; i < 4; ++i)
     if (segmentDistance(centre, q[i], q[(i + 1) % 4]) <= radius) return true;
@@ -152,7 +152,8 @@ void forEachRingEdge(const geo::Polygon& polygon, Fn&& fn) {
 /// outer ring of zero area (fewer than 3 distinct points, or all points on one line).
 inline bool polygonUsable(const geo::Polygon& polygon) {
   bool allFinite = true;
-  forEachRingEdge(polygon, [&allFinite](const glm::dvec2& a, const glm::dvec2&) { allFinite = allFinite && finite(a); });
+  forEachRingEdge(polygon,
+                  [&allFinite](const glm::dvec2& a, const glm::dvec2&) { allFinite = allFinite && finite(a); });
   if (!allFinite || polygon.outer.empty()) return false;
   const glm::dvec2 p0 = polygon.outer.front();
   glm::dvec2 far = p0;
@@ -278,7 +279,7 @@ struct LinePrimitive {
   std::uint8_t count = 0;  ///< Convex: number of vertices (3 or 4), counter-clockwise
   /// Band: v[0] origin, v[1] unit direction; Disc: v[0] centre; Convex: the vertices.
   std::array<glm::dvec2, 4> v{};
-  double t0 = 0.0;    ///< Band: along-direction range [t0, t1] from the origin
+  double t0 = 0.0;  ///< Band: along-direction range [t0, t1] from the origin
   double t1 = 0.0;
   double half = 0.0;  ///< Band: half width; Disc: radius
 

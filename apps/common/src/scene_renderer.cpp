@@ -61,9 +61,8 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     const LoadedLayer& source = scene.layers[i];
     if (!source.description.visible) continue;
     const overlay::LayerStyle& style = source.description.style;
-    Result<overlay::OverlayLayer> layer =
-        overlay::OverlayLayer::build(source.description.name, source.description.kind, style, source.data.features,
-                                     *scene.bounds, options);
+    Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(
+        source.description.name, source.description.kind, style, source.data.features, *scene.bounds, options);
     diagnostics.append(layer.diagnostics);
     if (!layer) continue;
     layers_.push_back(std::move(*layer));

@@ -3,8 +3,8 @@
 #include <array>
 
 #include <glm/mat4x4.hpp>
-#include <glm/vec4.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 namespace gis::gfx {
 

@@ -53,7 +53,6 @@ struct LodSelection {
 
 LodSelection selectLod(const TerrainQuadtree& tree, const LodView& view, const LodOptions& options = {});
 
-
 /// The chunk of a selection that draws the point at continuous global post coordinates, or
 /// nullptr if none (culled, outside, or nodata).
 const SelectedChunk* chunkAt(const TerrainQuadtree& tree, const LodSelection& selection, double col, double row);

@@ -49,10 +49,10 @@ struct FrameStats {
   std::size_t terrainCulled = 0;
   int finestLevel = 0;
   int coarsestLevel = 0;
-  double selectMilliseconds = 0.0;  ///< CPU time of the LOD selection
+  double selectMilliseconds = 0.0;               ///< CPU time of the LOD selection
   std::vector<overlay::LayerFrameStats> layers;  ///< per drawn overlay layer (fill, then outline)
-  std::size_t tilesMissing = 0;     ///< paged terrain: tiles wanted but not loaded (parents drawn)
-  std::size_t tilesArrived = 0;     ///< paged terrain: tiles that became resident this frame
+  std::size_t tilesMissing = 0;                  ///< paged terrain: tiles wanted but not loaded (parents drawn)
+  std::size_t tilesArrived = 0;                  ///< paged terrain: tiles that became resident this frame
   terrain::TilePagerStats pager;
 };
 
