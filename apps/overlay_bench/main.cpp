@@ -1,8 +1,13 @@
-// overlay_bench: headless benchmark. This version measures the terrain (mode "terrain"): a
-// scripted fly-through (top-down, oblique, horizon) at a fixed resolution, frame by frame with
-// glFinish, reporting frame-time median and p95, triangles and chunks per frame, LOD selection
-// time, CPU and GPU memory, and the deterministic fragment counts. Writes bench.json and
-// frames.csv. Frame times are wall time on a shared machine: compare within one run.
+// overlay_bench: headless benchmark.
+// - mode "terrain": a scripted fly-through (top-down, oblique, horizon) at a fixed resolution,
+//   frame by frame with glFinish, reporting frame-time median and p95, triangles and chunks per
+//   frame, LOD selection time, CPU and GPU memory, and the deterministic fragment counts.
+// - mode "overlay": the same path, each frame drawn three ways in turn — terrain only, our
+//   stencil polyhedra, the seed paper's construction — so that the ratios come from one run;
+//   plus, on every 10th frame, GPU time and fragment counts per layer against the pixels the
+//   layers cover (fragments per covered pixel), and the latency of a one-feature edit.
+// Writes bench.json and frames.csv. Frame times are wall time on a shared machine: compare
+// within one run.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -30,7 +35,7 @@ using nlohmann::json;
 using namespace gis;
 
 constexpr const char* kUsage =
-    "usage: overlay_bench --scene S.json [--mode terrain] [--width W --height H] [--frames N]\n"
+    "usage: overlay_bench --scene S.json [--mode terrain|overlay] [--width W --height H] [--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] --out DIR\n";
 
 struct Options {
@@ -88,11 +93,14 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       return "bad argument " + std::string(a) + " " + std::string(v);
   }
   if (o.scene.empty() || o.out.empty()) return "--scene and --out are required";
-  if (o.mode != "terrain") return "--mode: only \"terrain\" is available in this version";
+  if (o.mode != "terrain" && o.mode != "overlay") return "--mode: \"terrain\" or \"overlay\"";
   return {};
 }
 
+int runOverlay(const Options& o);
+
 int run(const Options& o) {
+  if (o.mode == "overlay") return runOverlay(o);
   const auto loadStart = std::chrono::steady_clock::now();
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
   app::report(description.diagnostics);
@@ -176,6 +184,167 @@ int run(const Options& o) {
                  {"tile_cache_peak_bytes", tileBytesPeak},
                  {"tile_cache_budget_bytes", scene->paged() ? scene->quadtree->pager()->budgetBytes() : std::size_t{0}},
                  {"cpu_rss_bytes", processMemory("VmRSS")},
+                 {"cpu_peak_bytes", processMemory("VmHWM")},
+                 {"renderer", (*context)->info().renderer},
+                 {"gl_errors", (*context)->debug().errorCount()}};
+  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
+  std::printf("%s\n", result.dump(2).c_str());
+  return (*context)->debug().errorCount() == 0 ? 0 : 1;
+}
+
+struct MethodFrames {
+  std::vector<double> ms;
+  std::map<std::string, std::vector<double>> bySegment;
+};
+
+int runOverlay(const Options& o) {
+  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
+  app::report(description.diagnostics);
+  if (!description) return 1;
+  app::LoadOptions loadOptions;
+  loadOptions.paging = o.paging;
+  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
+  app::report(scene.diagnostics);
+  if (!scene) return 1;
+  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
+  app::report(context.diagnostics);
+  if (!context) return 1;
+  // Two renderers: ours and the paper's construction (the terrain is the same).
+  app::OverlayBuildSettings ours, paper;
+  paper.method = app::OverlayMethod::Paper;
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, ours);
+  app::report(renderer.diagnostics);
+  Result<app::SceneRenderer> paperRenderer = app::SceneRenderer::create(*scene, paper);
+  if (!renderer || !paperRenderer) return 1;
+
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene, description->verticalExaggeration, lo, hi);
+  const std::vector<app::PathFrame> path = app::flyThrough(lo, hi, o.frames);
+  gfx::StateCache cache;
+  gfx::RenderTarget target(o.width, o.height, 0, true);
+  app::RenderSettings settings;
+  settings.lodTolerancePixels = o.lodTolerance;
+  settings.verticalExaggeration = description->verticalExaggeration;
+  settings.waitForTiles = true;  // the same terrain for the three methods
+
+  std::filesystem::create_directories(o.out);
+  std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
+  csv << "frame,segment,terrain_ms,stencil_ms,paper_ms,covered_pixels,stencil_fragments,paper_fragments,"
+         "stencil_zfail_pieces\n";
+  MethodFrames terrainOnly, stencil, paperVariant;
+  std::vector<double> fragmentsPerPixel, paperFragmentsPerPixel, ratio;
+  std::map<std::string, std::vector<double>> fppBySegment, paperFppBySegment;
+  auto timed = [&](app::SceneRenderer& r, const app::Camera& camera, bool overlays, bool measure,
+                   app::FrameStats& stats) {
+    settings.overlays = overlays;
+    settings.measure = measure;
+    glFinish();
+    const auto start = std::chrono::steady_clock::now();
+    stats = r.render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+    glFinish();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  };
+  for (std::size_t k = 0; k < path.size(); ++k) {
+    const app::Camera& camera = path[k].camera;
+    const std::string& segment = path[k].segment;
+    app::FrameStats a, b, c;
+    const double tMs = timed(*renderer, camera, false, false, a);
+    const double sMs = timed(*renderer, camera, true, false, b);
+    const double pMs = timed(*paperRenderer, camera, true, false, c);
+    if (k > 0) {  // frame 0 builds the first chunks
+      terrainOnly.ms.push_back(tMs);
+      stencil.ms.push_back(sMs);
+      paperVariant.ms.push_back(pMs);
+      terrainOnly.bySegment[segment].push_back(tMs);
+      stencil.bySegment[segment].push_back(sMs);
+      paperVariant.bySegment[segment].push_back(pMs);
+      ratio.push_back(sMs / std::max(tMs, 1e-6));
+    }
+    std::size_t covered = 0;
+    std::uint64_t ourFragments = 0, paperFragments = 0;
+    std::size_t zFail = 0;
+    for (const auto& l : b.layers) zFail += l.zFailPieces;
+    if (k % 10 == 0) {
+      // Counted frames (queries wait): fragments of mark + cover against covered pixels.
+      app::FrameStats measured;
+      timed(*renderer, camera, true, true, measured);
+      const std::vector<std::uint32_t> mask = gfx::readMask(target);
+      for (std::uint32_t m : mask) covered += m != 0 ? 1u : 0u;
+      for (const auto& l : measured.layers) ourFragments += l.markFragments + l.coverFragments;
+      timed(*paperRenderer, camera, true, true, measured);
+      for (const auto& l : measured.layers) paperFragments += l.markFragments + l.coverFragments;
+      if (covered > 0) {
+        const double f = static_cast<double>(ourFragments) / static_cast<double>(covered);
+        const double g = static_cast<double>(paperFragments) / static_cast<double>(covered);
+        fragmentsPerPixel.push_back(f);
+        paperFragmentsPerPixel.push_back(g);
+        fppBySegment[segment].push_back(f);
+        paperFppBySegment[segment].push_back(g);
+      }
+    }
+    csv << k << ',' << segment << ',' << tMs << ',' << sMs << ',' << pMs << ',' << covered << ',' << ourFragments << ','
+        << paperFragments << ',' << zFail << '\n';
+  }
+
+  // A one-feature edit: move a vertex of the first line (or polygon) feature by 10 m; the time
+  // to rebuild its pieces and draw the next frame.
+  json edit = nullptr;
+  for (std::size_t i = 0; i < renderer->overlayLayers().size(); ++i) {
+    overlay::OverlayLayer& layer = renderer->overlayLayer(i);
+    if (layer.features().empty()) continue;
+    geo::Feature feature = layer.features().front();
+    if (!feature.lines.empty() && !feature.lines.front().empty()) {
+      feature.lines.front().front() += glm::dvec2(10.0, 0.0);
+    } else if (!feature.polygons.empty() && !feature.polygons.front().outer.empty()) {
+      feature.polygons.front().outer.front() += glm::dvec2(10.0, 0.0);
+    } else {
+      continue;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const Diagnostics d = layer.replaceFeature(0, feature);
+    const double rebuildMs =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    app::FrameStats after;
+    const double frameMs = timed(*renderer, path.back().camera, true, false, after);
+    edit = {{"layer", layer.name()}, {"rebuild_ms", rebuildMs}, {"next_frame_ms", frameMs}};
+    break;
+  }
+
+  auto summary = [&](const MethodFrames& m) {
+    json segments;
+    for (const auto& [name, v] : m.bySegment) {
+      segments[name] = {{"median_ms", percentile(v, 50)}, {"p95_ms", percentile(v, 95)}};
+    }
+    return json{{"median_ms", percentile(m.ms, 50)}, {"p95_ms", percentile(m.ms, 95)}, {"segments", segments}};
+  };
+  json layers = json::array();
+  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) {
+    layers.push_back({{"name", l.name()},
+                      {"features", l.stats().features},
+                      {"skipped_features", l.stats().skippedFeatures},
+                      {"pieces", l.stats().pieces},
+                      {"triangles", l.stats().triangles},
+                      {"gpu_bytes", l.stats().gpuBytes},
+                      {"build_seconds", l.stats().buildSeconds}});
+  }
+  json fpp = {{"stencil_median", percentile(fragmentsPerPixel, 50)},
+              {"paper_median", percentile(paperFragmentsPerPixel, 50)}};
+  for (const auto& [name, v] : fppBySegment) {
+    fpp["segments"][name] = {{"stencil_median", percentile(v, 50)},
+                             {"paper_median", percentile(paperFppBySegment[name], 50)}};
+  }
+  json result = {{"mode", o.mode},
+                 {"scene", o.scene},
+                 {"width", o.width},
+                 {"height", o.height},
+                 {"frames", path.size()},
+                 {"terrain_only", summary(terrainOnly)},
+                 {"stencil", summary(stencil)},
+                 {"paper", summary(paperVariant)},
+                 {"stencil_over_terrain_ratio_median", percentile(ratio, 50)},
+                 {"fragments_per_covered_pixel", fpp},
+                 {"layers", layers},
+                 {"edit", edit},
                  {"cpu_peak_bytes", processMemory("VmHWM")},
                  {"renderer", (*context)->info().renderer},
                  {"gl_errors", (*context)->debug().errorCount()}};

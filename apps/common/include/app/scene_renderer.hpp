@@ -75,6 +75,8 @@ class SceneRenderer {
   [[nodiscard]] const terrain::LodSelection& lastSelection() const { return selection_; }
   /// The overlay layers in draw order (a polygon layer's outline follows its fill).
   [[nodiscard]] const std::vector<overlay::OverlayLayer>& overlayLayers() const { return layers_; }
+  /// For editing features (the next frame shows the change).
+  [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
   [[nodiscard]] const std::vector<std::pair<std::size_t, bool>>& overlaySources() const { return sources_; }
 
