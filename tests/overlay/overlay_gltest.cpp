@@ -58,6 +58,21 @@ std::vector<overlay::ReferenceLayer> referenceLayers(const std::vector<const ove
   return out;
 }
 
+/// The matrix under which sample position (sx, sy) of each pixel (GL convention: from the
+/// pixel's lower-left corner, y up) projects to the pixel's centre: the reference unprojects
+/// pixel centres, so this makes it evaluate at the sample.
+glm::dmat4 atSample(const glm::dmat4& viewProj, double sx, double sy) {
+  // x' = x − 2(sx − ½)/W · w (and y alike): a clip-space shift proportional to w, i.e. rows 0
+  // and 1 of the matrix gain a multiple of row 3.
+  const double dx = -2.0 * (sx - 0.5) / kWidth, dy = -2.0 * (sy - 0.5) / kHeight;
+  glm::dmat4 r = viewProj;
+  for (int c = 0; c < 4; ++c) {
+    r[c][0] += dx * viewProj[c][3];
+    r[c][1] += dy * viewProj[c][3];
+  }
+  return r;
+}
+
 /// Reads the target back and compares it with the reference.
 Comparison compare(const gfx::RenderTarget& target, const glm::dmat4& viewProj,
                    const std::vector<const overlay::OverlayLayer*>& layers, const std::string& label) {
@@ -302,6 +317,118 @@ TEST_F(OverlayGlTest, StiffTerrainUnderCoarseAndLoadingLodsMissesNoPixel) {
   EXPECT_EQ(total.wrong, 0u);
   EXPECT_LE(total.edgeWrong, total.covered / 200);
   EXPECT_GT(total.covered, 20000u);
+}
+
+TEST_F(OverlayGlTest, MsaaIsExactPerSample) {
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  ASSERT_TRUE(scene.ok());
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  ASSERT_TRUE(renderer.ok());
+  std::vector<const overlay::OverlayLayer*> layers;
+  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) layers.push_back(&l);
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene, 1.0, lo, hi);
+  const glm::dvec3 centre = 0.5 * (lo + hi);
+  gfx::RenderTarget msaa(kWidth, kHeight, 4, true), single(kWidth, kHeight, 0, true);
+  ASSERT_EQ(msaa.samples(), 4);
+  app::RenderSettings settings;
+  Comparison total;
+  std::size_t differingSamples = 0;  // samples of one pixel that disagree: MSAA does anti-alias
+  for (const glm::dvec3& offset : {glm::dvec3(-900, -1400, 1300), glm::dvec3(800, 200, 500)}) {
+    app::Camera camera;
+    camera.eye = centre + offset;
+    camera.target = centre;
+    camera.fovYDeg = 40.0;
+    renderer->render(cache_, msaa.framebuffer(), kWidth, kHeight, camera, settings);
+    const glm::dmat4 viewProj = camera.projection(static_cast<double>(kWidth) / kHeight) * camera.view();
+    std::vector<std::vector<std::uint32_t>> masks;
+    for (int k = 0; k < 4; ++k) {
+      GLfloat position[2] = {0.5F, 0.5F};
+      glGetMultisamplefv(GL_SAMPLE_POSITION, static_cast<GLuint>(k), position);
+      msaa.copySampleInto(single, k);
+      const Comparison c =
+          compare(single, atSample(viewProj, position[0], position[1]), layers, "msaa sample " + std::to_string(k));
+      total.covered += c.covered;
+      total.wrong += c.wrong;
+      total.edgeWrong += c.edgeWrong;
+      masks.push_back(gfx::readMask(single));
+    }
+    for (std::size_t i = 0; i < masks[0].size(); ++i) {
+      differingSamples += (masks[0][i] != masks[1][i] || masks[0][i] != masks[2][i] || masks[0][i] != masks[3][i]);
+    }
+  }
+  std::printf("MSAA 4x: %zu covered samples, %zu wrong away from edges, %zu on edges; %zu pixels with mixed samples\n",
+              total.covered, total.wrong, total.edgeWrong, differingSamples);
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 200);
+  EXPECT_GT(differingSamples, 100u) << "4x MSAA should give anti-aliased edges";
+}
+
+TEST_F(OverlayGlTest, EditingOneFeatureShowsInTheNextFrameAndTouchesOnlyItsPieces) {
+  auto tree =
+      std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 257, .height = 257, .seed = 5}), 16);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  const terrain::TerrainGrid& grid = tree->grid();
+  const glm::dvec2 lo = grid.postPosition(0, grid.height - 1), hi = grid.postPosition(grid.width - 1, 0);
+  std::mt19937 rng(23);
+  overlay::LayerStyle style;
+  Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build("areas", overlay::LayerKind::Polygon, style,
+                                                                     randomPolygons(rng, lo, hi, 12), *bounds);
+  ASSERT_TRUE(layer.ok());
+  const glm::dvec3 eye(0.5 * (lo + hi) + glm::dvec2(-2500.0, -2500.0), 3500.0);
+  const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+  const glm::dmat4 viewProj = gfx::reversedInfinitePerspective(fov, aspect, 1.0) *
+                              gfx::lookAt(eye, glm::dvec3(0.5 * (lo + hi), 0.0), glm::dvec3(0, 0, 1));
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  auto frame = [&] {
+    terrain::LodView view{eye, viewProj, kHeight, fov};
+    gfx::enableReversedZ();
+    gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
+    gfx::enableMaskWrites(target.framebuffer(), false);
+    engine->draw(cache_, viewProj, eye, terrain::selectLod(*tree, view), 1.0);
+    gfx::enableMaskWrites(target.framebuffer(), true);
+    const std::vector<const overlay::OverlayLayer*> layers{&*layer};
+    overlays->draw(cache_, {viewProj, eye, 1.0, fov, aspect}, layers);
+    return compare(target, viewProj, layers, "edit");
+  };
+  const Comparison before = frame();
+  EXPECT_EQ(before.wrong, 0u);
+  // Move feature 3 by 400 m: only its slots change; the others keep theirs.
+  std::vector<std::vector<std::uint32_t>> slotsBefore;
+  auto slotsOf = [&](std::size_t feature) {
+    std::vector<std::uint32_t> out;
+    for (std::size_t k = 0; k < layer->slots().size(); ++k) {
+      if (layer->slots()[k].live && layer->slots()[k].feature == feature) out.push_back(static_cast<std::uint32_t>(k));
+    }
+    return out;
+  };
+  for (std::size_t f = 0; f < layer->features().size(); ++f) slotsBefore.push_back(slotsOf(f));
+  geo::Feature moved = layer->features()[3];
+  for (glm::dvec2& p : moved.polygons[0].outer) p += glm::dvec2(400.0, 0.0);
+  for (geo::Ring& h : moved.polygons[0].holes) {
+    for (glm::dvec2& p : h) p += glm::dvec2(400.0, 0.0);
+  }
+  EXPECT_TRUE(layer->replaceFeature(3, moved).empty());
+  for (std::size_t f = 0; f < layer->features().size(); ++f) {
+    if (f == 3) {
+      EXPECT_NE(slotsOf(f), slotsBefore[f]);
+    } else {
+      EXPECT_EQ(slotsOf(f), slotsBefore[f]) << "feature " << f << " was rebuilt";
+    }
+  }
+  const Comparison after = frame();  // the reference reads the layer's (edited) features
+  EXPECT_EQ(after.wrong, 0u);
+  layer->removeFeature(5);
+  EXPECT_TRUE(slotsOf(5).empty());
+  const Comparison removed = frame();
+  EXPECT_EQ(removed.wrong, 0u);
+  EXPECT_LT(removed.covered, after.covered + 1);
 }
 
 }  // namespace
