@@ -306,7 +306,9 @@ TEST_F(OverlayGlTest, StiffTerrainUnderCoarseAndLoadingLodsMissesNoPixel) {
     engine->draw(cache_, viewProj, eye, selection, 1.0);
     gfx::enableMaskWrites(target.framebuffer(), true);
     overlay::OverlayView ov{viewProj, eye, 1.0, fov, aspect};
-    overlays->draw(cache_, ov, layers);
+    overlay::OverlaySettings os;
+    os.forceGroups = trial % 2 == 1;  // the grouped scheme must give the same pixels
+    overlays->draw(cache_, ov, layers, os);
     const Comparison c = compare(target, viewProj, layers, "stiff #" + std::to_string(trial));
     total.covered += c.covered;
     total.wrong += c.wrong;
@@ -429,6 +431,59 @@ TEST_F(OverlayGlTest, EditingOneFeatureShowsInTheNextFrameAndTouchesOnlyItsPiece
   const Comparison removed = frame();
   EXPECT_EQ(removed.wrong, 0u);
   EXPECT_LT(removed.covered, after.covered + 1);
+}
+
+TEST_F(OverlayGlTest, MoreThan255OverlappingPiecesOfALayerAreStillExact) {
+  auto tree = std::make_shared<terrain::TerrainQuadtree>(
+      makeStiffTerrain({.width = 129, .height = 129, .seed = 2, .cliffs = false, .spike = false, .holes = false}), 16);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  const glm::dvec2 centre = tree->grid().postPosition(64, 64);
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  for (int count : {256, 300}) {
+    // `count` squares over a common centre: there the count is 256 (≡ 0 mod 256) or 300.
+    std::vector<geo::Feature> squares;
+    for (int i = 0; i < count; ++i) {
+      geo::Feature f;
+      f.fid = i;
+      const double r = 300.0 + 2.0 * i, a = 0.01 * i;
+      geo::Polygon p;
+      for (int k = 0; k < 4; ++k) {
+        const double t = a + 1.5708 * k;
+        p.outer.push_back(centre + r * glm::dvec2(std::cos(t), std::sin(t)));
+      }
+      f.polygons.push_back(std::move(p));
+      squares.push_back(std::move(f));
+    }
+    overlay::LayerStyle style;
+    Result<overlay::OverlayLayer> layer =
+        overlay::OverlayLayer::build("deep", overlay::LayerKind::Polygon, style, squares, *bounds);
+    ASSERT_TRUE(layer.ok());
+    EXPECT_GE(layer->maxOverlap(), static_cast<std::size_t>(count));
+    for (const glm::dvec3& offset : {glm::dvec3(0, -10, 2500), glm::dvec3(-1500, -1200, 900)}) {
+      const glm::dvec3 eye = glm::dvec3(centre, 0.0) + offset;
+      const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+      const glm::dmat4 viewProj = gfx::reversedInfinitePerspective(fov, aspect, 1.0) *
+                                  gfx::lookAt(eye, glm::dvec3(centre, 0.0), glm::dvec3(0, 0, 1));
+      terrain::LodView view{eye, viewProj, kHeight, fov};
+      gfx::enableReversedZ();
+      gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
+      gfx::enableMaskWrites(target.framebuffer(), false);
+      engine->draw(cache_, viewProj, eye, terrain::selectLod(*tree, view), 1.0);
+      gfx::enableMaskWrites(target.framebuffer(), true);
+      const std::vector<const overlay::OverlayLayer*> layers{&*layer};
+      const auto stats = overlays->draw(cache_, {viewProj, eye, 1.0, fov, aspect}, layers);
+      EXPECT_TRUE(stats[0].grouped);
+      const Comparison c = compare(target, viewProj, layers, std::to_string(count) + " squares");
+      EXPECT_EQ(c.wrong, 0u) << count << " squares";
+      EXPECT_GT(c.covered, 1000u);
+      // Every layer pixel was coloured once and cleared: the stencil is back to zero.
+      const std::vector<std::uint8_t> stencil = gfx::readStencil(target);
+      EXPECT_EQ(std::count(stencil.begin(), stencil.end(), 0), static_cast<long>(stencil.size()));
+    }
+  }
 }
 
 }  // namespace

@@ -54,6 +54,44 @@ const Row kTable[] = {
      StencilOp::Zero, StencilOp::Zero, CompareFunc::NotEqual, true, false, false, true, true},
 };
 
+// Deep overlaps (more than 255 pieces of a layer at a pixel): marks count in the low 7 bits, a
+// collect pass turns a non-zero count into the flag 0x80, the final cover colours flagged pixels.
+TEST(StencilStates, GroupedSchemeForDeepOverlaps) {
+  for (const gfx::PipelineState* s : {&overlay::kMarkZPassGrouped, &overlay::kMarkZFailGrouped}) {
+    EXPECT_EQ(s->stencil.front.writeMask, 0x7F);
+    EXPECT_EQ(s->stencil.back.writeMask, 0x7F);
+  }
+  gfx::PipelineState ungrouped = overlay::kMarkZPassGrouped;
+  ungrouped.stencil.front.writeMask = ungrouped.stencil.back.writeMask = 0xFF;
+  EXPECT_EQ(ungrouped, overlay::kMarkZPass);
+  for (const gfx::PipelineState* s : {&overlay::kCollectZPass, &overlay::kCollectZFail}) {
+    EXPECT_EQ(s->stencil.front.func, CompareFunc::NotEqual);
+    EXPECT_EQ(s->stencil.front.readMask, 0x7F);  // count ≠ 0
+    EXPECT_EQ(s->stencil.front.ref, 0x80);
+    EXPECT_EQ(s->stencil.front.depthPass, StencilOp::Replace);  // → exactly the flag
+    EXPECT_EQ(s->stencil.front.depthFail, StencilOp::Replace);
+    EXPECT_EQ(s->stencil.front.writeMask, 0xFF);
+    EXPECT_FALSE(s->raster.colorMask.r || s->raster.colorMask.a);
+    EXPECT_FALSE(s->depth.test);
+  }
+  EXPECT_EQ(overlay::kCollectZPass.raster.cull, CullMode::Back);
+  EXPECT_EQ(overlay::kCollectZFail.raster.cull, CullMode::Front);
+  for (const gfx::PipelineState* s : {&overlay::kCoverFlaggedZPass, &overlay::kCoverFlaggedZFail}) {
+    EXPECT_EQ(s->stencil.front.func, CompareFunc::Equal);
+    EXPECT_EQ(s->stencil.front.readMask, 0x80);
+    EXPECT_EQ(s->stencil.front.ref, 0x80);
+    EXPECT_EQ(s->stencil.front.depthPass, StencilOp::Zero);
+    EXPECT_EQ(s->blend, gfx::kBlendPremultipliedOver);
+  }
+  // Modular arithmetic in 7 bits under the write mask: 0x80 + 1 → 0x81, 0x80 − 1 → 0xFF.
+  auto masked = [](std::uint8_t old, std::uint8_t computed) {
+    return static_cast<std::uint8_t>((old & 0x80) | (computed & 0x7F));
+  };
+  EXPECT_EQ(masked(0x80, 0x81), 0x81);
+  EXPECT_EQ(masked(0x80, 0x7F), 0xFF);
+  EXPECT_EQ(masked(0xFF, 0x00), 0x80);  // 127 + 1 wraps to 0, the flag stays
+}
+
 TEST(StencilStates, MatchTheTables) {
   for (const Row& row : kTable) {
     SCOPED_TRACE(row.pass);

@@ -76,18 +76,36 @@ class FootprintBuilder {
     fp.feature = feature;
     fp.cell = cell;
     fp.kind = kind;
-    std::unordered_map<std::uint64_t, int> count;
+    // Directed edges as sorted keys with their multiplicities (faster than a hash map).
     const auto key = [](std::uint32_t a, std::uint32_t b) { return (std::uint64_t{a} << 32U) | b; };
+    std::vector<std::uint64_t> keys;
+    keys.reserve(3 * triangles_.size());
     for (const auto& t : triangles_) {
-      for (std::size_t i = 0; i < 3; ++i) ++count[key(t[i], t[(i + 1) % 3])];
+      for (std::size_t i = 0; i < 3; ++i) keys.push_back(key(t[i], t[(i + 1) % 3]));
     }
+    std::sort(keys.begin(), keys.end());
+    std::vector<int> count;
+    std::size_t unique = 0;
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      if (i > 0 && keys[i] == keys[unique - 1]) {
+        ++count.back();
+      } else {
+        keys[unique++] = keys[i];
+        count.push_back(1);
+      }
+    }
+    keys.resize(unique);
+    const auto find = [&](std::uint64_t k) -> int* {
+      const auto it = std::lower_bound(keys.begin(), keys.end(), k);
+      return it != keys.end() && *it == k ? &count[static_cast<std::size_t>(it - keys.begin())] : nullptr;
+    };
     for (const auto& t : triangles_) {
       for (std::size_t i = 0; i < 3; ++i) {
         const std::uint32_t a = t[i];
         const std::uint32_t b = t[(i + 1) % 3];
-        int& forward = count[key(a, b)];
-        const auto reverse = count.find(key(b, a));
-        const int backward = reverse == count.end() ? 0 : reverse->second;
+        int& forward = *find(key(a, b));
+        const int* reverse = find(key(b, a));
+        const int backward = reverse == nullptr ? 0 : *reverse;
         // Emits max(0, forward − backward) copies in total: an edge shared by two triangles in
         // opposite directions is interior, any other edge is boundary.
         if (forward > backward) {
@@ -226,10 +244,17 @@ inline glm::dvec2 intersect(const EdgeSupport& s, int axis, double value) {
   return r;
 }
 
-/// Keeps the part of `poly` where coordinate[axis] ≥ value (keepAbove) or ≤ value.
+/// Keeps the part of `poly` where coordinate[axis] ≥ value (keepAbove) or ≤ value. A vertex
+/// exactly on the line is kept and no crossing point is computed next to it (that point would
+/// be the same place, rounded differently): crossings are computed only between vertices
+/// strictly on opposite sides.
 inline ClipPolygon clipHalfPlane(const ClipPolygon& poly, int axis, double value, bool keepAbove) {
   const auto ax = static_cast<glm::dvec2::length_type>(axis);
-  const auto inside = [&](const glm::dvec2& p) { return keepAbove ? p[ax] >= value : p[ax] <= value; };
+  // +1 strictly inside, 0 on the line, −1 strictly outside
+  const auto side = [&](const glm::dvec2& p) {
+    const double d = keepAbove ? p[ax] - value : value - p[ax];
+    return d > 0.0 ? 1 : (d < 0.0 ? -1 : 0);
+  };
   ClipPolygon out;
   const std::size_t n = poly.points.size();
   out.points.reserve(n + 2);
@@ -241,16 +266,17 @@ inline ClipPolygon clipHalfPlane(const ClipPolygon& poly, int axis, double value
     const glm::dvec2& p = poly.points[i];
     const glm::dvec2& q = poly.points[(i + 1) % n];
     const EdgeSupport& s = poly.edges[i];
-    const bool inP = inside(p);
-    const bool inQ = inside(q);
-    if (inP) {
+    const int sp = side(p);
+    const int sq = side(q);
+    if (sp >= 0) {
       out.points.push_back(p);
-      out.edges.push_back(s);
-      if (!inQ) {
+      // leaving the half-plane: from here the boundary runs along the clip line
+      out.edges.push_back(sq < 0 && sp == 0 ? line : s);
+      if (sp > 0 && sq < 0) {
         out.points.push_back(intersect(s, axis, value));
         out.edges.push_back(line);
       }
-    } else if (inQ) {
+    } else if (sq > 0) {
       out.points.push_back(intersect(s, axis, value));
       out.edges.push_back(s);
     }

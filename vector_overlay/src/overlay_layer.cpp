@@ -189,6 +189,7 @@ std::uint32_t OverlayLayer::originFor(const Polyhedron& p) {
 }
 
 void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces) {
+  maxOverlap_.reset();
   const FeatureStyle& style = styles_[feature];
   const std::uint8_t rgba[4] = {unorm8(style.color.x), unorm8(style.color.y), unorm8(style.color.z),
                                 unorm8(style.color.w)};
@@ -242,6 +243,38 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
   }
 }
 
+std::size_t OverlayLayer::maxOverlap() const {
+  if (maxOverlap_) return *maxOverlap_;
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  std::size_t live = 0;
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    if (!slots_[k].live) continue;
+    ++live;
+    lo = glm::min(lo, polyhedra_[k].boxMin);
+    hi = glm::max(hi, polyhedra_[k].boxMax);
+  }
+  if (live <= 255) return *(maxOverlap_ = live);  // cannot exceed the number of pieces
+  // Count the pieces' boxes on a 256 × 256 grid: a point lies in one cell, every piece holding
+  // it has its box over that cell.
+  constexpr int kCells = 256;
+  const glm::dvec2 size = glm::max(hi - lo, glm::dvec2(1e-9));
+  std::vector<std::uint32_t> counts(static_cast<std::size_t>(kCells * kCells), 0);
+  std::uint32_t worst = 0;
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    if (!slots_[k].live) continue;
+    const glm::dvec2 a = (polyhedra_[k].boxMin - lo) / size * static_cast<double>(kCells);
+    const glm::dvec2 b = (polyhedra_[k].boxMax - lo) / size * static_cast<double>(kCells);
+    const int x0 = std::clamp(static_cast<int>(std::floor(a.x)), 0, kCells - 1);
+    const int x1 = std::clamp(static_cast<int>(std::floor(b.x)), 0, kCells - 1);
+    const int y0 = std::clamp(static_cast<int>(std::floor(a.y)), 0, kCells - 1);
+    const int y1 = std::clamp(static_cast<int>(std::floor(b.y)), 0, kCells - 1);
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) worst = std::max(worst, ++counts[static_cast<std::size_t>(y * kCells + x)]);
+    }
+  }
+  return *(maxOverlap_ = worst);
+}
+
 void OverlayLayer::ensureCapacity(std::size_t vertices, std::size_t indices) {
   if (vertices <= vertexCapacity_ && indices <= indexCapacity_ && vertices_ && indices_) return;
   vertexCapacity_ = std::max<std::size_t>({vertices, 2 * vertexCapacity_, 1024});
@@ -280,6 +313,7 @@ void OverlayLayer::appendGeometry(std::size_t slot, std::vector<Vertex> v, std::
 }
 
 void OverlayLayer::freePieces(std::uint32_t feature) {
+  maxOverlap_.reset();
   for (std::uint32_t slot : featureSlots_[feature]) {
     PieceSlot& s = slots_[slot];
     if (!s.live) continue;

@@ -184,6 +184,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
 
   std::vector<Command> zPass, zFail, coverZPass, coverZFail;
   std::vector<std::size_t> zFailSlots;
+  std::vector<std::pair<bool, std::size_t>> order;  ///< (z-fail, index into zPass / zFailSlots)
   for (const OverlayLayer::PieceSlot& s : slots) {
     if (!s.live) continue;
     const Polyhedron& p = polyhedra[static_cast<std::size_t>(&s - slots.data())];
@@ -201,8 +202,10 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     if (fail) {
       ++stats.zFailPieces;
       zFail.push_back(whole);
+      order.emplace_back(true, zFailSlots.size());
       zFailSlots.push_back(static_cast<std::size_t>(&s - slots.data()));
     } else {
+      order.emplace_back(false, zPass.size());
       ++stats.zPassPieces;
       // Over drawn terrain the bottom cap is hidden from an eye outside: leave it out.
       const bool skipBottom = p.overSurface && !layer.paperVariant();
@@ -249,6 +252,15 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     timer_->begin();
     markStats_->begin();
   }
+  // Our z-fail pieces are clipped on the CPU just in front of the eye (uploadClippedPieces).
+  auto drawClipped = [&](GLsizei vertices) {
+    if (vertices == 0) return;
+    glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
+    glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, vertices, 1, zeroOrigin);
+    glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
+  };
+  const bool grouped = !layer.paperVariant() && (settings.forceGroups || layer.maxOverlap() > 255);
+  stats.grouped = grouped;
   if (layer.paperVariant()) {
     cache.apply(kPaperMarkZPassFront);
     multiDraw(zPass);
@@ -258,33 +270,60 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     multiDraw(zFail);
     cache.apply(kPaperMarkZFailFront);
     multiDraw(zFail);
-  } else {
+    if (settings.measure) {
+      markStats_->end();
+      coverStats_->begin();
+    }
+    cache.apply(kPaperCoverZPass);
+    multiDraw(coverZPass);
+    cache.apply(kPaperCoverZFail);
+    multiDraw(coverZFail);
+  } else if (!grouped) {
     cache.apply(kMarkZPass);
     multiDraw(zPass);
-  }
-  // Our z-fail pieces are clipped on the CPU just in front of the eye (see clippedPieces).
-  const GLsizei clippedVertices = layer.paperVariant() ? 0 : uploadClippedPieces(view, layer, zFailSlots, settings);
-  auto drawClipped = [&] {
-    if (clippedVertices == 0) return;
-    glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
-    glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, clippedVertices, 1, zeroOrigin);
-    glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
-  };
-  if (!layer.paperVariant()) {
+    const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings);
     cache.apply(kMarkZFail);
-    drawClipped();
-  }
-  if (settings.measure) {
-    markStats_->end();
-    coverStats_->begin();
-  }
-  cache.apply(layer.paperVariant() ? kPaperCoverZPass : kCoverZPass);
-  multiDraw(coverZPass);
-  cache.apply(layer.paperVariant() ? kPaperCoverZFail : kCoverZFail);
-  if (layer.paperVariant()) {
-    multiDraw(coverZFail);
+    drawClipped(clipped);
+    if (settings.measure) {
+      markStats_->end();
+      coverStats_->begin();
+    }
+    cache.apply(kCoverZPass);
+    multiDraw(zPass);
+    cache.apply(kCoverZFail);
+    drawClipped(clipped);
   } else {
-    drawClipped();
+    // Groups of at most 127 pieces: mark (7-bit counts), collect into the flag; then one cover.
+    for (std::size_t first = 0; first < order.size(); first += kGroupSize) {
+      std::vector<Command> groupPass;
+      std::vector<std::size_t> groupFail;
+      for (std::size_t k = first; k < std::min(order.size(), first + kGroupSize); ++k) {
+        if (order[k].first) {
+          groupFail.push_back(zFailSlots[order[k].second]);
+        } else {
+          groupPass.push_back(zPass[order[k].second]);
+        }
+      }
+      const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings);
+      cache.apply(kMarkZPassGrouped);
+      multiDraw(groupPass);
+      cache.apply(kMarkZFailGrouped);
+      drawClipped(clipped);
+      cache.apply(kCollectZPass);
+      multiDraw(groupPass);
+      cache.apply(kCollectZFail);
+      drawClipped(clipped);
+      ++stats.groups;
+    }
+    if (settings.measure) {
+      markStats_->end();
+      coverStats_->begin();
+    }
+    cache.apply(kCoverFlaggedZPass);
+    multiDraw(zPass);
+    const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings);
+    cache.apply(kCoverFlaggedZFail);
+    drawClipped(clipped);
   }
   if (settings.measure) {
     coverStats_->end();

@@ -155,18 +155,33 @@ bool constraintsExact(const FastTriangulation& cdt) {
   return true;
 }
 
+/// A vertex in double. Lazy exact coordinates are evaluated exactly first: their interval
+/// approximation may be some ulps off (20 − 7e-15 for an exact 20), and a vertex rounded
+/// differently than its exact value could fall into the wrong cell.
+inline glm::dvec2 toDouble(const CGAL::Epick::Point_2& p) { return {p.x(), p.y()}; }
+inline glm::dvec2 toDouble(const CGAL::Epeck::Point_2& p) {
+  return {CGAL::to_double(CGAL::exact(p.x())), CGAL::to_double(CGAL::exact(p.y()))};
+}
+
 /// Triangulates the rings and returns the triangles inside an odd number of them, with their
 /// vertices rounded to double; nullopt when `requireExact` and a constraint had to bend.
 template <typename Tr>
 std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring>& rings, bool requireExact) {
   using Point = typename Tr::Point;
   Tr cdt;
+  // All points first, spatially sorted by CGAL: inserting them along the rings would make every
+  // new point of a convex ring conflict with a long fan of triangles (quadratic time).
+  std::vector<Point> points;
+  for (const auto& ring : rings) {
+    for (const auto& p : ring) points.emplace_back(p.x, p.y);
+  }
+  cdt.insert(points.begin(), points.end());
   std::vector<typename Tr::Vertex_handle> handles;
   for (const auto& ring : rings) {
     handles.clear();
-    typename Tr::Face_handle hint;
+    typename Tr::Face_handle hint;  // per ring: inserting constraints may destroy faces
     for (const auto& p : ring) {
-      const auto v = cdt.insert(Point(p.x, p.y), hint);
+      const auto v = cdt.insert(Point(p.x, p.y), hint);  // finds the vertex already there
       hint = v->face();
       handles.push_back(v);
     }
@@ -187,7 +202,7 @@ std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring
     Triangle t;
     for (int i = 0; i < 3; ++i) {
       const auto& p = f->vertex(i)->point();
-      t[static_cast<std::size_t>(i)] = glm::dvec2(CGAL::to_double(p.x()), CGAL::to_double(p.y()));
+      t[static_cast<std::size_t>(i)] = toDouble(p);
     }
     inside.push_back(t);
   }

@@ -19,6 +19,14 @@
 
 #include <glm/vec2.hpp>
 
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wold-style-cast"
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#pragma GCC diagnostic pop
+
 #include "geo/vector.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/style.hpp"
@@ -28,6 +36,14 @@ namespace gis::overlay::reference {
 inline double cross(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
 inline double dot(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.x + a.y * b.y; }
 inline bool finite(const glm::dvec2& p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+
+/// Exact sign of the turn a → b → c on the double coordinates (CGAL's filtered predicate):
+/// +1 left (counter-clockwise), −1 right, 0 exactly collinear.
+inline int orientation(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c) {
+  using Point = CGAL::Exact_predicates_inexact_constructions_kernel::Point_2;
+  const CGAL::Orientation o = CGAL::orientation(Point(a.x, a.y), Point(b.x, b.y), Point(c.x, c.y));
+  return o == CGAL::LEFT_TURN ? 1 : (o == CGAL::RIGHT_TURN ? -1 : 0);
+}
 
 /// An axis-aligned box; empty when lo > hi.
 struct Box {
@@ -149,28 +165,19 @@ void forEachRingEdge(const geo::Polygon& polygon, Fn&& fn) {
 }
 
 /// A polygon the footprints skip ("cannot be used"): a non-finite coordinate in any ring, or an
-/// outer ring of zero area (fewer than 3 distinct points, or all points on one line).
+/// outer ring of zero area (fewer than 3 distinct points, or all points exactly on one line).
 inline bool polygonUsable(const geo::Polygon& polygon) {
   bool allFinite = true;
   forEachRingEdge(polygon,
                   [&allFinite](const glm::dvec2& a, const glm::dvec2&) { allFinite = allFinite && finite(a); });
   if (!allFinite || polygon.outer.empty()) return false;
   const glm::dvec2 p0 = polygon.outer.front();
-  glm::dvec2 far = p0;
-  double farLength2 = 0.0;
-  for (const glm::dvec2& p : polygon.outer) {
-    const double l2 = dot(p - p0, p - p0);
-    if (l2 > farLength2) {
-      farLength2 = l2;
-      far = p;
-    }
-  }
-  if (farLength2 == 0.0) return false;
-  const double length = std::sqrt(farLength2);
-  const glm::dvec2 axis = (far - p0) / length;
-  for (const glm::dvec2& p : polygon.outer)
-    if (std::abs(cross(axis, p - p0)) > 1e-12 * length) return true;
-  return false;
+  const auto other =
+      std::find_if(polygon.outer.begin(), polygon.outer.end(), [&p0](const glm::dvec2& p) { return p != p0; });
+  if (other == polygon.outer.end()) return false;
+  const glm::dvec2 p1 = *other;
+  return std::any_of(polygon.outer.begin(), polygon.outer.end(),
+                     [&](const glm::dvec2& p) { return orientation(p0, p1, p) != 0; });
 }
 
 inline Box polygonBounds(const geo::Polygon& polygon) {
@@ -428,17 +435,17 @@ bool forEachLinePrimitive(const geo::LineString& line, const LineShape& shape, E
   for (std::size_t i = 1; i + 1 < n; ++i) {
     const glm::dvec2 u1 = unit(i - 1);
     const glm::dvec2 u2 = unit(i);
-    const double turn = cross(u1, u2);
+    const int turn = orientation(pts[i - 1], pts[i], pts[i + 1]);
     const double along = dot(u1, u2);
-    if (turn == 0.0 && along > 0.0) continue;  // straight continuation: no join
+    if (turn == 0 && along > 0.0) continue;  // straight continuation (exactly collinear): no join
     const glm::dvec2& v = pts[i];
     if (shape.join == LineJoin::Round) {
       if (emit(LinePrimitive::disc(v, h))) return true;
       continue;
     }
-    if (turn == 0.0) continue;  // a full reversal: bevel and (infinite) miter have no area
+    if (turn == 0) continue;  // a full reversal: bevel and (infinite) miter have no area
     // Outer side: right of the path for a left turn, left of it for a right turn.
-    auto outer = [turn](const glm::dvec2& u) { return turn > 0.0 ? glm::dvec2(u.y, -u.x) : glm::dvec2(-u.y, u.x); };
+    auto outer = [turn](const glm::dvec2& u) { return turn > 0 ? glm::dvec2(u.y, -u.x) : glm::dvec2(-u.y, u.x); };
     const glm::dvec2 n1 = outer(u1);
     const glm::dvec2 n2 = outer(u2);
     const glm::dvec2 cornerIn = v + n1 * h;

@@ -4,6 +4,18 @@
 // (point in polygon with the even-odd rule; distance to segments with the same joins and caps,
 // arcs exact). It is the ground truth of the GL tests, the error metric of the benchmark and
 // the engine of picking. Simple and obviously right first; a grid index keeps it usable.
+// Independent of the GPU code and of the footprint construction (it never builds footprints).
+// Precisely:
+// - a polygon layer uses its features' `polygons` (a line layer their `lines`; the other kind of
+//   geometry is ignored); a polygon covers the points inside an odd number of its rings (raw
+//   rings: orientation, repeated points and self-intersections need no repair), a feature the
+//   union of its polygons. A polygon whose outer ring has no area (fewer than 3 distinct points,
+//   all points on one line) or that has a non-finite coordinate is skipped, holes included;
+// - a line feature covers the union of the rectangles, joins and caps of footprints.hpp after
+//   dropping consecutive repeated points (a line with a non-finite point covers nothing);
+//   "nothing on a straight continuation" holds for every join, round included, and means
+//   exactly collinear (cross product 0, same direction); a full reversal gets a disc (round)
+//   or nothing (bevel; miter, whose length is then infinite).
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -24,14 +36,19 @@ struct DepthImage {
   int width = 0;
   int height = 0;
   /// width × height depths, row 0 = the TOP row of the image (as gfx::readDepth returns them),
-  /// reversed-Z (GL_ZERO_TO_ONE, infinite far plane): 0 = background (nothing drawn).
+  /// reversed-Z (GL_ZERO_TO_ONE, infinite far plane): 0 = background (nothing drawn; so is any
+  /// value that is not a positive number). A span of another size is a caller error (asserted;
+  /// empty results in release builds).
   std::span<const float> depth;
   /// Frame coordinates → clip space, exactly the matrix the image was drawn with (double).
   glm::dmat4 viewProj{1.0};
 };
 
 /// Frame coordinates of the terrain point seen through the centre of pixel (x, y) (x from the
-/// left, y from the top row), or nullopt for background.
+/// left, y from the top row), or nullopt for background or a pixel outside the image. The
+/// centre's NDC is (2(x + 0.5)/width − 1, 1 − 2(y + 0.5)/height, depth), mapped back through
+/// the inverse of viewProj in double. Float depth limits the precision to about 2^-24 of the
+/// distance from the eye.
 std::optional<glm::dvec3> unprojectPixel(const DepthImage& image, int x, int y);
 
 /// A layer as the reference sees it: its features and how they are drawn.
@@ -40,19 +57,35 @@ struct ReferenceLayer {
   LayerKind kind = LayerKind::Polygon;
   const std::vector<geo::Feature>* features = nullptr;
   /// Per feature: its line shape (lines; empty for polygon layers) and whether it is shown
-  /// (empty = all shown).
+  /// (empty = all shown). A feature beyond the end of `shapes` is drawn with LineShape{}, beyond
+  /// the end of `visible` shown. A shape whose width is not positive and finite draws nothing.
   std::vector<LineShape> shapes;
   std::vector<bool> visible;
 };
 
-/// Per pixel (row 0 = top), bit i set when layer i (i < 32) covers the pixel's terrain point.
+/// Per pixel (row 0 = top), bit i set when layer i (i < 32) covers the pixel's terrain point;
+/// layers from the 33rd on are ignored. 0 on background.
 std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const ReferenceLayer> layers);
 
 /// Per pixel, 1 where the pixel's footprint straddles a feature edge: the mask bits at the
 /// pixel centre differ from those at some point of the pixel's square (its corners and edge
 /// midpoints, unprojected on the plane through the centre point with the surface's local
 /// orientation from neighbouring depths). Such pixels may legitimately differ between the GPU
-/// and the reference; every other pixel must agree exactly.
+/// and the reference; every other pixel must agree exactly. Precisely, a pixel is an edge pixel
+/// when
+/// - it touches a depth discontinuity: it or one of its 8 neighbours is background and the
+///   other not, or the window-depth step to that neighbour exceeds 4 times the smaller of the
+///   steps just beyond the pair on the same line (plus 1e-5 of the depth): the GPU may see
+///   other terrain there; or
+/// - a probe ray misses the local plane in front of the eye (the square reaches over the
+///   plane's horizon); or
+/// - the mask bits at one of the 8 probe points differ from those at the centre; or
+/// - (for features narrower than the probe spacing) the footprint, the quadrilateral of the 4
+///   corner probes, meets a piece of a layer that does not cover the centre (exact), or, for a
+///   layer that covers the centre, no single piece of it contains the footprint and a 9 × 9
+///   sampling of the footprint finds a point it does not cover.
+/// Not included: the chord tolerance of drawn arcs (footprints.hpp): pixels must be much larger
+/// than it for the GPU to agree exactly elsewhere.
 std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const ReferenceLayer> layers);
 
 struct PickedFeature {
@@ -60,11 +93,12 @@ struct PickedFeature {
   std::size_t feature = 0;  ///< index in the layer's features
 };
 
-/// The features under pixel (x, y), in layer order then feature order; empty on background.
+/// The features under pixel (x, y), in layer order then feature order (every covering feature
+/// of every layer, the 33rd layer on included); empty on background.
 std::vector<PickedFeature> pick(const DepthImage& image, std::span<const ReferenceLayer> layers, int x, int y);
 
 /// Whether a layer covers a frame point (x, y) (the rules above); the index of the first
-/// covering feature, if any.
+/// visible covering feature, if any. Unindexed: evaluates every feature.
 std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point);
 
 }  // namespace gis::overlay

@@ -97,6 +97,9 @@ class OverlayLayer {
   Diagnostics replaceFeature(std::size_t index, geo::Feature feature);
   Diagnostics setFeatureStyle(std::size_t index, const FeatureStyle& style);
   void removeFeature(std::size_t index);  ///< hides it for good (indices stay stable)
+  /// An upper bound of how many of the layer's pieces overlap at any point (counted on a grid
+  /// of their bounding boxes); above 255 the renderer draws the layer in groups.
+  [[nodiscard]] std::size_t maxOverlap() const;
   /// Re-reads the height bounds of every piece (after a change of vertical exaggeration).
   void refreshBounds(const HeightBoundsProvider& bounds);
 
@@ -148,6 +151,7 @@ class OverlayLayer {
   std::size_t wastedIndices_ = 0;
   LayerStats stats_;
   const HeightBoundsProvider* bounds_ = nullptr;
+  mutable std::optional<std::size_t> maxOverlap_;  ///< cleared by edits
 };
 
 }  // namespace gis::overlay

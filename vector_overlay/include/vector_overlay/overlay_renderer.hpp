@@ -39,8 +39,9 @@ struct OverlaySettings {
   /// buffer's resolution (float reversed-Z: about 1e-7 relative) and the vertices' float error.
   double padBase = 0.05;
   double padPerMetre = 2e-6;
-  bool measure = false;     ///< GPU time and fragment counts per layer (waits for the GPU)
-  bool forceZFail = false;  ///< every piece z-fail (for tests and cost comparisons)
+  bool measure = false;      ///< GPU time and fragment counts per layer (waits for the GPU)
+  bool forceZFail = false;   ///< every piece z-fail (for tests and cost comparisons)
+  bool forceGroups = false;  ///< the grouped scheme for deep overlaps on every layer (tests)
 };
 
 struct LayerFrameStats {
@@ -48,6 +49,8 @@ struct LayerFrameStats {
   std::size_t zFailPieces = 0;
   std::size_t culledPieces = 0;
   std::size_t drawCommands = 0;
+  bool grouped = false;  ///< drawn in groups (the layer may overlap more than 255 deep)
+  std::size_t groups = 0;
   double gpuMilliseconds = 0.0;     ///< mark + cover, when measured
   std::uint64_t markFragments = 0;  ///< fragment shader invocations, when measured
   std::uint64_t coverFragments = 0;

@@ -3,6 +3,9 @@
 // the tables of the seed papers (Dai 2008 §3.2–3.3 and DESIGN §4); the renderer uses nothing
 // else. Reversed-Z: a fragment "passes the depth test" when it is nearer than the terrain
 // (GREATER).
+#include <cstddef>
+#include <cstdint>
+
 #include "gfx/pipeline_state.hpp"
 
 namespace gis::overlay {
@@ -77,5 +80,46 @@ inline constexpr gfx::PipelineState paperCover(bool zFail) {
 }
 inline constexpr gfx::PipelineState kPaperCoverZPass = paperCover(false);
 inline constexpr gfx::PipelineState kPaperCoverZFail = paperCover(true);
+
+// More than 255 pieces of one layer over a pixel would wrap the 8-bit count to zero. Layers
+// that may overlap that deeply (OverlayLayer::maxOverlap) are drawn in groups of at most 127
+// pieces: the count lives in the low 7 bits (mark with write mask 0x7F: wrapping mod 128), a
+// collect pass after each group turns every non-zero count into the flag 0x80 (count zeroed),
+// and one cover pass at the end colours the flagged pixels once and clears them.
+inline constexpr std::uint8_t kGroupFlag = 0x80;
+inline constexpr std::uint8_t kGroupCountMask = 0x7F;
+inline constexpr std::size_t kGroupSize = 127;
+
+inline constexpr gfx::PipelineState groupedMark(gfx::PipelineState s) {
+  s.stencil.front.writeMask = kGroupCountMask;
+  s.stencil.back.writeMask = kGroupCountMask;
+  return s;
+}
+inline constexpr gfx::PipelineState kMarkZPassGrouped = groupedMark(kMarkZPass);
+inline constexpr gfx::PipelineState kMarkZFailGrouped = groupedMark(kMarkZFail);
+
+inline constexpr gfx::PipelineState collectState(gfx::CullMode cull) {
+  const gfx::StencilFace face = detail::stencilFace(gfx::CompareFunc::NotEqual, gfx::StencilOp::Replace,
+                                                    gfx::StencilOp::Replace, kGroupFlag, kGroupCountMask, 0xFF);
+  gfx::PipelineState s = detail::coverState(cull);
+  s.stencil = gfx::StencilState{true, face, face};
+  s.blend = gfx::BlendState{};
+  s.raster.colorMask = detail::kNoColor;
+  return s;
+}
+/// After a group: (count ≠ 0) → 0x80. Front faces of z-pass pieces, back faces of z-fail ones.
+inline constexpr gfx::PipelineState kCollectZPass = collectState(gfx::CullMode::Back);
+inline constexpr gfx::PipelineState kCollectZFail = collectState(gfx::CullMode::Front);
+
+inline constexpr gfx::PipelineState flaggedCover(gfx::CullMode cull) {
+  const gfx::StencilFace face = detail::stencilFace(gfx::CompareFunc::Equal, gfx::StencilOp::Zero, gfx::StencilOp::Zero,
+                                                    kGroupFlag, kGroupFlag, 0xFF);
+  gfx::PipelineState s = detail::coverState(cull);
+  s.stencil = gfx::StencilState{true, face, face};
+  return s;
+}
+/// The final cover of a grouped layer: where the flag is set, colour once and zero.
+inline constexpr gfx::PipelineState kCoverFlaggedZPass = flaggedCover(gfx::CullMode::Back);
+inline constexpr gfx::PipelineState kCoverFlaggedZFail = flaggedCover(gfx::CullMode::Front);
 
 }  // namespace gis::overlay
