@@ -486,5 +486,84 @@ TEST_F(OverlayGlTest, MoreThan255OverlappingPiecesOfALayerAreStillExact) {
   }
 }
 
+TEST_F(OverlayGlTest, CategoricalColoursAndHiddenFeatures) {
+  auto tree = std::make_shared<terrain::TerrainQuadtree>(
+      makeStiffTerrain({.width = 129, .height = 129, .seed = 4, .cliffs = false, .spike = false, .holes = false}), 16);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  const glm::dvec2 centre = tree->grid().postPosition(64, 64);
+  std::vector<geo::Feature> squares;
+  const char* kinds[] = {"park", "water", "other"};
+  for (int i = 0; i < 3; ++i) {
+    geo::Feature f;
+    f.fid = 10 + i;
+    f.attributes["kind"] = std::string(kinds[i]);
+    const glm::dvec2 c = centre + glm::dvec2(-500.0 + 500.0 * i, 0.0);
+    f.polygons.push_back(
+        {{c + glm::dvec2(-200, -200), c + glm::dvec2(200, -200), c + glm::dvec2(200, 200), c + glm::dvec2(-200, 200)},
+         {}});
+    squares.push_back(std::move(f));
+  }
+  overlay::LayerStyle style;
+  style.color = glm::vec4(0.0F, 0.0F, 1.0F, 1.0F);
+  style.opacity = 1.0F;
+  style.colorAttribute = "kind";
+  style.categories["park"] = glm::vec4(0.0F, 1.0F, 0.0F, 1.0F);
+  style.categories["water"] = glm::vec4(1.0F, 0.0F, 0.0F, 1.0F);
+  Result<overlay::OverlayLayer> layer =
+      overlay::OverlayLayer::build("landuse", overlay::LayerKind::Polygon, style, squares, *bounds);
+  ASSERT_TRUE(layer.ok());
+  const glm::dvec3 eye(centre + glm::dvec2(0.0, -10.0), 2200.0);
+  const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+  const glm::dmat4 viewProj = gfx::reversedInfinitePerspective(fov, aspect, 1.0) *
+                              gfx::lookAt(eye, glm::dvec3(centre, 0.0), glm::dvec3(0, 0, 1));
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  auto draw = [&] {
+    terrain::LodView view{eye, viewProj, kHeight, fov};
+    gfx::enableReversedZ();
+    gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
+    gfx::enableMaskWrites(target.framebuffer(), false);
+    engine->draw(cache_, viewProj, eye, terrain::selectLod(*tree, view), 1.0);
+    gfx::enableMaskWrites(target.framebuffer(), true);
+    const std::vector<const overlay::OverlayLayer*> layers{&*layer};
+    overlays->draw(cache_, {viewProj, eye, 1.0, fov, aspect}, layers);
+  };
+  const std::array<std::array<std::uint8_t, 3>, 3> expected{{{0, 255, 0}, {255, 0, 0}, {0, 0, 255}}};
+  auto check = [&](const std::array<bool, 3>& shown) {
+    draw();
+    const std::vector<float> depth = gfx::readDepth(target);
+    const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
+    const std::vector<std::uint32_t> mask = gfx::readMask(target);
+    overlay::DepthImage image{kWidth, kHeight, depth, viewProj};
+    const std::vector<overlay::ReferenceLayer> ref = referenceLayers({&*layer});
+    const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+    std::array<std::size_t, 3> seen{};
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const auto i = static_cast<std::size_t>(y * kWidth + x);
+        if (edges[i] != 0) continue;
+        const std::vector<overlay::PickedFeature> under = overlay::pick(image, ref, x, y);
+        if (under.empty()) {
+          ASSERT_EQ(mask[i], 0u) << x << " " << y;
+          continue;
+        }
+        const std::size_t f = under.front().feature;
+        ASSERT_TRUE(shown[f]) << "a hidden feature was picked";
+        ++seen[f];
+        ASSERT_EQ(mask[i], 1u);
+        for (std::size_t c = 0; c < 3; ++c) ASSERT_EQ(rgba[i * 4 + c], expected[f][c]) << "feature " << f;
+      }
+    }
+    for (std::size_t f = 0; f < 3; ++f) EXPECT_EQ(seen[f] > 100, shown[f]) << "feature " << f;
+  };
+  check({true, true, true});
+  overlay::FeatureStyle hidden = layer->featureStyles()[1];
+  hidden.visible = false;
+  EXPECT_TRUE(layer->setFeatureStyle(1, hidden).empty());
+  check({true, false, true});
+}
+
 }  // namespace
 }  // namespace gis::test

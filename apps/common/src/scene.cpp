@@ -88,7 +88,7 @@ class SceneParser {
     }
     warnUnknownKeys(j,
                     {"color", "opacity", "outline_width_m", "outline_color", "width_m", "width_attribute", "join",
-                     "cap", "miter_limit", "color_attribute", "categories"},
+                     "cap", "miter_limit", "color_attribute", "categories", "order"},
                     where);
     color(j, "color", where, s.color);
     color(j, "outline_color", where, s.outlineColor);
@@ -103,6 +103,7 @@ class SceneParser {
     }
     read(j, "width_attribute", where, s.widthAttribute);
     read(j, "color_attribute", where, s.colorAttribute);
+    read(j, "order", where, s.drawOrder);
     if (j.contains("categories")) {
       if (!j["categories"].is_object()) {
         error(where + "categories", "expected an object mapping attribute values to colours");

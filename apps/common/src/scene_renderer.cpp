@@ -1,5 +1,6 @@
 #include "app/scene_renderer.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -57,7 +58,12 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   cells.columns = std::max(1, static_cast<int>(std::ceil(extent.x / cells.cellSize)));
   cells.rows = std::max(1, static_cast<int>(std::ceil(extent.y / cells.cellSize)));
   options.footprints.cells = cells;
-  for (std::size_t i = 0; i < scene.layers.size(); ++i) {
+  std::vector<std::size_t> order(scene.layers.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
+    return scene.layers[l].description.style.drawOrder < scene.layers[r].description.style.drawOrder;
+  });
+  for (const std::size_t i : order) {
     const LoadedLayer& source = scene.layers[i];
     if (!source.description.visible) continue;
     const overlay::LayerStyle& style = source.description.style;

@@ -18,6 +18,9 @@ struct LayerStyle {
   /// features whose value is not listed get `color`.
   std::string colorAttribute;
   std::map<std::string, glm::vec4> categories;
+  /// Layers are drawn by increasing order (ties keep the scene's order); later layers cover
+  /// earlier ones.
+  int drawOrder = 0;
   // polygons
   float outlineWidthMetres = 0.0F;
   glm::vec4 outlineColor{0.0F, 0.0F, 0.0F, 1.0F};
