@@ -100,6 +100,19 @@ Comparison compare(const gfx::RenderTarget& target, const glm::dmat4& viewProj,
   return c;
 }
 
+/// Our terrain for the selection, then the layers, into a target with a mask.
+std::vector<overlay::LayerFrameStats> drawTerrainAndLayers(
+    gfx::StateCache& cache, gfx::RenderTarget& target, terrain::TerrainEngine& engine,
+    overlay::OverlayRenderer& overlays, const terrain::LodSelection& selection, const overlay::OverlayView& view,
+    const std::vector<const overlay::OverlayLayer*>& layers, const overlay::OverlaySettings& settings = {}) {
+  gfx::enableReversedZ();
+  gfx::beginRenderPass(cache, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
+  gfx::enableMaskWrites(target.framebuffer(), false);  // the terrain shader has no mask output
+  engine.draw(cache, view.viewProj, view.eye, selection, 1.0);
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  return overlays.draw(cache, view, layers, settings);
+}
+
 double percent(std::size_t part, std::size_t whole) {
   return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
 }
@@ -300,15 +313,9 @@ TEST_F(OverlayGlTest, StiffTerrainUnderCoarseAndLoadingLodsMissesNoPixel) {
       };
     }
     const terrain::LodSelection selection = terrain::selectLod(*tree, view, lod);
-    gfx::enableReversedZ();
-    gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
-    gfx::enableMaskWrites(target.framebuffer(), false);
-    engine->draw(cache_, viewProj, eye, selection, 1.0);
-    gfx::enableMaskWrites(target.framebuffer(), true);
-    overlay::OverlayView ov{viewProj, eye, 1.0, fov, aspect};
     overlay::OverlaySettings os;
     os.forceGroups = trial % 2 == 1;  // the grouped scheme must give the same pixels
-    overlays->draw(cache_, ov, layers, os);
+    drawTerrainAndLayers(cache_, target, *engine, *overlays, selection, {viewProj, eye, 1.0, fov, aspect}, layers, os);
     const Comparison c = compare(target, viewProj, layers, "stiff #" + std::to_string(trial));
     total.covered += c.covered;
     total.wrong += c.wrong;
@@ -390,13 +397,9 @@ TEST_F(OverlayGlTest, EditingOneFeatureShowsInTheNextFrameAndTouchesOnlyItsPiece
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   auto frame = [&] {
     terrain::LodView view{eye, viewProj, kHeight, fov};
-    gfx::enableReversedZ();
-    gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
-    gfx::enableMaskWrites(target.framebuffer(), false);
-    engine->draw(cache_, viewProj, eye, terrain::selectLod(*tree, view), 1.0);
-    gfx::enableMaskWrites(target.framebuffer(), true);
     const std::vector<const overlay::OverlayLayer*> layers{&*layer};
-    overlays->draw(cache_, {viewProj, eye, 1.0, fov, aspect}, layers);
+    drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, view),
+                         {viewProj, eye, 1.0, fov, aspect}, layers);
     return compare(target, viewProj, layers, "edit");
   };
   const Comparison before = frame();
@@ -468,13 +471,9 @@ TEST_F(OverlayGlTest, MoreThan255OverlappingPiecesOfALayerAreStillExact) {
       const glm::dmat4 viewProj = gfx::reversedInfinitePerspective(fov, aspect, 1.0) *
                                   gfx::lookAt(eye, glm::dvec3(centre, 0.0), glm::dvec3(0, 0, 1));
       terrain::LodView view{eye, viewProj, kHeight, fov};
-      gfx::enableReversedZ();
-      gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
-      gfx::enableMaskWrites(target.framebuffer(), false);
-      engine->draw(cache_, viewProj, eye, terrain::selectLod(*tree, view), 1.0);
-      gfx::enableMaskWrites(target.framebuffer(), true);
       const std::vector<const overlay::OverlayLayer*> layers{&*layer};
-      const auto stats = overlays->draw(cache_, {viewProj, eye, 1.0, fov, aspect}, layers);
+      const auto stats = drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, view),
+                                              {viewProj, eye, 1.0, fov, aspect}, layers);
       EXPECT_TRUE(stats[0].grouped);
       const Comparison c = compare(target, viewProj, layers, std::to_string(count) + " squares");
       EXPECT_EQ(c.wrong, 0u) << count << " squares";
@@ -522,13 +521,8 @@ TEST_F(OverlayGlTest, CategoricalColoursAndHiddenFeatures) {
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   auto draw = [&] {
     terrain::LodView view{eye, viewProj, kHeight, fov};
-    gfx::enableReversedZ();
-    gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
-    gfx::enableMaskWrites(target.framebuffer(), false);
-    engine->draw(cache_, viewProj, eye, terrain::selectLod(*tree, view), 1.0);
-    gfx::enableMaskWrites(target.framebuffer(), true);
-    const std::vector<const overlay::OverlayLayer*> layers{&*layer};
-    overlays->draw(cache_, {viewProj, eye, 1.0, fov, aspect}, layers);
+    drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, view),
+                         {viewProj, eye, 1.0, fov, aspect}, {&*layer});
   };
   const std::array<std::array<std::uint8_t, 3>, 3> expected{{{0, 255, 0}, {255, 0, 0}, {0, 0, 255}}};
   auto check = [&](const std::array<bool, 3>& shown) {

@@ -325,32 +325,31 @@ void OverlayLayer::freePieces(std::uint32_t feature) {
   featureSlots_[feature].clear();
 }
 
-Diagnostics OverlayLayer::replaceFeature(std::size_t index, geo::Feature feature) {
+Diagnostics OverlayLayer::rebuildFeature(std::size_t index) {
   Diagnostics diagnostics;
-  if (index >= features_.size()) return diagnostics;
+  freePieces(static_cast<std::uint32_t>(index));
+  if (styles_[index].visible && bounds_ != nullptr) {
+    addPieces(static_cast<std::uint32_t>(index),
+              buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_, styles_[index], name_,
+                             *bounds_, options_, diagnostics));
+  }
+  return diagnostics;
+}
+
+Diagnostics OverlayLayer::replaceFeature(std::size_t index, geo::Feature feature) {
+  if (index >= features_.size()) return {};
   features_[index] = std::move(feature);
   const std::vector<geo::Feature> one{features_[index]};
   FeatureStyle style = resolveFeatureStyles(style_, kind_, one).front();
   style.visible = styles_[index].visible;
   styles_[index] = style;
-  freePieces(static_cast<std::uint32_t>(index));
-  if (style.visible && bounds_ != nullptr) {
-    addPieces(static_cast<std::uint32_t>(index), buildPolyhedra(features_[index], static_cast<std::uint32_t>(index),
-                                                                kind_, style, name_, *bounds_, options_, diagnostics));
-  }
-  return diagnostics;
+  return rebuildFeature(index);
 }
 
 Diagnostics OverlayLayer::setFeatureStyle(std::size_t index, const FeatureStyle& style) {
-  Diagnostics diagnostics;
-  if (index >= features_.size()) return diagnostics;
+  if (index >= features_.size()) return {};
   styles_[index] = style;
-  freePieces(static_cast<std::uint32_t>(index));
-  if (style.visible && bounds_ != nullptr) {
-    addPieces(static_cast<std::uint32_t>(index), buildPolyhedra(features_[index], static_cast<std::uint32_t>(index),
-                                                                kind_, style, name_, *bounds_, options_, diagnostics));
-  }
-  return diagnostics;
+  return rebuildFeature(index);
 }
 
 void OverlayLayer::removeFeature(std::size_t index) {

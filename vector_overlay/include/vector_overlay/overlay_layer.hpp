@@ -129,6 +129,7 @@ class OverlayLayer {
   static_assert(sizeof(Vertex) == 20);
   void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
   void freePieces(std::uint32_t feature);
+  Diagnostics rebuildFeature(std::size_t index);
   std::uint32_t originFor(const Polyhedron& p);
   void ensureCapacity(std::size_t vertices, std::size_t indices);
   void appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i);
