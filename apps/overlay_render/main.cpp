@@ -260,7 +260,7 @@ int run(const Options& o) {
   for (std::size_t i = 0; i < scene->layers.size(); ++i) {
     const app::LoadedLayer& layer = scene->layers[i];
     std::size_t coveredPixels = 0;
-    for (std::uint8_t m : mask) coveredPixels += i < 8 && ((m >> i) & 1u) ? 1u : 0u;
+    for (std::uint8_t m : mask) coveredPixels += i < 8 && ((static_cast<unsigned>(m) >> i) & 1u) != 0u ? 1u : 0u;
     json passes = json::array();
     std::size_t skippedInBuild = 0;
     bool drawn = false;
