@@ -4,8 +4,11 @@
 // join or cap of a 5 km wide road is not small) and gets that cell's height bounds.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <vector>
+
+#include <glm/geometric.hpp>
 
 #include "footprint_geometry.hpp"
 #include "vector_overlay/footprints.hpp"
@@ -56,12 +59,34 @@ class PieceSink {
   detail::FootprintBuilder builder_;
 };
 
-/// The cap at `end`, the line leaving it in the unit direction `outward`.
-void addCap(PieceSink& sink, const LineShape& shape, double h, const glm::dvec2& end, const glm::dvec2& outward) {
+/// Points on the circle (centre, r) from angle a0 to a1 (radians, a1 > a0: counter-clockwise),
+/// both ends included, with chords no farther than `tolerance` from the arc.
+std::vector<glm::dvec2> arc(const glm::dvec2& centre, double r, double a0, double a1, double tolerance) {
+  const int full = detail::circleSegments(r, tolerance);
+  const int m = std::max(1, static_cast<int>(std::ceil((a1 - a0) / (2.0 * std::numbers::pi) * full)));
+  std::vector<glm::dvec2> pts;
+  pts.reserve(static_cast<std::size_t>(m + 1));
+  for (int k = 0; k <= m; ++k) {
+    const double a = a0 + (a1 - a0) * k / m;
+    pts.push_back(centre + r * glm::dvec2(std::cos(a), std::sin(a)));
+  }
+  return pts;
+}
+
+/// The cap at `end`, the line leaving it in the unit direction `outward`. A round cap whose end
+/// segment is at least w/2 long needs only the outer half disc: the rectangle holds the other
+/// half (same union, half the triangles).
+void addCap(PieceSink& sink, const LineShape& shape, double h, const glm::dvec2& end, const glm::dvec2& outward,
+            double segmentLength, double tolerance) {
   const glm::dvec2 n = perp(outward);
   switch (shape.cap) {
     case LineCap::Round:
-      sink.disc(PieceKind::Cap, end, h, n);
+      if (segmentLength >= h) {
+        const double a = std::atan2(outward.y, outward.x);
+        sink.add(PieceKind::Cap, arc(end, h, a - 0.5 * std::numbers::pi, a + 0.5 * std::numbers::pi, tolerance));
+      } else {
+        sink.disc(PieceKind::Cap, end, h, n);
+      }
       break;
     case LineCap::Square:
       sink.add(PieceKind::Cap, {end - h * n, end + h * outward - h * n, end + h * outward + h * n, end + h * n});
@@ -73,13 +98,29 @@ void addCap(PieceSink& sink, const LineShape& shape, double h, const glm::dvec2&
 
 /// The join at vertex v between the segments prev → v and v → next.
 void addJoin(PieceSink& sink, const LineShape& shape, double h, const glm::dvec2& prev, const glm::dvec2& v,
-             const glm::dvec2& next) {
+             const glm::dvec2& next, double tolerance) {
   const glm::dvec2 d0 = unit(v - prev);
   const glm::dvec2 d1 = unit(next - v);
   const int turn = detail::orientation(prev, v, next);
   if (turn == 0 && d0.x * d1.x + d0.y * d1.y > 0.0) return;  // straight continuation
   if (shape.join == LineJoin::Round) {
-    sink.disc(PieceKind::Join, v, h, perp(d0));
+    // With both segments at least w/2 long, the two rectangles hold all of the disc but the
+    // outer wedge between their end edges: draw that wedge only (same union, far fewer
+    // triangles). Otherwise, and for hairpins, the whole disc.
+    const double l0 = glm::length(v - prev), l1 = glm::length(next - v);
+    if (turn != 0 && l0 >= h && l1 >= h) {
+      const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
+      const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
+      double a0 = std::atan2(out0.y, out0.x), a1 = std::atan2(out1.y, out1.x);
+      if (turn < 0) std::swap(a0, a1);  // counter-clockwise from a0 to a1
+      if (a1 < a0) a1 += 2.0 * std::numbers::pi;
+      std::vector<glm::dvec2> pts{v};
+      const std::vector<glm::dvec2> rim = arc(v, h, a0, a1, tolerance);
+      pts.insert(pts.end(), rim.begin(), rim.end());
+      sink.add(PieceKind::Join, std::move(pts));
+    } else {
+      sink.disc(PieceKind::Join, v, h, perp(d0));
+    }
     return;
   }
   // A hairpin (180°) has a flat bevel and an infinite miter: nothing besides the rectangles.
@@ -153,15 +194,17 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
       }
       continue;
     }
-    addCap(sink, shape, h, line.front(), unit(line[0] - line[1]));
+    const double tolerance = options.chordTolerance;
+    addCap(sink, shape, h, line.front(), unit(line[0] - line[1]), glm::length(line[1] - line[0]), tolerance);
     for (std::size_t i = 0; i + 1 < line.size(); ++i) {
       const glm::dvec2 a = line[i];
       const glm::dvec2 b = line[i + 1];
       const glm::dvec2 n = h * perp(unit(b - a));
       sink.add(PieceKind::Segment, {a - n, b - n, b + n, a + n});
-      if (i + 2 < line.size()) addJoin(sink, shape, h, a, b, line[i + 2]);
+      if (i + 2 < line.size()) addJoin(sink, shape, h, a, b, line[i + 2], tolerance);
     }
-    addCap(sink, shape, h, line.back(), unit(line[line.size() - 1] - line[line.size() - 2]));
+    addCap(sink, shape, h, line.back(), unit(line[line.size() - 1] - line[line.size() - 2]),
+           glm::length(line[line.size() - 1] - line[line.size() - 2]), tolerance);
   }
   return result;
 }

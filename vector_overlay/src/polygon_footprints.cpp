@@ -223,8 +223,11 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
     }
   }
 
-  // Validation and repair, ring by ring.
-  std::vector<geo::Ring> rings;
+  // Validation and repair, ring by ring. Each polygon's rings are read with the even-odd rule;
+  // the feature covers the union of its polygons (overlapping parts of an invalid
+  // multipolygon stay covered, as a GIS viewer paints them), so each polygon is triangulated
+  // and emitted on its own.
+  std::vector<std::vector<geo::Ring>> polygonRings;
   for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
     const geo::Polygon& polygon = feature.polygons[k];
     const std::string name = "polygon " + std::to_string(k);
@@ -252,41 +255,43 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
       }
     }
     if (!usable) continue;
-    rings.push_back(std::move(outer));
+    std::vector<geo::Ring> rings{std::move(outer)};
     for (auto& hole : holes) rings.push_back(std::move(hole));
-  }
-  if (rings.empty()) return result;
-
-  // Triangulation and even-odd marking.
-  std::vector<Triangle> inside;
-  try {
-    auto fast = insideTriangles<FastTriangulation>(rings, true);
-    inside = fast ? std::move(*fast) : std::move(*insideTriangles<ExactTriangulation>(rings, false));
-  } catch (const std::exception& e) {
-    diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid,
-                                         std::string("triangulation failed (") + e.what() + "); feature skipped"));
-    return result;
+    polygonRings.push_back(std::move(rings));
   }
 
-  if (!options.cells) {
-    detail::FootprintBuilder builder;
-    for (const auto& t : inside) builder.addTriangle(t[0], t[1], t[2]);
-    if (!builder.empty()) result.push_back(builder.finish(featureIndex, -1, PieceKind::PolygonPart));
-    return result;
-  }
+  for (const std::vector<geo::Ring>& rings : polygonRings) {
+    // Triangulation and even-odd marking.
+    std::vector<Triangle> inside;
+    try {
+      auto fast = insideTriangles<FastTriangulation>(rings, true);
+      inside = fast ? std::move(*fast) : std::move(*insideTriangles<ExactTriangulation>(rings, false));
+    } catch (const std::exception& e) {
+      diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid,
+                                           std::string("triangulation failed (") + e.what() + "); polygon skipped"));
+      continue;
+    }
 
-  // One footprint per cell: every inside triangle clipped to the cells it meets. Neighbouring
-  // triangles compute the points where their shared edge crosses a grid line from the same
-  // segment, so the pieces of one cell share their vertices bit for bit.
-  std::map<int, detail::FootprintBuilder> cells;
-  for (const auto& t : inside) {
-    const detail::ClipPolygon triangle = detail::makeClipPolygon({t[0], t[1], t[2]});
-    detail::splitIntoCells(triangle, *options.cells, [&](int cell, const std::vector<glm::dvec2>& pts) {
-      detail::triangulateConvex(pts, cells[cell]);
-    });
-  }
-  for (auto& [cell, builder] : cells) {
-    if (!builder.empty()) result.push_back(builder.finish(featureIndex, cell, PieceKind::PolygonPart));
+    if (!options.cells) {
+      detail::FootprintBuilder builder;
+      for (const auto& t : inside) builder.addTriangle(t[0], t[1], t[2]);
+      if (!builder.empty()) result.push_back(builder.finish(featureIndex, -1, PieceKind::PolygonPart));
+      continue;
+    }
+
+    // One footprint per cell: every inside triangle clipped to the cells it meets. Neighbouring
+    // triangles compute the points where their shared edge crosses a grid line from the same
+    // segment, so the pieces of one cell share their vertices bit for bit.
+    std::map<int, detail::FootprintBuilder> cells;
+    for (const auto& t : inside) {
+      const detail::ClipPolygon triangle = detail::makeClipPolygon({t[0], t[1], t[2]});
+      detail::splitIntoCells(triangle, *options.cells, [&](int cell, const std::vector<glm::dvec2>& pts) {
+        detail::triangulateConvex(pts, cells[cell]);
+      });
+    }
+    for (auto& [cell, builder] : cells) {
+      if (!builder.empty()) result.push_back(builder.finish(featureIndex, cell, PieceKind::PolygonPart));
+    }
   }
   return result;
 }

@@ -3,9 +3,11 @@
 //
 // Coverage semantics (what a layer covers on the ground; the CPU reference implements the
 // same rules independently, see cpu_reference.hpp):
-// - A polygon feature covers its polygons after repair (ring orientation fixed, duplicate and
-//   collinear points dropped, self-intersections resolved by the even-odd rule, zero-area rings
-//   dropped): the points inside an odd number of its rings.
+// - A polygon feature covers the union of its polygons; a polygon covers, after repair (ring
+//   orientation fixed, duplicate and collinear points dropped, self-intersections resolved by
+//   the even-odd rule, rings whose points are all collinear dropped), the points inside an odd
+//   number of its own rings (outer and holes). Overlapping parts of an (invalid) multipolygon
+//   stay covered, as GIS viewers paint them and as MakeValid repairs them.
 // - A line feature of width w covers the union of
 //   - every segment's rectangle: points whose projection onto the segment falls within it and
 //     whose distance to it is ≤ w/2 (zero-length segments have none);
@@ -24,7 +26,10 @@
 //
 // Pieces: a polygon feature becomes one piece per grid cell it meets (its triangulation
 // clipped to the cell); a line feature one piece per segment, per join and per cap, each split
-// at cell borders (so every piece lies in its cell). Every piece is a region with a
+// at cell borders (so every piece lies in its cell). A round join whose two segments are at
+// least w/2 long is drawn as its outer wedge only, and a round cap whose end segment is at least
+// w/2 long as its outer half disc: the rectangles hold the rest of the disc, so the union (the
+// coverage above) is the same with far fewer triangles. Every piece is a region with a
 // triangulation of its interior and its boundary edges; the polyhedra builder extrudes it
 // between height bounds.
 #include <array>
