@@ -184,7 +184,7 @@ int runViewer(const std::string& scenePath) {
     if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F)) fovY = static_cast<double>(fov);
     if (ImGui::Button("Home (H)")) orbit = orbitFrom(home);
     ImGui::Separator();
-    ImGui::Text("Layers (drawn once the overlay core lands):");
+    ImGui::Checkbox("vector layers", &settings.overlays);
     for (const app::LoadedLayer& layer : scene->layers) {
       ImGui::BulletText("%s: %zu features, %zu vertices", layer.description.name.c_str(), layer.data.features.size(),
                         layer.data.vertexCount());
