@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -117,19 +118,41 @@ double percent(std::size_t part, std::size_t whole) {
   return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
 }
 
+/// The Olinda sample scene, loaded and uploaded (needs the GL context), with its overlay layers
+/// in draw order; empty optionals after a (reported) failure.
+struct OlindaScene {
+  std::optional<app::LoadedScene> scene;
+  std::optional<app::SceneRenderer> renderer;
+  std::vector<const overlay::OverlayLayer*> layers;
+};
+
+OlindaScene loadOlinda() {
+  OlindaScene o;
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  EXPECT_TRUE(description.ok());
+  if (!description) return o;
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  EXPECT_TRUE(scene.ok());
+  if (!scene) return o;
+  o.scene = std::move(*scene);
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*o.scene);
+  EXPECT_TRUE(renderer.ok());
+  if (!renderer) return o;
+  o.renderer = std::move(*renderer);
+  for (const overlay::OverlayLayer& l : o.renderer->overlayLayers()) o.layers.push_back(&l);
+  return o;
+}
+
 class OverlayGlTest : public GlTest {};
 
 TEST_F(OverlayGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<app::LoadedScene> scene = app::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
-  ASSERT_TRUE(renderer.ok());
-  ASSERT_GE(renderer->overlayLayers().size(), 2u);
-  std::vector<const overlay::OverlayLayer*> layers;
-  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) layers.push_back(&l);
+  OlindaScene olinda = loadOlinda();
+  ASSERT_TRUE(olinda.renderer);
+  auto& scene = olinda.scene;
+  auto& renderer = olinda.renderer;
+  const std::vector<const overlay::OverlayLayer*>& layers = olinda.layers;
+  ASSERT_GE(layers.size(), 2u);
 
   glm::dvec3 lo, hi;
   app::terrainBox(*scene, 1.0, lo, hi);
@@ -329,15 +352,11 @@ TEST_F(OverlayGlTest, StiffTerrainUnderCoarseAndLoadingLodsMissesNoPixel) {
 }
 
 TEST_F(OverlayGlTest, MsaaIsExactPerSample) {
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<app::LoadedScene> scene = app::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
-  ASSERT_TRUE(renderer.ok());
-  std::vector<const overlay::OverlayLayer*> layers;
-  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) layers.push_back(&l);
+  OlindaScene olinda = loadOlinda();
+  ASSERT_TRUE(olinda.renderer);
+  auto& scene = olinda.scene;
+  auto& renderer = olinda.renderer;
+  const std::vector<const overlay::OverlayLayer*>& layers = olinda.layers;
   glm::dvec3 lo, hi;
   app::terrainBox(*scene, 1.0, lo, hi);
   const glm::dvec3 centre = 0.5 * (lo + hi);

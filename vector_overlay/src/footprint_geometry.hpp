@@ -17,13 +17,7 @@
 
 #include <glm/vec2.hpp>
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wold-style-cast"
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#pragma GCC diagnostic pop
+#include "cgal.hpp"
 
 #include "core/diagnostics.hpp"
 #include "vector_overlay/footprints.hpp"

@@ -19,13 +19,7 @@
 
 #include <glm/vec2.hpp>
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wold-style-cast"
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#pragma GCC diagnostic pop
+#include "cgal.hpp"
 
 #include "geo/vector.hpp"
 #include "vector_overlay/footprints.hpp"
