@@ -99,6 +99,13 @@ std::string parseArgs(int argc, char** argv, Options& o) {
 
 int runOverlay(const Options& o);
 
+/// Writes bench.json, prints it, and fails the run on any GL error.
+int finish(const Options& o, const json& result, gfx::Context& context) {
+  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
+  std::printf("%s\n", result.dump(2).c_str());
+  return context.debug().errorCount() == 0 ? 0 : 1;
+}
+
 int run(const Options& o) {
   if (o.mode == "overlay") return runOverlay(o);
   const auto loadStart = std::chrono::steady_clock::now();
@@ -187,9 +194,7 @@ int run(const Options& o) {
                  {"cpu_peak_bytes", processMemory("VmHWM")},
                  {"renderer", (*context)->info().renderer},
                  {"gl_errors", (*context)->debug().errorCount()}};
-  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
-  std::printf("%s\n", result.dump(2).c_str());
-  return (*context)->debug().errorCount() == 0 ? 0 : 1;
+  return finish(o, result, **context);
 }
 
 struct MethodFrames {
@@ -348,9 +353,7 @@ int runOverlay(const Options& o) {
                  {"cpu_peak_bytes", processMemory("VmHWM")},
                  {"renderer", (*context)->info().renderer},
                  {"gl_errors", (*context)->debug().errorCount()}};
-  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
-  std::printf("%s\n", result.dump(2).c_str());
-  return (*context)->debug().errorCount() == 0 ? 0 : 1;
+  return finish(o, result, **context);
 }
 
 }  // namespace

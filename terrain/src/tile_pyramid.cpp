@@ -50,10 +50,12 @@ static_assert(sizeof(NodeRecord) == 24);
 
 std::string systemError(const std::string& what) { return what + ": " + std::strerror(errno); }
 
-bool writeAll(int fd, const void* data, std::size_t bytes, std::uint64_t offset) {
-  const char* p = static_cast<const char*>(data);
+/// Repeats a positional read or write (pread/pwrite) until all bytes moved; false on error or
+/// end of file.
+template <typename Byte, typename Io>
+bool transferAll(Io io, int fd, Byte* p, std::size_t bytes, std::uint64_t offset) {
   while (bytes > 0) {
-    const ssize_t n = ::pwrite(fd, p, bytes, static_cast<off_t>(offset));
+    const ssize_t n = io(fd, p, bytes, static_cast<off_t>(offset));
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) return false;
     p += n;
@@ -63,17 +65,12 @@ bool writeAll(int fd, const void* data, std::size_t bytes, std::uint64_t offset)
   return true;
 }
 
+bool writeAll(int fd, const void* data, std::size_t bytes, std::uint64_t offset) {
+  return transferAll(::pwrite, fd, static_cast<const char*>(data), bytes, offset);
+}
+
 bool readAll(int fd, void* data, std::size_t bytes, std::uint64_t offset) {
-  char* p = static_cast<char*>(data);
-  while (bytes > 0) {
-    const ssize_t n = ::pread(fd, p, bytes, static_cast<off_t>(offset));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    bytes -= static_cast<std::size_t>(n);
-    offset += static_cast<std::uint64_t>(n);
-  }
-  return true;
+  return transferAll(::pread, fd, static_cast<char*>(data), bytes, offset);
 }
 
 /// Sequential writer with a large buffer.
