@@ -190,6 +190,7 @@ std::uint32_t OverlayLayer::originFor(const Polyhedron& p) {
 
 void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces) {
   maxOverlap_.reset();
+  uniformColor_.reset();
   const FeatureStyle& style = styles_[feature];
   const std::uint8_t rgba[4] = {unorm8(style.color.x), unorm8(style.color.y), unorm8(style.color.z),
                                 unorm8(style.color.w)};
@@ -275,6 +276,25 @@ std::size_t OverlayLayer::maxOverlap() const {
   return *(maxOverlap_ = worst);
 }
 
+std::optional<glm::vec4> OverlayLayer::uniformColor() const {
+  if (uniformColor_) return *uniformColor_;
+  std::optional<std::array<std::uint8_t, 4>> shared;
+  bool uniform = true;
+  for (std::size_t f = 0; f < featureSlots_.size() && uniform; ++f) {
+    if (featureSlots_[f].empty()) continue;  // hidden, removed or without pieces
+    const glm::vec4& c = styles_[f].color;
+    const std::array<std::uint8_t, 4> rgba{unorm8(c.x), unorm8(c.y), unorm8(c.z), unorm8(c.w)};
+    if (!shared) shared = rgba;
+    uniform = *shared == rgba;
+  }
+  std::optional<glm::vec4> colour;
+  if (uniform && shared) {
+    colour = glm::vec4((*shared)[0], (*shared)[1], (*shared)[2], (*shared)[3]) / 255.0F;
+  }
+  uniformColor_ = colour;
+  return colour;
+}
+
 void OverlayLayer::ensureCapacity(std::size_t vertices, std::size_t indices) {
   if (vertices <= vertexCapacity_ && indices <= indexCapacity_ && vertices_ && indices_) return;
   vertexCapacity_ = std::max<std::size_t>({vertices, 2 * vertexCapacity_, 1024});
@@ -314,6 +334,7 @@ void OverlayLayer::appendGeometry(std::size_t slot, std::vector<Vertex> v, std::
 
 void OverlayLayer::freePieces(std::uint32_t feature) {
   maxOverlap_.reset();
+  uniformColor_.reset();
   for (std::uint32_t slot : featureSlots_[feature]) {
     PieceSlot& s = slots_[slot];
     if (!s.live) continue;

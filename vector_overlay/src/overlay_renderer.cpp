@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <tuple>
 
 #include <glm/common.hpp>
@@ -17,15 +18,38 @@ double distanceToBox(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3
   return glm::length(p - glm::clamp(p, lo, hi));
 }
 
+/// Normalised-device rectangle (x0, y0, x1, y1) holding the screen image of the box, clamped to
+/// the viewport; the whole viewport when a corner lies near or behind the eye plane.
+glm::vec4 screenRect(const glm::dmat4& viewProj, double nearPlane, const glm::dvec3& lo, const glm::dvec3& hi) {
+  glm::dvec2 a(1.0), b(-1.0);
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec4 c =
+        viewProj * glm::dvec4((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z, 1.0);
+    if (!(c.w > 0.5 * nearPlane)) return {-1.0F, -1.0F, 1.0F, 1.0F};
+    const glm::dvec2 ndc(c.x / c.w, c.y / c.w);
+    a = glm::min(a, ndc);
+    b = glm::max(b, ndc);
+  }
+  // One pixel of slack for rounding is not needed: the stencil decides, the rectangle only has
+  // to hold every marked pixel, and the box holds every piece (caps padded).
+  a = glm::clamp(a, glm::dvec2(-1.0), glm::dvec2(1.0));
+  b = glm::clamp(b, glm::dvec2(-1.0), glm::dvec2(1.0));
+  return {static_cast<float>(a.x), static_cast<float>(a.y), static_cast<float>(b.x), static_cast<float>(b.y)};
+}
+
 }  // namespace
 
 Result<OverlayRenderer> OverlayRenderer::create() {
   Result<gfx::Program> program = gfx::Program::build({{"overlay_volume.vert", {}}, {"overlay_volume.frag", {}}});
+  Result<gfx::Program> cover = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
   Result<OverlayRenderer> r;
   r.diagnostics = program.diagnostics;
-  if (!program) return r;
+  r.diagnostics.append(cover.diagnostics);
+  if (!program || !cover) return r;
   OverlayRenderer renderer;
   renderer.program_ = std::move(*program);
+  renderer.coverProgram_ = std::move(*cover);
+  renderer.emptyVao_ = gfx::createVertexArray();
   renderer.vao_ = gfx::createVertexArray();
   const GLuint vao = renderer.vao_.id();
   glEnableVertexArrayAttrib(vao, 0);
@@ -43,6 +67,18 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   renderer.coverStats_.emplace();
   r.value = std::move(renderer);
   return r;
+}
+
+void OverlayRenderer::drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit) {
+  if (!(rect.z > rect.x && rect.w > rect.y)) return;
+  coverProgram_.use();
+  coverProgram_.set("u_rect", rect);
+  coverProgram_.set("u_color", colour);
+  coverProgram_.set("u_maskBit", maskBit);
+  glBindVertexArray(emptyVao_.id());
+  glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+  glBindVertexArray(vao_.id());
+  program_.use();
 }
 
 void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
@@ -185,6 +221,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   std::vector<Command> zPass, zFail, coverZPass, coverZFail;
   std::vector<std::size_t> zFailSlots;
   std::vector<std::pair<bool, std::size_t>> order;  ///< (z-fail, index into zPass / zFailSlots)
+  std::vector<std::array<glm::dvec3, 2>> boxes;     ///< per entry of order, padded
   for (const OverlayLayer::PieceSlot& s : slots) {
     if (!s.live) continue;
     const Polyhedron& p = polyhedra[static_cast<std::size_t>(&s - slots.data())];
@@ -196,6 +233,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       ++stats.culledPieces;
       continue;
     }
+    boxes.push_back({lo, hi});
     const bool fail = settings.forceZFail || (layer.paperVariant() ? distanceToBox(view.eye, lo, hi) <= margin
                                                                    : mayContain(p, view.eye, pad, margin));
     const Command whole{s.indexCount, 1, s.firstIndex, static_cast<GLint>(s.baseVertex), s.origin};
@@ -218,12 +256,24 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       (fail ? coverZFail : coverZPass).push_back(box);
     }
   }
-  if (!layer.paperVariant()) {
+  const std::optional<glm::vec4> rectColour = layer.paperVariant() ? std::nullopt : layer.uniformColor();
+  stats.rectangleCover = rectColour.has_value();
+  if (!layer.paperVariant() && !rectColour) {
     coverZPass = zPass;
     coverZFail = zFail;
   }
   stats.drawCommands = zPass.size() + zFail.size() + coverZPass.size() + coverZFail.size();
   if (zPass.empty() && zFail.empty()) return;
+  // The screen rectangle of the boxes of order[first, last).
+  auto rectOf = [&](std::size_t first, std::size_t last) {
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (std::size_t k = first; k < last; ++k) {
+      lo = glm::min(lo, boxes[k][0]);
+      hi = glm::max(hi, boxes[k][1]);
+    }
+    return screenRect(view.viewProj, view.nearPlane, lo, hi);
+  };
+  const float maskBit = static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23));
 
   // Origins relative to the eye, in the order of the layer's origin table.
   const auto& origins = layer.origins();
@@ -246,7 +296,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
   glVertexArrayVertexBuffer(vao, 1, origins_.id(), 0, 3 * sizeof(float));
   glVertexArrayElementBuffer(vao, layer.indexBuffer());
-  program_.set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23)));
+  program_.set("u_maskBit", maskBit);
 
   if (settings.measure) {
     timer_->begin();
@@ -288,10 +338,15 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       markStats_->end();
       coverStats_->begin();
     }
-    cache.apply(kCoverZPass);
-    multiDraw(zPass);
-    cache.apply(kCoverZFail);
-    drawClipped(clipped);
+    if (rectColour) {
+      cache.apply(kCoverRect);
+      drawRect(rectOf(0, order.size()), *rectColour, maskBit);
+    } else {
+      cache.apply(kCoverZPass);
+      multiDraw(zPass);
+      cache.apply(kCoverZFail);
+      drawClipped(clipped);
+    }
   } else {
     // Groups of at most 127 pieces: mark (7-bit counts), collect into the flag; then one cover.
     for (std::size_t first = 0; first < order.size(); first += kGroupSize) {
@@ -309,21 +364,24 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       multiDraw(groupPass);
       cache.apply(kMarkZFailGrouped);
       drawClipped(clipped);
-      cache.apply(kCollectZPass);
-      multiDraw(groupPass);
-      cache.apply(kCollectZFail);
-      drawClipped(clipped);
+      cache.apply(kCollectRect);
+      drawRect(rectOf(first, std::min(order.size(), first + kGroupSize)), glm::vec4(0.0F), 0.0F);
       ++stats.groups;
     }
     if (settings.measure) {
       markStats_->end();
       coverStats_->begin();
     }
-    cache.apply(kCoverFlaggedZPass);
-    multiDraw(zPass);
-    const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings);
-    cache.apply(kCoverFlaggedZFail);
-    drawClipped(clipped);
+    if (rectColour) {
+      cache.apply(kCoverFlaggedRect);
+      drawRect(rectOf(0, order.size()), *rectColour, maskBit);
+    } else {
+      cache.apply(kCoverFlaggedZPass);
+      multiDraw(zPass);
+      const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings);
+      cache.apply(kCoverFlaggedZFail);
+      drawClipped(clipped);
+    }
   }
   if (settings.measure) {
     coverStats_->end();

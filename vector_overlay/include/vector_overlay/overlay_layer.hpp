@@ -100,6 +100,10 @@ class OverlayLayer {
   /// An upper bound of how many of the layer's pieces overlap at any point (counted on a grid
   /// of their bounding boxes); above 255 the renderer draws the layer in groups.
   [[nodiscard]] std::size_t maxOverlap() const;
+  /// The colour (straight alpha, rounded to 8 bits as the vertices hold it) shared by every
+  /// visible feature, or none when they differ; the renderer then covers the layer with one
+  /// screen rectangle instead of its pieces.
+  [[nodiscard]] std::optional<glm::vec4> uniformColor() const;
   /// Re-reads the height bounds of every piece (after a change of vertical exaggeration).
   void refreshBounds(const HeightBoundsProvider& bounds);
 
@@ -152,7 +156,8 @@ class OverlayLayer {
   std::size_t wastedIndices_ = 0;
   LayerStats stats_;
   const HeightBoundsProvider* bounds_ = nullptr;
-  mutable std::optional<std::size_t> maxOverlap_;  ///< cleared by edits
+  mutable std::optional<std::size_t> maxOverlap_;                 ///< cleared by edits
+  mutable std::optional<std::optional<glm::vec4>> uniformColor_;  ///< cleared by edits
 };
 
 }  // namespace gis::overlay

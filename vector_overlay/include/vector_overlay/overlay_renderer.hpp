@@ -49,7 +49,8 @@ struct LayerFrameStats {
   std::size_t zFailPieces = 0;
   std::size_t culledPieces = 0;
   std::size_t drawCommands = 0;
-  bool grouped = false;  ///< drawn in groups (the layer may overlap more than 255 deep)
+  bool rectangleCover = false;  ///< covered with one screen rectangle (one colour for the layer)
+  bool grouped = false;         ///< drawn in groups (the layer may overlap more than 255 deep)
   std::size_t groups = 0;
   double gpuMilliseconds = 0.0;     ///< mark + cover, when measured
   std::uint64_t markFragments = 0;  ///< fragment shader invocations, when measured
@@ -83,8 +84,13 @@ class OverlayRenderer {
   GLsizei uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer, const std::vector<std::size_t>& slots,
                               const OverlaySettings& settings);
 
+  /// Draws a screen rectangle with the cover program (colour and mask bit) in the current state.
+  void drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit);
+
   gfx::Program program_;
+  gfx::Program coverProgram_;  ///< screen-rectangle covers
   gfx::VertexArrayHandle vao_;
+  gfx::VertexArrayHandle emptyVao_;
   gfx::BufferHandle origins_;
   std::size_t originsCapacity_ = 0;
   gfx::BufferHandle clipped_;

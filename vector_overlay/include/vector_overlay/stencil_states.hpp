@@ -55,6 +55,8 @@ inline constexpr gfx::PipelineState kMarkZFail =
 inline constexpr gfx::PipelineState kCoverZPass = detail::coverState(gfx::CullMode::Back);
 /// Cover of z-fail polyhedra: their back faces (the eye is inside: they surround it).
 inline constexpr gfx::PipelineState kCoverZFail = detail::coverState(gfx::CullMode::Front);
+/// The same cover drawn as one screen rectangle over the layer's pieces (layers of one colour).
+inline constexpr gfx::PipelineState kCoverRect = detail::coverState(gfx::CullMode::None);
 
 // The seed paper's variant (Dai 2008 §3.2–3.3): saturating INCR/DECR in two culled draws (back
 // faces first in z-fail, then front faces), and the bounding box of each polyhedron as the cover
@@ -110,6 +112,7 @@ inline constexpr gfx::PipelineState collectState(gfx::CullMode cull) {
 /// After a group: (count ≠ 0) → 0x80. Front faces of z-pass pieces, back faces of z-fail ones.
 inline constexpr gfx::PipelineState kCollectZPass = collectState(gfx::CullMode::Back);
 inline constexpr gfx::PipelineState kCollectZFail = collectState(gfx::CullMode::Front);
+inline constexpr gfx::PipelineState kCollectRect = collectState(gfx::CullMode::None);
 
 inline constexpr gfx::PipelineState flaggedCover(gfx::CullMode cull) {
   const gfx::StencilFace face = detail::stencilFace(gfx::CompareFunc::Equal, gfx::StencilOp::Zero, gfx::StencilOp::Zero,
@@ -121,5 +124,6 @@ inline constexpr gfx::PipelineState flaggedCover(gfx::CullMode cull) {
 /// The final cover of a grouped layer: where the flag is set, colour once and zero.
 inline constexpr gfx::PipelineState kCoverFlaggedZPass = flaggedCover(gfx::CullMode::Back);
 inline constexpr gfx::PipelineState kCoverFlaggedZFail = flaggedCover(gfx::CullMode::Front);
+inline constexpr gfx::PipelineState kCoverFlaggedRect = flaggedCover(gfx::CullMode::None);
 
 }  // namespace gis::overlay
