@@ -4,8 +4,8 @@
 //   frame, LOD selection time, CPU and GPU memory, and the deterministic fragment counts.
 // - mode "overlay": the same path, each frame drawn three ways in turn — terrain only, our
 //   stencil polyhedra, the seed paper's construction — so that the ratios come from one run;
-//   plus, on every 10th frame, GPU time and fragment counts per layer against the pixels the
-//   layers cover (fragments per covered pixel), and the latency of a one-feature edit.
+//   plus, on every 3rd frame, GPU time and fragment counts per layer against the pixels each
+//   layer covers (fragments per covered pixel), and the latency of a one-feature edit.
 // Writes bench.json and frames.csv. Frame times are wall time on a shared machine: compare
 // within one run.
 #include <algorithm>
@@ -239,6 +239,11 @@ int runOverlay(const Options& o) {
   MethodFrames terrainOnly, stencil, paperVariant;
   std::vector<double> fragmentsPerPixel, paperFragmentsPerPixel, ratio;
   std::map<std::string, std::vector<double>> fppBySegment, paperFppBySegment;
+  struct LayerCounts {
+    std::map<std::string, std::vector<double>> mark, cover;  ///< per covered pixel, by segment
+  };
+  std::map<std::size_t, LayerCounts> layerCounts;
+  constexpr std::size_t kCountEvery = 3;
   auto timed = [&](app::SceneRenderer& r, const app::Camera& camera, bool overlays, bool measure,
                    app::FrameStats& stats) {
     settings.overlays = overlays;
@@ -269,13 +274,24 @@ int runOverlay(const Options& o) {
     std::uint64_t ourFragments = 0, paperFragments = 0;
     std::size_t zFail = 0;
     for (const auto& l : b.layers) zFail += l.zFailPieces;
-    if (k % 10 == 0) {
-      // Counted frames (queries wait): fragments of mark + cover against covered pixels.
+    if (k % kCountEvery == 0) {
+      // Counted frames (queries wait): fragments of mark + cover against the pixels each layer
+      // covers (a pixel covered by two layers counts twice: each layer's floor is 2–3).
       app::FrameStats measured;
       timed(*renderer, camera, true, true, measured);
       const std::vector<std::uint32_t> mask = gfx::readMask(target);
-      for (std::uint32_t m : mask) covered += m != 0 ? 1u : 0u;
-      for (const auto& l : measured.layers) ourFragments += l.markFragments + l.coverFragments;
+      for (std::size_t i = 0; i < measured.layers.size(); ++i) {
+        const auto& l = measured.layers[i];
+        std::size_t layerCovered = 0;
+        for (std::uint32_t m : mask) layerCovered += (m >> i) & 1u;
+        covered += layerCovered;
+        ourFragments += l.markFragments + l.coverFragments;
+        if (layerCovered > 0) {
+          LayerCounts& counts = layerCounts[i];
+          counts.mark[segment].push_back(static_cast<double>(l.markFragments) / static_cast<double>(layerCovered));
+          counts.cover[segment].push_back(static_cast<double>(l.coverFragments) / static_cast<double>(layerCovered));
+        }
+      }
       timed(*paperRenderer, camera, true, true, measured);
       for (const auto& l : measured.layers) paperFragments += l.markFragments + l.coverFragments;
       if (covered > 0) {
@@ -323,8 +339,15 @@ int runOverlay(const Options& o) {
     return json{{"median_ms", percentile(m.ms, 50)}, {"p95_ms", percentile(m.ms, 95)}, {"segments", segments}};
   };
   json layers = json::array();
-  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) {
+  for (std::size_t i = 0; i < renderer->overlayLayers().size(); ++i) {
+    const overlay::OverlayLayer& l = renderer->overlayLayers()[i];
+    json perPixel;
+    for (const auto& [name, v] : layerCounts[i].mark) {
+      perPixel[name] = {{"mark_median", percentile(v, 50)},
+                        {"cover_median", percentile(layerCounts[i].cover[name], 50)}};
+    }
     layers.push_back({{"name", l.name()},
+                      {"fragments_per_covered_pixel", perPixel},
                       {"features", l.stats().features},
                       {"skipped_features", l.stats().skippedFeatures},
                       {"pieces", l.stats().pieces},

@@ -19,6 +19,48 @@ void merge(float& lo, float& hi, float l, float h) {
   hi = std::max(hi, h);
 }
 
+/// Convex hull (counter-clockwise, no repeated points) of points; fewer than 3 points when they
+/// are collinear.
+std::vector<glm::dvec2> convexHull(std::vector<glm::dvec2> pts) {
+  std::sort(pts.begin(), pts.end(),
+            [](const glm::dvec2& a, const glm::dvec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+  pts.erase(std::unique(pts.begin(), pts.end()), pts.end());
+  if (pts.size() < 3) return pts;
+  auto cross = [](const glm::dvec2& o, const glm::dvec2& a, const glm::dvec2& b) {
+    return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+  };
+  std::vector<glm::dvec2> hull(2 * pts.size());
+  std::size_t k = 0;
+  for (const glm::dvec2& p : pts) {  // lower chain
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], p) <= 0.0) --k;
+    hull[k++] = p;
+  }
+  for (std::size_t i = pts.size() - 1, t = k + 1; i-- > 0;) {  // upper chain
+    while (k >= t && cross(hull[k - 2], hull[k - 1], pts[i]) <= 0.0) --k;
+    hull[k++] = pts[i];
+  }
+  hull.resize(k - 1);
+  return hull;
+}
+
+/// Clips a convex polygon to the half-plane side · (coordinate axis of p) ≤ side · bound.
+void clipAxis(std::vector<glm::dvec2>& poly, std::vector<glm::dvec2>& scratch, int axis, double bound, double side) {
+  scratch.clear();
+  const std::size_t n = poly.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const glm::dvec2& a = poly[i];
+    const glm::dvec2& b = poly[(i + 1) % n];
+    const double da = side * (a[axis] - bound), db = side * (b[axis] - bound);
+    if (da <= 0.0) scratch.push_back(a);
+    if ((da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0)) scratch.push_back(a + (da / (da - db)) * (b - a));
+  }
+  poly.swap(scratch);
+}
+
+/// Cells of a level whose surface is evaluated exactly over the footprint; beyond, the
+/// footprint is large next to the cells and their corner range is as tight.
+constexpr long long kMaxExactCells = 2048;
+
 }  // namespace
 
 MinMaxPyramid::MinMaxPyramid(const TerrainGrid& grid) : grid_(&grid), width_(grid.width), height_(grid.height) {
@@ -194,10 +236,29 @@ overlay::HeightBounds QuadtreeHeightBounds::boundsOverLevels(std::span<const glm
     pyramid_->query(c0, r0, c1, r1, l, h);
     merge(zlo, zhi, l, h);
   }
+  std::vector<glm::dvec2> hull;
   for (int level = tree_->paged() ? std::max(first, pinned) : first; level <= last; ++level) {
     const int s = 1 << level;
     int cc0 = 0, cr0 = 0, cc1 = 0, cr1 = 0;
     cellsMeeting(s, cc0, cr0, cc1, cr1);
+    if (static_cast<long long>(cc1 - cc0 + 1) * (cr1 - cr0 + 1) <= kMaxExactCells) {
+      if (hull.empty()) {
+        std::vector<glm::dvec2> g;
+        g.reserve(footprint.size());
+        for (const glm::dvec2& p : footprint) g.push_back(grid.gridCoordinates(p));
+        hull = convexHull(std::move(g));
+      }
+      if (hull.size() >= 3) {
+        float l = kInf, h = -kInf;
+        exactLevelRange(hull, level, cc0, cr0, cc1, cr1, l, h);
+        if (l <= h) {
+          merge(zlo, zhi, l, h);
+          continue;
+        }
+        // Nothing of this level is drawn there (nodata): any bound is sound; the posts near
+        // the footprint (below) give a tight one.
+      }
+    }
     // Their corner posts, as post indices of this level.
     const int p0c = std::max(cc0, 0), p1c = std::min(cc1 + 1, maxPost / s + 1);
     const int p0r = std::max(cr0, 0), p1r = std::min(cr1 + 1, maxPost / s + 1);
@@ -224,6 +285,56 @@ overlay::HeightBounds QuadtreeHeightBounds::boundsOverLevels(std::span<const glm
   if (zlo > zhi) return globalBounds();  // only nodata below: nothing is drawn there
   const double a = zlo * exaggeration_, b = zhi * exaggeration_;
   return {std::min(a, b), std::max(a, b)};
+}
+
+// The level's surface over a cell is two triangles split by the diagonal from corner (c, r) to
+// (c + 1, r + 1) (interpolateCell); over the part of the footprint's hull in the cell it is
+// linear on each side of the diagonal, so its extremes lie at the vertices of that part or where
+// its boundary crosses the diagonal. Cells with a nodata corner are not drawn. A cell on the rim
+// of a chunk may be stitched to the coarser neighbour (odd rim vertices collapse onto their even
+// predecessor): the triangles over it then have their vertices among the 3 × 3 posts of its
+// parent cell (level + 1), so those count as well.
+void QuadtreeHeightBounds::exactLevelRange(const std::vector<glm::dvec2>& hull, int level, int c0, int r0, int c1,
+                                           int r1, float& lo, float& hi) const {
+  const double s = static_cast<double>(1 << level);
+  const int n = tree_->chunkCells();
+  const bool stitchable = level < tree_->rootLevel();
+  std::vector<glm::dvec2> part, scratch;
+  auto corner = [&](int c, int r) { return tree_->levelPost(level, c, r); };
+  for (int r = r0; r <= r1; ++r) {
+    for (int c = c0; c <= c1; ++c) {
+      const float a = corner(c, r), b = corner(c + 1, r), d = corner(c, r + 1), e = corner(c + 1, r + 1);
+      if (std::isnan(a) || std::isnan(b) || std::isnan(d) || std::isnan(e)) continue;
+      part = hull;
+      clipAxis(part, scratch, 0, c * s, -1.0);
+      clipAxis(part, scratch, 0, (c + 1) * s, 1.0);
+      clipAxis(part, scratch, 1, r * s, -1.0);
+      clipAxis(part, scratch, 1, (r + 1) * s, 1.0);
+      if (part.empty()) continue;
+      auto surface = [&](const glm::dvec2& g) {
+        const double fx = std::clamp(g.x / s - c, 0.0, 1.0), fy = std::clamp(g.y / s - r, 0.0, 1.0);
+        const auto z = static_cast<float>(interpolateCell(a, b, d, e, fx, fy));
+        merge(lo, hi, z, z);
+      };
+      for (std::size_t i = 0; i < part.size(); ++i) {
+        const glm::dvec2& p = part[i];
+        const glm::dvec2& q = part[(i + 1) % part.size()];
+        surface(p);
+        const double dp = (p.x / s - c) - (p.y / s - r), dq = (q.x / s - c) - (q.y / s - r);
+        if ((dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0)) surface(p + (dp / (dp - dq)) * (q - p));
+      }
+      const int ci = ((c % n) + n) % n, ri = ((r % n) + n) % n;
+      if (stitchable && (ci == 0 || ci == n - 1 || ri == 0 || ri == n - 1)) {
+        const int pc = c - (((c % 2) + 2) % 2), pr = r - (((r % 2) + 2) % 2);
+        for (int rr = pr; rr <= pr + 2; ++rr) {
+          for (int cc = pc; cc <= pc + 2; ++cc) {
+            const float v = corner(cc, rr);
+            if (!std::isnan(v)) merge(lo, hi, v, v);
+          }
+        }
+      }
+    }
+  }
 }
 
 double QuadtreeHeightBounds::fullResolutionHeightAt(const glm::dvec2& frameXy) const {

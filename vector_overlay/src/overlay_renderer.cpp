@@ -145,6 +145,14 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
       }
     }
     auto triangle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+      // A face whose plane passes through the eye is seen edge on: it covers no area, but
+      // rounded to float its image becomes a sliver of either orientation with meaningless
+      // depths, which would count. Leave it out when the eye is within 1e-5 of the distance to
+      // the face from its plane (its image is then under 0.01 px wide); a wall shared by two
+      // pieces of the layer goes from both, which keeps their sum.
+      const glm::dvec3 normal = glm::cross(b - a, c - a);
+      const double nearest = std::min({glm::length(a), glm::length(b), glm::length(c)});
+      if (std::abs(glm::dot(normal, a)) <= 1e-5 * nearest * glm::length(normal)) return;
       const std::array<glm::dvec3, 3> v{a, b, c};
       std::array<double, 3> w{};
       int inside = 0;

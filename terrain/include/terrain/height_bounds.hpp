@@ -67,6 +67,11 @@ class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
   [[nodiscard]] double fullResolutionHeightAt(const glm::dvec2& frameXy) const;
 
  private:
+  /// Range of the level's surface over the convex polygon `hull` (grid coordinates), reading
+  /// the cells [c0, c1] × [r0, r1] of the level; lo > hi when nothing is drawn there.
+  void exactLevelRange(const std::vector<glm::dvec2>& hull, int level, int c0, int r0, int c1, int r1, float& lo,
+                       float& hi) const;
+
   std::shared_ptr<const TerrainQuadtree> tree_;
   std::optional<MinMaxPyramid> pyramid_;
   bool hasNodata_ = true;
