@@ -278,6 +278,7 @@ int run(const Options& o) {
                         {"z_pass_pieces", f.zPassPieces},
                         {"z_fail_pieces", f.zFailPieces},
                         {"culled_pieces", f.culledPieces},
+                        {"cover", f.rectangleCover ? "rectangle" : "pieces"},
                         {"gpu_ms", f.gpuMilliseconds},
                         {"mark_fragments", f.markFragments},
                         {"cover_fragments", f.coverFragments}});

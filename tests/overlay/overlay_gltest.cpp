@@ -578,5 +578,78 @@ TEST_F(OverlayGlTest, CategoricalColoursAndHiddenFeatures) {
   check({true, false, true});
 }
 
+// A layer of one colour is covered with one screen rectangle; with its pieces it must give the
+// same image: colour, mask and a stencil of zeros, also for the eye inside a volume, for
+// overlapping translucent features and in the grouped scheme.
+TEST_F(OverlayGlTest, RectangleCoverDrawsWhatThePiecesCoverDraws) {
+  auto tree =
+      std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 129, .height = 129, .seed = 9}), 16);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  const glm::dvec2 centre = tree->grid().postPosition(64, 64);
+  std::vector<geo::Feature> areas, roads;
+  for (int i = 0; i < 6; ++i) {
+    geo::Feature f;
+    f.fid = i;
+    const glm::dvec2 c = centre + glm::dvec2(-400.0 + 160.0 * i, 60.0 * (i % 3));
+    f.polygons.push_back(
+        {{c + glm::dvec2(-250, -250), c + glm::dvec2(250, -250), c + glm::dvec2(250, 250), c + glm::dvec2(-250, 250)},
+         {}});
+    areas.push_back(f);
+    geo::Feature r;
+    r.fid = i;
+    r.lines.push_back({c + glm::dvec2(-600, -300), c, c + glm::dvec2(500, 400)});
+    roads.push_back(std::move(r));
+  }
+  overlay::LayerStyle areaStyle;
+  areaStyle.color = glm::vec4(0.2F, 0.5F, 0.9F, 1.0F);
+  areaStyle.opacity = 0.5F;
+  overlay::LayerStyle roadStyle;
+  roadStyle.color = glm::vec4(1.0F, 0.8F, 0.0F, 1.0F);
+  roadStyle.widthMetres = 30.0;
+  Result<overlay::OverlayLayer> areaLayer =
+      overlay::OverlayLayer::build("areas", overlay::LayerKind::Polygon, areaStyle, areas, *bounds);
+  Result<overlay::OverlayLayer> roadLayer =
+      overlay::OverlayLayer::build("roads", overlay::LayerKind::Line, roadStyle, roads, *bounds);
+  ASSERT_TRUE(areaLayer.ok() && roadLayer.ok());
+  ASSERT_TRUE(areaLayer->uniformColor().has_value());
+  const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  const double ground = bounds->fullResolutionHeightAt(centre);
+  const std::array<glm::dvec3, 3> eyes{glm::dvec3(centre + glm::dvec2(0.0, -1500.0), 2500.0),
+                                       glm::dvec3(centre + glm::dvec2(-900.0, -700.0), 900.0),
+                                       glm::dvec3(centre, ground + 2.0)};  // inside the volumes
+  std::size_t covered = 0;
+  for (const glm::dvec3& eye : eyes) {
+    const glm::dvec3 at(centre + glm::dvec2(300.0, 200.0), eye.z > 500.0 ? 0.0 : ground);
+    const glm::dmat4 viewProj =
+        gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, at, glm::dvec3(0, 0, 1));
+    for (bool grouped : {false, true}) {
+      std::array<std::vector<std::uint8_t>, 2> colour, stencil;
+      std::array<std::vector<std::uint32_t>, 2> mask;
+      for (int k = 0; k < 2; ++k) {
+        overlay::OverlaySettings settings;
+        settings.rectangleCover = k == 0;
+        settings.forceGroups = grouped;
+        terrain::LodView view{eye, viewProj, kHeight, fov};
+        const std::vector<overlay::LayerFrameStats> stats =
+            drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, view),
+                                 {viewProj, eye, 1.0, fov, aspect}, {&*areaLayer, &*roadLayer}, settings);
+        for (const overlay::LayerFrameStats& s : stats) EXPECT_EQ(s.rectangleCover, k == 0);
+        colour[static_cast<std::size_t>(k)] = gfx::readColorRgba8(target);
+        stencil[static_cast<std::size_t>(k)] = gfx::readStencil(target);
+        mask[static_cast<std::size_t>(k)] = gfx::readMask(target);
+      }
+      EXPECT_EQ(colour[0], colour[1]) << "eye " << eye.z << (grouped ? " grouped" : "");
+      EXPECT_EQ(mask[0], mask[1]);
+      for (std::uint8_t v : stencil[0]) ASSERT_EQ(v, 0u);
+      for (std::uint32_t m : mask[0]) covered += m != 0 ? 1u : 0u;
+    }
+  }
+  EXPECT_GT(covered, 20000u);
+}
+
 }  // namespace
 }  // namespace gis::test

@@ -264,7 +264,8 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       (fail ? coverZFail : coverZPass).push_back(box);
     }
   }
-  const std::optional<glm::vec4> rectColour = layer.paperVariant() ? std::nullopt : layer.uniformColor();
+  const std::optional<glm::vec4> rectColour =
+      layer.paperVariant() || !settings.rectangleCover ? std::nullopt : layer.uniformColor();
   stats.rectangleCover = rectColour.has_value();
   if (!layer.paperVariant() && !rectColour) {
     coverZPass = zPass;

@@ -42,6 +42,9 @@ struct OverlaySettings {
   bool measure = false;      ///< GPU time and fragment counts per layer (waits for the GPU)
   bool forceZFail = false;   ///< every piece z-fail (for tests and cost comparisons)
   bool forceGroups = false;  ///< the grouped scheme for deep overlaps on every layer (tests)
+  /// Cover a layer whose features share one colour with one screen rectangle; off: with its
+  /// pieces, as layers of several colours are covered (for tests and cost comparisons).
+  bool rectangleCover = true;
 };
 
 struct LayerFrameStats {
