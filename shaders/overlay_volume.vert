@@ -3,18 +3,28 @@
 // height bound) and the side (−1 bottom, +1 top). The origin arrives per draw as an instanced
 // attribute (baseInstance), already relative to the eye, so every float stays small near the
 // eye. Caps move out by a pad that grows with the distance from the eye (depth resolution).
+//
+// Lines in pixels: (x, y) is the centre the vertex belongs to, a_scaling its direction and the
+// centre's anchor height; the vertex lies at centre + direction · h with the half width
+// h = min(u_halfWidthPerMetre · distance from the eye to the anchored centre, u_maxHalfWidth).
+// Other layers leave the attribute disabled: (0, 0, 0), no offset.
 layout(location = 0) in vec4 a_position;
 layout(location = 1) in vec4 a_color;
 layout(location = 2) in vec3 a_origin;
+layout(location = 3) in vec3 a_scaling;
 
 uniform mat4 u_modelViewProj;  // frame → clip, translated to the eye
 uniform float u_padBase;
 uniform float u_padPerMetre;
+uniform float u_halfWidthPerMetre;
+uniform float u_maxHalfWidth;
 
 out vec4 v_color;
 
 void main() {
   vec3 p = vec3(a_position.xy + a_origin.xy, a_position.z + a_origin.z);
+  const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
+  p.xy += a_scaling.xy * min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth);
   p.z += a_position.w * (u_padBase + u_padPerMetre * length(p));
   v_color = a_color;
   gl_Position = u_modelViewProj * vec4(p, 1.0);

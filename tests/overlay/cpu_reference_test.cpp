@@ -212,7 +212,12 @@ ReferenceLayer lineLayer(const std::vector<Feature>& features, std::vector<LineS
 }
 
 LineShape shapeOf(double width, LineJoin join, LineCap cap, double miterLimit = 4.0) {
-  return LineShape{width, join, cap, miterLimit};
+  LineShape shape;
+  shape.width = width;
+  shape.join = join;
+  shape.cap = cap;
+  shape.miterLimit = miterLimit;
+  return shape;
 }
 
 bool covers(const ReferenceLayer& layer, const dvec2& p) { return ov::coveringFeature(layer, p).has_value(); }

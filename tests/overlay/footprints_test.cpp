@@ -869,7 +869,12 @@ std::vector<Footprint> lines(const geo::Feature& f, const LineShape& shape, cons
 }
 
 LineShape shapeOf(double width, LineJoin join, LineCap cap, double miterLimit = 4.0) {
-  return LineShape{width, join, cap, miterLimit};
+  LineShape shape;
+  shape.width = width;
+  shape.join = join;
+  shape.cap = cap;
+  shape.miterLimit = miterLimit;
+  return shape;
 }
 
 /// Area of the part of footprint `fp` on the side of the line through `o` where dot(p − o, n) ≥ 0.

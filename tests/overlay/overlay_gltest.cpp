@@ -651,5 +651,73 @@ TEST_F(OverlayGlTest, RectangleCoverDrawsWhatThePiecesCoverDraws) {
   EXPECT_GT(covered, 20000u);
 }
 
+TEST_F(OverlayGlTest, LinesInPixelsMatchTheReferenceFromFarAndFromOnTheRoad) {
+  auto tree =
+      std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 257, .height = 257, .seed = 11}), 16);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  const terrain::TerrainGrid& grid = tree->grid();
+  const glm::dvec2 lo = grid.postPosition(0, grid.height - 1), hi = grid.postPosition(grid.width - 1, 0);
+  std::mt19937 rng(23);
+  overlay::LayerStyle round, miter;
+  round.widthPixels = 3.0;
+  round.maxWidthMetres = 40.0;
+  miter.widthPixels = 2.0;
+  miter.maxWidthMetres = 25.0;
+  miter.join = overlay::LineJoin::Miter;
+  miter.cap = overlay::LineCap::Square;
+  miter.color = glm::vec4(0.1F, 0.9F, 0.3F, 1.0F);
+  const std::vector<geo::Feature> roundLines = randomLines(rng, lo, hi, 20), miterLines = randomLines(rng, lo, hi, 20);
+  Result<overlay::OverlayLayer> a =
+      overlay::OverlayLayer::build("round", overlay::LayerKind::Line, round, roundLines, *bounds);
+  Result<overlay::OverlayLayer> b =
+      overlay::OverlayLayer::build("miter", overlay::LayerKind::Line, miter, miterLines, *bounds);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_GT(a->scalingBuffer(), 0u);
+  const std::vector<const overlay::OverlayLayer*> layers{&*a, &*b};
+
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), unit(0.0, 1.0);
+  const double fov = glm::radians(45.0), aspect = static_cast<double>(kWidth) / kHeight;
+  Comparison total;
+  std::size_t zFail = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    glm::dvec3 eye, at;
+    if (trial < 10) {  // from afar: the lines are a few pixels wide at every distance
+      const glm::dvec2 t(ux(rng), uy(rng));
+      const double angle = 6.283 * unit(rng), d = 300.0 + 3000.0 * unit(rng);
+      eye = glm::dvec3(t + d * glm::dvec2(std::cos(angle), std::sin(angle)), 400.0 + 2500.0 * unit(rng));
+      at = glm::dvec3(t, 0.0);
+    } else {  // standing on a road, looking along it: the volume holds the eye
+      const geo::LineString& line =
+          (trial % 2 == 0 ? roundLines : miterLines)[static_cast<std::size_t>(trial)].lines[0];
+      const glm::dvec2 p = line[2] + (unit(rng) - 0.5) * glm::dvec2(2.0, 2.0);
+      eye = glm::dvec3(p, bounds->fullResolutionHeightAt(p) + 1.0 + 8.0 * unit(rng));
+      at = glm::dvec3(line[3], bounds->fullResolutionHeightAt(line[3]));
+    }
+    const glm::dmat4 viewProj =
+        gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, at, glm::dvec3(0, 0, 1));
+    terrain::LodView view{eye, viewProj, kHeight, fov};
+    overlay::OverlaySettings settings;
+    settings.forceZFail = trial % 4 == 3;  // the CPU-clipped path at this frame's widths
+    const std::vector<overlay::LayerFrameStats> stats =
+        drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, view),
+                             {viewProj, eye, 1.0, fov, aspect}, layers, settings);
+    for (const overlay::LayerFrameStats& s : stats) zFail += s.zFailPieces;
+    const Comparison c = compare(target, viewProj, layers, "pixels #" + std::to_string(trial));
+    total.covered += c.covered;
+    total.wrong += c.wrong;
+    total.edgeWrong += c.edgeWrong;
+  }
+  std::printf("lines in pixels: %zu covered pixels, %zu wrong away from edges, %zu on edges (%.3f %%), %zu z-fail\n",
+              total.covered, total.wrong, total.edgeWrong, percent(total.edgeWrong, total.covered), zFail);
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 200);
+  EXPECT_GT(total.covered, 5000u);
+  EXPECT_GT(zFail, 20u);
+}
+
 }  // namespace
 }  // namespace gis::test

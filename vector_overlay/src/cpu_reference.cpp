@@ -45,7 +45,7 @@ LineShape featureShape(const ReferenceLayer& layer, std::size_t i) {
 }
 
 /// Whether feature i of the layer covers p, evaluated directly (no index).
-bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2& p) {
+bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2& p, const PixelScale& scale) {
   const geo::Feature& feature = (*layer.features)[i];
   if (!featureVisible(layer, i)) return false;
   if (layer.kind == LayerKind::Polygon) {
@@ -55,8 +55,9 @@ bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2&
   }
   const LineShape shape = featureShape(layer, i);
   if (!reference::shapeUsable(shape)) return false;
-  for (const geo::LineString& line : feature.lines)
-    if (reference::forEachLinePrimitive(line, shape, [&p](const LinePrimitive& prim) { return prim.contains(p); }))
+  for (std::size_t k = 0; k < feature.lines.size(); ++k)
+    if (reference::forEachLinePrimitive(feature.lines[k], k, shape, scale,
+                                        [&p](const LinePrimitive& prim) { return prim.contains(p); }))
       return true;
   return false;
 }
@@ -227,7 +228,7 @@ class Grid {
 /// One layer's visible features as indexed items (polygons or line primitives), in feature order.
 class LayerIndex {
  public:
-  LayerIndex(const ReferenceLayer& layer, const Box& region)
+  LayerIndex(const ReferenceLayer& layer, const Box& region, const PixelScale& scale)
       : region_(region), polygonLayer_(layer.kind == LayerKind::Polygon) {
     std::vector<Box> boxes;
     if (layer.features != nullptr) {
@@ -245,8 +246,8 @@ class LayerIndex {
         } else {
           const LineShape shape = featureShape(layer, i);
           if (!reference::shapeUsable(shape)) continue;
-          for (const geo::LineString& line : features[i].lines) {
-            reference::forEachLinePrimitive(line, shape, [&](const LinePrimitive& prim) {
+          for (std::size_t k = 0; k < features[i].lines.size(); ++k) {
+            reference::forEachLinePrimitive(features[i].lines[k], k, shape, scale, [&](const LinePrimitive& prim) {
               const Box box = prim.bounds();
               if (box.intersects(region)) {
                 primitives_.push_back(prim);
@@ -306,9 +307,10 @@ class LayerIndex {
 /// All layers (at most the 32 of the mask) indexed for the points of one region.
 class MaskIndex {
  public:
-  MaskIndex(std::span<const ReferenceLayer> layers, const Box& region) : region_(padded(region)) {
+  MaskIndex(std::span<const ReferenceLayer> layers, const Box& region, const PixelScale& scale)
+      : region_(padded(region)) {
     const std::size_t n = std::min(layers.size(), kMaskLayers);
-    for (std::size_t i = 0; i < n; ++i) layers_.emplace_back(layers[i], region_);
+    for (std::size_t i = 0; i < n; ++i) layers_.emplace_back(layers[i], region_, scale);
   }
   [[nodiscard]] std::uint32_t bits(const glm::dvec2& p) const {
     assert(region_.contains(p));
@@ -498,10 +500,11 @@ std::optional<glm::dvec3> unprojectPixel(const DepthImage& image, int x, int y) 
   return Unprojector(image).at(x + 0.5, y + 0.5, *d);
 }
 
-std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point) {
+std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point,
+                                           const PixelScale& scale) {
   if (layer.features == nullptr) return std::nullopt;
   for (std::size_t i = 0; i < layer.features->size(); ++i)
-    if (featureCovers(layer, i, point)) return i;
+    if (featureCovers(layer, i, point, scale)) return i;
   return std::nullopt;
 }
 
@@ -511,7 +514,7 @@ std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<cons
   std::vector<std::uint32_t> mask(points.point.size(), 0);
   const Box region = regionOf(points.point, points.valid);
   if (region.empty()) return mask;
-  const MaskIndex index(layers, region);
+  const MaskIndex index(layers, region, pixelScaleOf(image.viewProj, image.height));
   for (std::size_t i = 0; i < mask.size(); ++i)
     if (points.valid[i] != 0) mask[i] = index.bits(glm::dvec2(points.point[i]));
   return mask;
@@ -550,7 +553,7 @@ std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const Re
   }
   if (region.empty()) return edge;
 
-  const MaskIndex index(layers, region);
+  const MaskIndex index(layers, region, pixelScaleOf(image.viewProj, image.height));
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * width + static_cast<std::size_t>(x);
@@ -573,10 +576,11 @@ std::vector<PickedFeature> pick(const DepthImage& image, std::span<const Referen
   const std::optional<glm::dvec3> p = unprojectPixel(image, x, y);
   if (!p) return out;
   const glm::dvec2 point(*p);
+  const PixelScale scale = pixelScaleOf(image.viewProj, image.height);
   for (std::size_t l = 0; l < layers.size(); ++l) {
     if (layers[l].features == nullptr) continue;
     for (std::size_t f = 0; f < layers[l].features->size(); ++f)
-      if (featureCovers(layers[l], f, point)) out.push_back({l, f});
+      if (featureCovers(layers[l], f, point, scale)) out.push_back({l, f});
   }
   return out;
 }

@@ -366,12 +366,10 @@ inline int circleSegments(double r, double tolerance) {
   return std::min(segments, kMaxArcSegments);
 }
 
-/// The regular polygon inscribed in the circle (centre, r), counter-clockwise, its first vertex
-/// at centre + r · direction (direction a unit vector), quarter points exactly on ±direction
-/// and ±perp(direction).
-inline std::vector<glm::dvec2> discPolygon(const glm::dvec2& centre, double r, const glm::dvec2& direction,
-                                           double tolerance) {
-  const int n = circleSegments(r, tolerance);
+/// The regular polygon of n vertices (a multiple of 4, circleSegments) inscribed in the circle
+/// (centre, r), counter-clockwise, its first vertex at centre + r · direction (direction a unit
+/// vector), quarter points exactly on ±direction and ±perp(direction).
+inline std::vector<glm::dvec2> discPolygon(const glm::dvec2& centre, double r, const glm::dvec2& direction, int n) {
   const int quarter = n / 4;
   std::vector<glm::dvec2> pts(static_cast<std::size_t>(n));
   const glm::dvec2 u = direction;

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+#include <glm/matrix.hpp>
 
 #include "footprint_geometry.hpp"
 #include "vector_overlay/footprints.hpp"
@@ -27,13 +29,40 @@ glm::dvec2 unit(const glm::dvec2& d) {
   return {d.x / length, d.y / length};
 }
 
+/// A vertex of a line piece: centre + direction · h, h the half width at the centre (the
+/// anchor is the centre's height for lines in pixels).
+struct Pt {
+  glm::dvec2 centre{0.0};
+  glm::dvec2 direction{0.0};
+  double anchor = 0.0;
+  bool operator==(const Pt&) const = default;
+};
+
+/// The points of a polygon around one centre: centre + directions[k] · h.
+std::vector<Pt> around(const glm::dvec2& centre, double anchor, const std::vector<glm::dvec2>& directions) {
+  std::vector<Pt> pts;
+  pts.reserve(directions.size());
+  for (const glm::dvec2& d : directions) pts.push_back({centre, d, anchor});
+  return pts;
+}
+
 class PieceSink {
  public:
-  PieceSink(std::uint32_t feature, const FootprintOptions& options, std::vector<Footprint>& out)
-      : feature_(feature), options_(options), out_(out) {}
+  /// h: the half width in metres (for lines in pixels, the largest).
+  PieceSink(std::uint32_t feature, const FootprintOptions& options, bool scalable, double h,
+            std::vector<Footprint>& out)
+      : feature_(feature), options_(options), scalable_(scalable), h_(h), out_(out) {}
 
-  /// Adds the convex polygon (counter-clockwise) as one footprint, or one per cell.
-  void add(PieceKind kind, std::vector<glm::dvec2> pts) {
+  /// Adds the convex polygon (counter-clockwise at every width up to h) as one footprint, or
+  /// one per cell (metre widths only).
+  void add(PieceKind kind, std::vector<Pt> shape) {
+    if (scalable_) {
+      addScalable(kind, std::move(shape));
+      return;
+    }
+    std::vector<glm::dvec2> pts;
+    pts.reserve(shape.size());
+    for (const Pt& p : shape) pts.push_back(p.centre + h_ * p.direction);
     detail::dropRepeatedPoints(pts);
     if (pts.size() < 3) return;
     if (!options_.cells) {
@@ -48,108 +77,175 @@ class PieceSink {
                            });
   }
 
-  void disc(PieceKind kind, const glm::dvec2& centre, double radius, const glm::dvec2& direction) {
-    add(kind, detail::discPolygon(centre, radius, direction, options_.chordTolerance));
+ private:
+  /// One piece, unsplit, with its vertices' centres and directions (footprints.hpp).
+  void addScalable(PieceKind kind, std::vector<Pt> shape) {
+    shape.erase(std::unique(shape.begin(), shape.end()), shape.end());
+    while (shape.size() > 1 && shape.front() == shape.back()) shape.pop_back();
+    std::vector<glm::dvec2> pts;
+    pts.reserve(shape.size());
+    for (const Pt& p : shape) pts.push_back(p.centre + h_ * p.direction);
+    if (pts.size() < 3) return;
+    detail::triangulateConvex(pts, builder_);
+    if (builder_.empty()) return;
+    Footprint fp = builder_.finish(feature_, -1, kind);
+    fp.centres.reserve(fp.vertices.size());
+    fp.directions.reserve(fp.vertices.size());
+    for (const glm::dvec2& v : fp.vertices) {
+      const auto found = std::find(pts.begin(), pts.end(), v);
+      if (found != pts.end()) {
+        const Pt& p = shape[static_cast<std::size_t>(found - pts.begin())];
+        fp.centres.emplace_back(p.centre, p.anchor);
+        fp.directions.push_back(p.direction);
+      } else {
+        // The fan's inner point (triangulateConvex, all sides with collinear points): the mean
+        // of the vertices, exact at every width for the pieces around one centre.
+        glm::dvec3 centre(0.0);
+        glm::dvec2 direction(0.0);
+        for (const Pt& p : shape) {
+          centre += glm::dvec3(p.centre, p.anchor);
+          direction += p.direction;
+        }
+        const auto n = static_cast<double>(shape.size());
+        fp.centres.push_back(centre / n);
+        fp.directions.push_back(direction / n);
+      }
+    }
+    out_.push_back(std::move(fp));
   }
 
- private:
   std::uint32_t feature_;
   const FootprintOptions& options_;
+  bool scalable_;
+  double h_;
   std::vector<Footprint>& out_;
   detail::FootprintBuilder builder_;
 };
 
-/// Points on the circle (centre, r) from angle a0 to a1 (radians, a1 > a0: counter-clockwise),
-/// both ends included, with chords no farther than `tolerance` from the arc.
-std::vector<glm::dvec2> arc(const glm::dvec2& centre, double r, double a0, double a1, double tolerance) {
-  const int full = detail::circleSegments(r, tolerance);
+/// Unit directions to points on a circle from angle a0 to a1 (radians, a1 > a0:
+/// counter-clockwise), both ends included, `full` chords per full circle.
+std::vector<glm::dvec2> arc(double a0, double a1, int full) {
   const int m = std::max(1, static_cast<int>(std::ceil((a1 - a0) / (2.0 * std::numbers::pi) * full)));
-  std::vector<glm::dvec2> pts;
-  pts.reserve(static_cast<std::size_t>(m + 1));
+  std::vector<glm::dvec2> directions;
+  directions.reserve(static_cast<std::size_t>(m + 1));
   for (int k = 0; k <= m; ++k) {
     const double a = a0 + (a1 - a0) * k / m;
-    pts.push_back(centre + r * glm::dvec2(std::cos(a), std::sin(a)));
+    directions.emplace_back(std::cos(a), std::sin(a));
   }
-  return pts;
+  return directions;
 }
 
-/// The cap at `end`, the line leaving it in the unit direction `outward`. A round cap whose end
-/// segment is at least w/2 long needs only the outer half disc: the rectangle holds the other
-/// half (same union, half the triangles).
-void addCap(PieceSink& sink, const LineShape& shape, double h, const glm::dvec2& end, const glm::dvec2& outward,
-            double segmentLength, double tolerance) {
-  const glm::dvec2 n = perp(outward);
-  switch (shape.cap) {
-    case LineCap::Round:
-      if (segmentLength >= h) {
-        const double a = std::atan2(outward.y, outward.x);
-        sink.add(PieceKind::Cap, arc(end, h, a - 0.5 * std::numbers::pi, a + 0.5 * std::numbers::pi, tolerance));
-      } else {
-        sink.disc(PieceKind::Cap, end, h, n);
-      }
-      break;
-    case LineCap::Square:
-      sink.add(PieceKind::Cap, {end - h * n, end + h * outward - h * n, end + h * outward + h * n, end + h * n});
-      break;
-    case LineCap::Flat:
-      break;
-  }
+/// Unit directions of the regular polygon of `full` vertices whose first vertex lies in the
+/// unit direction `direction`.
+std::vector<glm::dvec2> disc(const glm::dvec2& direction, int full) {
+  // discPolygon's points are centre + r · (unit vector): with centre 0 and r = 1 exactly those.
+  return detail::discPolygon(glm::dvec2(0.0), 1.0, direction, full);
 }
 
-/// The join at vertex v between the segments prev → v and v → next.
-void addJoin(PieceSink& sink, const LineShape& shape, double h, const glm::dvec2& prev, const glm::dvec2& v,
-             const glm::dvec2& next, double tolerance) {
-  const glm::dvec2 d0 = unit(v - prev);
-  const glm::dvec2 d1 = unit(next - v);
-  const int turn = detail::orientation(prev, v, next);
-  if (turn == 0 && d0.x * d1.x + d0.y * d1.y > 0.0) return;  // straight continuation
-  if (shape.join == LineJoin::Round) {
-    // With both segments at least w/2 long, the two rectangles hold all of the disc but the
-    // outer wedge between their end edges: draw that wedge only (same union, far fewer
-    // triangles). Otherwise, and for hairpins, the whole disc.
-    const double l0 = glm::length(v - prev), l1 = glm::length(next - v);
-    if (turn != 0 && l0 >= h && l1 >= h) {
-      const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
-      const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
-      double a0 = std::atan2(out0.y, out0.x), a1 = std::atan2(out1.y, out1.x);
-      if (turn < 0) std::swap(a0, a1);  // counter-clockwise from a0 to a1
-      if (a1 < a0) a1 += 2.0 * std::numbers::pi;
-      std::vector<glm::dvec2> pts{v};
-      const std::vector<glm::dvec2> rim = arc(v, h, a0, a1, tolerance);
-      pts.insert(pts.end(), rim.begin(), rim.end());
-      sink.add(PieceKind::Join, std::move(pts));
-    } else {
-      sink.disc(PieceKind::Join, v, h, perp(d0));
+/// Geometry of one line: its vertices (repeated points dropped) with their anchor heights.
+struct Builder {
+  PieceSink& sink;
+  const LineShape& shape;
+  double h;  ///< half width in metres (the largest, for lines in pixels)
+  int full;  ///< chords per full circle of radius h
+  /// Lines in pixels: whole discs for round joins and caps. The half widths of a segment's ends
+  /// differ, so its trapezoid need not hold the inner part of the disc at either end.
+  bool wholeDiscs;
+
+  /// The cap at `end`, the line leaving it in the unit direction `outward`. A round cap whose
+  /// end segment is at least w/2 long needs only the outer half disc: the rectangle holds the
+  /// other half (same union, half the triangles).
+  void cap(const glm::dvec2& end, double anchor, const glm::dvec2& outward, double segmentLength) const {
+    const glm::dvec2 n = perp(outward);
+    switch (shape.cap) {
+      case LineCap::Round:
+        if (segmentLength >= h && !wholeDiscs) {
+          const double a = std::atan2(outward.y, outward.x);
+          sink.add(PieceKind::Cap,
+                   around(end, anchor, arc(a - 0.5 * std::numbers::pi, a + 0.5 * std::numbers::pi, full)));
+        } else {
+          sink.add(PieceKind::Cap, around(end, anchor, disc(n, full)));
+        }
+        break;
+      case LineCap::Square:
+        sink.add(PieceKind::Cap, around(end, anchor, {-n, outward - n, outward + n, n}));
+        break;
+      case LineCap::Flat:
+        break;
     }
-    return;
   }
-  // A hairpin (180°) has a flat bevel and an infinite miter: nothing besides the rectangles.
-  if (turn == 0) return;
-  // Outer normals: on the right of a left turn, on the left of a right turn.
-  const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
-  const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
-  const glm::dvec2 corner0 = v + h * out0;
-  const glm::dvec2 corner1 = v + h * out1;
-  // θ the angle between the segments at v. With s = d0 + d1: |s| = 2 sin(θ/2), accurate also
-  // for nearly reversed directions (where 1 + cos(turn) would cancel to zero).
-  // Miter length h / sin(θ/2) ≤ miterLimit · h  ⇔  miterLimit · sin(θ/2) ≥ 1.
-  const glm::dvec2 s = d0 + d1;
-  const double sinHalfTheta = 0.5 * std::hypot(s.x, s.y);
-  std::vector<glm::dvec2> pts;
-  if (shape.join == LineJoin::Miter && shape.miterLimit * sinHalfTheta >= 1.0) {
-    // The intersection of the two outer offset lines lies on the outer bisector (out0 + out1,
-    // of length |s|) at distance h / sin(θ/2) = 2h / |s| from v.
-    const glm::dvec2 miter = v + (2.0 * h / (s.x * s.x + s.y * s.y)) * (out0 + out1);
-    if (detail::finite(miter)) pts = {v, corner0, miter, corner1};
+
+  /// The join at vertex v between the segments prev → v and v → next.
+  void join(const glm::dvec2& prev, const glm::dvec2& v, double anchor, const glm::dvec2& next) const {
+    const glm::dvec2 d0 = unit(v - prev);
+    const glm::dvec2 d1 = unit(next - v);
+    const int turn = detail::orientation(prev, v, next);
+    if (turn == 0 && d0.x * d1.x + d0.y * d1.y > 0.0) return;  // straight continuation
+    if (shape.join == LineJoin::Round) {
+      // With both segments at least w/2 long, the two rectangles hold all of the disc but the
+      // outer wedge between their end edges: draw that wedge only (same union, far fewer
+      // triangles). Otherwise, and for hairpins, the whole disc.
+      const double l0 = glm::length(v - prev), l1 = glm::length(next - v);
+      if (turn != 0 && l0 >= h && l1 >= h && !wholeDiscs) {
+        const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
+        const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
+        double a0 = std::atan2(out0.y, out0.x), a1 = std::atan2(out1.y, out1.x);
+        if (turn < 0) std::swap(a0, a1);  // counter-clockwise from a0 to a1
+        if (a1 < a0) a1 += 2.0 * std::numbers::pi;
+        std::vector<glm::dvec2> directions{glm::dvec2(0.0)};
+        const std::vector<glm::dvec2> rim = arc(a0, a1, full);
+        directions.insert(directions.end(), rim.begin(), rim.end());
+        sink.add(PieceKind::Join, around(v, anchor, directions));
+      } else {
+        sink.add(PieceKind::Join, around(v, anchor, disc(perp(d0), full)));
+      }
+      return;
+    }
+    // A hairpin (180°) has a flat bevel and an infinite miter: nothing besides the rectangles.
+    if (turn == 0) return;
+    // Outer normals: on the right of a left turn, on the left of a right turn.
+    const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
+    const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
+    // θ the angle between the segments at v. With s = d0 + d1: |s| = 2 sin(θ/2), accurate also
+    // for nearly reversed directions (where 1 + cos(turn) would cancel to zero).
+    // Miter length h / sin(θ/2) ≤ miterLimit · h  ⇔  miterLimit · sin(θ/2) ≥ 1.
+    const glm::dvec2 s = d0 + d1;
+    const double sinHalfTheta = 0.5 * std::hypot(s.x, s.y);
+    std::vector<glm::dvec2> directions;
+    if (shape.join == LineJoin::Miter && shape.miterLimit * sinHalfTheta >= 1.0) {
+      // The intersection of the two outer offset lines lies on the outer bisector (out0 + out1,
+      // of length |s|) at distance h / sin(θ/2) = 2h / |s| from v.
+      const glm::dvec2 miter = (2.0 / (s.x * s.x + s.y * s.y)) * (out0 + out1);
+      if (detail::finite(miter) && detail::finite(v + h * miter)) directions = {glm::dvec2(0.0), out0, miter, out1};
+    }
+    if (directions.empty()) directions = {glm::dvec2(0.0), out0, out1};
+    if (turn < 0) std::reverse(directions.begin() + 1, directions.end());
+    sink.add(PieceKind::Join, around(v, anchor, directions));
   }
-  if (pts.empty()) {
-    pts = {v, corner0, corner1};
-  }
-  if (turn < 0) std::reverse(pts.begin() + 1, pts.end());
-  sink.add(PieceKind::Join, std::move(pts));
-}
+};
 
 }  // namespace
+
+PixelScale pixelScaleOf(const glm::dmat4& viewProj, int viewportHeight) {
+  // Rows x, y and w of the matrix (glm is column-major: m[column][row]).
+  const auto row = [&viewProj](int r) {
+    return glm::dvec4(viewProj[0][r], viewProj[1][r], viewProj[2][r], viewProj[3][r]);
+  };
+  const glm::dvec4 x = row(0), y = row(1), w = row(3);
+  PixelScale scale;
+  const glm::dmat3 a = glm::transpose(glm::dmat3(glm::dvec3(x), glm::dvec3(y), glm::dvec3(w)));
+  if (glm::determinant(a) != 0.0) scale.eye = -(glm::inverse(a) * glm::dvec3(x.w, y.w, w.w));
+  // Pixel size at distance d: 2 d / (height · s), s the rate of clip y across the view
+  // direction per unit of w (the part of row y orthogonal to row w: a sub-pixel shift of the
+  // matrix, which adds a multiple of row w, leaves it alone).
+  const glm::dvec3 wDir(w), yDir(y);
+  const glm::dvec3 across = yDir - (glm::dot(yDir, wDir) / glm::dot(wDir, wDir)) * wDir;
+  const double yScale = glm::length(across) / glm::length(wDir);
+  if (viewportHeight > 0 && yScale > 0.0 && std::isfinite(yScale)) {
+    scale.metresPerPixel = 2.0 / (static_cast<double>(viewportHeight) * yScale);
+  }
+  return scale;
+}
 
 std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
                                       const std::string& layerName, const LineShape& shape,
@@ -169,11 +265,16 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
     }
   }
   const double h = 0.5 * shape.width;
-  PieceSink sink(featureIndex, options, result);
+  const bool scalable = shape.inPixels();
+  PieceSink sink(featureIndex, options, scalable, h, result);
+  // Lines in pixels: chords counted on screen, where the radius is widthPixels / 2 at most.
+  const int full = scalable ? detail::circleSegments(0.5 * shape.widthPixels, options.chordTolerancePixels)
+                            : detail::circleSegments(h, options.chordTolerance);
+  const Builder build{sink, shape, h, full, scalable};
 
   for (std::size_t k = 0; k < feature.lines.size(); ++k) {
-    geo::LineString line = feature.lines[k];
-    const bool usable = std::all_of(line.begin(), line.end(), [](const glm::dvec2& p) {
+    const geo::LineString& raw = feature.lines[k];
+    const bool usable = std::all_of(raw.begin(), raw.end(), [](const glm::dvec2& p) {
       return detail::finite(p) && std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate;
     });
     if (!usable) {
@@ -182,29 +283,34 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
           "line " + std::to_string(k) + " has a NaN, infinite or out-of-range coordinate; line skipped"));
       continue;
     }
-    line.erase(std::unique(line.begin(), line.end()), line.end());
+    // Repeated points dropped, each kept point with its anchor height.
+    std::vector<glm::dvec2> line;
+    std::vector<double> anchor;
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+      if (!line.empty() && raw[i] == line.back()) continue;
+      line.push_back(raw[i]);
+      anchor.push_back(shape.anchorHeight(k, i));
+    }
     if (line.empty()) continue;
     if (line.size() == 1) {
-      const glm::dvec2 p = line[0];
       if (shape.cap == LineCap::Round) {
-        sink.disc(PieceKind::Cap, p, h, glm::dvec2(1.0, 0.0));
+        sink.add(PieceKind::Cap, around(line[0], anchor[0], disc(glm::dvec2(1.0, 0.0), full)));
       } else if (shape.cap == LineCap::Square) {
-        sink.add(PieceKind::Cap,
-                 {p + glm::dvec2(-h, -h), p + glm::dvec2(h, -h), p + glm::dvec2(h, h), p + glm::dvec2(-h, h)});
+        sink.add(PieceKind::Cap, around(line[0], anchor[0], {{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}}));
       }
       continue;
     }
-    const double tolerance = options.chordTolerance;
-    addCap(sink, shape, h, line.front(), unit(line[0] - line[1]), glm::length(line[1] - line[0]), tolerance);
-    for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+    const std::size_t last = line.size() - 1;
+    build.cap(line[0], anchor[0], unit(line[0] - line[1]), glm::length(line[1] - line[0]));
+    for (std::size_t i = 0; i < last; ++i) {
       const glm::dvec2 a = line[i];
       const glm::dvec2 b = line[i + 1];
-      const glm::dvec2 n = h * perp(unit(b - a));
-      sink.add(PieceKind::Segment, {a - n, b - n, b + n, a + n});
-      if (i + 2 < line.size()) addJoin(sink, shape, h, a, b, line[i + 2], tolerance);
+      const glm::dvec2 n = perp(unit(b - a));
+      sink.add(PieceKind::Segment,
+               {{a, -n, anchor[i]}, {b, -n, anchor[i + 1]}, {b, n, anchor[i + 1]}, {a, n, anchor[i]}});
+      if (i + 2 < line.size()) build.join(a, b, anchor[i + 1], line[i + 2]);
     }
-    addCap(sink, shape, h, line.back(), unit(line[line.size() - 1] - line[line.size() - 2]),
-           glm::length(line[line.size() - 1] - line[line.size() - 2]), tolerance);
+    build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]), glm::length(line[last] - line[last - 1]));
   }
   return result;
 }

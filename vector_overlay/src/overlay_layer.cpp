@@ -60,7 +60,10 @@ std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKin
       }
     }
     s.color = glm::vec4(colour.x, colour.y, colour.z, colour.w * style.opacity);
-    if (kind == LayerKind::Line) {
+    if (kind == LayerKind::Line && style.widthPixels > 0.0) {
+      s.shape.width = style.maxWidthMetres;
+      s.shape.widthPixels = style.widthPixels;
+    } else if (kind == LayerKind::Line) {
       s.shape.width = style.widthMetres;
       if (!style.widthAttribute.empty()) {
         const auto a = f.attributes.find(style.widthAttribute);
@@ -77,6 +80,21 @@ std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKin
     out.push_back(s);
   }
   return out;
+}
+
+void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds) {
+  if (!style.shape.inPixels()) return;
+  const HeightBounds global = bounds.globalBounds();
+  style.shape.anchorHeights.assign(feature.lines.size(), {});
+  for (std::size_t k = 0; k < feature.lines.size(); ++k) {
+    for (const glm::dvec2& p : feature.lines[k]) {
+      const glm::dvec2 point[1] = {p};
+      const HeightBounds b = bounds.boundsOver(point);
+      const bool usable = b.valid() && std::isfinite(b.lo) && std::isfinite(b.hi);
+      const double mid = usable ? 0.5 * (b.lo + b.hi) : 0.5 * (global.lo + global.hi);
+      style.shape.anchorHeights[k].push_back(std::isfinite(mid) ? mid : 0.0);
+    }
+  }
 }
 
 std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
@@ -159,6 +177,8 @@ Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const
   layer.features_ = std::move(features);
   layer.bounds_ = &bounds;
   layer.styles_ = resolveFeatureStyles(style, kind, layer.features_);
+  for (std::size_t i = 0; i < layer.features_.size(); ++i)
+    assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());
   Result<OverlayLayer> r;
   for (std::size_t i = 0; i < layer.features_.size(); ++i) {
@@ -204,10 +224,18 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
     const Footprint& f = p.footprint;
     std::vector<Vertex> v;
     v.reserve(2 * f.vertices.size() + 8);
-    for (const glm::dvec2& q : f.vertices) {
-      const glm::vec2 rel(q - origin);
+    // Lines in pixels: the centres here, directions and anchors in the scaling stream.
+    const bool scalable = f.scalable();
+    std::vector<glm::vec3> scaling;
+    for (std::size_t k = 0; k < f.vertices.size(); ++k) {
+      const glm::vec2 rel(scalable ? glm::dvec2(f.centres[k]) - origin : f.vertices[k] - origin);
       v.push_back({rel.x, rel.y, static_cast<float>(p.lo), -1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
       v.push_back({rel.x, rel.y, static_cast<float>(p.hi), 1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
+      if (scalable) {
+        const glm::vec3 s3(static_cast<float>(f.directions[k].x), static_cast<float>(f.directions[k].y),
+                           static_cast<float>(f.centres[k].z));
+        scaling.insert(scaling.end(), {s3, s3});
+      }
     }
     std::vector<std::uint32_t> idx;
     idx.reserve(6 * f.triangles.size() + 6 * f.boundary.size() + 36);
@@ -235,12 +263,13 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
     constexpr std::uint32_t kBox[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
                                         2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
     for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
+    if (widthPixels() > 0.0) scaling.resize(v.size(), glm::vec3(0.0F));  // the box does not scale
     stats_.pieces += 1;
     stats_.triangles += s.indexCount / 3;
     slots_.push_back(s);
     polyhedra_.push_back(std::move(p));
     featureSlots_[feature].push_back(static_cast<std::uint32_t>(slot));
-    appendGeometry(slot, std::move(v), std::move(idx));
+    appendGeometry(slot, std::move(v), std::move(idx), std::move(scaling));
   }
 }
 
@@ -304,6 +333,15 @@ void OverlayLayer::ensureCapacity(std::size_t vertices, std::size_t indices) {
   indices_ = gfx::createBuffer();
   glNamedBufferData(vertices_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(Vertex)), nullptr,
                     GL_DYNAMIC_DRAW);
+  if (widthPixels() > 0.0) {
+    scaling_ = gfx::createBuffer();
+    glNamedBufferData(scaling_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(glm::vec3)), nullptr,
+                      GL_DYNAMIC_DRAW);
+    if (vertexUsed_ > 0) {
+      glNamedBufferSubData(scaling_.id(), 0, static_cast<GLsizeiptr>(vertexUsed_ * sizeof(glm::vec3)),
+                           cpuScaling_.data());
+    }
+  }
   glNamedBufferData(indices_.id(), static_cast<GLsizeiptr>(indexCapacity_ * sizeof(std::uint32_t)), nullptr,
                     GL_DYNAMIC_DRAW);
   if (vertexUsed_ > 0) {
@@ -313,21 +351,28 @@ void OverlayLayer::ensureCapacity(std::size_t vertices, std::size_t indices) {
     glNamedBufferSubData(indices_.id(), 0, static_cast<GLsizeiptr>(indexUsed_ * sizeof(std::uint32_t)),
                          cpuIndices_.data());
   }
-  stats_.gpuBytes = vertexCapacity_ * sizeof(Vertex) + indexCapacity_ * sizeof(std::uint32_t);
+  stats_.gpuBytes =
+      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec3) : 0)) + indexCapacity_ * sizeof(std::uint32_t);
 }
 
-void OverlayLayer::appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i) {
+void OverlayLayer::appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i,
+                                  std::vector<glm::vec3> scaling) {
   PieceSlot& s = slots_[slot];
   s.baseVertex = static_cast<std::uint32_t>(vertexUsed_);
   s.firstIndex = static_cast<std::uint32_t>(indexUsed_);
   s.boxFirstIndex += s.firstIndex;
   cpuVertices_.insert(cpuVertices_.end(), v.begin(), v.end());
   cpuIndices_.insert(cpuIndices_.end(), i.begin(), i.end());
+  if (widthPixels() > 0.0) cpuScaling_.insert(cpuScaling_.end(), scaling.begin(), scaling.end());
   ensureCapacity(vertexUsed_ + v.size(), indexUsed_ + i.size());
   glNamedBufferSubData(vertices_.id(), static_cast<GLintptr>(vertexUsed_ * sizeof(Vertex)),
                        static_cast<GLsizeiptr>(v.size() * sizeof(Vertex)), v.data());
   glNamedBufferSubData(indices_.id(), static_cast<GLintptr>(indexUsed_ * sizeof(std::uint32_t)),
                        static_cast<GLsizeiptr>(i.size() * sizeof(std::uint32_t)), i.data());
+  if (scaling_) {
+    glNamedBufferSubData(scaling_.id(), static_cast<GLintptr>(vertexUsed_ * sizeof(glm::vec3)),
+                         static_cast<GLsizeiptr>(scaling.size() * sizeof(glm::vec3)), scaling.data());
+  }
   vertexUsed_ += v.size();
   indexUsed_ += i.size();
 }
@@ -363,6 +408,7 @@ Diagnostics OverlayLayer::replaceFeature(std::size_t index, geo::Feature feature
   const std::vector<geo::Feature> one{features_[index]};
   FeatureStyle style = resolveFeatureStyles(style_, kind_, one).front();
   style.visible = styles_[index].visible;
+  if (bounds_ != nullptr) assignAnchorHeights(style, features_[index], *bounds_);
   styles_[index] = style;
   return rebuildFeature(index);
 }
@@ -370,6 +416,7 @@ Diagnostics OverlayLayer::replaceFeature(std::size_t index, geo::Feature feature
 Diagnostics OverlayLayer::setFeatureStyle(std::size_t index, const FeatureStyle& style) {
   if (index >= features_.size()) return {};
   styles_[index] = style;
+  if (bounds_ != nullptr) assignAnchorHeights(styles_[index], features_[index], *bounds_);
   return rebuildFeature(index);
 }
 
@@ -381,6 +428,15 @@ void OverlayLayer::removeFeature(std::size_t index) {
 
 void OverlayLayer::refreshBounds(const HeightBoundsProvider& bounds) {
   bounds_ = &bounds;
+  if (widthPixels() > 0.0) {
+    // The anchors move with the terrain: rebuild every feature.
+    for (std::size_t i = 0; i < features_.size(); ++i) {
+      if (!styles_[i].visible) continue;
+      assignAnchorHeights(styles_[i], features_[i], bounds);
+      (void)rebuildFeature(i);
+    }
+    return;
+  }
   for (std::size_t slot = 0; slot < slots_.size(); ++slot) {
     PieceSlot& s = slots_[slot];
     if (!s.live) continue;

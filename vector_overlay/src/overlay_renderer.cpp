@@ -62,6 +62,9 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   glVertexArrayAttribFormat(vao, 2, 3, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribBinding(vao, 2, 1);
   glVertexArrayBindingDivisor(vao, 1, 1);
+  // Lines in pixels only (enabled per layer); disabled it reads (0, 0, 0): no offset.
+  glVertexArrayAttribFormat(vao, 3, 3, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribBinding(vao, 3, 2);
   renderer.timer_.emplace();
   renderer.markStats_.emplace();
   renderer.coverStats_.emplace();
@@ -96,7 +99,8 @@ void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
 }
 
 GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer,
-                                             const std::vector<std::size_t>& slots, const OverlaySettings& settings) {
+                                             const std::vector<std::size_t>& slots, const OverlaySettings& settings,
+                                             const PixelScale& scale) {
   if (slots.empty()) return 0;
   // w of clip space is the distance along the view direction; the near plane is at w = near.
   const glm::dmat4& m = view.viewProj;
@@ -134,10 +138,14 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
         static_cast<std::uint8_t>(std::lround(std::clamp(style.color.z, 0.0F, 1.0F) * 255.0F)),
         static_cast<std::uint8_t>(std::lround(std::clamp(style.color.w, 0.0F, 1.0F) * 255.0F))};
     const Footprint& f = p.footprint;
-    // Vertices relative to the eye, caps padded as the shader pads them.
+    // Vertices relative to the eye, lines in pixels at this frame's width and caps padded as
+    // the shader does it.
     std::vector<glm::dvec3> bottom(f.vertices.size()), top(f.vertices.size());
     for (std::size_t k = 0; k < f.vertices.size(); ++k) {
-      const glm::dvec2 xy = f.vertices[k] - glm::dvec2(view.eye);
+      const glm::dvec2 vertex =
+          f.scalable() ? glm::dvec2(f.centres[k]) + f.directions[k] * halfWidthAt(style.shape, scale, f.centres[k])
+                       : f.vertices[k];
+      const glm::dvec2 xy = vertex - glm::dvec2(view.eye);
       for (int side : {-1, 1}) {
         glm::dvec3 q(xy, (side < 0 ? p.lo : p.hi) - view.eye.z);
         q.z += side * (settings.padBase + settings.padPerMetre * glm::length(q));
@@ -207,16 +215,25 @@ std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const
   program_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
   program_.set("u_padBase", static_cast<float>(settings.padBase));
   program_.set("u_padPerMetre", static_cast<float>(settings.padPerMetre));
+  // Lines in pixels need the size of a pixel: from the matrix and the viewport's height.
+  PixelScale scale;
+  if (std::any_of(layers.begin(), layers.end(), [](const OverlayLayer* l) { return l && l->widthPixels() > 0.0; })) {
+    std::array<GLint, 4> viewport{};
+    glGetIntegerv(GL_VIEWPORT, viewport.data());
+    scale = pixelScaleOf(view.viewProj, viewport[3]);
+    scale.eye = view.eye;
+  }
   glBindVertexArray(vao_.id());
   for (std::size_t i = 0; i < layers.size(); ++i) {
-    if (layers[i] != nullptr) drawLayer(cache, view, *layers[i], i, settings, stats[i]);
+    if (layers[i] != nullptr) drawLayer(cache, view, *layers[i], i, settings, scale, stats[i]);
   }
   glBindVertexArray(0);
   return stats;
 }
 
 void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
-                                std::size_t index, const OverlaySettings& settings, LayerFrameStats& stats) {
+                                std::size_t index, const OverlaySettings& settings, const PixelScale& scale,
+                                LayerFrameStats& stats) {
   const auto& slots = layer.slots();
   const auto& polyhedra = layer.polyhedra();
   if (slots.empty()) return;
@@ -306,6 +323,13 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   glVertexArrayVertexBuffer(vao, 1, origins_.id(), 0, 3 * sizeof(float));
   glVertexArrayElementBuffer(vao, layer.indexBuffer());
   program_.set("u_maskBit", maskBit);
+  const bool inPixels = layer.widthPixels() > 0.0 && layer.scalingBuffer() != 0;
+  if (inPixels) {
+    glVertexArrayVertexBuffer(vao, 2, layer.scalingBuffer(), 0, 3 * sizeof(float));
+    glEnableVertexArrayAttrib(vao, 3);
+    program_.set("u_halfWidthPerMetre", static_cast<float>(0.5 * layer.widthPixels() * scale.metresPerPixel));
+    program_.set("u_maxHalfWidth", static_cast<float>(0.5 * layer.style().maxWidthMetres));
+  }
 
   if (settings.measure) {
     timer_->begin();
@@ -315,7 +339,9 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   auto drawClipped = [&](GLsizei vertices) {
     if (vertices == 0) return;
     glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
+    if (inPixels) glDisableVertexArrayAttrib(vao, 3);  // already at this frame's width
     glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, vertices, 1, zeroOrigin);
+    if (inPixels) glEnableVertexArrayAttrib(vao, 3);
     glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
   };
   const bool grouped = !layer.paperVariant() && (settings.forceGroups || layer.maxOverlap() > 255);
@@ -340,7 +366,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   } else if (!grouped) {
     cache.apply(kMarkZPass);
     multiDraw(zPass);
-    const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings);
+    const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings, scale);
     cache.apply(kMarkZFail);
     drawClipped(clipped);
     if (settings.measure) {
@@ -368,7 +394,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
           groupPass.push_back(zPass[order[k].second]);
         }
       }
-      const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings);
+      const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings, scale);
       cache.apply(kMarkZPassGrouped);
       multiDraw(groupPass);
       cache.apply(kMarkZFailGrouped);
@@ -387,11 +413,12 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     } else {
       cache.apply(kCoverFlaggedZPass);
       multiDraw(zPass);
-      const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings);
+      const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings, scale);
       cache.apply(kCoverFlaggedZFail);
       drawClipped(clipped);
     }
   }
+  if (inPixels) glDisableVertexArrayAttrib(vao, 3);
   if (settings.measure) {
     coverStats_->end();
     timer_->end();

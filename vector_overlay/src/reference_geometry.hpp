@@ -389,22 +389,28 @@ struct LinePrimitive {
 /// Whether a line shape draws anything at all (a positive, finite width).
 inline bool shapeUsable(const LineShape& shape) { return std::isfinite(shape.width) && shape.width > 0.0; }
 
-/// Calls emit(LinePrimitive) for every piece of one line string drawn with `shape` (whose width
-/// must be usable): after dropping consecutive repeated points, the segments' rectangles, the
-/// joins at interior vertices and the caps at both ends (footprints.hpp). A line with a
-/// non-finite point draws nothing. emit returns true to stop early; the function returns
-/// whether it was stopped.
+/// Calls emit(LinePrimitive) for every piece of line `lineIndex` of a feature drawn with
+/// `shape` (whose width must be usable): after dropping consecutive repeated points, the
+/// segments' rectangles, the joins at interior vertices and the caps at both ends
+/// (footprints.hpp). Lines in pixels get each vertex's half width from `scale`, and trapezoids
+/// for segments whose ends differ. A line with a non-finite point draws nothing. emit returns
+/// true to stop early; the function returns whether it was stopped.
 template <typename Emit>
-bool forEachLinePrimitive(const geo::LineString& line, const LineShape& shape, Emit&& emit) {
+bool forEachLinePrimitive(const geo::LineString& line, std::size_t lineIndex, const LineShape& shape,
+                          const PixelScale& scale, Emit&& emit) {
   std::vector<glm::dvec2> pts;
+  std::vector<double> halves;
   pts.reserve(line.size());
-  for (const glm::dvec2& p : line) {
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const glm::dvec2& p = line[i];
     if (!finite(p)) return false;
-    if (pts.empty() || p != pts.back()) pts.push_back(p);
+    if (!pts.empty() && p == pts.back()) continue;
+    pts.push_back(p);
+    halves.push_back(halfWidthAt(shape, scale, glm::dvec3(p, shape.anchorHeight(lineIndex, i))));
   }
-  const double h = shape.width / 2.0;
   if (pts.empty()) return false;
   if (pts.size() == 1) {
+    const double h = halves[0];
     switch (shape.cap) {
       case LineCap::Round:
         return emit(LinePrimitive::disc(pts[0], h));
@@ -420,10 +426,20 @@ bool forEachLinePrimitive(const geo::LineString& line, const LineShape& shape, E
     const glm::dvec2 d = pts[i + 1] - pts[i];
     return d / std::sqrt(dot(d, d));
   };
-  // Segments.
+  // Segments: rectangles, or trapezoids between different half widths.
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const glm::dvec2 d = pts[i + 1] - pts[i];
-    if (emit(LinePrimitive::band(pts[i], unit(i), 0.0, std::sqrt(dot(d, d)), h))) return true;
+    const double h0 = halves[i], h1 = halves[i + 1];
+    if (h0 == h1) {
+      if (emit(LinePrimitive::band(pts[i], unit(i), 0.0, std::sqrt(dot(d, d)), h0))) return true;
+    } else {
+      const glm::dvec2 u = unit(i);
+      const glm::dvec2 normal(-u.y, u.x);
+      const glm::dvec2 a = pts[i], b = pts[i + 1];
+      if (emit(LinePrimitive::convex({a - normal * h0, b - normal * h1, b + normal * h1, a + normal * h0}))) {
+        return true;
+      }
+    }
   }
   // Joins.
   for (std::size_t i = 1; i + 1 < n; ++i) {
@@ -433,6 +449,7 @@ bool forEachLinePrimitive(const geo::LineString& line, const LineShape& shape, E
     const double along = dot(u1, u2);
     if (turn == 0 && along > 0.0) continue;  // straight continuation (exactly collinear): no join
     const glm::dvec2& v = pts[i];
+    const double h = halves[i];
     if (shape.join == LineJoin::Round) {
       if (emit(LinePrimitive::disc(v, h))) return true;
       continue;
@@ -456,12 +473,13 @@ bool forEachLinePrimitive(const geo::LineString& line, const LineShape& shape, E
     }
   }
   // Caps.
+  const double hFirst = halves[0], hLast = halves[n - 1];
   switch (shape.cap) {
     case LineCap::Round:
-      return emit(LinePrimitive::disc(pts[0], h)) || emit(LinePrimitive::disc(pts[n - 1], h));
+      return emit(LinePrimitive::disc(pts[0], hFirst)) || emit(LinePrimitive::disc(pts[n - 1], hLast));
     case LineCap::Square:
-      return emit(LinePrimitive::band(pts[0], unit(0), -h, 0.0, h)) ||
-             emit(LinePrimitive::band(pts[n - 1], unit(n - 2), 0.0, h, h));
+      return emit(LinePrimitive::band(pts[0], unit(0), -hFirst, 0.0, hFirst)) ||
+             emit(LinePrimitive::band(pts[n - 1], unit(n - 2), 0.0, hLast, hLast));
     case LineCap::Flat:
       return false;
   }

@@ -86,10 +86,11 @@ class SceneParser {
       error(where, "expected an object");
       return;
     }
-    warnUnknownKeys(j,
-                    {"color", "opacity", "outline_width_m", "outline_color", "width_m", "width_attribute", "join",
-                     "cap", "miter_limit", "color_attribute", "categories", "order"},
-                    where);
+    warnUnknownKeys(
+        j,
+        {"color", "opacity", "outline_width_m", "outline_width_px", "outline_color", "width_m", "width_px",
+         "max_width_m", "width_attribute", "join", "cap", "miter_limit", "color_attribute", "categories", "order"},
+        where);
     color(j, "color", where, s.color);
     color(j, "outline_color", where, s.outlineColor);
     if (read(j, "opacity", where, s.opacity) && (s.opacity < 0.0F || s.opacity > 1.0F)) {
@@ -98,8 +99,24 @@ class SceneParser {
     if (read(j, "outline_width_m", where, s.outlineWidthMetres) && s.outlineWidthMetres < 0.0F) {
       error(where + "outline_width_m", "must not be negative");
     }
+    if (read(j, "outline_width_px", where, s.outlineWidthPixels) && s.outlineWidthPixels < 0.0F) {
+      error(where + "outline_width_px", "must not be negative");
+    }
     if (read(j, "width_m", where, s.widthMetres) && !(s.widthMetres > 0.0)) {
       error(where + "width_m", "must be positive");
+    }
+    if (read(j, "width_px", where, s.widthPixels) && !(s.widthPixels > 0.0)) {
+      error(where + "width_px", "must be positive");
+    }
+    if (read(j, "max_width_m", where, s.maxWidthMetres) && !(s.maxWidthMetres > 0.0)) {
+      error(where + "max_width_m", "must be positive");
+    }
+    if (j.contains("width_m") && j.contains("width_px")) {
+      error(where + "width_px", "give the width in metres (width_m) or in pixels (width_px), not both");
+    }
+    if (j.contains("outline_width_m") && j.contains("outline_width_px")) {
+      error(where + "outline_width_px",
+            "give the outline width in metres (outline_width_m) or in pixels (outline_width_px), not both");
     }
     read(j, "width_attribute", where, s.widthAttribute);
     read(j, "color_attribute", where, s.colorAttribute);

@@ -73,12 +73,14 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     if (!layer) continue;
     layers_.push_back(std::move(*layer));
     sources_.emplace_back(i, false);
-    if (source.description.kind == overlay::LayerKind::Polygon && style.outlineWidthMetres > 0.0F) {
+    if (source.description.kind == overlay::LayerKind::Polygon &&
+        (style.outlineWidthMetres > 0.0F || style.outlineWidthPixels > 0.0F)) {
       overlay::LayerStyle outline = style;
       outline.color = style.outlineColor;
       outline.opacity = 1.0F;
       outline.colorAttribute.clear();
       outline.widthMetres = style.outlineWidthMetres;
+      outline.widthPixels = style.outlineWidthPixels;
       outline.widthAttribute.clear();
       outline.join = overlay::LineJoin::Round;
       outline.cap = overlay::LineCap::Round;

@@ -17,7 +17,10 @@
 //   "nothing on a straight continuation" holds for every join, round included, and means the
 //   three points are exactly collinear (exact orientation predicate on the double coordinates)
 //   and the line goes on forward; a full reversal gets a disc (round) or nothing (bevel, and
-//   miter whose length is then infinite).
+//   miter whose length is then infinite);
+// - lines in pixels (LineShape::widthPixels) get each vertex's half width from the camera of
+//   the depth image (pixelScaleOf with the image's height): segments become trapezoids, joins
+//   and caps take their vertex's half width.
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -100,7 +103,9 @@ struct PickedFeature {
 std::vector<PickedFeature> pick(const DepthImage& image, std::span<const ReferenceLayer> layers, int x, int y);
 
 /// Whether a layer covers a frame point (x, y) (the rules above); the index of the first
-/// visible covering feature, if any. Unindexed: evaluates every feature.
-std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point);
+/// visible covering feature, if any. Unindexed: evaluates every feature. Lines in pixels take
+/// their widths from `scale` (with the default, zero scale they cover nothing).
+std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point,
+                                           const PixelScale& scale = {});
 
 }  // namespace gis::overlay

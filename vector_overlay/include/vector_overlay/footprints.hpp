@@ -32,13 +32,24 @@
 // coverage above) is the same with far fewer triangles. Every piece is a region with a
 // triangulation of its interior and its boundary edges; the polyhedra builder extrudes it
 // between height bounds.
+//
+// Lines in pixels (LineShape::widthPixels) change shape every frame, so their pieces are not
+// split at cells (one piece per segment, join and cap, with the bounds of its largest extent).
+// Every piece is star-shaped around its vertex (a trapezoid between two, for segments), so the
+// shape at any smaller width lies inside the one at the largest width; the wedge and half-disc
+// choices above, made at the largest width, hold at every smaller one; arcs get
+// `chordTolerancePixels` between chord and arc on screen.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <glm/mat4x4.hpp>
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "core/diagnostics.hpp"
 #include "geo/vector.hpp"
@@ -61,6 +72,8 @@ struct FootprintOptions {
   /// Metres between arc and chord, at most. Arcs get at most 16384 chords per full circle (a
   /// non-positive or non-finite tolerance gets that many); below r · 1.9e-8 it is not met.
   double chordTolerance = 0.02;
+  /// Lines in pixels: pixels between arc and chord, at most (the arc's radius counted in pixels).
+  double chordTolerancePixels = 0.05;
   /// Split and clip at these cells; none = one piece per polygon feature, unclipped.
   std::optional<CellGrid> cells;
 };
@@ -76,6 +89,12 @@ struct Footprint {
   /// Directed edges with the region on their left: exactly the triangle edges not shared by two
   /// triangles of this footprint (so the extruded walls close the polyhedron).
   std::vector<std::array<std::uint32_t, 2>> boundary;
+  /// Lines in pixels (LineShape): vertex k is centres[k] + directions[k] · h, h the half width
+  /// at centres[k] (x, y and the anchor height); `vertices` hold them at the largest width.
+  /// Empty for every other footprint.
+  std::vector<glm::dvec3> centres;
+  std::vector<glm::dvec2> directions;
+  [[nodiscard]] bool scalable() const { return !centres.empty(); }
 };
 
 /// The pieces of a polygon feature (all its polygons), PolygonPart; without a grid one piece
@@ -90,12 +109,49 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
                                          Diagnostics& diagnostics);
 
 /// Line geometry of a line layer (or a polygon outline): width in metres and style.
+///
+/// Widths in pixels (`widthPixels` > 0): at every vertex of the line the half width is
+/// min(widthPixels / 2 · metresPerPixel · d, width / 2), d the distance from the eye to the
+/// vertex raised to its anchor height (the terrain there, `anchorHeights`), metresPerPixel the
+/// size of a pixel at 1 m from the eye (PixelScale). Along a segment the half width goes
+/// linearly from one end's to the other's (a trapezoid instead of a rectangle); joins and caps
+/// use their vertex's half width. So `width` is the largest width in metres: far away such a
+/// line gets thinner than widthPixels on screen. The line's polyhedra are built at that largest
+/// width (bounds, culling and the eye test stay conservative) and shrunk per frame.
 struct LineShape {
   double width = 10.0;
   LineJoin join = LineJoin::Round;
   LineCap cap = LineCap::Round;
   double miterLimit = 4.0;
+  double widthPixels = 0.0;  ///< > 0: width in pixels, `width` the largest in metres
+  /// Per line of the feature, per vertex (as given, repeated points included): the height at
+  /// which the distance to the eye is measured. Missing entries count as 0.
+  std::vector<std::vector<double>> anchorHeights;
+  [[nodiscard]] bool inPixels() const { return widthPixels > 0.0; }
+  [[nodiscard]] double anchorHeight(std::size_t line, std::size_t vertex) const {
+    return line < anchorHeights.size() && vertex < anchorHeights[line].size() ? anchorHeights[line][vertex] : 0.0;
+  }
 };
+
+/// How big a pixel is in the frame: its size in metres at 1 m from the eye (2 tan(fovY / 2) /
+/// viewport height for a perspective camera).
+struct PixelScale {
+  glm::dvec3 eye{0.0};
+  double metresPerPixel = 0.0;
+};
+
+/// The pixel scale of a perspective camera given by its frame → clip matrix (the eye is where
+/// clip x, y and w vanish) and the viewport height in pixels.
+PixelScale pixelScaleOf(const glm::dmat4& viewProj, int viewportHeight);
+
+/// The half width of a line with `shape` at a vertex raised to its anchor height (LineShape):
+/// width / 2 for metre widths.
+inline double halfWidthAt(const LineShape& shape, const PixelScale& scale, const glm::dvec3& anchor) {
+  if (!shape.inPixels()) return 0.5 * shape.width;
+  const glm::dvec3 d = anchor - scale.eye;
+  const double distance = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  return std::min(0.5 * shape.widthPixels * scale.metresPerPixel * distance, 0.5 * shape.width);
+}
 
 /// The pieces of a line feature (all its lines). A feature with a non-positive, non-finite or
 /// absurd (> 1e15 m) width (or an invalid grid) is skipped with a diagnostic; so is a single line with a NaN/Inf

@@ -46,6 +46,10 @@ struct LayerBuildOptions {
   bool paperVariant = false;
 };
 
+/// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
+/// each vertex of the feature. Other styles are left alone.
+void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds);
+
 /// A closed polyhedron: a footprint extruded between [lo, hi] (exaggerated metres).
 struct Polyhedron {
   Footprint footprint;
@@ -122,6 +126,11 @@ class OverlayLayer {
   [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
   [[nodiscard]] const std::vector<glm::dvec2>& origins() const { return origins_; }
   [[nodiscard]] GLuint vertexBuffer() const { return vertices_.id(); }
+  /// Lines in pixels: per vertex (direction x, y, anchor height) (Footprint::directions); the
+  /// vertex buffer then holds the centres. 0 for every other layer.
+  [[nodiscard]] GLuint scalingBuffer() const { return scaling_.id(); }
+  /// > 0 when the layer's lines are drawn in pixels (LayerStyle::widthPixels).
+  [[nodiscard]] double widthPixels() const { return kind_ == LayerKind::Line ? style_.widthPixels : 0.0; }
   [[nodiscard]] GLuint indexBuffer() const { return indices_.id(); }
 
  private:
@@ -136,7 +145,8 @@ class OverlayLayer {
   Diagnostics rebuildFeature(std::size_t index);
   std::uint32_t originFor(const Polyhedron& p);
   void ensureCapacity(std::size_t vertices, std::size_t indices);
-  void appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i);
+  void appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i,
+                      std::vector<glm::vec3> scaling);
 
   std::string name_;
   LayerKind kind_ = LayerKind::Polygon;
@@ -150,7 +160,8 @@ class OverlayLayer {
   std::vector<glm::dvec2> origins_;
   std::vector<Vertex> cpuVertices_;
   std::vector<std::uint32_t> cpuIndices_;
-  gfx::BufferHandle vertices_, indices_;
+  std::vector<glm::vec3> cpuScaling_;  ///< lines in pixels only, per vertex
+  gfx::BufferHandle vertices_, indices_, scaling_;
   std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
   std::size_t vertexUsed_ = 0, indexUsed_ = 0;
   std::size_t wastedIndices_ = 0;

@@ -78,14 +78,14 @@ class OverlayRenderer {
     GLuint baseInstance;
   };
   void drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, std::size_t index,
-                 const OverlaySettings& settings, LayerFrameStats& stats);
+                 const OverlaySettings& settings, const PixelScale& scale, LayerFrameStats& stats);
   void multiDraw(const std::vector<Command>& commands);
   /// The z-fail pieces as triangles relative to the eye, clipped on the CPU at half the near
   /// distance (shared edges cut bit-identically): GL never clips them at the eye plane, where
   /// independent clipping of neighbouring faces leaves one-pixel cracks. Returns the vertex
   /// count in clipped_.
   GLsizei uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer, const std::vector<std::size_t>& slots,
-                              const OverlaySettings& settings);
+                              const OverlaySettings& settings, const PixelScale& scale);
 
   /// Draws a screen rectangle with the cover program (colour and mask bit) in the current state.
   void drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit);

@@ -23,6 +23,7 @@ struct LayerStyle {
   int drawOrder = 0;
   // polygons
   float outlineWidthMetres = 0.0F;
+  float outlineWidthPixels = 0.0F;  ///< > 0: the outline in pixels (instead of metres)
   glm::vec4 outlineColor{0.0F, 0.0F, 0.0F, 1.0F};
   // lines
   double widthMetres = 10.0;
@@ -30,6 +31,10 @@ struct LayerStyle {
   LineJoin join = LineJoin::Round;
   LineCap cap = LineCap::Round;
   double miterLimit = 4.0;
+  /// > 0: lines (and outlines in pixels) keep this width on screen, up to `maxWidthMetres` on
+  /// the ground (LineShape); `widthMetres` and `widthAttribute` are then not used.
+  double widthPixels = 0.0;
+  double maxWidthMetres = 50.0;
 };
 
 /// "#rrggbb" or "#rrggbbaa" → RGBA in [0,1]; false if malformed.
