@@ -79,6 +79,26 @@ TEST(SceneFile, UnknownKeysAreWarnings) {
   EXPECT_TRUE(mentions(scene.diagnostics, "terrain.colour"));
 }
 
+TEST(SceneFile, WidthsInPixels) {
+  Result<app::SceneDescription> scene = app::parseScene(R"({
+    "terrain": {"dem": "dem.tif"},
+    "layers": [
+      {"name": "roads", "kind": "line", "source": "a.geojson", "style": {"width_px": 3, "max_width_m": 20}},
+      {"name": "tracts", "kind": "polygon", "source": "b.shp", "style": {"outline_width_px": 1.5}},
+      {"name": "both", "kind": "line", "source": "c.geojson", "style": {"width_px": 3, "width_m": 4}},
+      {"name": "negative", "kind": "polygon", "source": "d.shp", "style": {"outline_width_px": -1}}
+    ]})",
+                                                        "s.json");
+  ASSERT_TRUE(scene.ok());
+  ASSERT_EQ(scene->layers.size(), 2u);  // a layer with a style error is left out
+  EXPECT_EQ(scene->layers[0].style.widthPixels, 3.0);
+  EXPECT_EQ(scene->layers[0].style.maxWidthMetres, 20.0);
+  EXPECT_EQ(scene->layers[1].style.outlineWidthPixels, 1.5F);
+  EXPECT_EQ(scene.diagnostics.count(Severity::Error), 2u);
+  EXPECT_TRUE(mentions(scene.diagnostics, "layers[2].style.width_px"));
+  EXPECT_TRUE(mentions(scene.diagnostics, "layers[3].style.outline_width_px"));
+}
+
 TEST(SceneFile, TerrainPagingKeys) {
   Result<app::SceneDescription> scene = app::parseScene(
       R"({"terrain": {"dem": "d.tif", "paging": "always", "chunk_cells": 32, "memory_budget_mb": 300,

@@ -558,6 +558,50 @@ TEST(LineCoverage, PerFeatureShapesVisibilityAndWidth) {
   EXPECT_FALSE(covers(layer, {8, 0}));
 }
 
+TEST(LineCoverage, WidthsInPixelsFollowTheCamera) {
+  // The pixel scale of a camera: its eye and the size of a pixel at 1 m.
+  const dvec3 eye(30.0, -20.0, 100.0);
+  const double fov = 0.8;
+  const int height = 300;
+  const glm::dmat4 viewProj = gis::gfx::reversedInfinitePerspective(fov, 1.5, 0.5) *
+                              gis::gfx::lookAt(eye, dvec3(40.0, 0.0, 0.0), dvec3(0.0, 0.0, 1.0));
+  const ov::PixelScale scale = ov::pixelScaleOf(viewProj, height);
+  EXPECT_NEAR(glm::length(scale.eye - eye), 0.0, 1e-9);
+  const double mpp = 2.0 * std::tan(fov / 2.0) / height;
+  EXPECT_NEAR(scale.metresPerPixel, mpp, 1e-12);
+
+  // A 4-pixel line from (0, 0) to (100, 0), anchored at heights 0 and 50: half widths
+  // 2 · mpp · distance at the ends, linear in between (a trapezoid).
+  LineShape shape = shapeOf(1000.0, LineJoin::Round, LineCap::Round);
+  shape.widthPixels = 4.0;
+  shape.anchorHeights = {{0.0, 50.0}};
+  const std::vector<Feature> features{lineFeature({{{0.0, 0.0}, {100.0, 0.0}}})};
+  const ReferenceLayer layer = lineLayer(features, {shape});
+  const double h0 = 2.0 * mpp * glm::length(dvec3(0.0, 0.0, 0.0) - eye);
+  const double h1 = 2.0 * mpp * glm::length(dvec3(100.0, 0.0, 50.0) - eye);
+  ASSERT_GT(std::abs(h1 - h0), 0.01);
+  for (const double t : {0.0, 0.25, 0.5, 0.9}) {
+    const double h = h0 + t * (h1 - h0);
+    EXPECT_TRUE(ov::coveringFeature(layer, {100.0 * t, 0.999 * h}, scale)) << t;
+    EXPECT_TRUE(ov::coveringFeature(layer, {100.0 * t, -0.999 * h}, scale)) << t;
+    EXPECT_FALSE(ov::coveringFeature(layer, {100.0 * t, 1.001 * h}, scale)) << t;
+  }
+  // Round caps of each end's half width.
+  EXPECT_TRUE(ov::coveringFeature(layer, {-0.999 * h0, 0.0}, scale));
+  EXPECT_FALSE(ov::coveringFeature(layer, {-1.001 * h0, 0.0}, scale));
+  EXPECT_TRUE(ov::coveringFeature(layer, {100.0 + 0.999 * h1, 0.0}, scale));
+  EXPECT_FALSE(ov::coveringFeature(layer, {100.0 + 1.001 * h1, 0.0}, scale));
+  // Far away the width in metres stops at its largest: 1000 m here, 3 m below.
+  shape.width = 3.0;
+  const ReferenceLayer capped = lineLayer(features, {shape});
+  ov::PixelScale far = scale;
+  far.eye = dvec3(0.0, 0.0, 1e7);
+  EXPECT_TRUE(ov::coveringFeature(capped, {50.0, 1.49}, far));
+  EXPECT_FALSE(ov::coveringFeature(capped, {50.0, 1.51}, far));
+  // Without a scale, lines in pixels have no width.
+  EXPECT_FALSE(ov::coveringFeature(layer, {50.0, 1e-6}));
+}
+
 TEST(LineCoverage, MultiLineFeature) {
   const std::vector<Feature> features{lineFeature({{{0, 0}, {10, 0}}, {{0, 10}, {10, 10}, {10, 20}}})};
   const ReferenceLayer layer = lineLayer(features, {shapeOf(2.0, LineJoin::Miter, LineCap::Flat)});

@@ -1047,6 +1047,64 @@ TEST(LineFootprints, ExtremeWidths) {
   EXPECT_GT(out.size(), 20U);
 }
 
+TEST(LineFootprints, LinesInPixelsScaleAroundTheirCentres) {
+  // Repeated point, sharp turn, hairpin; anchors differ per vertex (the repeated point's is
+  // dropped with it).
+  const geo::Feature f = lineFeature({{{0, 0}, {40, 0}, {40, 0}, {70, 30}, {20, 32}, {60, 32}}});
+  LineShape base;
+  base.width = 12.0;  // the largest width
+  base.widthPixels = 3.0;
+  base.anchorHeights = {{5.0, 7.0, 7.0, 9.0, 11.0, 13.0}};
+  const FootprintOptions grid = gridOptions({-100, -100}, 16.0, 20, 20);  // not used for pixels
+  std::mt19937_64 rng(5);
+  for (const auto join : {LineJoin::Round, LineJoin::Bevel, LineJoin::Miter}) {
+    for (const auto cap : {LineCap::Round, LineCap::Square, LineCap::Flat}) {
+      LineShape shape = base;
+      shape.join = join;
+      shape.cap = cap;
+      Diagnostics d;
+      const std::vector<Footprint> out = lineFootprints(f, 4, "roads", shape, grid, d);
+      EXPECT_TRUE(d.empty());
+      ASSERT_FALSE(out.empty());
+      EXPECT_TRUE(allValid(out, 4, FootprintOptions{}));  // unsplit: no cells
+      // Per-centre half widths up to the largest: every triangle keeps its orientation.
+      std::map<std::pair<double, double>, double> half;
+      std::uniform_real_distribution<double> fraction(0.0, 1.0);
+      for (const Footprint& fp : out) {
+        ASSERT_TRUE(fp.scalable());
+        ASSERT_EQ(fp.centres.size(), fp.vertices.size());
+        ASSERT_EQ(fp.directions.size(), fp.vertices.size());
+        for (std::size_t k = 0; k < fp.vertices.size(); ++k) {
+          const Vec c(fp.centres[k]);
+          EXPECT_EQ(fp.vertices[k], c + 6.0 * fp.directions[k]);
+          const auto& raw = f.lines[0];
+          const auto at = std::find(raw.begin(), raw.end(), c);
+          ASSERT_NE(at, raw.end()) << "centre off the line";
+          EXPECT_EQ(fp.centres[k].z, base.anchorHeights[0][static_cast<std::size_t>(at - raw.begin())]);
+          half.try_emplace({c.x, c.y}, 6.0 * fraction(rng));
+        }
+        std::vector<Vec> scaled;
+        for (std::size_t k = 0; k < fp.vertices.size(); ++k) {
+          const Vec c(fp.centres[k]);
+          scaled.push_back(c + half.at({c.x, c.y}) * fp.directions[k]);
+        }
+        for (const auto& t : fp.triangles) {
+          EXPECT_GE(area2(scaled[t[0]], scaled[t[1]], scaled[t[2]]), -1e-12);
+        }
+      }
+      // Round joins and caps are whole discs (a segment's trapezoid need not hold their inner half).
+      if (join == LineJoin::Round && cap == LineCap::Round) {
+        for (const Footprint& fp : out) {
+          if (fp.kind == PieceKind::Join || fp.kind == PieceKind::Cap) {
+            EXPECT_TRUE(std::none_of(fp.directions.begin(), fp.directions.end(),
+                                     [](const Vec& v) { return v == Vec(0.0); }));
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(LineFootprints, BadWidthsAreSkippedWithADiagnostic) {
   const geo::Feature f = lineFeature({{{0, 0}, {10, 0}}}, 77);
   for (const double width :

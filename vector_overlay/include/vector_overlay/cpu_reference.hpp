@@ -104,7 +104,7 @@ std::vector<PickedFeature> pick(const DepthImage& image, std::span<const Referen
 
 /// Whether a layer covers a frame point (x, y) (the rules above); the index of the first
 /// visible covering feature, if any. Unindexed: evaluates every feature. Lines in pixels take
-/// their widths from `scale` (with the default, zero scale they cover nothing).
+/// their widths from `scale` (with the default, zero scale they have no width).
 std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point,
                                            const PixelScale& scale = {});
 
