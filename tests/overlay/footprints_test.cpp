@@ -1096,8 +1096,8 @@ TEST(LineFootprints, LinesInPixelsScaleAroundTheirCentres) {
       if (join == LineJoin::Round && cap == LineCap::Round) {
         for (const Footprint& fp : out) {
           if (fp.kind == PieceKind::Join || fp.kind == PieceKind::Cap) {
-            EXPECT_TRUE(std::none_of(fp.directions.begin(), fp.directions.end(),
-                                     [](const Vec& v) { return v == Vec(0.0); }));
+            EXPECT_TRUE(
+                std::none_of(fp.directions.begin(), fp.directions.end(), [](const Vec& v) { return v == Vec(0.0); }));
           }
         }
       }
