@@ -6,6 +6,7 @@
 
 #include <glm/matrix.hpp>
 
+#include "reference_geometry.hpp"
 #include "vector_overlay/footprints.hpp"
 
 namespace gis::overlay {
@@ -17,18 +18,12 @@ constexpr SelectionOp kOps[] = {SelectionOp::Single, SelectionOp::Or,       Sele
 /// The near plane of a reversed-Z infinite projection: clip z is the constant `near`.
 double nearPlaneOf(const glm::dmat4& viewProj) { return viewProj[3][2]; }
 
-/// Even-odd point in polygon (crossing count), on the raw ring: repeated points and
-/// self-intersections need no repair.
+/// Even-odd point in polygon on the raw ring (repeated points and self-intersections need no
+/// repair), with the crossing rule of the CPU reference.
 bool insideEvenOdd(const std::vector<glm::dvec2>& ring, const glm::dvec2& p) {
   bool inside = false;
-  const std::size_t n = ring.size();
-  for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
-    const glm::dvec2& a = ring[i];
-    const glm::dvec2& b = ring[j];
-    if ((a.y > p.y) != (b.y > p.y)) {
-      const double x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
-      if (p.x < x) inside = !inside;
-    }
+  for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+    if (reference::crossesRay(ring[j], ring[i], p)) inside = !inside;
   }
   return inside;
 }
