@@ -44,24 +44,6 @@ LineShape featureShape(const ReferenceLayer& layer, std::size_t i) {
   return i < layer.shapes.size() ? layer.shapes[i] : LineShape{};
 }
 
-/// Whether feature i of the layer covers p, evaluated directly (no index).
-bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2& p, const PixelScale& scale) {
-  const geo::Feature& feature = (*layer.features)[i];
-  if (!featureVisible(layer, i)) return false;
-  if (layer.kind == LayerKind::Polygon) {
-    for (const geo::Polygon& polygon : feature.polygons)
-      if (reference::polygonUsable(polygon) && reference::insideEvenOdd(polygon, p)) return true;
-    return false;
-  }
-  const LineShape shape = featureShape(layer, i);
-  if (!reference::shapeUsable(shape)) return false;
-  for (std::size_t k = 0; k < feature.lines.size(); ++k)
-    if (reference::forEachLinePrimitive(feature.lines[k], k, shape, scale,
-                                        [&p](const LinePrimitive& prim) { return prim.contains(p); }))
-      return true;
-  return false;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Unprojection
 
@@ -498,6 +480,24 @@ std::optional<glm::dvec3> unprojectPixel(const DepthImage& image, int x, int y) 
   const std::optional<double> d = pixelDepth(image, x, y);
   if (!d) return std::nullopt;
   return Unprojector(image).at(x + 0.5, y + 0.5, *d);
+}
+
+bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2& p, const PixelScale& scale) {
+  if (layer.features == nullptr || i >= layer.features->size()) return false;
+  const geo::Feature& feature = (*layer.features)[i];
+  if (!featureVisible(layer, i)) return false;
+  if (layer.kind == LayerKind::Polygon) {
+    for (const geo::Polygon& polygon : feature.polygons)
+      if (reference::polygonUsable(polygon) && reference::insideEvenOdd(polygon, p)) return true;
+    return false;
+  }
+  const LineShape shape = featureShape(layer, i);
+  if (!reference::shapeUsable(shape)) return false;
+  for (std::size_t k = 0; k < feature.lines.size(); ++k)
+    if (reference::forEachLinePrimitive(feature.lines[k], k, shape, scale,
+                                        [&p](const LinePrimitive& prim) { return prim.contains(p); }))
+      return true;
+  return false;
 }
 
 std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const glm::dvec2& point,

@@ -6,27 +6,17 @@
 
 #include <glm/matrix.hpp>
 
-#include "reference_geometry.hpp"
+#include "lasso_geometry.hpp"
 #include "vector_overlay/footprints.hpp"
 
 namespace gis::overlay {
 namespace {
 
+using lasso_geometry::insideEvenOdd;
+using lasso_geometry::nearPlaneOf;
+
 constexpr SelectionOp kOps[] = {SelectionOp::Single, SelectionOp::Or,       SelectionOp::And,
                                 SelectionOp::Xor,    SelectionOp::Subtract, SelectionOp::Invert};
-
-/// The near plane of a reversed-Z infinite projection: clip z is the constant `near`.
-double nearPlaneOf(const glm::dmat4& viewProj) { return viewProj[3][2]; }
-
-/// Even-odd point in polygon on the raw ring (repeated points and self-intersections need no
-/// repair), with the crossing rule of the CPU reference.
-bool insideEvenOdd(const std::vector<glm::dvec2>& ring, const glm::dvec2& p) {
-  bool inside = false;
-  for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
-    if (reference::crossesRay(ring[j], ring[i], p)) inside = !inside;
-  }
-  return inside;
-}
 
 }  // namespace
 
@@ -118,42 +108,15 @@ LassoVolume buildLassoVolume(const Lasso& lasso, const std::string& name, Diagno
 
 bool insideLasso(const Lasso& lasso, const glm::dvec3& point) {
   if (lasso.points.size() < 3 || lasso.width < 1 || lasso.height < 1) return false;
-  const glm::dvec4 c = lasso.viewProj * glm::dvec4(point, 1.0);
-  const double nearPlane = nearPlaneOf(lasso.viewProj);
-  if (!(c.w >= nearPlane) || c.w > lasso.distance) return false;
-  const glm::dvec2 pixel((c.x / c.w + 1.0) * 0.5 * lasso.width, (1.0 - c.y / c.w) * 0.5 * lasso.height);
-  return insideEvenOdd(lasso.points, pixel);
+  const std::optional<glm::dvec2> pixel = lasso_geometry::pixelOf(lasso, nearPlaneOf(lasso.viewProj), point);
+  return pixel && insideEvenOdd(lasso.points, *pixel);
 }
 
 bool selectedAt(std::span<const SelectionStep> steps, const glm::dvec3& point, bool geometry) {
   if (!geometry) return false;
   bool a = false;
-  for (const SelectionStep& s : steps) {
-    if (s.op == SelectionOp::Invert) {
-      a = !a;
-      continue;
-    }
-    const bool b = insideLasso(s.lasso, point);
-    switch (s.op) {
-      case SelectionOp::Single:
-        a = b;
-        break;
-      case SelectionOp::Or:
-        a = a || b;
-        break;
-      case SelectionOp::And:
-        a = a && b;
-        break;
-      case SelectionOp::Xor:
-        a = a != b;
-        break;
-      case SelectionOp::Subtract:
-        a = a && !b;
-        break;
-      case SelectionOp::Invert:
-        break;
-    }
-  }
+  for (const SelectionStep& s : steps)
+    a = lasso_geometry::apply(s.op, a, s.op != SelectionOp::Invert && insideLasso(s.lasso, point));
   return a;
 }
 

@@ -102,6 +102,10 @@ struct PickedFeature {
 /// of every layer, the 33rd layer on included); empty on background.
 std::vector<PickedFeature> pick(const DepthImage& image, std::span<const ReferenceLayer> layers, int x, int y);
 
+/// Whether feature `i` of the layer covers a frame point (x, y) by the rules above (false when
+/// it is hidden). Lines in pixels take their widths from `scale`.
+bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2& point, const PixelScale& scale = {});
+
 /// Whether a layer covers a frame point (x, y) (the rules above); the index of the first
 /// visible covering feature, if any. Unindexed: evaluates every feature. Lines in pixels take
 /// their widths from `scale` (with the default, zero scale they have no width).
