@@ -1,26 +1,34 @@
 // overlay_render: draws a scene headless and writes what tests, scripts and people need
 // (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png).
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include <glm/trigonometric.hpp>
 #include <nlohmann/json.hpp>
 
 #include "app/camera.hpp"
 #include "app/cli.hpp"
+#include "app/lasso_file.hpp"
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
 #include "core/log.hpp"
+#include "geo/export.hpp"
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
+#include "vector_overlay/logical_selection.hpp"
+#include "vector_overlay/selection_renderer.hpp"
+#include "vector_overlay/selection_states.hpp"
 
 namespace {
 
@@ -139,10 +147,160 @@ bool writeJson(const std::filesystem::path& path, const json& j) {
   return static_cast<bool>(out);
 }
 
+struct SelectionOutput {
+  std::vector<std::uint8_t> pixels;  ///< 255 = selected, top row first
+  overlay::SelectionFrameStats stats;
+};
+
+/// Marks the selection into the stencil of the drawn scene, reads it, then highlights it (and
+/// draws the volumes when asked) into the colour.
+std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                             const app::SelectionRequest& request, const app::Camera& camera, int width,
+                                             int height, Diagnostics& all) {
+  Result<overlay::SelectionRenderer> renderer = overlay::SelectionRenderer::create();
+  report(renderer.diagnostics);
+  all.append(renderer.diagnostics);
+  if (!renderer) return std::nullopt;
+  const Diagnostics built = renderer->setSteps(request.steps);
+  report(built);
+  all.append(built);
+  const double aspect = static_cast<double>(width) / height;
+  const overlay::OverlayView view{camera.projection(aspect) * camera.view(), camera.eye, camera.nearPlane,
+                                  glm::radians(camera.fovYDeg), aspect};
+  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
+  overlay::SelectionSettings settings;
+  settings.scheme = request.scheme;
+  settings.measure = true;
+  SelectionOutput out;
+  out.stats = renderer->select(cache, view, settings);
+  const std::vector<std::uint8_t> stencil = gfx::readStencil(target);
+  const std::vector<float> depth = gfx::readDepth(target);
+  out.pixels.resize(stencil.size());
+  for (std::size_t i = 0; i < stencil.size(); ++i) {
+    const bool selected = request.scheme == overlay::SelectionScheme::Runs ? (stencil[i] & overlay::kSelectedBit) != 0
+                                                                           : depth[i] > 0.0F && stencil[i] == 1;
+    out.pixels[i] = selected ? 255 : 0;
+  }
+  renderer->highlight(cache, request.highlight, settings);
+  if (request.showVolumes) renderer->drawVolumes(cache, view, *request.showVolumes);
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  return out;
+}
+
+/// A file name from a layer name: lower-case letters, digits and underscores.
+std::string slug(const std::string& name) {
+  std::string s;
+  for (const char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    s += std::isalnum(u) != 0 ? static_cast<char>(std::tolower(u)) : '_';
+  }
+  return s.empty() ? "layer" : s;
+}
+
+/// selection.png, the logical selection (features, DEM posts), its agreement with the pixels and
+/// the GeoJSON exports; adds a "selection" block to stats.
+bool writeSelection(const std::filesystem::path& out, const SelectionOutput& selection,
+                    const app::SelectionRequest& request, const app::LoadedScene& scene,
+                    const app::SceneRenderer& renderer, const app::Camera& camera, const std::vector<float>& depth,
+                    int width, int height, Diagnostics& all, json& stats) {
+  bool ok = true;
+  const Result<bool> png = gfx::writeImage8((out / "selection.png").string(), width, height, 1, selection.pixels);
+  report(png.diagnostics);
+  ok = ok && png.ok();
+  const std::span<const overlay::SelectionStep> steps(request.steps);
+  // The CPU twin on the same depth buffer.
+  const double aspect = static_cast<double>(width) / height;
+  const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
+  const overlay::DepthImage image{width, height, depth, viewProj};
+  const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
+  std::size_t selectedPixels = 0, disagreeing = 0;
+  for (std::size_t i = 0; i < twin.size() && i < selection.pixels.size(); ++i) {
+    selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
+    disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
+  }
+  // Features: sampled at half a pixel's footprint at the view's target (or as the file says).
+  const double pixelAtTarget =
+      glm::length(camera.target - camera.eye) * 2.0 * std::tan(glm::radians(camera.fovYDeg) / 2.0) / height;
+  overlay::FeatureSelectionOptions options;
+  options.sampleSpacing = request.sampleSpacing.value_or(std::max(0.25, 0.5 * pixelAtTarget));
+  options.scale = overlay::pixelScaleOf(viewProj, height);
+  const overlay::HeightBounds global = scene.bounds->globalBounds();
+  options.minHeight = global.lo;
+  options.maxHeight = global.hi;
+  const auto heightAt = [&scene](const glm::dvec2& p) { return scene.bounds->fullResolutionHeightAt(p); };
+  json layers = json::array();
+  std::vector<geo::ExportSource> sources;
+  for (std::size_t j = 0; j < renderer.overlaySources().size(); ++j) {
+    if (renderer.overlaySources()[j].second) continue;  // an outline: its fill has the features
+    const app::LoadedLayer& layer = scene.layers[renderer.overlaySources()[j].first];
+    const overlay::OverlayLayer& drawn = renderer.overlayLayers()[j];
+    const std::vector<overlay::FeatureSelection> chosen =
+        overlay::selectFeatures(overlay::referenceLayerOf(drawn), steps, heightAt, options);
+    geo::ExportSource source;
+    source.path = layer.description.source;
+    source.layer = layer.description.sourceLayer;
+    source.label = layer.description.name;
+    json features = json::array();
+    std::size_t inside = 0;
+    for (const overlay::FeatureSelection& f : chosen) {
+      const geo::Feature& feature = drawn.features()[f.feature];
+      source.features.push_back({feature.fid, {{"selection_fully_inside", std::int64_t{f.fullyInside ? 1 : 0}}}});
+      features.push_back({{"fid", feature.fid},
+                          {"fully_inside", f.fullyInside},
+                          {"samples", f.samples},
+                          {"selected_samples", f.selectedSamples}});
+      inside += f.fullyInside ? 1u : 0u;
+    }
+    const std::string file = "selected_" + slug(layer.description.name) + ".geojson";
+    const Diagnostics exported = geo::exportFeaturesGeoJson(source, (out / file).string());
+    report(exported);
+    all.append(exported);
+    ok = ok && !exported.hasErrors();
+    layers.push_back({{"name", layer.description.name},
+                      {"selected", chosen.size()},
+                      {"fully_inside", inside},
+                      {"file", file},
+                      {"features", features}});
+    sources.push_back(std::move(source));
+  }
+  const Diagnostics combined = geo::exportFeaturesGeoJsonCombined(sources, (out / "selected_features.json").string());
+  report(combined);
+  all.append(combined);
+  ok = ok && !combined.hasErrors();
+  // DEM posts (in memory only: a paged DEM's posts are not all at hand).
+  json posts = nullptr;
+  const terrain::TerrainGrid& grid = scene.quadtree->grid();
+  if (!grid.heights.empty()) {
+    overlay::PostGrid g;
+    g.width = grid.width;
+    g.height = grid.height;
+    g.origin = grid.origin;
+    g.step = grid.step;
+    const double exaggeration = scene.bounds->exaggeration();
+    g.heightAt = [&grid, exaggeration](int c, int r) { return static_cast<double>(grid.at(c, r)) * exaggeration; };
+    const overlay::PostSelection p = overlay::selectPosts(g, steps);
+    posts = {{"selected", p.selected}, {"with_height", p.posts}};
+  }
+  stats["selection"] = {{"steps", request.steps.size()},
+                        {"scheme", request.scheme == overlay::SelectionScheme::Runs ? "runs" : "report"},
+                        {"volumes", selection.stats.volumes},
+                        {"triangles", selection.stats.triangles},
+                        {"screen_passes", selection.stats.screenPasses},
+                        {"gpu_ms", selection.stats.gpuMilliseconds},
+                        {"fragments", selection.stats.fragments},
+                        {"selected_pixels", selectedPixels},
+                        {"pixels_differing_from_cpu_twin", disagreeing},
+                        {"sample_spacing_m", options.sampleSpacing},
+                        {"layers", layers},
+                        {"dem_posts", posts}};
+  return ok;
+}
+
 int run(const Options& o) {
   Diagnostics all;
-  if (!o.lasso.empty()) {
-    logError("--lasso " + o.lasso + ": lasso selection volumes are not available in this version yet");
+  if (!o.lasso.empty() && o.msaa > 1) {
+    logError("--lasso with --msaa " + std::to_string(o.msaa) + ": lasso selection is drawn single-sampled only");
     return 2;
   }
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
@@ -177,6 +335,15 @@ int run(const Options& o) {
     camera = app::overviewCamera(lo, hi);
   }
 
+  std::optional<app::SelectionRequest> lasso;
+  if (!o.lasso.empty()) {
+    Result<app::SelectionRequest> request = app::loadLassoFile(o.lasso, scene->frame, *camera, o.width, o.height);
+    report(request.diagnostics);
+    all.append(request.diagnostics);
+    if (!request) return 1;
+    lasso = std::move(*request);
+  }
+
   Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
   report(context.diagnostics);
   if (!context) return 1;
@@ -192,6 +359,11 @@ int run(const Options& o) {
   settings.measure = true;
   settings.waitForTiles = true;  // a still image: every tile the view needs
   const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, settings);
+  std::optional<SelectionOutput> selection;
+  if (lasso) {
+    selection = drawSelection(cache, target, *lasso, *camera, o.width, o.height, all);
+    if (!selection) return 1;
+  }
   std::optional<gfx::RenderTarget> resolved;
   const gfx::RenderTarget* readable = &target;
   const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
@@ -332,6 +504,13 @@ int run(const Options& o) {
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},
       {"gl_errors", (*context)->debug().errorCount()}};
+  if (selection) {
+    ok =
+        writeSelection(out, *selection, *lasso, *scene, *renderer, *camera, depth, o.width, o.height, all, stats) && ok;
+    stats["errors"] = all.count(Severity::Error);
+    stats["warnings"] = all.count(Severity::Warning);
+    stats["diagnostics"] = diagnosticsJson(all);
+  }
   ok = writeJson(out / "camera.json", app::cameraToJson(*camera, scene->frame, o.width, o.height)) && ok;
   ok = writeJson(out / "stats.json", stats) && ok;
   if (!ok) return 1;

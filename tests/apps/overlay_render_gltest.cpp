@@ -2,6 +2,7 @@
 // with the asked size; terrain pixels are not background and carry imagery colour; depth is
 // finite and 0 only on background; and every terrain pixel unprojected through camera.json
 // lands on the DEM surface as drawn (same triangulation), within a stated tolerance.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
 #include "gfx/image_io.hpp"
+#include "vector_overlay/lasso.hpp"
 
 namespace gis::test {
 namespace {
@@ -195,6 +197,105 @@ TEST(OverlayRenderCli, MsaaAndCameraFileRoundTrip) {
   const json b = json::parse(readText(second / "camera.json"));
   for (std::size_t i = 0; i < 16; ++i) EXPECT_NEAR(a["view"][i].get<double>(), b["view"][i].get<double>(), 1e-6);
   EXPECT_EQ(json::parse(readText(second / "stats.json"))["msaa"].get<int>(), 4);
+}
+
+TEST(OverlayRenderLasso, SelectionImageFeaturesAndExportsAgreeWithTheTwin) {
+  // Lassos on the Olinda sample drawn with the run's own camera (Single, Or, Subtract, one
+  // broken entry): selection.png against the CPU twin on depth.tiff and camera.json, the
+  // logical selection in stats.json against the exported GeoJSON files.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("lasso_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json lassos = {
+      {"highlight", {{"color", "#ff2010"}, {"opacity", 0.5}}},
+      {"lassos", json::array({{{"op", "single"}, {"points", {{60, 60}, {150, 50}, {170, 120}, {95, 140}, {120, 95}}}},
+                              {{"op", "or"}, {"points", {{170, 120}, {220, 125}, {205, 170}}}},
+                              {{"op", "subtract"}, {"points", {{110, 80}, {135, 80}, {135, 105}, {110, 105}}}},
+                              {{"op", "or"}, {"points", {{10, 10}, {20, 10}}}}})}};
+  { std::ofstream(dir / "lasso.json") << lassos.dump(1); }
+  const std::string args = "--scene " + kSamples + "/olinda/scene.json --width " + std::to_string(kWidth) +
+                           " --height " + std::to_string(kHeight) + " --lasso " + (dir / "lasso.json").string();
+  ASSERT_EQ(runOverlayRender(args + " --out " + (dir / "out").string(), dir / "log.txt"), 0)
+      << readText(dir / "log.txt");
+  EXPECT_NE(readText(dir / "log.txt").find("lasso 4"), std::string::npos) << "the broken lasso is named";
+  const fs::path out = dir / "out";
+  const gfx::Image8 selection = *gfx::readImage8((out / "selection.png").string());
+  ASSERT_EQ(selection.width, kWidth);
+  ASSERT_EQ(selection.channels, 1);
+  const gfx::ImageFloat depth = *gfx::readImageFloat((out / "depth.tiff").string());
+  const json camera = json::parse(readText(out / "camera.json"));
+  const glm::dmat4 viewProj = matrix(camera["proj"]) * matrix(camera["view"]);
+  std::vector<overlay::SelectionStep> steps;
+  for (std::size_t k = 0; k < 3; ++k) {
+    overlay::SelectionStep s;
+    s.op = *overlay::parseSelectionOp(lassos["lassos"][k]["op"].get<std::string>());
+    for (const json& p : lassos["lassos"][k]["points"])
+      s.lasso.points.emplace_back(p[0].get<double>(), p[1].get<double>());
+    s.lasso.viewProj = viewProj;
+    s.lasso.width = kWidth;
+    s.lasso.height = kHeight;
+    steps.push_back(std::move(s));
+  }
+  const overlay::DepthImage image{kWidth, kHeight, depth.pixels, viewProj};
+  const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
+  std::size_t selected = 0, wrong = 0;
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y * kWidth + x);
+      EXPECT_TRUE(selection.pixels[i] == 0 || selection.pixels[i] == 255);
+      selected += twin[i];
+      if ((selection.pixels[i] != 0) == (twin[i] != 0)) continue;
+      // Only where the twin itself changes within a pixel (a lasso edge through the pixel).
+      bool edge = false;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int u = std::clamp(x + dx, 0, kWidth - 1), v = std::clamp(y + dy, 0, kHeight - 1);
+          edge = edge || twin[static_cast<std::size_t>(v * kWidth + u)] != twin[i];
+        }
+      EXPECT_TRUE(edge) << "pixel (" << x << ", " << y << ") differs from the twin away from a lasso edge";
+      ++wrong;
+    }
+  }
+  EXPECT_GT(selected, 3000u);
+  EXPECT_LE(wrong, selected / 200);
+  const json stats = json::parse(readText(out / "stats.json"));
+  const json& s = stats["selection"];
+  EXPECT_EQ(stats["gl_errors"].get<int>(), 0);
+  EXPECT_EQ(s["steps"].get<int>(), 3);
+  EXPECT_EQ(s["pixels_differing_from_cpu_twin"].get<std::size_t>(), wrong);
+  EXPECT_GT(s["dem_posts"]["selected"].get<int>(), 0);
+  // Every feature the stats list is exported, in its layer's file (original CRS) and in the
+  // combined RFC 7946 file, with its attributes.
+  const json combined = json::parse(readText(out / "selected_features.json"));
+  std::size_t total = 0;
+  for (const json& layer : s["layers"]) {
+    const std::size_t n = layer["selected"].get<std::size_t>();
+    EXPECT_GT(n, 0u) << layer["name"];
+    EXPECT_LT(layer["fully_inside"].get<std::size_t>(), n);
+    EXPECT_GT(layer["fully_inside"].get<std::size_t>(), 0u);
+    total += n;
+    const json own = json::parse(readText(out / layer["file"].get<std::string>()));
+    ASSERT_EQ(own["features"].size(), n) << layer["file"];
+    for (std::size_t k = 0; k < n; ++k) {
+      EXPECT_EQ(own["features"][k]["id"].get<std::int64_t>(), layer["features"][k]["fid"].get<std::int64_t>());
+      EXPECT_EQ(own["features"][k]["properties"]["selection_fully_inside"].get<int>() == 1,
+                layer["features"][k]["fully_inside"].get<bool>());
+    }
+  }
+  ASSERT_EQ(combined["features"].size(), total);
+  EXPECT_EQ(combined["features"][0]["properties"]["selection_layer"], "census tracts");
+  EXPECT_TRUE(combined["features"][0]["properties"].contains("CD_GEOCODI"));
+  EXPECT_TRUE(json::parse(readText(out / "selected_census_tracts.geojson")).contains("crs"))
+      << "the tracts' own CRS (GRS 1980 geographic) is kept";
+
+  // With MSAA the selection is refused (drawn single-sampled only); a file that is not JSON fails.
+  EXPECT_EQ(runOverlayRender(args + " --msaa 4 --out " + (dir / "msaa").string(), dir / "msaa.txt"), 2);
+  { std::ofstream(dir / "bad.json") << "{ lassos: "; }
+  EXPECT_EQ(runOverlayRender("--scene " + kSamples + "/olinda/scene.json --width 64 --height 48 --lasso " +
+                                 (dir / "bad.json").string() + " --out " + (dir / "bad").string(),
+                             dir / "bad.txt"),
+            1);
+  EXPECT_NE(readText(dir / "bad.txt").find("bad.json"), std::string::npos);
 }
 
 }  // namespace

@@ -44,18 +44,7 @@ struct Comparison {
 
 std::vector<overlay::ReferenceLayer> referenceLayers(const std::vector<const overlay::OverlayLayer*>& layers) {
   std::vector<overlay::ReferenceLayer> out;
-  for (const overlay::OverlayLayer* l : layers) {
-    overlay::ReferenceLayer r;
-    r.name = l->name();
-    r.kind = l->kind();
-    r.features = &l->features();
-    for (const overlay::FeatureStyle& s : l->featureStyles()) {
-      r.shapes.push_back(s.shape);
-      r.visible.push_back(s.visible);
-    }
-    if (r.kind == overlay::LayerKind::Polygon) r.shapes.clear();
-    out.push_back(std::move(r));
-  }
+  for (const overlay::OverlayLayer* l : layers) out.push_back(overlay::referenceLayerOf(*l));
   return out;
 }
 

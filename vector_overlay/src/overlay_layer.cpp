@@ -454,4 +454,16 @@ void OverlayLayer::refreshBounds(const HeightBoundsProvider& bounds) {
   }
 }
 
+ReferenceLayer referenceLayerOf(const OverlayLayer& layer) {
+  ReferenceLayer r;
+  r.name = layer.name();
+  r.kind = layer.kind();
+  r.features = &layer.features();
+  for (const FeatureStyle& s : layer.featureStyles()) {
+    if (r.kind == LayerKind::Line) r.shapes.push_back(s.shape);
+    r.visible.push_back(s.visible);
+  }
+  return r;
+}
+
 }  // namespace gis::overlay

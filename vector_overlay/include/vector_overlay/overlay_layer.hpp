@@ -22,6 +22,7 @@
 #include "core/diagnostics.hpp"
 #include "geo/vector.hpp"
 #include "gfx/handles.hpp"
+#include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/height_bounds.hpp"
 #include "vector_overlay/style.hpp"
@@ -170,5 +171,9 @@ class OverlayLayer {
   mutable std::optional<std::size_t> maxOverlap_;                 ///< cleared by edits
   mutable std::optional<std::optional<glm::vec4>> uniformColor_;  ///< cleared by edits
 };
+
+/// The layer as the CPU reference and the logical selection see it: its features, their line
+/// shapes (line layers) and visibility. Refers to the layer's features: keep the layer alive.
+ReferenceLayer referenceLayerOf(const OverlayLayer& layer);
 
 }  // namespace gis::overlay

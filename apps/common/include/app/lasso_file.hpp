@@ -1,0 +1,46 @@
+#pragma once
+// Lasso files (docs/command-line.md, "Lasso files"): a list of lassos with their operators and the
+// cameras they were drawn with, plus how the selection is shown. Read by `overlay_render --lasso`.
+//
+//   {"lassos": [{"op": "single", "points": [[x, y], ...], "camera": {...} or "camera.json",
+//                "width": W, "height": H, "distance": metres}, {"op": "invert"}, ...],
+//    "highlight": {"color": "#ff3319", "opacity": 0.45},
+//    "show_volumes": {"color": "#3399ff", "opacity": 0.25},
+//    "scheme": "runs" | "report", "sample_spacing_m": 2}
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec4.hpp>
+#include <nlohmann/json_fwd.hpp>
+
+#include "app/camera.hpp"
+#include "core/diagnostics.hpp"
+#include "geo/frame.hpp"
+#include "vector_overlay/lasso.hpp"
+#include "vector_overlay/selection_renderer.hpp"
+
+namespace gis::app {
+
+struct SelectionRequest {
+  std::vector<overlay::SelectionStep> steps;
+  overlay::SelectionStyle highlight;
+  std::optional<glm::vec4> showVolumes;  ///< colour with opacity in alpha; none = not drawn
+  overlay::SelectionScheme scheme = overlay::SelectionScheme::Runs;
+  std::optional<double> sampleSpacing;  ///< metres, for the logical selection of features
+};
+
+/// Reads a lasso file. A lasso's camera is an object (a camera file's content), a path to a
+/// camera file (relative to the lasso file; a camera.json of overlay_render also gives the
+/// viewport), or absent: then `current` with a viewport of `width` × `height`. A lasso entry
+/// that cannot be used (no such operator, fewer than 3 points, a camera that cannot be placed) is
+/// an error naming the file and "lasso N" (from 1) and is left out of the chain; an unreadable or
+/// malformed file fails as a whole.
+Result<SelectionRequest> loadLassoFile(const std::string& path, const geo::SceneFrame& frame, const Camera& current,
+                                       int width, int height);
+
+/// The same from parsed JSON; `file` names it in messages, `baseDir` resolves camera paths.
+Result<SelectionRequest> parseLassoFile(const nlohmann::json& j, const std::string& file, const std::string& baseDir,
+                                        const geo::SceneFrame& frame, const Camera& current, int width, int height);
+
+}  // namespace gis::app
