@@ -8,14 +8,27 @@
 //   layer covers (fragments per covered pixel), and the latency of a one-feature edit.
 // Writes bench.json and frames.csv. Frame times are wall time on a shared machine: compare
 // within one run.
+// - mode "lasso": one camera, the terrain drawn once, then the GPU time of lasso selection for
+//   1–500 random volumes (mixed operators, and Or only), interleaved with the time of one
+//   full-screen pass, so every figure is a ratio to that pass; a least-squares line through
+//   time against volumes gives the time per volume. Writes lasso.json and lasso.csv.
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
+#include <numbers>
+#include <random>
 #include <string>
 #include <string_view>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -26,8 +39,13 @@
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
 #include "gfx/context.hpp"
+#include "gfx/pipeline_state.hpp"
+#include "gfx/program.hpp"
+#include "gfx/queries.hpp"
 #include "gfx/render_target.hpp"
 #include "terrain/tile_pager.hpp"
+#include "vector_overlay/lasso.hpp"
+#include "vector_overlay/selection_renderer.hpp"
 
 namespace {
 
@@ -35,12 +53,14 @@ using nlohmann::json;
 using namespace gis;
 
 constexpr const char* kUsage =
-    "usage: overlay_bench --scene S.json [--mode terrain|overlay] [--width W --height H] [--frames N]\n"
-    "                     [--lod-tolerance PX] [--paging auto|always|never] --out DIR\n";
+    "usage: overlay_bench --scene S.json [--mode terrain|overlay|lasso] [--width W --height H] [--frames N]\n"
+    "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
+    "                     [--repeats R] --out DIR\n";
 
 struct Options {
   std::string scene, out, mode = "terrain";
   int width = 1200, height = 1000, frames = 90;
+  int maxVolumes = 500, repeats = 5;  ///< lasso mode
   double lodTolerance = 1.5;
   std::optional<app::TerrainPaging> paging;
 };
@@ -81,6 +101,10 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       o.height = *n;
     else if (a == "--frames" && (n = app::parseInt(v)) && *n >= 3)
       o.frames = *n;
+    else if (a == "--max-volumes" && (n = app::parseInt(v)) && *n >= 2 && *n <= 500)
+      o.maxVolumes = *n;
+    else if (a == "--repeats" && (n = app::parseInt(v)) && *n >= 1 && *n <= 100)
+      o.repeats = *n;
     else if (a == "--lod-tolerance" && app::parseDouble(v) && *app::parseDouble(v) >= 0.0)
       o.lodTolerance = *app::parseDouble(v);
     else if (a == "--paging" && v == "auto")
@@ -93,11 +117,13 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       return "bad argument " + std::string(a) + " " + std::string(v);
   }
   if (o.scene.empty() || o.out.empty()) return "--scene and --out are required";
-  if (o.mode != "terrain" && o.mode != "overlay") return "--mode: \"terrain\" or \"overlay\"";
+  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso")
+    return "--mode: \"terrain\", \"overlay\" or \"lasso\"";
   return {};
 }
 
 int runOverlay(const Options& o);
+int runLasso(const Options& o);
 
 /// Writes bench.json, prints it, and fails the run on any GL error.
 int finish(const Options& o, const json& result, gfx::Context& context) {
@@ -108,6 +134,7 @@ int finish(const Options& o, const json& result, gfx::Context& context) {
 
 int run(const Options& o) {
   if (o.mode == "overlay") return runOverlay(o);
+  if (o.mode == "lasso") return runLasso(o);
   const auto loadStart = std::chrono::steady_clock::now();
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
   app::report(description.diagnostics);
@@ -377,6 +404,416 @@ int runOverlay(const Options& o) {
                  {"renderer", (*context)->info().renderer},
                  {"gl_errors", (*context)->debug().errorCount()}};
   return finish(o, result, **context);
+}
+
+// ---- mode "lasso" ----
+
+constexpr std::array<std::size_t, 9> kVolumeCounts{1, 2, 5, 10, 20, 50, 100, 200, 500};
+constexpr std::uint32_t kLassoSeed = 2016;  // Rainer 2016, the seed report
+
+/// A random star-shaped (concave) lasso in pixels (y down), on screen: 20–40 vertices
+/// alternating between an outer and an inner radius, covering 2–5 % of the screen.
+std::vector<glm::dvec2> starLasso(std::mt19937& rng, int width, int height) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const std::size_t vertices = 2 * (10 + static_cast<std::size_t>(unit(rng) * 10.999));
+  const double w = width, h = height;
+  const double fraction = 0.02 + 0.03 * unit(rng), inner = 0.4 + 0.3 * unit(rng);
+  // Area of a star with radii R and inner·R: ≈ π·R²·inner.
+  const double outer = std::min(std::sqrt(fraction * w * h / (std::numbers::pi * inner)), 0.45 * std::min(w, h));
+  const glm::dvec2 centre(outer + (w - 2.0 * outer) * unit(rng), outer + (h - 2.0 * outer) * unit(rng));
+  const double phase = 2.0 * std::numbers::pi * unit(rng);
+  std::vector<glm::dvec2> points;
+  for (std::size_t k = 0; k < vertices; ++k) {
+    const double a = phase + 2.0 * std::numbers::pi * (static_cast<double>(k) + 0.3 * (unit(rng) - 0.5)) /
+                                 static_cast<double>(vertices);
+    const double r = outer * (k % 2 == 0 ? 1.0 : inner) * (0.85 + 0.3 * unit(rng));
+    points.push_back(centre + r * glm::dvec2(std::cos(a), std::sin(a)));
+  }
+  return points;
+}
+
+/// Shoelace area of a simple polygon.
+double polygonArea(const std::vector<glm::dvec2>& p) {
+  double twice = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const glm::dvec2& a = p[i];
+    const glm::dvec2& b = p[(i + 1) % p.size()];
+    twice += a.x * b.y - a.y * b.x;
+  }
+  return 0.5 * std::abs(twice);
+}
+
+struct LinearFit {
+  double intercept = 0.0, slope = 0.0, r2 = 0.0;
+};
+
+/// Least squares y = intercept + slope·x, with the coefficient of determination.
+LinearFit fitLine(const std::vector<double>& x, const std::vector<double>& y) {
+  const auto n = static_cast<double>(x.size());
+  double mx = 0.0, my = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    mx += x[i] / n;
+    my += y[i] / n;
+  }
+  double sxx = 0.0, sxy = 0.0, syy = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sxx += (x[i] - mx) * (x[i] - mx);
+    sxy += (x[i] - mx) * (y[i] - my);
+    syy += (y[i] - my) * (y[i] - my);
+  }
+  LinearFit f;
+  f.slope = sxx > 0.0 ? sxy / sxx : 0.0;
+  f.intercept = my - f.slope * mx;
+  double residual = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double e = y[i] - (f.intercept + f.slope * x[i]);
+    residual += e * e;
+  }
+  f.r2 = syy > 0.0 ? 1.0 - residual / syy : 1.0;
+  return f;
+}
+
+/// The clocks of a lasso measurement. On a GPU the timer query is the figure. On llvmpipe the
+/// "GPU" is this machine's CPU, and its timer query does not cover the rasterization (a
+/// 1200 × 1000 full-screen pass reads 0.01–0.5 ms against 4 ms of CPU time). The process CPU
+/// time is the work done there: this thread's vertex work and binning plus the rasterizer
+/// threads, which block rather than spin, so other processes on a shared machine do not count.
+enum Clock : std::size_t { kGpu, kCpu, kWall, kClocks };
+constexpr std::array<const char*, kClocks> kClockNames{"gpu", "cpu", "wall"};
+using Samples = std::array<std::vector<double>, kClocks>;
+
+double processCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+struct Sample {
+  std::array<double, kClocks> ms{};
+  std::uint64_t fragments = 0;
+};
+
+/// Times `work` (which returns its GPU milliseconds and fragments) with the GPU idle before and
+/// after (glFinish): wall and process CPU time around it.
+template <class Work>
+Sample timed(Work&& work) {
+  glFinish();
+  const auto wallStart = std::chrono::steady_clock::now();
+  const double cpuStart = processCpuMs();
+  Sample s;
+  std::tie(s.ms[kGpu], s.fragments) = work();
+  glFinish();
+  s.ms[kCpu] = processCpuMs() - cpuStart;
+  s.ms[kWall] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - wallStart).count();
+  return s;
+}
+
+/// `draw` inside a timer query and a pipeline-statistics query: GPU milliseconds, fragments.
+template <class Draw>
+std::pair<double, std::uint64_t> queried(gfx::GpuTimer& timer, gfx::PipelineStatistics& statistics, Draw&& draw) {
+  timer.begin();
+  statistics.begin();
+  draw();
+  statistics.end();
+  timer.end();
+  return {static_cast<double>(timer.nanoseconds().value_or(0)) * 1e-6, statistics.result().fragmentShaderInvocations};
+}
+
+void add(Samples& samples, const Sample& s) {
+  for (std::size_t c = 0; c < kClocks; ++c) samples[c].push_back(s.ms[c]);
+}
+
+/// The unit of the lasso figures: one full-screen quad with the stencil test on (the stencil is
+/// 0 between selections, so every pixel passes) blending a translucent colour — the cost of one
+/// highlight or cover pass over the whole screen.
+constexpr gfx::PipelineState kFullScreenPass{
+    gfx::DepthState{false, false, gfx::CompareFunc::Always, false},
+    gfx::StencilState{true,
+                      gfx::StencilFace{gfx::CompareFunc::Equal, 0, 0xFF, 0xFF, gfx::StencilOp::Keep,
+                                       gfx::StencilOp::Keep, gfx::StencilOp::Keep},
+                      gfx::StencilFace{gfx::CompareFunc::Equal, 0, 0xFF, 0xFF, gfx::StencilOp::Keep,
+                                       gfx::StencilOp::Keep, gfx::StencilOp::Keep}},
+    gfx::kBlendPremultipliedOver,
+    gfx::RasterState{gfx::CullMode::None, true, gfx::ColorMask{}, gfx::PolygonMode::Fill, 0.0F, 0.0F, false}};
+
+struct LassoSeries {
+  std::string name;
+  std::vector<overlay::SelectionOp> ops;  ///< per volume; the first is Single
+  struct Row {
+    std::size_t volumes = 0;
+    Samples ms;      ///< select(), per repeat
+    Samples passMs;  ///< the full-screen passes interleaved with them
+    std::uint64_t fragments = 0;
+    overlay::SelectionFrameStats stats;
+    std::optional<overlay::SelectionRenderer> selection;  ///< its volumes built once
+  };
+  std::vector<Row> rows;
+};
+
+int runLasso(const Options& o) {
+  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
+  app::report(description.diagnostics);
+  if (!description) return 1;
+  description->layers.clear();  // the volumes select terrain; the layers are not drawn
+  app::LoadOptions loadOptions;
+  loadOptions.paging = o.paging;
+  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
+  app::report(scene.diagnostics);
+  if (!scene) return 1;
+  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
+  app::report(context.diagnostics);
+  if (!context) return 1;
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  app::report(renderer.diagnostics);
+  Result<gfx::Program> passProgram = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
+  app::report(passProgram.diagnostics);
+  if (!renderer || !passProgram) return 1;
+  const std::string rendererName = (*context)->info().renderer;
+  const Clock headline = rendererName.find("llvmpipe") != std::string::npos ? kCpu : kGpu;
+
+  // One camera, the fly-through's first oblique frame (from the south, 40° down: terrain fills
+  // the view), and the terrain drawn once: the selection reads its depth.
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene, description->verticalExaggeration, lo, hi);
+  const std::vector<app::PathFrame> path = app::flyThrough(lo, hi, 3);
+  const app::Camera camera =
+      std::find_if(path.begin(), path.end(), [](const app::PathFrame& f) { return f.segment == "oblique"; })->camera;
+  const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
+  const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
+  gfx::StateCache cache;
+  gfx::RenderTarget target(o.width, o.height);
+  app::RenderSettings settings;
+  settings.lodTolerancePixels = o.lodTolerance;
+  settings.verticalExaggeration = description->verticalExaggeration;
+  settings.waitForTiles = true;
+  settings.overlays = false;
+  const app::FrameStats terrainFrame =
+      renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+  const overlay::OverlayView view{viewProj, camera.eye, camera.nearPlane, camera.fovYDeg * std::numbers::pi / 180.0,
+                                  aspect};
+  std::size_t terrainPixels = 0;
+  for (float d : gfx::readDepth(target)) terrainPixels += d > 0.0F ? 1u : 0u;
+
+  // The lassos, drawn with the same camera: the first N of one list for every N.
+  std::vector<std::size_t> counts;
+  for (std::size_t n : kVolumeCounts)
+    if (n <= static_cast<std::size_t>(o.maxVolumes)) counts.push_back(n);
+  const std::size_t maxVolumes = counts.back();
+  const double screenPixels = static_cast<double>(o.width) * o.height;
+  std::mt19937 rng(kLassoSeed);
+  std::vector<std::vector<glm::dvec2>> polygons;
+  double areaFraction = 0.0;
+  std::size_t lassoVertices = 0;
+  for (std::size_t i = 0; i < maxVolumes; ++i) {
+    polygons.push_back(starLasso(rng, o.width, o.height));
+    areaFraction += polygonArea(polygons.back()) / (screenPixels * static_cast<double>(maxVolumes));
+    lassoVertices += polygons.back().size();
+  }
+  std::vector<LassoSeries> series(2);  // the same lassos, two operator chains
+  series[0].name = "mixed";
+  series[1].name = "or";
+  constexpr std::array<overlay::SelectionOp, 4> kMix{overlay::SelectionOp::Or, overlay::SelectionOp::Xor,
+                                                     overlay::SelectionOp::Subtract, overlay::SelectionOp::And};
+  std::uniform_int_distribution<std::size_t> pick(0, kMix.size() - 1);
+  for (std::size_t i = 0; i < maxVolumes; ++i) {
+    series[0].ops.push_back(i == 0 ? overlay::SelectionOp::Single : kMix[pick(rng)]);
+    series[1].ops.push_back(i == 0 ? overlay::SelectionOp::Single : overlay::SelectionOp::Or);
+  }
+  const auto stepsFor = [&](const LassoSeries& s, std::size_t n) {
+    std::vector<overlay::SelectionStep> steps(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      steps[i].op = s.ops[i];
+      steps[i].lasso = {polygons[i], viewProj, o.width, o.height, std::numeric_limits<double>::infinity()};
+    }
+    return steps;
+  };
+
+  gfx::GpuTimer timer;
+  gfx::PipelineStatistics statistics;
+  const gfx::VertexArrayHandle emptyVao = gfx::createVertexArray();
+  const auto fullScreenPass = [&] {
+    return timed([&] {
+      return queried(timer, statistics, [&] {
+        cache.apply(kFullScreenPass);
+        passProgram->use();
+        passProgram->set("u_rect", glm::vec4(-1.0F, -1.0F, 1.0F, 1.0F));
+        passProgram->set("u_color", glm::vec4(0.2F, 0.6F, 1.0F, 0.05F));
+        passProgram->set("u_maskBit", 0.0F);
+        glBindVertexArray(emptyVao.id());
+        glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+        glBindVertexArray(0);
+      });
+    });
+  };
+  overlay::SelectionSettings measured;
+  measured.measure = true;
+  const auto select = [&](LassoSeries::Row& row) {
+    return timed([&] {
+      row.stats = row.selection->select(cache, view, measured);
+      return std::pair{row.stats.gpuMilliseconds, row.stats.fragments};
+    });
+  };
+  const auto clear = [&](LassoSeries::Row& row) {
+    return timed([&] { return queried(timer, statistics, [&] { row.selection->clear(cache); }); });
+  };
+  Samples passMs, clearMs;
+  std::uint64_t passFragments = 0;
+  // One selection renderer per series and N; the repeats go round all of them, so that a burst
+  // of load on a shared machine spreads over every N instead of bending one point.
+  for (std::size_t n : counts) {
+    for (LassoSeries& s : series) {
+      Result<overlay::SelectionRenderer> selection = overlay::SelectionRenderer::create();
+      app::report(selection.diagnostics);
+      if (!selection) return 1;
+      LassoSeries::Row row;
+      row.volumes = n;
+      row.selection.emplace(std::move(*selection));
+      app::report(row.selection->setSteps(stepsFor(s, n)));
+      // Warm-up, with the queries on as measured (llvmpipe compiles shader variants for them).
+      select(row);
+      clear(row);
+      s.rows.push_back(std::move(row));
+    }
+  }
+  fullScreenPass();
+  for (int r = 0; r < o.repeats; ++r) {
+    for (std::size_t i = 0; i < counts.size(); ++i) {
+      for (LassoSeries& s : series) {
+        LassoSeries::Row& row = s.rows[i];
+        const Sample sample = select(row);
+        add(row.ms, sample);
+        row.fragments = sample.fragments;
+        add(clearMs, clear(row));
+        const Sample pass = fullScreenPass();  // interleaved: the same machine state
+        add(row.passMs, pass);
+        add(passMs, pass);
+        passFragments = pass.fragments;
+      }
+    }
+  }
+
+  // Medians over the repeats, as ratios to the median full-screen pass of the whole run.
+  std::array<double, kClocks> pass{};
+  for (std::size_t c = 0; c < kClocks; ++c) pass[c] = percentile(passMs[c], 50);
+  const auto passFragmentsD = static_cast<double>(std::max<std::uint64_t>(passFragments, 1));
+  std::filesystem::create_directories(o.out);
+  std::ofstream csv(std::filesystem::path(o.out) / "lasso.csv");
+  csv << "series,volumes,gpu_ms,cpu_ms,wall_ms,gpu_passes,cpu_passes,wall_passes,ratio_to_one_volume,"
+         "ms_per_volume,fragments,fragment_passes,mark_draws,screen_passes,triangles\n";
+  std::printf("lasso selection, %dx%d, %s; times are %s ms (process CPU time on llvmpipe, else GPU timer)\n", o.width,
+              o.height, rendererName.c_str(), kClockNames[headline]);
+  std::printf("one full-screen pass: %.3f ms %s (gpu %.3f, cpu %.3f, wall %.3f ms), %llu fragments\n", pass[headline],
+              kClockNames[headline], pass[kGpu], pass[kCpu], pass[kWall],
+              static_cast<unsigned long long>(passFragments));
+  json seriesJson = json::array();
+  for (const LassoSeries& s : series) {
+    std::vector<double> x, fragments;
+    std::array<std::vector<double>, kClocks> y;
+    for (const LassoSeries::Row& row : s.rows) {
+      x.push_back(static_cast<double>(row.volumes));
+      for (std::size_t c = 0; c < kClocks; ++c) y[c].push_back(percentile(row.ms[c], 50));
+      fragments.push_back(static_cast<double>(row.fragments));
+    }
+    const std::vector<double>& t = y[headline];
+    std::map<std::string, std::size_t> opCounts;
+    for (std::size_t i = 0; i < maxVolumes; ++i) ++opCounts[overlay::selectionOpName(s.ops[i])];
+    std::printf("\nseries %s (%s)\n%7s %9s %12s %8s %10s %9s %9s %12s %10s %7s\n", s.name.c_str(),
+                s.name == "or" ? "Single, then Or" : "Single, then Or/Xor/Subtract/And at random", "volumes", "ms",
+                "/ full pass", "/ N=1", "ms/volume", "gpu ms", "wall ms", "fragments", "/ full pass", "passes");
+    json rows = json::array();
+    for (std::size_t i = 0; i < s.rows.size(); ++i) {
+      const LassoSeries::Row& row = s.rows[i];
+      const double toOne = t[i] / t[0], perVolume = t[i] / x[i];
+      const double fragmentPasses = fragments[i] / passFragmentsD;
+      std::printf("%7zu %9.3f %12.3f %8.2f %10.4f %9.3f %9.3f %12llu %10.3f %7zu\n", row.volumes, t[i],
+                  t[i] / pass[headline], toOne, perVolume, y[kGpu][i], y[kWall][i],
+                  static_cast<unsigned long long>(row.fragments), fragmentPasses, row.stats.screenPasses);
+      csv << s.name << ',' << row.volumes;
+      for (std::size_t c = 0; c < kClocks; ++c) csv << ',' << y[c][i];
+      for (std::size_t c = 0; c < kClocks; ++c) csv << ',' << y[c][i] / pass[c];
+      csv << ',' << toOne << ',' << perVolume << ',' << row.fragments << ',' << fragmentPasses << ','
+          << row.stats.markDraws << ',' << row.stats.screenPasses << ',' << row.stats.triangles << '\n';
+      json clocks;
+      for (std::size_t c = 0; c < kClocks; ++c) {
+        clocks[kClockNames[c]] = {{"median_ms", y[c][i]},
+                                  {"full_screen_passes", y[c][i] / pass[c]},
+                                  {"repeats_ms", row.ms[c]},
+                                  {"interleaved_full_screen_pass_median_ms", percentile(row.passMs[c], 50)}};
+      }
+      rows.push_back({{"volumes", row.volumes},
+                      {"ms", clocks},
+                      {"ratio_to_one_volume", toOne},
+                      {"ms_per_volume", perVolume},
+                      {"fragments", row.fragments},
+                      {"fragment_full_screen_passes", fragmentPasses},
+                      {"mark_draws", row.stats.markDraws},
+                      {"screen_passes", row.stats.screenPasses},
+                      {"triangles", row.stats.triangles}});
+    }
+    json fits;
+    for (const std::size_t c :
+         {static_cast<std::size_t>(headline), std::size_t{kGpu}, std::size_t{kCpu}, std::size_t{kWall}}) {
+      if (fits.contains(kClockNames[c])) continue;
+      const LinearFit f = fitLine(x, y[c]);
+      fits[kClockNames[c]] = {{"slope_ms_per_volume", f.slope},
+                              {"slope_full_screen_passes_per_volume", f.slope / pass[c]},
+                              {"intercept_ms", f.intercept},
+                              {"intercept_full_screen_passes", f.intercept / pass[c]},
+                              {"r2", f.r2}};
+      std::printf("fit %-4s ms = a + b*N: b = %.4f ms = %.4f full-screen passes per volume, a = %.3f ms, R2 = %.4f%s\n",
+                  kClockNames[c], f.slope, f.slope / pass[c], f.intercept, f.r2, c == headline ? "  <-" : "");
+    }
+    const LinearFit fragmentFit = fitLine(x, fragments);
+    std::printf("fit fragments = a + b*N: b = %.0f = %.4f full-screen passes per volume, a = %.0f, R2 = %.5f\n",
+                fragmentFit.slope, fragmentFit.slope / passFragmentsD, fragmentFit.intercept, fragmentFit.r2);
+    seriesJson.push_back({{"name", s.name},
+                          {"operators", opCounts},
+                          {"rows", rows},
+                          {"fits", fits},
+                          {"fit_fragments",
+                           {{"slope_per_volume", fragmentFit.slope},
+                            {"slope_full_screen_passes_per_volume", fragmentFit.slope / passFragmentsD},
+                            {"intercept", fragmentFit.intercept},
+                            {"r2", fragmentFit.r2}}}});
+  }
+  json passJson, clearJson;
+  for (std::size_t c = 0; c < kClocks; ++c) {
+    passJson[kClockNames[c]] = {{"median_ms", pass[c]}, {"p95_ms", percentile(passMs[c], 95)}};
+    clearJson[kClockNames[c]] = {{"median_ms", percentile(clearMs[c], 50)}};
+  }
+  passJson["fragments"] = passFragments;
+  passJson["samples"] = passMs[kGpu].size();
+  const char* threads = std::getenv("LP_NUM_THREADS");
+  const json result = {{"mode", o.mode},
+                       {"scene", o.scene},
+                       {"width", o.width},
+                       {"height", o.height},
+                       {"camera",
+                        {{"kind", "first oblique frame of the fly-through"},
+                         {"eye_xyz", {camera.eye.x, camera.eye.y, camera.eye.z}},
+                         {"target_xyz", {camera.target.x, camera.target.y, camera.target.z}},
+                         {"fov_y_deg", camera.fovYDeg}}},
+                       {"terrain_pixels_fraction", static_cast<double>(terrainPixels) / screenPixels},
+                       {"terrain_triangles", terrainFrame.terrainDraw.triangles},
+                       {"scheme", "runs"},
+                       {"seed", kLassoSeed},
+                       {"repeats", o.repeats},
+                       {"headline_clock", kClockNames[headline]},
+                       {"lassos",
+                        {{"count", maxVolumes},
+                         {"mean_vertices", static_cast<double>(lassoVertices) / static_cast<double>(maxVolumes)},
+                         {"mean_screen_fraction", areaFraction}}},
+                       {"full_screen_pass", passJson},
+                       {"stencil_clear_pass", clearJson},
+                       {"series", seriesJson},
+                       {"renderer", rendererName},
+                       {"lp_num_threads", threads != nullptr ? json(threads) : json(nullptr)},
+                       {"cpu_peak_bytes", processMemory("VmHWM")},
+                       {"gl_errors", (*context)->debug().errorCount()}};
+  std::ofstream(std::filesystem::path(o.out) / "lasso.json") << result.dump(2) << '\n';
+  std::printf("\ngl_errors: %zu; wrote %s\n", (*context)->debug().errorCount(),
+              (std::filesystem::path(o.out) / "lasso.json").string().c_str());
+  return (*context)->debug().errorCount() == 0 ? 0 : 1;
 }
 
 }  // namespace
