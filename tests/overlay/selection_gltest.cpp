@@ -14,7 +14,7 @@
 
 #include "gfx/camera.hpp"
 #include "gfx/render_target.hpp"
-#include "gl_test.hpp"
+#include "selection_scene.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/terrain_engine.hpp"
@@ -27,73 +27,15 @@
 namespace gis::test {
 namespace {
 
-constexpr int kWidth = 256;
-constexpr int kHeight = 192;
+constexpr int kWidth = kSelectionWidth;
+constexpr int kHeight = kSelectionHeight;
+using Camera = LassoCamera;
 
-struct Camera {
-  glm::dvec3 eye;
-  glm::dmat4 viewProj;
-};
+Camera cameraAt(const glm::dvec3& eye, const glm::dvec3& target) { return lassoCameraAt(eye, target); }
+std::vector<glm::dvec2> randomPolygon(std::mt19937& rng) { return randomLassoPolygon(rng); }
 
-Camera cameraAt(const glm::dvec3& eye, const glm::dvec3& target) {
-  const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
-  return {eye, gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, target, glm::dvec3(0, 0, 1))};
-}
-
-/// A random lasso in pixels: a star (concave) or a scribble (self-intersecting).
-std::vector<glm::dvec2> randomPolygon(std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const glm::dvec2 c(kWidth * (0.2 + 0.6 * unit(rng)), kHeight * (0.2 + 0.6 * unit(rng)));
-  const int n = 5 + static_cast<int>(8 * unit(rng));
-  std::vector<glm::dvec2> p;
-  const bool scribble = unit(rng) < 0.3;
-  for (int k = 0; k < n; ++k) {
-    if (scribble) {
-      p.emplace_back(c.x + (unit(rng) - 0.5) * kWidth * 0.6, c.y + (unit(rng) - 0.5) * kHeight * 0.6);
-    } else {
-      const double a = 6.283 * k / n, r = (15.0 + 70.0 * unit(rng)) * (k % 2 == 0 ? 1.0 : 0.55);
-      p.push_back(c + r * glm::dvec2(std::cos(a), std::sin(a)));
-    }
-  }
-  return p;
-}
-
-class SelectionGlTest : public GlTest {
+class SelectionGlTest : public SelectionSceneTest {
  protected:
-  void SetUp() override {
-    GlTest::SetUp();
-    tree_ = std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 129, .height = 129, .seed = 21}), 16);
-    bounds_ = std::make_shared<terrain::QuadtreeHeightBounds>(tree_, 1.0);
-    Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree_, nullptr);
-    Result<overlay::SelectionRenderer> selection = overlay::SelectionRenderer::create();
-    ASSERT_TRUE(engine.ok() && selection.ok());
-    engine_.emplace(std::move(*engine));
-    selection_.emplace(std::move(*selection));
-    const terrain::TerrainGrid& grid = tree_->grid();
-    lo_ = grid.postPosition(0, grid.height - 1);
-    hi_ = grid.postPosition(grid.width - 1, 0);
-  }
-
-  Camera randomCamera(std::mt19937& rng) const {
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    const glm::dvec2 t = lo_ + (hi_ - lo_) * glm::dvec2(unit(rng), unit(rng));
-    const double a = 6.283 * unit(rng), d = 200.0 + 1500.0 * unit(rng);
-    const glm::dvec2 e = t + d * glm::dvec2(std::cos(a), std::sin(a));
-    return cameraAt(
-        glm::dvec3(e, bounds_->fullResolutionHeightAt(glm::clamp(e, lo_, hi_)) + 100.0 + 1500.0 * unit(rng)),
-        glm::dvec3(t, 0.0));
-  }
-
-  overlay::Lasso lassoFrom(const Camera& c, std::vector<glm::dvec2> points, double distance) const {
-    overlay::Lasso l;
-    l.points = std::move(points);
-    l.viewProj = c.viewProj;
-    l.width = kWidth;
-    l.height = kHeight;
-    l.distance = distance;
-    return l;
-  }
-
   struct Outcome {
     std::size_t selected = 0, wrong = 0, boundaryWrong = 0;
   };
@@ -169,12 +111,6 @@ class SelectionGlTest : public GlTest {
     }
     return r;
   }
-
-  std::shared_ptr<terrain::TerrainQuadtree> tree_;
-  std::shared_ptr<terrain::QuadtreeHeightBounds> bounds_;
-  std::optional<terrain::TerrainEngine> engine_;
-  std::optional<overlay::SelectionRenderer> selection_;
-  glm::dvec2 lo_{0.0}, hi_{0.0};
 };
 
 TEST_F(SelectionGlTest, RandomChainsFromManyViewpointsMatchTheCpuTwin) {

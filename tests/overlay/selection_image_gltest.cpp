@@ -26,7 +26,7 @@
 #include "gfx/camera.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
-#include "gl_test.hpp"
+#include "selection_scene.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/terrain_engine.hpp"
@@ -38,10 +38,10 @@
 namespace gis::test {
 namespace {
 
-constexpr int kWidth = 256;
-constexpr int kHeight = 192;
+constexpr int kWidth = kSelectionWidth;
+constexpr int kHeight = kSelectionHeight;
 constexpr std::size_t kPixels = static_cast<std::size_t>(kWidth) * static_cast<std::size_t>(kHeight);
-const double kFov = glm::radians(50.0);
+const double kFov = selectionFov();
 const glm::vec4 kBackground{0.1F, 0.1F, 0.1F, 1.0F};
 
 /// Highlight: a selected pixel is the style's colour blended once over the terrain's, to within
@@ -59,48 +59,19 @@ const overlay::SelectionStyle kStyles[] = {
 /// "Show volumes" colour (straight alpha).
 const glm::vec4 kVolumeColour{0.2F, 0.9F, 0.3F, 0.35F};
 
-struct Camera {
-  glm::dvec3 eye;
-  glm::dmat4 viewProj;
-};
+using Camera = LassoCamera;
 
-Camera cameraAt(const glm::dvec3& eye, const glm::dvec3& target) {
-  const double aspect = static_cast<double>(kWidth) / kHeight;
-  return {eye, gfx::reversedInfinitePerspective(kFov, aspect, 1.0) * gfx::lookAt(eye, target, glm::dvec3(0, 0, 1))};
-}
+Camera cameraAt(const glm::dvec3& eye, const glm::dvec3& target) { return lassoCameraAt(eye, target); }
 
 overlay::OverlayView overlayView(const Camera& c) {
   return {c.viewProj, c.eye, 1.0, kFov, static_cast<double>(kWidth) / kHeight};
 }
 
-/// A random lasso in pixels: a star (concave) or a scribble (self-intersecting).
-std::vector<glm::dvec2> randomPolygon(std::mt19937& rng) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const glm::dvec2 c(kWidth * (0.2 + 0.6 * unit(rng)), kHeight * (0.2 + 0.6 * unit(rng)));
-  const int n = 5 + static_cast<int>(8 * unit(rng));
-  std::vector<glm::dvec2> p;
-  const bool scribble = unit(rng) < 0.3;
-  for (int k = 0; k < n; ++k) {
-    if (scribble) {
-      p.emplace_back(c.x + (unit(rng) - 0.5) * kWidth * 0.6, c.y + (unit(rng) - 0.5) * kHeight * 0.6);
-    } else {
-      const double a = 6.283 * k / n, r = (15.0 + 70.0 * unit(rng)) * (k % 2 == 0 ? 1.0 : 0.55);
-      p.push_back(c + r * glm::dvec2(std::cos(a), std::sin(a)));
-    }
-  }
-  return p;
-}
+std::vector<glm::dvec2> randomPolygon(std::mt19937& rng) { return randomLassoPolygon(rng); }
 
 overlay::SelectionStep stepFrom(overlay::SelectionOp op, const Camera& c, std::vector<glm::dvec2> points,
                                 double distance = std::numeric_limits<double>::infinity()) {
-  overlay::SelectionStep s;
-  s.op = op;
-  s.lasso.points = std::move(points);
-  s.lasso.viewProj = c.viewProj;
-  s.lasso.width = kWidth;
-  s.lasso.height = kHeight;
-  s.lasso.distance = distance;
-  return s;
+  return {op, lassoFrom(c, std::move(points), distance)};
 }
 
 overlay::SelectionStep invertStep() {
@@ -279,34 +250,8 @@ std::vector<int> visibleFaceCounts(const std::vector<overlay::LassoVolume>& volu
 
 // ---- The fixture -------------------------------------------------------------------------------
 
-class SelectionImageGlTest : public GlTest {
+class SelectionImageGlTest : public SelectionSceneTest {
  protected:
-  void SetUp() override {
-    GlTest::SetUp();
-    tree_ = std::make_shared<terrain::TerrainQuadtree>(makeStiffTerrain({.width = 129, .height = 129, .seed = 21}), 16);
-    bounds_ = std::make_shared<terrain::QuadtreeHeightBounds>(tree_, 1.0);
-    Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree_, nullptr);
-    Result<overlay::SelectionRenderer> selection = overlay::SelectionRenderer::create();
-    ASSERT_TRUE(engine.ok() && selection.ok());
-    engine_.emplace(std::move(*engine));
-    selection_.emplace(std::move(*selection));
-    const terrain::TerrainGrid& grid = tree_->grid();
-    lo_ = grid.postPosition(0, grid.height - 1);
-    hi_ = grid.postPosition(grid.width - 1, 0);
-  }
-
-  /// A camera 200–1700 m from a random point of the terrain (or `target`), 100–1600 m above it.
-  Camera randomCamera(std::mt19937& rng, std::optional<glm::dvec2> target = std::nullopt) const {
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    const glm::dvec2 random = lo_ + (hi_ - lo_) * glm::dvec2(unit(rng), unit(rng));
-    const glm::dvec2 t = target.value_or(random);
-    const double a = 6.283 * unit(rng), d = 200.0 + 1500.0 * unit(rng);
-    const glm::dvec2 e = t + d * glm::dvec2(std::cos(a), std::sin(a));
-    return cameraAt(
-        glm::dvec3(e, bounds_->fullResolutionHeightAt(glm::clamp(e, lo_, hi_)) + 100.0 + 1500.0 * unit(rng)),
-        glm::dvec3(t, 0.0));
-  }
-
   /// Draws the terrain (colour, depth, stencil 0) and reads colour and depth back.
   Frame drawTerrain(const Camera& view) {
     Frame f{view, std::make_unique<gfx::RenderTarget>(kWidth, kHeight), {}, {}};
@@ -470,12 +415,6 @@ class SelectionImageGlTest : public GlTest {
     }
     return r;
   }
-
-  std::shared_ptr<terrain::TerrainQuadtree> tree_;
-  std::shared_ptr<terrain::QuadtreeHeightBounds> bounds_;
-  std::optional<terrain::TerrainEngine> engine_;
-  std::optional<overlay::SelectionRenderer> selection_;
-  glm::dvec2 lo_{0.0}, hi_{0.0};
 };
 
 void print(const char* what, const Tally& t) {
