@@ -5,6 +5,10 @@
 // DESIGN §4's changes: wrapping ops in one two-sided draw, depth clamp, zeroing cover ops and
 // premultiplied-alpha blending. Each row of the table is written out here and compared with
 // the named state the renderer uses.
+#include <algorithm>
+#include <cstdint>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "vector_overlay/stencil_states.hpp"
@@ -142,6 +146,155 @@ TEST(StencilStates, CountingRulesGiveTheNumberOfVolumesHoldingThePoint) {
   EXPECT_EQ(zPass, inside);
   EXPECT_EQ(zFail, inside);
   EXPECT_EQ(inside, 3);
+}
+
+/// One stencil update as GL defines it: the test compares (ref & readMask) with (stencil &
+/// readMask); the op chosen by the outcome is written under the write mask.
+std::uint8_t stencilUpdate(const gfx::StencilFace& f, std::uint8_t s, bool depthPasses) {
+  const int ref = f.ref & f.readMask, value = s & f.readMask;
+  bool pass = true;
+  switch (f.func) {
+    case CompareFunc::Never:
+      pass = false;
+      break;
+    case CompareFunc::Less:
+      pass = ref < value;
+      break;
+    case CompareFunc::LessEqual:
+      pass = ref <= value;
+      break;
+    case CompareFunc::Equal:
+      pass = ref == value;
+      break;
+    case CompareFunc::NotEqual:
+      pass = ref != value;
+      break;
+    case CompareFunc::GreaterEqual:
+      pass = ref >= value;
+      break;
+    case CompareFunc::Greater:
+      pass = ref > value;
+      break;
+    case CompareFunc::Always:
+      pass = true;
+      break;
+  }
+  const StencilOp op = !pass ? f.stencilFail : (depthPasses ? f.depthPass : f.depthFail);
+  int out = s;
+  switch (op) {
+    case StencilOp::Keep:
+      break;
+    case StencilOp::Zero:
+      out = 0;
+      break;
+    case StencilOp::Replace:
+      out = f.ref;
+      break;
+    case StencilOp::Incr:
+      out = std::min(s + 1, 255);
+      break;
+    case StencilOp::IncrWrap:
+      out = (s + 1) & 0xFF;
+      break;
+    case StencilOp::Decr:
+      out = std::max(s - 1, 0);
+      break;
+    case StencilOp::DecrWrap:
+      out = (s + 255) & 0xFF;
+      break;
+    case StencilOp::Invert:
+      out = ~s & 0xFF;
+      break;
+  }
+  return static_cast<std::uint8_t>((s & ~f.writeMask) | (out & f.writeMask));
+}
+
+// The overlap analysis's states, run on one pixel through the stencil's own arithmetic: layer A
+// has nA pieces over the pixel's terrain point and layer B nB (each counts +1, in any order
+// with pairs of crossings in front that cancel), marked group by group and collected into the
+// flags; then every operator's cover must fire exactly where its truth table says, and leave 0.
+TEST(StencilStates, OverlapMarksAndCoversFollowTheTruthTable) {
+  EXPECT_EQ(overlay::kOverlapFlagA & overlay::kOverlapFlagB, 0);
+  EXPECT_EQ(overlay::kOverlapCountMask & overlay::kOverlapFlags, 0);
+  EXPECT_LE(overlay::kOverlapMarkA.groupSize, std::size_t{overlay::kOverlapCountMask});
+  EXPECT_EQ(overlay::kOverlapMarkA.markZPass.stencil.front.writeMask, overlay::kOverlapCountMask);
+  EXPECT_EQ(overlay::kOverlapMarkA.collect.stencil.front.writeMask,
+            overlay::kOverlapFlagA | overlay::kOverlapCountMask);
+  EXPECT_EQ(overlay::kOverlapMarkB.collect.stencil.front.writeMask,
+            overlay::kOverlapFlagB | overlay::kOverlapCountMask);
+  EXPECT_EQ(overlay::kGroupedMark.collect, overlay::kCollectRect);
+  EXPECT_EQ(overlay::kGroupedMark.markZFail, overlay::kMarkZFailGrouped);
+  // Front faces in front of the point (+1) and, for the crossings that cancel, back faces (−1).
+  auto mark = [&](std::uint8_t s, const overlay::FlagMarkStates& states, int pieces, int pairs) {
+    int done = 0;
+    while (done < pieces || (pieces == 0 && done == 0)) {
+      const int group = std::min<int>(pieces - done, static_cast<int>(states.groupSize));
+      for (int k = 0; k < group; ++k) s = stencilUpdate(states.markZPass.stencil.front, s, true);
+      for (int k = 0; k < pairs; ++k) {
+        s = stencilUpdate(states.markZPass.stencil.back, s, true);
+        s = stencilUpdate(states.markZPass.stencil.front, s, true);
+      }
+      s = stencilUpdate(states.collect.stencil.front, s, true);
+      done += std::max(group, 1);
+    }
+    return s;
+  };
+  struct Op {
+    const char* name;
+    std::vector<const gfx::PipelineState*> passes;
+    bool (*truth)(bool, bool);
+  };
+  const Op ops[] = {
+      {"and", {&overlay::kOverlapAnd}, [](bool a, bool b) { return a && b; }},
+      {"or", {&overlay::kOverlapOr}, [](bool a, bool b) { return a || b; }},
+      {"subtract", {&overlay::kOverlapSubtract}, [](bool a, bool b) { return a && !b; }},
+      {"xor", {&overlay::kOverlapXorFirst, &overlay::kOverlapXorLast}, [](bool a, bool b) { return a != b; }},
+  };
+  for (int nA : {0, 1, 2, 62, 63, 64, 127, 128, 200, 256}) {
+    for (int nB : {0, 1, 63, 64, 129}) {
+      std::uint8_t s = mark(0, overlay::kOverlapMarkA, nA, 3);
+      s = mark(s, overlay::kOverlapMarkB, nB, 2);
+      EXPECT_EQ(s & overlay::kOverlapCountMask, 0) << nA << ", " << nB;
+      EXPECT_EQ((s & overlay::kOverlapFlagA) != 0, nA > 0) << nA << ", " << nB;
+      EXPECT_EQ((s & overlay::kOverlapFlagB) != 0, nB > 0) << nA << ", " << nB;
+      for (const Op& op : ops) {
+        std::uint8_t t = s;
+        bool coloured = false;
+        for (const gfx::PipelineState* pass : op.passes) {
+          const gfx::StencilFace& f = pass->stencil.front;
+          EXPECT_EQ(f.readMask, overlay::kOverlapFlags);
+          // The cover colours where the stencil test passes (no depth test).
+          const int ref = f.ref & f.readMask, value = t & f.readMask;
+          const bool passes = f.func == CompareFunc::Equal ? ref == value : ref != value;
+          ASSERT_TRUE(f.func == CompareFunc::Equal || f.func == CompareFunc::NotEqual);
+          coloured = coloured || passes;
+          t = stencilUpdate(f, t, true);
+          EXPECT_TRUE(pass->raster.colorMask.r && !pass->depth.test);
+        }
+        EXPECT_EQ(coloured, op.truth(nA > 0, nB > 0)) << op.name << " " << nA << ", " << nB;
+        EXPECT_EQ(t, 0) << op.name << ": the stencil is not returned to 0";
+      }
+    }
+  }
+}
+
+TEST(StencilStates, CountingFacesIsFrontPlusOneBackMinusOneWithNoDepthTest) {
+  const gfx::PipelineState& s = overlay::kCountFaces;
+  EXPECT_FALSE(s.depth.test);
+  EXPECT_FALSE(s.depth.write);
+  EXPECT_TRUE(s.depth.clamp);
+  EXPECT_EQ(s.raster.cull, CullMode::None);
+  EXPECT_FALSE(s.raster.colorMask.r || s.raster.colorMask.a);
+  EXPECT_EQ(s.stencil.front.depthPass, StencilOp::IncrWrap);
+  EXPECT_EQ(s.stencil.back.depthPass, StencilOp::DecrWrap);
+  // 300 faces entering and 300 leaving in any order: 0 (mod 256).
+  std::uint8_t v = 0;
+  for (int k = 0; k < 300; ++k) v = stencilUpdate(s.stencil.front, v, true);
+  EXPECT_EQ(v, 300 % 256);
+  for (int k = 0; k < 300; ++k) v = stencilUpdate(s.stencil.back, v, true);
+  EXPECT_EQ(v, 0);
+  EXPECT_EQ(overlay::kCoverOpenFaces.stencil.front.func, CompareFunc::NotEqual);
+  EXPECT_EQ(overlay::kCoverOpenFaces.stencil.front.depthPass, StencilOp::Zero);
 }
 
 }  // namespace

@@ -100,7 +100,7 @@ void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
 
 GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer,
                                              const std::vector<std::size_t>& slots, const OverlaySettings& settings,
-                                             const PixelScale& scale) {
+                                             const PixelScale& scale, bool capped) {
   if (slots.empty()) return 0;
   // w of clip space is the distance along the view direction; the near plane is at w = near.
   const glm::dmat4& m = view.viewProj;
@@ -152,15 +152,9 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
         (side < 0 ? bottom : top)[k] = q;
       }
     }
+    // With `capped`: the cut edges (entry, exit) of the piece's faces, for the cap on the plane.
+    std::vector<std::array<glm::dvec3, 2>> cuts;
     auto triangle = [&](const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-      // A face whose plane passes through the eye is seen edge on: it covers no area, but
-      // rounded to float its image becomes a sliver of either orientation with meaningless
-      // depths, which would count. Leave it out when the eye is within 1e-5 of the distance to
-      // the face from its plane (its image is then under 0.01 px wide); a wall shared by two
-      // pieces of the layer goes from both, which keeps their sum.
-      const glm::dvec3 normal = glm::cross(b - a, c - a);
-      const double nearest = std::min({glm::length(a), glm::length(b), glm::length(c)});
-      if (std::abs(glm::dot(normal, a)) <= 1e-5 * nearest * glm::length(normal)) return;
       const std::array<glm::dvec3, 3> v{a, b, c};
       std::array<double, 3> w{};
       int inside = 0;
@@ -169,17 +163,31 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
         inside += w[static_cast<std::size_t>(k)] >= wMin ? 1 : 0;
       }
       if (inside == 0) return;
-      if (inside == 3) {
-        for (const glm::dvec3& q : v) emit(q, rgba);
-        return;
-      }
       // Sutherland–Hodgman against one plane: a triangle or a quad (two triangles), same winding.
+      // The polygon runs along the plane from where it leaves the kept side to where it enters.
       std::vector<glm::dvec3> poly;
-      for (std::size_t k = 0; k < 3; ++k) {
+      glm::dvec3 entry(0.0), exit(0.0);
+      for (std::size_t k = 0; k < 3 && inside < 3; ++k) {
         const std::size_t n = (k + 1) % 3;
         const bool in = w[k] >= wMin, nextIn = w[n] >= wMin;
         if (in) poly.push_back(v[k]);
-        if (in != nextIn) poly.push_back(cut(v[k], v[n], w[k], w[n]));
+        if (in != nextIn) {
+          poly.push_back(cut(v[k], v[n], w[k], w[n]));
+          (in ? exit : entry) = poly.back();
+        }
+      }
+      if (capped && inside < 3) cuts.push_back({entry, exit});
+      // A face whose plane passes through the eye is seen edge on: it covers no area, but
+      // rounded to float its image becomes a sliver of either orientation with meaningless
+      // depths, which would count. Leave it out when the eye is within 1e-5 of the distance to
+      // the face from its plane (its image is then under 0.01 px wide); a wall shared by two
+      // pieces of the layer goes from both, which keeps their sum.
+      const glm::dvec3 normal = glm::cross(b - a, c - a);
+      const double nearest = std::min({glm::length(a), glm::length(b), glm::length(c)});
+      if (std::abs(glm::dot(normal, a)) <= 1e-5 * nearest * glm::length(normal)) return;
+      if (inside == 3) {
+        for (const glm::dvec3& q : v) emit(q, rgba);
+        return;
       }
       for (std::size_t k = 1; k + 1 < poly.size(); ++k) {
         emit(poly[0], rgba);
@@ -195,6 +203,19 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
       triangle(bottom[e[0]], bottom[e[1]], top[e[1]]);
       triangle(bottom[e[0]], top[e[1]], top[e[0]]);
     }
+    // The cap: the section of the piece by the plane, bounded by the cut edges run the other
+    // way round (entry → exit), drawn as a fan from one point of it. Overlapping fan triangles
+    // of opposite orientation cancel, so every pixel counts the section's winding number — 1
+    // inside, 0 outside — without triangulating it; it faces the eye, as the kept side's
+    // boundary there must. Shared cut points are bit-identical, so the fan is watertight.
+    if (!cuts.empty()) {
+      const glm::dvec3 o = cuts.front()[0];
+      for (const auto& [entry, exit] : cuts) {
+        emit(o, rgba);
+        emit(entry, rgba);
+        emit(exit, rgba);
+      }
+    }
   }
   const std::size_t bytes = out.size() * sizeof(Out);
   if (bytes == 0) return 0;
@@ -207,10 +228,8 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
   return static_cast<GLsizei>(out.size());
 }
 
-std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const OverlayView& view,
-                                                   std::span<const OverlayLayer* const> layers,
-                                                   const OverlaySettings& settings) {
-  std::vector<LayerFrameStats> stats(layers.size());
+PixelScale OverlayRenderer::beginFrame(const OverlayView& view, const OverlaySettings& settings,
+                                       std::span<const OverlayLayer* const> layers) {
   program_.use();
   program_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
   program_.set("u_padBase", static_cast<float>(settings.padBase));
@@ -224,6 +243,14 @@ std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const
     scale.eye = view.eye;
   }
   glBindVertexArray(vao_.id());
+  return scale;
+}
+
+std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const OverlayView& view,
+                                                   std::span<const OverlayLayer* const> layers,
+                                                   const OverlaySettings& settings) {
+  std::vector<LayerFrameStats> stats(layers.size());
+  const PixelScale scale = beginFrame(view, settings, layers);
   for (std::size_t i = 0; i < layers.size(); ++i) {
     if (layers[i] != nullptr) drawLayer(cache, view, *layers[i], i, settings, scale, stats[i]);
   }
@@ -231,22 +258,18 @@ std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const
   return stats;
 }
 
-void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
-                                std::size_t index, const OverlaySettings& settings, const PixelScale& scale,
-                                LayerFrameStats& stats) {
+OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const OverlayLayer& layer,
+                                                  const OverlaySettings& settings, bool wholePieces,
+                                                  LayerFrameStats& stats) const {
+  Pieces out;
   const auto& slots = layer.slots();
   const auto& polyhedra = layer.polyhedra();
-  if (slots.empty()) return;
+  if (slots.empty()) return out;
   const std::array<glm::dvec4, 6> planes = gfx::frustumPlanes(view.viewProj);
   // A polyhedron closer to the eye than the near plane's corners may be cut by it, or hold the
   // eye: it is drawn z-fail (exact for any eye position, with depth clamp and closed caps).
   const double t = std::tan(view.fovYRadians / 2.0);
   const double margin = view.nearPlane * std::sqrt(1.0 + t * t * (1.0 + view.aspect * view.aspect)) + 0.01;
-
-  std::vector<Command> zPass, zFail, coverZPass, coverZFail;
-  std::vector<std::size_t> zFailSlots;
-  std::vector<std::pair<bool, std::size_t>> order;  ///< (z-fail, index into zPass / zFailSlots)
-  std::vector<std::array<glm::dvec3, 2>> boxes;     ///< per entry of order, padded
   for (const OverlayLayer::PieceSlot& s : slots) {
     if (!s.live) continue;
     const Polyhedron& p = polyhedra[static_cast<std::size_t>(&s - slots.data())];
@@ -258,58 +281,52 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       ++stats.culledPieces;
       continue;
     }
-    boxes.push_back({lo, hi});
+    out.boxes.push_back({lo, hi});
     const bool fail = settings.forceZFail || (layer.paperVariant() ? distanceToBox(view.eye, lo, hi) <= margin
                                                                    : mayContain(p, view.eye, pad, margin));
     const Command whole{s.indexCount, 1, s.firstIndex, static_cast<GLint>(s.baseVertex), s.origin};
     if (fail) {
       ++stats.zFailPieces;
-      zFail.push_back(whole);
-      order.emplace_back(true, zFailSlots.size());
-      zFailSlots.push_back(static_cast<std::size_t>(&s - slots.data()));
+      out.zFail.push_back(whole);
+      out.order.emplace_back(true, out.zFailSlots.size());
+      out.zFailSlots.push_back(static_cast<std::size_t>(&s - slots.data()));
     } else {
-      order.emplace_back(false, zPass.size());
+      out.order.emplace_back(false, out.zPass.size());
       ++stats.zPassPieces;
       // Over drawn terrain the bottom cap is hidden from an eye outside: leave it out.
-      const bool skipBottom = p.overSurface && !layer.paperVariant();
-      zPass.push_back(skipBottom ? Command{s.indexCount - s.bottomCount, 1, s.firstIndex + s.bottomCount,
-                                           static_cast<GLint>(s.baseVertex), s.origin}
-                                 : whole);
+      const bool skipBottom = p.overSurface && !layer.paperVariant() && !wholePieces;
+      out.zPass.push_back(skipBottom ? Command{s.indexCount - s.bottomCount, 1, s.firstIndex + s.bottomCount,
+                                               static_cast<GLint>(s.baseVertex), s.origin}
+                                     : whole);
     }
     if (layer.paperVariant()) {
       const Command box{36, 1, s.boxFirstIndex, static_cast<GLint>(s.baseVertex), s.origin};
-      (fail ? coverZFail : coverZPass).push_back(box);
+      (fail ? out.coverZFail : out.coverZPass).push_back(box);
     }
   }
-  const std::optional<glm::vec4> rectColour =
-      layer.paperVariant() || !settings.rectangleCover ? std::nullopt : layer.uniformColor();
-  stats.rectangleCover = rectColour.has_value();
-  if (!layer.paperVariant() && !rectColour) {
-    coverZPass = zPass;
-    coverZFail = zFail;
-  }
-  stats.drawCommands = zPass.size() + zFail.size() + coverZPass.size() + coverZFail.size();
-  if (zPass.empty() && zFail.empty()) return;
-  // The screen rectangle of the boxes of order[first, last).
-  auto rectOf = [&](std::size_t first, std::size_t last) {
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    for (std::size_t k = first; k < last; ++k) {
-      lo = glm::min(lo, boxes[k][0]);
-      hi = glm::max(hi, boxes[k][1]);
-    }
-    return screenRect(view.viewProj, view.nearPlane, lo, hi);
-  };
-  const float maskBit = static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23));
+  return out;
+}
 
-  // Origins relative to the eye, in the order of the layer's origin table.
+glm::vec4 OverlayRenderer::rectOf(const OverlayView& view, const Pieces& pieces, std::size_t first, std::size_t last) {
+  if (first >= last) return glm::vec4(0.0F);
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (std::size_t k = first; k < last; ++k) {
+    lo = glm::min(lo, pieces.boxes[k][0]);
+    hi = glm::max(hi, pieces.boxes[k][1]);
+  }
+  return screenRect(view.viewProj, view.nearPlane, lo, hi);
+}
+
+bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& layer, const PixelScale& scale) {
+  // Origins relative to the eye, in the order of the layer's origin table, then a zero origin
+  // for geometry already relative to the eye (the clipped pieces).
   const auto& origins = layer.origins();
   std::vector<float> offsets;
-  offsets.reserve(3 * origins.size());
+  offsets.reserve(3 * origins.size() + 3);
   for (const glm::dvec2& o : origins) {
     offsets.insert(offsets.end(), {static_cast<float>(o.x - view.eye.x), static_cast<float>(o.y - view.eye.y),
                                    static_cast<float>(-view.eye.z)});
   }
-  const auto zeroOrigin = static_cast<GLuint>(origins.size());  // for geometry already relative to the eye
   offsets.insert(offsets.end(), {0.0F, 0.0F, 0.0F});
   const std::size_t bytes = offsets.size() * sizeof(float);
   if (!origins_ || originsCapacity_ < bytes) {
@@ -322,7 +339,6 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
   glVertexArrayVertexBuffer(vao, 1, origins_.id(), 0, 3 * sizeof(float));
   glVertexArrayElementBuffer(vao, layer.indexBuffer());
-  program_.set("u_maskBit", maskBit);
   const bool inPixels = layer.widthPixels() > 0.0 && layer.scalingBuffer() != 0;
   if (inPixels) {
     glVertexArrayVertexBuffer(vao, 2, layer.scalingBuffer(), 0, 3 * sizeof(float));
@@ -330,95 +346,142 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     program_.set("u_halfWidthPerMetre", static_cast<float>(0.5 * layer.widthPixels() * scale.metresPerPixel));
     program_.set("u_maxHalfWidth", static_cast<float>(0.5 * layer.style().maxWidthMetres));
   }
+  return inPixels;
+}
 
-  if (settings.measure) {
-    timer_->begin();
-    markStats_->begin();
+void OverlayRenderer::endLayer(bool inPixels) {
+  if (inPixels) glDisableVertexArrayAttrib(vao_.id(), 3);
+}
+
+void OverlayRenderer::drawClipped(const OverlayLayer& layer, GLsizei vertices, bool inPixels) {
+  if (vertices == 0) return;
+  const GLuint vao = vao_.id();
+  glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
+  if (inPixels) glDisableVertexArrayAttrib(vao, 3);  // already at this frame's width
+  const auto zeroOrigin = static_cast<GLuint>(layer.origins().size());
+  glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, vertices, 1, zeroOrigin);
+  if (inPixels) glEnableVertexArrayAttrib(vao, 3);
+  glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
+}
+
+void OverlayRenderer::beginMeasure(const OverlaySettings& settings) {
+  if (!settings.measure) return;
+  timer_->begin();
+  markStats_->begin();
+}
+
+void OverlayRenderer::endMeasure(const OverlaySettings& settings, double& milliseconds, std::uint64_t& fragments) {
+  if (!settings.measure) return;
+  markStats_->end();
+  timer_->end();
+  milliseconds = static_cast<double>(timer_->nanoseconds().value_or(0)) * 1e-6;
+  fragments = markStats_->result().fragmentShaderInvocations;
+}
+
+void OverlayRenderer::markIntoFlag(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                                   const Pieces& pieces, const OverlaySettings& settings, const PixelScale& scale,
+                                   bool inPixels, const FlagMarkStates& states, LayerFrameStats& stats) {
+  const std::size_t n = pieces.order.size();
+  for (std::size_t first = 0; first < n; first += states.groupSize) {
+    const std::size_t last = std::min(n, first + states.groupSize);
+    std::vector<Command> groupPass;
+    std::vector<std::size_t> groupFail;
+    for (std::size_t k = first; k < last; ++k) {
+      if (pieces.order[k].first) {
+        groupFail.push_back(pieces.zFailSlots[pieces.order[k].second]);
+      } else {
+        groupPass.push_back(pieces.zPass[pieces.order[k].second]);
+      }
+    }
+    const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings, scale);
+    cache.apply(states.markZPass);
+    multiDraw(groupPass);
+    cache.apply(states.markZFail);
+    drawClipped(layer, clipped, inPixels);
+    cache.apply(states.collect);
+    drawRect(rectOf(view, pieces, first, last), glm::vec4(0.0F), 0.0F);
+    ++stats.groups;
   }
-  // Our z-fail pieces are clipped on the CPU just in front of the eye (uploadClippedPieces).
-  auto drawClipped = [&](GLsizei vertices) {
-    if (vertices == 0) return;
-    glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
-    if (inPixels) glDisableVertexArrayAttrib(vao, 3);  // already at this frame's width
-    glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, vertices, 1, zeroOrigin);
-    if (inPixels) glEnableVertexArrayAttrib(vao, 3);
-    glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
-  };
+}
+
+void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                                std::size_t index, const OverlaySettings& settings, const PixelScale& scale,
+                                LayerFrameStats& stats) {
+  Pieces pieces = classify(view, layer, settings, false, stats);
+  const std::optional<glm::vec4> rectColour =
+      layer.paperVariant() || !settings.rectangleCover ? std::nullopt : layer.uniformColor();
+  stats.rectangleCover = rectColour.has_value();
+  if (!layer.paperVariant() && !rectColour) {
+    pieces.coverZPass = pieces.zPass;
+    pieces.coverZFail = pieces.zFail;
+  }
+  stats.drawCommands = pieces.zPass.size() + pieces.zFail.size() + pieces.coverZPass.size() + pieces.coverZFail.size();
+  if (pieces.order.empty()) return;
+  const float maskBit = static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23));
+  const glm::vec4 rect = rectOf(view, pieces, 0, pieces.order.size());
+
   const bool grouped = !layer.paperVariant() && (settings.forceGroups || layer.maxOverlap() > 255);
   stats.grouped = grouped;
+  beginMeasure(settings);
+  const bool inPixels = bindLayer(view, layer, scale);
+  program_.set("u_maskBit", maskBit);
+  if (grouped) {
+    // Groups of at most 127 pieces: mark (7-bit counts), collect into the flag; then one cover.
+    markIntoFlag(cache, view, layer, pieces, settings, scale, inPixels, kGroupedMark, stats);
+  }
   if (layer.paperVariant()) {
     cache.apply(kPaperMarkZPassFront);
-    multiDraw(zPass);
+    multiDraw(pieces.zPass);
     cache.apply(kPaperMarkZPassBack);
-    multiDraw(zPass);
+    multiDraw(pieces.zPass);
     cache.apply(kPaperMarkZFailBack);
-    multiDraw(zFail);
+    multiDraw(pieces.zFail);
     cache.apply(kPaperMarkZFailFront);
-    multiDraw(zFail);
+    multiDraw(pieces.zFail);
     if (settings.measure) {
       markStats_->end();
       coverStats_->begin();
     }
     cache.apply(kPaperCoverZPass);
-    multiDraw(coverZPass);
+    multiDraw(pieces.coverZPass);
     cache.apply(kPaperCoverZFail);
-    multiDraw(coverZFail);
+    multiDraw(pieces.coverZFail);
   } else if (!grouped) {
     cache.apply(kMarkZPass);
-    multiDraw(zPass);
-    const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings, scale);
+    multiDraw(pieces.zPass);
+    const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
     cache.apply(kMarkZFail);
-    drawClipped(clipped);
+    drawClipped(layer, clipped, inPixels);
     if (settings.measure) {
       markStats_->end();
       coverStats_->begin();
     }
     if (rectColour) {
       cache.apply(kCoverRect);
-      drawRect(rectOf(0, order.size()), *rectColour, maskBit);
+      drawRect(rect, *rectColour, maskBit);
     } else {
       cache.apply(kCoverZPass);
-      multiDraw(zPass);
+      multiDraw(pieces.zPass);
       cache.apply(kCoverZFail);
-      drawClipped(clipped);
+      drawClipped(layer, clipped, inPixels);
     }
   } else {
-    // Groups of at most 127 pieces: mark (7-bit counts), collect into the flag; then one cover.
-    for (std::size_t first = 0; first < order.size(); first += kGroupSize) {
-      std::vector<Command> groupPass;
-      std::vector<std::size_t> groupFail;
-      for (std::size_t k = first; k < std::min(order.size(), first + kGroupSize); ++k) {
-        if (order[k].first) {
-          groupFail.push_back(zFailSlots[order[k].second]);
-        } else {
-          groupPass.push_back(zPass[order[k].second]);
-        }
-      }
-      const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings, scale);
-      cache.apply(kMarkZPassGrouped);
-      multiDraw(groupPass);
-      cache.apply(kMarkZFailGrouped);
-      drawClipped(clipped);
-      cache.apply(kCollectRect);
-      drawRect(rectOf(first, std::min(order.size(), first + kGroupSize)), glm::vec4(0.0F), 0.0F);
-      ++stats.groups;
-    }
     if (settings.measure) {
       markStats_->end();
       coverStats_->begin();
     }
     if (rectColour) {
       cache.apply(kCoverFlaggedRect);
-      drawRect(rectOf(0, order.size()), *rectColour, maskBit);
+      drawRect(rect, *rectColour, maskBit);
     } else {
       cache.apply(kCoverFlaggedZPass);
-      multiDraw(zPass);
-      const GLsizei clipped = uploadClippedPieces(view, layer, zFailSlots, settings, scale);
+      multiDraw(pieces.zPass);
+      const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
       cache.apply(kCoverFlaggedZFail);
-      drawClipped(clipped);
+      drawClipped(layer, clipped, inPixels);
     }
   }
-  if (inPixels) glDisableVertexArrayAttrib(vao, 3);
+  endLayer(inPixels);
   if (settings.measure) {
     coverStats_->end();
     timer_->end();

@@ -8,13 +8,16 @@
 // Draw buffer 0 receives the blended colour. If the framebuffer has a second draw buffer (a
 // float format such as R32F), layer i adds 2^i there: a per-pixel layer mask (written with the
 // same premultiplied blend: the mask output has alpha 0, so it adds).
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include "core/diagnostics.hpp"
 #include "gfx/handles.hpp"
@@ -22,6 +25,7 @@
 #include "gfx/queries.hpp"
 #include "gfx/state_cache.hpp"
 #include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/stencil_states.hpp"
 
 namespace gis::overlay {
 
@@ -60,6 +64,22 @@ struct LayerFrameStats {
   std::uint64_t coverFragments = 0;
 };
 
+/// Layer overlap analysis: which pixels' terrain is covered by layer A, by layer B, or both.
+enum class OverlapOp {
+  And,       ///< covered by both
+  Or,        ///< by either
+  Xor,       ///< by exactly one
+  Subtract,  ///< by A and not by B
+};
+
+/// What markOverlap / countOpenFaces leave in the stencil, for the cover that follows.
+struct AnalysisMarks {
+  glm::vec4 rect{0.0F};          ///< normalised-device rectangle holding every marked pixel (empty: none)
+  LayerFrameStats a, b;          ///< the layers' pieces as drawn (b unused by countOpenFaces)
+  double gpuMilliseconds = 0.0;  ///< marking, when measured
+  std::uint64_t fragments = 0;
+};
+
 class OverlayRenderer {
  public:
   /// Needs a current GL 4.5 context.
@@ -70,6 +90,32 @@ class OverlayRenderer {
   std::vector<LayerFrameStats> draw(gfx::StateCache& cache, const OverlayView& view,
                                     std::span<const OverlayLayer* const> layers, const OverlaySettings& settings = {});
 
+  // Analysis with the same stencil core (after the stencil-volume-intersections article). Each
+  // is two calls: mark into the stencil (read it in between if you like), then cover, which
+  // colours and returns the stencil to 0. The stencil must be 0 before marking; the depth
+  // buffer must hold the terrain. Covers write `colour` (straight alpha, blended over) and add
+  // `maskValue` to a second draw buffer if there is one.
+
+  /// Where layer A, and where layer B, covers the terrain: bit kOverlapFlagA / kOverlapFlagB of
+  /// the stencil (stencil_states.hpp). Counted in groups of kOverlapGroupSize pieces, so any
+  /// depth of overlap is exact.
+  AnalysisMarks markOverlap(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& a,
+                            const OverlayLayer& b, const OverlaySettings& settings = {});
+  /// Colours the pixels where `op` of the two marks holds, and zeroes the marks.
+  void coverOverlap(gfx::StateCache& cache, const AnalysisMarks& marks, OverlapOp op, const glm::vec4& colour,
+                    float maskValue = 0.0F);
+
+  /// Where the layer's volumes are not closed: every face of every piece in view counted with
+  /// no depth test, front faces +1 and back faces −1 (mod 256). Closed volumes sum to 0 on every
+  /// pixel when the eye is outside them; pieces that may hold the eye or meet the near plane are
+  /// clipped on the CPU and capped on the clip plane with the section their cut edges bound,
+  /// so they sum to 0 too. A non-zero stencil marks a ray through a hole.
+  AnalysisMarks countOpenFaces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                               const OverlaySettings& settings = {});
+  /// Colours the pixels with a non-zero count and zeroes the counts.
+  void coverOpenFaces(gfx::StateCache& cache, const AnalysisMarks& marks, const glm::vec4& colour,
+                      float maskValue = 0.0F);
+
  private:
   OverlayRenderer() = default;
   struct Command {
@@ -77,15 +123,45 @@ class OverlayRenderer {
     GLint baseVertex;
     GLuint baseInstance;
   };
+  /// A layer's pieces in view for one frame, classified z-pass / z-fail.
+  struct Pieces {
+    std::vector<Command> zPass;                   ///< bottom caps left out where the terrain hides them (unless whole)
+    std::vector<Command> zFail;                   ///< whole, for the paper's variant (ours are clipped on the CPU)
+    std::vector<Command> coverZPass, coverZFail;  ///< the paper's bounding boxes
+    std::vector<std::size_t> zFailSlots;
+    std::vector<std::pair<bool, std::size_t>> order;  ///< (z-fail, index into zPass / zFailSlots)
+    std::vector<std::array<glm::dvec3, 2>> boxes;     ///< per entry of order, padded
+  };
+  Pieces classify(const OverlayView& view, const OverlayLayer& layer, const OverlaySettings& settings, bool wholePieces,
+                  LayerFrameStats& stats) const;
+  /// The normalised-device rectangle holding the boxes of pieces.order[first, last).
+  static glm::vec4 rectOf(const OverlayView& view, const Pieces& pieces, std::size_t first, std::size_t last);
+  /// Sets the per-frame uniforms (matrix, padding) and the pixel scale of lines in pixels.
+  PixelScale beginFrame(const OverlayView& view, const OverlaySettings& settings,
+                        std::span<const OverlayLayer* const> layers);
+  /// Uploads the layer's origins relative to the eye and binds its buffers; returns whether its
+  /// lines are drawn in pixels (attribute 3 enabled, to be disabled with endLayer).
+  bool bindLayer(const OverlayView& view, const OverlayLayer& layer, const PixelScale& scale);
+  void endLayer(bool inPixels);
+  /// Draws `vertices` clipped triangles (uploadClippedPieces) of the bound layer.
+  void drawClipped(const OverlayLayer& layer, GLsizei vertices, bool inPixels);
+  /// Marks the bound layer's pieces (our states) group by group and collects each group into a
+  /// stencil flag (stencil_states.hpp).
+  void markIntoFlag(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, const Pieces& pieces,
+                    const OverlaySettings& settings, const PixelScale& scale, bool inPixels,
+                    const FlagMarkStates& states, LayerFrameStats& stats);
   void drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, std::size_t index,
                  const OverlaySettings& settings, const PixelScale& scale, LayerFrameStats& stats);
   void multiDraw(const std::vector<Command>& commands);
   /// The z-fail pieces as triangles relative to the eye, clipped on the CPU at half the near
   /// distance (shared edges cut bit-identically): GL never clips them at the eye plane, where
-  /// independent clipping of neighbouring faces leaves one-pixel cracks. Returns the vertex
+  /// independent clipping of neighbouring faces leaves one-pixel cracks. With `capped`, each
+  /// piece is closed again on the clip plane by a fan over its cut edges. Returns the vertex
   /// count in clipped_.
   GLsizei uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer, const std::vector<std::size_t>& slots,
-                              const OverlaySettings& settings, const PixelScale& scale);
+                              const OverlaySettings& settings, const PixelScale& scale, bool capped = false);
+  void beginMeasure(const OverlaySettings& settings);
+  void endMeasure(const OverlaySettings& settings, double& milliseconds, std::uint64_t& fragments);
 
   /// Draws a screen rectangle with the cover program (colour and mask bit) in the current state.
   void drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit);

@@ -92,17 +92,20 @@ inline constexpr std::uint8_t kGroupFlag = 0x80;
 inline constexpr std::uint8_t kGroupCountMask = 0x7F;
 inline constexpr std::size_t kGroupSize = 127;
 
-inline constexpr gfx::PipelineState groupedMark(gfx::PipelineState s) {
-  s.stencil.front.writeMask = kGroupCountMask;
-  s.stencil.back.writeMask = kGroupCountMask;
+inline constexpr gfx::PipelineState groupedMark(gfx::PipelineState s, std::uint8_t countMask = kGroupCountMask) {
+  s.stencil.front.writeMask = countMask;
+  s.stencil.back.writeMask = countMask;
   return s;
 }
 inline constexpr gfx::PipelineState kMarkZPassGrouped = groupedMark(kMarkZPass);
 inline constexpr gfx::PipelineState kMarkZFailGrouped = groupedMark(kMarkZFail);
 
-inline constexpr gfx::PipelineState collectState(gfx::CullMode cull) {
-  const gfx::StencilFace face = detail::stencilFace(gfx::CompareFunc::NotEqual, gfx::StencilOp::Replace,
-                                                    gfx::StencilOp::Replace, kGroupFlag, kGroupCountMask, 0xFF);
+/// (count ≠ 0) → flag, count zeroed; other bits kept.
+inline constexpr gfx::PipelineState collectState(gfx::CullMode cull, std::uint8_t flag = kGroupFlag,
+                                                 std::uint8_t countMask = kGroupCountMask) {
+  const gfx::StencilFace face =
+      detail::stencilFace(gfx::CompareFunc::NotEqual, gfx::StencilOp::Replace, gfx::StencilOp::Replace, flag, countMask,
+                          static_cast<std::uint8_t>(flag | countMask));
   gfx::PipelineState s = detail::coverState(cull);
   s.stencil = gfx::StencilState{true, face, face};
   s.blend = gfx::BlendState{};
@@ -113,6 +116,22 @@ inline constexpr gfx::PipelineState collectState(gfx::CullMode cull) {
 inline constexpr gfx::PipelineState kCollectZPass = collectState(gfx::CullMode::Back);
 inline constexpr gfx::PipelineState kCollectZFail = collectState(gfx::CullMode::Front);
 inline constexpr gfx::PipelineState kCollectRect = collectState(gfx::CullMode::None);
+
+/// The three states that mark a layer into a stencil flag, group by group.
+struct FlagMarkStates {
+  gfx::PipelineState markZPass, markZFail, collect;
+  std::uint8_t flag, countMask;
+  std::size_t groupSize;
+};
+inline constexpr FlagMarkStates flagMarkStates(std::uint8_t flag, std::uint8_t countMask) {
+  return {groupedMark(kMarkZPass, countMask),
+          groupedMark(kMarkZFail, countMask),
+          collectState(gfx::CullMode::None, flag, countMask),
+          flag,
+          countMask,
+          countMask};
+}
+inline constexpr FlagMarkStates kGroupedMark = flagMarkStates(kGroupFlag, kGroupCountMask);
 
 inline constexpr gfx::PipelineState flaggedCover(gfx::CullMode cull) {
   const gfx::StencilFace face = detail::stencilFace(gfx::CompareFunc::Equal, gfx::StencilOp::Zero, gfx::StencilOp::Zero,
@@ -125,5 +144,54 @@ inline constexpr gfx::PipelineState flaggedCover(gfx::CullMode cull) {
 inline constexpr gfx::PipelineState kCoverFlaggedZPass = flaggedCover(gfx::CullMode::Back);
 inline constexpr gfx::PipelineState kCoverFlaggedZFail = flaggedCover(gfx::CullMode::Front);
 inline constexpr gfx::PipelineState kCoverFlaggedRect = flaggedCover(gfx::CullMode::None);
+
+}  // namespace gis::overlay
+
+namespace gis::overlay {
+
+// Layer overlap analysis (after the stencil-volume-intersections article; DESIGN §4 states
+// reused): layer A is marked into bit 0x80 and layer B into bit 0x40, each in groups of at most
+// 63 pieces counted in the low six bits (wrapping mod 64) and collected into its flag after
+// every group, so neither the depth of overlap nor the other layer's flag disturbs a count. A
+// cover then tests the two flags (read mask 0xC0) against the operator's values.
+inline constexpr std::uint8_t kOverlapFlagA = 0x80;
+inline constexpr std::uint8_t kOverlapFlagB = 0x40;
+inline constexpr std::uint8_t kOverlapFlags = kOverlapFlagA | kOverlapFlagB;
+inline constexpr std::uint8_t kOverlapCountMask = 0x3F;
+inline constexpr FlagMarkStates kOverlapMarkA = flagMarkStates(kOverlapFlagA, kOverlapCountMask);
+inline constexpr FlagMarkStates kOverlapMarkB = flagMarkStates(kOverlapFlagB, kOverlapCountMask);
+
+/// Colours where (stencil & 0xC0) compares to `value` by `func` and zeroes the stencil there;
+/// with `last`, zeroes it everywhere else in the rectangle too (the final pass of a cover).
+inline constexpr gfx::PipelineState overlapCover(gfx::CompareFunc func, std::uint8_t value, bool last) {
+  const gfx::StencilFace face{func,
+                              value,
+                              kOverlapFlags,
+                              0xFF,
+                              last ? gfx::StencilOp::Zero : gfx::StencilOp::Keep,
+                              gfx::StencilOp::Zero,
+                              gfx::StencilOp::Zero};
+  gfx::PipelineState s = detail::coverState(gfx::CullMode::None);
+  s.stencil = gfx::StencilState{true, face, face};
+  return s;
+}
+/// And: both flags. Or: either. Subtract: A only. Xor: A only, then B only (two passes).
+inline constexpr gfx::PipelineState kOverlapAnd = overlapCover(gfx::CompareFunc::Equal, kOverlapFlags, true);
+inline constexpr gfx::PipelineState kOverlapOr = overlapCover(gfx::CompareFunc::NotEqual, 0, true);
+inline constexpr gfx::PipelineState kOverlapSubtract = overlapCover(gfx::CompareFunc::Equal, kOverlapFlagA, true);
+inline constexpr gfx::PipelineState kOverlapXorFirst = overlapCover(gfx::CompareFunc::Equal, kOverlapFlagA, false);
+inline constexpr gfx::PipelineState kOverlapXorLast = overlapCover(gfx::CompareFunc::Equal, kOverlapFlagB, true);
+
+// Open volumes (the article's "back faces visible", made exact): every face counted with no
+// depth test, front faces +1 and back faces −1, wrapping. Along a ray from outside, a closed
+// volume is entered as often as it is left: 0. The cover is kCoverRect (NOTEQUAL 0, zero).
+inline constexpr gfx::PipelineState kCountFaces = [] {
+  gfx::PipelineState s =
+      detail::markState(detail::stencilFace(gfx::CompareFunc::Always, gfx::StencilOp::Keep, gfx::StencilOp::IncrWrap),
+                        detail::stencilFace(gfx::CompareFunc::Always, gfx::StencilOp::Keep, gfx::StencilOp::DecrWrap));
+  s.depth.test = false;
+  return s;
+}();
+inline constexpr gfx::PipelineState kCoverOpenFaces = kCoverRect;
 
 }  // namespace gis::overlay
