@@ -589,8 +589,7 @@ int runLasso(const Options& o) {
   settings.overlays = false;
   const app::FrameStats terrainFrame =
       renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
-  const overlay::OverlayView view{viewProj, camera.eye, camera.nearPlane, camera.fovYDeg * std::numbers::pi / 180.0,
-                                  aspect};
+  const overlay::OverlayView view = app::overlayViewOf(camera, aspect);
   std::size_t terrainPixels = 0;
   for (float d : gfx::readDepth(target)) terrainPixels += d > 0.0F ? 1u : 0u;
 

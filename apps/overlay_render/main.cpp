@@ -1,5 +1,7 @@
 // overlay_render: draws a scene headless and writes what tests, scripts and people need
-// (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png).
+// (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png,
+// overlap.png, open_volumes.png).
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -26,9 +28,12 @@
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
+#include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/logical_selection.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/selection_renderer.hpp"
 #include "vector_overlay/selection_states.hpp"
+#include "vector_overlay/stencil_states.hpp"
 
 namespace {
 
@@ -40,13 +45,18 @@ using app::report;
 
 constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
-    "                      [--lasso L.json] [--lod-tolerance PX] [--exaggeration X] --out DIR\n"
+    "                      [--lasso L.json] [--overlap A,B [--overlap-op OP]] [--open-volumes]\n"
+    "                      [--lod-tolerance PX] [--exaggeration X] --out DIR\n"
     "Draws the scene headless (OpenGL 4.5 core via EGL) and writes into DIR:\n"
     "  color.png   the frame, top row first\n"
     "  depth.tiff  float32 depth as stored (reversed-Z: 1 at the near plane, 0 = background)\n"
     "  mask.png    8-bit, bit i set where overlay layer i is drawn\n"
     "  camera.json view/proj (column-major), depth convention, frame crs and origin\n"
     "  stats.json  sizes, GPU times, pipeline statistics, load messages\n"
+    "--lasso: lasso selection (selection.png, selected_features.json; docs/command-line.md)\n"
+    "--overlap A,B: highlight where scene layers A and B both cover the terrain (overlap.png);\n"
+    "  --overlap-op and|or|xor|subtract chooses the combination (default and)\n"
+    "--open-volumes: show where a layer's stencil volumes are not closed (open_volumes.png)\n"
     "--lod-tolerance: largest projected terrain error in pixels (default 1.5; 0 = exact DEM)\n"
     "--exaggeration: vertical exaggeration (default: the scene's)\n";
 
@@ -54,6 +64,9 @@ struct Options {
   std::string scene;
   std::string camera;
   std::string lasso;
+  std::string overlap;  ///< "A,B"
+  overlay::OverlapOp overlapOp = overlay::OverlapOp::And;
+  bool openVolumes = false;
   std::string out;
   int width = 1024;
   int height = 768;
@@ -61,6 +74,28 @@ struct Options {
   double lodTolerance = 1.5;
   std::optional<double> exaggeration;
 };
+
+std::optional<overlay::OverlapOp> overlapOpOf(std::string_view name) {
+  if (name == "and") return overlay::OverlapOp::And;
+  if (name == "or") return overlay::OverlapOp::Or;
+  if (name == "xor") return overlay::OverlapOp::Xor;
+  if (name == "subtract") return overlay::OverlapOp::Subtract;
+  return std::nullopt;
+}
+
+const char* overlapOpName(overlay::OverlapOp op) {
+  switch (op) {
+    case overlay::OverlapOp::And:
+      return "and";
+    case overlay::OverlapOp::Or:
+      return "or";
+    case overlay::OverlapOp::Xor:
+      return "xor";
+    case overlay::OverlapOp::Subtract:
+      return "subtract";
+  }
+  return "?";
+}
 
 /// Returns an error message, or an empty string when the options are good.
 std::string parseArgs(int argc, char** argv, Options& o) {
@@ -102,6 +137,17 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       error = setString(o.camera);
     else if (a == "--lasso")
       error = setString(o.lasso);
+    else if (a == "--overlap")
+      error = setString(o.overlap);
+    else if (a == "--overlap-op") {
+      const auto v = value();
+      const std::optional<overlay::OverlapOp> op = v ? overlapOpOf(*v) : std::nullopt;
+      if (op)
+        o.overlapOp = *op;
+      else
+        error = "--overlap-op needs one of and, or, xor, subtract";
+    } else if (a == "--open-volumes")
+      o.openVolumes = true;
     else if (a == "--out")
       error = setString(o.out);
     else if (a == "--width")
@@ -122,6 +168,9 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   }
   if (o.scene.empty()) return "--scene is required";
   if (o.out.empty()) return "--out is required";
+  if (!o.overlap.empty() && std::count(o.overlap.begin(), o.overlap.end(), ',') != 1) {
+    return "--overlap needs two layer names separated by a comma";
+  }
   return {};
 }
 
@@ -164,9 +213,7 @@ std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::
   const Diagnostics built = renderer->setSteps(request.steps);
   report(built);
   all.append(built);
-  const double aspect = static_cast<double>(width) / height;
-  const overlay::OverlayView view{camera.projection(aspect) * camera.view(), camera.eye, camera.nearPlane,
-                                  glm::radians(camera.fovYDeg), aspect};
+  const overlay::OverlayView view = app::overlayViewOf(camera, static_cast<double>(width) / height);
   glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
   overlay::SelectionSettings settings;
@@ -297,10 +344,137 @@ bool writeSelection(const std::filesystem::path& out, const SelectionOutput& sel
   return ok;
 }
 
+// Layer analysis (--overlap, --open-volumes) on the frame just drawn: marks read back from the
+// stencil between the mark and the cover, highlights blended into the colour.
+constexpr glm::vec4 kOverlapColour{1.0F, 0.0F, 1.0F, 0.6F};
+constexpr glm::vec4 kOpenColour{0.0F, 1.0F, 0.0F, 1.0F};
+
+/// The fill (not the outline) overlay layer of the scene layer with this name.
+std::optional<std::size_t> fillLayerNamed(const app::LoadedScene& scene, const app::SceneRenderer& renderer,
+                                          std::string_view name) {
+  for (std::size_t j = 0; j < renderer.overlaySources().size(); ++j) {
+    const auto& [layer, outline] = renderer.overlaySources()[j];
+    if (!outline && scene.layers[layer].description.name == name) return j;
+  }
+  return std::nullopt;
+}
+
+struct OverlapOutput {
+  std::size_t a = 0, b = 0;         ///< overlay layers
+  std::vector<std::uint8_t> flags;  ///< the stencil after marking, top row first
+  overlay::AnalysisMarks marks;
+};
+
+OverlapOutput drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
+                          std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
+  OverlapOutput out{a, b, {}, {}};
+  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
+  overlay::OverlaySettings settings;
+  settings.measure = true;
+  out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.overlayLayers()[a],
+                                                     renderer.overlayLayers()[b], settings);
+  out.flags = gfx::readStencil(target);
+  renderer.overlayRenderer().coverOverlap(cache, out.marks, op, kOverlapColour);
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  return out;
+}
+
+struct OpenVolumesOutput {
+  std::vector<std::uint8_t> pixels;  ///< 255 where some layer's volumes are open
+  json layers = json::array();
+  std::size_t openPixels = 0;
+};
+
+OpenVolumesOutput drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
+                                  const overlay::OverlayView& view) {
+  OpenVolumesOutput out;
+  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  gfx::enableMaskWrites(target.framebuffer(), false);
+  overlay::OverlaySettings settings;
+  settings.measure = true;
+  out.pixels.assign(static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height()), 0);
+  for (const overlay::OverlayLayer& layer : renderer.overlayLayers()) {
+    const overlay::AnalysisMarks marks = renderer.overlayRenderer().countOpenFaces(cache, view, layer, settings);
+    const std::vector<std::uint8_t> counts = gfx::readStencil(target);
+    renderer.overlayRenderer().coverOpenFaces(cache, marks, kOpenColour);
+    std::size_t open = 0;
+    for (std::size_t i = 0; i < counts.size() && i < out.pixels.size(); ++i) {
+      if (counts[i] == 0) continue;
+      ++open;
+      out.pixels[i] = 255;
+    }
+    out.layers.push_back({{"name", layer.name()},
+                          {"open_pixels", open},
+                          {"pieces_counted", marks.a.zPassPieces + marks.a.zFailPieces},
+                          {"pieces_clipped_and_capped", marks.a.zFailPieces},
+                          {"gpu_ms", marks.gpuMilliseconds},
+                          {"fragments", marks.fragments}});
+  }
+  for (std::uint8_t p : out.pixels) out.openPixels += p != 0 ? 1u : 0u;
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  return out;
+}
+
+bool combine(overlay::OverlapOp op, bool a, bool b) {
+  switch (op) {
+    case overlay::OverlapOp::And:
+      return a && b;
+    case overlay::OverlapOp::Or:
+      return a || b;
+    case overlay::OverlapOp::Xor:
+      return a != b;
+    case overlay::OverlapOp::Subtract:
+      return a && !b;
+  }
+  return false;
+}
+
+/// overlap.png and an "overlap" block in stats, with the CPU reference's answer on the same depth.
+bool writeOverlap(const std::filesystem::path& out, const OverlapOutput& overlap, overlay::OverlapOp op,
+                  const app::SceneRenderer& renderer, const app::LoadedScene& scene, const glm::dmat4& viewProj,
+                  const std::vector<float>& depth, int width, int height, json& stats) {
+  const std::vector<overlay::ReferenceLayer> ref{overlay::referenceLayerOf(renderer.overlayLayers()[overlap.a]),
+                                                 overlay::referenceLayerOf(renderer.overlayLayers()[overlap.b])};
+  const overlay::DepthImage image{width, height, depth, viewProj};
+  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
+  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+  std::vector<std::uint8_t> pixels(overlap.flags.size(), 0);
+  std::size_t inA = 0, inB = 0, both = 0, selected = 0, differing = 0, differingAwayFromEdges = 0;
+  for (std::size_t i = 0; i < pixels.size() && i < expected.size(); ++i) {
+    const bool a = (overlap.flags[i] & overlay::kOverlapFlagA) != 0,
+               b = (overlap.flags[i] & overlay::kOverlapFlagB) != 0;
+    inA += a ? 1u : 0u;
+    inB += b ? 1u : 0u;
+    both += a && b ? 1u : 0u;
+    const bool gpu = combine(op, a, b), cpu = combine(op, (expected[i] & 1u) != 0, (expected[i] & 2u) != 0);
+    pixels[i] = gpu ? 255 : 0;
+    selected += gpu ? 1u : 0u;
+    differing += gpu != cpu ? 1u : 0u;
+    differingAwayFromEdges += gpu != cpu && edges[i] == 0 ? 1u : 0u;
+  }
+  const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), width, height, 1, pixels);
+  report(png.diagnostics);
+  const auto nameOf = [&](std::size_t j) { return scene.layers[renderer.overlaySources()[j].first].description.name; };
+  stats["overlap"] = {{"layers", {nameOf(overlap.a), nameOf(overlap.b)}},
+                      {"op", overlapOpName(op)},
+                      {"pixels", selected},
+                      {"a_pixels", inA},
+                      {"b_pixels", inB},
+                      {"both_pixels", both},
+                      {"pixels_differing_from_cpu_reference", differing},
+                      {"differing_away_from_edges", differingAwayFromEdges},
+                      {"groups", overlap.marks.a.groups + overlap.marks.b.groups},
+                      {"gpu_ms", overlap.marks.gpuMilliseconds},
+                      {"fragments", overlap.marks.fragments}};
+  return png.ok();
+}
+
 int run(const Options& o) {
   Diagnostics all;
-  if (!o.lasso.empty() && o.msaa > 1) {
-    logError("--lasso with --msaa " + std::to_string(o.msaa) + ": lasso selection is drawn single-sampled only");
+  if ((!o.lasso.empty() || !o.overlap.empty() || o.openVolumes) && o.msaa > 1) {
+    logError("--lasso, --overlap and --open-volumes with --msaa " + std::to_string(o.msaa) +
+             ": selection and analysis are drawn single-sampled only");
     return 2;
   }
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
@@ -351,6 +525,21 @@ int run(const Options& o) {
   report(renderer.diagnostics);
   if (!renderer) return 1;
 
+  std::optional<std::pair<std::size_t, std::size_t>> overlapLayers;
+  if (!o.overlap.empty()) {
+    const std::size_t comma = o.overlap.find(',');
+    const std::string nameA = o.overlap.substr(0, comma), nameB = o.overlap.substr(comma + 1);
+    const std::optional<std::size_t> a = fillLayerNamed(*scene, *renderer, nameA);
+    const std::optional<std::size_t> b = fillLayerNamed(*scene, *renderer, nameB);
+    if (!a || !b) {
+      std::string names;
+      for (const app::LoadedLayer& l : scene->layers) names += (names.empty() ? "" : ", ") + l.description.name;
+      logError(o.scene + ": --overlap: no drawn layer named '" + (a ? nameB : nameA) + "' (layers: " + names + ")");
+      return 2;
+    }
+    overlapLayers.emplace(*a, *b);
+  }
+
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, o.msaa, true);
   app::RenderSettings settings;
@@ -364,6 +553,13 @@ int run(const Options& o) {
     selection = drawSelection(cache, target, *lasso, *camera, o.width, o.height, all);
     if (!selection) return 1;
   }
+  const overlay::OverlayView view = app::overlayViewOf(*camera, static_cast<double>(o.width) / o.height);
+  std::optional<OverlapOutput> overlap;
+  if (overlapLayers) {
+    overlap = drawOverlap(cache, target, *renderer, overlapLayers->first, overlapLayers->second, o.overlapOp, view);
+  }
+  std::optional<OpenVolumesOutput> open;
+  if (o.openVolumes) open = drawOpenVolumes(cache, target, *renderer, view);
   std::optional<gfx::RenderTarget> resolved;
   const gfx::RenderTarget* readable = &target;
   const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
@@ -510,6 +706,16 @@ int run(const Options& o) {
     stats["errors"] = all.count(Severity::Error);
     stats["warnings"] = all.count(Severity::Warning);
     stats["diagnostics"] = diagnosticsJson(all);
+  }
+  if (overlap) {
+    ok = writeOverlap(out, *overlap, o.overlapOp, *renderer, *scene, view.viewProj, depth, o.width, o.height, stats) &&
+         ok;
+  }
+  if (open) {
+    const Result<bool> png = gfx::writeImage8((out / "open_volumes.png").string(), o.width, o.height, 1, open->pixels);
+    report(png.diagnostics);
+    ok = ok && png.ok();
+    stats["open_volumes"] = {{"open_pixels", open->openPixels}, {"layers", open->layers}};
   }
   ok = writeJson(out / "camera.json", app::cameraToJson(*camera, scene->frame, o.width, o.height)) && ok;
   ok = writeJson(out / "stats.json", stats) && ok;

@@ -298,5 +298,66 @@ TEST(OverlayRenderLasso, SelectionImageFeaturesAndExportsAgreeWithTheTwin) {
   EXPECT_NE(readText(dir / "bad.txt").find("bad.json"), std::string::npos);
 }
 
+TEST(OverlayRenderAnalysis, OverlapMatchesTheLayerMaskAndVolumesAreClosed) {
+  // --overlap "census tracts,streets" (And) and --open-volumes on the sample without the tracts'
+  // outline: overlap.png is exactly where both layers' bits are set in mask.png (the ordinary
+  // layer passes on the same depth), agrees with the CPU reference away from edges (stats), and
+  // no layer's volumes are open.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("analysis_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
+  const std::string olinda = kSamples + "/olinda/";
+  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
+  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
+  for (json& layer : description["layers"]) {
+    layer["source"] = olinda + layer["source"].get<std::string>();
+    layer["style"].erase("outline_width_m");
+  }
+  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  const std::string scene = "--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                            " --height " + std::to_string(kHeight);
+  ASSERT_EQ(
+      runOverlayRender(scene + " --overlap \"census tracts,streets\" --open-volumes --out " + (dir / "out").string(),
+                       dir / "log.txt"),
+      0)
+      << readText(dir / "log.txt");
+  const fs::path out = dir / "out";
+  const gfx::Image8 overlap = *gfx::readImage8((out / "overlap.png").string());
+  const gfx::Image8 mask = *gfx::readImage8((out / "mask.png").string());
+  const gfx::Image8 open = *gfx::readImage8((out / "open_volumes.png").string());
+  ASSERT_EQ(overlap.width, kWidth);
+  ASSERT_EQ(mask.pixels.size(), overlap.pixels.size());
+  std::size_t both = 0, shown = 0, differing = 0;
+  for (std::size_t i = 0; i < overlap.pixels.size(); ++i) {
+    const bool inBoth = (mask.pixels[i] & 3) == 3;
+    both += inBoth ? 1u : 0u;
+    shown += overlap.pixels[i] != 0 ? 1u : 0u;
+    differing += inBoth != (overlap.pixels[i] != 0) ? 1u : 0u;
+    EXPECT_EQ(open.pixels[i], 0);
+  }
+  EXPECT_GT(both, 50u);
+  EXPECT_EQ(differing, 0u) << both << " pixels in both layers' masks, " << shown << " in overlap.png";
+  const json stats = json::parse(readText(out / "stats.json"));
+  const json& s = stats["overlap"];
+  EXPECT_EQ(s["op"], "and");
+  EXPECT_EQ(s["pixels"].get<std::size_t>(), shown);
+  EXPECT_EQ(s["both_pixels"].get<std::size_t>(), shown);
+  EXPECT_EQ(s["differing_away_from_edges"].get<std::size_t>(), 0u);
+  EXPECT_LE(s["pixels_differing_from_cpu_reference"].get<std::size_t>(),
+            2 + (s["a_pixels"].get<std::size_t>() + s["b_pixels"].get<std::size_t>()) / 200);
+  EXPECT_EQ(stats["open_volumes"]["open_pixels"].get<std::size_t>(), 0u);
+  EXPECT_EQ(stats["open_volumes"]["layers"].size(), 2u);
+  EXPECT_EQ(stats["gl_errors"].get<std::size_t>(), 0u);
+
+  // A layer that is not in the scene, and an unknown operator: usage errors naming the choices.
+  EXPECT_EQ(runOverlayRender(scene + " --overlap tracts,streets --out " + (dir / "bad").string(), dir / "bad.txt"), 2);
+  EXPECT_NE(readText(dir / "bad.txt").find("'tracts'"), std::string::npos);
+  EXPECT_NE(readText(dir / "bad.txt").find("census tracts, streets"), std::string::npos);
+  EXPECT_EQ(
+      runOverlayRender(scene + " --overlap a,b --overlap-op nand --out " + (dir / "bad").string(), dir / "op.txt"), 2);
+  EXPECT_NE(readText(dir / "op.txt").find("and, or, xor, subtract"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace gis::test

@@ -31,8 +31,11 @@ AnalysisMarks OverlayRenderer::markOverlap(gfx::StateCache& cache, const Overlay
     stats.grouped = true;
     if (pieces.order.empty()) continue;
     marks.rect = unite(marks.rect, rectOf(view, pieces, 0, pieces.order.size()));
+    // Groups only where the layer may overlap deeper than the count holds (OverlayLayer::maxOverlap).
+    FlagMarkStates states = k == 0 ? kOverlapMarkA : kOverlapMarkB;
+    if (!settings.forceGroups && layer.maxOverlap() <= states.countMask) states.groupSize = pieces.order.size();
     const bool inPixels = bindLayer(view, layer, scale);
-    markIntoFlag(cache, view, layer, pieces, settings, scale, inPixels, k == 0 ? kOverlapMarkA : kOverlapMarkB, stats);
+    markIntoFlag(cache, view, layer, pieces, settings, scale, inPixels, states, stats);
     endLayer(inPixels);
   }
   endMeasure(settings, marks.gpuMilliseconds, marks.fragments);

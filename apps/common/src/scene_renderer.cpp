@@ -13,6 +13,16 @@
 
 namespace gis::app {
 
+overlay::OverlayView overlayViewOf(const Camera& camera, double aspect) {
+  overlay::OverlayView v;
+  v.viewProj = camera.projection(aspect) * camera.view();
+  v.eye = camera.eye;
+  v.nearPlane = camera.nearPlane;
+  v.fovYRadians = camera.fovYDeg * std::numbers::pi / 180.0;
+  v.aspect = aspect;
+  return v;
+}
+
 namespace {
 
 /// A polygon feature's rings as closed lines (the outline is a line layer along them).
@@ -177,12 +187,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   }
   gfx::enableMaskWrites(framebuffer, true);
   if (settings.overlays && !layers_.empty()) {
-    overlay::OverlayView overlayView;
-    overlayView.viewProj = viewProj;
-    overlayView.eye = camera.eye;
-    overlayView.nearPlane = camera.nearPlane;
-    overlayView.fovYRadians = view.fovYRadians;
-    overlayView.aspect = aspect;
+    const overlay::OverlayView overlayView = overlayViewOf(camera, aspect);
     std::vector<const overlay::OverlayLayer*> drawn;
     drawn.reserve(layers_.size());
     for (const overlay::OverlayLayer& l : layers_) drawn.push_back(&l);

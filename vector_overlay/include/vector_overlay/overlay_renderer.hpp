@@ -97,8 +97,8 @@ class OverlayRenderer {
   // `maskValue` to a second draw buffer if there is one.
 
   /// Where layer A, and where layer B, covers the terrain: bit kOverlapFlagA / kOverlapFlagB of
-  /// the stencil (stencil_states.hpp). Counted in groups of kOverlapGroupSize pieces, so any
-  /// depth of overlap is exact.
+  /// the stencil (stencil_states.hpp). A layer that may overlap deeper than 63 pieces
+  /// (OverlayLayer::maxOverlap) is counted in groups of 63, so any depth of overlap is exact.
   AnalysisMarks markOverlap(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& a,
                             const OverlayLayer& b, const OverlaySettings& settings = {});
   /// Colours the pixels where `op` of the two marks holds, and zeroes the marks.

@@ -58,6 +58,9 @@ struct FrameStats {
 
 inline constexpr glm::vec4 kBackground{0.06F, 0.07F, 0.09F, 1.0F};
 
+/// The overlay passes' view of a camera at the given aspect (width / height).
+overlay::OverlayView overlayViewOf(const Camera& camera, double aspect);
+
 class SceneRenderer {
  public:
   /// Uploads the scene to the current context: terrain and the visible vector layers.
@@ -75,6 +78,8 @@ class SceneRenderer {
   [[nodiscard]] const terrain::LodSelection& lastSelection() const { return selection_; }
   /// The overlay layers in draw order (a polygon layer's outline follows its fill).
   [[nodiscard]] const std::vector<overlay::OverlayLayer>& overlayLayers() const { return layers_; }
+  /// The overlay passes, for analysis on the frame just drawn (OverlayRenderer::markOverlap ...).
+  [[nodiscard]] overlay::OverlayRenderer& overlayRenderer() { return *overlay_; }
   /// For editing features (the next frame shows the change).
   [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
