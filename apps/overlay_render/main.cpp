@@ -416,20 +416,6 @@ OpenVolumesOutput drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarge
   return out;
 }
 
-bool combine(overlay::OverlapOp op, bool a, bool b) {
-  switch (op) {
-    case overlay::OverlapOp::And:
-      return a && b;
-    case overlay::OverlapOp::Or:
-      return a || b;
-    case overlay::OverlapOp::Xor:
-      return a != b;
-    case overlay::OverlapOp::Subtract:
-      return a && !b;
-  }
-  return false;
-}
-
 /// overlap.png and an "overlap" block in stats, with the CPU reference's answer on the same depth.
 bool writeOverlap(const std::filesystem::path& out, const OverlapOutput& overlap, overlay::OverlapOp op,
                   const app::SceneRenderer& renderer, const app::LoadedScene& scene, const glm::dmat4& viewProj,
@@ -447,7 +433,8 @@ bool writeOverlap(const std::filesystem::path& out, const OverlapOutput& overlap
     inA += a ? 1u : 0u;
     inB += b ? 1u : 0u;
     both += a && b ? 1u : 0u;
-    const bool gpu = combine(op, a, b), cpu = combine(op, (expected[i] & 1u) != 0, (expected[i] & 2u) != 0);
+    const bool gpu = overlay::overlapHolds(op, a, b),
+               cpu = overlay::overlapHolds(op, (expected[i] & 1u) != 0, (expected[i] & 2u) != 0);
     pixels[i] = gpu ? 255 : 0;
     selected += gpu ? 1u : 0u;
     differing += gpu != cpu ? 1u : 0u;

@@ -180,20 +180,6 @@ class LayerAnalysisTest : public GlTest {
   glm::dvec2 lo_{0.0}, hi_{0.0}, centre_{0.0};
 };
 
-bool apply(overlay::OverlapOp op, bool a, bool b) {
-  switch (op) {
-    case overlay::OverlapOp::And:
-      return a && b;
-    case overlay::OverlapOp::Or:
-      return a || b;
-    case overlay::OverlapOp::Xor:
-      return a != b;
-    case overlay::OverlapOp::Subtract:
-      return a && !b;
-  }
-  return false;
-}
-
 TEST_F(LayerAnalysisTest, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
   std::mt19937 rng(71);
   overlay::LayerStyle area, road;
@@ -234,7 +220,7 @@ TEST_F(LayerAnalysisTest, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator)
       both += a && b ? 1u : 0u;
       std::uint32_t want = 0;
       for (std::size_t k = 0; k < kOps.size(); ++k) {
-        if (apply(kOps[k], a, b)) {
+        if (overlay::overlapHolds(kOps[k], a, b)) {
           want |= 1u << k;
           ++opPixels[k];
         }

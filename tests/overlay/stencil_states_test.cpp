@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/stencil_states.hpp"
 
 namespace gis::test {
@@ -241,15 +242,25 @@ TEST(StencilStates, OverlapMarksAndCoversFollowTheTruthTable) {
   };
   struct Op {
     const char* name;
+    overlay::OverlapOp op;
     std::vector<const gfx::PipelineState*> passes;
     bool (*truth)(bool, bool);
   };
   const Op ops[] = {
-      {"and", {&overlay::kOverlapAnd}, [](bool a, bool b) { return a && b; }},
-      {"or", {&overlay::kOverlapOr}, [](bool a, bool b) { return a || b; }},
-      {"subtract", {&overlay::kOverlapSubtract}, [](bool a, bool b) { return a && !b; }},
-      {"xor", {&overlay::kOverlapXorFirst, &overlay::kOverlapXorLast}, [](bool a, bool b) { return a != b; }},
+      {"and", overlay::OverlapOp::And, {&overlay::kOverlapAnd}, [](bool a, bool b) { return a && b; }},
+      {"or", overlay::OverlapOp::Or, {&overlay::kOverlapOr}, [](bool a, bool b) { return a || b; }},
+      {"subtract", overlay::OverlapOp::Subtract, {&overlay::kOverlapSubtract}, [](bool a, bool b) { return a && !b; }},
+      {"xor",
+       overlay::OverlapOp::Xor,
+       {&overlay::kOverlapXorFirst, &overlay::kOverlapXorLast},
+       [](bool a, bool b) { return a != b; }},
   };
+  for (const Op& op : ops) {
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_EQ(overlay::overlapHolds(op.op, (k & 1) != 0, (k & 2) != 0), op.truth((k & 1) != 0, (k & 2) != 0))
+          << op.name;
+    }
+  }
   for (int nA : {0, 1, 2, 62, 63, 64, 127, 128, 200, 256}) {
     for (int nB : {0, 1, 63, 64, 129}) {
       std::uint8_t s = mark(0, overlay::kOverlapMarkA, nA, 3);

@@ -72,6 +72,21 @@ enum class OverlapOp {
   Subtract,  ///< by A and not by B
 };
 
+/// The operator's truth table: whether a pixel covered by A (`a`) and by B (`b`) is shown.
+constexpr bool overlapHolds(OverlapOp op, bool a, bool b) {
+  switch (op) {
+    case OverlapOp::And:
+      return a && b;
+    case OverlapOp::Or:
+      return a || b;
+    case OverlapOp::Xor:
+      return a != b;
+    case OverlapOp::Subtract:
+      return a && !b;
+  }
+  return false;
+}
+
 /// What markOverlap / countOpenFaces leave in the stencil, for the cover that follows.
 struct AnalysisMarks {
   glm::vec4 rect{0.0F};          ///< normalised-device rectangle holding every marked pixel (empty: none)
