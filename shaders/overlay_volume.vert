@@ -18,6 +18,7 @@ uniform float u_padBase;
 uniform float u_padPerMetre;
 uniform float u_halfWidthPerMetre;
 uniform float u_maxHalfWidth;
+uniform vec4 u_debugColor;  // alpha > 0: every vertex takes this colour (the debug view of pieces)
 
 out vec4 v_color;
 
@@ -26,6 +27,6 @@ void main() {
   const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
   p.xy += a_scaling.xy * min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth);
   p.z += a_position.w * (u_padBase + u_padPerMetre * length(p));
-  v_color = a_color;
+  v_color = u_debugColor.a > 0.0 ? u_debugColor : a_color;
   gl_Position = u_modelViewProj * vec4(p, 1.0);
 }

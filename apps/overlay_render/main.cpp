@@ -2,7 +2,6 @@
 // (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png,
 // overlap.png, open_volumes.png).
 #include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -23,8 +22,8 @@
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
+#include "app/scene_selection.hpp"
 #include "core/log.hpp"
-#include "geo/export.hpp"
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
@@ -235,16 +234,6 @@ std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::
   return out;
 }
 
-/// A file name from a layer name: lower-case letters, digits and underscores.
-std::string slug(const std::string& name) {
-  std::string s;
-  for (const char c : name) {
-    const auto u = static_cast<unsigned char>(c);
-    s += std::isalnum(u) != 0 ? static_cast<char>(std::tolower(u)) : '_';
-  }
-  return s.empty() ? "layer" : s;
-}
-
 /// selection.png, the logical selection (features, DEM posts), its agreement with the pixels and
 /// the GeoJSON exports; adds a "selection" block to stats.
 bool writeSelection(const std::filesystem::path& out, const SelectionOutput& selection,
@@ -258,77 +247,38 @@ bool writeSelection(const std::filesystem::path& out, const SelectionOutput& sel
   const std::span<const overlay::SelectionStep> steps(request.steps);
   // The CPU twin on the same depth buffer.
   const double aspect = static_cast<double>(width) / height;
-  const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
-  const overlay::DepthImage image{width, height, depth, viewProj};
+  const overlay::DepthImage image{width, height, depth, camera.projection(aspect) * camera.view()};
   const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
   std::size_t selectedPixels = 0, disagreeing = 0;
   for (std::size_t i = 0; i < twin.size() && i < selection.pixels.size(); ++i) {
     selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
     disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
   }
-  // Features: sampled at half a pixel's footprint at the view's target (or as the file says).
-  const double pixelAtTarget =
-      glm::length(camera.target - camera.eye) * 2.0 * std::tan(glm::radians(camera.fovYDeg) / 2.0) / height;
-  overlay::FeatureSelectionOptions options;
-  options.sampleSpacing = request.sampleSpacing.value_or(std::max(0.25, 0.5 * pixelAtTarget));
-  options.scale = overlay::pixelScaleOf(viewProj, height);
-  const overlay::HeightBounds global = scene.bounds->globalBounds();
-  options.minHeight = global.lo;
-  options.maxHeight = global.hi;
-  const auto heightAt = [&scene](const glm::dvec2& p) { return scene.bounds->fullResolutionHeightAt(p); };
+  const app::SceneSelection chosen =
+      app::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
   json layers = json::array();
-  std::vector<geo::ExportSource> sources;
-  for (std::size_t j = 0; j < renderer.overlaySources().size(); ++j) {
-    if (renderer.overlaySources()[j].second) continue;  // an outline: its fill has the features
-    const app::LoadedLayer& layer = scene.layers[renderer.overlaySources()[j].first];
-    const overlay::OverlayLayer& drawn = renderer.overlayLayers()[j];
-    const std::vector<overlay::FeatureSelection> chosen =
-        overlay::selectFeatures(overlay::referenceLayerOf(drawn), steps, heightAt, options);
-    geo::ExportSource source;
-    source.path = layer.description.source;
-    source.layer = layer.description.sourceLayer;
-    source.label = layer.description.name;
+  for (const app::LayerSelection& l : chosen.layers) {
+    const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
     json features = json::array();
-    std::size_t inside = 0;
-    for (const overlay::FeatureSelection& f : chosen) {
-      const geo::Feature& feature = drawn.features()[f.feature];
-      source.features.push_back({feature.fid, {{"selection_fully_inside", std::int64_t{f.fullyInside ? 1 : 0}}}});
-      features.push_back({{"fid", feature.fid},
+    for (const overlay::FeatureSelection& f : l.features) {
+      features.push_back({{"fid", drawn.features()[f.feature].fid},
                           {"fully_inside", f.fullyInside},
                           {"samples", f.samples},
                           {"selected_samples", f.selectedSamples}});
-      inside += f.fullyInside ? 1u : 0u;
     }
-    const std::string file = "selected_" + slug(layer.description.name) + ".geojson";
-    const Diagnostics exported = geo::exportFeaturesGeoJson(source, (out / file).string());
-    report(exported);
-    all.append(exported);
-    ok = ok && !exported.hasErrors();
-    layers.push_back({{"name", layer.description.name},
-                      {"selected", chosen.size()},
-                      {"fully_inside", inside},
-                      {"file", file},
+    const std::string& name = scene.layers[l.sceneLayer].description.name;
+    layers.push_back({{"name", name},
+                      {"selected", l.features.size()},
+                      {"fully_inside", l.fullyInside},
+                      {"file", "selected_" + app::layerSlug(name) + ".geojson"},
                       {"features", features}});
-    sources.push_back(std::move(source));
   }
-  const Diagnostics combined = geo::exportFeaturesGeoJsonCombined(sources, (out / "selected_features.json").string());
-  report(combined);
-  all.append(combined);
-  ok = ok && !combined.hasErrors();
-  // DEM posts (in memory only: a paged DEM's posts are not all at hand).
+  const Diagnostics exported = app::exportSelection(scene, renderer, chosen, out / "selected_features.json", out);
+  report(exported);
+  all.append(exported);
+  ok = ok && !exported.hasErrors();
   json posts = nullptr;
-  const terrain::TerrainGrid& grid = scene.quadtree->grid();
-  if (!grid.heights.empty()) {
-    overlay::PostGrid g;
-    g.width = grid.width;
-    g.height = grid.height;
-    g.origin = grid.origin;
-    g.step = grid.step;
-    const double exaggeration = scene.bounds->exaggeration();
-    g.heightAt = [&grid, exaggeration](int c, int r) { return static_cast<double>(grid.at(c, r)) * exaggeration; };
-    const overlay::PostSelection p = overlay::selectPosts(g, steps);
-    posts = {{"selected", p.selected}, {"with_height", p.posts}};
-  }
+  if (chosen.posts) posts = {{"selected", chosen.posts->selected}, {"with_height", chosen.posts->posts}};
   stats["selection"] = {{"steps", request.steps.size()},
                         {"scheme", request.scheme == overlay::SelectionScheme::Runs ? "runs" : "report"},
                         {"volumes", selection.stats.volumes},
@@ -338,7 +288,7 @@ bool writeSelection(const std::filesystem::path& out, const SelectionOutput& sel
                         {"fragments", selection.stats.fragments},
                         {"selected_pixels", selectedPixels},
                         {"pixels_differing_from_cpu_twin", disagreeing},
-                        {"sample_spacing_m", options.sampleSpacing},
+                        {"sample_spacing_m", chosen.sampleSpacing},
                         {"layers", layers},
                         {"dem_posts", posts}};
   return ok;

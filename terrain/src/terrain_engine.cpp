@@ -172,7 +172,8 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
   glProgramUniform2i(program_.id(), program_.location("u_eyePost"), eyePost.x, eyePost.y);
   program_.set("u_step", glm::vec2(grid.step));
   program_.set("u_exaggeration", static_cast<float>(exaggeration));
-  if (imageryTransform_) {
+  program_.set("u_hasImagery", imageryTransform_ && imageryOn_ ? 1 : 0);
+  if (imageryTransform_ && imageryOn_) {
     // uv = (frame − imagery corner) / imagery size: a double base at the centre, a float slope.
     const glm::dvec2 pixel = *imageryTransform_->crsToPixel(centre);
     const auto& g = imageryTransform_->c;

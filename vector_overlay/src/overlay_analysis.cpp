@@ -93,4 +93,26 @@ void OverlayRenderer::coverOpenFaces(gfx::StateCache& cache, const AnalysisMarks
   glBindVertexArray(0);
 }
 
+LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                                            const glm::vec4& zPassColour, const glm::vec4& zFailColour,
+                                            const OverlaySettings& settings) {
+  LayerFrameStats stats;
+  const std::array<const OverlayLayer*, 1> layers{&layer};
+  const PixelScale scale = beginFrame(view, settings, layers);
+  const Pieces pieces = classify(view, layer, settings, true, stats);
+  if (!pieces.order.empty()) {
+    const bool inPixels = bindLayer(view, layer, scale);
+    cache.apply(kDebugPieces);
+    program_.set("u_maskBit", 0.0F);
+    program_.set("u_debugColor", zPassColour);
+    multiDraw(pieces.zPass);
+    program_.set("u_debugColor", zFailColour);
+    drawClipped(layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale), inPixels);
+    program_.set("u_debugColor", glm::vec4(0.0F));
+    endLayer(inPixels);
+  }
+  glBindVertexArray(0);
+  return stats;
+}
+
 }  // namespace gis::overlay

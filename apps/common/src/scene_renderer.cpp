@@ -103,6 +103,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
       sources_.emplace_back(i, true);
     }
   }
+  shown_.assign(layers_.size(), true);
   return diagnostics;
 }
 
@@ -178,6 +179,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   }
   gfx::enableMaskWrites(framebuffer, false);  // the terrain shader has no mask output
   terrain_->setWireframe(settings.wireframe);
+  terrain_->setImagery(settings.imagery);
   stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, settings.verticalExaggeration);
   if (settings.measure) {
     statistics_->end();
@@ -190,7 +192,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     const overlay::OverlayView overlayView = overlayViewOf(camera, aspect);
     std::vector<const overlay::OverlayLayer*> drawn;
     drawn.reserve(layers_.size());
-    for (const overlay::OverlayLayer& l : layers_) drawn.push_back(&l);
+    for (std::size_t j = 0; j < layers_.size(); ++j) drawn.push_back(shown_[j] ? &layers_[j] : nullptr);
     overlay::OverlaySettings overlaySettings = settings.overlay;
     overlaySettings.measure = settings.measure;
     stats.layers = overlay_->draw(cache, overlayView, drawn, overlaySettings);

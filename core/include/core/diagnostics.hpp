@@ -27,7 +27,9 @@ class Diagnostics {
  public:
   void add(Diagnostic d) { items_.push_back(std::move(d)); }
   void append(const Diagnostics& other) { items_.insert(items_.end(), other.items_.begin(), other.items_.end()); }
-  [[nodiscard]] const std::vector<Diagnostic>& items() const { return items_; }
+  [[nodiscard]] const std::vector<Diagnostic>& items() const& { return items_; }
+  /// On a temporary (`for (auto& d : f().items())`) the items move out, so they outlive it.
+  [[nodiscard]] std::vector<Diagnostic> items() && { return std::move(items_); }
   [[nodiscard]] std::size_t count(Severity s) const;
   [[nodiscard]] bool hasErrors() const { return count(Severity::Error) > 0; }
   [[nodiscard]] bool empty() const { return items_.empty(); }

@@ -57,6 +57,9 @@ class TerrainEngine {
   /// True if the chunk's buffers are on the GPU (drawable without its posts in memory).
   [[nodiscard]] bool hasChunk(const NodeId& id) const;
   void setWireframe(bool on) { wireframe_ = on; }
+  /// Off: hillshade even where there is imagery (the viewer's "imagery" switch).
+  void setImagery(bool on) { imageryOn_ = on; }
+  [[nodiscard]] bool hasImagery() const { return imageryTransform_.has_value(); }
 
  private:
   struct GpuChunk {
@@ -86,6 +89,7 @@ class TerrainEngine {
   std::size_t gpuBytes_ = 0;
   std::size_t gpuBudget_ = kDefaultGpuBudgetBytes;
   bool wireframe_ = false;
+  bool imageryOn_ = true;
 };
 
 }  // namespace gis::terrain

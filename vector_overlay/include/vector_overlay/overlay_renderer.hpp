@@ -105,6 +105,13 @@ class OverlayRenderer {
   std::vector<LayerFrameStats> draw(gfx::StateCache& cache, const OverlayView& view,
                                     std::span<const OverlayLayer* const> layers, const OverlaySettings& settings = {});
 
+  /// Debug view: the layer's pieces in view, translucent over the terrain (depth tested, front
+  /// faces), z-pass pieces in `zPassColour` and z-fail pieces in `zFailColour` (straight alpha).
+  /// Uses no stencil. Returns the pieces as classified.
+  LayerFrameStats drawPieces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                             const glm::vec4& zPassColour, const glm::vec4& zFailColour,
+                             const OverlaySettings& settings = {});
+
   // Analysis with the same stencil core (after the stencil-volume-intersections article). Each
   // is two calls: mark into the stencil (read it in between if you like), then cover, which
   // colours and returns the stencil to 0. The stencil must be 0 before marking; the depth

@@ -194,4 +194,13 @@ inline constexpr gfx::PipelineState kCountFaces = [] {
 }();
 inline constexpr gfx::PipelineState kCoverOpenFaces = kCoverRect;
 
+/// The debug view of the pieces (OverlayRenderer::drawPieces): their front faces where they are
+/// nearer than the terrain, blended; no stencil, no depth write.
+inline constexpr gfx::PipelineState kDebugPieces = [] {
+  gfx::PipelineState s = detail::coverState(gfx::CullMode::Back);
+  s.depth.test = true;
+  s.stencil = gfx::StencilState{};
+  return s;
+}();
+
 }  // namespace gis::overlay

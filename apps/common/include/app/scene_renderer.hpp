@@ -21,6 +21,7 @@ struct RenderSettings {
   double lodTolerancePixels = 1.5;
   double verticalExaggeration = 1.0;
   bool wireframe = false;
+  bool imagery = true;   ///< off: hillshade
   bool measure = false;  ///< wrap passes in GPU timer and pipeline-statistics queries (waits)
   /// Paged terrain: wait until every tile the view wants is loaded (still images), instead of
   /// drawing coarser parents while they load (flights).
@@ -82,6 +83,10 @@ class SceneRenderer {
   [[nodiscard]] overlay::OverlayRenderer& overlayRenderer() { return *overlay_; }
   /// For editing features (the next frame shows the change).
   [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
+  /// Shows or hides one overlay layer from the next frame on (no rebuild; mask bits keep their
+  /// places). A rebuild shows every layer again.
+  void setShown(std::size_t overlayLayer, bool shown) { shown_.at(overlayLayer) = shown; }
+  [[nodiscard]] bool shown(std::size_t overlayLayer) const { return shown_.at(overlayLayer); }
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
   [[nodiscard]] const std::vector<std::pair<std::size_t, bool>>& overlaySources() const { return sources_; }
 
@@ -91,6 +96,7 @@ class SceneRenderer {
   std::optional<overlay::OverlayRenderer> overlay_;
   std::vector<overlay::OverlayLayer> layers_;
   std::vector<std::pair<std::size_t, bool>> sources_;
+  std::vector<bool> shown_;
   terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
   std::optional<gfx::PipelineStatistics> statistics_;

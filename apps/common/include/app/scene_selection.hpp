@@ -1,0 +1,53 @@
+#pragma once
+// The logical side of a lasso selection on a loaded scene, shared by overlay_render and the
+// viewer: which features of each layer and which DEM posts the steps select (the CPU twin,
+// vector_overlay/logical_selection.hpp), and their export as GeoJSON.
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "app/camera.hpp"
+#include "app/scene_loader.hpp"
+#include "app/scene_renderer.hpp"
+#include "core/diagnostics.hpp"
+#include "vector_overlay/lasso.hpp"
+#include "vector_overlay/logical_selection.hpp"
+
+namespace gis::app {
+
+struct LayerSelection {
+  std::size_t sceneLayer = 0;    ///< index in LoadedScene::layers
+  std::size_t overlayLayer = 0;  ///< the fill's index in SceneRenderer::overlayLayers()
+  std::vector<overlay::FeatureSelection> features;
+  std::size_t fullyInside = 0;
+};
+
+struct SceneSelection {
+  std::vector<LayerSelection> layers;  ///< every drawn scene layer, in scene order
+  double sampleSpacing = 0.0;          ///< metres, of the feature sampling
+  /// Selected DEM posts; none for a paged DEM (its posts are not all in memory).
+  std::optional<overlay::PostSelection> posts;
+  [[nodiscard]] std::size_t featureCount() const;
+};
+
+/// The features and posts the steps select. Features are sampled at `sampleSpacing` metres, by
+/// default half a pixel's footprint at the camera's target in a view `height` pixels high.
+SceneSelection selectInScene(const LoadedScene& scene, const SceneRenderer& renderer,
+                             std::span<const overlay::SelectionStep> steps, const Camera& camera, int width, int height,
+                             std::optional<double> sampleSpacing = std::nullopt);
+
+/// A file name from a layer name: lower-case letters, digits and underscores.
+std::string layerSlug(const std::string& name);
+
+/// Writes every selected feature into one RFC 7946 FeatureCollection at `combined` (with
+/// selection_layer, selection_fid, selection_fully_inside) and, when `perLayerDir` is given,
+/// selected_<slug>.geojson per layer there in the source's own CRS. Features are re-read by
+/// FID from their source files, so geometry and attributes are the file's own.
+Diagnostics exportSelection(const LoadedScene& scene, const SceneRenderer& renderer, const SceneSelection& selection,
+                            const std::filesystem::path& combined,
+                            const std::optional<std::filesystem::path>& perLayerDir = std::nullopt);
+
+}  // namespace gis::app

@@ -1,0 +1,420 @@
+#include "app/viewer_script.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <string_view>
+
+#include "vector_overlay/style.hpp"
+
+namespace gis::app {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+std::optional<json> readJsonFile(const std::string& path, Diagnostics& d) {
+  std::ifstream in(path);
+  if (!in) {
+    d.add({Severity::Error, path, "", "", "cannot open"});
+    return std::nullopt;
+  }
+  try {
+    json j;
+    in >> j;
+    return j;
+  } catch (const json::exception& e) {
+    d.add({Severity::Error, path, "", "", std::string("not JSON: ") + e.what()});
+    return std::nullopt;
+  }
+}
+
+struct ActionName {
+  std::string_view name;
+  ScriptAction action;
+};
+
+// "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
+constexpr std::array<ActionName, 14> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
+                                               {"set_layer", ScriptAction::SetLayer},
+                                               {"overlays", ScriptAction::Overlays},
+                                               {"method", ScriptAction::Method},
+                                               {"exaggeration", ScriptAction::Exaggeration},
+                                               {"lasso", ScriptAction::Lasso},
+                                               {"invert", ScriptAction::Invert},
+                                               {"clear_selection", ScriptAction::ClearSelection},
+                                               {"identify", ScriptAction::Identify},
+                                               {"export", ScriptAction::Export},
+                                               {"screenshot", ScriptAction::Screenshot},
+                                               {"home", ScriptAction::Home},
+                                               {"key", ScriptAction::Key},
+                                               {"quit", ScriptAction::Quit}}};
+
+std::string actionList() {
+  std::string list;
+  for (const ActionName& a : kActions) list += (list.empty() ? "" : ", ") + std::string(a.name);
+  return list;
+}
+
+/// Key names as GLFW calls its keys (lower case, '_' for spaces); F1–F25 are added below.
+constexpr std::array<std::string_view, 15> kKeyNames{"escape",  "enter",     "tab",  "backspace", "insert",
+                                                     "delete",  "right",     "left", "down",      "up",
+                                                     "page_up", "page_down", "home", "end",       "space"};
+
+/// A key name in lower case, or nothing if it names no key we know: a typo fails the script
+/// before it runs instead of pressing nothing.
+std::optional<std::string> keyName(const std::string& text) {
+  if (text.size() == 1) {
+    if (text[0] >= 0x20 && text[0] <= 0x7e) return text;  // printable ASCII, as typed
+    return std::nullopt;
+  }
+  std::string lower = text;
+  std::transform(lower.begin(), lower.end(), lower.begin(),
+                 [](char c) { return static_cast<char>(std::tolower(static_cast<unsigned char>(c))); });
+  if (std::find(kKeyNames.begin(), kKeyNames.end(), lower) != kKeyNames.end()) return lower;
+  for (int f = 1; f <= 25; ++f) {
+    if (lower == "f" + std::to_string(f)) return lower;
+  }
+  return std::nullopt;
+}
+
+/// "#rrggbb", "#rrggbbaa" (overlay::parseHexColor, as scene files) or [r, g, b(, a)] in [0, 1].
+std::optional<glm::vec4> readColour(const json& c) {
+  if (c.is_string()) {
+    glm::vec4 out(1.0F);
+    if (overlay::parseHexColor(c.get<std::string>(), out)) return out;
+    return std::nullopt;
+  }
+  if (!c.is_array() || (c.size() != 3 && c.size() != 4)) return std::nullopt;
+  std::array<float, 4> channels{0.0F, 0.0F, 0.0F, 1.0F};
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    if (!c[i].is_number()) return std::nullopt;
+    const double v = c[i].get<double>();
+    if (!(v >= 0.0 && v <= 1.0)) return std::nullopt;  // also refuses NaN
+    channels[i] = static_cast<float>(v);
+  }
+  return glm::vec4(channels[0], channels[1], channels[2], channels[3]);
+}
+
+/// Reads the fields of one step. Every problem is kept, so one run of the parser reports all of
+/// a step's mistakes; keys that were never asked for are unknown.
+class StepReader {
+ public:
+  StepReader(const json& entry, std::vector<std::string>& problems) : entry_(entry), problems_(problems) {}
+
+  /// The value of `key`, or null when absent (a problem if `required`).
+  const json* field(const char* key, bool required) {
+    known_.insert(key);
+    if (!entry_.contains(key)) {
+      if (required) problem(std::string("missing '") + key + "'");
+      return nullptr;
+    }
+    return &entry_[key];
+  }
+
+  std::optional<std::string> string(const char* key, bool required) {
+    const json* v = field(key, required);
+    if (!v) return std::nullopt;
+    if (!v->is_string() || v->get<std::string>().empty()) {
+      problem(std::string("'") + key + "': expected a non-empty string, got " + v->dump());
+      return std::nullopt;
+    }
+    return v->get<std::string>();
+  }
+
+  std::optional<bool> boolean(const char* key, bool required) {
+    const json* v = field(key, required);
+    if (!v) return std::nullopt;
+    if (!v->is_boolean()) {
+      problem(std::string("'") + key + "': expected true or false, got " + v->dump());
+      return std::nullopt;
+    }
+    return v->get<bool>();
+  }
+
+  /// A finite number; `what` describes the expected range when `ok` refuses the value.
+  template <typename Pred>
+  std::optional<double> number(const char* key, bool required, const char* what, Pred ok) {
+    const json* v = field(key, required);
+    if (!v) return std::nullopt;
+    if (!v->is_number() || !std::isfinite(v->get<double>()) || !ok(v->get<double>())) {
+      problem(std::string("'") + key + "': expected " + what + ", got " + v->dump());
+      return std::nullopt;
+    }
+    return v->get<double>();
+  }
+
+  std::optional<double> number(const char* key, bool required) {
+    return number(key, required, "a finite number", [](double) { return true; });
+  }
+
+  void problem(std::string message) { problems_.push_back(std::move(message)); }
+
+  [[nodiscard]] std::vector<std::string> unknownKeys() const {
+    std::vector<std::string> unknown;
+    for (const auto& item : entry_.items()) {
+      if (!known_.count(item.key())) unknown.push_back(item.key());
+    }
+    return unknown;
+  }
+
+ private:
+  const json& entry_;
+  std::vector<std::string>& problems_;
+  std::set<std::string> known_;
+};
+
+/// `relative` against `base` (absolute), as scene files resolve their paths.
+std::string resolve(const fs::path& base, const std::string& relative) {
+  const fs::path p(relative);
+  return (p.is_absolute() ? p : base / p).lexically_normal().string();
+}
+
+/// Fills `step` from `entry`; problems and unknown keys are reported by the caller.
+void readStep(const json& entry, const fs::path& base, const std::string& file, StepReader& r, ScriptStep& step,
+              Diagnostics& d) {
+  const bool hasCamera = entry.contains("camera"), hasWait = entry.contains("wait"),
+             hasAction = entry.contains("action");
+  if ((hasCamera ? 1 : 0) + (hasWait ? 1 : 0) + (hasAction ? 1 : 0) != 1) {
+    r.field("camera", false);  // the keys are not unknown, only too many or too few
+    r.field("wait", false);
+    r.field("action", false);
+    r.problem("expected exactly one of \"camera\", \"wait\" and \"action\"");
+    return;
+  }
+
+  if (hasCamera) {
+    step.action = ScriptAction::Camera;
+    const json& c = *r.field("camera", true);
+    step.cameraFile = file;
+    if (c.is_string() && !c.get<std::string>().empty()) {
+      step.cameraFile = resolve(base, c.get<std::string>());
+      std::optional<json> spec = readJsonFile(step.cameraFile, d);
+      if (!spec) {
+        r.problem("'camera': cannot read the camera file " + step.cameraFile);
+      } else {
+        step.camera = std::move(*spec);
+      }
+    } else if (c.is_object()) {
+      step.camera = c;
+    } else {
+      r.problem("'camera': expected a camera object or the path of a camera file, got " + c.dump());
+    }
+    // Only what every camera needs: the viewer reads the rest with parseCameraSpec against the
+    // scene's frame, which this parser does not know.
+    if (!step.camera.is_null()) {
+      if (!step.camera.is_object()) {
+        r.problem("'camera': " + step.cameraFile + " does not hold a camera object");
+      } else {
+        if (!step.camera.contains("eye") && !step.camera.contains("eye_xyz"))
+          r.problem("'camera': needs 'eye' (lon/lat/h) or 'eye_xyz'");
+        if (!step.camera.contains("target") && !step.camera.contains("target_xyz"))
+          r.problem("'camera': needs 'target' (lon/lat/h) or 'target_xyz'");
+      }
+    }
+    step.seconds =
+        r.number("seconds", false, "a number of seconds >= 0", [](double v) { return v >= 0.0; }).value_or(0.0);
+    return;
+  }
+
+  if (hasWait) {
+    step.action = ScriptAction::Wait;
+    const std::optional<double> frames = r.number("wait", true, "a whole number of frames >= 0", [](double v) {
+      return v >= 0.0 && v == std::floor(v) && v <= static_cast<double>(std::numeric_limits<int>::max());
+    });
+    if (frames) step.frames = static_cast<int>(*frames);
+    return;
+  }
+
+  const json& a = *r.field("action", true);
+  if (!a.is_string()) {
+    r.problem("'action': expected a string, got " + a.dump());
+    return;
+  }
+  const std::string name = a.get<std::string>();
+  const auto found =
+      std::find_if(kActions.begin(), kActions.end(), [&](const ActionName& n) { return n.name == name; });
+  if (found == kActions.end()) {
+    r.problem("unknown action '" + name + "'; expected one of " + actionList() +
+              " (camera moves and waits are {\"camera\": ...} and {\"wait\": frames})");
+    return;
+  }
+  step.action = found->action;
+
+  switch (step.action) {
+    case ScriptAction::ToggleLayer:
+      step.layer = r.string("layer", true).value_or("");
+      break;
+    case ScriptAction::SetLayer: {
+      step.layer = r.string("layer", true).value_or("");
+      step.visible = r.boolean("visible", false);
+      if (const std::optional<double> o =
+              r.number("opacity", false, "a number in [0, 1]", [](double v) { return v >= 0.0 && v <= 1.0; }))
+        step.opacity = static_cast<float>(*o);
+      if (const json* c = r.field("color", false)) {
+        step.color = readColour(*c);
+        if (!step.color)
+          r.problem("'color': expected \"#rrggbb\", \"#rrggbbaa\" or [r, g, b(, a)] in [0, 1], got " + c->dump());
+      }
+      step.width = r.number("width", false, "a positive number", [](double v) { return v > 0.0; });
+      const bool anyGiven =
+          entry.contains("visible") || entry.contains("opacity") || entry.contains("color") || entry.contains("width");
+      if (!anyGiven) r.problem("nothing to set: give any of 'visible', 'opacity', 'color', 'width'");
+      break;
+    }
+    case ScriptAction::Overlays:
+      step.on = r.boolean("on", true).value_or(true);
+      break;
+    case ScriptAction::Method:
+      if (const std::optional<std::string> m = r.string("value", true)) {
+        if (*m == "stencil" || *m == "paper") {
+          step.text = *m;
+        } else {
+          r.problem("'value': unknown method '" + *m + "'; expected \"stencil\" or \"paper\"");
+        }
+      }
+      break;
+    case ScriptAction::Exaggeration:
+      step.value = r.number("value", true, "a positive number", [](double v) { return v > 0.0; }).value_or(0.0);
+      break;
+    case ScriptAction::Lasso: {
+      if (const std::optional<std::string> op = r.string("op", true)) {
+        // Exactly the names overlay::parseSelectionOp reads, less "invert" (an action of its own).
+        if (*op == "single" || *op == "or" || *op == "and" || *op == "xor" || *op == "subtract") {
+          step.lassoOp = *op;
+        } else {
+          r.problem("'op': unknown operator '" + *op + "'; expected one of single, or, and, xor, subtract" +
+                    (*op == "invert" ? " (invert is {\"action\": \"invert\"})" : ""));
+        }
+      }
+      if (const json* points = r.field("points", true)) {
+        bool ok = points->is_array();
+        for (const json& p : ok ? *points : json::array()) {
+          if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number() ||
+              !std::isfinite(p[0].get<double>()) || !std::isfinite(p[1].get<double>())) {
+            ok = false;
+            break;
+          }
+          step.points.emplace_back(p[0].get<double>(), p[1].get<double>());
+        }
+        if (!ok || step.points.size() < 3) {
+          r.problem("'points': expected at least 3 pixel positions [x, y] (finite numbers)");
+          step.points.clear();
+        }
+      }
+      break;
+    }
+    case ScriptAction::Identify: {
+      const std::optional<double> x = r.number("x", true), y = r.number("y", true);
+      if (x && y) step.at = glm::dvec2(*x, *y);
+      if (const std::optional<std::string> out = r.string("out", false)) step.path = resolve(base, *out);
+      break;
+    }
+    case ScriptAction::Export:
+      if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
+      break;
+    case ScriptAction::Screenshot:
+      if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
+      step.ui = r.boolean("ui", false).value_or(true);
+      break;
+    case ScriptAction::Key:
+      if (const std::optional<std::string> k = r.string("key", true)) {
+        if (const std::optional<std::string> known = keyName(*k)) {
+          step.text = *known;
+        } else {
+          r.problem("'key': unknown key '" + *k +
+                    "'; expected one printable character or a key name (escape, enter, tab, backspace, insert, "
+                    "delete, left, right, up, down, page_up, page_down, home, end, space, f1-f25)");
+        }
+      }
+      break;
+    case ScriptAction::Invert:
+    case ScriptAction::ClearSelection:
+    case ScriptAction::Home:
+    case ScriptAction::Quit:
+    case ScriptAction::Camera:
+    case ScriptAction::Wait:
+      break;
+  }
+}
+
+}  // namespace
+
+Result<ViewerScript> parseViewerScript(const json& j, const std::string& file) {
+  Result<ViewerScript> result;
+  Diagnostics& d = result.diagnostics;
+  if (!j.is_object() || !j.contains("steps") || !j["steps"].is_array()) {
+    return Result<ViewerScript>::failure({Severity::Error, file, "", "", "expected an object with an array 'steps'"});
+  }
+  ViewerScript script;
+  script.file = file;
+  std::error_code ec;
+  const fs::path absolute = fs::absolute(fs::path(file), ec);
+  const fs::path base = (ec ? fs::path(file) : absolute).parent_path();
+
+  for (const auto& item : j.items()) {
+    if (item.key() != "steps" && item.key() != "window")
+      d.add({Severity::Warning, file, "", "", "unknown key '" + item.key() + "' ignored"});
+  }
+  if (j.contains("window")) {
+    const json& w = j["window"];
+    const auto size = [](const json& v) {
+      return v.is_number_integer() && v.get<long long>() >= 1 && v.get<long long>() <= 16384;
+    };
+    if (!w.is_array() || w.size() != 2 || !size(w[0]) || !size(w[1])) {
+      d.add({Severity::Error, file, "", "",
+             "'window': expected [width, height] in screen coordinates (integers 1 to 16384), got " + w.dump()});
+    } else {
+      script.window = glm::ivec2(w[0].get<int>(), w[1].get<int>());
+    }
+  }
+
+  std::size_t index = 0, broken = 0;
+  for (const json& entry : j["steps"]) {
+    ScriptStep step;
+    step.index = ++index;
+    const std::string name = "step " + std::to_string(step.index);
+    if (!entry.is_object()) {
+      d.add({Severity::Error, file, "", name, "expected an object, got " + entry.dump()});
+      ++broken;
+      continue;
+    }
+    std::vector<std::string> problems;
+    StepReader reader(entry, problems);
+    readStep(entry, base, file, reader, step, d);
+    for (const std::string& key : reader.unknownKeys())
+      d.add({Severity::Warning, file, "", name, "unknown key '" + key + "' ignored"});
+    for (const std::string& problem : problems) d.add({Severity::Error, file, "", name, problem});
+    if (problems.empty()) {
+      script.steps.push_back(std::move(step));
+    } else {
+      ++broken;
+    }
+  }
+
+  if (d.hasErrors()) {
+    // A script is a test program: running the steps that could be read would hide the mistake.
+    d.add({Severity::Error, file, "", "",
+           broken == 0 ? std::string("the script is not run")
+                       : std::to_string(broken) + " of " + std::to_string(index) +
+                             " steps cannot be run; the script is not run"});
+    return result;
+  }
+  if (script.steps.empty()) d.add({Severity::Warning, file, "", "", "no steps"});
+  result.value = std::move(script);
+  return result;
+}
+
+Result<ViewerScript> loadViewerScript(const std::string& path) {
+  Result<ViewerScript> failed;
+  const std::optional<json> j = readJsonFile(path, failed.diagnostics);
+  if (!j) return failed;
+  return parseViewerScript(*j, path);
+}
+
+}  // namespace gis::app

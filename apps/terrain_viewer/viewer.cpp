@@ -1,0 +1,810 @@
+#include "viewer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <system_error>
+#include <variant>
+
+#include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <imgui_impl_glfw.h>
+#include <imgui_impl_opengl3.h>
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+#include <nlohmann/json.hpp>
+
+#include "app/scene.hpp"
+#include "core/log.hpp"
+#include "geo/vector.hpp"
+#include "gfx/image_io.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+
+namespace gis::viewer {
+namespace {
+
+/// Scripted runs advance time by a fixed step per frame, so keyframes take the same frames on
+/// any machine.
+constexpr double kScriptFrameSeconds = 1.0 / 30.0;
+
+std::string attributeText(const geo::AttributeValue& v) {
+  return std::visit(
+      [](const auto& x) -> std::string {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, std::monostate>) {
+          return "";
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          return x;
+        } else {
+          return nlohmann::json(x).dump();
+        }
+      },
+      v);
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+bool isRasterFile(const std::string& path) {
+  const std::string ext = lower(std::filesystem::path(path).extension().string());
+  return ext == ".tif" || ext == ".tiff" || ext == ".asc" || ext == ".img" || ext == ".vrt" || ext == ".hgt" ||
+         ext == ".dem" || ext == ".bil";
+}
+
+bool isVectorFile(const std::string& path) {
+  const std::string ext = lower(std::filesystem::path(path).extension().string());
+  return ext == ".geojson" || ext == ".shp" || ext == ".gpkg" || ext == ".kml" || ext == ".gml" || ext == ".csv" ||
+         ext == ".fgb" || ext == ".gpx";
+}
+
+}  // namespace
+
+// GLFW calls plain functions; they reach the viewer through the window's user pointer.
+struct Callbacks {
+  static Viewer& of(GLFWwindow* w) { return *static_cast<Viewer*>(glfwGetWindowUserPointer(w)); }
+  static void scroll(GLFWwindow* w, double, double dy) {
+    if (!ImGui::GetIO().WantCaptureMouse) of(w).scroll_ += dy;
+  }
+  static void drop(GLFWwindow* w, int count, const char** paths) {
+    for (int i = 0; i < count; ++i) of(w).dropped_.emplace_back(paths[i]);
+  }
+  static void key(GLFWwindow* w, int key, int, int action, int) {
+    if (action == GLFW_PRESS && !ImGui::GetIO().WantCaptureKeyboard) of(w).keysPressed_.push_back(key);
+  }
+};
+
+nlohmann::json Identified::toJson() const {
+  nlohmann::json features = nlohmann::json::array();
+  for (const Hit& h : hits) {
+    nlohmann::json attributes = nlohmann::json::object();
+    for (const auto& [k, v] : h.attributes) attributes[k] = v;
+    features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"attributes", attributes}});
+  }
+  nlohmann::json j = {
+      {"frame", {frame.x, frame.y, frame.z}}, {"terrain_height", terrainHeight}, {"features", features}};
+  if (lonLatH) j["lon_lat_h"] = {lonLatH->x, lonLatH->y, lonLatH->z};
+  return j;
+}
+
+Viewer::~Viewer() {
+  if (imgui_) {
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+  }
+  // GL objects go while the context is current.
+  selectionRenderer_.reset();
+  target_.reset();
+  renderer_.reset();
+}
+
+int Viewer::run(const ViewerOptions& options) {
+  Viewer v;
+  if (!v.open(options)) return 1;
+  GLFWwindow* window = v.context_->window();
+  double last = glfwGetTime();
+  while (!glfwWindowShouldClose(window) && !v.quit_) {
+    glfwPollEvents();
+    const double now = glfwGetTime();
+    const double seconds = v.script_ ? kScriptFrameSeconds : std::clamp(now - last, 0.0, 0.25);
+    v.frameMs_ = 0.9 * v.frameMs_ + 0.1 * (now - last) * 1000.0;
+    last = now;
+    v.frame(seconds);
+  }
+  if (!v.script_) {
+    glm::ivec2 size(0);
+    glfwGetWindowSize(window, &size.x, &size.y);
+    if (size.x > 0 && size.y > 0) v.settings_.windowSize = size;
+    if (const auto path = settingsPath()) {
+      for (const Diagnostic& d : saveViewerSettings(v.settings_, *path).items()) logWarning(d.toString());
+    }
+  }
+  const std::size_t glErrors = v.context_->debug().errorCount();
+  if (v.script_ && glErrors > 0) {
+    logError("terrain_viewer: " + std::to_string(glErrors) + " GL error(s) during the script");
+    return 1;
+  }
+  return v.scriptFailed_ ? 1 : 0;
+}
+
+bool Viewer::open(const ViewerOptions& options) {
+  options_ = options;
+  if (options.script) {
+    Result<app::ViewerScript> script = app::loadViewerScript(*options.script);
+    for (const Diagnostic& d : script.diagnostics.items()) {
+      (d.severity == Severity::Error ? logError : logWarning)(d.toString());
+    }
+    if (!script) return false;
+    script_ = std::move(*script);
+  } else if (const auto path = settingsPath()) {
+    Result<ViewerSettings> loaded = loadViewerSettings(*path);
+    for (const Diagnostic& d : loaded.diagnostics.items()) logWarning(d.toString());
+    settings_ = *loaded;
+  }
+  gfx::ContextOptions context;
+  const glm::ivec2 size = script_ && script_->window ? *script_->window : settings_.windowSize;
+  context.width = size.x;
+  context.height = size.y;
+  context.title = "terrain_viewer";
+  context.debug = true;
+  context.vsync = !script_;
+  Result<std::unique_ptr<gfx::Context>> created = gfx::createWindowContext(context);
+  if (!created) {
+    for (const Diagnostic& d : created.diagnostics.items()) logError(d.toString());
+    return false;
+  }
+  context_ = std::move(*created);
+  GLFWwindow* window = context_->window();
+  glfwSetWindowUserPointer(window, this);
+  glfwSetScrollCallback(window, Callbacks::scroll);
+  glfwSetDropCallback(window, Callbacks::drop);
+  glfwSetKeyCallback(window, Callbacks::key);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // our settings file keeps what matters
+  // High-DPI: scale the panel with the monitor's content scale.
+  float scaleX = 1.0F, scaleY = 1.0F;
+  glfwGetWindowContentScale(window, &scaleX, &scaleY);
+  if (scaleX > 1.0F) {
+    ImGui::GetStyle().ScaleAllSizes(scaleX);
+    ImGui::GetIO().FontGlobalScale = scaleX;
+  }
+  ImGui_ImplGlfw_InitForOpenGL(window, true);  // chains to our callbacks
+  ImGui_ImplOpenGL3_Init("#version 450 core");
+  imgui_ = true;
+
+  Result<overlay::SelectionRenderer> selection = overlay::SelectionRenderer::create();
+  for (const Diagnostic& d : selection.diagnostics.items()) logError(d.toString());
+  if (!selection) return false;
+  selectionRenderer_ = std::move(*selection);
+  render_.lodTolerancePixels = settings_.lodTolerancePixels;
+  render_.waitForTiles = script_.has_value();  // scripted screenshots show the finished view
+  if (!loadPath(options.scene)) return false;
+  return true;
+}
+
+bool Viewer::loadPath(const std::string& path) {
+  if (isVectorFile(path)) {
+    if (!description_) {
+      message(path + ": open a scene or a DEM before adding a vector layer", true);
+      return false;
+    }
+    // A new layer of the current scene: its kind from what the file holds.
+    Result<geo::VectorLayer> probe = geo::readVectorLayer(path, scene_->frame);
+    for (const Diagnostic& d : probe.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+    if (!probe) return false;
+    app::SceneDescription next = *description_;
+    app::LayerDescription layer;
+    layer.name = std::filesystem::path(path).stem().string();
+    layer.source = std::filesystem::absolute(path).string();
+    layer.kind = probe->kind == geo::GeometryKind::Line ? overlay::LayerKind::Line : overlay::LayerKind::Polygon;
+    const glm::vec4 palette[] = {{0.12F, 0.47F, 0.71F, 1.0F},
+                                 {0.17F, 0.63F, 0.17F, 1.0F},
+                                 {0.84F, 0.15F, 0.16F, 1.0F},
+                                 {0.58F, 0.40F, 0.74F, 1.0F},
+                                 {0.09F, 0.75F, 0.81F, 1.0F}};
+    layer.style.color = palette[next.layers.size() % 5];
+    layer.style.opacity = layer.kind == overlay::LayerKind::Polygon ? 0.45F : 0.9F;
+    layer.style.widthMetres = 6.0F;
+    next.layers.push_back(layer);
+    return useScene(std::move(next));
+  }
+  if (isRasterFile(path)) {
+    app::SceneDescription next;
+    next.path = std::filesystem::absolute(path).string();
+    next.name = std::filesystem::path(path).filename().string();
+    next.dem = next.path;
+    return useScene(std::move(next));
+  }
+  Result<app::SceneDescription> description = app::loadSceneFile(path);
+  for (const Diagnostic& d : description.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  if (!description) return false;
+  return useScene(std::move(*description));
+}
+
+bool Viewer::useScene(app::SceneDescription description) {
+  Result<app::LoadedScene> scene = app::loadScene(description);
+  for (const Diagnostic& d : scene.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  if (!scene) return false;
+  // Drop the old renderer before building the new one: GPU memory for one scene at a time.
+  renderer_.reset();
+  app::OverlayBuildSettings build;
+  build.method = method_;
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
+  for (const Diagnostic& d : renderer.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  if (!renderer) return false;
+  scene_ = std::move(*scene);
+  renderer_ = std::move(*renderer);
+  description_ = std::move(description);
+  render_.verticalExaggeration = description_->verticalExaggeration;
+  scene_->bounds->setExaggeration(render_.verticalExaggeration);
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene_, render_.verticalExaggeration, lo, hi);
+  app::Camera home = app::overviewCamera(lo, hi, settings_.fovYDeg);
+  if (description_->camera) {
+    Result<app::Camera> placed = app::placeCamera(*description_->camera, scene_->frame, description_->path);
+    if (placed) home = *placed;
+  }
+  if (controller_) {
+    controller_->setHome(home);
+    controller_->jumpTo(home);
+  } else {
+    controller_.emplace(home);
+  }
+  clearSelection();
+  identified_.reset();
+  glfwSetWindowTitle(
+      context_->window(),
+      ("terrain_viewer — " + (description_->name.empty() ? description_->path : description_->name)).c_str());
+  return true;
+}
+
+void Viewer::message(const std::string& text, bool error) {
+  (error ? logError : logInfo)(text);
+  messages_.push_back((error ? "error: " : "") + text);
+  if (messages_.size() > 200) messages_.erase(messages_.begin(), messages_.begin() + 100);
+}
+
+glm::ivec2 Viewer::framebufferSize() const { return context_->framebufferSize(); }
+
+glm::dvec2 Viewer::toPixels(const glm::dvec2& window) const {
+  int w = 0, h = 0;
+  glfwGetWindowSize(context_->window(), &w, &h);
+  const glm::ivec2 fb = framebufferSize();
+  if (w <= 0 || h <= 0) return window;
+  return window * glm::dvec2(static_cast<double>(fb.x) / w, static_cast<double>(fb.y) / h);
+}
+
+double Viewer::aspect() const {
+  const glm::ivec2 fb = framebufferSize();
+  return fb.y > 0 ? static_cast<double>(fb.x) / fb.y : 1.0;
+}
+
+app::Camera Viewer::camera() const {
+  app::Camera c = controller_->camera();
+  c.fovYDeg = settings_.fovYDeg;
+  return c;
+}
+
+void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
+  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+    if (renderer_->overlaySources()[j].first == sceneLayer) renderer_->setShown(j, shown);
+  }
+}
+
+void Viewer::rebuildOverlays() {
+  // Styles, order and the method are baked into the pieces: rebuild (Olinda: a fraction of a
+  // second), keeping which layers are hidden.
+  std::vector<bool> hidden(scene_->layers.size(), false);
+  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+    if (!renderer_->shown(j)) hidden[renderer_->overlaySources()[j].first] = true;
+  }
+  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
+    scene_->layers[i].description = description_->layers[i];
+  }
+  app::OverlayBuildSettings build;
+  build.method = method_;
+  for (const Diagnostic& d : renderer_->buildOverlays(*scene_, build).items()) {
+    message(d.toString(), d.severity == Severity::Error);
+  }
+  for (std::size_t i = 0; i < hidden.size(); ++i) {
+    if (hidden[i]) setLayerShown(i, false);
+  }
+  selectionChanged();
+}
+
+void Viewer::addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points) {
+  const glm::ivec2 fb = framebufferSize();
+  overlay::SelectionStep step;
+  step.op = op;
+  step.lasso.points = std::move(points);
+  const app::Camera c = camera();
+  step.lasso.viewProj = c.projection(aspect()) * c.view();
+  step.lasso.width = fb.x;
+  step.lasso.height = fb.y;
+  // A plain click-drag replaces the selection (Single starts a new chain).
+  if (op == overlay::SelectionOp::Single) steps_.clear();
+  steps_.push_back(std::move(step));
+  selectionChanged();
+}
+
+void Viewer::invertSelection() {
+  overlay::SelectionStep step;
+  step.op = overlay::SelectionOp::Invert;
+  steps_.push_back(step);
+  selectionChanged();
+}
+
+void Viewer::clearSelection() {
+  steps_.clear();
+  selectionChanged();
+}
+
+void Viewer::selectionChanged() {
+  const Diagnostics diagnostics = selectionRenderer_->setSteps(steps_);
+  for (const Diagnostic& d : diagnostics.items()) message(d.toString(), true);
+  selected_.reset();
+  if (steps_.empty() || !scene_ || !renderer_) return;
+  const glm::ivec2 fb = framebufferSize();
+  selected_ = app::selectInScene(*scene_, *renderer_, steps_, camera(), std::max(fb.x, 1), std::max(fb.y, 1));
+}
+
+std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
+  if (!target_) return std::nullopt;
+  const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
+  if (x < 0 || y < 0 || x >= target_->width() || y >= target_->height()) return std::nullopt;
+  float depth = 0.0F;
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, target_->framebuffer());
+  glReadPixels(x, target_->height() - 1 - y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  const app::Camera c = camera();
+  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
+  const std::vector<float> one{depth};
+  // The one pixel as a 1 × 1 depth image whose matrix maps this pixel's centre to NDC (0, 0).
+  const std::optional<glm::dvec3> world = [&]() -> std::optional<glm::dvec3> {
+    if (!(depth > 0.0F)) return std::nullopt;
+    const glm::dvec4 ndc(2.0 * (x + 0.5) / target_->width() - 1.0, 1.0 - 2.0 * (y + 0.5) / target_->height(),
+                         static_cast<double>(depth), 1.0);
+    const glm::dvec4 p = glm::inverse(viewProj) * ndc;
+    if (p.w == 0.0) return std::nullopt;
+    return glm::dvec3(p) / p.w;
+  }();
+  if (!world) return std::nullopt;
+  Identified id;
+  id.frame = *world;
+  id.lonLatH = scene_->frame.toLonLat(*world / glm::dvec3(1.0, 1.0, render_.verticalExaggeration));
+  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(*world)) / render_.verticalExaggeration;
+  const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
+  for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+    if (renderer_->overlaySources()[j].second || !renderer_->shown(j)) continue;
+    const overlay::OverlayLayer& layer = renderer_->overlayLayers()[j];
+    const overlay::ReferenceLayer ref = overlay::referenceLayerOf(layer);
+    for (std::size_t f = 0; f < layer.features().size(); ++f) {
+      if (!overlay::featureCovers(ref, f, glm::dvec2(*world), scale)) continue;
+      Identified::Hit hit;
+      hit.layer = scene_->layers[renderer_->overlaySources()[j].first].description.name;
+      hit.feature = f;
+      hit.fid = layer.features()[f].fid;
+      for (const auto& [k, v] : layer.features()[f].attributes) hit.attributes.emplace_back(k, attributeText(v));
+      id.hits.push_back(std::move(hit));
+    }
+  }
+  return id;
+}
+
+bool Viewer::exportSelection(const std::filesystem::path& path) {
+  if (!selected_ || selected_->featureCount() == 0) {
+    message(path.string() + ": nothing selected to export", true);
+    return false;
+  }
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  const Diagnostics d = app::exportSelection(*scene_, *renderer_, *selected_, path,
+                                             path.has_parent_path() ? path.parent_path() : std::filesystem::path("."));
+  for (const Diagnostic& m : d.items()) message(m.toString(), m.severity == Severity::Error);
+  if (d.hasErrors()) return false;
+  message("exported " + std::to_string(selected_->featureCount()) + " features to " + path.string());
+  return true;
+}
+
+bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  const glm::ivec2 fb = framebufferSize();
+  std::vector<std::uint8_t> rgb;
+  bool ok = true;
+  if (ui) {
+    // The back buffer as it will be shown: scene, panel and HUD.
+    std::vector<std::uint8_t> rgba(static_cast<std::size_t>(fb.x) * static_cast<std::size_t>(fb.y) * 4);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    glReadBuffer(GL_BACK);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, fb.x, fb.y, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    rgb.resize(rgba.size() / 4 * 3);
+    const auto w = static_cast<std::size_t>(fb.x), h = static_cast<std::size_t>(fb.y);
+    for (std::size_t r = 0; r < h; ++r) {
+      for (std::size_t c = 0; c < w; ++c) {
+        for (std::size_t k = 0; k < 3; ++k) rgb[(r * w + c) * 3 + k] = rgba[((h - 1 - r) * w + c) * 4 + k];
+      }
+    }
+  } else {
+    const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(*target_);
+    rgb.resize(rgba.size() / 4 * 3);
+    for (std::size_t i = 0; i < rgba.size() / 4; ++i) {
+      for (std::size_t k = 0; k < 3; ++k) rgb[i * 3 + k] = rgba[i * 4 + k];
+    }
+    const std::filesystem::path stem = path.parent_path() / path.stem();
+    const Result<bool> depth = gfx::writeImageFloat(stem.string() + "_depth.tiff", target_->width(), target_->height(),
+                                                    gfx::readDepth(*target_));
+    ok = ok && depth.ok();
+    std::ofstream(stem.string() + "_camera.json")
+        << app::cameraToJson(camera(), scene_->frame, target_->width(), target_->height()).dump(2) << "\n";
+  }
+  const Result<bool> png =
+      gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);
+  for (const Diagnostic& d : png.diagnostics.items()) message(d.toString(), true);
+  ok = ok && png.ok();
+  if (ok) message("screenshot " + path.string());
+  return ok;
+}
+
+void Viewer::frame(double seconds) {
+  ++frameIndex_;
+  // Dropped files: the last scene wins; vector files add layers.
+  for (const std::string& path : std::exchange(dropped_, {})) loadPath(path);
+
+  if (script_ && !quit_) {
+    if (animating_) {
+      // Wait for the keyframe to be reached.
+    } else if (waitFrames_ > 0) {
+      --waitFrames_;
+    } else {
+      while (scriptStep_ < script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ && !quit_) {
+        if (!runStep(script_->steps[scriptStep_++])) {
+          scriptFailed_ = true;
+          quit_ = true;
+        }
+      }
+      if (scriptStep_ >= script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_) quit_ = true;
+    }
+  } else {
+    handleInput(seconds);
+  }
+  const bool moving =
+      controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
+  if (animating_ && !moving) animating_ = false;
+
+  drawScene();
+
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui_ImplGlfw_NewFrame();
+  ImGui::NewFrame();
+  if (settings_.showPanel) drawPanel();
+  if (settings_.showHud) drawHud();
+  if (showHelp_) drawHelp();
+  if (identified_) drawIdentify();
+  drawLassoOutline();
+  ImGui::Render();
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+  cache_.invalidate();  // ImGui changed GL state behind the cache's back
+
+  if (pendingShot_) {
+    // A scene-only shot must not wait for a frame whose scene is still moving.
+    if (!screenshot(pendingShot_->first, pendingShot_->second)) scriptFailed_ = true;
+    pendingShot_.reset();
+  }
+  context_->swapBuffers();
+}
+
+void Viewer::drawScene() {
+  const glm::ivec2 fb = framebufferSize();
+  if (fb.x <= 0 || fb.y <= 0) return;
+  if (!target_ || target_->width() != fb.x || target_->height() != fb.y) {
+    target_.emplace(fb.x, fb.y, 0, false);
+    if (!steps_.empty()) selectionChanged();  // the lassos' pixel viewport is the target's
+  }
+  render_.measure = frameIndex_ % 30 == 1 || script_.has_value();  // queries wait for the GPU: sample them
+  render_.lodTolerancePixels = settings_.lodTolerancePixels;
+  const app::Camera c = camera();
+  const app::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
+  if (render_.measure) {
+    stats_ = s;
+  } else {
+    stats_.terrainDraw = s.terrainDraw;
+    stats_.finestLevel = s.finestLevel;
+    stats_.coarsestLevel = s.coarsestLevel;
+    stats_.tilesMissing = s.tilesMissing;
+    stats_.pager = s.pager;
+  }
+  const overlay::OverlayView view = app::overlayViewOf(c, aspect());
+  if (!steps_.empty()) {
+    selectionRenderer_->select(cache_, view);
+    selectionRenderer_->highlight(cache_, highlight_);
+  }
+  if (debugPieces_ && render_.overlays) {
+    for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+      if (!renderer_->shown(j)) continue;
+      renderer_->overlayRenderer().drawPieces(cache_, view, renderer_->overlayLayers()[j],
+                                              glm::vec4(0.1F, 0.8F, 0.2F, 0.35F), glm::vec4(0.9F, 0.1F, 0.1F, 0.5F));
+    }
+  }
+  // Into the window: the panel is drawn over this copy.
+  glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
+                         GL_NEAREST);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glViewport(0, 0, fb.x, fb.y);
+}
+
+void Viewer::handleInput(double seconds) {
+  GLFWwindow* window = context_->window();
+  const ImGuiIO& io = ImGui::GetIO();
+  glm::dvec2 cursor(0.0);
+  glfwGetCursorPos(window, &cursor.x, &cursor.y);
+  const glm::dvec2 pixel = toPixels(cursor), lastPixel = toPixels(lastCursor_);
+  const glm::ivec2 fb = framebufferSize();
+  const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+  const bool right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
+  const bool middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+  const bool shift =
+      glfwGetKey(window, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+  const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
+                    glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
+  const bool alt =
+      glfwGetKey(window, GLFW_KEY_LEFT_ALT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_ALT) == GLFW_PRESS;
+  const bool fly = controller_->mode() == app::CameraController::Mode::Fly;
+
+  if (!io.WantCaptureMouse) {
+    if (left && !leftDown_) {
+      pressCursor_ = pixel;
+      dragged_ = false;
+      if (lassoTool_) lassoPoints_.assign(1, pixel);
+    }
+    if (left && glm::length(pixel - pressCursor_) > 3.0) dragged_ = true;
+    if (left && lassoTool_) {
+      if (glm::length(pixel - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(pixel);
+    } else if (left && leftDown_ && dragged_) {
+      if (fly) {
+        controller_->look(pixel - lastPixel);
+      } else {
+        controller_->orbit(pixel - lastPixel);
+      }
+    } else if ((right && rightDown_) || (middle && middleDown_)) {
+      if (fly) {
+        controller_->look(pixel - lastPixel);
+      } else {
+        controller_->pan(lastPixel, pixel, fb);
+      }
+    }
+    if (!left && leftDown_) {
+      if (lassoTool_ && lassoPoints_.size() >= 3) {
+        // Modifiers choose the operator (docs/viewer.md): Shift Or, Ctrl Subtract, Ctrl+Shift And, Alt Xor.
+        overlay::SelectionOp op = overlay::SelectionOp::Single;
+        if (alt) {
+          op = overlay::SelectionOp::Xor;
+        } else if (ctrl && shift) {
+          op = overlay::SelectionOp::And;
+        } else if (ctrl) {
+          op = overlay::SelectionOp::Subtract;
+        } else if (shift) {
+          op = overlay::SelectionOp::Or;
+        }
+        if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
+        addLasso(op, std::exchange(lassoPoints_, {}));
+      } else if (!dragged_) {
+        identified_ = identify(pixel);
+      }
+      lassoPoints_.clear();
+    }
+    if (scroll_ != 0.0) {
+      std::optional<glm::dvec3> under;
+      if (const std::optional<Identified> hit = [&]() -> std::optional<Identified> {
+            if (!target_) return std::nullopt;
+            float depth = 0.0F;
+            const int x = std::clamp(static_cast<int>(pixel.x), 0, target_->width() - 1);
+            const int y = std::clamp(static_cast<int>(pixel.y), 0, target_->height() - 1);
+            glBindFramebuffer(GL_READ_FRAMEBUFFER, target_->framebuffer());
+            glReadPixels(x, target_->height() - 1 - y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
+            glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+            if (!(depth > 0.0F)) return std::nullopt;
+            const app::Camera c = camera();
+            const glm::dvec4 p = glm::inverse(c.projection(aspect()) * c.view()) *
+                                 glm::dvec4(2.0 * (x + 0.5) / target_->width() - 1.0,
+                                            1.0 - 2.0 * (y + 0.5) / target_->height(), static_cast<double>(depth), 1.0);
+            Identified id;
+            id.frame = glm::dvec3(p) / p.w;
+            return id;
+          }()) {
+        under = hit->frame;
+      }
+      controller_->zoomAt(scroll_, pixel, fb, under);
+    }
+  }
+  scroll_ = 0.0;
+  leftDown_ = left;
+  rightDown_ = right;
+  middleDown_ = middle;
+  lastCursor_ = cursor;
+
+  if (!io.WantCaptureKeyboard) {
+    if (fly) {
+      auto key = [&](int k) { return glfwGetKey(window, k) == GLFW_PRESS ? 1.0 : 0.0; };
+      const glm::dvec3 move(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_W) - key(GLFW_KEY_S),
+                            key(GLFW_KEY_E) - key(GLFW_KEY_Q));
+      if (move != glm::dvec3(0.0)) controller_->fly(move * (shift ? 4.0 : 1.0), seconds);
+    }
+  }
+  for (const int k : std::exchange(keysPressed_, {})) {
+    switch (k) {
+      case GLFW_KEY_ESCAPE:
+        if (lassoTool_) {
+          lassoTool_ = false;
+          lassoPoints_.clear();
+        } else if (showHelp_) {
+          showHelp_ = false;
+        } else {
+          glfwSetWindowShouldClose(window, GLFW_TRUE);
+        }
+        break;
+      case GLFW_KEY_H:
+        controller_->goHome();
+        break;
+      case GLFW_KEY_F:
+        controller_->setMode(fly ? app::CameraController::Mode::Orbit : app::CameraController::Mode::Fly);
+        break;
+      case GLFW_KEY_L:
+        lassoTool_ = !lassoTool_;
+        break;
+      case GLFW_KEY_I:
+        if (!steps_.empty()) invertSelection();
+        break;
+      case GLFW_KEY_C:
+        clearSelection();
+        break;
+      case GLFW_KEY_O:
+        render_.overlays = !render_.overlays;
+        break;
+      case GLFW_KEY_P:
+        settings_.showPanel = !settings_.showPanel;
+        break;
+      case GLFW_KEY_U:
+        settings_.showHud = !settings_.showHud;
+        break;
+      case GLFW_KEY_F12:
+        pendingShot_ = {std::filesystem::path("terrain_viewer_" + std::to_string(frameIndex_) + ".png"), true};
+        break;
+      case GLFW_KEY_SLASH:  // '?' on most layouts (with Shift)
+        showHelp_ = !showHelp_;
+        break;
+      default:
+        break;
+    }
+  }
+}
+
+bool Viewer::runStep(const app::ScriptStep& step) {
+  const std::string where = script_->file + ": step " + std::to_string(step.index);
+  auto sceneLayer = [&](const std::string& name) -> std::optional<std::size_t> {
+    for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
+      if (scene_->layers[i].description.name == name) return i;
+    }
+    message(where + ": no layer named '" + name + "'", true);
+    return std::nullopt;
+  };
+  switch (step.action) {
+    case app::ScriptAction::Camera: {
+      Result<app::CameraSpec> spec = app::parseCameraSpec(step.camera, step.cameraFile);
+      for (const Diagnostic& d : spec.diagnostics.items()) message(where + ": " + d.toString(), true);
+      if (!spec) return false;
+      Result<app::Camera> placed = app::placeCamera(*spec, scene_->frame, where);
+      for (const Diagnostic& d : placed.diagnostics.items()) message(where + ": " + d.toString(), true);
+      if (!placed) return false;
+      settings_.fovYDeg = spec->fovYDeg;
+      if (step.seconds > 0.0) {
+        controller_->animateTo(*placed, step.seconds);
+        animating_ = true;
+      } else {
+        controller_->jumpTo(*placed);
+      }
+      return true;
+    }
+    case app::ScriptAction::Wait:
+      waitFrames_ = step.frames;
+      return true;
+    case app::ScriptAction::ToggleLayer: {
+      const auto i = sceneLayer(step.layer);
+      if (!i) return false;
+      bool shown = false;
+      for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+        if (renderer_->overlaySources()[j].first == *i) shown = shown || renderer_->shown(j);
+      }
+      setLayerShown(*i, !shown);
+      return true;
+    }
+    case app::ScriptAction::SetLayer: {
+      const auto i = sceneLayer(step.layer);
+      if (!i) return false;
+      overlay::LayerStyle& style = description_->layers[*i].style;
+      if (step.color) style.color = *step.color;
+      if (step.opacity) style.opacity = *step.opacity;
+      if (step.width) style.widthMetres = static_cast<float>(*step.width);
+      if (step.color || step.opacity || step.width) rebuildOverlays();
+      if (step.visible) setLayerShown(*i, *step.visible);
+      return true;
+    }
+    case app::ScriptAction::Overlays:
+      render_.overlays = step.on;
+      return true;
+    case app::ScriptAction::Method:
+      method_ = step.text == "paper" ? app::OverlayMethod::Paper : app::OverlayMethod::Stencil;
+      rebuildOverlays();
+      return true;
+    case app::ScriptAction::Exaggeration:
+      render_.verticalExaggeration = step.value;
+      scene_->bounds->setExaggeration(step.value);
+      for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+        renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
+      }
+      return true;
+    case app::ScriptAction::Lasso: {
+      const std::optional<overlay::SelectionOp> op = overlay::parseSelectionOp(step.lassoOp);
+      if (!op) {
+        message(where + ": unknown lasso operator '" + step.lassoOp + "'", true);
+        return false;
+      }
+      addLasso(*op, step.points);
+      return true;
+    }
+    case app::ScriptAction::Invert:
+      invertSelection();
+      return true;
+    case app::ScriptAction::ClearSelection:
+      clearSelection();
+      return true;
+    case app::ScriptAction::Identify: {
+      identified_ = identify(step.at);
+      if (step.path.empty()) return true;
+      std::ofstream out(step.path);
+      out << (identified_ ? identified_->toJson() : nlohmann::json(nullptr)).dump(2) << "\n";
+      if (!out) message(where + ": cannot write " + step.path, true);
+      return static_cast<bool>(out);
+    }
+    case app::ScriptAction::Export:
+      return exportSelection(step.path);
+    case app::ScriptAction::Screenshot:
+      pendingShot_ = {std::filesystem::path(step.path), step.ui};
+      return true;
+    case app::ScriptAction::Home:
+      controller_->goHome();
+      animating_ = true;
+      return true;
+    case app::ScriptAction::Key: {
+      const std::string k = lower(step.text);
+      const int code = k == "escape"                                                     ? GLFW_KEY_ESCAPE
+                       : k == "f12"                                                      ? GLFW_KEY_F12
+                       : k == "?"                                                        ? GLFW_KEY_SLASH
+                       : k.size() == 1 && std::isalpha(static_cast<unsigned char>(k[0])) ? GLFW_KEY_A + (k[0] - 'a')
+                                                                                         : -1;
+      if (code < 0) {
+        message(where + ": unknown key '" + step.text + "'", true);
+        return false;
+      }
+      keysPressed_.push_back(code);
+      handleInput(kScriptFrameSeconds);
+      return true;
+    }
+    case app::ScriptAction::Quit:
+      quit_ = true;
+      return true;
+  }
+  return true;
+}
+
+}  // namespace gis::viewer

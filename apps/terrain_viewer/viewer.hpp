@@ -1,0 +1,152 @@
+#pragma once
+// The desktop viewer (DESIGN §8, issue 6): a scene in a GLFW window, flown with the camera
+// controller, the vector layers drawn exactly with stencil polyhedra, a Dear ImGui panel, the
+// lasso tool, identify, HUD, screenshots, and a scripted mode that drives all of it for tests
+// under Xvfb. The scene is drawn into an offscreen target (float depth with stencil: reversed-Z
+// needs it, and identify and screenshots read it back), then copied to the window; the panel is
+// drawn over the copy.
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <nlohmann/json_fwd.hpp>
+
+#include "app/camera_controller.hpp"
+#include "app/scene_loader.hpp"
+#include "app/scene_renderer.hpp"
+#include "app/scene_selection.hpp"
+#include "app/viewer_script.hpp"
+#include "gfx/context.hpp"
+#include "gfx/render_target.hpp"
+#include "gfx/state_cache.hpp"
+#include "vector_overlay/selection_renderer.hpp"
+#include "viewer_settings.hpp"
+
+namespace gis::viewer {
+
+struct ViewerOptions {
+  std::string scene;
+  std::optional<std::string> script;  ///< scripted run: settings neither read nor written
+};
+
+/// What is under a pixel: the terrain point and every feature that covers it.
+struct Identified {
+  glm::dvec3 frame{0.0};
+  std::optional<glm::dvec3> lonLatH;
+  double terrainHeight = 0.0;
+  struct Hit {
+    std::string layer;
+    std::size_t feature = 0;
+    std::int64_t fid = -1;
+    std::vector<std::pair<std::string, std::string>> attributes;
+  };
+  std::vector<Hit> hits;
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+class Viewer {
+ public:
+  /// Opens the window and runs until it is closed (or the script ends). Returns the exit status:
+  /// 0, or 1 when the scene or the window could not be opened, a script step failed, or GL
+  /// reported an error during a scripted run.
+  static int run(const ViewerOptions& options);
+
+  ~Viewer();
+  Viewer(const Viewer&) = delete;
+  Viewer& operator=(const Viewer&) = delete;
+
+ private:
+  Viewer() = default;
+  bool open(const ViewerOptions& options);
+  /// Loads a scene file (or makes a scene of a DEM, or adds a vector layer to the current
+  /// scene) — what dropping a file on the window does. Reports and keeps the old scene on failure.
+  bool loadPath(const std::string& path);
+  bool useScene(app::SceneDescription description);
+  void frame(double seconds);
+  void handleInput(double seconds);
+  void drawScene();
+  void drawPanel();
+  void drawHud();
+  void drawHelp();
+  void drawIdentify();
+  void drawLassoOutline();
+
+  // Actions: the panel, the keys and the script call these.
+  void setLayerShown(std::size_t sceneLayer, bool shown);
+  void rebuildOverlays();
+  void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
+  void invertSelection();
+  void clearSelection();
+  void selectionChanged();
+  std::optional<Identified> identify(const glm::dvec2& pixel);
+  bool exportSelection(const std::filesystem::path& path);
+  /// Scene only (`ui` false: also <stem>_depth.tiff and <stem>_camera.json beside it), or the
+  /// whole window as shown.
+  bool screenshot(const std::filesystem::path& path, bool ui);
+  bool runStep(const app::ScriptStep& step);  ///< false: the step failed (reported)
+  void message(const std::string& text, bool error = false);
+
+  [[nodiscard]] glm::ivec2 framebufferSize() const;
+  /// Window (screen) coordinates → framebuffer pixels (high-DPI).
+  [[nodiscard]] glm::dvec2 toPixels(const glm::dvec2& window) const;
+  [[nodiscard]] app::Camera camera() const;
+  [[nodiscard]] double aspect() const;
+
+  std::unique_ptr<gfx::Context> context_;
+  ViewerOptions options_;
+  ViewerSettings settings_;
+  std::optional<app::SceneDescription> description_;
+  std::optional<app::LoadedScene> scene_;
+  std::optional<app::SceneRenderer> renderer_;
+  std::optional<app::CameraController> controller_;
+  std::optional<overlay::SelectionRenderer> selectionRenderer_;
+  std::optional<gfx::RenderTarget> target_;
+  gfx::StateCache cache_;
+  app::RenderSettings render_;
+  app::OverlayMethod method_ = app::OverlayMethod::Stencil;
+  bool imgui_ = false;
+
+  // Selection.
+  std::vector<overlay::SelectionStep> steps_;
+  std::optional<app::SceneSelection> selected_;
+  overlay::SelectionStyle highlight_;
+  bool lassoTool_ = false;
+  std::vector<glm::dvec2> lassoPoints_;  ///< being drawn, framebuffer pixels
+  std::string exportPath_ = "selected_features.json";
+
+  // Views and panels.
+  bool showHelp_ = false;
+  bool debugPieces_ = false;
+  std::optional<Identified> identified_;
+  app::FrameStats stats_;
+  std::vector<overlay::LayerFrameStats> measured_;
+  double frameMs_ = 16.0;
+  std::size_t frameIndex_ = 0;
+  std::vector<std::string> messages_;
+
+  // Input.
+  glm::dvec2 lastCursor_{0.0};
+  glm::dvec2 pressCursor_{0.0};
+  bool leftDown_ = false, rightDown_ = false, middleDown_ = false;
+  bool dragged_ = false;
+  double scroll_ = 0.0;
+  std::vector<std::string> dropped_;
+  std::vector<int> keysPressed_;  ///< GLFW keys pressed since the last frame (edge-triggered actions)
+
+  // Script.
+  std::optional<app::ViewerScript> script_;
+  std::size_t scriptStep_ = 0;
+  int waitFrames_ = 0;
+  bool animating_ = false;
+  bool scriptFailed_ = false;
+  bool quit_ = false;
+  std::optional<std::pair<std::filesystem::path, bool>> pendingShot_;  ///< taken at the end of this frame
+
+  friend struct Callbacks;
+};
+
+}  // namespace gis::viewer

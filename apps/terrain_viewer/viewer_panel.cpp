@@ -1,0 +1,331 @@
+// The viewer's Dear ImGui windows: the panel (scene, view, overlay method, layers, selection),
+// the HUD, the key help, identify results and the lasso being drawn.
+#include <algorithm>
+#include <cstdio>
+
+#include "gfx/gl.hpp"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include "viewer.hpp"
+
+namespace gis::viewer {
+namespace {
+
+const char* opName(overlay::SelectionOp op) {
+  switch (op) {
+    case overlay::SelectionOp::Single:
+      return "new";
+    case overlay::SelectionOp::Or:
+      return "or";
+    case overlay::SelectionOp::And:
+      return "and";
+    case overlay::SelectionOp::Xor:
+      return "xor";
+    case overlay::SelectionOp::Subtract:
+      return "subtract";
+    case overlay::SelectionOp::Invert:
+      return "invert";
+  }
+  return "?";
+}
+
+}  // namespace
+
+void Viewer::drawPanel() {
+  // A column at the left, at most the window's height (it scrolls), about 24 characters of
+  // controls and their labels; the person may move and resize it.
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  const float font = ImGui::GetFontSize();
+  ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + 10.0F, viewport->WorkPos.y + 10.0F), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(std::min(26.0F * font, viewport->WorkSize.x * 0.6F), viewport->WorkSize.y - 20.0F),
+                           ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSizeConstraints(ImVec2(12.0F * font, 4.0F * font),
+                                      ImVec2(std::max(viewport->WorkSize.x - 20.0F, 12.0F * font),
+                                             std::max(viewport->WorkSize.y - 20.0F, 4.0F * font)));
+  ImGui::Begin("stencil-gis");
+  ImGui::PushItemWidth(-10.0F * font);  // room for the labels
+  ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
+  ImGui::TextDisabled("drop a scene, DEM or vector file on the window; ? for keys");
+
+  if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
+    if (ImGui::Button("Home (H)")) controller_->goHome();
+    ImGui::SameLine();
+    bool fly = controller_->mode() == app::CameraController::Mode::Fly;
+    if (ImGui::Checkbox("fly (F)", &fly)) {
+      controller_->setMode(fly ? app::CameraController::Mode::Fly : app::CameraController::Mode::Orbit);
+    }
+    float fov = static_cast<float>(settings_.fovYDeg);
+    if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F, "%.0f°")) settings_.fovYDeg = fov;
+    float tolerance = static_cast<float>(settings_.lodTolerancePixels);
+    if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
+      settings_.lodTolerancePixels = tolerance;
+    }
+    float exaggeration = static_cast<float>(render_.verticalExaggeration);
+    ImGui::SliderFloat("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
+    if (ImGui::IsItemDeactivatedAfterEdit()) {
+      // The pieces' height bounds follow (no rebuild of the footprints).
+      render_.verticalExaggeration = exaggeration;
+      scene_->bounds->setExaggeration(exaggeration);
+      for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+        renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
+      }
+      selectionChanged();
+    }
+    ImGui::Checkbox("wireframe", &render_.wireframe);
+    ImGui::SameLine();
+    if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &render_.imagery);
+  }
+
+  if (ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) {
+    ImGui::Checkbox("vector layers (O)", &render_.overlays);
+    int method = method_ == app::OverlayMethod::Paper ? 1 : 0;
+    const bool a = ImGui::RadioButton("stencil polyhedra", &method, 0);
+    ImGui::SameLine();
+    const bool b = ImGui::RadioButton("paper's construction", &method, 1);
+    if (a || b) {
+      const app::OverlayMethod chosen = method == 1 ? app::OverlayMethod::Paper : app::OverlayMethod::Stencil;
+      if (chosen != method_) {
+        method_ = chosen;
+        rebuildOverlays();
+      }
+    }
+    ImGui::BeginDisabled();
+    int none = 0;
+    ImGui::RadioButton("texture draping (not yet)", &none, 1);
+    ImGui::EndDisabled();
+    ImGui::Checkbox("debug: pieces", &debugPieces_);
+    if (debugPieces_) {
+      ImGui::SameLine();
+      ImGui::TextColored(ImVec4(0.1F, 0.8F, 0.2F, 1.0F), "z-pass");
+      ImGui::SameLine();
+      ImGui::TextColored(ImVec4(0.9F, 0.2F, 0.2F, 1.0F), "z-fail");
+    }
+  }
+
+  if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
+    bool rebuild = false;
+    for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
+      ImGui::PushID(static_cast<int>(i));
+      app::LayerDescription& layer = description_->layers[i];
+      bool shown = false, built = false;
+      for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+        if (renderer_->overlaySources()[j].first != i) continue;
+        built = true;
+        shown = shown || renderer_->shown(j);
+      }
+      if (!built) ImGui::BeginDisabled();
+      if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
+      if (!built) ImGui::EndDisabled();
+      ImGui::SameLine();
+      const bool open =
+          ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), scene_->layers[i].data.features.size());
+      if (open) {
+        ImGui::ColorEdit3("colour", &layer.style.color.x, ImGuiColorEditFlags_NoInputs);
+        rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+        ImGui::SliderFloat("opacity", &layer.style.opacity, 0.0F, 1.0F);
+        rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+        if (layer.kind == overlay::LayerKind::Line) {
+          constexpr double kMinWidth = 0.5, kMaxWidth = 200.0;
+          ImGui::SliderScalar("width (m)", ImGuiDataType_Double, &layer.style.widthMetres, &kMinWidth, &kMaxWidth,
+                              "%.1f", ImGuiSliderFlags_Logarithmic);
+          rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+        } else {
+          bool outline = layer.style.outlineWidthMetres > 0.0F || layer.style.outlineWidthPixels > 0.0F;
+          if (ImGui::Checkbox("outline", &outline)) {
+            layer.style.outlineWidthMetres = outline ? 6.0F : 0.0F;
+            layer.style.outlineWidthPixels = 0.0F;
+            rebuild = true;
+          }
+        }
+        // Draw order: earlier layers are drawn first (below).
+        if (ImGui::ArrowButton("down", ImGuiDir_Up) && i > 0) {
+          std::swap(layer.style.drawOrder, description_->layers[i - 1].style.drawOrder);
+          if (layer.style.drawOrder == description_->layers[i - 1].style.drawOrder) --layer.style.drawOrder;
+          rebuild = true;
+        }
+        ImGui::SameLine();
+        if (ImGui::ArrowButton("up", ImGuiDir_Down) && i + 1 < scene_->layers.size()) {
+          std::swap(layer.style.drawOrder, description_->layers[i + 1].style.drawOrder);
+          if (layer.style.drawOrder == description_->layers[i + 1].style.drawOrder) ++layer.style.drawOrder;
+          rebuild = true;
+        }
+        ImGui::SameLine();
+        ImGui::Text("draw order %d", layer.style.drawOrder);
+        ImGui::TreePop();
+      }
+      ImGui::PopID();
+    }
+    if (rebuild) rebuildOverlays();
+  }
+
+  if (ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) {
+    ImGui::Checkbox("lasso tool (L)", &lassoTool_);
+    ImGui::SameLine();
+    ImGui::TextDisabled("Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
+    if (ImGui::Button("Invert (I)") && !steps_.empty()) invertSelection();
+    ImGui::SameLine();
+    if (ImGui::Button("Clear (C)")) clearSelection();
+    ImGui::SameLine();
+    ImGui::ColorEdit3("highlight", &highlight_.color.x, ImGuiColorEditFlags_NoInputs);
+    if (!steps_.empty()) {
+      std::string chain;
+      for (const overlay::SelectionStep& s : steps_) chain += std::string(chain.empty() ? "" : " → ") + opName(s.op);
+      ImGui::TextWrapped("steps: %s", chain.c_str());
+    }
+    if (selected_) {
+      ImGui::Text("%zu features selected", selected_->featureCount());
+      if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
+      for (const app::LayerSelection& l : selected_->layers) {
+        const overlay::OverlayLayer& drawn = renderer_->overlayLayers()[l.overlayLayer];
+        if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", scene_->layers[l.sceneLayer].description.name.c_str(),
+                             l.features.size(), l.fullyInside)) {
+          continue;
+        }
+        const std::size_t shown = std::min<std::size_t>(l.features.size(), 200);
+        for (std::size_t k = 0; k < shown; ++k) {
+          const geo::Feature& f = drawn.features()[l.features[k].feature];
+          if (ImGui::TreeNode(&l.features[k], "fid %lld%s", static_cast<long long>(f.fid),
+                              l.features[k].fullyInside ? " (inside)" : "")) {
+            for (const auto& [key, value] : f.attributes) {
+              std::string text;
+              if (const auto* s = std::get_if<std::string>(&value))
+                text = *s;
+              else if (const auto* n = std::get_if<std::int64_t>(&value))
+                text = std::to_string(*n);
+              else if (const auto* d = std::get_if<double>(&value))
+                text = std::to_string(*d);
+              ImGui::BulletText("%s: %s", key.c_str(), text.c_str());
+            }
+            ImGui::TreePop();
+          }
+        }
+        if (shown < l.features.size()) ImGui::TextDisabled("… and %zu more", l.features.size() - shown);
+        ImGui::TreePop();
+      }
+      char path[512];
+      std::snprintf(path, sizeof(path), "%s", exportPath_.c_str());
+      if (ImGui::InputText("##export", path, sizeof(path))) exportPath_ = path;
+      ImGui::SameLine();
+      if (ImGui::Button("Export GeoJSON")) exportSelection(exportPath_);
+    }
+  }
+
+  if (!messages_.empty() && ImGui::CollapsingHeader("Messages")) {
+    for (std::size_t k = messages_.size() > 30 ? messages_.size() - 30 : 0; k < messages_.size(); ++k) {
+      ImGui::TextWrapped("%s", messages_[k].c_str());
+    }
+  }
+  ImGui::PopItemWidth();
+  ImGui::End();
+}
+
+void Viewer::drawHud() {
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10, viewport->WorkPos.y + 10),
+                          ImGuiCond_Always, ImVec2(1.0F, 0.0F));
+  ImGui::SetNextWindowBgAlpha(0.55F);
+  ImGui::Begin("HUD", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoFocusOnAppearing |
+                   ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs);
+  ImGui::Text("%.1f fps  %.1f ms", 1000.0 / std::max(frameMs_, 1e-3), frameMs_);
+  ImGui::Text("terrain: %zu triangles, %zu chunks, GPU %.2f ms", stats_.terrainDraw.triangles,
+              stats_.terrainDraw.chunks, stats_.terrain.gpuMilliseconds);
+  if (!render_.overlays) {
+    ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
+  } else {
+    double overlayMs = 0.0;
+    std::uint64_t fragments = 0;
+    std::size_t zFail = 0;
+    for (const overlay::LayerFrameStats& l : stats_.layers) {
+      overlayMs += l.gpuMilliseconds;
+      fragments += l.markFragments + l.coverFragments;
+      zFail += l.zFailPieces;
+    }
+    ImGui::Text("overlays: GPU %.2f ms, %.2f M fragments, %zu z-fail pieces", overlayMs,
+                static_cast<double>(fragments) * 1e-6, zFail);
+    for (std::size_t j = 0; j < stats_.layers.size() && j < renderer_->overlayLayers().size(); ++j) {
+      const overlay::LayerFrameStats& l = stats_.layers[j];
+      ImGui::TextDisabled("  %s: %.2f ms, %zu pieces", renderer_->overlayLayers()[j].name().c_str(), l.gpuMilliseconds,
+                          l.zPassPieces + l.zFailPieces);
+    }
+  }
+  if (scene_->paged()) {
+    ImGui::Text("tiles: %zu resident, %zu loading", stats_.pager.residentTiles, stats_.pager.pending);
+  }
+  const app::Camera c = camera();
+  if (const std::optional<glm::dvec3> ll =
+          scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, render_.verticalExaggeration))) {
+    ImGui::Text("eye %.5f, %.5f, %.0f m", ll->y, ll->x, ll->z);
+  }
+  ImGui::End();
+}
+
+void Viewer::drawHelp() {
+  ImGui::SetNextWindowPos(ImGui::GetMainViewport()->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5F, 0.5F));
+  ImGui::Begin("Keys and mouse (?)", &showHelp_, ImGuiWindowFlags_AlwaysAutoResize);
+  const char* rows[][2] = {
+      {"left drag", "orbit around the point in view (fly mode: look)"},
+      {"right / middle drag", "pan: the ground under the cursor follows it"},
+      {"wheel", "zoom to the point under the cursor"},
+      {"click", "identify: features, coordinates and height under the cursor"},
+      {"F", "fly mode: W A S D move, Q E down/up, Shift faster"},
+      {"H", "home view"},
+      {"L", "lasso tool: drag to draw; Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor"},
+      {"I / C", "invert / clear the selection"},
+      {"O", "all vector layers on/off (compare frame rate)"},
+      {"P / U", "panel / HUD on/off"},
+      {"F12", "screenshot (PNG, working directory)"},
+      {"?", "this help"},
+      {"Esc", "leave the lasso tool, close help, quit"},
+  };
+  if (ImGui::BeginTable("keys", 2)) {
+    for (const auto& row : rows) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row[0]);
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row[1]);
+    }
+    ImGui::EndTable();
+  }
+  ImGui::End();
+}
+
+void Viewer::drawIdentify() {
+  bool open = true;
+  ImGui::SetNextWindowPos(ImVec2(10, ImGui::GetMainViewport()->WorkSize.y - 10), ImGuiCond_FirstUseEver,
+                          ImVec2(0.0F, 1.0F));
+  ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
+  const Identified& id = *identified_;
+  ImGui::Text("frame: %.2f, %.2f, %.2f m", id.frame.x, id.frame.y, id.frame.z);
+  if (id.lonLatH) ImGui::Text("lon/lat: %.6f, %.6f", id.lonLatH->x, id.lonLatH->y);
+  ImGui::Text("terrain height: %.2f m", id.terrainHeight);
+  if (id.hits.empty()) ImGui::TextDisabled("no feature here");
+  for (const Identified::Hit& h : id.hits) {
+    if (ImGui::TreeNodeEx(&h, ImGuiTreeNodeFlags_DefaultOpen, "%s: fid %lld", h.layer.c_str(),
+                          static_cast<long long>(h.fid))) {
+      for (const auto& [k, v] : h.attributes) ImGui::BulletText("%s: %s", k.c_str(), v.c_str());
+      ImGui::TreePop();
+    }
+  }
+  ImGui::End();
+  if (!open) identified_.reset();
+}
+
+void Viewer::drawLassoOutline() {
+  if (lassoPoints_.size() < 2) return;
+  // Framebuffer pixels → ImGui's coordinates (window units).
+  const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+  std::vector<ImVec2> points;
+  points.reserve(lassoPoints_.size());
+  for (const glm::dvec2& p : lassoPoints_) {
+    points.emplace_back(static_cast<float>(p.x) / scale.x, static_cast<float>(p.y) / scale.y);
+  }
+  ImGui::GetForegroundDrawList()->AddPolyline(points.data(), static_cast<int>(points.size()),
+                                              IM_COL32(255, 230, 40, 255), ImDrawFlags_Closed, 2.0F);
+}
+
+}  // namespace gis::viewer

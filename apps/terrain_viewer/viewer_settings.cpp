@@ -1,0 +1,83 @@
+#include "viewer_settings.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <system_error>
+#include <type_traits>
+
+#include <nlohmann/json.hpp>
+
+namespace gis::viewer {
+
+std::optional<std::filesystem::path> settingsPath() {
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg != nullptr && *xdg != '\0') {
+    return std::filesystem::path(xdg) / "stencil-gis" / "viewer.json";
+  }
+  if (const char* home = std::getenv("HOME"); home != nullptr && *home != '\0') {
+    return std::filesystem::path(home) / ".config" / "stencil-gis" / "viewer.json";
+  }
+  return std::nullopt;
+}
+
+Result<ViewerSettings> loadViewerSettings(const std::filesystem::path& path) {
+  Result<ViewerSettings> r;
+  r.value = ViewerSettings{};
+  std::ifstream in(path);
+  if (!in) return r;  // first run
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) {
+    r.diagnostics.add(
+        {Severity::Warning, path.string(), "", "", "not a settings file (JSON object); using the defaults"});
+    return r;
+  }
+  ViewerSettings& s = *r.value;
+  // Each value on its own: one bad entry does not lose the others.
+  auto number = [&](const char* key, auto& target, double lo, double hi) {
+    if (!j.contains(key)) return;
+    const nlohmann::json& v = j[key];
+    if (!v.is_number() || v.get<double>() < lo || v.get<double>() > hi) {
+      r.diagnostics.add({Severity::Warning, path.string(), "", "",
+                         std::string("'") + key + "' must be a number in [" + std::to_string(lo) + ", " +
+                             std::to_string(hi) + "]; using the default"});
+      return;
+    }
+    target = v.get<std::remove_reference_t<decltype(target)>>();
+  };
+  auto flag = [&](const char* key, bool& target) {
+    if (!j.contains(key)) return;
+    if (!j[key].is_boolean()) {
+      r.diagnostics.add({Severity::Warning, path.string(), "", "",
+                         std::string("'") + key + "' must be true or false; using the default"});
+      return;
+    }
+    target = j[key].get<bool>();
+  };
+  if (j.contains("window") && j["window"].is_array() && j["window"].size() == 2 && j["window"][0].is_number() &&
+      j["window"][1].is_number()) {
+    s.windowSize = glm::ivec2(std::clamp(j["window"][0].get<int>(), 320, 16384),
+                              std::clamp(j["window"][1].get<int>(), 240, 16384));
+  }
+  number("lod_tolerance_px", s.lodTolerancePixels, 0.0, 64.0);
+  number("fov_y_deg", s.fovYDeg, 5.0, 120.0);
+  flag("show_hud", s.showHud);
+  flag("show_panel", s.showPanel);
+  return r;
+}
+
+Diagnostics saveViewerSettings(const ViewerSettings& s, const std::filesystem::path& path) {
+  Diagnostics d;
+  std::error_code ec;
+  std::filesystem::create_directories(path.parent_path(), ec);
+  const nlohmann::json j = {{"window", {s.windowSize.x, s.windowSize.y}},
+                            {"lod_tolerance_px", s.lodTolerancePixels},
+                            {"fov_y_deg", s.fovYDeg},
+                            {"show_hud", s.showHud},
+                            {"show_panel", s.showPanel}};
+  std::ofstream out(path);
+  out << j.dump(2) << "\n";
+  if (!out) d.add({Severity::Warning, path.string(), "", "", "cannot write the viewer settings"});
+  return d;
+}
+
+}  // namespace gis::viewer
