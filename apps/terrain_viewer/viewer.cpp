@@ -1,10 +1,12 @@
 #include "viewer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <numbers>
+#include <string_view>
 #include <system_error>
 #include <variant>
 
@@ -462,21 +464,29 @@ void Viewer::frame(double seconds) {
   for (const std::string& path : std::exchange(dropped_, {})) loadPath(path);
 
   if (script_ && !quit_) {
-    if (animating_) {
+    if (!scriptInput_.empty()) {
+      // Played mouse and keys: one input state per frame, then the camera settles.
+      handleInput(seconds, scriptInput_.front());
+      scriptInput_.pop_front();
+      if (scriptInput_.empty()) animating_ = true;
+    } else if (animating_) {
       // Wait for the keyframe to be reached.
     } else if (waitFrames_ > 0) {
       --waitFrames_;
     } else {
-      while (scriptStep_ < script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ && !quit_) {
+      while (scriptStep_ < script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ && !quit_ &&
+             scriptInput_.empty()) {
         if (!runStep(script_->steps[scriptStep_++])) {
           scriptFailed_ = true;
           quit_ = true;
         }
       }
-      if (scriptStep_ >= script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_) quit_ = true;
+      if (scriptStep_ >= script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ &&
+          scriptInput_.empty())
+        quit_ = true;
     }
   } else {
-    handleInput(seconds);
+    handleInput(seconds, readInput());
   }
   const bool moving =
       controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
@@ -543,25 +553,40 @@ void Viewer::drawScene() {
   glViewport(0, 0, fb.x, fb.y);
 }
 
-void Viewer::handleInput(double seconds) {
+InputFrame Viewer::readInput() {
   GLFWwindow* window = context_->window();
   const ImGuiIO& io = ImGui::GetIO();
+  InputFrame in;
   glm::dvec2 cursor(0.0);
   glfwGetCursorPos(window, &cursor.x, &cursor.y);
-  const glm::dvec2 pixel = toPixels(cursor), lastPixel = toPixels(lastCursor_);
+  in.cursor = toPixels(cursor);
+  in.left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+  in.right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
+  in.middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+  const auto down = [&](int a, int b) {
+    return glfwGetKey(window, a) == GLFW_PRESS || glfwGetKey(window, b) == GLFW_PRESS;
+  };
+  in.modifiers.shift = down(GLFW_KEY_LEFT_SHIFT, GLFW_KEY_RIGHT_SHIFT);
+  in.modifiers.ctrl = down(GLFW_KEY_LEFT_CONTROL, GLFW_KEY_RIGHT_CONTROL);
+  in.modifiers.alt = down(GLFW_KEY_LEFT_ALT, GLFW_KEY_RIGHT_ALT);
+  for (const int k : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E}) {
+    if (glfwGetKey(window, k) == GLFW_PRESS) in.held.push_back(k);
+  }
+  in.scroll = std::exchange(scroll_, 0.0);
+  in.pressed = std::exchange(keysPressed_, {});
+  in.uiMouse = io.WantCaptureMouse;
+  in.uiKeyboard = io.WantCaptureKeyboard;
+  return in;
+}
+
+void Viewer::handleInput(double seconds, const InputFrame& in) {
+  const glm::dvec2 pixel = in.cursor, lastPixel = lastPixel_;
   const glm::ivec2 fb = framebufferSize();
-  const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
-  const bool right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
-  const bool middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
-  const bool shift =
-      glfwGetKey(window, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
-  const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
-                    glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
-  const bool alt =
-      glfwGetKey(window, GLFW_KEY_LEFT_ALT) == GLFW_PRESS || glfwGetKey(window, GLFW_KEY_RIGHT_ALT) == GLFW_PRESS;
+  const bool left = in.left, right = in.right, middle = in.middle;
+  const bool shift = in.modifiers.shift, ctrl = in.modifiers.ctrl, alt = in.modifiers.alt;
   const bool fly = controller_->mode() == app::CameraController::Mode::Fly;
 
-  if (!io.WantCaptureMouse) {
+  if (!in.uiMouse) {
     if (left && !leftDown_) {
       pressCursor_ = pixel;
       dragged_ = false;
@@ -603,7 +628,7 @@ void Viewer::handleInput(double seconds) {
       }
       lassoPoints_.clear();
     }
-    if (scroll_ != 0.0) {
+    if (in.scroll != 0.0) {
       std::optional<glm::dvec3> under;
       if (const std::optional<Identified> hit = [&]() -> std::optional<Identified> {
             if (!target_) return std::nullopt;
@@ -624,24 +649,23 @@ void Viewer::handleInput(double seconds) {
           }()) {
         under = hit->frame;
       }
-      controller_->zoomAt(scroll_, pixel, fb, under);
+      controller_->zoomAt(in.scroll, pixel, fb, under);
     }
   }
-  scroll_ = 0.0;
   leftDown_ = left;
   rightDown_ = right;
   middleDown_ = middle;
-  lastCursor_ = cursor;
+  lastPixel_ = pixel;
 
-  if (!io.WantCaptureKeyboard) {
+  if (!in.uiKeyboard) {
     if (fly) {
-      auto key = [&](int k) { return glfwGetKey(window, k) == GLFW_PRESS ? 1.0 : 0.0; };
+      auto key = [&](int k) { return std::find(in.held.begin(), in.held.end(), k) != in.held.end() ? 1.0 : 0.0; };
       const glm::dvec3 move(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_W) - key(GLFW_KEY_S),
                             key(GLFW_KEY_E) - key(GLFW_KEY_Q));
       if (move != glm::dvec3(0.0)) controller_->fly(move * (shift ? 4.0 : 1.0), seconds);
     }
   }
-  for (const int k : std::exchange(keysPressed_, {})) {
+  for (const int k : in.pressed) {
     switch (k) {
       case GLFW_KEY_ESCAPE:
         if (lassoTool_) {
@@ -650,7 +674,7 @@ void Viewer::handleInput(double seconds) {
         } else if (showHelp_) {
           showHelp_ = false;
         } else {
-          glfwSetWindowShouldClose(window, GLFW_TRUE);
+          glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
         }
         break;
       case GLFW_KEY_H:
@@ -687,6 +711,88 @@ void Viewer::handleInput(double seconds) {
         break;
     }
   }
+}
+
+int Viewer::keyCode(const std::string& name) {
+  if (name.size() == 1) {
+    const char c = static_cast<char>(std::tolower(static_cast<unsigned char>(name[0])));
+    if (c >= 'a' && c <= 'z') return GLFW_KEY_A + (c - 'a');
+    if (c >= '0' && c <= '9') return GLFW_KEY_0 + (c - '0');
+    switch (c) {
+      case '?':
+      case '/':
+        return GLFW_KEY_SLASH;
+      case ' ':
+        return GLFW_KEY_SPACE;
+      default:
+        return GLFW_KEY_UNKNOWN;
+    }
+  }
+  static const std::array<std::pair<std::string_view, int>, 15> kNamed{{{"escape", GLFW_KEY_ESCAPE},
+                                                                        {"enter", GLFW_KEY_ENTER},
+                                                                        {"tab", GLFW_KEY_TAB},
+                                                                        {"backspace", GLFW_KEY_BACKSPACE},
+                                                                        {"insert", GLFW_KEY_INSERT},
+                                                                        {"delete", GLFW_KEY_DELETE},
+                                                                        {"right", GLFW_KEY_RIGHT},
+                                                                        {"left", GLFW_KEY_LEFT},
+                                                                        {"down", GLFW_KEY_DOWN},
+                                                                        {"up", GLFW_KEY_UP},
+                                                                        {"page_up", GLFW_KEY_PAGE_UP},
+                                                                        {"page_down", GLFW_KEY_PAGE_DOWN},
+                                                                        {"home", GLFW_KEY_HOME},
+                                                                        {"end", GLFW_KEY_END},
+                                                                        {"space", GLFW_KEY_SPACE}}};
+  const std::string n = lower(name);
+  for (const auto& [text, code] : kNamed) {
+    if (n == text) return code;
+  }
+  for (int f = 1; f <= 25; ++f) {
+    if (n == "f" + std::to_string(f)) return GLFW_KEY_F1 + f - 1;
+  }
+  return GLFW_KEY_UNKNOWN;
+}
+
+nlohmann::json Viewer::state() const {
+  const glm::ivec2 fb = framebufferSize();
+  glm::ivec2 window(0);
+  glfwGetWindowSize(context_->window(), &window.x, &window.y);
+  const app::OrbitPose& pose = controller_->shownPose();
+  nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
+  for (const overlay::SelectionStep& st : steps_) {
+    steps.push_back(overlay::selectionOpName(st.op));
+    nlohmann::json points = nlohmann::json::array();
+    for (const glm::dvec2& p : st.lasso.points) points.push_back({p.x, p.y});
+    lassos.push_back(points);
+  }
+  nlohmann::json layers = nlohmann::json::array();
+  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
+    bool shown = false;
+    for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+      if (renderer_->overlaySources()[j].first == i) shown = shown || renderer_->shown(j);
+    }
+    layers.push_back({{"name", scene_->layers[i].description.name}, {"shown", shown}});
+  }
+  nlohmann::json j = {
+      {"mode", controller_->mode() == app::CameraController::Mode::Fly ? "fly" : "orbit"},
+      {"camera", app::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
+      {"pose",
+       {{"target", {pose.target.x, pose.target.y, pose.target.z}},
+        {"yaw", pose.yaw},
+        {"pitch", pose.pitch},
+        {"distance", pose.distance}}},
+      {"framebuffer", {fb.x, fb.y}},
+      {"window", {window.x, window.y}},
+      {"overlays", render_.overlays},
+      {"lasso_tool", lassoTool_},
+      {"layers", layers},
+      {"selection",
+       {{"steps", steps},
+        {"lassos", lassos},
+        {"features", selected_ ? selected_->featureCount() : 0},
+        {"dem_posts", selected_ && selected_->posts ? nlohmann::json(selected_->posts->selected) : nlohmann::json()}}},
+      {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
+  return j;
 }
 
 bool Viewer::runStep(const app::ScriptStep& step) {
@@ -785,20 +891,70 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       controller_->goHome();
       animating_ = true;
       return true;
-    case app::ScriptAction::Key: {
-      const std::string k = lower(step.text);
-      const int code = k == "escape"                                                     ? GLFW_KEY_ESCAPE
-                       : k == "f12"                                                      ? GLFW_KEY_F12
-                       : k == "?"                                                        ? GLFW_KEY_SLASH
-                       : k.size() == 1 && std::isalpha(static_cast<unsigned char>(k[0])) ? GLFW_KEY_A + (k[0] - 'a')
-                                                                                         : -1;
-      if (code < 0) {
-        message(where + ": unknown key '" + step.text + "'", true);
-        return false;
+    case app::ScriptAction::Key:
+    case app::ScriptAction::HoldKeys: {
+      std::vector<int> codes;
+      for (const std::string& name : step.action == app::ScriptAction::Key ? std::vector{step.text} : step.keys) {
+        const int code = keyCode(name);
+        if (code == GLFW_KEY_UNKNOWN) {
+          message(where + ": the viewer has no key '" + name + "'", true);
+          return false;
+        }
+        codes.push_back(code);
       }
-      keysPressed_.push_back(code);
-      handleInput(kScriptFrameSeconds);
+      InputFrame in;
+      in.cursor = lastPixel_;
+      in.modifiers = step.modifiers;
+      if (step.action == app::ScriptAction::Key) {
+        in.pressed = codes;
+        scriptInput_.push_back(in);
+      } else {
+        in.held = codes;
+        scriptInput_.insert(scriptInput_.end(), static_cast<std::size_t>(step.frames), in);
+      }
       return true;
+    }
+    case app::ScriptAction::Drag:
+    case app::ScriptAction::Click: {
+      InputFrame in;
+      in.modifiers = step.modifiers;
+      const auto press = [&](bool down) {
+        in.left = down && step.button == app::MouseButton::Left;
+        in.right = down && step.button == app::MouseButton::Right;
+        in.middle = down && step.button == app::MouseButton::Middle;
+      };
+      const std::vector<glm::dvec2> path = step.action == app::ScriptAction::Drag ? step.points : std::vector{step.at};
+      // First the cursor arrives with the button up, so the press happens where it should.
+      in.cursor = path.front();
+      scriptInput_.push_back(in);
+      press(true);
+      scriptInput_.push_back(in);
+      for (std::size_t i = 1; i < path.size(); ++i) {
+        for (int f = 1; f <= step.frames; ++f) {
+          in.cursor = glm::mix(path[i - 1], path[i], static_cast<double>(f) / step.frames);
+          scriptInput_.push_back(in);
+        }
+      }
+      press(false);
+      scriptInput_.push_back(in);
+      return true;
+    }
+    case app::ScriptAction::Scroll: {
+      InputFrame in;
+      in.cursor = step.at;
+      in.scroll = step.value;
+      scriptInput_.push_back(in);
+      return true;
+    }
+    case app::ScriptAction::Resize:
+      glfwSetWindowSize(context_->window(), step.window.x, step.window.y);
+      waitFrames_ = 2;  // the window system answers within a frame or two
+      return true;
+    case app::ScriptAction::SaveState: {
+      std::ofstream out(step.path);
+      out << state().dump(2) << "\n";
+      if (!out) message(where + ": cannot write " + step.path, true);
+      return static_cast<bool>(out);
     }
     case app::ScriptAction::Quit:
       quit_ = true;

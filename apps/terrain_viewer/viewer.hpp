@@ -5,6 +5,7 @@
 // under Xvfb. The scene is drawn into an offscreen target (float depth with stencil: reversed-Z
 // needs it, and identify and screenshots read it back), then copied to the window; the panel is
 // drawn over the copy.
+#include <deque>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -48,6 +49,18 @@ struct Identified {
   [[nodiscard]] nlohmann::json toJson() const;
 };
 
+/// One frame's mouse and keyboard: read from GLFW, or played from a script (the same handling).
+struct InputFrame {
+  glm::dvec2 cursor{0.0};  ///< framebuffer pixels, origin top-left
+  bool left = false, right = false, middle = false;
+  app::Modifiers modifiers;
+  double scroll = 0.0;       ///< wheel steps since the last frame, positive zooms in
+  std::vector<int> held;     ///< GLFW keys held down (fly: W A S D Q E)
+  std::vector<int> pressed;  ///< GLFW keys pressed since the last frame (edge-triggered actions)
+  bool uiMouse = false;      ///< the panel takes the mouse
+  bool uiKeyboard = false;   ///< the panel takes the keyboard
+};
+
 class Viewer {
  public:
   /// Opens the window and runs until it is closed (or the script ends). Returns the exit status:
@@ -67,7 +80,12 @@ class Viewer {
   bool loadPath(const std::string& path);
   bool useScene(app::SceneDescription description);
   void frame(double seconds);
-  void handleInput(double seconds);
+  [[nodiscard]] InputFrame readInput();
+  void handleInput(double seconds, const InputFrame& in);
+  /// The GLFW key of a script's key name (app::ScriptStep::text), or GLFW_KEY_UNKNOWN.
+  static int keyCode(const std::string& name);
+  /// What a test of the viewer checks: camera and pose, window, selection, identify, layers.
+  [[nodiscard]] nlohmann::json state() const;
   void drawScene();
   void drawPanel();
   void drawHud();
@@ -129,13 +147,14 @@ class Viewer {
   std::vector<std::string> messages_;
 
   // Input.
-  glm::dvec2 lastCursor_{0.0};
+  glm::dvec2 lastPixel_{0.0};
   glm::dvec2 pressCursor_{0.0};
   bool leftDown_ = false, rightDown_ = false, middleDown_ = false;
   bool dragged_ = false;
   double scroll_ = 0.0;
   std::vector<std::string> dropped_;
   std::vector<int> keysPressed_;  ///< GLFW keys pressed since the last frame (edge-triggered actions)
+  std::deque<InputFrame> scriptInput_;  ///< played mouse and keys, one per frame
 
   // Script.
   std::optional<app::ViewerScript> script_;

@@ -57,13 +57,31 @@ double maxDifference(const glm::dvec3& a, const glm::dvec3& b) {
   return std::max({d.x, d.y, d.z});
 }
 
-class ViewerScriptTest : public GlTest {};
+class ViewerScriptTest : public GlTest {
+ protected:
+  /// A fresh output directory for one script.
+  static fs::path outputDir(const std::string& name) {
+    const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / (name + "_" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+  }
+
+  /// Runs the viewer on the Olinda sample with `script` (written into `dir`); true if it exited with 0.
+  static ::testing::AssertionResult runViewer(const fs::path& dir, const json& script) {
+    { std::ofstream(dir / "script.json") << script.dump(1); }
+    const std::string command = std::string(TERRAIN_VIEWER_EXE) + " " + STENCIL_GIS_SAMPLES_DIR +
+                                "/olinda/scene.json --script " + (dir / "script.json").string() + " > " +
+                                (dir / "log.txt").string() + " 2>&1";
+    const int status = std::system(command.c_str());
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "the viewer failed:\n" << readText(dir / "log.txt");
+  }
+};
 
 TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
-  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("viewer_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = outputDir("viewer");
   const std::vector<std::vector<double>> lasso{{150, 110}, {330, 100}, {350, 250}, {250, 200}, {160, 270}};
   const json script = {
       {"window", {kWidth, kHeight}},
@@ -81,12 +99,7 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
                     {{"action", "export"}, {"path", "selected.json"}},
                     {{"action", "identify"}, {"x", 240}, {"y", 180}, {"out", "identify.json"}},
                     {{"action", "quit"}}})}};
-  { std::ofstream(dir / "script.json") << script.dump(1); }
-  const std::string command = std::string(TERRAIN_VIEWER_EXE) + " " + STENCIL_GIS_SAMPLES_DIR +
-                              "/olinda/scene.json --script " + (dir / "script.json").string() + " > " +
-                              (dir / "log.txt").string() + " 2>&1";
-  const int status = std::system(command.c_str());
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(dir / "log.txt");
+  ASSERT_TRUE(runViewer(dir, script));
 
   const gfx::Image8 with = *gfx::readImage8((dir / "with.png").string());
   const gfx::Image8 without = *gfx::readImage8((dir / "without.png").string());
@@ -203,6 +216,181 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   EXPECT_EQ(identified["features"].size(),
             static_cast<std::size_t>(std::popcount(mask[centre] & 1u) + std::popcount(mask[centre] & 4u)))
       << "identify lists the fills and lines under the point";
+}
+
+/// The frame point seen at pixel (x, y) (top-left origin) at NDC depth `z`.
+glm::dvec3 unproject(const glm::dmat4& viewProj, double x, double y, double z, int width, int height) {
+  const glm::dvec4 p = glm::inverse(viewProj) *
+                       glm::dvec4(2.0 * (x + 0.5) / width - 1.0, 1.0 - 2.0 * (y + 0.5) / height, z, 1.0);
+  return glm::dvec3(p) / p.w;
+}
+
+/// Where a frame point appears, in pixels with the top-left origin; pixel (x, y) spans [x, x + 1).
+glm::dvec2 project(const glm::dmat4& viewProj, const glm::dvec3& point, int width, int height) {
+  const glm::dvec4 c = viewProj * glm::dvec4(point, 1.0);
+  return glm::dvec2((c.x / c.w + 1.0) * 0.5 * width, (1.0 - c.y / c.w) * 0.5 * height);
+}
+
+glm::dvec3 vec3Of(const json& a) { return glm::dvec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>()); }
+
+glm::dmat4 viewProjOf(const json& camera) { return matrix(camera["proj"]) * matrix(camera["view"]); }
+
+/// Distance from `p` to the segment [a, b].
+double segmentDistance(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
+  const glm::dvec2 ab = b - a;
+  const double t = std::clamp(glm::dot(p - a, ab) / std::max(glm::dot(ab, ab), 1e-12), 0.0, 1.0);
+  return glm::length(p - (a + t * ab));
+}
+
+// Mouse and keys played through the viewer's own input handling (zoom to the cursor, grab-pan,
+// orbit, lasso drawn with the mouse and a modifier, click to identify, fly keys, resizing),
+// checked against the viewer's depth, cameras and state.
+TEST_F(ViewerScriptTest, MouseAndKeysFlyLassoAndIdentify) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  const fs::path dir = outputDir("viewer_input");
+  const std::vector<std::vector<double>> first{{260, 120}, {380, 110}, {400, 230}, {280, 250}};
+  const std::vector<std::vector<double>> second{{180, 200}, {300, 190}, {320, 300}, {200, 320}};
+  auto shot = [](const char* name) { return json{{"action", "screenshot"}, {"path", name}, {"ui", false}}; };
+  auto save = [](const char* name) { return json{{"action", "save_state"}, {"path", name}}; };
+  const json script = {
+      {"window", {kWidth, kHeight}},
+      {"steps",
+       json::array({{{"camera", {{"eye_xyz", {1500, -9000, 6000}}, {"target_xyz", {0, 0, 0}}, {"fov_y_deg", 45}}}},
+                    {{"wait", 2}},
+                    shot("a.png"),
+                    save("s0.json"),
+                    {{"action", "scroll"}, {"at", {300, 150}}, {"amount", 2}},
+                    shot("b.png"),
+                    save("s1.json"),
+                    {{"action", "drag"}, {"button", "right"}, {"points", {{300, 150}, {220, 210}}}, {"frames", 8}},
+                    shot("c.png"),
+                    save("s2.json"),
+                    {{"action", "drag"}, {"points", {{240, 180}, {300, 180}}}, {"frames", 6}},
+                    shot("d.png"),
+                    save("s3.json"),
+                    {{"action", "key"}, {"key", "l"}},
+                    {{"action", "drag"}, {"points", first}, {"frames", 5}},
+                    {{"action", "drag"}, {"points", second}, {"frames", 5}, {"modifiers", {"shift"}}},
+                    shot("e.png"),
+                    save("s4.json"),
+                    {{"action", "key"}, {"key", "l"}},
+                    {{"action", "click"}, {"at", {240, 180}}},
+                    save("s5.json"),
+                    {{"action", "key"}, {"key", "f"}},
+                    {{"action", "hold_keys"}, {"keys", {"w"}}, {"frames", 15}},
+                    save("s6.json"),
+                    {{"action", "resize"}, {"window", {400, 300}}},
+                    {{"action", "screenshot"}, {"path", "f.png"}, {"ui", true}},
+                    save("s7.json"),
+                    {{"action", "quit"}}})}};
+  ASSERT_TRUE(runViewer(dir, script));
+  auto state = [&](const char* name) { return json::parse(readText(dir / name)); };
+  const json s0 = state("s0.json"), s1 = state("s1.json"), s2 = state("s2.json"), s3 = state("s3.json");
+  const json s4 = state("s4.json"), s5 = state("s5.json"), s6 = state("s6.json"), s7 = state("s7.json");
+
+  // Zoom to the cursor: the ground point under the cursor before the wheel is under it after.
+  const gfx::ImageFloat depthA = *gfx::readImageFloat((dir / "a_depth.tiff").string());
+  const float zA = depthA.pixels[150 * kWidth + 300];
+  ASSERT_GT(zA, 0.0F) << "no terrain under the cursor";
+  const glm::dvec3 grabbed = unproject(viewProjOf(s0["camera"]), 300, 150, zA, kWidth, kHeight);
+  const glm::dvec2 afterZoom = project(viewProjOf(s1["camera"]), grabbed, kWidth, kHeight);
+  std::printf("zoom: ground point at (%.2f, %.2f) after, cursor pixel centre (300.5, 150.5); distance %.0f -> %.0f m\n",
+              afterZoom.x, afterZoom.y, s0["pose"]["distance"].get<double>(), s1["pose"]["distance"].get<double>());
+  EXPECT_LT(glm::length(afterZoom - glm::dvec2(300.5, 150.5)), 1.0);
+  EXPECT_LT(s1["pose"]["distance"].get<double>(), 0.9 * s0["pose"]["distance"].get<double>());
+
+  // Grab-pan: the point under the press on the target's horizontal plane follows the cursor.
+  const glm::dmat4 vp1 = viewProjOf(s1["camera"]);
+  const double planeZ = s1["pose"]["target"][2].get<double>();
+  const glm::dvec3 nearPoint = unproject(vp1, 300, 150, 1.0, kWidth, kHeight);
+  const glm::dvec3 farPoint = unproject(vp1, 300, 150, 1e-4, kWidth, kHeight);
+  const glm::dvec3 onPlane = nearPoint + (farPoint - nearPoint) * ((planeZ - nearPoint.z) / (farPoint.z - nearPoint.z));
+  const glm::dvec2 afterPan = project(viewProjOf(s2["camera"]), onPlane, kWidth, kHeight);
+  std::printf("pan: grabbed point at (%.2f, %.2f), cursor pixel centre (220.5, 210.5)\n", afterPan.x, afterPan.y);
+  EXPECT_LT(glm::length(afterPan - glm::dvec2(220.5, 210.5)), 1.0);
+
+  // Orbit: 60 pixels to the side turn the view by 60 × 0.005 rad around the same target.
+  const double dyaw = std::remainder(s3["pose"]["yaw"].get<double>() - s2["pose"]["yaw"].get<double>(),
+                                     2.0 * 3.14159265358979323846);
+  EXPECT_NEAR(std::abs(dyaw), 0.3, 1e-9);
+  EXPECT_NEAR(s3["pose"]["pitch"].get<double>(), s2["pose"]["pitch"].get<double>(), 1e-9);
+  EXPECT_NEAR(s3["pose"]["distance"].get<double>(), s2["pose"]["distance"].get<double>(), 1e-6);
+  EXPECT_LT(glm::length(vec3Of(s3["pose"]["target"]) - vec3Of(s2["pose"]["target"])), 1e-6);
+
+  // Lassos drawn with the mouse: a plain drag starts a selection, Shift adds (Or). The recorded
+  // outlines follow the drag paths, and the highlight changes exactly the pixels the twin selects.
+  ASSERT_EQ(s4["selection"]["steps"], json({"single", "or"}));
+  ASSERT_EQ(s4["selection"]["lassos"].size(), 2u);
+  std::vector<overlay::SelectionStep> steps;
+  const gfx::ImageFloat depthE = *gfx::readImageFloat((dir / "e_depth.tiff").string());
+  const json cameraE = json::parse(readText(dir / "e_camera.json"));
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::vector<std::vector<double>>& drawn = k == 0 ? first : second;
+    overlay::SelectionStep step;
+    step.op = k == 0 ? overlay::SelectionOp::Single : overlay::SelectionOp::Or;
+    for (const json& p : s4["selection"]["lassos"][k]) {
+      const glm::dvec2 q(p[0].get<double>(), p[1].get<double>());
+      double nearest = 1e9;
+      for (std::size_t i = 0; i < drawn.size(); ++i) {
+        nearest = std::min(nearest, segmentDistance(q, glm::dvec2(drawn[i][0], drawn[i][1]),
+                                                    glm::dvec2(drawn[(i + 1) % drawn.size()][0],
+                                                               drawn[(i + 1) % drawn.size()][1])));
+      }
+      EXPECT_LT(nearest, 1e-6) << "lasso " << k << " point " << p.dump() << " is off the drawn path";
+      step.lasso.points.push_back(q);
+    }
+    EXPECT_GE(step.lasso.points.size(), drawn.size());
+    step.lasso.viewProj = viewProjOf(cameraE);
+    step.lasso.width = kWidth;
+    step.lasso.height = kHeight;
+    steps.push_back(std::move(step));
+  }
+  const overlay::DepthImage imageE{kWidth, kHeight, depthE.pixels, viewProjOf(cameraE)};
+  const std::vector<std::uint8_t> twin = overlay::selectionMask(imageE, steps);
+  const gfx::Image8 before = *gfx::readImage8((dir / "d.png").string());
+  const gfx::Image8 selected = *gfx::readImage8((dir / "e.png").string());
+  std::size_t inside = 0, wrong = 0;
+  for (int y = 1; y + 1 < kHeight; ++y) {
+    for (int x = 1; x + 1 < kWidth; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x);
+      bool edge = false;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) edge = edge || twin[i + static_cast<std::size_t>(dy * kWidth + dx)] != twin[i];
+      }
+      if (edge) continue;
+      const bool changed = maxDifference(rgbAt(selected, i), rgbAt(before, i)) > 0.0;
+      inside += twin[i] != 0 ? 1u : 0u;
+      wrong += changed != (twin[i] != 0) ? 1u : 0u;
+    }
+  }
+  std::printf("mouse lassos: %zu selected pixels, %zu differ from the twin; %d features\n", inside, wrong,
+              s4["selection"]["features"].get<int>());
+  EXPECT_GT(inside, 10000u);
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GT(s4["selection"]["features"].get<int>(), 0);
+
+  // A click (no drag, lasso tool off) identifies the point under it.
+  ASSERT_TRUE(s5["identified"].is_object()) << "the click identified nothing";
+  EXPECT_NEAR(s5["identified"]["lon_lat_h"][0].get<double>(), -34.86, 0.1);
+  EXPECT_NEAR(s5["identified"]["lon_lat_h"][1].get<double>(), -8.0, 0.1);
+  EXPECT_EQ(s5["selection"]["steps"].size(), 2u) << "a click must not change the selection";
+
+  // Fly: F, then W held moves the eye forward along the view direction.
+  EXPECT_EQ(s6["mode"], "fly");
+  const glm::dvec3 eye5 = vec3Of(s5["camera"]["eye_xyz"]), eye6 = vec3Of(s6["camera"]["eye_xyz"]);
+  const glm::dvec3 forward = glm::normalize(vec3Of(s5["camera"]["target_xyz"]) - eye5);
+  const glm::dvec3 moved = eye6 - eye5;
+  std::printf("fly: the eye moved %.1f m, %.4f along the view\n", glm::length(moved),
+              glm::dot(glm::normalize(moved), forward));
+  EXPECT_GT(glm::length(moved), 10.0);
+  EXPECT_GT(glm::dot(glm::normalize(moved), forward), 0.99);
+
+  // Resizing: the framebuffer, the scene target and screenshots follow the window.
+  EXPECT_EQ(s7["window"], json({400, 300}));
+  EXPECT_EQ(s7["framebuffer"], json({400, 300}));
+  const gfx::Image8 resized = *gfx::readImage8((dir / "f.png").string());
+  EXPECT_EQ(resized.width, 400);
+  EXPECT_EQ(resized.height, 300);
 }
 
 }  // namespace

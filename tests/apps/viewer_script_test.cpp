@@ -165,6 +165,51 @@ TEST_F(ViewerScript, EveryActionReadsItsFields) {
   EXPECT_EQ(st[17].action, app::ScriptAction::Quit);
 }
 
+TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
+  json j = json::parse(R"({"steps": [
+      {"action": "drag", "button": "right", "points": [[10, 20], [30.5, 40], [50, 60]], "frames": 4,
+       "modifiers": ["shift", "alt"]},
+      {"action": "drag", "points": [[1, 2], [3, 4]]},
+      {"action": "click", "at": [7, 8.5], "modifiers": ["ctrl"]},
+      {"action": "scroll", "at": [100, 50], "amount": -2.5},
+      {"action": "scroll", "at": [1, 1]},
+      {"action": "hold_keys", "keys": ["w", "Q"], "frames": 12, "modifiers": ["shift"]},
+      {"action": "resize", "window": [640, 480]},
+      {"action": "save_state", "path": "state.json"}]})");
+  Result<app::ViewerScript> s = app::parseViewerScript(j, (dir_ / "s.json").string());
+  ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
+  EXPECT_TRUE(s.diagnostics.empty()) << dump(s.diagnostics);
+  const std::vector<app::ScriptStep>& st = s->steps;
+  ASSERT_EQ(st.size(), 8u);
+  EXPECT_EQ(st[0].action, app::ScriptAction::Drag);
+  EXPECT_EQ(st[0].button, app::MouseButton::Right);
+  ASSERT_EQ(st[0].points.size(), 3u);
+  EXPECT_DOUBLE_EQ(st[0].points[1].x, 30.5);
+  EXPECT_EQ(st[0].frames, 4);
+  EXPECT_TRUE(st[0].modifiers.shift);
+  EXPECT_FALSE(st[0].modifiers.ctrl);
+  EXPECT_TRUE(st[0].modifiers.alt);
+  // Defaults: the left button, 6 frames per segment, no modifiers.
+  EXPECT_EQ(st[1].button, app::MouseButton::Left);
+  EXPECT_EQ(st[1].frames, 6);
+  EXPECT_FALSE(st[1].modifiers.shift || st[1].modifiers.ctrl || st[1].modifiers.alt);
+  EXPECT_EQ(st[2].action, app::ScriptAction::Click);
+  EXPECT_DOUBLE_EQ(st[2].at.y, 8.5);
+  EXPECT_TRUE(st[2].modifiers.ctrl);
+  EXPECT_EQ(st[3].action, app::ScriptAction::Scroll);
+  EXPECT_DOUBLE_EQ(st[3].at.x, 100.0);
+  EXPECT_DOUBLE_EQ(st[3].value, -2.5);
+  EXPECT_DOUBLE_EQ(st[4].value, 1.0);  // one step in by default
+  EXPECT_EQ(st[5].action, app::ScriptAction::HoldKeys);
+  EXPECT_EQ(st[5].keys, (std::vector<std::string>{"w", "Q"}));
+  EXPECT_EQ(st[5].frames, 12);
+  EXPECT_TRUE(st[5].modifiers.shift);
+  EXPECT_EQ(st[6].action, app::ScriptAction::Resize);
+  EXPECT_EQ(st[6].window, glm::ivec2(640, 480));
+  EXPECT_EQ(st[7].action, app::ScriptAction::SaveState);
+  EXPECT_EQ(st[7].path, (dir_ / "state.json").string());
+}
+
 TEST_F(ViewerScript, DefaultsWhenOptionalFieldsAreAbsent) {
   json j = json::parse(R"({"steps": [{"action": "screenshot", "path": "a.png"},
                                      {"action": "identify", "x": 1, "y": 2},
@@ -317,6 +362,21 @@ TEST_F(ViewerScript, EachKindOfBrokenStepIsAnErrorNamingFileAndStep) {
       {"NaN seconds", json{{"camera", kCamera}, {"seconds", nan}}, "'seconds'"},
       {"camera of wrong type", json{{"camera", 5}}, "'camera'"},
       {"camera without eye", json{{"camera", json{{"target_xyz", json::array({0, 0, 0})}}}}, "'eye'"},
+      {"drag of one point", json{{"action", "drag"}, {"points", json::parse("[[0,0]]")}}, "at least 2"},
+      {"drag without points", json{{"action", "drag"}}, "missing 'points'"},
+      {"unknown button", json{{"action", "click"}, {"at", {1, 2}}, {"button", "fourth"}}, "unknown button 'fourth'"},
+      {"unknown modifier", json{{"action", "click"}, {"at", {1, 2}}, {"modifiers", {"meta"}}}, "'modifiers'"},
+      {"modifiers not a list", json{{"action", "click"}, {"at", {1, 2}}, {"modifiers", "shift"}}, "'modifiers'"},
+      {"click without at", json{{"action", "click"}}, "missing 'at'"},
+      {"NaN click", json{{"action", "click"}, {"at", {nan, 2}}}, "'at'"},
+      {"zero frames", json{{"action", "drag"}, {"points", json::parse("[[0,0],[5,5]]")}, {"frames", 0}}, "'frames'"},
+      {"zero scroll", json{{"action", "scroll"}, {"at", {1, 2}}, {"amount", 0}}, "'amount'"},
+      {"hold without frames", json{{"action", "hold_keys"}, {"keys", {"w"}}}, "missing 'frames'"},
+      {"hold an unknown key", json{{"action", "hold_keys"}, {"keys", {"w", "hyper"}}, {"frames", 3}}, "'keys'"},
+      {"hold no keys", json{{"action", "hold_keys"}, {"keys", json::array()}, {"frames", 3}}, "'keys'"},
+      {"resize to zero", json{{"action", "resize"}, {"window", {0, 300}}}, "'window'"},
+      {"resize without size", json{{"action", "resize"}}, "missing 'window'"},
+      {"save_state without path", json{{"action", "save_state"}}, "missing 'path'"},
   };
   const std::string file = (dir_ / "broken.json").string();
   for (const BrokenStep& c : cases) {

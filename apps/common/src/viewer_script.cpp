@@ -40,7 +40,7 @@ struct ActionName {
 };
 
 // "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
-constexpr std::array<ActionName, 14> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
+constexpr std::array<ActionName, 20> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
                                                {"set_layer", ScriptAction::SetLayer},
                                                {"overlays", ScriptAction::Overlays},
                                                {"method", ScriptAction::Method},
@@ -53,6 +53,12 @@ constexpr std::array<ActionName, 14> kActions{{{"toggle_layer", ScriptAction::To
                                                {"screenshot", ScriptAction::Screenshot},
                                                {"home", ScriptAction::Home},
                                                {"key", ScriptAction::Key},
+                                               {"drag", ScriptAction::Drag},
+                                               {"click", ScriptAction::Click},
+                                               {"scroll", ScriptAction::Scroll},
+                                               {"hold_keys", ScriptAction::HoldKeys},
+                                               {"resize", ScriptAction::Resize},
+                                               {"save_state", ScriptAction::SaveState},
                                                {"quit", ScriptAction::Quit}}};
 
 std::string actionList() {
@@ -100,6 +106,27 @@ std::optional<glm::vec4> readColour(const json& c) {
   }
   return glm::vec4(channels[0], channels[1], channels[2], channels[3]);
 }
+
+bool isPixel(const json& p) {
+  return p.is_array() && p.size() == 2 && p[0].is_number() && p[1].is_number() && std::isfinite(p[0].get<double>()) &&
+         std::isfinite(p[1].get<double>());
+}
+
+/// [width, height] in screen coordinates, integers 1 to 16384.
+std::optional<glm::ivec2> windowSize(const json& w) {
+  const auto size = [](const json& v) {
+    return v.is_number_integer() && v.get<long long>() >= 1 && v.get<long long>() <= 16384;
+  };
+  if (!w.is_array() || w.size() != 2 || !size(w[0]) || !size(w[1])) return std::nullopt;
+  return glm::ivec2(w[0].get<int>(), w[1].get<int>());
+}
+
+constexpr const char* kWindowExpected =
+    "'window': expected [width, height] in screen coordinates (integers 1 to 16384), got ";
+
+constexpr const char* kKeyNameList =
+    "one printable character or a key name (escape, enter, tab, backspace, insert, delete, left, right, up, down, "
+    "page_up, page_down, home, end, space, f1-f25)";
 
 /// Reads the fields of one step. Every problem is kept, so one run of the parser reports all of
 /// a step's mistakes; keys that were never asked for are unknown.
@@ -151,6 +178,68 @@ class StepReader {
 
   std::optional<double> number(const char* key, bool required) {
     return number(key, required, "a finite number", [](double) { return true; });
+  }
+
+  /// At least `minimum` pixel positions [x, y].
+  std::vector<glm::dvec2> pixels(const char* key, std::size_t minimum) {
+    const json* v = field(key, true);
+    std::vector<glm::dvec2> out;
+    if (!v) return out;
+    bool ok = v->is_array();
+    for (const json& p : ok ? *v : json::array()) {
+      if (!isPixel(p)) {
+        ok = false;
+        break;
+      }
+      out.emplace_back(p[0].get<double>(), p[1].get<double>());
+    }
+    if (!ok || out.size() < minimum) {
+      problem(std::string("'") + key + "': expected at least " + std::to_string(minimum) +
+              " pixel positions [x, y] (finite numbers)");
+      out.clear();
+    }
+    return out;
+  }
+
+  /// One pixel position [x, y].
+  std::optional<glm::dvec2> pixel(const char* key) {
+    const json* v = field(key, true);
+    if (!v) return std::nullopt;
+    if (!isPixel(*v)) {
+      problem(std::string("'") + key + "': expected a pixel position [x, y] (finite numbers), got " + v->dump());
+      return std::nullopt;
+    }
+    return glm::dvec2((*v)[0].get<double>(), (*v)[1].get<double>());
+  }
+
+  /// A whole number of frames in [1, 100000].
+  std::optional<int> frames(const char* key, bool required) {
+    const std::optional<double> f = number(key, required, "a whole number of frames from 1 to 100000",
+                                           [](double x) { return x >= 1.0 && x <= 1e5 && x == std::floor(x); });
+    if (!f) return std::nullopt;
+    return static_cast<int>(*f);
+  }
+
+  /// "modifiers": a list of "shift", "ctrl" and "alt" (absent: none).
+  Modifiers modifiers() {
+    Modifiers m;
+    const json* v = field("modifiers", false);
+    if (!v) return m;
+    bool ok = v->is_array();
+    for (const json& name : ok ? *v : json::array()) {
+      const std::string n = name.is_string() ? name.get<std::string>() : "";
+      if (n == "shift") {
+        m.shift = true;
+      } else if (n == "ctrl") {
+        m.ctrl = true;
+      } else if (n == "alt") {
+        m.alt = true;
+      } else {
+        ok = false;
+      }
+    }
+    if (!ok) problem("'modifiers': expected a list of \"shift\", \"ctrl\" and \"alt\", got " + v->dump());
+    return m;
   }
 
   void problem(std::string message) { problems_.push_back(std::move(message)); }
@@ -292,21 +381,7 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
                     (*op == "invert" ? " (invert is {\"action\": \"invert\"})" : ""));
         }
       }
-      if (const json* points = r.field("points", true)) {
-        bool ok = points->is_array();
-        for (const json& p : ok ? *points : json::array()) {
-          if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number() ||
-              !std::isfinite(p[0].get<double>()) || !std::isfinite(p[1].get<double>())) {
-            ok = false;
-            break;
-          }
-          step.points.emplace_back(p[0].get<double>(), p[1].get<double>());
-        }
-        if (!ok || step.points.size() < 3) {
-          r.problem("'points': expected at least 3 pixel positions [x, y] (finite numbers)");
-          step.points.clear();
-        }
-      }
+      step.points = r.pixels("points", 3);
       break;
     }
     case ScriptAction::Identify: {
@@ -327,11 +402,67 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
         if (const std::optional<std::string> known = keyName(*k)) {
           step.text = *known;
         } else {
-          r.problem("'key': unknown key '" + *k +
-                    "'; expected one printable character or a key name (escape, enter, tab, backspace, insert, "
-                    "delete, left, right, up, down, page_up, page_down, home, end, space, f1-f25)");
+          r.problem("'key': unknown key '" + *k + "'; expected " + kKeyNameList);
         }
       }
+      break;
+    case ScriptAction::Drag:
+    case ScriptAction::Click: {
+      if (const std::optional<std::string> b = r.string("button", false)) {
+        if (*b == "left") {
+          step.button = MouseButton::Left;
+        } else if (*b == "right") {
+          step.button = MouseButton::Right;
+        } else if (*b == "middle") {
+          step.button = MouseButton::Middle;
+        } else {
+          r.problem("'button': unknown button '" + *b + "'; expected \"left\", \"right\" or \"middle\"");
+        }
+      }
+      step.modifiers = r.modifiers();
+      if (step.action == ScriptAction::Drag) {
+        step.points = r.pixels("points", 2);
+        step.frames = r.frames("frames", false).value_or(6);
+      } else if (const std::optional<glm::dvec2> at = r.pixel("at")) {
+        step.at = *at;
+      }
+      break;
+    }
+    case ScriptAction::Scroll:
+      if (const std::optional<glm::dvec2> at = r.pixel("at")) step.at = *at;
+      step.value = r.number("amount", false, "a non-zero number of wheel steps", [](double v) {
+                      return v != 0.0 && std::abs(v) <= 1e3;
+                    }).value_or(1.0);
+      break;
+    case ScriptAction::HoldKeys: {
+      step.modifiers = r.modifiers();
+      step.frames = r.frames("frames", true).value_or(1);
+      const json* keys = r.field("keys", true);
+      if (!keys) break;
+      bool ok = keys->is_array() && !keys->empty();
+      for (const json& k : ok ? *keys : json::array()) {
+        const std::optional<std::string> known = k.is_string() ? keyName(k.get<std::string>()) : std::nullopt;
+        if (!known) {
+          ok = false;
+          break;
+        }
+        step.keys.push_back(*known);
+      }
+      if (!ok) r.problem(std::string("'keys': expected a list of keys, each ") + kKeyNameList + ", got " + keys->dump());
+      break;
+    }
+    case ScriptAction::Resize: {
+      if (const json* w = r.field("window", true)) {
+        if (const std::optional<glm::ivec2> size = windowSize(*w)) {
+          step.window = *size;
+        } else {
+          r.problem(kWindowExpected + w->dump());
+        }
+      }
+      break;
+    }
+    case ScriptAction::SaveState:
+      if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
       break;
     case ScriptAction::Invert:
     case ScriptAction::ClearSelection:
@@ -362,16 +493,8 @@ Result<ViewerScript> parseViewerScript(const json& j, const std::string& file) {
       d.add({Severity::Warning, file, "", "", "unknown key '" + item.key() + "' ignored"});
   }
   if (j.contains("window")) {
-    const json& w = j["window"];
-    const auto size = [](const json& v) {
-      return v.is_number_integer() && v.get<long long>() >= 1 && v.get<long long>() <= 16384;
-    };
-    if (!w.is_array() || w.size() != 2 || !size(w[0]) || !size(w[1])) {
-      d.add({Severity::Error, file, "", "",
-             "'window': expected [width, height] in screen coordinates (integers 1 to 16384), got " + w.dump()});
-    } else {
-      script.window = glm::ivec2(w[0].get<int>(), w[1].get<int>());
-    }
+    script.window = windowSize(j["window"]);
+    if (!script.window) d.add({Severity::Error, file, "", "", kWindowExpected + j["window"].dump()});
   }
 
   std::size_t index = 0, broken = 0;

@@ -20,7 +20,20 @@
 //      {"action": "screenshot", "path": "shot.png", "ui": true},           ui false: scene only
 //      {"action": "home"},
 //      {"action": "key", "key": "o"},                          one character, or a name: "F12", "escape"
+//      {"action": "drag", "button": "left", "points": [[x, y], ...],      the mouse, through the
+//       "frames": 6, "modifiers": ["shift"]},                 viewer's own input handling (below)
+//      {"action": "click", "at": [x, y], "modifiers": []},
+//      {"action": "scroll", "at": [x, y], "amount": 1},       wheel steps, positive zooms in
+//      {"action": "hold_keys", "keys": ["w"], "frames": 10, "modifiers": ["shift"]},
+//      {"action": "resize", "window": [640, 480]},            screen coordinates
+//      {"action": "save_state", "path": "state.json"},        camera, selection, identify (a test's view)
 //      {"action": "quit"}]}
+//
+// Mouse and key actions are played through the same input handling as a person's mouse and
+// keys, one input state per frame: a drag presses at the first point, moves `frames` frames
+// along each segment and releases at the last point; a click presses and releases; a scroll is
+// one frame. They go to the scene, not the panel. The script then waits until the camera has
+// settled before the next step.
 //
 // A camera is a camera file's content (docs/command-line.md, "Camera files"), or a path to a
 // camera file (read here; a camera.json of overlay_render works). Colours are "#rrggbb",
@@ -54,7 +67,22 @@ enum class ScriptAction {
   Screenshot,
   Home,
   Key,
+  Drag,
+  Click,
+  Scroll,
+  HoldKeys,
+  Resize,
+  SaveState,
   Quit
+};
+
+enum class MouseButton { Left, Right, Middle };
+
+/// Modifier keys held during a scripted mouse or key action.
+struct Modifiers {
+  bool shift = false;
+  bool ctrl = false;
+  bool alt = false;
 };
 
 /// One step of a script. Only the fields of its action are set.
@@ -67,7 +95,7 @@ struct ScriptStep {
   std::string cameraFile;  ///< where the spec came from (the script or the camera file it names), for messages
   double seconds = 0.0;    ///< eased move over this long; 0: a jump
 
-  // Wait
+  // Wait (frames to draw), Drag (frames per segment), HoldKeys (frames held)
   int frames = 0;
 
   // ToggleLayer, SetLayer
@@ -83,17 +111,26 @@ struct ScriptStep {
   // Method ("stencil" or "paper"), Key (one character as typed, or a lower-case key name)
   std::string text;
 
-  // Exaggeration
-  double value = 0.0;  ///< > 0
+  // Exaggeration (> 0), Scroll (wheel steps, non-zero)
+  double value = 0.0;
 
   // Lasso
-  std::string lassoOp;             ///< "single", "or", "and", "xor" or "subtract"
-  std::vector<glm::dvec2> points;  ///< framebuffer pixels, x from the left, y from the top; at least 3
+  std::string lassoOp;  ///< "single", "or", "and", "xor" or "subtract"
+  /// Lasso (at least 3), Drag (at least 2): framebuffer pixels, x from the left, y from the top.
+  std::vector<glm::dvec2> points;
 
-  // Identify
+  // Identify, Click, Scroll
   glm::dvec2 at{0.0};  ///< framebuffer pixel, as lasso points
 
-  /// Identify: where to write the result (empty: not written); Export, Screenshot: the file.
+  // Drag, Click, HoldKeys
+  MouseButton button = MouseButton::Left;
+  Modifiers modifiers;
+  std::vector<std::string> keys;  ///< HoldKeys: key names as Key's
+
+  // Resize
+  glm::ivec2 window{0};  ///< screen coordinates
+
+  /// Identify: where to write the result (empty: not written); Export, Screenshot, SaveState: the file.
   /// Resolved against the script file's directory when relative (and then absolute).
   std::string path;
 
