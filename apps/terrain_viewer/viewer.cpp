@@ -124,8 +124,8 @@ int Viewer::run(const ViewerOptions& options) {
     glm::ivec2 size(0);
     glfwGetWindowSize(window, &size.x, &size.y);
     if (size.x > 0 && size.y > 0) v.settings_.windowSize = size;
-    if (const auto path = settingsPath()) {
-      for (const Diagnostic& d : saveViewerSettings(v.settings_, *path).items()) logWarning(d.toString());
+    if (const auto path = app::settingsPath()) {
+      for (const Diagnostic& d : app::saveViewerSettings(v.settings_, *path).items()) logWarning(d.toString());
     }
   }
   const std::size_t glErrors = v.context_->debug().errorCount();
@@ -145,8 +145,8 @@ bool Viewer::open(const ViewerOptions& options) {
     }
     if (!script) return false;
     script_ = std::move(*script);
-  } else if (const auto path = settingsPath()) {
-    Result<ViewerSettings> loaded = loadViewerSettings(*path);
+  } else if (const auto path = app::settingsPath()) {
+    Result<app::ViewerSettings> loaded = app::loadViewerSettings(*path);
     for (const Diagnostic& d : loaded.diagnostics.items()) logWarning(d.toString());
     settings_ = *loaded;
   }
@@ -523,6 +523,7 @@ void Viewer::drawScene() {
   }
   render_.measure = frameIndex_ % 30 == 1 || script_.has_value();  // queries wait for the GPU: sample them
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
+  render_.imagery = settings_.imagery;
   const app::Camera c = camera();
   const app::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
   if (render_.measure) {
@@ -784,6 +785,16 @@ nlohmann::json Viewer::state() const {
       {"framebuffer", {fb.x, fb.y}},
       {"window", {window.x, window.y}},
       {"overlays", render_.overlays},
+      {"view",
+       {{"wireframe", render_.wireframe},
+        {"imagery", settings_.imagery},
+        {"debug_pieces", debugPieces_},
+        {"panel", settings_.showPanel},
+        {"hud", settings_.showHud},
+        {"lod_tolerance", settings_.lodTolerancePixels},
+        {"fov", settings_.fovYDeg}}},
+      {"scene", description_->path},
+      {"messages", messages_},
       {"lasso_tool", lassoTool_},
       {"layers", layers},
       {"selection",
@@ -949,6 +960,19 @@ bool Viewer::runStep(const app::ScriptStep& step) {
     case app::ScriptAction::Resize:
       glfwSetWindowSize(context_->window(), step.window.x, step.window.y);
       waitFrames_ = 2;  // the window system answers within a frame or two
+      return true;
+    case app::ScriptAction::View:
+      if (step.wireframe) render_.wireframe = *step.wireframe;
+      if (step.imagery) settings_.imagery = *step.imagery;
+      if (step.debugPieces) debugPieces_ = *step.debugPieces;
+      if (step.panel) settings_.showPanel = *step.panel;
+      if (step.hud) settings_.showHud = *step.hud;
+      if (step.lodTolerance) settings_.lodTolerancePixels = *step.lodTolerance;
+      if (step.fovYDeg) settings_.fovYDeg = *step.fovYDeg;
+      return true;
+    case app::ScriptAction::Drop:
+      dropped_.insert(dropped_.end(), step.paths.begin(), step.paths.end());
+      waitFrames_ = 1;  // loaded at the start of the next frame, as a person's drop
       return true;
     case app::ScriptAction::SaveState: {
       std::ofstream out(step.path);

@@ -21,11 +21,11 @@
 #include "app/scene_renderer.hpp"
 #include "app/scene_selection.hpp"
 #include "app/viewer_script.hpp"
+#include "app/viewer_settings.hpp"
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
 #include "vector_overlay/selection_renderer.hpp"
-#include "viewer_settings.hpp"
 
 namespace gis::viewer {
 
@@ -116,7 +116,7 @@ class Viewer {
 
   std::unique_ptr<gfx::Context> context_;
   ViewerOptions options_;
-  ViewerSettings settings_;
+  app::ViewerSettings settings_;
   std::optional<app::SceneDescription> description_;
   std::optional<app::LoadedScene> scene_;
   std::optional<app::SceneRenderer> renderer_;
@@ -134,7 +134,6 @@ class Viewer {
   overlay::SelectionStyle highlight_;
   bool lassoTool_ = false;
   std::vector<glm::dvec2> lassoPoints_;  ///< being drawn, framebuffer pixels
-  std::string exportPath_ = "selected_features.json";
 
   // Views and panels.
   bool showHelp_ = false;
@@ -153,7 +152,7 @@ class Viewer {
   bool dragged_ = false;
   double scroll_ = 0.0;
   std::vector<std::string> dropped_;
-  std::vector<int> keysPressed_;  ///< GLFW keys pressed since the last frame (edge-triggered actions)
+  std::vector<int> keysPressed_;        ///< GLFW keys pressed since the last frame (edge-triggered actions)
   std::deque<InputFrame> scriptInput_;  ///< played mouse and keys, one per frame
 
   // Script.

@@ -76,7 +76,7 @@ void Viewer::drawPanel() {
     }
     ImGui::Checkbox("wireframe", &render_.wireframe);
     ImGui::SameLine();
-    if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &render_.imagery);
+    if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &settings_.imagery);
   }
 
   if (ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) {
@@ -206,10 +206,10 @@ void Viewer::drawPanel() {
         ImGui::TreePop();
       }
       char path[512];
-      std::snprintf(path, sizeof(path), "%s", exportPath_.c_str());
-      if (ImGui::InputText("##export", path, sizeof(path))) exportPath_ = path;
+      std::snprintf(path, sizeof(path), "%s", settings_.exportPath.c_str());
+      if (ImGui::InputText("##export", path, sizeof(path))) settings_.exportPath = path;
       ImGui::SameLine();
-      if (ImGui::Button("Export GeoJSON")) exportSelection(exportPath_);
+      if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
     }
   }
 

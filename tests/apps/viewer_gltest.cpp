@@ -52,6 +52,10 @@ glm::dvec3 rgbAt(const gfx::Image8& image, std::size_t i) {
   return glm::dvec3(image.pixels[3 * i], image.pixels[3 * i + 1], image.pixels[3 * i + 2]);
 }
 
+std::size_t pixelsOf(int width, int height) {
+  return static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+}
+
 double maxDifference(const glm::dvec3& a, const glm::dvec3& b) {
   const glm::dvec3 d = glm::abs(a - b);
   return std::max({d.x, d.y, d.z});
@@ -220,8 +224,8 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
 
 /// The frame point seen at pixel (x, y) (top-left origin) at NDC depth `z`.
 glm::dvec3 unproject(const glm::dmat4& viewProj, double x, double y, double z, int width, int height) {
-  const glm::dvec4 p = glm::inverse(viewProj) *
-                       glm::dvec4(2.0 * (x + 0.5) / width - 1.0, 1.0 - 2.0 * (y + 0.5) / height, z, 1.0);
+  const glm::dvec4 p =
+      glm::inverse(viewProj) * glm::dvec4(2.0 * (x + 0.5) / width - 1.0, 1.0 - 2.0 * (y + 0.5) / height, z, 1.0);
   return glm::dvec3(p) / p.w;
 }
 
@@ -310,8 +314,8 @@ TEST_F(ViewerScriptTest, MouseAndKeysFlyLassoAndIdentify) {
   EXPECT_LT(glm::length(afterPan - glm::dvec2(220.5, 210.5)), 1.0);
 
   // Orbit: 60 pixels to the side turn the view by 60 × 0.005 rad around the same target.
-  const double dyaw = std::remainder(s3["pose"]["yaw"].get<double>() - s2["pose"]["yaw"].get<double>(),
-                                     2.0 * 3.14159265358979323846);
+  const double dyaw =
+      std::remainder(s3["pose"]["yaw"].get<double>() - s2["pose"]["yaw"].get<double>(), 2.0 * 3.14159265358979323846);
   EXPECT_NEAR(std::abs(dyaw), 0.3, 1e-9);
   EXPECT_NEAR(s3["pose"]["pitch"].get<double>(), s2["pose"]["pitch"].get<double>(), 1e-9);
   EXPECT_NEAR(s3["pose"]["distance"].get<double>(), s2["pose"]["distance"].get<double>(), 1e-6);
@@ -332,9 +336,9 @@ TEST_F(ViewerScriptTest, MouseAndKeysFlyLassoAndIdentify) {
       const glm::dvec2 q(p[0].get<double>(), p[1].get<double>());
       double nearest = 1e9;
       for (std::size_t i = 0; i < drawn.size(); ++i) {
-        nearest = std::min(nearest, segmentDistance(q, glm::dvec2(drawn[i][0], drawn[i][1]),
-                                                    glm::dvec2(drawn[(i + 1) % drawn.size()][0],
-                                                               drawn[(i + 1) % drawn.size()][1])));
+        nearest = std::min(
+            nearest, segmentDistance(q, glm::dvec2(drawn[i][0], drawn[i][1]),
+                                     glm::dvec2(drawn[(i + 1) % drawn.size()][0], drawn[(i + 1) % drawn.size()][1])));
       }
       EXPECT_LT(nearest, 1e-6) << "lasso " << k << " point " << p.dump() << " is off the drawn path";
       step.lasso.points.push_back(q);
@@ -391,6 +395,111 @@ TEST_F(ViewerScriptTest, MouseAndKeysFlyLassoAndIdentify) {
   const gfx::Image8 resized = *gfx::readImage8((dir / "f.png").string());
   EXPECT_EQ(resized.width, 400);
   EXPECT_EQ(resized.height, 300);
+}
+
+// The panel's view switches (imagery off gives hillshade, wireframe, the debug view of the pieces)
+// and files dropped on the window (a vector layer is added; a broken file is reported and
+// changes nothing; a DEM becomes the scene).
+TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  const fs::path dir = outputDir("viewer_view");
+  const std::string data = STENCIL_GIS_TEST_DATA_DIR;
+  auto shot = [](const char* name) { return json{{"action", "screenshot"}, {"path", name}, {"ui", false}}; };
+  auto save = [](const char* name) { return json{{"action", "save_state"}, {"path", name}}; };
+  const json script = {
+      {"window", {kWidth, kHeight}},
+      {"steps",
+       json::array(
+           {{{"camera", {{"eye_xyz", {1500, -9000, 6000}}, {"target_xyz", {0, 0, 0}}, {"fov_y_deg", 45}}}},
+            {{"wait", 2}},
+            shot("plain.png"),
+            {{"action", "view"}, {"imagery", false}},
+            shot("hillshade.png"),
+            {{"action", "view"}, {"imagery", true}, {"wireframe", true}},
+            shot("wireframe.png"),
+            {{"action", "view"}, {"wireframe", false}, {"debug_pieces", true}},
+            shot("debug.png"),
+            save("s0.json"),
+            {{"action", "view"}, {"debug_pieces", false}},
+            {{"action", "drop"}, {"paths", {data + "/holes_and_multipolygons.geojson"}}},
+            save("s1.json"),
+            {{"action", "drop"}, {"paths", {data + "/garbage.geojson"}}},
+            save("s2.json"),
+            {{"action", "drop"}, {"paths", {std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/olinda_dem_utm25s.tif"}}},
+            {{"wait", 2}},
+            shot("dem.png"),
+            save("s3.json"),
+            {{"action", "quit"}}})}};
+  ASSERT_TRUE(runViewer(dir, script));
+  auto state = [&](const char* name) { return json::parse(readText(dir / name)); };
+  const gfx::Image8 plain = *gfx::readImage8((dir / "plain.png").string());
+  const gfx::Image8 hillshade = *gfx::readImage8((dir / "hillshade.png").string());
+  const gfx::Image8 wireframe = *gfx::readImage8((dir / "wireframe.png").string());
+  const gfx::Image8 debug = *gfx::readImage8((dir / "debug.png").string());
+  const gfx::ImageFloat depth = *gfx::readImageFloat((dir / "plain_depth.tiff").string());
+  const json camera = json::parse(readText(dir / "plain_camera.json"));
+
+  // Uncovered terrain (by the CPU reference) is hillshade grey (0.55, 0.57, 0.52) × shade without
+  // imagery, and mostly not with it.
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  ASSERT_TRUE(scene.ok());
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  ASSERT_TRUE(renderer.ok());
+  std::vector<overlay::ReferenceLayer> ref;
+  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
+  const overlay::DepthImage image{kWidth, kHeight, depth.pixels, viewProjOf(camera)};
+  const std::vector<std::uint32_t> mask = overlay::referenceMask(image, ref);
+  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+  const auto isHillshade = [](const glm::dvec3& c) {
+    return std::abs(c.x * 0.57 - c.y * 0.55) <= 1.5 && std::abs(c.z * 0.57 - c.y * 0.52) <= 1.5;
+  };
+  std::size_t uncovered = 0, greyWithout = 0, greyWith = 0, wireChanged = 0, debugTinted = 0, debugChanged = 0;
+  for (std::size_t i = 0; i < depth.pixels.size(); ++i) {
+    wireChanged += maxDifference(rgbAt(wireframe, i), rgbAt(plain, i)) > 0.0 ? 1u : 0u;
+    const bool changed = maxDifference(rgbAt(debug, i), rgbAt(plain, i)) > 0.0;
+    debugChanged += changed ? 1u : 0u;
+    // The debug view blends z-pass pieces in green over the scene.
+    debugTinted += changed && rgbAt(debug, i).y > rgbAt(plain, i).y ? 1u : 0u;
+    if (depth.pixels[i] <= 0.0F || mask[i] != 0u || edges[i] != 0) continue;
+    ++uncovered;
+    greyWithout += isHillshade(rgbAt(hillshade, i)) ? 1u : 0u;
+    greyWith += isHillshade(rgbAt(plain, i)) ? 1u : 0u;
+  }
+  std::printf(
+      "view: %zu uncovered terrain pixels, %zu hillshade without imagery, %zu with; wireframe changed %zu; "
+      "debug view changed %zu (%zu greener)\n",
+      uncovered, greyWithout, greyWith, wireChanged, debugChanged, debugTinted);
+  EXPECT_GT(uncovered, 5000u);
+  EXPECT_EQ(greyWithout, uncovered);
+  EXPECT_LT(greyWith, uncovered / 4);
+  EXPECT_GT(wireChanged, pixelsOf(kWidth, kHeight) / 20);
+  EXPECT_GT(debugChanged, pixelsOf(kWidth, kHeight) / 20);
+  EXPECT_GT(debugTinted, debugChanged * 9 / 10);
+  const json s0 = state("s0.json");
+  EXPECT_EQ(s0["view"]["debug_pieces"], true);
+  EXPECT_EQ(s0["view"]["wireframe"], false);
+
+  // Dropped files.
+  const json s1 = state("s1.json"), s2 = state("s2.json"), s3 = state("s3.json");
+  ASSERT_EQ(s1["layers"].size(), 3u);
+  EXPECT_EQ(s1["layers"][2]["name"], "holes_and_multipolygons");
+  EXPECT_EQ(s1["layers"][2]["shown"], true);
+  EXPECT_EQ(s2["layers"].size(), 3u) << "a broken file changes nothing";
+  bool reported = false;
+  for (const json& m : s2["messages"]) {
+    reported = reported || (m.get<std::string>().rfind("error: ", 0) == 0 &&
+                            m.get<std::string>().find("garbage.geojson") != std::string::npos);
+  }
+  EXPECT_TRUE(reported) << s2["messages"].dump(1);
+  EXPECT_NE(s3["scene"].get<std::string>().find("olinda_dem_utm25s.tif"), std::string::npos);
+  EXPECT_EQ(s3["layers"].size(), 0u);
+  const gfx::ImageFloat demDepth = *gfx::readImageFloat((dir / "dem_depth.tiff").string());
+  std::size_t demTerrain = 0;
+  for (const float z : demDepth.pixels) demTerrain += z > 0.0F ? 1u : 0u;
+  EXPECT_GT(demTerrain, pixelsOf(kWidth, kHeight) / 5) << "the dropped DEM's home view shows little terrain";
 }
 
 }  // namespace

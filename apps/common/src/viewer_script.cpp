@@ -40,7 +40,7 @@ struct ActionName {
 };
 
 // "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
-constexpr std::array<ActionName, 20> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
+constexpr std::array<ActionName, 22> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
                                                {"set_layer", ScriptAction::SetLayer},
                                                {"overlays", ScriptAction::Overlays},
                                                {"method", ScriptAction::Method},
@@ -59,6 +59,8 @@ constexpr std::array<ActionName, 20> kActions{{{"toggle_layer", ScriptAction::To
                                                {"hold_keys", ScriptAction::HoldKeys},
                                                {"resize", ScriptAction::Resize},
                                                {"save_state", ScriptAction::SaveState},
+                                               {"view", ScriptAction::View},
+                                               {"drop", ScriptAction::Drop},
                                                {"quit", ScriptAction::Quit}}};
 
 std::string actionList() {
@@ -448,7 +450,8 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
         }
         step.keys.push_back(*known);
       }
-      if (!ok) r.problem(std::string("'keys': expected a list of keys, each ") + kKeyNameList + ", got " + keys->dump());
+      if (!ok)
+        r.problem(std::string("'keys': expected a list of keys, each ") + kKeyNameList + ", got " + keys->dump());
       break;
     }
     case ScriptAction::Resize: {
@@ -464,6 +467,39 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
     case ScriptAction::SaveState:
       if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
       break;
+    case ScriptAction::View: {
+      step.wireframe = r.boolean("wireframe", false);
+      step.imagery = r.boolean("imagery", false);
+      step.debugPieces = r.boolean("debug_pieces", false);
+      step.panel = r.boolean("panel", false);
+      step.hud = r.boolean("hud", false);
+      step.lodTolerance = r.number("lod_tolerance", false, "a number of pixels in (0, 64]",
+                                   [](double v) { return v > 0.0 && v <= 64.0; });
+      step.fovYDeg =
+          r.number("fov", false, "a number of degrees in (0, 180)", [](double v) { return v > 0.0 && v < 180.0; });
+      bool any = false;
+      for (const char* key : {"wireframe", "imagery", "debug_pieces", "panel", "hud", "lod_tolerance", "fov"})
+        any = any || entry.contains(key);
+      if (!any)
+        r.problem(
+            "nothing to set: give any of 'wireframe', 'imagery', 'debug_pieces', 'panel', 'hud', "
+            "'lod_tolerance', 'fov'");
+      break;
+    }
+    case ScriptAction::Drop: {
+      const json* paths = r.field("paths", true);
+      if (!paths) break;
+      bool ok = paths->is_array() && !paths->empty();
+      for (const json& p : ok ? *paths : json::array()) {
+        if (!p.is_string() || p.get<std::string>().empty()) {
+          ok = false;
+          break;
+        }
+        step.paths.push_back(resolve(base, p.get<std::string>()));
+      }
+      if (!ok) r.problem("'paths': expected a list of file paths, got " + paths->dump());
+      break;
+    }
     case ScriptAction::Invert:
     case ScriptAction::ClearSelection:
     case ScriptAction::Home:

@@ -27,6 +27,9 @@
 //      {"action": "hold_keys", "keys": ["w"], "frames": 10, "modifiers": ["shift"]},
 //      {"action": "resize", "window": [640, 480]},            screen coordinates
 //      {"action": "save_state", "path": "state.json"},        camera, selection, identify (a test's view)
+//      {"action": "view", "wireframe": true, "imagery": false,  the panel's view switches, any of them
+//       "debug_pieces": true, "lod_tolerance": 2, "fov": 50, "panel": true, "hud": false},
+//      {"action": "drop", "paths": ["roads.geojson"]},         as files dropped on the window
 //      {"action": "quit"}]}
 //
 // Mouse and key actions are played through the same input handling as a person's mouse and
@@ -73,6 +76,8 @@ enum class ScriptAction {
   HoldKeys,
   Resize,
   SaveState,
+  View,
+  Drop,
   Quit
 };
 
@@ -129,6 +134,14 @@ struct ScriptStep {
 
   // Resize
   glm::ivec2 window{0};  ///< screen coordinates
+
+  // View: only what is given changes
+  std::optional<bool> wireframe, imagery, debugPieces, panel, hud;
+  std::optional<double> lodTolerance;  ///< pixels, > 0
+  std::optional<double> fovYDeg;       ///< degrees, in (0, 180)
+
+  // Drop: resolved like `path`
+  std::vector<std::string> paths;
 
   /// Identify: where to write the result (empty: not written); Export, Screenshot, SaveState: the file.
   /// Resolved against the script file's directory when relative (and then absolute).

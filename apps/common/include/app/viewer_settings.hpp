@@ -11,7 +11,7 @@
 
 #include "core/diagnostics.hpp"
 
-namespace gis::viewer {
+namespace gis::app {
 
 struct ViewerSettings {
   glm::ivec2 windowSize{1280, 800};
@@ -19,6 +19,8 @@ struct ViewerSettings {
   double fovYDeg = 45.0;
   bool showHud = true;
   bool showPanel = true;
+  bool imagery = true;  ///< off: hillshade
+  std::string exportPath = "selected_features.json";
 };
 
 /// The settings file's path, or nullopt when neither XDG_CONFIG_HOME nor HOME is set.
@@ -28,4 +30,4 @@ std::optional<std::filesystem::path> settingsPath();
 Result<ViewerSettings> loadViewerSettings(const std::filesystem::path& path);
 Diagnostics saveViewerSettings(const ViewerSettings& settings, const std::filesystem::path& path);
 
-}  // namespace gis::viewer
+}  // namespace gis::app

@@ -1,6 +1,7 @@
-#include "viewer_settings.hpp"
+#include "app/viewer_settings.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <system_error>
@@ -8,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace gis::viewer {
+namespace gis::app {
 
 std::optional<std::filesystem::path> settingsPath() {
   if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg != nullptr && *xdg != '\0') {
@@ -53,15 +54,31 @@ Result<ViewerSettings> loadViewerSettings(const std::filesystem::path& path) {
     }
     target = j[key].get<bool>();
   };
-  if (j.contains("window") && j["window"].is_array() && j["window"].size() == 2 && j["window"][0].is_number() &&
-      j["window"][1].is_number()) {
-    s.windowSize = glm::ivec2(std::clamp(j["window"][0].get<int>(), 320, 16384),
-                              std::clamp(j["window"][1].get<int>(), 240, 16384));
+  if (j.contains("window")) {
+    const nlohmann::json& w = j["window"];
+    const auto finite = [](const nlohmann::json& v) { return v.is_number() && std::isfinite(v.get<double>()); };
+    if (w.is_array() && w.size() == 2 && finite(w[0]) && finite(w[1])) {
+      // A window that no longer fits the screen, or was made tiny, still opens usable.
+      s.windowSize = glm::ivec2(static_cast<int>(std::clamp(w[0].get<double>(), 320.0, 16384.0)),
+                                static_cast<int>(std::clamp(w[1].get<double>(), 240.0, 16384.0)));
+    } else {
+      r.diagnostics.add(
+          {Severity::Warning, path.string(), "", "", "'window' must be [width, height]; using the default"});
+    }
   }
   number("lod_tolerance_px", s.lodTolerancePixels, 0.0, 64.0);
   number("fov_y_deg", s.fovYDeg, 5.0, 120.0);
   flag("show_hud", s.showHud);
   flag("show_panel", s.showPanel);
+  flag("imagery", s.imagery);
+  if (j.contains("export_path")) {
+    if (j["export_path"].is_string() && !j["export_path"].get<std::string>().empty()) {
+      s.exportPath = j["export_path"].get<std::string>();
+    } else {
+      r.diagnostics.add(
+          {Severity::Warning, path.string(), "", "", "'export_path' must be a non-empty string; using the default"});
+    }
+  }
   return r;
 }
 
@@ -73,11 +90,13 @@ Diagnostics saveViewerSettings(const ViewerSettings& s, const std::filesystem::p
                             {"lod_tolerance_px", s.lodTolerancePixels},
                             {"fov_y_deg", s.fovYDeg},
                             {"show_hud", s.showHud},
-                            {"show_panel", s.showPanel}};
+                            {"show_panel", s.showPanel},
+                            {"imagery", s.imagery},
+                            {"export_path", s.exportPath}};
   std::ofstream out(path);
   out << j.dump(2) << "\n";
   if (!out) d.add({Severity::Warning, path.string(), "", "", "cannot write the viewer settings"});
   return d;
 }
 
-}  // namespace gis::viewer
+}  // namespace gis::app
