@@ -11,6 +11,8 @@ packages=(
   libepoxy-dev libegl-dev libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri
   # windowing and UI
   libglfw3-dev libimgui-dev libstb-dev libfreetype-dev xvfb xauth
+  # the viewer's tests: real mouse and keys under Xvfb
+  xdotool
   # maths, geodesy, geometry, geodata, images, json
   libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev

@@ -464,7 +464,19 @@ void Viewer::frame(double seconds) {
   for (const std::string& path : std::exchange(dropped_, {})) loadPath(path);
 
   if (script_ && !quit_) {
-    if (!scriptInput_.empty()) {
+    if (live_) {
+      // The real mouse and keys, as without a script, until the test says it is done.
+      handleInput(seconds, readInput());
+      std::error_code ec;
+      if (std::filesystem::exists(live_->first, ec)) {
+        live_.reset();
+        animating_ = true;
+      } else if (--live_->second < 0) {
+        message(script_->file + ": live input did not end (" + live_->first.string() + " never appeared)", true);
+        scriptFailed_ = true;
+        quit_ = true;
+      }
+    } else if (!scriptInput_.empty()) {
       // Played mouse and keys: one input state per frame, then the camera settles.
       handleInput(seconds, scriptInput_.front());
       scriptInput_.pop_front();
@@ -475,14 +487,14 @@ void Viewer::frame(double seconds) {
       --waitFrames_;
     } else {
       while (scriptStep_ < script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ && !quit_ &&
-             scriptInput_.empty()) {
+             scriptInput_.empty() && !live_) {
         if (!runStep(script_->steps[scriptStep_++])) {
           scriptFailed_ = true;
           quit_ = true;
         }
       }
       if (scriptStep_ >= script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ &&
-          scriptInput_.empty())
+          scriptInput_.empty() && !live_)
         quit_ = true;
     }
   } else {
@@ -969,6 +981,10 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       if (step.hud) settings_.showHud = *step.hud;
       if (step.lodTolerance) settings_.lodTolerancePixels = *step.lodTolerance;
       if (step.fovYDeg) settings_.fovYDeg = *step.fovYDeg;
+      return true;
+    case app::ScriptAction::Live:
+      live_ = {std::filesystem::path(step.path), step.frames};
+      static_cast<void>(readInput());  // forget what arrived before: only the live input counts
       return true;
     case app::ScriptAction::Drop:
       dropped_.insert(dropped_.end(), step.paths.begin(), step.paths.end());

@@ -154,6 +154,8 @@ class Viewer {
   std::vector<std::string> dropped_;
   std::vector<int> keysPressed_;        ///< GLFW keys pressed since the last frame (edge-triggered actions)
   std::deque<InputFrame> scriptInput_;  ///< played mouse and keys, one per frame
+  /// A script's live step: the window's own input until this file exists, for at most so many frames.
+  std::optional<std::pair<std::filesystem::path, int>> live_;
 
   // Script.
   std::optional<app::ViewerScript> script_;

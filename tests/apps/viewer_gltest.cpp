@@ -15,6 +15,7 @@
 #include <fstream>
 #include <string>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -500,6 +501,68 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
   std::size_t demTerrain = 0;
   for (const float z : demDepth.pixels) demTerrain += z > 0.0F ? 1u : 0u;
   EXPECT_GT(demTerrain, pixelsOf(kWidth, kHeight) / 5) << "the dropped DEM's home view shows little terrain";
+}
+
+// A person's mouse and keys: real X events from xdotool reach the viewer through GLFW while a
+// script's live step runs: a left drag orbits, two wheel clicks zoom in, O switches the
+// overlays off. This is the path the scripted input skips (GLFW polling, callbacks, ImGui's claim
+// on the mouse, high-DPI scaling).
+TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  ASSERT_EQ(std::system("command -v xdotool > /dev/null"), 0) << "xdotool is needed (scripts/install-deps.sh)";
+  const fs::path dir = outputDir("viewer_live");
+  const json script = {
+      {"window", {640, 480}},
+      {"steps", json::array({{{"camera", {{"eye_xyz", {1500, -9000, 6000}}, {"target_xyz", {0, 0, 0}}}}},
+                             {{"wait", 2}},
+                             {{"action", "save_state"}, {"path", "ready.json"}},
+                             {{"action", "live"}, {"until_file", "go"}, {"max_frames", 3000}},
+                             {{"action", "save_state"}, {"path", "after.json"}},
+                             {{"action", "quit"}}})}};
+  { std::ofstream(dir / "script.json") << script.dump(1); }
+  const pid_t viewer = fork();
+  ASSERT_GE(viewer, 0);
+  if (viewer == 0) {
+    const std::string log = (dir / "log.txt").string();
+    if (std::freopen(log.c_str(), "w", stdout) == nullptr || std::freopen(log.c_str(), "a", stderr) == nullptr)
+      _exit(126);
+    execl(TERRAIN_VIEWER_EXE, TERRAIN_VIEWER_EXE, STENCIL_GIS_SAMPLES_DIR "/olinda/scene.json", "--script",
+          (dir / "script.json").c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // The viewer is ready once it wrote ready.json; then a person's gestures, slowly enough that
+  // every state is seen by a frame even on a loaded machine.
+  for (int i = 0; i < 600 && !fs::exists(dir / "ready.json"); ++i) usleep(100000);
+  const bool ready = fs::exists(dir / "ready.json");
+  if (ready) {
+    const std::string gestures =
+        "W=$(xdotool search --name terrain_viewer | head -1) && "
+        "xdotool mousemove --window $W 450 350 && sleep 1 && xdotool mousedown 1 && sleep 1 && "
+        "xdotool mousemove --window $W 480 350 && sleep 1 && xdotool mousemove --window $W 520 350 && sleep 1 && "
+        "xdotool mouseup 1 && sleep 1 && xdotool click 4 && sleep 0.5 && xdotool click 4 && sleep 1 && "
+        "xdotool key o && sleep 1";
+    EXPECT_EQ(std::system(("/bin/sh -c '" + gestures + "' > " + (dir / "xdotool.txt").string() + " 2>&1").c_str()), 0)
+        << readText(dir / "xdotool.txt");
+  }
+  { std::ofstream(dir / "go") << "done\n"; }
+  int status = 0;
+  ASSERT_EQ(waitpid(viewer, &status, 0), viewer);
+  ASSERT_TRUE(ready) << "the viewer did not start:\n" << readText(dir / "log.txt");
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(dir / "log.txt");
+
+  const json before = json::parse(readText(dir / "ready.json"));
+  const json after = json::parse(readText(dir / "after.json"));
+  const double dyaw = std::remainder(after["pose"]["yaw"].get<double>() - before["pose"]["yaw"].get<double>(),
+                                     2.0 * 3.14159265358979323846);
+  const double ratio = after["pose"]["distance"].get<double>() / before["pose"]["distance"].get<double>();
+  std::printf("live: yaw turned %.4f rad, distance x%.4f, overlays %s\n", dyaw, ratio,
+              after["overlays"].get<bool>() ? "on" : "off");
+  // 70 pixels of drag at 0.005 rad per pixel; the first move is more than the 3 px click slop.
+  EXPECT_NEAR(std::abs(dyaw), 0.35, 1e-9);
+  EXPECT_NEAR(after["pose"]["pitch"].get<double>(), before["pose"]["pitch"].get<double>(), 1e-9);
+  EXPECT_NEAR(ratio, 0.85 * 0.85, 1e-9);  // two wheel steps of zoomPerWheelStep
+  EXPECT_EQ(before["overlays"], true);
+  EXPECT_EQ(after["overlays"], false);
 }
 
 }  // namespace

@@ -40,7 +40,7 @@ struct ActionName {
 };
 
 // "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
-constexpr std::array<ActionName, 22> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
+constexpr std::array<ActionName, 23> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
                                                {"set_layer", ScriptAction::SetLayer},
                                                {"overlays", ScriptAction::Overlays},
                                                {"method", ScriptAction::Method},
@@ -61,6 +61,7 @@ constexpr std::array<ActionName, 22> kActions{{{"toggle_layer", ScriptAction::To
                                                {"save_state", ScriptAction::SaveState},
                                                {"view", ScriptAction::View},
                                                {"drop", ScriptAction::Drop},
+                                               {"live", ScriptAction::Live},
                                                {"quit", ScriptAction::Quit}}};
 
 std::string actionList() {
@@ -486,6 +487,10 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
             "'lod_tolerance', 'fov'");
       break;
     }
+    case ScriptAction::Live:
+      if (const std::optional<std::string> p = r.string("until_file", true)) step.path = resolve(base, *p);
+      step.frames = r.frames("max_frames", false).value_or(3000);
+      break;
     case ScriptAction::Drop: {
       const json* paths = r.field("paths", true);
       if (!paths) break;

@@ -30,6 +30,8 @@
 //      {"action": "view", "wireframe": true, "imagery": false,  the panel's view switches, any of them
 //       "debug_pieces": true, "lod_tolerance": 2, "fov": 50, "panel": true, "hud": false},
 //      {"action": "drop", "paths": ["roads.geojson"]},         as files dropped on the window
+//      {"action": "live", "until_file": "go", "max_frames": 600},  the real mouse and keys (e.g. from
+//                                                             xdotool) until the file exists
 //      {"action": "quit"}]}
 //
 // Mouse and key actions are played through the same input handling as a person's mouse and
@@ -78,6 +80,7 @@ enum class ScriptAction {
   SaveState,
   View,
   Drop,
+  Live,
   Quit
 };
 
@@ -100,7 +103,7 @@ struct ScriptStep {
   std::string cameraFile;  ///< where the spec came from (the script or the camera file it names), for messages
   double seconds = 0.0;    ///< eased move over this long; 0: a jump
 
-  // Wait (frames to draw), Drag (frames per segment), HoldKeys (frames held)
+  // Wait (frames to draw), Drag (frames per segment), HoldKeys (frames held), Live (at most)
   int frames = 0;
 
   // ToggleLayer, SetLayer
@@ -143,7 +146,10 @@ struct ScriptStep {
   // Drop: resolved like `path`
   std::vector<std::string> paths;
 
-  /// Identify: where to write the result (empty: not written); Export, Screenshot, SaveState: the file.
+  // Live: the window's own input until `path` exists; more than `frames` frames fail the step
+
+  /// Identify: where to write the result (empty: not written); Export, Screenshot, SaveState: the
+  /// file; Live: the file whose existence ends it.
   /// Resolved against the script file's directory when relative (and then absolute).
   std::string path;
 
