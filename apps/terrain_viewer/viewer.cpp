@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -96,6 +97,7 @@ nlohmann::json Identified::toJson() const {
 }
 
 Viewer::~Viewer() {
+  if (selectionJob_.valid()) selectionJob_.wait();  // it reads the scene and the layers
   if (imgui_) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
@@ -233,6 +235,7 @@ bool Viewer::loadPath(const std::string& path) {
 }
 
 bool Viewer::useScene(app::SceneDescription description) {
+  finishSelection();  // its job reads the scene about to go
   Result<app::LoadedScene> scene = app::loadScene(description);
   for (const Diagnostic& d : scene.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
   if (!scene) return false;
@@ -302,9 +305,21 @@ void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
   }
 }
 
+void Viewer::setExaggeration(double exaggeration) {
+  finishSelection();  // the selection job reads the heights
+  // The pieces' height bounds follow (no rebuild of the footprints).
+  render_.verticalExaggeration = exaggeration;
+  scene_->bounds->setExaggeration(exaggeration);
+  for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+    renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
+  }
+  selectionChanged();
+}
+
 void Viewer::rebuildOverlays() {
   // Styles, order and the method are baked into the pieces: rebuild (Olinda: a fraction of a
   // second), keeping which layers are hidden.
+  finishSelection();  // the selection job reads the layers
   std::vector<bool> hidden(scene_->layers.size(), false);
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (!renderer_->shown(j)) hidden[renderer_->overlaySources()[j].first] = true;
@@ -351,13 +366,52 @@ void Viewer::clearSelection() {
 }
 
 void Viewer::selectionChanged() {
+  // The GPU shows the new selection from the next frame on; the logical one (features, DEM
+  // posts: the CPU twin, about a second on Olinda) follows from a worker thread, so drawing a
+  // lasso never stalls the frames.
   const Diagnostics diagnostics = selectionRenderer_->setSteps(steps_);
   for (const Diagnostic& d : diagnostics.items()) message(d.toString(), true);
   selected_.reset();
+  ++selectionGeneration_;
+  if (!selectionJob_.valid()) startSelection();  // else restarted when the running job ends
+}
+
+void Viewer::startSelection() {
   if (steps_.empty() || !scene_ || !renderer_) return;
   const glm::ivec2 fb = framebufferSize();
-  selected_ = app::selectInScene(*scene_, *renderer_, steps_, camera(), std::max(fb.x, 1), std::max(fb.y, 1));
+  const std::vector<overlay::SelectionStep> steps = steps_;
+  const app::Camera c = camera();
+  const int width = std::max(fb.x, 1), height = std::max(fb.y, 1);
+  jobGeneration_ = selectionGeneration_;
+  // Reads the scene and the layers only; whatever changes them waits for it first
+  // (finishSelection). A paged scene loads tiles while it draws, so it selects in this thread.
+  const auto job = [this, steps, c, width, height] {
+    const auto start = std::chrono::steady_clock::now();
+    app::SceneSelection result = app::selectInScene(*scene_, *renderer_, steps, c, width, height);
+    return std::make_pair(std::move(result),
+                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  };
+  selectionJob_ = std::async(scene_->paged() ? std::launch::deferred : std::launch::async, job);
 }
+
+void Viewer::pollSelection(bool wait) {
+  while (selectionJob_.valid()) {
+    if (!wait && selectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    auto [result, ms] = selectionJob_.get();
+    if (jobGeneration_ == selectionGeneration_) {
+      selected_ = std::move(result);
+      selectionMs_ = ms;
+      char text[160];
+      std::snprintf(text, sizeof(text), "selection: %zu features, %zu DEM posts (%.0f ms)", selected_->featureCount(),
+                    selected_->posts ? selected_->posts->selected : std::size_t{0}, selectionMs_);
+      message(text);
+      return;
+    }
+    startSelection();  // the lassos changed while it ran
+  }
+}
+
+void Viewer::finishSelection() { pollSelection(true); }
 
 std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   if (!target_) return std::nullopt;
@@ -403,6 +457,7 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
 }
 
 bool Viewer::exportSelection(const std::filesystem::path& path) {
+  finishSelection();
   if (!selected_ || selected_->featureCount() == 0) {
     message(path.string() + ": nothing selected to export", true);
     return false;
@@ -462,6 +517,7 @@ void Viewer::frame(double seconds) {
   ++frameIndex_;
   // Dropped files: the last scene wins; vector files add layers.
   for (const std::string& path : std::exchange(dropped_, {})) loadPath(path);
+  pollSelection(false);
 
   if (script_ && !quit_) {
     if (live_) {
@@ -806,6 +862,11 @@ nlohmann::json Viewer::state() const {
         {"lod_tolerance", settings_.lodTolerancePixels},
         {"fov", settings_.fovYDeg}}},
       {"scene", description_->path},
+      {"frame",
+       {{"ms", frameMs_},  // smoothed wall time per frame
+        {"terrain_triangles", stats_.terrainDraw.triangles},
+        {"overlay_fragments", overlayFragments()},
+        {"selection_ms", selectionMs_}}},  // the CPU twin's logical selection, last run
       {"messages", messages_},
       {"lasso_tool", lassoTool_},
       {"layers", layers},
@@ -876,11 +937,7 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       rebuildOverlays();
       return true;
     case app::ScriptAction::Exaggeration:
-      render_.verticalExaggeration = step.value;
-      scene_->bounds->setExaggeration(step.value);
-      for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-        renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
-      }
+      setExaggeration(step.value);
       return true;
     case app::ScriptAction::Lasso: {
       const std::optional<overlay::SelectionOp> op = overlay::parseSelectionOp(step.lassoOp);
@@ -991,6 +1048,7 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       waitFrames_ = 1;  // loaded at the start of the next frame, as a person's drop
       return true;
     case app::ScriptAction::SaveState: {
+      finishSelection();  // the state holds the logical selection of every lasso so far
       std::ofstream out(step.path);
       out << state().dump(2) << "\n";
       if (!out) message(where + ": cannot write " + step.path, true);

@@ -7,6 +7,7 @@
 // drawn over the copy.
 #include <deque>
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -86,6 +87,8 @@ class Viewer {
   static int keyCode(const std::string& name);
   /// What a test of the viewer checks: camera and pose, window, selection, identify, layers.
   [[nodiscard]] nlohmann::json state() const;
+  /// Mark and cover fragments of the overlay layers in the last measured frame.
+  [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
   void drawPanel();
   void drawHud();
@@ -99,7 +102,13 @@ class Viewer {
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
   void invertSelection();
   void clearSelection();
+  void setExaggeration(double exaggeration);
   void selectionChanged();
+  void startSelection();
+  /// Takes the logical selection when its job is done (`wait`: waits for it).
+  void pollSelection(bool wait);
+  /// Waits for the selection job: before anything changes what it reads, and where its result is needed.
+  void finishSelection();
   std::optional<Identified> identify(const glm::dvec2& pixel);
   bool exportSelection(const std::filesystem::path& path);
   /// Scene only (`ui` false: also <stem>_depth.tiff and <stem>_camera.json beside it), or the
@@ -130,7 +139,10 @@ class Viewer {
 
   // Selection.
   std::vector<overlay::SelectionStep> steps_;
-  std::optional<app::SceneSelection> selected_;
+  std::optional<app::SceneSelection> selected_;                       ///< the logical selection, once its job is done
+  std::future<std::pair<app::SceneSelection, double>> selectionJob_;  ///< and its wall time, ms
+  std::size_t selectionGeneration_ = 0;                               ///< counts changes of the lassos
+  std::size_t jobGeneration_ = 0;                                     ///< the lassos the running job selects with
   overlay::SelectionStyle highlight_;
   bool lassoTool_ = false;
   std::vector<glm::dvec2> lassoPoints_;  ///< being drawn, framebuffer pixels
@@ -142,6 +154,7 @@ class Viewer {
   app::FrameStats stats_;
   std::vector<overlay::LayerFrameStats> measured_;
   double frameMs_ = 16.0;
+  double selectionMs_ = 0.0;  ///< wall time of the last logical selection (features and posts)
   std::size_t frameIndex_ = 0;
   std::vector<std::string> messages_;
 

@@ -65,15 +65,7 @@ void Viewer::drawPanel() {
     }
     float exaggeration = static_cast<float>(render_.verticalExaggeration);
     ImGui::SliderFloat("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
-    if (ImGui::IsItemDeactivatedAfterEdit()) {
-      // The pieces' height bounds follow (no rebuild of the footprints).
-      render_.verticalExaggeration = exaggeration;
-      scene_->bounds->setExaggeration(exaggeration);
-      for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-        renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
-      }
-      selectionChanged();
-    }
+    if (ImGui::IsItemDeactivatedAfterEdit()) setExaggeration(exaggeration);
     ImGui::Checkbox("wireframe", &render_.wireframe);
     ImGui::SameLine();
     if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &settings_.imagery);
@@ -175,6 +167,7 @@ void Viewer::drawPanel() {
       for (const overlay::SelectionStep& s : steps_) chain += std::string(chain.empty() ? "" : " → ") + opName(s.op);
       ImGui::TextWrapped("steps: %s", chain.c_str());
     }
+    if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
     if (selected_) {
       ImGui::Text("%zu features selected", selected_->featureCount());
       if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
@@ -222,6 +215,12 @@ void Viewer::drawPanel() {
   ImGui::End();
 }
 
+std::uint64_t Viewer::overlayFragments() const {
+  std::uint64_t fragments = 0;
+  for (const overlay::LayerFrameStats& l : stats_.layers) fragments += l.markFragments + l.coverFragments;
+  return fragments;
+}
+
 void Viewer::drawHud() {
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10, viewport->WorkPos.y + 10),
@@ -237,11 +236,10 @@ void Viewer::drawHud() {
     ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
   } else {
     double overlayMs = 0.0;
-    std::uint64_t fragments = 0;
+    const std::uint64_t fragments = overlayFragments();
     std::size_t zFail = 0;
     for (const overlay::LayerFrameStats& l : stats_.layers) {
       overlayMs += l.gpuMilliseconds;
-      fragments += l.markFragments + l.coverFragments;
       zFail += l.zFailPieces;
     }
     ImGui::Text("overlays: GPU %.2f ms, %.2f M fragments, %zu z-fail pieces", overlayMs,
