@@ -19,6 +19,7 @@
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
 #include "gfx/image_io.hpp"
+#include "program_output.hpp"
 #include "vector_overlay/lasso.hpp"
 
 namespace gis::test {
@@ -37,17 +38,6 @@ int runOverlayRender(const std::string& args, const fs::path& log) {
   const std::string command = std::string(OVERLAY_RENDER_EXE) + " " + args + " > " + log.string() + " 2>&1";
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string readText(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-glm::dmat4 matrix(const json& a) {
-  glm::dmat4 m(0.0);
-  for (int i = 0; i < 16; ++i) glm::value_ptr(m)[i] = a.at(static_cast<std::size_t>(i)).get<double>();
-  return m;
 }
 
 /// Height of the full-resolution DEM surface at frame (x, y): triangles a-d-e and a-e-b per cell
@@ -119,7 +109,7 @@ TEST_F(OverlayRenderTest, TerrainPixelsAreImageryAndLieOnTheDrawnSurface) {
   const json camera = json::parse(readText(out_ / "camera.json"));
   EXPECT_EQ(camera["width"].get<int>(), kWidth);
   EXPECT_EQ(camera["depth"]["convention"].get<std::string>(), "reversed-z");
-  const glm::dmat4 inverse = glm::inverse(matrix(camera["proj"]) * matrix(camera["view"]));
+  const glm::dmat4 inverse = glm::inverse(viewProjOf(camera));
 
   Result<geo::Raster> dem = geo::readRaster(kSamples + "/olinda/olinda_dem_utm25s.tif");
   ASSERT_TRUE(dem.ok());
@@ -224,7 +214,7 @@ TEST(OverlayRenderLasso, SelectionImageFeaturesAndExportsAgreeWithTheTwin) {
   ASSERT_EQ(selection.channels, 1);
   const gfx::ImageFloat depth = *gfx::readImageFloat((out / "depth.tiff").string());
   const json camera = json::parse(readText(out / "camera.json"));
-  const glm::dmat4 viewProj = matrix(camera["proj"]) * matrix(camera["view"]);
+  const glm::dmat4 viewProj = viewProjOf(camera);
   std::vector<overlay::SelectionStep> steps;
   for (std::size_t k = 0; k < 3; ++k) {
     overlay::SelectionStep s;

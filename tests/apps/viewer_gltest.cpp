@@ -26,6 +26,7 @@
 #include "app/scene_renderer.hpp"
 #include "gfx/image_io.hpp"
 #include "gl_test.hpp"
+#include "program_output.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/lasso.hpp"
 
@@ -38,17 +39,6 @@ using nlohmann::json;
 constexpr int kWidth = 480;
 constexpr int kHeight = 360;
 
-std::string readText(const fs::path& p) {
-  std::ifstream in(p);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-glm::dmat4 matrix(const json& a) {
-  glm::dmat4 m(0.0);
-  for (int i = 0; i < 16; ++i) glm::value_ptr(m)[i] = a.at(static_cast<std::size_t>(i)).get<double>();
-  return m;
-}
-
 glm::dvec3 rgbAt(const gfx::Image8& image, std::size_t i) {
   return glm::dvec3(image.pixels[3 * i], image.pixels[3 * i + 1], image.pixels[3 * i + 2]);
 }
@@ -60,6 +50,35 @@ std::size_t pixelsOf(int width, int height) {
 double maxDifference(const glm::dvec3& a, const glm::dvec3& b) {
   const glm::dvec3 d = glm::abs(a - b);
   return std::max({d.x, d.y, d.z});
+}
+
+/// The CPU reference of the Olinda scene's overlay layers on a depth image: per pixel the mask
+/// (bit i = overlay layer i; layer 0 is the tracts' fill) and whether it is near a feature edge.
+struct OlindaReference {
+  bool ok = false;
+  std::vector<std::uint32_t> mask;
+  std::vector<std::uint8_t> edges;
+  overlay::LayerStyle fillStyle;
+};
+
+OlindaReference olindaReference(const overlay::DepthImage& image) {
+  OlindaReference r;
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  if (!description.ok()) return r;
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  if (!scene.ok()) return r;
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  if (!renderer.ok() || renderer->overlaySources().empty() ||
+      renderer->overlaySources()[0] != std::make_pair(std::size_t{0}, false))  // the tracts' fill first
+    return r;
+  std::vector<overlay::ReferenceLayer> ref;
+  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
+  r.mask = overlay::referenceMask(image, ref);
+  r.edges = overlay::edgePixels(image, ref);
+  r.fillStyle = description->layers[0].style;
+  r.ok = true;
+  return r;
 }
 
 class ViewerScriptTest : public GlTest {
@@ -115,7 +134,7 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   ASSERT_EQ(window.width, kWidth);
   const gfx::ImageFloat depth = *gfx::readImageFloat((dir / "with_depth.tiff").string());
   const json camera = json::parse(readText(dir / "with_camera.json"));
-  const glm::dmat4 viewProj = matrix(camera["proj"]) * matrix(camera["view"]);
+  const glm::dmat4 viewProj = viewProjOf(camera);
   const std::size_t pixels = static_cast<std::size_t>(kWidth) * kHeight;
 
   // Terrain visible without overlays.
@@ -130,20 +149,12 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   EXPECT_GE(notBackground + pixels / 100, terrain);
 
   // The CPU reference of the scene's overlay layers on the viewer's depth.
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<app::LoadedScene> scene = app::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
-  ASSERT_TRUE(renderer.ok());
-  std::vector<overlay::ReferenceLayer> ref;
-  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
-  ASSERT_EQ(renderer->overlaySources()[0], std::make_pair(std::size_t{0}, false));  // the tracts' fill
   const overlay::DepthImage image{kWidth, kHeight, depth.pixels, viewProj};
-  const std::vector<std::uint32_t> mask = overlay::referenceMask(image, ref);
-  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
-  const overlay::LayerStyle& fill = description->layers[0].style;
+  const OlindaReference reference = olindaReference(image);
+  ASSERT_TRUE(reference.ok);
+  const std::vector<std::uint32_t>& mask = reference.mask;
+  const std::vector<std::uint8_t>& edges = reference.edges;
+  const overlay::LayerStyle& fill = reference.fillStyle;
   const glm::dvec3 fillColour = glm::round(glm::dvec3(fill.color) * 255.0) / 255.0;  // the vertices hold 8-bit colour
   const double alpha = std::round(static_cast<double>(fill.opacity * fill.color.w) * 255.0) / 255.0;
   std::size_t fillPixels = 0, fillWrong = 0, clearPixels = 0, clearWrong = 0;
@@ -237,8 +248,6 @@ glm::dvec2 project(const glm::dmat4& viewProj, const glm::dvec3& point, int widt
 }
 
 glm::dvec3 vec3Of(const json& a) { return glm::dvec3(a[0].get<double>(), a[1].get<double>(), a[2].get<double>()); }
-
-glm::dmat4 viewProjOf(const json& camera) { return matrix(camera["proj"]) * matrix(camera["view"]); }
 
 /// Distance from `p` to the segment [a, b].
 double segmentDistance(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
@@ -442,18 +451,11 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
 
   // Uncovered terrain (by the CPU reference) is hillshade grey (0.55, 0.57, 0.52) × shade without
   // imagery, and mostly not with it.
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<app::LoadedScene> scene = app::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
-  ASSERT_TRUE(renderer.ok());
-  std::vector<overlay::ReferenceLayer> ref;
-  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
   const overlay::DepthImage image{kWidth, kHeight, depth.pixels, viewProjOf(camera)};
-  const std::vector<std::uint32_t> mask = overlay::referenceMask(image, ref);
-  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+  const OlindaReference reference = olindaReference(image);
+  ASSERT_TRUE(reference.ok);
+  const std::vector<std::uint32_t>& mask = reference.mask;
+  const std::vector<std::uint8_t>& edges = reference.edges;
   const auto isHillshade = [](const glm::dvec3& c) {
     return std::abs(c.x * 0.57 - c.y * 0.55) <= 1.5 && std::abs(c.z * 0.57 - c.y * 0.52) <= 1.5;
   };

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::app {
@@ -41,22 +42,6 @@ bool readColour(const json& j, const char* key, const std::string& file, glm::ve
     }
   }
   return ok;
-}
-
-std::optional<json> readJsonFile(const std::string& path, Diagnostics& d) {
-  std::ifstream in(path);
-  if (!in) {
-    d.add({Severity::Error, path, "", "", "cannot open"});
-    return std::nullopt;
-  }
-  try {
-    json j;
-    in >> j;
-    return j;
-  } catch (const json::exception& e) {
-    d.add({Severity::Error, path, "", "", std::string("not JSON: ") + e.what()});
-    return std::nullopt;
-  }
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <set>
 #include <string_view>
 
+#include "app/json_file.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::app {
@@ -17,22 +18,6 @@ namespace {
 
 using nlohmann::json;
 namespace fs = std::filesystem;
-
-std::optional<json> readJsonFile(const std::string& path, Diagnostics& d) {
-  std::ifstream in(path);
-  if (!in) {
-    d.add({Severity::Error, path, "", "", "cannot open"});
-    return std::nullopt;
-  }
-  try {
-    json j;
-    in >> j;
-    return j;
-  } catch (const json::exception& e) {
-    d.add({Severity::Error, path, "", "", std::string("not JSON: ") + e.what()});
-    return std::nullopt;
-  }
-}
 
 struct ActionName {
   std::string_view name;
