@@ -12,27 +12,6 @@
 #include "viewer.hpp"
 
 namespace gis::viewer {
-namespace {
-
-const char* opName(overlay::SelectionOp op) {
-  switch (op) {
-    case overlay::SelectionOp::Single:
-      return "new";
-    case overlay::SelectionOp::Or:
-      return "or";
-    case overlay::SelectionOp::And:
-      return "and";
-    case overlay::SelectionOp::Xor:
-      return "xor";
-    case overlay::SelectionOp::Subtract:
-      return "subtract";
-    case overlay::SelectionOp::Invert:
-      return "invert";
-  }
-  return "?";
-}
-
-}  // namespace
 
 void Viewer::drawPanel() {
   // A column at the left, at most the window's height (it scrolls), about 24 characters of
@@ -164,7 +143,8 @@ void Viewer::drawPanel() {
     ImGui::ColorEdit3("highlight", &highlight_.color.x, ImGuiColorEditFlags_NoInputs);
     if (!steps_.empty()) {
       std::string chain;
-      for (const overlay::SelectionStep& s : steps_) chain += std::string(chain.empty() ? "" : " → ") + opName(s.op);
+      for (const overlay::SelectionStep& s : steps_)
+        chain += std::string(chain.empty() ? "" : " → ") + overlay::selectionOpName(s.op);
       ImGui::TextWrapped("steps: %s", chain.c_str());
     }
     if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
