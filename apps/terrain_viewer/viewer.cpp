@@ -413,27 +413,33 @@ void Viewer::pollSelection(bool wait) {
 
 void Viewer::finishSelection() { pollSelection(true); }
 
-std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
-  if (!target_) return std::nullopt;
-  const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
-  if (x < 0 || y < 0 || x >= target_->width() || y >= target_->height()) return std::nullopt;
+std::optional<float> Viewer::depthAt(int x, int y) const {
+  if (!target_ || x < 0 || y < 0 || x >= target_->width() || y >= target_->height()) return std::nullopt;
   float depth = 0.0F;
   glBindFramebuffer(GL_READ_FRAMEBUFFER, target_->framebuffer());
   glReadPixels(x, target_->height() - 1 - y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
   glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  if (!(depth > 0.0F)) return std::nullopt;  // background (reversed-Z clears to 0)
+  return depth;
+}
+
+std::optional<glm::dvec3> Viewer::pointAt(const glm::dvec2& pixel) const {
+  const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
+  const std::optional<float> depth = depthAt(x, y);
+  if (!depth) return std::nullopt;
+  const app::Camera c = camera();
+  const glm::dvec4 ndc(2.0 * (x + 0.5) / target_->width() - 1.0, 1.0 - 2.0 * (y + 0.5) / target_->height(),
+                       static_cast<double>(*depth), 1.0);
+  const glm::dvec4 p = glm::inverse(c.projection(aspect()) * c.view()) * ndc;
+  if (p.w == 0.0) return std::nullopt;
+  return glm::dvec3(p) / p.w;
+}
+
+std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
+  const std::optional<glm::dvec3> world = pointAt(pixel);
+  if (!world) return std::nullopt;
   const app::Camera c = camera();
   const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
-  const std::vector<float> one{depth};
-  // The one pixel as a 1 × 1 depth image whose matrix maps this pixel's centre to NDC (0, 0).
-  const std::optional<glm::dvec3> world = [&]() -> std::optional<glm::dvec3> {
-    if (!(depth > 0.0F)) return std::nullopt;
-    const glm::dvec4 ndc(2.0 * (x + 0.5) / target_->width() - 1.0, 1.0 - 2.0 * (y + 0.5) / target_->height(),
-                         static_cast<double>(depth), 1.0);
-    const glm::dvec4 p = glm::inverse(viewProj) * ndc;
-    if (p.w == 0.0) return std::nullopt;
-    return glm::dvec3(p) / p.w;
-  }();
-  if (!world) return std::nullopt;
   Identified id;
   id.frame = *world;
   id.lonLatH = scene_->frame.toLonLat(*world / glm::dvec3(1.0, 1.0, render_.verticalExaggeration));
@@ -660,6 +666,13 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
       pressCursor_ = pixel;
       dragged_ = false;
       if (lassoTool_) lassoPoints_.assign(1, pixel);
+      // Orbit about the terrain at the centre of the view: reversed-Z depth is near / distance
+      // along the view axis.
+      if (!lassoTool_ && !fly) {
+        if (const std::optional<float> depth = depthAt(fb.x / 2, fb.y / 2)) {
+          controller_->pivotAt(camera().nearPlane / static_cast<double>(*depth));
+        }
+      }
     }
     if (left && glm::length(pixel - pressCursor_) > 3.0) dragged_ = true;
     if (left && lassoTool_) {
@@ -698,27 +711,7 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
       lassoPoints_.clear();
     }
     if (in.scroll != 0.0) {
-      std::optional<glm::dvec3> under;
-      if (const std::optional<Identified> hit = [&]() -> std::optional<Identified> {
-            if (!target_) return std::nullopt;
-            float depth = 0.0F;
-            const int x = std::clamp(static_cast<int>(pixel.x), 0, target_->width() - 1);
-            const int y = std::clamp(static_cast<int>(pixel.y), 0, target_->height() - 1);
-            glBindFramebuffer(GL_READ_FRAMEBUFFER, target_->framebuffer());
-            glReadPixels(x, target_->height() - 1 - y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
-            glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-            if (!(depth > 0.0F)) return std::nullopt;
-            const app::Camera c = camera();
-            const glm::dvec4 p = glm::inverse(c.projection(aspect()) * c.view()) *
-                                 glm::dvec4(2.0 * (x + 0.5) / target_->width() - 1.0,
-                                            1.0 - 2.0 * (y + 0.5) / target_->height(), static_cast<double>(depth), 1.0);
-            Identified id;
-            id.frame = glm::dvec3(p) / p.w;
-            return id;
-          }()) {
-        under = hit->frame;
-      }
-      controller_->zoomAt(in.scroll, pixel, fb, under);
+      controller_->zoomAt(in.scroll, pixel, fb, pointAt(pixel));
     }
   }
   leftDown_ = left;

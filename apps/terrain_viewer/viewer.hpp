@@ -110,6 +110,10 @@ class Viewer {
   /// Waits for the selection job: before anything changes what it reads, and where its result is needed.
   void finishSelection();
   std::optional<Identified> identify(const glm::dvec2& pixel);
+  /// Depth of the last frame at pixel (x, y), top-left origin; none where nothing was drawn.
+  [[nodiscard]] std::optional<float> depthAt(int x, int y) const;
+  /// The frame point drawn at a pixel's centre in the last frame; none where nothing was drawn.
+  [[nodiscard]] std::optional<glm::dvec3> pointAt(const glm::dvec2& pixel) const;
   bool exportSelection(const std::filesystem::path& path);
   /// Scene only (`ui` false: also <stem>_depth.tiff and <stem>_camera.json beside it), or the
   /// whole window as shown.

@@ -25,6 +25,7 @@ using app::Camera;
 using app::CameraController;
 using app::ControllerSettings;
 using app::HeightAt;
+using app::OrbitPose;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -211,6 +212,38 @@ TEST(CameraControllerOrbit, KeepsTargetAndDistance) {
   const double height = controller.goal().eye.z;
   controller.orbit(glm::dvec2(57.0, 0.0));
   EXPECT_NEAR(controller.goal().eye.z, height, 1e-9);
+}
+
+TEST(CameraControllerOrbit, APivotOnTheViewAxisKeepsTheViewAndBecomesTheCentre) {
+  CameraController controller(oblique(), unsmoothed());
+  const Camera before = controller.camera();
+  controller.pivotAt(400.0);  // the terrain, say, 400 m along the view axis
+  const Camera after = controller.camera();
+  expectNear(after.eye, before.eye, 1e-9, "eye");
+  expectNear(direction(after), direction(before), 1e-12, "direction");
+  expectNear(after.target, before.eye + 400.0 * direction(before), 1e-9, "target");
+  EXPECT_NEAR(controller.goalPose().distance, 400.0, 1e-12);
+  // The next orbit turns about the pivot.
+  controller.orbit(glm::dvec2(80.0, 30.0));
+  expectNear(controller.goal().target, after.target, 1e-9, "orbit centre");
+  EXPECT_NEAR(glm::length(controller.goal().eye - after.target), 400.0, 1e-9);
+  // Distances outside [1, 1e7] or not finite are ignored.
+  const OrbitPose kept = controller.goalPose();
+  for (const double d : {0.5, 2e7, kNaN, kInf, -10.0}) {
+    controller.pivotAt(d);
+    EXPECT_TRUE(controller.goalPose() == kept) << d;
+  }
+}
+
+TEST(CameraControllerOrbit, NoPivotWhileTheViewIsStillMoving) {
+  CameraController controller(oblique());  // smoothed
+  controller.orbit(glm::dvec2(100.0, 0.0));
+  controller.update(kFrame, {});
+  const app::OrbitPose shown = controller.shownPose(), goal = controller.goalPose();
+  ASSERT_FALSE(shown == goal);
+  controller.pivotAt(300.0);
+  EXPECT_TRUE(controller.shownPose() == shown);
+  EXPECT_TRUE(controller.goalPose() == goal);
 }
 
 TEST(CameraControllerOrbit, PitchStopsJustAboveTheHorizonAndStraightDown) {

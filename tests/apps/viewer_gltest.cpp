@@ -337,13 +337,24 @@ TEST_F(ViewerScriptTest, MouseAndKeysFlyLassoAndIdentify) {
   std::printf("pan: grabbed point at (%.2f, %.2f), cursor pixel centre (220.5, 210.5)\n", afterPan.x, afterPan.y);
   EXPECT_LT(glm::length(afterPan - glm::dvec2(220.5, 210.5)), 1.0);
 
-  // Orbit: 60 pixels to the side turn the view by 60 × 0.005 rad around the same target.
+  // Orbit: about the terrain at the centre of the view (reversed-Z depth = near / distance along
+  // the view axis), 60 pixels to the side turning the view by 60 × 0.005 rad.
+  const gfx::ImageFloat depthC = *gfx::readImageFloat((dir / "c_depth.tiff").string());
+  const float zC = depthC.pixels[static_cast<std::size_t>(kHeight / 2) * kWidth + kWidth / 2];
+  ASSERT_GT(zC, 0.0F) << "no terrain at the centre of the view";
+  const glm::dvec3 eye2 = vec3Of(s2["camera"]["eye_xyz"]);
+  const glm::dvec3 axis2 = glm::normalize(vec3Of(s2["camera"]["target_xyz"]) - eye2);
+  const double pivotDistance = s2["camera"]["near"].get<double>() / static_cast<double>(zC);
+  const glm::dvec3 pivot = eye2 + axis2 * pivotDistance;
   const double dyaw =
       std::remainder(s3["pose"]["yaw"].get<double>() - s2["pose"]["yaw"].get<double>(), 2.0 * 3.14159265358979323846);
+  std::printf("orbit: about the terrain %.1f m ahead (the target was %.1f m), turned %.4f rad\n", pivotDistance,
+              s2["pose"]["distance"].get<double>(), dyaw);
   EXPECT_NEAR(std::abs(dyaw), 0.3, 1e-9);
   EXPECT_NEAR(s3["pose"]["pitch"].get<double>(), s2["pose"]["pitch"].get<double>(), 1e-9);
-  EXPECT_NEAR(s3["pose"]["distance"].get<double>(), s2["pose"]["distance"].get<double>(), 1e-6);
-  EXPECT_LT(glm::length(vec3Of(s3["pose"]["target"]) - vec3Of(s2["pose"]["target"])), 1e-6);
+  EXPECT_NEAR(s3["pose"]["distance"].get<double>(), pivotDistance, 1e-6 * pivotDistance);
+  EXPECT_LT(glm::length(vec3Of(s3["pose"]["target"]) - pivot), 1e-6 * pivotDistance);
+  EXPECT_NEAR(glm::length(vec3Of(s3["camera"]["eye_xyz"]) - pivot), pivotDistance, 1e-6 * pivotDistance);
 
   // Lassos drawn with the mouse: a plain drag starts a selection, Shift adds (Or). The recorded
   // outlines follow the drag paths, and the highlight changes exactly the pixels the twin selects.
@@ -520,6 +531,8 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
       {"steps", json::array({{{"camera", {{"eye_xyz", {1500, -9000, 6000}}, {"target_xyz", {0, 0, 0}}}}},
                              {{"wait", 2}},
                              {{"action", "save_state"}, {"path", "ready.json"}},
+                             {{"action", "live"}, {"until_file", "orbited"}, {"max_frames", 3000}},
+                             {{"action", "save_state"}, {"path", "orbit.json"}},
                              {{"action", "live"}, {"until_file", "go"}, {"max_frames", 3000}},
                              {{"action", "save_state"}, {"path", "after.json"}},
                              {{"action", "quit"}}})}};
@@ -536,18 +549,25 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
   }
   // The viewer is ready once it wrote ready.json; then a person's gestures, slowly enough that
   // every state is seen by a frame even on a loaded machine.
-  for (int i = 0; i < 600 && !fs::exists(dir / "ready.json"); ++i) usleep(100000);
-  const bool ready = fs::exists(dir / "ready.json");
+  const auto waitFor = [&](const char* file) {
+    for (int i = 0; i < 600 && !fs::exists(dir / file); ++i) usleep(100000);
+    return fs::exists(dir / file);
+  };
+  const auto gesture = [&](const std::string& commands) {
+    const std::string line = "/bin/sh -c 'W=$(xdotool search --name terrain_viewer | head -1) && " + commands +
+                             "' >> " + (dir / "xdotool.txt").string() + " 2>&1";
+    EXPECT_EQ(std::system(line.c_str()), 0) << readText(dir / "xdotool.txt");
+  };
+  const bool ready = waitFor("ready.json");
   if (ready) {
-    const std::string gestures =
-        "W=$(xdotool search --name terrain_viewer | head -1) && "
+    gesture(
         "xdotool mousemove --window $W 450 350 && sleep 1 && xdotool mousedown 1 && sleep 1 && "
         "xdotool mousemove --window $W 480 350 && sleep 1 && xdotool mousemove --window $W 520 350 && sleep 1 && "
-        "xdotool mouseup 1 && sleep 1 && xdotool click 4 && sleep 0.5 && xdotool click 4 && sleep 1 && "
-        "xdotool key o && sleep 1";
-    EXPECT_EQ(std::system(("/bin/sh -c '" + gestures + "' > " + (dir / "xdotool.txt").string() + " 2>&1").c_str()), 0)
-        << readText(dir / "xdotool.txt");
+        "xdotool mouseup 1 && sleep 1");
   }
+  { std::ofstream(dir / "orbited") << "done\n"; }
+  if (ready && waitFor("orbit.json"))
+    gesture("xdotool click 4 && sleep 0.5 && xdotool click 4 && sleep 1 && xdotool key o && sleep 1");
   { std::ofstream(dir / "go") << "done\n"; }
   int status = 0;
   ASSERT_EQ(waitpid(viewer, &status, 0), viewer);
@@ -555,15 +575,16 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << readText(dir / "log.txt");
 
   const json before = json::parse(readText(dir / "ready.json"));
+  const json orbited = json::parse(readText(dir / "orbit.json"));
   const json after = json::parse(readText(dir / "after.json"));
-  const double dyaw = std::remainder(after["pose"]["yaw"].get<double>() - before["pose"]["yaw"].get<double>(),
+  const double dyaw = std::remainder(orbited["pose"]["yaw"].get<double>() - before["pose"]["yaw"].get<double>(),
                                      2.0 * 3.14159265358979323846);
-  const double ratio = after["pose"]["distance"].get<double>() / before["pose"]["distance"].get<double>();
+  const double ratio = after["pose"]["distance"].get<double>() / orbited["pose"]["distance"].get<double>();
   std::printf("live: yaw turned %.4f rad, distance x%.4f, overlays %s\n", dyaw, ratio,
               after["overlays"].get<bool>() ? "on" : "off");
   // 70 pixels of drag at 0.005 rad per pixel; the first move is more than the 3 px click slop.
   EXPECT_NEAR(std::abs(dyaw), 0.35, 1e-9);
-  EXPECT_NEAR(after["pose"]["pitch"].get<double>(), before["pose"]["pitch"].get<double>(), 1e-9);
+  EXPECT_NEAR(orbited["pose"]["pitch"].get<double>(), before["pose"]["pitch"].get<double>(), 1e-9);
   EXPECT_NEAR(ratio, 0.85 * 0.85, 1e-9);  // two wheel steps of zoomPerWheelStep
   EXPECT_EQ(before["overlays"], true);
   EXPECT_EQ(after["overlays"], false);

@@ -268,6 +268,16 @@ void CameraController::orbit(const glm::dvec2& deltaPixels) {
   setGoal(g);
 }
 
+void CameraController::pivotAt(double distance) {
+  if (animation_ || !(shown_ == goal_) || !std::isfinite(distance)) return;
+  if (distance < kMinDistance || distance > kMaxDistance) return;
+  OrbitPose p = shown_;
+  const glm::dvec3 eye = eyeOf(p);
+  p.target = eye - distance * backward(p.yaw, p.pitch);
+  p.distance = distance;
+  shown_ = goal_ = p;
+}
+
 void CameraController::pan(const glm::dvec2& from, const glm::dvec2& to, const glm::ivec2& viewport) {
   if (!finite(from) || !finite(to) || from == to) return;
   OrbitPose g = goal_;

@@ -81,6 +81,11 @@ class CameraController {
   /// motion, dragging down looks more steeply down). Target and distance stay; pitch stays within
   /// [minPitch, maxPitch] (a pitch already outside may only move back towards that range).
   void orbit(const glm::dvec2& deltaPixels);
+  /// Orbit about the terrain: moves the target along the view axis to `distance` metres from the eye
+  /// (where the terrain is at the centre of the view, say) without moving the view, so the next orbit
+  /// turns around that point. Ignored while the shown camera is still on its way to the goal, and for a
+  /// distance outside [1, 1e7] or not finite.
+  void pivotAt(double distance);
   /// Grab-pan: the point under `from` on the horizontal plane through the goal target stays under the
   /// cursor at `to` (pixels: x right, y down, origin top-left). Rays are those of the goal camera, so
   /// quick successive drags add up while the shown camera catches up. Rays that miss the plane, or hit it
