@@ -134,8 +134,9 @@ void Viewer::drawPanel() {
 
   if (ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("lasso tool (L)", &lassoTool_);
-    ImGui::SameLine();
-    ImGui::TextDisabled("Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
+    ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+    ImGui::TextWrapped("drag to draw: alone a new selection, Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
+    ImGui::PopStyleColor();
     if (ImGui::Button("Invert (I)") && !steps_.empty()) invertSelection();
     ImGui::SameLine();
     if (ImGui::Button("Clear (C)")) clearSelection();
@@ -274,8 +275,11 @@ void Viewer::drawHelp() {
 
 void Viewer::drawIdentify() {
   bool open = true;
-  ImGui::SetNextWindowPos(ImVec2(10, ImGui::GetMainViewport()->WorkSize.y - 10), ImGuiCond_FirstUseEver,
-                          ImVec2(0.0F, 1.0F));
+  // Bottom right, clear of the panel and the HUD.
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(
+      ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10.0F, viewport->WorkPos.y + viewport->WorkSize.y - 10.0F),
+      ImGuiCond_FirstUseEver, ImVec2(1.0F, 1.0F));
   ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
   const Identified& id = *identified_;
   ImGui::Text("frame: %.2f, %.2f, %.2f m", id.frame.x, id.frame.y, id.frame.z);
