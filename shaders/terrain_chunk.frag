@@ -1,13 +1,20 @@
 #version 450 core
-// Orthophoto where it covers the terrain, hillshade from the screen-space normal elsewhere.
+// Orthophoto where it covers the terrain, hillshade from the screen-space normal elsewhere; with
+// a texture drape (the draping baseline) its layers blended over, and its layer bits written to
+// the mask attachment (the terrain pass then runs with mask writes on).
 in vec3 v_position;
 in vec2 v_uv;
+in vec2 v_drapeUv;
 
 uniform sampler2D u_imagery;
 uniform int u_hasImagery;
 uniform vec3 u_lightDirection;
+uniform sampler2D u_drape;       // premultiplied RGBA, mip-mapped
+uniform sampler2D u_drapeMask;   // R32F layer bits, read at the nearest texel
+uniform int u_hasDrape;
 
 layout(location = 0) out vec4 o_color;
+layout(location = 1) out vec4 o_mask;
 
 void main() {
   vec3 n = normalize(cross(dFdx(v_position), dFdy(v_position)));
@@ -20,5 +27,13 @@ void main() {
     o_color = vec4(mix(hillshade, photo.rgb, photo.a), 1.0);
   } else {
     o_color = vec4(hillshade, 1.0);
+  }
+  o_mask = vec4(0.0);
+  bool onDrape = all(greaterThanEqual(v_drapeUv, vec2(0.0))) && all(lessThan(v_drapeUv, vec2(1.0)));
+  if (u_hasDrape != 0 && onDrape) {
+    vec4 layers = texture(u_drape, v_drapeUv);
+    o_color.rgb = o_color.rgb * (1.0 - layers.a) + layers.rgb;
+    ivec2 size = textureSize(u_drapeMask, 0);
+    o_mask.r = texelFetch(u_drapeMask, ivec2(floor(v_drapeUv * vec2(size))), 0).r;
   }
 }

@@ -15,9 +15,12 @@ uniform vec2 u_step;        // metres per post (y negative for north-up grids)
 uniform float u_exaggeration;
 uniform vec2 u_uvBase;      // imagery uv at the centre
 uniform vec2 u_uvScale;     // uv per metre
+uniform vec2 u_drapeUvBase;   // texture drape: uv at the centre
+uniform vec2 u_drapeUvScale;  // and per metre
 
 out vec3 v_position;
 out vec2 v_uv;
+out vec2 v_drapeUv;
 
 void main() {
   ivec2 post = u_chunkBase + (ivec2(a_ij) << u_level);
@@ -25,5 +28,6 @@ void main() {
   vec3 p = vec3(xy, a_height * u_exaggeration);
   v_position = p;
   v_uv = u_uvBase + xy * u_uvScale;
+  v_drapeUv = u_drapeUvBase + xy * u_drapeUvScale;
   gl_Position = u_modelViewProj * vec4(p, 1.0);
 }

@@ -45,7 +45,8 @@ using app::report;
 constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
     "                      [--lasso L.json] [--overlap A,B [--overlap-op OP]] [--open-volumes]\n"
-    "                      [--lod-tolerance PX] [--exaggeration X] --out DIR\n"
+    "                      [--lod-tolerance PX] [--exaggeration X] [--method M [--drape-size N]]\n"
+    "                      --out DIR\n"
     "Draws the scene headless (OpenGL 4.5 core via EGL) and writes into DIR:\n"
     "  color.png   the frame, top row first\n"
     "  depth.tiff  float32 depth as stored (reversed-Z: 1 at the near plane, 0 = background)\n"
@@ -57,7 +58,10 @@ constexpr const char* kUsage =
     "  --overlap-op and|or|xor|subtract chooses the combination (default and)\n"
     "--open-volumes: show where a layer's stencil volumes are not closed (open_volumes.png)\n"
     "--lod-tolerance: largest projected terrain error in pixels (default 1.5; 0 = exact DEM)\n"
-    "--exaggeration: vertical exaggeration (default: the scene's)\n";
+    "--exaggeration: vertical exaggeration (default: the scene's)\n"
+    "--method: stencil (default: our stencil polyhedra), paper (the seed paper's construction) or\n"
+    "  drape (texture draping, the baseline of other viewers: the layers rasterised into an N x N\n"
+    "  texture over the terrain, --drape-size N, default 2048)\n";
 
 struct Options {
   std::string scene;
@@ -72,6 +76,8 @@ struct Options {
   int msaa = 0;
   double lodTolerance = 1.5;
   std::optional<double> exaggeration;
+  app::OverlayMethod method = app::OverlayMethod::Stencil;
+  int drapeSize = 2048;
 };
 
 std::optional<overlay::OverlapOp> overlapOpOf(std::string_view name) {
@@ -157,6 +163,20 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       error = setInt(o.msaa, 0, 32);
     else if (a == "--lod-tolerance")
       error = setDouble(o.lodTolerance, 0.0, 1000.0);
+    else if (a == "--method") {
+      std::string m;
+      error = setString(m);
+      if (m == "stencil") {
+        o.method = app::OverlayMethod::Stencil;
+      } else if (m == "paper") {
+        o.method = app::OverlayMethod::Paper;
+      } else if (m == "drape") {
+        o.method = app::OverlayMethod::Drape;
+      } else if (error.empty()) {
+        error = "--method: stencil, paper or drape, not '" + m + "'";
+      }
+    } else if (a == "--drape-size")
+      error = setInt(o.drapeSize, 1, 65536);
     else if (a == "--exaggeration") {
       double x = 1.0;
       error = setDouble(x, 0.001, 1000.0);
@@ -458,7 +478,10 @@ int run(const Options& o) {
   Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
   report(context.diagnostics);
   if (!context) return 1;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  app::OverlayBuildSettings build;
+  build.method = o.method;
+  build.drapeSize = o.drapeSize;
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
   report(renderer.diagnostics);
   if (!renderer) return 1;
 
@@ -631,12 +654,22 @@ int run(const Options& o) {
         {"imagery", scene->orthophoto.has_value()},
         {"pixels", terrainPixels}}},
       {"layers", layers},
+      {"method", o.method == app::OverlayMethod::Drape   ? "drape"
+                 : o.method == app::OverlayMethod::Paper ? "paper"
+                                                         : "stencil"},
       {"passes",
        {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
       {"errors", all.count(Severity::Error)},
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},
       {"gl_errors", (*context)->debug().errorCount()}};
+  if (const std::optional<overlay::TextureDrape>& drape = renderer->drape()) {
+    stats["drape"] = {{"size", drape->stats().size},
+                      {"triangles", drape->stats().triangles},
+                      {"gpu_bytes", drape->stats().gpuBytes},
+                      {"build_s", drape->stats().buildSeconds},
+                      {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
+  }
   if (selection) {
     ok =
         writeSelection(out, *selection, *lasso, *scene, *renderer, *camera, depth, o.width, o.height, all, stats) && ok;

@@ -69,6 +69,8 @@ Result<TerrainEngine> TerrainEngine::create(std::shared_ptr<const TerrainQuadtre
     e.imagerySize_ = glm::dvec2(img.width, img.height);
   }
   e.program_.set("u_imagery", 0);
+  e.program_.set("u_drape", 1);
+  e.program_.set("u_drapeMask", 2);
   e.program_.set("u_hasImagery", e.imageryTransform_ ? 1 : 0);
   e.program_.set("u_lightDirection", glm::vec3(-0.5F, 0.6F, 0.8F));
   Result<TerrainEngine> r;
@@ -180,6 +182,13 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
     program_.set("u_uvBase", glm::vec2(pixel / imagerySize_));
     program_.set("u_uvScale", glm::vec2(1.0 / (g[1] * imagerySize_.x), 1.0 / (g[5] * imagerySize_.y)));
     glBindTextureUnit(0, imagery_.id());
+  }
+  program_.set("u_hasDrape", drape_ ? 1 : 0);
+  if (drape_) {
+    program_.set("u_drapeUvBase", glm::vec2((centre - drape_->origin) / drape_->size));
+    program_.set("u_drapeUvScale", glm::vec2(1.0 / drape_->size));
+    glBindTextureUnit(1, drape_->color);
+    glBindTextureUnit(2, drape_->mask);
   }
   const GLint baseLocation = program_.location("u_chunkBase");
   const GLint levelLocation = program_.location("u_level");

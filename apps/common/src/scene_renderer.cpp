@@ -68,6 +68,11 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   cells.columns = std::max(1, static_cast<int>(std::ceil(extent.x / cells.cellSize)));
   cells.rows = std::max(1, static_cast<int>(std::ceil(extent.y / cells.cellSize)));
   options.footprints.cells = cells;
+  method_ = settings.method;
+  drapeSize_ = settings.drapeSize;
+  drapeExtent_ = overlay::DrapeExtent{cells.origin, glm::max(extent, glm::dvec2(1e-3))};
+  drape_.reset();
+  drapeDirty_ = true;
   std::vector<std::size_t> order(scene.layers.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
@@ -177,7 +182,28 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     timer_->begin();
     statistics_->begin();
   }
-  gfx::enableMaskWrites(framebuffer, false);  // the terrain shader has no mask output
+  const bool draping = method_ == OverlayMethod::Drape && settings.overlays && !layers_.empty();
+  if (draping && (drapeDirty_ || !drape_)) {
+    std::vector<const overlay::OverlayLayer*> shown;
+    for (std::size_t j = 0; j < layers_.size(); ++j) shown.push_back(shown_[j] ? &layers_[j] : nullptr);
+    Result<overlay::TextureDrape> built = overlay::TextureDrape::build(cache, shown, drapeExtent_, drapeSize_);
+    drape_.reset();
+    if (built) drape_ = std::move(*built);
+    drapeDirty_ = false;
+    stats.drapeBuildSeconds = drape_ ? drape_->stats().buildSeconds : 0.0;
+    // The drape's own passes left this framebuffer: bind it again, as beginRenderPass did.
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    glViewport(0, 0, width, height);
+  }
+  stats.draped = draping && drape_.has_value();
+  if (stats.draped) {
+    terrain_->setDrape(terrain::TerrainEngine::Drape{drape_->colorTexture(), drape_->maskTexture(),
+                                                     drape_->extent().origin, drape_->extent().size});
+  } else {
+    terrain_->setDrape(std::nullopt);
+  }
+  // The terrain shader writes the mask only from a drape; otherwise the overlay passes do.
+  gfx::enableMaskWrites(framebuffer, stats.draped);
   terrain_->setWireframe(settings.wireframe);
   terrain_->setImagery(settings.imagery);
   stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, settings.verticalExaggeration);
@@ -188,7 +214,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     stats.terrain.counts = statistics_->result();
   }
   gfx::enableMaskWrites(framebuffer, true);
-  if (settings.overlays && !layers_.empty()) {
+  if (settings.overlays && !layers_.empty() && method_ != OverlayMethod::Drape) {
     const overlay::OverlayView overlayView = overlayViewOf(camera, aspect);
     std::vector<const overlay::OverlayLayer*> drawn;
     drawn.reserve(layers_.size());

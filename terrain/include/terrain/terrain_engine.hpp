@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
 
 #include "geo/raster.hpp"
 #include "gfx/handles.hpp"
@@ -57,6 +58,17 @@ class TerrainEngine {
   /// True if the chunk's buffers are on the GPU (drawable without its posts in memory).
   [[nodiscard]] bool hasChunk(const NodeId& id) const;
   void setWireframe(bool on) { wireframe_ = on; }
+  /// A texture drape (the draping baseline: overlay::TextureDrape) sampled by the terrain shader,
+  /// its colour blended over the terrain and its layer bits written to the mask attachment; none
+  /// by default. The textures must outlive its use.
+  struct Drape {
+    GLuint color = 0;        ///< premultiplied RGBA, mip-mapped
+    GLuint mask = 0;         ///< R32F layer bits
+    glm::dvec2 origin{0.0};  ///< the extent's minimum corner, frame coordinates
+    glm::dvec2 size{1.0};    ///< metres
+  };
+  void setDrape(std::optional<Drape> drape) { drape_ = drape; }
+  [[nodiscard]] bool hasDrape() const { return drape_.has_value(); }
   /// Off: hillshade even where there is imagery (the viewer's "imagery" switch).
   void setImagery(bool on) { imageryOn_ = on; }
   [[nodiscard]] bool hasImagery() const { return imageryTransform_.has_value(); }
@@ -90,6 +102,7 @@ class TerrainEngine {
   std::size_t gpuBudget_ = kDefaultGpuBudgetBytes;
   bool wireframe_ = false;
   bool imageryOn_ = true;
+  std::optional<Drape> drape_;
 };
 
 }  // namespace gis::terrain

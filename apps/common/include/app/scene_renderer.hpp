@@ -14,6 +14,7 @@
 #include "terrain/tile_pager.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/texture_drape.hpp"
 
 namespace gis::app {
 
@@ -30,12 +31,14 @@ struct RenderSettings {
   overlay::OverlaySettings overlay;
 };
 
-/// How the vector layers are built: ours, or the seed paper's construction (for the benchmark).
-enum class OverlayMethod { Stencil, Paper };
+/// How the vector layers are drawn: ours, the seed paper's construction (for the benchmark), or
+/// texture draping (the baseline of other GIS viewers: overlay::TextureDrape).
+enum class OverlayMethod { Stencil, Paper, Drape };
 
 struct OverlayBuildSettings {
   OverlayMethod method = OverlayMethod::Stencil;
-  int cellPosts = 16;  ///< pieces are split at cells of this many DEM posts (tightness)
+  int drapeSize = 2048;  ///< Drape: texels per side of the texture over the terrain's extent
+  int cellPosts = 16;    ///< pieces are split at cells of this many DEM posts (tightness)
   double chordToleranceMetres = 0.02;
 };
 
@@ -52,6 +55,8 @@ struct FrameStats {
   int coarsestLevel = 0;
   double selectMilliseconds = 0.0;               ///< CPU time of the LOD selection
   std::vector<overlay::LayerFrameStats> layers;  ///< per drawn overlay layer (fill, then outline)
+  bool draped = false;                           ///< the layers came from the texture drape
+  double drapeBuildSeconds = 0.0;                ///< the drape was (re)built in this frame, so long
   std::size_t tilesMissing = 0;                  ///< paged terrain: tiles wanted but not loaded (parents drawn)
   std::size_t tilesArrived = 0;                  ///< paged terrain: tiles that became resident this frame
   terrain::TilePagerStats pager;
@@ -85,8 +90,15 @@ class SceneRenderer {
   [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
   /// Shows or hides one overlay layer from the next frame on (no rebuild; mask bits keep their
   /// places). A rebuild shows every layer again.
-  void setShown(std::size_t overlayLayer, bool shown) { shown_.at(overlayLayer) = shown; }
+  void setShown(std::size_t overlayLayer, bool shown) {
+    drapeDirty_ = drapeDirty_ || shown_.at(overlayLayer) != shown;
+    shown_.at(overlayLayer) = shown;
+  }
   [[nodiscard]] bool shown(std::size_t overlayLayer) const { return shown_.at(overlayLayer); }
+  [[nodiscard]] OverlayMethod method() const { return method_; }
+  /// The texture drape (method Drape) as last built: at the first frame that draws overlays, and
+  /// again after a change of the shown layers.
+  [[nodiscard]] const std::optional<overlay::TextureDrape>& drape() const { return drape_; }
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
   [[nodiscard]] const std::vector<std::pair<std::size_t, bool>>& overlaySources() const { return sources_; }
 
@@ -97,6 +109,11 @@ class SceneRenderer {
   std::vector<overlay::OverlayLayer> layers_;
   std::vector<std::pair<std::size_t, bool>> sources_;
   std::vector<bool> shown_;
+  OverlayMethod method_ = OverlayMethod::Stencil;
+  int drapeSize_ = 2048;
+  overlay::DrapeExtent drapeExtent_;
+  std::optional<overlay::TextureDrape> drape_;
+  bool drapeDirty_ = true;
   terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
   std::optional<gfx::PipelineStatistics> statistics_;

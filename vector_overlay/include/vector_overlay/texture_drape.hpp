@@ -1,0 +1,69 @@
+#pragma once
+// Texture draping: the baseline that osgEarth, MapLibre, deck.gl and iTowns use instead of
+// stencil polyhedra. The layers are rasterised once, flat, into a texture over the terrain's
+// extent, and the terrain shader samples it (TerrainEngine::setDrape). Its error comes from the
+// texel size; its cost is the texture's memory and the time to rasterise it again after an
+// edit. Kept here as the benchmark's comparison (issue 7) and as a method of the viewer.
+//
+// What a texel holds follows the stencil cover: each layer is blended once per texel, in the
+// order given, and where a layer's features overlap the first drawn wins. The texel's centre
+// decides (GL's rasterisation rules), so a feature narrower than a texel may vanish.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "core/diagnostics.hpp"
+#include "gfx/handles.hpp"
+#include "gfx/program.hpp"
+#include "gfx/state_cache.hpp"
+#include "vector_overlay/overlay_layer.hpp"
+
+namespace gis::overlay {
+
+/// The ground the texture covers, in frame coordinates.
+struct DrapeExtent {
+  glm::dvec2 origin{0.0};  ///< minimum corner
+  glm::dvec2 size{1.0};    ///< metres, both > 0
+};
+
+struct DrapeStats {
+  int size = 0;               ///< texels per side
+  std::size_t triangles = 0;  ///< rasterised
+  std::size_t gpuBytes = 0;   ///< colour with its mip levels, and the mask
+  double buildSeconds = 0.0;  ///< rasterising and mip-mapping, waited for (glFinish)
+};
+
+class TextureDrape {
+ public:
+  /// Rasterises the visible features of `layers` (null entries are skipped; bit i of the mask is
+  /// entry i) into a `size` × `size` colour texture (premultiplied RGBA8, mip-mapped, linear
+  /// filtering) and a mask texture (R32F, layer bits, nearest) over `extent`. Needs a current
+  /// GL context; `cache` is left consistent. Fails for a size outside [1, the GL maximum] or an
+  /// empty extent.
+  static Result<TextureDrape> build(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
+                                    const DrapeExtent& extent, int size);
+
+  [[nodiscard]] GLuint colorTexture() const { return color_.id(); }
+  [[nodiscard]] GLuint maskTexture() const { return mask_.id(); }
+  [[nodiscard]] const DrapeExtent& extent() const { return extent_; }
+  [[nodiscard]] int size() const { return stats_.size; }
+  [[nodiscard]] const DrapeStats& stats() const { return stats_; }
+
+  /// The mask texels, row 0 at the extent's minimum y (texture order).
+  [[nodiscard]] std::vector<std::uint32_t> readMask() const;
+  /// The layer bits of the texel under a frame point (nearest), as the terrain shader reads them:
+  /// 0 outside the extent. `mask` is readMask().
+  [[nodiscard]] std::uint32_t maskAt(const std::vector<std::uint32_t>& mask, const glm::dvec2& point) const;
+
+ private:
+  TextureDrape() = default;
+  gfx::TextureHandle color_;
+  gfx::TextureHandle mask_;
+  DrapeExtent extent_;
+  DrapeStats stats_;
+};
+
+}  // namespace gis::overlay

@@ -1,0 +1,161 @@
+#include "vector_overlay/texture_drape.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include <glm/vec4.hpp>
+
+#include "gfx/gl.hpp"
+#include "gfx/pipeline_state.hpp"
+
+namespace gis::overlay {
+namespace {
+
+struct DrapeVertex {
+  float x, y;
+  float r, g, b, a;
+};
+
+/// One blend per texel and layer: where the stencil is still 0 the fragment blends and sets it
+/// to 1 (the first feature drawn wins where features of a layer overlap).
+constexpr gfx::PipelineState kDrapeLayer = [] {
+  gfx::StencilFace face;
+  face.func = gfx::CompareFunc::NotEqual;
+  face.ref = 1;
+  face.depthPass = gfx::StencilOp::Replace;
+  gfx::PipelineState s;
+  s.depth = gfx::DepthState{false, false, gfx::CompareFunc::Always, false};
+  s.stencil = gfx::StencilState{true, face, face};
+  s.blend = gfx::kBlendPremultipliedOver;
+  s.raster.cull = gfx::CullMode::None;
+  return s;
+}();
+
+int mipLevels(int size) {
+  int levels = 1;
+  while ((size >> levels) > 0) ++levels;
+  return levels;
+}
+
+}  // namespace
+
+Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
+                                         const DrapeExtent& extent, int size) {
+  GLint maxSize = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
+  if (size < 1 || size > maxSize) {
+    return Result<TextureDrape>::failure(
+        {Severity::Error, "", "", "",
+         "texture drape: size " + std::to_string(size) + " outside [1, " + std::to_string(maxSize) + "]"});
+  }
+  if (!(extent.size.x > 0.0 && extent.size.y > 0.0 && std::isfinite(extent.size.x) && std::isfinite(extent.size.y))) {
+    return Result<TextureDrape>::failure({Severity::Error, "", "", "", "texture drape: empty extent"});
+  }
+  Result<gfx::Program> program = gfx::Program::build({{"drape.vert", {}}, {"overlay_volume.frag", {}}});
+  if (!program) {
+    Result<TextureDrape> failed;
+    failed.diagnostics = std::move(program.diagnostics);
+    return failed;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  TextureDrape drape;
+  drape.extent_ = extent;
+  drape.stats_.size = size;
+  const int levels = mipLevels(size);
+  drape.color_ = gfx::createTexture(GL_TEXTURE_2D);
+  glTextureStorage2D(drape.color_.id(), levels, GL_RGBA8, size, size);
+  glTextureParameteri(drape.color_.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTextureParameteri(drape.color_.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(drape.color_.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(drape.color_.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  drape.mask_ = gfx::createTexture(GL_TEXTURE_2D);
+  glTextureStorage2D(drape.mask_.id(), 1, GL_R32F, size, size);
+  glTextureParameteri(drape.mask_.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(drape.mask_.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  const gfx::RenderbufferHandle stencil = gfx::createRenderbuffer();
+  glNamedRenderbufferStorage(stencil.id(), GL_STENCIL_INDEX8, size, size);
+  const gfx::FramebufferHandle fbo = gfx::createFramebuffer();
+  glNamedFramebufferTexture(fbo.id(), GL_COLOR_ATTACHMENT0, drape.color_.id(), 0);
+  glNamedFramebufferTexture(fbo.id(), GL_COLOR_ATTACHMENT1, drape.mask_.id(), 0);
+  glNamedFramebufferRenderbuffer(fbo.id(), GL_STENCIL_ATTACHMENT, GL_RENDERBUFFER, stencil.id());
+  const GLenum buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+  glNamedFramebufferDrawBuffers(fbo.id(), 2, buffers);
+  if (glCheckNamedFramebufferStatus(fbo.id(), GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+    return Result<TextureDrape>::failure({Severity::Error, "", "", "", "texture drape: framebuffer incomplete"});
+  }
+
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo.id());
+  glViewport(0, 0, size, size);
+  cache.apply(kDrapeLayer);
+  const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
+  glClearNamedFramebufferfv(fbo.id(), GL_COLOR, 0, zero);
+  glClearNamedFramebufferfv(fbo.id(), GL_COLOR, 1, zero);
+  program->use();
+  program->set("u_scale", glm::vec2(2.0 / extent.size.x, 2.0 / extent.size.y));
+  const gfx::VertexArrayHandle vao = gfx::createVertexArray();
+  glEnableVertexArrayAttrib(vao.id(), 0);
+  glVertexArrayAttribFormat(vao.id(), 0, 2, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, x));
+  glVertexArrayAttribBinding(vao.id(), 0, 0);
+  glEnableVertexArrayAttrib(vao.id(), 1);
+  glVertexArrayAttribFormat(vao.id(), 1, 4, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, r));
+  glVertexArrayAttribBinding(vao.id(), 1, 0);
+  glBindVertexArray(vao.id());
+
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const OverlayLayer* layer = layers[i];
+    if (layer == nullptr) continue;
+    // The footprints at the largest width (lines in pixels cannot follow the view in a texture).
+    std::vector<DrapeVertex> vertices;
+    const std::vector<FeatureStyle>& styles = layer->featureStyles();
+    for (std::size_t p = 0; p < layer->polyhedra().size(); ++p) {
+      if (!layer->slots()[p].live) continue;
+      const Footprint& f = layer->polyhedra()[p].footprint;
+      if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
+      const glm::vec4 c = styles[f.feature].color;
+      for (const auto& t : f.triangles) {
+        for (const std::uint32_t k : t) {
+          const glm::dvec2 q = f.vertices[k] - extent.origin;
+          vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), c.x, c.y, c.z, c.w});
+        }
+      }
+    }
+    if (vertices.empty()) continue;
+    drape.stats_.triangles += vertices.size() / 3;
+    const gfx::BufferHandle buffer = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(DrapeVertex));
+    glVertexArrayVertexBuffer(vao.id(), 0, buffer.id(), 0, sizeof(DrapeVertex));
+    program->set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(i, 23)));
+    const GLint zeroStencil = 0;
+    glClearNamedFramebufferiv(fbo.id(), GL_STENCIL, 0, &zeroStencil);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
+  }
+  glBindVertexArray(0);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glGenerateTextureMipmap(drape.color_.id());
+  glFinish();
+  drape.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto texels = static_cast<std::size_t>(size) * static_cast<std::size_t>(size);
+  drape.stats_.gpuBytes = texels * 4 * 4 / 3 + texels * 4;  // RGBA8 with its mip chain, R32F
+  Result<TextureDrape> built;
+  built.value = std::move(drape);
+  return built;
+}
+
+std::vector<std::uint32_t> TextureDrape::readMask() const {
+  const auto texels = static_cast<std::size_t>(stats_.size) * static_cast<std::size_t>(stats_.size);
+  std::vector<float> values(texels);
+  glGetTextureImage(mask_.id(), 0, GL_RED, GL_FLOAT, static_cast<GLsizei>(texels * sizeof(float)), values.data());
+  std::vector<std::uint32_t> bits(texels);
+  for (std::size_t i = 0; i < texels; ++i) bits[i] = static_cast<std::uint32_t>(std::lround(values[i]));
+  return bits;
+}
+
+std::uint32_t TextureDrape::maskAt(const std::vector<std::uint32_t>& mask, const glm::dvec2& point) const {
+  const glm::dvec2 uv = (point - extent_.origin) / extent_.size;
+  if (!(uv.x >= 0.0 && uv.x < 1.0 && uv.y >= 0.0 && uv.y < 1.0)) return 0;
+  const auto x = static_cast<std::size_t>(uv.x * stats_.size), y = static_cast<std::size_t>(uv.y * stats_.size);
+  return mask[y * static_cast<std::size_t>(stats_.size) + x];
+}
+
+}  // namespace gis::overlay
