@@ -1,0 +1,134 @@
+// Texture draping (the baseline): on Olinda, from an overview and a close oblique camera,
+// - the GPU mask the terrain pass writes from the drape is exactly the drape texel under each
+//   pixel's terrain point (pixels whose point lies within 1/1000 texel of a texel border are not
+//   judged: float uv rounding);
+// - its error against the CPU reference (away from feature edges) shrinks as the texture grows,
+//   and is not zero at coarse sizes seen close up, where our stencil polyhedra have none on the
+//   same depth.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+
+#include "app/scene.hpp"
+#include "app/scene_loader.hpp"
+#include "app/scene_renderer.hpp"
+#include "gfx/render_target.hpp"
+#include "gl_test.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+
+namespace gis::test {
+namespace {
+
+constexpr int kWidth = 256;
+constexpr int kHeight = 192;
+
+struct Judged {
+  std::size_t terrain = 0;      ///< pixels with terrain, away from feature edges
+  std::size_t wrong = 0;        ///< against the CPU reference
+  std::size_t unlikeTexel = 0;  ///< the GPU mask is not the texel under the point
+};
+
+class DrapeGlTest : public GlTest {};
+
+TEST_F(DrapeGlTest, MaskIsTheTexelUnderEachPixelAndErrorShrinksWithTheTexture) {
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  ASSERT_TRUE(scene.ok());
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene, 1.0, lo, hi);
+  const glm::dvec3 centre = 0.5 * (lo + hi);
+  std::vector<app::Camera> cameras{app::overviewCamera(lo, hi)};
+  app::Camera close = cameras[0];
+  close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
+  close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
+  cameras.push_back(close);
+  app::Camera street = cameras[0];  // 150 m over the town, looking along the coast
+  street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
+  street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
+  cameras.push_back(street);
+
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  app::RenderSettings settings;
+  settings.lodTolerancePixels = 0.5;
+  const double aspect = static_cast<double>(kWidth) / kHeight;
+
+  // Our method on the same cameras, for the contrast.
+  Result<app::SceneRenderer> stencil = app::SceneRenderer::create(*scene);
+  ASSERT_TRUE(stencil.ok());
+  std::vector<overlay::ReferenceLayer> ref;
+  for (const overlay::OverlayLayer& l : stencil->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
+
+  const auto judge = [&](app::SceneRenderer& renderer, const app::Camera& camera, const overlay::TextureDrape* drape) {
+    renderer.render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+    const std::vector<float> depth = gfx::readDepth(target);
+    const std::vector<std::uint32_t> mask = gfx::readMask(target);
+    const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
+    const overlay::DepthImage image{kWidth, kHeight, depth, viewProj};
+    const std::vector<std::uint32_t> reference = overlay::referenceMask(image, ref);
+    const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+    const std::vector<std::uint32_t> texels = drape ? drape->readMask() : std::vector<std::uint32_t>{};
+    const glm::dmat4 inverse = glm::inverse(viewProj);
+    Judged j;
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x);
+        if (!(depth[i] > 0.0F)) continue;
+        if (drape) {
+          const glm::dvec4 p = inverse * glm::dvec4(2.0 * (x + 0.5) / kWidth - 1.0, 1.0 - 2.0 * (y + 0.5) / kHeight,
+                                                    static_cast<double>(depth[i]), 1.0);
+          const glm::dvec2 ground = glm::dvec2(p) / p.w;
+          const glm::dvec2 t = (ground - drape->extent().origin) / drape->extent().size * double(drape->size());
+          const glm::dvec2 fromBorder = glm::abs(t - glm::round(t));
+          if (std::min(fromBorder.x, fromBorder.y) > 1e-3) {
+            j.unlikeTexel += drape->maskAt(texels, ground) != mask[i] ? 1u : 0u;
+          }
+        }
+        if (edges[i] != 0) continue;
+        ++j.terrain;
+        j.wrong += mask[i] != reference[i] ? 1u : 0u;
+      }
+    }
+    return j;
+  };
+
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const Judged ours = judge(*stencil, cameras[c], nullptr);
+    std::printf("camera %zu: stencil polyhedra %zu of %zu pixels wrong away from edges\n", c, ours.wrong, ours.terrain);
+    EXPECT_EQ(ours.wrong, 0u);
+    double previous = 1.0;
+    for (const int size : {256, 1024, 4096}) {
+      app::OverlayBuildSettings build;
+      build.method = app::OverlayMethod::Drape;
+      build.drapeSize = size;
+      Result<app::SceneRenderer> draped = app::SceneRenderer::create(*scene, build);
+      ASSERT_TRUE(draped.ok());
+      draped->render(cache_, target.framebuffer(), kWidth, kHeight, cameras[c], settings);  // builds the drape
+      ASSERT_TRUE(draped->drape().has_value());
+      const Judged j = judge(*draped, cameras[c], &*draped->drape());
+      const double error = static_cast<double>(j.wrong) / static_cast<double>(std::max<std::size_t>(j.terrain, 1));
+      std::printf("camera %zu: drape %d² (%.2f m texels): %zu of %zu pixels wrong (%.3f %%), %zu unlike the texel\n", c,
+                  size, draped->drape()->extent().size.x / size, j.wrong, j.terrain, 100.0 * error, j.unlikeTexel);
+      EXPECT_GT(j.terrain, 5000u);
+      EXPECT_EQ(j.unlikeTexel, 0u);
+      if (size == 256 && c > 0) {
+        // Seen from afar a pixel is as big as a texel; close up, a 40 m texel cannot hold 6 m outlines.
+        EXPECT_GT(j.wrong, 0u) << "close up, a coarse drape must show its texels";
+      }
+      EXPECT_LE(error, previous) << "a larger texture must not be further off";
+      if (previous > 0.0 && c > 0) {
+        EXPECT_LT(error, previous);
+      }
+      previous = error;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace gis::test
