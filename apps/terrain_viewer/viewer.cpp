@@ -243,6 +243,7 @@ bool Viewer::useScene(app::SceneDescription description) {
   renderer_.reset();
   app::OverlayBuildSettings build;
   build.method = method_;
+  build.drapeSize = drapeSize_;
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
   for (const Diagnostic& d : renderer.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
   if (!renderer) return false;
@@ -329,6 +330,7 @@ void Viewer::rebuildOverlays() {
   }
   app::OverlayBuildSettings build;
   build.method = method_;
+  build.drapeSize = drapeSize_;
   for (const Diagnostic& d : renderer_->buildOverlays(*scene_, build).items()) {
     message(d.toString(), d.severity == Severity::Error);
   }
@@ -846,6 +848,9 @@ nlohmann::json Viewer::state() const {
       {"framebuffer", {fb.x, fb.y}},
       {"window", {window.x, window.y}},
       {"overlays", render_.overlays},
+      {"method", method_ == app::OverlayMethod::Drape   ? "drape"
+                 : method_ == app::OverlayMethod::Paper ? "paper"
+                                                        : "stencil"},
       {"view",
        {{"wireframe", render_.wireframe},
         {"imagery", settings_.imagery},
@@ -926,7 +931,10 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       render_.overlays = step.on;
       return true;
     case app::ScriptAction::Method:
-      method_ = step.text == "paper" ? app::OverlayMethod::Paper : app::OverlayMethod::Stencil;
+      method_ = step.text == "paper"   ? app::OverlayMethod::Paper
+                : step.text == "drape" ? app::OverlayMethod::Drape
+                                       : app::OverlayMethod::Stencil;
+      if (step.frames > 0) drapeSize_ = step.frames;
       rebuildOverlays();
       return true;
     case app::ScriptAction::Exaggeration:

@@ -139,6 +139,7 @@ class Viewer {
   gfx::StateCache cache_;
   app::RenderSettings render_;
   app::OverlayMethod method_ = app::OverlayMethod::Stencil;
+  int drapeSize_ = 2048;  ///< texture draping: texels per side
   bool imgui_ = false;
 
   // Selection.

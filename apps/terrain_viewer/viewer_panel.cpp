@@ -2,6 +2,7 @@
 // the HUD, the key help, identify results and the lasso being drawn.
 #include <algorithm>
 #include <cstdio>
+#include <string>
 
 #include "gfx/gl.hpp"
 
@@ -52,21 +53,36 @@ void Viewer::drawPanel() {
 
   if (ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("vector layers (O)", &render_.overlays);
-    int method = method_ == app::OverlayMethod::Paper ? 1 : 0;
-    const bool a = ImGui::RadioButton("stencil polyhedra", &method, 0);
+    int method = static_cast<int>(method_);
+    bool changed = ImGui::RadioButton("stencil polyhedra", &method, static_cast<int>(app::OverlayMethod::Stencil));
     ImGui::SameLine();
-    const bool b = ImGui::RadioButton("paper's construction", &method, 1);
-    if (a || b) {
-      const app::OverlayMethod chosen = method == 1 ? app::OverlayMethod::Paper : app::OverlayMethod::Stencil;
-      if (chosen != method_) {
-        method_ = chosen;
-        rebuildOverlays();
+    changed =
+        ImGui::RadioButton("paper's construction", &method, static_cast<int>(app::OverlayMethod::Paper)) || changed;
+    changed = ImGui::RadioButton("texture draping", &method, static_cast<int>(app::OverlayMethod::Drape)) || changed;
+    if (method_ == app::OverlayMethod::Drape) {
+      // The baseline of other viewers, for comparison: its texels show close up.
+      ImGui::SameLine();
+      static constexpr int kSizes[] = {512, 1024, 2048, 4096, 8192};
+      const std::string current = std::to_string(drapeSize_) + "²";
+      ImGui::SetNextItemWidth(6.0F * ImGui::GetFontSize());
+      if (ImGui::BeginCombo("##drape size", current.c_str())) {
+        for (const int size : kSizes) {
+          if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_) {
+            drapeSize_ = size;
+            rebuildOverlays();
+          }
+        }
+        ImGui::EndCombo();
+      }
+      if (const auto& drape = renderer_->drape()) {
+        ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
+                            static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
       }
     }
-    ImGui::BeginDisabled();
-    int none = 0;
-    ImGui::RadioButton("texture draping (not yet)", &none, 1);
-    ImGui::EndDisabled();
+    if (changed && static_cast<app::OverlayMethod>(method) != method_) {
+      method_ = static_cast<app::OverlayMethod>(method);
+      rebuildOverlays();
+    }
     ImGui::Checkbox("debug: pieces", &debugPieces_);
     if (debugPieces_) {
       ImGui::SameLine();

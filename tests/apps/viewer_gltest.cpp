@@ -444,6 +444,11 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
             shot("debug.png"),
             save("s0.json"),
             {{"action", "view"}, {"debug_pieces", false}},
+            {{"action", "method"}, {"value", "drape"}, {"drape_size", 1024}},
+            {{"wait", 1}},
+            shot("draped.png"),
+            save("draped.json"),
+            {{"action", "method"}, {"value", "stencil"}},
             {{"action", "drop"}, {"paths", {data + "/holes_and_multipolygons.geojson"}}},
             save("s1.json"),
             {{"action", "drop"}, {"paths", {data + "/garbage.geojson"}}},
@@ -494,6 +499,20 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
   EXPECT_GT(wireChanged, pixelsOf(kWidth, kHeight) / 20);
   EXPECT_GT(debugChanged, pixelsOf(kWidth, kHeight) / 20);
   EXPECT_GT(debugTinted, debugChanged * 9 / 10);
+  // Texture draping in the viewer: the fill-only pixels have the fill's colour, as with ours.
+  const gfx::Image8 draped = *gfx::readImage8((dir / "draped.png").string());
+  const json drapedState = state("draped.json");
+  EXPECT_EQ(drapedState["method"], "drape");
+  std::size_t fillOnly = 0, fillDiffers = 0;
+  for (std::size_t i = 0; i < depth.pixels.size(); ++i) {
+    if (depth.pixels[i] <= 0.0F || mask[i] != 1u || edges[i] != 0) continue;
+    ++fillOnly;
+    fillDiffers += maxDifference(rgbAt(draped, i), rgbAt(plain, i)) > 8.0 ? 1u : 0u;
+  }
+  std::printf("drape 1024²: %zu of %zu fill-only pixels differ from the stencil polyhedra's by more than 8/255\n",
+              fillDiffers, fillOnly);
+  EXPECT_GT(fillOnly, 5000u);
+  EXPECT_LT(fillDiffers, fillOnly / 20);
   const json s0 = state("s0.json");
   EXPECT_EQ(s0["view"]["debug_pieces"], true);
   EXPECT_EQ(s0["view"]["wireframe"], false);

@@ -175,12 +175,14 @@ TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
       {"action": "scroll", "at": [1, 1]},
       {"action": "hold_keys", "keys": ["w", "Q"], "frames": 12, "modifiers": ["shift"]},
       {"action": "resize", "window": [640, 480]},
-      {"action": "save_state", "path": "state.json"}]})");
+      {"action": "save_state", "path": "state.json"},
+      {"action": "method", "value": "drape", "drape_size": 4096},
+      {"action": "method", "value": "drape"}]})");
   Result<app::ViewerScript> s = app::parseViewerScript(j, (dir_ / "s.json").string());
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
   EXPECT_TRUE(s.diagnostics.empty()) << dump(s.diagnostics);
   const std::vector<app::ScriptStep>& st = s->steps;
-  ASSERT_EQ(st.size(), 8u);
+  ASSERT_EQ(st.size(), 10u);
   EXPECT_EQ(st[0].action, app::ScriptAction::Drag);
   EXPECT_EQ(st[0].button, app::MouseButton::Right);
   ASSERT_EQ(st[0].points.size(), 3u);
@@ -208,6 +210,10 @@ TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
   EXPECT_EQ(st[6].window, glm::ivec2(640, 480));
   EXPECT_EQ(st[7].action, app::ScriptAction::SaveState);
   EXPECT_EQ(st[7].path, (dir_ / "state.json").string());
+  EXPECT_EQ(st[8].action, app::ScriptAction::Method);
+  EXPECT_EQ(st[8].text, "drape");
+  EXPECT_EQ(st[8].frames, 4096);
+  EXPECT_EQ(st[9].frames, 0);  // the viewer's size stays
 }
 
 TEST_F(ViewerScript, DefaultsWhenOptionalFieldsAreAbsent) {
@@ -362,6 +368,8 @@ TEST_F(ViewerScript, EachKindOfBrokenStepIsAnErrorNamingFileAndStep) {
       {"NaN seconds", json{{"camera", kCamera}, {"seconds", nan}}, "'seconds'"},
       {"camera of wrong type", json{{"camera", 5}}, "'camera'"},
       {"camera without eye", json{{"camera", json{{"target_xyz", json::array({0, 0, 0})}}}}, "'eye'"},
+      {"drape size too small", json{{"action", "method"}, {"value", "drape"}, {"drape_size", 8}}, "'drape_size'"},
+      {"fractional drape size", json{{"action", "method"}, {"value", "drape"}, {"drape_size", 1000.5}}, "'drape_size'"},
       {"drag of one point", json{{"action", "drag"}, {"points", json::parse("[[0,0]]")}}, "at least 2"},
       {"drag without points", json{{"action", "drag"}}, "missing 'points'"},
       {"unknown button", json{{"action", "click"}, {"at", {1, 2}}, {"button", "fourth"}}, "unknown button 'fourth'"},

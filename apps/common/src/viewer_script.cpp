@@ -349,12 +349,17 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
       break;
     case ScriptAction::Method:
       if (const std::optional<std::string> m = r.string("value", true)) {
-        if (*m == "stencil" || *m == "paper") {
+        if (*m == "stencil" || *m == "paper" || *m == "drape") {
           step.text = *m;
         } else {
-          r.problem("'value': unknown method '" + *m + "'; expected \"stencil\" or \"paper\"");
+          r.problem("'value': unknown method '" + *m + "'; expected \"stencil\", \"paper\" or \"drape\"");
         }
       }
+      // Texture draping: texels per side (frames holds it; 0 = keep the viewer's).
+      step.frames =
+          static_cast<int>(r.number("drape_size", false, "a whole number of texels from 16 to 16384", [](double v) {
+                              return v >= 16.0 && v <= 16384.0 && v == std::floor(v);
+                            }).value_or(0.0));
       break;
     case ScriptAction::Exaggeration:
       step.value = r.number("value", true, "a positive number", [](double v) { return v > 0.0; }).value_or(0.0);

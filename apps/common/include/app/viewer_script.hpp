@@ -10,7 +10,7 @@
 //      {"action": "set_layer", "layer": "census tracts",      any of visible, opacity, color, width
 //       "visible": true, "opacity": 0.5, "color": "#ff8800", "width": 4},
 //      {"action": "overlays", "on": false},                   all vector layers on / off
-//      {"action": "method", "value": "stencil" | "paper"},
+//      {"action": "method", "value": "stencil" | "paper" | "drape", "drape_size": 2048},
 //      {"action": "exaggeration", "value": 2.0},
 //      {"action": "lasso", "op": "single" | "or" | "and" | "xor" | "subtract",
 //       "points": [[x, y], ...]},                             framebuffer pixels, origin top-left
@@ -103,7 +103,8 @@ struct ScriptStep {
   std::string cameraFile;  ///< where the spec came from (the script or the camera file it names), for messages
   double seconds = 0.0;    ///< eased move over this long; 0: a jump
 
-  // Wait (frames to draw), Drag (frames per segment), HoldKeys (frames held), Live (at most)
+  // Wait (frames to draw), Drag (frames per segment), HoldKeys (frames held), Live (at most),
+  // Method (the drape's texels per side; 0: unchanged)
   int frames = 0;
 
   // ToggleLayer, SetLayer
