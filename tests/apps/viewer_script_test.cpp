@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/viewer_script.hpp"
+#include "temp_dir_test.hpp"
 
 namespace gis::test {
 namespace {
@@ -17,28 +18,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-/// A fresh directory under /tmp for the files of one test, removed afterwards.
-class ViewerScript : public ::testing::Test {
- protected:
-  void SetUp() override {
-    char pattern[] = "/tmp/viewer_script_test.XXXXXX";
-    ASSERT_NE(mkdtemp(pattern), nullptr);
-    dir_ = pattern;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    if (!dir_.empty()) fs::remove_all(dir_, ec);
-  }
-
-  std::string write(const std::string& name, const std::string& text) const {
-    const fs::path p = dir_ / name;
-    fs::create_directories(p.parent_path());
-    std::ofstream(p) << text;
-    return p.string();
-  }
-
-  fs::path dir_;
-};
+class ViewerScript : public TempDirTest {};
 
 bool hasDiagnostic(const Diagnostics& d, Severity severity, const std::string& file, const std::string& feature,
                    const std::string& text) {

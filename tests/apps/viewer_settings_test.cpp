@@ -7,29 +7,16 @@
 #include <gtest/gtest.h>
 
 #include "app/viewer_settings.hpp"
+#include "temp_dir_test.hpp"
 
 namespace gis::test {
 namespace {
 
 namespace fs = std::filesystem;
 
-class ViewerSettingsTest : public ::testing::Test {
+class ViewerSettingsTest : public TempDirTest {
  protected:
-  void SetUp() override {
-    char pattern[] = "/tmp/viewer_settings_test.XXXXXX";
-    ASSERT_NE(mkdtemp(pattern), nullptr);
-    dir_ = pattern;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  fs::path write(const std::string& text) const {
-    const fs::path p = dir_ / "viewer.json";
-    std::ofstream(p) << text;
-    return p;
-  }
-  fs::path dir_;
+  fs::path writeSettings(const std::string& text) const { return write("viewer.json", text); }
 };
 
 TEST_F(ViewerSettingsTest, ARoundTripKeepsEveryValue) {
@@ -64,7 +51,7 @@ TEST_F(ViewerSettingsTest, AFirstRunGetsTheDefaultsSilently) {
 }
 
 TEST_F(ViewerSettingsTest, ABrokenFileIsAWarningAndGivesTheDefaults) {
-  const fs::path p = write("{\"window\": [800, 600");
+  const fs::path p = writeSettings("{\"window\": [800, 600");
   const Result<app::ViewerSettings> r = app::loadViewerSettings(p);
   ASSERT_TRUE(r.ok());
   ASSERT_EQ(r.diagnostics.items().size(), 1u);
@@ -74,7 +61,7 @@ TEST_F(ViewerSettingsTest, ABrokenFileIsAWarningAndGivesTheDefaults) {
 }
 
 TEST_F(ViewerSettingsTest, EachBadValueIsAWarningAndTheOthersAreKept) {
-  const fs::path p = write(R"({"window": "big", "lod_tolerance_px": -1, "fov_y_deg": 50, "show_hud": "no",
+  const fs::path p = writeSettings(R"({"window": "big", "lod_tolerance_px": -1, "fov_y_deg": 50, "show_hud": "no",
                                "show_panel": false, "imagery": 1, "export_path": "", "colour": "red"})");
   const Result<app::ViewerSettings> r = app::loadViewerSettings(p);
   ASSERT_TRUE(r.ok());
@@ -95,7 +82,7 @@ TEST_F(ViewerSettingsTest, EachBadValueIsAWarningAndTheOthersAreKept) {
 }
 
 TEST_F(ViewerSettingsTest, AnOversizedOrTinyWindowIsClampedToAUsableOne) {
-  const Result<app::ViewerSettings> r = app::loadViewerSettings(write(R"({"window": [1e12, 10]})"));
+  const Result<app::ViewerSettings> r = app::loadViewerSettings(writeSettings(R"({"window": [1e12, 10]})"));
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->windowSize, glm::ivec2(16384, 240));
 }
