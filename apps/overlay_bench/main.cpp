@@ -8,6 +8,8 @@
 //   layer covers (fragments per covered pixel), and the latency of a one-feature edit.
 // Writes bench.json and frames.csv. Frame times are wall time on a shared machine: compare
 // within one run.
+// - mode "methods" (methods_mode.cpp): every method, texture draping at several sizes included,
+//   on the same frames, with the error against the CPU reference: error against frame time.
 // - mode "lasso": one camera, the terrain drawn once, then the GPU time of lasso selection for
 //   1–500 random volumes (mixed operators, and Or only), interleaved with the time of one
 //   full-screen pass, so every figure is a ratio to that pass; a least-squares line through
@@ -38,6 +40,7 @@
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
+#include "bench_common.hpp"
 #include "gfx/context.hpp"
 #include "gfx/pipeline_state.hpp"
 #include "gfx/program.hpp"
@@ -51,37 +54,18 @@ namespace {
 
 using nlohmann::json;
 using namespace gis;
+using namespace gis::bench;
 
 constexpr const char* kUsage =
     "usage: overlay_bench --scene S.json [--mode terrain|overlay|lasso] [--width W --height H] [--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
-    "                     [--repeats R] --out DIR\n";
+    "                     [--repeats R] [--drape-sizes 512,1024,...] [--error-every N] --out DIR\n"
+    "--mode methods: terrain only, our stencil polyhedra, the paper's construction and texture draping\n"
+    "  at each --drape-sizes on the same frames: frame time, memory, build time and wrong pixels against\n"
+    "  the CPU reference (every --error-every frames); writes methods.json and methods.csv\n";
 
-struct Options {
-  std::string scene, out, mode = "terrain";
-  int width = 1200, height = 1000, frames = 90;
-  int maxVolumes = 500, repeats = 5;  ///< lasso mode
-  double lodTolerance = 1.5;
-  std::optional<app::TerrainPaging> paging;
-};
-
-/// "VmRSS" or "VmHWM" of this process in bytes (Linux).
-std::size_t processMemory(const char* key) {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind(key, 0) == 0) return static_cast<std::size_t>(std::stoull(line.substr(line.find(':') + 1))) * 1024;
-  }
-  return 0;
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(
-      std::clamp(p / 100.0 * static_cast<double>(v.size() - 1), 0.0, static_cast<double>(v.size() - 1)) + 0.5);
-  return v[std::min(i, v.size() - 1)];
-}
+int runOverlay(const Options& o);
+int runLasso(const Options& o);
 
 std::string parseArgs(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
@@ -107,6 +91,18 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       o.repeats = *n;
     else if (a == "--lod-tolerance" && app::parseDouble(v) && *app::parseDouble(v) >= 0.0)
       o.lodTolerance = *app::parseDouble(v);
+    else if (a == "--drape-sizes") {
+      o.drapeSizes.clear();
+      std::string list(v);
+      for (std::size_t start = 0; start <= list.size();) {
+        const std::size_t comma = std::min(list.find(',', start), list.size());
+        const std::optional<int> size = app::parseInt(list.substr(start, comma - start));
+        if (!size || *size < 16 || *size > 16384) return "--drape-sizes: a comma-separated list of sizes 16 to 16384";
+        o.drapeSizes.push_back(*size);
+        start = comma + 1;
+      }
+    } else if (a == "--error-every" && (n = app::parseInt(v)) && *n >= 1)
+      o.errorEvery = *n;
     else if (a == "--paging" && v == "auto")
       o.paging = app::TerrainPaging::Auto;
     else if (a == "--paging" && v == "always")
@@ -117,24 +113,15 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       return "bad argument " + std::string(a) + " " + std::string(v);
   }
   if (o.scene.empty() || o.out.empty()) return "--scene and --out are required";
-  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso")
-    return "--mode: \"terrain\", \"overlay\" or \"lasso\"";
+  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso" && o.mode != "methods")
+    return "--mode: \"terrain\", \"overlay\", \"lasso\" or \"methods\"";
   return {};
-}
-
-int runOverlay(const Options& o);
-int runLasso(const Options& o);
-
-/// Writes bench.json, prints it, and fails the run on any GL error.
-int finish(const Options& o, const json& result, gfx::Context& context) {
-  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
-  std::printf("%s\n", result.dump(2).c_str());
-  return context.debug().errorCount() == 0 ? 0 : 1;
 }
 
 int run(const Options& o) {
   if (o.mode == "overlay") return runOverlay(o);
   if (o.mode == "lasso") return runLasso(o);
+  if (o.mode == "methods") return runMethods(o);
   const auto loadStart = std::chrono::steady_clock::now();
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
   app::report(description.diagnostics);

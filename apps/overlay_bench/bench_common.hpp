@@ -1,0 +1,60 @@
+#pragma once
+// What the modes of overlay_bench share: options, percentiles, memory, the result file.
+#include <algorithm>
+#include <cstddef>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "app/scene_loader.hpp"
+#include "gfx/context.hpp"
+
+namespace gis::bench {
+
+using nlohmann::json;
+
+struct Options {
+  std::string scene, out, mode = "terrain";
+  int width = 1200, height = 1000, frames = 90;
+  int maxVolumes = 500, repeats = 5;                   ///< lasso mode
+  std::vector<int> drapeSizes{512, 1024, 2048, 4096};  ///< methods mode: texture draping sizes
+  int errorEvery = 3;                                  ///< methods mode: error on every n-th frame
+  double lodTolerance = 1.5;
+  std::optional<app::TerrainPaging> paging;
+};
+
+/// "VmRSS" or "VmHWM" of this process in bytes (Linux).
+inline std::size_t processMemory(const char* key) {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind(key, 0) == 0) return static_cast<std::size_t>(std::stoull(line.substr(line.find(':') + 1))) * 1024;
+  }
+  return 0;
+}
+
+inline double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto i = static_cast<std::size_t>(
+      std::clamp(p / 100.0 * static_cast<double>(v.size() - 1), 0.0, static_cast<double>(v.size() - 1)) + 0.5);
+  return v[std::min(i, v.size() - 1)];
+}
+
+/// Writes bench.json, prints it, and fails the run on any GL error.
+inline int finish(const Options& o, const nlohmann::json& result, gfx::Context& context) {
+  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
+  std::printf("%s\n", result.dump(2).c_str());
+  return context.debug().errorCount() == 0 ? 0 : 1;
+}
+
+/// Mode "methods": every method on the same frames, with frame time, memory, build time and the
+/// error against the CPU reference (methods_mode.cpp).
+int runMethods(const Options& o);
+
+}  // namespace gis::bench
