@@ -53,8 +53,9 @@ const Row kTable[] = {
      CompareFunc::Always, false, true, false, true, false},
     {"paper z-fail front", &overlay::kPaperMarkZFailFront, CullMode::Back, K, StencilOp::Decr, K, StencilOp::Decr,
      CompareFunc::Always, false, true, false, true, false},
-    {"paper cover z-pass", &overlay::kPaperCoverZPass, CullMode::Back, StencilOp::Zero, StencilOp::Zero,
-     StencilOp::Zero, StencilOp::Zero, CompareFunc::NotEqual, true, true, false, true, true},
+    // A box behind the terrain fails the depth test: it keeps the mark for the box that covers it.
+    {"paper cover z-pass", &overlay::kPaperCoverZPass, CullMode::Back, StencilOp::Zero, K, StencilOp::Zero, K,
+     CompareFunc::NotEqual, true, true, false, true, true},
     {"paper cover z-fail", &overlay::kPaperCoverZFail, CullMode::Front, StencilOp::Zero, StencilOp::Zero,
      StencilOp::Zero, StencilOp::Zero, CompareFunc::NotEqual, true, false, false, true, true},
 };

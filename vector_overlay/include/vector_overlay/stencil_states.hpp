@@ -78,6 +78,12 @@ inline constexpr gfx::PipelineState kPaperMarkZFailFront = paperMark(true, false
 inline constexpr gfx::PipelineState paperCover(bool zFail) {
   gfx::PipelineState s = detail::coverState(zFail ? gfx::CullMode::Front : gfx::CullMode::Back);
   s.depth.test = !zFail;  // z-pass: the box's front faces lie in front of the marked terrain
+  // Another feature's box behind the terrain fails the depth test there: it must keep the mark
+  // for the box that covers it (zeroing on depth fail lost those pixels).
+  if (!zFail) {
+    s.stencil.front.depthFail = gfx::StencilOp::Keep;
+    s.stencil.back.depthFail = gfx::StencilOp::Keep;
+  }
   return s;
 }
 inline constexpr gfx::PipelineState kPaperCoverZPass = paperCover(false);
