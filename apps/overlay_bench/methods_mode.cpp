@@ -3,7 +3,8 @@
 // texture draping at each size — so that ratios come from one run. On every n-th frame the GPU
 // layer mask of each method is compared with the CPU reference on that frame's depth (the
 // terrain is the same for all methods): wrong pixels over all terrain pixels, and away from
-// feature edges. Writes methods.json, methods.csv and prints a table.
+// feature edges. Writes methods.json, methods.csv, methods.md (the table), error_vs_time.svg and
+// error_away_vs_time.svg, and prints the table.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -24,6 +25,7 @@
 #include "bench_common.hpp"
 #include "gfx/gl.hpp"
 #include "gfx/render_target.hpp"
+#include "svg_plot.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::bench {
@@ -176,6 +178,46 @@ int runMethods(const Options& o) {
                      {"gpu_bytes", m.gpuBytes},
                      {"build_s", m.buildSeconds}});
   }
+  // Error against frame time: one point per method (and per drape size); over all terrain
+  // pixels, and away from feature edges.
+  for (const bool away : {false, true}) {
+    std::vector<PlotPoint> points;
+    for (const Method& m : methods) {
+      if (!m.overlays) continue;
+      const std::size_t wrong = away ? m.wrongAway : m.wrong, judged = away ? m.pixelsAway : m.pixels;
+      const double share = judged > 0 ? 100.0 * static_cast<double>(wrong) / static_cast<double>(judged) : 0.0;
+      const std::string colour = m.method == app::OverlayMethod::Drape   ? "#d62728"
+                                 : m.method == app::OverlayMethod::Paper ? "#ff7f0e"
+                                                                         : "#1f77b4";
+      points.push_back({percentile(m.ratio, 50), share, m.name, colour});
+    }
+    PlotAxes axes;
+    axes.title = std::string(away ? "Error away from feature edges" : "Error") + " against frame time (" +
+                 std::to_string(o.width) + " × " + std::to_string(o.height) + ")";
+    axes.xLabel = "median frame time / terrain only, same frame";
+    axes.yLabel = away ? "wrong pixels away from edges, %" : "wrong pixels, % of terrain pixels";
+    axes.logY = true;
+    std::ofstream(std::filesystem::path(o.out) / (away ? "error_away_vs_time.svg" : "error_vs_time.svg"))
+        << scatterSvg(points, axes);
+  }
+
+  // The table as Markdown, for docs/benchmarks.md (scripts/benchmarks.sh puts it there).
+  {
+    std::ofstream md(std::filesystem::path(o.out) / "methods.md");
+    md << "| method | median ms | p95 ms | × terrain | wrong % | wrong % away from edges | GPU MB | build s |\n"
+          "|---|---|---|---|---|---|---|---|\n";
+    for (const Method& m : methods) {
+      char row[256];
+      const double share = m.pixels > 0 ? 100.0 * static_cast<double>(m.wrong) / static_cast<double>(m.pixels) : 0.0;
+      const double shareAway =
+          m.pixelsAway > 0 ? 100.0 * static_cast<double>(m.wrongAway) / static_cast<double>(m.pixelsAway) : 0.0;
+      std::snprintf(row, sizeof(row), "| %s | %.1f | %.1f | %.2f | %.4g | %.4g | %.1f | %.2f |\n", m.name.c_str(),
+                    percentile(m.ms, 50), percentile(m.ms, 95), m.overlays ? percentile(m.ratio, 50) : 1.0, share,
+                    shareAway, static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
+      md << row;
+    }
+  }
+
   const json result = {{"mode", o.mode},
                        {"scene", o.scene},
                        {"width", o.width},
