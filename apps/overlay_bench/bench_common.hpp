@@ -56,5 +56,7 @@ inline int finish(const Options& o, const nlohmann::json& result, gfx::Context& 
 /// Mode "methods": every method on the same frames, with frame time, memory, build time and the
 /// error against the CPU reference (methods_mode.cpp).
 int runMethods(const Options& o);
+/// Mode "ablation": ours with each saving of DESIGN §9 switched off alone, on the same frames.
+int runAblation(const Options& o);
 
 }  // namespace gis::bench

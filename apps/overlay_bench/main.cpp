@@ -57,12 +57,15 @@ using namespace gis;
 using namespace gis::bench;
 
 constexpr const char* kUsage =
-    "usage: overlay_bench --scene S.json [--mode terrain|overlay|lasso] [--width W --height H] [--frames N]\n"
+    "usage: overlay_bench --scene S.json [--mode terrain|overlay|methods|ablation|lasso] [--width W --height H] "
+    "[--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
     "                     [--repeats R] [--drape-sizes 512,1024,...] [--error-every N] --out DIR\n"
     "--mode methods: terrain only, our stencil polyhedra, the paper's construction and texture draping\n"
     "  at each --drape-sizes on the same frames: frame time, memory, build time and wrong pixels against\n"
-    "  the CPU reference (every --error-every frames); writes methods.json and methods.csv\n";
+    "  the CPU reference (every --error-every frames); writes methods.json and methods.csv\n"
+    "--mode ablation: ours with each saving switched off alone (z-fail everywhere, bottom caps in z-pass,\n"
+    "  no frustum culling, cover with the pieces, no split at cells), the same figures; ablation.json\n";
 
 int runOverlay(const Options& o);
 int runLasso(const Options& o);
@@ -113,8 +116,8 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       return "bad argument " + std::string(a) + " " + std::string(v);
   }
   if (o.scene.empty() || o.out.empty()) return "--scene and --out are required";
-  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso" && o.mode != "methods")
-    return "--mode: \"terrain\", \"overlay\", \"lasso\" or \"methods\"";
+  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso" && o.mode != "methods" && o.mode != "ablation")
+    return "--mode: \"terrain\", \"overlay\", \"methods\", \"ablation\" or \"lasso\"";
   return {};
 }
 
@@ -122,6 +125,7 @@ int run(const Options& o) {
   if (o.mode == "overlay") return runOverlay(o);
   if (o.mode == "lasso") return runLasso(o);
   if (o.mode == "methods") return runMethods(o);
+  if (o.mode == "ablation") return runAblation(o);
   const auto loadStart = std::chrono::steady_clock::now();
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
   app::report(description.diagnostics);

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -38,17 +39,53 @@ struct Method {
   app::OverlayMethod method = app::OverlayMethod::Stencil;
   int drapeSize = 0;
   bool overlays = true;
+  int cellPosts = 16;  ///< pieces split at cells of this many DEM posts (the ablation turns it off)
+  std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
   std::optional<app::SceneRenderer> renderer;
   std::vector<double> ms;
   std::vector<double> ratio;  ///< frame time over terrain only, per frame
   std::size_t pixels = 0, wrong = 0, pixelsAway = 0, wrongAway = 0;
+  std::uint64_t fragments = 0;  ///< overlay mark + cover fragments over the judged frames
   std::size_t gpuBytes = 0;
   double buildSeconds = 0.0;
 };
 
+int runVariants(const Options& o, std::vector<Method> methods, const std::string& stem);
+
 }  // namespace
 
 int runMethods(const Options& o) {
+  std::vector<Method> methods;
+  methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
+  methods.emplace_back("stencil polyhedra", app::OverlayMethod::Stencil, 0, true);
+  methods.emplace_back("paper's construction", app::OverlayMethod::Paper, 0, true);
+  for (const int size : o.drapeSizes) {
+    methods.emplace_back("drape " + std::to_string(size), app::OverlayMethod::Drape, size, true);
+  }
+  return runVariants(o, std::move(methods), "methods");
+}
+
+int runAblation(const Options& o) {
+  // Each saving of DESIGN §9 switched off alone.
+  std::vector<Method> methods;
+  methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
+  methods.emplace_back("ours (all savings)", app::OverlayMethod::Stencil, 0, true);
+  const auto variant = [&](std::string name, std::function<void(overlay::OverlaySettings&)> adjust) {
+    methods.emplace_back(std::move(name), app::OverlayMethod::Stencil, 0, true);
+    methods.back().adjust = std::move(adjust);
+  };
+  variant("z-fail for every piece", [](overlay::OverlaySettings& s) { s.forceZFail = true; });
+  variant("bottom caps in z-pass", [](overlay::OverlaySettings& s) { s.bottomCapsInZPass = true; });
+  variant("no frustum culling", [](overlay::OverlaySettings& s) { s.cullPieces = false; });
+  variant("cover with the pieces", [](overlay::OverlaySettings& s) { s.rectangleCover = false; });
+  methods.emplace_back("no split at cells", app::OverlayMethod::Stencil, 0, true);
+  methods.back().cellPosts = 1 << 20;
+  return runVariants(o, std::move(methods), "ablation");
+}
+
+namespace {
+
+int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem) {
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
   app::report(description.diagnostics);
   if (!description) return 1;
@@ -60,17 +97,12 @@ int runMethods(const Options& o) {
   Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
   app::report(context.diagnostics);
   if (!context) return 1;
-
-  std::vector<Method> methods;
-  methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
-  methods.emplace_back("stencil polyhedra", app::OverlayMethod::Stencil, 0, true);
-  methods.emplace_back("paper's construction", app::OverlayMethod::Paper, 0, true);
-  for (const int size : o.drapeSizes) {
-    methods.emplace_back("drape " + std::to_string(size), app::OverlayMethod::Drape, size, true);
-  }
+  // Declared after the context, so that their GL objects go while it is current.
+  std::vector<Method> methods = std::move(variants);
   for (Method& m : methods) {
     app::OverlayBuildSettings build;
     build.method = m.method;
+    build.cellPosts = m.cellPosts;
     if (m.drapeSize > 0) build.drapeSize = m.drapeSize;
     Result<app::SceneRenderer> r = app::SceneRenderer::create(*scene, build);
     app::report(r.diagnostics);
@@ -100,7 +132,7 @@ int runMethods(const Options& o) {
   const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
 
   std::filesystem::create_directories(o.out);
-  std::ofstream csv(std::filesystem::path(o.out) / "methods.csv");
+  std::ofstream csv(std::filesystem::path(o.out) / (stem + ".csv"));
   csv << "frame,segment,method,ms,wrong_pixels,terrain_pixels,wrong_away_from_edges,pixels_away_from_edges\n";
   for (std::size_t k = 0; k < path.size(); ++k) {
     const app::Camera& camera = path[k].camera;
@@ -111,6 +143,8 @@ int runMethods(const Options& o) {
     double terrainMs = 0.0;
     for (Method& m : methods) {
       settings.overlays = m.overlays;
+      settings.overlay = overlay::OverlaySettings{};
+      if (m.adjust) m.adjust(settings.overlay);
       glFinish();
       const auto start = std::chrono::steady_clock::now();
       const app::FrameStats stats =
@@ -135,6 +169,12 @@ int runMethods(const Options& o) {
           edges = overlay::edgePixels(image, reference);
         } else {
           const std::vector<std::uint32_t> mask = gfx::readMask(target);
+          // Fragments: the same frame again with the queries on (they wait, so untimed).
+          settings.measure = true;
+          const app::FrameStats counted =
+              m.renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+          settings.measure = false;
+          for (const overlay::LayerFrameStats& l : counted.layers) m.fragments += l.markFragments + l.coverFragments;
           for (std::size_t i = 0; i < mask.size(); ++i) {
             if (!(depth[i] > 0.0F)) continue;
             const bool bad = mask[i] != expected[i];
@@ -157,16 +197,18 @@ int runMethods(const Options& o) {
   }
 
   json table = json::array();
-  std::printf("%-22s %10s %10s %12s %14s %14s %10s %9s\n", "method", "median ms", "p95 ms", "x terrain", "wrong %",
-              "wrong % away", "GPU MB", "build s");
+  const double oursFragments = static_cast<double>(std::max<std::uint64_t>(methods[1].fragments, 1));
+  std::printf("%-24s %10s %10s %10s %11s %12s %14s %9s %8s\n", "method", "median ms", "p95 ms", "x terrain",
+              "frag x ours", "wrong %", "wrong % away", "GPU MB", "build s");
   for (const Method& m : methods) {
     const double share = m.pixels > 0 ? 100.0 * static_cast<double>(m.wrong) / static_cast<double>(m.pixels) : 0.0;
     const double shareAway =
         m.pixelsAway > 0 ? 100.0 * static_cast<double>(m.wrongAway) / static_cast<double>(m.pixelsAway) : 0.0;
     const double ratio = m.overlays ? percentile(m.ratio, 50) : 1.0;
-    std::printf("%-22s %10.2f %10.2f %12.2f %14.4f %14.4f %10.1f %9.3f\n", m.name.c_str(), percentile(m.ms, 50),
-                percentile(m.ms, 95), ratio, share, shareAway, static_cast<double>(m.gpuBytes) / 1048576.0,
-                m.buildSeconds);
+    const double fragmentRatio = static_cast<double>(m.fragments) / oursFragments;
+    std::printf("%-24s %10.2f %10.2f %10.2f %11.2f %12.4f %14.4f %9.1f %8.3f\n", m.name.c_str(), percentile(m.ms, 50),
+                percentile(m.ms, 95), ratio, fragmentRatio, share, shareAway,
+                static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
     table.push_back({{"method", m.name},
                      {"drape_size", m.drapeSize},
                      {"median_ms", percentile(m.ms, 50)},
@@ -175,6 +217,8 @@ int runMethods(const Options& o) {
                      {"wrong_pixels_pct", share},
                      {"wrong_pixels_away_from_edges_pct", shareAway},
                      {"judged_pixels", m.pixels},
+                     {"overlay_fragments", m.fragments},
+                     {"fragments_over_ours", static_cast<double>(m.fragments) / oursFragments},
                      {"gpu_bytes", m.gpuBytes},
                      {"build_s", m.buildSeconds}});
   }
@@ -197,22 +241,24 @@ int runMethods(const Options& o) {
     axes.xLabel = "median frame time / terrain only, same frame";
     axes.yLabel = away ? "wrong pixels away from edges, %" : "wrong pixels, % of terrain pixels";
     axes.logY = true;
-    std::ofstream(std::filesystem::path(o.out) / (away ? "error_away_vs_time.svg" : "error_vs_time.svg"))
+    std::ofstream(std::filesystem::path(o.out) / (stem + (away ? "_error_away_vs_time.svg" : "_error_vs_time.svg")))
         << scatterSvg(points, axes);
   }
 
   // The table as Markdown, for docs/benchmarks.md (scripts/benchmarks.sh puts it there).
   {
-    std::ofstream md(std::filesystem::path(o.out) / "methods.md");
-    md << "| method | median ms | p95 ms | × terrain | wrong % | wrong % away from edges | GPU MB | build s |\n"
-          "|---|---|---|---|---|---|---|---|\n";
+    std::ofstream md(std::filesystem::path(o.out) / (stem + ".md"));
+    md << "| method | median ms | p95 ms | × terrain | fragments × ours | wrong % | wrong % away from edges | GPU MB | "
+          "build s |\n"
+          "|---|---|---|---|---|---|---|---|---|\n";
     for (const Method& m : methods) {
       char row[256];
       const double share = m.pixels > 0 ? 100.0 * static_cast<double>(m.wrong) / static_cast<double>(m.pixels) : 0.0;
       const double shareAway =
           m.pixelsAway > 0 ? 100.0 * static_cast<double>(m.wrongAway) / static_cast<double>(m.pixelsAway) : 0.0;
-      std::snprintf(row, sizeof(row), "| %s | %.1f | %.1f | %.2f | %.4g | %.4g | %.1f | %.2f |\n", m.name.c_str(),
-                    percentile(m.ms, 50), percentile(m.ms, 95), m.overlays ? percentile(m.ratio, 50) : 1.0, share,
+      std::snprintf(row, sizeof(row), "| %s | %.1f | %.1f | %.2f | %.2f | %.4g | %.4g | %.1f | %.2f |\n",
+                    m.name.c_str(), percentile(m.ms, 50), percentile(m.ms, 95),
+                    m.overlays ? percentile(m.ratio, 50) : 1.0, static_cast<double>(m.fragments) / oursFragments, share,
                     shareAway, static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
       md << row;
     }
@@ -227,9 +273,10 @@ int runMethods(const Options& o) {
                        {"methods", table},
                        {"renderer", (*context)->info().renderer},
                        {"gl_errors", (*context)->debug().errorCount()}};
-  std::ofstream(std::filesystem::path(o.out) / "methods.json") << result.dump(2) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / (stem + ".json")) << result.dump(2) << '\n';
   std::printf("gl_errors: %zu\n", static_cast<std::size_t>((*context)->debug().errorCount()));
   return (*context)->debug().errorCount() == 0 ? 0 : 1;
 }
 
+}  // namespace
 }  // namespace gis::bench

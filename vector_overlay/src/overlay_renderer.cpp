@@ -277,7 +277,7 @@ OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const
     const glm::dvec3 lo0(p.boxMin, p.lo), hi0(p.boxMax, p.hi);
     const double pad = settings.padBase + settings.padPerMetre * (distanceToBox(view.eye, lo0, hi0) + diagonal);
     const glm::dvec3 lo(p.boxMin, p.lo - pad), hi(p.boxMax, p.hi + pad);
-    if (!gfx::boxInFrustum(planes, lo, hi, false)) {
+    if (settings.cullPieces && !gfx::boxInFrustum(planes, lo, hi, false)) {
       ++stats.culledPieces;
       continue;
     }
@@ -294,7 +294,7 @@ OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const
       out.order.emplace_back(false, out.zPass.size());
       ++stats.zPassPieces;
       // Over drawn terrain the bottom cap is hidden from an eye outside: leave it out.
-      const bool skipBottom = p.overSurface && !layer.paperVariant() && !wholePieces;
+      const bool skipBottom = p.overSurface && !layer.paperVariant() && !wholePieces && !settings.bottomCapsInZPass;
       out.zPass.push_back(skipBottom ? Command{s.indexCount - s.bottomCount, 1, s.firstIndex + s.bottomCount,
                                                static_cast<GLint>(s.baseVertex), s.origin}
                                      : whole);

@@ -49,6 +49,10 @@ struct OverlaySettings {
   /// Cover a layer whose features share one colour with one screen rectangle; off: with its
   /// pieces, as layers of several colours are covered (for tests and cost comparisons).
   bool rectangleCover = true;
+  /// Savings that the benchmark switches off one at a time (DESIGN §9; overlay_bench --mode
+  /// ablation). Off, the image is the same and the work larger.
+  bool cullPieces = true;          ///< off: every piece is drawn, in view or not
+  bool bottomCapsInZPass = false;  ///< on: z-pass pieces over drawn terrain keep their hidden bottom caps
 };
 
 struct LayerFrameStats {
