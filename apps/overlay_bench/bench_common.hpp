@@ -1,17 +1,23 @@
 #pragma once
 // What the modes of overlay_bench share: options, percentiles, memory, the result file.
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "app/camera_path.hpp"
+#include "app/cli.hpp"
+#include "app/scene.hpp"
 #include "app/scene_loader.hpp"
+#include "app/scene_renderer.hpp"
 #include "gfx/context.hpp"
 
 namespace gis::bench {
@@ -51,6 +57,52 @@ inline int finish(const Options& o, const nlohmann::json& result, gfx::Context& 
   std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
   std::printf("%s\n", result.dump(2).c_str());
   return context.debug().errorCount() == 0 ? 0 : 1;
+}
+
+/// What every mode starts from: the scene file, the loaded scene and a headless GL context.
+/// Renderers made after it go before it (their GL objects need the context).
+struct BenchSetup {
+  app::SceneDescription description;
+  app::LoadedScene scene;
+  std::unique_ptr<gfx::Context> context;
+  double loadSeconds = 0.0;  ///< reading the scene file and loading the scene
+};
+
+/// Loads `o.scene` (without its vector layers unless `withLayers`) and makes the context; nothing,
+/// with the problems reported, if either fails.
+inline std::optional<BenchSetup> setUp(const Options& o, bool withLayers) {
+  const auto start = std::chrono::steady_clock::now();
+  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
+  app::report(description.diagnostics);
+  if (!description) return std::nullopt;
+  if (!withLayers) description->layers.clear();
+  app::LoadOptions loadOptions;
+  loadOptions.paging = o.paging;
+  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
+  app::report(scene.diagnostics);
+  if (!scene) return std::nullopt;
+  const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
+  app::report(context.diagnostics);
+  if (!context) return std::nullopt;
+  return BenchSetup{std::move(*description), std::move(*scene), std::move(*context), loadSeconds};
+}
+
+/// The render settings under which several methods draw the same frames: the options' LOD
+/// tolerance, the scene's exaggeration, and every tile waited for, so the terrain is the same.
+inline app::RenderSettings comparisonSettings(const Options& o, const BenchSetup& setup) {
+  app::RenderSettings settings;
+  settings.lodTolerancePixels = o.lodTolerance;
+  settings.verticalExaggeration = setup.description.verticalExaggeration;
+  settings.waitForTiles = true;
+  return settings;
+}
+
+/// The fly-through (top-down, oblique, horizon) over the scene's terrain, `o.frames` frames.
+inline std::vector<app::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup) {
+  glm::dvec3 lo, hi;
+  app::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
+  return app::flyThrough(lo, hi, o.frames);
 }
 
 /// Mode "methods": every method on the same frames, with frame time, memory, build time and the

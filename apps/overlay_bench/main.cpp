@@ -126,20 +126,12 @@ int run(const Options& o) {
   if (o.mode == "lasso") return runLasso(o);
   if (o.mode == "methods") return runMethods(o);
   if (o.mode == "ablation") return runAblation(o);
-  const auto loadStart = std::chrono::steady_clock::now();
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
-  app::report(description.diagnostics);
-  if (!description) return 1;
-  description->layers.clear();  // terrain mode
-  app::LoadOptions loadOptions;
-  loadOptions.paging = o.paging;
-  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
-  app::report(scene.diagnostics);
-  if (!scene) return 1;
-  const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
-  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
-  app::report(context.diagnostics);
-  if (!context) return 1;
+  std::optional<BenchSetup> setup = setUp(o, false /* terrain mode */);
+  if (!setup) return 1;
+  app::SceneDescription* description = &setup->description;
+  app::LoadedScene* scene = &setup->scene;
+  std::unique_ptr<gfx::Context>* context = &setup->context;
+  const double loadSeconds = setup->loadSeconds;
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
   app::report(renderer.diagnostics);
   if (!renderer) return 1;
@@ -221,17 +213,10 @@ struct MethodFrames {
 };
 
 int runOverlay(const Options& o) {
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
-  app::report(description.diagnostics);
-  if (!description) return 1;
-  app::LoadOptions loadOptions;
-  loadOptions.paging = o.paging;
-  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
-  app::report(scene.diagnostics);
-  if (!scene) return 1;
-  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
-  app::report(context.diagnostics);
-  if (!context) return 1;
+  std::optional<BenchSetup> setup = setUp(o, true);
+  if (!setup) return 1;
+  app::LoadedScene* scene = &setup->scene;
+  std::unique_ptr<gfx::Context>* context = &setup->context;
   // Two renderers: ours and the paper's construction (the terrain is the same).
   app::OverlayBuildSettings ours, paper;
   paper.method = app::OverlayMethod::Paper;
@@ -240,15 +225,10 @@ int runOverlay(const Options& o) {
   Result<app::SceneRenderer> paperRenderer = app::SceneRenderer::create(*scene, paper);
   if (!renderer || !paperRenderer) return 1;
 
-  glm::dvec3 lo, hi;
-  app::terrainBox(*scene, description->verticalExaggeration, lo, hi);
-  const std::vector<app::PathFrame> path = app::flyThrough(lo, hi, o.frames);
+  const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, 0, true);
-  app::RenderSettings settings;
-  settings.lodTolerancePixels = o.lodTolerance;
-  settings.verticalExaggeration = description->verticalExaggeration;
-  settings.waitForTiles = true;  // the same terrain for the three methods
+  app::RenderSettings settings = comparisonSettings(o, *setup);  // the same terrain for the three methods
 
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
@@ -542,18 +522,12 @@ struct LassoSeries {
 };
 
 int runLasso(const Options& o) {
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
-  app::report(description.diagnostics);
-  if (!description) return 1;
-  description->layers.clear();  // the volumes select terrain; the layers are not drawn
-  app::LoadOptions loadOptions;
-  loadOptions.paging = o.paging;
-  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
-  app::report(scene.diagnostics);
-  if (!scene) return 1;
-  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
-  app::report(context.diagnostics);
-  if (!context) return 1;
+  // The volumes select terrain; the layers are not drawn.
+  std::optional<BenchSetup> setup = setUp(o, false);
+  if (!setup) return 1;
+  app::SceneDescription* description = &setup->description;
+  app::LoadedScene* scene = &setup->scene;
+  std::unique_ptr<gfx::Context>* context = &setup->context;
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
   app::report(renderer.diagnostics);
   Result<gfx::Program> passProgram = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});

@@ -86,17 +86,10 @@ int runAblation(const Options& o) {
 namespace {
 
 int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem) {
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
-  app::report(description.diagnostics);
-  if (!description) return 1;
-  app::LoadOptions loadOptions;
-  loadOptions.paging = o.paging;
-  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
-  app::report(scene.diagnostics);
-  if (!scene) return 1;
-  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
-  app::report(context.diagnostics);
-  if (!context) return 1;
+  std::optional<BenchSetup> setup = setUp(o, true);
+  if (!setup) return 1;
+  app::LoadedScene* scene = &setup->scene;
+  std::unique_ptr<gfx::Context>* context = &setup->context;
   // Declared after the context, so that their GL objects go while it is current.
   std::vector<Method> methods = std::move(variants);
   for (Method& m : methods) {
@@ -120,15 +113,10 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     reference.push_back(overlay::referenceLayerOf(l));
   }
 
-  glm::dvec3 lo, hi;
-  app::terrainBox(*scene, description->verticalExaggeration, lo, hi);
-  const std::vector<app::PathFrame> path = app::flyThrough(lo, hi, o.frames);
+  const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, 0, true);
-  app::RenderSettings settings;
-  settings.lodTolerancePixels = o.lodTolerance;
-  settings.verticalExaggeration = description->verticalExaggeration;
-  settings.waitForTiles = true;  // the same terrain for every method
+  app::RenderSettings settings = comparisonSettings(o, *setup);  // the same terrain for every method
   const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
 
   std::filesystem::create_directories(o.out);

@@ -300,6 +300,14 @@ app::Camera Viewer::camera() const {
   return c;
 }
 
+std::optional<bool> Viewer::layerShown(std::size_t sceneLayer) const {
+  std::optional<bool> shown;
+  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+    if (renderer_->overlaySources()[j].first == sceneLayer) shown = shown.value_or(false) || renderer_->shown(j);
+  }
+  return shown;
+}
+
 void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (renderer_->overlaySources()[j].first == sceneLayer) renderer_->setShown(j, shown);
@@ -831,11 +839,7 @@ nlohmann::json Viewer::state() const {
   }
   nlohmann::json layers = nlohmann::json::array();
   for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-    bool shown = false;
-    for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-      if (renderer_->overlaySources()[j].first == i) shown = shown || renderer_->shown(j);
-    }
-    layers.push_back({{"name", scene_->layers[i].description.name}, {"shown", shown}});
+    layers.push_back({{"name", scene_->layers[i].description.name}, {"shown", layerShown(i).value_or(false)}});
   }
   nlohmann::json j = {
       {"mode", controller_->mode() == app::CameraController::Mode::Fly ? "fly" : "orbit"},
@@ -909,11 +913,7 @@ bool Viewer::runStep(const app::ScriptStep& step) {
     case app::ScriptAction::ToggleLayer: {
       const auto i = sceneLayer(step.layer);
       if (!i) return false;
-      bool shown = false;
-      for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-        if (renderer_->overlaySources()[j].first == *i) shown = shown || renderer_->shown(j);
-      }
-      setLayerShown(*i, !shown);
+      setLayerShown(*i, !layerShown(*i).value_or(false));
       return true;
     }
     case app::ScriptAction::SetLayer: {

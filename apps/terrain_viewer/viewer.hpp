@@ -98,6 +98,9 @@ class Viewer {
 
   // Actions: the panel, the keys and the script call these.
   void setLayerShown(std::size_t sceneLayer, bool shown);
+  /// Whether any overlay layer of a scene layer (fill or outline) is shown; none if the scene
+  /// layer has no overlay layer (not built).
+  [[nodiscard]] std::optional<bool> layerShown(std::size_t sceneLayer) const;
   void rebuildOverlays();
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
   void invertSelection();

@@ -97,12 +97,9 @@ void Viewer::drawPanel() {
     for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
       ImGui::PushID(static_cast<int>(i));
       app::LayerDescription& layer = description_->layers[i];
-      bool shown = false, built = false;
-      for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-        if (renderer_->overlaySources()[j].first != i) continue;
-        built = true;
-        shown = shown || renderer_->shown(j);
-      }
+      const std::optional<bool> state = layerShown(i);
+      const bool built = state.has_value();
+      bool shown = state.value_or(false);
       if (!built) ImGui::BeginDisabled();
       if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
       if (!built) ImGui::EndDisabled();
