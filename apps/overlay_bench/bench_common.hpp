@@ -30,6 +30,9 @@ struct Options {
   int maxVolumes = 500, repeats = 5;                   ///< lasso mode
   std::vector<int> drapeSizes{512, 1024, 2048, 4096};  ///< methods mode: texture draping sizes
   int errorEvery = 3;                                  ///< methods mode: error on every n-th frame
+  int msaa = 0;                                        ///< methods mode: samples per pixel (0 = off)
+  std::vector<std::string> segments;                   ///< methods mode: path segments to draw (empty = all)
+  std::vector<std::string> scenes;                     ///< scaling mode: the scenes, in order
   double lodTolerance = 1.5;
   std::optional<app::TerrainPaging> paging;
 };
@@ -105,9 +108,21 @@ inline std::vector<app::PathFrame> flyThroughOf(const Options& o, const BenchSet
   return app::flyThrough(lo, hi, o.frames);
 }
 
+/// Close-up frames: the eye 1.5 m over the ground on a road's centre line looking along it, or
+/// over the vertex centroid of an area, looking across it 10° down; roads and areas taken in turn
+/// from the scene's layers (deterministic). Eyes inside a piece make the frame's pieces z-fail.
+std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames);
+
+/// The methods' path: the fly-through (o.frames) and o.frames / 3 close-up frames, keeping the
+/// segments of `o.segments` (all when empty).
+std::vector<app::PathFrame> methodsPath(const Options& o, const BenchSetup& setup);
+
 /// Mode "methods": every method on the same frames, with frame time, memory, build time and the
 /// error against the CPU reference (methods_mode.cpp).
 int runMethods(const Options& o);
+/// Mode "scaling": terrain only, ours and the paper's on each of o.scenes (oblique segment unless
+/// --segments): frame time against vector vertices and against DEM posts.
+int runScaling(const Options& o);
 /// Mode "ablation": ours with each saving of DESIGN §9 switched off alone, on the same frames.
 int runAblation(const Options& o);
 

@@ -57,15 +57,22 @@ using namespace gis;
 using namespace gis::bench;
 
 constexpr const char* kUsage =
-    "usage: overlay_bench --scene S.json [--mode terrain|overlay|methods|ablation|lasso] [--width W --height H] "
+    "usage: overlay_bench --scene S.json [--mode terrain|overlay|methods|ablation|scaling|lasso] [--width W --height "
+    "H] "
     "[--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
-    "                     [--repeats R] [--drape-sizes 512,1024,...] [--error-every N] --out DIR\n"
+    "                     [--repeats R] [--drape-sizes 512,1024,...] [--error-every N] [--msaa 0|2|4|8]\n"
+    "                     [--segments top-down,oblique,horizon,close-up] --out DIR\n"
     "--mode methods: terrain only, our stencil polyhedra, the paper's construction and texture draping\n"
     "  at each --drape-sizes on the same frames: frame time, memory, build time and wrong pixels against\n"
-    "  the CPU reference (every --error-every frames); writes methods.json and methods.csv\n"
+    "  the CPU reference (every --error-every frames), GPU time and fragments per pass, per path segment\n"
+    "  (--segments: which; close-up puts the eye 1.5 m over roads and areas); writes methods.json,\n"
+    "  methods.csv, methods.md and plots; --msaa: multisampled targets, the error judged on sample 0\n"
     "--mode ablation: ours with each saving switched off alone (z-fail everywhere, bottom caps in z-pass,\n"
-    "  no frustum culling, cover with the pieces, no split at cells), the same figures; ablation.json\n";
+    "  no frustum culling, cover with the pieces, one cover rectangle, no split at cells), the same\n"
+    "  figures; ablation.json\n"
+    "--mode scaling --scenes A.json,B.json,...: terrain only, ours and the paper's on each scene (the\n"
+    "  oblique segment unless --segments): scaling.md, frame time against vector vertices and DEM posts\n";
 
 int runOverlay(const Options& o);
 int runLasso(const Options& o);
@@ -106,7 +113,28 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       }
     } else if (a == "--error-every" && (n = app::parseInt(v)) && *n >= 1)
       o.errorEvery = *n;
-    else if (a == "--paging" && v == "auto")
+    else if (a == "--msaa" && (n = app::parseInt(v)) && (*n == 0 || *n == 1 || *n == 2 || *n == 4 || *n == 8))
+      o.msaa = *n;
+    else if (a == "--scenes") {
+      o.scenes.clear();
+      std::string list(v);
+      for (std::size_t start = 0; start <= list.size();) {
+        const std::size_t comma = std::min(list.find(',', start), list.size());
+        if (comma > start) o.scenes.push_back(list.substr(start, comma - start));
+        start = comma + 1;
+      }
+    } else if (a == "--segments") {
+      o.segments.clear();
+      std::string list(v);
+      for (std::size_t start = 0; start <= list.size();) {
+        const std::size_t comma = std::min(list.find(',', start), list.size());
+        const std::string name = list.substr(start, comma - start);
+        if (name != "top-down" && name != "oblique" && name != "horizon" && name != "close-up")
+          return "--segments: a comma-separated list of top-down, oblique, horizon, close-up";
+        o.segments.push_back(name);
+        start = comma + 1;
+      }
+    } else if (a == "--paging" && v == "auto")
       o.paging = app::TerrainPaging::Auto;
     else if (a == "--paging" && v == "always")
       o.paging = app::TerrainPaging::Always;
@@ -115,9 +143,12 @@ std::string parseArgs(int argc, char** argv, Options& o) {
     else
       return "bad argument " + std::string(a) + " " + std::string(v);
   }
+  if (o.mode == "scaling" && o.scene.empty() && !o.scenes.empty()) o.scene = o.scenes.front();
+  if (o.mode == "scaling" && o.scenes.empty()) return "--mode scaling needs --scenes A.json,B.json,...";
   if (o.scene.empty() || o.out.empty()) return "--scene and --out are required";
-  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso" && o.mode != "methods" && o.mode != "ablation")
-    return "--mode: \"terrain\", \"overlay\", \"methods\", \"ablation\" or \"lasso\"";
+  if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso" && o.mode != "methods" && o.mode != "ablation" &&
+      o.mode != "scaling")
+    return "--mode: \"terrain\", \"overlay\", \"methods\", \"ablation\", \"scaling\" or \"lasso\"";
   return {};
 }
 
@@ -126,6 +157,7 @@ int run(const Options& o) {
   if (o.mode == "lasso") return runLasso(o);
   if (o.mode == "methods") return runMethods(o);
   if (o.mode == "ablation") return runAblation(o);
+  if (o.mode == "scaling") return runScaling(o);
   std::optional<BenchSetup> setup = setUp(o, false /* terrain mode */);
   if (!setup) return 1;
   app::SceneDescription* description = &setup->description;

@@ -7,6 +7,7 @@
 // error_away_vs_time.svg, and prints the table.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
@@ -32,6 +34,26 @@
 namespace gis::bench {
 namespace {
 
+/// What one method measured over some frames (the whole path, or one of its segments).
+struct Tally {
+  std::vector<double> ms;     ///< wall time per frame, glFinish to glFinish
+  std::vector<double> ratio;  ///< frame time over terrain only, per frame
+  std::size_t pixels = 0, wrong = 0, pixelsAway = 0, wrongAway = 0;
+  std::size_t covered = 0;                              ///< pixels the reference covers, over the judged frames
+  std::uint64_t markFragments = 0, coverFragments = 0;  ///< over the judged frames
+  std::uint64_t markTriangles = 0, coverTriangles = 0;
+  std::size_t zFailPieces = 0, drawnPieces = 0;
+  std::vector<double> terrainGpuMs, markGpuMs, coverGpuMs;  ///< per judged frame (GPU timer queries)
+
+  [[nodiscard]] std::uint64_t fragments() const { return markFragments + coverFragments; }
+  [[nodiscard]] double wrongPct() const {
+    return pixels > 0 ? 100.0 * static_cast<double>(wrong) / static_cast<double>(pixels) : 0.0;
+  }
+  [[nodiscard]] double wrongAwayPct() const {
+    return pixelsAway > 0 ? 100.0 * static_cast<double>(wrongAway) / static_cast<double>(pixelsAway) : 0.0;
+  }
+};
+
 struct Method {
   Method(std::string n, app::OverlayMethod m, int size, bool withOverlays)
       : name(std::move(n)), method(m), drapeSize(size), overlays(withOverlays) {}
@@ -42,15 +64,16 @@ struct Method {
   int cellPosts = 16;  ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
   std::optional<app::SceneRenderer> renderer;
-  std::vector<double> ms;
-  std::vector<double> ratio;  ///< frame time over terrain only, per frame
-  std::size_t pixels = 0, wrong = 0, pixelsAway = 0, wrongAway = 0;
-  std::uint64_t fragments = 0;  ///< overlay mark + cover fragments over the judged frames
+  Tally all;
+  std::map<std::string, Tally> segments;
   std::size_t gpuBytes = 0;
+  std::size_t triangles = 0;  ///< of the built polyhedra
   double buildSeconds = 0.0;
 };
 
-int runVariants(const Options& o, std::vector<Method> methods, const std::string& stem);
+/// Draws every variant on the methods path of o.scene, prints and writes the tables and plots
+/// (stem.json, .csv, .md, _error*_vs_time.svg); the result JSON also into `result` if given.
+int runVariants(const Options& o, std::vector<Method> methods, const std::string& stem, json* result = nullptr);
 
 }  // namespace
 
@@ -78,6 +101,7 @@ int runAblation(const Options& o) {
   variant("bottom caps in z-pass", [](overlay::OverlaySettings& s) { s.bottomCapsInZPass = true; });
   variant("no frustum culling", [](overlay::OverlaySettings& s) { s.cullPieces = false; });
   variant("cover with the pieces", [](overlay::OverlaySettings& s) { s.rectangleCover = false; });
+  variant("one cover rectangle, no tiles", [](overlay::OverlaySettings& s) { s.tiledCover = false; });
   methods.emplace_back("no split at cells", app::OverlayMethod::Stencil, 0, true);
   methods.back().cellPosts = 1 << 20;
   return runVariants(o, std::move(methods), "ablation");
@@ -85,7 +109,41 @@ int runAblation(const Options& o) {
 
 namespace {
 
-int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem) {
+std::size_t vectorVertices(const app::LoadedScene& scene) {
+  std::size_t n = 0;
+  for (const app::LoadedLayer& l : scene.layers) {
+    for (const geo::Feature& f : l.data.features) n += f.vertexCount();
+  }
+  return n;
+}
+
+/// Median of a list, 0 for none.
+double median(const std::vector<double>& v) { return percentile(v, 50); }
+
+json tallyJson(const Tally& t, const Tally& ours, bool overlays) {
+  const double oursFragments = static_cast<double>(std::max<std::uint64_t>(ours.fragments(), 1));
+  return {{"median_ms", median(t.ms)},
+          {"p95_ms", percentile(t.ms, 95)},
+          {"over_terrain_median", overlays ? median(t.ratio) : 1.0},
+          {"gpu_ms_terrain_median", median(t.terrainGpuMs)},
+          {"gpu_ms_mark_median", median(t.markGpuMs)},
+          {"gpu_ms_cover_median", median(t.coverGpuMs)},
+          {"wrong_pixels_pct", t.wrongPct()},
+          {"wrong_pixels_away_from_edges_pct", t.wrongAwayPct()},
+          {"judged_pixels", t.pixels},
+          {"covered_pixels", t.covered},
+          {"mark_fragments", t.markFragments},
+          {"cover_fragments", t.coverFragments},
+          {"fragments_over_ours", static_cast<double>(t.fragments()) / oursFragments},
+          {"fragments_per_covered_pixel",
+           t.covered > 0 ? static_cast<double>(t.fragments()) / static_cast<double>(t.covered) : 0.0},
+          {"mark_triangles", t.markTriangles},
+          {"cover_triangles", t.coverTriangles},
+          {"z_fail_pieces", t.zFailPieces},
+          {"drawn_pieces", t.drawnPieces}};
+}
+
+int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem, json* summary) {
   std::optional<BenchSetup> setup = setUp(o, true);
   if (!setup) return 1;
   app::LoadedScene* scene = &setup->scene;
@@ -105,6 +163,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
       for (const overlay::OverlayLayer& l : m.renderer->overlayLayers()) {
         m.gpuBytes += l.stats().gpuBytes;
         m.buildSeconds += l.stats().buildSeconds;
+        m.triangles += l.stats().triangles;
       }
     }
   }
@@ -113,23 +172,34 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     reference.push_back(overlay::referenceLayerOf(l));
   }
 
-  const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
+  const std::vector<app::PathFrame> path = methodsPath(o, *setup);
+  if (path.empty()) {
+    std::fprintf(stderr, "overlay_bench: no frames on the path (--segments)\n");
+    return 1;
+  }
   gfx::StateCache cache;
-  gfx::RenderTarget target(o.width, o.height, 0, true);
+  gfx::RenderTarget target(o.width, o.height, o.msaa, true);
+  std::optional<gfx::RenderTarget> sample;  // MSAA: sample 0 of each judged frame
+  if (target.multisampled()) sample.emplace(o.width, o.height, 0, true);
+  const gfx::RenderTarget& readable = sample ? *sample : target;
   app::RenderSettings settings = comparisonSettings(o, *setup);  // the same terrain for every method
   const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
 
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / (stem + ".csv"));
-  csv << "frame,segment,method,ms,wrong_pixels,terrain_pixels,wrong_away_from_edges,pixels_away_from_edges\n";
+  csv << "frame,segment,method,ms,wrong_pixels,terrain_pixels,wrong_away_from_edges,pixels_away_from_edges,"
+         "covered_pixels,mark_fragments,cover_fragments,gpu_ms_terrain,gpu_ms_mark,gpu_ms_cover,z_fail_pieces\n";
   for (std::size_t k = 0; k < path.size(); ++k) {
     const app::Camera& camera = path[k].camera;
+    const std::string& segment = path[k].segment;
     const bool judged = k % static_cast<std::size_t>(o.errorEvery) == 0;
     std::vector<float> depth;
     std::vector<std::uint32_t> expected;
     std::vector<std::uint8_t> edges;
+    std::size_t covered = 0;
     double terrainMs = 0.0;
     for (Method& m : methods) {
+      Tally frame;  // this frame's figures, added to the whole path's and the segment's
       settings.overlays = m.overlays;
       settings.overlay = overlay::OverlaySettings{};
       if (m.adjust) m.adjust(settings.overlay);
@@ -144,71 +214,122 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
         m.buildSeconds = stats.drapeBuildSeconds;
         m.gpuBytes = m.renderer->drape() ? m.renderer->drape()->stats().gpuBytes : 0;
       } else if (k > 0) {  // frame 0 uploads the first chunks
-        m.ms.push_back(ms);
+        frame.ms.push_back(ms);
         if (!m.overlays) terrainMs = ms;
-        if (m.overlays && terrainMs > 0.0) m.ratio.push_back(ms / terrainMs);
+        if (m.overlays && terrainMs > 0.0) frame.ratio.push_back(ms / terrainMs);
       }
-      std::size_t wrong = 0, pixels = 0, wrongAway = 0, pixelsAway = 0;
       if (judged) {
+        // The same frame again with the queries on (they wait, so untimed): GPU time per pass,
+        // fragments and triangles.
+        settings.measure = true;
+        const app::FrameStats counted =
+            m.renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+        settings.measure = false;
+        frame.terrainGpuMs.push_back(counted.terrain.gpuMilliseconds);
+        double mark = 0.0, cover = 0.0;
+        for (const overlay::LayerFrameStats& l : counted.layers) {
+          frame.markFragments += l.markFragments;
+          frame.coverFragments += l.coverFragments;
+          frame.markTriangles += l.markTriangles;
+          frame.coverTriangles += l.coverTriangles;
+          frame.zFailPieces += l.zFailPieces;
+          frame.drawnPieces += l.zPassPieces + l.zFailPieces;
+          mark += l.markMilliseconds;
+          cover += l.coverMilliseconds;
+        }
+        if (m.overlays) {
+          frame.markGpuMs.push_back(mark);
+          frame.coverGpuMs.push_back(cover);
+        }
+        if (sample) target.copySampleInto(*sample, 0);
         if (!m.overlays) {
-          depth = gfx::readDepth(target);
+          depth = gfx::readDepth(readable);
           const overlay::DepthImage image{o.width, o.height, depth, camera.projection(aspect) * camera.view()};
           expected = overlay::referenceMask(image, reference);
           edges = overlay::edgePixels(image, reference);
+          covered = static_cast<std::size_t>(
+              std::count_if(expected.begin(), expected.end(), [](std::uint32_t bits) { return bits != 0; }));
         } else {
-          const std::vector<std::uint32_t> mask = gfx::readMask(target);
-          // Fragments: the same frame again with the queries on (they wait, so untimed).
-          settings.measure = true;
-          const app::FrameStats counted =
-              m.renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
-          settings.measure = false;
-          for (const overlay::LayerFrameStats& l : counted.layers) m.fragments += l.markFragments + l.coverFragments;
+          const std::vector<std::uint32_t> mask = gfx::readMask(readable);
           for (std::size_t i = 0; i < mask.size(); ++i) {
             if (!(depth[i] > 0.0F)) continue;
             const bool bad = mask[i] != expected[i];
-            ++pixels;
-            wrong += bad ? 1u : 0u;
+            ++frame.pixels;
+            frame.wrong += bad ? 1u : 0u;
             if (edges[i] == 0) {
-              ++pixelsAway;
-              wrongAway += bad ? 1u : 0u;
+              ++frame.pixelsAway;
+              frame.wrongAway += bad ? 1u : 0u;
             }
           }
-          m.pixels += pixels;
-          m.wrong += wrong;
-          m.pixelsAway += pixelsAway;
-          m.wrongAway += wrongAway;
+          frame.covered = covered;
         }
       }
-      csv << k << ',' << path[k].segment << ',' << m.name << ',' << ms << ',' << wrong << ',' << pixels << ','
-          << wrongAway << ',' << pixelsAway << '\n';
+      for (Tally* t : {&m.all, &m.segments[segment]}) {
+        t->ms.insert(t->ms.end(), frame.ms.begin(), frame.ms.end());
+        t->ratio.insert(t->ratio.end(), frame.ratio.begin(), frame.ratio.end());
+        t->terrainGpuMs.insert(t->terrainGpuMs.end(), frame.terrainGpuMs.begin(), frame.terrainGpuMs.end());
+        t->markGpuMs.insert(t->markGpuMs.end(), frame.markGpuMs.begin(), frame.markGpuMs.end());
+        t->coverGpuMs.insert(t->coverGpuMs.end(), frame.coverGpuMs.begin(), frame.coverGpuMs.end());
+        t->pixels += frame.pixels;
+        t->wrong += frame.wrong;
+        t->pixelsAway += frame.pixelsAway;
+        t->wrongAway += frame.wrongAway;
+        t->covered += frame.covered;
+        t->markFragments += frame.markFragments;
+        t->coverFragments += frame.coverFragments;
+        t->markTriangles += frame.markTriangles;
+        t->coverTriangles += frame.coverTriangles;
+        t->zFailPieces += frame.zFailPieces;
+        t->drawnPieces += frame.drawnPieces;
+      }
+      csv << k << ',' << segment << ',' << m.name << ',' << ms << ',' << frame.wrong << ',' << frame.pixels << ','
+          << frame.wrongAway << ',' << frame.pixelsAway << ',' << frame.covered << ',' << frame.markFragments << ','
+          << frame.coverFragments << ',' << (judged ? frame.terrainGpuMs.back() : 0.0) << ','
+          << (frame.markGpuMs.empty() ? 0.0 : frame.markGpuMs.back()) << ','
+          << (frame.coverGpuMs.empty() ? 0.0 : frame.coverGpuMs.back()) << ',' << frame.zFailPieces << '\n';
     }
   }
 
+  const Method& ours = methods[1];
   json table = json::array();
-  const double oursFragments = static_cast<double>(std::max<std::uint64_t>(methods[1].fragments, 1));
-  std::printf("%-24s %10s %10s %10s %11s %12s %14s %9s %8s\n", "method", "median ms", "p95 ms", "x terrain",
-              "frag x ours", "wrong %", "wrong % away", "GPU MB", "build s");
+  std::printf("%-24s %9s %9s %9s %10s %10s %10s %11s %10s %12s %8s %8s\n", "method", "median ms", "p95 ms", "x terrain",
+              "GPU terr", "GPU mark", "GPU cover", "frag x ours", "wrong %", "wrong % away", "GPU MB", "build s");
   for (const Method& m : methods) {
-    const double share = m.pixels > 0 ? 100.0 * static_cast<double>(m.wrong) / static_cast<double>(m.pixels) : 0.0;
-    const double shareAway =
-        m.pixelsAway > 0 ? 100.0 * static_cast<double>(m.wrongAway) / static_cast<double>(m.pixelsAway) : 0.0;
-    const double ratio = m.overlays ? percentile(m.ratio, 50) : 1.0;
-    const double fragmentRatio = static_cast<double>(m.fragments) / oursFragments;
-    std::printf("%-24s %10.2f %10.2f %10.2f %11.2f %12.4f %14.4f %9.1f %8.3f\n", m.name.c_str(), percentile(m.ms, 50),
-                percentile(m.ms, 95), ratio, fragmentRatio, share, shareAway,
-                static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
-    table.push_back({{"method", m.name},
-                     {"drape_size", m.drapeSize},
-                     {"median_ms", percentile(m.ms, 50)},
-                     {"p95_ms", percentile(m.ms, 95)},
-                     {"over_terrain_median", ratio},
-                     {"wrong_pixels_pct", share},
-                     {"wrong_pixels_away_from_edges_pct", shareAway},
-                     {"judged_pixels", m.pixels},
-                     {"overlay_fragments", m.fragments},
-                     {"fragments_over_ours", static_cast<double>(m.fragments) / oursFragments},
-                     {"gpu_bytes", m.gpuBytes},
-                     {"build_s", m.buildSeconds}});
+    const Tally& t = m.all;
+    std::printf(
+        "%-24s %9.2f %9.2f %9.3f %10.2f %10.2f %10.2f %11.2f %10.4f %12.4f %8.1f %8.3f\n", m.name.c_str(), median(t.ms),
+        percentile(t.ms, 95), m.overlays ? median(t.ratio) : 1.0, median(t.terrainGpuMs), median(t.markGpuMs),
+        median(t.coverGpuMs),
+        static_cast<double>(t.fragments()) / static_cast<double>(std::max<std::uint64_t>(ours.all.fragments(), 1)),
+        t.wrongPct(), t.wrongAwayPct(), static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
+    json entry = tallyJson(t, ours.all, m.overlays);
+    entry["method"] = m.name;
+    entry["drape_size"] = m.drapeSize;
+    entry["gpu_bytes"] = m.gpuBytes;
+    entry["triangles"] = m.triangles;
+    entry["build_s"] = m.buildSeconds;
+    json segments = json::object();
+    for (const auto& [name, st] : m.segments) {
+      const auto found = ours.segments.find(name);
+      segments[name] = tallyJson(st, found != ours.segments.end() ? found->second : ours.all, m.overlays);
+    }
+    entry["segments"] = segments;
+    table.push_back(entry);
+  }
+  // Per segment: the ratio to terrain only, fragments against ours on the same segment (the
+  // grazing views are the horizon segment), error away from edges.
+  std::printf("\n%-24s %-10s %9s %11s %12s %12s\n", "method", "segment", "x terrain", "frag x ours", "frag/cov px",
+              "wrong % away");
+  for (const Method& m : methods) {
+    if (!m.overlays) continue;
+    for (const auto& [name, st] : m.segments) {
+      const Tally& base = ours.segments.at(name);
+      std::printf(
+          "%-24s %-10s %9.3f %11.2f %12.2f %12.4f\n", m.name.c_str(), name.c_str(), median(st.ratio),
+          static_cast<double>(st.fragments()) / static_cast<double>(std::max<std::uint64_t>(base.fragments(), 1)),
+          st.covered > 0 ? static_cast<double>(st.fragments()) / static_cast<double>(st.covered) : 0.0,
+          st.wrongAwayPct());
+    }
   }
   // Error against frame time: one point per method (and per drape size); over all terrain
   // pixels, and away from feature edges.
@@ -216,12 +337,10 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     std::vector<PlotPoint> points;
     for (const Method& m : methods) {
       if (!m.overlays) continue;
-      const std::size_t wrong = away ? m.wrongAway : m.wrong, judged = away ? m.pixelsAway : m.pixels;
-      const double share = judged > 0 ? 100.0 * static_cast<double>(wrong) / static_cast<double>(judged) : 0.0;
       const std::string colour = m.method == app::OverlayMethod::Drape   ? "#d62728"
                                  : m.method == app::OverlayMethod::Paper ? "#ff7f0e"
                                                                          : "#1f77b4";
-      points.push_back({percentile(m.ratio, 50), share, m.name, colour});
+      points.push_back({median(m.all.ratio), away ? m.all.wrongAwayPct() : m.all.wrongPct(), m.name, colour});
     }
     PlotAxes axes;
     axes.title = std::string(away ? "Error away from feature edges" : "Error") + " against frame time (" +
@@ -233,22 +352,40 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
         << scatterSvg(points, axes);
   }
 
-  // The table as Markdown, for docs/benchmarks.md (scripts/benchmarks.sh puts it there).
+  // The tables as Markdown, for docs/benchmarks.md (scripts/benchmarks.sh puts them there).
   {
     std::ofstream md(std::filesystem::path(o.out) / (stem + ".md"));
-    md << "| method | median ms | p95 ms | × terrain | fragments × ours | wrong % | wrong % away from edges | GPU MB | "
-          "build s |\n"
-          "|---|---|---|---|---|---|---|---|---|\n";
+    md << "| method | median ms | p95 ms | × terrain | GPU ms terrain / mark / cover | fragments × ours | "
+          "fragments per covered pixel | wrong % | wrong % away from edges | GPU MB | build s |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    const double oursFragments = static_cast<double>(std::max<std::uint64_t>(ours.all.fragments(), 1));
     for (const Method& m : methods) {
-      char row[256];
-      const double share = m.pixels > 0 ? 100.0 * static_cast<double>(m.wrong) / static_cast<double>(m.pixels) : 0.0;
-      const double shareAway =
-          m.pixelsAway > 0 ? 100.0 * static_cast<double>(m.wrongAway) / static_cast<double>(m.pixelsAway) : 0.0;
-      std::snprintf(row, sizeof(row), "| %s | %.1f | %.1f | %.2f | %.2f | %.4g | %.4g | %.1f | %.2f |\n",
-                    m.name.c_str(), percentile(m.ms, 50), percentile(m.ms, 95),
-                    m.overlays ? percentile(m.ratio, 50) : 1.0, static_cast<double>(m.fragments) / oursFragments, share,
-                    shareAway, static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
+      const Tally& t = m.all;
+      char row[384];
+      std::snprintf(row, sizeof(row),
+                    "| %s | %.1f | %.1f | %.3f | %.1f / %.1f / %.1f | %.2f | %.1f | %.4g | %.4g | %.1f | %.2f |\n",
+                    m.name.c_str(), median(t.ms), percentile(t.ms, 95), m.overlays ? median(t.ratio) : 1.0,
+                    median(t.terrainGpuMs), median(t.markGpuMs), median(t.coverGpuMs),
+                    static_cast<double>(t.fragments()) / oursFragments,
+                    t.covered > 0 ? static_cast<double>(t.fragments()) / static_cast<double>(t.covered) : 0.0,
+                    t.wrongPct(), t.wrongAwayPct(), static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
       md << row;
+    }
+    md << "\nPer path segment (fragments against ours on the same segment; the horizon segment is the grazing "
+          "view):\n\n| method | segment | × terrain | fragments × ours | wrong % away from edges | z-fail pieces |\n"
+          "|---|---|---|---|---|---|\n";
+    for (const Method& m : methods) {
+      if (!m.overlays) continue;
+      for (const auto& [name, st] : m.segments) {
+        const Tally& base = ours.segments.at(name);
+        char row[256];
+        std::snprintf(
+            row, sizeof(row), "| %s | %s | %.3f | %.2f | %.4g | %zu |\n", m.name.c_str(), name.c_str(),
+            median(st.ratio),
+            static_cast<double>(st.fragments()) / static_cast<double>(std::max<std::uint64_t>(base.fragments(), 1)),
+            st.wrongAwayPct(), st.zFailPieces);
+        md << row;
+      }
     }
   }
 
@@ -256,15 +393,130 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
                        {"scene", o.scene},
                        {"width", o.width},
                        {"height", o.height},
+                       {"msaa", target.samples()},
                        {"frames", path.size()},
                        {"error_every", o.errorEvery},
+                       {"vector_vertices", vectorVertices(*scene)},
+                       {"dem_posts", static_cast<std::size_t>(scene->quadtree->grid().width) *
+                                         static_cast<std::size_t>(scene->quadtree->grid().height)},
                        {"methods", table},
                        {"renderer", (*context)->info().renderer},
                        {"gl_errors", (*context)->debug().errorCount()}};
   std::ofstream(std::filesystem::path(o.out) / (stem + ".json")) << result.dump(2) << '\n';
+  if (summary != nullptr) *summary = result;
   std::printf("gl_errors: %zu\n", static_cast<std::size_t>((*context)->debug().errorCount()));
   return (*context)->debug().errorCount() == 0 ? 0 : 1;
 }
 
 }  // namespace
+
+int runScaling(const Options& o) {
+  // Each scene in turn: terrain only, ours and the paper's construction on the same frames.
+  json rows = json::array();
+  for (const std::string& sceneFile : o.scenes) {
+    Options so = o;
+    so.scene = sceneFile;
+    so.out = (std::filesystem::path(o.out) / std::filesystem::path(sceneFile).stem()).string();
+    if (so.segments.empty()) so.segments = {"oblique"};
+    std::vector<Method> methods;
+    methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
+    methods.emplace_back("stencil polyhedra", app::OverlayMethod::Stencil, 0, true);
+    methods.emplace_back("paper's construction", app::OverlayMethod::Paper, 0, true);
+    json r;
+    if (runVariants(so, std::move(methods), "methods", &r) != 0) return 1;
+    rows.push_back(r);
+  }
+  // The table, and frame time against vector vertices and against DEM posts.
+  std::ofstream md(std::filesystem::path(o.out) / "scaling.md");
+  md << "| scene | DEM posts | vector vertices | terrain only ms | ours ms | ours × terrain | ours GPU ms mark + cover "
+        "| "
+        "ours GPU MB | ours build s | paper × terrain |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  std::vector<PlotPoint> byVertices, byPosts;
+  const char* colours[] = {"#7f7f7f", "#1f77b4", "#ff7f0e"};
+  for (const json& r : rows) {
+    const json& m = r["methods"];
+    const std::string stem = std::filesystem::path(r["scene"].get<std::string>()).stem().string();
+    const double vertices = r["vector_vertices"].get<double>(), posts = r["dem_posts"].get<double>();
+    char row[512];
+    std::snprintf(row, sizeof(row), "| %s | %.0f | %.0f | %.1f | %.1f | %.3f | %.1f | %.1f | %.2f | %.3f |\n",
+                  stem.c_str(), posts, vertices, m[0]["median_ms"].get<double>(), m[1]["median_ms"].get<double>(),
+                  m[1]["over_terrain_median"].get<double>(),
+                  m[1]["gpu_ms_mark_median"].get<double>() + m[1]["gpu_ms_cover_median"].get<double>(),
+                  m[1]["gpu_bytes"].get<double>() / 1048576.0, m[1]["build_s"].get<double>(),
+                  m[2]["over_terrain_median"].get<double>());
+    md << row;
+    for (std::size_t i = 0; i < 3 && i < m.size(); ++i) {
+      const std::string label = i == 0                                                     ? ""
+                                : m[i]["method"].get<std::string>() == "stencil polyhedra" ? "ours"
+                                                                                           : "paper";
+      byVertices.push_back({vertices, m[i]["median_ms"].get<double>(), label, colours[i]});
+      byPosts.push_back({posts, m[i]["median_ms"].get<double>(), label, colours[i]});
+    }
+  }
+  PlotAxes axes;
+  axes.logX = true;
+  axes.yLabel = "median frame time, ms (grey: terrain only, blue: ours, orange: paper's)";
+  axes.title = "Frame time against vector vertices";
+  axes.xLabel = "vector vertices";
+  std::ofstream(std::filesystem::path(o.out) / "scaling_time_vs_vertices.svg") << scatterSvg(byVertices, axes);
+  axes.title = "Frame time against DEM size";
+  axes.xLabel = "DEM posts";
+  std::ofstream(std::filesystem::path(o.out) / "scaling_time_vs_dem.svg") << scatterSvg(byPosts, axes);
+  std::ofstream(std::filesystem::path(o.out) / "scaling.json") << json{{"scenes", rows}}.dump(2) << '\n';
+  std::printf("scaling: %s\n", (std::filesystem::path(o.out) / "scaling.md").string().c_str());
+  return 0;
+}
+
+std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
+  struct Spot {
+    glm::dvec2 point, direction;
+  };
+  std::vector<Spot> roads, areas;
+  for (const app::LoadedLayer& layer : setup.scene.layers) {
+    for (const geo::Feature& f : layer.data.features) {
+      for (const geo::LineString& line : f.lines) {
+        const std::size_t i = line.size() / 2;
+        if (i == 0) continue;
+        const glm::dvec2 d = line[i] - line[i - 1];
+        if (glm::length(d) > 0.0) roads.push_back({0.5 * (line[i] + line[i - 1]), glm::normalize(d)});
+      }
+      for (const geo::Polygon& p : f.polygons) {
+        if (p.outer.size() < 3) continue;
+        glm::dvec2 c(0.0);
+        for (const glm::dvec2& v : p.outer) c += v;
+        areas.push_back({c / static_cast<double>(p.outer.size()), glm::dvec2(1.0, 0.0)});
+      }
+    }
+  }
+  std::vector<app::PathFrame> path;
+  const auto& bounds = *setup.scene.bounds;
+  for (int k = 0; k < frames * 4 && static_cast<int>(path.size()) < frames; ++k) {
+    const std::vector<Spot>& list = (k % 2 == 0 && !roads.empty()) || areas.empty() ? roads : areas;
+    if (list.empty()) break;
+    // Spread over the list: a fixed stride through it.
+    const Spot& spot = list[(static_cast<std::size_t>(k) * 7919u) % list.size()];
+    const double ground = bounds.fullResolutionHeightAt(spot.point);
+    if (!std::isfinite(ground)) continue;
+    app::Camera c;
+    c.eye = glm::dvec3(spot.point, ground + 1.5);
+    const double down = 10.0 * std::numbers::pi / 180.0;
+    c.target = c.eye + glm::dvec3(std::cos(down) * spot.direction, -std::sin(down));
+    c.nearPlane = 0.1;
+    path.push_back({c, "close-up"});
+  }
+  return path;
+}
+
+std::vector<app::PathFrame> methodsPath(const Options& o, const BenchSetup& setup) {
+  std::vector<app::PathFrame> all = flyThroughOf(o, setup);
+  const std::vector<app::PathFrame> close = closeUpPath(setup, std::max(o.frames / 3, 1));
+  all.insert(all.end(), close.begin(), close.end());
+  if (o.segments.empty()) return all;
+  std::vector<app::PathFrame> kept;
+  for (app::PathFrame& f : all) {
+    if (std::find(o.segments.begin(), o.segments.end(), f.segment) != o.segments.end()) kept.push_back(std::move(f));
+  }
+  return kept;
+}
+
 }  // namespace gis::bench

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "synth/synthetic_dem.hpp"
+#include "synth/synthetic_vectors.hpp"
 
 namespace {
 
@@ -27,18 +28,26 @@ using gis::synth::SyntheticDemSummary;
 constexpr const char* kUsage =
     "usage: terrain_synth --out FILE.tif [--size N] [--seed S] [--spacing M] [--relief M]\n"
     "                     [--no-cliffs] [--no-spikes] [--no-plains] [--no-holes] [--nodata-border]\n"
-    "                     [--crs CRS] [--scene SCENE.json]\n"
+    "                     [--crs CRS] [--scene SCENE.json [--vector-scale K [--vectors-only]]\n"
+    "                     [--road-width M]]\n"
     "Writes a deterministic synthetic DEM: N x N posts (default 1025, 33 .. 65537) of fractal\n"
     "relief (--relief metres, default 600) at --spacing metres (default 20), EPSG:32633 unless\n"
     "--crs, with vertical cliffs (>= 300 m), single-post spikes (>= 500 m), perfectly flat plains\n"
     "and nodata holes placed from --seed (default 1). --nodata-border makes everything outside an\n"
     "irregular boundary nodata. --scene also writes a scene file for overlay_render and\n"
-    "terrain_viewer. Exit status: 0 ok, 1 I/O error, 2 bad arguments.\n";
+    "terrain_viewer. --vector-scale K also writes K times the seed paper's vector load (K x 8 areas\n"
+    "with 151 points each, K x 144 roads with 18,800 points per 144, --road-width metres wide,\n"
+    "default 10) as SCENE_areas.gpkg and SCENE_roads.gpkg next to the scene, as its two layers;\n"
+    "with --vectors-only the DEM written before with the same options is kept.\n"
+    "Exit status: 0 ok, 1 I/O error, 2 bad arguments.\n";
 
 struct Options {
   SyntheticDemOptions dem;
   std::string out;
   std::string scene;
+  int vectorScale = 0;       ///< 0: no vector layers
+  bool vectorsOnly = false;  ///< the DEM at --out exists: write only the vectors and the scene
+  double roadWidth = 10.0;
 };
 
 template <typename T>
@@ -97,11 +106,21 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       o.dem.nodataHoles = false;
     else if (a == "--nodata-border")
       o.dem.nodataBorder = true;
+    else if (a == "--vector-scale")
+      error = setNumber(o.vectorScale, "an integer");
+    else if (a == "--vectors-only")
+      o.vectorsOnly = true;
+    else if (a == "--road-width")
+      error = setNumber(o.roadWidth, "a number");
     else
       error = "unknown argument '" + std::string(a) + "'";
     if (!error.empty()) return error;
   }
   if (o.out.empty()) return "--out is required";
+  if (o.vectorScale != 0 && o.scene.empty()) return "--vector-scale needs --scene";
+  if (o.vectorScale != 0 && (o.vectorScale < 1 || o.vectorScale > 10000)) return "--vector-scale must be 1 .. 10000";
+  if (o.vectorsOnly && o.vectorScale == 0) return "--vectors-only needs --vector-scale";
+  if (!(o.roadWidth > 0.0)) return "--road-width must be positive";
   return gis::synth::checkSyntheticDemOptions(o.dem);
 }
 
@@ -126,17 +145,42 @@ class ProgressBar {
   int last_ = -1;
 };
 
-/// The scene file: the DEM, named relative to the scene's folder, and no overlay layers.
-bool writeScene(const Options& o, std::string& error) {
-  const fs::path scene = fs::absolute(o.scene);
+/// `path` named relative to the scene's folder when it can be.
+std::string relativeToScene(const Options& o, const std::string& path) {
   std::error_code ec;
-  fs::path dem = fs::relative(fs::absolute(o.out), scene.parent_path(), ec);
-  if (ec || dem.empty()) dem = fs::absolute(o.out);
+  fs::path p = fs::relative(fs::absolute(path), fs::absolute(o.scene).parent_path(), ec);
+  if (ec || p.empty()) p = fs::absolute(path);
+  return p.generic_string();
+}
+
+/// The scene file: the DEM, named relative to the scene's folder, and the vector layers if any
+/// (the seed paper's look: semi-transparent yellow habitation areas, red roads).
+bool writeScene(const Options& o, const gis::synth::SyntheticVectorSummary* vectors, std::string& error) {
+  const fs::path scene = fs::absolute(o.scene);
   nlohmann::ordered_json j;
   j["name"] = "synthetic terrain, seed " + std::to_string(o.dem.seed) + ", " + std::to_string(o.dem.size) + " x " +
-              std::to_string(o.dem.size) + " posts";
-  j["terrain"] = {{"dem", dem.generic_string()}, {"band", 1}, {"vertical_exaggeration", 1.0}};
+              std::to_string(o.dem.size) + " posts" +
+              (vectors != nullptr ? ", " + std::to_string(o.vectorScale) + " x the paper's vector load" : "");
+  j["terrain"] = {{"dem", relativeToScene(o, o.out)}, {"band", 1}, {"vertical_exaggeration", 1.0}};
   j["layers"] = nlohmann::json::array();
+  if (vectors != nullptr) {
+    j["layers"].push_back({{"name", "habitation"},
+                           {"kind", "polygon"},
+                           {"source", relativeToScene(o, vectors->areasPath)},
+                           {"layer", "areas"},
+                           {"style", {{"color", "#ffd400"}, {"opacity", 0.5}}}});
+    j["layers"].push_back({{"name", "roads"},
+                           {"kind", "line"},
+                           {"source", relativeToScene(o, vectors->roadsPath)},
+                           {"layer", "roads"},
+                           {"style",
+                            {{"color", "#d62728"},
+                             {"opacity", 0.9},
+                             {"width_m", o.roadWidth},
+                             {"width_attribute", "width_m"},
+                             {"join", "round"},
+                             {"cap", "round"}}}});
+  }
   std::ofstream out(scene);
   out << j.dump(2) << "\n";
   out.close();
@@ -155,29 +199,69 @@ int run(const Options& o) {
       return 1;
     }
   }
-  const auto start = std::chrono::steady_clock::now();
-  ProgressBar bar;
-  gis::Result<SyntheticDemSummary> written =
-      gis::synth::writeSyntheticDem(o.out, o.dem, [&bar](double fraction) { bar(fraction); });
-  bar.finish();
-  for (const gis::Diagnostic& d : written.diagnostics.items())
-    std::fprintf(stderr, "terrain_synth: %s\n", d.toString().c_str());
-  if (!written) return 1;
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  SyntheticDemSummary s;
+  if (o.vectorsOnly) {
+    // The DEM is there already (written with the same options): only its layout is needed.
+    std::error_code ec;
+    if (!fs::is_regular_file(o.out, ec)) {
+      std::fprintf(stderr, "terrain_synth: %s: --vectors-only needs the DEM written before\n", o.out.c_str());
+      return 1;
+    }
+    gis::Result<gis::synth::SyntheticTerrain> terrain = gis::synth::SyntheticTerrain::create(o.dem);
+    for (const gis::Diagnostic& d : terrain.diagnostics.items())
+      std::fprintf(stderr, "terrain_synth: %s\n", d.toString().c_str());
+    if (!terrain) return 1;
+    s = terrain->layout();
+  } else {
+    const auto start = std::chrono::steady_clock::now();
+    ProgressBar bar;
+    gis::Result<SyntheticDemSummary> written =
+        gis::synth::writeSyntheticDem(o.out, o.dem, [&bar](double fraction) { bar(fraction); });
+    bar.finish();
+    for (const gis::Diagnostic& d : written.diagnostics.items())
+      std::fprintf(stderr, "terrain_synth: %s\n", d.toString().c_str());
+    if (!written) return 1;
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    s = *written;
+    std::error_code ec;
+    const auto bytes = fs::file_size(o.out, ec);
+    std::printf(
+        "%s: %d x %d posts at %g m, seed %llu: heights %.2f .. %.2f m; %zu cliffs, %zu spikes, %zu plains, %zu "
+        "holes%s; %zu nodata posts; %.1f MB in %.2f s\n",
+        o.out.c_str(), s.size, s.size, s.spacing, static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight,
+        s.cliffs.size(), s.spikes.size(), s.plains.size(), s.holes.size(), s.border.enabled ? ", nodata border" : "",
+        s.nodataPosts, ec ? 0.0 : static_cast<double>(bytes) / 1e6, seconds);
+  }
 
-  const SyntheticDemSummary& s = *written;
-  std::error_code ec;
-  const auto bytes = fs::file_size(o.out, ec);
-  std::printf(
-      "%s: %d x %d posts at %g m, seed %llu: heights %.2f .. %.2f m; %zu cliffs, %zu spikes, %zu plains, %zu holes%s; "
-      "%zu nodata posts; %.1f MB in %.2f s\n",
-      o.out.c_str(), s.size, s.size, s.spacing, static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight,
-      s.cliffs.size(), s.spikes.size(), s.plains.size(), s.holes.size(), s.border.enabled ? ", nodata border" : "",
-      s.nodataPosts, ec ? 0.0 : static_cast<double>(bytes) / 1e6, seconds);
-
+  std::optional<gis::synth::SyntheticVectorSummary> vectors;
+  if (o.vectorScale > 0) {
+    const fs::path scene = fs::absolute(o.scene);
+    const std::string stem = (scene.parent_path() / scene.stem()).string();
+    gis::synth::SyntheticVectorOptions v;
+    v.scale = o.vectorScale;
+    v.seed = o.dem.seed;
+    v.crs = o.dem.crs;
+    v.roadWidthMetres = o.roadWidth;
+    const double extentX = s.size * s.geoTransform[1], extentY = s.size * -s.geoTransform[5];
+    v.minX = s.geoTransform[0];
+    v.maxX = s.geoTransform[0] + extentX;
+    v.maxY = s.geoTransform[3];
+    v.minY = s.geoTransform[3] - extentY;
+    const auto vstart = std::chrono::steady_clock::now();
+    gis::Result<gis::synth::SyntheticVectorSummary> w =
+        gis::synth::writeSyntheticVectors(stem + "_areas.gpkg", stem + "_roads.gpkg", v);
+    for (const gis::Diagnostic& d : w.diagnostics.items())
+      std::fprintf(stderr, "terrain_synth: %s\n", d.toString().c_str());
+    if (!w) return 1;
+    vectors = *w;
+    std::printf("%s: %zu areas, %zu points; %s: %zu roads, %zu points, %.0f km, %g m wide; in %.2f s\n",
+                w->areasPath.c_str(), w->areas, w->areaPoints, w->roadsPath.c_str(), w->roads, w->roadPoints,
+                w->roadKilometres, o.roadWidth,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - vstart).count());
+  }
   if (!o.scene.empty()) {
     std::string error;
-    if (!writeScene(o, error)) {
+    if (!writeScene(o, vectors ? &*vectors : nullptr, error)) {
       std::fprintf(stderr, "terrain_synth: %s\n", error.c_str());
       return 1;
     }

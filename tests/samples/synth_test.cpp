@@ -19,10 +19,12 @@
 
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
+#include <ogrsf_frmts.h>
 #include <nlohmann/json.hpp>
 
 #include "geo/raster.hpp"
 #include "synth/synthetic_dem.hpp"
+#include "synth/synthetic_vectors.hpp"
 
 namespace {
 
@@ -428,6 +430,152 @@ TEST(Synth, UnwritablePathIsAnErrorNamingTheFile) {
   EXPECT_NE(r.diagnostics.items()[0].toString().find("no_such_folder/dem.tif"), std::string::npos);
 }
 
+// ---- the vector load of the seed paper, and multiples of it ----
+
+/// The features of a GeoPackage layer written by writeSyntheticVectors: per feature its points
+/// (a polygon's outer ring without the closing repeat) and whether OGR finds the geometry valid.
+struct ReadFeature {
+  std::vector<std::array<double, 2>> points;
+  bool valid = false;
+  double widthMetres = 0.0;
+};
+
+std::vector<ReadFeature> readLayer(const std::string& path, const char* layerName) {
+  std::vector<ReadFeature> out;
+  GDALAllRegister();
+  std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY));
+  if (!ds) throw std::runtime_error("cannot open " + path);
+  OGRLayer* layer = ds->GetLayerByName(layerName);
+  if (layer == nullptr) throw std::runtime_error(path + " has no layer " + layerName);
+  for (const auto& feature : *layer) {
+    ReadFeature f;
+    const OGRGeometry* g = feature->GetGeometryRef();
+    if (g == nullptr) throw std::runtime_error(path + ": a feature without geometry");
+    f.valid = g->IsValid();
+    const OGRLineString* line = nullptr;
+    if (wkbFlatten(g->getGeometryType()) == wkbPolygon) {
+      line = g->toPolygon()->getExteriorRing();
+    } else {
+      line = g->toLineString();
+    }
+    for (int i = 0; i < line->getNumPoints(); ++i) f.points.push_back({line->getX(i), line->getY(i)});
+    if (wkbFlatten(g->getGeometryType()) == wkbPolygon && f.points.size() > 1 && f.points.front() == f.points.back())
+      f.points.pop_back();
+    const int width = feature->GetFieldIndex("width_m");
+    if (width >= 0) f.widthMetres = feature->GetFieldAsDouble(width);
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+gis::synth::SyntheticVectorOptions vectorOptions(int scale, std::uint64_t seed) {
+  gis::synth::SyntheticVectorOptions o;
+  o.scale = scale;
+  o.seed = seed;
+  o.minX = 500000.0;
+  o.maxX = 500000.0 + 327680.0;
+  o.minY = 4600000.0;
+  o.maxY = 4600000.0 + 327680.0;
+  return o;
+}
+
+struct Vectors {
+  gis::synth::SyntheticVectorSummary summary;
+  std::vector<ReadFeature> areas, roads;
+};
+
+Vectors writeVectors(const std::string& name, const gis::synth::SyntheticVectorOptions& o) {
+  gis::Result<gis::synth::SyntheticVectorSummary> w =
+      gis::synth::writeSyntheticVectors(outputPath(name + "_areas.gpkg"), outputPath(name + "_roads.gpkg"), o);
+  for (const gis::Diagnostic& d : w.diagnostics.items()) ADD_FAILURE() << d.toString();
+  if (!w) throw std::runtime_error("cannot write " + name);
+  return {*w, readLayer(w->areasPath, "areas"), readLayer(w->roadsPath, "roads")};
+}
+
+std::size_t pointCount(const std::vector<ReadFeature>& features) {
+  std::size_t n = 0;
+  for (const ReadFeature& f : features) n += f.points.size();
+  return n;
+}
+
+TEST(SynthVectors, ThePapersLoadExactly) {
+  // Dai et al. 2008: 8 areas of 1,208 points, 144 roads of 18,800 points.
+  const Vectors v = writeVectors("paper_x1", vectorOptions(1, 7));
+  EXPECT_EQ(v.areas.size(), 8u);
+  EXPECT_EQ(pointCount(v.areas), 1208u);
+  EXPECT_EQ(v.roads.size(), 144u);
+  EXPECT_EQ(pointCount(v.roads), 18800u);
+  EXPECT_EQ(v.summary.areas, 8u);
+  EXPECT_EQ(v.summary.areaPoints, 1208u);
+  EXPECT_EQ(v.summary.roads, 144u);
+  EXPECT_EQ(v.summary.roadPoints, 18800u);
+  EXPECT_GT(v.summary.roadKilometres, 1000.0);
+}
+
+TEST(SynthVectors, MultiplesScaleEveryCount) {
+  const Vectors v = writeVectors("paper_x3", vectorOptions(3, 7));
+  EXPECT_EQ(v.areas.size(), 24u);
+  EXPECT_EQ(pointCount(v.areas), 3u * 1208u);
+  EXPECT_EQ(v.roads.size(), 432u);
+  EXPECT_EQ(pointCount(v.roads), 3u * 18800u);
+}
+
+TEST(SynthVectors, AreasAreValidAndEverythingLiesInTheRectangle) {
+  const auto o = vectorOptions(2, 11);
+  const Vectors v = writeVectors("inside", o);
+  for (const std::vector<ReadFeature>* layer : {&v.areas, &v.roads}) {
+    for (const ReadFeature& f : *layer) {
+      EXPECT_TRUE(f.valid);
+      for (const auto& p : f.points) {
+        EXPECT_GE(p[0], o.minX);
+        EXPECT_LE(p[0], o.maxX);
+        EXPECT_GE(p[1], o.minY);
+        EXPECT_LE(p[1], o.maxY);
+      }
+    }
+  }
+  for (const ReadFeature& r : v.roads) {
+    EXPECT_EQ(r.widthMetres, o.roadWidthMetres);
+    // Consecutive points are one step apart (0.08 % of the rectangle): no zero-length segments.
+    for (std::size_t i = 1; i < r.points.size(); ++i) {
+      const double step = std::hypot(r.points[i][0] - r.points[i - 1][0], r.points[i][1] - r.points[i - 1][1]);
+      EXPECT_NEAR(step, 0.0008 * 327680.0, 1e-6);
+    }
+  }
+}
+
+TEST(SynthVectors, SameSeedSameFeaturesOtherSeedOthers) {
+  const Vectors a = writeVectors("seed_a", vectorOptions(1, 5));
+  const Vectors b = writeVectors("seed_b", vectorOptions(1, 5));
+  const Vectors c = writeVectors("seed_c", vectorOptions(1, 6));
+  ASSERT_EQ(a.roads.size(), b.roads.size());
+  for (std::size_t i = 0; i < a.roads.size(); ++i) EXPECT_EQ(a.roads[i].points, b.roads[i].points);
+  for (std::size_t i = 0; i < a.areas.size(); ++i) EXPECT_EQ(a.areas[i].points, b.areas[i].points);
+  EXPECT_NE(a.roads[0].points, c.roads[0].points);
+  EXPECT_NE(a.areas[0].points, c.areas[0].points);
+}
+
+TEST(SynthVectors, BadOptionsFailNamingTheFile) {
+  auto o = vectorOptions(0, 1);
+  const std::string path = outputPath("bad_areas.gpkg");
+  gis::Result<gis::synth::SyntheticVectorSummary> w =
+      gis::synth::writeSyntheticVectors(path, outputPath("bad_roads.gpkg"), o);
+  EXPECT_FALSE(w.ok());
+  ASSERT_FALSE(w.diagnostics.items().empty());
+  EXPECT_NE(w.diagnostics.items().front().toString().find(path), std::string::npos);
+  o = vectorOptions(1, 1);
+  o.maxX = o.minX;
+  EXPECT_FALSE(gis::synth::writeSyntheticVectors(path, outputPath("bad_roads.gpkg"), o).ok());
+  o = vectorOptions(1, 1);
+  o.roadWidthMetres = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(gis::synth::writeSyntheticVectors(path, outputPath("bad_roads.gpkg"), o).ok());
+  const std::string missing = outputPath("no_such_folder/areas.gpkg");
+  w = gis::synth::writeSyntheticVectors(missing, outputPath("bad_roads.gpkg"), vectorOptions(1, 1));
+  EXPECT_FALSE(w.ok());
+  ASSERT_FALSE(w.diagnostics.items().empty());
+  EXPECT_NE(w.diagnostics.items().front().toString().find(missing), std::string::npos);
+}
+
 // ---- the program ----
 
 struct ProgramRun {
@@ -486,6 +634,40 @@ TEST(TerrainSynth, WritesDemAndScene) {
   EXPECT_EQ(j.at("terrain").at("vertical_exaggeration"), 1.0);
   EXPECT_TRUE(j.at("layers").is_array());
   EXPECT_TRUE(j.at("layers").empty());
+}
+
+TEST(TerrainSynth, VectorScaleWritesTheLayersIntoTheScene) {
+  const fs::path dir = outputDir() / "cli_vectors";
+  fs::create_directories(dir);
+  const fs::path dem = dir / "dem.tif", scene = dir / "paper.json";
+  const std::string common =
+      "--size 65 --seed 3 --spacing 100 --out '" + dem.string() + "' --scene '" + scene.string() + "'";
+  ProgramRun r = terrainSynth(common + " --vector-scale 2 --road-width 12");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("16 areas, 2416 points"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("288 roads, 37600 points"), std::string::npos) << r.out;
+  nlohmann::json j = nlohmann::json::parse(readText(scene));
+  ASSERT_EQ(j.at("layers").size(), 2u);
+  EXPECT_EQ(j["layers"][0]["kind"], "polygon");
+  EXPECT_EQ(j["layers"][0]["source"], "paper_areas.gpkg");
+  EXPECT_EQ(j["layers"][1]["kind"], "line");
+  EXPECT_EQ(j["layers"][1]["source"], "paper_roads.gpkg");
+  EXPECT_EQ(j["layers"][1]["style"]["width_m"], 12.0);
+  EXPECT_EQ(readLayer((dir / "paper_roads.gpkg").string(), "roads").size(), 288u);
+
+  // --vectors-only keeps the DEM and writes the other load.
+  const auto demTime = fs::last_write_time(dem);
+  r = terrainSynth(common + " --vector-scale 1 --vectors-only");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(fs::last_write_time(dem), demTime);
+  EXPECT_EQ(readLayer((dir / "paper_roads.gpkg").string(), "roads").size(), 144u);
+  // Without the DEM it is an error naming it; without --vector-scale a bad argument.
+  r = terrainSynth("--size 65 --out '" + (dir / "none.tif").string() + "' --scene '" + scene.string() +
+                   "' --vector-scale 1 --vectors-only");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.err.find("none.tif"), std::string::npos) << r.err;
+  EXPECT_EQ(terrainSynth(common + " --vectors-only").status, 2);
+  EXPECT_EQ(terrainSynth("--size 65 --out '" + dem.string() + "' --vector-scale 1").status, 2);
 }
 
 TEST(TerrainSynth, SameArgumentsGiveTheSameFile) {

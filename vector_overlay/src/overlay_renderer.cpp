@@ -14,6 +14,9 @@
 namespace gis::overlay {
 namespace {
 
+/// Shader-storage binding of the cover rectangles (overlay_cover.vert).
+constexpr GLuint kCoverRectsBinding = 3;
+
 double distanceToBox(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi) {
   return glm::length(p - glm::clamp(p, lo, hi));
 }
@@ -42,13 +45,17 @@ glm::vec4 screenRect(const glm::dmat4& viewProj, double nearPlane, const glm::dv
 Result<OverlayRenderer> OverlayRenderer::create() {
   Result<gfx::Program> program = gfx::Program::build({{"overlay_volume.vert", {}}, {"overlay_volume.frag", {}}});
   Result<gfx::Program> cover = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
+  Result<gfx::Program> coverRects =
+      gfx::Program::build({{"overlay_cover_rects.vert", {}}, {"overlay_volume.frag", {}}});
   Result<OverlayRenderer> r;
   r.diagnostics = program.diagnostics;
   r.diagnostics.append(cover.diagnostics);
-  if (!program || !cover) return r;
+  r.diagnostics.append(coverRects.diagnostics);
+  if (!program || !cover || !coverRects) return r;
   OverlayRenderer renderer;
   renderer.program_ = std::move(*program);
   renderer.coverProgram_ = std::move(*cover);
+  renderer.coverRectsProgram_ = std::move(*coverRects);
   renderer.emptyVao_ = gfx::createVertexArray();
   renderer.vao_ = gfx::createVertexArray();
   const GLuint vao = renderer.vao_.id();
@@ -66,6 +73,7 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   glVertexArrayAttribFormat(vao, 3, 3, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribBinding(vao, 3, 2);
   renderer.timer_.emplace();
+  renderer.coverTimer_.emplace();
   renderer.markStats_.emplace();
   renderer.coverStats_.emplace();
   r.value = std::move(renderer);
@@ -82,6 +90,68 @@ void OverlayRenderer::drawRect(const glm::vec4& rect, const glm::vec4& colour, f
   glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
   glBindVertexArray(vao_.id());
   program_.use();
+}
+
+void OverlayRenderer::drawRects(const std::vector<glm::vec4>& rects, const glm::vec4& colour, float maskBit) {
+  if (rects.empty()) return;
+  const std::size_t bytes = rects.size() * sizeof(glm::vec4);
+  if (!rects_ || rectsCapacity_ < bytes) {
+    rectsCapacity_ = std::max(bytes, 2 * rectsCapacity_);
+    rects_ = gfx::createBuffer();
+    glNamedBufferData(rects_.id(), static_cast<GLsizeiptr>(rectsCapacity_), nullptr, GL_STREAM_DRAW);
+  }
+  glNamedBufferSubData(rects_.id(), 0, static_cast<GLsizeiptr>(bytes), rects.data());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCoverRectsBinding, rects_.id());
+  coverRectsProgram_.use();
+  coverRectsProgram_.set("u_color", colour);
+  coverRectsProgram_.set("u_maskBit", maskBit);
+  glBindVertexArray(emptyVao_.id());
+  glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(rects.size()));
+  glBindVertexArray(vao_.id());
+  program_.use();
+}
+
+std::vector<glm::vec4> OverlayRenderer::tileRectsOf(const OverlayView& view, const Pieces& pieces, std::size_t first,
+                                                    std::size_t last) {
+  constexpr int n = kCoverTiles;
+  std::vector<std::uint8_t> touched(static_cast<std::size_t>(n * n), 0);
+  const auto tile = [](float ndc) {
+    return std::clamp(static_cast<int>(std::floor((ndc + 1.0F) * 0.5F * n)), 0, n - 1);
+  };
+  for (std::size_t k = first; k < last; ++k) {
+    const glm::vec4 r = screenRect(view.viewProj, view.nearPlane, pieces.boxes[k][0], pieces.boxes[k][1]);
+    if (!(r.z >= r.x && r.w >= r.y)) continue;
+    const int x0 = tile(r.x), x1 = tile(r.z), y0 = tile(r.y), y1 = tile(r.w);
+    for (int y = y0; y <= y1; ++y) std::fill_n(touched.begin() + y * n + x0, x1 - x0 + 1, std::uint8_t{1});
+  }
+  // Tile edges from one formula, so neighbouring rectangles share their edges exactly (no pixel
+  // is drawn twice or missed).
+  const auto edge = [](int i) { return i == n ? 1.0F : -1.0F + 2.0F * static_cast<float>(i) / static_cast<float>(n); };
+  std::vector<glm::vec4> rects;
+  std::vector<glm::ivec3> open;  // runs (x0, x1, rect index) of the row below
+  for (int y = 0; y < n; ++y) {
+    std::vector<glm::ivec3> row;
+    for (int x = 0; x < n;) {
+      if (touched[static_cast<std::size_t>(y * n + x)] == 0) {
+        ++x;
+        continue;
+      }
+      const int x0 = x;
+      while (x < n && touched[static_cast<std::size_t>(y * n + x)] != 0) ++x;
+      // The same run in the row below: grow that rectangle up.
+      const auto below =
+          std::find_if(open.begin(), open.end(), [&](const glm::ivec3& r) { return r.x == x0 && r.y == x; });
+      if (below != open.end()) {
+        rects[static_cast<std::size_t>(below->z)].w = edge(y + 1);
+        row.push_back(*below);
+      } else {
+        row.push_back({x0, x, static_cast<int>(rects.size())});
+        rects.push_back({edge(x0), edge(y), edge(x), edge(y + 1)});
+      }
+    }
+    open = std::move(row);
+  }
+  return rects;
 }
 
 void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
@@ -378,6 +448,14 @@ void OverlayRenderer::endMeasure(const OverlaySettings& settings, double& millis
   fragments = markStats_->result().fragmentShaderInvocations;
 }
 
+void OverlayRenderer::switchToCover(const OverlaySettings& settings) {
+  if (!settings.measure) return;
+  markStats_->end();
+  timer_->end();
+  coverStats_->begin();
+  coverTimer_->begin();
+}
+
 void OverlayRenderer::markIntoFlag(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
                                    const Pieces& pieces, const OverlaySettings& settings, const PixelScale& scale,
                                    bool inPixels, const FlagMarkStates& states, LayerFrameStats& stats) {
@@ -419,6 +497,8 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   if (pieces.order.empty()) return;
   const float maskBit = static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23));
   const glm::vec4 rect = rectOf(view, pieces, 0, pieces.order.size());
+  const std::vector<glm::vec4> rects =
+      rectColour && settings.tiledCover ? tileRectsOf(view, pieces, 0, pieces.order.size()) : std::vector{rect};
 
   const bool grouped = !layer.paperVariant() && (settings.forceGroups || layer.maxOverlap() > 255);
   stats.grouped = grouped;
@@ -438,10 +518,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     multiDraw(pieces.zFail);
     cache.apply(kPaperMarkZFailFront);
     multiDraw(pieces.zFail);
-    if (settings.measure) {
-      markStats_->end();
-      coverStats_->begin();
-    }
+    switchToCover(settings);
     cache.apply(kPaperCoverZPass);
     multiDraw(pieces.coverZPass);
     cache.apply(kPaperCoverZFail);
@@ -452,13 +529,10 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
     cache.apply(kMarkZFail);
     drawClipped(layer, clipped, inPixels);
-    if (settings.measure) {
-      markStats_->end();
-      coverStats_->begin();
-    }
+    switchToCover(settings);
     if (rectColour) {
       cache.apply(kCoverRect);
-      drawRect(rect, *rectColour, maskBit);
+      drawRects(rects, *rectColour, maskBit);
     } else {
       cache.apply(kCoverZPass);
       multiDraw(pieces.zPass);
@@ -466,13 +540,10 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       drawClipped(layer, clipped, inPixels);
     }
   } else {
-    if (settings.measure) {
-      markStats_->end();
-      coverStats_->begin();
-    }
+    switchToCover(settings);
     if (rectColour) {
       cache.apply(kCoverFlaggedRect);
-      drawRect(rect, *rectColour, maskBit);
+      drawRects(rects, *rectColour, maskBit);
     } else {
       cache.apply(kCoverFlaggedZPass);
       multiDraw(pieces.zPass);
@@ -484,10 +555,15 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   endLayer(inPixels);
   if (settings.measure) {
     coverStats_->end();
-    timer_->end();
-    stats.gpuMilliseconds = static_cast<double>(timer_->nanoseconds().value_or(0)) * 1e-6;
-    stats.markFragments = markStats_->result().fragmentShaderInvocations;
-    stats.coverFragments = coverStats_->result().fragmentShaderInvocations;
+    coverTimer_->end();
+    stats.markMilliseconds = static_cast<double>(timer_->nanoseconds().value_or(0)) * 1e-6;
+    stats.coverMilliseconds = static_cast<double>(coverTimer_->nanoseconds().value_or(0)) * 1e-6;
+    stats.gpuMilliseconds = stats.markMilliseconds + stats.coverMilliseconds;
+    const gfx::PipelineCounts mark = markStats_->result(), cover = coverStats_->result();
+    stats.markFragments = mark.fragmentShaderInvocations;
+    stats.coverFragments = cover.fragmentShaderInvocations;
+    stats.markTriangles = mark.primitivesSubmitted;
+    stats.coverTriangles = cover.primitivesSubmitted;
   }
 }
 

@@ -14,8 +14,13 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include "gdal_util.hpp"
+
 namespace gis::synth {
 namespace {
+
+using detail::parseCrs;
+using detail::QuietGdal;
 
 // ---- the relief ----
 constexpr double kBaseLevel = 120.0;      // height of the lowest possible relief post
@@ -136,33 +141,6 @@ struct Tally {
 struct Footprint {
   double col, row, radius;
 };
-
-/// Keeps GDAL from printing while alive; its last message stays available.
-class QuietGdal {
- public:
-  QuietGdal() {
-    CPLPushErrorHandler(CPLQuietErrorHandler);
-    CPLErrorReset();
-  }
-  ~QuietGdal() { CPLPopErrorHandler(); }
-  QuietGdal(const QuietGdal&) = delete;
-  QuietGdal& operator=(const QuietGdal&) = delete;
-  static std::string lastMessage(const std::string& fallback) {
-    const char* msg = CPLGetLastErrorMsg();
-    return msg == nullptr || *msg == '\0' ? fallback : std::string(msg);
-  }
-};
-
-bool parseCrs(const std::string& text, OGRSpatialReference& srs, std::string& error) {
-  QuietGdal quiet;
-  const char* const options[] = {"ALLOW_NETWORK_ACCESS=NO", nullptr};
-  if (srs.SetFromUserInput(text.c_str(), options) != OGRERR_NONE || srs.IsEmpty()) {
-    error = "unknown CRS '" + text + "': " + QuietGdal::lastMessage("OGR cannot parse it");
-    return false;
-  }
-  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  return true;
-}
 
 }  // namespace
 

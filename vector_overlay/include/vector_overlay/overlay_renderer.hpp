@@ -49,6 +49,9 @@ struct OverlaySettings {
   /// Cover a layer whose features share one colour with one screen rectangle; off: with its
   /// pieces, as layers of several colours are covered (for tests and cost comparisons).
   bool rectangleCover = true;
+  /// With rectangleCover: cover only the screen tiles the visible pieces' boxes touch (off: one
+  /// rectangle around all of them). Sparse layers (roads from afar) cover a fraction of the screen.
+  bool tiledCover = true;
   /// Savings that the benchmark switches off one at a time (DESIGN §9; overlay_bench --mode
   /// ablation). Off, the image is the same and the work larger.
   bool cullPieces = true;          ///< off: every piece is drawn, in view or not
@@ -63,9 +66,13 @@ struct LayerFrameStats {
   bool rectangleCover = false;  ///< covered with one screen rectangle (one colour for the layer)
   bool grouped = false;         ///< drawn in groups (the layer may overlap more than 255 deep)
   std::size_t groups = 0;
-  double gpuMilliseconds = 0.0;     ///< mark + cover, when measured
+  double gpuMilliseconds = 0.0;  ///< mark + cover, when measured (GPU timer queries)
+  double markMilliseconds = 0.0;
+  double coverMilliseconds = 0.0;
   std::uint64_t markFragments = 0;  ///< fragment shader invocations, when measured
   std::uint64_t coverFragments = 0;
+  std::uint64_t markTriangles = 0;  ///< primitives submitted, when measured
+  std::uint64_t coverTriangles = 0;
 };
 
 /// Layer overlap analysis: which pixels' terrain is covered by layer A, by layer B, or both.
@@ -188,12 +195,23 @@ class OverlayRenderer {
                               const OverlaySettings& settings, const PixelScale& scale, bool capped = false);
   void beginMeasure(const OverlaySettings& settings);
   void endMeasure(const OverlaySettings& settings, double& milliseconds, std::uint64_t& fragments);
+  /// Ends the mark pass's queries and starts the cover's (when measuring).
+  void switchToCover(const OverlaySettings& settings);
 
   /// Draws a screen rectangle with the cover program (colour and mask bit) in the current state.
   void drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit);
+  /// Draws disjoint screen rectangles in one instanced draw, as drawRect.
+  void drawRects(const std::vector<glm::vec4>& rects, const glm::vec4& colour, float maskBit);
+  static constexpr int kCoverTiles = 48;
+  /// The cover of pieces.order[first, last): the tiles of a kCoverTiles² grid over the viewport
+  /// that some piece's screen box touches, merged into disjoint rectangles (rows of tiles, and
+  /// equal rows one above the other).
+  static std::vector<glm::vec4> tileRectsOf(const OverlayView& view, const Pieces& pieces, std::size_t first,
+                                            std::size_t last);
 
   gfx::Program program_;
-  gfx::Program coverProgram_;  ///< screen-rectangle covers
+  gfx::Program coverProgram_;       ///< screen-rectangle covers
+  gfx::Program coverRectsProgram_;  ///< tiled covers (instanced rectangles)
   gfx::VertexArrayHandle vao_;
   gfx::VertexArrayHandle emptyVao_;
   gfx::BufferHandle origins_;
@@ -202,7 +220,9 @@ class OverlayRenderer {
   std::size_t clippedCapacity_ = 0;
   gfx::BufferHandle commands_;
   std::size_t commandsCapacity_ = 0;
-  std::optional<gfx::GpuTimer> timer_;
+  gfx::BufferHandle rects_;  ///< cover rectangles (shader storage)
+  std::size_t rectsCapacity_ = 0;
+  std::optional<gfx::GpuTimer> timer_, coverTimer_;  ///< the mark (and analysis) passes, the cover
   std::optional<gfx::PipelineStatistics> markStats_, coverStats_;
 };
 
