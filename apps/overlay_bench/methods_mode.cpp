@@ -17,6 +17,7 @@
 #include <memory>
 #include <numbers>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -63,7 +64,8 @@ struct Method {
   bool overlays = true;
   int cellPosts = 16;  ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
-  std::optional<app::SceneRenderer> renderer;
+  std::optional<app::SceneRenderer> renderer;  ///< its own, or empty when it shares another's
+  app::SceneRenderer* shared = nullptr;         ///< the renderer it draws with
   Tally all;
   std::map<std::string, Tally> segments;
   std::size_t gpuBytes = 0;
@@ -150,17 +152,27 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   std::unique_ptr<gfx::Context>* context = &setup->context;
   // Declared after the context, so that their GL objects go while it is current.
   std::vector<Method> methods = std::move(variants);
+  // Methods that build the same polyhedra (terrain only, ours and the ablation's switches at draw
+  // time) share one renderer: the same terrain, and the memory of one copy.
+  std::map<std::tuple<int, int, int>, app::SceneRenderer*> built;
   for (Method& m : methods) {
     app::OverlayBuildSettings build;
     build.method = m.method;
     build.cellPosts = m.cellPosts;
     if (m.drapeSize > 0) build.drapeSize = m.drapeSize;
-    Result<app::SceneRenderer> r = app::SceneRenderer::create(*scene, build);
-    app::report(r.diagnostics);
-    if (!r) return 1;
-    m.renderer = std::move(*r);
+    const std::tuple<int, int, int> key{static_cast<int>(m.method), m.cellPosts, m.drapeSize};
+    if (const auto found = built.find(key); found != built.end()) {
+      m.shared = found->second;
+    } else {
+      Result<app::SceneRenderer> r = app::SceneRenderer::create(*scene, build);
+      app::report(r.diagnostics);
+      if (!r) return 1;
+      m.renderer = std::move(*r);
+      m.shared = &*m.renderer;
+      built[key] = m.shared;
+    }
     if (m.overlays && m.method != app::OverlayMethod::Drape) {
-      for (const overlay::OverlayLayer& l : m.renderer->overlayLayers()) {
+      for (const overlay::OverlayLayer& l : m.shared->overlayLayers()) {
         m.gpuBytes += l.stats().gpuBytes;
         m.buildSeconds += l.stats().buildSeconds;
         m.triangles += l.stats().triangles;
@@ -168,7 +180,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     }
   }
   std::vector<overlay::ReferenceLayer> reference;
-  for (const overlay::OverlayLayer& l : methods[1].renderer->overlayLayers()) {
+  for (const overlay::OverlayLayer& l : methods[1].shared->overlayLayers()) {
     reference.push_back(overlay::referenceLayerOf(l));
   }
 
@@ -206,13 +218,13 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
       glFinish();
       const auto start = std::chrono::steady_clock::now();
       const app::FrameStats stats =
-          m.renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+          m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
       glFinish();
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
       if (stats.drapeBuildSeconds > 0.0) {
         // The drape was built in this frame: its build time, not a frame time.
         m.buildSeconds = stats.drapeBuildSeconds;
-        m.gpuBytes = m.renderer->drape() ? m.renderer->drape()->stats().gpuBytes : 0;
+        m.gpuBytes = m.shared->drape() ? m.shared->drape()->stats().gpuBytes : 0;
       } else if (k > 0) {  // frame 0 uploads the first chunks
         frame.ms.push_back(ms);
         if (!m.overlays) terrainMs = ms;
@@ -223,7 +235,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
         // fragments and triangles.
         settings.measure = true;
         const app::FrameStats counted =
-            m.renderer->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+            m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
         settings.measure = false;
         frame.terrainGpuMs.push_back(counted.terrain.gpuMilliseconds);
         double mark = 0.0, cover = 0.0;
