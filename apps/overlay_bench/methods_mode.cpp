@@ -62,10 +62,11 @@ struct Method {
   app::OverlayMethod method = app::OverlayMethod::Stencil;
   int drapeSize = 0;
   bool overlays = true;
-  int cellPosts = 16;  ///< pieces split at cells of this many DEM posts (the ablation turns it off)
+  int cellPosts = 16;         ///< pieces split at cells of this many DEM posts (the ablation turns it off)
+  bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
-  std::optional<app::SceneRenderer> renderer;  ///< its own, or empty when it shares another's
-  app::SceneRenderer* shared = nullptr;         ///< the renderer it draws with
+  std::optional<app::SceneRenderer> renderer;             ///< its own, or empty when it shares another's
+  app::SceneRenderer* shared = nullptr;                   ///< the renderer it draws with
   Tally all;
   std::map<std::string, Tally> segments;
   std::size_t gpuBytes = 0;
@@ -104,6 +105,8 @@ int runAblation(const Options& o) {
   variant("no frustum culling", [](overlay::OverlaySettings& s) { s.cullPieces = false; });
   variant("cover with the pieces", [](overlay::OverlaySettings& s) { s.rectangleCover = false; });
   variant("one cover rectangle, no tiles", [](overlay::OverlaySettings& s) { s.tiledCover = false; });
+  methods.emplace_back("split at every cell", app::OverlayMethod::Stencil, 0, true);
+  methods.back().adaptiveSplit = false;
   methods.emplace_back("no split at cells", app::OverlayMethod::Stencil, 0, true);
   methods.back().cellPosts = 1 << 20;
   return runVariants(o, std::move(methods), "ablation");
@@ -154,13 +157,14 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   std::vector<Method> methods = std::move(variants);
   // Methods that build the same polyhedra (terrain only, ours and the ablation's switches at draw
   // time) share one renderer: the same terrain, and the memory of one copy.
-  std::map<std::tuple<int, int, int>, app::SceneRenderer*> built;
+  std::map<std::tuple<int, int, int, bool>, app::SceneRenderer*> built;
   for (Method& m : methods) {
     app::OverlayBuildSettings build;
     build.method = m.method;
     build.cellPosts = m.cellPosts;
+    build.adaptiveSplit = m.adaptiveSplit;
     if (m.drapeSize > 0) build.drapeSize = m.drapeSize;
-    const std::tuple<int, int, int> key{static_cast<int>(m.method), m.cellPosts, m.drapeSize};
+    const std::tuple<int, int, int, bool> key{static_cast<int>(m.method), m.cellPosts, m.drapeSize, m.adaptiveSplit};
     if (const auto found = built.find(key); found != built.end()) {
       m.shared = found->second;
     } else {
@@ -217,8 +221,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
       if (m.adjust) m.adjust(settings.overlay);
       glFinish();
       const auto start = std::chrono::steady_clock::now();
-      const app::FrameStats stats =
-          m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+      const app::FrameStats stats = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
       glFinish();
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
       if (stats.drapeBuildSeconds > 0.0) {

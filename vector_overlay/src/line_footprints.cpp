@@ -56,6 +56,7 @@ class PieceSink {
   /// Adds the convex polygon (counter-clockwise at every width up to h) as one footprint, or
   /// one per cell (metre widths only).
   void add(PieceKind kind, std::vector<Pt> shape) {
+    ++source_;
     if (scalable_) {
       addScalable(kind, std::move(shape));
       return;
@@ -67,13 +68,13 @@ class PieceSink {
     if (pts.size() < 3) return;
     if (!options_.cells) {
       detail::triangulateConvex(pts, builder_);
-      if (!builder_.empty()) out_.push_back(builder_.finish(feature_, -1, kind));
+      if (!builder_.empty()) push(builder_.finish(feature_, -1, kind));
       return;
     }
     detail::splitIntoCells(detail::makeClipPolygon(pts), *options_.cells,
                            [&](int cell, const std::vector<glm::dvec2>& part) {
                              detail::triangulateConvex(part, builder_);
-                             if (!builder_.empty()) out_.push_back(builder_.finish(feature_, cell, kind));
+                             if (!builder_.empty()) push(builder_.finish(feature_, cell, kind));
                            });
   }
 
@@ -111,9 +112,15 @@ class PieceSink {
         fp.directions.push_back(direction / n);
       }
     }
+    push(std::move(fp));
+  }
+
+  void push(Footprint fp) {
+    fp.source = source_;
     out_.push_back(std::move(fp));
   }
 
+  std::uint32_t source_ = 0;  ///< shapes added so far (the current one's number)
   std::uint32_t feature_;
   const FootprintOptions& options_;
   bool scalable_;

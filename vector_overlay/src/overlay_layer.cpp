@@ -11,6 +11,8 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "footprint_geometry.hpp"
+
 namespace gis::overlay {
 namespace {
 
@@ -97,6 +99,93 @@ void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const
   }
 }
 
+namespace {
+
+/// The footprint extruded between its bounds (the global bounds where it has none).
+Polyhedron extrude(Footprint f, const HeightBoundsProvider& bounds) {
+  Polyhedron p;
+  p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
+  p.boxMax = -p.boxMin;
+  for (const glm::dvec2& v : f.vertices) {
+    p.boxMin = glm::min(p.boxMin, v);
+    p.boxMax = glm::max(p.boxMax, v);
+  }
+  const HeightBounds b = bounds.boundsOver(f.vertices);
+  p.lo = b.lo;
+  p.hi = b.hi;
+  if (!b.valid() || !std::isfinite(b.lo) || !std::isfinite(b.hi)) {
+    const HeightBounds g = bounds.globalBounds();
+    p.lo = g.lo;
+    p.hi = g.hi;
+  }
+  p.overSurface = bounds.coversFootprint(f.vertices);
+  p.footprint = std::move(f);
+  return p;
+}
+
+/// Length of a footprint's boundary (its walls' length).
+double perimeter(const Footprint& f) {
+  double length = 0.0;
+  for (const auto& e : f.boundary) length += glm::length(f.vertices[e[1]] - f.vertices[e[0]]);
+  return length;
+}
+
+/// Where the parts of one shape (cut at the cells) would have walls of more than `splitGain` of
+/// the area the whole shape's walls have (1 m added to every height range, for the padding and
+/// the per-piece cost), the parts are welded back into one piece under their joint bounds. The
+/// union of the parts is the same region, and joint bounds hold every part's surface, so the
+/// bounds contract holds either way.
+std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces, const LayerBuildOptions& options) {
+  std::vector<Polyhedron> out;
+  out.reserve(pieces.size());
+  for (std::size_t first = 0; first < pieces.size();) {
+    std::size_t last = first + 1;
+    while (last < pieces.size() && pieces[last].footprint.source == pieces[first].footprint.source &&
+           !pieces[last].footprint.scalable())
+      ++last;
+    if (last - first == 1 || pieces[first].footprint.scalable()) {
+      out.push_back(std::move(pieces[first]));
+      first = last;
+      continue;
+    }
+    detail::FootprintBuilder builder;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo, splitWalls = 0.0;
+    bool overSurface = true;
+    for (std::size_t k = first; k < last; ++k) {
+      const Polyhedron& p = pieces[k];
+      lo = std::min(lo, p.lo);
+      hi = std::max(hi, p.hi);
+      overSurface = overSurface && p.overSurface;
+      splitWalls += perimeter(p.footprint) * (p.hi - p.lo + 1.0);
+      const Footprint& f = p.footprint;
+      for (const auto& t : f.triangles) builder.addTriangle(f.vertices[t[0]], f.vertices[t[1]], f.vertices[t[2]]);
+    }
+    Footprint whole = builder.finish(pieces[first].footprint.feature, -1, pieces[first].footprint.kind);
+    whole.source = pieces[first].footprint.source;
+    const double wholeWalls = perimeter(whole) * (hi - lo + 1.0);
+    if (splitWalls < options.splitGain * wholeWalls || whole.triangles.empty()) {
+      for (std::size_t k = first; k < last; ++k) out.push_back(std::move(pieces[k]));
+    } else {
+      Polyhedron p;
+      p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
+      p.boxMax = -p.boxMin;
+      for (std::size_t k = first; k < last; ++k) {
+        p.boxMin = glm::min(p.boxMin, pieces[k].boxMin);
+        p.boxMax = glm::max(p.boxMax, pieces[k].boxMax);
+      }
+      p.lo = lo;
+      p.hi = hi;
+      p.overSurface = overSurface;
+      p.footprint = std::move(whole);
+      out.push_back(std::move(p));
+    }
+    first = last;
+  }
+  return out;
+}
+
+}  // namespace
+
 std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
                                        const FeatureStyle& style, const std::string& layerName,
                                        const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
@@ -111,27 +200,13 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
   HeightBounds featureBounds{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   for (Footprint& f : footprints) {
     if (f.triangles.empty() || f.vertices.empty()) continue;
-    Polyhedron p;
-    p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
-    p.boxMax = -p.boxMin;
-    for (const glm::dvec2& v : f.vertices) {
-      p.boxMin = glm::min(p.boxMin, v);
-      p.boxMax = glm::max(p.boxMax, v);
-    }
-    const HeightBounds b = bounds.boundsOver(f.vertices);
-    p.lo = b.lo;
-    p.hi = b.hi;
-    if (!b.valid() || !std::isfinite(b.lo) || !std::isfinite(b.hi)) {
-      const HeightBounds g = bounds.globalBounds();
-      p.lo = g.lo;
-      p.hi = g.hi;
-    }
-    p.overSurface = bounds.coversFootprint(f.vertices);
+    Polyhedron p = extrude(std::move(f), bounds);
     featureBounds.lo = std::min(featureBounds.lo, p.lo);
     featureBounds.hi = std::max(featureBounds.hi, p.hi);
-    p.footprint = std::move(f);
     out.push_back(std::move(p));
   }
+  if (options.adaptiveSplit && fo.cells && !options.paperVariant)
+    out = mergeWhereSplitDoesNotPay(std::move(out), options);
   if (options.paperVariant) {
     // One bound pair per feature, as the seed paper builds them.
     for (Polyhedron& p : out) {

@@ -247,7 +247,8 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
     polygonRings.push_back(std::move(rings));
   }
 
-  for (const std::vector<geo::Ring>& rings : polygonRings) {
+  for (std::size_t k = 0; k < polygonRings.size(); ++k) {
+    const std::vector<geo::Ring>& rings = polygonRings[k];
     // Triangulation and even-odd marking.
     std::vector<Triangle> inside;
     try {
@@ -262,7 +263,10 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
     if (!options.cells) {
       detail::FootprintBuilder builder;
       for (const auto& t : inside) builder.addTriangle(t[0], t[1], t[2]);
-      if (!builder.empty()) result.push_back(builder.finish(featureIndex, -1, PieceKind::PolygonPart));
+      if (!builder.empty()) {
+        result.push_back(builder.finish(featureIndex, -1, PieceKind::PolygonPart));
+        result.back().source = static_cast<std::uint32_t>(k);
+      }
       continue;
     }
 
@@ -277,7 +281,10 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
       });
     }
     for (auto& [cell, builder] : cells) {
-      if (!builder.empty()) result.push_back(builder.finish(featureIndex, cell, PieceKind::PolygonPart));
+      if (!builder.empty()) {
+        result.push_back(builder.finish(featureIndex, cell, PieceKind::PolygonPart));
+        result.back().source = static_cast<std::uint32_t>(k);
+      }
     }
   }
   return result;

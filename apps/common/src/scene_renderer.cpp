@@ -59,6 +59,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   const terrain::TerrainGrid& grid = scene.quadtree->grid();
   overlay::LayerBuildOptions options;
   options.paperVariant = settings.method == OverlayMethod::Paper;
+  options.adaptiveSplit = settings.adaptiveSplit;
   options.footprints.chordTolerance = settings.chordToleranceMetres;
   const glm::dvec2 a = grid.postPosition(0, 0), b = grid.postPosition(grid.width - 1, grid.height - 1);
   overlay::CellGrid cells;

@@ -82,7 +82,10 @@ enum class PieceKind : std::uint8_t { PolygonPart, Segment, Join, Cap };
 
 struct Footprint {
   std::uint32_t feature = 0;  ///< index of the feature in its layer
-  std::int32_t cell = -1;     ///< CellGrid::cellIndex, or −1 without a grid
+  std::int32_t cell = -1;     ///< CellGrid::cellIndex, or −1 without a grid (or over several cells)
+  /// The shape this footprint was cut from (a polygon of the feature, or a line's segment, join
+  /// or cap, counted per feature): the parts of one shape in different cells share it.
+  std::uint32_t source = 0;
   PieceKind kind = PieceKind::PolygonPart;
   std::vector<glm::dvec2> vertices;                     ///< frame coordinates
   std::vector<std::array<std::uint32_t, 3>> triangles;  ///< counter-clockwise, tiling the region

@@ -45,6 +45,12 @@ struct LayerBuildOptions {
   FootprintOptions footprints;
   /// The seed paper's construction: one bound pair per feature (no split at cells).
   bool paperVariant = false;
+  /// Keep a shape split at the cells only where that pays: when the parts' walls, each as high
+  /// as its own bounds, have less than `splitGain` of the area of the whole shape's walls under
+  /// the shape's bounds (flat ground, or a thin road whose pieces are short, keeps one piece).
+  /// Off: every shape is split at every cell it meets.
+  bool adaptiveSplit = true;
+  double splitGain = 0.7;
 };
 
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at

@@ -37,8 +37,9 @@ enum class OverlayMethod { Stencil, Paper, Drape };
 
 struct OverlayBuildSettings {
   OverlayMethod method = OverlayMethod::Stencil;
-  int drapeSize = 2048;  ///< Drape: texels per side of the texture over the terrain's extent
-  int cellPosts = 16;    ///< pieces are split at cells of this many DEM posts (tightness)
+  int drapeSize = 2048;       ///< Drape: texels per side of the texture over the terrain's extent
+  int cellPosts = 16;         ///< pieces are split at cells of this many DEM posts (tightness)
+  bool adaptiveSplit = true;  ///< keep the split only where it pays (overlay::LayerBuildOptions)
   double chordToleranceMetres = 0.02;
 };
 
