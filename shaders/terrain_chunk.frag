@@ -12,6 +12,10 @@ uniform vec3 u_lightDirection;
 uniform sampler2D u_drape;       // premultiplied RGBA, mip-mapped
 uniform sampler2D u_drapeMask;   // R32F layer bits, read at the nearest texel
 uniform int u_hasDrape;
+uniform int u_drapeTiled;               // draping per tile: the chunk's layer of the arrays
+uniform int u_drapeLayer;
+uniform sampler2DArray u_drapeTiles;    // premultiplied RGBA
+uniform sampler2DArray u_drapeTileMask; // R32F layer bits
 
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out vec4 o_mask;
@@ -31,9 +35,16 @@ void main() {
   o_mask = vec4(0.0);
   bool onDrape = all(greaterThanEqual(v_drapeUv, vec2(0.0))) && all(lessThan(v_drapeUv, vec2(1.0)));
   if (u_hasDrape != 0 && onDrape) {
-    vec4 layers = texture(u_drape, v_drapeUv);
+    vec4 layers;
+    if (u_drapeTiled != 0) {
+      layers = texture(u_drapeTiles, vec3(v_drapeUv, float(u_drapeLayer)));
+      ivec2 size = textureSize(u_drapeTileMask, 0).xy;
+      o_mask.r = texelFetch(u_drapeTileMask, ivec3(ivec2(floor(v_drapeUv * vec2(size))), u_drapeLayer), 0).r;
+    } else {
+      layers = texture(u_drape, v_drapeUv);
+      ivec2 size = textureSize(u_drapeMask, 0);
+      o_mask.r = texelFetch(u_drapeMask, ivec2(floor(v_drapeUv * vec2(size))), 0).r;
+    }
     o_color.rgb = o_color.rgb * (1.0 - layers.a) + layers.rgb;
-    ivec2 size = textureSize(u_drapeMask, 0);
-    o_mask.r = texelFetch(u_drapeMask, ivec2(floor(v_drapeUv * vec2(size))), 0).r;
   }
 }

@@ -29,6 +29,7 @@ struct Options {
   int width = 1200, height = 1000, frames = 90;
   int maxVolumes = 500, repeats = 5;                   ///< lasso mode
   std::vector<int> drapeSizes{512, 1024, 2048, 4096};  ///< methods mode: texture draping sizes
+  std::vector<int> tileSizes{256, 512};                ///< methods mode: draping per tile, texels per tile
   int errorEvery = 3;                                  ///< methods mode: error on every n-th frame
   int msaa = 0;                                        ///< methods mode: samples per pixel (0 = off)
   std::vector<std::string> segments;                   ///< methods mode: path segments to draw (empty = all)

@@ -61,10 +61,12 @@ constexpr const char* kUsage =
     "H] "
     "[--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
-    "                     [--repeats R] [--drape-sizes 512,1024,...] [--error-every N] [--msaa 0|2|4|8]\n"
+    "                     [--repeats R] [--drape-sizes 512,1024,...] [--tile-sizes 256,512]\n"
+    "                     [--error-every N] [--msaa 0|2|4|8]\n"
     "                     [--segments top-down,oblique,horizon,close-up] --out DIR\n"
     "--mode methods: terrain only, our stencil polyhedra, the paper's construction and texture draping\n"
-    "  at each --drape-sizes on the same frames: frame time, memory, build time and wrong pixels against\n"
+    "  at each --drape-sizes and per tile at each --tile-sizes (\"none\": no such method) on the same frames: frame "
+    "time, memory, build time and wrong pixels against\n"
     "  the CPU reference (every --error-every frames), GPU time and fragments per pass, per path segment\n"
     "  (--segments: which; close-up puts the eye 1.5 m over roads and areas); writes methods.json,\n"
     "  methods.csv, methods.md and plots; --msaa: multisampled targets, the error judged on sample 0\n"
@@ -101,14 +103,16 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       o.repeats = *n;
     else if (a == "--lod-tolerance" && app::parseDouble(v) && *app::parseDouble(v) >= 0.0)
       o.lodTolerance = *app::parseDouble(v);
-    else if (a == "--drape-sizes") {
-      o.drapeSizes.clear();
-      std::string list(v);
-      for (std::size_t start = 0; start <= list.size();) {
+    else if (a == "--drape-sizes" || a == "--tile-sizes") {
+      std::vector<int>& sizes = a == "--drape-sizes" ? o.drapeSizes : o.tileSizes;
+      sizes.clear();
+      const std::string list = v == "none" ? std::string() : std::string(v);
+      for (std::size_t start = 0; start < list.size();) {
         const std::size_t comma = std::min(list.find(',', start), list.size());
         const std::optional<int> size = app::parseInt(list.substr(start, comma - start));
-        if (!size || *size < 16 || *size > 16384) return "--drape-sizes: a comma-separated list of sizes 16 to 16384";
-        o.drapeSizes.push_back(*size);
+        if (!size || *size < 16 || *size > 16384)
+          return std::string(a) + ": a comma-separated list of sizes 16 to 16384 (or \"none\")";
+        sizes.push_back(*size);
         start = comma + 1;
       }
     } else if (a == "--error-every" && (n = app::parseInt(v)) && *n >= 1)

@@ -61,7 +61,8 @@ constexpr const char* kUsage =
     "--exaggeration: vertical exaggeration (default: the scene's)\n"
     "--method: stencil (default: our stencil polyhedra), paper (the seed paper's construction) or\n"
     "  drape (texture draping, the baseline of other viewers: the layers rasterised into an N x N\n"
-    "  texture over the terrain, --drape-size N, default 2048)\n";
+    "  texture over the terrain, --drape-size N, default 2048) or drape-tiles (an N x N texture per\n"
+    "  drawn terrain chunk, as osgEarth and iTowns drape)\n";
 
 struct Options {
   std::string scene;
@@ -172,8 +173,10 @@ std::string parseArgs(int argc, char** argv, Options& o) {
         o.method = app::OverlayMethod::Paper;
       } else if (m == "drape") {
         o.method = app::OverlayMethod::Drape;
+      } else if (m == "drape-tiles") {
+        o.method = app::OverlayMethod::DrapeTiles;
       } else if (error.empty()) {
-        error = "--method: stencil, paper or drape, not '" + m + "'";
+        error = "--method: stencil, paper, drape or drape-tiles, not '" + m + "'";
       }
     } else if (a == "--drape-size")
       error = setInt(o.drapeSize, 1, 65536);
@@ -654,15 +657,22 @@ int run(const Options& o) {
         {"imagery", scene->orthophoto.has_value()},
         {"pixels", terrainPixels}}},
       {"layers", layers},
-      {"method", o.method == app::OverlayMethod::Drape   ? "drape"
-                 : o.method == app::OverlayMethod::Paper ? "paper"
-                                                         : "stencil"},
+      {"method", o.method == app::OverlayMethod::Drape        ? "drape"
+                 : o.method == app::OverlayMethod::DrapeTiles ? "drape-tiles"
+                 : o.method == app::OverlayMethod::Paper      ? "paper"
+                                                              : "stencil"},
       {"passes",
        {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
       {"errors", all.count(Severity::Error)},
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},
       {"gl_errors", (*context)->debug().errorCount()}};
+  if (o.method == app::OverlayMethod::DrapeTiles) {
+    stats["drape"] = {{"tile_size", o.drapeSize},
+                      {"tiles_built", frame.drapeTilesBuilt},
+                      {"gpu_bytes", renderer->drapeGpuBytes()},
+                      {"build_s", frame.drapeTileSeconds}};
+  }
   if (const std::optional<overlay::TextureDrape>& drape = renderer->drape()) {
     stats["drape"] = {{"size", drape->stats().size},
                       {"triangles", drape->stats().triangles},

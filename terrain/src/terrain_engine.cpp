@@ -71,6 +71,8 @@ Result<TerrainEngine> TerrainEngine::create(std::shared_ptr<const TerrainQuadtre
   e.program_.set("u_imagery", 0);
   e.program_.set("u_drape", 1);
   e.program_.set("u_drapeMask", 2);
+  e.program_.set("u_drapeTiles", 3);
+  e.program_.set("u_drapeTileMask", 4);
   e.program_.set("u_hasImagery", e.imageryTransform_ ? 1 : 0);
   e.program_.set("u_lightDirection", glm::vec3(-0.5F, 0.6F, 0.8F));
   Result<TerrainEngine> r;
@@ -183,13 +185,20 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
     program_.set("u_uvScale", glm::vec2(1.0 / (g[1] * imagerySize_.x), 1.0 / (g[5] * imagerySize_.y)));
     glBindTextureUnit(0, imagery_.id());
   }
+  const bool tiled = drape_ && drape_->tileOf;
   program_.set("u_hasDrape", drape_ ? 1 : 0);
-  if (drape_) {
+  program_.set("u_drapeTiled", tiled ? 1 : 0);
+  if (drape_ && !tiled) {
     program_.set("u_drapeUvBase", glm::vec2((centre - drape_->origin) / drape_->size));
     program_.set("u_drapeUvScale", glm::vec2(1.0 / drape_->size));
     glBindTextureUnit(1, drape_->color);
     glBindTextureUnit(2, drape_->mask);
+  } else if (tiled) {
+    glBindTextureUnit(3, drape_->colorArray);
+    glBindTextureUnit(4, drape_->maskArray);
   }
+  const GLint hasDrapeLocation = program_.location("u_hasDrape");
+  const GLint drapeLayerLocation = program_.location("u_drapeLayer");
   const GLint baseLocation = program_.location("u_chunkBase");
   const GLint levelLocation = program_.location("u_level");
   for (const SelectedChunk& s : selection.chunks) {
@@ -199,6 +208,16 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
     const glm::ivec2 base = tree_->vertexPost(s.id, 0, 0);
     glProgramUniform2i(program_.id(), baseLocation, base.x, base.y);
     glProgramUniform1i(program_.id(), levelLocation, s.id.level);
+    if (tiled) {
+      const auto tile = drape_->tileOf(s.id);
+      glProgramUniform1i(program_.id(), hasDrapeLocation, tile ? 1 : 0);
+      if (tile) {
+        const auto& [layer, origin, size] = *tile;
+        glProgramUniform1i(program_.id(), drapeLayerLocation, layer);
+        program_.set("u_drapeUvBase", glm::vec2((centre - origin) / size));
+        program_.set("u_drapeUvScale", glm::vec2(1.0 / size));
+      }
+    }
     glVertexArrayElementBuffer(c->vao.id(), indexBuffer);
     glBindVertexArray(c->vao.id());
     glDrawElements(GL_TRIANGLES, indexCount, GL_UNSIGNED_INT, nullptr);

@@ -7,6 +7,8 @@
 // - its error against the CPU reference (away from feature edges) shrinks as the texture grows,
 //   and is not zero at coarse sizes seen close up, where our stencil polyhedra have none on the
 //   same depth.
+// Draping per tile: its error shrinks as the tiles grow; tiles are rasterised once and kept
+// while the view needs them.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -136,6 +138,70 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
       if (previous > 0.0 && c > 0) {
         EXPECT_LT(error, previous);
       }
+      previous = error;
+    }
+  }
+}
+
+TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
+  Result<app::SceneDescription> description =
+      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  Result<app::LoadedScene> scene = app::loadScene(*description);
+  ASSERT_TRUE(scene.ok());
+  glm::dvec3 lo, hi;
+  app::terrainBox(*scene, 1.0, lo, hi);
+  const glm::dvec3 centre = 0.5 * (lo + hi);
+  app::Camera close = app::overviewCamera(lo, hi);
+  close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
+  close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
+  app::Camera street = close;
+  street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
+  street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
+
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  app::RenderSettings settings;
+  settings.lodTolerancePixels = 0.5;
+  const double aspect = static_cast<double>(kWidth) / kHeight;
+  Result<app::SceneRenderer> stencil = app::SceneRenderer::create(*scene);
+  ASSERT_TRUE(stencil.ok());
+  std::vector<overlay::ReferenceLayer> ref;
+  for (const overlay::OverlayLayer& l : stencil->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
+
+  for (const app::Camera& camera : {close, street}) {
+    double previous = 1.0;
+    for (const int size : {64, 256, 1024}) {
+      app::OverlayBuildSettings build;
+      build.method = app::OverlayMethod::DrapeTiles;
+      build.drapeSize = size;
+      Result<app::SceneRenderer> tiled = app::SceneRenderer::create(*scene, build);
+      ASSERT_TRUE(tiled.ok());
+      const app::FrameStats first = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+      EXPECT_TRUE(first.draped);
+      EXPECT_GT(first.drapeTilesBuilt, 0u);
+      // The same view again: every tile is resident.
+      const app::FrameStats again = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+      EXPECT_EQ(again.drapeTilesBuilt, 0u);
+      EXPECT_GT(tiled->drapeGpuBytes(), 0u);
+      const std::vector<float> depth = gfx::readDepth(target);
+      const std::vector<std::uint32_t> mask = gfx::readMask(target);
+      const overlay::DepthImage image{kWidth, kHeight, depth, camera.projection(aspect) * camera.view()};
+      const std::vector<std::uint32_t> reference = overlay::referenceMask(image, ref);
+      const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
+      std::size_t judged = 0, wrong = 0;
+      for (std::size_t i = 0; i < mask.size(); ++i) {
+        if (!(depth[i] > 0.0F) || edges[i] != 0) continue;
+        ++judged;
+        wrong += mask[i] != reference[i] ? 1u : 0u;
+      }
+      const double error = static_cast<double>(wrong) / static_cast<double>(std::max<std::size_t>(judged, 1));
+      std::printf("drape tiles %d²: %zu of %zu pixels wrong away from edges (%.3f %%), %zu tiles\n", size, wrong,
+                  judged, 100.0 * error, first.drapeTilesBuilt);
+      EXPECT_GT(judged, 5000u);
+      if (size == 64) {
+        EXPECT_GT(wrong, 0u) << "close up, 64² tiles must show their texels";
+      }
+      EXPECT_LT(error, previous) << "larger tiles must be closer";
       previous = error;
     }
   }

@@ -158,4 +158,150 @@ std::uint32_t TextureDrape::maskAt(const std::vector<std::uint32_t>& mask, const
   return mask[y * static_cast<std::size_t>(stats_.size) + x];
 }
 
+Result<TiledDrape> TiledDrape::create(int tileSize) {
+  if (tileSize < 16 || tileSize > 4096) {
+    return Result<TiledDrape>::failure(
+        {Severity::Error, "", "", "", "tiled drape: tile size " + std::to_string(tileSize) + " outside [16, 4096]"});
+  }
+  Result<gfx::Program> program = gfx::Program::build({{"drape.vert", {}}, {"overlay_volume.frag", {}}});
+  if (!program) {
+    Result<TiledDrape> failed;
+    failed.diagnostics = std::move(program.diagnostics);
+    return failed;
+  }
+  TiledDrape d;
+  d.tileSize_ = tileSize;
+  d.program_ = std::move(*program);
+  d.vao_ = gfx::createVertexArray();
+  const GLuint vao = d.vao_.id();
+  glEnableVertexArrayAttrib(vao, 0);
+  glVertexArrayAttribFormat(vao, 0, 2, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, x));
+  glVertexArrayAttribBinding(vao, 0, 0);
+  glEnableVertexArrayAttrib(vao, 1);
+  glVertexArrayAttribFormat(vao, 1, 4, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, r));
+  glVertexArrayAttribBinding(vao, 1, 0);
+  d.stencil_ = gfx::createRenderbuffer();
+  glNamedRenderbufferStorage(d.stencil_.id(), GL_STENCIL_INDEX8, tileSize, tileSize);
+  d.fbo_ = gfx::createFramebuffer();
+  d.allocate(16);
+  Result<TiledDrape> r;
+  r.value = std::move(d);
+  return r;
+}
+
+void TiledDrape::allocate(int capacity) {
+  capacity_ = capacity;
+  tiles_.clear();
+  lru_.clear();
+  freeLayers_.clear();
+  for (int i = capacity - 1; i >= 0; --i) freeLayers_.push_back(i);
+  // No mip levels: a tile's texels are already about a pixel where its chunk is drawn.
+  color_ = gfx::createTexture(GL_TEXTURE_2D_ARRAY);
+  glTextureStorage3D(color_.id(), 1, GL_RGBA8, tileSize_, tileSize_, capacity);
+  glTextureParameteri(color_.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(color_.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(color_.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(color_.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  mask_ = gfx::createTexture(GL_TEXTURE_2D_ARRAY);
+  glTextureStorage3D(mask_.id(), 1, GL_R32F, tileSize_, tileSize_, capacity);
+  glTextureParameteri(mask_.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(mask_.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+}
+
+std::size_t TiledDrape::gpuBytes() const {
+  const auto texels = static_cast<std::size_t>(tileSize_) * static_cast<std::size_t>(tileSize_);
+  return static_cast<std::size_t>(capacity_) * texels * 8 + texels;  // RGBA8 + R32F per layer, stencil
+}
+
+void TiledDrape::beginFrame(std::size_t tiles) {
+  ++frame_;
+  if (tiles > static_cast<std::size_t>(capacity_)) {
+    int capacity = capacity_;
+    while (static_cast<std::size_t>(capacity) < tiles) capacity *= 2;
+    allocate(capacity);
+  }
+}
+
+void TiledDrape::invalidate() {
+  for (const auto& [key, entry] : tiles_) freeLayers_.push_back(entry.layer);
+  tiles_.clear();
+  lru_.clear();
+}
+
+TiledDrape::Tile TiledDrape::tile(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
+                                  std::uint64_t key, const DrapeExtent& extent, FrameStats& stats) {
+  if (const auto found = tiles_.find(key); found != tiles_.end()) {
+    Entry& e = found->second;
+    e.frame = frame_;
+    lru_.splice(lru_.begin(), lru_, e.lru);
+    stats.tilesResident = tiles_.size();
+    return {e.layer, e.extent};
+  }
+  if (freeLayers_.empty()) {
+    // The least recently used tile; beginFrame made room for every tile of this frame.
+    const std::uint64_t oldest = lru_.back();
+    freeLayers_.push_back(tiles_.at(oldest).layer);
+    tiles_.erase(oldest);
+    lru_.pop_back();
+  }
+  const int layer = freeLayers_.back();
+  freeLayers_.pop_back();
+  const auto start = std::chrono::steady_clock::now();
+  rasterise(cache, layers, layer, extent);
+  glFinish();
+  stats.buildSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++stats.tilesBuilt;
+  lru_.push_front(key);
+  tiles_[key] = Entry{layer, extent, frame_, lru_.begin()};
+  stats.tilesResident = tiles_.size();
+  return {layer, extent};
+}
+
+void TiledDrape::rasterise(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, int layer,
+                           const DrapeExtent& extent) {
+  glNamedFramebufferTextureLayer(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0, layer);
+  glNamedFramebufferTextureLayer(fbo_.id(), GL_COLOR_ATTACHMENT1, mask_.id(), 0, layer);
+  glNamedFramebufferRenderbuffer(fbo_.id(), GL_STENCIL_ATTACHMENT, GL_RENDERBUFFER, stencil_.id());
+  const GLenum buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+  glNamedFramebufferDrawBuffers(fbo_.id(), 2, buffers);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_.id());
+  glViewport(0, 0, tileSize_, tileSize_);
+  cache.apply(kDrapeLayer);
+  const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
+  glClearNamedFramebufferfv(fbo_.id(), GL_COLOR, 0, zero);
+  glClearNamedFramebufferfv(fbo_.id(), GL_COLOR, 1, zero);
+  program_.use();
+  program_.set("u_scale", glm::vec2(2.0 / extent.size.x, 2.0 / extent.size.y));
+  glBindVertexArray(vao_.id());
+  const glm::dvec2 lo = extent.origin, hi = extent.origin + extent.size;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const OverlayLayer* l = layers[i];
+    if (l == nullptr) continue;
+    std::vector<DrapeVertex> vertices;
+    const std::vector<FeatureStyle>& styles = l->featureStyles();
+    for (std::size_t p = 0; p < l->polyhedra().size(); ++p) {
+      if (!l->slots()[p].live) continue;
+      const Polyhedron& piece = l->polyhedra()[p];
+      if (piece.boxMax.x < lo.x || piece.boxMin.x > hi.x || piece.boxMax.y < lo.y || piece.boxMin.y > hi.y) continue;
+      const Footprint& f = piece.footprint;
+      if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
+      const glm::vec4 c = styles[f.feature].color;
+      for (const auto& t : f.triangles) {
+        for (const std::uint32_t k : t) {
+          const glm::dvec2 q = f.vertices[k] - extent.origin;
+          vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), c.x, c.y, c.z, c.w});
+        }
+      }
+    }
+    if (vertices.empty()) continue;
+    const gfx::BufferHandle buffer = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(DrapeVertex));
+    glVertexArrayVertexBuffer(vao_.id(), 0, buffer.id(), 0, sizeof(DrapeVertex));
+    program_.set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(i, 23)));
+    const GLint zeroStencil = 0;
+    glClearNamedFramebufferiv(fbo_.id(), GL_STENCIL, 0, &zeroStencil);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
+  }
+  glBindVertexArray(0);
+}
+
 }  // namespace gis::overlay

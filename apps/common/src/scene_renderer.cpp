@@ -73,6 +73,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   drapeSize_ = settings.drapeSize;
   drapeExtent_ = overlay::DrapeExtent{cells.origin, glm::max(extent, glm::dvec2(1e-3))};
   drape_.reset();
+  tiledDrape_.reset();
   drapeDirty_ = true;
   std::vector<std::size_t> order(scene.layers.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
@@ -196,10 +197,51 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
     glViewport(0, 0, width, height);
   }
-  stats.draped = draping && drape_.has_value();
-  if (stats.draped) {
-    terrain_->setDrape(terrain::TerrainEngine::Drape{drape_->colorTexture(), drape_->maskTexture(),
-                                                     drape_->extent().origin, drape_->extent().size});
+  const bool tiling = method_ == OverlayMethod::DrapeTiles && settings.overlays && !layers_.empty();
+  if (tiling) {
+    if (!tiledDrape_) {
+      Result<overlay::TiledDrape> created = overlay::TiledDrape::create(drapeSize_);
+      if (created) tiledDrape_ = std::move(*created);
+    } else if (drapeDirty_) {
+      tiledDrape_->invalidate();
+    }
+    drapeDirty_ = false;
+  }
+  if (tiling && tiledDrape_) {
+    std::vector<const overlay::OverlayLayer*> shown;
+    for (std::size_t j = 0; j < layers_.size(); ++j) shown.push_back(shown_[j] ? &layers_[j] : nullptr);
+    tiledDrape_->beginFrame(selection_.chunks.size());
+    overlay::TiledDrape::FrameStats tileStats;
+    frameTiles_.clear();
+    for (const terrain::SelectedChunk& c : selection_.chunks) {
+      const auto [lo, hi] = terrain_->tree().frameExtent(c.id);
+      frameTiles_[c.id.key()] =
+          tiledDrape_->tile(cache, shown, c.id.key(), overlay::DrapeExtent{lo, hi - lo}, tileStats);
+    }
+    stats.drapeTilesBuilt = tileStats.tilesBuilt;
+    stats.drapeTileSeconds = tileStats.buildSeconds;
+    if (tileStats.tilesBuilt > 0) {
+      glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+      glViewport(0, 0, width, height);
+    }
+    terrain::TerrainEngine::Drape d;
+    d.colorArray = tiledDrape_->colorArray();
+    d.maskArray = tiledDrape_->maskArray();
+    d.tileOf = [this](const terrain::NodeId& id) -> std::optional<std::tuple<int, glm::dvec2, glm::dvec2>> {
+      const auto found = frameTiles_.find(id.key());
+      if (found == frameTiles_.end()) return std::nullopt;
+      return std::tuple{found->second.layer, found->second.extent.origin, found->second.extent.size};
+    };
+    terrain_->setDrape(std::move(d));
+    stats.draped = true;
+  } else if (draping && drape_) {
+    stats.draped = true;
+    terrain::TerrainEngine::Drape d;
+    d.color = drape_->colorTexture();
+    d.mask = drape_->maskTexture();
+    d.origin = drape_->extent().origin;
+    d.size = drape_->extent().size;
+    terrain_->setDrape(std::move(d));
   } else {
     terrain_->setDrape(std::nullopt);
   }
@@ -215,7 +257,8 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     stats.terrain.counts = statistics_->result();
   }
   gfx::enableMaskWrites(framebuffer, true);
-  if (settings.overlays && !layers_.empty() && method_ != OverlayMethod::Drape) {
+  if (settings.overlays && !layers_.empty() && method_ != OverlayMethod::Drape &&
+      method_ != OverlayMethod::DrapeTiles) {
     const overlay::OverlayView overlayView = overlayViewOf(camera, aspect);
     std::vector<const overlay::OverlayLayer*> drawn;
     drawn.reserve(layers_.size());

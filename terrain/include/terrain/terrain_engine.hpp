@@ -5,9 +5,11 @@
 // shader where the chunk's stitch mask says so; vertical exaggeration is a uniform.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <list>
 #include <memory>
 #include <optional>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -66,6 +68,12 @@ class TerrainEngine {
     GLuint mask = 0;         ///< R32F layer bits
     glm::dvec2 origin{0.0};  ///< the extent's minimum corner, frame coordinates
     glm::dvec2 size{1.0};    ///< metres
+    /// Draping per tile (overlay::TiledDrape): texture arrays, and for each chunk its layer and
+    /// extent (origin, size); a chunk without one is drawn undraped. Then color, mask, origin
+    /// and size are not used.
+    GLuint colorArray = 0;
+    GLuint maskArray = 0;
+    std::function<std::optional<std::tuple<int, glm::dvec2, glm::dvec2>>(const NodeId&)> tileOf;
   };
   void setDrape(std::optional<Drape> drape) { drape_ = drape; }
   [[nodiscard]] bool hasDrape() const { return drape_.has_value(); }

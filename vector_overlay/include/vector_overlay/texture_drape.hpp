@@ -10,7 +10,9 @@
 // decides (GL's rasterisation rules), so a feature narrower than a texel may vanish.
 #include <cstddef>
 #include <cstdint>
+#include <list>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -64,6 +66,67 @@ class TextureDrape {
   gfx::TextureHandle mask_;
   DrapeExtent extent_;
   DrapeStats stats_;
+};
+
+/// Draping per quadtree tile, as osgEarth and iTowns do: each drawn terrain chunk gets its own
+/// `tileSize`² texture over its extent (a layer of a texture array), rasterised when the chunk
+/// is first drawn and kept while it is in use (least recently used tiles are reused). Finer
+/// chunks near the eye get finer texels; the cost is rasterising tiles as the view moves.
+class TiledDrape {
+ public:
+  /// Fails for a tile size outside [16, 4096]. Needs a current GL context.
+  static Result<TiledDrape> create(int tileSize);
+
+  struct Tile {
+    int layer = 0;  ///< in colorArray() / maskArray()
+    DrapeExtent extent;
+  };
+  struct FrameStats {
+    std::size_t tilesBuilt = 0;     ///< rasterised in this frame
+    double buildSeconds = 0.0;      ///< their rasterising, waited for
+    std::size_t tilesResident = 0;  ///< the array's layers in use
+  };
+
+  /// Marks the start of a frame that will ask for up to `tiles` tiles: tiles asked for from now on
+  /// are this frame's, and the array grows first if it holds fewer (every tile is then rebuilt).
+  void beginFrame(std::size_t tiles);
+  /// The tile of chunk `key` over `extent`, rasterised from the visible features of `layers` if
+  /// it is not resident (as TextureDrape::build), in place of the least recently used tile of an
+  /// earlier frame. `cache` is left consistent; the framebuffer binding is changed when a tile
+  /// is built.
+  Tile tile(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, std::uint64_t key,
+            const DrapeExtent& extent, FrameStats& stats);
+  /// Drops every tile (after an edit or a change of the shown layers).
+  void invalidate();
+
+  [[nodiscard]] GLuint colorArray() const { return color_.id(); }
+  [[nodiscard]] GLuint maskArray() const { return mask_.id(); }
+  [[nodiscard]] int tileSize() const { return tileSize_; }
+  [[nodiscard]] std::size_t gpuBytes() const;
+
+ private:
+  TiledDrape() = default;
+  void allocate(int capacity);
+  void rasterise(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, int layer,
+                 const DrapeExtent& extent);
+
+  struct Entry {
+    int layer = 0;
+    DrapeExtent extent;
+    std::uint64_t frame = 0;
+    std::list<std::uint64_t>::iterator lru;
+  };
+  int tileSize_ = 256;
+  int capacity_ = 0;
+  std::uint64_t frame_ = 0;
+  gfx::Program program_;
+  gfx::TextureHandle color_, mask_;
+  gfx::RenderbufferHandle stencil_;
+  gfx::FramebufferHandle fbo_;
+  gfx::VertexArrayHandle vao_;
+  std::unordered_map<std::uint64_t, Entry> tiles_;
+  std::list<std::uint64_t> lru_;  ///< most recently used first
+  std::vector<int> freeLayers_;
 };
 
 }  // namespace gis::overlay

@@ -33,11 +33,13 @@ struct RenderSettings {
 
 /// How the vector layers are drawn: ours, the seed paper's construction (for the benchmark), or
 /// texture draping (the baseline of other GIS viewers: overlay::TextureDrape).
-enum class OverlayMethod { Stencil, Paper, Drape };
+/// Stencil: our polyhedra; Paper: the seed paper's construction; Drape: one texture over the
+/// terrain (drapeSize² texels); DrapeTiles: a drapeSize² texture per drawn quadtree chunk.
+enum class OverlayMethod { Stencil, Paper, Drape, DrapeTiles };
 
 struct OverlayBuildSettings {
   OverlayMethod method = OverlayMethod::Stencil;
-  int drapeSize = 2048;       ///< Drape: texels per side of the texture over the terrain's extent
+  int drapeSize = 2048;       ///< Drape: texels per side of the texture over the terrain's extent; DrapeTiles: per tile
   int cellPosts = 16;         ///< pieces are split at cells of this many DEM posts (tightness)
   bool adaptiveSplit = true;  ///< keep the split only where it pays (overlay::LayerBuildOptions)
   double chordToleranceMetres = 0.02;
@@ -58,6 +60,8 @@ struct FrameStats {
   std::vector<overlay::LayerFrameStats> layers;  ///< per drawn overlay layer (fill, then outline)
   bool draped = false;                           ///< the layers came from the texture drape
   double drapeBuildSeconds = 0.0;                ///< the drape was (re)built in this frame, so long
+  std::size_t drapeTilesBuilt = 0;               ///< DrapeTiles: tiles rasterised in this frame
+  double drapeTileSeconds = 0.0;                 ///< and the time that took (part of the frame)
   std::size_t tilesMissing = 0;                  ///< paged terrain: tiles wanted but not loaded (parents drawn)
   std::size_t tilesArrived = 0;                  ///< paged terrain: tiles that became resident this frame
   terrain::TilePagerStats pager;
@@ -100,6 +104,10 @@ class SceneRenderer {
   /// The texture drape (method Drape) as last built: at the first frame that draws overlays, and
   /// again after a change of the shown layers.
   [[nodiscard]] const std::optional<overlay::TextureDrape>& drape() const { return drape_; }
+  /// GPU bytes of the drape (either kind), 0 before the first draped frame.
+  [[nodiscard]] std::size_t drapeGpuBytes() const {
+    return drape_ ? drape_->stats().gpuBytes : tiledDrape_ ? tiledDrape_->gpuBytes() : 0;
+  }
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
   [[nodiscard]] const std::vector<std::pair<std::size_t, bool>>& overlaySources() const { return sources_; }
 
@@ -114,6 +122,8 @@ class SceneRenderer {
   int drapeSize_ = 2048;
   overlay::DrapeExtent drapeExtent_;
   std::optional<overlay::TextureDrape> drape_;
+  std::optional<overlay::TiledDrape> tiledDrape_;
+  std::unordered_map<std::uint64_t, overlay::TiledDrape::Tile> frameTiles_;  ///< this frame's, per chunk
   bool drapeDirty_ = true;
   terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
