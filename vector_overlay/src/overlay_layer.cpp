@@ -256,6 +256,7 @@ Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const
     assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());
   Result<OverlayLayer> r;
+  layer.building_ = true;
   for (std::size_t i = 0; i < layer.features_.size(); ++i) {
     if (!layer.styles_[i].visible) continue;
     const std::size_t errorsBefore = r.diagnostics.count(Severity::Error);
@@ -264,6 +265,8 @@ Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const
     if (pieces.empty() && r.diagnostics.count(Severity::Error) > errorsBefore) ++layer.stats_.skippedFeatures;
     layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces));
   }
+  layer.building_ = false;
+  layer.reallocate(std::max<std::size_t>(layer.vertexUsed_, 1), std::max<std::size_t>(layer.indexUsed_, 1));
   layer.stats_.features = layer.features_.size();
   layer.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.value = std::move(layer);
@@ -401,8 +404,13 @@ std::optional<glm::vec4> OverlayLayer::uniformColor() const {
 
 void OverlayLayer::ensureCapacity(std::size_t vertices, std::size_t indices) {
   if (vertices <= vertexCapacity_ && indices <= indexCapacity_ && vertices_ && indices_) return;
-  vertexCapacity_ = std::max<std::size_t>({vertices, 2 * vertexCapacity_, 1024});
-  indexCapacity_ = std::max<std::size_t>({indices, 2 * indexCapacity_, 4096});
+  reallocate(std::max<std::size_t>({vertices, 2 * vertexCapacity_, 1024}),
+             std::max<std::size_t>({indices, 2 * indexCapacity_, 4096}));
+}
+
+void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapacity) {
+  vertexCapacity_ = vertexCapacity;
+  indexCapacity_ = indexCapacity;
   // New storage with everything so far (the CPU copy is the source).
   vertices_ = gfx::createBuffer();
   indices_ = gfx::createBuffer();
@@ -439,6 +447,12 @@ void OverlayLayer::appendGeometry(std::size_t slot, std::vector<Vertex> v, std::
   cpuVertices_.insert(cpuVertices_.end(), v.begin(), v.end());
   cpuIndices_.insert(cpuIndices_.end(), i.begin(), i.end());
   if (widthPixels() > 0.0) cpuScaling_.insert(cpuScaling_.end(), scaling.begin(), scaling.end());
+  if (building_) {
+    // The first build uploads once, at its end, into buffers of exactly this size.
+    vertexUsed_ += v.size();
+    indexUsed_ += i.size();
+    return;
+  }
   ensureCapacity(vertexUsed_ + v.size(), indexUsed_ + i.size());
   glNamedBufferSubData(vertices_.id(), static_cast<GLintptr>(vertexUsed_ * sizeof(Vertex)),
                        static_cast<GLsizeiptr>(v.size() * sizeof(Vertex)), v.data());

@@ -151,6 +151,8 @@ class OverlayLayer {
   void freePieces(std::uint32_t feature);
   Diagnostics rebuildFeature(std::size_t index);
   std::uint32_t originFor(const Polyhedron& p);
+  /// New buffers of these capacities holding the CPU copy.
+  void reallocate(std::size_t vertexCapacity, std::size_t indexCapacity);
   void ensureCapacity(std::size_t vertices, std::size_t indices);
   void appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i,
                       std::vector<glm::vec3> scaling);
@@ -169,6 +171,7 @@ class OverlayLayer {
   std::vector<std::uint32_t> cpuIndices_;
   std::vector<glm::vec3> cpuScaling_;  ///< lines in pixels only, per vertex
   gfx::BufferHandle vertices_, indices_, scaling_;
+  bool building_ = false;  ///< in build(): geometry is uploaded once at its end
   std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
   std::size_t vertexUsed_ = 0, indexUsed_ = 0;
   std::size_t wastedIndices_ = 0;
