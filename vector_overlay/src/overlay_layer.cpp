@@ -325,10 +325,10 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
     }
     for (const auto& t : f.triangles) idx.insert(idx.end(), {2 * t[0] + 1, 2 * t[1] + 1, 2 * t[2] + 1});
     s.indexCount = static_cast<std::uint32_t>(idx.size());
-    // The piece's bounding box, for the paper variant's cover.
+    // The piece's bounding box, for the paper variant's cover (only there: 300 bytes a piece).
     const auto boxBase = static_cast<std::uint32_t>(v.size());
     const glm::vec2 b0(p.boxMin - origin), b1(p.boxMax - origin);
-    for (int k = 0; k < 8; ++k) {
+    for (int k = 0; k < (options_.paperVariant ? 8 : 0); ++k) {
       const bool top = (k & 4) != 0;
       v.push_back({(k & 1) != 0 ? b1.x : b0.x,
                    (k & 2) != 0 ? b1.y : b0.y,
@@ -340,7 +340,9 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
     // Box faces, outward (vertex k: bit 0 = +x, bit 1 = +y, bit 2 = top).
     constexpr std::uint32_t kBox[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
                                         2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
-    for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
+    if (options_.paperVariant) {
+      for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
+    }
     if (widthPixels() > 0.0) scaling.resize(v.size(), glm::vec3(0.0F));  // the box does not scale
     stats_.pieces += 1;
     stats_.triangles += s.indexCount / 3;
@@ -473,7 +475,7 @@ void OverlayLayer::freePieces(std::uint32_t feature) {
     PieceSlot& s = slots_[slot];
     if (!s.live) continue;
     s.live = false;
-    wastedIndices_ += s.indexCount + 36;
+    wastedIndices_ += s.indexCount + (options_.paperVariant ? 36 : 0);
     stats_.pieces -= 1;
     stats_.triangles -= s.indexCount / 3;
   }
