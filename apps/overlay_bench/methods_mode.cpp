@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numbers>
@@ -73,6 +74,7 @@ struct Method {
   std::size_t triangles = 0;   ///< of the built polyhedra
   double buildSeconds = 0.0;   ///< polyhedra or drape build; for tiles, all tiles of the path
   std::size_t tilesBuilt = 0;  ///< DrapeTiles: tiles rasterised over the path
+  double editMs = 0.0;         ///< a one-feature edit: pieces rebuilt, and the drape (tiles) again
 };
 
 /// Draws every variant on the methods path of o.scene, prints and writes the tables and plots
@@ -179,7 +181,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
       m.shared = &*m.renderer;
       built[key] = m.shared;
     }
-    if (m.overlays && m.method != app::OverlayMethod::Drape) {
+    if (m.overlays && (m.method == app::OverlayMethod::Stencil || m.method == app::OverlayMethod::Paper)) {
       for (const overlay::OverlayLayer& l : m.shared->overlayLayers()) {
         m.gpuBytes += l.stats().gpuBytes;
         m.buildSeconds += l.stats().buildSeconds;
@@ -315,6 +317,44 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     }
   }
 
+  // A one-feature edit per method, after the path: a vertex of the first feature of the first
+  // layer moved by 10 m; the time to rebuild its pieces, plus for draping the texture (or the
+  // tiles over the feature) rasterised again in the next frame.
+  for (Method& m : methods) {
+    if (!m.overlays || m.shared->overlayLayers().empty()) continue;
+    overlay::OverlayLayer& layer = m.shared->overlayLayer(0);
+    if (layer.features().empty()) continue;
+    geo::Feature feature = layer.features().front();
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    const auto extend = [&](const std::vector<glm::dvec2>& points) {
+      for (const glm::dvec2& p : points) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+    };
+    if (!feature.polygons.empty() && !feature.polygons.front().outer.empty()) {
+      feature.polygons.front().outer.front() += glm::dvec2(10.0, 0.0);
+      for (const geo::Polygon& p : feature.polygons) extend(p.outer);
+    } else if (!feature.lines.empty() && !feature.lines.front().empty()) {
+      feature.lines.front().front() += glm::dvec2(10.0, 0.0);
+      for (const geo::LineString& l : feature.lines) extend(l);
+    } else {
+      continue;
+    }
+    const double margin = 2.0 * layer.style().maxWidthMetres + 20.0;  // widths and outlines
+    glFinish();
+    const auto start = std::chrono::steady_clock::now();
+    (void)layer.replaceFeature(0, feature);
+    m.shared->invalidateDrape(lo - margin, hi + margin);
+    m.editMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    settings.overlays = true;
+    settings.overlay = overlay::OverlaySettings{};
+    if (m.adjust) m.adjust(settings.overlay);
+    const app::FrameStats after =
+        m.shared->render(cache, target.framebuffer(), o.width, o.height, path.back().camera, settings);
+    m.editMs += 1e3 * (after.drapeBuildSeconds + after.drapeTileSeconds);
+  }
+
   const Method& ours = methods[1];
   json table = json::array();
   std::printf("%-24s %9s %9s %9s %10s %10s %10s %11s %10s %12s %8s %8s\n", "method", "median ms", "p95 ms", "x terrain",
@@ -334,6 +374,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     entry["triangles"] = m.triangles;
     entry["build_s"] = m.buildSeconds;
     entry["tiles_built"] = m.tilesBuilt;
+    entry["edit_ms"] = m.editMs;
     json segments = json::object();
     for (const auto& [name, st] : m.segments) {
       const auto found = ours.segments.find(name);
@@ -383,19 +424,20 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   {
     std::ofstream md(std::filesystem::path(o.out) / (stem + ".md"));
     md << "| method | median ms | p95 ms | × terrain | GPU ms terrain / mark / cover | fragments × ours | "
-          "fragments per covered pixel | wrong % | wrong % away from edges | GPU MB | build s |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "fragments per covered pixel | wrong % | wrong % away from edges | GPU MB | build s | edit ms |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     const double oursFragments = static_cast<double>(std::max<std::uint64_t>(ours.all.fragments(), 1));
     for (const Method& m : methods) {
       const Tally& t = m.all;
       char row[384];
       std::snprintf(row, sizeof(row),
-                    "| %s | %.1f | %.1f | %.3f | %.1f / %.1f / %.1f | %.2f | %.1f | %.4g | %.4g | %.1f | %.2f |\n",
+                    "| %s | %.1f | %.1f | %.3f | %.1f / %.1f / %.1f | %.2f | %.1f | %.4g | %.4g | %.1f | %.2f | %.1f |\n",
                     m.name.c_str(), median(t.ms), percentile(t.ms, 95), m.overlays ? median(t.ratio) : 1.0,
                     median(t.terrainGpuMs), median(t.markGpuMs), median(t.coverGpuMs),
                     static_cast<double>(t.fragments()) / oursFragments,
                     t.covered > 0 ? static_cast<double>(t.fragments()) / static_cast<double>(t.covered) : 0.0,
-                    t.wrongPct(), t.wrongAwayPct(), static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds);
+                    t.wrongPct(), t.wrongAwayPct(), static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds,
+                    m.editMs);
       md << row;
     }
     md << "\nPer path segment (fragments against ours on the same segment; the horizon segment is the grazing "

@@ -228,6 +228,19 @@ void TiledDrape::invalidate() {
   lru_.clear();
 }
 
+void TiledDrape::invalidate(const glm::dvec2& lo, const glm::dvec2& hi) {
+  for (auto it = tiles_.begin(); it != tiles_.end();) {
+    const glm::dvec2 a = it->second.extent.origin, b = a + it->second.extent.size;
+    if (b.x < lo.x || a.x > hi.x || b.y < lo.y || a.y > hi.y) {
+      ++it;
+      continue;
+    }
+    freeLayers_.push_back(it->second.layer);
+    lru_.erase(it->second.lru);
+    it = tiles_.erase(it);
+  }
+}
+
 TiledDrape::Tile TiledDrape::tile(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
                                   std::uint64_t key, const DrapeExtent& extent, FrameStats& stats) {
   if (const auto found = tiles_.find(key); found != tiles_.end()) {

@@ -96,8 +96,10 @@ class TiledDrape {
   /// is built.
   Tile tile(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, std::uint64_t key,
             const DrapeExtent& extent, FrameStats& stats);
-  /// Drops every tile (after an edit or a change of the shown layers).
+  /// Drops every tile (after a change of the shown layers).
   void invalidate();
+  /// Drops the tiles whose extent meets the box [lo, hi] (after an edit there).
+  void invalidate(const glm::dvec2& lo, const glm::dvec2& hi);
 
   [[nodiscard]] GLuint colorArray() const { return color_.id(); }
   [[nodiscard]] GLuint maskArray() const { return mask_.id(); }

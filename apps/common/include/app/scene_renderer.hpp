@@ -93,6 +93,12 @@ class SceneRenderer {
   [[nodiscard]] overlay::OverlayRenderer& overlayRenderer() { return *overlay_; }
   /// For editing features (the next frame shows the change).
   [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
+  /// After an edit of overlayLayer(i): a single drape is rasterised again at the next frame;
+  /// of a tiled drape only the tiles over the frame-coordinate box [lo, hi].
+  void invalidateDrape(const glm::dvec2& lo, const glm::dvec2& hi) {
+    drapeDirty_ = drapeDirty_ || drape_.has_value();
+    if (tiledDrape_) tiledDrape_->invalidate(lo, hi);
+  }
   /// Shows or hides one overlay layer from the next frame on (no rebuild; mask bits keep their
   /// places). A rebuild shows every layer again.
   void setShown(std::size_t overlayLayer, bool shown) {
