@@ -135,6 +135,20 @@ TEST(AdaptiveSplit, FlatGroundWeldsAPolygonBackIntoOnePiece) {
   const Footprint& fp = adaptive[0].footprint;
   for (const auto& e : fp.boundary) perimeter += glm::length(fp.vertices[e[1]] - fp.vertices[e[0]]);
   EXPECT_NEAR(perimeter, 4000.0, 1e-6);
+  // Inside the grid it is the square itself, not its 121 parts welded: 2 triangles, 4 walls.
+  EXPECT_EQ(fp.triangles.size(), 2u);
+  EXPECT_EQ(fp.boundary.size(), 4u);
+  expectClosedAndBounded(adaptive, flat);
+}
+
+TEST(AdaptiveSplit, AShapeReachingOutOfTheGridIsWeldedFromItsClippedParts) {
+  // The grid ends at x = 5000: the part beyond is dropped, so the welded parts (not the whole
+  // square) make the piece.
+  const PlaneBounds flat(0.0, 0.0);
+  const std::vector<Polyhedron> adaptive = build(square(4750.0, 0.0, 500.0), LayerKind::Polygon, flat, true);
+  ASSERT_EQ(adaptive.size(), 1u);
+  EXPECT_NEAR(totalArea(adaptive), 250.0 * 500.0, 1e-6);
+  for (const glm::dvec2& v : adaptive[0].footprint.vertices) EXPECT_LE(v.x, 5000.0);
   expectClosedAndBounded(adaptive, flat);
 }
 

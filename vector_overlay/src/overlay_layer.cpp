@@ -6,10 +6,12 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <unordered_map>
 #include <variant>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 
 #include "footprint_geometry.hpp"
 
@@ -135,7 +137,19 @@ double perimeter(const Footprint& f) {
 /// the per-piece cost), the parts are welded back into one piece under their joint bounds. The
 /// union of the parts is the same region, and joint bounds hold every part's surface, so the
 /// bounds contract holds either way.
-std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces, const LayerBuildOptions& options) {
+std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces, const LayerBuildOptions& options,
+                                                  std::vector<Footprint> wholeShapes) {
+  // The shapes unsplit, by source, where they lie inside the grid (then a shape is exactly the
+  // union of its parts, with fewer triangles and walls than the parts welded together).
+  const CellGrid& grid = *options.footprints.cells;
+  const glm::dvec2 gridMin = grid.origin, gridMax = grid.origin + grid.cellSize * glm::dvec2(grid.columns, grid.rows);
+  std::unordered_map<std::uint32_t, Footprint> whole;
+  for (Footprint& f : wholeShapes) {
+    bool inside = !f.triangles.empty();
+    for (const glm::dvec2& v : f.vertices)
+      inside = inside && glm::all(glm::greaterThanEqual(v, gridMin)) && glm::all(glm::lessThanEqual(v, gridMax));
+    if (inside) whole.emplace(f.source, std::move(f));
+  }
   std::vector<Polyhedron> out;
   out.reserve(pieces.size());
   for (std::size_t first = 0; first < pieces.size();) {
@@ -160,10 +174,17 @@ std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces
       const Footprint& f = p.footprint;
       for (const auto& t : f.triangles) builder.addTriangle(f.vertices[t[0]], f.vertices[t[1]], f.vertices[t[2]]);
     }
-    Footprint whole = builder.finish(pieces[first].footprint.feature, -1, pieces[first].footprint.kind);
-    whole.source = pieces[first].footprint.source;
-    const double wholeWalls = perimeter(whole) * (hi - lo + 1.0);
-    if (splitWalls < options.splitGain * wholeWalls || whole.triangles.empty()) {
+    const auto unsplit = whole.find(pieces[first].footprint.source);
+    Footprint merged;
+    if (unsplit != whole.end()) {
+      merged = std::move(unsplit->second);
+      merged.cell = -1;
+    } else {
+      merged = builder.finish(pieces[first].footprint.feature, -1, pieces[first].footprint.kind);
+      merged.source = pieces[first].footprint.source;
+    }
+    const double wholeWalls = perimeter(merged) * (hi - lo + 1.0);
+    if (splitWalls < options.splitGain * wholeWalls || merged.triangles.empty()) {
       for (std::size_t k = first; k < last; ++k) out.push_back(std::move(pieces[k]));
     } else {
       Polyhedron p;
@@ -176,7 +197,7 @@ std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces
       p.lo = lo;
       p.hi = hi;
       p.overSurface = overSurface;
-      p.footprint = std::move(whole);
+      p.footprint = std::move(merged);
       out.push_back(std::move(p));
     }
     first = last;
@@ -205,8 +226,16 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
     featureBounds.hi = std::max(featureBounds.hi, p.hi);
     out.push_back(std::move(p));
   }
-  if (options.adaptiveSplit && fo.cells && !options.paperVariant)
-    out = mergeWhereSplitDoesNotPay(std::move(out), options);
+  if (options.adaptiveSplit && fo.cells && !options.paperVariant) {
+    // The same shapes unsplit (their problems were reported above).
+    FootprintOptions unsplit = fo;
+    unsplit.cells.reset();
+    Diagnostics repeated;
+    std::vector<Footprint> whole =
+        kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, unsplit, repeated)
+                                   : lineFootprints(feature, featureIndex, layerName, style.shape, unsplit, repeated);
+    out = mergeWhereSplitDoesNotPay(std::move(out), options, std::move(whole));
+  }
   if (options.paperVariant) {
     // One bound pair per feature, as the seed paper builds them.
     for (Polyhedron& p : out) {
