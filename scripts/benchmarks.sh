@@ -6,17 +6,19 @@
 # - frame time against DEM size (1025², 4097², 16385² under the same vectors) and against the
 #   vector load (1x, 10x, 100x the paper's on the 16385² DEM): --mode scaling.
 # Run it on an idle machine: frame times are wall time (ratios come from one run).
+# --docs-only: only copy the results already in out/benchmarks into docs/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+o=out/benchmarks
+p=out/paper_scale
 
+if [[ "${1:-}" != "--docs-only" ]]; then
 bash scripts/install-deps.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build -j "$(nproc)" --target overlay_bench terrain_synth
 bash scripts/paper_scale_scenes.sh build
 
 bench=build/apps/overlay_bench
-o=out/benchmarks
-p=out/paper_scale
 "$bench" --scene samples/olinda/scene.json --mode methods --frames 30 --width 1200 --height 1000 \
   --drape-sizes 512,1024,2048,4096,8192 --error-every 3 --out "$o/methods"
 "$bench" --scene samples/olinda/scene.json --mode ablation --frames 30 --width 1200 --height 1000 \
@@ -25,12 +27,13 @@ p=out/paper_scale
   --drape-sizes 1024,4096,8192 --error-every 3 --out "$o/paper"
 "$bench" --scene "$p/dem_16385_x1.json" --mode ablation --frames 30 --width 1200 --height 1000 \
   --error-every 3 --out "$o/paper_ablation"
-"$bench" --scene "$p/dem_16385_x1.json" --mode methods --frames 21 --width 1920 --height 1080 --msaa 4 \
+"$bench" --scene "$p/dem_16385_x1.json" --mode methods --frames 15 --width 1920 --height 1080 --msaa 4 \
   --drape-sizes 4096 --error-every 3 --out "$o/paper_1080_msaa4"
 "$bench" --mode scaling --scenes "$p/dem_1025_x1.json,$p/dem_4097_x1.json,$p/dem_16385_x1.json" \
   --frames 30 --width 1200 --height 1000 --error-every 5 --out "$o/scaling_dem"
 "$bench" --mode scaling --scenes "$p/dem_16385_x1.json,$p/dem_16385_x10.json,$p/dem_16385_x100.json" \
   --frames 30 --width 1200 --height 1000 --error-every 5 --out "$o/scaling_vectors"
+fi
 
 mkdir -p docs/images
 cp "$o/methods/methods_error_vs_time.svg" docs/images/methods_error_vs_time.svg
