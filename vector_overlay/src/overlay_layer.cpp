@@ -305,12 +305,12 @@ Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const
 std::uint32_t OverlayLayer::originFor(const Polyhedron& p) {
   const glm::dvec2 centre = 0.5 * (p.boxMin + p.boxMax);
   const glm::dvec2 origin = (glm::floor(centre / kOriginGrid) + 0.5) * kOriginGrid;
-  for (std::size_t i = origins_.size(); i-- > 0;) {  // recent origins first: pieces come in runs
-    if (origins_[i] == origin) return static_cast<std::uint32_t>(i);
-    if (origins_.size() - i > 64) break;
-  }
-  const auto found = std::find(origins_.begin(), origins_.end(), origin);
-  if (found != origins_.end()) return static_cast<std::uint32_t>(found - origins_.begin());
+  // Origins lie on a 1 km grid: the cell's integer coordinates are the key (coordinates are
+  // bounded by 1e15 m, so they fit 64 bits).
+  const glm::dvec2 cell = glm::floor(centre / kOriginGrid);
+  const std::pair<std::int64_t, std::int64_t> key{static_cast<std::int64_t>(cell.x), static_cast<std::int64_t>(cell.y)};
+  const auto [found, added] = originIndex_.try_emplace(key, static_cast<std::uint32_t>(origins_.size()));
+  if (!added) return found->second;
   origins_.push_back(origin);
   return static_cast<std::uint32_t>(origins_.size() - 1);
 }

@@ -10,9 +10,11 @@
 // [bottom cap | walls | top cap], so z-pass draws can leave out the bottom cap.
 #include <array>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -167,6 +169,7 @@ class OverlayLayer {
   std::vector<PieceSlot> slots_;
   std::vector<Polyhedron> polyhedra_;  ///< per slot
   std::vector<glm::dvec2> origins_;
+  std::map<std::pair<std::int64_t, std::int64_t>, std::uint32_t> originIndex_;  ///< grid cell → index in origins_
   std::vector<Vertex> cpuVertices_;
   std::vector<std::uint32_t> cpuIndices_;
   std::vector<glm::vec3> cpuScaling_;  ///< lines in pixels only, per vertex
