@@ -430,14 +430,14 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     for (const Method& m : methods) {
       const Tally& t = m.all;
       char row[384];
-      std::snprintf(row, sizeof(row),
-                    "| %s | %.1f | %.1f | %.3f | %.1f / %.1f / %.1f | %.2f | %.1f | %.4g | %.4g | %.1f | %.2f | %.1f |\n",
-                    m.name.c_str(), median(t.ms), percentile(t.ms, 95), m.overlays ? median(t.ratio) : 1.0,
-                    median(t.terrainGpuMs), median(t.markGpuMs), median(t.coverGpuMs),
-                    static_cast<double>(t.fragments()) / oursFragments,
-                    t.covered > 0 ? static_cast<double>(t.fragments()) / static_cast<double>(t.covered) : 0.0,
-                    t.wrongPct(), t.wrongAwayPct(), static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds,
-                    m.editMs);
+      std::snprintf(
+          row, sizeof(row),
+          "| %s | %.1f | %.1f | %.3f | %.1f / %.1f / %.1f | %.2f | %.1f | %.4g | %.4g | %.1f | %.2f | %.1f |\n",
+          m.name.c_str(), median(t.ms), percentile(t.ms, 95), m.overlays ? median(t.ratio) : 1.0,
+          median(t.terrainGpuMs), median(t.markGpuMs), median(t.coverGpuMs),
+          static_cast<double>(t.fragments()) / oursFragments,
+          t.covered > 0 ? static_cast<double>(t.fragments()) / static_cast<double>(t.covered) : 0.0, t.wrongPct(),
+          t.wrongAwayPct(), static_cast<double>(m.gpuBytes) / 1048576.0, m.buildSeconds, m.editMs);
       md << row;
     }
     md << "\nPer path segment (fragments against ours on the same segment; the horizon segment is the grazing "
