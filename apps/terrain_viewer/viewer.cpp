@@ -852,9 +852,10 @@ nlohmann::json Viewer::state() const {
       {"framebuffer", {fb.x, fb.y}},
       {"window", {window.x, window.y}},
       {"overlays", render_.overlays},
-      {"method", method_ == app::OverlayMethod::Drape   ? "drape"
-                 : method_ == app::OverlayMethod::Paper ? "paper"
-                                                        : "stencil"},
+      {"method", method_ == app::OverlayMethod::Drape        ? "drape"
+                 : method_ == app::OverlayMethod::DrapeTiles ? "drape-tiles"
+                 : method_ == app::OverlayMethod::Paper      ? "paper"
+                                                             : "stencil"},
       {"view",
        {{"wireframe", render_.wireframe},
         {"imagery", settings_.imagery},
@@ -931,9 +932,10 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       render_.overlays = step.on;
       return true;
     case app::ScriptAction::Method:
-      method_ = step.text == "paper"   ? app::OverlayMethod::Paper
-                : step.text == "drape" ? app::OverlayMethod::Drape
-                                       : app::OverlayMethod::Stencil;
+      method_ = step.text == "paper"         ? app::OverlayMethod::Paper
+                : step.text == "drape"       ? app::OverlayMethod::Drape
+                : step.text == "drape-tiles" ? app::OverlayMethod::DrapeTiles
+                                             : app::OverlayMethod::Stencil;
       if (step.frames > 0) drapeSize_ = step.frames;
       rebuildOverlays();
       return true;

@@ -2,6 +2,7 @@
 // the HUD, the key help, identify results and the lasso being drawn.
 #include <algorithm>
 #include <cstdio>
+#include <span>
 #include <string>
 
 #include "gfx/gl.hpp"
@@ -59,10 +60,16 @@ void Viewer::drawPanel() {
     changed =
         ImGui::RadioButton("paper's construction", &method, static_cast<int>(app::OverlayMethod::Paper)) || changed;
     changed = ImGui::RadioButton("texture draping", &method, static_cast<int>(app::OverlayMethod::Drape)) || changed;
-    if (method_ == app::OverlayMethod::Drape) {
-      // The baseline of other viewers, for comparison: its texels show close up.
+    ImGui::SameLine();
+    changed = ImGui::RadioButton("per tile", &method, static_cast<int>(app::OverlayMethod::DrapeTiles)) || changed;
+    if (method_ == app::OverlayMethod::Drape || method_ == app::OverlayMethod::DrapeTiles) {
+      // The baseline of other viewers, for comparison: its texels show close up. Per tile, the
+      // size is each drawn chunk's texture.
       ImGui::SameLine();
-      static constexpr int kSizes[] = {512, 1024, 2048, 4096, 8192};
+      static constexpr int kDrapeSizes[] = {512, 1024, 2048, 4096, 8192};
+      static constexpr int kTileSizes[] = {128, 256, 512, 1024};
+      const std::span<const int> kSizes =
+          method_ == app::OverlayMethod::Drape ? std::span<const int>(kDrapeSizes) : std::span<const int>(kTileSizes);
       const std::string current = std::to_string(drapeSize_) + "²";
       ImGui::SetNextItemWidth(6.0F * ImGui::GetFontSize());
       if (ImGui::BeginCombo("##drape size", current.c_str())) {
@@ -77,10 +84,15 @@ void Viewer::drawPanel() {
       if (const auto& drape = renderer_->drape()) {
         ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
                             static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
+      } else if (method_ == app::OverlayMethod::DrapeTiles) {
+        ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(renderer_->drapeGpuBytes()) / 1048576.0);
       }
     }
     if (changed && static_cast<app::OverlayMethod>(method) != method_) {
       method_ = static_cast<app::OverlayMethod>(method);
+      // A tile per drawn chunk: keep tiles small (a single drape's size would be far too much).
+      if (method_ == app::OverlayMethod::DrapeTiles && drapeSize_ > 1024) drapeSize_ = 256;
+      if (method_ == app::OverlayMethod::Drape && drapeSize_ < 512) drapeSize_ = 2048;
       rebuildOverlays();
     }
     ImGui::Checkbox("debug: pieces", &debugPieces_);

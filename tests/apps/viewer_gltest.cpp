@@ -448,6 +448,10 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
             {{"wait", 1}},
             shot("draped.png"),
             save("draped.json"),
+            {{"action", "method"}, {"value", "drape-tiles"}, {"drape_size", 512}},
+            {{"wait", 1}},
+            shot("tiled.png"),
+            save("tiled.json"),
             {{"action", "method"}, {"value", "stencil"}},
             {{"action", "drop"}, {"paths", {data + "/holes_and_multipolygons.geojson"}}},
             save("s1.json"),
@@ -513,6 +517,16 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
               fillDiffers, fillOnly);
   EXPECT_GT(fillOnly, 5000u);
   EXPECT_LT(fillDiffers, fillOnly / 20);
+  // Draping per tile too.
+  const gfx::Image8 tiled = *gfx::readImage8((dir / "tiled.png").string());
+  EXPECT_EQ(state("tiled.json")["method"], "drape-tiles");
+  std::size_t tiledDiffers = 0;
+  for (std::size_t i = 0; i < depth.pixels.size(); ++i) {
+    if (depth.pixels[i] <= 0.0F || mask[i] != 1u || edges[i] != 0) continue;
+    tiledDiffers += maxDifference(rgbAt(tiled, i), rgbAt(plain, i)) > 8.0 ? 1u : 0u;
+  }
+  std::printf("drape tiles 512²: %zu of %zu fill-only pixels differ by more than 8/255\n", tiledDiffers, fillOnly);
+  EXPECT_LT(tiledDiffers, fillOnly / 20);
   const json s0 = state("s0.json");
   EXPECT_EQ(s0["view"]["debug_pieces"], true);
   EXPECT_EQ(s0["view"]["wireframe"], false);

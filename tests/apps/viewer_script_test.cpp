@@ -157,12 +157,13 @@ TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
       {"action": "resize", "window": [640, 480]},
       {"action": "save_state", "path": "state.json"},
       {"action": "method", "value": "drape", "drape_size": 4096},
-      {"action": "method", "value": "drape"}]})");
+      {"action": "method", "value": "drape"},
+      {"action": "method", "value": "drape-tiles", "drape_size": 256}]})");
   Result<app::ViewerScript> s = app::parseViewerScript(j, (dir_ / "s.json").string());
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
   EXPECT_TRUE(s.diagnostics.empty()) << dump(s.diagnostics);
   const std::vector<app::ScriptStep>& st = s->steps;
-  ASSERT_EQ(st.size(), 10u);
+  ASSERT_EQ(st.size(), 11u);
   EXPECT_EQ(st[0].action, app::ScriptAction::Drag);
   EXPECT_EQ(st[0].button, app::MouseButton::Right);
   ASSERT_EQ(st[0].points.size(), 3u);
@@ -194,6 +195,8 @@ TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
   EXPECT_EQ(st[8].text, "drape");
   EXPECT_EQ(st[8].frames, 4096);
   EXPECT_EQ(st[9].frames, 0);  // the viewer's size stays
+  EXPECT_EQ(st[10].text, "drape-tiles");
+  EXPECT_EQ(st[10].frames, 256);
 }
 
 TEST_F(ViewerScript, DefaultsWhenOptionalFieldsAreAbsent) {

@@ -349,13 +349,15 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
       break;
     case ScriptAction::Method:
       if (const std::optional<std::string> m = r.string("value", true)) {
-        if (*m == "stencil" || *m == "paper" || *m == "drape") {
+        if (*m == "stencil" || *m == "paper" || *m == "drape" || *m == "drape-tiles") {
           step.text = *m;
         } else {
-          r.problem("'value': unknown method '" + *m + "'; expected \"stencil\", \"paper\" or \"drape\"");
+          r.problem("'value': unknown method '" + *m +
+                    "'; expected \"stencil\", \"paper\", \"drape\" or \"drape-tiles\"");
         }
       }
-      // Texture draping: texels per side (frames holds it; 0 = keep the viewer's).
+      // Texture draping: texels per side, of the texture or of each tile (frames holds it; 0 =
+      // keep the viewer's).
       step.frames =
           static_cast<int>(r.number("drape_size", false, "a whole number of texels from 16 to 16384", [](double v) {
                               return v >= 16.0 && v <= 16384.0 && v == std::floor(v);
