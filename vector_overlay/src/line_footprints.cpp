@@ -218,14 +218,19 @@ struct Builder {
     // Miter length h / sin(θ/2) ≤ miterLimit · h  ⇔  miterLimit · sin(θ/2) ≥ 1.
     const glm::dvec2 s = d0 + d1;
     const double sinHalfTheta = 0.5 * std::hypot(s.x, s.y);
+    // Built by push_back: assigning an initializer list here trips GCC 12's -Warray-bounds at -O3
+    // (a false positive in vector::operator=).
     std::vector<glm::dvec2> directions;
+    directions.reserve(4);
+    directions.push_back(glm::dvec2(0.0));
+    directions.push_back(out0);
     if (shape.join == LineJoin::Miter && shape.miterLimit * sinHalfTheta >= 1.0) {
       // The intersection of the two outer offset lines lies on the outer bisector (out0 + out1,
       // of length |s|) at distance h / sin(θ/2) = 2h / |s| from v.
       const glm::dvec2 miter = (2.0 / (s.x * s.x + s.y * s.y)) * (out0 + out1);
-      if (detail::finite(miter) && detail::finite(v + h * miter)) directions = {glm::dvec2(0.0), out0, miter, out1};
+      if (detail::finite(miter) && detail::finite(v + h * miter)) directions.push_back(miter);
     }
-    if (directions.empty()) directions = {glm::dvec2(0.0), out0, out1};
+    directions.push_back(out1);
     if (turn < 0) std::reverse(directions.begin() + 1, directions.end());
     sink.add(PieceKind::Join, around(v, anchor, directions));
   }
