@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -37,26 +38,39 @@ struct Judged {
   std::size_t unlikeTexel = 0;  ///< the GPU mask is not the texel under the point
 };
 
-class MethodsGlTest : public GlTest {};
+/// Olinda, and three cameras: the overview, oblique 1.7 km away, and 150 m over the town
+/// looking along the coast.
+class MethodsGlTest : public GlTest {
+ protected:
+  void SetUp() override {
+    GlTest::SetUp();
+    Result<app::SceneDescription> description =
+        app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+    ASSERT_TRUE(description.ok());
+    Result<app::LoadedScene> loaded = app::loadScene(*description);
+    ASSERT_TRUE(loaded.ok());
+    scene_ = std::move(*loaded);
+    glm::dvec3 lo, hi;
+    app::terrainBox(*scene_, 1.0, lo, hi);
+    const glm::dvec3 centre = 0.5 * (lo + hi);
+    cameras_ = {app::overviewCamera(lo, hi)};
+    app::Camera close = cameras_[0];
+    close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
+    close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
+    cameras_.push_back(close);
+    app::Camera street = cameras_[0];
+    street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
+    street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
+    cameras_.push_back(street);
+  }
+
+  std::optional<app::LoadedScene> scene_;
+  std::vector<app::Camera> cameras_;
+};
 
 TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTexture) {
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<app::LoadedScene> scene = app::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  glm::dvec3 lo, hi;
-  app::terrainBox(*scene, 1.0, lo, hi);
-  const glm::dvec3 centre = 0.5 * (lo + hi);
-  std::vector<app::Camera> cameras{app::overviewCamera(lo, hi)};
-  app::Camera close = cameras[0];
-  close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
-  close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
-  cameras.push_back(close);
-  app::Camera street = cameras[0];  // 150 m over the town, looking along the coast
-  street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
-  street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
-  cameras.push_back(street);
+  std::optional<app::LoadedScene>& scene = scene_;
+  const std::vector<app::Camera>& cameras = cameras_;
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   app::RenderSettings settings;
@@ -144,20 +158,7 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
 }
 
 TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<app::LoadedScene> scene = app::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  glm::dvec3 lo, hi;
-  app::terrainBox(*scene, 1.0, lo, hi);
-  const glm::dvec3 centre = 0.5 * (lo + hi);
-  app::Camera close = app::overviewCamera(lo, hi);
-  close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
-  close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
-  app::Camera street = close;
-  street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
-  street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
+  std::optional<app::LoadedScene>& scene = scene_;
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   app::RenderSettings settings;
@@ -168,7 +169,7 @@ TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
   std::vector<overlay::ReferenceLayer> ref;
   for (const overlay::OverlayLayer& l : stencil->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
 
-  for (const app::Camera& camera : {close, street}) {
+  for (const app::Camera& camera : {cameras_[1], cameras_[2]}) {  // close up: the coarse tiles show
     double previous = 1.0;
     for (const int size : {64, 256, 1024}) {
       app::OverlayBuildSettings build;

@@ -39,6 +39,67 @@ int mipLevels(int size) {
   return levels;
 }
 
+/// The vertex array of DrapeVertex (binding 0).
+gfx::VertexArrayHandle drapeVertexArray() {
+  gfx::VertexArrayHandle vao = gfx::createVertexArray();
+  glEnableVertexArrayAttrib(vao.id(), 0);
+  glVertexArrayAttribFormat(vao.id(), 0, 2, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, x));
+  glVertexArrayAttribBinding(vao.id(), 0, 0);
+  glEnableVertexArrayAttrib(vao.id(), 1);
+  glVertexArrayAttribFormat(vao.id(), 1, 4, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, r));
+  glVertexArrayAttribBinding(vao.id(), 1, 0);
+  return vao;
+}
+
+/// Clears the `size`² framebuffer `fbo` (colour, mask) and draws into it the visible footprints
+/// of `layers` that may meet `extent`: one layer after the other, the stencil cleared before
+/// each, so a texel blends each layer once. The footprints are taken at the largest width (lines
+/// in pixels cannot follow the view in a texture). Leaves `fbo` bound; returns the triangles.
+std::size_t drawLayers(gfx::StateCache& cache, gfx::Program& program, GLuint vao, GLuint fbo, int size,
+                       std::span<const OverlayLayer* const> layers, const DrapeExtent& extent) {
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glViewport(0, 0, size, size);
+  cache.apply(kDrapeLayer);
+  const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
+  glClearNamedFramebufferfv(fbo, GL_COLOR, 0, zero);
+  glClearNamedFramebufferfv(fbo, GL_COLOR, 1, zero);
+  program.use();
+  program.set("u_scale", glm::vec2(2.0 / extent.size.x, 2.0 / extent.size.y));
+  glBindVertexArray(vao);
+  std::size_t triangles = 0;
+  const glm::dvec2 lo = extent.origin, hi = extent.origin + extent.size;
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    const OverlayLayer* layer = layers[i];
+    if (layer == nullptr) continue;
+    std::vector<DrapeVertex> vertices;
+    const std::vector<FeatureStyle>& styles = layer->featureStyles();
+    for (std::size_t p = 0; p < layer->polyhedra().size(); ++p) {
+      if (!layer->slots()[p].live) continue;
+      const Polyhedron& piece = layer->polyhedra()[p];
+      if (piece.boxMax.x < lo.x || piece.boxMin.x > hi.x || piece.boxMax.y < lo.y || piece.boxMin.y > hi.y) continue;
+      const Footprint& f = piece.footprint;
+      if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
+      const glm::vec4 c = styles[f.feature].color;
+      for (const auto& t : f.triangles) {
+        for (const std::uint32_t k : t) {
+          const glm::dvec2 q = f.vertices[k] - extent.origin;
+          vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), c.x, c.y, c.z, c.w});
+        }
+      }
+    }
+    if (vertices.empty()) continue;
+    triangles += vertices.size() / 3;
+    const gfx::BufferHandle buffer = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(DrapeVertex));
+    glVertexArrayVertexBuffer(vao, 0, buffer.id(), 0, sizeof(DrapeVertex));
+    program.set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(i, 23)));
+    const GLint zeroStencil = 0;
+    glClearNamedFramebufferiv(fbo, GL_STENCIL, 0, &zeroStencil);
+    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
+  }
+  glBindVertexArray(0);
+  return triangles;
+}
+
 }  // namespace
 
 Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
@@ -86,51 +147,8 @@ Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, std::span<const
     return Result<TextureDrape>::failure({Severity::Error, "", "", "", "texture drape: framebuffer incomplete"});
   }
 
-  glBindFramebuffer(GL_FRAMEBUFFER, fbo.id());
-  glViewport(0, 0, size, size);
-  cache.apply(kDrapeLayer);
-  const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
-  glClearNamedFramebufferfv(fbo.id(), GL_COLOR, 0, zero);
-  glClearNamedFramebufferfv(fbo.id(), GL_COLOR, 1, zero);
-  program->use();
-  program->set("u_scale", glm::vec2(2.0 / extent.size.x, 2.0 / extent.size.y));
-  const gfx::VertexArrayHandle vao = gfx::createVertexArray();
-  glEnableVertexArrayAttrib(vao.id(), 0);
-  glVertexArrayAttribFormat(vao.id(), 0, 2, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, x));
-  glVertexArrayAttribBinding(vao.id(), 0, 0);
-  glEnableVertexArrayAttrib(vao.id(), 1);
-  glVertexArrayAttribFormat(vao.id(), 1, 4, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, r));
-  glVertexArrayAttribBinding(vao.id(), 1, 0);
-  glBindVertexArray(vao.id());
-
-  for (std::size_t i = 0; i < layers.size(); ++i) {
-    const OverlayLayer* layer = layers[i];
-    if (layer == nullptr) continue;
-    // The footprints at the largest width (lines in pixels cannot follow the view in a texture).
-    std::vector<DrapeVertex> vertices;
-    const std::vector<FeatureStyle>& styles = layer->featureStyles();
-    for (std::size_t p = 0; p < layer->polyhedra().size(); ++p) {
-      if (!layer->slots()[p].live) continue;
-      const Footprint& f = layer->polyhedra()[p].footprint;
-      if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
-      const glm::vec4 c = styles[f.feature].color;
-      for (const auto& t : f.triangles) {
-        for (const std::uint32_t k : t) {
-          const glm::dvec2 q = f.vertices[k] - extent.origin;
-          vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), c.x, c.y, c.z, c.w});
-        }
-      }
-    }
-    if (vertices.empty()) continue;
-    drape.stats_.triangles += vertices.size() / 3;
-    const gfx::BufferHandle buffer = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(DrapeVertex));
-    glVertexArrayVertexBuffer(vao.id(), 0, buffer.id(), 0, sizeof(DrapeVertex));
-    program->set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(i, 23)));
-    const GLint zeroStencil = 0;
-    glClearNamedFramebufferiv(fbo.id(), GL_STENCIL, 0, &zeroStencil);
-    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
-  }
-  glBindVertexArray(0);
+  const gfx::VertexArrayHandle vao = drapeVertexArray();
+  drape.stats_.triangles = drawLayers(cache, *program, vao.id(), fbo.id(), size, layers, extent);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glGenerateTextureMipmap(drape.color_.id());
   glFinish();
@@ -172,14 +190,7 @@ Result<TiledDrape> TiledDrape::create(int tileSize) {
   TiledDrape d;
   d.tileSize_ = tileSize;
   d.program_ = std::move(*program);
-  d.vao_ = gfx::createVertexArray();
-  const GLuint vao = d.vao_.id();
-  glEnableVertexArrayAttrib(vao, 0);
-  glVertexArrayAttribFormat(vao, 0, 2, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, x));
-  glVertexArrayAttribBinding(vao, 0, 0);
-  glEnableVertexArrayAttrib(vao, 1);
-  glVertexArrayAttribFormat(vao, 1, 4, GL_FLOAT, GL_FALSE, offsetof(DrapeVertex, r));
-  glVertexArrayAttribBinding(vao, 1, 0);
+  d.vao_ = drapeVertexArray();
   d.stencil_ = gfx::createRenderbuffer();
   glNamedRenderbufferStorage(d.stencil_.id(), GL_STENCIL_INDEX8, tileSize, tileSize);
   d.fbo_ = gfx::createFramebuffer();
@@ -277,44 +288,7 @@ void TiledDrape::rasterise(gfx::StateCache& cache, std::span<const OverlayLayer*
   glNamedFramebufferRenderbuffer(fbo_.id(), GL_STENCIL_ATTACHMENT, GL_RENDERBUFFER, stencil_.id());
   const GLenum buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
   glNamedFramebufferDrawBuffers(fbo_.id(), 2, buffers);
-  glBindFramebuffer(GL_FRAMEBUFFER, fbo_.id());
-  glViewport(0, 0, tileSize_, tileSize_);
-  cache.apply(kDrapeLayer);
-  const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
-  glClearNamedFramebufferfv(fbo_.id(), GL_COLOR, 0, zero);
-  glClearNamedFramebufferfv(fbo_.id(), GL_COLOR, 1, zero);
-  program_.use();
-  program_.set("u_scale", glm::vec2(2.0 / extent.size.x, 2.0 / extent.size.y));
-  glBindVertexArray(vao_.id());
-  const glm::dvec2 lo = extent.origin, hi = extent.origin + extent.size;
-  for (std::size_t i = 0; i < layers.size(); ++i) {
-    const OverlayLayer* l = layers[i];
-    if (l == nullptr) continue;
-    std::vector<DrapeVertex> vertices;
-    const std::vector<FeatureStyle>& styles = l->featureStyles();
-    for (std::size_t p = 0; p < l->polyhedra().size(); ++p) {
-      if (!l->slots()[p].live) continue;
-      const Polyhedron& piece = l->polyhedra()[p];
-      if (piece.boxMax.x < lo.x || piece.boxMin.x > hi.x || piece.boxMax.y < lo.y || piece.boxMin.y > hi.y) continue;
-      const Footprint& f = piece.footprint;
-      if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
-      const glm::vec4 c = styles[f.feature].color;
-      for (const auto& t : f.triangles) {
-        for (const std::uint32_t k : t) {
-          const glm::dvec2 q = f.vertices[k] - extent.origin;
-          vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), c.x, c.y, c.z, c.w});
-        }
-      }
-    }
-    if (vertices.empty()) continue;
-    const gfx::BufferHandle buffer = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(DrapeVertex));
-    glVertexArrayVertexBuffer(vao_.id(), 0, buffer.id(), 0, sizeof(DrapeVertex));
-    program_.set("u_maskBit", static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(i, 23)));
-    const GLint zeroStencil = 0;
-    glClearNamedFramebufferiv(fbo_.id(), GL_STENCIL, 0, &zeroStencil);
-    glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
-  }
-  glBindVertexArray(0);
+  drawLayers(cache, program_, vao_.id(), fbo_.id(), tileSize_, layers, extent);
 }
 
 }  // namespace gis::overlay
