@@ -14,6 +14,7 @@
 #include <glm/vector_relational.hpp>
 
 #include "footprint_geometry.hpp"
+#include "vector_overlay/validation.hpp"
 
 namespace gis::overlay {
 namespace {
@@ -346,13 +347,7 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
     }
     std::vector<std::uint32_t> idx;
     idx.reserve(6 * f.triangles.size() + 6 * f.boundary.size() + 36);
-    for (const auto& t : f.triangles) idx.insert(idx.end(), {2 * t[0], 2 * t[2], 2 * t[1]});  // bottom: clockwise
-    s.bottomCount = static_cast<std::uint32_t>(idx.size());
-    for (const auto& e : f.boundary) {
-      const std::uint32_t alo = 2 * e[0], ahi = alo + 1, blo = 2 * e[1], bhi = blo + 1;
-      idx.insert(idx.end(), {alo, blo, bhi, alo, bhi, ahi});  // outward: the region is on the edge's left
-    }
-    for (const auto& t : f.triangles) idx.insert(idx.end(), {2 * t[0] + 1, 2 * t[1] + 1, 2 * t[2] + 1});
+    s.bottomCount = appendPieceIndices(f, idx);
     s.indexCount = static_cast<std::uint32_t>(idx.size());
     // The piece's bounding box, for the paper variant's cover (only there: 300 bytes a piece).
     const auto boxBase = static_cast<std::uint32_t>(v.size());
@@ -380,6 +375,41 @@ void OverlayLayer::addPieces(std::uint32_t feature, std::vector<Polyhedron> piec
     featureSlots_[feature].push_back(static_cast<std::uint32_t>(slot));
     appendGeometry(slot, std::move(v), std::move(idx), std::move(scaling));
   }
+}
+
+LayerValidation OverlayLayer::validate() const {
+  LayerValidation v;
+  ValidationOptions options;
+  if (!options_.paperVariant) options.grid = options_.footprints.cells;
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    const PieceSlot& s = slots_[k];
+    if (!s.live) continue;
+    ++v.pieces;
+    const Polyhedron& p = polyhedra_[k];
+    std::vector<std::string> problems = polyhedronProblems(p, options);
+    // The stored geometry: the same triangles, the vertices within float precision.
+    std::vector<std::uint32_t> expected;
+    appendPieceIndices(p.footprint, expected);
+    if (s.indexCount != expected.size() ||
+        !std::equal(expected.begin(), expected.end(), cpuIndices_.begin() + s.firstIndex)) {
+      problems.emplace_back("the stored indices are not the piece's triangles");
+    }
+    const glm::dvec2 origin = origins_[s.origin];
+    const Footprint& f = p.footprint;
+    for (std::size_t i = 0; i < 2 * f.vertices.size() && s.baseVertex + i < cpuVertices_.size(); ++i) {
+      const Vertex& stored = cpuVertices_[s.baseVertex + i];
+      const glm::dvec2 want = f.scalable() ? glm::dvec2(f.centres[i / 2]) : f.vertices[i / 2];
+      const glm::dvec2 got = origin + glm::dvec2(stored.x, stored.y);
+      v.maxPositionError = std::max(v.maxPositionError, glm::length(got - want));
+      v.maxHeightError =
+          std::max(v.maxHeightError, std::abs(static_cast<double>(stored.height) - ((i % 2) != 0 ? p.hi : p.lo)));
+    }
+    for (const std::string& problem : problems) {
+      v.problems.add(detail::featureError(Severity::Error, name_, features_[s.feature].fid,
+                                          "piece " + std::to_string(k) + ": " + problem));
+    }
+  }
+  return v;
 }
 
 std::size_t OverlayLayer::maxOverlap() const {

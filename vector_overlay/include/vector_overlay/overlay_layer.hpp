@@ -90,6 +90,17 @@ struct LayerStats {
   double buildSeconds = 0.0;
 };
 
+/// What OverlayLayer::validate found.
+struct LayerValidation {
+  Diagnostics problems;  ///< one Error per broken piece, naming the layer, feature and piece
+  std::size_t pieces = 0;
+  /// Largest distance (metres) between a vertex as stored for the GPU (float, relative to its
+  /// origin) and the footprint's vertex (double, frame): the volumes' position error.
+  double maxPositionError = 0.0;
+  /// Largest error (metres) of a stored height bound.
+  double maxHeightError = 0.0;
+};
+
 class OverlayLayer {
  public:
   /// Builds every feature's polyhedra and uploads them (needs a current GL context). Broken
@@ -117,6 +128,9 @@ class OverlayLayer {
   /// visible feature, or none when they differ; the renderer then covers the layer with one
   /// screen rectangle instead of its pieces.
   [[nodiscard]] std::optional<glm::vec4> uniformColor() const;
+  /// Checks every live piece as drawn (validation.hpp: closed, outward, bounded, inside its
+  /// cell) and that the stored vertices are the footprints' within float precision.
+  [[nodiscard]] LayerValidation validate() const;
   /// Re-reads the height bounds of every piece (after a change of vertical exaggeration).
   void refreshBounds(const HeightBoundsProvider& bounds);
 
