@@ -22,6 +22,7 @@
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "overlay_compare.hpp"
 #include "random_features.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
@@ -36,77 +37,12 @@ namespace {
 constexpr int kWidth = 256;
 constexpr int kHeight = 192;
 
-struct Comparison {
-  std::size_t covered = 0;      ///< pixels the reference covers
-  std::size_t wrong = 0;        ///< differing pixels away from edges
-  std::size_t edgeWrong = 0;    ///< differing pixels on edges
-  std::size_t zFailPieces = 0;  ///< pieces drawn z-fail in this frame
-};
-
-std::vector<overlay::ReferenceLayer> referenceLayers(const std::vector<const overlay::OverlayLayer*>& layers) {
-  std::vector<overlay::ReferenceLayer> out;
-  for (const overlay::OverlayLayer* l : layers) out.push_back(overlay::referenceLayerOf(*l));
-  return out;
-}
-
-/// The matrix under which sample position (sx, sy) of each pixel (GL convention: from the
-/// pixel's lower-left corner, y up) projects to the pixel's centre: the reference unprojects
-/// pixel centres, so this makes it evaluate at the sample.
-glm::dmat4 atSample(const glm::dmat4& viewProj, double sx, double sy) {
-  // x' = x − 2(sx − ½)/W · w (and y alike): a clip-space shift proportional to w, i.e. rows 0
-  // and 1 of the matrix gain a multiple of row 3.
-  const double dx = -2.0 * (sx - 0.5) / kWidth, dy = -2.0 * (sy - 0.5) / kHeight;
-  glm::dmat4 r = viewProj;
-  for (int c = 0; c < 4; ++c) {
-    r[c][0] += dx * viewProj[c][3];
-    r[c][1] += dy * viewProj[c][3];
-  }
-  return r;
-}
-
-/// Reads the target back and compares it with the reference.
-Comparison compare(const gfx::RenderTarget& target, const glm::dmat4& viewProj,
-                   const std::vector<const overlay::OverlayLayer*>& layers, const std::string& label) {
-  const std::vector<float> depth = gfx::readDepth(target);
-  const std::vector<std::uint32_t> gpu = gfx::readMask(target);
-  overlay::DepthImage image{kWidth, kHeight, depth, viewProj};
-  const std::vector<overlay::ReferenceLayer> ref = referenceLayers(layers);
-  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
-  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
-  Comparison c;
-  int reported = 0;
-  for (std::size_t i = 0; i < gpu.size(); ++i) {
-    c.covered += expected[i] != 0 ? 1u : 0u;
-    if (gpu[i] == expected[i]) continue;
-    if (edges[i] != 0) {
-      ++c.edgeWrong;
-    } else {
-      ++c.wrong;
-      if (reported++ < 5) {
-        ADD_FAILURE() << label << ": pixel (" << i % kWidth << ", " << i / kWidth << ") GPU mask " << gpu[i]
-                      << ", reference " << expected[i] << ", depth " << depth[i];
-      }
-    }
-  }
-  return c;
-}
-
-/// Our terrain for the selection, then the layers, into a target with a mask.
-std::vector<overlay::LayerFrameStats> drawTerrainAndLayers(
-    gfx::StateCache& cache, gfx::RenderTarget& target, terrain::TerrainEngine& engine,
-    overlay::OverlayRenderer& overlays, const terrain::LodSelection& selection, const overlay::OverlayView& view,
-    const std::vector<const overlay::OverlayLayer*>& layers, const overlay::OverlaySettings& settings = {}) {
-  gfx::enableReversedZ();
-  gfx::beginRenderPass(cache, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
-  gfx::enableMaskWrites(target.framebuffer(), false);  // the terrain shader has no mask output
-  engine.draw(cache, view.viewProj, view.eye, selection, 1.0);
-  gfx::enableMaskWrites(target.framebuffer(), true);
-  return overlays.draw(cache, view, layers, settings);
-}
-
-double percent(std::size_t part, std::size_t whole) {
-  return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
-}
+using overlay_test::atSample;
+using overlay_test::compare;
+using overlay_test::Comparison;
+using overlay_test::drawTerrainAndLayers;
+using overlay_test::percent;
+using overlay_test::referenceLayers;
 
 /// The Olinda sample scene, loaded and uploaded (needs the GL context), with its overlay layers
 /// in draw order; empty optionals after a (reported) failure.
@@ -320,8 +256,8 @@ TEST_F(OverlayGlTest, MsaaIsExactPerSample) {
       GLfloat position[2] = {0.5F, 0.5F};
       glGetMultisamplefv(GL_SAMPLE_POSITION, static_cast<GLuint>(k), position);
       msaa.copySampleInto(single, k);
-      const Comparison c =
-          compare(single, atSample(viewProj, position[0], position[1]), layers, "msaa sample " + std::to_string(k));
+      const Comparison c = compare(single, atSample(viewProj, position[0], position[1], kWidth, kHeight), layers,
+                                   "msaa sample " + std::to_string(k));
       total.covered += c.covered;
       total.wrong += c.wrong;
       total.edgeWrong += c.edgeWrong;

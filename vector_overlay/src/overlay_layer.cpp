@@ -51,7 +51,8 @@ constexpr double kOriginGrid = 1024.0;  ///< metres: vertices are floats relativ
 }  // namespace
 
 std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
-                                               const std::vector<geo::Feature>& features) {
+                                               const std::vector<geo::Feature>& features, Diagnostics* diagnostics,
+                                               const std::string& layerName) {
   std::vector<FeatureStyle> out;
   out.reserve(features.size());
   for (const geo::Feature& f : features) {
@@ -72,9 +73,15 @@ std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKin
       s.shape.width = style.widthMetres;
       if (!style.widthAttribute.empty()) {
         const auto a = f.attributes.find(style.widthAttribute);
-        if (a != f.attributes.end()) {
+        if (a != f.attributes.end() && !std::holds_alternative<std::monostate>(a->second)) {
           if (const std::optional<double> w = attributeNumber(a->second); w && *w > 0.0 && std::isfinite(*w)) {
             s.shape.width = *w;
+          } else if (diagnostics != nullptr) {
+            std::ostringstream message;
+            message << "'" << style.widthAttribute << "' = '" << attributeText(a->second)
+                    << "' is not a positive number of metres; drawn " << style.widthMetres
+                    << " m wide (the layer's width)";
+            diagnostics->add(detail::featureError(Severity::Warning, layerName, f.fid, message.str()));
           }
         }
       }
@@ -214,9 +221,21 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
                                        Diagnostics& diagnostics) {
   FootprintOptions fo = options.footprints;
   if (options.paperVariant) fo.cells.reset();
+  const std::size_t errorsBefore = diagnostics.count(Severity::Error);
   std::vector<Footprint> footprints =
       kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)
                                  : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
+  const bool nothing = std::none_of(footprints.begin(), footprints.end(),
+                                    [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
+  if (nothing && diagnostics.count(Severity::Error) == errorsBefore) {
+    // Not broken, but nothing to draw: say why, so that nothing vanishes silently.
+    const bool hasGeometry = kind == LayerKind::Polygon ? !feature.polygons.empty() : !feature.lines.empty();
+    const char* what = kind == LayerKind::Polygon ? "polygon" : "line";
+    diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid,
+                                         !hasGeometry ? std::string("has no ") + what + " geometry: nothing to draw"
+                                         : fo.cells   ? std::string("lies outside the terrain: nothing to draw")
+                                                      : std::string("has no area to draw")));
+  }
   std::vector<Polyhedron> out;
   out.reserve(footprints.size());
   HeightBounds featureBounds{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
@@ -281,18 +300,24 @@ Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const
   layer.options_ = options;
   layer.features_ = std::move(features);
   layer.bounds_ = &bounds;
-  layer.styles_ = resolveFeatureStyles(style, kind, layer.features_);
+  Result<OverlayLayer> r;
+  layer.styles_ = resolveFeatureStyles(style, kind, layer.features_, &r.diagnostics, layer.name_);
   for (std::size_t i = 0; i < layer.features_.size(); ++i)
     assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());
-  Result<OverlayLayer> r;
   layer.building_ = true;
   for (std::size_t i = 0; i < layer.features_.size(); ++i) {
     if (!layer.styles_[i].visible) continue;
     const std::size_t errorsBefore = r.diagnostics.count(Severity::Error);
     std::vector<Polyhedron> pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind,
                                                     layer.styles_[i], layer.name_, bounds, options, r.diagnostics);
-    if (pieces.empty() && r.diagnostics.count(Severity::Error) > errorsBefore) ++layer.stats_.skippedFeatures;
+    if (pieces.empty()) {
+      if (r.diagnostics.count(Severity::Error) > errorsBefore) {
+        ++layer.stats_.skippedFeatures;
+      } else {
+        ++layer.stats_.emptyFeatures;
+      }
+    }
     layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces));
   }
   layer.building_ = false;
@@ -556,11 +581,13 @@ Diagnostics OverlayLayer::replaceFeature(std::size_t index, geo::Feature feature
   if (index >= features_.size()) return {};
   features_[index] = std::move(feature);
   const std::vector<geo::Feature> one{features_[index]};
-  FeatureStyle style = resolveFeatureStyles(style_, kind_, one).front();
+  Diagnostics diagnostics;
+  FeatureStyle style = resolveFeatureStyles(style_, kind_, one, &diagnostics, name_).front();
   style.visible = styles_[index].visible;
   if (bounds_ != nullptr) assignAnchorHeights(style, features_[index], *bounds_);
   styles_[index] = style;
-  return rebuildFeature(index);
+  diagnostics.append(rebuildFeature(index));
+  return diagnostics;
 }
 
 Diagnostics OverlayLayer::setFeatureStyle(std::size_t index, const FeatureStyle& style) {

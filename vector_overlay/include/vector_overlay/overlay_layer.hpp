@@ -39,9 +39,12 @@ struct FeatureStyle {
 };
 
 /// The style of each feature of a layer: colour from `colorAttribute` through the categorical
-/// map (else the layer colour), width from `widthAttribute` (else the layer width).
+/// map (else the layer colour), width from `widthAttribute` (else the layer width). A width
+/// attribute that is present but not a positive finite number gets the layer width and a
+/// Warning naming the layer and the feature (when `diagnostics` is given).
 std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
-                                               const std::vector<geo::Feature>& features);
+                                               const std::vector<geo::Feature>& features,
+                                               Diagnostics* diagnostics = nullptr, const std::string& layerName = {});
 
 struct LayerBuildOptions {
   FootprintOptions footprints;
@@ -70,7 +73,9 @@ struct Polyhedron {
   glm::dvec2 boxMin{0.0}, boxMax{0.0};  ///< of the footprint
 };
 
-/// Builds the polyhedra of one feature under the bounds contract.
+/// Builds the polyhedra of one feature under the bounds contract. A feature that cannot be used
+/// gets Errors (footprints.hpp); one that is fine but gives nothing to draw (outside the grid,
+/// no geometry of the layer's kind) gets a Warning saying so.
 std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
                                        const FeatureStyle& style, const std::string& layerName,
                                        const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
@@ -83,7 +88,8 @@ bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double
 
 struct LayerStats {
   std::size_t features = 0;
-  std::size_t skippedFeatures = 0;
+  std::size_t skippedFeatures = 0;  ///< left out for errors (each named in the diagnostics)
+  std::size_t emptyFeatures = 0;    ///< fine but nothing to draw (outside the terrain, no geometry): a Warning each
   std::size_t pieces = 0;
   std::size_t triangles = 0;
   std::size_t gpuBytes = 0;
