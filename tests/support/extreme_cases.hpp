@@ -18,10 +18,11 @@ namespace gis::test {
 
 /// What a case must give.
 enum class Outcome {
-  Drawn,         ///< pieces, no error
-  Skipped,       ///< no pieces, an Error naming layer and feature
-  PartlyDrawn,   ///< pieces for the good parts, an Error for the bad ones
-  NothingThere,  ///< no pieces (outside the terrain, or an empty feature), a Warning saying so
+  Drawn,             ///< pieces, no error
+  DrawnWithWarning,  ///< pieces, a Warning (e.g. an unusable width attribute: the layer's width is used)
+  Skipped,           ///< no pieces, an Error naming layer and feature
+  PartlyDrawn,       ///< pieces for the good parts, an Error for the bad ones
+  NothingThere,      ///< no pieces (outside the terrain, or an empty feature), a Warning saying so
 };
 
 struct GeometryCase {
@@ -97,6 +98,8 @@ inline std::vector<GeometryCase> geometryCases(const glm::dvec2& lo, const glm::
   polygon("lying outside the DEM", {{ring({{1.2, 1.2}, {1.4, 1.2}, {1.4, 1.4}}), {}}}, Outcome::NothingThere);
   polygon("straddling the DEM's edge", {{ring({{-0.1, 0.5}, {0.1, 0.5}, {0.1, 0.6}, {-0.1, 0.6}}), {}}},
           Outcome::Drawn);
+  polygon("flat ground (on the lake)", {{ring({{0.67, 0.67}, {0.73, 0.67}, {0.73, 0.73}, {0.67, 0.73}}), {}}},
+          Outcome::Drawn);
   polygon("empty geometry", {}, Outcome::NothingThere);
 
   // ---- roads
@@ -113,9 +116,11 @@ inline std::vector<GeometryCase> geometryCases(const glm::dvec2& lo, const glm::
   line("single point", {{at(0.1, 0.7)}}, 40.0, Outcome::Drawn);
   line("one good line, one NaN line", {{at(0.1, 0.8), at(0.25, 0.9)}, {at(0.2, 0.8), glm::dvec2(nan, 0.0)}}, 8.0,
        Outcome::PartlyDrawn);
-  line("negative width", {{at(0.7, 0.8), at(0.9, 0.9)}}, -5.0, Outcome::Skipped);
+  line("negative width attribute", {{at(0.7, 0.8), at(0.9, 0.9)}}, -5.0, Outcome::DrawnWithWarning);
   line("absurd width (1e20 m)", {{at(0.7, 0.85), at(0.9, 0.95)}}, 1e20, Outcome::Skipped);
   line("lying outside the DEM", {{at(-0.5, -0.5), at(-0.3, -0.2)}}, 10.0, Outcome::NothingThere);
+  line("text width attribute", {{at(0.6, 0.95), at(0.9, 0.97)}}, 0.0, Outcome::DrawnWithWarning);
+  cases.back().feature.attributes["width_m"] = std::string("wide");
 
   for (std::size_t i = 0; i < cases.size(); ++i) cases[i].feature.fid = static_cast<std::int64_t>(i);
   return cases;

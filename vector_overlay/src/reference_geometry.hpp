@@ -30,6 +30,11 @@ namespace gis::overlay::reference {
 inline double cross(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
 inline double dot(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.x + a.y * b.y; }
 inline bool finite(const glm::dvec2& p) { return std::isfinite(p.x) && std::isfinite(p.y); }
+/// Coordinates and widths beyond this (metres) cannot be used, as in footprints.hpp.
+constexpr double kMaxCoordinate = 1e15;
+inline bool usable(const glm::dvec2& p) {
+  return finite(p) && std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate;
+}
 
 /// Exact sign of the turn a → b → c on the double coordinates (CGAL's filtered predicate):
 /// +1 left (counter-clockwise), −1 right, 0 exactly collinear.
@@ -158,12 +163,13 @@ void forEachRingEdge(const geo::Polygon& polygon, Fn&& fn) {
   for (const geo::Ring& h : polygon.holes) ring(h);
 }
 
-/// A polygon the footprints skip ("cannot be used"): a non-finite coordinate in any ring, or an
-/// outer ring of zero area (fewer than 3 distinct points, or all points exactly on one line).
+/// A polygon the footprints skip ("cannot be used"): a non-finite coordinate or one beyond
+/// 1e15 m in any ring, or an outer ring of zero area (fewer than 3 distinct points, or all
+/// points exactly on one line).
 inline bool polygonUsable(const geo::Polygon& polygon) {
   bool allFinite = true;
   forEachRingEdge(polygon,
-                  [&allFinite](const glm::dvec2& a, const glm::dvec2&) { allFinite = allFinite && finite(a); });
+                  [&allFinite](const glm::dvec2& a, const glm::dvec2&) { allFinite = allFinite && usable(a); });
   if (!allFinite || polygon.outer.empty()) return false;
   const glm::dvec2 p0 = polygon.outer.front();
   const auto other =
@@ -386,14 +392,17 @@ struct LinePrimitive {
   }
 };
 
-/// Whether a line shape draws anything at all (a positive, finite width).
-inline bool shapeUsable(const LineShape& shape) { return std::isfinite(shape.width) && shape.width > 0.0; }
+/// Whether a line shape draws anything at all (a positive, finite width of at most 1e15 m).
+inline bool shapeUsable(const LineShape& shape) {
+  return std::isfinite(shape.width) && shape.width > 0.0 && shape.width <= kMaxCoordinate;
+}
 
 /// Calls emit(LinePrimitive) for every piece of line `lineIndex` of a feature drawn with
 /// `shape` (whose width must be usable): after dropping consecutive repeated points, the
 /// segments' rectangles, the joins at interior vertices and the caps at both ends
 /// (footprints.hpp). Lines in pixels get each vertex's half width from `scale`, and trapezoids
-/// for segments whose ends differ. A line with a non-finite point draws nothing. emit returns
+/// for segments whose ends differ. A line with a non-finite point (or one beyond 1e15 m) draws
+/// nothing. emit returns
 /// true to stop early; the function returns whether it was stopped.
 template <typename Emit>
 bool forEachLinePrimitive(const geo::LineString& line, std::size_t lineIndex, const LineShape& shape,
@@ -403,7 +412,7 @@ bool forEachLinePrimitive(const geo::LineString& line, std::size_t lineIndex, co
   pts.reserve(line.size());
   for (std::size_t i = 0; i < line.size(); ++i) {
     const glm::dvec2& p = line[i];
-    if (!finite(p)) return false;
+    if (!usable(p)) return false;
     if (!pts.empty() && p == pts.back()) continue;
     pts.push_back(p);
     halves.push_back(halfWidthAt(shape, scale, glm::dvec3(p, shape.anchorHeight(lineIndex, i))));

@@ -10,10 +10,11 @@
 //   geometry is ignored); a polygon covers the points inside an odd number of its rings (raw
 //   rings: orientation, repeated points and self-intersections need no repair), a feature the
 //   union of its polygons. A polygon whose outer ring has no area (fewer than 3 distinct points,
-//   or all points exactly on one line) or that has a non-finite coordinate is skipped, holes
-//   included;
+//   or all points exactly on one line) or that has a non-finite coordinate or one beyond 1e15 m
+//   is skipped, holes included;
 // - a line feature covers the union of the rectangles, joins and caps of footprints.hpp after
-//   dropping consecutive repeated points (a line with a non-finite point covers nothing);
+//   dropping consecutive repeated points (a line with a non-finite point, or one beyond 1e15 m,
+//   covers nothing; so does a width that is not positive, finite and at most 1e15 m);
 //   "nothing on a straight continuation" holds for every join, round included, and means the
 //   three points are exactly collinear (exact orientation predicate on the double coordinates)
 //   and the line goes on forward; a full reversal gets a disc (round) or nothing (bevel, and

@@ -1,9 +1,9 @@
 #pragma once
 // Invariants of stencil polyhedra, checked on the triangles as they are drawn: the stencil count
-// of a pixel is right only when every piece is closed (each edge met by exactly two of its
-// triangles, in opposite directions), wound outward (front faces outside: positive volume) and
-// bounded (finite coordinates, lo ≤ hi, the footprint inside its cell). Used by the tests, the
-// fuzzers and OverlayLayer::validate; cheap enough to run over a whole layer.
+// of a pixel is right only when every piece is closed (each edge met as often in one direction
+// as in the other, so that the winding number is defined everywhere), wound outward (front faces outside: positive
+// volume) and bounded (finite coordinates, lo ≤ hi, the footprint inside its cell). Used by the tests, the fuzzers and
+// OverlayLayer::validate; cheap enough to run over a whole layer.
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -38,8 +38,9 @@ struct ValidationOptions {
 /// - every index refers to a footprint vertex; every coordinate, lo and hi finite and within
 ///   maxCoordinate; lo ≤ hi;
 /// - no cap triangle is clockwise (negative area beyond rounding);
-/// - closed: in the drawn mesh every directed edge (a, b) appears exactly once and (b, a)
-///   exactly once (so the footprint's boundary is exactly its unshared triangle edges);
+/// - closed: in the drawn mesh every directed edge (a, b) appears as often as (b, a) (so the
+///   footprint's boundary is exactly its unshared triangle edges; parts touching at a vertex
+///   share a wall edge, which is fine);
 /// - outward: the signed volume of the mesh, caps moved out by options.pad, equals the
 ///   footprint area · (hi − lo + 2 pad), not negative;
 /// - inside the grid (and its cell) when options.grid is set.
