@@ -193,6 +193,33 @@ TEST_F(SelectionGlTest, HundredsOfOverlappingOrVolumesStayExact) {
   EXPECT_EQ(r.wrong, 0u);
 }
 
+TEST_F(SelectionGlTest, ThousandsOfLassoVolumesStayExact) {
+  // 3,000 random lassos (concave, self-crossing) chained with random operators, each drawn from
+  // one of a few cameras, evaluated from another: the stencil runs wrap many times over.
+  std::mt19937 rng(3000);
+  std::vector<Camera> drawnFrom;
+  for (int k = 0; k < 4; ++k) drawnFrom.push_back(randomCamera(rng, 0.5 * (lo_ + hi_)));
+  const overlay::SelectionOp ops[] = {overlay::SelectionOp::Or, overlay::SelectionOp::And, overlay::SelectionOp::Xor,
+                                      overlay::SelectionOp::Subtract};
+  std::vector<overlay::SelectionStep> steps;
+  for (int k = 0; k < 3000; ++k) {
+    overlay::SelectionStep s;
+    s.op = k == 0 ? overlay::SelectionOp::Single : ops[rng() % 4];
+    // Mostly Or (long runs), with the other operators sprinkled in.
+    if (k % 7 != 0 && k > 0) s.op = overlay::SelectionOp::Or;
+    s.lasso = lassoFrom(drawnFrom[static_cast<std::size_t>(k) % drawnFrom.size()], randomPolygon(rng));
+    steps.push_back(std::move(s));
+  }
+  const Camera view = randomCamera(rng, 0.5 * (lo_ + hi_));
+  for (const auto scheme : {overlay::SelectionScheme::Runs, overlay::SelectionScheme::Report}) {
+    const Outcome r = drawAndCompare(view, steps, scheme, "3000 lassos");
+    std::printf("3000 lassos (%s): %zu selected, %zu wrong, %zu on boundaries\n",
+                scheme == overlay::SelectionScheme::Runs ? "runs" : "report", r.selected, r.wrong, r.boundaryWrong);
+    EXPECT_EQ(r.wrong, 0u);
+    EXPECT_GT(r.selected + r.boundaryWrong, 0u);
+  }
+}
+
 TEST_F(SelectionGlTest, LogicalSelectionOfFeaturesAgreesWithThePixels) {
   // Star polygons and polylines over the stiff terrain; random chains of lassos; the GPU's
   // selected pixels against selectFeatures (1.5 m samples on the full-resolution surface, which
