@@ -231,10 +231,29 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
     // Not broken, but nothing to draw: say why, so that nothing vanishes silently.
     const bool hasGeometry = kind == LayerKind::Polygon ? !feature.polygons.empty() : !feature.lines.empty();
     const char* what = kind == LayerKind::Polygon ? "polygon" : "line";
-    diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid,
-                                         !hasGeometry ? std::string("has no ") + what + " geometry: nothing to draw"
-                                         : fo.cells   ? std::string("lies outside the terrain: nothing to draw")
-                                                      : std::string("has no area to draw")));
+    std::string why = std::string("has no ") + what + " geometry: nothing to draw";
+    if (hasGeometry) {
+      why = "has no area to draw (a single point with flat caps?)";
+      if (fo.cells) {
+        // Outside when the feature's box (widened by the line's half width) misses the grid.
+        glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        auto add = [&](const glm::dvec2& v) {
+          lo = glm::min(lo, v);
+          hi = glm::max(hi, v);
+        };
+        for (const geo::Polygon& polygon : feature.polygons)
+          std::for_each(polygon.outer.begin(), polygon.outer.end(), add);
+        for (const geo::LineString& line : feature.lines) std::for_each(line.begin(), line.end(), add);
+        const double reach = kind == LayerKind::Line ? 0.5 * style.shape.width : 0.0;
+        const CellGrid& g = *fo.cells;
+        const glm::dvec2 gridMax = g.origin + g.cellSize * glm::dvec2(g.columns, g.rows);
+        if (hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x ||
+            lo.y - reach > gridMax.y) {
+          why = "lies outside the terrain: nothing to draw";
+        }
+      }
+    }
+    diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid, why));
   }
   std::vector<Polyhedron> out;
   out.reserve(footprints.size());
@@ -615,13 +634,33 @@ void OverlayLayer::refreshBounds(const HeightBoundsProvider& bounds) {
     return;
   }
   for (std::size_t slot = 0; slot < slots_.size(); ++slot) {
-    PieceSlot& s = slots_[slot];
-    if (!s.live) continue;
+    if (!slots_[slot].live) continue;
     Polyhedron& p = polyhedra_[slot];
     const HeightBounds b = bounds.boundsOver(p.footprint.vertices);
-    p.lo = b.valid() ? b.lo : bounds.globalBounds().lo;
-    p.hi = b.valid() ? b.hi : bounds.globalBounds().hi;
-    const std::size_t n = 2 * p.footprint.vertices.size() + 8;
+    const bool usable = b.valid() && std::isfinite(b.lo) && std::isfinite(b.hi);
+    p.lo = usable ? b.lo : bounds.globalBounds().lo;
+    p.hi = usable ? b.hi : bounds.globalBounds().hi;
+  }
+  if (options_.paperVariant) {
+    // One bound pair per feature, as built.
+    for (const std::vector<std::uint32_t>& pieces : featureSlots_) {
+      HeightBounds joint{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+      for (std::uint32_t slot : pieces) {
+        joint.lo = std::min(joint.lo, polyhedra_[slot].lo);
+        joint.hi = std::max(joint.hi, polyhedra_[slot].hi);
+      }
+      for (std::uint32_t slot : pieces) {
+        polyhedra_[slot].lo = joint.lo;
+        polyhedra_[slot].hi = joint.hi;
+      }
+    }
+  }
+  for (std::size_t slot = 0; slot < slots_.size(); ++slot) {
+    const PieceSlot& s = slots_[slot];
+    if (!s.live) continue;
+    const Polyhedron& p = polyhedra_[slot];
+    // The piece's vertices, and its bounding box's for the paper's variant.
+    const std::size_t n = 2 * p.footprint.vertices.size() + (options_.paperVariant ? 8 : 0);
     for (std::size_t k = 0; k < n; ++k) {
       Vertex& v = cpuVertices_[s.baseVertex + k];
       v.height = static_cast<float>(v.side > 0.0F ? p.hi : p.lo);

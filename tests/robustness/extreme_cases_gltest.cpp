@@ -1,0 +1,317 @@
+// The robustness case matrix on the GPU (docs/robustness.md): every geometry case of
+// extreme_cases.hpp in one scene, on a stiff terrain from −430 m to 8,850 m (cliffs, a spike, a
+// flat lake, nodata holes) and on one whose whole outside is nodata, at exaggerations 0.1×, 1×
+// and 20×, seen from the extreme cameras — straight down, grazing at 0.1°, 1 m above the
+// ground inside a polygon's volume, inside a road's volume, with the near plane cutting the
+// volumes, exactly on a cap plane and on a wall plane, 1,000 km up — and from random ones. The
+// GPU layer mask must equal the CPU reference on the same depth buffer at every pixel away from
+// feature edges. Then the same scene far from the frame origin (a UTM northing near 10^7 m),
+// with the position errors of the volumes and of the reference; hundreds of layers; and the
+// 10^6-vertex polygon.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+
+#include "extreme_cases.hpp"
+#include "gfx/camera.hpp"
+#include "gfx/render_target.hpp"
+#include "gl_test.hpp"
+#include "overlay_compare.hpp"
+#include "terrain/height_bounds.hpp"
+#include "terrain/lod.hpp"
+#include "terrain/terrain_engine.hpp"
+#include "test_terrain.hpp"
+#include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
+
+namespace gis::test {
+namespace {
+
+using overlay_test::compare;
+using overlay_test::Comparison;
+using overlay_test::drawTerrainAndLayers;
+using overlay_test::percent;
+
+constexpr int kWidth = 256;
+constexpr int kHeight = 192;
+constexpr int kPosts = 129;
+constexpr double kSpacing = 20.0;
+constexpr int kChunkCells = 16;
+
+struct NamedCamera {
+  std::string name;
+  glm::dvec3 eye;
+  glm::dvec3 target;
+  glm::dvec3 up{0.0, 0.0, 1.0};
+  double fovDegrees = 50.0;
+  double nearPlane = 1.0;
+};
+
+/// One terrain with the case layers built on it.
+struct CaseScene {
+  std::shared_ptr<const terrain::TerrainQuadtree> tree;
+  std::shared_ptr<terrain::QuadtreeHeightBounds> bounds;
+  std::optional<terrain::TerrainEngine> engine;
+  std::vector<overlay::OverlayLayer> layers;  ///< areas, then roads with three joins and caps
+  std::vector<GeometryCase> cases;
+  glm::dvec2 lo{0.0}, hi{0.0};
+
+  [[nodiscard]] std::vector<const overlay::OverlayLayer*> drawn() const {
+    std::vector<const overlay::OverlayLayer*> out;
+    for (const overlay::OverlayLayer& l : layers) out.push_back(&l);
+    return out;
+  }
+  [[nodiscard]] glm::dvec2 at(double fx, double fy) const { return lo + glm::dvec2(fx, fy) * (hi - lo); }
+  /// The surface height (exaggerated) at a point, or the nearest valid height found on a ring
+  /// around it (nodata), or 0.
+  [[nodiscard]] double ground(const glm::dvec2& p) const {
+    const double h = bounds->fullResolutionHeightAt(glm::clamp(p, lo, hi));
+    if (!std::isnan(h)) return h;
+    for (double r = kSpacing; r < 2000.0; r *= 1.5) {
+      for (int k = 0; k < 16; ++k) {
+        const double a = 0.3927 * k;
+        const double g =
+            bounds->fullResolutionHeightAt(glm::clamp(p + r * glm::dvec2(std::cos(a), std::sin(a)), lo, hi));
+        if (!std::isnan(g)) return g;
+      }
+    }
+    return 0.0;
+  }
+};
+
+CaseScene buildScene(const StiffTerrainOptions& terrainOptions) {
+  CaseScene s;
+  auto grid = makeStiffTerrain(terrainOptions);
+  s.lo = grid->postPosition(0, grid->height - 1);
+  s.hi = grid->postPosition(grid->width - 1, 0);
+  s.tree = std::make_shared<terrain::TerrainQuadtree>(grid, kChunkCells);
+  s.bounds = std::make_shared<terrain::QuadtreeHeightBounds>(s.tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(s.tree, nullptr);
+  EXPECT_TRUE(engine.ok());
+  if (engine) s.engine.emplace(std::move(*engine));
+  s.cases = geometryCases(s.lo, s.hi);
+
+  overlay::LayerBuildOptions options;
+  overlay::CellGrid cells;
+  cells.origin = s.lo;
+  cells.cellSize = kChunkCells * kSpacing;
+  cells.columns = cells.rows = (kPosts - 1) / kChunkCells;
+  options.footprints.cells = cells;
+  std::vector<geo::Feature> areas, roads;
+  std::size_t skippedAreas = 0, skippedRoads = 0, emptyAreas = 0, emptyRoads = 0;
+  for (const GeometryCase& c : s.cases) {
+    const bool area = c.kind == overlay::LayerKind::Polygon;
+    (area ? areas : roads).push_back(c.feature);
+    if (c.outcome == Outcome::Skipped) ++(area ? skippedAreas : skippedRoads);
+    if (c.outcome == Outcome::NothingThere) ++(area ? emptyAreas : emptyRoads);
+  }
+  overlay::LayerStyle areaStyle;
+  areaStyle.opacity = 0.5F;
+  Result<overlay::OverlayLayer> a =
+      overlay::OverlayLayer::build("areas", overlay::LayerKind::Polygon, areaStyle, areas, *s.bounds, options);
+  EXPECT_TRUE(a.ok());
+  if (!a) return s;
+  EXPECT_EQ(a->stats().skippedFeatures, skippedAreas);
+  EXPECT_EQ(a->stats().emptyFeatures, emptyAreas);
+  s.layers.push_back(std::move(*a));
+  const std::pair<overlay::LineJoin, overlay::LineCap> joins[] = {{overlay::LineJoin::Round, overlay::LineCap::Round},
+                                                                  {overlay::LineJoin::Miter, overlay::LineCap::Square},
+                                                                  {overlay::LineJoin::Bevel, overlay::LineCap::Flat}};
+  for (const auto& [join, cap] : joins) {
+    overlay::LayerStyle roadStyle;
+    roadStyle.widthAttribute = "width_m";
+    roadStyle.join = join;
+    roadStyle.cap = cap;
+    Result<overlay::OverlayLayer> r =
+        overlay::OverlayLayer::build("roads", overlay::LayerKind::Line, roadStyle, roads, *s.bounds, options);
+    EXPECT_TRUE(r.ok());
+    if (!r) return s;
+    EXPECT_EQ(r->stats().skippedFeatures, skippedRoads);
+    // A single point with flat caps covers nothing.
+    EXPECT_EQ(r->stats().emptyFeatures, emptyRoads + (cap == overlay::LineCap::Flat ? 1u : 0u));
+    s.layers.push_back(std::move(*r));
+  }
+  return s;
+}
+
+/// The extreme cameras over a scene at the bounds' exaggeration, then `randomCount` random ones.
+std::vector<NamedCamera> extremeCameras(const CaseScene& s, std::mt19937& rng, int randomCount) {
+  const double top = s.bounds->globalBounds().hi;
+  const glm::dvec2 centre = 0.5 * (s.lo + s.hi);
+  std::vector<NamedCamera> out;
+  out.push_back({"straight down, 3 km above the highest point", glm::dvec3(centre, top + 3000.0),
+                 glm::dvec3(centre, 0.0), glm::dvec3(0.0, 1.0, 0.0)});
+  {
+    // Grazing: looking north 0.1° below the horizontal, from just above the terrain's south edge.
+    const glm::dvec2 e = s.at(0.5, -0.02);
+    const double h = s.ground(s.at(0.5, 0.3)) + 30.0;
+    const double pitch = glm::radians(0.1);
+    out.push_back({"grazing at 0.1 degrees", glm::dvec3(e, h),
+                   glm::dvec3(e, h) + glm::dvec3(0.0, std::cos(pitch), -std::sin(pitch))});
+  }
+  {
+    // 1 m above the ground, inside the volume of the polygon covering the whole DEM.
+    const glm::dvec2 e = s.at(0.45, 0.62);
+    const double h = s.ground(e) + 1.0;
+    out.push_back({"1 m above the ground, in a polygon's volume",
+                   glm::dvec3(e, h),
+                   glm::dvec3(e + glm::dvec2(300.0, 200.0), s.ground(e + glm::dvec2(300.0, 200.0))),
+                   {0, 0, 1},
+                   60.0,
+                   0.1});
+  }
+  {
+    // On the 30 m road over 1 m segments, 2 m above the surface, looking along it.
+    const glm::dvec2 e = s.at(0.57, 0.55);
+    const double h = s.ground(e) + 2.0;
+    out.push_back({"inside a road's volume",
+                   glm::dvec3(e, h),
+                   glm::dvec3(s.at(0.75, 0.55), s.ground(s.at(0.75, 0.55))),
+                   {0, 0, 1},
+                   60.0,
+                   0.1});
+  }
+  {
+    // The near plane (3 m) cuts the volumes under an eye 2 m above the ground.
+    const glm::dvec2 e = s.at(0.15, 0.12);
+    out.push_back({"near plane cutting the volumes",
+                   glm::dvec3(e, s.ground(e) + 2.0),
+                   glm::dvec3(e + glm::dvec2(20.0, 30.0), s.ground(e + glm::dvec2(20.0, 30.0))),
+                   {0, 0, 1},
+                   70.0,
+                   3.0});
+  }
+  {
+    // Exactly on the top cap plane (unpadded) of a piece of the whole-DEM polygon.
+    const overlay::OverlayLayer& areas = s.layers.front();
+    const glm::dvec2 e = s.at(0.33, 0.66);
+    double capHeight = s.ground(e) + 10.0;
+    for (const overlay::Polyhedron& p : areas.polyhedra()) {
+      if (overlay::mayContain(p, glm::dvec3(e, 0.5 * (p.lo + p.hi)), 0.0, 0.0)) capHeight = p.hi;
+    }
+    out.push_back({"exactly on a cap plane", glm::dvec3(e, capHeight),
+                   glm::dvec3(e + glm::dvec2(400.0, -100.0), s.ground(e + glm::dvec2(400.0, -100.0)))});
+  }
+  {
+    // Exactly in the plane of a wall: x of the polygon straddling the DEM's west edge.
+    const glm::dvec2 e(s.at(0.1, 0.0).x, s.at(0.0, 0.52).y);
+    out.push_back({"exactly on a wall plane", glm::dvec3(e, s.ground(e) + 20.0),
+                   glm::dvec3(e + glm::dvec2(0.0, 200.0), s.ground(e + glm::dvec2(0.0, 200.0)))});
+  }
+  out.push_back({"1,000 km up, 0.2 degree field of view",
+                 glm::dvec3(centre + glm::dvec2(1000.0, -2000.0), top + 1.0e6),
+                 glm::dvec3(centre, 0.0),
+                 {0, 0, 1},
+                 0.2,
+                 1.0});
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < randomCount; ++k) {
+    const glm::dvec2 t = s.at(0.1 + 0.8 * unit(rng), 0.1 + 0.8 * unit(rng));
+    const double a = 6.283 * unit(rng), d = 200.0 + 2500.0 * unit(rng);
+    const glm::dvec2 e = t + d * glm::dvec2(std::cos(a), std::sin(a));
+    const double above = s.ground(t) + (20.0 + 2000.0 * unit(rng)) * (0.2 + s.bounds->exaggeration());
+    out.push_back(
+        {"random " + std::to_string(k), glm::dvec3(e, std::max(above, s.ground(e) + 5.0)), glm::dvec3(t, s.ground(t))});
+  }
+  return out;
+}
+
+struct FrameResult {
+  Comparison c;
+  std::size_t zFail = 0;
+};
+
+FrameResult drawAndCompare(gfx::StateCache& cache, gfx::RenderTarget& target, CaseScene& s,
+                           overlay::OverlayRenderer& overlays, const NamedCamera& cam, const std::string& label) {
+  const double fov = glm::radians(cam.fovDegrees), aspect = static_cast<double>(kWidth) / kHeight;
+  const glm::dvec3 dir = glm::normalize(cam.target - cam.eye);
+  const glm::dvec3 up = std::abs(glm::dot(dir, cam.up)) > 0.9999 ? glm::dvec3(0.0, 1.0, 0.0) : cam.up;
+  const glm::dmat4 viewProj =
+      gfx::reversedInfinitePerspective(fov, aspect, cam.nearPlane) * gfx::lookAt(cam.eye, cam.target, up);
+  terrain::LodOptions lod;
+  lod.pixelTolerance = 1.0;
+  lod.exaggeration = s.bounds->exaggeration();
+  const terrain::LodSelection selection = terrain::selectLod(*s.tree, {cam.eye, viewProj, kHeight, fov}, lod);
+  const auto stats =
+      drawTerrainAndLayers(cache, target, *s.engine, overlays, selection,
+                           {viewProj, cam.eye, cam.nearPlane, fov, aspect}, s.drawn(), {}, s.bounds->exaggeration());
+  FrameResult r;
+  for (const auto& l : stats) r.zFail += l.zFailPieces;
+  r.c = compare(target, viewProj, s.drawn(), label);
+  return r;
+}
+
+std::filesystem::path outputDir() {
+  std::filesystem::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+class ExtremeCasesGlTest : public GlTest {};
+
+TEST_F(ExtremeCasesGlTest, EveryCaseFromEveryExtremeCameraMatchesTheReference) {
+  struct TerrainRow {
+    const char* name;
+    StiffTerrainOptions options;
+  };
+  const TerrainRow terrains[] = {
+      {"stiff, -430 m to 8,850 m, holes",
+       {.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 5, .lowest = -430.0, .highest = 8850.0}},
+      {"nodata border and holes",
+       {.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 9, .nodataBorder = true}},
+  };
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(overlays.ok());
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  nlohmann::json rows = nlohmann::json::array();
+  Comparison total;
+  std::printf("%-34s %5s  %-46s %8s %6s %6s %6s\n", "terrain", "exag", "camera", "covered", "wrong", "edge", "z-fail");
+  for (const TerrainRow& row : terrains) {
+    CaseScene scene = buildScene(row.options);
+    ASSERT_TRUE(scene.engine && scene.layers.size() == 4);
+    for (const overlay::OverlayLayer& l : scene.layers) {
+      const overlay::LayerValidation v = l.validate();
+      EXPECT_TRUE(v.problems.empty()) << (v.problems.empty() ? "" : v.problems.items().front().toString());
+    }
+    std::mt19937 rng(11);
+    for (double exaggeration : {0.1, 1.0, 20.0}) {
+      scene.bounds->setExaggeration(exaggeration);
+      for (overlay::OverlayLayer& l : scene.layers) l.refreshBounds(*scene.bounds);
+      for (const NamedCamera& cam : extremeCameras(scene, rng, 4)) {
+        const std::string label = std::string(row.name) + " / " + std::to_string(exaggeration) + "x / " + cam.name;
+        const FrameResult r = drawAndCompare(cache_, target, scene, *overlays, cam, label);
+        total.covered += r.c.covered;
+        total.wrong += r.c.wrong;
+        total.edgeWrong += r.c.edgeWrong;
+        std::printf("%-34s %5.1f  %-46s %8zu %6zu %6zu %6zu\n", row.name, exaggeration, cam.name.c_str(), r.c.covered,
+                    r.c.wrong, r.c.edgeWrong, r.zFail);
+        rows.push_back({{"terrain", row.name},
+                        {"exaggeration", exaggeration},
+                        {"camera", cam.name},
+                        {"covered", r.c.covered},
+                        {"wrong", r.c.wrong},
+                        {"edge_wrong", r.c.edgeWrong},
+                        {"z_fail_pieces", r.zFail}});
+      }
+    }
+  }
+  std::ofstream(outputDir() / "extreme_cameras.json") << rows.dump(1) << "\n";
+  std::printf("all: %zu covered pixels, %zu wrong away from edges, %zu on edges (%.3f %%)\n", total.covered,
+              total.wrong, total.edgeWrong, percent(total.edgeWrong, total.covered));
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 100);
+  EXPECT_GT(total.covered, 200000u);
+}
+
+}  // namespace
+}  // namespace gis::test
