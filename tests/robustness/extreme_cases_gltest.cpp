@@ -9,10 +9,12 @@
 // with the position errors of the volumes and of the reference; hundreds of layers; and the
 // 10^6-vertex polygon.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -311,6 +313,119 @@ TEST_F(ExtremeCasesGlTest, EveryCaseFromEveryExtremeCameraMatchesTheReference) {
   EXPECT_EQ(total.wrong, 0u);
   EXPECT_LE(total.edgeWrong, total.covered / 100);
   EXPECT_GT(total.covered, 200000u);
+}
+
+TEST_F(ExtremeCasesGlTest, FarFromTheFrameOriginThePixelsAndPositionsHold) {
+  // The same scene and cameras with the data at the frame origin and at a UTM-like position
+  // (easting 500 km, northing 9,900 km) with the frame origin left at 0: the GPU masks must
+  // match the reference in both, and the unprojected terrain points must agree once shifted.
+  const glm::dvec2 offset(500000.0, 9900000.0);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(overlays.ok());
+  StiffTerrainOptions o{.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 5};
+  CaseScene nearScene = buildScene(o);
+  o.centre = offset;
+  CaseScene farScene = buildScene(o);
+  ASSERT_TRUE(nearScene.engine && farScene.engine);
+  double volumeError[2] = {0.0, 0.0};
+  for (int k = 0; k < 2; ++k) {
+    for (const overlay::OverlayLayer& l : (k == 0 ? nearScene : farScene).layers) {
+      const overlay::LayerValidation v = l.validate();
+      EXPECT_TRUE(v.problems.empty());
+      volumeError[k] = std::max(volumeError[k], v.maxPositionError);
+    }
+  }
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  std::mt19937 rngNear(5), rngFar(5);
+  const std::vector<NamedCamera> camerasNear = extremeCameras(nearScene, rngNear, 6);
+  const std::vector<NamedCamera> camerasFar = extremeCameras(farScene, rngFar, 6);
+  ASSERT_EQ(camerasNear.size(), camerasFar.size());
+  double worstShift = 0.0, worstRelative = 0.0, worstStep = 0.0, worstStepRelative = 0.0;
+  std::size_t maskDifferences = 0, compared = 0;
+  Comparison total;
+  for (std::size_t k = 0; k < camerasNear.size(); ++k) {
+    std::vector<float> depth[2];
+    std::vector<std::uint32_t> mask[2];
+    glm::dmat4 viewProj[2];
+    for (int which = 0; which < 2; ++which) {
+      CaseScene& scene = which == 0 ? nearScene : farScene;
+      const NamedCamera& cam = which == 0 ? camerasNear[k] : camerasFar[k];
+      const FrameResult r = drawAndCompare(cache_, target, scene, *overlays, cam,
+                                           std::string(which == 0 ? "near / " : "far / ") + cam.name);
+      total.covered += r.c.covered;
+      total.wrong += r.c.wrong;
+      total.edgeWrong += r.c.edgeWrong;
+      depth[which] = gfx::readDepth(target);
+      mask[which] = gfx::readMask(target);
+      const double fov = glm::radians(cam.fovDegrees);
+      const glm::dvec3 dir = glm::normalize(cam.target - cam.eye);
+      const glm::dvec3 up = std::abs(glm::dot(dir, cam.up)) > 0.9999 ? glm::dvec3(0.0, 1.0, 0.0) : cam.up;
+      viewProj[which] = gfx::reversedInfinitePerspective(fov, static_cast<double>(kWidth) / kHeight, cam.nearPlane) *
+                        gfx::lookAt(cam.eye, cam.target, up);
+    }
+    const overlay::DepthImage nearImage{kWidth, kHeight, depth[0], viewProj[0]};
+    const overlay::DepthImage farImage{kWidth, kHeight, depth[1], viewProj[1]};
+    std::vector<float> stepped = depth[1];
+    const overlay::DepthImage steppedImage{kWidth, kHeight, stepped, viewProj[1]};
+    for (int y = 1; y + 1 < kHeight; ++y) {
+      for (int x = 1; x + 1 < kWidth; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y * kWidth + x);
+        maskDifferences += mask[0][i] != mask[1][i] ? 1u : 0u;
+        // Away from depth discontinuities: the pixel and its neighbours within 5 % of each other
+        // in both images (the same surface seen at both positions).
+        bool smooth = depth[0][i] > 0.0F && depth[1][i] > 0.0F;
+        for (int dy = -1; dy <= 1 && smooth; ++dy) {
+          for (int dx = -1; dx <= 1 && smooth; ++dx) {
+            const std::size_t j = static_cast<std::size_t>((y + dy) * kWidth + x + dx);
+            for (int which = 0; which < 2; ++which) {
+              smooth = smooth && std::abs(depth[which][j] - depth[which][i]) <= 0.05F * depth[which][i];
+            }
+          }
+        }
+        if (!smooth) continue;
+        const std::optional<glm::dvec3> a = overlay::unprojectPixel(nearImage, x, y);
+        const std::optional<glm::dvec3> b = overlay::unprojectPixel(farImage, x, y);
+        if (!a || !b) continue;
+        ++compared;
+        // The reference's own resolution there: the point one float step of depth away.
+        stepped[i] = std::nextafter(depth[1][i], 2.0F);
+        if (const std::optional<glm::dvec3> c = overlay::unprojectPixel(steppedImage, x, y)) {
+          worstStep = std::max(worstStep, glm::length(*c - *b));
+          worstStepRelative = std::max(worstStepRelative, glm::length(*c - *b) / glm::length(*b - camerasFar[k].eye));
+        }
+        stepped[i] = depth[1][i];
+        const double shift = glm::length(*b - glm::dvec3(offset, 0.0) - *a);
+        worstShift = std::max(worstShift, shift);
+        worstRelative = std::max(worstRelative, shift / glm::length(*a - camerasNear[k].eye));
+      }
+    }
+  }
+  std::printf(
+      "far from the origin: volumes' vertex error %.2e m (near the origin %.2e m); reference points moved "
+      "by at most %.3g m (%.2e of the distance) over %zu pixels; one float step of depth moves a reference "
+      "point by up to %.3g m (%.2e of the distance); %zu of %zu mask pixels differ; %zu wrong, "
+      "%zu on edges of %zu covered\n",
+      volumeError[1], volumeError[0], worstShift, worstRelative, compared, worstStep, worstStepRelative,
+      maskDifferences, camerasNear.size() * static_cast<std::size_t>(kWidth * kHeight), total.wrong, total.edgeWrong,
+      total.covered);
+  nlohmann::json j{{"volume_vertex_error_m", volumeError[1]},
+                   {"volume_vertex_error_near_origin_m", volumeError[0]},
+                   {"reference_point_shift_m", worstShift},
+                   {"reference_point_shift_relative", worstRelative},
+                   {"pixels_compared", compared},
+                   {"reference_depth_step_m", worstStep},
+                   {"reference_depth_step_relative", worstStepRelative},
+                   {"mask_pixels_differing", maskDifferences},
+                   {"wrong", total.wrong},
+                   {"edge_wrong", total.edgeWrong},
+                   {"covered", total.covered}};
+  std::ofstream(outputDir() / "far_from_origin.json") << j.dump(1) << "\n";
+  EXPECT_EQ(total.wrong, 0u);
+  // Vertices are floats relative to a 1 km grid of origins: within 2^-24 of 1.5 km.
+  EXPECT_LT(volumeError[1], 1e-4);
+  // Depth is a float: a point moves by about 2^-24 of its distance, twice; 1e-5 of it at most.
+  EXPECT_LT(worstRelative, 1e-5);
+  EXPECT_GT(compared, 100000u);
 }
 
 }  // namespace
