@@ -9,6 +9,7 @@
 // with the position errors of the volumes and of the reference; hundreds of layers; and the
 // 10^6-vertex polygon.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -426,6 +428,146 @@ TEST_F(ExtremeCasesGlTest, FarFromTheFrameOriginThePixelsAndPositionsHold) {
   // Depth is a float: a point moves by about 2^-24 of its distance, twice; 1e-5 of it at most.
   EXPECT_LT(worstRelative, 1e-5);
   EXPECT_GT(compared, 100000u);
+}
+
+TEST_F(ExtremeCasesGlTest, HundredsOfLayersEachColourExactlyTheirPixels) {
+  // 300 layers of one opaque polygon each, overlapping in a fan over the stiff terrain: every
+  // pixel shows the colour of the last layer covering it (or the terrain). The mask holds 32
+  // layers; colours check them all.
+  constexpr int kLayers = 300;
+  auto grid = makeStiffTerrain({.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 13});
+  const glm::dvec2 lo = grid->postPosition(0, grid->height - 1), hi = grid->postPosition(grid->width - 1, 0);
+  auto tree = std::make_shared<terrain::TerrainQuadtree>(grid, kChunkCells);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  overlay::LayerBuildOptions options;
+  options.footprints.cells =
+      overlay::CellGrid{lo, kChunkCells * kSpacing, (kPosts - 1) / kChunkCells, (kPosts - 1) / kChunkCells};
+  const glm::dvec2 centre = 0.5 * (lo + hi);
+  std::vector<overlay::OverlayLayer> layers;
+  std::vector<std::array<std::uint8_t, 3>> colours;
+  for (int k = 0; k < kLayers; ++k) {
+    geo::Feature f;
+    f.fid = k;
+    geo::Polygon p;  // a thin wedge from near the centre, turning with k, plus a disc of radius k
+    const double a = 6.283185307179586 * k / kLayers, r = 1200.0;
+    p.outer = {centre + 40.0 * glm::dvec2(std::cos(a + 1.7), std::sin(a + 1.7)),
+               centre + r * glm::dvec2(std::cos(a - 0.15), std::sin(a - 0.15)),
+               centre + r * glm::dvec2(std::cos(a + 0.15), std::sin(a + 0.15))};
+    f.polygons.push_back(std::move(p));
+    const std::array<std::uint8_t, 3> rgb{static_cast<std::uint8_t>(k % 256),
+                                          static_cast<std::uint8_t>(40 + 60 * (k / 256)),
+                                          static_cast<std::uint8_t>((k * 7) % 256)};
+    colours.push_back(rgb);
+    overlay::LayerStyle style;
+    style.color = glm::vec4(rgb[0] / 255.0F, rgb[1] / 255.0F, rgb[2] / 255.0F, 1.0F);
+    style.opacity = 1.0F;
+    Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(
+        "layer " + std::to_string(k), overlay::LayerKind::Polygon, style, {f}, *bounds, options);
+    ASSERT_TRUE(layer.ok());
+    layers.push_back(std::move(*layer));
+  }
+  std::vector<const overlay::OverlayLayer*> drawn;
+  for (const overlay::OverlayLayer& l : layers) drawn.push_back(&l);
+
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  gfx::RenderTarget terrainOnly(kWidth, kHeight, 0, true);
+  std::size_t checked = 0, wrong = 0;
+  std::vector<std::uint8_t> seen(kLayers, 0);  // layers on top at some checked pixel
+  for (const glm::dvec3& offset :
+       {glm::dvec3(0.0, -10.0, 3500.0), glm::dvec3(-1800.0, -1300.0, 1400.0), glm::dvec3(0.0, -5.0, 1500.0)}) {
+    const glm::dvec3 eye = glm::dvec3(centre, 0.0) + offset;
+    const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+    const glm::dmat4 viewProj =
+        gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, glm::dvec3(centre, 0.0), {0, 0, 1});
+    const terrain::LodSelection selection = terrain::selectLod(*tree, {eye, viewProj, kHeight, fov});
+    drawTerrainAndLayers(cache_, terrainOnly, *engine, *overlays, selection, {viewProj, eye, 1.0, fov, aspect}, {});
+    drawTerrainAndLayers(cache_, target, *engine, *overlays, selection, {viewProj, eye, 1.0, fov, aspect}, drawn);
+    const std::vector<std::uint8_t> background = gfx::readColorRgba8(terrainOnly);
+    const std::vector<std::uint8_t> colour = gfx::readColorRgba8(target);
+    const std::vector<float> depth = gfx::readDepth(target);
+    const overlay::DepthImage image{kWidth, kHeight, depth, viewProj};
+    std::vector<overlay::ReferenceLayer> ref;
+    for (const overlay::OverlayLayer& l : layers) ref.push_back(overlay::referenceLayerOf(l));
+    // Edge pixels of any layer may differ; compute them 32 layers at a time.
+    std::vector<std::uint8_t> edge(static_cast<std::size_t>(kWidth * kHeight), 0);
+    for (std::size_t first = 0; first < ref.size(); first += 32) {
+      const std::span<const overlay::ReferenceLayer> part(ref.data() + first,
+                                                          std::min<std::size_t>(32, ref.size() - first));
+      const std::vector<std::uint8_t> e = overlay::edgePixels(image, part);
+      for (std::size_t i = 0; i < e.size(); ++i) edge[i] = static_cast<std::uint8_t>(edge[i] | e[i]);
+    }
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y * kWidth + x);
+        if (edge[i] != 0) continue;
+        const std::optional<glm::dvec3> p = overlay::unprojectPixel(image, x, y);
+        std::optional<int> top;
+        if (p) {
+          for (int k = kLayers - 1; k >= 0 && !top; --k) {
+            if (overlay::coveringFeature(ref[static_cast<std::size_t>(k)], glm::dvec2(*p))) top = k;
+          }
+        }
+        // Read-back rows are the image's rows from the top, like the depth.
+        const std::uint8_t* got = &colour[4 * i];
+        const std::uint8_t* want = top ? colours[static_cast<std::size_t>(*top)].data() : &background[4 * i];
+        if (top) seen[static_cast<std::size_t>(*top)] = 1;
+        ++checked;
+        if (std::abs(got[0] - want[0]) > 1 || std::abs(got[1] - want[1]) > 1 || std::abs(got[2] - want[2]) > 1) {
+          if (wrong++ < 5) {
+            ADD_FAILURE() << "pixel (" << x << ", " << y << "): colour " << int(got[0]) << "," << int(got[1]) << ","
+                          << int(got[2]) << ", expected layer " << (top ? *top : -1);
+          }
+        }
+      }
+    }
+  }
+  const auto layersSeen = static_cast<std::size_t>(std::count(seen.begin(), seen.end(), 1));
+  std::printf("%d layers: %zu pixels checked, %zu wrong, %zu layers on top somewhere\n", kLayers, checked, wrong,
+              layersSeen);
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GT(checked, 40000u);
+  EXPECT_GT(layersSeen, 100u);
+}
+
+TEST_F(ExtremeCasesGlTest, AMillionVertexPolygonMatchesTheReference) {
+  auto grid = makeStiffTerrain({.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 17});
+  const glm::dvec2 lo = grid->postPosition(0, grid->height - 1), hi = grid->postPosition(grid->width - 1, 0);
+  auto tree = std::make_shared<terrain::TerrainQuadtree>(grid, kChunkCells);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  overlay::LayerBuildOptions options;
+  options.footprints.cells =
+      overlay::CellGrid{lo, kChunkCells * kSpacing, (kPosts - 1) / kChunkCells, (kPosts - 1) / kChunkCells};
+  const glm::dvec2 centre = 0.5 * (lo + hi);
+  Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(
+      "big", overlay::LayerKind::Polygon, {}, {starPolygon(centre, 0.45 * (hi.x - lo.x), 1000000)}, *bounds, options);
+  ASSERT_TRUE(layer.ok());
+  EXPECT_TRUE(layer->validate().problems.empty());
+  const std::vector<const overlay::OverlayLayer*> drawn{&*layer};
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  Comparison total;
+  for (const glm::dvec3& offset : {glm::dvec3(0.0, -10.0, 3000.0), glm::dvec3(-900.0, -700.0, 600.0)}) {
+    const glm::dvec3 eye = glm::dvec3(centre, 0.0) + offset;
+    const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+    const glm::dmat4 viewProj =
+        gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, glm::dvec3(centre, 0.0), {0, 0, 1});
+    drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, {eye, viewProj, kHeight, fov}),
+                         {viewProj, eye, 1.0, fov, aspect}, drawn);
+    const Comparison c = compare(target, viewProj, drawn, "10^6 vertices");
+    total.covered += c.covered;
+    total.wrong += c.wrong;
+    total.edgeWrong += c.edgeWrong;
+  }
+  std::printf("10^6-vertex polygon: %zu pieces, %zu triangles, built in %.1f s; %zu covered, %zu wrong, %zu on edges\n",
+              layer->stats().pieces, layer->stats().triangles, layer->stats().buildSeconds, total.covered, total.wrong,
+              total.edgeWrong);
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_GT(total.covered, 30000u);
 }
 
 }  // namespace
