@@ -486,6 +486,7 @@ int run(const Options& o) {
   build.drapeSize = o.drapeSize;
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
   report(renderer.diagnostics);
+  all.append(renderer.diagnostics);
   if (!renderer) return 1;
 
   std::optional<std::pair<std::size_t, std::size_t>> overlapLayers;
@@ -593,13 +594,10 @@ int run(const Options& o) {
     std::size_t coveredPixels = 0;
     for (std::uint8_t m : mask) coveredPixels += i < 8 && ((static_cast<unsigned>(m) >> i) & 1u) != 0u ? 1u : 0u;
     json passes = json::array();
-    std::size_t skippedInBuild = 0;
-    bool drawn = false;
+    const app::LayerSummary summary = renderer->layerSummary(*scene, i);
     for (std::size_t j = 0; j < renderer->overlaySources().size(); ++j) {
       if (renderer->overlaySources()[j].first != i) continue;
-      drawn = true;
       const overlay::OverlayLayer& built = renderer->overlayLayers()[j];
-      skippedInBuild += built.stats().skippedFeatures;
       const overlay::LayerFrameStats f = j < frame.layers.size() ? frame.layers[j] : overlay::LayerFrameStats{};
       passes.push_back({{"name", built.name()},
                         {"pieces", built.stats().pieces},
@@ -617,10 +615,14 @@ int run(const Options& o) {
     layers.push_back({{"name", layer.description.name},
                       {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
                       {"source", layer.description.source},
-                      {"features", layer.data.features.size()},
+                      {"features", summary.features},
                       {"vertices", layer.data.vertexCount()},
-                      {"skipped_features", layer.skippedFeatures + skippedInBuild},
-                      {"drawn", drawn},
+                      {"skipped_features", summary.skipped()},
+                      {"skipped_when_read", summary.skippedReading},
+                      {"skipped_when_built", summary.skippedBuilding},
+                      {"features_with_nothing_to_draw", summary.nothingToDraw},
+                      {"drawn_features", summary.drawnFeatures},
+                      {"drawn", summary.built},
                       {"mask_bit", i < 8 ? json(i) : json(nullptr)},
                       {"covered_pixels", coveredPixels},
                       {"passes", passes}});

@@ -203,8 +203,10 @@ bool Viewer::loadPath(const std::string& path) {
     }
     // A new layer of the current scene: its kind from what the file holds.
     Result<geo::VectorLayer> probe = geo::readVectorLayer(path, scene_->frame);
-    for (const Diagnostic& d : probe.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
-    if (!probe) return false;
+    if (!probe) {
+      for (const Diagnostic& d : probe.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+      return false;
+    }  // else its messages come once, when the scene with it loads
     app::SceneDescription next = *description_;
     app::LayerDescription layer;
     layer.name = std::filesystem::path(path).stem().string();
@@ -275,7 +277,8 @@ bool Viewer::useScene(app::SceneDescription description) {
 
 void Viewer::message(const std::string& text, bool error) {
   (error ? logError : logInfo)(text);
-  messages_.push_back((error ? "error: " : "") + text);
+  // Diagnostics say "error: " themselves.
+  messages_.push_back((error && text.rfind("error: ", 0) != 0 ? "error: " : "") + text);
   if (messages_.size() > 200) messages_.erase(messages_.begin(), messages_.begin() + 100);
 }
 
@@ -839,7 +842,13 @@ nlohmann::json Viewer::state() const {
   }
   nlohmann::json layers = nlohmann::json::array();
   for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-    layers.push_back({{"name", scene_->layers[i].description.name}, {"shown", layerShown(i).value_or(false)}});
+    const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+    layers.push_back({{"name", scene_->layers[i].description.name},
+                      {"shown", layerShown(i).value_or(false)},
+                      {"features", summary.features},
+                      {"skipped_features", summary.skipped()},
+                      {"features_with_nothing_to_draw", summary.nothingToDraw},
+                      {"drawn_features", summary.drawnFeatures}});
   }
   nlohmann::json j = {
       {"mode", controller_->mode() == app::CameraController::Mode::Fly ? "fly" : "orbit"},

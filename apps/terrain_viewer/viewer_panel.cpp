@@ -116,8 +116,14 @@ void Viewer::drawPanel() {
       if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
       if (!built) ImGui::EndDisabled();
       ImGui::SameLine();
-      const bool open =
-          ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), scene_->layers[i].data.features.size());
+      const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+      const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
+      if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
+        // Nothing is lost silently: the counts here, each feature named under Messages.
+        ImGui::TextColored(ImVec4(1.0F, 0.75F, 0.3F, 1.0F), "    %zu skipped for errors, %zu with nothing to draw",
+                           summary.skipped(), summary.nothingToDraw);
+        if (ImGui::IsItemHovered()) ImGui::SetTooltip("Each is named, with its problem, under Messages.");
+      }
       if (open) {
         ImGui::ColorEdit3("colour", &layer.style.color.x, ImGuiColorEditFlags_NoInputs);
         rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();

@@ -91,8 +91,12 @@ TEST_F(OverlayRenderTest, WritesEveryOutput) {
   EXPECT_GT(stats["passes"]["terrain"]["pipeline"]["fragment_shader_invocations"].get<double>(), 0.0);
   ASSERT_EQ(stats["layers"].size(), 2u);
   EXPECT_EQ(stats["layers"][0]["features"].get<int>(), 470);
-  EXPECT_EQ(stats["layers"][1]["features"].get<int>(), 1413);
+  // The 8 one-point lines are counted: 1,421 features in the file, 8 skipped when read.
+  EXPECT_EQ(stats["layers"][1]["features"].get<int>(), 1421);
   EXPECT_EQ(stats["layers"][1]["skipped_features"].get<int>(), 8);
+  EXPECT_EQ(stats["layers"][1]["skipped_when_read"].get<int>(), 8);
+  EXPECT_EQ(stats["layers"][1]["drawn_features"].get<int>(), 1413);
+  EXPECT_EQ(stats["layers"][1]["features_with_nothing_to_draw"].get<int>(), 0);
   const gfx::Image8 mask = *gfx::readImage8((out_ / "mask.png").string());
   EXPECT_EQ(mask.width, kWidth);
   EXPECT_EQ(mask.channels, 1);
@@ -170,6 +174,75 @@ TEST(OverlayRenderCli, BadArgumentsAndFilesGiveClearErrors) {
   EXPECT_EQ(runOverlayRender("--scene /nonexistent/scene.json --out " + dir.string(), dir / "c.txt"), 1);
   EXPECT_NE(readText(dir / "c.txt").find("/nonexistent/scene.json"), std::string::npos);
   EXPECT_EQ(runOverlayRender("--help", dir / "d.txt"), 0);
+}
+
+TEST(OverlayRenderCli, MessyLayersAreCountedNamedAndTheRestDraws) {
+  // A polygon layer and a road layer full of problems over the Olinda DEM: what can be drawn is
+  // drawn; every feature left out is named with its file, layer and problem; the counts are in
+  // the log and in stats.json.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("messy_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string data = STENCIL_GIS_TEST_DATA_DIR;
+  const json scene = {{"name", "messy"},
+                      {"terrain", {{"dem", kSamples + "/olinda/olinda_dem_utm25s.tif"}}},
+                      {"camera",
+                       {{"eye", {{"lon", -34.856}, {"lat", -8.024}, {"h", 1500.0}}},
+                        {"target", {{"lon", -34.856}, {"lat", -8.006}, {"h", 0.0}}},
+                        {"fov_y_deg", 40.0}}},
+                      {"layers",
+                       {{{"name", "messy areas"}, {"kind", "polygon"}, {"source", data + "/messy_layer.geojson"}},
+                        {{"name", "messy roads"},
+                         {"kind", "line"},
+                         {"source", data + "/messy_roads.geojson"},
+                         {"style", {{"width_m", 6.0}, {"width_attribute", "width_m"}}}}}}};
+  std::ofstream(dir / "scene.json") << scene.dump(1);
+  const int status =
+      runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                           " --height " + std::to_string(kHeight) + " --out " + dir.string(),
+                       dir / "log.txt");
+  const std::string log = readText(dir / "log.txt");
+  ASSERT_EQ(status, 0) << log;
+  const json stats = json::parse(readText(dir / "stats.json"));
+  ASSERT_EQ(stats["layers"].size(), 2u);
+  const json& areas = stats["layers"][0];
+  const json& roads = stats["layers"][1];
+  // Areas: NaN vertex (left out when read), outside the DEM (nothing to draw); the square, the
+  // bow-tie, the hole touching its shell and the ring collinear in lon/lat (a sliver once
+  // projected) are drawn.
+  EXPECT_EQ(areas["features"].get<int>(), 6) << areas.dump(1);
+  EXPECT_EQ(areas["skipped_when_read"].get<int>(), 1);
+  EXPECT_EQ(areas["skipped_when_built"].get<int>(), 0);
+  EXPECT_EQ(areas["features_with_nothing_to_draw"].get<int>(), 1);
+  EXPECT_EQ(areas["drawn_features"].get<int>(), 4);
+  EXPECT_GT(areas["covered_pixels"].get<int>(), 100);
+  // Roads: an infinite coordinate (read), a 1e20 m width (built), outside the DEM (nothing to
+  // draw); the hairpin, the road of unusable width (drawn at the layer's 6 m, with a warning) and
+  // the 1 cm road with a zero-length segment are drawn.
+  EXPECT_EQ(roads["features"].get<int>(), 6) << roads.dump(1);
+  EXPECT_EQ(roads["skipped_when_read"].get<int>(), 1);
+  EXPECT_EQ(roads["skipped_when_built"].get<int>(), 1);
+  EXPECT_EQ(roads["features_with_nothing_to_draw"].get<int>(), 1);
+  EXPECT_EQ(roads["drawn_features"].get<int>(), 3);
+  EXPECT_GT(roads["covered_pixels"].get<int>(), 10);
+  // Each problem names the file, the layer and the feature.
+  std::size_t named = 0;
+  for (const json& d : stats["diagnostics"]) {
+    const std::string text = d.get<std::string>();
+    if (text.find("features skipped for errors") != std::string::npos) continue;  // the per-layer counts
+    EXPECT_NE(text.find("/tests/data/messy_"), std::string::npos) << text;
+    EXPECT_NE(text.find("layer 'messy "), std::string::npos) << text;
+    EXPECT_NE(text.find("feature "), std::string::npos) << text;
+    ++named;
+  }
+  EXPECT_EQ(named, 6u) << stats["diagnostics"].dump(1);  // 1 + 2 skipped, 2 nothing to draw, 1 width
+  EXPECT_EQ(stats["errors"].get<int>(), 3);
+  for (const char* summary : {"layer 'messy areas': 1 of 6 features skipped for errors (1 when read, 0 when built), 1 "
+                              "with nothing to draw",
+                              "layer 'messy roads': 2 of 6 features skipped for errors (1 when read, 1 when built), 1 "
+                              "with nothing to draw"}) {
+    EXPECT_NE(log.find(summary), std::string::npos) << summary << "\n" << log;
+  }
 }
 
 TEST(OverlayRenderCli, MsaaAndCameraFileRoundTrip) {

@@ -457,6 +457,9 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
             save("s1.json"),
             {{"action", "drop"}, {"paths", {data + "/garbage.geojson"}}},
             save("s2.json"),
+            {{"action", "drop"}, {"paths", {data + "/messy_layer.geojson"}}},
+            shot("messy.png"),
+            save("s2b.json"),
             {{"action", "drop"}, {"paths", {std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/olinda_dem_utm25s.tif"}}},
             {{"wait", 2}},
             shot("dem.png"),
@@ -543,6 +546,23 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
                             m.get<std::string>().find("garbage.geojson") != std::string::npos);
   }
   EXPECT_TRUE(reported) << s2["messages"].dump(1);
+  // A messy file: what is good is drawn, the rest counted in the panel and named in the messages.
+  const json s2b = state("s2b.json");
+  ASSERT_EQ(s2b["layers"].size(), 4u);
+  const json& messy = s2b["layers"][3];
+  EXPECT_EQ(messy["features"], 6) << messy.dump();
+  EXPECT_EQ(messy["skipped_features"], 1);
+  EXPECT_EQ(messy["features_with_nothing_to_draw"], 1);
+  EXPECT_EQ(messy["drawn_features"], 4);
+  std::size_t named = 0;
+  for (const json& m : s2b["messages"]) {
+    const std::string text = m.get<std::string>();
+    named += text.find("messy_layer.geojson") != std::string::npos &&
+                     (text.find("feature 3:") != std::string::npos || text.find("feature 5:") != std::string::npos)
+                 ? 1u
+                 : 0u;
+  }
+  EXPECT_EQ(named, 2u) << s2b["messages"].dump(1);
   EXPECT_NE(s3["scene"].get<std::string>().find("olinda_dem_utm25s.tif"), std::string::npos);
   EXPECT_EQ(s3["layers"].size(), 0u);
   const gfx::ImageFloat demDepth = *gfx::readImageFloat((dir / "dem_depth.tiff").string());

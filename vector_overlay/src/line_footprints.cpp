@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -264,9 +265,9 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
                                       const FootprintOptions& options, Diagnostics& diagnostics) {
   std::vector<Footprint> result;
   if (!(std::isfinite(shape.width) && shape.width > 0.0 && shape.width <= kMaxCoordinate)) {
-    diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid,
-                                         "line width " + std::to_string(shape.width) +
-                                             " is not a positive finite number of at most 1e15 m; feature skipped"));
+    std::ostringstream message;
+    message << "line width " << shape.width << " m is not a positive finite number of at most 1e15 m; feature skipped";
+    diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid, message.str()));
     return result;
   }
   if (options.cells) {

@@ -324,19 +324,16 @@ Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const
   for (std::size_t i = 0; i < layer.features_.size(); ++i)
     assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());
+  layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
   layer.building_ = true;
   for (std::size_t i = 0; i < layer.features_.size(); ++i) {
     if (!layer.styles_[i].visible) continue;
     const std::size_t errorsBefore = r.diagnostics.count(Severity::Error);
     std::vector<Polyhedron> pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind,
                                                     layer.styles_[i], layer.name_, bounds, options, r.diagnostics);
-    if (pieces.empty()) {
-      if (r.diagnostics.count(Severity::Error) > errorsBefore) {
-        ++layer.stats_.skippedFeatures;
-      } else {
-        ++layer.stats_.emptyFeatures;
-      }
-    }
+    layer.setOutcome(i, !pieces.empty()                                       ? FeatureOutcome::Drawn
+                        : r.diagnostics.count(Severity::Error) > errorsBefore ? FeatureOutcome::Skipped
+                                                                              : FeatureOutcome::NothingToDraw);
     layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces));
   }
   layer.building_ = false;
@@ -585,14 +582,30 @@ void OverlayLayer::freePieces(std::uint32_t feature) {
   featureSlots_[feature].clear();
 }
 
+void OverlayLayer::setOutcome(std::size_t feature, FeatureOutcome outcome) {
+  auto count = [this](FeatureOutcome o) -> std::size_t* {
+    return o == FeatureOutcome::Skipped         ? &stats_.skippedFeatures
+           : o == FeatureOutcome::NothingToDraw ? &stats_.emptyFeatures
+                                                : nullptr;
+  };
+  if (std::size_t* before = count(outcomes_[feature])) --*before;
+  if (std::size_t* after = count(outcome)) ++*after;
+  outcomes_[feature] = outcome;
+}
+
 Diagnostics OverlayLayer::rebuildFeature(std::size_t index) {
   Diagnostics diagnostics;
   freePieces(static_cast<std::uint32_t>(index));
+  FeatureOutcome outcome = FeatureOutcome::Hidden;
   if (styles_[index].visible && bounds_ != nullptr) {
-    addPieces(static_cast<std::uint32_t>(index),
-              buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_, styles_[index], name_,
-                             *bounds_, options_, diagnostics));
+    std::vector<Polyhedron> pieces = buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_,
+                                                    styles_[index], name_, *bounds_, options_, diagnostics);
+    outcome = !pieces.empty()           ? FeatureOutcome::Drawn
+              : diagnostics.hasErrors() ? FeatureOutcome::Skipped
+                                        : FeatureOutcome::NothingToDraw;
+    addPieces(static_cast<std::uint32_t>(index), std::move(pieces));
   }
+  setOutcome(index, outcome);
   return diagnostics;
 }
 
@@ -620,6 +633,7 @@ void OverlayLayer::removeFeature(std::size_t index) {
   if (index >= features_.size()) return;
   styles_[index].visible = false;
   freePieces(static_cast<std::uint32_t>(index));
+  setOutcome(index, FeatureOutcome::Hidden);
 }
 
 void OverlayLayer::refreshBounds(const HeightBoundsProvider& bounds) {

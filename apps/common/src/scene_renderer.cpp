@@ -84,9 +84,18 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     const LoadedLayer& source = scene.layers[i];
     if (!source.description.visible) continue;
     const overlay::LayerStyle& style = source.description.style;
+    // The library names layer and feature; the file is the scene's business.
+    auto named = [&source](Diagnostics built) {
+      Diagnostics out;
+      for (Diagnostic d : std::move(built).items()) {
+        if (d.file.empty()) d.file = source.description.source;
+        out.add(std::move(d));
+      }
+      return out;
+    };
     Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(
         source.description.name, source.description.kind, style, source.data.features, *scene.bounds, options);
-    diagnostics.append(layer.diagnostics);
+    diagnostics.append(named(std::move(layer.diagnostics)));
     if (!layer) continue;
     layers_.push_back(std::move(*layer));
     sources_.emplace_back(i, false);
@@ -104,14 +113,52 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
       Result<overlay::OverlayLayer> lines =
           overlay::OverlayLayer::build(source.description.name + " (outline)", overlay::LayerKind::Line, outline,
                                        outlineFeatures(source.data.features), *scene.bounds, options);
-      diagnostics.append(lines.diagnostics);
+      diagnostics.append(named(std::move(lines.diagnostics)));
       if (!lines) continue;
       layers_.push_back(std::move(*lines));
       sources_.emplace_back(i, true);
     }
   }
   shown_.assign(layers_.size(), true);
+  // One line per layer that lost anything, with the counts (each feature is named above).
+  for (std::size_t i = 0; i < scene.layers.size(); ++i) {
+    const LayerSummary summary = layerSummary(scene, i);
+    if (summary.skipped() == 0 && summary.nothingToDraw == 0) continue;
+    diagnostics.add({Severity::Warning, scene.layers[i].description.source, scene.layers[i].description.name, "",
+                     std::to_string(summary.skipped()) + " of " + std::to_string(summary.features) +
+                         " features skipped for errors (" + std::to_string(summary.skippedReading) + " when read, " +
+                         std::to_string(summary.skippedBuilding) + " when built), " +
+                         std::to_string(summary.nothingToDraw) + " with nothing to draw"});
+  }
   return diagnostics;
+}
+
+LayerSummary SceneRenderer::layerSummary(const LoadedScene& scene, std::size_t sceneLayer) const {
+  LayerSummary summary;
+  if (sceneLayer >= scene.layers.size()) return summary;
+  const LoadedLayer& source = scene.layers[sceneLayer];
+  summary.skippedReading = source.skippedFeatures;
+  summary.features = source.data.features.size() + source.skippedFeatures;
+  std::vector<bool> skipped(source.data.features.size(), false), drawn(skipped.size(), false),
+      empty(skipped.size(), false);
+  for (std::size_t j = 0; j < sources_.size(); ++j) {
+    if (sources_[j].first != sceneLayer) continue;
+    summary.built = true;
+    summary.pieces += layers_[j].stats().pieces;
+    summary.triangles += layers_[j].stats().triangles;
+    const std::vector<overlay::FeatureOutcome>& outcomes = layers_[j].featureOutcomes();
+    for (std::size_t f = 0; f < outcomes.size() && f < skipped.size(); ++f) {
+      skipped[f] = skipped[f] || outcomes[f] == overlay::FeatureOutcome::Skipped;
+      drawn[f] = drawn[f] || outcomes[f] == overlay::FeatureOutcome::Drawn;
+      empty[f] = empty[f] || outcomes[f] == overlay::FeatureOutcome::NothingToDraw;
+    }
+  }
+  for (std::size_t f = 0; f < skipped.size(); ++f) {
+    summary.skippedBuilding += skipped[f] ? 1u : 0u;
+    summary.drawnFeatures += drawn[f] ? 1u : 0u;
+    summary.nothingToDraw += !skipped[f] && !drawn[f] && empty[f] ? 1u : 0u;
+  }
+  return summary;
 }
 
 Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene, const OverlayBuildSettings& overlays) {

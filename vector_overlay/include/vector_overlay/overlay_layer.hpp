@@ -96,6 +96,14 @@ struct LayerStats {
   double buildSeconds = 0.0;
 };
 
+/// What became of one feature of a layer.
+enum class FeatureOutcome : std::uint8_t {
+  Drawn,          ///< has pieces
+  Skipped,        ///< left out for errors (named in the build's diagnostics)
+  NothingToDraw,  ///< fine, but no pieces: outside the terrain, no geometry (a Warning says so)
+  Hidden,         ///< not visible (style) or removed
+};
+
 /// What OverlayLayer::validate found.
 struct LayerValidation {
   Diagnostics problems;  ///< one Error per broken piece, naming the layer, feature and piece
@@ -121,6 +129,8 @@ class OverlayLayer {
   [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_; }
   [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
   [[nodiscard]] const LayerStats& stats() const { return stats_; }
+  /// Per feature, what became of it (kept up to date by edits, as are the stats' counts).
+  [[nodiscard]] const std::vector<FeatureOutcome>& featureOutcomes() const { return outcomes_; }
   [[nodiscard]] bool paperVariant() const { return options_.paperVariant; }
 
   /// Editing: only the feature's pieces are rebuilt and re-uploaded; the next frame shows it.
@@ -186,6 +196,9 @@ class OverlayLayer {
   std::vector<geo::Feature> features_;
   std::vector<FeatureStyle> styles_;
   std::vector<std::vector<std::uint32_t>> featureSlots_;  ///< per feature, its slots
+  std::vector<FeatureOutcome> outcomes_;                  ///< per feature
+  /// Records a feature's outcome and keeps the stats' counts in step.
+  void setOutcome(std::size_t feature, FeatureOutcome outcome);
   std::vector<PieceSlot> slots_;
   std::vector<Polyhedron> polyhedra_;  ///< per slot
   std::vector<glm::dvec2> origins_;

@@ -72,6 +72,20 @@ inline constexpr glm::vec4 kBackground{0.06F, 0.07F, 0.09F, 1.0F};
 /// The overlay passes' view of a camera at the given aspect (width / height).
 overlay::OverlayView overlayViewOf(const Camera& camera, double aspect);
 
+/// What became of one scene layer's features, over all its passes (fill and outline): nothing
+/// the user gave is lost without a count (and a message naming each feature).
+struct LayerSummary {
+  std::size_t features = 0;         ///< read from the source, plus those the reader left out
+  std::size_t skippedReading = 0;   ///< left out by the reader for errors
+  std::size_t skippedBuilding = 0;  ///< read, but left out of a pass's polyhedra for errors
+  std::size_t nothingToDraw = 0;    ///< fine, but no pieces in any pass (outside the terrain, ...)
+  std::size_t drawnFeatures = 0;    ///< with pieces in some pass
+  std::size_t pieces = 0;
+  std::size_t triangles = 0;
+  bool built = false;  ///< the layer is visible and was built
+  [[nodiscard]] std::size_t skipped() const { return skippedReading + skippedBuilding; }
+};
+
 class SceneRenderer {
  public:
   /// Uploads the scene to the current context: terrain and the visible vector layers.
@@ -114,6 +128,8 @@ class SceneRenderer {
   [[nodiscard]] std::size_t drapeGpuBytes() const {
     return drape_ ? drape_->stats().gpuBytes : tiledDrape_ ? tiledDrape_->gpuBytes() : 0;
   }
+  /// What became of scene layer `sceneLayer`'s features as last built.
+  [[nodiscard]] LayerSummary layerSummary(const LoadedScene& scene, std::size_t sceneLayer) const;
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
   [[nodiscard]] const std::vector<std::pair<std::size_t, bool>>& overlaySources() const { return sources_; }
 
