@@ -376,6 +376,11 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
                 : anyPolygon          ? GeometryKind::Polygon
                 : anyLine             ? GeometryKind::Line
                                       : GeometryKind::Empty;
+  if (result.features.empty()) {
+    r.diagnostics.add({Severity::Warning, path, result.name, "",
+                       r.diagnostics.hasErrors() ? "no usable feature: nothing to draw"
+                                                 : "the layer holds no features: nothing to draw"});
+  }
   r.value = std::move(result);
   return r;
 }

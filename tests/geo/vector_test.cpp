@@ -279,6 +279,17 @@ TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {
   }
 }
 
+TEST(VectorBroken, AnEmptyLayerLoadsWithAWarning) {
+  gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(kData + "empty_layer.geojson", olindaFrame());
+  ASSERT_TRUE(layer.ok());
+  EXPECT_TRUE(layer->features.empty());
+  EXPECT_EQ(layer->kind, gis::geo::GeometryKind::Empty);
+  ASSERT_EQ(layer.diagnostics.items().size(), 1u);
+  EXPECT_EQ(layer.diagnostics.items()[0].severity, gis::Severity::Warning);
+  EXPECT_EQ(layer.diagnostics.items()[0].layer, "empty_layer");
+  EXPECT_NE(layer.diagnostics.items()[0].message.find("no features"), std::string::npos);
+}
+
 TEST(VectorBroken, MissingLayerAndBadOptions) {
   const SceneFrame frame = olindaFrame();
   gis::Result<std::vector<std::string>> layers = gis::geo::listVectorLayers(kTracts);

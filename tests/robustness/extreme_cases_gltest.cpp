@@ -532,6 +532,35 @@ TEST_F(ExtremeCasesGlTest, HundredsOfLayersEachColourExactlyTheirPixels) {
   EXPECT_GT(layersSeen, 100u);
 }
 
+TEST_F(ExtremeCasesGlTest, EmptyLayersBuildAndDrawNothing) {
+  auto tree = std::make_shared<terrain::TerrainQuadtree>(
+      makeStiffTerrain({.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 19}), kChunkCells);
+  auto bounds = std::make_shared<terrain::QuadtreeHeightBounds>(tree, 1.0);
+  Result<terrain::TerrainEngine> engine = terrain::TerrainEngine::create(tree, nullptr);
+  Result<overlay::OverlayRenderer> overlays = overlay::OverlayRenderer::create();
+  ASSERT_TRUE(engine.ok() && overlays.ok());
+  Result<overlay::OverlayLayer> polygons =
+      overlay::OverlayLayer::build("no areas", overlay::LayerKind::Polygon, {}, {}, *bounds);
+  Result<overlay::OverlayLayer> lines =
+      overlay::OverlayLayer::build("no roads", overlay::LayerKind::Line, {}, {}, *bounds);
+  ASSERT_TRUE(polygons.ok() && lines.ok());
+  EXPECT_TRUE(polygons.diagnostics.empty() && lines.diagnostics.empty());
+  EXPECT_EQ(polygons->stats().pieces + lines->stats().pieces, 0u);
+  EXPECT_TRUE(polygons->validate().problems.empty());
+  const std::vector<const overlay::OverlayLayer*> drawn{&*polygons, &*lines};
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  const glm::dvec3 eye(0.0, -1500.0, 1800.0);
+  const double fov = glm::radians(50.0), aspect = static_cast<double>(kWidth) / kHeight;
+  const glm::dmat4 viewProj =
+      gfx::reversedInfinitePerspective(fov, aspect, 1.0) * gfx::lookAt(eye, glm::dvec3(0.0), {0, 0, 1});
+  drawTerrainAndLayers(cache_, target, *engine, *overlays, terrain::selectLod(*tree, {eye, viewProj, kHeight, fov}),
+                       {viewProj, eye, 1.0, fov, aspect}, drawn);
+  const Comparison c = compare(target, viewProj, drawn, "empty layers");
+  EXPECT_EQ(c.covered + c.wrong + c.edgeWrong, 0u);
+  const std::vector<std::uint32_t> mask = gfx::readMask(target);
+  EXPECT_EQ(std::count(mask.begin(), mask.end(), 0u), static_cast<long>(mask.size()));
+}
+
 TEST_F(ExtremeCasesGlTest, AMillionVertexPolygonMatchesTheReference) {
   auto grid = makeStiffTerrain({.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 17});
   const glm::dvec2 lo = grid->postPosition(0, grid->height - 1), hi = grid->postPosition(grid->width - 1, 0);
