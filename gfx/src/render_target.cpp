@@ -51,10 +51,11 @@ std::vector<T> readPixels(const RenderTarget& target, GLenum readBuffer, GLenum 
 
 }  // namespace
 
-RenderTarget::RenderTarget(int width, int height, int samples, bool mask)
-    : width_(width), height_(height), samples_(samples > 1 ? samples : 0) {
+RenderTarget::RenderTarget(int width, int height, int samples, bool mask, DepthFormat depth)
+    : width_(width), height_(height), samples_(samples > 1 ? samples : 0), depthFormat_(depth) {
   color_ = makeAttachment(GL_RGBA8, width, height, samples_);
-  depthStencil_ = makeAttachment(GL_DEPTH32F_STENCIL8, width, height, samples_);
+  depthStencil_ = makeAttachment(depth == DepthFormat::Fixed24 ? GL_DEPTH24_STENCIL8 : GL_DEPTH32F_STENCIL8, width,
+                                 height, samples_);
   fbo_ = createFramebuffer();
   glNamedFramebufferTexture(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0);
   glNamedFramebufferTexture(fbo_.id(), GL_DEPTH_STENCIL_ATTACHMENT, depthStencil_.id(), 0);
@@ -75,6 +76,7 @@ bool RenderTarget::complete() const {
 
 void RenderTarget::resolveInto(const RenderTarget& single) const {
   assert(single.width_ == width_ && single.height_ == height_ && !single.multisampled());
+  assert(single.depthFormat_ == depthFormat_ && "GL blits depth only between equal formats");
   glBlitNamedFramebuffer(fbo_.id(), single.fbo_.id(), 0, 0, width_, height_, 0, 0, width_, height_,
                          GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT, GL_NEAREST);
 }

@@ -1,6 +1,8 @@
 // Depth under reversed-Z with an infinite far plane: a ground plane drawn through the same
 // eye-relative matrices as the terrain, read back and compared per pixel with the analytic
-// depth near / (distance along the view axis) of the ray–plane hit.
+// depth near / (distance along the view axis) of the ray–plane hit, in the float depth buffer and
+// in a 24-bit one (gfx::DepthFormat::Fixed24), whose readback must give the same depths to
+// within one step.
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -20,8 +22,9 @@ namespace {
 constexpr int kWidth = 128;
 constexpr int kHeight = 96;
 // Depth is a float; interpolating z/w over a plane is exact up to rounding. Stated tolerance:
-// 1e-5 relative (≈ 80 float ulps).
+// 1e-5 relative (≈ 80 float ulps). A 24-bit buffer adds its step, 1 / (2^24 − 1), absolute.
 constexpr double kRelativeTolerance = 1e-5;
+constexpr double kFixed24Step = 1.0 / 16777215.0;
 
 const char* kVert = R"(#version 450 core
 layout(location = 0) in vec3 a_position;
@@ -41,7 +44,7 @@ struct Case {
 class DepthGlTest : public GlTest {
  protected:
   /// Draws a 20 km square of the plane z = centre.z and returns the depth buffer.
-  std::vector<float> drawPlane(const Case& c) {
+  std::vector<float> drawPlane(const Case& c, gfx::DepthFormat format = gfx::DepthFormat::Float32) {
     Result<gfx::Program> program =
         gfx::Program::fromSources({{GL_VERTEX_SHADER, kVert}, {GL_FRAGMENT_SHADER, kFrag}}, "plane");
     EXPECT_TRUE(program.ok());
@@ -54,7 +57,8 @@ class DepthGlTest : public GlTest {
     glVertexArrayAttribFormat(vao.id(), 0, 3, GL_FLOAT, GL_FALSE, 0);
     glVertexArrayAttribBinding(vao.id(), 0, 0);
 
-    gfx::RenderTarget target(kWidth, kHeight);
+    gfx::RenderTarget target(kWidth, kHeight, 0, false, format);
+    EXPECT_EQ(target.depthFormat(), format);
     gfx::beginRenderPass(cache_, target, {glm::vec4(0), gfx::kReversedZFar, 0});
     gfx::PipelineState state = gfx::kOpaque;
     state.raster.cull = gfx::CullMode::None;
@@ -90,8 +94,9 @@ class DepthGlTest : public GlTest {
     return c.near / s;
   }
 
-  void checkCase(const Case& c) {
-    const std::vector<float> depth = drawPlane(c);
+  void checkCase(const Case& c, gfx::DepthFormat format = gfx::DepthFormat::Float32) {
+    const std::vector<float> depth = drawPlane(c, format);
+    const double absolute = format == gfx::DepthFormat::Fixed24 ? kFixed24Step : 0.0;
     int onPlane = 0, background = 0, bad = 0, missing = 0;
     double worst = 0.0;
     for (int y = 0; y < kHeight; ++y) {
@@ -109,7 +114,7 @@ class DepthGlTest : public GlTest {
           ++missing;
           continue;
         }
-        const double rel = std::abs(actual - expected) / expected;
+        const double rel = (std::abs(actual - expected) - absolute) / expected;
         worst = std::max(worst, rel);
         bad += rel > kRelativeTolerance;
       }
@@ -129,6 +134,11 @@ TEST_F(DepthGlTest, FarFromTheOriginTheEyeRelativeMatricesKeepPrecision) {
   // UTM-like coordinates: northing near 10^7 m. Vertices are float relative to the centre.
   const glm::dvec3 centre(293770.921, 9115766.079, 40.0);
   checkCase({centre, centre + glm::dvec3(150, -600, 250), centre + glm::dvec3(0, 300, 0), 0.5});
+}
+
+TEST_F(DepthGlTest, A24BitBufferReadsBackTheSameDepthsWithinOneStep) {
+  checkCase({{0, 0, 0}, {0, -800, 300}, {0, 400, 0}, 1.0}, gfx::DepthFormat::Fixed24);
+  checkCase({{0, 0, 0}, {0, -800, 300}, {0, 400, 0}, 100.0}, gfx::DepthFormat::Fixed24);
 }
 
 TEST_F(DepthGlTest, NearerIsGreaterAndBackgroundIsZero) {

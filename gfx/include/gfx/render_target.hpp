@@ -1,6 +1,7 @@
 #pragma once
-// Off-screen render targets: RGBA8 colour + GL_DEPTH32F_STENCIL8, optionally multisampled,
-// and render passes that say what they clear (filament's RenderPassParams).
+// Off-screen render targets: RGBA8 colour + depth/stencil (GL_DEPTH32F_STENCIL8 by default),
+// optionally multisampled, and render passes that say what they clear (filament's
+// RenderPassParams).
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -12,17 +13,27 @@
 
 namespace gis::gfx {
 
+/// The depth/stencil attachment's format. Both hold reversed-Z depth = near / distance along the
+/// view axis, but with different resolution (docs/depth-precision.md):
+/// - Float32 (GL_DEPTH32F_STENCIL8): relative, about 2^-23 of the distance at any distance: what
+///   the overlay's cap padding is made for. The product uses this.
+/// - Fixed24 (GL_DEPTH24_STENCIL8): depth quantised in steps of 2^-24, i.e. distance steps of
+///   about distance² / (near · 2^24), like a classic 24-bit buffer with the far plane at infinity.
+///   For measuring what a client with a 24-bit buffer would get.
+enum class DepthFormat { Float32, Fixed24 };
+
 class RenderTarget {
  public:
   /// `samples` 0 or 1 = single-sampled (textures); >1 = multisampled textures, resolve with
   /// resolveInto() before reading back. `mask` adds a second draw buffer, R32F, for the overlay's
-  /// per-pixel layer bits (cleared to 0 with the colour).
-  RenderTarget(int width, int height, int samples = 0, bool mask = false);
+  /// per-pixel layer bits (cleared to 0 with the colour). `depth`: see DepthFormat.
+  RenderTarget(int width, int height, int samples = 0, bool mask = false, DepthFormat depth = DepthFormat::Float32);
 
   [[nodiscard]] int width() const { return width_; }
   [[nodiscard]] int height() const { return height_; }
   [[nodiscard]] int samples() const { return samples_; }
   [[nodiscard]] bool multisampled() const { return samples_ > 1; }
+  [[nodiscard]] DepthFormat depthFormat() const { return depthFormat_; }
   [[nodiscard]] GLuint framebuffer() const { return fbo_.id(); }
   [[nodiscard]] GLuint colorTexture() const { return color_.id(); }
   [[nodiscard]] GLuint depthStencilTexture() const { return depthStencil_.id(); }
@@ -31,9 +42,10 @@ class RenderTarget {
   /// False (with the status logged) if GL did not accept the attachments.
   [[nodiscard]] bool complete() const;
 
-  /// Copies colour, depth and stencil into a single-sampled target of the same size (colour
-  /// averaged over samples; depth and stencil of one sample per pixel, as GL defines). The mask
-  /// is not resolved (bits do not average): read it per sample with copySampleInto().
+  /// Copies colour, depth and stencil into a single-sampled target of the same size and depth
+  /// format (colour averaged over samples; depth and stencil of one sample per pixel, as GL
+  /// defines). The mask is not resolved (bits do not average): read it per sample with
+  /// copySampleInto().
   void resolveInto(const RenderTarget& single) const;
   /// Copies sample `sample` of colour, mask and depth into a single-sampled target (a shader
   /// pass with texelFetch): for per-sample comparisons.
@@ -43,6 +55,7 @@ class RenderTarget {
   int width_;
   int height_;
   int samples_;
+  DepthFormat depthFormat_;
   TextureHandle color_;
   TextureHandle depthStencil_;
   TextureHandle mask_;
@@ -72,7 +85,8 @@ void enableMaskWrites(GLuint framebuffer, bool enabled);
 
 /// Readback of a single-sampled target, top row first (image order).
 std::vector<std::uint8_t> readColorRgba8(const RenderTarget& target);
-/// Depth as stored (float; reversed-Z: 1 at the near plane, 0 at infinity), top row first.
+/// Depth as stored (reversed-Z: 1 at the near plane, 0 at infinity), top row first, as float for
+/// both formats (Fixed24 values are the stored steps k / (2^24 − 1), exactly as GL converts them).
 std::vector<float> readDepth(const RenderTarget& target);
 /// Stencil values, top row first.
 std::vector<std::uint8_t> readStencil(const RenderTarget& target);
