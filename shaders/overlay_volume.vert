@@ -16,6 +16,7 @@ layout(location = 3) in vec3 a_scaling;
 uniform mat4 u_modelViewProj;  // frame → clip, translated to the eye
 uniform float u_padBase;
 uniform float u_padPerMetre;
+uniform float u_padPerMetreSquared;  // fixed-point depth buffers: their steps grow with distance²
 uniform float u_halfWidthPerMetre;
 uniform float u_maxHalfWidth;
 uniform vec4 u_debugColor;  // alpha > 0: every vertex takes this colour (the debug view of pieces)
@@ -26,7 +27,8 @@ void main() {
   vec3 p = vec3(a_position.xy + a_origin.xy, a_position.z + a_origin.z);
   const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
   p.xy += a_scaling.xy * min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth);
-  p.z += a_position.w * (u_padBase + u_padPerMetre * length(p));
+  const float distance = length(p);
+  p.z += a_position.w * (u_padBase + (u_padPerMetre + u_padPerMetreSquared * distance) * distance);
   v_color = u_debugColor.a > 0.0 ? u_debugColor : a_color;
   gl_Position = u_modelViewProj * vec4(p, 1.0);
 }

@@ -188,8 +188,10 @@ void add(Comparison& total, const Comparison& c) {
 
 // The table's formats, per frame. The controls draw the D32F frame again with less padding
 // than the renderer's, to show the comparison finds what too little padding does.
-enum Measure : std::size_t { kD32F, kD24, kD24VsTruth, kNoPad, kPadOneStep, kMeasures };
-const char* const kMeasureNames[kMeasures] = {"D32F", "D24", "D24 vs truth", "D32F, no pad", "D32F, pad 1e-7 s"};
+enum Measure : std::size_t { kD32F, kD24, kD24VsTruth, kD24Aware, kD24AwareVsTruth, kNoPad, kPadOneStep, kMeasures };
+const char* const kMeasureNames[kMeasures] = {
+    "D32F",         "D24 linear pad",  "D24 linear vs truth", "D24 d2 pad", "D24 d2 pad vs truth",
+    "D32F, no pad", "D32F, pad 1e-7 s"};
 
 /// One row of the table: a distance, a choice of near plane and a format, summed over the angles.
 struct Row {
@@ -226,9 +228,14 @@ class DepthPrecisionGlTest : public GlTest {
     const std::vector<std::uint8_t> edges = overlay::edgePixels(image32, ref);
     f.c[kD32F] = count(gfx::readMask(d32), truth, edges);
 
-    draw(d24, {});
+    // The renderer pads for the 24-bit steps (distance²) unless told not to: first without, the
+    // physics of a linear pad on a fixed-point buffer, then as a client gets it.
+    draw(d24, {.padForDepthFormat = false});
     f.c[kD24] = overlay_test::compare(d24, view.viewProj, scene.drawn, label, false);
     f.c[kD24VsTruth] = count(gfx::readMask(d24), truth, edges);
+    draw(d24, {});
+    f.c[kD24Aware] = overlay_test::compare(d24, view.viewProj, scene.drawn, label, false);
+    f.c[kD24AwareVsTruth] = count(gfx::readMask(d24), truth, edges);
     const std::vector<float> depth24 = gfx::readDepth(d24);
     for (std::size_t i = 0; i < depth32.size(); ++i) {
       if (depth32[i] <= 0.0F || depth24[i] <= 0.0F || edges[i] != 0) continue;
@@ -362,6 +369,20 @@ TEST_F(DepthPrecisionGlTest, ClassificationErrorAgainstDistanceForFloatAnd24BitD
   }
   // The viewer's near plane, at most 1000 m, holds it only to some 40 km.
   EXPECT_GT(wrongPercent(1e6, "viewer", kD24VsTruth), 1.0);
+  // With the renderer's padding for fixed-point buffers (distance² / (near · 2^23)), a 24-bit
+  // buffer classifies exactly what it holds: with the viewer's near plane at every distance, with
+  // 1 m out to 100 km (beyond, its depth steps reach kilometres: the terrain itself is wrong).
+  for (const double distance : kDistances) {
+    const std::string at = std::to_string(static_cast<long>(distance)) + " m";
+    EXPECT_EQ(row(distance, "viewer", kD24Aware).wrong, 0u) << at;
+    EXPECT_EQ(row(distance, "viewer", kD24AwareVsTruth).wrong, 0u) << at;
+    if (distance <= 1e5) {
+      EXPECT_EQ(row(distance, "1 m", kD24Aware).wrong, 0u) << at;
+    }
+    if (distance <= 1e4) {
+      EXPECT_EQ(row(distance, "1 m", kD24AwareVsTruth).wrong, 0u) << at;
+    }
+  }
   // The 24-bit depths are the float ones rounded to the step: off by a quarter step at the median.
   EXPECT_GT(medianRatio, 0.15);
   EXPECT_LT(medianRatio, 0.35);

@@ -8,6 +8,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "core/log.hpp"
 #include "gfx/camera.hpp"
 #include "vector_overlay/stencil_states.hpp"
 
@@ -23,6 +24,22 @@ double distanceToBox(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3
 
 /// Normalised-device rectangle (x0, y0, x1, y1) holding the screen image of the box, clamped to
 /// the viewport; the whole viewport when a corner lies near or behind the eye plane.
+/// Bits of the draw framebuffer's depth buffer when it is fixed point (unsigned normalised),
+/// else 0 (float, or no depth buffer).
+int fixedPointDepthBits() {
+  GLint framebuffer = 0;
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &framebuffer);
+  const auto fbo = static_cast<GLuint>(framebuffer);
+  const GLenum attachment = fbo == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT;
+  GLint objectType = GL_NONE;
+  glGetNamedFramebufferAttachmentParameteriv(fbo, attachment, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &objectType);
+  if (objectType == GL_NONE) return 0;
+  GLint componentType = GL_NONE, bits = 0;
+  glGetNamedFramebufferAttachmentParameteriv(fbo, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &componentType);
+  glGetNamedFramebufferAttachmentParameteriv(fbo, attachment, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &bits);
+  return componentType == GL_UNSIGNED_NORMALIZED ? bits : 0;
+}
+
 glm::vec4 screenRect(const glm::dmat4& viewProj, double nearPlane, const glm::dvec3& lo, const glm::dvec3& hi) {
   glm::dvec2 a(1.0), b(-1.0);
   for (int k = 0; k < 8; ++k) {
@@ -218,7 +235,7 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
       const glm::dvec2 xy = vertex - glm::dvec2(view.eye);
       for (int side : {-1, 1}) {
         glm::dvec3 q(xy, (side < 0 ? p.lo : p.hi) - view.eye.z);
-        q.z += side * (settings.padBase + settings.padPerMetre * glm::length(q));
+        q.z += side * padAt(settings, glm::length(q));
         (side < 0 ? bottom : top)[k] = q;
       }
     }
@@ -302,8 +319,20 @@ PixelScale OverlayRenderer::beginFrame(const OverlayView& view, const OverlaySet
                                        std::span<const OverlayLayer* const> layers) {
   program_.use();
   program_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
+  // A fixed-point depth buffer has steps that grow with the distance squared: pad beyond them.
+  padPerMetreSquared_ = settings.padPerMetreSquared;
+  if (const int bits = settings.padForDepthFormat ? fixedPointDepthBits() : 0; bits > 0 && view.nearPlane > 0.0) {
+    padPerMetreSquared_ = std::max(padPerMetreSquared_, 2.0 / (view.nearPlane * std::ldexp(1.0, bits)));
+    if (fixedDepthBitsLogged_ != bits) {
+      fixedDepthBitsLogged_ = bits;
+      logInfo("overlay: the depth buffer is " + std::to_string(bits) +
+              "-bit fixed point; caps are padded by distance² / (near · 2^" + std::to_string(bits - 1) +
+              ") as well. A float depth buffer (GL_DEPTH32F_STENCIL8) keeps them thin (docs/depth-precision.md)");
+    }
+  }
   program_.set("u_padBase", static_cast<float>(settings.padBase));
   program_.set("u_padPerMetre", static_cast<float>(settings.padPerMetre));
+  program_.set("u_padPerMetreSquared", static_cast<float>(padPerMetreSquared_));
   // Lines in pixels need the size of a pixel: from the matrix and the viewport's height.
   PixelScale scale;
   if (std::any_of(layers.begin(), layers.end(), [](const OverlayLayer* l) { return l && l->widthPixels() > 0.0; })) {
@@ -345,7 +374,7 @@ OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const
     const Polyhedron& p = polyhedra[static_cast<std::size_t>(&s - slots.data())];
     const double diagonal = glm::length(p.boxMax - p.boxMin) + (p.hi - p.lo);
     const glm::dvec3 lo0(p.boxMin, p.lo), hi0(p.boxMax, p.hi);
-    const double pad = settings.padBase + settings.padPerMetre * (distanceToBox(view.eye, lo0, hi0) + diagonal);
+    const double pad = padAt(settings, distanceToBox(view.eye, lo0, hi0) + diagonal);
     const glm::dvec3 lo(p.boxMin, p.lo - pad), hi(p.boxMax, p.hi + pad);
     if (settings.cullPieces && !gfx::boxInFrustum(planes, lo, hi, false)) {
       ++stats.culledPieces;

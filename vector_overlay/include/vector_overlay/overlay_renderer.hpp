@@ -43,6 +43,15 @@ struct OverlaySettings {
   /// buffer's resolution (float reversed-Z: about 1e-7 relative) and the vertices' float error.
   double padBase = 0.05;
   double padPerMetre = 2e-6;
+  /// A quadratic term, padPerMetreSquared · distance², for fixed-point depth buffers, whose steps
+  /// grow with the distance squared (under reversed-Z a step of a B-bit buffer is d² / (near ·
+  /// 2^B)). The renderer finds the bound framebuffer's depth format at every draw and, for a
+  /// fixed-point buffer, uses at least 2 / (near · 2^B) (docs/depth-precision.md); this is a
+  /// floor on top of that.
+  double padPerMetreSquared = 0.0;
+  /// Off: no quadratic term for fixed-point depth buffers beyond padPerMetreSquared (to measure
+  /// what a linear padding does with them).
+  bool padForDepthFormat = true;
   bool measure = false;      ///< GPU time and fragment counts per layer (waits for the GPU)
   bool forceZFail = false;   ///< every piece z-fail (for tests and cost comparisons)
   bool forceGroups = false;  ///< the grouped scheme for deep overlaps on every layer (tests)
@@ -169,9 +178,14 @@ class OverlayRenderer {
                   LayerFrameStats& stats) const;
   /// The normalised-device rectangle holding the boxes of pieces.order[first, last).
   static glm::vec4 rectOf(const OverlayView& view, const Pieces& pieces, std::size_t first, std::size_t last);
-  /// Sets the per-frame uniforms (matrix, padding) and the pixel scale of lines in pixels.
+  /// Sets the per-frame uniforms (matrix, padding) and the pixel scale of lines in pixels; finds
+  /// the depth format of the draw framebuffer for the padding.
   PixelScale beginFrame(const OverlayView& view, const OverlaySettings& settings,
                         std::span<const OverlayLayer* const> layers);
+  /// The caps' padding at `distance` metres from the eye this frame (settings and depth format).
+  [[nodiscard]] double padAt(const OverlaySettings& settings, double distance) const {
+    return settings.padBase + settings.padPerMetre * distance + padPerMetreSquared_ * distance * distance;
+  }
   /// Uploads the layer's origins relative to the eye and binds its buffers; returns whether its
   /// lines are drawn in pixels (attribute 3 enabled, to be disabled with endLayer).
   bool bindLayer(const OverlayView& view, const OverlayLayer& layer, const PixelScale& scale);
@@ -217,6 +231,8 @@ class OverlayRenderer {
   gfx::BufferHandle origins_;
   std::size_t originsCapacity_ = 0;
   gfx::BufferHandle clipped_;
+  double padPerMetreSquared_ = 0.0;  ///< this frame's quadratic padding (OverlaySettings::padPerMetreSquared)
+  int fixedDepthBitsLogged_ = 0;     ///< a fixed-point depth buffer of this many bits was reported
   std::size_t clippedCapacity_ = 0;
   gfx::BufferHandle commands_;
   std::size_t commandsCapacity_ = 0;
