@@ -3,9 +3,9 @@
 // (validation.hpp), hold the terrain between their bounds, and cover exactly what the CPU
 // reference covers — or is left out with an Error naming the layer and the feature, or gives
 // nothing to draw with a Warning saying so. On a stiff terrain from −430 m to 8,850 m with
-// cliffs, a spike, a flat lake and nodata holes, at exaggerations 0.1×, 1× and 20×, split at
-// cells, adaptively welded, and as the seed paper's construction; plus flat ground (lo == hi)
-// and a polygon of 10^6 vertices.
+// cliffs, a spike, a flat lake and nodata holes, at exaggerations 0.1×, 1× and 20×, and on one
+// whose whole outside is nodata; split at cells, adaptively welded, and as the seed paper's
+// construction; plus flat ground (lo == hi) and a polygon of 10^6 vertices.
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -45,10 +45,18 @@ struct Terrain {
   overlay::CellGrid cells;
 };
 
-Terrain extremeTerrain() {
+/// The stiff terrain from −430 m to 8,850 m, or (`nodataBorder`) one whose outside is nodata.
+Terrain extremeTerrain(bool nodataBorder = false) {
   Terrain t;
-  auto grid = makeStiffTerrain(
-      {.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 5, .lowest = -430.0, .highest = 8850.0});
+  auto grid =
+      nodataBorder
+          ? makeStiffTerrain({.width = kPosts, .height = kPosts, .spacing = kSpacing, .seed = 9, .nodataBorder = true})
+          : makeStiffTerrain({.width = kPosts,
+                              .height = kPosts,
+                              .spacing = kSpacing,
+                              .seed = 5,
+                              .lowest = -430.0,
+                              .highest = 8850.0});
   t.lo = grid->postPosition(0, grid->height - 1);
   t.hi = grid->postPosition(grid->width - 1, 0);
   t.tree = std::make_shared<terrain::TerrainQuadtree>(grid, kChunkCells);
@@ -206,6 +214,14 @@ TEST(GeometryCases, EveryCaseIsClosedOutwardBoundedAndCoversWhatTheReferenceCove
   const Terrain terrain = extremeTerrain();
   const std::vector<GeometryCase> cases = geometryCases(terrain.lo, terrain.hi);
   std::printf("%-52s %-15s %6s %8s %8s %10s\n", "case", "build", "pieces", "tris", "samples", "excess m");
+  // On the nodata-bordered terrain too (no table).
+  const Terrain bordered = extremeTerrain(true);
+  const terrain::QuadtreeHeightBounds borderedBounds(bordered.tree, 1.0);
+  for (const GeometryCase& c : cases) {
+    for (const Variant& v : kVariants) {
+      checkCase(c, borderedBounds, &borderedBounds, bordered, v, c.name + " / nodata border / " + v.name);
+    }
+  }
   for (double exaggeration : {0.1, 1.0, 20.0}) {
     const terrain::QuadtreeHeightBounds bounds(terrain.tree, exaggeration);
     for (const GeometryCase& c : cases) {
