@@ -13,8 +13,9 @@ cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo
 cmake --build build -j "$jobs"
 ctest --test-dir build --output-on-failure -j "$jobs"
 
-# Sanitizers: the viewer needs a display and is exercised in the release build only.
+# Sanitizers (ASan, UBSan, libstdc++ bounds checks) over the whole suite, the viewer under Xvfb
+# included.
 cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTENCIL_GIS_SANITIZE=ON \
-  -DSTENCIL_GIS_WITH_VIEWER=OFF
+  -DSTENCIL_GIS_WITH_VIEWER=ON
 cmake --build build-asan -j "$jobs"
 ctest --test-dir build-asan --output-on-failure -j "$jobs"
