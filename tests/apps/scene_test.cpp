@@ -99,6 +99,31 @@ TEST(SceneFile, WidthsInPixels) {
   EXPECT_TRUE(mentions(scene.diagnostics, "layers[3].style.outline_width_px"));
 }
 
+TEST(SceneFile, NumbersThatDoNotFitAreErrorsNamingTheKey) {
+  // Found by the fuzzer: converting 1e10 to an int (or 1e300 to a float) was undefined behaviour.
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"terrain": {"dem": "x", "band": 1e10}})", "terrain.band"},
+      {R"({"terrain": {"dem": "x", "band": 2.5}})", "terrain.band"},
+      {R"({"terrain": {"dem": "x", "chunk_cells": -1e300}})", "terrain.chunk_cells"},
+      {R"({"terrain": {"dem": "x"}, "imagery": {"path": "i.tif", "bands": [1, 2, 1e12]}})", "imagery.bands"},
+      {R"({"terrain": {"dem": "x"}, "layers": [{"kind": "line", "source": "a",
+           "style": {"outline_width_m": 1e300}}]})",
+       "layers[0].style.outline_width_m"},
+      {R"({"terrain": {"dem": "x"}, "layers": [{"kind": "line", "source": "a", "style": {"order": 3e9}}]})",
+       "layers[0].style.order"},
+  };
+  for (const auto& [text, key] : cases) {
+    Result<app::SceneDescription> scene = app::parseScene(text, "s.json");
+    ASSERT_TRUE(scene.diagnostics.hasErrors()) << text;
+    bool named = false;
+    for (const Diagnostic& d : scene.diagnostics.items()) {
+      named =
+          named || (d.severity == Severity::Error && d.message.find(std::string("'") + key + "'") != std::string::npos);
+    }
+    EXPECT_TRUE(named) << key << ": " << scene.diagnostics.items().front().toString();
+  }
+}
+
 TEST(SceneFile, TerrainPagingKeys) {
   Result<app::SceneDescription> scene = app::parseScene(
       R"({"terrain": {"dem": "d.tif", "paging": "always", "chunk_cells": 32, "memory_budget_mb": 300,

@@ -121,10 +121,9 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
         if (p.is_relative()) p = std::filesystem::path(baseDir) / p;
         where = p.string();
         spec = readJsonFile(where, d);
-        if (spec && spec->is_object() && (*spec)["width"].is_number_integer() &&
-            (*spec)["height"].is_number_integer()) {
-          w = (*spec)["width"].get<int>();
-          h = (*spec)["height"].get<int>();
+        if (spec && spec->is_object()) {
+          w = numberAs<int>((*spec)["width"]).value_or(w);
+          h = numberAs<int>((*spec)["height"]).value_or(h);
         }
       } else {
         spec = c;
@@ -149,11 +148,12 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
     }
     for (const char* key : {"width", "height"}) {
       if (!entry.contains(key)) continue;
-      if (!entry[key].is_number_integer() || entry[key].get<int>() < 1 || entry[key].get<int>() > 65536) {
+      const std::optional<int> size = numberAs<int>(entry[key]);
+      if (!entry[key].is_number_integer() || !size || *size < 1 || *size > 65536) {
         bad(std::string("'") + key + "': expected a positive integer (pixels)");
         w = 0;
       } else {
-        (std::string(key) == "width" ? w : h) = entry[key].get<int>();
+        (std::string(key) == "width" ? w : h) = *size;
       }
     }
     if (w < 1 || h < 1) continue;

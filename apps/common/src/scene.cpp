@@ -4,8 +4,12 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <type_traits>
+#include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "app/json_file.hpp"
 
 namespace gis::app {
 namespace {
@@ -39,12 +43,33 @@ class SceneParser {
   template <typename T>
   bool read(const json& object, const std::string& key, const std::string& where, T& out) {
     if (!object.contains(key)) return false;
-    try {
-      out = object.at(key).get<T>();
+    const json& v = object.at(key);
+    // Numbers are range-checked (a JSON 1e10 is no int), element by element in lists.
+    if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
+      const std::optional<T> x = numberAs<T>(v);
+      if (!x) error(where + key, "expected a number that fits (finite, in range), got " + v.dump());
+      if (x) out = *x;
+      return x.has_value();
+    } else if constexpr (std::is_same_v<T, std::vector<int>>) {
+      std::vector<int> list;
+      for (const json& e : v.is_array() ? v : json::array({nullptr})) {
+        const std::optional<int> x = numberAs<int>(e);
+        if (!x) {
+          error(where + key, "expected a list of whole numbers, got " + v.dump());
+          return false;
+        }
+        list.push_back(*x);
+      }
+      out = std::move(list);
       return true;
-    } catch (const json::exception& e) {
-      error(where + key, std::string("wrong type: ") + e.what());
-      return false;
+    } else {
+      try {
+        out = v.get<T>();
+        return true;
+      } catch (const json::exception& e) {
+        error(where + key, std::string("wrong type: ") + e.what());
+        return false;
+      }
     }
   }
 

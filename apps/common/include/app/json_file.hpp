@@ -1,8 +1,11 @@
 #pragma once
 // Reading the programs' JSON files (scripts, lasso files, camera files) with errors that name
 // the file.
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <string>
+#include <type_traits>
 
 #include <nlohmann/json.hpp>
 
@@ -12,5 +15,39 @@ namespace gis::app {
 
 /// The file's JSON; nothing, with an error naming the file, if it cannot be opened or is not JSON.
 std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics& d);
+
+/// `v` as an arithmetic T when it is a JSON number that T can hold: finite, within T's range and,
+/// for integral T, whole; else nothing. (nlohmann's get<int>() of 1e10 or get<float>() of 1e300
+/// would be undefined behaviour.)
+template <typename T>
+std::optional<T> numberAs(const nlohmann::json& v) {
+  static_assert(std::is_arithmetic_v<T> && !std::is_same_v<T, bool>);
+  if (!v.is_number()) return std::nullopt;
+  if constexpr (std::is_integral_v<T>) {
+    if (v.is_number_integer()) {
+      // Compare in the widest types: no conversion of an out-of-range value.
+      if (v.is_number_unsigned()) {
+        const auto u = v.get<unsigned long long>();
+        if (u > static_cast<unsigned long long>(std::numeric_limits<T>::max())) return std::nullopt;
+        return static_cast<T>(u);
+      }
+      const auto i = v.get<long long>();
+      if (i < static_cast<long long>(std::numeric_limits<T>::lowest()) ||
+          (i > 0 &&
+           static_cast<unsigned long long>(i) > static_cast<unsigned long long>(std::numeric_limits<T>::max())))
+        return std::nullopt;
+      return static_cast<T>(i);
+    }
+    const double x = v.get<double>();
+    if (!std::isfinite(x) || x != std::floor(x) || x < static_cast<double>(std::numeric_limits<T>::lowest()) ||
+        x > static_cast<double>(std::numeric_limits<T>::max()))
+      return std::nullopt;
+    return static_cast<T>(x);
+  } else {
+    const double x = v.get<double>();
+    if (!std::isfinite(x) || std::abs(x) > static_cast<double>(std::numeric_limits<T>::max())) return std::nullopt;
+    return static_cast<T>(x);
+  }
+}
 
 }  // namespace gis::app
