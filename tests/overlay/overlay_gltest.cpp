@@ -548,12 +548,29 @@ TEST_F(OverlayGlTest, LinesInPixelsMatchTheReferenceFromFarAndFromOnTheRoad) {
   miter.join = overlay::LineJoin::Miter;
   miter.cap = overlay::LineCap::Square;
   miter.color = glm::vec4(0.1F, 0.9F, 0.3F, 1.0F);
-  const std::vector<geo::Feature> roundLines = randomLines(rng, lo, hi, 20), miterLines = randomLines(rng, lo, hi, 20);
+  std::vector<geo::Feature> roundLines = randomLines(rng, lo, hi, 20), miterLines = randomLines(rng, lo, hi, 20);
+  // And one across the terrain's edge: lines in pixels are not clipped to the grid, which
+  // validate() must accept.
+  const glm::dvec2 mid = 0.5 * (lo + hi);
+  miterLines.push_back(geo::Feature{});
+  miterLines.back().fid = 999;
+  miterLines.back().lines = {{glm::dvec2(mid.x, mid.y), glm::dvec2(hi.x + 30.0, mid.y), glm::dvec2(hi.x + 30.0, hi.y)}};
+  // Built as the scene renderer does, with the terrain's cells.
+  overlay::LayerBuildOptions options;
+  overlay::CellGrid cells;
+  cells.origin = lo;
+  cells.cellSize = 16 * grid.step.x;
+  cells.columns = cells.rows = (grid.width - 1) / 16;
+  options.footprints.cells = cells;
   Result<overlay::OverlayLayer> a =
-      overlay::OverlayLayer::build("round", overlay::LayerKind::Line, round, roundLines, *bounds);
+      overlay::OverlayLayer::build("round", overlay::LayerKind::Line, round, roundLines, *bounds, options);
   Result<overlay::OverlayLayer> b =
-      overlay::OverlayLayer::build("miter", overlay::LayerKind::Line, miter, miterLines, *bounds);
+      overlay::OverlayLayer::build("miter", overlay::LayerKind::Line, miter, miterLines, *bounds, options);
   ASSERT_TRUE(a.ok() && b.ok());
+  for (const overlay::OverlayLayer* layer : {&*a, &*b}) {
+    const overlay::LayerValidation v = layer->validate();
+    EXPECT_TRUE(v.problems.empty()) << v.problems.items().front().toString();
+  }
   ASSERT_GT(a->scalingBuffer(), 0u);
   const std::vector<const overlay::OverlayLayer*> layers{&*a, &*b};
 

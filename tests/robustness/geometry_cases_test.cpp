@@ -282,5 +282,45 @@ TEST(GeometryCases, AMillionVertexPolygon) {
   EXPECT_GT(pieces.size(), 1u);
 }
 
+// Found by the polyhedra fuzzer (fuzz/regressions/polyhedra): every point of a road within
+// ±1e15 m, but its widened outline beyond it, unclipped (the paper's construction). The builder
+// skips that line with an Error naming it and the reference draws none of it; a road as wide
+// that stays within the limit is built and covered as usual.
+TEST(GeometryCases, ARoadThatReachesBeyondTheLimitOnceWidenedIsSkippedNamingIt) {
+  const FlatBounds flat;
+  overlay::LayerBuildOptions options;
+  options.paperVariant = true;
+  overlay::FeatureStyle style;
+  style.shape.width = 10.0;
+  style.shape.cap = overlay::LineCap::Square;
+  for (const double x : {1e15, 1e15 - 1000.0}) {
+    geo::Feature road;
+    road.fid = 12;
+    road.lines = {{glm::dvec2(x, 0.0), glm::dvec2(x, -400.0)}, {glm::dvec2(0.0, 0.0), glm::dvec2(100.0, 0.0)}};
+    Diagnostics diagnostics;
+    const std::vector<overlay::Polyhedron> pieces =
+        overlay::buildPolyhedra(road, 0, LayerKind::Line, style, "roads", flat, options, diagnostics);
+    const std::vector<geo::Feature> one{road};
+    const overlay::ReferenceLayer ref{"roads", LayerKind::Line, &one, {style.shape}, {}};
+    const bool beyond = x == 1e15;
+    SCOPED_TRACE(beyond ? "at the limit" : "within it");
+    EXPECT_EQ(diagnostics.count(Severity::Error), beyond ? 1u : 0u);
+    if (beyond) {
+      const Diagnostic& d = diagnostics.items().front();
+      EXPECT_EQ(d.layer, "roads");
+      EXPECT_EQ(d.feature, "12");
+      EXPECT_NE(d.message.find("line 0 reaches beyond"), std::string::npos) << d.toString();
+    }
+    for (const overlay::Polyhedron& p : pieces) {
+      EXPECT_TRUE(overlay::polyhedronProblems(p, {}).empty());
+      EXPECT_LE(p.boxMax.x, 1e15);
+    }
+    EXPECT_EQ(overlay::featureCovers(ref, 0, glm::dvec2(x, -200.0)), !beyond);
+    EXPECT_TRUE(overlay::featureCovers(ref, 0, glm::dvec2(50.0, 0.0)));  // the other line still counts
+    EXPECT_TRUE(inPieces(pieces, glm::dvec2(50.0, 0.0)));
+    EXPECT_EQ(inPieces(pieces, glm::dvec2(x, -200.0)), !beyond);
+  }
+}
+
 }  // namespace
 }  // namespace gis::test

@@ -305,12 +305,31 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
       anchor.push_back(shape.anchorHeight(k, i));
     }
     if (line.empty()) continue;
+    // Widened, a line near ±1e15 can reach beyond it (unclipped: without a grid, or a grid out
+    // there): such a line is skipped like one with an out-of-range point.
+    const std::size_t firstPiece = result.size();
+    auto withinRange = [&] {
+      for (std::size_t i = firstPiece; i < result.size(); ++i) {
+        for (const glm::dvec2& p : result[i].vertices) {
+          if (!detail::finite(p) || std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) return false;
+        }
+      }
+      return true;
+    };
+    auto dropIfBeyond = [&] {
+      if (withinRange()) return;
+      result.erase(result.begin() + static_cast<std::ptrdiff_t>(firstPiece), result.end());
+      diagnostics.add(
+          detail::featureError(Severity::Error, layerName, feature.fid,
+                               "line " + std::to_string(k) + " reaches beyond ±1e15 m once widened; line skipped"));
+    };
     if (line.size() == 1) {
       if (shape.cap == LineCap::Round) {
         sink.add(PieceKind::Cap, around(line[0], anchor[0], disc(glm::dvec2(1.0, 0.0), full)));
       } else if (shape.cap == LineCap::Square) {
         sink.add(PieceKind::Cap, around(line[0], anchor[0], {{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}}));
       }
+      dropIfBeyond();
       continue;
     }
     const std::size_t last = line.size() - 1;
@@ -324,6 +343,7 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
       if (i + 2 < line.size()) build.join(a, b, anchor[i + 1], line[i + 2]);
     }
     build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]), glm::length(line[last] - line[last - 1]));
+    dropIfBeyond();
   }
   return result;
 }

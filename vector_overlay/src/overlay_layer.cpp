@@ -422,12 +422,15 @@ LayerValidation OverlayLayer::validate() const {
   LayerValidation v;
   ValidationOptions options;
   if (!options_.paperVariant) options.grid = options_.footprints.cells;
+  // Lines in pixels are neither split at the cells nor clipped to the grid (footprints.hpp).
+  ValidationOptions unsplit = options;
+  unsplit.grid.reset();
   for (std::size_t k = 0; k < slots_.size(); ++k) {
     const PieceSlot& s = slots_[k];
     if (!s.live) continue;
     ++v.pieces;
     const Polyhedron& p = polyhedra_[k];
-    std::vector<std::string> problems = polyhedronProblems(p, options);
+    std::vector<std::string> problems = polyhedronProblems(p, p.footprint.scalable() ? unsplit : options);
     // The stored geometry: the same triangles, the vertices within float precision.
     std::vector<std::uint32_t> expected;
     appendPieceIndices(p.footprint, expected);

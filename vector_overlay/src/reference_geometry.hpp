@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -397,16 +398,47 @@ inline bool shapeUsable(const LineShape& shape) {
   return std::isfinite(shape.width) && shape.width > 0.0 && shape.width <= kMaxCoordinate;
 }
 
+/// The pieces of one line, without the range test of forEachLinePrimitive.
+template <typename Emit>
+bool emitLinePrimitives(const geo::LineString& line, std::size_t lineIndex, const LineShape& shape,
+                        const PixelScale& scale, Emit&& emit);
+
+/// Whether line `lineIndex`, widened at its largest width, stays within ±1e15 m (the builder
+/// skips one that does not: footprints.hpp). Cheap unless the line comes within a few widths of
+/// the limit.
+inline bool lineWithinRange(const geo::LineString& line, std::size_t lineIndex, const LineShape& shape) {
+  double far = 0.0;
+  for (const glm::dvec2& p : line) far = std::max({far, std::abs(p.x), std::abs(p.y)});
+  // Caps and round joins reach √2 half widths from a point, miters miterLimit half widths.
+  const double miter = shape.join == LineJoin::Miter ? shape.miterLimit : 0.0;
+  const double reach = 0.5 * shape.width * std::max(2.0, miter);
+  if (far + reach <= kMaxCoordinate) return true;  // false for a NaN or infinite miter limit
+  LineShape metres = shape;
+  metres.widthPixels = 0.0;
+  return !emitLinePrimitives(line, lineIndex, metres, PixelScale{}, [](const LinePrimitive& prim) {
+    const Box box = prim.bounds();
+    return !box.empty() && (std::max(std::abs(box.lo.x), std::abs(box.hi.x)) > kMaxCoordinate ||
+                            std::max(std::abs(box.lo.y), std::abs(box.hi.y)) > kMaxCoordinate);
+  });
+}
+
 /// Calls emit(LinePrimitive) for every piece of line `lineIndex` of a feature drawn with
 /// `shape` (whose width must be usable): after dropping consecutive repeated points, the
 /// segments' rectangles, the joins at interior vertices and the caps at both ends
 /// (footprints.hpp). Lines in pixels get each vertex's half width from `scale`, and trapezoids
-/// for segments whose ends differ. A line with a non-finite point (or one beyond 1e15 m) draws
-/// nothing. emit returns
-/// true to stop early; the function returns whether it was stopped.
+/// for segments whose ends differ. A line with a non-finite point (or one beyond 1e15 m, or
+/// one that reaches beyond once widened) draws nothing. emit returns true to stop early; the
+/// function returns whether it was stopped.
 template <typename Emit>
 bool forEachLinePrimitive(const geo::LineString& line, std::size_t lineIndex, const LineShape& shape,
                           const PixelScale& scale, Emit&& emit) {
+  if (!lineWithinRange(line, lineIndex, shape)) return false;
+  return emitLinePrimitives(line, lineIndex, shape, scale, std::forward<Emit>(emit));
+}
+
+template <typename Emit>
+bool emitLinePrimitives(const geo::LineString& line, std::size_t lineIndex, const LineShape& shape,
+                        const PixelScale& scale, Emit&& emit) {
   std::vector<glm::dvec2> pts;
   std::vector<double> halves;
   pts.reserve(line.size());

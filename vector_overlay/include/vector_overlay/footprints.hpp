@@ -158,7 +158,8 @@ inline double halfWidthAt(const LineShape& shape, const PixelScale& scale, const
 
 /// The pieces of a line feature (all its lines). A feature with a non-positive, non-finite or
 /// absurd (> 1e15 m) width (or an invalid grid) is skipped with a diagnostic; so is a single line with a NaN/Inf
-/// or |coordinate| > 1e15, the feature's other lines still count.
+/// or |coordinate| > 1e15, or one that reaches beyond ±1e15 once widened (unclipped); the
+/// feature's other lines still count.
 std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
                                       const std::string& layerName, const LineShape& shape,
                                       const FootprintOptions& options, Diagnostics& diagnostics);
