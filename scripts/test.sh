@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Sets everything up and runs all tests: installs the Debian packages, checks formatting, builds
 # the release configuration and the AddressSanitizer + UndefinedBehaviorSanitizer configuration,
-# and runs every test (unit, headless GL, program runs) in both.
+# and runs every test (unit, headless GL, program runs) in both; then builds the libFuzzer
+# harnesses (clang) and runs them briefly.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,3 +20,11 @@ cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSTENCIL_GI
   -DSTENCIL_GIS_WITH_VIEWER=ON
 cmake --build build-asan -j "$jobs"
 ctest --test-dir build-asan --output-on-failure -j "$jobs"
+
+# Fuzzing (docs/fuzzing.md): the harnesses and only the libraries they need, with clang, ASan and
+# UBSan; each replays its seeds and regression inputs, then fuzzes for STENCIL_GIS_FUZZ_SECONDS.
+cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
+  -DCMAKE_CXX_COMPILER=clang++ -DSTENCIL_GIS_SANITIZE=ON -DSTENCIL_GIS_FUZZ=ON -DSTENCIL_GIS_BUILD_TESTS=OFF \
+  -DSTENCIL_GIS_BUILD_GL_TESTS=OFF -DSTENCIL_GIS_WITH_VIEWER=OFF
+cmake --build build-fuzz -j "$jobs" --target stencil_gis_fuzzers
+ctest --test-dir build-fuzz --output-on-failure -j "$jobs" -L fuzz
