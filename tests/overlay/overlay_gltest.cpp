@@ -44,6 +44,17 @@ using overlay_test::drawTerrainAndLayers;
 using overlay_test::percent;
 using overlay_test::referenceLayers;
 
+/// Build options that split pieces at the terrain's 16-cell chunks, as the scene renderer does.
+overlay::LayerBuildOptions splitAtChunks(const terrain::TerrainGrid& grid) {
+  overlay::LayerBuildOptions options;
+  overlay::CellGrid cells;
+  cells.origin = grid.postPosition(0, grid.height - 1);
+  cells.cellSize = 16 * grid.step.x;
+  cells.columns = cells.rows = (grid.width - 1) / 16;
+  options.footprints.cells = cells;
+  return options;
+}
+
 /// The Olinda sample scene, loaded and uploaded (needs the GL context), with its overlay layers
 /// in draw order; empty optionals after a (reported) failure.
 struct OlindaScene {
@@ -176,12 +187,7 @@ TEST_F(OverlayGlTest, StiffTerrainUnderCoarseAndLoadingLodsMissesNoPixel) {
   const glm::dvec2 lo = grid.postPosition(0, grid.height - 1), hi = grid.postPosition(grid.width - 1, 0);
 
   std::mt19937 rng(17);
-  overlay::LayerBuildOptions options;
-  overlay::CellGrid cells;
-  cells.origin = lo;
-  cells.cellSize = 16 * grid.step.x;
-  cells.columns = cells.rows = (grid.width - 1) / 16;
-  options.footprints.cells = cells;
+  const overlay::LayerBuildOptions options = splitAtChunks(grid);
   overlay::LayerStyle area, road;
   area.opacity = 0.5F;
   road.widthAttribute = "width_m";
@@ -555,13 +561,7 @@ TEST_F(OverlayGlTest, LinesInPixelsMatchTheReferenceFromFarAndFromOnTheRoad) {
   miterLines.push_back(geo::Feature{});
   miterLines.back().fid = 999;
   miterLines.back().lines = {{glm::dvec2(mid.x, mid.y), glm::dvec2(hi.x + 30.0, mid.y), glm::dvec2(hi.x + 30.0, hi.y)}};
-  // Built as the scene renderer does, with the terrain's cells.
-  overlay::LayerBuildOptions options;
-  overlay::CellGrid cells;
-  cells.origin = lo;
-  cells.cellSize = 16 * grid.step.x;
-  cells.columns = cells.rows = (grid.width - 1) / 16;
-  options.footprints.cells = cells;
+  const overlay::LayerBuildOptions options = splitAtChunks(grid);
   Result<overlay::OverlayLayer> a =
       overlay::OverlayLayer::build("round", overlay::LayerKind::Line, round, roundLines, *bounds, options);
   Result<overlay::OverlayLayer> b =
