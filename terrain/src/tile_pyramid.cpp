@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <span>
 #include <type_traits>
 
 #include <glm/common.hpp>
@@ -22,7 +23,7 @@ namespace gis::terrain {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'G', 'I', 'S', 'P', 'Y', 'R', '\0'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: implausiblePosts
 constexpr std::size_t kHeaderBytes = 4096;
 
 struct FileHeader {
@@ -38,6 +39,7 @@ struct FileHeader {
   std::int32_t cellRangeWidth, cellRangeHeight;
   std::uint32_t pathLength;
   char path[2048];
+  std::uint64_t implausiblePosts;  ///< samples made nodata by implausibleHeightsToNodata
 };
 static_assert(std::is_trivially_copyable_v<FileHeader> && sizeof(FileHeader) <= kHeaderBytes);
 
@@ -389,6 +391,7 @@ Result<PyramidBuildStats> buildTilePyramid(const PyramidSource& source, const ge
   const int strip = std::max(1, std::min(geometry->height, (4 << 20) / std::max(1, geometry->width)));
   std::vector<float> rows, row(static_cast<std::size_t>(padded), std::numeric_limits<float>::quiet_NaN());
   Diagnostics diagnostics;
+  std::uint64_t implausible = 0;
   for (int r0 = 0; r0 < padded; r0 += strip) {
     const int count = std::min(strip, padded - r0);
     const int real = std::clamp(geometry->height - r0, 0, count);
@@ -397,6 +400,7 @@ Result<PyramidBuildStats> buildTilePyramid(const PyramidSource& source, const ge
       r.diagnostics = std::move(diagnostics);
       return r;
     }
+    if (real > 0) implausible += implausibleHeightsToNodata(std::span<float>(rows.data(), rows.size()));
     for (int i = 0; i < count; ++i) {
       if (i < real) {
         std::copy_n(rows.begin() + static_cast<std::ptrdiff_t>(i) * geometry->width, geometry->width, row.begin());
@@ -432,6 +436,7 @@ Result<PyramidBuildStats> buildTilePyramid(const PyramidSource& source, const ge
   header.sourceModifiedNs = source.modifiedNs;
   header.nodeCount = records.size();
   header.nodataPosts = builder.nodataPosts();
+  header.implausiblePosts = implausible;
   header.nodeTableOffset = writer.offset();
   if (!writer.write(records.data(), records.size() * sizeof(NodeRecord))) return fail(systemError("cannot write"));
   header.cellRangeOffset = writer.offset();
@@ -483,6 +488,7 @@ Result<std::shared_ptr<const TilePyramidFile>> TilePyramidFile::open(const std::
   }
   file->fileBytes_ = h.fileBytes;
   file->nodataPosts_ = h.nodataPosts;
+  file->implausiblePosts_ = h.implausiblePosts;
   file->chunkCells_ = h.chunkCells;
   file->rootLevel_ = h.rootLevel;
   file->pinnedLevel_ = h.pinnedLevel;

@@ -11,6 +11,7 @@
 
 #include "core/log.hpp"
 #include "geo/raster.hpp"
+#include "terrain/terrain_grid.hpp"
 #include "terrain/tile_pager.hpp"
 
 namespace gis::app {
@@ -55,8 +56,10 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
     logInfo("building the tile pyramid of " + description.dem + " into " + scene.pyramidPath + " (" + why + ")");
     Result<terrain::PyramidBuildStats> built = terrain::buildTilePyramid(
         *source, frame, scene.pyramidPath, options.progress ? options.progress : consoleProgress("tile pyramid"));
-    r.diagnostics.append(built.diagnostics);
-    if (!built) return r;
+    if (!built) {
+      r.diagnostics.append(built.diagnostics);
+      return r;
+    }
     scene.pyramidBuild = *built;
     char line[160];
     std::snprintf(line, sizeof(line), "tile pyramid built in %.1f s: %zu tiles, %.0f MB", built->seconds, built->tiles,
@@ -71,6 +74,10 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
   const auto tileBudget = static_cast<std::size_t>(description.memoryBudgetMb / 3.0 * 1024.0 * 1024.0);
   auto pager = std::make_shared<terrain::TilePager>(*file, tileBudget);
   scene.nodataPosts = (*file)->nodataPosts();
+  // Said on every load, not only when the pyramid is built.
+  if ((*file)->implausiblePosts() > 0) {
+    r.diagnostics.add(terrain::implausibleHeightsWarning(description.dem, (*file)->implausiblePosts()));
+  }
   r.value = std::make_shared<const terrain::TerrainQuadtree>(std::move(pager));
   return r;
 }
@@ -152,10 +159,19 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     if (!dem) return fail(std::move(dem.diagnostics));
     Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(std::move(*dem), scene.frame);  // takes the samples
     if (!grid) return fail(std::move(grid.diagnostics));
+    diagnostics.append(grid.diagnostics);
     dem.value.reset();
     for (float h : grid->heights) scene.nodataPosts += std::isnan(h) ? 1u : 0u;
     scene.quadtree = std::make_shared<const terrain::TerrainQuadtree>(
         std::make_shared<const terrain::TerrainGrid>(std::move(*grid)), description.chunkCells);
+  }
+  const std::uint64_t posts = static_cast<std::uint64_t>(scene.quadtree->grid().width) *
+                              static_cast<std::uint64_t>(scene.quadtree->grid().height);
+  if (scene.nodataPosts >= posts) {
+    Diagnostics none;
+    none.add({Severity::Error, description.dem, "", "",
+              "every one of the DEM's " + std::to_string(posts) + " posts is nodata: there is no terrain to draw"});
+    return fail(std::move(none));
   }
   if (scene.nodataPosts > 0) {
     diagnostics.add(

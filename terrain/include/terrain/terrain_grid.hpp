@@ -3,6 +3,8 @@
 // origin + (c·step.x, r·step.y) (step.y < 0 for north-up rasters); heights are unexaggerated
 // metres, NaN where the DEM has nodata.
 #include <cstddef>
+#include <span>
+#include <string>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -28,12 +30,31 @@ struct TerrainGrid {
   [[nodiscard]] glm::dvec2 gridCoordinates(const glm::dvec2& frameXy) const { return (frameXy - origin) / step; }
 };
 
-/// Checks that a DEM fits the frame (below) and returns its grid without heights.
+/// Checks that a DEM fits the frame (below) and returns its grid without heights. Fails, naming
+/// the file, on a geotransform that is not finite, rotated or not north-up, on fewer than 2 × 2
+/// posts, and on an extent beyond kMaxDemExtent.
 Result<TerrainGrid> gridGeometry(const geo::RasterInfo& dem, const geo::SceneFrame& frame);
+
+/// The widest DEM, in CRS units (metres): 100,000 km, more than twice around the Earth. A wider
+/// one has a wrong geotransform, and its frame coordinates would leave the ±1e15 m the overlay
+/// accepts.
+inline constexpr double kMaxDemExtent = 1e8;
+
+/// The largest |height| a post may have: 10,000 km. Beyond it (or infinite) a sample is not a
+/// height but an undeclared nodata value (−3.4e38 is common) or a wrong unit, and would break
+/// the bounds and the float arithmetic of the renderer.
+inline constexpr float kMaxPostHeight = 1e7F;
+
+/// Makes every non-finite or implausible (|h| > kMaxPostHeight) sample NaN, that is nodata;
+/// returns how many it changed.
+std::size_t implausibleHeightsToNodata(std::span<float> heights);
+
+/// The Warning for `count` implausible samples of the DEM `path` (implausibleHeightsToNodata).
+Diagnostic implausibleHeightsWarning(const std::string& path, std::size_t count);
 
 /// The grid of a DEM whose CRS is the frame's and whose geotransform is north-up without
 /// rotation (the case of a frame made by SceneFrame::forRaster from a projected DEM).
-/// Fails with a message otherwise.
+/// Fails with a message otherwise. Implausible samples become nodata, with a Warning.
 Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame& frame);
 /// The same, taking over the samples of a one-band raster instead of copying them (a DEM of
 /// 16385² posts is 1 GiB of floats).

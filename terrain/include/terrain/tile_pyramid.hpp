@@ -88,6 +88,8 @@ class TilePyramidFile {
   [[nodiscard]] std::uint64_t fileBytes() const { return fileBytes_; }
   /// Nodata posts of the DEM (holes; not counting the padding to a power of two).
   [[nodiscard]] std::uint64_t nodataPosts() const { return nodataPosts_; }
+  /// Of those, the samples that were infinite or implausible (implausibleHeightsToNodata).
+  [[nodiscard]] std::uint64_t implausiblePosts() const { return implausiblePosts_; }
 
  private:
   TilePyramidFile() = default;
@@ -95,6 +97,7 @@ class TilePyramidFile {
   int fd_ = -1;
   std::uint64_t fileBytes_ = 0;
   std::uint64_t nodataPosts_ = 0;
+  std::uint64_t implausiblePosts_ = 0;
   TerrainGrid geometry_;
   int chunkCells_ = 0, rootLevel_ = 0, pinnedLevel_ = 0;
   std::vector<std::size_t> levelOffset_;

@@ -1,0 +1,165 @@
+// DEMs a GIS user may hand the scene loader by mistake: an undeclared nodata value (−3.4e38) or
+// infinite samples become holes with a Warning naming the file and the count, in memory and
+// paged (said again when the cached pyramid is reused); a DEM with no height at all, a
+// geotransform with NaN and one spanning 1e16 m fail the scene with an Error naming the file.
+#include <unistd.h>
+
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gdal_priv.h>
+#include <gtest/gtest.h>
+#include <ogr_spatialref.h>
+
+#include "app/scene.hpp"
+#include "app/scene_loader.hpp"
+#include "terrain/terrain_grid.hpp"
+
+namespace gis::test {
+namespace {
+
+constexpr int kSize = 33;
+
+std::string outputDir() {
+  const std::string dir = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// A kSize² Float32 GeoTIFF in UTM 25S near Olinda: 10 m posts, heights from `height(c, r)`.
+template <typename Height>
+std::string writeDem(const std::string& name, Height height, std::optional<double> nodata = std::nullopt,
+                     std::array<double, 6> gt = {290000.0, 10.0, 0.0, 9120000.0, 0.0, -10.0}) {
+  GDALAllRegister();
+  const std::string path = outputDir() + "/" + name;
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  EXPECT_NE(driver, nullptr);
+  GDALDataset* ds = driver->Create(path.c_str(), kSize, kSize, 1, GDT_Float32, nullptr);
+  EXPECT_NE(ds, nullptr);
+  if (ds == nullptr) return path;
+  ds->SetGeoTransform(gt.data());
+  OGRSpatialReference srs;
+  srs.importFromEPSG(32725);
+  ds->SetSpatialRef(&srs);
+  std::vector<float> heights(static_cast<std::size_t>(kSize * kSize));
+  for (int r = 0; r < kSize; ++r) {
+    for (int c = 0; c < kSize; ++c) heights[static_cast<std::size_t>(r * kSize + c)] = height(c, r);
+  }
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  if (nodata) band->SetNoDataValue(*nodata);
+  EXPECT_EQ(band->RasterIO(GF_Write, 0, 0, kSize, kSize, heights.data(), kSize, kSize, GDT_Float32, 0, 0, nullptr),
+            CE_None);
+  GDALClose(GDALDataset::ToHandle(ds));
+  return path;
+}
+
+app::SceneDescription sceneOf(const std::string& dem) {
+  app::SceneDescription d;
+  d.path = outputDir() + "/scene.json";
+  d.dem = dem;
+  d.chunkCells = 16;
+  d.cacheDir = outputDir() + "/cache";
+  return d;
+}
+
+const Diagnostic* find(const Diagnostics& d, Severity severity, const std::string& text) {
+  for (const Diagnostic& item : d.items()) {
+    if (item.severity == severity && item.message.find(text) != std::string::npos) return &item;
+  }
+  return nullptr;
+}
+
+TEST(SceneLoader, UndeclaredNodataAndInfiniteHeightsBecomeHolesWithAWarning) {
+  // Posts on the diagonal hold −3.4e38 (a float DEM's usual nodata, here undeclared); post
+  // (5, 0) is +inf; post (6, 0) is 1e8 m; post (7, 0) is exactly 1e7 m, which is kept.
+  const std::string dem = writeDem("undeclared_nodata.tif", [](int c, int r) {
+    if (c == r) return -std::numeric_limits<float>::max();
+    if (r == 0 && c == 5) return std::numeric_limits<float>::infinity();
+    if (r == 0 && c == 6) return 1e8F;
+    if (r == 0 && c == 7) return terrain::kMaxPostHeight;
+    return 10.0F + 0.5F * static_cast<float>(c);
+  });
+  const std::uint64_t expected = kSize + 2;
+  app::SceneDescription description = sceneOf(dem);
+  std::filesystem::remove_all(description.cacheDir);
+  for (const app::TerrainPaging paging :
+       {app::TerrainPaging::Never, app::TerrainPaging::Always, app::TerrainPaging::Always}) {
+    app::LoadOptions options;
+    options.paging = paging;
+    options.progress = [](double) {};
+    Result<app::LoadedScene> scene = app::loadScene(description, options);
+    ASSERT_TRUE(scene.ok());
+    SCOPED_TRACE(scene->paged() ? (scene->pyramidBuild ? "paged, building" : "paged, reusing") : "in memory");
+    const Diagnostic* warning = find(scene.diagnostics, Severity::Warning, "beyond ±10,000 km");
+    ASSERT_NE(warning, nullptr);
+    EXPECT_EQ(warning->file, dem);
+    EXPECT_EQ(warning->message.rfind(std::to_string(expected) + " posts have", 0), 0u) << warning->message;
+    EXPECT_EQ(scene->nodataPosts, expected);
+    EXPECT_FALSE(scene.diagnostics.hasErrors());
+    // The plausible posts stay: the highest is the one at exactly 1e7 m.
+    glm::dvec3 lo, hi;
+    app::terrainBox(*scene, 1.0, lo, hi);
+    EXPECT_EQ(hi.z, static_cast<double>(terrain::kMaxPostHeight));
+    EXPECT_GE(lo.z, 10.0);
+  }
+}
+
+TEST(SceneLoader, ADemWithoutAnyHeightFailsNamingTheFile) {
+  const std::string dem = writeDem(
+      "all_nodata.tif", [](int, int) { return -9999.0F; }, -9999.0);
+  for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
+    app::LoadOptions options;
+    options.paging = paging;
+    options.progress = [](double) {};
+    Result<app::LoadedScene> scene = app::loadScene(sceneOf(dem), options);
+    EXPECT_FALSE(scene.ok());
+    const Diagnostic* error = find(scene.diagnostics, Severity::Error, "posts is nodata: there is no terrain to draw");
+    ASSERT_NE(error, nullptr);
+    EXPECT_EQ(error->file, dem);
+  }
+}
+
+TEST(SceneLoader, ABrokenGeotransformFailsNamingTheFile) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  struct Case {
+    const char* file;
+    std::array<double, 6> gt;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"nan_origin.tif", {nan, 10.0, 0.0, 9120000.0, 0.0, -10.0}, "geotransform has a NaN or infinite value"},
+      {"huge_posts.tif", {0.0, 1e14, 0.0, 1e16, 0.0, -1e14}, "more than 1e8 (100,000 km)"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.file);
+    const std::string dem = writeDem(
+        c.file, [](int, int) { return 5.0F; }, std::nullopt, c.gt);
+    for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
+      app::LoadOptions options;
+      options.paging = paging;
+      options.progress = [](double) {};
+      Result<app::LoadedScene> scene = app::loadScene(sceneOf(dem), options);
+      EXPECT_FALSE(scene.ok());
+      const Diagnostic* error = find(scene.diagnostics, Severity::Error, c.message);
+      ASSERT_NE(error, nullptr) << (scene.diagnostics.empty() ? "" : scene.diagnostics.items().front().toString());
+      EXPECT_EQ(error->file, dem);
+    }
+  }
+}
+
+TEST(TerrainGrid, ImplausibleHeightsToNodataCountsWhatItChanges) {
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> h{0.0F, -430.0F, 8850.0F, 1e7F, -1e7F, 1.0001e7F, -3.4e38F, inf, -inf, nan};
+  EXPECT_EQ(terrain::implausibleHeightsToNodata(h), 4u);
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_FALSE(std::isnan(h[i])) << i;
+  for (std::size_t i = 5; i < h.size(); ++i) EXPECT_TRUE(std::isnan(h[i])) << i;
+  EXPECT_EQ(terrain::implausibleHeightsToNodata(h), 0u);
+}
+
+}  // namespace
+}  // namespace gis::test
