@@ -74,6 +74,22 @@ const Diagnostic* find(const Diagnostics& d, Severity severity, const std::strin
   return nullptr;
 }
 
+/// Loading the scene of `dem`, in memory and paged, fails with an Error naming the file and
+/// saying `message`.
+void expectFailureNamingTheFile(const std::string& dem, const std::string& message) {
+  for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
+    SCOPED_TRACE(paging == app::TerrainPaging::Never ? "in memory" : "paged");
+    app::LoadOptions options;
+    options.paging = paging;
+    options.progress = [](double) {};
+    Result<app::LoadedScene> scene = app::loadScene(sceneOf(dem), options);
+    EXPECT_FALSE(scene.ok());
+    const Diagnostic* error = find(scene.diagnostics, Severity::Error, message);
+    ASSERT_NE(error, nullptr) << (scene.diagnostics.empty() ? "" : scene.diagnostics.items().front().toString());
+    EXPECT_EQ(error->file, dem);
+  }
+}
+
 TEST(SceneLoader, UndeclaredNodataAndInfiniteHeightsBecomeHolesWithAWarning) {
   // Posts on the diagonal hold −3.4e38 (a float DEM's usual nodata, here undeclared); post
   // (5, 0) is +inf; post (6, 0) is 1e8 m; post (7, 0) is exactly 1e7 m, which is kept.
@@ -112,16 +128,7 @@ TEST(SceneLoader, UndeclaredNodataAndInfiniteHeightsBecomeHolesWithAWarning) {
 TEST(SceneLoader, ADemWithoutAnyHeightFailsNamingTheFile) {
   const std::string dem = writeDem(
       "all_nodata.tif", [](int, int) { return -9999.0F; }, -9999.0);
-  for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
-    app::LoadOptions options;
-    options.paging = paging;
-    options.progress = [](double) {};
-    Result<app::LoadedScene> scene = app::loadScene(sceneOf(dem), options);
-    EXPECT_FALSE(scene.ok());
-    const Diagnostic* error = find(scene.diagnostics, Severity::Error, "posts is nodata: there is no terrain to draw");
-    ASSERT_NE(error, nullptr);
-    EXPECT_EQ(error->file, dem);
-  }
+  expectFailureNamingTheFile(dem, "posts is nodata: there is no terrain to draw");
 }
 
 TEST(SceneLoader, ABrokenGeotransformFailsNamingTheFile) {
@@ -139,16 +146,7 @@ TEST(SceneLoader, ABrokenGeotransformFailsNamingTheFile) {
     SCOPED_TRACE(c.file);
     const std::string dem = writeDem(
         c.file, [](int, int) { return 5.0F; }, std::nullopt, c.gt);
-    for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
-      app::LoadOptions options;
-      options.paging = paging;
-      options.progress = [](double) {};
-      Result<app::LoadedScene> scene = app::loadScene(sceneOf(dem), options);
-      EXPECT_FALSE(scene.ok());
-      const Diagnostic* error = find(scene.diagnostics, Severity::Error, c.message);
-      ASSERT_NE(error, nullptr) << (scene.diagnostics.empty() ? "" : scene.diagnostics.items().front().toString());
-      EXPECT_EQ(error->file, dem);
-    }
+    expectFailureNamingTheFile(dem, c.message);
   }
 }
 
