@@ -204,9 +204,7 @@ Result<SceneFrame> SceneFrame::forRaster(const RasterInfo& dem) {
   };
   if (dem.crsWkt.empty()) return fail("raster has no CRS; cannot place it in a scene frame");
   if (dem.width <= 0 || dem.height <= 0) return fail("raster has no pixels");
-  if (!std::all_of(dem.geoTransform.c.begin(), dem.geoTransform.c.end(), [](double v) { return std::isfinite(v); })) {
-    return fail("the raster's geotransform has a NaN or infinite value");
-  }
+  if (!dem.geoTransform.finite()) return fail("the raster's geotransform has a NaN or infinite value");
   const glm::dvec2 centre = dem.geoTransform.pixelToCrs(0.5 * dem.width, 0.5 * dem.height);
 
   if (dem.crsIsProjected) {

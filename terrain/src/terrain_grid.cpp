@@ -1,6 +1,5 @@
 #include "terrain/terrain_grid.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -15,9 +14,7 @@ Result<TerrainGrid> gridGeometry(const geo::RasterInfo& info, const geo::SceneFr
   auto fail = [&](const std::string& message) {
     return Result<TerrainGrid>::failure({Severity::Error, info.path, "", "", message});
   };
-  if (!std::all_of(c.begin(), c.end(), [](double v) { return std::isfinite(v); })) {
-    return fail("the DEM's geotransform has a NaN or infinite value");
-  }
+  if (!info.geoTransform.finite()) return fail("the DEM's geotransform has a NaN or infinite value");
   if (c[2] != 0.0 || c[4] != 0.0) return fail("rotated geotransforms are not supported by the terrain quadtree");
   if (!(c[1] > 0.0) || !(c[5] < 0.0)) return fail("the terrain quadtree needs a north-up raster");
   if (info.width < 2 || info.height < 2) return fail("DEM needs at least 2x2 posts");

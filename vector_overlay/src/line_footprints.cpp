@@ -22,6 +22,11 @@ namespace {
 /// Same bound as for polygons, for coordinates and widths: beyond it, products overflow.
 constexpr double kMaxCoordinate = 1e15;
 
+/// Finite and within ±kMaxCoordinate: a point a line may have, before and after widening.
+bool inRange(const glm::dvec2& p) {
+  return detail::finite(p) && std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate;
+}
+
 glm::dvec2 perp(const glm::dvec2& d) { return {-d.y, d.x}; }
 
 glm::dvec2 unit(const glm::dvec2& d) {
@@ -287,10 +292,7 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
 
   for (std::size_t k = 0; k < feature.lines.size(); ++k) {
     const geo::LineString& raw = feature.lines[k];
-    const bool usable = std::all_of(raw.begin(), raw.end(), [](const glm::dvec2& p) {
-      return detail::finite(p) && std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate;
-    });
-    if (!usable) {
+    if (!std::all_of(raw.begin(), raw.end(), inRange)) {
       diagnostics.add(detail::featureError(
           Severity::Error, layerName, feature.fid,
           "line " + std::to_string(k) + " has a NaN, infinite or out-of-range coordinate; line skipped"));
@@ -308,16 +310,11 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
     // Widened, a line near ±1e15 can reach beyond it (unclipped: without a grid, or a grid out
     // there): such a line is skipped like one with an out-of-range point.
     const std::size_t firstPiece = result.size();
-    auto withinRange = [&] {
-      for (std::size_t i = firstPiece; i < result.size(); ++i) {
-        for (const glm::dvec2& p : result[i].vertices) {
-          if (!detail::finite(p) || std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) return false;
-        }
-      }
-      return true;
-    };
     auto dropIfBeyond = [&] {
-      if (withinRange()) return;
+      const bool within =
+          std::all_of(result.begin() + static_cast<std::ptrdiff_t>(firstPiece), result.end(),
+                      [](const Footprint& f) { return std::all_of(f.vertices.begin(), f.vertices.end(), inRange); });
+      if (within) return;
       result.erase(result.begin() + static_cast<std::ptrdiff_t>(firstPiece), result.end());
       diagnostics.add(
           detail::featureError(Severity::Error, layerName, feature.fid,

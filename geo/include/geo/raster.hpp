@@ -1,6 +1,8 @@
 #pragma once
 // Raster reading through GDAL: DEMs (any GDAL format, GeoTIFF first) and multi-band imagery.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,6 +20,10 @@ struct GeoTransform {
   std::array<double, 6> c{0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
 
   [[nodiscard]] glm::dvec2 pixelToCrs(double col, double row) const;
+  /// No NaN or infinite coefficient.
+  [[nodiscard]] bool finite() const {
+    return std::all_of(c.begin(), c.end(), [](double v) { return std::isfinite(v); });
+  }
   /// Inverse of pixelToCrs; nullopt if the transform is singular.
   [[nodiscard]] std::optional<glm::dvec2> crsToPixel(const glm::dvec2& p) const;
 };
