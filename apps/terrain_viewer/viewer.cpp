@@ -191,47 +191,37 @@ bool Viewer::open(const ViewerOptions& options) {
   selectionRenderer_ = std::move(*selection);
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
   render_.waitForTiles = script_.has_value();  // scripted screenshots show the finished view
-  if (!loadPath(options.scene)) return false;
+  // A scene that does not load leaves the window open with the messages, ready for another.
+  if (!loadPath(options.scene)) message("nothing to show: drop a scene, a DEM (a file, a folder of tiles or a VRT) or "
+                                        "a vector file on the window");
   return true;
 }
 
 bool Viewer::loadPath(const std::string& path) {
+  auto report = [this](const Diagnostics& diagnostics) {
+    for (const Diagnostic& d : diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  };
   if (isVectorFile(path)) {
     if (!description_) {
-      message(path + ": open a scene or a DEM before adding a vector layer", true);
-      return false;
+      // A vector file alone: over flat ground covering its extent.
+      Result<app::SceneDescription> alone = app::sceneForVectorFile(path);
+      report(alone.diagnostics);
+      return alone && useScene(std::move(*alone));
     }
     // A new layer of the current scene: its kind from what the file holds.
-    Result<geo::VectorLayer> probe = geo::readVectorLayer(path, scene_->frame);
-    if (!probe) {
-      for (const Diagnostic& d : probe.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+    Result<app::LayerDescription> layer = app::layerForVectorFile(path, scene_->frame, description_->layers.size());
+    if (!layer) {
+      report(layer.diagnostics);
       return false;
-    }  // else its messages come once, when the scene with it loads
+    }
     app::SceneDescription next = *description_;
-    app::LayerDescription layer;
-    layer.name = std::filesystem::path(path).stem().string();
-    layer.source = std::filesystem::absolute(path).string();
-    layer.kind = probe->kind == geo::GeometryKind::Line ? overlay::LayerKind::Line : overlay::LayerKind::Polygon;
-    const glm::vec4 palette[] = {{0.12F, 0.47F, 0.71F, 1.0F},
-                                 {0.17F, 0.63F, 0.17F, 1.0F},
-                                 {0.84F, 0.15F, 0.16F, 1.0F},
-                                 {0.58F, 0.40F, 0.74F, 1.0F},
-                                 {0.09F, 0.75F, 0.81F, 1.0F}};
-    layer.style.color = palette[next.layers.size() % 5];
-    layer.style.opacity = layer.kind == overlay::LayerKind::Polygon ? 0.45F : 0.9F;
-    layer.style.widthMetres = 6.0F;
-    next.layers.push_back(layer);
+    next.layers.push_back(std::move(*layer));
     return useScene(std::move(next));
   }
-  if (isRasterFile(path)) {
-    app::SceneDescription next;
-    next.path = std::filesystem::absolute(path).string();
-    next.name = std::filesystem::path(path).filename().string();
-    next.dem = next.path;
-    return useScene(std::move(next));
-  }
+  std::error_code ec;
+  if (isRasterFile(path) || std::filesystem::is_directory(path, ec)) return useScene(app::sceneForDem(path));
   Result<app::SceneDescription> description = app::loadSceneFile(path);
-  for (const Diagnostic& d : description.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  report(description.diagnostics);
   if (!description) return false;
   return useScene(std::move(*description));
 }
@@ -572,23 +562,37 @@ void Viewer::frame(double seconds) {
           scriptInput_.empty() && !live_)
         quit_ = true;
     }
-  } else {
+  } else if (scene_) {
     handleInput(seconds, readInput());
+  } else {
+    static_cast<void>(readInput());  // nothing to steer yet
   }
-  const bool moving =
-      controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
-  if (animating_ && !moving) animating_ = false;
-
-  drawScene();
+  if (scene_) {
+    const bool moving = controller_->update(
+        seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
+    if (animating_ && !moving) animating_ = false;
+    drawScene();
+  } else {
+    animating_ = false;
+    const glm::ivec2 fb = framebufferSize();
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glViewport(0, 0, fb.x, fb.y);
+    glClearColor(0.11F, 0.12F, 0.14F, 1.0F);
+    glClear(GL_COLOR_BUFFER_BIT);
+  }
 
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
-  if (settings_.showPanel) drawPanel();
-  if (settings_.showHud) drawHud();
-  if (showHelp_) drawHelp();
-  if (identified_) drawIdentify();
-  drawLassoOutline();
+  if (!scene_) {
+    drawNoScene();
+  } else {
+    if (settings_.showPanel) drawPanel();
+    if (settings_.showHud) drawHud();
+    if (showHelp_) drawHelp();
+    if (identified_) drawIdentify();
+    drawLassoOutline();
+  }
   ImGui::Render();
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
   cache_.invalidate();  // ImGui changed GL state behind the cache's back
@@ -832,6 +836,9 @@ nlohmann::json Viewer::state() const {
   const glm::ivec2 fb = framebufferSize();
   glm::ivec2 window(0);
   glfwGetWindowSize(context_->window(), &window.x, &window.y);
+  if (!scene_) {
+    return {{"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
+  }
   const app::OrbitPose& pose = controller_->shownPose();
   nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
   for (const overlay::SelectionStep& st : steps_) {
@@ -900,6 +907,15 @@ bool Viewer::runStep(const app::ScriptStep& step) {
     message(where + ": no layer named '" + name + "'", true);
     return std::nullopt;
   };
+  // Without a scene (it failed to load) only what needs none runs.
+  const bool needsNoScene =
+      step.action == app::ScriptAction::Wait || step.action == app::ScriptAction::SaveState ||
+      step.action == app::ScriptAction::Drop || step.action == app::ScriptAction::Resize ||
+      step.action == app::ScriptAction::Quit || (step.action == app::ScriptAction::Screenshot && step.ui);
+  if (!scene_ && !needsNoScene) {
+    message(where + ": no scene is loaded", true);
+    return false;
+  }
   switch (step.action) {
     case app::ScriptAction::Camera: {
       Result<app::CameraSpec> spec = app::parseCameraSpec(step.camera, step.cameraFile);

@@ -91,6 +91,8 @@ class Viewer {
   [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
   void drawPanel();
+  /// The window without a scene: what went wrong, and what to open.
+  void drawNoScene();
   void drawHud();
   void drawHelp();
   void drawIdentify();

@@ -273,6 +273,24 @@ void Viewer::drawHud() {
   ImGui::End();
 }
 
+void Viewer::drawNoScene() {
+  const ImVec2 size = ImGui::GetMainViewport()->Size;
+  ImGui::SetNextWindowPos(ImGui::GetMainViewport()->GetCenter(), ImGuiCond_Always, ImVec2(0.5F, 0.5F));
+  ImGui::SetNextWindowSize(ImVec2(size.x * 0.8F, size.y * 0.6F), ImGuiCond_Always);
+  ImGui::Begin("Nothing to show", nullptr, ImGuiWindowFlags_NoCollapse | ImGuiWindowFlags_NoMove);
+  ImGui::TextWrapped(
+      "Drop on this window a scene file (.json), a DEM (a GeoTIFF, SRTM .hgt or any raster GDAL reads, in any CRS; "
+      "a folder of tiles; a VRT) or a vector file (shown over flat ground).");
+  ImGui::Separator();
+  for (std::size_t k = messages_.size() > 30 ? messages_.size() - 30 : 0; k < messages_.size(); ++k) {
+    const bool error = messages_[k].rfind("error", 0) == 0;
+    if (error) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0F, 0.45F, 0.4F, 1.0F));
+    ImGui::TextWrapped("%s", messages_[k].c_str());
+    if (error) ImGui::PopStyleColor();
+  }
+  ImGui::End();
+}
+
 void Viewer::drawHelp() {
   ImGui::SetNextWindowPos(ImGui::GetMainViewport()->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5F, 0.5F));
   ImGui::Begin("Keys and mouse (?)", &showHelp_, ImGuiWindowFlags_AlwaysAutoResize);

@@ -207,7 +207,15 @@ Result<SceneFrame> SceneFrame::forRaster(const RasterInfo& dem) {
   if (!dem.geoTransform.finite()) return fail("the raster's geotransform has a NaN or infinite value");
   const glm::dvec2 centre = dem.geoTransform.pixelToCrs(0.5 * dem.width, 0.5 * dem.height);
 
+  // A projected CRS in metres is the frame; one in feet (a US State Plane DEM, say) is not: the
+  // frame is in metres, so such a DEM gets the UTM zone of its centre as a geographic one does.
+  bool metres = false;
   if (dem.crsIsProjected) {
+    std::string error;
+    const detail::SrsPtr srs = detail::parseSrs(dem.crsWkt, error);
+    metres = srs && std::abs(srs->GetLinearUnits() - 1.0) < 1e-9;
+  }
+  if (dem.crsIsProjected && metres) {
     Result<SceneFrame> r = fromCrs(dem.crsWkt, glm::dvec3(centre, 0.0));
     if (!r) {
       const auto& items = r.diagnostics.items();
@@ -215,9 +223,9 @@ Result<SceneFrame> SceneFrame::forRaster(const RasterInfo& dem) {
     }
     return r;
   }
-  if (!dem.crsIsGeographic) return fail("raster CRS is neither projected nor geographic");
+  if (!dem.crsIsGeographic && !dem.crsIsProjected) return fail("raster CRS is neither projected nor geographic");
 
-  // Geographic DEM: lon/lat of the centre on WGS 84 picks the UTM zone.
+  // Geographic DEM (or projected in feet): lon/lat of the centre on WGS 84 picks the UTM zone.
   std::string error;
   const detail::SrsPtr src = detail::parseSrs(dem.crsWkt, error);
   if (!src) return fail(error);

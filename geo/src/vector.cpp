@@ -7,6 +7,7 @@
 #include <optional>
 #include <sstream>
 
+#include <glm/common.hpp>
 #include <ogrsf_frmts.h>
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
@@ -257,6 +258,50 @@ Result<std::vector<std::string>> listVectorLayers(const std::string& path) {
   Result<std::vector<std::string>> r;
   r.value.emplace();
   for (int i = 0; i < ds->GetLayerCount(); ++i) r.value->emplace_back(ds->GetLayer(i)->GetName());
+  return r;
+}
+
+Result<std::array<double, 4>> vectorExtentLonLat(const std::string& path) {
+  using R = Result<std::array<double, 4>>;
+  detail::QuietGdal quiet;
+  std::string error;
+  DatasetPtr ds = openVector(path, error);
+  if (!ds) return R::failure({Severity::Error, path, "", "", error});
+  OGRSpatialReference wgs84;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (int i = 0; i < ds->GetLayerCount(); ++i) {
+    OGRLayer* layer = ds->GetLayer(i);
+    OGREnvelope e;
+    if (layer == nullptr || layer->GetExtent(&e, TRUE) != OGRERR_NONE) continue;
+    const OGRSpatialReference* srs = layer->GetSpatialRef();
+    if (srs == nullptr || srs->IsEmpty()) {
+      return R::failure({Severity::Error, path, layer->GetName(), "", "the layer has no CRS"});
+    }
+    const detail::SrsPtr source = detail::cloneTraditional(*srs);
+    std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(source.get(), &wgs84));
+    if (!ct) return R::failure({Severity::Error, path, layer->GetName(), "", "cannot transform the layer to WGS 84"});
+    // The envelope's boundary, densified: a projected box is curved in longitude/latitude.
+    for (int k = 0; k <= 16; ++k) {
+      const double t = k / 16.0;
+      const double x = e.MinX + t * (e.MaxX - e.MinX), y = e.MinY + t * (e.MaxY - e.MinY);
+      for (const glm::dvec2 p : {glm::dvec2(x, e.MinY), glm::dvec2(x, e.MaxY), glm::dvec2(e.MinX, y),
+                                 glm::dvec2(e.MaxX, y)}) {
+        double px = p.x, py = p.y;
+        int ok = 0;
+        if (ct->Transform(1, &px, &py, nullptr, &ok) != 0 && ok != 0 && std::isfinite(px) && std::isfinite(py)) {
+          lo = glm::min(lo, glm::dvec2(px, py));
+          hi = glm::max(hi, glm::dvec2(px, py));
+        }
+      }
+    }
+  }
+  if (!(lo.x <= hi.x && lo.y <= hi.y)) {
+    return R::failure({Severity::Error, path, "", "", "the file holds no features with coordinates"});
+  }
+  R r;
+  r.value = std::array<double, 4>{lo.x, lo.y, hi.x, hi.y};
   return r;
 }
 

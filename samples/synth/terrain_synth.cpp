@@ -28,11 +28,12 @@ using gis::synth::SyntheticDemSummary;
 constexpr const char* kUsage =
     "usage: terrain_synth --out FILE.tif [--size N] [--seed S] [--spacing M] [--relief M]\n"
     "                     [--no-cliffs] [--no-spikes] [--no-plains] [--no-holes] [--nodata-border]\n"
-    "                     [--crs CRS] [--scene SCENE.json [--vector-scale K [--vectors-only]]\n"
-    "                     [--road-width M]]\n"
+    "                     [--crs CRS [--origin X,Y]] [--scene SCENE.json [--vector-scale K\n"
+    "                     [--vectors-only]] [--road-width M]]\n"
     "Writes a deterministic synthetic DEM: N x N posts (default 1025, 33 .. 65537) of fractal\n"
-    "relief (--relief metres, default 600) at --spacing metres (default 20), EPSG:32633 unless\n"
-    "--crs, with vertical cliffs (>= 300 m), single-post spikes (>= 500 m), perfectly flat plains\n"
+    "relief (--relief metres, default 600) at --spacing CRS units (default 20), EPSG:32633 unless\n"
+    "--crs; --origin is the top-left corner (default 500000,5000000; in a geographic CRS such as\n"
+    "EPSG:4326 the defaults are 6,50 and 3 arc-seconds, as an SRTM tile), with vertical cliffs (>= 300 m), single-post spikes (>= 500 m), perfectly flat plains\n"
     "and nodata holes placed from --seed (default 1). --nodata-border makes everything outside an\n"
     "irregular boundary nodata. --scene also writes a scene file for overlay_render and\n"
     "terrain_viewer. --vector-scale K also writes K times the seed paper's vector load (K x 8 areas\n"
@@ -61,6 +62,7 @@ std::optional<T> parseNumber(std::string_view text) {
 /// Returns an error message, or an empty string when the options are good.
 std::string parseArgs(int argc, char** argv, Options& o) {
   const std::vector<std::string_view> args(argv + 1, argv + argc);
+  bool spacingGiven = false, originGiven = false;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string_view a = args[i];
     auto value = [&]() -> std::optional<std::string_view> {
@@ -92,8 +94,23 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       error = setNumber(o.dem.size, "an integer");
     else if (a == "--seed")
       error = setNumber(o.dem.seed, "an unsigned 64-bit integer");
-    else if (a == "--spacing")
+    else if (a == "--spacing") {
       error = setNumber(o.dem.spacing, "a number");
+      spacingGiven = true;
+    } else if (a == "--origin") {
+      const auto v = value();
+      const std::string text = v ? std::string(*v) : std::string();
+      const std::size_t comma = text.find(',');
+      const auto x = comma == std::string::npos ? std::nullopt : parseNumber<double>(std::string_view(text).substr(0, comma));
+      const auto y = comma == std::string::npos ? std::nullopt : parseNumber<double>(std::string_view(text).substr(comma + 1));
+      if (!x || !y) {
+        error = "--origin needs X,Y (the top-left corner in CRS units), not '" + text + "'";
+      } else {
+        o.dem.originX = *x;
+        o.dem.originY = *y;
+        originGiven = true;
+      }
+    }
     else if (a == "--relief")
       error = setNumber(o.dem.reliefMetres, "a number");
     else if (a == "--no-cliffs")
@@ -117,6 +134,14 @@ std::string parseArgs(int argc, char** argv, Options& o) {
     if (!error.empty()) return error;
   }
   if (o.out.empty()) return "--out is required";
+  if (!o.dem.crs.empty() && gis::synth::isGeographicCrs(o.dem.crs)) {
+    // Longitude/latitude: an SRTM-like tile unless told otherwise.
+    if (!spacingGiven) o.dem.spacing = 1.0 / 1200.0;
+    if (!originGiven) {
+      o.dem.originX = 6.0;
+      o.dem.originY = 50.0;
+    }
+  }
   if (o.vectorScale != 0 && o.scene.empty()) return "--vector-scale needs --scene";
   if (o.vectorScale != 0 && (o.vectorScale < 1 || o.vectorScale > 10000)) return "--vector-scale must be 1 .. 10000";
   if (o.vectorsOnly && o.vectorScale == 0) return "--vectors-only needs --vector-scale";
@@ -226,9 +251,10 @@ int run(const Options& o) {
     std::error_code ec;
     const auto bytes = fs::file_size(o.out, ec);
     std::printf(
-        "%s: %d x %d posts at %g m, seed %llu: heights %.2f .. %.2f m; %zu cliffs, %zu spikes, %zu plains, %zu "
+        "%s: %d x %d posts at %g %s, seed %llu: heights %.2f .. %.2f m; %zu cliffs, %zu spikes, %zu plains, %zu "
         "holes%s; %zu nodata posts; %.1f MB in %.2f s\n",
-        o.out.c_str(), s.size, s.size, s.spacing, static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight,
+        o.out.c_str(), s.size, s.size, s.spacing,
+        !o.dem.crs.empty() && gis::synth::isGeographicCrs(o.dem.crs) ? "degrees" : "CRS units", static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight,
         s.cliffs.size(), s.spikes.size(), s.plains.size(), s.holes.size(), s.border.enabled ? ", nodata border" : "",
         s.nodataPosts, ec ? 0.0 : static_cast<double>(bytes) / 1e6, seconds);
   }

@@ -24,7 +24,19 @@ double simplificationError(std::span<const float> posts, int n, const glm::dvec2
     for (int ci = 0; ci < n; ++ci) {
       const int i0 = 2 * ci, j0 = 2 * cj;
       const double a = at(i0, j0), b = at(i0 + 2, j0), d = at(i0, j0 + 2), e = at(i0 + 2, j0 + 2);
-      if (std::isnan(a) || std::isnan(b) || std::isnan(d) || std::isnan(e)) continue;  // not drawn coarse
+      if (std::isnan(a) || std::isnan(b) || std::isnan(d) || std::isnan(e)) {
+        // Not drawn coarse: where a child cell in it is drawn, the edge of the data moves by up
+        // to the cell's diagonal (a DEM's nodata border, a hole's rim).
+        bool childDrawn = false;
+        for (int dj = 0; dj <= 1 && !childDrawn; ++dj) {
+          for (int di = 0; di <= 1 && !childDrawn; ++di) {
+            childDrawn = !std::isnan(at(i0 + di, j0 + dj)) && !std::isnan(at(i0 + di + 1, j0 + dj)) &&
+                         !std::isnan(at(i0 + di, j0 + dj + 1)) && !std::isnan(at(i0 + di + 1, j0 + dj + 1));
+          }
+        }
+        if (childDrawn) worst = std::max(worst, diagonal);
+        continue;
+      }
       const double cmin = std::min({a, b, d, e}), cmax = std::max({a, b, d, e});
       double vertical = 0.0, fmin = cmin, fmax = cmax;
       bool complete = true;
@@ -42,7 +54,8 @@ double simplificationError(std::span<const float> posts, int n, const glm::dvec2
         }
       }
       const double excess = std::max({0.0, fmax - cmax, cmin - fmin});
-      worst = std::max(worst, complete ? std::min(vertical, diagonal + excess) : vertical);
+      // Drawn coarse over a child-level hole: the hole's edge moves by up to the diagonal too.
+      worst = std::max(worst, complete ? std::min(vertical, diagonal + excess) : std::max(vertical, diagonal));
     }
   }
   return worst;

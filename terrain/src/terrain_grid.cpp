@@ -1,6 +1,8 @@
 #include "terrain/terrain_grid.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <new>
 #include <limits>
 #include <sstream>
 
@@ -93,6 +95,32 @@ Result<TerrainGrid> gridFromRaster(geo::Raster&& dem, const geo::SceneFrame& fra
   if (!r) return r;
   r->heights = std::move(dem.samples);
   checkHeights(dem.info.path, r);
+  return r;
+}
+
+Result<TerrainGrid> gridFromDem(geo::FrameDem& dem, const geo::SceneFrame& frame) {
+  Result<TerrainGrid> r = gridGeometry(dem.info(), frame);
+  if (!r) return r;
+  const std::size_t width = static_cast<std::size_t>(r->width);
+  try {
+    r->heights.resize(width * static_cast<std::size_t>(r->height));
+  } catch (const std::bad_alloc&) {
+    return Result<TerrainGrid>::failure(
+        {Severity::Error, dem.info().path, "", "", "not enough memory for the DEM's posts (page it: paging \"always\")"});
+  }
+  // Strips of about 16 M posts bound the source window read at once.
+  const int strip = std::max(1, static_cast<int>((std::size_t{16} << 20) / width));
+  std::vector<float> rows;
+  for (int r0 = 0; r0 < r->height; r0 += strip) {
+    const int count = std::min(strip, r->height - r0);
+    if (!dem.read(r0, count, rows, r.diagnostics)) {
+      Result<TerrainGrid> failed;
+      failed.diagnostics = std::move(r.diagnostics);
+      return failed;
+    }
+    std::copy(rows.begin(), rows.end(), r->heights.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(r0) * width));
+  }
+  checkHeights(dem.info().path, r);
   return r;
 }
 

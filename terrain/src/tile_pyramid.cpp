@@ -23,7 +23,7 @@ namespace gis::terrain {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'G', 'I', 'S', 'P', 'Y', 'R', '\0'};
-constexpr std::uint32_t kVersion = 2;  // 2: implausiblePosts
+constexpr std::uint32_t kVersion = 3;  // 2: implausiblePosts; 3: DEMs in any CRS, mosaics
 constexpr std::size_t kHeaderBytes = 4096;
 
 struct FileHeader {
@@ -344,26 +344,61 @@ Result<PyramidSource> PyramidSource::of(const std::string& demPath, int band, in
   s.bytes = static_cast<std::uint64_t>(st.st_size);
   s.modifiedNs = static_cast<std::int64_t>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec;
   s.chunkCells = chunkCells;
+  s.dem.paths = {absolute};
+  s.dem.band = band;
   Result<PyramidSource> r;
   r.value = std::move(s);
   return r;
 }
 
+PyramidSource PyramidSource::of(const geo::DemSource& dem, int chunkCells) {
+  PyramidSource s;
+  s.dem = dem.spec();
+  s.demPath = dem.label();
+  s.band = dem.spec().band;
+  for (const std::string& f : dem.files()) {
+    struct stat st {};
+    if (::stat(f.c_str(), &st) == 0) s.bytes += static_cast<std::uint64_t>(st.st_size);
+  }
+  // FNV-1a of the fingerprint: any file added, removed, resized or touched changes it.
+  std::uint64_t h = 1469598103934665603ULL;
+  for (const char c : dem.fingerprint()) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 1099511628211ULL;
+  }
+  s.modifiedNs = static_cast<std::int64_t>(h >> 1);
+  s.chunkCells = chunkCells;
+  return s;
+}
+
 Result<PyramidBuildStats> buildTilePyramid(const PyramidSource& source, const geo::SceneFrame& frame,
                                            const std::string& path, const PyramidProgress& progress) {
+  Result<geo::DemSource> dem = geo::DemSource::open(source.dem);
+  if (!dem) {
+    Result<PyramidBuildStats> r;
+    r.diagnostics = std::move(dem.diagnostics);
+    return r;
+  }
+  Result<geo::FrameDem> inFrame = geo::FrameDem::open(*dem, frame);
+  if (!inFrame) {
+    Result<PyramidBuildStats> r;
+    r.diagnostics = std::move(dem.diagnostics);
+    r.diagnostics.append(inFrame.diagnostics);
+    return r;
+  }
+  return buildTilePyramid(*inFrame, source, frame, path, progress);
+}
+
+Result<PyramidBuildStats> buildTilePyramid(geo::FrameDem& reader, const PyramidSource& source,
+                                           const geo::SceneFrame& frame, const std::string& path,
+                                           const PyramidProgress& progress) {
   const auto start = std::chrono::steady_clock::now();
   auto fail = [&](const std::string& message) {
     return Result<PyramidBuildStats>::failure({Severity::Error, path, "", "", message});
   };
   const int n = source.chunkCells;
   if (n < 2 || (n & (n - 1)) != 0 || n > 1024) return fail("chunk size must be a power of two in 2 … 1024");
-  Result<geo::RasterStripReader> reader = geo::RasterStripReader::open(source.demPath, source.band);
-  if (!reader) {
-    Result<PyramidBuildStats> r;
-    r.diagnostics = std::move(reader.diagnostics);
-    return r;
-  }
-  Result<TerrainGrid> geometry = gridGeometry(reader->info(), frame);
+  Result<TerrainGrid> geometry = gridGeometry(reader.info(), frame);
   if (!geometry) {
     Result<PyramidBuildStats> r;
     r.diagnostics = std::move(geometry.diagnostics);
@@ -395,7 +430,7 @@ Result<PyramidBuildStats> buildTilePyramid(const PyramidSource& source, const ge
   for (int r0 = 0; r0 < padded; r0 += strip) {
     const int count = std::min(strip, padded - r0);
     const int real = std::clamp(geometry->height - r0, 0, count);
-    if (real > 0 && !reader->read(r0, real, rows, diagnostics)) {
+    if (real > 0 && !reader.read(r0, real, rows, diagnostics)) {
       Result<PyramidBuildStats> r;
       r.diagnostics = std::move(diagnostics);
       return r;

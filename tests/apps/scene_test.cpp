@@ -43,6 +43,35 @@ TEST(SceneFile, PathsAreRelativeToTheSceneFile) {
   EXPECT_EQ(scene->dem, "/data/x/dem.tif");
 }
 
+TEST(SceneFile, DemMayBeAListOfFilesAndFoldersWithItsCrsUnitAndSpacing) {
+  Result<app::SceneDescription> scene = app::parseScene(
+      R"({"terrain": {"dem": ["srtm", "extra/N49E008.hgt"], "crs": "EPSG:4326", "height_unit": "ft",
+                      "resolution_m": 30}})",
+      "/data/scenes/a.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_EQ(scene.diagnostics.count(Severity::Warning), 0u);
+  EXPECT_EQ(scene->dem, "/data/scenes/srtm");
+  const geo::DemSpec spec = scene->demSpec();
+  EXPECT_EQ(spec.paths, (std::vector<std::string>{"/data/scenes/srtm", "/data/scenes/extra/N49E008.hgt"}));
+  EXPECT_EQ(spec.crs, "EPSG:4326");
+  EXPECT_EQ(spec.heightUnit, "ft");
+  EXPECT_EQ(spec.resolutionMetres, 30.0);
+  // One file is a list of one.
+  Result<app::SceneDescription> one = app::parseScene(R"({"terrain": {"dem": "dem.tif"}})", "/s/a.json");
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->demSpec().paths, (std::vector<std::string>{"/s/dem.tif"}));
+  // Bad values name the key.
+  for (const char* text : {R"({"terrain": {"dem": []}})", R"({"terrain": {"dem": ["a.tif", 3]}})"}) {
+    Result<app::SceneDescription> bad = app::parseScene(text, "b.json");
+    EXPECT_FALSE(bad.ok()) << text;
+    EXPECT_TRUE(mentions(bad.diagnostics, "terrain.dem")) << text;
+  }
+  Result<app::SceneDescription> unit =
+      app::parseScene(R"({"terrain": {"dem": "d.tif", "height_unit": "cubit", "resolution_m": -1}})", "u.json");
+  EXPECT_TRUE(mentions(unit.diagnostics, "terrain.height_unit"));
+  EXPECT_TRUE(mentions(unit.diagnostics, "terrain.resolution_m"));
+}
+
 TEST(SceneFile, NotJsonIsAnErrorNamingTheFile) {
   Result<app::SceneDescription> scene = app::parseScene("{ nope", "broken.json");
   EXPECT_FALSE(scene.ok());

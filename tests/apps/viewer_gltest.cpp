@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/scene_loader.hpp"
+#include "dem_files.hpp"
 #include "app/scene_renderer.hpp"
 #include "gfx/image_io.hpp"
 #include "gl_test.hpp"
@@ -123,11 +124,12 @@ class ViewerScriptTest : public GlTest {
   }
 
   /// Runs the viewer on the Olinda sample with `script` (written into `dir`); true if it exited with 0.
-  static ::testing::AssertionResult runViewer(const fs::path& dir, const json& script) {
+  static ::testing::AssertionResult runViewer(const fs::path& dir, const json& script,
+                                              const std::string& open = std::string(STENCIL_GIS_SAMPLES_DIR) +
+                                                                        "/olinda/scene.json") {
     { std::ofstream(dir / "script.json") << script.dump(1); }
-    const std::string command = std::string(TERRAIN_VIEWER_EXE) + " " + STENCIL_GIS_SAMPLES_DIR +
-                                "/olinda/scene.json --script " + (dir / "script.json").string() + " > " +
-                                (dir / "log.txt").string() + " 2>&1";
+    const std::string command = std::string(TERRAIN_VIEWER_EXE) + " '" + open + "' --script " +
+                                (dir / "script.json").string() + " > " + (dir / "log.txt").string() + " 2>&1";
     const int status = std::system(command.c_str());
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return ::testing::AssertionSuccess();
     return ::testing::AssertionFailure() << "the viewer failed:\n" << readText(dir / "log.txt");
@@ -641,6 +643,84 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
   EXPECT_NEAR(ratio, 0.85 * 0.85, 1e-9);  // two wheel steps of zoomPerWheelStep
   EXPECT_EQ(before["overlays"], true);
   EXPECT_EQ(after["overlays"], false);
+}
+
+// First contact (issue 20): a DEM in longitude/latitude, a folder of tiles and a vector file
+// opened alone each show something; a file that cannot be opened leaves the window open with
+// the error inside it, and a DEM dropped on it then shows.
+TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  const fs::path dir = outputDir("viewer_first_contact");
+  // A geographic DEM, and two tiles of one in a folder.
+  DemFileOptions o;
+  o.width = o.height = 161;
+  const double step = 1.0 / 1200.0;
+  o.geoTransform = {6.0 - 0.5 * step, step, 0.0, 50.0 + 0.5 * step, 0.0, -step};
+  o.crs = "EPSG:4326";
+  auto relief = [](int c, int r) { return 300.0 + 80.0 * std::sin(c * 0.1) * std::cos(r * 0.07); };
+  const std::string geographic = (dir / "lonlat.tif").string();
+  writeDemFile(geographic, o, relief);
+  fs::create_directories(dir / "tiles");
+  writeDemFile((dir / "tiles" / "west.tif").string(), o, relief);
+  DemFileOptions east = o;
+  east.geoTransform[0] += 160 * step;
+  writeDemFile((dir / "tiles" / "east.tif").string(), east, relief);
+  auto save = [](const char* name) { return json{{"action", "save_state"}, {"path", name}}; };
+  auto shot = [](const char* name) { return json{{"action", "screenshot"}, {"path", name}, {"ui", false}}; };
+  auto state = [&](const fs::path& d, const char* name) { return json::parse(readText(d / name)); };
+  auto terrainPixels = [](const fs::path& depthFile) {
+    const gfx::ImageFloat depth = *gfx::readImageFloat(depthFile.string());
+    std::size_t n = 0;
+    for (float d : depth.pixels) n += d > 0.0F ? 1u : 0u;
+    return n;
+  };
+  const std::size_t pixels = static_cast<std::size_t>(kWidth) * kHeight;
+
+  for (const std::string& open : {geographic, (dir / "tiles").string()}) {
+    const fs::path d = outputDir(fs::path(open).filename().string());
+    ASSERT_TRUE(runViewer(d, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}},
+                          open));
+    const json s = state(d, "s.json");
+    EXPECT_EQ(s["scene"], fs::absolute(open).lexically_normal().string());
+    EXPECT_GT(terrainPixels(d / "home_depth.tiff"), pixels / 5) << open << ": the home view shows the DEM";
+  }
+
+  // A vector file alone: over flat ground, its one layer drawn.
+  const std::string vector = std::string(STENCIL_GIS_TEST_DATA_DIR) + "/holes_and_multipolygons.geojson";
+  const fs::path dv = outputDir("vector_alone");
+  ASSERT_TRUE(runViewer(dv, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}},
+                        vector));
+  const json sv = state(dv, "s.json");
+  ASSERT_EQ(sv["layers"].size(), 1u);
+  EXPECT_GT(sv["layers"][0]["drawn_features"].get<int>(), 0);
+  EXPECT_GT(terrainPixels(dv / "home_depth.tiff"), pixels / 5);
+  EXPECT_GT(sv["frame"]["overlay_fragments"].get<double>(), 0.0) << "the layer is drawn";
+
+  // Nothing that opens: the window stays, says why, and takes a DEM dropped on it.
+  const std::string missing = (dir / "missing.tif").string();
+  const fs::path dm = outputDir("missing");
+  ASSERT_TRUE(runViewer(dm,
+                        {{"window", {kWidth, kHeight}},
+                         {"steps",
+                          {{{"wait", 2}},
+                           save("empty.json"),
+                           {{"action", "screenshot"}, {"path", "empty.png"}, {"ui", true}},
+                           {{"action", "drop"}, {"paths", {geographic}}},
+                           {{"wait", 2}},
+                           shot("dropped.png"),
+                           save("dropped.json")}}},
+                        missing));
+  const json empty = state(dm, "empty.json");
+  EXPECT_TRUE(empty["scene"].is_null());
+  bool named = false;
+  for (const json& m : empty["messages"]) named = named || m.get<std::string>().find(missing) != std::string::npos;
+  EXPECT_TRUE(named) << empty["messages"].dump(1);
+  const gfx::Image8 window = *gfx::readImage8((dm / "empty.png").string());
+  std::size_t lit = 0;
+  for (std::size_t i = 0; i < window.pixels.size(); i += 3) lit += window.pixels[i] > 150 ? 1u : 0u;
+  EXPECT_GT(lit, 200u) << "the message window is drawn";
+  EXPECT_EQ(state(dm, "dropped.json")["scene"], geographic);
+  EXPECT_GT(terrainPixels(dm / "dropped_depth.tiff"), pixels / 5);
 }
 
 }  // namespace

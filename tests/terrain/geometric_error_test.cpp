@@ -360,7 +360,7 @@ TEST(SimplificationError, FlatAndPlanarWindowsHaveNoError) {
   EXPECT_EQ(simplificationError(plane.posts, plane.n, plane.spacing), 0.0);
 }
 
-TEST(SimplificationError, NodataCellsAreSkippedOrBoundedVertically) {
+TEST(SimplificationError, NodataEdgesMoveByACoarseCellAtMost) {
   const glm::dvec2 spacing(20.0, 20.0);
   EXPECT_EQ(simplificationError(makeWindow(3, spacing, kNaN).posts, 3, spacing), 0.0);
   // A 500 m cliff through the middle of coarse column 1 (child column 3 up).
@@ -379,10 +379,20 @@ TEST(SimplificationError, NodataCellsAreSkippedOrBoundedVertically) {
   Window corner = w;
   corner.at(2, 2) = kNaN;
   EXPECT_DOUBLE_EQ(simplificationError(corner.posts, corner.n, spacing), diagonal);
-  // Every cliff cell without a corner: nothing left.
+  // Coarse column 0 without its corners at child column 2: not drawn coarse, but its child
+  // cells in columns 0-1 are: the data's edge moves by a coarse cell.
   Window none = w;
   for (int j = 0; j < none.side(); j += 2) none.at(2, j) = kNaN;
-  EXPECT_EQ(simplificationError(none.posts, none.n, spacing), 0.0);
+  EXPECT_DOUBLE_EQ(simplificationError(none.posts, none.n, spacing), diagonal);
+  // A flat window whose coarse corners are all nodata but one child cell: the same.
+  Window lone = makeWindow(2, spacing, kNaN);
+  for (int j = 1; j <= 2; ++j)
+    for (int i = 1; i <= 2; ++i) lone.at(i, j) = 7.0F;
+  EXPECT_DOUBLE_EQ(simplificationError(lone.posts, lone.n, spacing), diagonal);
+  // A flat window with one nodata post that is no coarse corner: a hole the coarse cell covers.
+  Window pit = makeWindow(2, spacing, 7.0F);
+  pit.at(1, 1) = kNaN;
+  EXPECT_DOUBLE_EQ(simplificationError(pit.posts, pit.n, spacing), diagonal);
 }
 
 TEST(ExaggeratedError, ScalesByTheLargerOfOneAndTheFactor) {

@@ -203,14 +203,41 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
   } else {
     const json& t = root["terrain"];
     p.warnUnknownKeys(t,
-                      {"dem", "band", "vertical_exaggeration", "paging", "chunk_cells", "memory_budget_mb",
-                       "gpu_budget_mb", "cache_dir"},
+                      {"dem", "band", "crs", "height_unit", "resolution_m", "vertical_exaggeration", "paging",
+                       "chunk_cells", "memory_budget_mb", "gpu_budget_mb", "cache_dir"},
                       "terrain.");
-    std::string dem;
-    if (!p.read(t, "dem", "terrain.", dem) || dem.empty())
+    // One file, a folder of tiles, a VRT, or a list of those.
+    std::vector<std::string> dems;
+    if (t.contains("dem") && t["dem"].is_array()) {
+      for (const json& e : t["dem"]) {
+        if (e.is_string() && !e.get<std::string>().empty()) {
+          dems.push_back(p.resolve(e.get<std::string>()));
+        } else {
+          p.error("terrain.dem", "expected a list of file or folder names, got " + e.dump());
+          dems.clear();
+          break;
+        }
+      }
+      if (dems.empty() && t["dem"].empty()) p.error("terrain.dem", "the list of DEM files is empty");
+    } else if (std::string dem; p.read(t, "dem", "terrain.", dem) && !dem.empty()) {
+      dems.push_back(p.resolve(dem));
+    } else if (!t.contains("dem") || (t["dem"].is_string() && t["dem"].get<std::string>().empty())) {
       p.error("terrain.dem", "missing DEM file");
-    else
-      scene.dem = p.resolve(dem);
+    }
+    if (!dems.empty()) {
+      scene.dem = dems.front();
+      scene.demPaths = std::move(dems);
+    }
+    p.read(t, "crs", "terrain.", scene.demCrs);
+    if (p.read(t, "height_unit", "terrain.", scene.demHeightUnit) &&
+        !(geo::metresPerHeightUnit(scene.demHeightUnit) > 0.0)) {
+      p.error("terrain.height_unit", "expected \"m\", \"ft\" or \"us-ft\", got \"" + scene.demHeightUnit + "\"");
+      scene.demHeightUnit.clear();
+    }
+    if (p.read(t, "resolution_m", "terrain.", scene.demResolution) && !(scene.demResolution > 0.0)) {
+      p.error("terrain.resolution_m", "must be a positive number of metres");
+      scene.demResolution = 0.0;
+    }
     if (p.read(t, "band", "terrain.", scene.demBand) && scene.demBand < 1) p.error("terrain.band", "bands start at 1");
     if (p.read(t, "vertical_exaggeration", "terrain.", scene.verticalExaggeration) &&
         !(scene.verticalExaggeration > 0.0)) {
@@ -274,6 +301,16 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
   // Without a DEM there is nothing to draw; everything else degrades with a message.
   if (!scene.dem.empty()) result.value = std::move(scene);
   return result;
+}
+
+geo::DemSpec SceneDescription::demSpec() const {
+  geo::DemSpec spec;
+  spec.paths = demPaths.empty() ? std::vector<std::string>{dem} : demPaths;
+  spec.band = demBand;
+  spec.crs = demCrs;
+  spec.heightUnit = demHeightUnit;
+  spec.resolutionMetres = demResolution;
+  return spec;
 }
 
 Result<SceneDescription> loadSceneFile(const std::string& path) {

@@ -38,24 +38,21 @@ bool usableDirectory(const std::filesystem::path& dir) {
 
 /// The paged terrain: the pyramid (built when missing or stale), its pager and tree.
 Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const SceneDescription& description,
+                                                                     const geo::DemSource& dem, geo::FrameDem& inFrame,
                                                                      const geo::SceneFrame& frame,
                                                                      const LoadOptions& options, LoadedScene& scene) {
   using R = Result<std::shared_ptr<const terrain::TerrainQuadtree>>;
   R r;
-  Result<terrain::PyramidSource> source =
-      terrain::PyramidSource::of(description.dem, description.demBand, description.chunkCells);
-  if (!source) {
-    r.diagnostics = std::move(source.diagnostics);
-    return r;
-  }
+  const terrain::PyramidSource source = terrain::PyramidSource::of(dem, description.chunkCells);
   scene.pyramidPath = pyramidPathFor(description);
   Result<std::shared_ptr<const terrain::TilePyramidFile>> file =
-      terrain::TilePyramidFile::open(scene.pyramidPath, *source);
+      terrain::TilePyramidFile::open(scene.pyramidPath, source);
   if (!file) {
     const std::string why = file.diagnostics.empty() ? "" : file.diagnostics.items().front().message;
-    logInfo("building the tile pyramid of " + description.dem + " into " + scene.pyramidPath + " (" + why + ")");
+    logInfo("building the tile pyramid of " + dem.label() + " into " + scene.pyramidPath + " (" + why + ")");
     Result<terrain::PyramidBuildStats> built = terrain::buildTilePyramid(
-        *source, frame, scene.pyramidPath, options.progress ? options.progress : consoleProgress("tile pyramid"));
+        inFrame, source, frame, scene.pyramidPath,
+        options.progress ? options.progress : consoleProgress("tile pyramid"));
     if (!built) {
       r.diagnostics.append(built.diagnostics);
       return r;
@@ -65,7 +62,7 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
     std::snprintf(line, sizeof(line), "tile pyramid built in %.1f s: %zu tiles, %.0f MB", built->seconds, built->tiles,
                   static_cast<double>(built->fileBytes) / 1e6);
     logInfo(line);
-    file = terrain::TilePyramidFile::open(scene.pyramidPath, *source);
+    file = terrain::TilePyramidFile::open(scene.pyramidPath, source);
     if (!file) {
       r.diagnostics.append(file.diagnostics);
       return r;
@@ -76,7 +73,7 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
   scene.nodataPosts = (*file)->nodataPosts();
   // Said on every load, not only when the pyramid is built.
   if ((*file)->implausiblePosts() > 0) {
-    r.diagnostics.add(terrain::implausibleHeightsWarning(description.dem, (*file)->implausiblePosts()));
+    r.diagnostics.add(terrain::implausibleHeightsWarning(dem.label(), (*file)->implausiblePosts()));
   }
   r.value = std::make_shared<const terrain::TerrainQuadtree>(std::move(pager));
   return r;
@@ -84,11 +81,82 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
 
 }  // namespace
 
+SceneDescription sceneForDem(const std::string& path) {
+  namespace fs = std::filesystem;
+  SceneDescription scene;
+  scene.path = fs::absolute(path).lexically_normal().string();
+  scene.name = fs::path(scene.path).filename().string();
+  scene.dem = scene.path;
+  scene.demPaths = {scene.path};
+  return scene;
+}
+
+Result<LayerDescription> layerForVectorFile(const std::string& path, const geo::SceneFrame& frame, std::size_t index) {
+  Result<LayerDescription> r;
+  Result<geo::VectorLayer> probe = geo::readVectorLayer(path, frame);
+  if (!probe) {
+    r.diagnostics = std::move(probe.diagnostics);
+    return r;
+  }  // else its messages come once, when the scene with it loads
+  LayerDescription layer;
+  layer.name = std::filesystem::path(path).stem().string();
+  layer.source = std::filesystem::absolute(path).string();
+  layer.kind = probe->kind == geo::GeometryKind::Line ? overlay::LayerKind::Line : overlay::LayerKind::Polygon;
+  const glm::vec4 palette[] = {{0.12F, 0.47F, 0.71F, 1.0F},
+                               {0.17F, 0.63F, 0.17F, 1.0F},
+                               {0.84F, 0.15F, 0.16F, 1.0F},
+                               {0.58F, 0.40F, 0.74F, 1.0F},
+                               {0.09F, 0.75F, 0.81F, 1.0F}};
+  layer.style.color = palette[index % 5];
+  layer.style.opacity = layer.kind == overlay::LayerKind::Polygon ? 0.45F : 0.9F;
+  layer.style.widthMetres = 6.0F;
+  r.value = std::move(layer);
+  return r;
+}
+
+Result<SceneDescription> sceneForVectorFile(const std::string& path) {
+  namespace fs = std::filesystem;
+  Result<SceneDescription> r;
+  Result<std::array<double, 4>> box = geo::vectorExtentLonLat(path);
+  if (!box) {
+    r.diagnostics = std::move(box.diagnostics);
+    return r;
+  }
+  const std::string absolute = fs::absolute(path).lexically_normal().string();
+  const std::string flat = "/vsimem/stencil-gis/flat-ground-" + pathHash(absolute) + ".tif";
+  Result<std::string> written = geo::writeFlatDem(flat, *box);
+  if (!written) {
+    r.diagnostics = std::move(written.diagnostics);
+    return r;
+  }
+  SceneDescription scene = sceneForDem(flat);
+  scene.path = absolute;
+  scene.name = fs::path(absolute).filename().string() + " (flat ground)";
+  scene.paging = TerrainPaging::Never;
+  Result<geo::DemSource> dem = geo::DemSource::open(scene.demSpec());
+  Result<geo::SceneFrame> frame =
+      dem ? geo::SceneFrame::forRaster(dem->extent()) : Result<geo::SceneFrame>::failure(dem.diagnostics.items().front());
+  if (!frame) {
+    r.diagnostics = std::move(frame.diagnostics);
+    return r;
+  }
+  Result<LayerDescription> layer = layerForVectorFile(path, *frame, 0);
+  r.diagnostics.append(layer.diagnostics);
+  if (!layer) return r;
+  scene.layers.push_back(std::move(*layer));
+  r.diagnostics.add({Severity::Info, absolute, "", "",
+                     "opened without a DEM: shown over flat ground at height 0 covering its extent"});
+  r.value = std::move(scene);
+  return r;
+}
+
 std::string pyramidPathFor(const SceneDescription& description) {
   namespace fs = std::filesystem;
   const fs::path dem = fs::absolute(description.dem).lexically_normal();
+  std::string all;
+  for (const std::string& p : description.demSpec().paths) all += fs::absolute(p).lexically_normal().string() + "\n";
   const std::string name =
-      dem.stem().string() + "-b" + std::to_string(description.demBand) + "-" + pathHash(dem.string()) + ".sgpyr";
+      dem.stem().string() + "-b" + std::to_string(description.demBand) + "-" + pathHash(all) + ".sgpyr";
   fs::path dir = description.cacheDir.empty() ? fs::absolute(description.path).parent_path() / ".stencil-gis-cache"
                                               : fs::path(description.cacheDir);
   if (!usableDirectory(dir)) {
@@ -135,14 +203,19 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     return r;
   };
 
-  Result<geo::RasterInfo> demInfo = geo::inspectRaster(description.dem);
-  if (!demInfo) return fail(std::move(demInfo.diagnostics));
-  diagnostics.append(demInfo.diagnostics);
-  Result<geo::SceneFrame> frame = geo::SceneFrame::forRaster(*demInfo);
+  // The DEM in any CRS, one file or many tiles; the frame from where it lies.
+  Result<geo::DemSource> dem = geo::DemSource::open(description.demSpec());
+  if (!dem) return fail(std::move(dem.diagnostics));
+  diagnostics.append(dem.diagnostics);
+  Result<geo::SceneFrame> frame = geo::SceneFrame::forRaster(dem->extent());
   if (!frame) return fail(std::move(frame.diagnostics));
+  Result<geo::FrameDem> inFrame = geo::FrameDem::open(*dem, *frame);
+  if (!inFrame) return fail(std::move(inFrame.diagnostics));
+  diagnostics.append(inFrame.diagnostics);
+  const geo::RasterInfo& demInfo = inFrame->info();
 
   // About 7 bytes a post in memory: the heights and the min/max pyramid of the bounds.
-  const double inMemoryMb = 7.0 * static_cast<double>(demInfo->width) * demInfo->height / (1024.0 * 1024.0);
+  const double inMemoryMb = 7.0 * static_cast<double>(demInfo.width) * demInfo.height / (1024.0 * 1024.0);
   const TerrainPaging paging = options.paging.value_or(description.paging);
   const bool paged =
       paging == TerrainPaging::Always || (paging == TerrainPaging::Auto && inMemoryMb > description.memoryBudgetMb);
@@ -150,17 +223,14 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
   LoadedScene scene{description, std::move(*frame), nullptr, nullptr, std::nullopt, {}, 0, 0.0, {}, std::nullopt};
   if (paged) {
     Result<std::shared_ptr<const terrain::TerrainQuadtree>> tree =
-        pagedTerrain(description, scene.frame, options, scene);
+        pagedTerrain(description, *dem, *inFrame, scene.frame, options, scene);
     if (!tree) return fail(std::move(tree.diagnostics));
     diagnostics.append(tree.diagnostics);
     scene.quadtree = std::move(*tree);
   } else {
-    Result<geo::Raster> dem = geo::readRaster(description.dem, {description.demBand});
-    if (!dem) return fail(std::move(dem.diagnostics));
-    Result<terrain::TerrainGrid> grid = terrain::gridFromRaster(std::move(*dem), scene.frame);  // takes the samples
+    Result<terrain::TerrainGrid> grid = terrain::gridFromDem(*inFrame, scene.frame);
     if (!grid) return fail(std::move(grid.diagnostics));
     diagnostics.append(grid.diagnostics);
-    dem.value.reset();
     for (float h : grid->heights) scene.nodataPosts += std::isnan(h) ? 1u : 0u;
     scene.quadtree = std::make_shared<const terrain::TerrainQuadtree>(
         std::make_shared<const terrain::TerrainGrid>(std::move(*grid)), description.chunkCells);
@@ -169,13 +239,13 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
                               static_cast<std::uint64_t>(scene.quadtree->grid().height);
   if (scene.nodataPosts >= posts) {
     Diagnostics none;
-    none.add({Severity::Error, description.dem, "", "",
+    none.add({Severity::Error, dem->label(), "", "",
               "every one of the DEM's " + std::to_string(posts) + " posts is nodata: there is no terrain to draw"});
     return fail(std::move(none));
   }
   if (scene.nodataPosts > 0) {
     diagnostics.add(
-        {Severity::Info, description.dem, "", "", std::to_string(scene.nodataPosts) + " nodata posts left as holes"});
+        {Severity::Info, dem->label(), "", "", std::to_string(scene.nodataPosts) + " nodata posts left as holes"});
   }
   scene.bounds = std::make_shared<terrain::QuadtreeHeightBounds>(scene.quadtree, description.verticalExaggeration);
 

@@ -26,8 +26,9 @@ class SceneFrame {
   /// Fails (with a message) if the CRS is unknown or not projected.
   static Result<SceneFrame> fromCrs(const std::string& crs, const glm::dvec3& origin);
 
-  /// The frame for a DEM: its own CRS if projected, otherwise the UTM zone (WGS 84) of its
-  /// centre; origin at the centre of its extent, z = 0.
+  /// The frame for a DEM: its own CRS if projected in metres, otherwise (geographic, or
+  /// projected in feet) the UTM zone (WGS 84) of its centre; origin at the centre of its extent,
+  /// z = 0.
   static Result<SceneFrame> forRaster(const RasterInfo& dem);
 
   SceneFrame(const SceneFrame&);

@@ -2,6 +2,7 @@
 // Vector reading through OGR (GeoJSON, Shapefile, GeoPackage and whatever else OGR reads):
 // polygons with holes, multi-parts and line strings with their attributes, reprojected into
 // the scene frame; long edges in geographic CRSs densified along geodesics first.
+#include <array>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -67,6 +68,11 @@ Result<std::vector<std::string>> listVectorLayers(const std::string& path);
 /// Only a file that cannot be opened, a missing layer or an unknown CRS fail as a whole.
 Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& frame,
                                     const VectorReadOptions& options = {});
+
+/// The extent of every layer of a vector data source in WGS 84 longitude/latitude degrees:
+/// {west, south, east, north}. Fails naming the file when it cannot be opened, holds no
+/// features with coordinates, or a layer has no CRS.
+Result<std::array<double, 4>> vectorExtentLonLat(const std::string& path);
 
 /// Points along the geodesic from a to b (lon/lat degrees, on the given ellipsoid) such that no
 /// piece is longer than maxSegmentMetres; includes a, excludes b.

@@ -506,6 +506,12 @@ std::string checkSyntheticDemOptions(const SyntheticDemOptions& o) {
   return {};
 }
 
+bool isGeographicCrs(const std::string& crs) {
+  OGRSpatialReference srs;
+  std::string error;
+  return parseCrs(crs, srs, error) && srs.IsGeographic() != 0;
+}
+
 Result<SyntheticTerrain> SyntheticTerrain::create(const SyntheticDemOptions& options) {
   if (std::string error = checkSyntheticDemOptions(options); !error.empty())
     return Result<SyntheticTerrain>::failure({Severity::Error, "", "", "", "invalid options: " + error});

@@ -19,7 +19,10 @@ namespace gis::terrain {
 /// within D horizontally (intermediate values), or within D + x if its height is outside the
 /// corners' range; every coarse point has a child point at the same height in K, since the
 /// corners are child posts. So a vertical cliff costs about one coarse cell, not its height.
-/// Cells with a nodata post among their nine use v alone (holes are not drawn at either level).
+/// Where nodata changes what is drawn (a coarse cell with a nodata corner over drawn child
+/// cells, or a drawn coarse cell over a child-level hole) the edge of the data moves by up to D,
+/// and the bound is at least D: the screen-space error then bounds how far a DEM's nodata border
+/// or a hole's rim moves on screen, as it bounds the surface elsewhere.
 double simplificationError(std::span<const float> childPosts, int n, const glm::dvec2& childSpacing);
 
 /// The same bound for a surface drawn with vertical exaggeration k: error(k) ≤ max(|k|, 1) ·

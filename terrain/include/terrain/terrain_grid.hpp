@@ -10,6 +10,7 @@
 #include <glm/vec2.hpp>
 
 #include "core/diagnostics.hpp"
+#include "geo/dem_source.hpp"
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
 
@@ -43,7 +44,7 @@ inline constexpr double kMaxDemExtent = 1e8;
 /// The largest |height| a post may have: 10,000 km. Beyond it (or infinite) a sample is not a
 /// height but an undeclared nodata value (−3.4e38 is common) or a wrong unit, and would break
 /// the bounds and the float arithmetic of the renderer.
-inline constexpr float kMaxPostHeight = 1e7F;
+inline constexpr float kMaxPostHeight = static_cast<float>(geo::kMaxPlausibleHeight);
 
 /// Makes every non-finite or implausible (|h| > kMaxPostHeight) sample NaN, that is nodata;
 /// returns how many it changed.
@@ -59,5 +60,10 @@ Result<TerrainGrid> gridFromRaster(const geo::Raster& dem, const geo::SceneFrame
 /// The same, taking over the samples of a one-band raster instead of copying them (a DEM of
 /// 16385² posts is 1 GiB of floats).
 Result<TerrainGrid> gridFromRaster(geo::Raster&& dem, const geo::SceneFrame& frame);
+
+/// The grid of a DEM in any CRS, tiled or not (geo::FrameDem: resampled once into the frame
+/// when it is not already a north-up grid in the frame's CRS), read in strips of rows.
+/// Implausible samples become nodata, with a Warning naming `dem`'s files.
+Result<TerrainGrid> gridFromDem(geo::FrameDem& dem, const geo::SceneFrame& frame);
 
 }  // namespace gis::terrain

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/diagnostics.hpp"
+#include "geo/dem_source.hpp"
 #include "geo/frame.hpp"
 #include "terrain/quadtree.hpp"
 #include "terrain/terrain_grid.hpp"
@@ -24,17 +25,20 @@ namespace gis::terrain {
 
 /// What a pyramid was built from; a pyramid is reused only for the same source.
 struct PyramidSource {
-  std::string demPath;  ///< absolute
+  geo::DemSpec dem;     ///< the DEM's files and how they are read (any CRS, mosaics: geo::DemSource)
+  std::string demPath;  ///< names the DEM: the absolute path of one file, or a DemSource's label
   int band = 1;
-  std::uint64_t bytes = 0;
-  std::int64_t modifiedNs = 0;
+  std::uint64_t bytes = 0;      ///< of all its files
+  std::int64_t modifiedNs = 0;  ///< one file: its modification time; several: a hash of the fingerprint
   int chunkCells = TerrainQuadtree::kDefaultChunkCells;
   int pinnedTilesPerSide = 32;  ///< the pinned level is the finest with at most this many tiles a side
 
-  /// The identity of the DEM file as it is now (size and modification time); fails if it cannot
+  /// The identity of one DEM file as it is now (size and modification time); fails if it cannot
   /// be read.
   static Result<PyramidSource> of(const std::string& demPath, int band,
                                   int chunkCells = TerrainQuadtree::kDefaultChunkCells);
+  /// The identity of an opened DEM (its files, sizes, times and how it is read).
+  static PyramidSource of(const geo::DemSource& dem, int chunkCells = TerrainQuadtree::kDefaultChunkCells);
 };
 
 struct PyramidBuildStats {
@@ -47,9 +51,14 @@ struct PyramidBuildStats {
 using PyramidProgress = std::function<void(double fraction)>;
 
 /// Builds the pyramid of `source` into `path` (written to a temporary file beside it and renamed
-/// when complete, so a crash never leaves a half-built pyramid that looks valid).
+/// when complete, so a crash never leaves a half-built pyramid that looks valid). The DEM is read
+/// in the frame (geo::FrameDem: resampled once when its CRS or grid is not the frame's).
 Result<PyramidBuildStats> buildTilePyramid(const PyramidSource& source, const geo::SceneFrame& frame,
                                            const std::string& path, const PyramidProgress& progress = {});
+/// The same from a DEM already opened in the frame.
+Result<PyramidBuildStats> buildTilePyramid(geo::FrameDem& dem, const PyramidSource& source,
+                                           const geo::SceneFrame& frame, const std::string& path,
+                                           const PyramidProgress& progress = {});
 
 class TilePyramidFile {
  public:

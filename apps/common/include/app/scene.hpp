@@ -9,6 +9,7 @@
 
 #include "app/camera.hpp"
 #include "core/diagnostics.hpp"
+#include "geo/dem_source.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::app {
@@ -28,8 +29,14 @@ enum class TerrainPaging { Auto, Always, Never };
 struct SceneDescription {
   std::string path;  ///< the scene file
   std::string name;
-  std::string dem;  ///< absolute path
+  std::string dem;  ///< absolute path (the first, when the DEM is several files or folders)
+  /// Every file or folder of the DEM (absolute): one, a list, a folder of tiles or a VRT. Empty
+  /// means {dem}.
+  std::vector<std::string> demPaths;
   int demBand = 1;
+  std::string demCrs;          ///< overrides the DEM files' CRS (needed when they have none)
+  std::string demHeightUnit;   ///< overrides the heights' unit ("m", "ft", "us-ft")
+  double demResolution = 0.0;  ///< metres between the posts of a resampled DEM; 0 = the source's finest
   double verticalExaggeration = 1.0;
   /// Auto: paged when the DEM in memory (about 7 bytes a post with its bounds) would exceed
   /// memoryBudgetMb; a paged DEM keeps a third of the budget for tiles.
@@ -42,6 +49,9 @@ struct SceneDescription {
   std::vector<int> imageryBands{1, 2, 3};
   std::vector<LayerDescription> layers;
   std::optional<CameraSpec> camera;
+
+  /// How to read the DEM.
+  [[nodiscard]] geo::DemSpec demSpec() const;
 };
 
 /// Reads and validates a scene file. Unknown keys are warnings; a missing DEM or a malformed

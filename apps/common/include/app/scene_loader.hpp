@@ -48,6 +48,17 @@ struct LoadOptions {
 
 Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOptions& options = {});
 
+/// A scene for a DEM opened alone: a file in any CRS, a folder of tiles or a VRT.
+SceneDescription sceneForDem(const std::string& path);
+
+/// A scene for a vector file opened alone: flat ground (height 0) in memory, covering the file's
+/// extent with a margin, under the file as the scene's one layer (its kind from what it holds).
+Result<SceneDescription> sceneForVectorFile(const std::string& path);
+
+/// The layer a vector file makes when added to a scene: named after the file, its kind from
+/// what it holds, the `index`-th colour of a small palette.
+Result<LayerDescription> layerForVectorFile(const std::string& path, const geo::SceneFrame& frame, std::size_t index);
+
 /// Where the tile pyramid of the scene's DEM lives (the scene's cache directory, made if needed,
 /// else the user's cache directory).
 std::string pyramidPathFor(const SceneDescription& description);

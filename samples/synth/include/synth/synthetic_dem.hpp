@@ -130,6 +130,9 @@ struct SyntheticDemSummary {
 /// Empty when the options are usable, else what is wrong with them (e.g. "size must be ...").
 std::string checkSyntheticDemOptions(const SyntheticDemOptions& options);
 
+/// True when `crs` (OGR user input) is a geographic (longitude/latitude) CRS.
+bool isGeographicCrs(const std::string& crs);
+
 /// The terrain as a function of the post: plans the features from the seed, then gives any
 /// post's height without generating the others. writeSyntheticDem stores exactly these values.
 class SyntheticTerrain {
