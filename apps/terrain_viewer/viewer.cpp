@@ -192,8 +192,9 @@ bool Viewer::open(const ViewerOptions& options) {
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
   render_.waitForTiles = script_.has_value();  // scripted screenshots show the finished view
   // A scene that does not load leaves the window open with the messages, ready for another.
-  if (!loadPath(options.scene)) message("nothing to show: drop a scene, a DEM (a file, a folder of tiles or a VRT) or "
-                                        "a vector file on the window");
+  if (!loadPath(options.scene)) {
+    logInfo("terrain_viewer: nothing to show; the window waits for a scene, a DEM or a vector file dropped on it");
+  }
   return true;
 }
 

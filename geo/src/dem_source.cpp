@@ -295,9 +295,12 @@ Result<std::string> writeFlatDem(const std::string& path, const std::array<doubl
     }
   }
   if (!(lo.x <= hi.x && lo.y <= hi.y)) return fail("the extent cannot be projected to UTM");
-  const double margin = std::max(100.0, 0.1 * std::max(hi.x - lo.x, hi.y - lo.y));
-  lo -= margin;
-  hi += margin;
+  // A square around the data, with a margin: the ground reads as ground, not as a strip.
+  const double side = std::max(hi.x - lo.x, hi.y - lo.y);
+  const double half = 0.5 * side + std::max(100.0, 0.1 * side);
+  const glm::dvec2 mid = 0.5 * (lo + hi);
+  lo = mid - half;
+  hi = mid + half;
   constexpr int kPosts = 257;
   const double spacing = std::max(hi.x - lo.x, hi.y - lo.y) / (kPosts - 1);
   const int w = std::max(2, static_cast<int>(std::ceil((hi.x - lo.x) / spacing)) + 1);

@@ -18,6 +18,7 @@
 
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
+#include "dem_files.hpp"
 #include "terrain/terrain_grid.hpp"
 
 namespace gis::test {
@@ -148,6 +149,65 @@ TEST(SceneLoader, ABrokenGeotransformFailsNamingTheFile) {
         c.file, [](int, int) { return 5.0F; }, std::nullopt, c.gt);
     expectFailureNamingTheFile(dem, c.message);
   }
+}
+
+TEST(SceneLoader, AFolderOfGeographicTilesLoadsTheSameInMemoryAndPagedAndIsRebuiltWhenATileIsAdded) {
+  const std::string dir = outputDir() + "/lonlat-tiles";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const double step = 1.0 / 1200.0;
+  auto tile = [&](const std::string& name, double lon0) {
+    DemFileOptions o;
+    o.width = o.height = 81;
+    o.geoTransform = {lon0 - 0.5 * step, step, 0.0, -7.9 + 0.5 * step, 0.0, -step};
+    o.crs = "EPSG:4326";
+    writeDemFile(dir + "/" + name, o, [&](int c, int r) { return 20.0 + 3.0 * c + std::sin(0.3 * r) * 10.0; });
+  };
+  tile("a.tif", -35.0);
+  tile("b.tif", -35.0 + 80 * step);
+  app::SceneDescription description = sceneOf(dir);
+  description.demPaths = {dir};
+  std::filesystem::remove_all(description.cacheDir);
+  app::LoadOptions memory, paged;
+  memory.paging = app::TerrainPaging::Never;
+  paged.paging = app::TerrainPaging::Always;
+  paged.progress = [](double) {};
+  Result<app::LoadedScene> m = app::loadScene(description, memory);
+  Result<app::LoadedScene> p = app::loadScene(description, paged);
+  ASSERT_TRUE(m.ok() && p.ok());
+  EXPECT_EQ(m->frame.epsg(), 32725);
+  EXPECT_NE(find(m.diagnostics, Severity::Info, "resampled"), nullptr);
+  ASSERT_TRUE(p->paged());
+  EXPECT_TRUE(p->pyramidBuild.has_value());
+  const terrain::TerrainGrid& g = m->quadtree->grid();
+  const terrain::TerrainGrid& pg = p->quadtree->grid();
+  ASSERT_EQ(g.width, pg.width);
+  ASSERT_EQ(g.height, pg.height);
+  EXPECT_EQ(g.origin, pg.origin);
+  EXPECT_EQ(p->nodataPosts, m->nodataPosts);
+  // Paged heights at full resolution equal the in-memory ones.
+  std::size_t compared = 0;
+  for (int r = 1; r < g.height; r += 7) {
+    for (int c = 1; c < g.width; c += 5) {
+      const glm::dvec2 xy = g.postPosition(c, r);
+      const double a = m->bounds->fullResolutionHeightAt(xy), b = p->bounds->fullResolutionHeightAt(xy);
+      if (std::isnan(a)) {
+        EXPECT_TRUE(std::isnan(b));
+        continue;
+      }
+      EXPECT_DOUBLE_EQ(a, b);
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 100u);
+  Result<app::LoadedScene> again = app::loadScene(description, paged);
+  ASSERT_TRUE(again.ok());
+  EXPECT_FALSE(again->pyramidBuild.has_value()) << "reused";
+  tile("c.tif", -35.0 + 160 * step);
+  Result<app::LoadedScene> grown = app::loadScene(description, paged);
+  ASSERT_TRUE(grown.ok());
+  EXPECT_TRUE(grown->pyramidBuild.has_value()) << "a tile added: rebuilt";
+  EXPECT_GT(grown->quadtree->grid().width, g.width);
 }
 
 TEST(TerrainGrid, ImplausibleHeightsToNodataCountsWhatItChanges) {

@@ -636,6 +636,34 @@ TEST(TerrainSynth, WritesDemAndScene) {
   EXPECT_TRUE(j.at("layers").empty());
 }
 
+TEST(TerrainSynth, GeographicCrsGivesAnSrtmLikeTile) {
+  const fs::path dir = outputDir() / "cli_geographic";
+  fs::create_directories(dir);
+  const fs::path dem = dir / "lonlat.tif";
+  ProgramRun r = terrainSynth("--size 65 --crs EPSG:4326 --out '" + dem.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("degrees"), std::string::npos) << r.out;
+  gis::Result<Raster> read = gis::geo::readRaster(dem.string());
+  ASSERT_TRUE(read.ok());
+  EXPECT_TRUE(read->info.crsIsGeographic);
+  const double step = 1.0 / 1200.0;
+  EXPECT_DOUBLE_EQ(read->info.geoTransform.c[1], step);
+  EXPECT_DOUBLE_EQ(read->info.geoTransform.c[0], 6.0);
+  EXPECT_DOUBLE_EQ(read->info.geoTransform.c[3], 50.0);
+  // --origin and --spacing still win; a malformed origin is refused.
+  r = terrainSynth("--size 65 --crs EPSG:4326 --origin -43.5,-22.75 --spacing 0.000277777777777778 --out '" +
+                   dem.string() + "'");
+  ASSERT_EQ(r.status, 0) << r.err;
+  read = gis::geo::readRaster(dem.string());
+  ASSERT_TRUE(read.ok());
+  EXPECT_DOUBLE_EQ(read->info.geoTransform.c[0], -43.5);
+  EXPECT_DOUBLE_EQ(read->info.geoTransform.c[3], -22.75);
+  EXPECT_NEAR(read->info.geoTransform.c[1], 1.0 / 3600.0, 1e-15);
+  r = terrainSynth("--size 65 --crs EPSG:4326 --origin 6:50 --out '" + dem.string() + "'");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--origin"), std::string::npos) << r.err;
+}
+
 TEST(TerrainSynth, VectorScaleWritesTheLayersIntoTheScene) {
   const fs::path dir = outputDir() / "cli_vectors";
   fs::create_directories(dir);

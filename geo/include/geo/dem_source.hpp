@@ -38,8 +38,9 @@ double metresPerHeightUnit(const std::string& unit);
 
 class FrameDem;
 
-/// Writes flat ground (height 0) covering a longitude/latitude box with a margin of a tenth of
-/// its size (at least 100 m) as a GeoTIFF in the UTM zone of its centre, about 257 posts a side:
+/// Writes flat ground (height 0) covering a longitude/latitude box — a square around it with a
+/// margin of a tenth of its size (at least 100 m) — as a GeoTIFF in the UTM zone of its centre,
+/// 257 posts a side:
 /// the terrain under vector data opened without a DEM. `path` may be a /vsimem/ file.
 Result<std::string> writeFlatDem(const std::string& path, const std::array<double, 4>& lonLatBox);
 
@@ -74,8 +75,9 @@ class DemSource {
  private:
   friend class FrameDem;
 
-/// Writes flat ground (height 0) covering a longitude/latitude box with a margin of a tenth of
-/// its size (at least 100 m) as a GeoTIFF in the UTM zone of its centre, about 257 posts a side:
+/// Writes flat ground (height 0) covering a longitude/latitude box — a square around it with a
+/// margin of a tenth of its size (at least 100 m) — as a GeoTIFF in the UTM zone of its centre,
+/// 257 posts a side:
 /// the terrain under vector data opened without a DEM. `path` may be a /vsimem/ file.
 Result<std::string> writeFlatDem(const std::string& path, const std::array<double, 4>& lonLatBox);
   struct State;
