@@ -569,8 +569,8 @@ void Viewer::frame(double seconds) {
     static_cast<void>(readInput());  // nothing to steer yet
   }
   if (scene_) {
-    const bool moving = controller_->update(
-        seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
+    const bool moving =
+        controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
     if (animating_ && !moving) animating_ = false;
     drawScene();
   } else {
@@ -838,7 +838,8 @@ nlohmann::json Viewer::state() const {
   glm::ivec2 window(0);
   glfwGetWindowSize(context_->window(), &window.x, &window.y);
   if (!scene_) {
-    return {{"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
+    return {
+        {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
   }
   const app::OrbitPose& pose = controller_->shownPose();
   nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
@@ -909,10 +910,10 @@ bool Viewer::runStep(const app::ScriptStep& step) {
     return std::nullopt;
   };
   // Without a scene (it failed to load) only what needs none runs.
-  const bool needsNoScene =
-      step.action == app::ScriptAction::Wait || step.action == app::ScriptAction::SaveState ||
-      step.action == app::ScriptAction::Drop || step.action == app::ScriptAction::Resize ||
-      step.action == app::ScriptAction::Quit || (step.action == app::ScriptAction::Screenshot && step.ui);
+  const bool needsNoScene = step.action == app::ScriptAction::Wait || step.action == app::ScriptAction::SaveState ||
+                            step.action == app::ScriptAction::Drop || step.action == app::ScriptAction::Resize ||
+                            step.action == app::ScriptAction::Quit ||
+                            (step.action == app::ScriptAction::Screenshot && step.ui);
   if (!scene_ && !needsNoScene) {
     message(where + ": no scene is loaded", true);
     return false;

@@ -274,8 +274,8 @@ Result<std::string> writeFlatDem(const std::string& path, const std::array<doubl
   };
   detail::ensureGdalRegistered();
   const double west = box[0], south = box[1], east = box[2], north = box[3];
-  if (!(std::isfinite(west) && std::isfinite(south) && std::isfinite(east) && std::isfinite(north)) ||
-      west > east || south > north || south < -90.0 || north > 90.0) {
+  if (!(std::isfinite(west) && std::isfinite(south) && std::isfinite(east) && std::isfinite(north)) || west > east ||
+      south > north || south < -90.0 || north > 90.0) {
     return fail("no extent to make flat ground for");
   }
   const UtmZone zone = utmZoneOf(0.5 * (west + east), 0.5 * (south + north));
@@ -286,8 +286,8 @@ Result<std::string> writeFlatDem(const std::string& path, const std::array<doubl
   for (int k = 0; k <= 16; ++k) {
     const double t = k / 16.0;
     const double lon = west + t * (east - west), lat = south + t * (north - south);
-    for (const glm::dvec2 p : {glm::dvec2(lon, south), glm::dvec2(lon, north), glm::dvec2(west, lat),
-                               glm::dvec2(east, lat)}) {
+    for (const glm::dvec2 p :
+         {glm::dvec2(lon, south), glm::dvec2(lon, north), glm::dvec2(west, lat), glm::dvec2(east, lat)}) {
       if (const auto q = utm->fromLonLat(p.x, p.y, 0.0)) {
         lo = glm::min(lo, glm::dvec2(*q));
         hi = glm::max(hi, glm::dvec2(*q));
@@ -316,8 +316,7 @@ Result<std::string> writeFlatDem(const std::string& path, const std::array<doubl
   srs.importFromEPSG(zone.epsgWgs84());
   ds->SetSpatialRef(&srs);
   std::vector<float> zeros(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0.0F);
-  if (ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, w, h, zeros.data(), w, h, GDT_Float32, 0, 0, nullptr) !=
-      CE_None) {
+  if (ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, w, h, zeros.data(), w, h, GDT_Float32, 0, 0, nullptr) != CE_None) {
     return fail("cannot write flat ground: " + detail::QuietGdal::lastMessage("RasterIO failed"));
   }
   Result<std::string> r;
@@ -394,7 +393,8 @@ Result<DemSource> DemSource::open(const DemSpec& spec) {
       d.severity = Severity::Error;
       failed.diagnostics.add(std::move(d));
     }
-    if (!failed.diagnostics.hasErrors()) failed.diagnostics.add({Severity::Error, first, "", "", "no DEM tile to read"});
+    if (!failed.diagnostics.hasErrors())
+      failed.diagnostics.add({Severity::Error, first, "", "", "no DEM tile to read"});
     return failed;
   }
   for (const Diagnostic& d : problems.items()) {
@@ -430,9 +430,8 @@ Result<DemSource> DemSource::open(const DemSpec& spec) {
     Group& group = state->groups[g];
     detail::QuietGdal quiet;
     if (group.files.size() == 1) {
-      group.dataset.reset(GDALDataset::FromHandle(GDALOpenEx(group.files.front().c_str(),
-                                                             GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr,
-                                                             nullptr)));
+      group.dataset.reset(GDALDataset::FromHandle(
+          GDALOpenEx(group.files.front().c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
     } else {
       std::vector<const char*> names;
       for (const std::string& f : group.files) names.push_back(f.c_str());
@@ -613,8 +612,8 @@ Result<FrameDem> FrameDem::open(const DemSource& source, const SceneFrame& frame
     state->spacing = std::min(c[1], -c[5]);
     state->resampled = false;
   } else {
-    double spacing = src.spec.resolutionMetres > 0.0 ? src.spec.resolutionMetres
-                                                      : state->samplers.front().group->spacingMetres;
+    double spacing =
+        src.spec.resolutionMetres > 0.0 ? src.spec.resolutionMetres : state->samplers.front().group->spacingMetres;
     if (!(spacing > 0.0) || !std::isfinite(spacing)) return fail("cannot find the DEM's post spacing in metres");
     // The extent in the frame: every group's boundary carried over.
     glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
@@ -637,8 +636,7 @@ Result<FrameDem> FrameDem::open(const DemSource& source, const SceneFrame& frame
     const double h = std::floor((y0 - lo.y) / spacing) + 2.0;
     if (!(w * h <= 4e9) || w > 1e6 || h > 1e6) {
       return fail("resampled into the scene frame at " + formatNumber(spacing) + " m the DEM would have " +
-                  formatNumber(w, 4) + " x " + formatNumber(h, 4) +
-                  " posts; give a coarser terrain.resolution_m");
+                  formatNumber(w, 4) + " x " + formatNumber(h, 4) + " posts; give a coarser terrain.resolution_m");
     }
     state->spacing = spacing;
     state->resampled = true;

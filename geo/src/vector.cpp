@@ -7,10 +7,10 @@
 #include <optional>
 #include <sstream>
 
-#include <glm/common.hpp>
 #include <ogrsf_frmts.h>
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
+#include <glm/common.hpp>
 
 #include "gdal_support.hpp"
 
@@ -286,8 +286,8 @@ Result<std::array<double, 4>> vectorExtentLonLat(const std::string& path) {
     for (int k = 0; k <= 16; ++k) {
       const double t = k / 16.0;
       const double x = e.MinX + t * (e.MaxX - e.MinX), y = e.MinY + t * (e.MaxY - e.MinY);
-      for (const glm::dvec2 p : {glm::dvec2(x, e.MinY), glm::dvec2(x, e.MaxY), glm::dvec2(e.MinX, y),
-                                 glm::dvec2(e.MaxX, y)}) {
+      for (const glm::dvec2 p :
+           {glm::dvec2(x, e.MinY), glm::dvec2(x, e.MaxY), glm::dvec2(e.MinX, y), glm::dvec2(e.MaxX, y)}) {
         double px = p.x, py = p.y;
         int ok = 0;
         if (ct->Transform(1, &px, &py, nullptr, &ok) != 0 && ok != 0 && std::isfinite(px) && std::isfinite(py)) {

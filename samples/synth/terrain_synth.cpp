@@ -33,7 +33,8 @@ constexpr const char* kUsage =
     "Writes a deterministic synthetic DEM: N x N posts (default 1025, 33 .. 65537) of fractal\n"
     "relief (--relief metres, default 600) at --spacing CRS units (default 20), EPSG:32633 unless\n"
     "--crs; --origin is the top-left corner (default 500000,5000000; in a geographic CRS such as\n"
-    "EPSG:4326 the defaults are 6,50 and 3 arc-seconds, as an SRTM tile), with vertical cliffs (>= 300 m), single-post spikes (>= 500 m), perfectly flat plains\n"
+    "EPSG:4326 the defaults are 6,50 and 3 arc-seconds, as an SRTM tile), with vertical cliffs (>= 300 m), single-post "
+    "spikes (>= 500 m), perfectly flat plains\n"
     "and nodata holes placed from --seed (default 1). --nodata-border makes everything outside an\n"
     "irregular boundary nodata. --scene also writes a scene file for overlay_render and\n"
     "terrain_viewer. --vector-scale K also writes K times the seed paper's vector load (K x 8 areas\n"
@@ -101,8 +102,10 @@ std::string parseArgs(int argc, char** argv, Options& o) {
       const auto v = value();
       const std::string text = v ? std::string(*v) : std::string();
       const std::size_t comma = text.find(',');
-      const auto x = comma == std::string::npos ? std::nullopt : parseNumber<double>(std::string_view(text).substr(0, comma));
-      const auto y = comma == std::string::npos ? std::nullopt : parseNumber<double>(std::string_view(text).substr(comma + 1));
+      const auto x =
+          comma == std::string::npos ? std::nullopt : parseNumber<double>(std::string_view(text).substr(0, comma));
+      const auto y =
+          comma == std::string::npos ? std::nullopt : parseNumber<double>(std::string_view(text).substr(comma + 1));
       if (!x || !y) {
         error = "--origin needs X,Y (the top-left corner in CRS units), not '" + text + "'";
       } else {
@@ -110,8 +113,7 @@ std::string parseArgs(int argc, char** argv, Options& o) {
         o.dem.originY = *y;
         originGiven = true;
       }
-    }
-    else if (a == "--relief")
+    } else if (a == "--relief")
       error = setNumber(o.dem.reliefMetres, "a number");
     else if (a == "--no-cliffs")
       o.dem.cliffs = false;
@@ -254,9 +256,10 @@ int run(const Options& o) {
         "%s: %d x %d posts at %g %s, seed %llu: heights %.2f .. %.2f m; %zu cliffs, %zu spikes, %zu plains, %zu "
         "holes%s; %zu nodata posts; %.1f MB in %.2f s\n",
         o.out.c_str(), s.size, s.size, s.spacing,
-        !o.dem.crs.empty() && gis::synth::isGeographicCrs(o.dem.crs) ? "degrees" : "CRS units", static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight,
-        s.cliffs.size(), s.spikes.size(), s.plains.size(), s.holes.size(), s.border.enabled ? ", nodata border" : "",
-        s.nodataPosts, ec ? 0.0 : static_cast<double>(bytes) / 1e6, seconds);
+        !o.dem.crs.empty() && gis::synth::isGeographicCrs(o.dem.crs) ? "degrees" : "CRS units",
+        static_cast<unsigned long long>(s.seed), s.minHeight, s.maxHeight, s.cliffs.size(), s.spikes.size(),
+        s.plains.size(), s.holes.size(), s.border.enabled ? ", nodata border" : "", s.nodataPosts,
+        ec ? 0.0 : static_cast<double>(bytes) / 1e6, seconds);
   }
 
   std::optional<gis::synth::SyntheticVectorSummary> vectors;

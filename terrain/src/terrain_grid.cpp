@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <new>
 #include <limits>
+#include <new>
 #include <sstream>
 
 #include <glm/common.hpp>
@@ -105,8 +105,8 @@ Result<TerrainGrid> gridFromDem(geo::FrameDem& dem, const geo::SceneFrame& frame
   try {
     r->heights.resize(width * static_cast<std::size_t>(r->height));
   } catch (const std::bad_alloc&) {
-    return Result<TerrainGrid>::failure(
-        {Severity::Error, dem.info().path, "", "", "not enough memory for the DEM's posts (page it: paging \"always\")"});
+    return Result<TerrainGrid>::failure({Severity::Error, dem.info().path, "", "",
+                                         "not enough memory for the DEM's posts (page it: paging \"always\")"});
   }
   // Strips of about 16 M posts bound the source window read at once.
   const int strip = std::max(1, static_cast<int>((std::size_t{16} << 20) / width));
@@ -118,7 +118,8 @@ Result<TerrainGrid> gridFromDem(geo::FrameDem& dem, const geo::SceneFrame& frame
       failed.diagnostics = std::move(r.diagnostics);
       return failed;
     }
-    std::copy(rows.begin(), rows.end(), r->heights.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(r0) * width));
+    std::copy(rows.begin(), rows.end(),
+              r->heights.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(r0) * width));
   }
   checkHeights(dem.info().path, r);
   return r;

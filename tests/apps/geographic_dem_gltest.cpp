@@ -129,9 +129,7 @@ class GeographicDemGlTest : public GlTest {
     scene.layers = {areas, roads};
     description() = scene;
   }
-  static void TearDownTestSuite() {
-    fs::remove_all(dir());
-  }
+  static void TearDownTestSuite() { fs::remove_all(dir()); }
 
   static std::string& dir() {
     static std::string d;
@@ -290,9 +288,10 @@ TEST_F(GeographicDemGlTest, TerrainLiesOnTheSourceAndOverlaysAreExactPagedAndInM
       }
       const double rms = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(terrain, 1)));
       const double cpuRms = std::sqrt(cpuSum / static_cast<double>(std::max<std::size_t>(terrain, 1)));
-      std::printf("%s, %s: %zu terrain pixels, %zu covered, %zu wrong away from edges (%zu on edges); height "
-                  "against the source: RMS %.2f m (the grid's own: %.2f m), worst %.2f m\n",
-                  mode, names[k], terrain, covered, wrong, edgeWrong, rms, cpuRms, worst);
+      std::printf(
+          "%s, %s: %zu terrain pixels, %zu covered, %zu wrong away from edges (%zu on edges); height "
+          "against the source: RMS %.2f m (the grid's own: %.2f m), worst %.2f m\n",
+          mode, names[k], terrain, covered, wrong, edgeWrong, rms, cpuRms, worst);
       EXPECT_GT(terrain, static_cast<std::size_t>(kSize * kSize / 10)) << names[k];
       EXPECT_EQ(wrong, 0u) << mode << ", " << names[k];
       EXPECT_EQ(outsideHull, 0u) << mode << ", " << names[k];
@@ -324,7 +323,7 @@ TEST_F(GeographicDemGlTest, ImageryInLongitudeLatitudeLandsWhereItBelongs) {
     for (int r = 0; r < kPixels; ++r) {
       for (int c = 0; c < kPixels; ++c) {
         const double lon = 5.995 + (c + 0.5) * step, lat = 50.005 - (r + 0.5) * step;
-        const bool west = lon < 6.06, north = lat > 49.95;
+        const bool west = lon<6.06, north = lat> 49.95;
         const std::size_t i = static_cast<std::size_t>(r * kPixels + c);
         rgb[i] = west ? 255 : 0;
         rgb[static_cast<std::size_t>(kPixels * kPixels) + i] = north ? 255 : 0;
@@ -447,7 +446,8 @@ TEST_F(GeographicDemGlTest, SrtmMosaicHasNoCrack) {
         if ((ll.x - 6.8) * (ll.x - 6.8) + (ll.y - 50.2) * (ll.y - 50.2) < 0.04 * 0.04) continue;
         ++inside;
         if (!(depth[static_cast<std::size_t>(y) * kSize + static_cast<std::size_t>(x)] > 0.0F)) {
-          if (cracks++ < 5) ADD_FAILURE() << "no terrain at pixel " << x << ", " << y << " (" << ll.x << ", " << ll.y << ")";
+          if (cracks++ < 5)
+            ADD_FAILURE() << "no terrain at pixel " << x << ", " << y << " (" << ll.x << ", " << ll.y << ")";
         }
       }
     }

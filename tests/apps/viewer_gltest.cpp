@@ -23,8 +23,8 @@
 #include <nlohmann/json.hpp>
 
 #include "app/scene_loader.hpp"
-#include "dem_files.hpp"
 #include "app/scene_renderer.hpp"
+#include "dem_files.hpp"
 #include "gfx/image_io.hpp"
 #include "gl_test.hpp"
 #include "program_output.hpp"
@@ -678,8 +678,8 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
 
   for (const std::string& open : {geographic, (dir / "tiles").string()}) {
     const fs::path d = outputDir(fs::path(open).filename().string());
-    ASSERT_TRUE(runViewer(d, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}},
-                          open));
+    ASSERT_TRUE(runViewer(
+        d, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}}, open));
     const json s = state(d, "s.json");
     EXPECT_EQ(s["scene"], fs::absolute(open).lexically_normal().string());
     EXPECT_GT(terrainPixels(d / "home_depth.tiff"), pixels / 5) << open << ": the home view shows the DEM";
@@ -688,8 +688,8 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
   // A vector file alone: over flat ground, its one layer drawn.
   const std::string vector = std::string(STENCIL_GIS_TEST_DATA_DIR) + "/holes_and_multipolygons.geojson";
   const fs::path dv = outputDir("vector_alone");
-  ASSERT_TRUE(runViewer(dv, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}},
-                        vector));
+  ASSERT_TRUE(runViewer(
+      dv, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}}, vector));
   const json sv = state(dv, "s.json");
   ASSERT_EQ(sv["layers"].size(), 1u);
   EXPECT_GT(sv["layers"][0]["drawn_features"].get<int>(), 0);

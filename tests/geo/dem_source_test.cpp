@@ -177,8 +177,9 @@ TEST(DemSource, GeographicDemGoesIntoTheUtmFrameOfItsCentreAtItsFinestSpacing) {
     for (int c = 0; c < fi.width; c += 3) {
       const glm::dvec2 ll = *toLonLat->transform(fi.pixelCentre(c, r));
       const double u = (ll.x - 6.0) / kArcSecond3, v = (50.0 - ll.y) / kArcSecond3;
-      const float h = opened.heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) +
-                                     static_cast<std::size_t>(c)];
+      const float h =
+          opened
+              .heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) + static_cast<std::size_t>(c)];
       if (u > 1e-3 && v > 1e-3 && u < 240 - 1e-3 && v < 240 - 1e-3) {
         ++inside;
         EXPECT_FALSE(std::isnan(h)) << c << " " << r;
@@ -218,8 +219,9 @@ TEST(DemSource, NodataIsNeverBlendedIntoAHeight) {
       const glm::dvec2 p = *toSource->transform(fi.pixelCentre(c, r));
       const glm::dvec2 uv = *source->info.geoTransform.crsToPixel(p) - glm::dvec2(0.5);
       const double expected = bilinearAt(source->samples, source->info.width, source->info.height, uv.x, uv.y);
-      const float h = opened.heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) +
-                                     static_cast<std::size_t>(c)];
+      const float h =
+          opened
+              .heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) + static_cast<std::size_t>(c)];
       // Away from the hole's edge by a thousandth of a post, where rounding decides.
       const double fu = uv.x - std::floor(uv.x), fv = uv.y - std::floor(uv.y);
       if (std::min({fu, 1.0 - fu, fv, 1.0 - fv}) < 1e-3) continue;
@@ -268,9 +270,10 @@ TEST(DemSource, ResamplingErrorOfTheStiffSyntheticRelief) {
   const Opened opened = openInFrame(specOf({path}));
   ASSERT_TRUE(opened.dem.has_value()) << allMessages(opened.diagnostics);
   const ErrorFigures e = compareAtSourcePosts(opened, path);
-  std::printf("terrain_synth --crs EPSG:4326 (3\" posts, %.1f m frame posts): %zu source posts, max %.2f m, RMS "
-              "%.2f m\n",
-              opened.dem->spacing(), e.compared, e.max, e.rms);
+  std::printf(
+      "terrain_synth --crs EPSG:4326 (3\" posts, %.1f m frame posts): %zu source posts, max %.2f m, RMS "
+      "%.2f m\n",
+      opened.dem->spacing(), e.compared, e.max, e.rms);
   EXPECT_GT(e.compared, 200u * 200u);
   EXPECT_EQ(e.holesWhereSourceIsComplete, 0u);
   // Bilinear of bilinear: bounded by the largest height step between neighbouring posts (the
@@ -293,7 +296,8 @@ TEST(DemSource, ResamplingErrorOfTheStiffSyntheticRelief) {
   const std::string olinda = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/olinda_dem_utm25s.tif";
   const std::string lonLat = outputDir("olinda") + "/olinda_lonlat.tif";
   const std::string command =
-      "gdalwarp -q -overwrite -t_srs EPSG:4326 -tr 0.000833333333333 0.000833333333333 -r near " + olinda + " " + lonLat;
+      "gdalwarp -q -overwrite -t_srs EPSG:4326 -tr 0.000833333333333 0.000833333333333 -r near " + olinda + " " +
+      lonLat;
   ASSERT_EQ(std::system(command.c_str()), 0);
   const Opened real = openInFrame(specOf({lonLat}));
   ASSERT_TRUE(real.dem.has_value()) << allMessages(real.diagnostics);
@@ -499,7 +503,8 @@ TEST(DemSource, TilesOfOtherCrssAndResolutionsMeetWithoutAGap) {
   const std::string dir = outputDir("mixed");
   auto field = [](double lon, double lat) { return srtmField(lon, lat); };
   DemFileOptions west = geographicTile(121, 6.0, 50.0);
-  writeDemFile(dir + "/west.tif", west, [&](int c, int r) { return field(6.0 + c * kArcSecond3, 50.0 - r * kArcSecond3); });
+  writeDemFile(dir + "/west.tif", west,
+               [&](int c, int r) { return field(6.0 + c * kArcSecond3, 50.0 - r * kArcSecond3); });
   const double s1 = 1.0 / 3600.0;
   DemFileOptions east = geographicTile(361, 6.1, 50.0, s1);
   writeDemFile(dir + "/east.tif", east, [&](int c, int r) { return field(6.1 + c * s1, 50.0 - r * s1); });
@@ -534,8 +539,9 @@ TEST(DemSource, TilesOfOtherCrssAndResolutionsMeetWithoutAGap) {
       const glm::dvec2 ll = *toLonLat->transform(fi.pixelCentre(c, r));
       // Inside the two geographic tiles (the UTM tile overlaps their north edge).
       if (ll.x < 6.001 || ll.x > 6.199 || ll.y < 49.901 || ll.y > 49.999) continue;
-      const float h = opened.heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) +
-                                     static_cast<std::size_t>(c)];
+      const float h =
+          opened
+              .heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) + static_cast<std::size_t>(c)];
       ASSERT_FALSE(std::isnan(h)) << "a gap at " << ll.x << ", " << ll.y;
       worst = std::max(worst, std::abs(h - field(ll.x, ll.y)));
       ++checked;

@@ -46,12 +46,12 @@ inline void writeDemFile(const std::string& path, const DemFileOptions& o,
   if (o.offset) band->SetOffset(*o.offset);
   std::vector<double> data(static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height));
   for (int r = 0; r < o.height; ++r) {
-    for (int c = 0; c < o.width; ++c) data[static_cast<std::size_t>(r) * static_cast<std::size_t>(o.width) +
-                                           static_cast<std::size_t>(c)] = value(c, r);
+    for (int c = 0; c < o.width; ++c)
+      data[static_cast<std::size_t>(r) * static_cast<std::size_t>(o.width) + static_cast<std::size_t>(c)] = value(c, r);
   }
-  ASSERT_EQ(band->RasterIO(GF_Write, 0, 0, o.width, o.height, data.data(), o.width, o.height, GDT_Float64, 0, 0,
-                           nullptr),
-            CE_None);
+  ASSERT_EQ(
+      band->RasterIO(GF_Write, 0, 0, o.width, o.height, data.data(), o.width, o.height, GDT_Float64, 0, 0, nullptr),
+      CE_None);
   GDALClose(GDALDataset::ToHandle(ds));
 }
 

@@ -50,9 +50,9 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
   if (!file) {
     const std::string why = file.diagnostics.empty() ? "" : file.diagnostics.items().front().message;
     logInfo("building the tile pyramid of " + dem.label() + " into " + scene.pyramidPath + " (" + why + ")");
-    Result<terrain::PyramidBuildStats> built = terrain::buildTilePyramid(
-        inFrame, source, frame, scene.pyramidPath,
-        options.progress ? options.progress : consoleProgress("tile pyramid"));
+    Result<terrain::PyramidBuildStats> built =
+        terrain::buildTilePyramid(inFrame, source, frame, scene.pyramidPath,
+                                  options.progress ? options.progress : consoleProgress("tile pyramid"));
     if (!built) {
       r.diagnostics.append(built.diagnostics);
       return r;
@@ -134,8 +134,8 @@ Result<SceneDescription> sceneForVectorFile(const std::string& path) {
   scene.name = fs::path(absolute).filename().string() + " (flat ground)";
   scene.paging = TerrainPaging::Never;
   Result<geo::DemSource> dem = geo::DemSource::open(scene.demSpec());
-  Result<geo::SceneFrame> frame =
-      dem ? geo::SceneFrame::forRaster(dem->extent()) : Result<geo::SceneFrame>::failure(dem.diagnostics.items().front());
+  Result<geo::SceneFrame> frame = dem ? geo::SceneFrame::forRaster(dem->extent())
+                                      : Result<geo::SceneFrame>::failure(dem.diagnostics.items().front());
   if (!frame) {
     r.diagnostics = std::move(frame.diagnostics);
     return r;

@@ -75,11 +75,11 @@ class DemSource {
  private:
   friend class FrameDem;
 
-/// Writes flat ground (height 0) covering a longitude/latitude box — a square around it with a
-/// margin of a tenth of its size (at least 100 m) — as a GeoTIFF in the UTM zone of its centre,
-/// 257 posts a side:
-/// the terrain under vector data opened without a DEM. `path` may be a /vsimem/ file.
-Result<std::string> writeFlatDem(const std::string& path, const std::array<double, 4>& lonLatBox);
+  /// Writes flat ground (height 0) covering a longitude/latitude box — a square around it with a
+  /// margin of a tenth of its size (at least 100 m) — as a GeoTIFF in the UTM zone of its centre,
+  /// 257 posts a side:
+  /// the terrain under vector data opened without a DEM. `path` may be a /vsimem/ file.
+  Result<std::string> writeFlatDem(const std::string& path, const std::array<double, 4>& lonLatBox);
   struct State;
   explicit DemSource(std::shared_ptr<State> state);
   std::shared_ptr<State> state_;
