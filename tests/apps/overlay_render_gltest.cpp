@@ -215,7 +215,8 @@ TEST(OverlayRenderCli, AGeographicDemLiesOnItsSourceThroughCameraJson) {
       const float d = depth->pixels[static_cast<std::size_t>(y * kWidth + x)];
       if (!(d > 0.0F)) continue;
       ++terrain;
-      const glm::dvec4 h = inverse * glm::dvec4((x + 0.5) / kWidth * 2.0 - 1.0, 1.0 - (y + 0.5) / kHeight * 2.0, d, 1.0);
+      const glm::dvec4 h =
+          inverse * glm::dvec4((x + 0.5) / kWidth * 2.0 - 1.0, 1.0 - (y + 0.5) / kHeight * 2.0, d, 1.0);
       const glm::dvec3 p = glm::dvec3(h) / h.w;
       const glm::dvec2 ll = *toSource->transform(glm::dvec2(frame->frameToProjected(p)));
       const glm::dvec2 uv = *si.geoTransform.crsToPixel(ll) - glm::dvec2(0.5);
@@ -229,7 +230,8 @@ TEST(OverlayRenderCli, AGeographicDemLiesOnItsSourceThroughCameraJson) {
         }
       }
       if (p.z < lo - kSurfaceTolerance || p.z > hi + kSurfaceTolerance) {
-        if (outside++ < 5) ADD_FAILURE() << "pixel " << x << ", " << y << " at " << p.z << " m, posts " << lo << " .. " << hi;
+        if (outside++ < 5)
+          ADD_FAILURE() << "pixel " << x << ", " << y << " at " << p.z << " m, posts " << lo << " .. " << hi;
       }
       if (c0 < 0 || r0 < 0 || c0 + 1 >= si.width || r0 + 1 >= si.height) continue;
       const double fx = uv.x - c0, fy = uv.y - r0;
@@ -242,9 +244,10 @@ TEST(OverlayRenderCli, AGeographicDemLiesOnItsSourceThroughCameraJson) {
     }
   }
   const double rms = std::sqrt(sum / static_cast<double>(std::max<std::size_t>(compared, 1)));
-  std::printf("Olinda in lon/lat through overlay_render: %zu terrain pixels, %zu compared, RMS %.2f m, worst %.2f m "
-              "from the source surface\n",
-              terrain, compared, rms, worst);
+  std::printf(
+      "Olinda in lon/lat through overlay_render: %zu terrain pixels, %zu compared, RMS %.2f m, worst %.2f m "
+      "from the source surface\n",
+      terrain, compared, rms, worst);
   EXPECT_GT(terrain, static_cast<std::size_t>(kWidth * kHeight / 4));
   EXPECT_GT(compared, terrain * 9 / 10);
   EXPECT_EQ(outside, 0u);
