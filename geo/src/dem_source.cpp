@@ -60,6 +60,9 @@ bool sidecarName(const std::string& path) {
   return false;
 }
 
+/// The widest DEM resampled into one projected frame (metres a side).
+constexpr double kMaxRegionMetres = 4000e3;
+
 std::string formatNumber(double v, int precision = 6) {
   std::ostringstream out;
   out.precision(precision);
@@ -629,6 +632,15 @@ Result<FrameDem> FrameDem::open(const DemSource& source, const SceneFrame& frame
       }
     }
     if (!(lo.x < hi.x && lo.y < hi.y)) return fail("the DEM's extent cannot be placed in the scene frame");
+    // One projected frame holds a region, not a continent: beyond a few thousand kilometres a
+    // transverse Mercator's scale error grows past 10 % and far points do not project at all.
+    if (hi.x - lo.x > kMaxRegionMetres || hi.y - lo.y > kMaxRegionMetres) {
+      return fail("the DEM spans " + formatNumber((hi.x - lo.x) / 1000.0, 4) + " x " +
+                  formatNumber((hi.y - lo.y) / 1000.0, 4) +
+                  " km in the scene frame: more than one projected frame holds without large distortion (at most " +
+                  formatNumber(kMaxRegionMetres / 1000.0, 4) +
+                  " km a side); cut it to a region (gdal_translate -projwin), as the globe frame is not built yet");
+    }
     // Posts on multiples of the spacing, covering the extent.
     const double x0 = std::floor(lo.x / spacing) * spacing;
     const double y0 = std::ceil(hi.y / spacing) * spacing;

@@ -604,6 +604,14 @@ TEST(DemSource, BadInputFailsNamingTheFile) {
   DemSpec badCrs = specOf({noCrs});
   badCrs.crs = "EPSG:999999";
   EXPECT_NE(find(DemSource::open(badCrs).diagnostics, Severity::Error, "terrain.crs"), nullptr);
+  // A continent is more than one projected frame holds: said, not drawn distorted.
+  const std::string continent = dir + "/continent.tif";
+  DemFileOptions wide = geographicTile(61, -10.0, 60.0, 1.0);
+  writeDemFile(continent, wide, [](int c, int r) { return 10.0 * (c + r); });
+  const Opened tooWide = openInFrame(specOf({continent}));
+  EXPECT_FALSE(tooWide.dem.has_value());
+  EXPECT_NE(find(tooWide.diagnostics, Severity::Error, "more than one projected frame holds"), nullptr)
+      << allMessages(tooWide.diagnostics);
   DemSpec badUnit = specOf({noCrs});
   badUnit.heightUnit = "cubit";
   EXPECT_FALSE(DemSource::open(badUnit).ok());
