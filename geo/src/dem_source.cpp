@@ -16,6 +16,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
+#include "core/hash.hpp"
 #include "gdal_support.hpp"
 
 namespace gis::geo {
@@ -241,18 +242,6 @@ std::vector<glm::dvec2> boundaryPoints(const RasterInfo& info, int perEdge = 32)
     pts.push_back(info.geoTransform.pixelToCrs(c1, r0 + t * (r1 - r0)));
   }
   return pts;
-}
-
-/// FNV-1a over text, as 16 hex digits.
-std::string hashText(const std::string& text) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (const char c : text) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ULL;
-  }
-  char out[17];
-  std::snprintf(out, sizeof(out), "%016llx", static_cast<unsigned long long>(h));
-  return out;
 }
 
 }  // namespace
@@ -563,7 +552,7 @@ std::string FrameDem::fingerprint() const {
   std::ostringstream id;
   id << state_->source->fingerprint << "grid=" << i.width << "x" << i.height;
   for (double c : i.geoTransform.c) id << "," << formatNumber(c, 17);
-  id << ";frame=" << hashText(i.crsWkt);
+  id << ";frame=" << stableHashHex(i.crsWkt);
   return id.str();
 }
 

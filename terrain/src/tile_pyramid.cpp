@@ -16,6 +16,7 @@
 
 #include <glm/common.hpp>
 
+#include "core/hash.hpp"
 #include "geo/raster.hpp"
 #include "terrain/geometric_error.hpp"
 
@@ -360,13 +361,8 @@ PyramidSource PyramidSource::of(const geo::DemSource& dem, int chunkCells) {
     struct stat st {};
     if (::stat(f.c_str(), &st) == 0) s.bytes += static_cast<std::uint64_t>(st.st_size);
   }
-  // FNV-1a of the fingerprint: any file added, removed, resized or touched changes it.
-  std::uint64_t h = 1469598103934665603ULL;
-  for (const char c : dem.fingerprint()) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ULL;
-  }
-  s.modifiedNs = static_cast<std::int64_t>(h >> 1);
+  // A hash of the fingerprint: any file added, removed, resized or touched changes it.
+  s.modifiedNs = static_cast<std::int64_t>(stableHash(dem.fingerprint()) >> 1);
   s.chunkCells = chunkCells;
   return s;
 }

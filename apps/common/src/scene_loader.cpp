@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "core/hash.hpp"
 #include "core/log.hpp"
 #include "geo/raster.hpp"
 #include "terrain/terrain_grid.hpp"
@@ -18,17 +19,8 @@ namespace gis::app {
 
 namespace {
 
-/// FNV-1a: a stable short name for a path.
-std::string pathHash(const std::string& text) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (const char c : text) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ULL;
-  }
-  char out[17];
-  std::snprintf(out, sizeof(out), "%016llx", static_cast<unsigned long long>(h));
-  return std::string(out, 8);
-}
+/// A stable short name for a path.
+std::string pathHash(const std::string& text) { return stableHashHex(text).substr(0, 8); }
 
 bool usableDirectory(const std::filesystem::path& dir) {
   std::error_code ec;
