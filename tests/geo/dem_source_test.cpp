@@ -497,6 +497,47 @@ TEST(DemSource, SrtmMosaicOfFourHgtTilesWithVoidsHasNoSeam) {
                          [](float a, float b) { return a == b || (std::isnan(a) && std::isnan(b)); }));
 }
 
+TEST(DemSource, OneAndThreeArcSecondHgtTilesMeetWithoutAGap) {
+  // SRTM 1" (3601²) beside SRTM 3" (1201²): two groups, the frame at the 1" spacing.
+  const std::string dir = outputDir("srtm-1-3");
+  writeHgtTile(dir, 6, 49, 3601, srtmField);
+  writeHgtTile(dir, 7, 49, 1201, srtmField);
+  const Opened opened = openInFrame(specOf({dir}));
+  ASSERT_TRUE(opened.dem.has_value()) << allMessages(opened.diagnostics);
+  Result<DemSource> source = DemSource::open(specOf({dir}));
+  ASSERT_TRUE(source.ok());
+  ASSERT_EQ(source->groups().size(), 2u);
+  EXPECT_EQ(source->groups().front().width, 3601);
+  EXPECT_NEAR(opened.dem->spacing(), 20.1, 0.2) << "1\" of longitude at 49.5°N";
+  const geo::RasterInfo& fi = opened.dem->info();
+  Result<geo::CrsTransform> toLonLat = opened.frame->transformTo("EPSG:4326");
+  ASSERT_TRUE(toLonLat.ok());
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> col(0, fi.width - 1), row(0, fi.height - 1);
+  std::size_t checked = 0, seam = 0;
+  double worst = 0.0;
+  auto check = [&](int c, int r) {
+    const glm::dvec2 ll = *toLonLat->transform(fi.pixelCentre(c, r));
+    if (ll.x < 6.001 || ll.x > 7.999 || ll.y < 49.001 || ll.y > 49.999) return;
+    const float h =
+        opened.heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(fi.width) + static_cast<std::size_t>(c)];
+    ASSERT_FALSE(std::isnan(h)) << "a hole at " << ll.x << ", " << ll.y;
+    worst = std::max(worst, std::abs(h - srtmField(ll.x, ll.y)));
+    ++checked;
+    seam += std::abs(ll.x - 7.0) < 0.001 ? 1u : 0u;
+  };
+  for (int k = 0; k < 100000; ++k) check(col(rng), row(rng));
+  // Every post of a row across the seam at 7°E.
+  const glm::dvec3 onSeam = *opened.frame->fromLonLat(7.0, 49.5, 0.0);
+  const glm::dvec2 at = *fi.geoTransform.crsToPixel(glm::dvec2(opened.frame->frameToProjected(onSeam)));
+  for (int d = -200; d <= 200; ++d) check(static_cast<int>(at.x) + d, static_cast<int>(at.y));
+  std::printf("1\" + 3\" .hgt: %d x %d frame posts, %zu checked (%zu at the seam), worst %.2f m\n", fi.width, fi.height,
+              checked, seam, worst);
+  EXPECT_GT(checked, 30000u);
+  EXPECT_GT(seam, 5u);
+  EXPECT_LT(worst, 2.0);
+}
+
 TEST(DemSource, TilesOfOtherCrssAndResolutionsMeetWithoutAGap) {
   // West: 0.1° of 3" posts in EPSG:4326. East: the next 0.1° at 1" posts. North of both: a UTM
   // 32N tile at 25 m. The field is continuous; the frame grid must be too.
