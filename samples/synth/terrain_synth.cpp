@@ -138,10 +138,10 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   if (o.out.empty()) return "--out is required";
   if (!o.dem.crs.empty() && gis::synth::isGeographicCrs(o.dem.crs)) {
     // Longitude/latitude: an SRTM-like tile unless told otherwise.
-    if (!spacingGiven) o.dem.spacing = 1.0 / 1200.0;
+    if (!spacingGiven) o.dem.spacing = gis::synth::kGeographicSpacing;
     if (!originGiven) {
-      o.dem.originX = 6.0;
-      o.dem.originY = 50.0;
+      o.dem.originX = gis::synth::kGeographicOriginX;
+      o.dem.originY = gis::synth::kGeographicOriginY;
     }
   }
   if (o.vectorScale != 0 && o.scene.empty()) return "--vector-scale needs --scene";

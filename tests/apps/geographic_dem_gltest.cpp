@@ -91,14 +91,7 @@ class GeographicDemGlTest : public GlTest {
     GlTest::SetUpTestSuite();
     dir() = outputDir();
     demPath() = dir() + "/synth_lonlat.tif";
-    synth::SyntheticDemOptions options;
-    options.size = 161;
-    options.crs = "EPSG:4326";
-    options.spacing = kStep;
-    options.originX = 6.0;
-    options.originY = 50.0;
-    options.seed = 11;
-    ASSERT_TRUE(synth::writeSyntheticDem(demPath(), options).ok());
+    ASSERT_TRUE(synth::writeSyntheticDem(demPath(), synth::geographicDemOptions(161, 11)).ok());
     app::SceneDescription scene = app::sceneForDem(demPath());
     scene.chunkCells = 16;
     scene.cacheDir = dir() + "/cache";

@@ -259,14 +259,7 @@ TEST(DemSource, ResamplingErrorOfTheStiffSyntheticRelief) {
   // The figures of docs/terrain.md: terrain_synth's relief (cliffs, spikes, plains, holes) as a
   // geographic DEM of 3" posts, against itself at its own posts.
   const std::string path = outputDir("synth") + "/synth.tif";
-  synth::SyntheticDemOptions options;
-  options.size = 257;
-  options.crs = "EPSG:4326";
-  options.spacing = kArcSecond3;
-  options.originX = 6.0;
-  options.originY = 50.0;
-  options.seed = 5;
-  ASSERT_TRUE(synth::writeSyntheticDem(path, options).ok());
+  ASSERT_TRUE(synth::writeSyntheticDem(path, synth::geographicDemOptions(257, 5)).ok());
   const Opened opened = openInFrame(specOf({path}));
   ASSERT_TRUE(opened.dem.has_value()) << allMessages(opened.diagnostics);
   const ErrorFigures e = compareAtSourcePosts(opened, path);

@@ -39,6 +39,21 @@ struct SyntheticDemOptions {
   double originX = 500000.0, originY = 5000000.0;  ///< top-left corner of the top-left pixel
 };
 
+/// An SRTM-like tile in longitude/latitude (EPSG:4326): 3" posts, the top-left corner at 6°E
+/// 50°N — what `terrain_synth --crs EPSG:4326` writes unless told otherwise.
+inline constexpr double kGeographicSpacing = 1.0 / 1200.0;
+inline constexpr double kGeographicOriginX = 6.0, kGeographicOriginY = 50.0;
+inline SyntheticDemOptions geographicDemOptions(int size, std::uint64_t seed) {
+  SyntheticDemOptions o;
+  o.size = size;
+  o.seed = seed;
+  o.crs = "EPSG:4326";
+  o.spacing = kGeographicSpacing;
+  o.originX = kGeographicOriginX;
+  o.originY = kGeographicOriginY;
+  return o;
+}
+
 /// A straight vertical cliff across the whole raster: every post on the high side is raised by
 /// `jumpMetres`, so neighbouring posts on both sides differ by at least 300 m.
 struct SyntheticCliff {
