@@ -37,6 +37,7 @@
 
 #include "app/camera_path.hpp"
 #include "app/cli.hpp"
+#include "app/json_file.hpp"
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
@@ -810,7 +811,7 @@ int runLasso(const Options& o) {
                        {"lp_num_threads", threads != nullptr ? json(threads) : json(nullptr)},
                        {"cpu_peak_bytes", processMemory("VmHWM")},
                        {"gl_errors", (*context)->debug().errorCount()}};
-  std::ofstream(std::filesystem::path(o.out) / "lasso.json") << result.dump(2) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / "lasso.json") << app::jsonText(result) << '\n';
   std::printf("\ngl_errors: %zu; wrote %s\n", (*context)->debug().errorCount(),
               (std::filesystem::path(o.out) / "lasso.json").string().c_str());
   return (*context)->debug().errorCount() == 0 ? 0 : 1;

@@ -24,6 +24,7 @@
 
 #include "app/camera_path.hpp"
 #include "app/cli.hpp"
+#include "app/json_file.hpp"
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
@@ -471,7 +472,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
                        {"methods", table},
                        {"renderer", (*context)->info().renderer},
                        {"gl_errors", (*context)->debug().errorCount()}};
-  std::ofstream(std::filesystem::path(o.out) / (stem + ".json")) << result.dump(2) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / (stem + ".json")) << app::jsonText(result) << '\n';
   if (summary != nullptr) *summary = result;
   std::printf("gl_errors: %zu\n", static_cast<std::size_t>((*context)->debug().errorCount()));
   return (*context)->debug().errorCount() == 0 ? 0 : 1;
@@ -531,7 +532,7 @@ int runScaling(const Options& o) {
   axes.title = "Frame time against DEM size";
   axes.xLabel = "DEM posts";
   std::ofstream(std::filesystem::path(o.out) / "scaling_time_vs_dem.svg") << scatterSvg(byPosts, axes);
-  std::ofstream(std::filesystem::path(o.out) / "scaling.json") << json{{"scenes", rows}}.dump(2) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / "scaling.json") << app::jsonText(json{{"scenes", rows}}) << '\n';
   std::printf("scaling: %s\n", (std::filesystem::path(o.out) / "scaling.md").string().c_str());
   return 0;
 }

@@ -18,6 +18,7 @@
 
 #include "app/camera.hpp"
 #include "app/cli.hpp"
+#include "app/json_file.hpp"
 #include "app/lasso_file.hpp"
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
@@ -214,7 +215,7 @@ json countsJson(const gfx::PipelineCounts& c) {
 
 bool writeJson(const std::filesystem::path& path, const json& j) {
   std::ofstream out(path);
-  out << j.dump(2) << "\n";
+  out << app::jsonText(j) << "\n";
   return static_cast<bool>(out);
 }
 

@@ -4,6 +4,7 @@
 #include <string>
 #include <string_view>
 
+#include "app/cli.hpp"
 #include "gfx/context.hpp"
 #include "viewer.hpp"
 
@@ -20,7 +21,7 @@ constexpr const char* kUsage =
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int viewerMain(int argc, char** argv) {
   gis::viewer::ViewerOptions options;
   options.scene = "samples/olinda/scene.json";
   for (int i = 1; i < argc; ++i) {
@@ -51,4 +52,8 @@ int main(int argc, char** argv) {
     return 3;
   }
   return gis::viewer::Viewer::run(options);
+}
+
+int main(int argc, char** argv) {
+  return gis::app::guardedMain("terrain_viewer", [&] { return viewerMain(argc, argv); });
 }

@@ -22,6 +22,7 @@
 #include <glm/matrix.hpp>
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
 #include "app/scene.hpp"
 #include "core/log.hpp"
 #include "geo/vector.hpp"
@@ -44,7 +45,7 @@ std::string attributeText(const geo::AttributeValue& v) {
         } else if constexpr (std::is_same_v<T, std::string>) {
           return x;
         } else {
-          return nlohmann::json(x).dump();
+          return app::jsonText(nlohmann::json(x), -1);
         }
       },
       v);
@@ -513,7 +514,7 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
     std::ofstream(stem.string() + "_camera.json")
-        << app::cameraToJson(camera(), scene_->frame, target_->width(), target_->height()).dump(2) << "\n";
+        << app::jsonText(app::cameraToJson(camera(), scene_->frame, target_->width(), target_->height())) << "\n";
   }
   const Result<bool> png =
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);
@@ -988,7 +989,7 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       identified_ = identify(step.at);
       if (step.path.empty()) return true;
       std::ofstream out(step.path);
-      out << (identified_ ? identified_->toJson() : nlohmann::json(nullptr)).dump(2) << "\n";
+      out << app::jsonText(identified_ ? identified_->toJson() : nlohmann::json(nullptr)) << "\n";
       if (!out) message(where + ": cannot write " + step.path, true);
       return static_cast<bool>(out);
     }
@@ -1080,7 +1081,7 @@ bool Viewer::runStep(const app::ScriptStep& step) {
     case app::ScriptAction::SaveState: {
       finishSelection();  // the state holds the logical selection of every lasso so far
       std::ofstream out(step.path);
-      out << state().dump(2) << "\n";
+      out << app::jsonText(state()) << "\n";
       if (!out) message(where + ": cannot write " + step.path, true);
       return static_cast<bool>(out);
     }

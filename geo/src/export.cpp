@@ -242,12 +242,16 @@ void copyField(const OGRFeature& src, int from, OGRFeature& out, int to) {
   }
   const OGRFieldType fromType = src.GetFieldDefnRef(from)->GetType();
   const OGRFieldType toType = out.GetFieldDefnRef(to)->GetType();
-  if (fromType == toType) {
+  bool recoded = false;
+  if (fromType == OFTString) {
+    // As the reader gives it: UTF-8, Latin-1 recoded (detail::toUtf8).
+    out.SetField(to, detail::toUtf8(src.GetFieldAsString(from), recoded).c_str());
+  } else if (fromType == toType) {
     out.SetField(to, src.GetRawFieldRef(from));
   } else if (toType == OFTInteger64) {
     out.SetField(to, static_cast<GIntBig>(src.GetFieldAsInteger64(from)));
   } else {
-    out.SetField(to, src.GetFieldAsString(from));
+    out.SetField(to, detail::toUtf8(src.GetFieldAsString(from), recoded).c_str());
   }
 }
 

@@ -89,4 +89,17 @@ inline SrsPtr parseSrs(const std::string& input, std::string& error) {
   return srs;
 }
 
+/// Text from a data source as UTF-8: as it is when it is UTF-8, else read as Latin-1
+/// (ISO-8859-1: every byte is a character, so nothing is lost). `recoded` is set when it was not
+/// UTF-8. Files without a declared encoding (a Shapefile without .cpg) give such text.
+inline std::string toUtf8(const char* text, bool& recoded) {
+  if (text == nullptr) return {};
+  if (CPLIsUTF8(text, -1) != 0) return text;
+  recoded = true;
+  char* converted = CPLRecode(text, CPL_ENC_ISO8859_1, CPL_ENC_UTF8);
+  std::string out = converted != nullptr ? converted : "";
+  CPLFree(converted);
+  return out;
+}
+
 }  // namespace gis::geo::detail

@@ -222,7 +222,8 @@ class GeometryConverter {
   double maxSegment_;
 };
 
-void readAttributes(const OGRFeature& feature, const OGRFeatureDefn& defn, Feature& out) {
+/// The attributes of a feature, text as UTF-8 (`recoded` set when some was not: detail::toUtf8).
+void readAttributes(const OGRFeature& feature, const OGRFeatureDefn& defn, Feature& out, bool& recoded) {
   for (int i = 0; i < defn.GetFieldCount(); ++i) {
     const OGRFieldDefn* field = defn.GetFieldDefn(i);
     AttributeValue value;
@@ -236,11 +237,11 @@ void readAttributes(const OGRFeature& feature, const OGRFeatureDefn& defn, Featu
           value = feature.GetFieldAsDouble(i);
           break;
         default:
-          value = std::string(feature.GetFieldAsString(i));
+          value = detail::toUtf8(feature.GetFieldAsString(i), recoded);
           break;
       }
     }
-    out.attributes[field->GetNameRef()] = std::move(value);
+    out.attributes[detail::toUtf8(field->GetNameRef(), recoded)] = std::move(value);
   }
 }
 
@@ -367,6 +368,7 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   const OGRFeatureDefn* defn = layer->GetLayerDefn();
   layer->ResetReading();
   std::int64_t index = 0;
+  bool recoded = false;
   for (;; ++index) {
     CPLErrorReset();
     std::unique_ptr<OGRFeature, FeatureDeleter> feature(layer->GetNextFeature());
@@ -407,10 +409,15 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       reject(e);
       continue;
     }
-    readAttributes(*feature, *defn, f);
+    readAttributes(*feature, *defn, f, recoded);
     result.features.push_back(std::move(f));
   }
 
+  if (recoded) {
+    r.diagnostics.add({Severity::Warning, path, result.name, "",
+                       "attribute text is not UTF-8 and the file declares no encoding: read as Latin-1 "
+                       "(ISO-8859-1); if that is wrong, declare the encoding (a .cpg file beside a Shapefile)"});
+  }
   bool anyPolygon = false;
   bool anyLine = false;
   for (const Feature& f : result.features) {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -209,7 +210,7 @@ bool writeScene(const Options& o, const gis::synth::SyntheticVectorSummary* vect
                              {"cap", "round"}}}});
   }
   std::ofstream out(scene);
-  out << j.dump(2) << "\n";
+  out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
   out.close();
   if (!out) error = o.scene + ": cannot write the scene file";
   return static_cast<bool>(out);
@@ -301,7 +302,7 @@ int run(const Options& o) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int synthMain(int argc, char** argv) {
   if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
     std::fputs(kUsage, stdout);
     return 0;
@@ -313,4 +314,16 @@ int main(int argc, char** argv) {
     return 2;
   }
   return run(options);
+}
+
+int main(int argc, char** argv) {
+  // No exception ends the program unreported.
+  try {
+    return synthMain(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "terrain_synth: internal error: %s\n", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "terrain_synth: internal error (an unknown exception)\n");
+  }
+  return 1;
 }

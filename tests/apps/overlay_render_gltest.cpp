@@ -20,6 +20,7 @@
 #include "geo/raster.hpp"
 #include "gfx/image_io.hpp"
 #include "program_output.hpp"
+#include "vector_files.hpp"
 #include "vector_overlay/lasso.hpp"
 
 namespace gis::test {
@@ -253,6 +254,37 @@ TEST(OverlayRenderCli, AGeographicDemLiesOnItsSourceThroughCameraJson) {
   EXPECT_EQ(outside, 0u);
   EXPECT_LT(rms, 3.0);
   EXPECT_GT(stats["layers"][0]["drawn_features"].get<int>(), 400) << stats.dump(1);
+}
+
+TEST(OverlayRenderCli, Latin1TextReachesTheOutputsReadable) {
+  // A scene in a folder whose name is Latin-1 ("São" with the byte 0xE3), and a Shapefile layer
+  // without .cpg whose attribute is Latin-1: the program finishes (it aborted in nlohmann's dump),
+  // every JSON output is valid, and the attribute arrives in UTF-8 in the exported features.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("latin1_" + std::to_string(getpid()) + "_S\xe3o");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::copy_file(kSamples + "/olinda/olinda_dem_utm25s.tif", dir / "dem.tif");
+  writeUndeclaredEncodingShapefile((dir / "bairros.shp").string(), 32725,
+                                   {{{290000, 9112000}, {297500, 9112000}, {297500, 9119500}, {290000, 9119500}}},
+                                   "S\xe3o Paulo");
+  const json scene = {{"terrain", {{"dem", "dem.tif"}}},
+                      {"layers", {{{"name", "bairros"}, {"kind", "polygon"}, {"source", "bairros.shp"}}}}};
+  std::ofstream(dir / "scene.json") << scene.dump(1);
+  const json lasso = {
+      {"lassos", {{{"op", "single"}, {"points", {{0, 0}, {kWidth, 0}, {kWidth, kHeight}, {0, kHeight}}}}}}};
+  std::ofstream(dir / "lasso.json") << lasso.dump(1);
+  const fs::path out = dir / "out";
+  const int status = runOverlayRender("--scene '" + (dir / "scene.json").string() + "' --lasso '" +
+                                          (dir / "lasso.json").string() + "' --width " + std::to_string(kWidth) +
+                                          " --height " + std::to_string(kHeight) + " --out '" + out.string() + "'",
+                                      dir / "log.txt");
+  ASSERT_EQ(status, 0) << readText(dir / "log.txt");
+  const json stats = json::parse(readText(out / "stats.json"));  // throws (fails) if not valid
+  EXPECT_EQ(stats["layers"][0]["drawn_features"].get<int>(), 1);
+  EXPECT_TRUE(json::accept(readText(out / "camera.json")));
+  const std::string selected = readText(out / "selected_features.json");
+  EXPECT_NE(selected.find("S\xc3\xa3o Paulo"), std::string::npos) << selected;
+  EXPECT_NE(readText(dir / "log.txt").find("read as Latin-1"), std::string::npos);
 }
 
 TEST(OverlayRenderCli, BadArgumentsAndFilesGiveClearErrors) {

@@ -3,6 +3,7 @@
 // geodesic densification.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <set>
@@ -18,6 +19,7 @@
 
 #include "geo/raster.hpp"
 #include "geo/vector.hpp"
+#include "vector_files.hpp"
 
 namespace {
 
@@ -263,6 +265,35 @@ TEST(VectorBroken, GoodFeaturesLoadAndEachBadOneIsNamed) {
     ASSERT_TRUE(got.count(fid)) << "no diagnostic for feature " << fid;
     EXPECT_NE(got[fid].find(part), std::string::npos) << "feature " << fid << ": " << got[fid];
   }
+}
+
+TEST(VectorEncoding, Latin1AttributesWithoutADeclaredEncodingArriveAsUtf8WithAWarning) {
+  // A Shapefile without .cpg whose text is Latin-1 ("São Paulo" with 0xE3): the attribute reaches
+  // us readable, in UTF-8, and the reader says what it assumed, naming file and layer.
+  const SceneFrame frame = olindaFrame();
+  const std::filesystem::path dir = std::filesystem::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "latin1";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "bairros.shp").string();
+  gis::test::writeUndeclaredEncodingShapefile(path, 32725, {{{292000, 9114000}, {295500, 9114000}, {295500, 9117500}}},
+                                              "S\xe3o Paulo");
+  ASSERT_FALSE(std::filesystem::exists(dir / "bairros.cpg"));
+  gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(path, frame);
+  ASSERT_TRUE(layer.ok());
+  ASSERT_EQ(layer->features.size(), 1u);
+  EXPECT_EQ(std::get<std::string>(layer->features[0].attributes.at("nome")), "S\xc3\xa3o Paulo");
+  bool warned = false;
+  for (const gis::Diagnostic& d : layer.diagnostics.items()) {
+    warned = warned || (d.severity == gis::Severity::Warning && d.file == path && d.layer == "bairros" &&
+                        d.message.find("read as Latin-1") != std::string::npos);
+  }
+  EXPECT_TRUE(warned);
+  // UTF-8 text is left alone and says nothing.
+  gis::test::writeUndeclaredEncodingShapefile(path, 32725, {{{292000, 9114000}, {295500, 9114000}, {295500, 9117500}}},
+                                              "S\xc3\xa3o Paulo");
+  gis::Result<VectorLayer> utf8 = gis::geo::readVectorLayer(path, frame);
+  ASSERT_TRUE(utf8.ok());
+  EXPECT_EQ(std::get<std::string>(utf8->features[0].attributes.at("nome")), "S\xc3\xa3o Paulo");
+  EXPECT_EQ(utf8.diagnostics.count(gis::Severity::Warning), 0u);
 }
 
 TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {

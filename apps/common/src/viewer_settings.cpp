@@ -9,6 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/json_file.hpp"
+
 namespace gis::app {
 
 std::optional<std::filesystem::path> settingsPath() {
@@ -94,7 +96,7 @@ Diagnostics saveViewerSettings(const ViewerSettings& s, const std::filesystem::p
                             {"imagery", s.imagery},
                             {"export_path", s.exportPath}};
   std::ofstream out(path);
-  out << j.dump(2) << "\n";
+  out << jsonText(j) << "\n";
   if (!out) d.add({Severity::Warning, path.string(), "", "", "cannot write the viewer settings"});
   return d;
 }

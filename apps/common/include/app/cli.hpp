@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <optional>
 #include <string>
@@ -37,20 +38,36 @@ inline void report(const Diagnostics& diagnostics) {
   }
 }
 
+/// Runs `body`; an exception that escapes it is reported (`name: internal error: …`) and becomes
+/// exit status 1, so no program ends in std::terminate.
+inline int guardedMain(const char* name, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: internal error: %s\n", name, e.what());
+  } catch (...) {
+    std::fprintf(stderr, "%s: internal error (an unknown exception)\n", name);
+  }
+  return 1;
+}
+
 /// The common shape of our programs' main(): --help prints the usage; `parse` returns an error
-/// message (printed with the usage, exit status 2) or an empty string; then `run` decides.
+/// message (printed with the usage, exit status 2) or an empty string; then `run` decides. Both
+/// run inside guardedMain.
 inline int programMain(int argc, char** argv, const char* name, const char* usage,
                        const std::function<std::string(int, char**)>& parse, const std::function<int()>& run) {
-  if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
-    std::fputs(usage, stdout);
-    return 0;
-  }
-  const std::string error = parse(argc, argv);
-  if (!error.empty()) {
-    std::fprintf(stderr, "%s: %s\n%s", name, error.c_str(), usage);
-    return 2;
-  }
-  return run();
+  return guardedMain(name, [&] {
+    if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
+      std::fputs(usage, stdout);
+      return 0;
+    }
+    const std::string error = parse(argc, argv);
+    if (!error.empty()) {
+      std::fprintf(stderr, "%s: %s\n%s", name, error.c_str(), usage);
+      return 2;
+    }
+    return run();
+  });
 }
 
 }  // namespace gis::app

@@ -13,6 +13,12 @@
 
 namespace gis::app {
 
+/// JSON text for an output file. Strings that are not UTF-8 (a path in a Latin-1 folder name, say)
+/// get U+FFFD for their bad bytes instead of an exception (nlohmann's dump throws on them).
+inline std::string jsonText(const nlohmann::json& j, int indent = 2) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
 /// The file's JSON; nothing, with an error naming the file, if it cannot be opened or is not JSON.
 std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics& d);
 
