@@ -211,13 +211,12 @@ bool Viewer::loadPath(const std::string& path) {
       return alone && useScene(std::move(*alone));
     }
     // A new layer of the current scene: its kind from what the file holds.
-    Result<app::LayerDescription> layer = app::layerForVectorFile(path, scene_->frame, description_->layers.size());
-    if (!layer) {
-      report(layer.diagnostics);
-      return false;
-    }
+    Result<std::vector<app::LayerDescription>> layers =
+        app::layersForVectorFile(path, scene_->frame, description_->layers.size());
+    report(layers.diagnostics);
+    if (!layers) return false;
     app::SceneDescription next = *description_;
-    next.layers.push_back(std::move(*layer));
+    next.layers.insert(next.layers.end(), layers->begin(), layers->end());
     return useScene(std::move(next));
   }
   std::error_code ec;

@@ -5,6 +5,8 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -21,6 +23,11 @@ inline void ensureGdalRegistered() {
     // GDAL's block cache defaults to 5 % of RAM; we read each raster once into our own arrays,
     // so a large cache only doubles peak memory on big DEMs. Respect a user's GDAL_CACHEMAX.
     if (CPLGetConfigOption("GDAL_CACHEMAX", nullptr) == nullptr) GDALSetCacheMax64(64LL << 20);
+    // GeoJSON bigger than GDAL's default object limit (the world's countries at 10 m are 168 MB)
+    // opens: no limit unless the user set one.
+    if (CPLGetConfigOption("OGR_GEOJSON_MAX_OBJ_SIZE", nullptr) == nullptr) {
+      CPLSetConfigOption("OGR_GEOJSON_MAX_OBJ_SIZE", "0");
+    }
   });
 }
 
@@ -42,6 +49,46 @@ class QuietGdal {
     if (msg == nullptr || *msg == '\0') return fallback;
     return msg;
   }
+};
+
+/// While alive, GDAL's messages on this thread are kept (not printed), in order, so that they
+/// can reach the diagnostics attached to the file they are about. The last message stays
+/// available through QuietGdal::lastMessage as well.
+class GdalMessages {
+ public:
+  struct Message {
+    CPLErr level;
+    std::string text;
+  };
+  GdalMessages() {
+    CPLPushErrorHandlerEx(&GdalMessages::handler, this);
+    CPLErrorReset();
+  }
+  ~GdalMessages() { CPLPopErrorHandler(); }
+  GdalMessages(const GdalMessages&) = delete;
+  GdalMessages& operator=(const GdalMessages&) = delete;
+
+  [[nodiscard]] const std::vector<Message>& messages() const { return messages_; }
+  /// Takes the messages so far (later ones are kept anew).
+  std::vector<Message> take() { return std::exchange(messages_, {}); }
+  /// The messages so far joined by "; ", or `fallback` when there are none.
+  [[nodiscard]] std::string joined(const std::string& fallback) const {
+    std::string out;
+    for (const Message& m : messages_) out += (out.empty() ? "" : "; ") + m.text;
+    return out.empty() ? fallback : out;
+  }
+
+ private:
+  static void CPL_STDCALL handler(CPLErr level, CPLErrorNum, const char* text) {
+    auto* self = static_cast<GdalMessages*>(CPLGetErrorHandlerUserData());
+    if (self == nullptr || level == CE_Debug || text == nullptr) return;
+    // The same message again (GDAL repeats some per feature) is kept once; at most 50.
+    for (const Message& m : self->messages_) {
+      if (m.level == level && m.text == text) return;
+    }
+    if (self->messages_.size() < 50) self->messages_.push_back({level, text});
+  }
+  std::vector<Message> messages_;
 };
 
 struct SrsDeleter {

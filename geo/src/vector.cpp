@@ -89,13 +89,15 @@ struct DatasetDeleter {
 };
 using DatasetPtr = std::unique_ptr<GDALDataset, DatasetDeleter>;
 
-/// Opens a vector data source; null with `error` set. Call inside a QuietGdal.
-DatasetPtr openVector(const std::string& path, std::string& error) {
+/// Opens a vector data source; null with `error` set (with every message GDAL gave when `gdal`
+/// collects them). Call inside a QuietGdal or a GdalMessages.
+DatasetPtr openVector(const std::string& path, std::string& error, const detail::GdalMessages* gdal = nullptr) {
   detail::ensureGdalRegistered();
   DatasetPtr ds(GDALDataset::FromHandle(
       GDALOpenEx(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
   if (!ds) {
-    error = "cannot open as vector data: " + detail::QuietGdal::lastMessage("not a vector format OGR can read");
+    const std::string fallback = detail::QuietGdal::lastMessage("not a vector format OGR can read");
+    error = "cannot open as vector data: " + (gdal != nullptr ? gdal->joined(fallback) : fallback);
   } else if (ds->GetLayerCount() == 0) {
     error = "the data source has no vector layers";
     ds.reset();
@@ -306,9 +308,35 @@ Result<std::array<double, 4>> vectorExtentLonLat(const std::string& path) {
   return r;
 }
 
+namespace {
+
+/// GDAL's words about a CRS it could not read ("PROJ: proj_create: crs not found" for a GeoJSON
+/// `crs` member naming EPSG:999999): the driver then reads the layer as WGS 84 without a word.
+bool aboutTheCrs(const detail::GdalMessages::Message& m) {
+  if (m.level != CE_Failure && m.level != CE_Fatal) return false;
+  for (const char* key : {"proj_create", "crs", "CRS", "SRS", "spatial reference", "coordinate system"}) {
+    if (m.text.find(key) != std::string::npos) return true;
+  }
+  return false;
+}
+
+/// GDAL's other messages as Warnings naming the file and layer.
+void addGdalMessages(std::vector<detail::GdalMessages::Message> messages, const std::string& path,
+                     const std::string& layer, Diagnostics& d) {
+  for (const auto& m : messages) d.add({Severity::Warning, path, layer, "", "GDAL: " + m.text});
+}
+
+std::string layerNames(GDALDataset& ds) {
+  std::string names;
+  for (int i = 0; i < ds.GetLayerCount(); ++i) names += (i > 0 ? ", " : "") + std::string(ds.GetLayer(i)->GetName());
+  return names;
+}
+
+}  // namespace
+
 Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& frame,
                                     const VectorReadOptions& options) {
-  detail::QuietGdal quiet;
+  detail::GdalMessages gdal;
   auto fail = [&path](const std::string& layer, const std::string& message) {
     return Result<VectorLayer>::failure({Severity::Error, path, layer, "", message});
   };
@@ -316,26 +344,40 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
     return fail(options.layer, "maxGeodesicSegmentMetres must be > 0");
 
   std::string error;
-  DatasetPtr ds = openVector(path, error);
+  DatasetPtr ds = openVector(path, error, &gdal);
   if (!ds) return fail("", error);
 
   OGRLayer* layer = nullptr;
   if (options.layer.empty()) {
+    // Several layers and none named: taking the first would drop the others without a word.
+    if (ds->GetLayerCount() > 1) {
+      return fail("", "the data source has " + std::to_string(ds->GetLayerCount()) + " layers (" + layerNames(*ds) +
+                          "): name the one to draw (a scene layer's \"layer\" key), one scene layer each");
+    }
     layer = ds->GetLayer(0);
   } else {
     layer = ds->GetLayerByName(options.layer.c_str());
-    if (layer == nullptr) {
-      std::string names;
-      for (int i = 0; i < ds->GetLayerCount(); ++i)
-        names += (i > 0 ? ", " : "") + std::string(ds->GetLayer(i)->GetName());
-      return fail(options.layer, "no such layer (the data source has: " + names + ")");
-    }
+    if (layer == nullptr) return fail(options.layer, "no such layer (the data source has: " + layerNames(*ds) + ")");
   }
   if (layer == nullptr) return fail("", "cannot read the first layer");
 
   VectorLayer result;
   result.path = path;
   result.name = layer->GetName();
+  // What GDAL said while opening: a CRS it could not read fails the layer (it would be drawn in
+  // a CRS it does not have); anything else is a Warning.
+  static_cast<void>(layer->GetSpatialRef());
+  Diagnostics openWarnings;
+  {
+    std::vector<detail::GdalMessages::Message> said = gdal.take();
+    for (const auto& m : said) {
+      if (aboutTheCrs(m)) {
+        return fail(result.name, "the CRS the file declares cannot be read (GDAL: " + m.text +
+                                     "); it would be drawn in another CRS: correct the file's CRS");
+      }
+    }
+    addGdalMessages(std::move(said), path, result.name, openWarnings);
+  }
 
   // Source CRS: the layer's, else the assumed one.
   if (const OGRSpatialReference* srs = layer->GetSpatialRef(); srs != nullptr && !srs->IsEmpty()) {
@@ -365,6 +407,7 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   const GeometryConverter converter(frame, *toFrame, std::move(geodesic), options.maxGeodesicSegmentMetres);
 
   Result<VectorLayer> r;
+  r.diagnostics = std::move(openWarnings);
   const OGRFeatureDefn* defn = layer->GetLayerDefn();
   layer->ResetReading();
   std::int64_t index = 0;
@@ -376,7 +419,8 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       if (CPLGetLastErrorType() == CE_Failure || CPLGetLastErrorType() == CE_Fatal) {
         r.diagnostics.add({Severity::Error, path, result.name, "",
                            "reading stopped after " + std::to_string(index) +
-                               " features: " + detail::QuietGdal::lastMessage("read error")});
+                               " features: " + gdal.joined(detail::QuietGdal::lastMessage("read error"))});
+        gdal.take();
       }
       break;
     }
@@ -413,6 +457,7 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
     result.features.push_back(std::move(f));
   }
 
+  addGdalMessages(gdal.take(), path, result.name, r.diagnostics);
   if (recoded) {
     r.diagnostics.add({Severity::Warning, path, result.name, "",
                        "attribute text is not UTF-8 and the file declares no encoding: read as Latin-1 "

@@ -3,7 +3,9 @@
 // geodesic densification.
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <set>
@@ -294,6 +296,89 @@ TEST(VectorEncoding, Latin1AttributesWithoutADeclaredEncodingArriveAsUtf8WithAWa
   ASSERT_TRUE(utf8.ok());
   EXPECT_EQ(std::get<std::string>(utf8->features[0].attributes.at("nome")), "S\xc3\xa3o Paulo");
   EXPECT_EQ(utf8.diagnostics.count(gis::Severity::Warning), 0u);
+}
+
+TEST(VectorSources, SeveralLayersAndNoneNamedIsAnErrorListingThem) {
+  // A GeoPackage of two layers: taking the first would drop the second without a word.
+  const SceneFrame frame = olindaFrame();
+  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/two_layers.gpkg";
+  std::filesystem::remove(path);
+  GDALAllRegister();
+  GDALDataset* ds =
+      GetGDALDriverManager()->GetDriverByName("GPKG")->Create(path.c_str(), 0, 0, 0, GDT_Unknown, nullptr);
+  ASSERT_NE(ds, nullptr);
+  OGRSpatialReference srs;
+  srs.importFromEPSG(32725);
+  for (const char* name : {"bairros", "lotes"}) {
+    OGRLayer* layer = ds->CreateLayer(name, &srs, wkbPolygon, nullptr);
+    ASSERT_NE(layer, nullptr);
+    OGRFeature* f = OGRFeature::CreateFeature(layer->GetLayerDefn());
+    OGRGeometry* g = nullptr;
+    OGRGeometryFactory::createFromWkt("POLYGON ((292000 9114000, 295000 9114000, 295000 9117000, 292000 9114000))",
+                                      nullptr, &g);
+    f->SetGeometryDirectly(g);
+    EXPECT_EQ(layer->CreateFeature(f), OGRERR_NONE);
+    OGRFeature::DestroyFeature(f);
+  }
+  GDALClose(GDALDataset::ToHandle(ds));
+  gis::Result<VectorLayer> unnamed = gis::geo::readVectorLayer(path, frame);
+  ASSERT_FALSE(unnamed.ok());
+  const gis::Diagnostic& e = unnamed.diagnostics.items().front();
+  EXPECT_EQ(e.file, path);
+  EXPECT_NE(e.message.find("2 layers (bairros, lotes)"), std::string::npos) << e.message;
+  gis::geo::VectorReadOptions second;
+  second.layer = "lotes";
+  gis::Result<VectorLayer> named = gis::geo::readVectorLayer(path, frame, second);
+  ASSERT_TRUE(named.ok());
+  EXPECT_EQ(named->name, "lotes");
+  EXPECT_EQ(named->features.size(), 1u);
+}
+
+TEST(VectorSources, ACrsThatCannotBeReadIsAnErrorNotWgs84) {
+  // A GeoJSON whose crs member names EPSG:999999: GDAL says "crs not found" and reads WGS 84.
+  const SceneFrame frame = olindaFrame();
+  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/unknown_crs.geojson";
+  std::ofstream(path) << R"({"type": "FeatureCollection",
+    "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::999999"}},
+    "features": [{"type": "Feature", "properties": {},
+                  "geometry": {"type": "Polygon", "coordinates": [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0],
+                                                                   [-34.86, -8.01]]]}}]})";
+  gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(path, frame);
+  ASSERT_FALSE(layer.ok());
+  const gis::Diagnostic& e = layer.diagnostics.items().front();
+  EXPECT_EQ(e.severity, gis::Severity::Error);
+  EXPECT_EQ(e.file, path);
+  EXPECT_NE(e.message.find("crs not found"), std::string::npos) << e.message;
+}
+
+TEST(VectorSources, GdalsOwnWordsReachTheDiagnosticsAndBigGeoJsonOpens) {
+  const SceneFrame frame = olindaFrame();
+  // The reader lifts GDAL's GeoJSON object limit unless the user set one.
+  const char* limit = CPLGetConfigOption("OGR_GEOJSON_MAX_OBJ_SIZE", nullptr);
+  ASSERT_NE(limit, nullptr);
+  if (std::getenv("OGR_GEOJSON_MAX_OBJ_SIZE") == nullptr) {
+    EXPECT_STREQ(limit, "0");
+  }
+  // One feature of 2 MB (a line of 80,000 points) over a 1 MB limit: the error carries GDAL's
+  // explanation and its remedy (GDAL streams a collection, the limit is per object).
+  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/big.geojson";
+  {
+    std::ofstream out(path);
+    out.precision(10);
+    out << R"({"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, )"
+        << R"("geometry": {"type": "LineString", "coordinates": [)";
+    for (int i = 0; i < 80000; ++i) out << (i > 0 ? "," : "") << "[" << -34.86 + 1e-7 * i << ", -8.005]";
+    out << "]}}]}";
+  }
+  const std::string saved = limit;
+  CPLSetConfigOption("OGR_GEOJSON_MAX_OBJ_SIZE", "1");
+  gis::Result<VectorLayer> refused = gis::geo::readVectorLayer(path, frame);
+  CPLSetConfigOption("OGR_GEOJSON_MAX_OBJ_SIZE", saved.c_str());
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.diagnostics.items().front().message.find("OGR_GEOJSON_MAX_OBJ_SIZE"), std::string::npos)
+      << refused.diagnostics.items().front().message;
+  gis::Result<VectorLayer> opened = gis::geo::readVectorLayer(path, frame);
+  EXPECT_TRUE(opened.ok());
 }
 
 TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {

@@ -83,26 +83,40 @@ SceneDescription sceneForDem(const std::string& path) {
   return scene;
 }
 
-Result<LayerDescription> layerForVectorFile(const std::string& path, const geo::SceneFrame& frame, std::size_t index) {
-  Result<LayerDescription> r;
-  Result<geo::VectorLayer> probe = geo::readVectorLayer(path, frame);
-  if (!probe) {
-    r.diagnostics = std::move(probe.diagnostics);
+Result<std::vector<LayerDescription>> layersForVectorFile(const std::string& path, const geo::SceneFrame& frame,
+                                                          std::size_t index) {
+  Result<std::vector<LayerDescription>> r;
+  Result<std::vector<std::string>> names = geo::listVectorLayers(path);
+  if (!names) {
+    r.diagnostics = std::move(names.diagnostics);
     return r;
-  }  // else its messages come once, when the scene with it loads
-  LayerDescription layer;
-  layer.name = std::filesystem::path(path).stem().string();
-  layer.source = std::filesystem::absolute(path).string();
-  layer.kind = probe->kind == geo::GeometryKind::Line ? overlay::LayerKind::Line : overlay::LayerKind::Polygon;
+  }
   const glm::vec4 palette[] = {{0.12F, 0.47F, 0.71F, 1.0F},
                                {0.17F, 0.63F, 0.17F, 1.0F},
                                {0.84F, 0.15F, 0.16F, 1.0F},
                                {0.58F, 0.40F, 0.74F, 1.0F},
                                {0.09F, 0.75F, 0.81F, 1.0F}};
-  layer.style.color = palette[index % 5];
-  layer.style.opacity = layer.kind == overlay::LayerKind::Polygon ? 0.45F : 0.9F;
-  layer.style.widthMetres = 6.0F;
-  r.value = std::move(layer);
+  std::vector<LayerDescription> layers;
+  const std::string stem = std::filesystem::path(path).stem().string();
+  for (const std::string& name : *names) {
+    geo::VectorReadOptions options;
+    if (names->size() > 1) options.layer = name;
+    Result<geo::VectorLayer> probe = geo::readVectorLayer(path, frame, options);
+    if (!probe) {
+      r.diagnostics.append(probe.diagnostics);
+      continue;
+    }  // else its messages come once, when the scene with it loads
+    LayerDescription layer;
+    layer.name = names->size() > 1 ? stem + " / " + name : stem;
+    layer.source = std::filesystem::absolute(path).string();
+    layer.sourceLayer = options.layer;
+    layer.kind = probe->kind == geo::GeometryKind::Line ? overlay::LayerKind::Line : overlay::LayerKind::Polygon;
+    layer.style.color = palette[(index + layers.size()) % 5];
+    layer.style.opacity = layer.kind == overlay::LayerKind::Polygon ? 0.45F : 0.9F;
+    layer.style.widthMetres = 6.0F;
+    layers.push_back(std::move(layer));
+  }
+  if (!layers.empty()) r.value = std::move(layers);
   return r;
 }
 
@@ -132,10 +146,10 @@ Result<SceneDescription> sceneForVectorFile(const std::string& path) {
     r.diagnostics = std::move(frame.diagnostics);
     return r;
   }
-  Result<LayerDescription> layer = layerForVectorFile(path, *frame, 0);
-  r.diagnostics.append(layer.diagnostics);
-  if (!layer) return r;
-  scene.layers.push_back(std::move(*layer));
+  Result<std::vector<LayerDescription>> layers = layersForVectorFile(path, *frame, 0);
+  r.diagnostics.append(layers.diagnostics);
+  if (!layers) return r;
+  scene.layers = std::move(*layers);
   r.diagnostics.add({Severity::Info, absolute, "", "",
                      "opened without a DEM: shown over flat ground at height 0 covering its extent"});
   r.value = std::move(scene);

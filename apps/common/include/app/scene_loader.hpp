@@ -55,9 +55,11 @@ SceneDescription sceneForDem(const std::string& path);
 /// extent with a margin, under the file as the scene's one layer (its kind from what it holds).
 Result<SceneDescription> sceneForVectorFile(const std::string& path);
 
-/// The layer a vector file makes when added to a scene: named after the file, its kind from
-/// what it holds, the `index`-th colour of a small palette.
-Result<LayerDescription> layerForVectorFile(const std::string& path, const geo::SceneFrame& frame, std::size_t index);
+/// The layers a vector file makes when added to a scene: one per layer of the data source (a
+/// GeoPackage may hold several), named after the file (and the layer), the kind from what each
+/// holds, colours from a small palette starting at its `index`-th.
+Result<std::vector<LayerDescription>> layersForVectorFile(const std::string& path, const geo::SceneFrame& frame,
+                                                          std::size_t index);
 
 /// Where the tile pyramid of the scene's DEM lives (the scene's cache directory, made if needed,
 /// else the user's cache directory).
