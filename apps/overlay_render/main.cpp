@@ -51,7 +51,7 @@ constexpr const char* kUsage =
     "Draws the scene headless (OpenGL 4.5 core via EGL) and writes into DIR:\n"
     "  color.png   the frame, top row first\n"
     "  depth.tiff  float32 depth as stored (reversed-Z: 1 at the near plane, 0 = background)\n"
-    "  mask.png    8-bit, bit i set where overlay layer i is drawn\n"
+    "  mask.png    8-bit, bit i set where the scene file's layer i is drawn\n"
     "  camera.json view/proj (column-major), depth convention, frame crs and origin\n"
     "  stats.json  sizes, GPU times, pipeline statistics, load messages\n"
     "--lasso: lasso selection (selection.png, selected_features.json; docs/command-line.md)\n"
@@ -528,13 +528,14 @@ int run(const Options& o) {
   std::optional<gfx::RenderTarget> resolved;
   const gfx::RenderTarget* readable = &target;
   const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
-  // The GPU mask has a bit per overlay layer (fills and outlines); mask.png a bit per scene
-  // layer. With MSAA a pixel has a layer's bit when at least half its samples do.
+  // The GPU mask has a bit per overlay layer (fills and outlines); mask.png a bit per layer of
+  // the scene file, by its place there (a layer that failed to load keeps its bit, unset). With
+  // MSAA a pixel has a layer's bit when at least half its samples do.
   std::vector<std::uint8_t> mask(pixels, 0);
   auto addMask = [&](const std::vector<std::uint32_t>& bits, std::vector<int>& votes) {
     for (std::size_t i = 0; i < pixels; ++i) {
       for (std::size_t j = 0; j < renderer->overlaySources().size() && j < 32; ++j) {
-        const std::size_t layer = renderer->overlaySources()[j].first;
+        const std::size_t layer = scene->layers[renderer->overlaySources()[j].first].description.fileIndex;
         if ((bits[i] >> j) & 1u && layer < 8) ++votes[i * 8 + layer];
       }
     }
@@ -592,8 +593,9 @@ int run(const Options& o) {
   json layers = json::array();
   for (std::size_t i = 0; i < scene->layers.size(); ++i) {
     const app::LoadedLayer& layer = scene->layers[i];
+    const std::size_t bit = layer.description.fileIndex;
     std::size_t coveredPixels = 0;
-    for (std::uint8_t m : mask) coveredPixels += i < 8 && ((static_cast<unsigned>(m) >> i) & 1u) != 0u ? 1u : 0u;
+    for (std::uint8_t m : mask) coveredPixels += bit < 8 && ((static_cast<unsigned>(m) >> bit) & 1u) != 0u ? 1u : 0u;
     json passes = json::array();
     const app::LayerSummary summary = renderer->layerSummary(*scene, i);
     for (std::size_t j = 0; j < renderer->overlaySources().size(); ++j) {
@@ -624,7 +626,7 @@ int run(const Options& o) {
                       {"features_with_nothing_to_draw", summary.nothingToDraw},
                       {"drawn_features", summary.drawnFeatures},
                       {"drawn", summary.built},
-                      {"mask_bit", i < 8 ? json(i) : json(nullptr)},
+                      {"mask_bit", bit < 8 ? json(bit) : json(nullptr)},
                       {"covered_pixels", coveredPixels},
                       {"passes", passes}});
   }

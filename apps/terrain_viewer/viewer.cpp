@@ -211,13 +211,15 @@ bool Viewer::loadPath(const std::string& path) {
       return alone && useScene(std::move(*alone));
     }
     // A new layer of the current scene: its kind from what the file holds.
-    Result<std::vector<app::LayerDescription>> layers =
-        app::layersForVectorFile(path, scene_->frame, description_->layers.size());
+    // After every layer of the scene, those its file left out included.
+    std::size_t next = description_->layers.size();
+    for (const app::LayerDescription& l : description_->layers) next = std::max(next, l.fileIndex + 1);
+    Result<std::vector<app::LayerDescription>> layers = app::layersForVectorFile(path, scene_->frame, next);
     report(layers.diagnostics);
     if (!layers) return false;
-    app::SceneDescription next = *description_;
-    next.layers.insert(next.layers.end(), layers->begin(), layers->end());
-    return useScene(std::move(next));
+    app::SceneDescription grown = *description_;
+    grown.layers.insert(grown.layers.end(), layers->begin(), layers->end());
+    return useScene(std::move(grown));
   }
   std::error_code ec;
   if (isRasterFile(path) || std::filesystem::is_directory(path, ec)) return useScene(app::sceneForDem(path));

@@ -119,6 +119,7 @@ class GeographicDemGlTest : public GlTest {
     roads.kind = overlay::LayerKind::Line;
     roads.source = dir() + "/roads.geojson";
     roads.style.widthAttribute = "width_m";
+    roads.fileIndex = 1;
     scene.layers = {areas, roads};
     description() = scene;
   }

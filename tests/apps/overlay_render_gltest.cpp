@@ -287,6 +287,38 @@ TEST(OverlayRenderCli, Latin1TextReachesTheOutputsReadable) {
   EXPECT_NE(readText(dir / "log.txt").find("read as Latin-1"), std::string::npos);
 }
 
+TEST(OverlayRenderCli, MaskBitsStayWithTheSceneFilesLayersWhenOneFailsToLoad) {
+  // Layer 0's file does not exist; layer 1 (the tracts) keeps bit 1 in mask.png and stats.json.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("bits_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json scene = {{"terrain", {{"dem", kSamples + "/olinda/olinda_dem_utm25s.tif"}}},
+                      {"layers",
+                       {{{"name", "missing"}, {"kind", "polygon"}, {"source", "missing.geojson"}},
+                        {{"name", "tracts"}, {"kind", "polygon"}, {"source", kSamples + "/olinda/olinda1.shp"}}}}};
+  std::ofstream(dir / "scene.json") << scene.dump(1);
+  ASSERT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                                 " --height " + std::to_string(kHeight) + " --out " + (dir / "out").string(),
+                             dir / "log.txt"),
+            0)
+      << readText(dir / "log.txt");
+  EXPECT_NE(readText(dir / "log.txt").find("missing.geojson"), std::string::npos);
+  const json stats = json::parse(readText(dir / "out" / "stats.json"));
+  ASSERT_EQ(stats["layers"].size(), 1u);
+  EXPECT_EQ(stats["layers"][0]["name"], "tracts");
+  EXPECT_EQ(stats["layers"][0]["mask_bit"], 1);
+  Result<gfx::Image8> mask = gfx::readImage8((dir / "out" / "mask.png").string());
+  ASSERT_TRUE(mask.ok());
+  std::size_t bit0 = 0, bit1 = 0;
+  for (const std::uint8_t m : mask->pixels) {
+    bit0 += (m & 1u) != 0 ? 1u : 0u;
+    bit1 += (m & 2u) != 0 ? 1u : 0u;
+  }
+  EXPECT_EQ(bit0, 0u);
+  EXPECT_GT(bit1, 1000u);
+  EXPECT_EQ(stats["layers"][0]["covered_pixels"].get<std::size_t>(), bit1);
+}
+
 TEST(OverlayRenderCli, BadArgumentsAndFilesGiveClearErrors) {
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "cli";
   fs::create_directories(dir);

@@ -289,6 +289,7 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
       for (std::size_t i = 0; i < root["layers"].size(); ++i) {
         const std::size_t errorsBefore = result.diagnostics.count(Severity::Error);
         LayerDescription layer = p.layer(root["layers"][i], i);
+        layer.fileIndex = i;
         if (result.diagnostics.count(Severity::Error) == errorsBefore) scene.layers.push_back(std::move(layer));
       }
     }

@@ -114,6 +114,7 @@ Result<std::vector<LayerDescription>> layersForVectorFile(const std::string& pat
     layer.style.color = palette[(index + layers.size()) % 5];
     layer.style.opacity = layer.kind == overlay::LayerKind::Polygon ? 0.45F : 0.9F;
     layer.style.widthMetres = 6.0F;
+    layer.fileIndex = index + layers.size();
     layers.push_back(std::move(layer));
   }
   if (!layers.empty()) r.value = std::move(layers);

@@ -21,6 +21,9 @@ struct LayerDescription {
   std::string sourceLayer;  ///< OGR layer name; empty = first
   overlay::LayerStyle style;
   bool visible = true;
+  /// Its place among the layers of the scene file (counting entries left out for errors): its
+  /// bit in mask.png, which a layer before it that fails does not move.
+  std::size_t fileIndex = 0;
 };
 
 /// Whether the DEM is held in memory or paged from a tile pyramid on disk.
