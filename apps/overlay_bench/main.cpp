@@ -624,7 +624,7 @@ int runLasso(const Options& o) {
     std::vector<overlay::SelectionStep> steps(n);
     for (std::size_t i = 0; i < n; ++i) {
       steps[i].op = s.ops[i];
-      steps[i].lasso = {polygons[i], viewProj, o.width, o.height, std::numeric_limits<double>::infinity()};
+      steps[i].lasso = {polygons[i], viewProj, o.width, o.height, std::numeric_limits<double>::infinity(), {}, {}};
     }
     return steps;
   };

@@ -428,13 +428,19 @@ TEST(OverlayRenderLasso, SelectionImageFeaturesAndExportsAgreeWithTheTwin) {
       {"lassos", json::array({{{"op", "single"}, {"points", {{60, 60}, {150, 50}, {170, 120}, {95, 140}, {120, 95}}}},
                               {{"op", "or"}, {"points", {{170, 120}, {220, 125}, {205, 170}}}},
                               {{"op", "subtract"}, {"points", {{110, 80}, {135, 80}, {135, 105}, {110, 105}}}},
-                              {{"op", "or"}, {"points", {{10, 10}, {20, 10}}}}})}};
+                              {{"op", "or"}, {"points", {{10, 10}, {20, 10}}}},
+                              "not a lasso",
+                              {{"op", "or"}, {"points", {{10, 10}, {20, 20}, {30, 30}}}}})}};
   { std::ofstream(dir / "lasso.json") << lassos.dump(1); }
   const std::string args = "--scene " + kSamples + "/olinda/scene.json --width " + std::to_string(kWidth) +
                            " --height " + std::to_string(kHeight) + " --lasso " + (dir / "lasso.json").string();
   ASSERT_EQ(runOverlayRender(args + " --out " + (dir / "out").string(), dir / "log.txt"), 0)
       << readText(dir / "log.txt");
   EXPECT_NE(readText(dir / "log.txt").find("lasso 4"), std::string::npos) << "the broken lasso is named";
+  // Numbered as the file's entries, counting the ones left out, and with the file's name.
+  EXPECT_NE(readText(dir / "log.txt").find((dir / "lasso.json").string() + ": feature lasso 6: polygon has no area"),
+            std::string::npos)
+      << readText(dir / "log.txt");
   const fs::path out = dir / "out";
   const gfx::Image8 selection = *gfx::readImage8((out / "selection.png").string());
   ASSERT_EQ(selection.width, kWidth);
@@ -478,7 +484,7 @@ TEST(OverlayRenderLasso, SelectionImageFeaturesAndExportsAgreeWithTheTwin) {
   const json stats = json::parse(readText(out / "stats.json"));
   const json& s = stats["selection"];
   EXPECT_EQ(stats["gl_errors"].get<int>(), 0);
-  EXPECT_EQ(s["steps"].get<int>(), 3);
+  EXPECT_EQ(s["steps"].get<int>(), 4);  // the collinear lasso is a step that selects nothing
   EXPECT_EQ(s["pixels_differing_from_cpu_twin"].get<std::size_t>(), wrong);
   EXPECT_GT(s["dem_posts"]["selected"].get<int>(), 0);
   // Every feature the stats list is exported, in its layer's file (original CRS) and in the

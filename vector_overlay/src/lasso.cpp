@@ -50,7 +50,8 @@ const char* selectionOpName(SelectionOp op) {
 LassoVolume buildLassoVolume(const Lasso& lasso, const std::string& name, Diagnostics& diagnostics) {
   LassoVolume volume;
   const auto fail = [&](const std::string& problem) {
-    diagnostics.add(Diagnostic{Severity::Error, "", "", name, problem + "; the lasso selects nothing"});
+    diagnostics.add(Diagnostic{Severity::Error, lasso.file, "", lasso.label.empty() ? name : lasso.label,
+                               problem + "; the lasso selects nothing"});
     return LassoVolume{};
   };
   if (lasso.width < 1 || lasso.height < 1)

@@ -58,7 +58,7 @@ Diagnostics SelectionRenderer::setSteps(std::vector<SelectionStep> steps) {
   for (std::size_t i = 0; i < steps_.size(); ++i) {
     volumes_.push_back(steps_[i].op == SelectionOp::Invert
                            ? LassoVolume{}
-                           : buildLassoVolume(steps_[i].lasso, "lasso " + std::to_string(i), diagnostics));
+                           : buildLassoVolume(steps_[i].lasso, "lasso " + std::to_string(i + 1), diagnostics));
   }
   return diagnostics;
 }

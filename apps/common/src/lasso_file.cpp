@@ -105,6 +105,8 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
     }
     overlay::SelectionStep step;
     step.op = index == 1 && !entry.contains("op") ? overlay::SelectionOp::Single : *op;
+    step.lasso.file = file;
+    step.lasso.label = name;
     if (step.op == overlay::SelectionOp::Invert) {
       request.steps.push_back(step);
       continue;

@@ -48,6 +48,10 @@ struct Lasso {
   int height = 1;
   /// The dark cap's distance along the view direction (metres); infinity: at infinity.
   double distance = std::numeric_limits<double>::infinity();
+  /// Where it comes from, for messages: the lasso file and its name there ("lasso 2", counted
+  /// from 1 as the file's entries). Empty: the renderer names it by its step.
+  std::string file;
+  std::string label;
 };
 
 /// One step of a selection: an operator and its lasso (Invert has none).
