@@ -120,28 +120,47 @@ class GeometryConverter {
                     std::optional<GeographicLib::Geodesic> geodesic, double maxSegment)
       : frame_(frame), toFrame_(toFrame), geodesic_(std::move(geodesic)), maxSegment_(maxSegment) {}
 
-  std::string convert(const OGRGeometry& geometry, Feature& out) const {
+  /// A multi-part geometry keeps its good parts: each bad one goes into `leftOut` ("part 2 of 3:
+  /// …"); only when no part is good is the feature broken (the returned message).
+  std::string convert(const OGRGeometry& geometry, Feature& out, std::vector<std::string>& leftOut) const {
     switch (wkbFlatten(geometry.getGeometryType())) {
       case wkbPolygon:
         return addPolygon(*geometry.toPolygon(), out);
       case wkbMultiPolygon:
-        for (const OGRPolygon* polygon : *geometry.toMultiPolygon()) {
-          if (std::string e = addPolygon(*polygon, out); !e.empty()) return e;
-        }
-        return {};
+        return convertParts(*geometry.toMultiPolygon(), out, leftOut,
+                            [this](const OGRPolygon& p, Feature& f) { return addPolygon(p, f); });
       case wkbLineString:
         return addLine(*geometry.toLineString(), out);
       case wkbMultiLineString:
-        for (const OGRLineString* line : *geometry.toMultiLineString()) {
-          if (std::string e = addLine(*line, out); !e.empty()) return e;
-        }
-        return {};
+        return convertParts(*geometry.toMultiLineString(), out, leftOut,
+                            [this](const OGRLineString& l, Feature& f) { return addLine(l, f); });
       default:
         return std::string("unsupported geometry type ") + OGRGeometryTypeToName(geometry.getGeometryType());
     }
   }
 
  private:
+  template <typename Collection, typename Add>
+  static std::string convertParts(const Collection& parts, Feature& out, std::vector<std::string>& leftOut, Add add) {
+    const int n = parts.getNumGeometries();
+    std::vector<std::string> problems;
+    int good = 0;
+    for (int i = 0; i < n; ++i) {
+      if (std::string e = add(*parts.getGeometryRef(i), out); !e.empty()) {
+        problems.push_back("part " + std::to_string(i + 1) + " of " + std::to_string(n) + ": " + e);
+      } else {
+        ++good;
+      }
+    }
+    if (good == 0) {
+      std::string all;
+      for (const std::string& p : problems) all += (all.empty() ? "" : "; ") + p;
+      return all.empty() ? std::string("no parts") : all;
+    }
+    leftOut.insert(leftOut.end(), problems.begin(), problems.end());
+    return {};
+  }
+
   std::string addPolygon(const OGRPolygon& polygon, Feature& out) const {
     const OGRLinearRing* exterior = polygon.getExteriorRing();
     if (exterior == nullptr || exterior->IsEmpty()) return "polygon without exterior ring";
@@ -449,9 +468,14 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       }
       geometry = linear.get();
     }
-    if (const std::string e = converter.convert(*geometry, f); !e.empty()) {
+    std::vector<std::string> leftOut;
+    if (const std::string e = converter.convert(*geometry, f, leftOut); !e.empty()) {
       reject(e);
       continue;
+    }
+    // The feature draws its good parts; each bad one is named.
+    for (const std::string& part : leftOut) {
+      r.diagnostics.add({Severity::Warning, path, result.name, fid, part + "; that part is left out"});
     }
     readAttributes(*feature, *defn, f, recoded);
     result.features.push_back(std::move(f));

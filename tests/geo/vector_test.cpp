@@ -381,6 +381,38 @@ TEST(VectorSources, GdalsOwnWordsReachTheDiagnosticsAndBigGeoJsonOpens) {
   EXPECT_TRUE(opened.ok());
 }
 
+TEST(VectorBroken, ABadPartIsLeftOutAndTheOtherPartsDraw) {
+  // A multi-polygon and a multi-line with one part beyond the range of latitude each, and one of
+  // nothing but bad parts: the good parts load, each bad part is named in a Warning; only the
+  // feature with no good part is left out (an Error).
+  const SceneFrame frame = olindaFrame();
+  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/bad_parts.geojson";
+  std::ofstream(path) << R"({"type": "FeatureCollection", "features": [
+    {"type": "Feature", "id": 1, "properties": {}, "geometry": {"type": "MultiPolygon", "coordinates": [
+      [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0], [-34.86, -8.01]]],
+      [[[-34.86, 95.0], [-34.85, 95.0], [-34.85, 96.0], [-34.86, 95.0]]]]}},
+    {"type": "Feature", "id": 2, "properties": {}, "geometry": {"type": "MultiLineString", "coordinates": [
+      [[-34.86, 99.0], [-34.85, 99.0]], [[-34.86, -8.01], [-34.85, -8.0]], [[-34.86, -8.02], [-34.85, -8.02]]]}},
+    {"type": "Feature", "id": 3, "properties": {}, "geometry": {"type": "MultiLineString", "coordinates": [
+      [[-34.86, 99.0], [-34.85, 99.0]], [[-34.86, 98.0], [-34.85, 98.0]]]}}]})";
+  gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(path, frame);
+  ASSERT_TRUE(layer.ok());
+  ASSERT_EQ(layer->features.size(), 2u);
+  EXPECT_EQ(layer->features[0].fid, 1);
+  EXPECT_EQ(layer->features[0].polygons.size(), 1u);
+  EXPECT_EQ(layer->features[1].fid, 2);
+  EXPECT_EQ(layer->features[1].lines.size(), 2u);
+  std::map<std::string, std::string> warnings, errors;
+  for (const gis::Diagnostic& d : layer.diagnostics.items()) {
+    (d.severity == gis::Severity::Warning ? warnings : errors)[d.feature] = d.message;
+  }
+  EXPECT_NE(warnings["1"].find("part 2 of 2"), std::string::npos) << warnings["1"];
+  EXPECT_NE(warnings["1"].find("left out"), std::string::npos);
+  EXPECT_NE(warnings["2"].find("part 1 of 3"), std::string::npos) << warnings["2"];
+  EXPECT_NE(errors["3"].find("part 2 of 2"), std::string::npos) << errors["3"];
+  EXPECT_EQ(layer.diagnostics.count(gis::Severity::Error), 1u);
+}
+
 TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {
   const SceneFrame frame = olindaFrame();
   for (const std::string& path : {kData + "does_not_exist.geojson", kDem, kData + "garbage.geojson", std::string(""),
