@@ -13,6 +13,7 @@
 #include <glm/common.hpp>
 
 #include "gdal_support.hpp"
+#include "geojson_entries.hpp"
 
 namespace gis::geo {
 
@@ -482,6 +483,13 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   }
 
   addGdalMessages(gdal.take(), path, result.name, r.diagnostics);
+  // Entries of a GeoJSON "features" array that GDAL skipped without a word.
+  if (const char* driver = ds->GetDriverName(); driver != nullptr && std::string(driver) == "GeoJSON") {
+    for (const detail::NonObjectEntry& e : detail::nonObjectFeatureEntries(path)) {
+      r.diagnostics.add({Severity::Error, path, result.name, "features[" + std::to_string(e.index) + "]",
+                         e.kind + ", not a feature object: left out"});
+    }
+  }
   if (recoded) {
     r.diagnostics.add({Severity::Warning, path, result.name, "",
                        "attribute text is not UTF-8 and the file declares no encoding: read as Latin-1 "

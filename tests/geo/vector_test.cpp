@@ -413,6 +413,28 @@ TEST(VectorBroken, ABadPartIsLeftOutAndTheOtherPartsDraw) {
   EXPECT_EQ(layer.diagnostics.count(gis::Severity::Error), 1u);
 }
 
+TEST(VectorBroken, NonObjectEntriesOfAGeoJsonAreNamed) {
+  // GDAL skips them without a word; each is named with its place in the "features" array.
+  const SceneFrame frame = olindaFrame();
+  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/non_objects.geojson";
+  const std::string feature =
+      R"({"type": "Feature", "properties": {"note": [1, {"a": 2}]}, "geometry": {"type": "LineString",
+          "coordinates": [[-34.86, -8.01], [-34.85, -8.0]]}})";
+  std::ofstream(path) << R"({"type": "FeatureCollection", "name": "x", "features": [)" << feature
+                      << R"(, 5, "text", null, [1, 2], )" << feature << "]}";
+  gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(path, frame);
+  ASSERT_TRUE(layer.ok());
+  EXPECT_EQ(layer->features.size(), 2u);
+  std::vector<std::string> named;
+  for (const gis::Diagnostic& d : layer.diagnostics.items()) {
+    if (d.severity == gis::Severity::Error) named.push_back(d.feature + " " + d.message);
+  }
+  EXPECT_EQ(named, (std::vector<std::string>{"features[1] a number, not a feature object: left out",
+                                             "features[2] a string, not a feature object: left out",
+                                             "features[3] null, not a feature object: left out",
+                                             "features[4] an array, not a feature object: left out"}));
+}
+
 TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {
   const SceneFrame frame = olindaFrame();
   for (const std::string& path : {kData + "does_not_exist.geojson", kDem, kData + "garbage.geojson", std::string(""),
