@@ -11,6 +11,7 @@
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
 
 #include "gdal_support.hpp"
 #include "geojson_entries.hpp"
@@ -346,6 +347,124 @@ void addGdalMessages(std::vector<detail::GdalMessages::Message> messages, const 
   for (const auto& m : messages) d.add({Severity::Warning, path, layer, "", "GDAL: " + m.text});
 }
 
+/// GEOS's reason for the last IsValid() that failed ("Self-intersection at or near point …"),
+/// taken from GDAL's messages (nothing else is left among them).
+std::string validityReason(detail::GdalMessages& gdal) {
+  std::string reason;
+  for (const auto& m : gdal.take()) reason = m.text;
+  const std::string prefix = "GEOS warning: ";
+  if (reason.rfind(prefix, 0) == 0) reason = reason.substr(prefix.size());
+  return reason.empty() ? std::string("GEOS gives no reason") : reason;
+}
+
+/// Whether a ring's points lie on one line (within 1e-9 of its extent): it has no area, whatever
+/// its vertex order (a bow-tie's signed area can be 0 too, but it has two triangles).
+bool onOneLine(const OGRLinearRing& ring) {
+  const int n = ring.getNumPoints();
+  if (n < 3) return true;
+  const glm::dvec2 p0(ring.getX(0), ring.getY(0));
+  glm::dvec2 far = p0;
+  for (int i = 1; i < n; ++i) {
+    const glm::dvec2 p(ring.getX(i), ring.getY(i));
+    if (glm::length(p - p0) > glm::length(far - p0)) far = p;
+  }
+  const glm::dvec2 axis = far - p0;
+  const double length = glm::length(axis);
+  if (!(length > 0.0)) return true;
+  for (int i = 1; i < n; ++i) {
+    const glm::dvec2 d = glm::dvec2(ring.getX(i), ring.getY(i)) - p0;
+    if (std::abs(axis.x * d.y - axis.y * d.x) / length > 1e-9 * length) return false;
+  }
+  return true;
+}
+
+/// A polygon of `exterior` and `holes` (copies).
+OGRPolygon polygonOf(const OGRLinearRing& exterior, const std::vector<const OGRLinearRing*>& holes = {}) {
+  OGRPolygon p;
+  p.addRingDirectly(exterior.clone());
+  for (const OGRLinearRing* h : holes) p.addRingDirectly(h->clone());
+  return p;
+}
+
+/// OGC validity (GEOS, through OGR) of a polygon or multi-polygon in its source coordinates, with
+/// the repairs whose intent is clear, each said in `notes`:
+/// - a polygon whose exterior ring has no area (its points on one line: in longitude/latitude it
+///   would become a centimetre sliver after densification) is left out;
+/// - a hole lying wholly outside its shell excludes nothing and is left out;
+/// - anything else invalid (a ring that crosses itself, a bow-tie) is drawn by the even-odd
+///   rule, and parts that overlap as their union, as every polygon is (docs/overlay.md).
+/// Returns the geometry to draw (`changed` when a hole or a polygon was left out); null, with
+/// `refused` saying why, when no polygon is left.
+std::unique_ptr<OGRGeometry> checkPolygons(const OGRGeometry& geometry, detail::GdalMessages& gdal,
+                                           std::vector<std::string>& notes, std::string& refused, bool& changed) {
+  changed = false;
+  std::vector<const OGRPolygon*> parts;
+  if (wkbFlatten(geometry.getGeometryType()) == wkbPolygon) {
+    parts.push_back(geometry.toPolygon());
+  } else {
+    for (const OGRPolygon* p : *geometry.toMultiPolygon()) parts.push_back(p);
+  }
+  // Valid, and no sliver: a ring whose points are on one line up to rounding is valid by OGC
+  // rules (it has an area of 1e-17) but has no area to draw.
+  const bool sliver = std::any_of(parts.begin(), parts.end(), [](const OGRPolygon* p) {
+    return p->getExteriorRing() != nullptr && !p->getExteriorRing()->IsEmpty() && onOneLine(*p->getExteriorRing());
+  });
+  if (!sliver && geometry.IsValid()) {
+    gdal.take();
+    return std::unique_ptr<OGRGeometry>(geometry.clone());
+  }
+  const std::string wholeReason = validityReason(gdal);
+  const bool multi = parts.size() > 1 || wkbFlatten(geometry.getGeometryType()) == wkbMultiPolygon;
+  auto out = std::make_unique<OGRMultiPolygon>();
+  std::vector<std::string> dropped;
+  bool partsInvalid = false;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    const std::string label =
+        multi ? "polygon " + std::to_string(k + 1) + " of " + std::to_string(parts.size()) : std::string("the polygon");
+    const OGRLinearRing* exterior = parts[k]->getExteriorRing();
+    if (exterior == nullptr || exterior->IsEmpty()) continue;  // the converter names it
+    const OGRPolygon shell = polygonOf(*exterior);
+    if (onOneLine(*exterior)) {
+      changed = true;
+      dropped.push_back(label + ": its exterior ring has no area (its points lie on one line)");
+      continue;
+    }
+    std::vector<const OGRLinearRing*> holes;
+    for (int i = 0; i < parts[k]->getNumInteriorRings(); ++i) {
+      const OGRLinearRing* hole = parts[k]->getInteriorRing(i);
+      const OGRPolygon holeArea = hole != nullptr ? polygonOf(*hole) : OGRPolygon();
+      if (hole != nullptr && !hole->IsEmpty() && !shell.Intersects(&holeArea)) {
+        changed = true;
+        notes.push_back(label + ": hole " + std::to_string(i + 1) +
+                        " lies wholly outside its shell and excludes nothing: left out");
+        continue;
+      }
+      holes.push_back(hole);
+    }
+    OGRPolygon kept = polygonOf(*exterior, holes);
+    if (!kept.IsValid()) {
+      partsInvalid = true;
+      notes.push_back(label + " is not valid by OGC rules (GEOS: " + validityReason(gdal) +
+                      "): drawn by the even-odd rule");
+    }
+    gdal.take();
+    out->addGeometry(&kept);
+  }
+  if (out->IsEmpty()) {
+    for (const std::string& d : dropped) refused += (refused.empty() ? "" : "; ") + d;
+    if (refused.empty()) refused = "no polygon with an area (GEOS: " + wholeReason + ")";
+    return nullptr;
+  }
+  for (const std::string& d : dropped) notes.push_back(d + ": left out");
+  if (!partsInvalid && out->getNumGeometries() > 1 && !out->IsValid()) {
+    notes.push_back("its polygons overlap or touch along a line (GEOS: " + validityReason(gdal) +
+                    "): drawn as their union");
+  }
+  gdal.take();
+  if (!multi) return std::unique_ptr<OGRGeometry>(out->getGeometryRef(0)->clone());
+  return out;
+}
+
 std::string layerNames(GDALDataset& ds) {
   std::string names;
   for (int i = 0; i < ds.GetLayerCount(); ++i) names += (i > 0 ? ", " : "") + std::string(ds.GetLayer(i)->GetName());
@@ -474,9 +593,30 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       reject(e);
       continue;
     }
+    // Polygons that convert (finite, in range, rings of 3 points) are checked by OGC rules and
+    // repaired where the intent is clear, each repair said; converted again when it changed them.
+    if (const auto type = wkbFlatten(geometry->getGeometryType());
+        !f.polygons.empty() && (type == wkbPolygon || type == wkbMultiPolygon)) {
+      std::string refused;
+      bool changed = false;
+      const std::unique_ptr<OGRGeometry> checked = checkPolygons(*geometry, gdal, leftOut, refused, changed);
+      if (!checked) {
+        reject(refused);
+        continue;
+      }
+      if (changed) {
+        f.polygons.clear();
+        std::vector<std::string> again;
+        if (const std::string e = converter.convert(*checked, f, again); !e.empty()) {
+          reject(e);
+          continue;
+        }
+      }
+    }
     // The feature draws its good parts; each bad one is named.
-    for (const std::string& part : leftOut) {
-      r.diagnostics.add({Severity::Warning, path, result.name, fid, part + "; that part is left out"});
+    for (const std::string& note : leftOut) {
+      const bool part = note.rfind("part ", 0) == 0;
+      r.diagnostics.add({Severity::Warning, path, result.name, fid, part ? note + "; that part is left out" : note});
     }
     readAttributes(*feature, *defn, f, recoded);
     result.features.push_back(std::move(f));

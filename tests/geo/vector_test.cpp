@@ -435,6 +435,64 @@ TEST(VectorBroken, NonObjectEntriesOfAGeoJsonAreNamed) {
                                              "features[4] an array, not a feature object: left out"}));
 }
 
+TEST(VectorValidity, InvalidPolygonsAreRepairedWhereTheIntentIsClearAndSaidOrRefused) {
+  const SceneFrame frame = olindaFrame();
+  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/invalid_polygons.geojson";
+  // 1: a bow-tie; 2: a hole wholly outside its shell; 3: a ring collinear in lon/lat; 4: two
+  // overlapping squares; 5: a good square and a collinear part; 6: valid.
+  std::ofstream(path) << R"({"type": "FeatureCollection", "features": [
+    {"type": "Feature", "id": 1, "properties": {}, "geometry": {"type": "Polygon", "coordinates":
+      [[[-34.86, -8.01], [-34.85, -8.0], [-34.85, -8.01], [-34.86, -8.0], [-34.86, -8.01]]]}},
+    {"type": "Feature", "id": 2, "properties": {}, "geometry": {"type": "Polygon", "coordinates":
+      [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0], [-34.86, -8.0], [-34.86, -8.01]],
+       [[-34.84, -8.01], [-34.83, -8.01], [-34.83, -8.0], [-34.84, -8.01]]]}},
+    {"type": "Feature", "id": 3, "properties": {}, "geometry": {"type": "Polygon", "coordinates":
+      [[[-34.86, -8.01], [-34.85, -8.0], [-34.84, -7.99], [-34.86, -8.01]]]}},
+    {"type": "Feature", "id": 4, "properties": {}, "geometry": {"type": "MultiPolygon", "coordinates": [
+      [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0], [-34.86, -8.0], [-34.86, -8.01]]],
+      [[[-34.855, -8.005], [-34.845, -8.005], [-34.845, -7.995], [-34.855, -7.995], [-34.855, -8.005]]]]}},
+    {"type": "Feature", "id": 5, "properties": {}, "geometry": {"type": "MultiPolygon", "coordinates": [
+      [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0], [-34.86, -8.0], [-34.86, -8.01]]],
+      [[[-34.84, -8.01], [-34.83, -8.0], [-34.82, -7.99], [-34.84, -8.01]]]]}},
+    {"type": "Feature", "id": 6, "properties": {}, "geometry": {"type": "Polygon", "coordinates":
+      [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0], [-34.86, -8.01]]]}}]})";
+  gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(path, frame);
+  ASSERT_TRUE(layer.ok());
+  std::map<std::int64_t, const Feature*> byFid;
+  for (const Feature& f : layer->features) byFid[f.fid] = &f;
+  std::map<std::string, std::vector<std::string>> warnings, errors;
+  for (const gis::Diagnostic& d : layer.diagnostics.items()) {
+    (d.severity == gis::Severity::Warning ? warnings : errors)[d.feature].push_back(d.message);
+  }
+  auto said = [](const std::vector<std::string>& messages, const std::string& text) {
+    return std::any_of(messages.begin(), messages.end(),
+                       [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
+  // The bow-tie draws by the even-odd rule, and says so with GEOS's reason.
+  ASSERT_TRUE(byFid.count(1));
+  EXPECT_TRUE(said(warnings["1"], "not valid by OGC rules (GEOS: Self-intersection")) << warnings["1"].size();
+  EXPECT_TRUE(said(warnings["1"], "even-odd"));
+  // The hole outside its shell is left out: one polygon, no holes.
+  ASSERT_TRUE(byFid.count(2));
+  EXPECT_TRUE(byFid[2]->polygons[0].holes.empty());
+  EXPECT_TRUE(said(warnings["2"], "hole 1 lies wholly outside its shell"));
+  // The collinear ring is refused: an Error, no feature.
+  EXPECT_FALSE(byFid.count(3));
+  EXPECT_TRUE(said(errors["3"], "has no area"));
+  // Overlapping parts: drawn as their union, said.
+  ASSERT_TRUE(byFid.count(4));
+  EXPECT_EQ(byFid[4]->polygons.size(), 2u);
+  EXPECT_TRUE(said(warnings["4"], "drawn as their union"));
+  // The good square of 5 stays; its collinear part is named and left out.
+  ASSERT_TRUE(byFid.count(5));
+  EXPECT_EQ(byFid[5]->polygons.size(), 1u);
+  EXPECT_TRUE(said(warnings["5"], "polygon 2 of 2: its exterior ring has no area"));
+  // The valid triangle says nothing.
+  ASSERT_TRUE(byFid.count(6));
+  EXPECT_TRUE(warnings["6"].empty());
+  EXPECT_EQ(layer.diagnostics.count(gis::Severity::Error), 1u);
+}
+
 TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {
   const SceneFrame frame = olindaFrame();
   for (const std::string& path : {kData + "does_not_exist.geojson", kDem, kData + "garbage.geojson", std::string(""),
