@@ -319,6 +319,73 @@ TEST(OverlayRenderCli, MaskBitsStayWithTheSceneFilesLayersWhenOneFailsToLoad) {
   EXPECT_EQ(stats["layers"][0]["covered_pixels"].get<std::size_t>(), bit1);
 }
 
+/// How many features a vector file holds as its author wrote it: the entries of a GeoJSON's
+/// "features" array (objects or not), else OGR's count of the first layer.
+std::size_t featuresInSource(const std::string& path) {
+  if (path.size() > 8 && path.substr(path.size() - 8) == ".geojson") {
+    // The messy files hold NaN and Infinity, which GDAL reads and JSON does not: counted as 0.
+    std::string text = readText(path);
+    for (const std::string token : {"NaN", "Infinity", "1e999"}) {
+      for (std::size_t at = text.find(token); at != std::string::npos; at = text.find(token, at)) {
+        text.replace(at, token.size(), "0");
+      }
+    }
+    return json::parse(text)["features"].size();
+  }
+  GDALAllRegister();
+  GDALDataset* ds = GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr));
+  if (ds == nullptr) return 0;
+  const auto n = static_cast<std::size_t>(ds->GetLayer(0)->GetFeatureCount(TRUE));
+  GDALClose(GDALDataset::ToHandle(ds));
+  return n;
+}
+
+TEST(OverlayRenderCli, EveryFeatureOfEveryMessyFileIsAccountedFor) {
+  // Every messy test file as a layer (polygon and line layers both, so each geometry meets a
+  // layer that does not draw it): in stats.json, for every layer, the features read from the
+  // source = drawn + skipped + nothing to draw, and "features" is what the file holds.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("identity_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string data = STENCIL_GIS_TEST_DATA_DIR;
+  writeUndeclaredEncodingShapefile((dir / "latin1.shp").string(), 32725,
+                                   {{{292000, 9114000}, {295500, 9114000}, {295500, 9117500}},
+                                    {{292000, 9114000}, {292000, 9114000}, {292000, 9114000}}},
+                                   "S\xe3o Paulo");
+  std::vector<std::string> files;
+  for (const char* name : {"messy_layer.geojson", "messy_roads.geojson", "broken_features.geojson",
+                           "holes_and_multipolygons.geojson", "long_edge_crs84.geojson", "empty_layer.geojson",
+                           "non_objects_and_invalid_polygons.geojson"}) {
+    files.push_back(data + "/" + name);
+  }
+  files.push_back((dir / "latin1.shp").string());
+  json layers = json::array();
+  for (const std::string& f : files) {
+    for (const char* kind : {"polygon", "line"}) {
+      layers.push_back({{"name", fs::path(f).stem().string() + " " + kind}, {"kind", kind}, {"source", f}});
+    }
+  }
+  const json scene = {{"terrain", {{"dem", kSamples + "/olinda/olinda_dem_utm25s.tif"}}}, {"layers", layers}};
+  std::ofstream(dir / "scene.json") << scene.dump(1);
+  ASSERT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                                 " --height " + std::to_string(kHeight) + " --out " + (dir / "out").string(),
+                             dir / "log.txt"),
+            0)
+      << readText(dir / "log.txt");
+  const json stats = json::parse(readText(dir / "out" / "stats.json"));
+  ASSERT_EQ(stats["layers"].size(), 2 * files.size());
+  for (std::size_t i = 0; i < stats["layers"].size(); ++i) {
+    const json& l = stats["layers"][i];
+    const std::size_t read = featuresInSource(files[i / 2]);
+    SCOPED_TRACE(l["name"].get<std::string>());
+    EXPECT_EQ(l["features"].get<std::size_t>(), read) << l.dump(1);
+    EXPECT_EQ(l["drawn_features"].get<std::size_t>() + l["skipped_features"].get<std::size_t>() +
+                  l["features_with_nothing_to_draw"].get<std::size_t>(),
+              read)
+        << l.dump(1);
+  }
+}
+
 TEST(OverlayRenderCli, BadArgumentsAndFilesGiveClearErrors) {
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / "cli";
   fs::create_directories(dir);

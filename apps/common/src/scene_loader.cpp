@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
 
 #include "core/hash.hpp"
 #include "core/log.hpp"
@@ -284,7 +285,12 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
       diagnostics.add(std::move(named));
     }
     if (!data) continue;
-    LoadedLayer loaded{layer, std::move(*data), data.diagnostics.count(Severity::Error)};
+    // Features left out when read: one per feature named in an Error (however many it has).
+    std::set<std::string> skipped;
+    for (const Diagnostic& d : data.diagnostics.items()) {
+      if (d.severity == Severity::Error && !d.feature.empty()) skipped.insert(d.feature);
+    }
+    LoadedLayer loaded{layer, std::move(*data), skipped.size()};
     scene.layers.push_back(std::move(loaded));
   }
   scene.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
