@@ -1,11 +1,14 @@
 // Fuzzes the vector reader (geo::readVectorLayer) through GDAL's in-memory files: input that
-// starts with '{' or '[' is a GeoJSON file, anything else a CSV file (a WKT column holds
-// geometries; no CRS, so the reader assumes UTM 25 S). Only those drivers are registered: the
-// subject is our reading of what OGR yields, not every OGR driver.
+// starts with '{' or '[' is a GeoJSON file (a TopoJSON one when GDAL's TopoJSON driver claims it:
+// several layers), anything else a CSV file (a WKT column holds geometries; no CRS, so the reader
+// assumes UTM 25 S). Only those drivers are registered: the subject is our reading of what OGR
+// yields, not every OGR driver.
 //
 // Invariants: readVectorLayer returns (no throw, no crash); a failure carries an Error naming
-// the file; every feature read has finite coordinates, rings of at least 3 points and lines of
-// at least 2; every feature OGR yields is either read or named (file, layer, feature) in an
+// the file; a source of several layers read without a layer name fails listing them, and each
+// layer read by name keeps the invariants; every feature read has finite coordinates, rings of
+// at least 3 points and lines of at least 2; every attribute text is UTF-8 (whatever bytes the
+// file holds); every feature OGR yields is either read or named (file, layer, feature) in an
 // Error, unless reading stopped with an Error naming the file and layer.
 #include <cmath>
 #include <cstdint>
@@ -15,8 +18,11 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <variant>
+#include <vector>
 
 #include <cpl_http.h>
+#include <cpl_string.h>
 #include <cpl_vsi.h>
 #include <gdal.h>
 #include <ogr_api.h>
@@ -60,13 +66,15 @@ const gis::geo::SceneFrame& frame() {
   return f;
 }
 
-/// Features OGR yields from the file, counted as the reader walks them; -1 if it cannot open it.
-std::int64_t ogrFeatureCount(const std::string& path) {
+/// Features OGR yields from the file's layer `name` (empty: the first), counted as the reader
+/// walks them; -1 if it cannot open it.
+std::int64_t ogrFeatureCount(const std::string& path, const std::string& name) {
   CPLPushErrorHandler(CPLQuietErrorHandler);
   std::int64_t n = -1;
   if (GDALDatasetH ds = GDALOpenEx(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, nullptr, nullptr, nullptr)) {
-    if (GDALDatasetGetLayerCount(ds) > 0) {
-      OGRLayerH layer = GDALDatasetGetLayer(ds, 0);
+    OGRLayerH layer = name.empty() ? (GDALDatasetGetLayerCount(ds) > 0 ? GDALDatasetGetLayer(ds, 0) : nullptr)
+                                   : GDALDatasetGetLayerByName(ds, name.c_str());
+    if (layer != nullptr) {
       OGR_L_ResetReading(layer);
       n = 0;
       while (OGRFeatureH f = OGR_L_GetNextFeature(layer)) {
@@ -80,7 +88,7 @@ std::int64_t ogrFeatureCount(const std::string& path) {
   return n;
 }
 
-void checkLayer(const gis::Result<gis::geo::VectorLayer>& r, const std::string& path) {
+void checkLayer(const gis::Result<gis::geo::VectorLayer>& r, const std::string& path, const std::string& name) {
   const gis::Diagnostics& d = r.diagnostics;
   bool errorNamingFile = false;
   for (const gis::Diagnostic& x : d.items()) {
@@ -113,6 +121,13 @@ void checkLayer(const gis::Result<gis::geo::VectorLayer>& r, const std::string& 
       check(l.size() >= 2, "feature " + std::to_string(f.fid) + ": a line of fewer than 2 points");
       finitePoints(l);
     }
+    for (const auto& [key, value] : f.attributes) {
+      check(CPLIsUTF8(key.c_str(), -1) != 0, "feature " + std::to_string(f.fid) + ": an attribute name is not UTF-8");
+      if (const auto* text = std::get_if<std::string>(&value)) {
+        check(CPLIsUTF8(text->c_str(), -1) != 0,
+              "feature " + std::to_string(f.fid) + ": attribute '" + key + "' is not UTF-8");
+      }
+    }
   }
   // Every feature left out is named.
   std::size_t namedErrors = 0;
@@ -121,12 +136,12 @@ void checkLayer(const gis::Result<gis::geo::VectorLayer>& r, const std::string& 
     if (x.severity != gis::Severity::Error) continue;
     check(x.layer == layer.name, "an Error does not name the layer: " + x.toString());
     if (x.feature.empty()) {
-      stopped = true;  // "reading stopped after N features"
-    } else {
+      stopped = true;                                   // "reading stopped after N features"
+    } else if (x.feature.rfind("features[", 0) != 0) {  // not a GeoJSON entry OGR skipped
       ++namedErrors;
     }
   }
-  const std::int64_t yielded = ogrFeatureCount(path);
+  const std::int64_t yielded = ogrFeatureCount(path, name);
   const auto accounted = static_cast<std::int64_t>(layer.features.size() + namedErrors);
   if (!stopped && yielded >= 0 && accounted != yielded) {
     fail("OGR yields " + std::to_string(yielded) + " features, the reader read " +
@@ -139,7 +154,7 @@ void checkLayer(const gis::Result<gis::geo::VectorLayer>& r, const std::string& 
 extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
   frame();  // registers GDAL's drivers (through the reader's own registration)
   // Keep only the drivers under test: no driver that opens other files by name (VRT, …).
-  const std::set<std::string> keep{"GeoJSON", "CSV"};
+  const std::set<std::string> keep{"GeoJSON", "TopoJSON", "CSV"};
   for (int i = GDALGetDriverCount() - 1; i >= 0; --i) {
     GDALDriverH driver = GDALGetDriver(i);
     if (keep.count(GDALGetDriverShortName(driver)) == 0) {
@@ -176,7 +191,28 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (const gis::Diagnostic& x : r.diagnostics.items()) std::fprintf(stderr, "  %s\n", x.toString().c_str());
     if (r) std::fprintf(stderr, "  %zu features, %zu vertices\n", r->features.size(), r->vertexCount());
   }
-  checkLayer(r, path);
+  checkLayer(r, path, "");
+  // Several layers: refused without a name (listing them), each readable by name.
+  if (!r.ok()) {
+    gis::Result<std::vector<std::string>> names = gis::geo::listVectorLayers(path);
+    if (names && names->size() > 1) {
+      bool listed = false;
+      for (const gis::Diagnostic& x : r.diagnostics.items()) {
+        listed = listed || x.message.find(std::to_string(names->size()) + " layers (") != std::string::npos;
+      }
+      check(listed, "a source of several layers was refused without listing them");
+      for (const std::string& name : *names) {
+        options.layer = name;
+        gis::Result<gis::geo::VectorLayer> one;
+        try {
+          one = gis::geo::readVectorLayer(path, frame(), options);
+        } catch (const std::exception& e) {
+          fail(std::string("readVectorLayer threw: ") + e.what());
+        }
+        checkLayer(one, path, name);
+      }
+    }
+  }
   VSIRmdirRecursive("/vsimem/fuzz");
   return 0;
 }

@@ -2,11 +2,14 @@
 // GDAL's GeoJSON driver skips an entry of a FeatureCollection's "features" array that is not an
 // object (a number, a string, null) without a word. This finds them, streaming the file (a SAX
 // parse: memory does not grow with the file), so that each can be named.
+#include <array>
 #include <cstddef>
-#include <fstream>
+#include <istream>
+#include <streambuf>
 #include <string>
 #include <vector>
 
+#include <cpl_vsi.h>
 #include <nlohmann/json.hpp>
 
 namespace gis::geo::detail {
@@ -70,11 +73,37 @@ class FeatureEntryScanner final : public nlohmann::json::json_sax_t {
   std::vector<NonObjectEntry> found_;
 };
 
+/// A std::streambuf over a file read through GDAL's virtual file system (/vsimem/, /vsizip/, …).
+class VsiStreamBuffer final : public std::streambuf {
+ public:
+  explicit VsiStreamBuffer(const std::string& path) : file_(VSIFOpenL(path.c_str(), "rb")) {}
+  ~VsiStreamBuffer() override {
+    if (file_ != nullptr) VSIFCloseL(file_);
+  }
+  VsiStreamBuffer(const VsiStreamBuffer&) = delete;
+  VsiStreamBuffer& operator=(const VsiStreamBuffer&) = delete;
+  [[nodiscard]] bool open() const { return file_ != nullptr; }
+
+ protected:
+  int_type underflow() override {
+    if (file_ == nullptr) return traits_type::eof();
+    const std::size_t n = VSIFReadL(buffer_.data(), 1, buffer_.size(), file_);
+    if (n == 0) return traits_type::eof();
+    setg(buffer_.data(), buffer_.data(), buffer_.data() + n);
+    return traits_type::to_int_type(buffer_[0]);
+  }
+
+ private:
+  VSILFILE* file_;
+  std::array<char, 1 << 16> buffer_{};
+};
+
 /// The non-object entries of a GeoJSON file's top-level "features" array (none when the file
 /// cannot be read as JSON: GDAL has said why already).
 inline std::vector<NonObjectEntry> nonObjectFeatureEntries(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return {};
+  VsiStreamBuffer buffer(path);
+  if (!buffer.open()) return {};
+  std::istream in(&buffer);
   FeatureEntryScanner scanner;
   nlohmann::json::sax_parse(in, &scanner, nlohmann::json::input_format_t::json, false);
   return scanner.found();

@@ -353,9 +353,9 @@ TEST(OverlayRenderCli, EveryFeatureOfEveryMessyFileIsAccountedFor) {
                                     {{292000, 9114000}, {292000, 9114000}, {292000, 9114000}}},
                                    "S\xe3o Paulo");
   std::vector<std::string> files;
-  for (const char* name : {"messy_layer.geojson", "messy_roads.geojson", "broken_features.geojson",
-                           "holes_and_multipolygons.geojson", "long_edge_crs84.geojson", "empty_layer.geojson",
-                           "non_objects_and_invalid_polygons.geojson"}) {
+  for (const char* name :
+       {"messy_layer.geojson", "messy_roads.geojson", "broken_features.geojson", "holes_and_multipolygons.geojson",
+        "long_edge_crs84.geojson", "empty_layer.geojson", "non_objects_and_invalid_polygons.geojson"}) {
     files.push_back(data + "/" + name);
   }
   files.push_back((dir / "latin1.shp").string());
