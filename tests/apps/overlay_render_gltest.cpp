@@ -284,6 +284,8 @@ TEST(OverlayRenderCli, Latin1TextReachesTheOutputsReadable) {
   EXPECT_TRUE(json::accept(readText(out / "camera.json")));
   const std::string selected = readText(out / "selected_features.json");
   EXPECT_NE(selected.find("S\xc3\xa3o Paulo"), std::string::npos) << selected;
+  // And in the layer's own export (the source's CRS and attribute types).
+  EXPECT_NE(readText(out / "selected_bairros.geojson").find("S\xc3\xa3o Paulo"), std::string::npos);
   EXPECT_NE(readText(dir / "log.txt").find("read as Latin-1"), std::string::npos);
 }
 
