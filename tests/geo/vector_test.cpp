@@ -33,6 +33,13 @@ using gis::geo::VectorReadOptions;
 
 const std::string kSamples = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/";
 const std::string kData = std::string(STENCIL_GIS_TEST_DATA_DIR) + "/";
+
+/// A file in this program's output folder (made if missing: a fresh build has none).
+std::string outputFile(const std::string& name) {
+  const std::filesystem::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
+  std::filesystem::create_directories(dir);
+  return (dir / name).string();
+}
 const std::string kDem = kSamples + "olinda_dem_utm25s.tif";
 const std::string kTracts = kSamples + "olinda1.shp";
 const std::string kBoundaries = kSamples + "olinda_tract_boundaries.geojson";
@@ -301,7 +308,7 @@ TEST(VectorEncoding, Latin1AttributesWithoutADeclaredEncodingArriveAsUtf8WithAWa
 TEST(VectorSources, SeveralLayersAndNoneNamedIsAnErrorListingThem) {
   // A GeoPackage of two layers: taking the first would drop the second without a word.
   const SceneFrame frame = olindaFrame();
-  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/two_layers.gpkg";
+  const std::string path = outputFile("two_layers.gpkg");
   std::filesystem::remove(path);
   GDALAllRegister();
   GDALDataset* ds =
@@ -337,7 +344,7 @@ TEST(VectorSources, SeveralLayersAndNoneNamedIsAnErrorListingThem) {
 TEST(VectorSources, ACrsThatCannotBeReadIsAnErrorNotWgs84) {
   // A GeoJSON whose crs member names EPSG:999999: GDAL says "crs not found" and reads WGS 84.
   const SceneFrame frame = olindaFrame();
-  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/unknown_crs.geojson";
+  const std::string path = outputFile("unknown_crs.geojson");
   std::ofstream(path) << R"({"type": "FeatureCollection",
     "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::999999"}},
     "features": [{"type": "Feature", "properties": {},
@@ -361,7 +368,7 @@ TEST(VectorSources, GdalsOwnWordsReachTheDiagnosticsAndBigGeoJsonOpens) {
   }
   // One feature of 2 MB (a line of 80,000 points) over a 1 MB limit: the error carries GDAL's
   // explanation and its remedy (GDAL streams a collection, the limit is per object).
-  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/big.geojson";
+  const std::string path = outputFile("big.geojson");
   {
     std::ofstream out(path);
     out.precision(10);
@@ -386,7 +393,7 @@ TEST(VectorBroken, ABadPartIsLeftOutAndTheOtherPartsDraw) {
   // nothing but bad parts: the good parts load, each bad part is named in a Warning; only the
   // feature with no good part is left out (an Error).
   const SceneFrame frame = olindaFrame();
-  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/bad_parts.geojson";
+  const std::string path = outputFile("bad_parts.geojson");
   std::ofstream(path) << R"({"type": "FeatureCollection", "features": [
     {"type": "Feature", "id": 1, "properties": {}, "geometry": {"type": "MultiPolygon", "coordinates": [
       [[[-34.86, -8.01], [-34.85, -8.01], [-34.85, -8.0], [-34.86, -8.01]]],
@@ -416,7 +423,7 @@ TEST(VectorBroken, ABadPartIsLeftOutAndTheOtherPartsDraw) {
 TEST(VectorBroken, NonObjectEntriesOfAGeoJsonAreNamed) {
   // GDAL skips them without a word; each is named with its place in the "features" array.
   const SceneFrame frame = olindaFrame();
-  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/non_objects.geojson";
+  const std::string path = outputFile("non_objects.geojson");
   const std::string feature =
       R"({"type": "Feature", "properties": {"note": [1, {"a": 2}]}, "geometry": {"type": "LineString",
           "coordinates": [[-34.86, -8.01], [-34.85, -8.0]]}})";
@@ -437,7 +444,7 @@ TEST(VectorBroken, NonObjectEntriesOfAGeoJsonAreNamed) {
 
 TEST(VectorValidity, InvalidPolygonsAreRepairedWhereTheIntentIsClearAndSaidOrRefused) {
   const SceneFrame frame = olindaFrame();
-  const std::string path = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/invalid_polygons.geojson";
+  const std::string path = outputFile("invalid_polygons.geojson");
   // 1: a bow-tie; 2: a hole wholly outside its shell; 3: a ring collinear in lon/lat; 4: two
   // overlapping squares; 5: a good square and a collinear part; 6: valid.
   std::ofstream(path) << R"({"type": "FeatureCollection", "features": [
