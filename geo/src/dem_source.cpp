@@ -400,7 +400,7 @@ Result<DemSource> DemSource::open(const DemSpec& spec) {
   for (Tile& tile : tiles) {
     bool placed = false;
     for (std::size_t g = 0; g < state->groups.size() && !placed; ++g) {
-      if (state->groups[g].files.size() >= 1 && sameGroup(tile, state->groups[g])) {
+      if (sameGroup(tile, state->groups[g])) {
         state->groups[g].files.push_back(tile.path);
         members[g].push_back(&tile);
         placed = true;
@@ -523,6 +523,7 @@ namespace {
 struct GroupSampler {
   Group* group = nullptr;
   std::optional<CrsTransform> toGroup;  ///< frame projected CRS → group CRS
+  std::optional<CrsTransform> toFrame;  ///< group CRS → frame projected CRS
 };
 
 }  // namespace
@@ -582,13 +583,14 @@ Result<FrameDem> FrameDem::open(const DemSource& source, const SceneFrame& frame
     Result<CrsTransform> t = frame.transformTo(g.info.crsWkt);
     if (!t) return fail("cannot transform the scene frame into the CRS of " + g.files.front());
     s.toGroup.emplace(std::move(*t));
+    Result<CrsTransform> back = frame.transformFrom(g.info.crsWkt);
+    if (!back) return fail("cannot transform " + g.files.front() + " into the scene frame");
+    const CrsTransform& toFrame = s.toFrame.emplace(std::move(*back));
     // Finest spacing in metres near the group's centre: neighbouring posts carried into the frame.
-    Result<CrsTransform> toFrame = frame.transformFrom(g.info.crsWkt);
-    if (!toFrame) return fail("cannot transform " + g.files.front() + " into the scene frame");
     const double cc = 0.5 * g.info.width, cr = 0.5 * g.info.height;
-    const auto p = toFrame->transform(g.info.geoTransform.pixelToCrs(cc, cr));
-    const auto px = toFrame->transform(g.info.geoTransform.pixelToCrs(cc + 1.0, cr));
-    const auto py = toFrame->transform(g.info.geoTransform.pixelToCrs(cc, cr + 1.0));
+    const auto p = toFrame.transform(g.info.geoTransform.pixelToCrs(cc, cr));
+    const auto px = toFrame.transform(g.info.geoTransform.pixelToCrs(cc + 1.0, cr));
+    const auto py = toFrame.transform(g.info.geoTransform.pixelToCrs(cc, cr + 1.0));
     if (!p || !px || !py) return fail("the centre of " + g.files.front() + " cannot be placed in the scene frame");
     g.spacingMetres = std::min(glm::length(*px - *p), glm::length(*py - *p));
     state->samplers.push_back(std::move(s));
@@ -610,10 +612,8 @@ Result<FrameDem> FrameDem::open(const DemSource& source, const SceneFrame& frame
     // The extent in the frame: every group's boundary carried over.
     glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
     for (const GroupSampler& s : state->samplers) {
-      Result<CrsTransform> toFrame = frame.transformFrom(s.group->info.crsWkt);
-      if (!toFrame) return fail("cannot transform " + s.group->files.front() + " into the scene frame");
       std::vector<glm::dvec2> pts = boundaryPoints(s.group->info, 256);
-      toFrame->transform(pts.data(), pts.size());
+      s.toFrame->transform(pts.data(), pts.size());
       for (const glm::dvec2& q : pts) {
         if (!std::isfinite(q.x) || !std::isfinite(q.y)) continue;
         lo = glm::min(lo, q);
