@@ -61,6 +61,6 @@ function(stencil_gis_embed_shaders target)
   target_include_directories(${target} PUBLIC
     $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
-  install(TARGETS ${target} EXPORT StencilGisTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  stencil_gis_export_component(shaders ${target} "")
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 endfunction()

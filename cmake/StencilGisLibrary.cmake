@@ -12,8 +12,30 @@ function(stencil_gis_configure_target target)
   target_compile_definitions(${target} PUBLIC GLM_FORCE_EXPLICIT_CTOR GLM_FORCE_XYZW_ONLY)
 endfunction()
 
+# Installs `target` as component `name` of the package: its own export set, and what it needs
+# (other components, imported targets) recorded for StencilGisConfig.cmake, so that
+# find_package(StencilGis COMPONENTS ...) finds only what the asked components need.
+function(stencil_gis_export_component name target deps)
+  set(components "")
+  set(imported "")
+  foreach(dep IN LISTS deps)
+    if(dep MATCHES "^gis::(.+)$")
+      list(APPEND components ${CMAKE_MATCH_1})
+    else()
+      list(APPEND imported ${dep})
+    endif()
+  endforeach()
+  set_property(GLOBAL APPEND PROPERTY STENCIL_GIS_COMPONENTS ${name})
+  set_property(GLOBAL PROPERTY STENCIL_GIS_COMPONENT_${name}_COMPONENTS "${components}")
+  set_property(GLOBAL PROPERTY STENCIL_GIS_COMPONENT_${name}_IMPORTED "${imported}")
+  install(TARGETS ${target} EXPORT StencilGis_${name}
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+endfunction()
+
 # stencil_gis_add_library(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
-# Creates target gis_<name> with alias gis::<name>, public headers in <name>/include.
+# Creates target gis_<name> with alias gis::<name>, public headers in <name>/include, installed
+# as package component <name>.
 function(stencil_gis_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   set(target gis_${name})
@@ -26,17 +48,52 @@ function(stencil_gis_add_library name)
            $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
     PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
   target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
-  install(TARGETS ${target} EXPORT StencilGisTargets
-          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  # A static library's private dependencies are link dependencies of its users: they count.
+  stencil_gis_export_component(${name} ${target} "${ARG_PUBLIC_DEPS};${ARG_PRIVATE_DEPS}")
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 endfunction()
 
-# Exports gis::* so a GIS client can find_package(StencilGis).
+# The package a client's find_dependency() call needs for one of our imported dependencies.
+function(stencil_gis_package_of imported out)
+  set(packages
+    "Threads::Threads=Threads" "glm::glm=glm" "PkgConfig::EPOXY=epoxy" "glfw=glfw3"
+    "OpenImageIO::OpenImageIO=OpenImageIO" "GDAL::GDAL=GDAL" "GeographicLib::GeographicLib=GeographicLib"
+    "nlohmann_json::nlohmann_json=nlohmann_json" "CGAL::CGAL=CGAL")
+  foreach(entry IN LISTS packages)
+    string(REPLACE "=" ";" pair "${entry}")
+    list(GET pair 0 target)
+    list(GET pair 1 package)
+    if(target STREQUAL imported)
+      set(${out} ${package} PARENT_SCOPE)
+      return()
+    endif()
+  endforeach()
+  message(FATAL_ERROR "stencil_gis_package_of: no package known for ${imported}; add it to cmake/StencilGisLibrary.cmake")
+endfunction()
+
+# Exports gis::* so a GIS client can find_package(StencilGis [COMPONENTS ...]): one targets file
+# per component, and in the config the components and packages each one needs.
 function(stencil_gis_install_package)
   include(CMakePackageConfigHelpers)
   set(cmake_dir ${CMAKE_INSTALL_LIBDIR}/cmake/StencilGis)
-  install(EXPORT StencilGisTargets NAMESPACE gis:: DESTINATION ${cmake_dir})
+  get_property(components GLOBAL PROPERTY STENCIL_GIS_COMPONENTS)
+  set(table "")
+  foreach(component IN LISTS components)
+    install(EXPORT StencilGis_${component} NAMESPACE gis:: DESTINATION ${cmake_dir}
+            FILE StencilGis_${component}Targets.cmake)
+    get_property(needs GLOBAL PROPERTY STENCIL_GIS_COMPONENT_${component}_COMPONENTS)
+    get_property(imported GLOBAL PROPERTY STENCIL_GIS_COMPONENT_${component}_IMPORTED)
+    set(packages "")
+    foreach(i IN LISTS imported)
+      stencil_gis_package_of(${i} package)
+      list(APPEND packages ${package})
+    endforeach()
+    list(REMOVE_DUPLICATES packages)
+    string(APPEND table "set(_StencilGis_${component}_components \"${needs}\")\n")
+    string(APPEND table "set(_StencilGis_${component}_packages \"${packages}\")\n")
+  endforeach()
+  set(STENCIL_GIS_COMPONENT_LIST "${components}")
+  set(STENCIL_GIS_COMPONENT_TABLE "${table}")
   configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/StencilGisConfig.cmake.in
     ${PROJECT_BINARY_DIR}/StencilGisConfig.cmake INSTALL_DESTINATION ${cmake_dir})
   write_basic_package_version_file(${PROJECT_BINARY_DIR}/StencilGisConfigVersion.cmake

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -27,15 +28,22 @@ using nlohmann::json;
 struct Options {
   std::string scene, out, mode = "terrain";
   int width = 1200, height = 1000, frames = 90;
-  int maxVolumes = 500, repeats = 5;                   ///< lasso mode
-  std::vector<int> drapeSizes{512, 1024, 2048, 4096};  ///< methods mode: texture draping sizes
-  std::vector<int> tileSizes{256, 512};                ///< methods mode: draping per tile, texels per tile
-  int errorEvery = 3;                                  ///< methods mode: error on every n-th frame
-  int msaa = 0;                                        ///< methods mode: samples per pixel (0 = off)
-  std::vector<std::string> segments;                   ///< methods mode: path segments to draw (empty = all)
-  std::vector<std::string> scenes;                     ///< scaling mode: the scenes, in order
+  int maxVolumes = 500, repeats = 5;  ///< lasso mode
+  /// Methods mode: the sizes (texels per side) each texture technique is drawn at, by its name
+  /// (--drape-sizes, --tile-sizes); one not named here is drawn at its default size.
+  std::map<std::string, std::vector<int>, std::less<>> textureSizes{{"drape", {512, 1024, 2048, 4096}},
+                                                                    {"drape-tiles", {256, 512}}};
+  int errorEvery = 3;                 ///< methods mode: error on every n-th frame
+  int msaa = 0;                       ///< methods mode: samples per pixel (0 = off)
+  std::vector<std::string> segments;  ///< methods mode: path segments to draw (empty = all)
+  std::vector<std::string> scenes;    ///< scaling mode: the scenes, in order
   double lodTolerance = 1.5;
   std::optional<app::TerrainPaging> paging;
+
+  [[nodiscard]] std::vector<int> textureSizesOf(const overlay::TechniqueInfo& technique) const {
+    const auto found = textureSizes.find(technique.name);
+    return found != textureSizes.end() ? found->second : std::vector<int>{technique.defaultTextureSize};
+  }
 };
 
 /// "VmRSS" or "VmHWM" of this process in bytes (Linux).

@@ -105,7 +105,7 @@ std::string parseArgs(int argc, char** argv, Options& o) {
     else if (a == "--lod-tolerance" && app::parseDouble(v) && *app::parseDouble(v) >= 0.0)
       o.lodTolerance = *app::parseDouble(v);
     else if (a == "--drape-sizes" || a == "--tile-sizes") {
-      std::vector<int>& sizes = a == "--drape-sizes" ? o.drapeSizes : o.tileSizes;
+      std::vector<int>& sizes = o.textureSizes[a == "--drape-sizes" ? "drape" : "drape-tiles"];
       sizes.clear();
       const std::string list = v == "none" ? std::string() : std::string(v);
       for (std::size_t start = 0; start < list.size();) {
@@ -256,7 +256,7 @@ int runOverlay(const Options& o) {
   std::unique_ptr<gfx::Context>* context = &setup->context;
   // Two renderers: ours and the paper's construction (the terrain is the same).
   app::OverlayBuildSettings ours, paper;
-  paper.method = app::OverlayMethod::Paper;
+  paper.technique = overlay::findTechnique("paper");
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, ours);
   app::report(renderer.diagnostics);
   Result<app::SceneRenderer> paperRenderer = app::SceneRenderer::create(*scene, paper);

@@ -58,11 +58,11 @@ struct Tally {
 };
 
 struct Method {
-  Method(std::string n, app::OverlayMethod m, int size, bool withOverlays)
-      : name(std::move(n)), method(m), drapeSize(size), overlays(withOverlays) {}
+  Method(std::string n, const overlay::TechniqueInfo& t, int size, bool withOverlays)
+      : name(std::move(n)), technique(&t), drapeSize(size), overlays(withOverlays) {}
   std::string name;
-  app::OverlayMethod method = app::OverlayMethod::Stencil;
-  int drapeSize = 0;
+  const overlay::TechniqueInfo* technique = nullptr;
+  int drapeSize = 0;  ///< texture techniques: texels per side
   bool overlays = true;
   int cellPosts = 16;         ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
@@ -86,14 +86,16 @@ int runVariants(const Options& o, std::vector<Method> methods, const std::string
 
 int runMethods(const Options& o) {
   std::vector<Method> methods;
-  methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
-  methods.emplace_back("stencil polyhedra", app::OverlayMethod::Stencil, 0, true);
-  methods.emplace_back("paper's construction", app::OverlayMethod::Paper, 0, true);
-  for (const int size : o.drapeSizes) {
-    methods.emplace_back("drape " + std::to_string(size), app::OverlayMethod::Drape, size, true);
-  }
-  for (const int size : o.tileSizes) {
-    methods.emplace_back("drape tiles " + std::to_string(size), app::OverlayMethod::DrapeTiles, size, true);
+  methods.emplace_back("terrain only", overlay::defaultTechnique(), 0, false);
+  for (const overlay::TechniqueInfo& t : overlay::techniques()) {
+    if (!t.usesTextures()) {
+      methods.emplace_back(std::string(t.label), t, 0, true);
+      continue;
+    }
+    // A texture technique at each size asked for (its name, with spaces, and the size).
+    std::string name(t.name);
+    std::replace(name.begin(), name.end(), '-', ' ');
+    for (const int size : o.textureSizesOf(t)) methods.emplace_back(name + " " + std::to_string(size), t, size, true);
   }
   return runVariants(o, std::move(methods), "methods");
 }
@@ -101,10 +103,11 @@ int runMethods(const Options& o) {
 int runAblation(const Options& o) {
   // Each saving of DESIGN §9 switched off alone.
   std::vector<Method> methods;
-  methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
-  methods.emplace_back("ours (all savings)", app::OverlayMethod::Stencil, 0, true);
+  const overlay::TechniqueInfo& ours = overlay::defaultTechnique();
+  methods.emplace_back("terrain only", ours, 0, false);
+  methods.emplace_back("ours (all savings)", ours, 0, true);
   const auto variant = [&](std::string name, std::function<void(overlay::OverlaySettings&)> adjust) {
-    methods.emplace_back(std::move(name), app::OverlayMethod::Stencil, 0, true);
+    methods.emplace_back(std::move(name), ours, 0, true);
     methods.back().adjust = std::move(adjust);
   };
   variant("z-fail for every piece", [](overlay::OverlaySettings& s) { s.forceZFail = true; });
@@ -112,9 +115,9 @@ int runAblation(const Options& o) {
   variant("no frustum culling", [](overlay::OverlaySettings& s) { s.cullPieces = false; });
   variant("cover with the pieces", [](overlay::OverlaySettings& s) { s.rectangleCover = false; });
   variant("one cover rectangle, no tiles", [](overlay::OverlaySettings& s) { s.tiledCover = false; });
-  methods.emplace_back("split at every cell", app::OverlayMethod::Stencil, 0, true);
+  methods.emplace_back("split at every cell", ours, 0, true);
   methods.back().adaptiveSplit = false;
-  methods.emplace_back("no split at cells", app::OverlayMethod::Stencil, 0, true);
+  methods.emplace_back("no split at cells", ours, 0, true);
   methods.back().cellPosts = 1 << 20;
   return runVariants(o, std::move(methods), "ablation");
 }
@@ -164,14 +167,15 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   std::vector<Method> methods = std::move(variants);
   // Methods that build the same polyhedra (terrain only, ours and the ablation's switches at draw
   // time) share one renderer: the same terrain, and the memory of one copy.
-  std::map<std::tuple<int, int, int, bool>, app::SceneRenderer*> built;
+  std::map<std::tuple<std::string_view, int, int, bool>, app::SceneRenderer*> built;
   for (Method& m : methods) {
     app::OverlayBuildSettings build;
-    build.method = m.method;
+    build.technique = m.technique;
     build.cellPosts = m.cellPosts;
     build.adaptiveSplit = m.adaptiveSplit;
-    if (m.drapeSize > 0) build.drapeSize = m.drapeSize;
-    const std::tuple<int, int, int, bool> key{static_cast<int>(m.method), m.cellPosts, m.drapeSize, m.adaptiveSplit};
+    build.textureSize = m.drapeSize;
+    const std::tuple<std::string_view, int, int, bool> key{m.technique->name, m.cellPosts, m.drapeSize,
+                                                           m.adaptiveSplit};
     if (const auto found = built.find(key); found != built.end()) {
       m.shared = found->second;
     } else {
@@ -182,7 +186,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
       m.shared = &*m.renderer;
       built[key] = m.shared;
     }
-    if (m.overlays && (m.method == app::OverlayMethod::Stencil || m.method == app::OverlayMethod::Paper)) {
+    if (m.overlays && !m.technique->usesTextures()) {
       for (const overlay::OverlayLayer& l : m.shared->overlayLayers()) {
         m.gpuBytes += l.stats().gpuBytes;
         m.buildSeconds += l.stats().buildSeconds;
@@ -231,10 +235,10 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
       const app::FrameStats stats = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
       glFinish();
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-      if (stats.drapeBuildSeconds > 0.0) {
-        // The drape was built in this frame: its build time, not a frame time.
-        m.buildSeconds = stats.drapeBuildSeconds;
-        m.gpuBytes = m.shared->drapeGpuBytes();
+      if (stats.texturesBuilt > 0 && m.shared->textureDrape() != nullptr) {
+        // The one drape was built in this frame: its build time, not a frame time.
+        m.buildSeconds = stats.textureSeconds;
+        m.gpuBytes = m.shared->techniqueGpuBytes();
       } else if (k > 0) {  // frame 0 uploads the first chunks (and builds the first tiles)
         frame.ms.push_back(ms);
         if (!m.overlays) terrainMs = ms;
@@ -286,11 +290,11 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
           frame.covered = covered;
         }
       }
-      if (m.method == app::OverlayMethod::DrapeTiles) {
+      if (m.technique->usesTextures() && m.shared->textureDrape() == nullptr) {
         // Tiles are rasterised as the view moves: their time is part of the frame's.
-        m.gpuBytes = std::max(m.gpuBytes, m.shared->drapeGpuBytes());
-        m.tilesBuilt += stats.drapeTilesBuilt;
-        m.buildSeconds += stats.drapeTileSeconds;
+        m.gpuBytes = std::max(m.gpuBytes, m.shared->techniqueGpuBytes());
+        m.tilesBuilt += stats.texturesBuilt;
+        m.buildSeconds += stats.textureSeconds;
       }
       for (Tally* t : {&m.all, &m.segments[segment]}) {
         t->ms.insert(t->ms.end(), frame.ms.begin(), frame.ms.end());
@@ -346,14 +350,14 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     glFinish();
     const auto start = std::chrono::steady_clock::now();
     (void)layer.replaceFeature(0, feature);
-    m.shared->invalidateDrape(lo - margin, hi + margin);
+    m.shared->invalidateOverlays(lo - margin, hi + margin);
     m.editMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     settings.overlays = true;
     settings.overlay = overlay::OverlaySettings{};
     if (m.adjust) m.adjust(settings.overlay);
     const app::FrameStats after =
         m.shared->render(cache, target.framebuffer(), o.width, o.height, path.back().camera, settings);
-    m.editMs += 1e3 * (after.drapeBuildSeconds + after.drapeTileSeconds);
+    m.editMs += 1e3 * after.textureSeconds;
   }
 
   const Method& ours = methods[1];
@@ -405,10 +409,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     std::vector<PlotPoint> points;
     for (const Method& m : methods) {
       if (!m.overlays) continue;
-      const std::string colour = m.method == app::OverlayMethod::DrapeTiles ? "#9467bd"
-                                 : m.method == app::OverlayMethod::Drape    ? "#d62728"
-                                 : m.method == app::OverlayMethod::Paper    ? "#ff7f0e"
-                                                                            : "#1f77b4";
+      const std::string colour(m.technique->plotColour);
       points.push_back({median(m.all.ratio), away ? m.all.wrongAwayPct() : m.all.wrongPct(), m.name, colour});
     }
     PlotAxes axes;
@@ -489,9 +490,11 @@ int runScaling(const Options& o) {
     so.out = (std::filesystem::path(o.out) / std::filesystem::path(sceneFile).stem()).string();
     if (so.segments.empty()) so.segments = {"oblique"};
     std::vector<Method> methods;
-    methods.emplace_back("terrain only", app::OverlayMethod::Stencil, 0, false);
-    methods.emplace_back("stencil polyhedra", app::OverlayMethod::Stencil, 0, true);
-    methods.emplace_back("paper's construction", app::OverlayMethod::Paper, 0, true);
+    // The stencil techniques (those that build polyhedra) at every scale.
+    methods.emplace_back("terrain only", overlay::defaultTechnique(), 0, false);
+    for (const overlay::TechniqueInfo& t : overlay::techniques()) {
+      if (!t.usesTextures()) methods.emplace_back(std::string(t.label), t, 0, true);
+    }
     json r;
     if (runVariants(so, std::move(methods), "methods", &r) != 0) return 1;
     rows.push_back(r);

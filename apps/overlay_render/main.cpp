@@ -60,10 +60,17 @@ constexpr const char* kUsage =
     "--open-volumes: show where a layer's stencil volumes are not closed (open_volumes.png)\n"
     "--lod-tolerance: largest projected terrain error in pixels (default 1.5; 0 = exact DEM)\n"
     "--exaggeration: vertical exaggeration (default: the scene's)\n"
-    "--method: stencil (default: our stencil polyhedra), paper (the seed paper's construction) or\n"
-    "  drape (texture draping, the baseline of other viewers: the layers rasterised into an N x N\n"
-    "  texture over the terrain, --drape-size N, default 2048) or drape-tiles (an N x N texture per\n"
-    "  drawn terrain chunk, as osgEarth and iTowns drape)\n";
+    "--method M: how the vector layers are drawn (default: the first):\n";
+
+/// The usage, with one line per overlay technique of the registry.
+std::string usage() {
+  std::string text = kUsage;
+  for (const overlay::TechniqueInfo& t : overlay::techniques()) {
+    text += "  " + std::string(t.name) + ": " + std::string(t.description) + "\n";
+  }
+  text += "--drape-size N: texels per side of a texture technique's texture (default 2048)\n";
+  return text;
+}
 
 struct Options {
   std::string scene;
@@ -78,7 +85,7 @@ struct Options {
   int msaa = 0;
   double lodTolerance = 1.5;
   std::optional<double> exaggeration;
-  app::OverlayMethod method = app::OverlayMethod::Stencil;
+  const overlay::TechniqueInfo* technique = &overlay::defaultTechnique();
   int drapeSize = 2048;
 };
 
@@ -168,16 +175,9 @@ std::string parseArgs(int argc, char** argv, Options& o) {
     else if (a == "--method") {
       std::string m;
       error = setString(m);
-      if (m == "stencil") {
-        o.method = app::OverlayMethod::Stencil;
-      } else if (m == "paper") {
-        o.method = app::OverlayMethod::Paper;
-      } else if (m == "drape") {
-        o.method = app::OverlayMethod::Drape;
-      } else if (m == "drape-tiles") {
-        o.method = app::OverlayMethod::DrapeTiles;
-      } else if (error.empty()) {
-        error = "--method: stencil, paper, drape or drape-tiles, not '" + m + "'";
+      o.technique = overlay::findTechnique(m);
+      if (o.technique == nullptr && error.empty()) {
+        error = "--method: " + overlay::techniqueNameList() + ", not '" + m + "'";
       }
     } else if (a == "--drape-size")
       error = setInt(o.drapeSize, 1, 65536);
@@ -483,8 +483,8 @@ int run(const Options& o) {
   report(context.diagnostics);
   if (!context) return 1;
   app::OverlayBuildSettings build;
-  build.method = o.method;
-  build.drapeSize = o.drapeSize;
+  build.technique = o.technique;
+  build.textureSize = o.drapeSize;
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
   report(renderer.diagnostics);
   all.append(renderer.diagnostics);
@@ -662,28 +662,24 @@ int run(const Options& o) {
         {"imagery", scene->orthophoto.has_value()},
         {"pixels", terrainPixels}}},
       {"layers", layers},
-      {"method", o.method == app::OverlayMethod::Drape        ? "drape"
-                 : o.method == app::OverlayMethod::DrapeTiles ? "drape-tiles"
-                 : o.method == app::OverlayMethod::Paper      ? "paper"
-                                                              : "stencil"},
+      {"method", o.technique->name},
       {"passes",
        {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
       {"errors", all.count(Severity::Error)},
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},
       {"gl_errors", (*context)->debug().errorCount()}};
-  if (o.method == app::OverlayMethod::DrapeTiles) {
-    stats["drape"] = {{"tile_size", o.drapeSize},
-                      {"tiles_built", frame.drapeTilesBuilt},
-                      {"gpu_bytes", renderer->drapeGpuBytes()},
-                      {"build_s", frame.drapeTileSeconds}};
-  }
-  if (const std::optional<overlay::TextureDrape>& drape = renderer->drape()) {
+  if (const overlay::TextureDrape* drape = renderer->textureDrape()) {
     stats["drape"] = {{"size", drape->stats().size},
                       {"triangles", drape->stats().triangles},
                       {"gpu_bytes", drape->stats().gpuBytes},
                       {"build_s", drape->stats().buildSeconds},
                       {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
+  } else if (o.technique->usesTextures()) {
+    stats["drape"] = {{"tile_size", o.drapeSize},
+                      {"tiles_built", frame.texturesBuilt},
+                      {"gpu_bytes", renderer->techniqueGpuBytes()},
+                      {"build_s", frame.textureSeconds}};
   }
   if (selection) {
     ok =
@@ -714,6 +710,6 @@ int run(const Options& o) {
 int main(int argc, char** argv) {
   Options options;
   return gis::app::programMain(
-      argc, argv, "overlay_render", kUsage, [&](int n, char** v) { return parseArgs(n, v, options); },
+      argc, argv, "overlay_render", usage().c_str(), [&](int n, char** v) { return parseArgs(n, v, options); },
       [&] { return run(options); });
 }

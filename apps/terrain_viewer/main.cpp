@@ -6,6 +6,7 @@
 
 #include "app/cli.hpp"
 #include "gfx/context.hpp"
+#include "gfx/window_context.hpp"
 #include "viewer.hpp"
 
 namespace {

@@ -27,6 +27,7 @@
 #include "core/log.hpp"
 #include "geo/vector.hpp"
 #include "gfx/image_io.hpp"
+#include "gfx/window_context.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::viewer {
@@ -237,8 +238,8 @@ bool Viewer::useScene(app::SceneDescription description) {
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();
   app::OverlayBuildSettings build;
-  build.method = method_;
-  build.drapeSize = drapeSize_;
+  build.technique = technique_;
+  build.textureSize = drapeSize_;
   Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
   for (const Diagnostic& d : renderer.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
   if (!renderer) return false;
@@ -333,8 +334,8 @@ void Viewer::rebuildOverlays() {
     scene_->layers[i].description = description_->layers[i];
   }
   app::OverlayBuildSettings build;
-  build.method = method_;
-  build.drapeSize = drapeSize_;
+  build.technique = technique_;
+  build.textureSize = drapeSize_;
   for (const Diagnostic& d : renderer_->buildOverlays(*scene_, build).items()) {
     message(d.toString(), d.severity == Severity::Error);
   }
@@ -872,10 +873,7 @@ nlohmann::json Viewer::state() const {
       {"framebuffer", {fb.x, fb.y}},
       {"window", {window.x, window.y}},
       {"overlays", render_.overlays},
-      {"method", method_ == app::OverlayMethod::Drape        ? "drape"
-                 : method_ == app::OverlayMethod::DrapeTiles ? "drape-tiles"
-                 : method_ == app::OverlayMethod::Paper      ? "paper"
-                                                             : "stencil"},
+      {"method", technique_->name},
       {"view",
        {{"wireframe", render_.wireframe},
         {"imagery", settings_.imagery},
@@ -961,10 +959,7 @@ bool Viewer::runStep(const app::ScriptStep& step) {
       render_.overlays = step.on;
       return true;
     case app::ScriptAction::Method:
-      method_ = step.text == "paper"         ? app::OverlayMethod::Paper
-                : step.text == "drape"       ? app::OverlayMethod::Drape
-                : step.text == "drape-tiles" ? app::OverlayMethod::DrapeTiles
-                                             : app::OverlayMethod::Stencil;
+      technique_ = overlay::findTechnique(step.text);  // checked when the script was read
       if (step.frames > 0) drapeSize_ = step.frames;
       rebuildOverlays();
       return true;

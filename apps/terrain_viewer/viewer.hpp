@@ -143,8 +143,8 @@ class Viewer {
   std::optional<gfx::RenderTarget> target_;
   gfx::StateCache cache_;
   app::RenderSettings render_;
-  app::OverlayMethod method_ = app::OverlayMethod::Stencil;
-  int drapeSize_ = 2048;  ///< texture draping: texels per side
+  const overlay::TechniqueInfo* technique_ = &overlay::defaultTechnique();
+  int drapeSize_ = 2048;  ///< texture techniques: texels per side
   bool imgui_ = false;
 
   // Selection.

@@ -54,26 +54,20 @@ void Viewer::drawPanel() {
 
   if (ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("vector layers (O)", &render_.overlays);
-    int method = static_cast<int>(method_);
-    bool changed = ImGui::RadioButton("stencil polyhedra", &method, static_cast<int>(app::OverlayMethod::Stencil));
-    ImGui::SameLine();
-    changed =
-        ImGui::RadioButton("paper's construction", &method, static_cast<int>(app::OverlayMethod::Paper)) || changed;
-    changed = ImGui::RadioButton("texture draping", &method, static_cast<int>(app::OverlayMethod::Drape)) || changed;
-    ImGui::SameLine();
-    changed = ImGui::RadioButton("per tile", &method, static_cast<int>(app::OverlayMethod::DrapeTiles)) || changed;
-    if (method_ == app::OverlayMethod::Drape || method_ == app::OverlayMethod::DrapeTiles) {
+    const overlay::TechniqueInfo* chosen = technique_;
+    const std::span<const overlay::TechniqueInfo> all = overlay::techniques();
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      if (i % 2 == 1) ImGui::SameLine();
+      if (ImGui::RadioButton(std::string(all[i].label).c_str(), technique_ == &all[i])) chosen = &all[i];
+    }
+    if (technique_->usesTextures()) {
       // The baseline of other viewers, for comparison: its texels show close up. Per tile, the
       // size is each drawn chunk's texture.
       ImGui::SameLine();
-      static constexpr int kDrapeSizes[] = {512, 1024, 2048, 4096, 8192};
-      static constexpr int kTileSizes[] = {128, 256, 512, 1024};
-      const std::span<const int> kSizes =
-          method_ == app::OverlayMethod::Drape ? std::span<const int>(kDrapeSizes) : std::span<const int>(kTileSizes);
       const std::string current = std::to_string(drapeSize_) + "²";
       ImGui::SetNextItemWidth(6.0F * ImGui::GetFontSize());
       if (ImGui::BeginCombo("##drape size", current.c_str())) {
-        for (const int size : kSizes) {
+        for (const int size : technique_->textureSizes) {
           if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_) {
             drapeSize_ = size;
             rebuildOverlays();
@@ -81,18 +75,21 @@ void Viewer::drawPanel() {
         }
         ImGui::EndCombo();
       }
-      if (const auto& drape = renderer_->drape()) {
+      if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
         ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
                             static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
-      } else if (method_ == app::OverlayMethod::DrapeTiles) {
-        ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(renderer_->drapeGpuBytes()) / 1048576.0);
+      } else {
+        ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(renderer_->techniqueGpuBytes()) / 1048576.0);
       }
     }
-    if (changed && static_cast<app::OverlayMethod>(method) != method_) {
-      method_ = static_cast<app::OverlayMethod>(method);
-      // A tile per drawn chunk: keep tiles small (a single drape's size would be far too much).
-      if (method_ == app::OverlayMethod::DrapeTiles && drapeSize_ > 1024) drapeSize_ = 256;
-      if (method_ == app::OverlayMethod::Drape && drapeSize_ < 512) drapeSize_ = 2048;
+    if (chosen != technique_) {
+      technique_ = chosen;
+      // Keep the size where the new technique offers it, else its default (a single drape's
+      // size would be far too much per tile).
+      const std::span<const int> sizes = technique_->textureSizes;
+      if (technique_->usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
+        drapeSize_ = technique_->defaultTextureSize;
+      }
       rebuildOverlays();
     }
     ImGui::Checkbox("debug: pieces", &debugPieces_);

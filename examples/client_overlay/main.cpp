@@ -1,17 +1,20 @@
 // A GIS client with its own terrain (here a sine-wave surface drawn with its own shader) draws a
 // polygon layer and a road layer on it with the stencil core of gis::vector_overlay: it gives
 // the overlay its depth-filled framebuffer, its camera and a HeightBoundsProvider of its own.
-// Exits 0 when both layers cover pixels and GL reported no error; writes client_overlay.png.
+// Exits 0 when both layers cover pixels and GL reported no error; writes client_overlay.ppm.
+// It asks the package for the overlay component only (CMakeLists.txt).
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <fstream>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <glm/geometric.hpp>
 
 #include "gfx/camera.hpp"
 #include "gfx/context.hpp"
-#include "gfx/image_io.hpp"
 #include "gfx/program.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
@@ -48,6 +51,14 @@ class ClientBounds final : public gis::overlay::HeightBoundsProvider {
   }
   gis::overlay::HeightBounds globalBounds() const override { return {-20.0, 20.0}; }
 };
+
+/// The frame as a binary PPM (a client has its own image output; this keeps the example free of
+/// any image library). `rgba` is top row first.
+void writePpm(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba) {
+  std::ofstream out(path, std::ios::binary);
+  out << "P6\n" << width << ' ' << height << "\n255\n";
+  for (std::size_t i = 0; i + 3 < rgba.size(); i += 4) out.write(reinterpret_cast<const char*>(&rgba[i]), 3);
+}
 
 const char* kVertex = R"(#version 450 core
 layout(location = 0) in vec3 a_position;
@@ -142,8 +153,7 @@ int main() {
     areaPixels += m & 1u;
     roadPixels += (m >> 1) & 1u;
   }
-  const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
-  (void)gfx::writeImage8("client_overlay.png", kWidth, kHeight, 4, rgba);
+  writePpm("client_overlay.ppm", kWidth, kHeight, gfx::readColorRgba8(target));
   const std::size_t errors = (*context)->debug().errorCount();
   std::printf("client_overlay: area %zu pixels, road %zu pixels, %zu GL errors\n", areaPixels, roadPixels, errors);
   return areaPixels > 1000 && roadPixels > 100 && errors == 0 ? 0 : 1;

@@ -152,9 +152,13 @@ void enableMaskWrites(GLuint framebuffer, bool enabled) {
   glNamedFramebufferDrawBuffers(framebuffer, 2, buffers);
 }
 
-void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params) {
+void bindDrawTarget(GLuint framebuffer, int width, int height) {
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
   glViewport(0, 0, width, height);
+}
+
+void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params) {
+  bindDrawTarget(framebuffer, width, height);
   if (!params.clearColor && !params.clearDepth && !params.clearStencil) return;
   cache.prepareForClear();
   if (params.clearColor) {

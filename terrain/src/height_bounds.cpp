@@ -184,7 +184,7 @@ QuadtreeHeightBounds::QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree
   }
 }
 
-overlay::HeightBounds QuadtreeHeightBounds::globalBounds() const {
+HeightBounds QuadtreeHeightBounds::globalBounds() const {
   const NodeInfo& root = tree_->info(tree_->root());
   if (!root.hasData) return {0.0, 0.0};
   const double a = root.minHeight * exaggeration_, b = root.maxHeight * exaggeration_;
@@ -201,12 +201,12 @@ bool QuadtreeHeightBounds::coversFootprint(std::span<const glm::dvec2> footprint
   return true;
 }
 
-overlay::HeightBounds QuadtreeHeightBounds::boundsOver(std::span<const glm::dvec2> footprint) const {
+HeightBounds QuadtreeHeightBounds::boundsOver(std::span<const glm::dvec2> footprint) const {
   return boundsOverLevels(footprint, 0, tree_->rootLevel());
 }
 
-overlay::HeightBounds QuadtreeHeightBounds::boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
-                                                             int coarsestLevel) const {
+HeightBounds QuadtreeHeightBounds::boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
+                                                    int coarsestLevel) const {
   if (footprint.empty()) return globalBounds();
   const TerrainGrid& grid = tree_->grid();
   glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());

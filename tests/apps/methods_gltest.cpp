@@ -81,7 +81,8 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
   Result<app::SceneRenderer> stencil = app::SceneRenderer::create(*scene);
   ASSERT_TRUE(stencil.ok());
   app::OverlayBuildSettings paperBuild;
-  paperBuild.method = app::OverlayMethod::Paper;
+  paperBuild.technique = overlay::findTechnique("paper");
+  ASSERT_NE(paperBuild.technique, nullptr);
   Result<app::SceneRenderer> paper = app::SceneRenderer::create(*scene, paperBuild);
   ASSERT_TRUE(paper.ok());
   std::vector<overlay::ReferenceLayer> ref;
@@ -132,16 +133,17 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
     double previous = 1.0;
     for (const int size : {256, 1024, 4096}) {
       app::OverlayBuildSettings build;
-      build.method = app::OverlayMethod::Drape;
-      build.drapeSize = size;
+      build.technique = overlay::findTechnique("drape");
+      build.textureSize = size;
       Result<app::SceneRenderer> draped = app::SceneRenderer::create(*scene, build);
       ASSERT_TRUE(draped.ok());
       draped->render(cache_, target.framebuffer(), kWidth, kHeight, cameras[c], settings);  // builds the drape
-      ASSERT_TRUE(draped->drape().has_value());
-      const Judged j = judge(*draped, cameras[c], &*draped->drape());
+      ASSERT_NE(draped->textureDrape(), nullptr);
+      const Judged j = judge(*draped, cameras[c], draped->textureDrape());
       const double error = static_cast<double>(j.wrong) / static_cast<double>(std::max<std::size_t>(j.terrain, 1));
       std::printf("camera %zu: drape %d² (%.2f m texels): %zu of %zu pixels wrong (%.3f %%), %zu unlike the texel\n", c,
-                  size, draped->drape()->extent().size.x / size, j.wrong, j.terrain, 100.0 * error, j.unlikeTexel);
+                  size, draped->textureDrape()->extent().size.x / size, j.wrong, j.terrain, 100.0 * error,
+                  j.unlikeTexel);
       EXPECT_GT(j.terrain, 5000u);
       EXPECT_EQ(j.unlikeTexel, 0u);
       if (size == 256 && c > 0) {
@@ -173,17 +175,17 @@ TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
     double previous = 1.0;
     for (const int size : {64, 256, 1024}) {
       app::OverlayBuildSettings build;
-      build.method = app::OverlayMethod::DrapeTiles;
-      build.drapeSize = size;
+      build.technique = overlay::findTechnique("drape-tiles");
+      build.textureSize = size;
       Result<app::SceneRenderer> tiled = app::SceneRenderer::create(*scene, build);
       ASSERT_TRUE(tiled.ok());
       const app::FrameStats first = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
       EXPECT_TRUE(first.draped);
-      EXPECT_GT(first.drapeTilesBuilt, 0u);
+      EXPECT_GT(first.texturesBuilt, 0u);
       // The same view again: every tile is resident.
       const app::FrameStats again = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
-      EXPECT_EQ(again.drapeTilesBuilt, 0u);
-      EXPECT_GT(tiled->drapeGpuBytes(), 0u);
+      EXPECT_EQ(again.texturesBuilt, 0u);
+      EXPECT_GT(tiled->techniqueGpuBytes(), 0u);
       const std::vector<float> depth = gfx::readDepth(target);
       const std::vector<std::uint32_t> mask = gfx::readMask(target);
       const overlay::DepthImage image{kWidth, kHeight, depth, camera.projection(aspect) * camera.view()};
@@ -197,7 +199,7 @@ TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
       }
       const double error = static_cast<double>(wrong) / static_cast<double>(std::max<std::size_t>(judged, 1));
       std::printf("drape tiles %d²: %zu of %zu pixels wrong away from edges (%.3f %%), %zu tiles\n", size, wrong,
-                  judged, 100.0 * error, first.drapeTilesBuilt);
+                  judged, 100.0 * error, first.texturesBuilt);
       EXPECT_GT(judged, 5000u);
       if (size == 64) {
         EXPECT_GT(wrong, 0u) << "close up, 64² tiles must show their texels";

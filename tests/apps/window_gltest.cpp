@@ -9,6 +9,7 @@
 #include "app/scene_renderer.hpp"
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
+#include "gfx/window_context.hpp"
 
 namespace gis::test {
 namespace {

@@ -147,7 +147,7 @@ TEST_P(BoundsTest, DrawnSurfaceNeverLeavesTheBoundsOfAnyFootprint) {
         const double t = rot + 6.283 * k / count;
         poly.push_back(centre + glm::dvec2(size * std::cos(t), 0.4 * size * std::sin(t)));
       }
-      const overlay::HeightBounds b = bounds.boundsOver(poly);
+      const HeightBounds b = bounds.boundsOver(poly);
       ASSERT_TRUE(b.valid());
       glm::dvec2 lo = poly[0], hi = poly[0];
       for (const auto& p : poly) {
@@ -211,7 +211,7 @@ TEST_P(BoundsTest, StitchedRimCellsStayInsideTheBounds) {
         const glm::dvec2 g((c + unit(rng)) * cell, (r + unit(rng)) * cell);
         poly.push_back(grid.origin + g * grid.step);
       }
-      const overlay::HeightBounds b = bounds.boundsOver(poly);
+      const HeightBounds b = bounds.boundsOver(poly);
       for (int i = 0; i <= 12; ++i) {
         for (int j = 0; j <= 12 - i; ++j) {
           const double u = i / 12.0, v = j / 12.0;
@@ -232,9 +232,9 @@ TEST_P(BoundsTest, StitchedRimCellsStayInsideTheBounds) {
 
 TEST_P(BoundsTest, NodataAndNonFiniteFootprintsAreSafe) {
   terrain::QuadtreeHeightBounds bounds(tree_);
-  const overlay::HeightBounds global = bounds.globalBounds();
+  const HeightBounds global = bounds.globalBounds();
   const std::vector<glm::dvec2> nan{{std::nan(""), 0.0}, {1.0, 1.0}, {2.0, 0.0}};
-  const overlay::HeightBounds b = bounds.boundsOver(nan);
+  const HeightBounds b = bounds.boundsOver(nan);
   EXPECT_EQ(b.lo, global.lo);
   EXPECT_EQ(b.hi, global.hi);
   EXPECT_EQ(bounds.boundsOver({}).lo, global.lo);
@@ -270,7 +270,7 @@ TEST(PagedBounds, ContainTheExactInMemoryBounds) {
     const glm::dvec2 c(ux(rng), uy(rng));
     const double r = std::pow(10.0, logSize(rng));
     const std::vector<glm::dvec2> box{c - r, glm::dvec2(c.x + r, c.y - r), c + r};
-    const overlay::HeightBounds a = exact.boundsOver(box), b = paged.boundsOver(box);
+    const HeightBounds a = exact.boundsOver(box), b = paged.boundsOver(box);
     ASSERT_LE(b.lo, a.lo);
     ASSERT_GE(b.hi, a.hi);
     exactSpan += a.span();

@@ -22,7 +22,7 @@
 
 #include "cgal.hpp"
 
-#include "geo/vector.hpp"
+#include "geo/feature.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/style.hpp"
 

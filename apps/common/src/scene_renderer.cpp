@@ -50,6 +50,21 @@ std::vector<geo::Feature> outlineFeatures(const std::vector<geo::Feature>& polyg
   return out;
 }
 
+/// The terrain's view of a technique's drape.
+terrain::TerrainEngine::Drape terrainDrapeOf(overlay::SurfaceDrape drape) {
+  terrain::TerrainEngine::Drape d;
+  d.color = drape.color;
+  d.mask = drape.mask;
+  d.origin = drape.origin;
+  d.size = drape.size;
+  d.colorArray = drape.colorArray;
+  d.maskArray = drape.maskArray;
+  if (drape.tileOf) {
+    d.tileOf = [tileOf = std::move(drape.tileOf)](const terrain::NodeId& id) { return tileOf(id.key()); };
+  }
+  return d;
+}
+
 }  // namespace
 
 Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const OverlayBuildSettings& settings) {
@@ -58,7 +73,8 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   sources_.clear();
   const terrain::TerrainGrid& grid = scene.quadtree->grid();
   overlay::LayerBuildOptions options;
-  options.paperVariant = settings.method == OverlayMethod::Paper;
+  techniqueInfo_ = settings.technique != nullptr ? settings.technique : &overlay::defaultTechnique();
+  options.paperVariant = techniqueInfo_->construction == overlay::PieceConstruction::Paper;
   options.adaptiveSplit = settings.adaptiveSplit;
   options.footprints.chordTolerance = settings.chordToleranceMetres;
   const glm::dvec2 a = grid.postPosition(0, 0), b = grid.postPosition(grid.width - 1, grid.height - 1);
@@ -69,12 +85,13 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   cells.columns = std::max(1, static_cast<int>(std::ceil(extent.x / cells.cellSize)));
   cells.rows = std::max(1, static_cast<int>(std::ceil(extent.y / cells.cellSize)));
   options.footprints.cells = cells;
-  method_ = settings.method;
-  drapeSize_ = settings.drapeSize;
-  drapeExtent_ = overlay::DrapeExtent{cells.origin, glm::max(extent, glm::dvec2(1e-3))};
-  drape_.reset();
-  tiledDrape_.reset();
-  drapeDirty_ = true;
+  technique_.reset();
+  overlay::TechniqueOptions techniqueOptions;
+  techniqueOptions.textureSize = settings.textureSize;
+  techniqueOptions.extent = overlay::DrapeExtent{cells.origin, glm::max(extent, glm::dvec2(1e-3))};
+  Result<std::unique_ptr<overlay::OverlayTechnique>> technique = techniqueInfo_->create(techniqueOptions);
+  diagnostics.append(technique.diagnostics);
+  if (technique) technique_ = std::move(*technique);
   std::vector<std::size_t> order(scene.layers.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
@@ -231,67 +248,31 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     timer_->begin();
     statistics_->begin();
   }
-  const bool draping = method_ == OverlayMethod::Drape && settings.overlays && !layers_.empty();
-  if (draping && (drapeDirty_ || !drape_)) {
-    std::vector<const overlay::OverlayLayer*> shown;
-    for (std::size_t j = 0; j < layers_.size(); ++j) shown.push_back(shown_[j] ? &layers_[j] : nullptr);
-    Result<overlay::TextureDrape> built = overlay::TextureDrape::build(cache, shown, drapeExtent_, drapeSize_);
-    drape_.reset();
-    if (built) drape_ = std::move(*built);
-    drapeDirty_ = false;
-    stats.drapeBuildSeconds = drape_ ? drape_->stats().buildSeconds : 0.0;
-    // The drape's own passes left this framebuffer: bind it again, as beginRenderPass did.
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    glViewport(0, 0, width, height);
+  // The technique's frame: prepared before the terrain (drapes), drawn after it.
+  const bool overlays = settings.overlays && !layers_.empty() && technique_;
+  overlay::TechniqueFrame frame;
+  frame.target = overlay::DrawTarget{framebuffer, width, height};
+  frame.view = overlayViewOf(camera, aspect);
+  std::vector<const overlay::OverlayLayer*> shownLayers;
+  shownLayers.reserve(layers_.size());
+  for (std::size_t j = 0; j < layers_.size(); ++j) shownLayers.push_back(shown_[j] ? &layers_[j] : nullptr);
+  frame.layers = shownLayers;
+  std::vector<overlay::DrawnTile> tiles;
+  tiles.reserve(selection_.chunks.size());
+  for (const terrain::SelectedChunk& c : selection_.chunks) {
+    const auto [lo, hi] = tree.frameExtent(c.id);
+    tiles.push_back({c.id.key(), lo, hi});
   }
-  const bool tiling = method_ == OverlayMethod::DrapeTiles && settings.overlays && !layers_.empty();
-  if (tiling) {
-    if (!tiledDrape_) {
-      Result<overlay::TiledDrape> created = overlay::TiledDrape::create(drapeSize_);
-      if (created) tiledDrape_ = std::move(*created);
-    } else if (drapeDirty_) {
-      tiledDrape_->invalidate();
-    }
-    drapeDirty_ = false;
-  }
-  if (tiling && tiledDrape_) {
-    std::vector<const overlay::OverlayLayer*> shown;
-    for (std::size_t j = 0; j < layers_.size(); ++j) shown.push_back(shown_[j] ? &layers_[j] : nullptr);
-    tiledDrape_->beginFrame(selection_.chunks.size());
-    overlay::TiledDrape::FrameStats tileStats;
-    frameTiles_.clear();
-    for (const terrain::SelectedChunk& c : selection_.chunks) {
-      const auto [lo, hi] = terrain_->tree().frameExtent(c.id);
-      frameTiles_[c.id.key()] =
-          tiledDrape_->tile(cache, shown, c.id.key(), overlay::DrapeExtent{lo, hi - lo}, tileStats);
-    }
-    stats.drapeTilesBuilt = tileStats.tilesBuilt;
-    stats.drapeTileSeconds = tileStats.buildSeconds;
-    if (tileStats.tilesBuilt > 0) {
-      glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-      glViewport(0, 0, width, height);
-    }
-    terrain::TerrainEngine::Drape d;
-    d.colorArray = tiledDrape_->colorArray();
-    d.maskArray = tiledDrape_->maskArray();
-    d.tileOf = [this](const terrain::NodeId& id) -> std::optional<std::tuple<int, glm::dvec2, glm::dvec2>> {
-      const auto found = frameTiles_.find(id.key());
-      if (found == frameTiles_.end()) return std::nullopt;
-      return std::tuple{found->second.layer, found->second.extent.origin, found->second.extent.size};
-    };
-    terrain_->setDrape(std::move(d));
-    stats.draped = true;
-  } else if (draping && drape_) {
-    stats.draped = true;
-    terrain::TerrainEngine::Drape d;
-    d.color = drape_->colorTexture();
-    d.mask = drape_->maskTexture();
-    d.origin = drape_->extent().origin;
-    d.size = drape_->extent().size;
-    terrain_->setDrape(std::move(d));
-  } else {
-    terrain_->setDrape(std::nullopt);
-  }
+  frame.tiles = tiles;
+  frame.settings = settings.overlay;
+  frame.settings.measure = settings.measure;
+  overlay::TechniqueFrameStats techniqueStats;
+  std::optional<overlay::SurfaceDrape> drape;
+  if (overlays) drape = technique_->prepare(cache, frame, techniqueStats);
+  stats.texturesBuilt = techniqueStats.texturesBuilt;
+  stats.textureSeconds = techniqueStats.textureSeconds;
+  stats.draped = drape.has_value();
+  terrain_->setDrape(drape ? std::optional(terrainDrapeOf(std::move(*drape))) : std::nullopt);
   // The terrain shader writes the mask only from a drape; otherwise the overlay passes do.
   gfx::enableMaskWrites(framebuffer, stats.draped);
   terrain_->setWireframe(settings.wireframe);
@@ -304,15 +285,9 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     stats.terrain.counts = statistics_->result();
   }
   gfx::enableMaskWrites(framebuffer, true);
-  if (settings.overlays && !layers_.empty() && method_ != OverlayMethod::Drape &&
-      method_ != OverlayMethod::DrapeTiles) {
-    const overlay::OverlayView overlayView = overlayViewOf(camera, aspect);
-    std::vector<const overlay::OverlayLayer*> drawn;
-    drawn.reserve(layers_.size());
-    for (std::size_t j = 0; j < layers_.size(); ++j) drawn.push_back(shown_[j] ? &layers_[j] : nullptr);
-    overlay::OverlaySettings overlaySettings = settings.overlay;
-    overlaySettings.measure = settings.measure;
-    stats.layers = overlay_->draw(cache, overlayView, drawn, overlaySettings);
+  if (overlays) {
+    technique_->draw(cache, frame, techniqueStats);
+    stats.layers = std::move(techniqueStats.layers);
   }
   return stats;
 }

@@ -12,6 +12,7 @@
 
 #include "app/json_file.hpp"
 #include "vector_overlay/style.hpp"
+#include "vector_overlay/technique.hpp"
 
 namespace gis::app {
 namespace {
@@ -349,11 +350,10 @@ void readStep(const json& entry, const fs::path& base, const std::string& file, 
       break;
     case ScriptAction::Method:
       if (const std::optional<std::string> m = r.string("value", true)) {
-        if (*m == "stencil" || *m == "paper" || *m == "drape" || *m == "drape-tiles") {
+        if (overlay::findTechnique(*m) != nullptr) {
           step.text = *m;
         } else {
-          r.problem("'value': unknown method '" + *m +
-                    "'; expected \"stencil\", \"paper\", \"drape\" or \"drape-tiles\"");
+          r.problem("'value': unknown method '" + *m + "'; expected " + overlay::techniqueNameList());
         }
       }
       // Texture draping: texels per side, of the texture or of each tile (frames holds it; 0 =

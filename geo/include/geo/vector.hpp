@@ -12,32 +12,12 @@
 #include <glm/vec2.hpp>
 
 #include "core/diagnostics.hpp"
+#include "geo/feature.hpp"
 #include "geo/frame.hpp"
 
 namespace gis::geo {
 
-/// A ring in frame coordinates. Not closed: the last point is not a copy of the first.
-using Ring = std::vector<glm::dvec2>;
-using LineString = std::vector<glm::dvec2>;
-
-struct Polygon {
-  Ring outer;
-  std::vector<Ring> holes;
-};
-
-using AttributeValue = std::variant<std::monostate, std::int64_t, double, std::string>;
-
 enum class GeometryKind { Polygon, Line, Mixed, Empty };
-
-/// One OGR feature. A multi-polygon has several polygons; a multi-line several lines.
-struct Feature {
-  std::int64_t fid = -1;
-  std::vector<Polygon> polygons;
-  std::vector<LineString> lines;
-  std::map<std::string, AttributeValue> attributes;
-
-  [[nodiscard]] std::size_t vertexCount() const;
-};
 
 struct VectorLayer {
   std::string path;

@@ -1,6 +1,7 @@
 #pragma once
-// A current OpenGL 4.5 core context, headless (EGL, Mesa surfaceless) or in a window (GLFW),
-// behind one interface: everything above gfx works with either.
+// A current OpenGL 4.5 core context, headless (EGL, Mesa surfaceless) or in a window (GLFW,
+// gfx/window_context.hpp in gis::window), behind one interface: everything above gfx works with
+// either.
 #include <memory>
 #include <string>
 
@@ -68,11 +69,5 @@ class Context {
 
 /// OpenGL 4.5 core through EGL on Mesa's surfaceless platform: no display, no window.
 Result<std::unique_ptr<Context>> createHeadlessContext(const ContextOptions& options = {});
-
-/// True when a window can be opened (GLFW initialises and finds a display).
-bool windowSystemAvailable();
-
-/// OpenGL 4.5 core in a GLFW window.
-Result<std::unique_ptr<Context>> createWindowContext(const ContextOptions& options = {});
 
 }  // namespace gis::gfx

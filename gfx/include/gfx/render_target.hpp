@@ -74,6 +74,9 @@ inline constexpr float kReversedZFar = 0.0F;
 /// Binds the target (0 = the default framebuffer with the given size), sets the viewport and
 /// clears what `params` names, through the state cache.
 void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params);
+/// Binds the target (0 = the default framebuffer) and sets the viewport to its size, clearing
+/// nothing: a pass that continues drawing into a target another pass left.
+void bindDrawTarget(GLuint framebuffer, int width, int height);
 inline void beginRenderPass(StateCache& cache, const RenderTarget& target, const RenderPassParams& params) {
   beginRenderPass(cache, target.framebuffer(), target.width(), target.height(), params);
 }

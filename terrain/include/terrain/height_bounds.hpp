@@ -15,8 +15,8 @@
 #include <span>
 #include <vector>
 
+#include "core/height_bounds.hpp"
 #include "terrain/quadtree.hpp"
-#include "vector_overlay/height_bounds.hpp"
 
 namespace gis::terrain {
 
@@ -47,21 +47,21 @@ class MinMaxPyramid {
   std::vector<Level> levels_;  ///< levels_[k] holds blocks of 2^(k+1) base cells a side
 };
 
-class QuadtreeHeightBounds final : public overlay::HeightBoundsProvider {
+class QuadtreeHeightBounds final : public HeightBoundsProvider {
  public:
   explicit QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree> tree, double exaggeration = 1.0);
 
   void setExaggeration(double exaggeration) { exaggeration_ = exaggeration; }
   [[nodiscard]] double exaggeration() const { return exaggeration_; }
 
-  [[nodiscard]] overlay::HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const override;
-  [[nodiscard]] overlay::HeightBounds globalBounds() const override;
+  [[nodiscard]] HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const override;
+  [[nodiscard]] HeightBounds globalBounds() const override;
   /// Inside the DEM's posts and no nodata anywhere in the DEM (a conservative answer).
   [[nodiscard]] bool coversFootprint(std::span<const glm::dvec2> footprint) const override;
 
   /// Bounds for drawing only levels ≥ `finestLevel` (for measuring what finer LODs would gain).
-  [[nodiscard]] overlay::HeightBounds boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
-                                                       int coarsestLevel) const;
+  [[nodiscard]] HeightBounds boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
+                                              int coarsestLevel) const;
 
   /// Height of the full-resolution DEM surface (exaggerated); NaN at nodata.
   [[nodiscard]] double fullResolutionHeightAt(const glm::dvec2& frameXy) const;

@@ -31,7 +31,7 @@
 #include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
-#include "geo/vector.hpp"
+#include "geo/feature.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/style.hpp"
 

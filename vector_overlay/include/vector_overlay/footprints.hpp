@@ -52,7 +52,7 @@
 #include <glm/vec3.hpp>
 
 #include "core/diagnostics.hpp"
-#include "geo/vector.hpp"
+#include "geo/feature.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::overlay {

@@ -1,36 +1,11 @@
 #pragma once
-// The contract between a terrain and the overlay (DESIGN §5): for a 2D footprint in the scene
-// frame, heights [lo, hi] that contain the surface *as drawn* over it — at whatever level of
-// detail can be on screen there, with vertical exaggeration applied. Our terrain implements it;
-// a GIS client with its own terrain implements it for theirs.
-#include <span>
-
-#include <glm/vec2.hpp>
+// The bounds contract between a terrain and the overlay (DESIGN §5) is core/height_bounds.hpp;
+// these names keep clients that spell it overlay::HeightBoundsProvider compiling.
+#include "core/height_bounds.hpp"
 
 namespace gis::overlay {
 
-struct HeightBounds {
-  double lo = 0.0;
-  double hi = 0.0;
-  [[nodiscard]] bool valid() const { return lo <= hi; }
-  [[nodiscard]] double span() const { return hi - lo; }
-};
-
-class HeightBoundsProvider {
- public:
-  virtual ~HeightBoundsProvider() = default;
-  /// Bounds over the convex hull of `footprint` (frame coordinates, metres). Outside the
-  /// terrain, implementations return bounds that are still safe (e.g. the global range).
-  [[nodiscard]] virtual HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const = 0;
-  /// Bounds of the whole terrain as drawn.
-  [[nodiscard]] virtual HeightBounds globalBounds() const = 0;
-  /// True if the terrain is drawn over the whole convex hull of `footprint` (inside the DEM, no
-  /// nodata there): then nothing below the surface can be seen through it, and z-pass
-  /// polyhedra leave out their bottom caps. The safe default says no.
-  [[nodiscard]] virtual bool coversFootprint(std::span<const glm::dvec2> footprint) const {
-    (void)footprint;
-    return false;
-  }
-};
+using gis::HeightBounds;
+using gis::HeightBoundsProvider;
 
 }  // namespace gis::overlay

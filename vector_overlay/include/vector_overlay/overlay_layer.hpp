@@ -22,7 +22,7 @@
 #include <glm/vec4.hpp>
 
 #include "core/diagnostics.hpp"
-#include "geo/vector.hpp"
+#include "geo/feature.hpp"
 #include "gfx/handles.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/footprints.hpp"

@@ -2,6 +2,7 @@
 // Draws a loaded scene into any framebuffer, headless or windowed, pass by pass (DESIGN §4):
 // the terrain, then the vector layers as stencil polyhedra (the selection passes join later).
 #include <cstdint>
+#include <memory>
 #include <optional>
 
 #include <glm/vec4.hpp>
@@ -14,7 +15,7 @@
 #include "terrain/tile_pager.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
-#include "vector_overlay/texture_drape.hpp"
+#include "vector_overlay/technique.hpp"
 
 namespace gis::app {
 
@@ -31,15 +32,10 @@ struct RenderSettings {
   overlay::OverlaySettings overlay;
 };
 
-/// How the vector layers are drawn: ours, the seed paper's construction (for the benchmark), or
-/// texture draping (the baseline of other GIS viewers: overlay::TextureDrape).
-/// Stencil: our polyhedra; Paper: the seed paper's construction; Drape: one texture over the
-/// terrain (drapeSize² texels); DrapeTiles: a drapeSize² texture per drawn quadtree chunk.
-enum class OverlayMethod { Stencil, Paper, Drape, DrapeTiles };
-
 struct OverlayBuildSettings {
-  OverlayMethod method = OverlayMethod::Stencil;
-  int drapeSize = 2048;       ///< Drape: texels per side of the texture over the terrain's extent; DrapeTiles: per tile
+  /// How the vector layers are drawn (overlay::techniques()); null: the default, ours.
+  const overlay::TechniqueInfo* technique = nullptr;
+  int textureSize = 0;        ///< techniques that rasterise textures: texels per side (0: the technique's default)
   int cellPosts = 16;         ///< pieces are split at cells of this many DEM posts (tightness)
   bool adaptiveSplit = true;  ///< keep the split only where it pays (overlay::LayerBuildOptions)
   double chordToleranceMetres = 0.02;
@@ -58,10 +54,9 @@ struct FrameStats {
   int coarsestLevel = 0;
   double selectMilliseconds = 0.0;               ///< CPU time of the LOD selection
   std::vector<overlay::LayerFrameStats> layers;  ///< per drawn overlay layer (fill, then outline)
-  bool draped = false;                           ///< the layers came from the texture drape
-  double drapeBuildSeconds = 0.0;                ///< the drape was (re)built in this frame, so long
-  std::size_t drapeTilesBuilt = 0;               ///< DrapeTiles: tiles rasterised in this frame
-  double drapeTileSeconds = 0.0;                 ///< and the time that took (part of the frame)
+  bool draped = false;                           ///< the layers came from a drape (the terrain shader drew them)
+  std::size_t texturesBuilt = 0;                 ///< draping: textures (or tiles) rasterised in this frame
+  double textureSeconds = 0.0;                   ///< and the time that took (part of the frame)
   std::size_t tilesMissing = 0;                  ///< paged terrain: tiles wanted but not loaded (parents drawn)
   std::size_t tilesArrived = 0;                  ///< paged terrain: tiles that became resident this frame
   terrain::TilePagerStats pager;
@@ -91,7 +86,7 @@ class SceneRenderer {
   /// Uploads the scene to the current context: terrain and the visible vector layers.
   static Result<SceneRenderer> create(const LoadedScene& scene, const OverlayBuildSettings& overlays = {});
 
-  /// Rebuilds the overlay layers (another method, or after a change of exaggeration).
+  /// Rebuilds the overlay layers (another technique, or after a change of exaggeration).
   Diagnostics buildOverlays(const LoadedScene& scene, const OverlayBuildSettings& overlays);
 
   /// Clears colour, depth (reversed-Z: 0) and stencil, selects the terrain chunks for this view
@@ -103,31 +98,32 @@ class SceneRenderer {
   [[nodiscard]] const terrain::LodSelection& lastSelection() const { return selection_; }
   /// The overlay layers in draw order (a polygon layer's outline follows its fill).
   [[nodiscard]] const std::vector<overlay::OverlayLayer>& overlayLayers() const { return layers_; }
-  /// The overlay passes, for analysis on the frame just drawn (OverlayRenderer::markOverlap ...).
+  /// The stencil passes, for analysis on the frame just drawn (OverlayRenderer::markOverlap ...),
+  /// whatever technique draws the layers.
   [[nodiscard]] overlay::OverlayRenderer& overlayRenderer() { return *overlay_; }
-  /// For editing features (the next frame shows the change).
+  /// For editing features (the next frame shows the change; call invalidateOverlays).
   [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
-  /// After an edit of overlayLayer(i): a single drape is rasterised again at the next frame;
-  /// of a tiled drape only the tiles over the frame-coordinate box [lo, hi].
-  void invalidateDrape(const glm::dvec2& lo, const glm::dvec2& hi) {
-    drapeDirty_ = drapeDirty_ || drape_.has_value();
-    if (tiledDrape_) tiledDrape_->invalidate(lo, hi);
+  /// After an edit of overlayLayer(i) inside the frame-coordinate box [lo, hi]: what the
+  /// technique derived from the layers there is made again at the next frame.
+  void invalidateOverlays(const glm::dvec2& lo, const glm::dvec2& hi) {
+    if (technique_) technique_->invalidate(lo, hi);
   }
   /// Shows or hides one overlay layer from the next frame on (no rebuild; mask bits keep their
   /// places). A rebuild shows every layer again.
   void setShown(std::size_t overlayLayer, bool shown) {
-    drapeDirty_ = drapeDirty_ || shown_.at(overlayLayer) != shown;
+    if (technique_ && shown_.at(overlayLayer) != shown) technique_->invalidate();
     shown_.at(overlayLayer) = shown;
   }
   [[nodiscard]] bool shown(std::size_t overlayLayer) const { return shown_.at(overlayLayer); }
-  [[nodiscard]] OverlayMethod method() const { return method_; }
-  /// The texture drape (method Drape) as last built: at the first frame that draws overlays, and
-  /// again after a change of the shown layers.
-  [[nodiscard]] const std::optional<overlay::TextureDrape>& drape() const { return drape_; }
-  /// GPU bytes of the drape (either kind), 0 before the first draped frame.
-  [[nodiscard]] std::size_t drapeGpuBytes() const {
-    return drape_ ? drape_->stats().gpuBytes : tiledDrape_ ? tiledDrape_->gpuBytes() : 0;
+  /// The technique that draws the layers.
+  [[nodiscard]] const overlay::TechniqueInfo& technique() const { return *techniqueInfo_; }
+  /// The texture over the whole terrain, if the technique drapes one (as last built: at the
+  /// first frame that draws overlays, and again after a change).
+  [[nodiscard]] const overlay::TextureDrape* textureDrape() const {
+    return technique_ ? technique_->textureDrape() : nullptr;
   }
+  /// GPU bytes the technique holds beyond the layers (textures, tiles).
+  [[nodiscard]] std::size_t techniqueGpuBytes() const { return technique_ ? technique_->gpuBytes() : 0; }
   /// What became of scene layer `sceneLayer`'s features as last built.
   [[nodiscard]] LayerSummary layerSummary(const LoadedScene& scene, std::size_t sceneLayer) const;
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.
@@ -136,17 +132,12 @@ class SceneRenderer {
  private:
   SceneRenderer() = default;
   std::optional<terrain::TerrainEngine> terrain_;
-  std::optional<overlay::OverlayRenderer> overlay_;
+  std::optional<overlay::OverlayRenderer> overlay_;  ///< analysis passes
   std::vector<overlay::OverlayLayer> layers_;
   std::vector<std::pair<std::size_t, bool>> sources_;
   std::vector<bool> shown_;
-  OverlayMethod method_ = OverlayMethod::Stencil;
-  int drapeSize_ = 2048;
-  overlay::DrapeExtent drapeExtent_;
-  std::optional<overlay::TextureDrape> drape_;
-  std::optional<overlay::TiledDrape> tiledDrape_;
-  std::unordered_map<std::uint64_t, overlay::TiledDrape::Tile> frameTiles_;  ///< this frame's, per chunk
-  bool drapeDirty_ = true;
+  const overlay::TechniqueInfo* techniqueInfo_ = &overlay::defaultTechnique();
+  std::unique_ptr<overlay::OverlayTechnique> technique_;
   terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
   std::optional<gfx::PipelineStatistics> statistics_;

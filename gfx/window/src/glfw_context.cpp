@@ -4,6 +4,7 @@
 #include "core/log.hpp"
 #include "gfx/context.hpp"
 #include "gfx/gl.hpp"
+#include "gfx/window_context.hpp"
 
 #include <GLFW/glfw3.h>
 

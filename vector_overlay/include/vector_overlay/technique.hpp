@@ -1,0 +1,156 @@
+#pragma once
+// How vector layers reach the pixels: one interface for every overlay technique, and one
+// registry of them that the programs enumerate (overlay_render --method, the viewer's panel and
+// scripts, every mode of overlay_bench). Adding a technique is one new file in
+// vector_overlay/src/ and one line in technique_registry.cpp.
+//
+// A frame runs a technique in two steps around the terrain:
+//   prepare(): before the terrain is drawn. A technique that drapes (rasterises the layers into
+//     textures that the terrain shader samples) builds what it must and returns the textures;
+//     the others return nothing.
+//   draw(): after the terrain, into the depth-filled target. Stencil techniques mark and cover
+//     here (OverlayRenderer); drapes have nothing left to do.
+// Both get the target explicitly (never read back from GL) and leave it bound with its viewport.
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <tuple>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "core/diagnostics.hpp"
+#include "gfx/gl.hpp"
+#include "gfx/state_cache.hpp"
+#include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/texture_drape.hpp"
+
+namespace gis::overlay {
+
+/// The framebuffer a technique draws into (0: the default framebuffer) and its size in pixels.
+struct DrawTarget {
+  GLuint framebuffer = 0;
+  int width = 0;
+  int height = 0;
+};
+
+/// A terrain tile drawn in this frame, for techniques that work per tile.
+struct DrawnTile {
+  std::uint64_t key = 0;  ///< the terrain's own key of the tile (stable while it is drawn)
+  glm::dvec2 lo{0.0};     ///< frame coordinates of its extent
+  glm::dvec2 hi{0.0};
+};
+
+/// What the terrain shader samples when a technique drapes: one texture over an extent, or a
+/// texture array with a layer per drawn tile.
+struct SurfaceDrape {
+  GLuint color = 0;        ///< premultiplied RGBA, mip-mapped
+  GLuint mask = 0;         ///< R32F layer bits
+  glm::dvec2 origin{0.0};  ///< the extent's minimum corner, frame coordinates
+  glm::dvec2 size{1.0};    ///< metres
+  /// Per tile: texture arrays, and for each drawn tile its array layer and extent (origin,
+  /// size); a tile without one is drawn undraped. Then color, mask, origin and size are unused.
+  GLuint colorArray = 0;
+  GLuint maskArray = 0;
+  std::function<std::optional<std::tuple<int, glm::dvec2, glm::dvec2>>(std::uint64_t tileKey)> tileOf;
+};
+
+/// One frame as a technique sees it.
+struct TechniqueFrame {
+  DrawTarget target;
+  OverlayView view;
+  /// The layers in draw order; layer i gets mask bit i. A null entry is hidden (its bit stays).
+  std::span<const OverlayLayer* const> layers;
+  std::span<const DrawnTile> tiles;  ///< the terrain tiles drawn in this frame
+  OverlaySettings settings;
+};
+
+/// What a technique did in one frame.
+struct TechniqueFrameStats {
+  std::vector<LayerFrameStats> layers;  ///< per layer, for techniques that draw layers in passes
+  bool draped = false;                  ///< the terrain shader draws the layers (prepare returned a drape)
+  std::size_t texturesBuilt = 0;        ///< textures (or tiles of one) rasterised in this frame
+  double textureSeconds = 0.0;          ///< the time that took (part of the frame)
+};
+
+/// How a technique wants the layers' pieces built (OverlayLayer::build).
+enum class PieceConstruction {
+  Ours,   ///< split at cells where that pays, tight bounds per piece (DESIGN §5)
+  Paper,  ///< the seed paper's: one bound pair per feature, covered by bounding boxes
+};
+
+class OverlayTechnique {
+ public:
+  virtual ~OverlayTechnique() = default;
+  OverlayTechnique() = default;
+  OverlayTechnique(const OverlayTechnique&) = delete;
+  OverlayTechnique& operator=(const OverlayTechnique&) = delete;
+
+  /// Before the terrain is drawn: builds what the frame needs; returns the drape for the terrain
+  /// shader, if the technique drapes. Leaves frame.target bound with its viewport.
+  std::optional<SurfaceDrape> prepare(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats);
+  /// After the terrain: draws the layers into frame.target, whose depth buffer holds the terrain
+  /// (reversed-Z). The stencil is 0 before and after; frame.target is left bound.
+  void draw(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats);
+  /// Everything the technique derived from the layers is stale (another set of layers shown, a
+  /// rebuild, a change of exaggeration).
+  virtual void invalidate() {}
+  /// The features changed inside the frame-coordinate box [lo, hi] only (an edit).
+  virtual void invalidate(const glm::dvec2& lo, const glm::dvec2& hi) {
+    (void)lo;
+    (void)hi;
+    invalidate();
+  }
+  /// GPU bytes the technique holds beyond the layers' own buffers (textures, tiles).
+  [[nodiscard]] virtual std::size_t gpuBytes() const { return 0; }
+  /// A technique that drapes one texture over the whole terrain: that texture, as last built.
+  [[nodiscard]] virtual const TextureDrape* textureDrape() const { return nullptr; }
+
+ private:
+  // What each technique implements; prepare() and draw() bind the target around them, so that
+  // no technique can leave another framebuffer bound.
+  virtual std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
+                                                   TechniqueFrameStats& stats) = 0;
+  virtual void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) = 0;
+};
+
+/// What every technique may be given when it is made.
+struct TechniqueOptions {
+  int textureSize = 0;  ///< texels per side of a texture technique's texture (or tile); 0: its default
+  DrapeExtent extent;   ///< the terrain's extent (frame coordinates): what a single drape covers
+};
+
+/// A technique's entry in the registry.
+struct TechniqueInfo {
+  std::string_view name;         ///< on the command line, in scripts and JSON
+  std::string_view label;        ///< in the viewer's panel and the benchmark's tables
+  std::string_view description;  ///< one line for --help: what it is
+  std::string_view plotColour;   ///< "#rrggbb" in the benchmark's plots
+  PieceConstruction construction = PieceConstruction::Ours;
+  /// Techniques that rasterise into textures: texels per side by default, and the sizes the
+  /// viewer offers (empty for the others).
+  int defaultTextureSize = 0;
+  std::span<const int> textureSizes;
+  /// Makes the technique; needs a current GL 4.5 context. Fails with a message naming the
+  /// technique (a shader that does not compile, a texture size out of range).
+  Result<std::unique_ptr<OverlayTechnique>> (*create)(const TechniqueOptions& options) = nullptr;
+
+  [[nodiscard]] bool usesTextures() const { return defaultTextureSize > 0; }
+};
+
+/// Every technique, the default (our stencil polyhedra) first.
+std::span<const TechniqueInfo> techniques();
+/// The technique called `name`, or null.
+const TechniqueInfo* findTechnique(std::string_view name);
+/// The default technique.
+const TechniqueInfo& defaultTechnique();
+/// The names for messages: "stencil, paper, drape or drape-tiles".
+std::string techniqueNameList();
+
+}  // namespace gis::overlay

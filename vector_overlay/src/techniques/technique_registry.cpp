@@ -1,0 +1,49 @@
+// The one list of overlay techniques (technique.hpp): the programs enumerate it.
+#include <vector>
+
+#include "gfx/render_target.hpp"
+#include "techniques/techniques.hpp"
+
+namespace gis::overlay {
+
+std::optional<SurfaceDrape> OverlayTechnique::prepare(gfx::StateCache& cache, const TechniqueFrame& frame,
+                                                      TechniqueFrameStats& stats) {
+  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  std::optional<SurfaceDrape> drape = prepareFrame(cache, frame, stats);
+  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  return drape;
+}
+
+void OverlayTechnique::draw(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) {
+  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  drawFrame(cache, frame, stats);
+  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+}
+std::span<const TechniqueInfo> techniques() {
+  // Default first. A new technique: its file in techniques/, its entry declared in
+  // techniques.hpp and listed here. (Built at first use, after every file's initialisation.)
+  static const std::vector<TechniqueInfo> all{kStencilTechnique, kPaperTechnique, kDrapeTechnique,
+                                              kTiledDrapeTechnique};
+  return all;
+}
+
+const TechniqueInfo* findTechnique(std::string_view name) {
+  for (const TechniqueInfo& info : techniques()) {
+    if (info.name == name) return &info;
+  }
+  return nullptr;
+}
+
+const TechniqueInfo& defaultTechnique() { return techniques().front(); }
+
+std::string techniqueNameList() {
+  std::string list;
+  const std::span<const TechniqueInfo> all = techniques();
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (i > 0) list += i + 1 == all.size() ? " or " : ", ";
+    list += all[i].name;
+  }
+  return list;
+}
+
+}  // namespace gis::overlay

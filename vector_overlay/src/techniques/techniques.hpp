@@ -1,0 +1,12 @@
+#pragma once
+// The registry's entries (each defined in its technique's file) and what their files share.
+#include "vector_overlay/technique.hpp"
+
+namespace gis::overlay {
+
+extern const TechniqueInfo kStencilTechnique;
+extern const TechniqueInfo kPaperTechnique;
+extern const TechniqueInfo kDrapeTechnique;
+extern const TechniqueInfo kTiledDrapeTechnique;
+
+}  // namespace gis::overlay
