@@ -90,7 +90,19 @@ class Viewer {
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
+
+  // The panel, a function per section (viewer_panel.cpp).
   void drawPanel();
+  void drawViewSection();
+  void drawOverlaySection();
+  /// The drape's (or each tile's) texture size, for the draping methods.
+  void drawDrapeSize();
+  void drawLayersSection();
+  /// Scene layer i's row and, when open, its style; true when the style changed (to rebuild).
+  bool drawLayer(std::size_t i);
+  void drawSelectionSection();
+  void drawSelectedFeatures();
+  void drawMessagesSection();
   /// The window without a scene: what went wrong, and what to open.
   void drawNoScene();
   void drawHud();
