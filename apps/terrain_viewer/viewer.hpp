@@ -81,16 +81,37 @@ class Viewer {
   bool loadPath(const std::string& path);
   bool useScene(app::SceneDescription description);
   void frame(double seconds);
+
+  // Input (viewer_input.cpp).
+  /// Sends the window's scroll, drop and key events to this viewer.
+  void installCallbacks();
   [[nodiscard]] InputFrame readInput();
   void handleInput(double seconds, const InputFrame& in);
-  /// The GLFW key of a script's key name (app::ScriptStep::text), or GLFW_KEY_UNKNOWN.
+  void handleMouse(const InputFrame& in);
+  /// A key pressed (edge-triggered): the viewer's key commands. `fly`: the camera mode when the
+  /// frame's input began (F toggles from it).
+  void keyPressed(int key, bool fly);
+  /// The GLFW key of a script's key name (app::KeyStep::key), or GLFW_KEY_UNKNOWN.
   static int keyCode(const std::string& name);
+
   /// What a test of the viewer checks: camera and pose, window, selection, identify, layers.
   [[nodiscard]] nlohmann::json state() const;
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
+
+  // The panel, a function per section (viewer_panel.cpp).
   void drawPanel();
+  void drawViewSection();
+  void drawOverlaySection();
+  /// The drape's (or each tile's) texture size, for the draping methods.
+  void drawDrapeSize();
+  void drawLayersSection();
+  /// Scene layer i's row and, when open, its style; true when the style changed (to rebuild).
+  bool drawLayer(std::size_t i);
+  void drawSelectionSection();
+  void drawSelectedFeatures();
+  void drawMessagesSection();
   /// The window without a scene: what went wrong, and what to open.
   void drawNoScene();
   void drawHud();
@@ -123,7 +144,12 @@ class Viewer {
   /// Scene only (`ui` false: also <stem>_depth.tiff and <stem>_camera.json beside it), or the
   /// whole window as shown.
   bool screenshot(const std::filesystem::path& path, bool ui);
+
+  // Script (viewer_script_runner.cpp).
+  /// This frame's part of the script: played input, a live step, waits, or the next steps.
+  void advanceScript(double seconds);
   bool runStep(const app::ScriptStep& step);  ///< false: the step failed (reported)
+
   void message(const std::string& text, bool error = false);
 
   [[nodiscard]] glm::ivec2 framebufferSize() const;
@@ -190,6 +216,7 @@ class Viewer {
   std::optional<std::pair<std::filesystem::path, bool>> pendingShot_;  ///< taken at the end of this frame
 
   friend struct Callbacks;
+  friend struct StepRunner;
 };
 
 }  // namespace gis::viewer

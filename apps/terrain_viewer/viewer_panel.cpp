@@ -31,197 +31,219 @@ void Viewer::drawPanel() {
   ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
   ImGui::TextDisabled("drop a scene, DEM or vector file on the window; ? for keys");
 
-  if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
-    if (ImGui::Button("Home (H)")) controller_->goHome();
-    ImGui::SameLine();
-    bool fly = controller_->mode() == app::CameraController::Mode::Fly;
-    if (ImGui::Checkbox("fly (F)", &fly)) {
-      controller_->setMode(fly ? app::CameraController::Mode::Fly : app::CameraController::Mode::Orbit);
-    }
-    float fov = static_cast<float>(settings_.fovYDeg);
-    if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F, "%.0f°")) settings_.fovYDeg = fov;
-    float tolerance = static_cast<float>(settings_.lodTolerancePixels);
-    if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
-      settings_.lodTolerancePixels = tolerance;
-    }
-    float exaggeration = static_cast<float>(render_.verticalExaggeration);
-    ImGui::SliderFloat("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
-    if (ImGui::IsItemDeactivatedAfterEdit()) setExaggeration(exaggeration);
-    ImGui::Checkbox("wireframe", &render_.wireframe);
-    ImGui::SameLine();
-    if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &settings_.imagery);
-  }
-
-  if (ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) {
-    ImGui::Checkbox("vector layers (O)", &render_.overlays);
-    const overlay::TechniqueInfo* chosen = technique_;
-    const std::span<const overlay::TechniqueInfo> all = overlay::techniques();
-    for (std::size_t i = 0; i < all.size(); ++i) {
-      if (i % 2 == 1) ImGui::SameLine();
-      if (ImGui::RadioButton(std::string(all[i].label).c_str(), technique_ == &all[i])) chosen = &all[i];
-    }
-    if (technique_->usesTextures()) {
-      // The baseline of other viewers, for comparison: its texels show close up. Per tile, the
-      // size is each drawn chunk's texture.
-      ImGui::SameLine();
-      const std::string current = std::to_string(drapeSize_) + "²";
-      ImGui::SetNextItemWidth(6.0F * ImGui::GetFontSize());
-      if (ImGui::BeginCombo("##drape size", current.c_str())) {
-        for (const int size : technique_->textureSizes) {
-          if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_) {
-            drapeSize_ = size;
-            rebuildOverlays();
-          }
-        }
-        ImGui::EndCombo();
-      }
-      if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
-        ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
-                            static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
-      } else {
-        ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(renderer_->techniqueGpuBytes()) / 1048576.0);
-      }
-    }
-    if (chosen != technique_) {
-      technique_ = chosen;
-      // Keep the size where the new technique offers it, else its default (a single drape's
-      // size would be far too much per tile).
-      const std::span<const int> sizes = technique_->textureSizes;
-      if (technique_->usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
-        drapeSize_ = technique_->defaultTextureSize;
-      }
-      rebuildOverlays();
-    }
-    ImGui::Checkbox("debug: pieces", &debugPieces_);
-    if (debugPieces_) {
-      ImGui::SameLine();
-      ImGui::TextColored(ImVec4(0.1F, 0.8F, 0.2F, 1.0F), "z-pass");
-      ImGui::SameLine();
-      ImGui::TextColored(ImVec4(0.9F, 0.2F, 0.2F, 1.0F), "z-fail");
-    }
-  }
-
-  if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
-    bool rebuild = false;
-    for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-      ImGui::PushID(static_cast<int>(i));
-      app::LayerDescription& layer = description_->layers[i];
-      const std::optional<bool> state = layerShown(i);
-      const bool built = state.has_value();
-      bool shown = state.value_or(false);
-      if (!built) ImGui::BeginDisabled();
-      if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
-      if (!built) ImGui::EndDisabled();
-      ImGui::SameLine();
-      const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
-      const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
-      if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
-        // Nothing is lost silently: the counts here, each feature named under Messages.
-        ImGui::TextColored(ImVec4(1.0F, 0.75F, 0.3F, 1.0F), "    %zu skipped for errors, %zu with nothing to draw",
-                           summary.skipped(), summary.nothingToDraw);
-        if (ImGui::IsItemHovered()) ImGui::SetTooltip("Each is named, with its problem, under Messages.");
-      }
-      if (open) {
-        ImGui::ColorEdit3("colour", &layer.style.color.x, ImGuiColorEditFlags_NoInputs);
-        rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
-        ImGui::SliderFloat("opacity", &layer.style.opacity, 0.0F, 1.0F);
-        rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
-        if (layer.kind == overlay::LayerKind::Line) {
-          constexpr double kMinWidth = 0.5, kMaxWidth = 200.0;
-          ImGui::SliderScalar("width (m)", ImGuiDataType_Double, &layer.style.widthMetres, &kMinWidth, &kMaxWidth,
-                              "%.1f", ImGuiSliderFlags_Logarithmic);
-          rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
-        } else {
-          bool outline = layer.style.outlineWidthMetres > 0.0F || layer.style.outlineWidthPixels > 0.0F;
-          if (ImGui::Checkbox("outline", &outline)) {
-            layer.style.outlineWidthMetres = outline ? 6.0F : 0.0F;
-            layer.style.outlineWidthPixels = 0.0F;
-            rebuild = true;
-          }
-        }
-        // Draw order: earlier layers are drawn first (below).
-        if (ImGui::ArrowButton("down", ImGuiDir_Up) && i > 0) {
-          std::swap(layer.style.drawOrder, description_->layers[i - 1].style.drawOrder);
-          if (layer.style.drawOrder == description_->layers[i - 1].style.drawOrder) --layer.style.drawOrder;
-          rebuild = true;
-        }
-        ImGui::SameLine();
-        if (ImGui::ArrowButton("up", ImGuiDir_Down) && i + 1 < scene_->layers.size()) {
-          std::swap(layer.style.drawOrder, description_->layers[i + 1].style.drawOrder);
-          if (layer.style.drawOrder == description_->layers[i + 1].style.drawOrder) ++layer.style.drawOrder;
-          rebuild = true;
-        }
-        ImGui::SameLine();
-        ImGui::Text("draw order %d", layer.style.drawOrder);
-        ImGui::TreePop();
-      }
-      ImGui::PopID();
-    }
-    if (rebuild) rebuildOverlays();
-  }
-
-  if (ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) {
-    ImGui::Checkbox("lasso tool (L)", &lassoTool_);
-    ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-    ImGui::TextWrapped("drag to draw: alone a new selection, Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
-    ImGui::PopStyleColor();
-    if (ImGui::Button("Invert (I)") && !steps_.empty()) invertSelection();
-    ImGui::SameLine();
-    if (ImGui::Button("Clear (C)")) clearSelection();
-    ImGui::SameLine();
-    ImGui::ColorEdit3("highlight", &highlight_.color.x, ImGuiColorEditFlags_NoInputs);
-    if (!steps_.empty()) {
-      std::string chain;
-      for (const overlay::SelectionStep& s : steps_)
-        chain += std::string(chain.empty() ? "" : " → ") + overlay::selectionOpName(s.op);
-      ImGui::TextWrapped("steps: %s", chain.c_str());
-    }
-    if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
-    if (selected_) {
-      ImGui::Text("%zu features selected", selected_->featureCount());
-      if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
-      for (const app::LayerSelection& l : selected_->layers) {
-        const overlay::OverlayLayer& drawn = renderer_->overlayLayers()[l.overlayLayer];
-        if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", scene_->layers[l.sceneLayer].description.name.c_str(),
-                             l.features.size(), l.fullyInside)) {
-          continue;
-        }
-        const std::size_t shown = std::min<std::size_t>(l.features.size(), 200);
-        for (std::size_t k = 0; k < shown; ++k) {
-          const geo::Feature& f = drawn.features()[l.features[k].feature];
-          if (ImGui::TreeNode(&l.features[k], "fid %lld%s", static_cast<long long>(f.fid),
-                              l.features[k].fullyInside ? " (inside)" : "")) {
-            for (const auto& [key, value] : f.attributes) {
-              std::string text;
-              if (const auto* s = std::get_if<std::string>(&value))
-                text = *s;
-              else if (const auto* n = std::get_if<std::int64_t>(&value))
-                text = std::to_string(*n);
-              else if (const auto* d = std::get_if<double>(&value))
-                text = std::to_string(*d);
-              ImGui::BulletText("%s: %s", key.c_str(), text.c_str());
-            }
-            ImGui::TreePop();
-          }
-        }
-        if (shown < l.features.size()) ImGui::TextDisabled("… and %zu more", l.features.size() - shown);
-        ImGui::TreePop();
-      }
-      char path[512];
-      std::snprintf(path, sizeof(path), "%s", settings_.exportPath.c_str());
-      if (ImGui::InputText("##export", path, sizeof(path))) settings_.exportPath = path;
-      ImGui::SameLine();
-      if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
-    }
-  }
-
-  if (!messages_.empty() && ImGui::CollapsingHeader("Messages")) {
-    for (std::size_t k = messages_.size() > 30 ? messages_.size() - 30 : 0; k < messages_.size(); ++k) {
-      ImGui::TextWrapped("%s", messages_[k].c_str());
-    }
-  }
+  drawViewSection();
+  drawOverlaySection();
+  drawLayersSection();
+  drawSelectionSection();
+  drawMessagesSection();
   ImGui::PopItemWidth();
   ImGui::End();
+}
+
+void Viewer::drawViewSection() {
+  if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (ImGui::Button("Home (H)")) controller_->goHome();
+  ImGui::SameLine();
+  bool fly = controller_->mode() == app::CameraController::Mode::Fly;
+  if (ImGui::Checkbox("fly (F)", &fly)) {
+    controller_->setMode(fly ? app::CameraController::Mode::Fly : app::CameraController::Mode::Orbit);
+  }
+  float fov = static_cast<float>(settings_.fovYDeg);
+  if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F, "%.0f°")) settings_.fovYDeg = fov;
+  float tolerance = static_cast<float>(settings_.lodTolerancePixels);
+  if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
+    settings_.lodTolerancePixels = tolerance;
+  }
+  float exaggeration = static_cast<float>(render_.verticalExaggeration);
+  ImGui::SliderFloat("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
+  if (ImGui::IsItemDeactivatedAfterEdit()) setExaggeration(exaggeration);
+  ImGui::Checkbox("wireframe", &render_.wireframe);
+  ImGui::SameLine();
+  if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &settings_.imagery);
+}
+
+void Viewer::drawOverlaySection() {
+  if (!ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Checkbox("vector layers (O)", &render_.overlays);
+  // One button per technique of the registry, two to a line.
+  const overlay::TechniqueInfo* chosen = technique_;
+  const std::span<const overlay::TechniqueInfo> all = overlay::techniques();
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (i % 2 == 1) ImGui::SameLine();
+    if (ImGui::RadioButton(std::string(all[i].label).c_str(), technique_ == &all[i])) chosen = &all[i];
+  }
+  if (technique_->usesTextures()) drawDrapeSize();
+  if (chosen != technique_) {
+    technique_ = chosen;
+    // Keep the size where the new technique offers it, else its default (a single drape's size
+    // would be far too much per tile).
+    const std::span<const int> sizes = technique_->textureSizes;
+    if (technique_->usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
+      drapeSize_ = technique_->defaultTextureSize;
+    }
+    rebuildOverlays();
+  }
+  ImGui::Checkbox("debug: pieces", &debugPieces_);
+  if (debugPieces_) {
+    ImGui::SameLine();
+    ImGui::TextColored(ImVec4(0.1F, 0.8F, 0.2F, 1.0F), "z-pass");
+    ImGui::SameLine();
+    ImGui::TextColored(ImVec4(0.9F, 0.2F, 0.2F, 1.0F), "z-fail");
+  }
+}
+
+void Viewer::drawDrapeSize() {
+  // The baseline of other viewers, for comparison: its texels show close up. Per tile, the
+  // size is each drawn chunk's texture.
+  ImGui::SameLine();
+  const std::string current = std::to_string(drapeSize_) + "²";
+  ImGui::SetNextItemWidth(6.0F * ImGui::GetFontSize());
+  if (ImGui::BeginCombo("##drape size", current.c_str())) {
+    for (const int size : technique_->textureSizes) {
+      if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_) {
+        drapeSize_ = size;
+        rebuildOverlays();
+      }
+    }
+    ImGui::EndCombo();
+  }
+  if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
+    ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
+                        static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
+  } else {
+    ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(renderer_->techniqueGpuBytes()) / 1048576.0);
+  }
+}
+
+void Viewer::drawLayersSection() {
+  if (!ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  bool rebuild = false;
+  for (std::size_t i = 0; i < scene_->layers.size(); ++i) rebuild = drawLayer(i) || rebuild;
+  if (rebuild) rebuildOverlays();
+}
+
+bool Viewer::drawLayer(std::size_t i) {
+  bool rebuild = false;
+  ImGui::PushID(static_cast<int>(i));
+  app::LayerDescription& layer = description_->layers[i];
+  const std::optional<bool> state = layerShown(i);
+  const bool built = state.has_value();
+  bool shown = state.value_or(false);
+  if (!built) ImGui::BeginDisabled();
+  if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
+  if (!built) ImGui::EndDisabled();
+  ImGui::SameLine();
+  const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+  const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
+  if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
+    // Nothing is lost silently: the counts here, each feature named under Messages.
+    ImGui::TextColored(ImVec4(1.0F, 0.75F, 0.3F, 1.0F), "    %zu skipped for errors, %zu with nothing to draw",
+                       summary.skipped(), summary.nothingToDraw);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("Each is named, with its problem, under Messages.");
+  }
+  if (open) {
+    ImGui::ColorEdit3("colour", &layer.style.color.x, ImGuiColorEditFlags_NoInputs);
+    rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+    ImGui::SliderFloat("opacity", &layer.style.opacity, 0.0F, 1.0F);
+    rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+    if (layer.kind == overlay::LayerKind::Line) {
+      constexpr double kMinWidth = 0.5, kMaxWidth = 200.0;
+      ImGui::SliderScalar("width (m)", ImGuiDataType_Double, &layer.style.widthMetres, &kMinWidth, &kMaxWidth, "%.1f",
+                          ImGuiSliderFlags_Logarithmic);
+      rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+    } else {
+      bool outline = layer.style.outlineWidthMetres > 0.0F || layer.style.outlineWidthPixels > 0.0F;
+      if (ImGui::Checkbox("outline", &outline)) {
+        layer.style.outlineWidthMetres = outline ? 6.0F : 0.0F;
+        layer.style.outlineWidthPixels = 0.0F;
+        rebuild = true;
+      }
+    }
+    // Draw order: earlier layers are drawn first (below).
+    if (ImGui::ArrowButton("down", ImGuiDir_Up) && i > 0) {
+      std::swap(layer.style.drawOrder, description_->layers[i - 1].style.drawOrder);
+      if (layer.style.drawOrder == description_->layers[i - 1].style.drawOrder) --layer.style.drawOrder;
+      rebuild = true;
+    }
+    ImGui::SameLine();
+    if (ImGui::ArrowButton("up", ImGuiDir_Down) && i + 1 < scene_->layers.size()) {
+      std::swap(layer.style.drawOrder, description_->layers[i + 1].style.drawOrder);
+      if (layer.style.drawOrder == description_->layers[i + 1].style.drawOrder) ++layer.style.drawOrder;
+      rebuild = true;
+    }
+    ImGui::SameLine();
+    ImGui::Text("draw order %d", layer.style.drawOrder);
+    ImGui::TreePop();
+  }
+  ImGui::PopID();
+  return rebuild;
+}
+
+void Viewer::drawSelectionSection() {
+  if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  ImGui::Checkbox("lasso tool (L)", &lassoTool_);
+  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+  ImGui::TextWrapped("drag to draw: alone a new selection, Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
+  ImGui::PopStyleColor();
+  if (ImGui::Button("Invert (I)") && !steps_.empty()) invertSelection();
+  ImGui::SameLine();
+  if (ImGui::Button("Clear (C)")) clearSelection();
+  ImGui::SameLine();
+  ImGui::ColorEdit3("highlight", &highlight_.color.x, ImGuiColorEditFlags_NoInputs);
+  if (!steps_.empty()) {
+    std::string chain;
+    for (const overlay::SelectionStep& s : steps_)
+      chain += std::string(chain.empty() ? "" : " → ") + overlay::selectionOpName(s.op);
+    ImGui::TextWrapped("steps: %s", chain.c_str());
+  }
+  if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
+  if (selected_) {
+    ImGui::Text("%zu features selected", selected_->featureCount());
+    if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
+    drawSelectedFeatures();
+    char path[512];
+    std::snprintf(path, sizeof(path), "%s", settings_.exportPath.c_str());
+    if (ImGui::InputText("##export", path, sizeof(path))) settings_.exportPath = path;
+    ImGui::SameLine();
+    if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
+  }
+}
+
+void Viewer::drawSelectedFeatures() {
+  for (const app::LayerSelection& l : selected_->layers) {
+    const overlay::OverlayLayer& drawn = renderer_->overlayLayers()[l.overlayLayer];
+    if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", scene_->layers[l.sceneLayer].description.name.c_str(),
+                         l.features.size(), l.fullyInside)) {
+      continue;
+    }
+    const std::size_t shown = std::min<std::size_t>(l.features.size(), 200);
+    for (std::size_t k = 0; k < shown; ++k) {
+      const geo::Feature& f = drawn.features()[l.features[k].feature];
+      if (ImGui::TreeNode(&l.features[k], "fid %lld%s", static_cast<long long>(f.fid),
+                          l.features[k].fullyInside ? " (inside)" : "")) {
+        for (const auto& [key, value] : f.attributes) {
+          std::string text;
+          if (const auto* s = std::get_if<std::string>(&value))
+            text = *s;
+          else if (const auto* n = std::get_if<std::int64_t>(&value))
+            text = std::to_string(*n);
+          else if (const auto* d = std::get_if<double>(&value))
+            text = std::to_string(*d);
+          ImGui::BulletText("%s: %s", key.c_str(), text.c_str());
+        }
+        ImGui::TreePop();
+      }
+    }
+    if (shown < l.features.size()) ImGui::TextDisabled("… and %zu more", l.features.size() - shown);
+    ImGui::TreePop();
+  }
+}
+
+void Viewer::drawMessagesSection() {
+  if (messages_.empty() || !ImGui::CollapsingHeader("Messages")) return;
+  for (std::size_t k = messages_.size() > 30 ? messages_.size() - 30 : 0; k < messages_.size(); ++k) {
+    ImGui::TextWrapped("%s", messages_[k].c_str());
+  }
 }
 
 std::uint64_t Viewer::overlayFragments() const {

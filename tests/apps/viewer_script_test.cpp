@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <variant>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -34,6 +35,12 @@ std::string dump(const Diagnostics& d) {
   std::string out;
   for (const Diagnostic& item : d.items()) out += item.toString() + "\n";
   return out;
+}
+
+/// The step's action as a `Step`; std::get throws, failing the test, when it is another action.
+template <typename Step>
+const Step& as(const app::ScriptStep& step) {
+  return std::get<Step>(step.action);
 }
 
 /// A script of one good step, then `step`, then another good step.
@@ -80,69 +87,69 @@ TEST_F(ViewerScript, EveryActionReadsItsFields) {
   ASSERT_EQ(st.size(), 18u);
   for (std::size_t i = 0; i < st.size(); ++i) EXPECT_EQ(st[i].index, i + 1);
 
-  EXPECT_EQ(st[0].action, app::ScriptAction::Camera);
-  EXPECT_EQ(st[0].camera["fov_y_deg"], 40);
-  EXPECT_EQ(st[0].camera["eye_xyz"], json::array({0, -100, 50}));
-  EXPECT_EQ(st[0].cameraFile, file);
-  EXPECT_DOUBLE_EQ(st[0].seconds, 1.5);
-  EXPECT_EQ(st[1].action, app::ScriptAction::Camera);
-  EXPECT_DOUBLE_EQ(st[1].seconds, 0.0);  // absent: a jump
+  EXPECT_TRUE(std::holds_alternative<app::CameraStep>(st[0].action));
+  EXPECT_EQ(as<app::CameraStep>(st[0]).camera["fov_y_deg"], 40);
+  EXPECT_EQ(as<app::CameraStep>(st[0]).camera["eye_xyz"], json::array({0, -100, 50}));
+  EXPECT_EQ(as<app::CameraStep>(st[0]).cameraFile, file);
+  EXPECT_DOUBLE_EQ(as<app::CameraStep>(st[0]).seconds, 1.5);
+  EXPECT_TRUE(std::holds_alternative<app::CameraStep>(st[1].action));
+  EXPECT_DOUBLE_EQ(as<app::CameraStep>(st[1]).seconds, 0.0);  // absent: a jump
 
-  EXPECT_EQ(st[2].action, app::ScriptAction::Wait);
-  EXPECT_EQ(st[2].frames, 10);
+  EXPECT_TRUE(std::holds_alternative<app::WaitStep>(st[2].action));
+  EXPECT_EQ(as<app::WaitStep>(st[2]).frames, 10);
 
-  EXPECT_EQ(st[3].action, app::ScriptAction::ToggleLayer);
-  EXPECT_EQ(st[3].layer, "streets");
+  EXPECT_TRUE(std::holds_alternative<app::ToggleLayerStep>(st[3].action));
+  EXPECT_EQ(as<app::ToggleLayerStep>(st[3]).layer, "streets");
 
-  EXPECT_EQ(st[4].action, app::ScriptAction::SetLayer);
-  EXPECT_EQ(st[4].layer, "census tracts");
-  EXPECT_EQ(st[4].visible, std::optional<bool>(true));
-  ASSERT_TRUE(st[4].opacity.has_value());
-  EXPECT_FLOAT_EQ(*st[4].opacity, 0.5F);
-  ASSERT_TRUE(st[4].color.has_value());
-  EXPECT_FLOAT_EQ(st[4].color->x, 1.0F);
-  EXPECT_FLOAT_EQ(st[4].color->y, 136.0F / 255.0F);
-  EXPECT_FLOAT_EQ(st[4].color->z, 0.0F);
-  EXPECT_FLOAT_EQ(st[4].color->w, 1.0F);
-  EXPECT_EQ(st[4].width, std::optional<double>(4.0));
+  EXPECT_TRUE(std::holds_alternative<app::SetLayerStep>(st[4].action));
+  EXPECT_EQ(as<app::SetLayerStep>(st[4]).layer, "census tracts");
+  EXPECT_EQ(as<app::SetLayerStep>(st[4]).visible, std::optional<bool>(true));
+  ASSERT_TRUE(as<app::SetLayerStep>(st[4]).opacity.has_value());
+  EXPECT_FLOAT_EQ(*as<app::SetLayerStep>(st[4]).opacity, 0.5F);
+  ASSERT_TRUE(as<app::SetLayerStep>(st[4]).color.has_value());
+  EXPECT_FLOAT_EQ(as<app::SetLayerStep>(st[4]).color->x, 1.0F);
+  EXPECT_FLOAT_EQ(as<app::SetLayerStep>(st[4]).color->y, 136.0F / 255.0F);
+  EXPECT_FLOAT_EQ(as<app::SetLayerStep>(st[4]).color->z, 0.0F);
+  EXPECT_FLOAT_EQ(as<app::SetLayerStep>(st[4]).color->w, 1.0F);
+  EXPECT_EQ(as<app::SetLayerStep>(st[4]).width, std::optional<double>(4.0));
   // Only what is given is set.
-  EXPECT_EQ(st[5].visible, std::optional<bool>(false));
-  EXPECT_FALSE(st[5].opacity.has_value());
-  EXPECT_FALSE(st[5].color.has_value());
-  EXPECT_FALSE(st[5].width.has_value());
+  EXPECT_EQ(as<app::SetLayerStep>(st[5]).visible, std::optional<bool>(false));
+  EXPECT_FALSE(as<app::SetLayerStep>(st[5]).opacity.has_value());
+  EXPECT_FALSE(as<app::SetLayerStep>(st[5]).color.has_value());
+  EXPECT_FALSE(as<app::SetLayerStep>(st[5]).width.has_value());
 
-  EXPECT_EQ(st[6].action, app::ScriptAction::Overlays);
-  EXPECT_FALSE(st[6].on);
-  EXPECT_EQ(st[7].action, app::ScriptAction::Method);
-  EXPECT_EQ(st[7].text, "paper");
-  EXPECT_EQ(st[8].action, app::ScriptAction::Exaggeration);
-  EXPECT_DOUBLE_EQ(st[8].value, 2.0);
+  EXPECT_TRUE(std::holds_alternative<app::OverlaysStep>(st[6].action));
+  EXPECT_FALSE(as<app::OverlaysStep>(st[6]).on);
+  EXPECT_TRUE(std::holds_alternative<app::MethodStep>(st[7].action));
+  EXPECT_EQ(as<app::MethodStep>(st[7]).name, "paper");
+  EXPECT_TRUE(std::holds_alternative<app::ExaggerationStep>(st[8].action));
+  EXPECT_DOUBLE_EQ(as<app::ExaggerationStep>(st[8]).value, 2.0);
 
-  EXPECT_EQ(st[9].action, app::ScriptAction::Lasso);
-  EXPECT_EQ(st[9].lassoOp, "xor");
-  ASSERT_EQ(st[9].points.size(), 3u);
-  EXPECT_DOUBLE_EQ(st[9].points[1].x, 300.5);
-  EXPECT_DOUBLE_EQ(st[9].points[1].y, 40.0);
+  EXPECT_TRUE(std::holds_alternative<app::LassoStep>(st[9].action));
+  EXPECT_EQ(as<app::LassoStep>(st[9]).op, overlay::SelectionOp::Xor);
+  ASSERT_EQ(as<app::LassoStep>(st[9]).points.size(), 3u);
+  EXPECT_DOUBLE_EQ(as<app::LassoStep>(st[9]).points[1].x, 300.5);
+  EXPECT_DOUBLE_EQ(as<app::LassoStep>(st[9]).points[1].y, 40.0);
 
-  EXPECT_EQ(st[10].action, app::ScriptAction::Invert);
-  EXPECT_EQ(st[11].action, app::ScriptAction::ClearSelection);
+  EXPECT_TRUE(std::holds_alternative<app::InvertStep>(st[10].action));
+  EXPECT_TRUE(std::holds_alternative<app::ClearSelectionStep>(st[11].action));
 
-  EXPECT_EQ(st[12].action, app::ScriptAction::Identify);
-  EXPECT_DOUBLE_EQ(st[12].at.x, 100.0);
-  EXPECT_DOUBLE_EQ(st[12].at.y, 80.5);
-  EXPECT_EQ(st[12].path, (dir_ / "identify.json").string());
+  EXPECT_TRUE(std::holds_alternative<app::IdentifyStep>(st[12].action));
+  EXPECT_DOUBLE_EQ(as<app::IdentifyStep>(st[12]).at.x, 100.0);
+  EXPECT_DOUBLE_EQ(as<app::IdentifyStep>(st[12]).at.y, 80.5);
+  EXPECT_EQ(as<app::IdentifyStep>(st[12]).out, (dir_ / "identify.json").string());
 
-  EXPECT_EQ(st[13].action, app::ScriptAction::Export);
-  EXPECT_EQ(st[13].path, (dir_ / "selected.json").string());
+  EXPECT_TRUE(std::holds_alternative<app::ExportStep>(st[13].action));
+  EXPECT_EQ(as<app::ExportStep>(st[13]).path, (dir_ / "selected.json").string());
 
-  EXPECT_EQ(st[14].action, app::ScriptAction::Screenshot);
-  EXPECT_EQ(st[14].path, (dir_ / "shot.png").string());
-  EXPECT_FALSE(st[14].ui);
+  EXPECT_TRUE(std::holds_alternative<app::ScreenshotStep>(st[14].action));
+  EXPECT_EQ(as<app::ScreenshotStep>(st[14]).path, (dir_ / "shot.png").string());
+  EXPECT_FALSE(as<app::ScreenshotStep>(st[14]).ui);
 
-  EXPECT_EQ(st[15].action, app::ScriptAction::Home);
-  EXPECT_EQ(st[16].action, app::ScriptAction::Key);
-  EXPECT_EQ(st[16].text, "o");
-  EXPECT_EQ(st[17].action, app::ScriptAction::Quit);
+  EXPECT_TRUE(std::holds_alternative<app::HomeStep>(st[15].action));
+  EXPECT_TRUE(std::holds_alternative<app::KeyStep>(st[16].action));
+  EXPECT_EQ(as<app::KeyStep>(st[16]).key, "o");
+  EXPECT_TRUE(std::holds_alternative<app::QuitStep>(st[17].action));
 }
 
 TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
@@ -164,39 +171,40 @@ TEST_F(ViewerScript, MouseKeysAndWindowActionsReadTheirFields) {
   EXPECT_TRUE(s.diagnostics.empty()) << dump(s.diagnostics);
   const std::vector<app::ScriptStep>& st = s->steps;
   ASSERT_EQ(st.size(), 11u);
-  EXPECT_EQ(st[0].action, app::ScriptAction::Drag);
-  EXPECT_EQ(st[0].button, app::MouseButton::Right);
-  ASSERT_EQ(st[0].points.size(), 3u);
-  EXPECT_DOUBLE_EQ(st[0].points[1].x, 30.5);
-  EXPECT_EQ(st[0].frames, 4);
-  EXPECT_TRUE(st[0].modifiers.shift);
-  EXPECT_FALSE(st[0].modifiers.ctrl);
-  EXPECT_TRUE(st[0].modifiers.alt);
+  EXPECT_TRUE(std::holds_alternative<app::DragStep>(st[0].action));
+  EXPECT_EQ(as<app::DragStep>(st[0]).button, app::MouseButton::Right);
+  ASSERT_EQ(as<app::DragStep>(st[0]).points.size(), 3u);
+  EXPECT_DOUBLE_EQ(as<app::DragStep>(st[0]).points[1].x, 30.5);
+  EXPECT_EQ(as<app::DragStep>(st[0]).frames, 4);
+  EXPECT_TRUE(as<app::DragStep>(st[0]).modifiers.shift);
+  EXPECT_FALSE(as<app::DragStep>(st[0]).modifiers.ctrl);
+  EXPECT_TRUE(as<app::DragStep>(st[0]).modifiers.alt);
   // Defaults: the left button, 6 frames per segment, no modifiers.
-  EXPECT_EQ(st[1].button, app::MouseButton::Left);
-  EXPECT_EQ(st[1].frames, 6);
-  EXPECT_FALSE(st[1].modifiers.shift || st[1].modifiers.ctrl || st[1].modifiers.alt);
-  EXPECT_EQ(st[2].action, app::ScriptAction::Click);
-  EXPECT_DOUBLE_EQ(st[2].at.y, 8.5);
-  EXPECT_TRUE(st[2].modifiers.ctrl);
-  EXPECT_EQ(st[3].action, app::ScriptAction::Scroll);
-  EXPECT_DOUBLE_EQ(st[3].at.x, 100.0);
-  EXPECT_DOUBLE_EQ(st[3].value, -2.5);
-  EXPECT_DOUBLE_EQ(st[4].value, 1.0);  // one step in by default
-  EXPECT_EQ(st[5].action, app::ScriptAction::HoldKeys);
-  EXPECT_EQ(st[5].keys, (std::vector<std::string>{"w", "Q"}));
-  EXPECT_EQ(st[5].frames, 12);
-  EXPECT_TRUE(st[5].modifiers.shift);
-  EXPECT_EQ(st[6].action, app::ScriptAction::Resize);
-  EXPECT_EQ(st[6].window, glm::ivec2(640, 480));
-  EXPECT_EQ(st[7].action, app::ScriptAction::SaveState);
-  EXPECT_EQ(st[7].path, (dir_ / "state.json").string());
-  EXPECT_EQ(st[8].action, app::ScriptAction::Method);
-  EXPECT_EQ(st[8].text, "drape");
-  EXPECT_EQ(st[8].frames, 4096);
-  EXPECT_EQ(st[9].frames, 0);  // the viewer's size stays
-  EXPECT_EQ(st[10].text, "drape-tiles");
-  EXPECT_EQ(st[10].frames, 256);
+  EXPECT_EQ(as<app::DragStep>(st[1]).button, app::MouseButton::Left);
+  EXPECT_EQ(as<app::DragStep>(st[1]).frames, 6);
+  EXPECT_FALSE(as<app::DragStep>(st[1]).modifiers.shift || as<app::DragStep>(st[1]).modifiers.ctrl ||
+               as<app::DragStep>(st[1]).modifiers.alt);
+  EXPECT_TRUE(std::holds_alternative<app::ClickStep>(st[2].action));
+  EXPECT_DOUBLE_EQ(as<app::ClickStep>(st[2]).at.y, 8.5);
+  EXPECT_TRUE(as<app::ClickStep>(st[2]).modifiers.ctrl);
+  EXPECT_TRUE(std::holds_alternative<app::ScrollStep>(st[3].action));
+  EXPECT_DOUBLE_EQ(as<app::ScrollStep>(st[3]).at.x, 100.0);
+  EXPECT_DOUBLE_EQ(as<app::ScrollStep>(st[3]).amount, -2.5);
+  EXPECT_DOUBLE_EQ(as<app::ScrollStep>(st[4]).amount, 1.0);  // one step in by default
+  EXPECT_TRUE(std::holds_alternative<app::HoldKeysStep>(st[5].action));
+  EXPECT_EQ(as<app::HoldKeysStep>(st[5]).keys, (std::vector<std::string>{"w", "Q"}));
+  EXPECT_EQ(as<app::HoldKeysStep>(st[5]).frames, 12);
+  EXPECT_TRUE(as<app::HoldKeysStep>(st[5]).modifiers.shift);
+  EXPECT_TRUE(std::holds_alternative<app::ResizeStep>(st[6].action));
+  EXPECT_EQ(as<app::ResizeStep>(st[6]).window, glm::ivec2(640, 480));
+  EXPECT_TRUE(std::holds_alternative<app::SaveStateStep>(st[7].action));
+  EXPECT_EQ(as<app::SaveStateStep>(st[7]).path, (dir_ / "state.json").string());
+  EXPECT_TRUE(std::holds_alternative<app::MethodStep>(st[8].action));
+  EXPECT_EQ(as<app::MethodStep>(st[8]).name, "drape");
+  EXPECT_EQ(as<app::MethodStep>(st[8]).drapeSize, 4096);
+  EXPECT_EQ(as<app::MethodStep>(st[9]).drapeSize, 0);  // the viewer's size stays
+  EXPECT_EQ(as<app::MethodStep>(st[10]).name, "drape-tiles");
+  EXPECT_EQ(as<app::MethodStep>(st[10]).drapeSize, 256);
 }
 
 TEST_F(ViewerScript, DefaultsWhenOptionalFieldsAreAbsent) {
@@ -207,10 +215,10 @@ TEST_F(ViewerScript, DefaultsWhenOptionalFieldsAreAbsent) {
   Result<app::ViewerScript> s = app::parseViewerScript(j, (dir_ / "s.json").string());
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
   EXPECT_FALSE(s->window.has_value());
-  EXPECT_TRUE(s->steps[0].ui);
-  EXPECT_TRUE(s->steps[1].path.empty());  // no "out": the result is not written
-  EXPECT_EQ(s->steps[2].text, "stencil");
-  EXPECT_TRUE(s->steps[3].on);
+  EXPECT_TRUE(as<app::ScreenshotStep>(s->steps[0]).ui);
+  EXPECT_TRUE(as<app::IdentifyStep>(s->steps[1]).out.empty());  // no "out": the result is not written
+  EXPECT_EQ(as<app::MethodStep>(s->steps[2]).name, "stencil");
+  EXPECT_TRUE(as<app::OverlaysStep>(s->steps[3]).on);
 }
 
 TEST_F(ViewerScript, ColoursAsHexOrArrays) {
@@ -218,7 +226,7 @@ TEST_F(ViewerScript, ColoursAsHexOrArrays) {
     Result<app::ViewerScript> s = app::parseViewerScript(
         json{{"steps", json::array({json{{"action", "set_layer"}, {"layer", "a"}, {"color", c}}})}}, "s.json");
     if (!s.ok()) return std::nullopt;
-    return s->steps[0].color;
+    return as<app::SetLayerStep>(s->steps[0]).color;
   };
   const std::optional<glm::vec4> withAlpha = colourOf("#00ff0080");
   ASSERT_TRUE(withAlpha.has_value());
@@ -243,7 +251,7 @@ TEST_F(ViewerScript, KeysAreCharactersOrNames) {
     Result<app::ViewerScript> s =
         app::parseViewerScript(json{{"steps", json::array({json{{"action", "key"}, {"key", key}}})}}, "s.json");
     if (!s.ok()) return std::nullopt;
-    return s->steps[0].text;
+    return as<app::KeyStep>(s->steps[0]).key;
   };
   EXPECT_EQ(keyOf("o"), std::optional<std::string>("o"));
   EXPECT_EQ(keyOf("O"), std::optional<std::string>("O"));  // a character stays as typed
@@ -265,17 +273,17 @@ TEST_F(ViewerScript, RelativePathsResolveAgainstTheScriptsDirectory) {
       {"action": "screenshot", "path": "/abs/dir/../shot.png"}]})");
   Result<app::ViewerScript> s = app::parseViewerScript(j, file);
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
-  EXPECT_EQ(s->steps[0].path, (dir_ / "scripts" / "out" / "shot.png").string());
-  EXPECT_EQ(s->steps[1].path, (dir_ / "selected.json").string());
-  EXPECT_EQ(s->steps[2].path, "/var/tmp/identify.json");
-  EXPECT_EQ(s->steps[3].path, "/abs/shot.png");  // absolute: only normalised
+  EXPECT_EQ(as<app::ScreenshotStep>(s->steps[0]).path, (dir_ / "scripts" / "out" / "shot.png").string());
+  EXPECT_EQ(as<app::ExportStep>(s->steps[1]).path, (dir_ / "selected.json").string());
+  EXPECT_EQ(as<app::IdentifyStep>(s->steps[2]).out, "/var/tmp/identify.json");
+  EXPECT_EQ(as<app::ScreenshotStep>(s->steps[3]).path, "/abs/shot.png");  // absolute: only normalised
 }
 
 TEST_F(ViewerScript, ARelativeScriptNameStillGivesAbsolutePaths) {
   Result<app::ViewerScript> s =
       app::parseViewerScript(json::parse(R"({"steps": [{"action": "export", "path": "sel.json"}]})"), "sub/s.json");
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
-  EXPECT_EQ(s->steps[0].path, (fs::current_path() / "sub" / "sel.json").string());
+  EXPECT_EQ(as<app::ExportStep>(s->steps[0]).path, (fs::current_path() / "sub" / "sel.json").string());
 }
 
 TEST_F(ViewerScript, CameraMayBeACameraFileBesideTheScript) {
@@ -284,9 +292,9 @@ TEST_F(ViewerScript, CameraMayBeACameraFileBesideTheScript) {
   Result<app::ViewerScript> s = app::loadViewerScript(file);
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
   ASSERT_EQ(s->steps.size(), 1u);
-  EXPECT_EQ(s->steps[0].camera, kCamera);
-  EXPECT_EQ(s->steps[0].cameraFile, cameraFile);
-  EXPECT_DOUBLE_EQ(s->steps[0].seconds, 2.0);
+  EXPECT_EQ(as<app::CameraStep>(s->steps[0]).camera, kCamera);
+  EXPECT_EQ(as<app::CameraStep>(s->steps[0]).cameraFile, cameraFile);
+  EXPECT_DOUBLE_EQ(as<app::CameraStep>(s->steps[0]).seconds, 2.0);
 }
 
 TEST_F(ViewerScript, AMissingCameraFileIsAnErrorOfTheStep) {
@@ -436,7 +444,7 @@ TEST_F(ViewerScript, LoadsAFile) {
   Result<app::ViewerScript> s = app::loadViewerScript(file);
   ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
   EXPECT_EQ(s->file, file);
-  EXPECT_EQ(s->steps[0].path, (dir_ / "shot.png").string());
+  EXPECT_EQ(as<app::ScreenshotStep>(s->steps[0]).path, (dir_ / "shot.png").string());
 }
 
 TEST_F(ViewerScript, AMissingFileIsAnErrorNamingIt) {

@@ -9,6 +9,7 @@
 #include <limits>
 #include <set>
 #include <string_view>
+#include <utility>
 
 #include "app/json_file.hpp"
 #include "vector_overlay/style.hpp"
@@ -19,42 +20,6 @@ namespace {
 
 using nlohmann::json;
 namespace fs = std::filesystem;
-
-struct ActionName {
-  std::string_view name;
-  ScriptAction action;
-};
-
-// "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
-constexpr std::array<ActionName, 23> kActions{{{"toggle_layer", ScriptAction::ToggleLayer},
-                                               {"set_layer", ScriptAction::SetLayer},
-                                               {"overlays", ScriptAction::Overlays},
-                                               {"method", ScriptAction::Method},
-                                               {"exaggeration", ScriptAction::Exaggeration},
-                                               {"lasso", ScriptAction::Lasso},
-                                               {"invert", ScriptAction::Invert},
-                                               {"clear_selection", ScriptAction::ClearSelection},
-                                               {"identify", ScriptAction::Identify},
-                                               {"export", ScriptAction::Export},
-                                               {"screenshot", ScriptAction::Screenshot},
-                                               {"home", ScriptAction::Home},
-                                               {"key", ScriptAction::Key},
-                                               {"drag", ScriptAction::Drag},
-                                               {"click", ScriptAction::Click},
-                                               {"scroll", ScriptAction::Scroll},
-                                               {"hold_keys", ScriptAction::HoldKeys},
-                                               {"resize", ScriptAction::Resize},
-                                               {"save_state", ScriptAction::SaveState},
-                                               {"view", ScriptAction::View},
-                                               {"drop", ScriptAction::Drop},
-                                               {"live", ScriptAction::Live},
-                                               {"quit", ScriptAction::Quit}}};
-
-std::string actionList() {
-  std::string list;
-  for (const ActionName& a : kActions) list += (list.empty() ? "" : ", ") + std::string(a.name);
-  return list;
-}
 
 /// Key names as GLFW calls its keys (lower case, '_' for spaces); F1–F25 are added below.
 constexpr std::array<std::string_view, 15> kKeyNames{"escape",  "enter",     "tab",  "backspace", "insert",
@@ -117,11 +82,21 @@ constexpr const char* kKeyNameList =
     "one printable character or a key name (escape, enter, tab, backspace, insert, delete, left, right, up, down, "
     "page_up, page_down, home, end, space, f1-f25)";
 
+/// `relative` against `base` (absolute), as scene files resolve their paths.
+std::string resolvePath(const fs::path& base, const std::string& relative) {
+  const fs::path p(relative);
+  return (p.is_absolute() ? p : base / p).lexically_normal().string();
+}
+
 /// Reads the fields of one step. Every problem is kept, so one run of the parser reports all of
 /// a step's mistakes; keys that were never asked for are unknown.
 class StepReader {
  public:
-  StepReader(const json& entry, std::vector<std::string>& problems) : entry_(entry), problems_(problems) {}
+  /// `base`: the script's directory (absolute), against which relative paths resolve.
+  StepReader(const json& entry, const fs::path& base, std::vector<std::string>& problems)
+      : entry_(entry), base_(base), problems_(problems) {}
+
+  [[nodiscard]] bool has(const char* key) const { return entry_.contains(key); }
 
   /// The value of `key`, or null when absent (a problem if `required`).
   const json* field(const char* key, bool required) {
@@ -142,6 +117,14 @@ class StepReader {
     }
     return v->get<std::string>();
   }
+
+  /// A file path, resolved against the script's directory; empty when absent or not a path.
+  std::string path(const char* key, bool required) {
+    const std::optional<std::string> p = string(key, required);
+    return p ? resolve(*p) : std::string();
+  }
+
+  [[nodiscard]] std::string resolve(const std::string& relative) const { return resolvePath(base_, relative); }
 
   std::optional<bool> boolean(const char* key, bool required) {
     const json* v = field(key, required);
@@ -243,268 +226,341 @@ class StepReader {
 
  private:
   const json& entry_;
+  fs::path base_;
   std::vector<std::string>& problems_;
   std::set<std::string> known_;
 };
 
-/// `relative` against `base` (absolute), as scene files resolve their paths.
-std::string resolve(const fs::path& base, const std::string& relative) {
-  const fs::path p(relative);
-  return (p.is_absolute() ? p : base / p).lexically_normal().string();
+// One reader per action: each asks for its keys (so the others are unknown) and returns the
+// step's action; what it finds wrong goes to the StepReader's problems.
+
+ScriptAction readToggleLayer(StepReader& r) { return ToggleLayerStep{.layer = r.string("layer", true).value_or("")}; }
+
+ScriptAction readSetLayer(StepReader& r) {
+  SetLayerStep step;
+  step.layer = r.string("layer", true).value_or("");
+  step.visible = r.boolean("visible", false);
+  if (const std::optional<double> o =
+          r.number("opacity", false, "a number in [0, 1]", [](double v) { return v >= 0.0 && v <= 1.0; }))
+    step.opacity = static_cast<float>(*o);
+  if (const json* c = r.field("color", false)) {
+    step.color = readColour(*c);
+    if (!step.color)
+      r.problem("'color': expected \"#rrggbb\", \"#rrggbbaa\" or [r, g, b(, a)] in [0, 1], got " + c->dump());
+  }
+  step.width = r.number("width", false, "a positive number", [](double v) { return v > 0.0; });
+  const bool anyGiven = r.has("visible") || r.has("opacity") || r.has("color") || r.has("width");
+  if (!anyGiven) r.problem("nothing to set: give any of 'visible', 'opacity', 'color', 'width'");
+  return step;
 }
 
-/// Fills `step` from `entry`; problems and unknown keys are reported by the caller.
-void readStep(const json& entry, const fs::path& base, const std::string& file, StepReader& r, ScriptStep& step,
-              Diagnostics& d) {
-  const bool hasCamera = entry.contains("camera"), hasWait = entry.contains("wait"),
-             hasAction = entry.contains("action");
+ScriptAction readOverlays(StepReader& r) { return OverlaysStep{.on = r.boolean("on", true).value_or(true)}; }
+
+ScriptAction readMethod(StepReader& r) {
+  MethodStep step;
+  if (const std::optional<std::string> m = r.string("value", true)) {
+    // The overlay techniques of the registry (vector_overlay/technique.hpp).
+    if (overlay::findTechnique(*m) != nullptr) {
+      step.name = *m;
+    } else {
+      r.problem("'value': unknown method '" + *m + "'; expected " + overlay::techniqueNameList());
+    }
+  }
+  step.drapeSize =
+      static_cast<int>(r.number("drape_size", false, "a whole number of texels from 16 to 16384", [](double v) {
+                          return v >= 16.0 && v <= 16384.0 && v == std::floor(v);
+                        }).value_or(0.0));
+  return step;
+}
+
+ScriptAction readExaggeration(StepReader& r) {
+  return ExaggerationStep{
+      .value = r.number("value", true, "a positive number", [](double v) { return v > 0.0; }).value_or(0.0)};
+}
+
+/// Exactly the names overlay::parseSelectionOp reads, less "invert" (an action of its own).
+constexpr std::array<std::pair<std::string_view, overlay::SelectionOp>, 5> kLassoOps{
+    {{"single", overlay::SelectionOp::Single},
+     {"or", overlay::SelectionOp::Or},
+     {"and", overlay::SelectionOp::And},
+     {"xor", overlay::SelectionOp::Xor},
+     {"subtract", overlay::SelectionOp::Subtract}}};
+
+ScriptAction readLasso(StepReader& r) {
+  LassoStep step;
+  if (const std::optional<std::string> op = r.string("op", true)) {
+    const auto found =
+        std::find_if(kLassoOps.begin(), kLassoOps.end(),
+                     [&](const std::pair<std::string_view, overlay::SelectionOp>& o) { return o.first == *op; });
+    if (found != kLassoOps.end()) {
+      step.op = found->second;
+    } else {
+      r.problem("'op': unknown operator '" + *op + "'; expected one of single, or, and, xor, subtract" +
+                (*op == "invert" ? " (invert is {\"action\": \"invert\"})" : ""));
+    }
+  }
+  step.points = r.pixels("points", 3);
+  return step;
+}
+
+ScriptAction readIdentify(StepReader& r) {
+  IdentifyStep step;
+  const std::optional<double> x = r.number("x", true), y = r.number("y", true);
+  if (x && y) step.at = glm::dvec2(*x, *y);
+  step.out = r.path("out", false);
+  return step;
+}
+
+ScriptAction readExport(StepReader& r) { return ExportStep{.path = r.path("path", true)}; }
+
+ScriptAction readScreenshot(StepReader& r) {
+  ScreenshotStep step;
+  step.path = r.path("path", true);
+  step.ui = r.boolean("ui", false).value_or(true);
+  return step;
+}
+
+ScriptAction readKey(StepReader& r) {
+  KeyStep step;
+  if (const std::optional<std::string> k = r.string("key", true)) {
+    if (const std::optional<std::string> known = keyName(*k)) {
+      step.key = *known;
+    } else {
+      r.problem("'key': unknown key '" + *k + "'; expected " + kKeyNameList);
+    }
+  }
+  return step;
+}
+
+/// "button": "left" (also when absent), "right" or "middle".
+MouseButton readButton(StepReader& r) {
+  const std::optional<std::string> b = r.string("button", false);
+  if (!b || *b == "left") return MouseButton::Left;
+  if (*b == "right") return MouseButton::Right;
+  if (*b == "middle") return MouseButton::Middle;
+  r.problem("'button': unknown button '" + *b + "'; expected \"left\", \"right\" or \"middle\"");
+  return MouseButton::Left;
+}
+
+ScriptAction readDrag(StepReader& r) {
+  DragStep step;
+  step.button = readButton(r);
+  step.modifiers = r.modifiers();
+  step.points = r.pixels("points", 2);
+  step.frames = r.frames("frames", false).value_or(6);
+  return step;
+}
+
+ScriptAction readClick(StepReader& r) {
+  ClickStep step;
+  step.button = readButton(r);
+  step.modifiers = r.modifiers();
+  if (const std::optional<glm::dvec2> at = r.pixel("at")) step.at = *at;
+  return step;
+}
+
+ScriptAction readScroll(StepReader& r) {
+  ScrollStep step;
+  if (const std::optional<glm::dvec2> at = r.pixel("at")) step.at = *at;
+  step.amount = r.number("amount", false, "a non-zero number of wheel steps", [](double v) {
+                   return v != 0.0 && std::abs(v) <= 1e3;
+                 }).value_or(1.0);
+  return step;
+}
+
+ScriptAction readHoldKeys(StepReader& r) {
+  HoldKeysStep step;
+  step.modifiers = r.modifiers();
+  step.frames = r.frames("frames", true).value_or(1);
+  const json* keys = r.field("keys", true);
+  if (!keys) return step;
+  bool ok = keys->is_array() && !keys->empty();
+  for (const json& k : ok ? *keys : json::array()) {
+    const std::optional<std::string> known = k.is_string() ? keyName(k.get<std::string>()) : std::nullopt;
+    if (!known) {
+      ok = false;
+      break;
+    }
+    step.keys.push_back(*known);
+  }
+  if (!ok) r.problem(std::string("'keys': expected a list of keys, each ") + kKeyNameList + ", got " + keys->dump());
+  return step;
+}
+
+ScriptAction readResize(StepReader& r) {
+  ResizeStep step;
+  if (const json* w = r.field("window", true)) {
+    if (const std::optional<glm::ivec2> size = windowSize(*w)) {
+      step.window = *size;
+    } else {
+      r.problem(kWindowExpected + w->dump());
+    }
+  }
+  return step;
+}
+
+ScriptAction readSaveState(StepReader& r) { return SaveStateStep{.path = r.path("path", true)}; }
+
+ScriptAction readView(StepReader& r) {
+  ViewStep step;
+  step.wireframe = r.boolean("wireframe", false);
+  step.imagery = r.boolean("imagery", false);
+  step.debugPieces = r.boolean("debug_pieces", false);
+  step.panel = r.boolean("panel", false);
+  step.hud = r.boolean("hud", false);
+  step.lodTolerance =
+      r.number("lod_tolerance", false, "a number of pixels in (0, 64]", [](double v) { return v > 0.0 && v <= 64.0; });
+  step.fovYDeg =
+      r.number("fov", false, "a number of degrees in (0, 180)", [](double v) { return v > 0.0 && v < 180.0; });
+  bool any = false;
+  for (const char* key : {"wireframe", "imagery", "debug_pieces", "panel", "hud", "lod_tolerance", "fov"})
+    any = any || r.has(key);
+  if (!any)
+    r.problem(
+        "nothing to set: give any of 'wireframe', 'imagery', 'debug_pieces', 'panel', 'hud', "
+        "'lod_tolerance', 'fov'");
+  return step;
+}
+
+ScriptAction readLive(StepReader& r) {
+  LiveStep step;
+  step.untilFile = r.path("until_file", true);
+  step.maxFrames = r.frames("max_frames", false).value_or(3000);
+  return step;
+}
+
+ScriptAction readDrop(StepReader& r) {
+  DropStep step;
+  const json* paths = r.field("paths", true);
+  if (!paths) return step;
+  bool ok = paths->is_array() && !paths->empty();
+  for (const json& p : ok ? *paths : json::array()) {
+    if (!p.is_string() || p.get<std::string>().empty()) {
+      ok = false;
+      break;
+    }
+    step.paths.push_back(r.resolve(p.get<std::string>()));
+  }
+  if (!ok) r.problem("'paths': expected a list of file paths, got " + paths->dump());
+  return step;
+}
+
+/// An action without fields.
+template <typename Step>
+ScriptAction readPlain(StepReader&) {
+  return Step{};
+}
+
+struct ActionReader {
+  std::string_view name;
+  ScriptAction (*read)(StepReader&);
+};
+
+// "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
+constexpr std::array<ActionReader, 23> kActions{{{"toggle_layer", readToggleLayer},
+                                                 {"set_layer", readSetLayer},
+                                                 {"overlays", readOverlays},
+                                                 {"method", readMethod},
+                                                 {"exaggeration", readExaggeration},
+                                                 {"lasso", readLasso},
+                                                 {"invert", readPlain<InvertStep>},
+                                                 {"clear_selection", readPlain<ClearSelectionStep>},
+                                                 {"identify", readIdentify},
+                                                 {"export", readExport},
+                                                 {"screenshot", readScreenshot},
+                                                 {"home", readPlain<HomeStep>},
+                                                 {"key", readKey},
+                                                 {"drag", readDrag},
+                                                 {"click", readClick},
+                                                 {"scroll", readScroll},
+                                                 {"hold_keys", readHoldKeys},
+                                                 {"resize", readResize},
+                                                 {"save_state", readSaveState},
+                                                 {"view", readView},
+                                                 {"drop", readDrop},
+                                                 {"live", readLive},
+                                                 {"quit", readPlain<QuitStep>}}};
+
+std::string actionList() {
+  std::string list;
+  for (const ActionReader& a : kActions) list += (list.empty() ? "" : ", ") + std::string(a.name);
+  return list;
+}
+
+/// {"action": NAME, ...}: the action of that name, or nothing (a problem).
+std::optional<ScriptAction> readAction(StepReader& r) {
+  const json& a = *r.field("action", true);
+  if (!a.is_string()) {
+    r.problem("'action': expected a string, got " + a.dump());
+    return std::nullopt;
+  }
+  const std::string name = a.get<std::string>();
+  const auto found =
+      std::find_if(kActions.begin(), kActions.end(), [&](const ActionReader& n) { return n.name == name; });
+  if (found == kActions.end()) {
+    r.problem("unknown action '" + name + "'; expected one of " + actionList() +
+              " (camera moves and waits are {\"camera\": ...} and {\"wait\": frames})");
+    return std::nullopt;
+  }
+  return found->read(r);
+}
+
+/// {"camera": spec or file, "seconds": s}. `file` is the script, for messages about an inline spec.
+CameraStep readCamera(StepReader& r, const std::string& file, Diagnostics& d) {
+  CameraStep step;
+  const json& c = *r.field("camera", true);
+  step.cameraFile = file;
+  if (c.is_string() && !c.get<std::string>().empty()) {
+    step.cameraFile = r.resolve(c.get<std::string>());
+    std::optional<json> spec = readJsonFile(step.cameraFile, d);
+    if (!spec) {
+      r.problem("'camera': cannot read the camera file " + step.cameraFile);
+    } else {
+      step.camera = std::move(*spec);
+    }
+  } else if (c.is_object()) {
+    step.camera = c;
+  } else {
+    r.problem("'camera': expected a camera object or the path of a camera file, got " + c.dump());
+  }
+  // Only what every camera needs: the viewer reads the rest with parseCameraSpec against the
+  // scene's frame, which this parser does not know.
+  if (!step.camera.is_null()) {
+    if (!step.camera.is_object()) {
+      r.problem("'camera': " + step.cameraFile + " does not hold a camera object");
+    } else {
+      if (!step.camera.contains("eye") && !step.camera.contains("eye_xyz"))
+        r.problem("'camera': needs 'eye' (lon/lat/h) or 'eye_xyz'");
+      if (!step.camera.contains("target") && !step.camera.contains("target_xyz"))
+        r.problem("'camera': needs 'target' (lon/lat/h) or 'target_xyz'");
+    }
+  }
+  step.seconds =
+      r.number("seconds", false, "a number of seconds >= 0", [](double v) { return v >= 0.0; }).value_or(0.0);
+  return step;
+}
+
+WaitStep readWait(StepReader& r) {
+  const std::optional<double> frames = r.number("wait", true, "a whole number of frames >= 0", [](double v) {
+    return v >= 0.0 && v == std::floor(v) && v <= static_cast<double>(std::numeric_limits<int>::max());
+  });
+  return WaitStep{.frames = frames ? static_cast<int>(*frames) : 0};
+}
+
+/// The action of a step, or nothing when it has none to run; problems and unknown keys are
+/// reported by the caller.
+std::optional<ScriptAction> readStep(StepReader& r, const std::string& file, Diagnostics& d) {
+  const bool hasCamera = r.has("camera"), hasWait = r.has("wait"), hasAction = r.has("action");
   if ((hasCamera ? 1 : 0) + (hasWait ? 1 : 0) + (hasAction ? 1 : 0) != 1) {
     r.field("camera", false);  // the keys are not unknown, only too many or too few
     r.field("wait", false);
     r.field("action", false);
     r.problem("expected exactly one of \"camera\", \"wait\" and \"action\"");
-    return;
+    return std::nullopt;
   }
-
-  if (hasCamera) {
-    step.action = ScriptAction::Camera;
-    const json& c = *r.field("camera", true);
-    step.cameraFile = file;
-    if (c.is_string() && !c.get<std::string>().empty()) {
-      step.cameraFile = resolve(base, c.get<std::string>());
-      std::optional<json> spec = readJsonFile(step.cameraFile, d);
-      if (!spec) {
-        r.problem("'camera': cannot read the camera file " + step.cameraFile);
-      } else {
-        step.camera = std::move(*spec);
-      }
-    } else if (c.is_object()) {
-      step.camera = c;
-    } else {
-      r.problem("'camera': expected a camera object or the path of a camera file, got " + c.dump());
-    }
-    // Only what every camera needs: the viewer reads the rest with parseCameraSpec against the
-    // scene's frame, which this parser does not know.
-    if (!step.camera.is_null()) {
-      if (!step.camera.is_object()) {
-        r.problem("'camera': " + step.cameraFile + " does not hold a camera object");
-      } else {
-        if (!step.camera.contains("eye") && !step.camera.contains("eye_xyz"))
-          r.problem("'camera': needs 'eye' (lon/lat/h) or 'eye_xyz'");
-        if (!step.camera.contains("target") && !step.camera.contains("target_xyz"))
-          r.problem("'camera': needs 'target' (lon/lat/h) or 'target_xyz'");
-      }
-    }
-    step.seconds =
-        r.number("seconds", false, "a number of seconds >= 0", [](double v) { return v >= 0.0; }).value_or(0.0);
-    return;
-  }
-
-  if (hasWait) {
-    step.action = ScriptAction::Wait;
-    const std::optional<double> frames = r.number("wait", true, "a whole number of frames >= 0", [](double v) {
-      return v >= 0.0 && v == std::floor(v) && v <= static_cast<double>(std::numeric_limits<int>::max());
-    });
-    if (frames) step.frames = static_cast<int>(*frames);
-    return;
-  }
-
-  const json& a = *r.field("action", true);
-  if (!a.is_string()) {
-    r.problem("'action': expected a string, got " + a.dump());
-    return;
-  }
-  const std::string name = a.get<std::string>();
-  const auto found =
-      std::find_if(kActions.begin(), kActions.end(), [&](const ActionName& n) { return n.name == name; });
-  if (found == kActions.end()) {
-    r.problem("unknown action '" + name + "'; expected one of " + actionList() +
-              " (camera moves and waits are {\"camera\": ...} and {\"wait\": frames})");
-    return;
-  }
-  step.action = found->action;
-
-  switch (step.action) {
-    case ScriptAction::ToggleLayer:
-      step.layer = r.string("layer", true).value_or("");
-      break;
-    case ScriptAction::SetLayer: {
-      step.layer = r.string("layer", true).value_or("");
-      step.visible = r.boolean("visible", false);
-      if (const std::optional<double> o =
-              r.number("opacity", false, "a number in [0, 1]", [](double v) { return v >= 0.0 && v <= 1.0; }))
-        step.opacity = static_cast<float>(*o);
-      if (const json* c = r.field("color", false)) {
-        step.color = readColour(*c);
-        if (!step.color)
-          r.problem("'color': expected \"#rrggbb\", \"#rrggbbaa\" or [r, g, b(, a)] in [0, 1], got " + c->dump());
-      }
-      step.width = r.number("width", false, "a positive number", [](double v) { return v > 0.0; });
-      const bool anyGiven =
-          entry.contains("visible") || entry.contains("opacity") || entry.contains("color") || entry.contains("width");
-      if (!anyGiven) r.problem("nothing to set: give any of 'visible', 'opacity', 'color', 'width'");
-      break;
-    }
-    case ScriptAction::Overlays:
-      step.on = r.boolean("on", true).value_or(true);
-      break;
-    case ScriptAction::Method:
-      if (const std::optional<std::string> m = r.string("value", true)) {
-        if (overlay::findTechnique(*m) != nullptr) {
-          step.text = *m;
-        } else {
-          r.problem("'value': unknown method '" + *m + "'; expected " + overlay::techniqueNameList());
-        }
-      }
-      // Texture draping: texels per side, of the texture or of each tile (frames holds it; 0 =
-      // keep the viewer's).
-      step.frames =
-          static_cast<int>(r.number("drape_size", false, "a whole number of texels from 16 to 16384", [](double v) {
-                              return v >= 16.0 && v <= 16384.0 && v == std::floor(v);
-                            }).value_or(0.0));
-      break;
-    case ScriptAction::Exaggeration:
-      step.value = r.number("value", true, "a positive number", [](double v) { return v > 0.0; }).value_or(0.0);
-      break;
-    case ScriptAction::Lasso: {
-      if (const std::optional<std::string> op = r.string("op", true)) {
-        // Exactly the names overlay::parseSelectionOp reads, less "invert" (an action of its own).
-        if (*op == "single" || *op == "or" || *op == "and" || *op == "xor" || *op == "subtract") {
-          step.lassoOp = *op;
-        } else {
-          r.problem("'op': unknown operator '" + *op + "'; expected one of single, or, and, xor, subtract" +
-                    (*op == "invert" ? " (invert is {\"action\": \"invert\"})" : ""));
-        }
-      }
-      step.points = r.pixels("points", 3);
-      break;
-    }
-    case ScriptAction::Identify: {
-      const std::optional<double> x = r.number("x", true), y = r.number("y", true);
-      if (x && y) step.at = glm::dvec2(*x, *y);
-      if (const std::optional<std::string> out = r.string("out", false)) step.path = resolve(base, *out);
-      break;
-    }
-    case ScriptAction::Export:
-      if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
-      break;
-    case ScriptAction::Screenshot:
-      if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
-      step.ui = r.boolean("ui", false).value_or(true);
-      break;
-    case ScriptAction::Key:
-      if (const std::optional<std::string> k = r.string("key", true)) {
-        if (const std::optional<std::string> known = keyName(*k)) {
-          step.text = *known;
-        } else {
-          r.problem("'key': unknown key '" + *k + "'; expected " + kKeyNameList);
-        }
-      }
-      break;
-    case ScriptAction::Drag:
-    case ScriptAction::Click: {
-      if (const std::optional<std::string> b = r.string("button", false)) {
-        if (*b == "left") {
-          step.button = MouseButton::Left;
-        } else if (*b == "right") {
-          step.button = MouseButton::Right;
-        } else if (*b == "middle") {
-          step.button = MouseButton::Middle;
-        } else {
-          r.problem("'button': unknown button '" + *b + "'; expected \"left\", \"right\" or \"middle\"");
-        }
-      }
-      step.modifiers = r.modifiers();
-      if (step.action == ScriptAction::Drag) {
-        step.points = r.pixels("points", 2);
-        step.frames = r.frames("frames", false).value_or(6);
-      } else if (const std::optional<glm::dvec2> at = r.pixel("at")) {
-        step.at = *at;
-      }
-      break;
-    }
-    case ScriptAction::Scroll:
-      if (const std::optional<glm::dvec2> at = r.pixel("at")) step.at = *at;
-      step.value = r.number("amount", false, "a non-zero number of wheel steps", [](double v) {
-                      return v != 0.0 && std::abs(v) <= 1e3;
-                    }).value_or(1.0);
-      break;
-    case ScriptAction::HoldKeys: {
-      step.modifiers = r.modifiers();
-      step.frames = r.frames("frames", true).value_or(1);
-      const json* keys = r.field("keys", true);
-      if (!keys) break;
-      bool ok = keys->is_array() && !keys->empty();
-      for (const json& k : ok ? *keys : json::array()) {
-        const std::optional<std::string> known = k.is_string() ? keyName(k.get<std::string>()) : std::nullopt;
-        if (!known) {
-          ok = false;
-          break;
-        }
-        step.keys.push_back(*known);
-      }
-      if (!ok)
-        r.problem(std::string("'keys': expected a list of keys, each ") + kKeyNameList + ", got " + keys->dump());
-      break;
-    }
-    case ScriptAction::Resize: {
-      if (const json* w = r.field("window", true)) {
-        if (const std::optional<glm::ivec2> size = windowSize(*w)) {
-          step.window = *size;
-        } else {
-          r.problem(kWindowExpected + w->dump());
-        }
-      }
-      break;
-    }
-    case ScriptAction::SaveState:
-      if (const std::optional<std::string> p = r.string("path", true)) step.path = resolve(base, *p);
-      break;
-    case ScriptAction::View: {
-      step.wireframe = r.boolean("wireframe", false);
-      step.imagery = r.boolean("imagery", false);
-      step.debugPieces = r.boolean("debug_pieces", false);
-      step.panel = r.boolean("panel", false);
-      step.hud = r.boolean("hud", false);
-      step.lodTolerance = r.number("lod_tolerance", false, "a number of pixels in (0, 64]",
-                                   [](double v) { return v > 0.0 && v <= 64.0; });
-      step.fovYDeg =
-          r.number("fov", false, "a number of degrees in (0, 180)", [](double v) { return v > 0.0 && v < 180.0; });
-      bool any = false;
-      for (const char* key : {"wireframe", "imagery", "debug_pieces", "panel", "hud", "lod_tolerance", "fov"})
-        any = any || entry.contains(key);
-      if (!any)
-        r.problem(
-            "nothing to set: give any of 'wireframe', 'imagery', 'debug_pieces', 'panel', 'hud', "
-            "'lod_tolerance', 'fov'");
-      break;
-    }
-    case ScriptAction::Live:
-      if (const std::optional<std::string> p = r.string("until_file", true)) step.path = resolve(base, *p);
-      step.frames = r.frames("max_frames", false).value_or(3000);
-      break;
-    case ScriptAction::Drop: {
-      const json* paths = r.field("paths", true);
-      if (!paths) break;
-      bool ok = paths->is_array() && !paths->empty();
-      for (const json& p : ok ? *paths : json::array()) {
-        if (!p.is_string() || p.get<std::string>().empty()) {
-          ok = false;
-          break;
-        }
-        step.paths.push_back(resolve(base, p.get<std::string>()));
-      }
-      if (!ok) r.problem("'paths': expected a list of file paths, got " + paths->dump());
-      break;
-    }
-    case ScriptAction::Invert:
-    case ScriptAction::ClearSelection:
-    case ScriptAction::Home:
-    case ScriptAction::Quit:
-    case ScriptAction::Camera:
-    case ScriptAction::Wait:
-      break;
-  }
+  if (hasCamera) return readCamera(r, file, d);
+  if (hasWait) return readWait(r);
+  return readAction(r);
 }
 
 }  // namespace
@@ -532,22 +588,21 @@ Result<ViewerScript> parseViewerScript(const json& j, const std::string& file) {
 
   std::size_t index = 0, broken = 0;
   for (const json& entry : j["steps"]) {
-    ScriptStep step;
-    step.index = ++index;
-    const std::string name = "step " + std::to_string(step.index);
+    ++index;
+    const std::string name = "step " + std::to_string(index);
     if (!entry.is_object()) {
       d.add({Severity::Error, file, "", name, "expected an object, got " + entry.dump()});
       ++broken;
       continue;
     }
     std::vector<std::string> problems;
-    StepReader reader(entry, problems);
-    readStep(entry, base, file, reader, step, d);
+    StepReader reader(entry, base, problems);
+    std::optional<ScriptAction> action = readStep(reader, file, d);
     for (const std::string& key : reader.unknownKeys())
       d.add({Severity::Warning, file, "", name, "unknown key '" + key + "' ignored"});
     for (const std::string& problem : problems) d.add({Severity::Error, file, "", name, problem});
-    if (problems.empty()) {
-      script.steps.push_back(std::move(step));
+    if (problems.empty() && action) {
+      script.steps.push_back(ScriptStep{.index = index, .action = std::move(*action)});
     } else {
       ++broken;
     }

@@ -10,7 +10,8 @@
 //      {"action": "set_layer", "layer": "census tracts",      any of visible, opacity, color, width
 //       "visible": true, "opacity": 0.5, "color": "#ff8800", "width": 4},
 //      {"action": "overlays", "on": false},                   all vector layers on / off
-//      {"action": "method", "value": "stencil" | "paper" | "drape", "drape_size": 2048},
+//      {"action": "method", "value": "stencil" | "paper" | "drape" | "drape-tiles",  a technique of
+//       "drape_size": 2048},                                  overlay::techniques()
 //      {"action": "exaggeration", "value": 2.0},
 //      {"action": "lasso", "op": "single" | "or" | "and" | "xor" | "subtract",
 //       "points": [[x, y], ...]},                             framebuffer pixels, origin top-left
@@ -46,6 +47,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -53,36 +55,9 @@
 #include <nlohmann/json.hpp>
 
 #include "core/diagnostics.hpp"
+#include "vector_overlay/lasso.hpp"
 
 namespace gis::app {
-
-enum class ScriptAction {
-  Camera,
-  Wait,
-  ToggleLayer,
-  SetLayer,
-  Overlays,
-  Method,
-  Exaggeration,
-  Lasso,
-  Invert,
-  ClearSelection,
-  Identify,
-  Export,
-  Screenshot,
-  Home,
-  Key,
-  Drag,
-  Click,
-  Scroll,
-  HoldKeys,
-  Resize,
-  SaveState,
-  View,
-  Drop,
-  Live,
-  Quit
-};
 
 enum class MouseButton { Left, Right, Middle };
 
@@ -93,69 +68,133 @@ struct Modifiers {
   bool alt = false;
 };
 
-/// One step of a script. Only the fields of its action are set.
-struct ScriptStep {
-  ScriptAction action = ScriptAction::Wait;
-  std::size_t index = 0;  ///< position in "steps", from 1 (messages say "step N")
+// One struct per action, with the fields of that action only. Paths are resolved against the
+// script file's directory when relative (and then absolute).
 
-  // Camera
+struct CameraStep {
   nlohmann::json camera;   ///< the spec, parsed later against the scene frame (app::parseCameraSpec)
   std::string cameraFile;  ///< where the spec came from (the script or the camera file it names), for messages
   double seconds = 0.0;    ///< eased move over this long; 0: a jump
+};
 
-  // Wait (frames to draw), Drag (frames per segment), HoldKeys (frames held), Live (at most),
-  // Method (the drape's texels per side; 0: unchanged)
-  int frames = 0;
+struct WaitStep {
+  int frames = 0;  ///< frames to draw
+};
 
-  // ToggleLayer, SetLayer
+struct ToggleLayerStep {
+  std::string layer;
+};
+
+/// Only what is given changes.
+struct SetLayerStep {
   std::string layer;
   std::optional<bool> visible;
   std::optional<float> opacity;    ///< [0, 1]
   std::optional<glm::vec4> color;  ///< straight RGBA in [0, 1]
   std::optional<double> width;     ///< > 0, in the layer's width unit (metres or pixels)
+};
 
-  // Overlays
+struct OverlaysStep {
   bool on = true;
+};
 
-  // Method ("stencil" or "paper"), Key (one character as typed, or a lower-case key name)
-  std::string text;
+struct MethodStep {
+  /// A technique's name (overlay::techniques()), validated here.
+  std::string name;
+  int drapeSize = 0;  ///< texture draping: texels per side, of the texture or of each tile; 0: unchanged
+};
 
-  // Exaggeration (> 0), Scroll (wheel steps, non-zero)
-  double value = 0.0;
+struct ExaggerationStep {
+  double value = 0.0;  ///< > 0
+};
 
-  // Lasso
-  std::string lassoOp;  ///< "single", "or", "and", "xor" or "subtract"
-  /// Lasso (at least 3), Drag (at least 2): framebuffer pixels, x from the left, y from the top.
-  std::vector<glm::dvec2> points;
+struct LassoStep {
+  overlay::SelectionOp op = overlay::SelectionOp::Single;  ///< never Invert (an action of its own)
+  std::vector<glm::dvec2> points;  ///< at least 3; framebuffer pixels, x from the left, y from the top
+};
 
-  // Identify, Click, Scroll
+struct InvertStep {};
+struct ClearSelectionStep {};
+struct HomeStep {};
+struct QuitStep {};
+
+struct IdentifyStep {
   glm::dvec2 at{0.0};  ///< framebuffer pixel, as lasso points
+  std::string out;     ///< where to write the result; empty: not written
+};
 
-  // Drag, Click, HoldKeys
+struct ExportStep {
+  std::string path;
+};
+
+struct ScreenshotStep {
+  std::string path;
+  bool ui = true;  ///< false: the scene only, without the panel
+};
+
+/// Key names are strings: the viewer maps them to its window system's keys.
+struct KeyStep {
+  std::string key;  ///< one character as typed, or a lower-case key name
+};
+
+struct DragStep {
   MouseButton button = MouseButton::Left;
   Modifiers modifiers;
-  std::vector<std::string> keys;  ///< HoldKeys: key names as Key's
+  std::vector<glm::dvec2> points;  ///< at least 2, framebuffer pixels as lasso points
+  int frames = 6;                  ///< frames per segment
+};
 
-  // Resize
+struct ClickStep {
+  MouseButton button = MouseButton::Left;
+  Modifiers modifiers;
+  glm::dvec2 at{0.0};  ///< framebuffer pixel
+};
+
+struct ScrollStep {
+  glm::dvec2 at{0.0};   ///< framebuffer pixel
+  double amount = 1.0;  ///< wheel steps, non-zero, positive zooms in
+};
+
+struct HoldKeysStep {
+  Modifiers modifiers;
+  std::vector<std::string> keys;  ///< as KeyStep's
+  int frames = 1;                 ///< frames held
+};
+
+struct ResizeStep {
   glm::ivec2 window{0};  ///< screen coordinates
+};
 
-  // View: only what is given changes
+struct SaveStateStep {
+  std::string path;
+};
+
+/// Only what is given changes.
+struct ViewStep {
   std::optional<bool> wireframe, imagery, debugPieces, panel, hud;
   std::optional<double> lodTolerance;  ///< pixels, > 0
   std::optional<double> fovYDeg;       ///< degrees, in (0, 180)
+};
 
-  // Drop: resolved like `path`
+struct DropStep {
   std::vector<std::string> paths;
+};
 
-  // Live: the window's own input until `path` exists; more than `frames` frames fail the step
+/// The window's own input until `untilFile` exists; more than `maxFrames` frames fail the step.
+struct LiveStep {
+  std::string untilFile;
+  int maxFrames = 3000;
+};
 
-  /// Identify: where to write the result (empty: not written); Export, Screenshot, SaveState: the
-  /// file; Live: the file whose existence ends it.
-  /// Resolved against the script file's directory when relative (and then absolute).
-  std::string path;
+using ScriptAction = std::variant<CameraStep, WaitStep, ToggleLayerStep, SetLayerStep, OverlaysStep, MethodStep,
+                                  ExaggerationStep, LassoStep, InvertStep, ClearSelectionStep, IdentifyStep, ExportStep,
+                                  ScreenshotStep, HomeStep, KeyStep, DragStep, ClickStep, ScrollStep, HoldKeysStep,
+                                  ResizeStep, SaveStateStep, ViewStep, DropStep, LiveStep, QuitStep>;
 
-  // Screenshot
-  bool ui = true;  ///< false: the scene only, without the panel
+/// One step of a script: its action, read completely, and where it stands in the script.
+struct ScriptStep {
+  std::size_t index = 0;  ///< position in "steps", from 1 (messages say "step N")
+  ScriptAction action;
 };
 
 struct ViewerScript {

@@ -1,0 +1,203 @@
+// The viewer's actions on the layers and the selection, and its exports: what the panel, the
+// keys and the script call.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include "gfx/gl.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include "app/json_file.hpp"
+#include "app/scene.hpp"
+#include "gfx/image_io.hpp"
+#include "viewer.hpp"
+
+namespace gis::viewer {
+
+std::optional<bool> Viewer::layerShown(std::size_t sceneLayer) const {
+  std::optional<bool> shown;
+  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+    if (renderer_->overlaySources()[j].first == sceneLayer) shown = shown.value_or(false) || renderer_->shown(j);
+  }
+  return shown;
+}
+
+void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
+  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+    if (renderer_->overlaySources()[j].first == sceneLayer) renderer_->setShown(j, shown);
+  }
+}
+
+void Viewer::setExaggeration(double exaggeration) {
+  finishSelection();  // the selection job reads the heights
+  // The pieces' height bounds follow (no rebuild of the footprints).
+  render_.verticalExaggeration = exaggeration;
+  scene_->bounds->setExaggeration(exaggeration);
+  for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+    renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
+  }
+  selectionChanged();
+}
+
+void Viewer::rebuildOverlays() {
+  // Styles, order and the method are baked into the pieces: rebuild (Olinda: a fraction of a
+  // second), keeping which layers are hidden.
+  finishSelection();  // the selection job reads the layers
+  std::vector<bool> hidden(scene_->layers.size(), false);
+  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
+    if (!renderer_->shown(j)) hidden[renderer_->overlaySources()[j].first] = true;
+  }
+  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
+    scene_->layers[i].description = description_->layers[i];
+  }
+  app::OverlayBuildSettings build;
+  build.technique = technique_;
+  build.textureSize = drapeSize_;
+  for (const Diagnostic& d : renderer_->buildOverlays(*scene_, build).items()) {
+    message(d.toString(), d.severity == Severity::Error);
+  }
+  for (std::size_t i = 0; i < hidden.size(); ++i) {
+    if (hidden[i]) setLayerShown(i, false);
+  }
+  selectionChanged();
+}
+
+void Viewer::addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points) {
+  const glm::ivec2 fb = framebufferSize();
+  overlay::SelectionStep step;
+  step.op = op;
+  step.lasso.points = std::move(points);
+  const app::Camera c = camera();
+  step.lasso.viewProj = c.projection(aspect()) * c.view();
+  step.lasso.width = fb.x;
+  step.lasso.height = fb.y;
+  // A plain click-drag replaces the selection (Single starts a new chain).
+  if (op == overlay::SelectionOp::Single) steps_.clear();
+  steps_.push_back(std::move(step));
+  selectionChanged();
+}
+
+void Viewer::invertSelection() {
+  overlay::SelectionStep step;
+  step.op = overlay::SelectionOp::Invert;
+  steps_.push_back(step);
+  selectionChanged();
+}
+
+void Viewer::clearSelection() {
+  steps_.clear();
+  selectionChanged();
+}
+
+void Viewer::selectionChanged() {
+  // The GPU shows the new selection from the next frame on; the logical one (features, DEM
+  // posts: the CPU twin, about a second on Olinda) follows from a worker thread, so drawing a
+  // lasso never stalls the frames.
+  const Diagnostics diagnostics = selectionRenderer_->setSteps(steps_);
+  for (const Diagnostic& d : diagnostics.items()) message(d.toString(), true);
+  selected_.reset();
+  ++selectionGeneration_;
+  if (!selectionJob_.valid()) startSelection();  // else restarted when the running job ends
+}
+
+void Viewer::startSelection() {
+  if (steps_.empty() || !scene_ || !renderer_) return;
+  const glm::ivec2 fb = framebufferSize();
+  const std::vector<overlay::SelectionStep> steps = steps_;
+  const app::Camera c = camera();
+  const int width = std::max(fb.x, 1), height = std::max(fb.y, 1);
+  jobGeneration_ = selectionGeneration_;
+  // Reads the scene and the layers only; whatever changes them waits for it first
+  // (finishSelection). A paged scene loads tiles while it draws, so it selects in this thread.
+  const auto job = [this, steps, c, width, height] {
+    const auto start = std::chrono::steady_clock::now();
+    app::SceneSelection result = app::selectInScene(*scene_, *renderer_, steps, c, width, height);
+    return std::make_pair(std::move(result),
+                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  };
+  selectionJob_ = std::async(scene_->paged() ? std::launch::deferred : std::launch::async, job);
+}
+
+void Viewer::pollSelection(bool wait) {
+  while (selectionJob_.valid()) {
+    if (!wait && selectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    auto [result, ms] = selectionJob_.get();
+    if (jobGeneration_ == selectionGeneration_) {
+      selected_ = std::move(result);
+      selectionMs_ = ms;
+      char text[160];
+      std::snprintf(text, sizeof(text), "selection: %zu features, %zu DEM posts (%.0f ms)", selected_->featureCount(),
+                    selected_->posts ? selected_->posts->selected : std::size_t{0}, selectionMs_);
+      message(text);
+      return;
+    }
+    startSelection();  // the lassos changed while it ran
+  }
+}
+
+void Viewer::finishSelection() { pollSelection(true); }
+
+bool Viewer::exportSelection(const std::filesystem::path& path) {
+  finishSelection();
+  if (!selected_ || selected_->featureCount() == 0) {
+    message(path.string() + ": nothing selected to export", true);
+    return false;
+  }
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  const Diagnostics d = app::exportSelection(*scene_, *renderer_, *selected_, path,
+                                             path.has_parent_path() ? path.parent_path() : std::filesystem::path("."));
+  for (const Diagnostic& m : d.items()) message(m.toString(), m.severity == Severity::Error);
+  if (d.hasErrors()) return false;
+  message("exported " + std::to_string(selected_->featureCount()) + " features to " + path.string());
+  return true;
+}
+
+bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  const glm::ivec2 fb = framebufferSize();
+  std::vector<std::uint8_t> rgb;
+  bool ok = true;
+  if (ui) {
+    // The back buffer as it will be shown: scene, panel and HUD.
+    std::vector<std::uint8_t> rgba(static_cast<std::size_t>(fb.x) * static_cast<std::size_t>(fb.y) * 4);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    glReadBuffer(GL_BACK);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, fb.x, fb.y, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    rgb.resize(rgba.size() / 4 * 3);
+    const auto w = static_cast<std::size_t>(fb.x), h = static_cast<std::size_t>(fb.y);
+    for (std::size_t r = 0; r < h; ++r) {
+      for (std::size_t c = 0; c < w; ++c) {
+        for (std::size_t k = 0; k < 3; ++k) rgb[(r * w + c) * 3 + k] = rgba[((h - 1 - r) * w + c) * 4 + k];
+      }
+    }
+  } else {
+    const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(*target_);
+    rgb.resize(rgba.size() / 4 * 3);
+    for (std::size_t i = 0; i < rgba.size() / 4; ++i) {
+      for (std::size_t k = 0; k < 3; ++k) rgb[i * 3 + k] = rgba[i * 4 + k];
+    }
+    const std::filesystem::path stem = path.parent_path() / path.stem();
+    const Result<bool> depth = gfx::writeImageFloat(stem.string() + "_depth.tiff", target_->width(), target_->height(),
+                                                    gfx::readDepth(*target_));
+    ok = ok && depth.ok();
+    std::ofstream(stem.string() + "_camera.json")
+        << app::jsonText(app::cameraToJson(camera(), scene_->frame, target_->width(), target_->height())) << "\n";
+  }
+  const Result<bool> png =
+      gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);
+  for (const Diagnostic& d : png.diagnostics.items()) message(d.toString(), true);
+  ok = ok && png.ok();
+  if (ok) message("screenshot " + path.string());
+  return ok;
+}
+
+}  // namespace gis::viewer

@@ -1,0 +1,310 @@
+// A viewer script, run frame by frame: each step's action on the viewer (app/viewer_script.hpp).
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <nlohmann/json.hpp>
+
+#include "app/json_file.hpp"
+#include "viewer.hpp"
+
+namespace gis::viewer {
+
+void Viewer::advanceScript(double seconds) {
+  if (live_) {
+    // The real mouse and keys, as without a script, until the test says it is done.
+    handleInput(seconds, readInput());
+    std::error_code ec;
+    if (std::filesystem::exists(live_->first, ec)) {
+      live_.reset();
+      animating_ = true;
+    } else if (--live_->second < 0) {
+      message(script_->file + ": live input did not end (" + live_->first.string() + " never appeared)", true);
+      scriptFailed_ = true;
+      quit_ = true;
+    }
+  } else if (!scriptInput_.empty()) {
+    // Played mouse and keys: one input state per frame, then the camera settles.
+    handleInput(seconds, scriptInput_.front());
+    scriptInput_.pop_front();
+    if (scriptInput_.empty()) animating_ = true;
+  } else if (animating_) {
+    // Wait for the keyframe to be reached.
+  } else if (waitFrames_ > 0) {
+    --waitFrames_;
+  } else {
+    while (scriptStep_ < script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ && !quit_ &&
+           scriptInput_.empty() && !live_) {
+      if (!runStep(script_->steps[scriptStep_++])) {
+        scriptFailed_ = true;
+        quit_ = true;
+      }
+    }
+    if (scriptStep_ >= script_->steps.size() && waitFrames_ == 0 && !animating_ && !pendingShot_ &&
+        scriptInput_.empty() && !live_)
+      quit_ = true;
+  }
+}
+
+namespace {
+
+/// Without a scene (it failed to load) only what needs none runs.
+bool needsScene(const app::ScriptAction& action) {
+  if (const auto* shot = std::get_if<app::ScreenshotStep>(&action)) return !shot->ui;
+  return !std::holds_alternative<app::WaitStep>(action) && !std::holds_alternative<app::SaveStateStep>(action) &&
+         !std::holds_alternative<app::DropStep>(action) && !std::holds_alternative<app::ResizeStep>(action) &&
+         !std::holds_alternative<app::QuitStep>(action);
+}
+
+}  // namespace
+
+/// Runs one step's action on the viewer, a call per action: false when it failed (reported).
+struct StepRunner {
+  Viewer& v;
+  const std::string& where;  ///< the script and the step, for messages
+
+  std::optional<std::size_t> sceneLayer(const std::string& name) const {
+    for (std::size_t i = 0; i < v.scene_->layers.size(); ++i) {
+      if (v.scene_->layers[i].description.name == name) return i;
+    }
+    v.message(where + ": no layer named '" + name + "'", true);
+    return std::nullopt;
+  }
+
+  /// Writes `j` to `path`; false (reported) when it cannot.
+  bool write(const std::string& path, const nlohmann::json& j) const {
+    std::ofstream out(path);
+    out << app::jsonText(j) << "\n";
+    if (!out) v.message(where + ": cannot write " + path, true);
+    return static_cast<bool>(out);
+  }
+
+  /// The GLFW keys of key names; none when the viewer lacks one (reported).
+  std::optional<std::vector<int>> keyCodes(const std::vector<std::string>& names) const {
+    std::vector<int> codes;
+    for (const std::string& name : names) {
+      const int code = Viewer::keyCode(name);
+      if (code == GLFW_KEY_UNKNOWN) {
+        v.message(where + ": the viewer has no key '" + name + "'", true);
+        return std::nullopt;
+      }
+      codes.push_back(code);
+    }
+    return codes;
+  }
+
+  /// A press at the first point, `frames` frames along each segment, a release at the last.
+  void playMouse(app::MouseButton button, const app::Modifiers& modifiers, const std::vector<glm::dvec2>& path,
+                 int frames) const {
+    InputFrame in;
+    in.modifiers = modifiers;
+    const auto press = [&](bool down) {
+      in.left = down && button == app::MouseButton::Left;
+      in.right = down && button == app::MouseButton::Right;
+      in.middle = down && button == app::MouseButton::Middle;
+    };
+    // First the cursor arrives with the button up, so the press happens where it should.
+    in.cursor = path.front();
+    v.scriptInput_.push_back(in);
+    press(true);
+    v.scriptInput_.push_back(in);
+    for (std::size_t i = 1; i < path.size(); ++i) {
+      for (int f = 1; f <= frames; ++f) {
+        in.cursor = glm::mix(path[i - 1], path[i], static_cast<double>(f) / frames);
+        v.scriptInput_.push_back(in);
+      }
+    }
+    press(false);
+    v.scriptInput_.push_back(in);
+  }
+
+  bool operator()(const app::CameraStep& step) const {
+    Result<app::CameraSpec> spec = app::parseCameraSpec(step.camera, step.cameraFile);
+    for (const Diagnostic& d : spec.diagnostics.items()) v.message(where + ": " + d.toString(), true);
+    if (!spec) return false;
+    Result<app::Camera> placed = app::placeCamera(*spec, v.scene_->frame, where);
+    for (const Diagnostic& d : placed.diagnostics.items()) v.message(where + ": " + d.toString(), true);
+    if (!placed) return false;
+    v.settings_.fovYDeg = spec->fovYDeg;
+    if (step.seconds > 0.0) {
+      v.controller_->animateTo(*placed, step.seconds);
+      v.animating_ = true;
+    } else {
+      v.controller_->jumpTo(*placed);
+    }
+    return true;
+  }
+
+  bool operator()(const app::WaitStep& step) const {
+    v.waitFrames_ = step.frames;
+    return true;
+  }
+
+  bool operator()(const app::ToggleLayerStep& step) const {
+    const auto i = sceneLayer(step.layer);
+    if (!i) return false;
+    v.setLayerShown(*i, !v.layerShown(*i).value_or(false));
+    return true;
+  }
+
+  bool operator()(const app::SetLayerStep& step) const {
+    const auto i = sceneLayer(step.layer);
+    if (!i) return false;
+    overlay::LayerStyle& style = v.description_->layers[*i].style;
+    if (step.color) style.color = *step.color;
+    if (step.opacity) style.opacity = *step.opacity;
+    if (step.width) style.widthMetres = static_cast<float>(*step.width);
+    if (step.color || step.opacity || step.width) v.rebuildOverlays();
+    if (step.visible) v.setLayerShown(*i, *step.visible);
+    return true;
+  }
+
+  bool operator()(const app::OverlaysStep& step) const {
+    v.render_.overlays = step.on;
+    return true;
+  }
+
+  bool operator()(const app::MethodStep& step) const {
+    v.technique_ = overlay::findTechnique(step.name);  // checked when the script was read
+    if (step.drapeSize > 0) v.drapeSize_ = step.drapeSize;
+    v.rebuildOverlays();
+    return true;
+  }
+
+  bool operator()(const app::ExaggerationStep& step) const {
+    v.setExaggeration(step.value);
+    return true;
+  }
+
+  bool operator()(const app::LassoStep& step) const {
+    v.addLasso(step.op, step.points);
+    return true;
+  }
+
+  bool operator()(const app::InvertStep&) const {
+    v.invertSelection();
+    return true;
+  }
+
+  bool operator()(const app::ClearSelectionStep&) const {
+    v.clearSelection();
+    return true;
+  }
+
+  bool operator()(const app::IdentifyStep& step) const {
+    v.identified_ = v.identify(step.at);
+    if (step.out.empty()) return true;
+    return write(step.out, v.identified_ ? v.identified_->toJson() : nlohmann::json(nullptr));
+  }
+
+  bool operator()(const app::ExportStep& step) const { return v.exportSelection(step.path); }
+
+  bool operator()(const app::ScreenshotStep& step) const {
+    v.pendingShot_ = {std::filesystem::path(step.path), step.ui};
+    return true;
+  }
+
+  bool operator()(const app::HomeStep&) const {
+    v.controller_->goHome();
+    v.animating_ = true;
+    return true;
+  }
+
+  bool operator()(const app::KeyStep& step) const {
+    std::optional<std::vector<int>> codes = keyCodes({step.key});
+    if (!codes) return false;
+    InputFrame in;
+    in.cursor = v.lastPixel_;
+    in.pressed = std::move(*codes);
+    v.scriptInput_.push_back(in);
+    return true;
+  }
+
+  bool operator()(const app::HoldKeysStep& step) const {
+    std::optional<std::vector<int>> codes = keyCodes(step.keys);
+    if (!codes) return false;
+    InputFrame in;
+    in.cursor = v.lastPixel_;
+    in.modifiers = step.modifiers;
+    in.held = std::move(*codes);
+    v.scriptInput_.insert(v.scriptInput_.end(), static_cast<std::size_t>(step.frames), in);
+    return true;
+  }
+
+  bool operator()(const app::DragStep& step) const {
+    playMouse(step.button, step.modifiers, step.points, step.frames);
+    return true;
+  }
+
+  bool operator()(const app::ClickStep& step) const {
+    playMouse(step.button, step.modifiers, {step.at}, 0);
+    return true;
+  }
+
+  bool operator()(const app::ScrollStep& step) const {
+    InputFrame in;
+    in.cursor = step.at;
+    in.scroll = step.amount;
+    v.scriptInput_.push_back(in);
+    return true;
+  }
+
+  bool operator()(const app::ResizeStep& step) const {
+    glfwSetWindowSize(v.context_->window(), step.window.x, step.window.y);
+    v.waitFrames_ = 2;  // the window system answers within a frame or two
+    return true;
+  }
+
+  bool operator()(const app::ViewStep& step) const {
+    if (step.wireframe) v.render_.wireframe = *step.wireframe;
+    if (step.imagery) v.settings_.imagery = *step.imagery;
+    if (step.debugPieces) v.debugPieces_ = *step.debugPieces;
+    if (step.panel) v.settings_.showPanel = *step.panel;
+    if (step.hud) v.settings_.showHud = *step.hud;
+    if (step.lodTolerance) v.settings_.lodTolerancePixels = *step.lodTolerance;
+    if (step.fovYDeg) v.settings_.fovYDeg = *step.fovYDeg;
+    return true;
+  }
+
+  bool operator()(const app::LiveStep& step) const {
+    v.live_ = {std::filesystem::path(step.untilFile), step.maxFrames};
+    static_cast<void>(v.readInput());  // forget what arrived before: only the live input counts
+    return true;
+  }
+
+  bool operator()(const app::DropStep& step) const {
+    v.dropped_.insert(v.dropped_.end(), step.paths.begin(), step.paths.end());
+    v.waitFrames_ = 1;  // loaded at the start of the next frame, as a person's drop
+    return true;
+  }
+
+  bool operator()(const app::SaveStateStep& step) const {
+    v.finishSelection();  // the state holds the logical selection of every lasso so far
+    return write(step.path, v.state());
+  }
+
+  bool operator()(const app::QuitStep&) const {
+    v.quit_ = true;
+    return true;
+  }
+};
+
+bool Viewer::runStep(const app::ScriptStep& step) {
+  const std::string where = script_->file + ": step " + std::to_string(step.index);
+  if (!scene_ && needsScene(step.action)) {
+    message(where + ": no scene is loaded", true);
+    return false;
+  }
+  return std::visit(StepRunner{*this, where}, step.action);
+}
+
+}  // namespace gis::viewer

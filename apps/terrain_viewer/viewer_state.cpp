@@ -1,0 +1,167 @@
+// What a test of the viewer reads: what is under a pixel (identify) and the viewer's state
+// (save_state), as JSON.
+#include <cmath>
+#include <string>
+#include <type_traits>
+#include <variant>
+
+#include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <glm/matrix.hpp>
+#include <nlohmann/json.hpp>
+
+#include "app/json_file.hpp"
+#include "app/scene.hpp"
+#include "geo/vector.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+#include "viewer.hpp"
+
+namespace gis::viewer {
+namespace {
+
+std::string attributeText(const geo::AttributeValue& v) {
+  return std::visit(
+      [](const auto& x) -> std::string {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, std::monostate>) {
+          return "";
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          return x;
+        } else {
+          return app::jsonText(nlohmann::json(x), -1);
+        }
+      },
+      v);
+}
+
+}  // namespace
+
+nlohmann::json Identified::toJson() const {
+  nlohmann::json features = nlohmann::json::array();
+  for (const Hit& h : hits) {
+    nlohmann::json attributes = nlohmann::json::object();
+    for (const auto& [k, v] : h.attributes) attributes[k] = v;
+    features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"attributes", attributes}});
+  }
+  nlohmann::json j = {
+      {"frame", {frame.x, frame.y, frame.z}}, {"terrain_height", terrainHeight}, {"features", features}};
+  if (lonLatH) j["lon_lat_h"] = {lonLatH->x, lonLatH->y, lonLatH->z};
+  return j;
+}
+
+std::optional<float> Viewer::depthAt(int x, int y) const {
+  if (!target_ || x < 0 || y < 0 || x >= target_->width() || y >= target_->height()) return std::nullopt;
+  float depth = 0.0F;
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, target_->framebuffer());
+  glReadPixels(x, target_->height() - 1 - y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  if (!(depth > 0.0F)) return std::nullopt;  // background (reversed-Z clears to 0)
+  return depth;
+}
+
+std::optional<glm::dvec3> Viewer::pointAt(const glm::dvec2& pixel) const {
+  const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
+  const std::optional<float> depth = depthAt(x, y);
+  if (!depth) return std::nullopt;
+  const app::Camera c = camera();
+  const glm::dvec4 ndc(2.0 * (x + 0.5) / target_->width() - 1.0, 1.0 - 2.0 * (y + 0.5) / target_->height(),
+                       static_cast<double>(*depth), 1.0);
+  const glm::dvec4 p = glm::inverse(c.projection(aspect()) * c.view()) * ndc;
+  if (p.w == 0.0) return std::nullopt;
+  return glm::dvec3(p) / p.w;
+}
+
+std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
+  const std::optional<glm::dvec3> world = pointAt(pixel);
+  if (!world) return std::nullopt;
+  const app::Camera c = camera();
+  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
+  Identified id;
+  id.frame = *world;
+  id.lonLatH = scene_->frame.toLonLat(*world / glm::dvec3(1.0, 1.0, render_.verticalExaggeration));
+  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(*world)) / render_.verticalExaggeration;
+  const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
+  for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
+    if (renderer_->overlaySources()[j].second || !renderer_->shown(j)) continue;
+    const overlay::OverlayLayer& layer = renderer_->overlayLayers()[j];
+    const overlay::ReferenceLayer ref = overlay::referenceLayerOf(layer);
+    for (std::size_t f = 0; f < layer.features().size(); ++f) {
+      if (!overlay::featureCovers(ref, f, glm::dvec2(*world), scale)) continue;
+      Identified::Hit hit;
+      hit.layer = scene_->layers[renderer_->overlaySources()[j].first].description.name;
+      hit.feature = f;
+      hit.fid = layer.features()[f].fid;
+      for (const auto& [k, v] : layer.features()[f].attributes) hit.attributes.emplace_back(k, attributeText(v));
+      id.hits.push_back(std::move(hit));
+    }
+  }
+  return id;
+}
+
+nlohmann::json Viewer::state() const {
+  const glm::ivec2 fb = framebufferSize();
+  glm::ivec2 window(0);
+  glfwGetWindowSize(context_->window(), &window.x, &window.y);
+  if (!scene_) {
+    return {
+        {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
+  }
+  const app::OrbitPose& pose = controller_->shownPose();
+  nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
+  for (const overlay::SelectionStep& st : steps_) {
+    steps.push_back(overlay::selectionOpName(st.op));
+    nlohmann::json points = nlohmann::json::array();
+    for (const glm::dvec2& p : st.lasso.points) points.push_back({p.x, p.y});
+    lassos.push_back(points);
+  }
+  nlohmann::json layers = nlohmann::json::array();
+  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
+    const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+    layers.push_back({{"name", scene_->layers[i].description.name},
+                      {"shown", layerShown(i).value_or(false)},
+                      {"features", summary.features},
+                      {"skipped_features", summary.skipped()},
+                      {"features_with_nothing_to_draw", summary.nothingToDraw},
+                      {"drawn_features", summary.drawnFeatures}});
+  }
+  nlohmann::json j = {
+      {"mode", controller_->mode() == app::CameraController::Mode::Fly ? "fly" : "orbit"},
+      {"camera", app::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
+      {"pose",
+       {{"target", {pose.target.x, pose.target.y, pose.target.z}},
+        {"yaw", pose.yaw},
+        {"pitch", pose.pitch},
+        {"distance", pose.distance}}},
+      {"framebuffer", {fb.x, fb.y}},
+      {"window", {window.x, window.y}},
+      {"overlays", render_.overlays},
+      {"method", technique_->name},
+      {"view",
+       {{"wireframe", render_.wireframe},
+        {"imagery", settings_.imagery},
+        {"debug_pieces", debugPieces_},
+        {"panel", settings_.showPanel},
+        {"hud", settings_.showHud},
+        {"lod_tolerance", settings_.lodTolerancePixels},
+        {"fov", settings_.fovYDeg}}},
+      {"scene", description_->path},
+      {"frame",
+       {{"ms", frameMs_},  // smoothed wall time per frame
+        {"terrain_triangles", stats_.terrainDraw.triangles},
+        {"overlay_fragments", overlayFragments()},
+        {"selection_ms", selectionMs_}}},  // the CPU twin's logical selection, last run
+      {"messages", messages_},
+      {"lasso_tool", lassoTool_},
+      {"layers", layers},
+      {"selection",
+       {{"steps", steps},
+        {"lassos", lassos},
+        {"features", selected_ ? selected_->featureCount() : 0},
+        {"dem_posts", selected_ && selected_->posts ? nlohmann::json(selected_->posts->selected) : nlohmann::json()}}},
+      {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
+  return j;
+}
+
+}  // namespace gis::viewer
