@@ -101,11 +101,11 @@ inline std::optional<BenchSetup> setUp(const Options& o, bool withLayers) {
 }
 
 /// The render settings under which several methods draw the same frames: the options' LOD
-/// tolerance, the scene's exaggeration, and every tile waited for, so the terrain is the same.
-inline app::RenderSettings comparisonSettings(const Options& o, const BenchSetup& setup) {
+/// tolerance and every tile waited for, so the terrain is the same (the exaggeration is the
+/// scene's, held by its bounds).
+inline app::RenderSettings comparisonSettings(const Options& o) {
   app::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
-  settings.verticalExaggeration = setup.description.verticalExaggeration;
   settings.waitForTiles = true;
   return settings;
 }

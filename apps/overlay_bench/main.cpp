@@ -180,7 +180,6 @@ int run(const Options& o) {
   gfx::RenderTarget target(o.width, o.height);
   app::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
-  settings.verticalExaggeration = description->verticalExaggeration;
 
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
@@ -265,7 +264,7 @@ int runOverlay(const Options& o) {
   const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, 0, true);
-  app::RenderSettings settings = comparisonSettings(o, *setup);  // the same terrain for the three methods
+  app::RenderSettings settings = comparisonSettings(o);  // the same terrain for the three methods
 
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
@@ -586,7 +585,6 @@ int runLasso(const Options& o) {
   gfx::RenderTarget target(o.width, o.height);
   app::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
-  settings.verticalExaggeration = description->verticalExaggeration;
   settings.waitForTiles = true;
   settings.overlays = false;
   const app::FrameStats terrainFrame =

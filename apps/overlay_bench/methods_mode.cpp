@@ -209,7 +209,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   std::optional<gfx::RenderTarget> sample;  // MSAA: sample 0 of each judged frame
   if (target.multisampled()) sample.emplace(o.width, o.height, 0, true);
   const gfx::RenderTarget& readable = sample ? *sample : target;
-  app::RenderSettings settings = comparisonSettings(o, *setup);  // the same terrain for every method
+  app::RenderSettings settings = comparisonSettings(o);  // the same terrain for every method
   const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
 
   std::filesystem::create_directories(o.out);

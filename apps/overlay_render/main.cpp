@@ -509,7 +509,6 @@ int run(const Options& o) {
   gfx::RenderTarget target(o.width, o.height, o.msaa, true);
   app::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
-  settings.verticalExaggeration = exaggeration;
   settings.measure = true;
   settings.waitForTiles = true;  // a still image: every tile the view needs
   const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, settings);

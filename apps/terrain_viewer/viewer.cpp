@@ -189,10 +189,9 @@ bool Viewer::useScene(app::SceneDescription description) {
   scene_ = std::move(*scene);
   renderer_ = std::move(*renderer);
   description_ = std::move(description);
-  render_.verticalExaggeration = description_->verticalExaggeration;
-  scene_->bounds->setExaggeration(render_.verticalExaggeration);
+  scene_->bounds->setExaggeration(description_->verticalExaggeration);
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene_, render_.verticalExaggeration, lo, hi);
+  app::terrainBox(*scene_, description_->verticalExaggeration, lo, hi);
   app::Camera home = app::overviewCamera(lo, hi, settings_.fovYDeg);
   if (description_->camera) {
     Result<app::Camera> placed = app::placeCamera(*description_->camera, scene_->frame, description_->path);

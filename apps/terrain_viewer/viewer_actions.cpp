@@ -36,12 +36,9 @@ void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
 
 void Viewer::setExaggeration(double exaggeration) {
   finishSelection();  // the selection job reads the heights
-  // The pieces' height bounds follow (no rebuild of the footprints).
-  render_.verticalExaggeration = exaggeration;
+  // The bounds own it; the renderer refreshes the pieces' heights at the next frame (no
+  // rebuild of the footprints).
   scene_->bounds->setExaggeration(exaggeration);
-  for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-    renderer_->overlayLayer(j).refreshBounds(*scene_->bounds);
-  }
   selectionChanged();
 }
 

@@ -54,7 +54,7 @@ void Viewer::drawViewSection() {
   if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
     settings_.lodTolerancePixels = tolerance;
   }
-  float exaggeration = static_cast<float>(render_.verticalExaggeration);
+  float exaggeration = static_cast<float>(scene_->bounds->exaggeration());
   ImGui::SliderFloat("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
   if (ImGui::IsItemDeactivatedAfterEdit()) setExaggeration(exaggeration);
   ImGui::Checkbox("wireframe", &render_.wireframe);
@@ -286,7 +286,7 @@ void Viewer::drawHud() {
   }
   const app::Camera c = camera();
   if (const std::optional<glm::dvec3> ll =
-          scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, render_.verticalExaggeration))) {
+          scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, scene_->bounds->exaggeration()))) {
     ImGui::Text("eye %.5f, %.5f, %.0f m", ll->y, ll->x, ll->z);
   }
   ImGui::End();

@@ -80,8 +80,9 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
   Identified id;
   id.frame = *world;
-  id.lonLatH = scene_->frame.toLonLat(*world / glm::dvec3(1.0, 1.0, render_.verticalExaggeration));
-  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(*world)) / render_.verticalExaggeration;
+  const double exaggeration = scene_->bounds->exaggeration();
+  id.lonLatH = scene_->frame.toLonLat(*world / glm::dvec3(1.0, 1.0, exaggeration));
+  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(*world)) / exaggeration;
   const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
   for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
     if (renderer_->overlaySources()[j].second || !renderer_->shown(j)) continue;

@@ -617,3 +617,47 @@ TEST_F(OverlayGlTest, LinesInPixelsMatchTheReferenceFromFarAndFromOnTheRoad) {
 
 }  // namespace
 }  // namespace gis::test
+
+namespace gis::test {
+namespace {
+
+TEST_F(OverlayGlTest, ExaggerationHasOneOwnerAndTheLayersFollowIt) {
+  // Only the scene's bounds are told (as the viewer's slider and --exaggeration do): the terrain
+  // is drawn at the new exaggeration and the renderer reads the pieces' bounds again before the
+  // frame, so the overlay stays exact at 0.3×, 6× and back at 1×. Low oblique views, where stale
+  // bounds at 6× would leave the raised terrain outside the pieces.
+  OlindaScene olinda = loadOlinda();
+  ASSERT_TRUE(olinda.renderer);
+  glm::dvec3 lo, hi;
+  app::terrainBox(*olinda.scene, 1.0, lo, hi);
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  const double aspect = static_cast<double>(kWidth) / kHeight;
+  std::mt19937 rng(77);
+  std::uniform_real_distribution<double> ux(lo.x + 500, hi.x - 500), uy(lo.y + 500, hi.y - 500), unit(0.0, 1.0);
+  Comparison total;
+  for (const double exaggeration : {0.3, 6.0, 1.0}) {
+    olinda.scene->bounds->setExaggeration(exaggeration);
+    for (int trial = 0; trial < 4; ++trial) {
+      app::Camera camera;
+      camera.fovYDeg = 40.0;
+      const glm::dvec2 t(ux(rng), uy(rng));
+      const double a = 6.283 * unit(rng), d = 600.0 + 900.0 * unit(rng);
+      const double g = olinda.scene->bounds->fullResolutionHeightAt(t);  // exaggerated, as drawn
+      camera.eye = glm::dvec3(t + d * glm::dvec2(std::cos(a), std::sin(a)), (std::isnan(g) ? 0.0 : g) + 0.3 * d);
+      camera.target = glm::dvec3(t, std::isnan(g) ? 0.0 : g);
+      (void)olinda.renderer->render(cache_, target.framebuffer(), kWidth, kHeight, camera, {});
+      for (const overlay::OverlayLayer* l : olinda.layers) EXPECT_FALSE(l->boundsStale());
+      const Comparison c = compare(target, camera.projection(aspect) * camera.view(), olinda.layers,
+                                   "exaggeration " + std::to_string(exaggeration) + " #" + std::to_string(trial));
+      total.covered += c.covered;
+      total.wrong += c.wrong;
+      total.edgeWrong += c.edgeWrong;
+    }
+  }
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 200);
+  EXPECT_GT(total.covered, 20000u);
+}
+
+}  // namespace
+}  // namespace gis::test

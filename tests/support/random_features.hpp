@@ -5,7 +5,7 @@
 #include <random>
 #include <vector>
 
-#include "geo/vector.hpp"
+#include "geo/feature.hpp"
 
 namespace gis::test {
 

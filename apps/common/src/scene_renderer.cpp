@@ -187,6 +187,7 @@ Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene, const Over
   if (!engine) return result;
   SceneRenderer renderer;
   renderer.terrain_ = std::move(*engine);
+  renderer.bounds_ = scene.bounds;
   Result<overlay::OverlayRenderer> overlayRenderer = overlay::OverlayRenderer::create();
   result.diagnostics.append(overlayRenderer.diagnostics);
   if (!overlayRenderer) return result;
@@ -214,7 +215,8 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   view.fovYRadians = camera.fovYDeg * std::numbers::pi / 180.0;
   terrain::LodOptions options;
   options.pixelTolerance = settings.lodTolerancePixels;
-  options.exaggeration = settings.verticalExaggeration;
+  const double exaggeration = bounds_->exaggeration();
+  options.exaggeration = exaggeration;
   const terrain::TerrainQuadtree& tree = terrain_->tree();
   terrain::TilePager* pager = tree.pager();
   if (pager != nullptr) {
@@ -248,6 +250,14 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
     timer_->begin();
     statistics_->begin();
   }
+  // Another exaggeration since the layers read their bounds: read them again (heights only).
+  bool stale = false;
+  for (overlay::OverlayLayer& layer : layers_) {
+    if (!layer.boundsStale()) continue;
+    layer.refreshBounds(*bounds_);
+    stale = true;
+  }
+  if (stale && technique_) technique_->invalidate();
   // The technique's frame: prepared before the terrain (drapes), drawn after it.
   const bool overlays = settings.overlays && !layers_.empty() && technique_;
   overlay::TechniqueFrame frame;
@@ -277,7 +287,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   gfx::enableMaskWrites(framebuffer, stats.draped);
   terrain_->setWireframe(settings.wireframe);
   terrain_->setImagery(settings.imagery);
-  stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, settings.verticalExaggeration);
+  stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, exaggeration);
   if (settings.measure) {
     statistics_->end();
     timer_->end();

@@ -4,6 +4,7 @@
 // detail can be on screen there, with vertical exaggeration applied. Our terrain implements it;
 // a GIS client with its own terrain implements it for theirs. It lives in core so that the
 // terrain and the overlay stand side by side: neither library needs the other.
+#include <cstdint>
 #include <span>
 
 #include <glm/vec2.hpp>
@@ -32,6 +33,10 @@ class HeightBoundsProvider {
     (void)footprint;
     return false;
   }
+  /// Changes whenever the surface as drawn changes for the same footprint (another vertical
+  /// exaggeration): bounds read before are stale and must be read again. A provider whose
+  /// surface never changes keeps 0.
+  [[nodiscard]] virtual std::uint64_t revision() const { return 0; }
 };
 
 }  // namespace gis

@@ -51,7 +51,14 @@ class QuadtreeHeightBounds final : public HeightBoundsProvider {
  public:
   explicit QuadtreeHeightBounds(std::shared_ptr<const TerrainQuadtree> tree, double exaggeration = 1.0);
 
-  void setExaggeration(double exaggeration) { exaggeration_ = exaggeration; }
+  /// The one owner of the vertical exaggeration: the terrain is drawn with it, and overlay
+  /// layers built on these bounds see the new revision() and read their bounds again.
+  void setExaggeration(double exaggeration) {
+    if (exaggeration == exaggeration_) return;
+    exaggeration_ = exaggeration;
+    ++revision_;
+  }
+  [[nodiscard]] std::uint64_t revision() const override { return revision_; }
   [[nodiscard]] double exaggeration() const { return exaggeration_; }
 
   [[nodiscard]] HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const override;
@@ -76,6 +83,7 @@ class QuadtreeHeightBounds final : public HeightBoundsProvider {
   std::optional<MinMaxPyramid> pyramid_;
   bool hasNodata_ = true;
   double exaggeration_;
+  std::uint64_t revision_ = 0;
 };
 
 }  // namespace gis::terrain

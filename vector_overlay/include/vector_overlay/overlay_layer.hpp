@@ -1,137 +1,44 @@
 #pragma once
-// One vector layer as stencil polyhedra (DESIGN §5): each feature's footprints (footprints.hpp)
-// extruded between the height bounds of their cells into closed, outward-wound polyhedra, kept
-// in GPU buffers with one slot per piece, so that editing a feature rewrites only its pieces.
-//
-// A piece's vertices are stored relative to an origin near it (1 km grid) as
-// (x, y, height, side): height is the bound from the HeightBoundsProvider (lo for side −1, hi
-// for side +1); the shader moves caps by side · pad, with a pad that grows with the distance
-// from the eye (depth precision), so padding is a per-frame setting. Indices of a piece are
-// [bottom cap | walls | top cap], so z-pass draws can leave out the bottom cap.
-#include <array>
+// One vector layer on the GPU: a LayerGeometry (layer_geometry.hpp: the polyhedra and their
+// vertex and index arrays, built without GL) and the buffers holding it. Edits go to the
+// geometry and only what they changed is uploaded again.
 #include <cstdint>
-#include <map>
-#include <memory>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
-#include <glm/vec2.hpp>
-#include <glm/vec3.hpp>
-#include <glm/vec4.hpp>
-
 #include "core/diagnostics.hpp"
-#include "geo/feature.hpp"
 #include "gfx/handles.hpp"
-#include "vector_overlay/cpu_reference.hpp"
-#include "vector_overlay/footprints.hpp"
 #include "vector_overlay/height_bounds.hpp"
-#include "vector_overlay/style.hpp"
+#include "vector_overlay/layer_geometry.hpp"
 
 namespace gis::overlay {
 
-/// How one feature is drawn, resolved from the layer style and its attributes.
-struct FeatureStyle {
-  glm::vec4 color{1.0F};  ///< straight alpha, opacity applied
-  LineShape shape;        ///< line layers
-  bool visible = true;
-};
-
-/// The style of each feature of a layer: colour from `colorAttribute` through the categorical
-/// map (else the layer colour), width from `widthAttribute` (else the layer width). A width
-/// attribute that is present but not a positive finite number gets the layer width and a
-/// Warning naming the layer and the feature (when `diagnostics` is given).
-std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
-                                               const std::vector<geo::Feature>& features,
-                                               Diagnostics* diagnostics = nullptr, const std::string& layerName = {});
-
-struct LayerBuildOptions {
-  FootprintOptions footprints;
-  /// The seed paper's construction: one bound pair per feature (no split at cells).
-  bool paperVariant = false;
-  /// Keep a shape split at the cells only where that pays: when the parts' walls, each as high
-  /// as its own bounds, have less than `splitGain` of the area of the whole shape's walls under
-  /// the shape's bounds (flat ground, or a thin road whose pieces are short, keeps one piece).
-  /// Off: every shape is split at every cell it meets.
-  bool adaptiveSplit = true;
-  double splitGain = 0.7;
-};
-
-/// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
-/// each vertex of the feature. Other styles are left alone.
-void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds);
-
-/// A closed polyhedron: a footprint extruded between [lo, hi] (exaggerated metres).
-struct Polyhedron {
-  Footprint footprint;
-  double lo = 0.0;
-  double hi = 0.0;
-  /// The terrain is drawn under the whole footprint (no nodata, inside the DEM), so in z-pass the
-  /// bottom cap can never pass the depth test and is left out.
-  bool overSurface = false;
-  glm::dvec2 boxMin{0.0}, boxMax{0.0};  ///< of the footprint
-};
-
-/// Builds the polyhedra of one feature under the bounds contract. A feature that cannot be used
-/// gets Errors (footprints.hpp); one that is fine but gives nothing to draw (outside the grid,
-/// no geometry of the layer's kind) gets a Warning saying so.
-std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
-                                       const FeatureStyle& style, const std::string& layerName,
-                                       const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
-                                       Diagnostics& diagnostics);
-
-/// True if the point may lie inside the polyhedron extruded with padding `pad` (exaggerated
-/// metres), within `margin` metres: in the footprint (or within margin of it) and between
-/// lo − pad − margin and hi + pad + margin. Conservative: false means certainly outside.
-bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double margin);
-
-struct LayerStats {
-  std::size_t features = 0;
-  std::size_t skippedFeatures = 0;  ///< left out for errors (each named in the diagnostics)
-  std::size_t emptyFeatures = 0;    ///< fine but nothing to draw (outside the terrain, no geometry): a Warning each
-  std::size_t pieces = 0;
-  std::size_t triangles = 0;
-  std::size_t gpuBytes = 0;
-  double buildSeconds = 0.0;
-};
-
-/// What became of one feature of a layer.
-enum class FeatureOutcome : std::uint8_t {
-  Drawn,          ///< has pieces
-  Skipped,        ///< left out for errors (named in the build's diagnostics)
-  NothingToDraw,  ///< fine, but no pieces: outside the terrain, no geometry (a Warning says so)
-  Hidden,         ///< not visible (style) or removed
-};
-
-/// What OverlayLayer::validate found.
-struct LayerValidation {
-  Diagnostics problems;  ///< one Error per broken piece, naming the layer, feature and piece
-  std::size_t pieces = 0;
-  /// Largest distance (metres) between a vertex as stored for the GPU (float, relative to its
-  /// origin) and the footprint's vertex (double, frame): the volumes' position error.
-  double maxPositionError = 0.0;
-  /// Largest error (metres) of a stored height bound.
-  double maxHeightError = 0.0;
-};
-
 class OverlayLayer {
  public:
-  /// Builds every feature's polyhedra and uploads them (needs a current GL context). Broken
-  /// features are reported in `diagnostics` and left out; the rest is drawn.
+  /// Builds every feature's polyhedra (LayerGeometry::build) and uploads them (needs a current
+  /// GL context). Broken features are reported in `diagnostics` and left out; the rest is drawn.
   static Result<OverlayLayer> build(std::string name, LayerKind kind, const LayerStyle& style,
                                     std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
                                     const LayerBuildOptions& options = {});
+  /// Uploads a geometry built elsewhere (e.g. on a worker thread). Needs a current GL context.
+  static OverlayLayer upload(LayerGeometry geometry);
 
-  [[nodiscard]] const std::string& name() const { return name_; }
-  [[nodiscard]] LayerKind kind() const { return kind_; }
-  [[nodiscard]] const LayerStyle& style() const { return style_; }
-  [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_; }
-  [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
-  [[nodiscard]] const LayerStats& stats() const { return stats_; }
+  [[nodiscard]] const LayerGeometry& geometry() const { return geometry_; }
+  [[nodiscard]] const std::string& name() const { return geometry_.name(); }
+  [[nodiscard]] LayerKind kind() const { return geometry_.kind(); }
+  [[nodiscard]] const LayerStyle& style() const { return geometry_.style(); }
+  [[nodiscard]] const std::vector<geo::Feature>& features() const { return geometry_.features(); }
+  [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return geometry_.featureStyles(); }
+  /// The geometry's counts and build time, and the GPU bytes of its buffers.
+  [[nodiscard]] LayerStats stats() const {
+    LayerStats s = geometry_.stats();
+    s.gpuBytes = gpuBytes_;
+    return s;
+  }
   /// Per feature, what became of it (kept up to date by edits, as are the stats' counts).
-  [[nodiscard]] const std::vector<FeatureOutcome>& featureOutcomes() const { return outcomes_; }
-  [[nodiscard]] bool paperVariant() const { return options_.paperVariant; }
+  [[nodiscard]] const std::vector<FeatureOutcome>& featureOutcomes() const { return geometry_.featureOutcomes(); }
+  [[nodiscard]] bool paperVariant() const { return geometry_.paperVariant(); }
 
   /// Editing: only the feature's pieces are rebuilt and re-uploaded; the next frame shows it.
   Diagnostics replaceFeature(std::size_t index, geo::Feature feature);
@@ -139,86 +46,48 @@ class OverlayLayer {
   void removeFeature(std::size_t index);  ///< hides it for good (indices stay stable)
   /// An upper bound of how many of the layer's pieces overlap at any point (counted on a grid
   /// of their bounding boxes); above 255 the renderer draws the layer in groups.
-  [[nodiscard]] std::size_t maxOverlap() const;
+  [[nodiscard]] std::size_t maxOverlap() const { return geometry_.maxOverlap(); }
   /// The colour (straight alpha, rounded to 8 bits as the vertices hold it) shared by every
   /// visible feature, or none when they differ; the renderer then covers the layer with one
   /// screen rectangle instead of its pieces.
-  [[nodiscard]] std::optional<glm::vec4> uniformColor() const;
+  [[nodiscard]] std::optional<glm::vec4> uniformColor() const { return geometry_.uniformColor(); }
   /// Checks every live piece as drawn (validation.hpp: closed, outward, bounded, inside its
   /// cell) and that the stored vertices are the footprints' within float precision.
-  [[nodiscard]] LayerValidation validate() const;
+  [[nodiscard]] LayerValidation validate() const { return geometry_.validate(); }
+  /// The bounds provider's surface changed since the bounds were read (LayerGeometry).
+  [[nodiscard]] bool boundsStale() const { return geometry_.boundsStale(); }
   /// Re-reads the height bounds of every piece (after a change of vertical exaggeration).
   void refreshBounds(const HeightBoundsProvider& bounds);
 
   /// Draw-side view of the pieces (the renderer's business).
-  struct PieceSlot {
-    std::uint32_t feature = 0;
-    std::uint32_t origin = 0;         ///< index into origins()
-    std::uint32_t baseVertex = 0;     ///< in the vertex buffer
-    std::uint32_t firstIndex = 0;     ///< in the index buffer
-    std::uint32_t bottomCount = 0;    ///< indices of the bottom cap (first)
-    std::uint32_t indexCount = 0;     ///< all indices
-    std::uint32_t boxFirstIndex = 0;  ///< paper variant: the piece's bounding box (36 indices)
-    bool live = false;
-  };
-  [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
-  [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
-  [[nodiscard]] const std::vector<glm::dvec2>& origins() const { return origins_; }
+  using PieceSlot = LayerGeometry::PieceSlot;
+  [[nodiscard]] const std::vector<PieceSlot>& slots() const { return geometry_.slots(); }
+  [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return geometry_.polyhedra(); }
+  [[nodiscard]] const std::vector<glm::dvec2>& origins() const { return geometry_.origins(); }
   [[nodiscard]] GLuint vertexBuffer() const { return vertices_.id(); }
   /// Lines in pixels: per vertex (direction x, y, anchor height) (Footprint::directions); the
   /// vertex buffer then holds the centres. 0 for every other layer.
   [[nodiscard]] GLuint scalingBuffer() const { return scaling_.id(); }
   /// > 0 when the layer's lines are drawn in pixels (LayerStyle::widthPixels).
-  [[nodiscard]] double widthPixels() const { return kind_ == LayerKind::Line ? style_.widthPixels : 0.0; }
+  [[nodiscard]] double widthPixels() const { return geometry_.widthPixels(); }
   [[nodiscard]] GLuint indexBuffer() const { return indices_.id(); }
 
  private:
-  OverlayLayer() = default;
-  struct Vertex {
-    float x, y, height, side;
-    std::uint8_t rgba[4];
-  };
-  static_assert(sizeof(Vertex) == 20);
-  void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
-  void freePieces(std::uint32_t feature);
-  Diagnostics rebuildFeature(std::size_t index);
-  std::uint32_t originFor(const Polyhedron& p);
-  /// New buffers of these capacities holding the CPU copy.
+  explicit OverlayLayer(LayerGeometry geometry) : geometry_(std::move(geometry)) {}
+  /// Brings the buffers up to date with the geometry's changes (new, larger buffers when it
+  /// outgrew them).
+  void sync();
+  /// New buffers of these capacities holding the whole geometry.
   void reallocate(std::size_t vertexCapacity, std::size_t indexCapacity);
-  void ensureCapacity(std::size_t vertices, std::size_t indices);
-  void appendGeometry(std::size_t slot, std::vector<Vertex> v, std::vector<std::uint32_t> i,
-                      std::vector<glm::vec3> scaling);
 
-  std::string name_;
-  LayerKind kind_ = LayerKind::Polygon;
-  LayerStyle style_;
-  LayerBuildOptions options_;
-  std::vector<geo::Feature> features_;
-  std::vector<FeatureStyle> styles_;
-  std::vector<std::vector<std::uint32_t>> featureSlots_;  ///< per feature, its slots
-  std::vector<FeatureOutcome> outcomes_;                  ///< per feature
-  /// Records a feature's outcome and keeps the stats' counts in step.
-  void setOutcome(std::size_t feature, FeatureOutcome outcome);
-  std::vector<PieceSlot> slots_;
-  std::vector<Polyhedron> polyhedra_;  ///< per slot
-  std::vector<glm::dvec2> origins_;
-  std::map<std::pair<std::int64_t, std::int64_t>, std::uint32_t> originIndex_;  ///< grid cell → index in origins_
-  std::vector<Vertex> cpuVertices_;
-  std::vector<std::uint32_t> cpuIndices_;
-  std::vector<glm::vec3> cpuScaling_;  ///< lines in pixels only, per vertex
+  LayerGeometry geometry_;
   gfx::BufferHandle vertices_, indices_, scaling_;
-  bool building_ = false;  ///< in build(): geometry is uploaded once at its end
   std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
-  std::size_t vertexUsed_ = 0, indexUsed_ = 0;
-  std::size_t wastedIndices_ = 0;
-  LayerStats stats_;
-  const HeightBoundsProvider* bounds_ = nullptr;
-  mutable std::optional<std::size_t> maxOverlap_;                 ///< cleared by edits
-  mutable std::optional<std::optional<glm::vec4>> uniformColor_;  ///< cleared by edits
+  std::size_t gpuBytes_ = 0;
 };
 
-/// The layer as the CPU reference and the logical selection see it: its features, their line
-/// shapes (line layers) and visibility. Refers to the layer's features: keep the layer alive.
-ReferenceLayer referenceLayerOf(const OverlayLayer& layer);
+/// The layer as the CPU reference and the logical selection see it (referenceLayerOf of its
+/// geometry). Refers to the layer's features: keep the layer alive.
+inline ReferenceLayer referenceLayerOf(const OverlayLayer& layer) { return referenceLayerOf(layer.geometry()); }
 
 }  // namespace gis::overlay

@@ -24,19 +24,11 @@
 #include "gfx/program.hpp"
 #include "gfx/queries.hpp"
 #include "gfx/state_cache.hpp"
+#include "vector_overlay/near_clip.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/stencil_states.hpp"
 
 namespace gis::overlay {
-
-/// The camera of the frame, as the terrain was drawn with it.
-struct OverlayView {
-  glm::dmat4 viewProj{1.0};  ///< frame → clip (reversed-Z, infinite far plane, depth clamp)
-  glm::dvec3 eye{0.0};       ///< frame coordinates
-  double nearPlane = 1.0;    ///< metres
-  double fovYRadians = 0.785;
-  double aspect = 1.0;
-};
 
 struct OverlaySettings {
   /// Caps are moved out by padBase + padPerMetre · distance from the eye, beyond the depth

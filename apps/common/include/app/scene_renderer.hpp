@@ -21,7 +21,6 @@ namespace gis::app {
 
 struct RenderSettings {
   double lodTolerancePixels = 1.5;
-  double verticalExaggeration = 1.0;
   bool wireframe = false;
   bool imagery = true;   ///< off: hillshade
   bool measure = false;  ///< wrap passes in GPU timer and pipeline-statistics queries (waits)
@@ -90,7 +89,8 @@ class SceneRenderer {
   Diagnostics buildOverlays(const LoadedScene& scene, const OverlayBuildSettings& overlays);
 
   /// Clears colour, depth (reversed-Z: 0) and stencil, selects the terrain chunks for this view
-  /// and draws all passes.
+  /// and draws all passes, at the vertical exaggeration of the scene's bounds (LoadedScene::
+  /// bounds->setExaggeration): layers whose bounds it made stale are refreshed first.
   FrameStats render(gfx::StateCache& cache, GLuint framebuffer, int width, int height, const Camera& camera,
                     const RenderSettings& settings);
 
@@ -132,6 +132,9 @@ class SceneRenderer {
  private:
   SceneRenderer() = default;
   std::optional<terrain::TerrainEngine> terrain_;
+  /// The one owner of the vertical exaggeration (QuadtreeHeightBounds::setExaggeration): the
+  /// terrain is drawn with it and the layers' bounds follow it.
+  std::shared_ptr<terrain::QuadtreeHeightBounds> bounds_;
   std::optional<overlay::OverlayRenderer> overlay_;  ///< analysis passes
   std::vector<overlay::OverlayLayer> layers_;
   std::vector<std::pair<std::size_t, bool>> sources_;

@@ -1,0 +1,213 @@
+// The CPU half of an overlay layer (layer_geometry.hpp) and the near-plane clipping
+// (near_clip.hpp), without a GL context: a layer built on worker threads is the same as one
+// built on this thread, edits say exactly what the GPU copy must take again, and the z-fail
+// pieces clipped at the near plane (and capped there) stay closed volumes.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <future>
+#include <limits>
+#include <map>
+#include <random>
+#include <tuple>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "gfx/camera.hpp"
+#include "random_features.hpp"
+#include "vector_overlay/layer_geometry.hpp"
+#include "vector_overlay/near_clip.hpp"
+
+namespace gis::test {
+namespace {
+
+using namespace gis::overlay;
+
+/// A wavy surface z = 40 sin(x/300) cos(y/200): bounds over a footprint from dense samples of
+/// its box plus the largest change between samples. Read-only, so safe from any thread.
+class WavyBounds final : public HeightBoundsProvider {
+ public:
+  explicit WavyBounds(double exaggeration = 1.0) : exaggeration_(exaggeration) {}
+  [[nodiscard]] HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const override {
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    for (const glm::dvec2& p : footprint) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    if (footprint.empty()) return globalBounds();
+    HeightBounds b{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    const double step = 20.0;
+    for (double x = lo.x; x <= hi.x + step; x += step) {
+      for (double y = lo.y; y <= hi.y + step; y += step) {
+        const double z = at(glm::dvec2(std::min(x, hi.x), std::min(y, hi.y)));
+        b.lo = std::min(b.lo, z);
+        b.hi = std::max(b.hi, z);
+      }
+    }
+    const double margin = exaggeration_ * 40.0 * (1.0 / 300.0 + 1.0 / 200.0) * step;
+    return {b.lo - margin, b.hi + margin};
+  }
+  [[nodiscard]] HeightBounds globalBounds() const override { return {-40.0 * exaggeration_, 40.0 * exaggeration_}; }
+  [[nodiscard]] double at(const glm::dvec2& p) const {
+    return exaggeration_ * 40.0 * std::sin(p.x / 300.0) * std::cos(p.y / 200.0);
+  }
+
+ private:
+  double exaggeration_;
+};
+
+LayerBuildOptions onCells() {
+  LayerBuildOptions o;
+  CellGrid g;
+  g.origin = glm::dvec2(-3000.0);
+  g.cellSize = 250.0;
+  g.columns = g.rows = 24;
+  o.footprints.cells = g;
+  return o;
+}
+
+bool sameArrays(const LayerGeometry& a, const LayerGeometry& b) {
+  return a.vertices().size() == b.vertices().size() && a.indices() == b.indices() &&
+         std::memcmp(a.vertices().data(), b.vertices().data(), a.vertices().size() * sizeof(LayerGeometry::Vertex)) ==
+             0 &&
+         a.slots().size() == b.slots().size();
+}
+
+TEST(LayerGeometry, BuiltOnWorkerThreadsIsTheSameAsOnThisOneAndValid) {
+  std::mt19937 rng(5);
+  const glm::dvec2 lo(-2800.0), hi(2800.0);
+  const std::vector<geo::Feature> areas = randomPolygons(rng, lo, hi, 30), roads = randomLines(rng, lo, hi, 40);
+  const WavyBounds bounds;
+  LayerStyle road;
+  road.widthAttribute = "width_m";
+  auto buildAreas = [&] { return LayerGeometry::build("areas", LayerKind::Polygon, {}, areas, bounds, onCells()); };
+  auto buildRoads = [&] { return LayerGeometry::build("roads", LayerKind::Line, road, roads, bounds, onCells()); };
+  std::future<Result<LayerGeometry>> a = std::async(std::launch::async, buildAreas);
+  std::future<Result<LayerGeometry>> r = std::async(std::launch::async, buildRoads);
+  Result<LayerGeometry> areasHere = buildAreas(), roadsHere = buildRoads();
+  Result<LayerGeometry> areasThere = a.get(), roadsThere = r.get();
+  ASSERT_TRUE(areasHere.ok() && roadsHere.ok() && areasThere.ok() && roadsThere.ok());
+  EXPECT_TRUE(sameArrays(*areasHere, *areasThere));
+  EXPECT_TRUE(sameArrays(*roadsHere, *roadsThere));
+  for (const LayerGeometry* g : {&*areasHere, &*roadsHere}) {
+    const LayerValidation v = g->validate();
+    EXPECT_TRUE(v.problems.empty()) << v.problems.items().front().toString();
+    EXPECT_GE(v.pieces, 30u);
+    EXPECT_LT(v.maxPositionError, 1e-3);
+    EXPECT_EQ(g->stats().gpuBytes, 0u);  // the GPU is OverlayLayer's business
+  }
+}
+
+TEST(LayerGeometry, EditsNameExactlyWhatTheGpuCopyMustTakeAgain) {
+  std::mt19937 rng(9);
+  const WavyBounds bounds;
+  Result<LayerGeometry> built =
+      LayerGeometry::build("areas", LayerKind::Polygon, {},
+                           randomPolygons(rng, glm::dvec2(-2000.0), glm::dvec2(2000.0), 12), bounds, onCells());
+  ASSERT_TRUE(built.ok());
+  LayerGeometry& g = *built;
+  EXPECT_TRUE(g.takeChanges().empty()) << "a new geometry is uploaded whole";
+
+  // Replacing a feature appends its new pieces at the end (the old slots die in place).
+  const std::size_t vertices = g.vertices().size(), indices = g.indices().size();
+  geo::Feature moved = g.features()[3];
+  for (glm::dvec2& p : moved.polygons.front().outer) p += glm::dvec2(130.0, -40.0);
+  EXPECT_TRUE(g.replaceFeature(3, moved).empty());
+  const GeometryChange appended = g.takeChanges();
+  EXPECT_EQ(appended.vertexBegin, vertices);
+  EXPECT_EQ(appended.vertexEnd, g.vertices().size());
+  EXPECT_EQ(appended.indexBegin, indices);
+  EXPECT_EQ(appended.indexEnd, g.indices().size());
+  EXPECT_TRUE(g.takeChanges().empty());
+  EXPECT_TRUE(g.validate().problems.empty());
+
+  // Another exaggeration: every live piece's heights change, no index does, and the stored
+  // heights are the new bounds.
+  const WavyBounds taller(3.0);
+  g.refreshBounds(taller);
+  const GeometryChange heights = g.takeChanges();
+  EXPECT_LT(heights.vertexBegin, heights.vertexEnd);
+  EXPECT_GE(heights.indexBegin, heights.indexEnd);
+  const LayerValidation v = g.validate();
+  EXPECT_TRUE(v.problems.empty());
+  EXPECT_LT(v.maxHeightError, 1e-3);
+  for (std::size_t k = 0; k < g.slots().size(); ++k) {
+    if (!g.slots()[k].live) continue;
+    const Polyhedron& p = g.polyhedra()[k];
+    const HeightBounds want = taller.boundsOver(p.footprint.vertices);
+    EXPECT_DOUBLE_EQ(p.lo, want.lo);
+    EXPECT_DOUBLE_EQ(p.hi, want.hi);
+  }
+
+  // Removing a feature frees its slots without touching the arrays.
+  g.removeFeature(5);
+  EXPECT_TRUE(g.takeChanges().empty());
+  EXPECT_EQ(g.featureOutcomes()[5], FeatureOutcome::Hidden);
+}
+
+/// Directed edges of a triangle soup, by their endpoints' bits.
+using Point = std::tuple<float, float, float>;
+std::map<std::pair<Point, Point>, int> directedEdges(const std::vector<ClippedVertex>& t) {
+  std::map<std::pair<Point, Point>, int> edges;
+  for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const ClippedVertex& a = t[i + k];
+      const ClippedVertex& b = t[i + (k + 1) % 3];
+      const Point pa{a.x, a.y, a.z}, pb{b.x, b.y, b.z};
+      if (pa != pb) ++edges[{pa, pb}];
+    }
+  }
+  return edges;
+}
+
+TEST(NearClip, PiecesCutAtTheNearPlaneAndCappedThereStayClosed) {
+  std::mt19937 rng(13);
+  const WavyBounds bounds;
+  Result<LayerGeometry> built =
+      LayerGeometry::build("areas", LayerKind::Polygon, {},
+                           randomPolygons(rng, glm::dvec2(-1500.0), glm::dvec2(1500.0), 10), bounds, onCells());
+  ASSERT_TRUE(built.ok());
+  const LayerGeometry& g = *built;
+  std::vector<std::size_t> slots;
+  for (std::size_t k = 0; k < g.slots().size(); ++k) {
+    if (g.slots()[k].live) slots.push_back(k);
+  }
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int cutSomewhere = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    // Eyes near the pieces' heights, a near plane of tens of metres: many pieces are cut.
+    const glm::dvec3 eye(1500.0 * u(rng), 1500.0 * u(rng), 40.0 * u(rng));
+    const glm::dvec3 target = eye + glm::dvec3(u(rng), u(rng), 0.3 * u(rng));
+    OverlayView view;
+    view.nearPlane = 20.0 + 60.0 * (u(rng) + 1.0);
+    view.eye = eye;
+    view.viewProj = gfx::reversedInfinitePerspective(glm::radians(60.0), 1.5, view.nearPlane) *
+                    gfx::lookAt(eye, target, glm::dvec3(0.0, 0.0, 1.0));
+    const CapPadding padding;
+    const std::vector<ClippedVertex> whole = clipAtNearPlane(view, g, slots, padding, PixelScale{}, false);
+    const std::vector<ClippedVertex> capped = clipAtNearPlane(view, g, slots, padding, PixelScale{}, true);
+    ASSERT_EQ(whole.size() % 3, 0u);
+    ASSERT_EQ(capped.size() % 3, 0u);
+    cutSomewhere += capped.size() > whole.size() ? 1 : 0;
+    // Nothing left in front of the clip plane (w ≥ near / 2, within float rounding).
+    const glm::dvec3 w(view.viewProj[0][3], view.viewProj[1][3], view.viewProj[2][3]);
+    for (const ClippedVertex& v : capped) {
+      const double wv = glm::dot(w, glm::dvec3(v.x, v.y, v.z) + eye) + view.viewProj[3][3];
+      EXPECT_GE(wv, 0.5 * view.nearPlane - 1e-3 * (1.0 + std::abs(wv)));
+    }
+    // Closed: every directed edge has its reverse as often (cut points are bit-identical).
+    const auto edges = directedEdges(capped);
+    int unmatched = 0;
+    for (const auto& [edge, count] : edges) {
+      const auto reverse = edges.find({edge.second, edge.first});
+      unmatched += reverse == edges.end() || reverse->second != count ? 1 : 0;
+    }
+    EXPECT_EQ(unmatched, 0) << "trial " << trial;
+  }
+  EXPECT_GT(cutSomewhere, 5) << "the cameras must cut pieces for the test to mean anything";
+}
+
+}  // namespace
+}  // namespace gis::test

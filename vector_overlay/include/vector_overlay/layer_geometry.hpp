@@ -1,0 +1,235 @@
+#pragma once
+// One vector layer's stencil polyhedra on the CPU (DESIGN §5): each feature's footprints
+// (footprints.hpp) extruded between the height bounds of their cells into closed, outward-wound
+// polyhedra, and the vertex and index arrays the GPU draws, with one slot per piece so that
+// editing a feature rewrites only its pieces. No GL: a LayerGeometry can be built on any thread
+// (given a HeightBoundsProvider that may be read from it), tested without a context, and handed
+// to the GL thread, where OverlayLayer uploads it (prepare on a worker, upload on the GL thread).
+//
+// A piece's vertices are stored relative to an origin near it (1 km grid) as
+// (x, y, height, side): height is the bound from the HeightBoundsProvider (lo for side −1, hi
+// for side +1); the shader moves caps by side · pad, with a pad that grows with the distance
+// from the eye (depth precision), so padding is a per-frame setting. Indices of a piece are
+// [bottom cap | walls | top cap], so z-pass draws can leave out the bottom cap.
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "core/diagnostics.hpp"
+#include "core/height_bounds.hpp"
+#include "geo/feature.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/footprints.hpp"
+#include "vector_overlay/style.hpp"
+
+namespace gis::overlay {
+
+/// How one feature is drawn, resolved from the layer style and its attributes.
+struct FeatureStyle {
+  glm::vec4 color{1.0F};  ///< straight alpha, opacity applied
+  LineShape shape;        ///< line layers
+  bool visible = true;
+};
+
+/// The style of each feature of a layer: colour from `colorAttribute` through the categorical
+/// map (else the layer colour), width from `widthAttribute` (else the layer width). A width
+/// attribute that is present but not a positive finite number gets the layer width and a
+/// Warning naming the layer and the feature (when `diagnostics` is given).
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
+                                               const std::vector<geo::Feature>& features,
+                                               Diagnostics* diagnostics = nullptr, const std::string& layerName = {});
+
+struct LayerBuildOptions {
+  FootprintOptions footprints;
+  /// The seed paper's construction: one bound pair per feature (no split at cells).
+  bool paperVariant = false;
+  /// Keep a shape split at the cells only where that pays: when the parts' walls, each as high
+  /// as its own bounds, have less than `splitGain` of the area of the whole shape's walls under
+  /// the shape's bounds (flat ground, or a thin road whose pieces are short, keeps one piece).
+  /// Off: every shape is split at every cell it meets.
+  bool adaptiveSplit = true;
+  double splitGain = 0.7;
+};
+
+/// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
+/// each vertex of the feature. Other styles are left alone.
+void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds);
+
+/// A closed polyhedron: a footprint extruded between [lo, hi] (exaggerated metres).
+struct Polyhedron {
+  Footprint footprint;
+  double lo = 0.0;
+  double hi = 0.0;
+  /// The terrain is drawn under the whole footprint (no nodata, inside the DEM), so in z-pass the
+  /// bottom cap can never pass the depth test and is left out.
+  bool overSurface = false;
+  glm::dvec2 boxMin{0.0}, boxMax{0.0};  ///< of the footprint
+};
+
+/// Builds the polyhedra of one feature under the bounds contract. A feature that cannot be used
+/// gets Errors (footprints.hpp); one that is fine but gives nothing to draw (outside the grid,
+/// no geometry of the layer's kind) gets a Warning saying so.
+std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
+                                       const FeatureStyle& style, const std::string& layerName,
+                                       const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
+                                       Diagnostics& diagnostics);
+
+/// True if the point may lie inside the polyhedron extruded with padding `pad` (exaggerated
+/// metres), within `margin` metres: in the footprint (or within margin of it) and between
+/// lo − pad − margin and hi + pad + margin. Conservative: false means certainly outside.
+bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double margin);
+
+struct LayerStats {
+  std::size_t features = 0;
+  std::size_t skippedFeatures = 0;  ///< left out for errors (each named in the diagnostics)
+  std::size_t emptyFeatures = 0;    ///< fine but nothing to draw (outside the terrain, no geometry): a Warning each
+  std::size_t pieces = 0;
+  std::size_t triangles = 0;
+  std::size_t gpuBytes = 0;
+  double buildSeconds = 0.0;
+};
+
+/// What became of one feature of a layer.
+enum class FeatureOutcome : std::uint8_t {
+  Drawn,          ///< has pieces
+  Skipped,        ///< left out for errors (named in the build's diagnostics)
+  NothingToDraw,  ///< fine, but no pieces: outside the terrain, no geometry (a Warning says so)
+  Hidden,         ///< not visible (style) or removed
+};
+
+/// What OverlayLayer::validate found.
+struct LayerValidation {
+  Diagnostics problems;  ///< one Error per broken piece, naming the layer, feature and piece
+  std::size_t pieces = 0;
+  /// Largest distance (metres) between a vertex as stored for the GPU (float, relative to its
+  /// origin) and the footprint's vertex (double, frame): the volumes' position error.
+  double maxPositionError = 0.0;
+  /// Largest error (metres) of a stored height bound.
+  double maxHeightError = 0.0;
+};
+
+/// What an edit changed in a LayerGeometry's arrays since the GPU copy was last brought up to
+/// date: [begin, end) of the vertices and of the indices (empty when begin >= end).
+struct GeometryChange {
+  std::size_t vertexBegin = std::numeric_limits<std::size_t>::max();
+  std::size_t vertexEnd = 0;
+  std::size_t indexBegin = std::numeric_limits<std::size_t>::max();
+  std::size_t indexEnd = 0;
+  [[nodiscard]] bool empty() const { return vertexBegin >= vertexEnd && indexBegin >= indexEnd; }
+  void add(std::size_t v0, std::size_t v1, std::size_t i0, std::size_t i1);
+};
+
+class LayerGeometry {
+ public:
+  /// Builds every feature's polyhedra. Broken features are reported in `diagnostics` and left
+  /// out; the rest is kept. Pure: no GL, no shared state (thread-safe for distinct layers when
+  /// `bounds` may be read concurrently). `bounds` must outlive the geometry (edits read it).
+  static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
+                                     std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                     const LayerBuildOptions& options = {});
+
+  [[nodiscard]] const std::string& name() const { return name_; }
+  [[nodiscard]] LayerKind kind() const { return kind_; }
+  [[nodiscard]] const LayerStyle& style() const { return style_; }
+  [[nodiscard]] const LayerBuildOptions& options() const { return options_; }
+  [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_; }
+  [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
+  /// Counts and build time (gpuBytes is OverlayLayer's business: 0 here).
+  [[nodiscard]] const LayerStats& stats() const { return stats_; }
+  [[nodiscard]] const std::vector<FeatureOutcome>& featureOutcomes() const { return outcomes_; }
+  [[nodiscard]] bool paperVariant() const { return options_.paperVariant; }
+  /// > 0 when the layer's lines are drawn in pixels (LayerStyle::widthPixels).
+  [[nodiscard]] double widthPixels() const { return kind_ == LayerKind::Line ? style_.widthPixels : 0.0; }
+
+  // Editing: only the feature's pieces are rebuilt; changes() says what to upload.
+  Diagnostics replaceFeature(std::size_t index, geo::Feature feature);
+  Diagnostics setFeatureStyle(std::size_t index, const FeatureStyle& style);
+  void removeFeature(std::size_t index);  ///< hides it for good (indices stay stable)
+  /// Re-reads the height bounds of every piece from `bounds` (which replaces the one given to
+  /// build): after the surface as drawn changed, e.g. another vertical exaggeration.
+  void refreshBounds(const HeightBoundsProvider& bounds);
+  /// The bounds provider's surface changed since the bounds were read (HeightBoundsProvider::
+  /// revision): call refreshBounds before drawing, or the bounds contract does not hold.
+  [[nodiscard]] bool boundsStale() const { return bounds_ != nullptr && bounds_->revision() != boundsRevision_; }
+  /// What changed since the last call (and forgets it).
+  GeometryChange takeChanges();
+
+  [[nodiscard]] std::size_t maxOverlap() const;
+  [[nodiscard]] std::optional<glm::vec4> uniformColor() const;
+  [[nodiscard]] LayerValidation validate() const;
+
+  /// Where a piece's geometry lies in the arrays.
+  struct PieceSlot {
+    std::uint32_t feature = 0;
+    std::uint32_t origin = 0;         ///< index into origins()
+    std::uint32_t baseVertex = 0;     ///< in vertices()
+    std::uint32_t firstIndex = 0;     ///< in indices()
+    std::uint32_t bottomCount = 0;    ///< indices of the bottom cap (first)
+    std::uint32_t indexCount = 0;     ///< all indices
+    std::uint32_t boxFirstIndex = 0;  ///< paper variant: the piece's bounding box (36 indices)
+    bool live = false;
+  };
+  /// A vertex as the GPU reads it.
+  struct Vertex {
+    float x, y, height, side;
+    std::uint8_t rgba[4];
+  };
+  static_assert(sizeof(Vertex) == 20);
+  [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
+  [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
+  [[nodiscard]] const std::vector<glm::dvec2>& origins() const { return origins_; }
+  [[nodiscard]] const std::vector<Vertex>& vertices() const { return vertices_; }
+  [[nodiscard]] const std::vector<std::uint32_t>& indices() const { return indices_; }
+  /// Lines in pixels: per vertex (direction x, y, anchor height) (Footprint::directions);
+  /// vertices() then holds the centres. Empty for every other layer.
+  [[nodiscard]] const std::vector<glm::vec3>& scaling() const { return scaling_; }
+
+ private:
+  LayerGeometry() = default;
+  void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
+  void freePieces(std::uint32_t feature);
+  Diagnostics rebuildFeature(std::size_t index);
+  std::uint32_t originFor(const Polyhedron& p);
+  void appendGeometry(std::size_t slot, const std::vector<Vertex>& v, const std::vector<std::uint32_t>& i,
+                      const std::vector<glm::vec3>& scaling);
+  /// Records a feature's outcome and keeps the stats' counts in step.
+  void setOutcome(std::size_t feature, FeatureOutcome outcome);
+
+  std::string name_;
+  LayerKind kind_ = LayerKind::Polygon;
+  LayerStyle style_;
+  LayerBuildOptions options_;
+  std::vector<geo::Feature> features_;
+  std::vector<FeatureStyle> styles_;
+  std::vector<std::vector<std::uint32_t>> featureSlots_;  ///< per feature, its slots
+  std::vector<FeatureOutcome> outcomes_;                  ///< per feature
+  std::vector<PieceSlot> slots_;
+  std::vector<Polyhedron> polyhedra_;  ///< per slot
+  std::vector<glm::dvec2> origins_;
+  std::map<std::pair<std::int64_t, std::int64_t>, std::uint32_t> originIndex_;  ///< grid cell → index in origins_
+  std::vector<Vertex> vertices_;
+  std::vector<std::uint32_t> indices_;
+  std::vector<glm::vec3> scaling_;  ///< lines in pixels only, per vertex
+  std::size_t wastedIndices_ = 0;
+  GeometryChange changes_;
+  LayerStats stats_;
+  const HeightBoundsProvider* bounds_ = nullptr;
+  std::uint64_t boundsRevision_ = 0;                              ///< bounds_->revision() when the bounds were read
+  mutable std::optional<std::size_t> maxOverlap_;                 ///< cleared by edits
+  mutable std::optional<std::optional<glm::vec4>> uniformColor_;  ///< cleared by edits
+};
+
+/// The layer as the CPU reference and the logical selection see it: its features, their line
+/// shapes (line layers) and visibility. Refers to the layer's features: keep the layer alive.
+ReferenceLayer referenceLayerOf(const LayerGeometry& layer);
+
+}  // namespace gis::overlay

@@ -1,0 +1,666 @@
+#include "vector_overlay/layer_geometry.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <unordered_map>
+#include <variant>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
+
+#include "footprint_geometry.hpp"
+#include "vector_overlay/validation.hpp"
+
+namespace gis::overlay {
+namespace {
+
+std::string attributeText(const geo::AttributeValue& v) {
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
+  if (const auto* d = std::get_if<double>(&v)) {
+    std::ostringstream out;
+    out << *d;
+    return out.str();
+  }
+  if (const auto* s = std::get_if<std::string>(&v)) return *s;
+  return {};
+}
+
+std::optional<double> attributeNumber(const geo::AttributeValue& v) {
+  if (const auto* i = std::get_if<std::int64_t>(&v)) return static_cast<double>(*i);
+  if (const auto* d = std::get_if<double>(&v)) return *d;
+  if (const auto* s = std::get_if<std::string>(&v)) {
+    try {
+      std::size_t used = 0;
+      const double x = std::stod(*s, &used);
+      if (used == s->size()) return x;
+    } catch (...) {
+    }
+  }
+  return std::nullopt;
+}
+
+std::uint8_t unorm8(float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0F, 1.0F) * 255.0F)); }
+
+constexpr double kOriginGrid = 1024.0;  ///< metres: vertices are floats relative to an origin near them
+
+}  // namespace
+
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
+                                               const std::vector<geo::Feature>& features, Diagnostics* diagnostics,
+                                               const std::string& layerName) {
+  std::vector<FeatureStyle> out;
+  out.reserve(features.size());
+  for (const geo::Feature& f : features) {
+    FeatureStyle s;
+    glm::vec4 colour = style.color;
+    if (!style.colorAttribute.empty()) {
+      const auto a = f.attributes.find(style.colorAttribute);
+      if (a != f.attributes.end()) {
+        const auto c = style.categories.find(attributeText(a->second));
+        if (c != style.categories.end()) colour = c->second;
+      }
+    }
+    s.color = glm::vec4(colour.x, colour.y, colour.z, colour.w * style.opacity);
+    if (kind == LayerKind::Line && style.widthPixels > 0.0) {
+      s.shape.width = style.maxWidthMetres;
+      s.shape.widthPixels = style.widthPixels;
+    } else if (kind == LayerKind::Line) {
+      s.shape.width = style.widthMetres;
+      if (!style.widthAttribute.empty()) {
+        const auto a = f.attributes.find(style.widthAttribute);
+        if (a != f.attributes.end() && !std::holds_alternative<std::monostate>(a->second)) {
+          if (const std::optional<double> w = attributeNumber(a->second); w && *w > 0.0 && std::isfinite(*w)) {
+            s.shape.width = *w;
+          } else if (diagnostics != nullptr) {
+            std::ostringstream message;
+            message << "'" << style.widthAttribute << "' = '" << attributeText(a->second)
+                    << "' is not a positive number of metres; drawn " << style.widthMetres
+                    << " m wide (the layer's width)";
+            diagnostics->add(detail::featureError(Severity::Warning, layerName, f.fid, message.str()));
+          }
+        }
+      }
+      s.shape.join = style.join;
+      s.shape.cap = style.cap;
+      s.shape.miterLimit = style.miterLimit;
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds) {
+  if (!style.shape.inPixels()) return;
+  const HeightBounds global = bounds.globalBounds();
+  style.shape.anchorHeights.assign(feature.lines.size(), {});
+  for (std::size_t k = 0; k < feature.lines.size(); ++k) {
+    for (const glm::dvec2& p : feature.lines[k]) {
+      const glm::dvec2 point[1] = {p};
+      const HeightBounds b = bounds.boundsOver(point);
+      const bool usable = b.valid() && std::isfinite(b.lo) && std::isfinite(b.hi);
+      const double mid = usable ? 0.5 * (b.lo + b.hi) : 0.5 * (global.lo + global.hi);
+      style.shape.anchorHeights[k].push_back(std::isfinite(mid) ? mid : 0.0);
+    }
+  }
+}
+
+namespace {
+
+/// The footprint extruded between its bounds (the global bounds where it has none).
+Polyhedron extrude(Footprint f, const HeightBoundsProvider& bounds) {
+  Polyhedron p;
+  p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
+  p.boxMax = -p.boxMin;
+  for (const glm::dvec2& v : f.vertices) {
+    p.boxMin = glm::min(p.boxMin, v);
+    p.boxMax = glm::max(p.boxMax, v);
+  }
+  const HeightBounds b = bounds.boundsOver(f.vertices);
+  p.lo = b.lo;
+  p.hi = b.hi;
+  if (!b.valid() || !std::isfinite(b.lo) || !std::isfinite(b.hi)) {
+    const HeightBounds g = bounds.globalBounds();
+    p.lo = g.lo;
+    p.hi = g.hi;
+  }
+  p.overSurface = bounds.coversFootprint(f.vertices);
+  p.footprint = std::move(f);
+  return p;
+}
+
+/// Length of a footprint's boundary (its walls' length).
+double perimeter(const Footprint& f) {
+  double length = 0.0;
+  for (const auto& e : f.boundary) length += glm::length(f.vertices[e[1]] - f.vertices[e[0]]);
+  return length;
+}
+
+/// Where the parts of one shape (cut at the cells) would have walls of more than `splitGain` of
+/// the area the whole shape's walls have (1 m added to every height range, for the padding and
+/// the per-piece cost), the parts are welded back into one piece under their joint bounds. The
+/// union of the parts is the same region, and joint bounds hold every part's surface, so the
+/// bounds contract holds either way.
+std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces, const LayerBuildOptions& options,
+                                                  std::vector<Footprint> wholeShapes) {
+  // The shapes unsplit, by source, where they lie inside the grid (then a shape is exactly the
+  // union of its parts, with fewer triangles and walls than the parts welded together).
+  const CellGrid& grid = *options.footprints.cells;
+  const glm::dvec2 gridMin = grid.origin, gridMax = grid.origin + grid.cellSize * glm::dvec2(grid.columns, grid.rows);
+  std::unordered_map<std::uint32_t, Footprint> whole;
+  for (Footprint& f : wholeShapes) {
+    bool inside = !f.triangles.empty();
+    for (const glm::dvec2& v : f.vertices)
+      inside = inside && glm::all(glm::greaterThanEqual(v, gridMin)) && glm::all(glm::lessThanEqual(v, gridMax));
+    if (inside) whole.emplace(f.source, std::move(f));
+  }
+  std::vector<Polyhedron> out;
+  out.reserve(pieces.size());
+  for (std::size_t first = 0; first < pieces.size();) {
+    std::size_t last = first + 1;
+    while (last < pieces.size() && pieces[last].footprint.source == pieces[first].footprint.source &&
+           !pieces[last].footprint.scalable())
+      ++last;
+    if (last - first == 1 || pieces[first].footprint.scalable()) {
+      out.push_back(std::move(pieces[first]));
+      first = last;
+      continue;
+    }
+    detail::FootprintBuilder builder;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo, splitWalls = 0.0;
+    bool overSurface = true;
+    for (std::size_t k = first; k < last; ++k) {
+      const Polyhedron& p = pieces[k];
+      lo = std::min(lo, p.lo);
+      hi = std::max(hi, p.hi);
+      overSurface = overSurface && p.overSurface;
+      splitWalls += perimeter(p.footprint) * (p.hi - p.lo + 1.0);
+      const Footprint& f = p.footprint;
+      for (const auto& t : f.triangles) builder.addTriangle(f.vertices[t[0]], f.vertices[t[1]], f.vertices[t[2]]);
+    }
+    const auto unsplit = whole.find(pieces[first].footprint.source);
+    Footprint merged;
+    if (unsplit != whole.end()) {
+      merged = std::move(unsplit->second);
+      merged.cell = -1;
+    } else {
+      merged = builder.finish(pieces[first].footprint.feature, -1, pieces[first].footprint.kind);
+      merged.source = pieces[first].footprint.source;
+    }
+    const double wholeWalls = perimeter(merged) * (hi - lo + 1.0);
+    if (splitWalls < options.splitGain * wholeWalls || merged.triangles.empty()) {
+      for (std::size_t k = first; k < last; ++k) out.push_back(std::move(pieces[k]));
+    } else {
+      Polyhedron p;
+      p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
+      p.boxMax = -p.boxMin;
+      for (std::size_t k = first; k < last; ++k) {
+        p.boxMin = glm::min(p.boxMin, pieces[k].boxMin);
+        p.boxMax = glm::max(p.boxMax, pieces[k].boxMax);
+      }
+      p.lo = lo;
+      p.hi = hi;
+      p.overSurface = overSurface;
+      p.footprint = std::move(merged);
+      out.push_back(std::move(p));
+    }
+    first = last;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
+                                       const FeatureStyle& style, const std::string& layerName,
+                                       const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
+                                       Diagnostics& diagnostics) {
+  FootprintOptions fo = options.footprints;
+  if (options.paperVariant) fo.cells.reset();
+  const std::size_t errorsBefore = diagnostics.count(Severity::Error);
+  std::vector<Footprint> footprints =
+      kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)
+                                 : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
+  const bool nothing = std::none_of(footprints.begin(), footprints.end(),
+                                    [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
+  if (nothing && diagnostics.count(Severity::Error) == errorsBefore) {
+    // Not broken, but nothing to draw: say why, so that nothing vanishes silently.
+    const bool hasGeometry = kind == LayerKind::Polygon ? !feature.polygons.empty() : !feature.lines.empty();
+    const char* what = kind == LayerKind::Polygon ? "polygon" : "line";
+    std::string why = std::string("has no ") + what + " geometry: nothing to draw";
+    if (hasGeometry) {
+      why = "has no area to draw (a single point with flat caps?)";
+      if (fo.cells) {
+        // Outside when the feature's box (widened by the line's half width) misses the grid.
+        glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        auto add = [&](const glm::dvec2& v) {
+          lo = glm::min(lo, v);
+          hi = glm::max(hi, v);
+        };
+        for (const geo::Polygon& polygon : feature.polygons)
+          std::for_each(polygon.outer.begin(), polygon.outer.end(), add);
+        for (const geo::LineString& line : feature.lines) std::for_each(line.begin(), line.end(), add);
+        const double reach = kind == LayerKind::Line ? 0.5 * style.shape.width : 0.0;
+        const CellGrid& g = *fo.cells;
+        const glm::dvec2 gridMax = g.origin + g.cellSize * glm::dvec2(g.columns, g.rows);
+        if (hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x ||
+            lo.y - reach > gridMax.y) {
+          why = "lies outside the terrain: nothing to draw";
+        }
+      }
+    }
+    diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid, why));
+  }
+  std::vector<Polyhedron> out;
+  out.reserve(footprints.size());
+  HeightBounds featureBounds{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  for (Footprint& f : footprints) {
+    if (f.triangles.empty() || f.vertices.empty()) continue;
+    Polyhedron p = extrude(std::move(f), bounds);
+    featureBounds.lo = std::min(featureBounds.lo, p.lo);
+    featureBounds.hi = std::max(featureBounds.hi, p.hi);
+    out.push_back(std::move(p));
+  }
+  if (options.adaptiveSplit && fo.cells && !options.paperVariant) {
+    // The same shapes unsplit (their problems were reported above).
+    FootprintOptions unsplit = fo;
+    unsplit.cells.reset();
+    Diagnostics repeated;
+    std::vector<Footprint> whole =
+        kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, unsplit, repeated)
+                                   : lineFootprints(feature, featureIndex, layerName, style.shape, unsplit, repeated);
+    out = mergeWhereSplitDoesNotPay(std::move(out), options, std::move(whole));
+  }
+  if (options.paperVariant) {
+    // One bound pair per feature, as the seed paper builds them.
+    for (Polyhedron& p : out) {
+      p.lo = featureBounds.lo;
+      p.hi = featureBounds.hi;
+    }
+  }
+  return out;
+}
+
+bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double margin) {
+  if (point.z < p.lo - pad - margin || point.z > p.hi + pad + margin) return false;
+  const glm::dvec2 q(point);
+  if (q.x < p.boxMin.x - margin || q.y < p.boxMin.y - margin || q.x > p.boxMax.x + margin ||
+      q.y > p.boxMax.y + margin) {
+    return false;
+  }
+  // Inside the footprint: inside one of its triangles, or within margin of one.
+  const Footprint& f = p.footprint;
+  for (const auto& t : f.triangles) {
+    const glm::dvec2 a = f.vertices[t[0]], b = f.vertices[t[1]], c = f.vertices[t[2]];
+    auto edge = [&](const glm::dvec2& u, const glm::dvec2& v) {
+      // Signed distance of q to the line u→v, positive on the left (inside for a CCW triangle).
+      const glm::dvec2 d = v - u;
+      const double len = glm::length(d);
+      if (len == 0.0) return std::numeric_limits<double>::infinity();
+      return (d.x * (q.y - u.y) - d.y * (q.x - u.x)) / len;
+    };
+    if (edge(a, b) >= -margin && edge(b, c) >= -margin && edge(c, a) >= -margin) return true;
+  }
+  return false;
+}
+
+void GeometryChange::add(std::size_t v0, std::size_t v1, std::size_t i0, std::size_t i1) {
+  if (v0 < v1) {
+    vertexBegin = std::min(vertexBegin, v0);
+    vertexEnd = std::max(vertexEnd, v1);
+  }
+  if (i0 < i1) {
+    indexBegin = std::min(indexBegin, i0);
+    indexEnd = std::max(indexEnd, i1);
+  }
+}
+
+GeometryChange LayerGeometry::takeChanges() {
+  GeometryChange c = changes_;
+  changes_ = GeometryChange{};
+  return c;
+}
+
+Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, const LayerStyle& style,
+                                           std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                           const LayerBuildOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  LayerGeometry layer;
+  layer.name_ = std::move(name);
+  layer.kind_ = kind;
+  layer.style_ = style;
+  layer.options_ = options;
+  layer.features_ = std::move(features);
+  layer.bounds_ = &bounds;
+  layer.boundsRevision_ = bounds.revision();
+  Result<LayerGeometry> r;
+  layer.styles_ = resolveFeatureStyles(style, kind, layer.features_, &r.diagnostics, layer.name_);
+  for (std::size_t i = 0; i < layer.features_.size(); ++i)
+    assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
+  layer.featureSlots_.resize(layer.features_.size());
+  layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
+  for (std::size_t i = 0; i < layer.features_.size(); ++i) {
+    if (!layer.styles_[i].visible) continue;
+    const std::size_t errorsBefore = r.diagnostics.count(Severity::Error);
+    std::vector<Polyhedron> pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind,
+                                                    layer.styles_[i], layer.name_, bounds, options, r.diagnostics);
+    layer.setOutcome(i, !pieces.empty()                                       ? FeatureOutcome::Drawn
+                        : r.diagnostics.count(Severity::Error) > errorsBefore ? FeatureOutcome::Skipped
+                                                                              : FeatureOutcome::NothingToDraw);
+    layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces));
+  }
+  layer.changes_ = GeometryChange{};  // everything is new: the first upload takes it all
+  layer.stats_.features = layer.features_.size();
+  layer.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.value = std::move(layer);
+  return r;
+}
+
+std::uint32_t LayerGeometry::originFor(const Polyhedron& p) {
+  const glm::dvec2 centre = 0.5 * (p.boxMin + p.boxMax);
+  const glm::dvec2 origin = (glm::floor(centre / kOriginGrid) + 0.5) * kOriginGrid;
+  // Origins lie on a 1 km grid: the cell's integer coordinates are the key (coordinates are
+  // bounded by 1e15 m, so they fit 64 bits).
+  const glm::dvec2 cell = glm::floor(centre / kOriginGrid);
+  const std::pair<std::int64_t, std::int64_t> key{static_cast<std::int64_t>(cell.x), static_cast<std::int64_t>(cell.y)};
+  const auto [found, added] = originIndex_.try_emplace(key, static_cast<std::uint32_t>(origins_.size()));
+  if (!added) return found->second;
+  origins_.push_back(origin);
+  return static_cast<std::uint32_t>(origins_.size() - 1);
+}
+
+void LayerGeometry::addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces) {
+  maxOverlap_.reset();
+  uniformColor_.reset();
+  const FeatureStyle& style = styles_[feature];
+  const std::uint8_t rgba[4] = {unorm8(style.color.x), unorm8(style.color.y), unorm8(style.color.z),
+                                unorm8(style.color.w)};
+  for (Polyhedron& p : pieces) {
+    const std::size_t slot = slots_.size();
+    PieceSlot s;
+    s.feature = feature;
+    s.origin = originFor(p);
+    s.live = true;
+    const glm::dvec2 origin = origins_[s.origin];
+    const Footprint& f = p.footprint;
+    std::vector<Vertex> v;
+    v.reserve(2 * f.vertices.size() + 8);
+    // Lines in pixels: the centres here, directions and anchors in the scaling stream.
+    const bool scalable = f.scalable();
+    std::vector<glm::vec3> scaling;
+    for (std::size_t k = 0; k < f.vertices.size(); ++k) {
+      const glm::vec2 rel(scalable ? glm::dvec2(f.centres[k]) - origin : f.vertices[k] - origin);
+      v.push_back({rel.x, rel.y, static_cast<float>(p.lo), -1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
+      v.push_back({rel.x, rel.y, static_cast<float>(p.hi), 1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
+      if (scalable) {
+        const glm::vec3 s3(static_cast<float>(f.directions[k].x), static_cast<float>(f.directions[k].y),
+                           static_cast<float>(f.centres[k].z));
+        scaling.insert(scaling.end(), {s3, s3});
+      }
+    }
+    std::vector<std::uint32_t> idx;
+    idx.reserve(6 * f.triangles.size() + 6 * f.boundary.size() + 36);
+    s.bottomCount = appendPieceIndices(f, idx);
+    s.indexCount = static_cast<std::uint32_t>(idx.size());
+    // The piece's bounding box, for the paper variant's cover (only there: 300 bytes a piece).
+    const auto boxBase = static_cast<std::uint32_t>(v.size());
+    const glm::vec2 b0(p.boxMin - origin), b1(p.boxMax - origin);
+    for (int k = 0; k < (options_.paperVariant ? 8 : 0); ++k) {
+      const bool top = (k & 4) != 0;
+      v.push_back({(k & 1) != 0 ? b1.x : b0.x,
+                   (k & 2) != 0 ? b1.y : b0.y,
+                   static_cast<float>(top ? p.hi : p.lo),
+                   top ? 1.0F : -1.0F,
+                   {rgba[0], rgba[1], rgba[2], rgba[3]}});
+    }
+    s.boxFirstIndex = static_cast<std::uint32_t>(idx.size());
+    // Box faces, outward (vertex k: bit 0 = +x, bit 1 = +y, bit 2 = top).
+    constexpr std::uint32_t kBox[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                        2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    if (options_.paperVariant) {
+      for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
+    }
+    if (widthPixels() > 0.0) scaling.resize(v.size(), glm::vec3(0.0F));  // the box does not scale
+    stats_.pieces += 1;
+    stats_.triangles += s.indexCount / 3;
+    slots_.push_back(s);
+    polyhedra_.push_back(std::move(p));
+    featureSlots_[feature].push_back(static_cast<std::uint32_t>(slot));
+    appendGeometry(slot, v, idx, scaling);
+  }
+}
+
+LayerValidation LayerGeometry::validate() const {
+  LayerValidation v;
+  ValidationOptions options;
+  if (!options_.paperVariant) options.grid = options_.footprints.cells;
+  // Lines in pixels are neither split at the cells nor clipped to the grid (footprints.hpp).
+  ValidationOptions unsplit = options;
+  unsplit.grid.reset();
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    const PieceSlot& s = slots_[k];
+    if (!s.live) continue;
+    ++v.pieces;
+    const Polyhedron& p = polyhedra_[k];
+    std::vector<std::string> problems = polyhedronProblems(p, p.footprint.scalable() ? unsplit : options);
+    // The stored geometry: the same triangles, the vertices within float precision.
+    std::vector<std::uint32_t> expected;
+    appendPieceIndices(p.footprint, expected);
+    if (s.indexCount != expected.size() ||
+        !std::equal(expected.begin(), expected.end(), indices_.begin() + s.firstIndex)) {
+      problems.emplace_back("the stored indices are not the piece's triangles");
+    }
+    const glm::dvec2 origin = origins_[s.origin];
+    const Footprint& f = p.footprint;
+    for (std::size_t i = 0; i < 2 * f.vertices.size() && s.baseVertex + i < vertices_.size(); ++i) {
+      const Vertex& stored = vertices_[s.baseVertex + i];
+      const glm::dvec2 want = f.scalable() ? glm::dvec2(f.centres[i / 2]) : f.vertices[i / 2];
+      const glm::dvec2 got = origin + glm::dvec2(stored.x, stored.y);
+      v.maxPositionError = std::max(v.maxPositionError, glm::length(got - want));
+      v.maxHeightError =
+          std::max(v.maxHeightError, std::abs(static_cast<double>(stored.height) - ((i % 2) != 0 ? p.hi : p.lo)));
+    }
+    for (const std::string& problem : problems) {
+      v.problems.add(detail::featureError(Severity::Error, name_, features_[s.feature].fid,
+                                          "piece " + std::to_string(k) + ": " + problem));
+    }
+  }
+  return v;
+}
+
+std::size_t LayerGeometry::maxOverlap() const {
+  if (maxOverlap_) return *maxOverlap_;
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  std::size_t live = 0;
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    if (!slots_[k].live) continue;
+    ++live;
+    lo = glm::min(lo, polyhedra_[k].boxMin);
+    hi = glm::max(hi, polyhedra_[k].boxMax);
+  }
+  if (live <= 255) return *(maxOverlap_ = live);  // cannot exceed the number of pieces
+  // Count the pieces' boxes on a 256 × 256 grid: a point lies in one cell, every piece holding
+  // it has its box over that cell.
+  constexpr int kCells = 256;
+  const glm::dvec2 size = glm::max(hi - lo, glm::dvec2(1e-9));
+  std::vector<std::uint32_t> counts(static_cast<std::size_t>(kCells * kCells), 0);
+  std::uint32_t worst = 0;
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    if (!slots_[k].live) continue;
+    const glm::dvec2 a = (polyhedra_[k].boxMin - lo) / size * static_cast<double>(kCells);
+    const glm::dvec2 b = (polyhedra_[k].boxMax - lo) / size * static_cast<double>(kCells);
+    const int x0 = std::clamp(static_cast<int>(std::floor(a.x)), 0, kCells - 1);
+    const int x1 = std::clamp(static_cast<int>(std::floor(b.x)), 0, kCells - 1);
+    const int y0 = std::clamp(static_cast<int>(std::floor(a.y)), 0, kCells - 1);
+    const int y1 = std::clamp(static_cast<int>(std::floor(b.y)), 0, kCells - 1);
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) worst = std::max(worst, ++counts[static_cast<std::size_t>(y * kCells + x)]);
+    }
+  }
+  return *(maxOverlap_ = worst);
+}
+
+std::optional<glm::vec4> LayerGeometry::uniformColor() const {
+  if (uniformColor_) return *uniformColor_;
+  std::optional<std::array<std::uint8_t, 4>> shared;
+  bool uniform = true;
+  for (std::size_t f = 0; f < featureSlots_.size() && uniform; ++f) {
+    if (featureSlots_[f].empty()) continue;  // hidden, removed or without pieces
+    const glm::vec4& c = styles_[f].color;
+    const std::array<std::uint8_t, 4> rgba{unorm8(c.x), unorm8(c.y), unorm8(c.z), unorm8(c.w)};
+    if (!shared) shared = rgba;
+    uniform = *shared == rgba;
+  }
+  std::optional<glm::vec4> colour;
+  if (uniform && shared) {
+    colour = glm::vec4((*shared)[0], (*shared)[1], (*shared)[2], (*shared)[3]) / 255.0F;
+  }
+  uniformColor_ = colour;
+  return colour;
+}
+
+void LayerGeometry::appendGeometry(std::size_t slot, const std::vector<Vertex>& v, const std::vector<std::uint32_t>& i,
+                                   const std::vector<glm::vec3>& scaling) {
+  PieceSlot& s = slots_[slot];
+  s.baseVertex = static_cast<std::uint32_t>(vertices_.size());
+  s.firstIndex = static_cast<std::uint32_t>(indices_.size());
+  s.boxFirstIndex += s.firstIndex;
+  changes_.add(vertices_.size(), vertices_.size() + v.size(), indices_.size(), indices_.size() + i.size());
+  vertices_.insert(vertices_.end(), v.begin(), v.end());
+  indices_.insert(indices_.end(), i.begin(), i.end());
+  if (widthPixels() > 0.0) scaling_.insert(scaling_.end(), scaling.begin(), scaling.end());
+}
+
+void LayerGeometry::freePieces(std::uint32_t feature) {
+  maxOverlap_.reset();
+  uniformColor_.reset();
+  for (std::uint32_t slot : featureSlots_[feature]) {
+    PieceSlot& s = slots_[slot];
+    if (!s.live) continue;
+    s.live = false;
+    wastedIndices_ += s.indexCount + (options_.paperVariant ? 36 : 0);
+    stats_.pieces -= 1;
+    stats_.triangles -= s.indexCount / 3;
+  }
+  featureSlots_[feature].clear();
+}
+
+void LayerGeometry::setOutcome(std::size_t feature, FeatureOutcome outcome) {
+  auto count = [this](FeatureOutcome o) -> std::size_t* {
+    return o == FeatureOutcome::Skipped         ? &stats_.skippedFeatures
+           : o == FeatureOutcome::NothingToDraw ? &stats_.emptyFeatures
+                                                : nullptr;
+  };
+  if (std::size_t* before = count(outcomes_[feature])) --*before;
+  if (std::size_t* after = count(outcome)) ++*after;
+  outcomes_[feature] = outcome;
+}
+
+Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
+  Diagnostics diagnostics;
+  freePieces(static_cast<std::uint32_t>(index));
+  FeatureOutcome outcome = FeatureOutcome::Hidden;
+  if (styles_[index].visible && bounds_ != nullptr) {
+    std::vector<Polyhedron> pieces = buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_,
+                                                    styles_[index], name_, *bounds_, options_, diagnostics);
+    outcome = !pieces.empty()           ? FeatureOutcome::Drawn
+              : diagnostics.hasErrors() ? FeatureOutcome::Skipped
+                                        : FeatureOutcome::NothingToDraw;
+    addPieces(static_cast<std::uint32_t>(index), std::move(pieces));
+  }
+  setOutcome(index, outcome);
+  return diagnostics;
+}
+
+Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature feature) {
+  if (index >= features_.size()) return {};
+  features_[index] = std::move(feature);
+  const std::vector<geo::Feature> one{features_[index]};
+  Diagnostics diagnostics;
+  FeatureStyle style = resolveFeatureStyles(style_, kind_, one, &diagnostics, name_).front();
+  style.visible = styles_[index].visible;
+  if (bounds_ != nullptr) assignAnchorHeights(style, features_[index], *bounds_);
+  styles_[index] = style;
+  diagnostics.append(rebuildFeature(index));
+  return diagnostics;
+}
+
+Diagnostics LayerGeometry::setFeatureStyle(std::size_t index, const FeatureStyle& style) {
+  if (index >= features_.size()) return {};
+  styles_[index] = style;
+  if (bounds_ != nullptr) assignAnchorHeights(styles_[index], features_[index], *bounds_);
+  return rebuildFeature(index);
+}
+
+void LayerGeometry::removeFeature(std::size_t index) {
+  if (index >= features_.size()) return;
+  styles_[index].visible = false;
+  freePieces(static_cast<std::uint32_t>(index));
+  setOutcome(index, FeatureOutcome::Hidden);
+}
+
+void LayerGeometry::refreshBounds(const HeightBoundsProvider& bounds) {
+  bounds_ = &bounds;
+  boundsRevision_ = bounds.revision();
+  if (widthPixels() > 0.0) {
+    // The anchors move with the terrain: rebuild every feature.
+    for (std::size_t i = 0; i < features_.size(); ++i) {
+      if (!styles_[i].visible) continue;
+      assignAnchorHeights(styles_[i], features_[i], bounds);
+      (void)rebuildFeature(i);
+    }
+    return;
+  }
+  for (std::size_t slot = 0; slot < slots_.size(); ++slot) {
+    if (!slots_[slot].live) continue;
+    Polyhedron& p = polyhedra_[slot];
+    const HeightBounds b = bounds.boundsOver(p.footprint.vertices);
+    const bool usable = b.valid() && std::isfinite(b.lo) && std::isfinite(b.hi);
+    p.lo = usable ? b.lo : bounds.globalBounds().lo;
+    p.hi = usable ? b.hi : bounds.globalBounds().hi;
+  }
+  if (options_.paperVariant) {
+    // One bound pair per feature, as built.
+    for (const std::vector<std::uint32_t>& pieces : featureSlots_) {
+      HeightBounds joint{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+      for (std::uint32_t slot : pieces) {
+        joint.lo = std::min(joint.lo, polyhedra_[slot].lo);
+        joint.hi = std::max(joint.hi, polyhedra_[slot].hi);
+      }
+      for (std::uint32_t slot : pieces) {
+        polyhedra_[slot].lo = joint.lo;
+        polyhedra_[slot].hi = joint.hi;
+      }
+    }
+  }
+  for (std::size_t slot = 0; slot < slots_.size(); ++slot) {
+    const PieceSlot& s = slots_[slot];
+    if (!s.live) continue;
+    const Polyhedron& p = polyhedra_[slot];
+    // The piece's vertices, and its bounding box's for the paper's variant.
+    const std::size_t n = 2 * p.footprint.vertices.size() + (options_.paperVariant ? 8 : 0);
+    for (std::size_t k = 0; k < n; ++k) {
+      Vertex& v = vertices_[s.baseVertex + k];
+      v.height = static_cast<float>(v.side > 0.0F ? p.hi : p.lo);
+    }
+    changes_.add(s.baseVertex, s.baseVertex + n, 0, 0);
+  }
+}
+
+ReferenceLayer referenceLayerOf(const LayerGeometry& layer) {
+  ReferenceLayer r;
+  r.name = layer.name();
+  r.kind = layer.kind();
+  r.features = &layer.features();
+  for (const FeatureStyle& s : layer.featureStyles()) {
+    if (r.kind == LayerKind::Line) r.shapes.push_back(s.shape);
+    r.visible.push_back(s.visible);
+  }
+  return r;
+}
+
+}  // namespace gis::overlay
