@@ -7,6 +7,8 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git clang libclang-rt-14-dev clang-format
+  # a compiler cache: the three configurations of scripts/test.sh rebuild little between runs
+  ccache
   # OpenGL: libepoxy for entry points, Mesa for EGL (surfaceless) and GLX on llvmpipe
   libepoxy-dev libegl-dev libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri
   # windowing and UI

@@ -1,5 +1,6 @@
 #pragma once
-// What the modes of overlay_bench share: options, percentiles, memory, the result file.
+// What the modes of overlay_bench share: options, setting up, paths, percentiles, memory, the
+// result file.
 #include <algorithm>
 #include <chrono>
 #include <cstddef>
@@ -47,29 +48,13 @@ struct Options {
 };
 
 /// "VmRSS" or "VmHWM" of this process in bytes (Linux).
-inline std::size_t processMemory(const char* key) {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind(key, 0) == 0) return static_cast<std::size_t>(std::stoull(line.substr(line.find(':') + 1))) * 1024;
-  }
-  return 0;
-}
+std::size_t processMemory(const char* key);
 
-inline double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(
-      std::clamp(p / 100.0 * static_cast<double>(v.size() - 1), 0.0, static_cast<double>(v.size() - 1)) + 0.5);
-  return v[std::min(i, v.size() - 1)];
-}
+/// The p-th percentile of `v`, the sample nearest its rank; 0 for none.
+double percentile(std::vector<double> v, double p);
 
 /// Writes bench.json, prints it, and fails the run on any GL error.
-inline int finish(const Options& o, const nlohmann::json& result, gfx::Context& context) {
-  std::ofstream(std::filesystem::path(o.out) / "bench.json") << result.dump(2) << '\n';
-  std::printf("%s\n", result.dump(2).c_str());
-  return context.debug().errorCount() == 0 ? 0 : 1;
-}
+int finish(const Options& o, const nlohmann::json& result, gfx::Context& context);
 
 /// What every mode starts from: the scene file, the loaded scene and a headless GL context.
 /// Renderers made after it go before it (their GL objects need the context).
@@ -82,40 +67,18 @@ struct BenchSetup {
 
 /// Loads `o.scene` (without its vector layers unless `withLayers`) and makes the context; nothing,
 /// with the problems reported, if either fails.
-inline std::optional<BenchSetup> setUp(const Options& o, bool withLayers) {
-  const auto start = std::chrono::steady_clock::now();
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
-  app::report(description.diagnostics);
-  if (!description) return std::nullopt;
-  if (!withLayers) description->layers.clear();
-  app::LoadOptions loadOptions;
-  loadOptions.paging = o.paging;
-  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
-  app::report(scene.diagnostics);
-  if (!scene) return std::nullopt;
-  const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
-  app::report(context.diagnostics);
-  if (!context) return std::nullopt;
-  return BenchSetup{std::move(*description), std::move(*scene), std::move(*context), loadSeconds};
-}
+std::optional<BenchSetup> setUp(const Options& o, bool withLayers);
 
 /// The render settings under which several methods draw the same frames: the options' LOD
 /// tolerance and every tile waited for, so the terrain is the same (the exaggeration is the
 /// scene's, held by its bounds).
-inline app::RenderSettings comparisonSettings(const Options& o) {
-  app::RenderSettings settings;
-  settings.lodTolerancePixels = o.lodTolerance;
-  settings.waitForTiles = true;
-  return settings;
-}
+app::RenderSettings comparisonSettings(const Options& o);
 
 /// The fly-through (top-down, oblique, horizon) over the scene's terrain, `o.frames` frames.
-inline std::vector<app::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup) {
-  glm::dvec3 lo, hi;
-  app::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
-  return app::flyThrough(lo, hi, o.frames);
-}
+std::vector<app::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup);
+
+/// Milliseconds since `start`.
+double msSince(std::chrono::steady_clock::time_point start);
 
 /// Close-up frames: the eye 1.5 m over the ground on a road's centre line looking along it, or
 /// over the vertex centroid of an area, looking across it 10° down; roads and areas taken in turn
@@ -126,13 +89,21 @@ std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames);
 /// segments of `o.segments` (all when empty).
 std::vector<app::PathFrame> methodsPath(const Options& o, const BenchSetup& setup);
 
+/// Mode "terrain": the fly-through, terrain only (terrain_mode.cpp).
+int runTerrain(const Options& o);
+/// Mode "overlay": terrain only, ours and the paper's on each frame of the fly-through
+/// (overlay_mode.cpp).
+int runOverlay(const Options& o);
 /// Mode "methods": every method on the same frames, with frame time, memory, build time and the
 /// error against the CPU reference (methods_mode.cpp).
 int runMethods(const Options& o);
-/// Mode "scaling": terrain only, ours and the paper's on each of o.scenes (oblique segment unless
-/// --segments): frame time against vector vertices and against DEM posts.
-int runScaling(const Options& o);
-/// Mode "ablation": ours with each saving of DESIGN §9 switched off alone, on the same frames.
+/// Mode "ablation": ours with each saving of DESIGN §9 switched off alone, on the same frames
+/// (methods_mode.cpp).
 int runAblation(const Options& o);
+/// Mode "scaling": terrain only, ours and the paper's on each of o.scenes (oblique segment unless
+/// --segments): frame time against vector vertices and against DEM posts (scaling_mode.cpp).
+int runScaling(const Options& o);
+/// Mode "lasso": the time of lasso selection against the number of volumes (lasso_mode.cpp).
+int runLasso(const Options& o);
 
 }  // namespace gis::bench

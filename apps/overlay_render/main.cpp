@@ -2,7 +2,6 @@
 // (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png,
 // overlap.png, open_volumes.png).
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -20,6 +19,7 @@
 #include "app/cli.hpp"
 #include "app/json_file.hpp"
 #include "app/lasso_file.hpp"
+#include "app/option_parser.hpp"
 #include "app/scene.hpp"
 #include "app/scene_loader.hpp"
 #include "app/scene_renderer.hpp"
@@ -39,8 +39,6 @@ namespace {
 
 using nlohmann::json;
 using namespace gis;
-using app::parseDouble;
-using app::parseInt;
 using app::report;
 
 constexpr const char* kUsage =
@@ -89,14 +87,6 @@ struct Options {
   int drapeSize = 2048;
 };
 
-std::optional<overlay::OverlapOp> overlapOpOf(std::string_view name) {
-  if (name == "and") return overlay::OverlapOp::And;
-  if (name == "or") return overlay::OverlapOp::Or;
-  if (name == "xor") return overlay::OverlapOp::Xor;
-  if (name == "subtract") return overlay::OverlapOp::Subtract;
-  return std::nullopt;
-}
-
 const char* overlapOpName(overlay::OverlapOp op) {
   switch (op) {
     case overlay::OverlapOp::And:
@@ -113,82 +103,31 @@ const char* overlapOpName(overlay::OverlapOp op) {
 
 /// Returns an error message, or an empty string when the options are good.
 std::string parseArgs(int argc, char** argv, Options& o) {
-  const std::vector<std::string_view> args(argv + 1, argv + argc);
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string_view a = args[i];
-    auto value = [&]() -> std::optional<std::string_view> {
-      if (i + 1 >= args.size()) return std::nullopt;
-      return args[++i];
-    };
-    auto setString = [&](std::string& target) {
-      const auto v = value();
-      if (!v) return std::string(a) + " needs a value";
-      target = std::string(*v);
-      return std::string();
-    };
-    auto setInt = [&](int& target, int lo, int hi) {
-      const auto v = value();
-      const std::optional<int> n = v ? parseInt(*v) : std::nullopt;
-      if (!n || *n < lo || *n > hi) {
-        return std::string(a) + " needs an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-      }
-      target = *n;
-      return std::string();
-    };
-    auto setDouble = [&](double& target, double lo, double hi) {
-      const auto v = value();
-      const std::optional<double> x = v ? parseDouble(*v) : std::nullopt;
-      if (!x || *x < lo || *x > hi) {
-        return std::string(a) + " needs a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-      }
-      target = *x;
-      return std::string();
-    };
-    std::string error;
-    if (a == "--scene")
-      error = setString(o.scene);
-    else if (a == "--camera")
-      error = setString(o.camera);
-    else if (a == "--lasso")
-      error = setString(o.lasso);
-    else if (a == "--overlap")
-      error = setString(o.overlap);
-    else if (a == "--overlap-op") {
-      const auto v = value();
-      const std::optional<overlay::OverlapOp> op = v ? overlapOpOf(*v) : std::nullopt;
-      if (op)
-        o.overlapOp = *op;
-      else
-        error = "--overlap-op needs one of and, or, xor, subtract";
-    } else if (a == "--open-volumes")
-      o.openVolumes = true;
-    else if (a == "--out")
-      error = setString(o.out);
-    else if (a == "--width")
-      error = setInt(o.width, 1, 16384);
-    else if (a == "--height")
-      error = setInt(o.height, 1, 16384);
-    else if (a == "--msaa")
-      error = setInt(o.msaa, 0, 32);
-    else if (a == "--lod-tolerance")
-      error = setDouble(o.lodTolerance, 0.0, 1000.0);
-    else if (a == "--method") {
-      std::string m;
-      error = setString(m);
-      o.technique = overlay::findTechnique(m);
-      if (o.technique == nullptr && error.empty()) {
-        error = "--method: " + overlay::techniqueNameList() + ", not '" + m + "'";
-      }
-    } else if (a == "--drape-size")
-      error = setInt(o.drapeSize, 1, 65536);
-    else if (a == "--exaggeration") {
-      double x = 1.0;
-      error = setDouble(x, 0.001, 1000.0);
-      o.exaggeration = x;
-    } else
-      error = "unknown argument '" + std::string(a) + "'";
-    if (!error.empty()) return error;
-  }
+  app::OptionParser parser;
+  parser.option("--scene", o.scene);
+  parser.option("--camera", o.camera);
+  parser.option("--lasso", o.lasso);
+  parser.option("--overlap", o.overlap);
+  parser.choice<overlay::OverlapOp>("--overlap-op", o.overlapOp,
+                                    {{"and", overlay::OverlapOp::And},
+                                     {"or", overlay::OverlapOp::Or},
+                                     {"xor", overlay::OverlapOp::Xor},
+                                     {"subtract", overlay::OverlapOp::Subtract}});
+  parser.flag("--open-volumes", o.openVolumes);
+  parser.option("--out", o.out);
+  parser.option("--width", o.width, 1, 16384);
+  parser.option("--height", o.height, 1, 16384);
+  parser.option("--msaa", o.msaa, 0, 32);
+  parser.option("--lod-tolerance", o.lodTolerance, 0.0, 1000.0);
+  parser.custom(
+      "--method", [&](std::string_view name) { return (o.technique = overlay::findTechnique(name)) != nullptr; },
+      "a value",
+      [](std::string_view name) {
+        return "--method: " + overlay::techniqueNameList() + ", not '" + std::string(name) + "'";
+      });
+  parser.option("--drape-size", o.drapeSize, 1, 65536);
+  parser.option("--exaggeration", o.exaggeration, 0.001, 1000.0);
+  if (std::string error = parser.parse(argc, argv); !error.empty()) return error;
   if (o.scene.empty()) return "--scene is required";
   if (o.out.empty()) return "--out is required";
   if (!o.overlap.empty() && std::count(o.overlap.begin(), o.overlap.end(), ',') != 1) {
@@ -238,7 +177,8 @@ std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::
   all.append(built);
   const overlay::OverlayView view = app::overlayViewOf(camera, static_cast<double>(width) / height);
   glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
-  gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
+  gfx::enableMaskWrites(target.framebuffer(),
+                        false);  // the overlay mask stays as the layers left it
   overlay::SelectionSettings settings;
   settings.scheme = request.scheme;
   settings.measure = true;
@@ -256,66 +196,6 @@ std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::
   if (request.showVolumes) renderer->drawVolumes(cache, view, *request.showVolumes);
   gfx::enableMaskWrites(target.framebuffer(), true);
   return out;
-}
-
-/// selection.png, the logical selection (features, DEM posts), its agreement with the pixels and
-/// the GeoJSON exports; adds a "selection" block to stats.
-bool writeSelection(const std::filesystem::path& out, const SelectionOutput& selection,
-                    const app::SelectionRequest& request, const app::LoadedScene& scene,
-                    const app::SceneRenderer& renderer, const app::Camera& camera, const std::vector<float>& depth,
-                    int width, int height, Diagnostics& all, json& stats) {
-  bool ok = true;
-  const Result<bool> png = gfx::writeImage8((out / "selection.png").string(), width, height, 1, selection.pixels);
-  report(png.diagnostics);
-  ok = ok && png.ok();
-  const std::span<const overlay::SelectionStep> steps(request.steps);
-  // The CPU twin on the same depth buffer.
-  const double aspect = static_cast<double>(width) / height;
-  const overlay::DepthImage image{width, height, depth, camera.projection(aspect) * camera.view()};
-  const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
-  std::size_t selectedPixels = 0, disagreeing = 0;
-  for (std::size_t i = 0; i < twin.size() && i < selection.pixels.size(); ++i) {
-    selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
-    disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
-  }
-  const app::SceneSelection chosen =
-      app::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
-  json layers = json::array();
-  for (const app::LayerSelection& l : chosen.layers) {
-    const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
-    json features = json::array();
-    for (const overlay::FeatureSelection& f : l.features) {
-      features.push_back({{"fid", drawn.features()[f.feature].fid},
-                          {"fully_inside", f.fullyInside},
-                          {"samples", f.samples},
-                          {"selected_samples", f.selectedSamples}});
-    }
-    const std::string& name = scene.layers[l.sceneLayer].description.name;
-    layers.push_back({{"name", name},
-                      {"selected", l.features.size()},
-                      {"fully_inside", l.fullyInside},
-                      {"file", "selected_" + app::layerSlug(name) + ".geojson"},
-                      {"features", features}});
-  }
-  const Diagnostics exported = app::exportSelection(scene, renderer, chosen, out / "selected_features.json", out);
-  report(exported);
-  all.append(exported);
-  ok = ok && !exported.hasErrors();
-  json posts = nullptr;
-  if (chosen.posts) posts = {{"selected", chosen.posts->selected}, {"with_height", chosen.posts->posts}};
-  stats["selection"] = {{"steps", request.steps.size()},
-                        {"scheme", request.scheme == overlay::SelectionScheme::Runs ? "runs" : "report"},
-                        {"volumes", selection.stats.volumes},
-                        {"triangles", selection.stats.triangles},
-                        {"screen_passes", selection.stats.screenPasses},
-                        {"gpu_ms", selection.stats.gpuMilliseconds},
-                        {"fragments", selection.stats.fragments},
-                        {"selected_pixels", selectedPixels},
-                        {"pixels_differing_from_cpu_twin", disagreeing},
-                        {"sample_spacing_m", chosen.sampleSpacing},
-                        {"layers", layers},
-                        {"dem_posts", posts}};
-  return ok;
 }
 
 // Layer analysis (--overlap, --open-volumes) on the frame just drawn: marks read back from the
@@ -343,7 +223,8 @@ OverlapOutput drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& targe
                           std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
   OverlapOutput out{a, b, {}, {}};
   glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
-  gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
+  gfx::enableMaskWrites(target.framebuffer(),
+                        false);  // the overlay mask stays as the layers left it
   overlay::OverlaySettings settings;
   settings.measure = true;
   out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.overlayLayers()[a],
@@ -390,13 +271,115 @@ OpenVolumesOutput drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarge
   return out;
 }
 
+/// The scene and the camera it is drawn from (no GL yet).
+struct Setup {
+  app::SceneDescription description;
+  app::LoadedScene scene;
+  double exaggeration = 1.0;
+  app::Camera camera;
+  std::optional<app::SelectionRequest> lasso;
+};
+
+/// The GL side: the context, then the renderer (declared after it, so that its GL objects go while
+/// the context is current).
+struct Gpu {
+  std::unique_ptr<gfx::Context> context;
+  std::optional<app::SceneRenderer> renderer;
+};
+
+/// The frame drawn, with the analyses drawn over it, and read back.
+struct Frame {
+  app::FrameStats stats;
+  overlay::OverlayView view;
+  std::optional<SelectionOutput> selection;
+  std::optional<OverlapOutput> overlap;
+  std::optional<OpenVolumesOutput> open;
+  int samples = 1;                 ///< per pixel, as the target has them
+  std::vector<std::uint8_t> rgb;   ///< top row first
+  std::vector<float> depth;        ///< as stored
+  std::vector<std::uint8_t> mask;  ///< a bit per layer of the scene file
+};
+
+/// What the output files are made from.
+struct Drawn {
+  const Options& o;
+  const Setup& setup;
+  const app::SceneRenderer& renderer;
+  const Frame& frame;
+};
+
+/// selection.png, the logical selection (features, DEM posts), its agreement with the pixels and
+/// the GeoJSON exports; adds a "selection" block to stats.
+bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostics& all, json& stats) {
+  const SelectionOutput& selection = *d.frame.selection;
+  const app::SelectionRequest& request = *d.setup.lasso;
+  const app::LoadedScene& scene = d.setup.scene;
+  const app::SceneRenderer& renderer = d.renderer;
+  const app::Camera& camera = d.setup.camera;
+  const int width = d.o.width, height = d.o.height;
+  bool ok = true;
+  const Result<bool> png = gfx::writeImage8((out / "selection.png").string(), width, height, 1, selection.pixels);
+  report(png.diagnostics);
+  ok = ok && png.ok();
+  const std::span<const overlay::SelectionStep> steps(request.steps);
+  // The CPU twin on the same depth buffer.
+  const double aspect = static_cast<double>(width) / height;
+  const overlay::DepthImage image{width, height, d.frame.depth, camera.projection(aspect) * camera.view()};
+  const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
+  std::size_t selectedPixels = 0, disagreeing = 0;
+  for (std::size_t i = 0; i < twin.size() && i < selection.pixels.size(); ++i) {
+    selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
+    disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
+  }
+  const app::SceneSelection chosen =
+      app::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
+  json layers = json::array();
+  for (const app::LayerSelection& l : chosen.layers) {
+    const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
+    json features = json::array();
+    for (const overlay::FeatureSelection& f : l.features) {
+      features.push_back({{"fid", drawn.features()[f.feature].fid},
+                          {"fully_inside", f.fullyInside},
+                          {"samples", f.samples},
+                          {"selected_samples", f.selectedSamples}});
+    }
+    const std::string& name = scene.layers[l.sceneLayer].description.name;
+    layers.push_back({{"name", name},
+                      {"selected", l.features.size()},
+                      {"fully_inside", l.fullyInside},
+                      {"file", "selected_" + app::layerSlug(name) + ".geojson"},
+                      {"features", features}});
+  }
+  const Diagnostics exported = app::exportSelection(scene, renderer, chosen, out / "selected_features.json", out);
+  report(exported);
+  all.append(exported);
+  ok = ok && !exported.hasErrors();
+  json posts = nullptr;
+  if (chosen.posts) posts = {{"selected", chosen.posts->selected}, {"with_height", chosen.posts->posts}};
+  stats["selection"] = {{"steps", request.steps.size()},
+                        {"scheme", request.scheme == overlay::SelectionScheme::Runs ? "runs" : "report"},
+                        {"volumes", selection.stats.volumes},
+                        {"triangles", selection.stats.triangles},
+                        {"screen_passes", selection.stats.screenPasses},
+                        {"gpu_ms", selection.stats.gpuMilliseconds},
+                        {"fragments", selection.stats.fragments},
+                        {"selected_pixels", selectedPixels},
+                        {"pixels_differing_from_cpu_twin", disagreeing},
+                        {"sample_spacing_m", chosen.sampleSpacing},
+                        {"layers", layers},
+                        {"dem_posts", posts}};
+  return ok;
+}
+
 /// overlap.png and an "overlap" block in stats, with the CPU reference's answer on the same depth.
-bool writeOverlap(const std::filesystem::path& out, const OverlapOutput& overlap, overlay::OverlapOp op,
-                  const app::SceneRenderer& renderer, const app::LoadedScene& scene, const glm::dmat4& viewProj,
-                  const std::vector<float>& depth, int width, int height, json& stats) {
+bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats) {
+  const OverlapOutput& overlap = *d.frame.overlap;
+  const overlay::OverlapOp op = d.o.overlapOp;
+  const app::SceneRenderer& renderer = d.renderer;
+  const int width = d.o.width, height = d.o.height;
   const std::vector<overlay::ReferenceLayer> ref{overlay::referenceLayerOf(renderer.overlayLayers()[overlap.a]),
                                                  overlay::referenceLayerOf(renderer.overlayLayers()[overlap.b])};
-  const overlay::DepthImage image{width, height, depth, viewProj};
+  const overlay::DepthImage image{width, height, d.frame.depth, d.frame.view.viewProj};
   const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
   const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
   std::vector<std::uint8_t> pixels(overlap.flags.size(), 0);
@@ -416,7 +399,9 @@ bool writeOverlap(const std::filesystem::path& out, const OverlapOutput& overlap
   }
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), width, height, 1, pixels);
   report(png.diagnostics);
-  const auto nameOf = [&](std::size_t j) { return scene.layers[renderer.overlaySources()[j].first].description.name; };
+  const auto nameOf = [&](std::size_t j) {
+    return d.setup.scene.layers[renderer.overlaySources()[j].first].description.name;
+  };
   stats["overlap"] = {{"layers", {nameOf(overlap.a), nameOf(overlap.b)}},
                       {"op", overlapOpName(op)},
                       {"pixels", selected},
@@ -431,189 +416,229 @@ bool writeOverlap(const std::filesystem::path& out, const OverlapOutput& overlap
   return png.ok();
 }
 
-int run(const Options& o) {
-  Diagnostics all;
-  if ((!o.lasso.empty() || !o.overlap.empty() || o.openVolumes) && o.msaa > 1) {
-    logError("--lasso, --overlap and --open-volumes with --msaa " + std::to_string(o.msaa) +
-             ": selection and analysis are drawn single-sampled only");
-    return 2;
+/// The camera: --camera's file, else the scene file's, else the overview of the terrain.
+std::optional<app::Camera> cameraFor(const Options& o, const Setup& s) {
+  if (!o.camera.empty()) {
+    Result<app::CameraSpec> spec = app::loadCameraFile(o.camera);
+    report(spec.diagnostics);
+    if (!spec) return std::nullopt;
+    Result<app::Camera> placed = app::placeCamera(*spec, s.scene.frame, o.camera);
+    report(placed.diagnostics);
+    if (!placed) return std::nullopt;
+    return *placed;
   }
+  if (s.description.camera) {
+    Result<app::Camera> placed = app::placeCamera(*s.description.camera, s.scene.frame, o.scene);
+    report(placed.diagnostics);
+    if (!placed) return std::nullopt;
+    return *placed;
+  }
+  glm::dvec3 lo, hi;
+  app::terrainBox(s.scene, s.exaggeration, lo, hi);
+  return app::overviewCamera(lo, hi);
+}
+
+/// Reads the scene file, loads the scene, places the camera and reads the lasso file; nothing, with
+/// the problems reported, when one of them fails.
+std::optional<Setup> load(const Options& o, Diagnostics& all) {
   Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
   report(description.diagnostics);
   all.append(description.diagnostics);
-  if (!description) return 1;
+  if (!description) return std::nullopt;
 
   Result<app::LoadedScene> scene = app::loadScene(*description);
   report(scene.diagnostics);
   all.append(scene.diagnostics);
-  if (!scene) return 1;
+  if (!scene) return std::nullopt;
 
-  const double exaggeration = o.exaggeration.value_or(description->verticalExaggeration);
-  scene->bounds->setExaggeration(exaggeration);
-  std::optional<app::Camera> camera;
-  if (!o.camera.empty()) {
-    Result<app::CameraSpec> spec = app::loadCameraFile(o.camera);
-    report(spec.diagnostics);
-    if (!spec) return 1;
-    Result<app::Camera> placed = app::placeCamera(*spec, scene->frame, o.camera);
-    report(placed.diagnostics);
-    if (!placed) return 1;
-    camera = *placed;
-  } else if (description->camera) {
-    Result<app::Camera> placed = app::placeCamera(*description->camera, scene->frame, o.scene);
-    report(placed.diagnostics);
-    if (!placed) return 1;
-    camera = *placed;
-  } else {
-    glm::dvec3 lo, hi;
-    app::terrainBox(*scene, exaggeration, lo, hi);
-    camera = app::overviewCamera(lo, hi);
-  }
+  Setup s{std::move(*description), std::move(*scene), 1.0, {}, std::nullopt};
+  s.exaggeration = o.exaggeration.value_or(s.description.verticalExaggeration);
+  s.scene.bounds->setExaggeration(s.exaggeration);
+  std::optional<app::Camera> camera = cameraFor(o, s);
+  if (!camera) return std::nullopt;
+  s.camera = *camera;
 
-  std::optional<app::SelectionRequest> lasso;
   if (!o.lasso.empty()) {
-    Result<app::SelectionRequest> request = app::loadLassoFile(o.lasso, scene->frame, *camera, o.width, o.height);
+    Result<app::SelectionRequest> request = app::loadLassoFile(o.lasso, s.scene.frame, s.camera, o.width, o.height);
     report(request.diagnostics);
     all.append(request.diagnostics);
-    if (!request) return 1;
-    lasso = std::move(*request);
+    if (!request) return std::nullopt;
+    s.lasso = std::move(*request);
   }
+  return s;
+}
 
+/// The headless context and the scene's renderer; nothing, with the problems reported, if either
+/// cannot be made.
+std::optional<Gpu> makeGpu(const Options& o, const Setup& s, Diagnostics& all) {
   Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
   report(context.diagnostics);
-  if (!context) return 1;
+  if (!context) return std::nullopt;
+  Gpu gpu{std::move(*context), std::nullopt};
   app::OverlayBuildSettings build;
   build.technique = o.technique;
   build.textureSize = o.drapeSize;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
+  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(s.scene, build);
   report(renderer.diagnostics);
   all.append(renderer.diagnostics);
-  if (!renderer) return 1;
+  if (!renderer) return std::nullopt;
+  gpu.renderer.emplace(std::move(*renderer));
+  return gpu;
+}
 
-  std::optional<std::pair<std::size_t, std::size_t>> overlapLayers;
-  if (!o.overlap.empty()) {
-    const std::size_t comma = o.overlap.find(',');
-    const std::string nameA = o.overlap.substr(0, comma), nameB = o.overlap.substr(comma + 1);
-    const std::optional<std::size_t> a = fillLayerNamed(*scene, *renderer, nameA);
-    const std::optional<std::size_t> b = fillLayerNamed(*scene, *renderer, nameB);
-    if (!a || !b) {
-      std::string names;
-      for (const app::LoadedLayer& l : scene->layers) names += (names.empty() ? "" : ", ") + l.description.name;
-      logError(o.scene + ": --overlap: no drawn layer named '" + (a ? nameB : nameA) + "' (layers: " + names + ")");
-      return 2;
-    }
-    overlapLayers.emplace(*a, *b);
+/// The fill overlay layers --overlap names, into `layers`; false, with the scene's layers listed,
+/// when one of them is not drawn.
+bool findOverlapLayers(const Options& o, const Setup& s, const app::SceneRenderer& renderer,
+                       std::optional<std::pair<std::size_t, std::size_t>>& layers) {
+  if (o.overlap.empty()) return true;
+  const std::size_t comma = o.overlap.find(',');
+  const std::string nameA = o.overlap.substr(0, comma), nameB = o.overlap.substr(comma + 1);
+  const std::optional<std::size_t> a = fillLayerNamed(s.scene, renderer, nameA);
+  const std::optional<std::size_t> b = fillLayerNamed(s.scene, renderer, nameB);
+  if (!a || !b) {
+    std::string names;
+    for (const app::LoadedLayer& l : s.scene.layers) names += (names.empty() ? "" : ", ") + l.description.name;
+    logError(o.scene + ": --overlap: no drawn layer named '" + (a ? nameB : nameA) + "' (layers: " + names + ")");
+    return false;
   }
+  layers.emplace(*a, *b);
+  return true;
+}
 
+/// mask.png's bits: the GPU mask has a bit per overlay layer (fills and outlines); mask.png a bit
+/// per layer of the scene file, by its place there (a layer that failed to load keeps its bit,
+/// unset). With MSAA a pixel has a layer's bit when at least half its samples do; `resolved`
+/// receives each sample in turn.
+std::vector<std::uint8_t> sceneLayerMask(const Options& o, const app::LoadedScene& scene,
+                                         const app::SceneRenderer& renderer, const gfx::RenderTarget& target,
+                                         gfx::RenderTarget* resolved) {
+  const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
+  // A sample covered by several overlay layers of one scene layer (fill and outline) votes once.
+  const auto sampleVotes = [&](const std::vector<std::uint32_t>& bits) {
+    std::vector<int> votes(pixels * 8, 0);
+    for (std::size_t i = 0; i < pixels; ++i) {
+      for (std::size_t j = 0; j < renderer.overlaySources().size() && j < 32; ++j) {
+        const std::size_t layer = scene.layers[renderer.overlaySources()[j].first].description.fileIndex;
+        if ((bits[i] >> j) & 1u && layer < 8) ++votes[i * 8 + layer];
+      }
+    }
+    return votes;
+  };
+  std::vector<int> votes(pixels * 8, 0);
+  int samples = 1;
+  if (resolved != nullptr) {
+    samples = target.samples();
+    for (int k = 0; k < samples; ++k) {
+      target.copySampleInto(*resolved, k);
+      const std::vector<int> sample = sampleVotes(gfx::readMask(*resolved));
+      for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sample[i] > 0 ? 1 : 0;
+    }
+  } else {
+    const std::vector<int> sample = sampleVotes(gfx::readMask(target));
+    for (std::size_t i = 0; i < votes.size(); ++i) votes[i] = sample[i] > 0 ? 1 : 0;
+  }
+  std::vector<std::uint8_t> mask(pixels, 0);
+  for (std::size_t i = 0; i < pixels; ++i) {
+    for (std::size_t layer = 0; layer < 8; ++layer) {
+      if (2 * votes[i * 8 + layer] >= samples) mask[i] = static_cast<std::uint8_t>(mask[i] | (1u << layer));
+    }
+  }
+  return mask;
+}
+
+/// The mask, the colour (RGB) and the depth of the frame in `target` (resolved first with MSAA).
+void readBack(const Options& o, const app::LoadedScene& scene, const app::SceneRenderer& renderer,
+              const gfx::RenderTarget& target, Frame& frame) {
+  std::optional<gfx::RenderTarget> resolved;
+  if (target.multisampled()) resolved.emplace(o.width, o.height, 0, true);
+  frame.samples = target.samples();
+  frame.mask = sceneLayerMask(o, scene, renderer, target, resolved ? &*resolved : nullptr);
+  if (resolved) target.resolveInto(*resolved);
+  const gfx::RenderTarget& readable = resolved ? *resolved : target;
+  const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(readable);
+  frame.depth = gfx::readDepth(readable);
+  frame.rgb.resize(rgba.size() / 4 * 3);
+  for (std::size_t i = 0, n = rgba.size() / 4; i < n; ++i) {
+    for (std::size_t c = 0; c < 3; ++c) frame.rgb[i * 3 + c] = rgba[i * 4 + c];
+  }
+}
+
+/// Draws the scene, then the selection and the analyses asked for over it, and reads the frame
+/// back; nothing when the selection cannot be drawn.
+std::optional<Frame> drawFrame(const Options& o, const Setup& s, app::SceneRenderer& renderer,
+                               const std::optional<std::pair<std::size_t, std::size_t>>& overlapLayers,
+                               Diagnostics& all) {
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, o.msaa, true);
   app::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
   settings.measure = true;
   settings.waitForTiles = true;  // a still image: every tile the view needs
-  const app::FrameStats frame = renderer->render(cache, target.framebuffer(), o.width, o.height, *camera, settings);
-  std::optional<SelectionOutput> selection;
-  if (lasso) {
-    selection = drawSelection(cache, target, *lasso, *camera, o.width, o.height, all);
-    if (!selection) return 1;
+  Frame frame;
+  frame.stats = renderer.render(cache, target.framebuffer(), o.width, o.height, s.camera, settings);
+  if (s.lasso) {
+    frame.selection = drawSelection(cache, target, *s.lasso, s.camera, o.width, o.height, all);
+    if (!frame.selection) return std::nullopt;
   }
-  const overlay::OverlayView view = app::overlayViewOf(*camera, static_cast<double>(o.width) / o.height);
-  std::optional<OverlapOutput> overlap;
+  frame.view = app::overlayViewOf(s.camera, static_cast<double>(o.width) / o.height);
   if (overlapLayers) {
-    overlap = drawOverlap(cache, target, *renderer, overlapLayers->first, overlapLayers->second, o.overlapOp, view);
+    frame.overlap =
+        drawOverlap(cache, target, renderer, overlapLayers->first, overlapLayers->second, o.overlapOp, frame.view);
   }
-  std::optional<OpenVolumesOutput> open;
-  if (o.openVolumes) open = drawOpenVolumes(cache, target, *renderer, view);
-  std::optional<gfx::RenderTarget> resolved;
-  const gfx::RenderTarget* readable = &target;
-  const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
-  // The GPU mask has a bit per overlay layer (fills and outlines); mask.png a bit per layer of
-  // the scene file, by its place there (a layer that failed to load keeps its bit, unset). With
-  // MSAA a pixel has a layer's bit when at least half its samples do.
-  std::vector<std::uint8_t> mask(pixels, 0);
-  auto addMask = [&](const std::vector<std::uint32_t>& bits, std::vector<int>& votes) {
-    for (std::size_t i = 0; i < pixels; ++i) {
-      for (std::size_t j = 0; j < renderer->overlaySources().size() && j < 32; ++j) {
-        const std::size_t layer = scene->layers[renderer->overlaySources()[j].first].description.fileIndex;
-        if ((bits[i] >> j) & 1u && layer < 8) ++votes[i * 8 + layer];
-      }
-    }
-  };
-  std::vector<int> votes(pixels * 8, 0);
-  int samples = 1;
-  if (target.multisampled()) {
-    resolved.emplace(o.width, o.height, 0, true);
-    samples = target.samples();
-    for (int k = 0; k < samples; ++k) {
-      target.copySampleInto(*resolved, k);
-      std::vector<std::uint32_t> bits = gfx::readMask(*resolved);
-      // A sample covered by several overlay layers of one scene layer (fill and outline) votes once.
-      std::vector<int> sampleVotes(pixels * 8, 0);
-      addMask(bits, sampleVotes);
-      for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sampleVotes[i] > 0 ? 1 : 0;
-    }
-    target.resolveInto(*resolved);
-    readable = &*resolved;
-  } else {
-    std::vector<int> sampleVotes(pixels * 8, 0);
-    addMask(gfx::readMask(target), sampleVotes);
-    for (std::size_t i = 0; i < votes.size(); ++i) votes[i] = sampleVotes[i] > 0 ? 1 : 0;
-  }
-  for (std::size_t i = 0; i < pixels; ++i) {
-    for (std::size_t layer = 0; layer < 8; ++layer) {
-      if (2 * votes[i * 8 + layer] >= samples) mask[i] = static_cast<std::uint8_t>(mask[i] | (1u << layer));
-    }
-  }
-  std::vector<std::uint8_t> rgba = gfx::readColorRgba8(*readable);
-  const std::vector<float> depth = gfx::readDepth(*readable);
+  if (o.openVolumes) frame.open = drawOpenVolumes(cache, target, renderer, frame.view);
+  readBack(o, s.scene, renderer, target, frame);
+  return frame;
+}
 
-  std::vector<std::uint8_t> rgb(rgba.size() / 4 * 3);
-  for (std::size_t i = 0, n = rgba.size() / 4; i < n; ++i) {
-    for (std::size_t c = 0; c < 3; ++c) rgb[i * 3 + c] = rgba[i * 4 + c];
-  }
-
-  const std::filesystem::path out(o.out);
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec) {
-    logError(o.out + ": cannot create output directory: " + ec.message());
-    return 1;
-  }
+/// color.png, depth.tiff and mask.png.
+bool writeImages(const std::filesystem::path& out, const Options& o, const Frame& frame) {
   bool ok = true;
-  for (const auto& written : {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, rgb),
-                              gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, depth),
-                              gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, mask)}) {
+  for (const auto& written : {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, frame.rgb),
+                              gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, frame.depth),
+                              gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, frame.mask)}) {
     report(written.diagnostics);
     ok = ok && written.ok();
   }
+  return ok;
+}
 
-  std::size_t terrainPixels = 0;
-  for (float d : depth) terrainPixels += d > 0.0F ? 1 : 0;
+/// stats.json's "passes" of scene layer `i`: each overlay layer built from it, with this frame's
+/// figures.
+json passesJson(const Drawn& d, std::size_t i) {
+  json passes = json::array();
+  for (std::size_t j = 0; j < d.renderer.overlaySources().size(); ++j) {
+    if (d.renderer.overlaySources()[j].first != i) continue;
+    const overlay::OverlayLayer& built = d.renderer.overlayLayers()[j];
+    const overlay::LayerFrameStats f =
+        j < d.frame.stats.layers.size() ? d.frame.stats.layers[j] : overlay::LayerFrameStats{};
+    passes.push_back({{"name", built.name()},
+                      {"pieces", built.stats().pieces},
+                      {"triangles", built.stats().triangles},
+                      {"gpu_bytes", built.stats().gpuBytes},
+                      {"build_seconds", built.stats().buildSeconds},
+                      {"z_pass_pieces", f.zPassPieces},
+                      {"z_fail_pieces", f.zFailPieces},
+                      {"culled_pieces", f.culledPieces},
+                      {"cover", f.rectangleCover ? "rectangle" : "pieces"},
+                      {"gpu_ms", f.gpuMilliseconds},
+                      {"mark_fragments", f.markFragments},
+                      {"cover_fragments", f.coverFragments}});
+  }
+  return passes;
+}
+
+/// stats.json's "layers": one per layer of the scene file.
+json layersJson(const Drawn& d) {
+  const app::LoadedScene& scene = d.setup.scene;
   json layers = json::array();
-  for (std::size_t i = 0; i < scene->layers.size(); ++i) {
-    const app::LoadedLayer& layer = scene->layers[i];
+  for (std::size_t i = 0; i < scene.layers.size(); ++i) {
+    const app::LoadedLayer& layer = scene.layers[i];
     const std::size_t bit = layer.description.fileIndex;
     std::size_t coveredPixels = 0;
-    for (std::uint8_t m : mask) coveredPixels += bit < 8 && ((static_cast<unsigned>(m) >> bit) & 1u) != 0u ? 1u : 0u;
-    json passes = json::array();
-    const app::LayerSummary summary = renderer->layerSummary(*scene, i);
-    for (std::size_t j = 0; j < renderer->overlaySources().size(); ++j) {
-      if (renderer->overlaySources()[j].first != i) continue;
-      const overlay::OverlayLayer& built = renderer->overlayLayers()[j];
-      const overlay::LayerFrameStats f = j < frame.layers.size() ? frame.layers[j] : overlay::LayerFrameStats{};
-      passes.push_back({{"name", built.name()},
-                        {"pieces", built.stats().pieces},
-                        {"triangles", built.stats().triangles},
-                        {"gpu_bytes", built.stats().gpuBytes},
-                        {"build_seconds", built.stats().buildSeconds},
-                        {"z_pass_pieces", f.zPassPieces},
-                        {"z_fail_pieces", f.zFailPieces},
-                        {"culled_pieces", f.culledPieces},
-                        {"cover", f.rectangleCover ? "rectangle" : "pieces"},
-                        {"gpu_ms", f.gpuMilliseconds},
-                        {"mark_fragments", f.markFragments},
-                        {"cover_fragments", f.coverFragments}});
+    for (std::uint8_t m : d.frame.mask) {
+      coveredPixels += bit < 8 && ((static_cast<unsigned>(m) >> bit) & 1u) != 0u ? 1u : 0u;
     }
+    const app::LayerSummary summary = d.renderer.layerSummary(scene, i);
     layers.push_back({{"name", layer.description.name},
                       {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
                       {"source", layer.description.source},
@@ -627,81 +652,132 @@ int run(const Options& o) {
                       {"drawn", summary.built},
                       {"mask_bit", bit < 8 ? json(bit) : json(nullptr)},
                       {"covered_pixels", coveredPixels},
-                      {"passes", passes}});
+                      {"passes", passesJson(d, i)}});
   }
-  const gfx::Context& ctx = **context;
-  const terrain::TerrainQuadtree& tree = *scene->quadtree;
+  return layers;
+}
+
+/// stats.json's "terrain": the DEM, its quadtree and this frame's LOD.
+json terrainJson(const Drawn& d) {
+  const app::LoadedScene& scene = d.setup.scene;
+  const app::FrameStats& frame = d.frame.stats;
+  const terrain::TerrainQuadtree& tree = *scene.quadtree;
   const terrain::TerrainGrid& grid = tree.grid();
   const terrain::NodeInfo& rootInfo = tree.info(tree.root());
+  std::size_t terrainPixels = 0;
+  for (float depth : d.frame.depth) terrainPixels += depth > 0.0F ? 1 : 0;
+  return {{"posts", static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height)},
+          {"paged", tree.paged()},
+          {"dem_size", {grid.width, grid.height}},
+          {"nodata_posts", scene.nodataPosts},
+          {"quadtree_levels", tree.rootLevel() + 1},
+          {"chunk_cells", tree.chunkCells()},
+          {"lod_tolerance_px", d.o.lodTolerance},
+          {"vertical_exaggeration", d.setup.exaggeration},
+          {"chunks", frame.terrainDraw.chunks},
+          {"chunks_culled", frame.terrainCulled},
+          {"finest_level", frame.finestLevel},
+          {"coarsest_level", frame.coarsestLevel},
+          {"triangles", frame.terrainDraw.triangles},
+          {"select_ms", frame.selectMilliseconds},
+          {"gpu_bytes", d.renderer.terrainEngine().gpuBytes()},
+          {"min_height", rootInfo.minHeight},
+          {"max_height", rootInfo.maxHeight},
+          {"imagery", scene.orthophoto.has_value()},
+          {"pixels", terrainPixels}};
+}
+
+/// stats.json without the analyses' blocks (they add theirs as they are written).
+json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
+  const app::FrameStats& frame = d.frame.stats;
   json stats = {
-      {"scene", o.scene},
-      {"width", o.width},
-      {"height", o.height},
-      {"msaa", target.samples()},
-      {"gl", {{"renderer", ctx.info().renderer}, {"version", ctx.info().version}}},
-      {"load_seconds", scene->loadSeconds},
-      {"terrain",
-       {{"posts", static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height)},
-        {"paged", tree.paged()},
-        {"dem_size", {grid.width, grid.height}},
-        {"nodata_posts", scene->nodataPosts},
-        {"quadtree_levels", tree.rootLevel() + 1},
-        {"chunk_cells", tree.chunkCells()},
-        {"lod_tolerance_px", o.lodTolerance},
-        {"vertical_exaggeration", exaggeration},
-        {"chunks", frame.terrainDraw.chunks},
-        {"chunks_culled", frame.terrainCulled},
-        {"finest_level", frame.finestLevel},
-        {"coarsest_level", frame.coarsestLevel},
-        {"triangles", frame.terrainDraw.triangles},
-        {"select_ms", frame.selectMilliseconds},
-        {"gpu_bytes", renderer->terrainEngine().gpuBytes()},
-        {"min_height", rootInfo.minHeight},
-        {"max_height", rootInfo.maxHeight},
-        {"imagery", scene->orthophoto.has_value()},
-        {"pixels", terrainPixels}}},
-      {"layers", layers},
-      {"method", o.technique->name},
+      {"scene", d.o.scene},
+      {"width", d.o.width},
+      {"height", d.o.height},
+      {"msaa", d.frame.samples},
+      {"gl", {{"renderer", context.info().renderer}, {"version", context.info().version}}},
+      {"load_seconds", d.setup.scene.loadSeconds},
+      {"terrain", terrainJson(d)},
+      {"layers", layersJson(d)},
+      {"method", d.o.technique->name},
       {"passes",
        {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
       {"errors", all.count(Severity::Error)},
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},
-      {"gl_errors", (*context)->debug().errorCount()}};
-  if (const overlay::TextureDrape* drape = renderer->textureDrape()) {
+      {"gl_errors", context.debug().errorCount()}};
+  if (const overlay::TextureDrape* drape = d.renderer.textureDrape()) {
     stats["drape"] = {{"size", drape->stats().size},
                       {"triangles", drape->stats().triangles},
                       {"gpu_bytes", drape->stats().gpuBytes},
                       {"build_s", drape->stats().buildSeconds},
                       {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
-  } else if (o.technique->usesTextures()) {
-    stats["drape"] = {{"tile_size", o.drapeSize},
+  } else if (d.o.technique->usesTextures()) {
+    stats["drape"] = {{"tile_size", d.o.drapeSize},
                       {"tiles_built", frame.texturesBuilt},
-                      {"gpu_bytes", renderer->techniqueGpuBytes()},
+                      {"gpu_bytes", d.renderer.techniqueGpuBytes()},
                       {"build_s", frame.textureSeconds}};
   }
-  if (selection) {
-    ok =
-        writeSelection(out, *selection, *lasso, *scene, *renderer, *camera, depth, o.width, o.height, all, stats) && ok;
+  return stats;
+}
+
+/// selection.png, overlap.png and open_volumes.png as asked for, with their blocks in stats.
+bool writeAnalyses(const std::filesystem::path& out, const Drawn& d, Diagnostics& all, json& stats) {
+  bool ok = true;
+  if (d.frame.selection) {
+    ok = writeSelection(out, d, all, stats) && ok;
     stats["errors"] = all.count(Severity::Error);
     stats["warnings"] = all.count(Severity::Warning);
     stats["diagnostics"] = diagnosticsJson(all);
   }
-  if (overlap) {
-    ok = writeOverlap(out, *overlap, o.overlapOp, *renderer, *scene, view.viewProj, depth, o.width, o.height, stats) &&
-         ok;
-  }
-  if (open) {
-    const Result<bool> png = gfx::writeImage8((out / "open_volumes.png").string(), o.width, o.height, 1, open->pixels);
+  if (d.frame.overlap) ok = writeOverlap(out, d, stats) && ok;
+  if (const std::optional<OpenVolumesOutput>& open = d.frame.open) {
+    const Result<bool> png =
+        gfx::writeImage8((out / "open_volumes.png").string(), d.o.width, d.o.height, 1, open->pixels);
     report(png.diagnostics);
     ok = ok && png.ok();
     stats["open_volumes"] = {{"open_pixels", open->openPixels}, {"layers", open->layers}};
   }
-  ok = writeJson(out / "camera.json", app::cameraToJson(*camera, scene->frame, o.width, o.height)) && ok;
+  return ok;
+}
+
+/// Every output file into --out; false when one could not be written.
+bool writeOutputs(const Drawn& d, gfx::Context& context, Diagnostics& all) {
+  const std::filesystem::path out(d.o.out);
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) {
+    logError(d.o.out + ": cannot create output directory: " + ec.message());
+    return false;
+  }
+  bool ok = writeImages(out, d.o, d.frame);
+  json stats = statsJson(d, context, all);
+  ok = writeAnalyses(out, d, all, stats) && ok;
+  ok = writeJson(out / "camera.json", app::cameraToJson(d.setup.camera, d.setup.scene.frame, d.o.width, d.o.height)) &&
+       ok;
   ok = writeJson(out / "stats.json", stats) && ok;
-  if (!ok) return 1;
+  if (!ok) return false;
   std::printf("%s\n", (std::filesystem::absolute(out) / "color.png").string().c_str());
-  return (*context)->debug().errorCount() == 0 ? 0 : 1;
+  return true;
+}
+
+int run(const Options& o) {
+  Diagnostics all;
+  if ((!o.lasso.empty() || !o.overlap.empty() || o.openVolumes) && o.msaa > 1) {
+    logError("--lasso, --overlap and --open-volumes with --msaa " + std::to_string(o.msaa) +
+             ": selection and analysis are drawn single-sampled only");
+    return 2;
+  }
+  const std::optional<Setup> setup = load(o, all);
+  if (!setup) return 1;
+  std::optional<Gpu> gpu = makeGpu(o, *setup, all);
+  if (!gpu) return 1;
+  std::optional<std::pair<std::size_t, std::size_t>> overlapLayers;
+  if (!findOverlapLayers(o, *setup, *gpu->renderer, overlapLayers)) return 2;
+  const std::optional<Frame> frame = drawFrame(o, *setup, *gpu->renderer, overlapLayers, all);
+  if (!frame) return 1;
+  if (!writeOutputs(Drawn{o, *setup, *gpu->renderer, *frame}, *gpu->context, all)) return 1;
+  return gpu->context->debug().errorCount() == 0 ? 0 : 1;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "app/cli.hpp"
+#include "app/option_parser.hpp"
 #include "gfx/context.hpp"
 #include "gfx/window_context.hpp"
 #include "viewer.hpp"
@@ -25,24 +26,25 @@ constexpr const char* kUsage =
 static int viewerMain(int argc, char** argv) {
   gis::viewer::ViewerOptions options;
   options.scene = "samples/olinda/scene.json";
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
-    if (a == "--script") {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "terrain_viewer: --script needs a file\n%s", kUsage);
-        return 2;
-      }
-      options.script = argv[++i];
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "terrain_viewer: unknown argument '%s'\n%s", argv[i], kUsage);
-      return 2;
-    } else {
-      options.scene = std::string(a);
-    }
+  bool help = false;
+  gis::app::OptionParser parser;
+  parser.help(help);
+  parser.custom(
+      "--script",
+      [&](std::string_view file) {
+        options.script = std::string(file);
+        return true;
+      },
+      "a file");
+  parser.positional(options.scene);
+  const std::string error = parser.parse(argc, argv);
+  if (help) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  if (!error.empty()) {
+    std::fprintf(stderr, "terrain_viewer: %s\n%s", error.c_str(), kUsage);
+    return 2;
   }
   if (!gis::gfx::windowSystemAvailable()) {
     std::fprintf(stderr,
