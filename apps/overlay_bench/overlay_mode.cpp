@@ -60,8 +60,7 @@ struct OverlayBench {
   gfx::StateCache cache;
   gfx::RenderTarget target;
 
-  OverlayBench(const Options& options, const BenchSetup& setup, app::SceneRenderer& oursRenderer,
-               app::SceneRenderer& paperRenderer)
+  OverlayBench(const Options& options, app::SceneRenderer& oursRenderer, app::SceneRenderer& paperRenderer)
       : o(options),
         ours(oursRenderer),
         paper(paperRenderer),
@@ -220,7 +219,7 @@ int runOverlay(const Options& o) {
   if (!renderer || !paperRenderer) return 1;
 
   const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
-  OverlayBench bench(o, *setup, *renderer, *paperRenderer);
+  OverlayBench bench(o, *renderer, *paperRenderer);
   OverlayFrames f;
   bench.drawPath(path, f);
   const json edit = bench.edit(path.back().camera);

@@ -27,8 +27,7 @@ struct TerrainFrames {
 };
 
 /// Draws each frame of `path`, one line of frames.csv per frame.
-TerrainFrames drawPath(const Options& o, const BenchSetup& setup, app::SceneRenderer& renderer,
-                       const std::vector<app::PathFrame>& path) {
+TerrainFrames drawPath(const Options& o, app::SceneRenderer& renderer, const std::vector<app::PathFrame>& path) {
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height);
   app::RenderSettings settings;
@@ -106,7 +105,7 @@ int runTerrain(const Options& o) {
   app::report(renderer.diagnostics);
   if (!renderer) return 1;
   const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
-  const TerrainFrames frames = drawPath(o, *setup, *renderer, path);
+  const TerrainFrames frames = drawPath(o, *renderer, path);
   return finish(o, resultJson(o, *setup, *renderer, path.size(), frames), *setup->context);
 }
 
