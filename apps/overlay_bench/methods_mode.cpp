@@ -267,7 +267,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
           frame.markGpuMs.push_back(mark);
           frame.coverGpuMs.push_back(cover);
         }
-        if (sample) target.copySampleInto(*sample, 0);
+        if (sample) target.copySampleInto(cache, *sample, 0);
         if (!m.overlays) {
           depth = gfx::readDepth(readable);
           const overlay::DepthImage image{o.width, o.height, depth, camera.projection(aspect) * camera.view()};

@@ -237,7 +237,7 @@ std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::
   report(built);
   all.append(built);
   const overlay::OverlayView view = app::overlayViewOf(camera, static_cast<double>(width) / height);
-  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
   overlay::SelectionSettings settings;
   settings.scheme = request.scheme;
@@ -342,7 +342,7 @@ struct OverlapOutput {
 OverlapOutput drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
                           std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
   OverlapOutput out{a, b, {}, {}};
-  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
   overlay::OverlaySettings settings;
   settings.measure = true;
@@ -363,7 +363,7 @@ struct OpenVolumesOutput {
 OpenVolumesOutput drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
                                   const overlay::OverlayView& view) {
   OpenVolumesOutput out;
-  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);
   overlay::OverlaySettings settings;
   settings.measure = true;
@@ -546,7 +546,7 @@ int run(const Options& o) {
     resolved.emplace(o.width, o.height, 0, true);
     samples = target.samples();
     for (int k = 0; k < samples; ++k) {
-      target.copySampleInto(*resolved, k);
+      target.copySampleInto(cache, *resolved, k);
       std::vector<std::uint32_t> bits = gfx::readMask(*resolved);
       // A sample covered by several overlay layers of one scene layer (fill and outline) votes once.
       std::vector<int> sampleVotes(pixels * 8, 0);
