@@ -276,13 +276,12 @@ Sample LassoBench::fullScreenPass() {
   return timed([&] {
     return queried(timer, statistics, [&] {
       cache.apply(kFullScreenPass);
-      passProgram.use();
+      cache.useProgram(passProgram);
       passProgram.set("u_rect", glm::vec4(-1.0F, -1.0F, 1.0F, 1.0F));
       passProgram.set("u_color", glm::vec4(0.2F, 0.6F, 1.0F, 0.05F));
       passProgram.set("u_maskBit", 0.0F);
-      glBindVertexArray(emptyVao.id());
+      cache.bindVertexArray(emptyVao.id());
       glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
-      glBindVertexArray(0);
     });
   });
 }

@@ -248,7 +248,7 @@ void VariantBench::count(Method& m, const app::Camera& camera, Tally& frame) {
 /// Terrain only computes the frame's reference on its depth; the others' masks are judged against
 /// it, pixel by pixel.
 void VariantBench::judge(const Method& m, const app::Camera& camera, Tally& frame, FrameReference& ref) {
-  if (sample) target.copySampleInto(*sample, 0);
+  if (sample) target.copySampleInto(cache, *sample, 0);
   if (!m.overlays) {
     ref.depth = gfx::readDepth(readable());
     const overlay::DepthImage image{o.width, o.height, ref.depth, camera.projection(aspect) * camera.view()};

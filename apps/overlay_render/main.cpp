@@ -176,7 +176,7 @@ std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::
   report(built);
   all.append(built);
   const overlay::OverlayView view = app::overlayViewOf(camera, static_cast<double>(width) / height);
-  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(),
                         false);  // the overlay mask stays as the layers left it
   overlay::SelectionSettings settings;
@@ -222,7 +222,7 @@ struct OverlapOutput {
 OverlapOutput drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
                           std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
   OverlapOutput out{a, b, {}, {}};
-  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(),
                         false);  // the overlay mask stays as the layers left it
   overlay::OverlaySettings settings;
@@ -244,7 +244,7 @@ struct OpenVolumesOutput {
 OpenVolumesOutput drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
                                   const overlay::OverlayView& view) {
   OpenVolumesOutput out;
-  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer());
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);
   overlay::OverlaySettings settings;
   settings.measure = true;
@@ -509,7 +509,7 @@ bool findOverlapLayers(const Options& o, const Setup& s, const app::SceneRendere
 /// per layer of the scene file, by its place there (a layer that failed to load keeps its bit,
 /// unset). With MSAA a pixel has a layer's bit when at least half its samples do; `resolved`
 /// receives each sample in turn.
-std::vector<std::uint8_t> sceneLayerMask(const Options& o, const app::LoadedScene& scene,
+std::vector<std::uint8_t> sceneLayerMask(gfx::StateCache& cache, const Options& o, const app::LoadedScene& scene,
                                          const app::SceneRenderer& renderer, const gfx::RenderTarget& target,
                                          gfx::RenderTarget* resolved) {
   const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
@@ -529,7 +529,7 @@ std::vector<std::uint8_t> sceneLayerMask(const Options& o, const app::LoadedScen
   if (resolved != nullptr) {
     samples = target.samples();
     for (int k = 0; k < samples; ++k) {
-      target.copySampleInto(*resolved, k);
+      target.copySampleInto(cache, *resolved, k);
       const std::vector<int> sample = sampleVotes(gfx::readMask(*resolved));
       for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sample[i] > 0 ? 1 : 0;
     }
@@ -547,12 +547,12 @@ std::vector<std::uint8_t> sceneLayerMask(const Options& o, const app::LoadedScen
 }
 
 /// The mask, the colour (RGB) and the depth of the frame in `target` (resolved first with MSAA).
-void readBack(const Options& o, const app::LoadedScene& scene, const app::SceneRenderer& renderer,
-              const gfx::RenderTarget& target, Frame& frame) {
+void readBack(gfx::StateCache& cache, const Options& o, const app::LoadedScene& scene,
+              const app::SceneRenderer& renderer, const gfx::RenderTarget& target, Frame& frame) {
   std::optional<gfx::RenderTarget> resolved;
   if (target.multisampled()) resolved.emplace(o.width, o.height, 0, true);
   frame.samples = target.samples();
-  frame.mask = sceneLayerMask(o, scene, renderer, target, resolved ? &*resolved : nullptr);
+  frame.mask = sceneLayerMask(cache, o, scene, renderer, target, resolved ? &*resolved : nullptr);
   if (resolved) target.resolveInto(*resolved);
   const gfx::RenderTarget& readable = resolved ? *resolved : target;
   const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(readable);
@@ -586,7 +586,7 @@ std::optional<Frame> drawFrame(const Options& o, const Setup& s, app::SceneRende
         drawOverlap(cache, target, renderer, overlapLayers->first, overlapLayers->second, o.overlapOp, frame.view);
   }
   if (o.openVolumes) frame.open = drawOpenVolumes(cache, target, renderer, frame.view);
-  readBack(o, s.scene, renderer, target, frame);
+  readBack(cache, o, s.scene, renderer, target, frame);
   return frame;
 }
 

@@ -260,10 +260,7 @@ void Viewer::frame(double seconds) {
   } else {
     animating_ = false;
     const glm::ivec2 fb = framebufferSize();
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    glViewport(0, 0, fb.x, fb.y);
-    glClearColor(0.11F, 0.12F, 0.14F, 1.0F);
-    glClear(GL_COLOR_BUFFER_BIT);
+    gfx::beginRenderPass(cache_, 0, fb.x, fb.y, {glm::vec4(0.11F, 0.12F, 0.14F, 1.0F), std::nullopt, std::nullopt});
   }
 
   ImGui_ImplOpenGL3_NewFrame();
@@ -326,8 +323,7 @@ void Viewer::drawScene() {
   // Into the window: the panel is drawn over this copy.
   glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
                          GL_NEAREST);
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  glViewport(0, 0, fb.x, fb.y);
+  cache_.bindDrawTarget(0, fb.x, fb.y);
 }
 
 }  // namespace gis::viewer

@@ -165,10 +165,7 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
   if (ui) {
     // The back buffer as it will be shown: scene, panel and HUD.
     std::vector<std::uint8_t> rgba(static_cast<std::size_t>(fb.x) * static_cast<std::size_t>(fb.y) * 4);
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    glReadBuffer(GL_BACK);
-    glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, fb.x, fb.y, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    gfx::readFramebuffer(0, GL_BACK, 0, 0, fb.x, fb.y, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
     rgb.resize(rgba.size() / 4 * 3);
     const auto w = static_cast<std::size_t>(fb.x), h = static_cast<std::size_t>(fb.y);
     for (std::size_t r = 0; r < h; ++r) {

@@ -54,9 +54,8 @@ nlohmann::json Identified::toJson() const {
 std::optional<float> Viewer::depthAt(int x, int y) const {
   if (!target_ || x < 0 || y < 0 || x >= target_->width() || y >= target_->height()) return std::nullopt;
   float depth = 0.0F;
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, target_->framebuffer());
-  glReadPixels(x, target_->height() - 1 - y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  gfx::readFramebuffer(target_->framebuffer(), GL_COLOR_ATTACHMENT0, x, target_->height() - 1 - y, 1, 1,
+                       GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
   if (!(depth > 0.0F)) return std::nullopt;  // background (reversed-Z clears to 0)
   return depth;
 }

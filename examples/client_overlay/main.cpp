@@ -139,9 +139,9 @@ int main() {
   gfx::beginRenderPass(cache, target, {glm::vec4(0.1F, 0.1F, 0.12F, 1.0F), gfx::kReversedZFar, 0});
   gfx::enableMaskWrites(target.framebuffer(), false);
   cache.apply(gfx::kOpaque);
-  terrainProgram->use();
+  cache.useProgram(*terrainProgram);
   terrainProgram->set("u_mvp", glm::mat4(viewProj));
-  glBindVertexArray(vao.id());
+  cache.bindVertexArray(vao.id());
   glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(indices.size()), GL_UNSIGNED_INT, nullptr);
   gfx::enableMaskWrites(target.framebuffer(), true);
   const std::vector<const overlay::OverlayLayer*> layers{&*area, &*road};

@@ -40,14 +40,20 @@ std::vector<T> readPixels(const RenderTarget& target, GLenum readBuffer, GLenum 
   assert(!target.multisampled() && "resolve a multisampled target before reading it back");
   std::vector<T> pixels(static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height()) *
                         static_cast<std::size_t>(channels));
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, target.framebuffer());
-  glNamedFramebufferReadBuffer(target.framebuffer(), readBuffer);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, target.width(), target.height(), format, type, pixels.data());
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  readFramebuffer(target.framebuffer(), readBuffer, 0, 0, target.width(), target.height(), format, type, pixels.data());
   flipRows(pixels, target.width(), target.height(), channels);
   return pixels;
 }
+
+/// copySampleInto's pass: every fragment written, depth included, nothing tested or blended.
+constexpr PipelineState kCopyPass = [] {
+  PipelineState s;
+  s.depth = DepthState{true, true, CompareFunc::Always, false};
+  s.stencil.test = false;
+  s.blend.enabled = false;
+  s.raster.cull = CullMode::None;
+  return s;
+}();
 
 }  // namespace
 
@@ -81,65 +87,27 @@ void RenderTarget::resolveInto(const RenderTarget& single) const {
                          GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT, GL_NEAREST);
 }
 
-void RenderTarget::copySampleInto(const RenderTarget& single, int sample) const {
+void RenderTarget::copySampleInto(StateCache& cache, const RenderTarget& single, int sample) const {
   assert(multisampled() && !single.multisampled() && single.width_ == width_ && single.height_ == height_);
   Result<Program> program = Program::build({{"sample_copy.vert", {}}, {"sample_copy.frag", {}}});
   if (!program) {
     for (const Diagnostic& d : program.diagnostics.items()) logError(d.toString());
     return;
   }
-  // Outside the state cache: save and restore what this pass touches.
-  GLint previousFramebuffer = 0, previousProgram = 0, previousVao = 0;
-  GLint viewport[4] = {0, 0, 0, 0};
-  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &previousFramebuffer);
-  glGetIntegerv(GL_CURRENT_PROGRAM, &previousProgram);
-  glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &previousVao);
-  glGetIntegerv(GL_VIEWPORT, viewport);
-  const GLboolean depthTest = glIsEnabled(GL_DEPTH_TEST), stencilTest = glIsEnabled(GL_STENCIL_TEST),
-                  blend = glIsEnabled(GL_BLEND), cull = glIsEnabled(GL_CULL_FACE);
-  GLint depthFunc = GL_LESS;
-  GLboolean depthMask = GL_TRUE;
-  GLboolean colorMask[4] = {GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE};
-  glGetIntegerv(GL_DEPTH_FUNC, &depthFunc);
-  glGetBooleanv(GL_DEPTH_WRITEMASK, &depthMask);
-  glGetBooleanv(GL_COLOR_WRITEMASK, colorMask);
-
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, single.fbo_.id());
-  glViewport(0, 0, width_, height_);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_ALWAYS);
-  glDepthMask(GL_TRUE);
-  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  glDisable(GL_STENCIL_TEST);
-  glDisable(GL_BLEND);
-  glDisable(GL_CULL_FACE);
-  VertexArrayHandle vao = createVertexArray();
-  glBindVertexArray(vao.id());
-  program->use();
+  const RenderPass pass(cache, single.fbo_.id(), width_, height_);
+  cache.apply(kCopyPass);
+  const VertexArrayHandle vao = createVertexArray();
+  cache.bindVertexArray(vao.id());
+  cache.useProgram(*program);
   program->set("u_color", 0);
   program->set("u_mask", 1);
   program->set("u_depth", 2);
   program->set("u_sample", sample);
   program->set("u_hasMask", hasMask() ? 1 : 0);
-  glBindTextureUnit(0, color_.id());
-  glBindTextureUnit(1, hasMask() ? mask_.id() : color_.id());
-  glBindTextureUnit(2, depthStencil_.id());
+  cache.bindTexture(0, color_.id());
+  cache.bindTexture(1, hasMask() ? mask_.id() : color_.id());
+  cache.bindTexture(2, depthStencil_.id());
   glDrawArrays(GL_TRIANGLES, 0, 3);
-  glBindTextureUnit(0, 0);
-  glBindTextureUnit(1, 0);
-  glBindTextureUnit(2, 0);
-
-  glBindVertexArray(static_cast<GLuint>(previousVao));
-  glUseProgram(static_cast<GLuint>(previousProgram));
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previousFramebuffer));
-  glViewport(viewport[0], viewport[1], viewport[2], viewport[3]);
-  (depthTest ? glEnable : glDisable)(GL_DEPTH_TEST);
-  (stencilTest ? glEnable : glDisable)(GL_STENCIL_TEST);
-  (blend ? glEnable : glDisable)(GL_BLEND);
-  (cull ? glEnable : glDisable)(GL_CULL_FACE);
-  glDepthFunc(static_cast<GLenum>(depthFunc));
-  glDepthMask(depthMask);
-  glColorMask(colorMask[0], colorMask[1], colorMask[2], colorMask[3]);
 }
 
 void enableMaskWrites(GLuint framebuffer, bool enabled) {
@@ -152,13 +120,8 @@ void enableMaskWrites(GLuint framebuffer, bool enabled) {
   glNamedFramebufferDrawBuffers(framebuffer, 2, buffers);
 }
 
-void bindDrawTarget(GLuint framebuffer, int width, int height) {
-  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-  glViewport(0, 0, width, height);
-}
-
 void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params) {
-  bindDrawTarget(framebuffer, width, height);
+  cache.bindDrawTarget(framebuffer, width, height);
   if (!params.clearColor && !params.clearDepth && !params.clearStencil) return;
   cache.prepareForClear();
   if (params.clearColor) {
@@ -183,6 +146,21 @@ void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int heigh
   } else if (params.clearStencil) {
     glClearNamedFramebufferiv(framebuffer, GL_STENCIL, 0, &*params.clearStencil);
   }
+}
+
+RenderPass::RenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params)
+    : cache_(cache), previous_(cache.drawTarget()) {
+  beginRenderPass(cache, framebuffer, width, height, params);
+}
+
+void readFramebuffer(GLuint framebuffer, GLenum readBuffer, int x, int y, int width, int height, GLenum format,
+                     GLenum type, void* pixels) {
+  // The read binding is not the state cache's: bound here for this call only.
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer);
+  glNamedFramebufferReadBuffer(framebuffer, readBuffer);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(x, y, width, height, format, type, pixels);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
 }
 
 std::vector<std::uint8_t> readColorRgba8(const RenderTarget& target) {

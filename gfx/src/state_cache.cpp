@@ -1,9 +1,16 @@
 #include "gfx/state_cache.hpp"
 
+#include <cassert>
+
+#include "gfx/program.hpp"
 #include "gl_enums.hpp"
 
 namespace gis::gfx {
 namespace {
+
+/// The first of this thread's live caches, linked through StateCache::nextLive_. A plain pointer:
+/// nothing to destroy at thread exit, whatever outlives it.
+thread_local StateCache* firstLiveCache = nullptr;
 
 void setEnabled(GLenum cap, bool on) { on ? glEnable(cap) : glDisable(cap); }
 
@@ -20,6 +27,131 @@ GLenum getEnum(GLenum pname) { return static_cast<GLenum>(getInt(pname)); }
 std::uint8_t getByte(GLenum pname) { return static_cast<std::uint8_t>(getInt(pname) & 0xFF); }
 
 }  // namespace
+
+void detail::forgetBindings(BindableKind kind, GLuint id) {
+  for (StateCache* cache = firstLiveCache; cache != nullptr; cache = cache->nextLive_) cache->forget(kind, id);
+}
+
+StateCache::StateCache() : nextLive_(firstLiveCache) {
+  if (nextLive_ != nullptr) nextLive_->previousLive_ = this;
+  firstLiveCache = this;
+}
+
+StateCache::~StateCache() {
+  (previousLive_ != nullptr ? previousLive_->nextLive_ : firstLiveCache) = nextLive_;
+  if (nextLive_ != nullptr) nextLive_->previousLive_ = previousLive_;
+}
+
+void StateCache::invalidate() {
+  valid_ = false;
+  drawFramebuffer_.reset();
+  viewport_.reset();
+  program_.reset();
+  vertexArray_.reset();
+  textures_.fill(std::nullopt);
+  uniformBuffers_.fill(std::nullopt);
+  storageBuffers_.fill(std::nullopt);
+  indirectBuffer_.reset();
+}
+
+void StateCache::forget(BindableKind kind, GLuint id) {
+  const auto drop = [id](std::optional<GLuint>& slot) {
+    if (slot == id) slot.reset();
+  };
+  switch (kind) {
+    case BindableKind::Framebuffer:
+      drop(drawFramebuffer_);  // GL falls back to the default framebuffer; unknown is as good
+      break;
+    case BindableKind::Program:
+      drop(program_);  // GL keeps a deleted current program until another is used
+      break;
+    case BindableKind::VertexArray:
+      drop(vertexArray_);
+      break;
+    case BindableKind::Texture:
+      for (std::optional<GLuint>& slot : textures_) drop(slot);
+      break;
+    case BindableKind::Buffer:
+      for (std::optional<GLuint>& slot : uniformBuffers_) drop(slot);
+      for (std::optional<GLuint>& slot : storageBuffers_) drop(slot);
+      drop(indirectBuffer_);
+      break;
+  }
+}
+
+void StateCache::bindDrawTarget(const DrawTarget& target) {
+  if (drawFramebuffer_ != target.framebuffer) {
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
+    drawFramebuffer_ = target.framebuffer;
+    ++calls_;
+  }
+  if (viewport_ != target.viewport) {
+    const Viewport& v = target.viewport;
+    glViewport(v.x, v.y, v.width, v.height);
+    viewport_ = v;
+    ++calls_;
+  }
+}
+
+DrawTarget StateCache::drawTarget() {
+  if (!drawFramebuffer_) drawFramebuffer_ = static_cast<GLuint>(getInt(GL_DRAW_FRAMEBUFFER_BINDING));
+  if (!viewport_) {
+    GLint v[4] = {0, 0, 0, 0};
+    glGetIntegerv(GL_VIEWPORT, v);
+    viewport_ = Viewport{v[0], v[1], v[2], v[3]};
+  }
+  return {*drawFramebuffer_, *viewport_};
+}
+
+void StateCache::useProgram(GLuint program) {
+  if (program_ == program) return;
+  glUseProgram(program);
+  program_ = program;
+  ++calls_;
+}
+
+void StateCache::useProgram(const Program& program) { useProgram(program.id()); }
+
+void StateCache::bindVertexArray(GLuint vertexArray) {
+  if (vertexArray_ == vertexArray) return;
+  glBindVertexArray(vertexArray);
+  vertexArray_ = vertexArray;
+  ++calls_;
+}
+
+void StateCache::bindTexture(GLuint unit, GLuint texture) {
+  assert(unit < kTextureUnits && "raise StateCache::kTextureUnits");
+  std::optional<GLuint>& slot = textures_[unit];
+  if (slot == texture) return;
+  glBindTextureUnit(unit, texture);
+  slot = texture;
+  ++calls_;
+}
+
+void StateCache::bindBuffer(GLenum target, std::array<std::optional<GLuint>, kBufferBindings>& slots, GLuint index,
+                            GLuint buffer) {
+  assert(index < kBufferBindings && "raise StateCache::kBufferBindings");
+  std::optional<GLuint>& slot = slots[index];
+  if (slot == buffer) return;
+  glBindBufferBase(target, index, buffer);
+  slot = buffer;
+  ++calls_;
+}
+
+void StateCache::bindUniformBuffer(GLuint index, GLuint buffer) {
+  bindBuffer(GL_UNIFORM_BUFFER, uniformBuffers_, index, buffer);
+}
+
+void StateCache::bindStorageBuffer(GLuint index, GLuint buffer) {
+  bindBuffer(GL_SHADER_STORAGE_BUFFER, storageBuffers_, index, buffer);
+}
+
+void StateCache::bindIndirectBuffer(GLuint buffer) {
+  if (indirectBuffer_ == buffer) return;
+  glBindBuffer(GL_DRAW_INDIRECT_BUFFER, buffer);
+  indirectBuffer_ = buffer;
+  ++calls_;
+}
 
 void StateCache::apply(const PipelineState& state) {
   const bool force = !valid_;

@@ -164,7 +164,7 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
   gfx::PipelineState state = gfx::kOpaque;
   if (wireframe_) state.raster.polygonMode = gfx::PolygonMode::Line;
   cache.apply(state);
-  program_.use();
+  cache.useProgram(program_);
   const TerrainGrid& grid = tree_->grid();
   // One frame-wide matrix, centred on the post nearest the eye: every chunk computes a shared
   // vertex from the same integers with the same float operations, so edges meet bit for bit.
@@ -183,7 +183,7 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
     const auto& g = imageryTransform_->c;
     program_.set("u_uvBase", glm::vec2(pixel / imagerySize_));
     program_.set("u_uvScale", glm::vec2(1.0 / (g[1] * imagerySize_.x), 1.0 / (g[5] * imagerySize_.y)));
-    glBindTextureUnit(0, imagery_.id());
+    cache.bindTexture(0, imagery_.id());
   }
   const bool tiled = drape_ && drape_->tileOf;
   program_.set("u_hasDrape", drape_ ? 1 : 0);
@@ -191,11 +191,11 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
   if (drape_ && !tiled) {
     program_.set("u_drapeUvBase", glm::vec2((centre - drape_->origin) / drape_->size));
     program_.set("u_drapeUvScale", glm::vec2(1.0 / drape_->size));
-    glBindTextureUnit(1, drape_->color);
-    glBindTextureUnit(2, drape_->mask);
+    cache.bindTexture(1, drape_->color);
+    cache.bindTexture(2, drape_->mask);
   } else if (tiled) {
-    glBindTextureUnit(3, drape_->colorArray);
-    glBindTextureUnit(4, drape_->maskArray);
+    cache.bindTexture(3, drape_->colorArray);
+    cache.bindTexture(4, drape_->maskArray);
   }
   const GLint hasDrapeLocation = program_.location("u_hasDrape");
   const GLint drapeLayerLocation = program_.location("u_drapeLayer");
@@ -219,12 +219,11 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
       }
     }
     glVertexArrayElementBuffer(c->vao.id(), indexBuffer);
-    glBindVertexArray(c->vao.id());
+    cache.bindVertexArray(c->vao.id());
     glDrawElements(GL_TRIANGLES, indexCount, GL_UNSIGNED_INT, nullptr);
     ++stats.chunks;
     stats.triangles += static_cast<std::size_t>(indexCount) / 3;
   }
-  glBindVertexArray(0);
   evictTo(gpuBudget_);  // this frame's chunks are the most recent; the oldest go first
   return stats;
 }

@@ -94,9 +94,9 @@ TEST_F(ContextGlTest, QueriesCountFragmentsAndTime) {
   gfx::PipelineState state = gfx::kOpaque;
   state.depth.test = false;
   cache_.apply(state);
-  program->use();
+  cache_.useProgram(*program);
   program->set("u_color", glm::vec4(1.0F));
-  glBindVertexArray(vao.id());
+  cache_.bindVertexArray(vao.id());
 
   gfx::GpuTimer timer;
   gfx::PipelineStatistics statistics;
@@ -114,7 +114,6 @@ TEST_F(ContextGlTest, QueriesCountFragmentsAndTime) {
   const std::optional<std::uint64_t> ns = timer.nanoseconds();
   ASSERT_TRUE(ns.has_value());
   EXPECT_GT(*ns, 0u);
-  glBindVertexArray(0);
 }
 
 TEST_F(ContextGlTest, MultisampledTargetResolves) {

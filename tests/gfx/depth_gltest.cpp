@@ -64,11 +64,10 @@ class DepthGlTest : public GlTest {
     state.raster.cull = gfx::CullMode::None;
     cache_.apply(state);
     const glm::dmat4 viewProj = projection(c) * gfx::lookAt(c.eye, c.target, {0, 0, 1});
-    program->use();
+    cache_.useProgram(*program);
     program->set("u_modelViewProj", gfx::relativeToCentre(viewProj, c.centre));
-    glBindVertexArray(vao.id());
+    cache_.bindVertexArray(vao.id());
     glDrawArrays(GL_TRIANGLES, 0, 6);
-    glBindVertexArray(0);
     return gfx::readDepth(target);
   }
 

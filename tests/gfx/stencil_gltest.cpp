@@ -68,11 +68,10 @@ class StencilGlTest : public GlTest {
     gfx::BufferHandle vbo = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(glm::vec2));
     glVertexArrayVertexBuffer(vao_.id(), 0, vbo.id(), 0, sizeof(glm::vec2));
     cache_.apply(state);
-    program_.use();
+    cache_.useProgram(program_);
     program_.set("u_color", color);
-    glBindVertexArray(vao_.id());
+    cache_.bindVertexArray(vao_.id());
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
-    glBindVertexArray(0);
   }
 
   static std::vector<glm::vec2> fullScreenQuad() { return {{-1, -1}, {1, -1}, {1, 1}, {-1, -1}, {1, 1}, {-1, 1}}; }

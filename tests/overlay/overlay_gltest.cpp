@@ -261,7 +261,7 @@ TEST_F(OverlayGlTest, MsaaIsExactPerSample) {
     for (int k = 0; k < 4; ++k) {
       GLfloat position[2] = {0.5F, 0.5F};
       glGetMultisamplefv(GL_SAMPLE_POSITION, static_cast<GLuint>(k), position);
-      msaa.copySampleInto(single, k);
+      msaa.copySampleInto(cache_, single, k);
       const Comparison c = compare(single, atSample(viewProj, position[0], position[1], kWidth, kHeight), layers,
                                    "msaa sample " + std::to_string(k));
       total.covered += c.covered;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -93,7 +94,7 @@ TEST_F(TechniqueGlTest, EveryTechniqueDrawsIntoTheTargetItIsGiven) {
     frame.tiles = tiles;
 
     gfx::beginRenderPass(cache_, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
-    gfx::bindDrawTarget(elsewhere.framebuffer(), elsewhere.width(), elsewhere.height());
+    cache_.bindDrawTarget(elsewhere.framebuffer(), elsewhere.width(), elsewhere.height());
     overlay::TechniqueFrameStats stats;
     const std::optional<overlay::SurfaceDrape> drape = (*technique)->prepare(cache_, frame, stats);
     const auto [preparedFbo, preparedViewport] = boundTarget();
@@ -119,7 +120,7 @@ TEST_F(TechniqueGlTest, EveryTechniqueDrawsIntoTheTargetItIsGiven) {
     gfx::enableMaskWrites(target.framebuffer(), false);
     engine->draw(cache_, viewProj, eye, selection, 1.0);
     gfx::enableMaskWrites(target.framebuffer(), true);
-    gfx::bindDrawTarget(elsewhere.framebuffer(), elsewhere.width(), elsewhere.height());
+    cache_.bindDrawTarget(elsewhere.framebuffer(), elsewhere.width(), elsewhere.height());
     (*technique)->draw(cache_, frame, stats);
     const auto [drawnFbo, drawnViewport] = boundTarget();
     EXPECT_EQ(drawnFbo, static_cast<GLint>(target.framebuffer()));
@@ -131,6 +132,36 @@ TEST_F(TechniqueGlTest, EveryTechniqueDrawsIntoTheTargetItIsGiven) {
     EXPECT_EQ(c.wrong, 0u);
     EXPECT_GT(c.covered, 2000u);
     EXPECT_LE(c.edgeWrong, c.covered / 100);
+  }
+}
+
+TEST_F(TechniqueGlTest, DrapeBuildsRestoreTheBoundTargetAndViewport) {
+  // A drape rasterises into a framebuffer of its own in a gfx::RenderPass: whatever was bound
+  // before (any viewport) is bound again after it, known to the cache or read back from GL.
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  const gfx::DrawTarget frameTarget{target.framebuffer(), {4, 2, 100, 50}};
+  const std::vector<const overlay::OverlayLayer*> none;
+  const overlay::DrapeExtent extent{glm::dvec2(0.0), glm::dvec2(100.0)};
+  Result<overlay::TiledDrape> tiles = overlay::TiledDrape::create(32);
+  ASSERT_TRUE(tiles.ok());
+  for (const bool known : {true, false}) {
+    SCOPED_TRACE(known ? "bound through the cache" : "read back after invalidate()");
+    cache_.bindDrawTarget(frameTarget);
+    if (!known) cache_.invalidate();
+    Result<overlay::TextureDrape> drape = overlay::TextureDrape::build(cache_, none, extent, 64);
+    ASSERT_TRUE(drape.ok());
+    auto [fbo, viewport] = boundTarget();
+    EXPECT_EQ(fbo, static_cast<GLint>(target.framebuffer()));
+    EXPECT_EQ(viewport, (std::array<GLint, 4>{4, 2, 100, 50}));
+
+    if (!known) cache_.invalidate();
+    overlay::TiledDrape::FrameStats stats;
+    tiles->beginFrame(1);
+    (void)tiles->tile(cache_, none, known ? 1 : 2, extent, stats);
+    EXPECT_EQ(stats.tilesBuilt, 1u);
+    std::tie(fbo, viewport) = boundTarget();
+    EXPECT_EQ(fbo, static_cast<GLint>(target.framebuffer()));
+    EXPECT_EQ(viewport, (std::array<GLint, 4>{4, 2, 100, 50}));
   }
 }
 

@@ -22,7 +22,7 @@ AnalysisMarks OverlayRenderer::markOverlap(gfx::StateCache& cache, const Overlay
                                            const OverlayLayer& b, const OverlaySettings& settings) {
   AnalysisMarks marks;
   const std::array<const OverlayLayer*, 2> layers{&a, &b};
-  const PixelScale scale = beginFrame(view, settings, layers);
+  const PixelScale scale = beginFrame(cache, view, settings, layers);
   beginMeasure(settings);
   for (int k = 0; k < 2; ++k) {
     const OverlayLayer& layer = k == 0 ? a : b;
@@ -39,7 +39,6 @@ AnalysisMarks OverlayRenderer::markOverlap(gfx::StateCache& cache, const Overlay
     endLayer(inPixels);
   }
   endMeasure(settings, marks.gpuMilliseconds, marks.fragments);
-  glBindVertexArray(0);
   return marks;
 }
 
@@ -57,19 +56,18 @@ void OverlayRenderer::coverOverlap(gfx::StateCache& cache, const AnalysisMarks& 
       break;
     case OverlapOp::Xor:
       cache.apply(kOverlapXorFirst);
-      drawRect(marks.rect, colour, maskValue);
+      drawRect(cache, marks.rect, colour, maskValue);
       cache.apply(kOverlapXorLast);
       break;
   }
-  drawRect(marks.rect, colour, maskValue);
-  glBindVertexArray(0);
+  drawRect(cache, marks.rect, colour, maskValue);
 }
 
 AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const OverlayView& view,
                                               const OverlayLayer& layer, const OverlaySettings& settings) {
   AnalysisMarks marks;
   const std::array<const OverlayLayer*, 1> layers{&layer};
-  const PixelScale scale = beginFrame(view, settings, layers);
+  const PixelScale scale = beginFrame(cache, view, settings, layers);
   // Every face: bottom caps too, and the pieces near the eye clipped and capped.
   const Pieces pieces = classify(view, layer, settings, true, marks.a);
   if (!pieces.order.empty()) {
@@ -77,20 +75,18 @@ AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const Over
     beginMeasure(settings);
     const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kCountFaces);
-    multiDraw(pieces.zPass);
-    drawClipped(layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
+    multiDraw(cache, pieces.zPass);
+    drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
     endLayer(inPixels);
     endMeasure(settings, marks.gpuMilliseconds, marks.fragments);
   }
-  glBindVertexArray(0);
   return marks;
 }
 
 void OverlayRenderer::coverOpenFaces(gfx::StateCache& cache, const AnalysisMarks& marks, const glm::vec4& colour,
                                      float maskValue) {
   cache.apply(kCoverOpenFaces);
-  drawRect(marks.rect, colour, maskValue);
-  glBindVertexArray(0);
+  drawRect(cache, marks.rect, colour, maskValue);
 }
 
 LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
@@ -98,20 +94,19 @@ LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const Overla
                                             const OverlaySettings& settings) {
   LayerFrameStats stats;
   const std::array<const OverlayLayer*, 1> layers{&layer};
-  const PixelScale scale = beginFrame(view, settings, layers);
+  const PixelScale scale = beginFrame(cache, view, settings, layers);
   const Pieces pieces = classify(view, layer, settings, true, stats);
   if (!pieces.order.empty()) {
     const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kDebugPieces);
     program_.set("u_maskBit", 0.0F);
     program_.set("u_debugColor", zPassColour);
-    multiDraw(pieces.zPass);
+    multiDraw(cache, pieces.zPass);
     program_.set("u_debugColor", zFailColour);
-    drawClipped(layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale), inPixels);
+    drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale), inPixels);
     program_.set("u_debugColor", glm::vec4(0.0F));
     endLayer(inPixels);
   }
-  glBindVertexArray(0);
   return stats;
 }
 

@@ -24,12 +24,9 @@ double distanceToBox(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3
 
 /// Normalised-device rectangle (x0, y0, x1, y1) holding the screen image of the box, clamped to
 /// the viewport; the whole viewport when a corner lies near or behind the eye plane.
-/// Bits of the draw framebuffer's depth buffer when it is fixed point (unsigned normalised),
+/// Bits of the depth buffer of framebuffer `fbo` when it is fixed point (unsigned normalised),
 /// else 0 (float, or no depth buffer).
-int fixedPointDepthBits() {
-  GLint framebuffer = 0;
-  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &framebuffer);
-  const auto fbo = static_cast<GLuint>(framebuffer);
+int fixedPointDepthBits(GLuint fbo) {
   const GLenum attachment = fbo == 0 ? GL_DEPTH : GL_DEPTH_ATTACHMENT;
   GLint objectType = GL_NONE;
   glGetNamedFramebufferAttachmentParameteriv(fbo, attachment, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &objectType);
@@ -97,19 +94,18 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   return r;
 }
 
-void OverlayRenderer::drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit) {
+void OverlayRenderer::drawRect(gfx::StateCache& cache, const glm::vec4& rect, const glm::vec4& colour, float maskBit) {
   if (!(rect.z > rect.x && rect.w > rect.y)) return;
-  coverProgram_.use();
+  cache.useProgram(coverProgram_);
   coverProgram_.set("u_rect", rect);
   coverProgram_.set("u_color", colour);
   coverProgram_.set("u_maskBit", maskBit);
-  glBindVertexArray(emptyVao_.id());
+  cache.bindVertexArray(emptyVao_.id());
   glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
-  glBindVertexArray(vao_.id());
-  program_.use();
 }
 
-void OverlayRenderer::drawRects(const std::vector<glm::vec4>& rects, const glm::vec4& colour, float maskBit) {
+void OverlayRenderer::drawRects(gfx::StateCache& cache, const std::vector<glm::vec4>& rects, const glm::vec4& colour,
+                                float maskBit) {
   if (rects.empty()) return;
   const std::size_t bytes = rects.size() * sizeof(glm::vec4);
   if (!rects_ || rectsCapacity_ < bytes) {
@@ -118,14 +114,12 @@ void OverlayRenderer::drawRects(const std::vector<glm::vec4>& rects, const glm::
     glNamedBufferData(rects_.id(), static_cast<GLsizeiptr>(rectsCapacity_), nullptr, GL_STREAM_DRAW);
   }
   glNamedBufferSubData(rects_.id(), 0, static_cast<GLsizeiptr>(bytes), rects.data());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCoverRectsBinding, rects_.id());
-  coverRectsProgram_.use();
+  cache.bindStorageBuffer(kCoverRectsBinding, rects_.id());
+  cache.useProgram(coverRectsProgram_);
   coverRectsProgram_.set("u_color", colour);
   coverRectsProgram_.set("u_maskBit", maskBit);
-  glBindVertexArray(emptyVao_.id());
+  cache.bindVertexArray(emptyVao_.id());
   glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(rects.size()));
-  glBindVertexArray(vao_.id());
-  program_.use();
 }
 
 std::vector<glm::vec4> OverlayRenderer::tileRectsOf(const OverlayView& view, const Pieces& pieces, std::size_t first,
@@ -171,7 +165,7 @@ std::vector<glm::vec4> OverlayRenderer::tileRectsOf(const OverlayView& view, con
   return rects;
 }
 
-void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
+void OverlayRenderer::multiDraw(gfx::StateCache& cache, const std::vector<Command>& commands) {
   if (commands.empty()) return;
   const std::size_t bytes = commands.size() * sizeof(Command);
   if (!commands_ || commandsCapacity_ < bytes) {
@@ -180,9 +174,10 @@ void OverlayRenderer::multiDraw(const std::vector<Command>& commands) {
     glNamedBufferData(commands_.id(), static_cast<GLsizeiptr>(commandsCapacity_), nullptr, GL_STREAM_DRAW);
   }
   glNamedBufferSubData(commands_.id(), 0, static_cast<GLsizeiptr>(bytes), commands.data());
-  glBindBuffer(GL_DRAW_INDIRECT_BUFFER, commands_.id());
+  cache.useProgram(program_);
+  cache.bindVertexArray(vao_.id());
+  cache.bindIndirectBuffer(commands_.id());
   glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr, static_cast<GLsizei>(commands.size()), 0);
-  glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
 }
 
 GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer,
@@ -202,13 +197,14 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
   return static_cast<GLsizei>(out.size());
 }
 
-PixelScale OverlayRenderer::beginFrame(const OverlayView& view, const OverlaySettings& settings,
+PixelScale OverlayRenderer::beginFrame(gfx::StateCache& cache, const OverlayView& view, const OverlaySettings& settings,
                                        std::span<const OverlayLayer* const> layers) {
-  program_.use();
+  const gfx::DrawTarget target = cache.drawTarget();
   program_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
   // A fixed-point depth buffer has steps that grow with the distance squared: pad beyond them.
   padPerMetreSquared_ = settings.padPerMetreSquared;
-  if (const int bits = settings.padForDepthFormat ? fixedPointDepthBits() : 0; bits > 0 && view.nearPlane > 0.0) {
+  if (const int bits = settings.padForDepthFormat ? fixedPointDepthBits(target.framebuffer) : 0;
+      bits > 0 && view.nearPlane > 0.0) {
     padPerMetreSquared_ = std::max(padPerMetreSquared_, 2.0 / (view.nearPlane * std::ldexp(1.0, bits)));
     if (fixedDepthBitsLogged_ != bits) {
       fixedDepthBitsLogged_ = bits;
@@ -223,12 +219,9 @@ PixelScale OverlayRenderer::beginFrame(const OverlayView& view, const OverlaySet
   // Lines in pixels need the size of a pixel: from the matrix and the viewport's height.
   PixelScale scale;
   if (std::any_of(layers.begin(), layers.end(), [](const OverlayLayer* l) { return l && l->widthPixels() > 0.0; })) {
-    std::array<GLint, 4> viewport{};
-    glGetIntegerv(GL_VIEWPORT, viewport.data());
-    scale = pixelScaleOf(view.viewProj, viewport[3]);
+    scale = pixelScaleOf(view.viewProj, target.viewport.height);
     scale.eye = view.eye;
   }
-  glBindVertexArray(vao_.id());
   return scale;
 }
 
@@ -236,11 +229,10 @@ std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const
                                                    std::span<const OverlayLayer* const> layers,
                                                    const OverlaySettings& settings) {
   std::vector<LayerFrameStats> stats(layers.size());
-  const PixelScale scale = beginFrame(view, settings, layers);
+  const PixelScale scale = beginFrame(cache, view, settings, layers);
   for (std::size_t i = 0; i < layers.size(); ++i) {
     if (layers[i] != nullptr) drawLayer(cache, view, *layers[i], i, settings, scale, stats[i]);
   }
-  glBindVertexArray(0);
   return stats;
 }
 
@@ -339,9 +331,11 @@ void OverlayRenderer::endLayer(bool inPixels) {
   if (inPixels) glDisableVertexArrayAttrib(vao_.id(), 3);
 }
 
-void OverlayRenderer::drawClipped(const OverlayLayer& layer, GLsizei vertices, bool inPixels) {
+void OverlayRenderer::drawClipped(gfx::StateCache& cache, const OverlayLayer& layer, GLsizei vertices, bool inPixels) {
   if (vertices == 0) return;
   const GLuint vao = vao_.id();
+  cache.useProgram(program_);
+  cache.bindVertexArray(vao);
   glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
   if (inPixels) glDisableVertexArrayAttrib(vao, 3);  // already at this frame's width
   const auto zeroOrigin = static_cast<GLuint>(layer.origins().size());
@@ -389,11 +383,11 @@ void OverlayRenderer::markIntoFlag(gfx::StateCache& cache, const OverlayView& vi
     }
     const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings, scale);
     cache.apply(states.markZPass);
-    multiDraw(groupPass);
+    multiDraw(cache, groupPass);
     cache.apply(states.markZFail);
-    drawClipped(layer, clipped, inPixels);
+    drawClipped(cache, layer, clipped, inPixels);
     cache.apply(states.collect);
-    drawRect(rectOf(view, pieces, first, last), glm::vec4(0.0F), 0.0F);
+    drawRect(cache, rectOf(view, pieces, first, last), glm::vec4(0.0F), 0.0F);
     ++stats.groups;
   }
 }
@@ -427,45 +421,45 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   }
   if (layer.paperVariant()) {
     cache.apply(kPaperMarkZPassFront);
-    multiDraw(pieces.zPass);
+    multiDraw(cache, pieces.zPass);
     cache.apply(kPaperMarkZPassBack);
-    multiDraw(pieces.zPass);
+    multiDraw(cache, pieces.zPass);
     cache.apply(kPaperMarkZFailBack);
-    multiDraw(pieces.zFail);
+    multiDraw(cache, pieces.zFail);
     cache.apply(kPaperMarkZFailFront);
-    multiDraw(pieces.zFail);
+    multiDraw(cache, pieces.zFail);
     switchToCover(settings);
     cache.apply(kPaperCoverZPass);
-    multiDraw(pieces.coverZPass);
+    multiDraw(cache, pieces.coverZPass);
     cache.apply(kPaperCoverZFail);
-    multiDraw(pieces.coverZFail);
+    multiDraw(cache, pieces.coverZFail);
   } else if (!grouped) {
     cache.apply(kMarkZPass);
-    multiDraw(pieces.zPass);
+    multiDraw(cache, pieces.zPass);
     const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
     cache.apply(kMarkZFail);
-    drawClipped(layer, clipped, inPixels);
+    drawClipped(cache, layer, clipped, inPixels);
     switchToCover(settings);
     if (rectColour) {
       cache.apply(kCoverRect);
-      drawRects(rects, *rectColour, maskBit);
+      drawRects(cache, rects, *rectColour, maskBit);
     } else {
       cache.apply(kCoverZPass);
-      multiDraw(pieces.zPass);
+      multiDraw(cache, pieces.zPass);
       cache.apply(kCoverZFail);
-      drawClipped(layer, clipped, inPixels);
+      drawClipped(cache, layer, clipped, inPixels);
     }
   } else {
     switchToCover(settings);
     if (rectColour) {
       cache.apply(kCoverFlaggedRect);
-      drawRects(rects, *rectColour, maskBit);
+      drawRects(cache, rects, *rectColour, maskBit);
     } else {
       cache.apply(kCoverFlaggedZPass);
-      multiDraw(pieces.zPass);
+      multiDraw(cache, pieces.zPass);
       const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
       cache.apply(kCoverFlaggedZFail);
-      drawClipped(layer, clipped, inPixels);
+      drawClipped(cache, layer, clipped, inPixels);
     }
   }
   endLayer(inPixels);

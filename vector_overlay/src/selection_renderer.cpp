@@ -142,16 +142,18 @@ void SelectionRenderer::upload(const OverlayView& view) {
   glVertexArrayVertexBuffer(vao_.id(), 0, vertices_.id(), 0, sizeof(glm::vec4));
 }
 
-void SelectionRenderer::drawRect(const glm::vec4& rect) {
+void SelectionRenderer::drawRect(gfx::StateCache& cache, const glm::vec4& rect) {
   if (!(rect.z > rect.x && rect.w > rect.y)) return;
-  glBindVertexArray(emptyVao_.id());
+  cache.useProgram(rectProgram_);
+  cache.bindVertexArray(emptyVao_.id());
   glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
 }
 
-void SelectionRenderer::drawStep(std::size_t step) {
+void SelectionRenderer::drawStep(gfx::StateCache& cache, std::size_t step) {
   const Range& r = ranges_[step];
   if (r.count == 0) return;
-  glBindVertexArray(vao_.id());
+  cache.useProgram(volumeProgram_);
+  cache.bindVertexArray(vao_.id());
   glDrawArrays(GL_TRIANGLES, r.first, r.count);
 }
 
@@ -165,25 +167,21 @@ SelectionFrameStats SelectionRenderer::select(gfx::StateCache& cache, const Over
   }
   upload(view);
   for (const Range& r : ranges_) stats.triangles += static_cast<std::size_t>(r.count) / 3;
-  volumeProgram_.use();
   volumeProgram_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
   volumeProgram_.set("u_color", glm::vec4(0.0F));
   volumeProgram_.set("u_maskBit", 0.0F);
-  rectProgram_.use();
   rectProgram_.set("u_color", glm::vec4(0.0F));
   rectProgram_.set("u_maskBit", 0.0F);
   const auto mark = [&](std::size_t i, const gfx::PipelineState& state) {
     cache.apply(state);
-    volumeProgram_.use();
-    drawStep(i);
+    drawStep(cache, i);
     ++stats.markDraws;
     ++stats.volumes;
   };
   const auto screen = [&](const gfx::PipelineState& state, const glm::vec4& rect) {
     cache.apply(state);
-    rectProgram_.use();
     rectProgram_.set("u_rect", rect);
-    drawRect(rect);
+    drawRect(cache, rect);
     ++stats.screenPasses;
   };
 
@@ -261,7 +259,6 @@ SelectionFrameStats SelectionRenderer::select(gfx::StateCache& cache, const Over
       i = end;
     }
   }
-  glBindVertexArray(0);
   if (settings.measure) {
     stats_->end();
     timer_->end();
@@ -274,32 +271,26 @@ SelectionFrameStats SelectionRenderer::select(gfx::StateCache& cache, const Over
 void SelectionRenderer::highlight(gfx::StateCache& cache, const SelectionStyle& style,
                                   const SelectionSettings& settings) {
   cache.apply(settings.scheme == SelectionScheme::Report ? kReportHighlight : kSelectHighlight);
-  rectProgram_.use();
   rectProgram_.set("u_rect", kFullScreen);
   rectProgram_.set("u_color", glm::vec4(glm::vec3(style.color), style.color.w * style.opacity));
   rectProgram_.set("u_maskBit", 0.0F);
-  drawRect(kFullScreen);
-  glBindVertexArray(0);
+  drawRect(cache, kFullScreen);
 }
 
 void SelectionRenderer::clear(gfx::StateCache& cache) {
   cache.apply(kSelectClear);
-  rectProgram_.use();
   rectProgram_.set("u_rect", kFullScreen);
-  drawRect(kFullScreen);
-  glBindVertexArray(0);
+  drawRect(cache, kFullScreen);
 }
 
 void SelectionRenderer::drawVolumes(gfx::StateCache& cache, const OverlayView& view, const glm::vec4& colour) {
   if (steps_.empty()) return;
   upload(view);
   cache.apply(kSelectShowVolumes);
-  volumeProgram_.use();
   volumeProgram_.set("u_modelViewProj", gfx::relativeToCentre(view.viewProj, view.eye));
   volumeProgram_.set("u_color", colour);
   volumeProgram_.set("u_maskBit", 0.0F);
-  for (std::size_t i = 0; i < steps_.size(); ++i) drawStep(i);
-  glBindVertexArray(0);
+  for (std::size_t i = 0; i < steps_.size(); ++i) drawStep(cache, i);
 }
 
 }  // namespace gis::overlay

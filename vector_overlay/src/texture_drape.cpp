@@ -9,6 +9,7 @@
 
 #include "gfx/gl.hpp"
 #include "gfx/pipeline_state.hpp"
+#include "gfx/render_target.hpp"
 
 namespace gis::overlay {
 namespace {
@@ -54,18 +55,18 @@ gfx::VertexArrayHandle drapeVertexArray() {
 /// Clears the `size`² framebuffer `fbo` (colour, mask) and draws into it the visible footprints
 /// of `layers` that may meet `extent`: one layer after the other, the stencil cleared before
 /// each, so a texel blends each layer once. The footprints are taken at the largest width (lines
-/// in pixels cannot follow the view in a texture). Leaves `fbo` bound; returns the triangles.
+/// in pixels cannot follow the view in a texture). A pass of its own: the target bound before
+/// (the frame's) is bound again after it. Returns the triangles.
 std::size_t drawLayers(gfx::StateCache& cache, gfx::Program& program, GLuint vao, GLuint fbo, int size,
                        std::span<const OverlayLayer* const> layers, const DrapeExtent& extent) {
-  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
-  glViewport(0, 0, size, size);
+  const gfx::RenderPass pass(cache, fbo, size, size);
   cache.apply(kDrapeLayer);
   const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
   glClearNamedFramebufferfv(fbo, GL_COLOR, 0, zero);
   glClearNamedFramebufferfv(fbo, GL_COLOR, 1, zero);
-  program.use();
+  cache.useProgram(program);
   program.set("u_scale", glm::vec2(2.0 / extent.size.x, 2.0 / extent.size.y));
-  glBindVertexArray(vao);
+  cache.bindVertexArray(vao);
   std::size_t triangles = 0;
   const glm::dvec2 lo = extent.origin, hi = extent.origin + extent.size;
   for (std::size_t i = 0; i < layers.size(); ++i) {
@@ -96,7 +97,6 @@ std::size_t drawLayers(gfx::StateCache& cache, gfx::Program& program, GLuint vao
     glClearNamedFramebufferiv(fbo, GL_STENCIL, 0, &zeroStencil);
     glDrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices.size()));
   }
-  glBindVertexArray(0);
   return triangles;
 }
 
@@ -149,7 +149,6 @@ Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, std::span<const
 
   const gfx::VertexArrayHandle vao = drapeVertexArray();
   drape.stats_.triangles = drawLayers(cache, *program, vao.id(), fbo.id(), size, layers, extent);
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glGenerateTextureMipmap(drape.color_.id());
   glFinish();
   drape.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

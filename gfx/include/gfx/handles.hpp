@@ -35,24 +35,47 @@ class Handle {
   GLuint id_ = 0;
 };
 
+/// The kinds of object a StateCache binds, and so must forget when one is deleted.
+enum class BindableKind { Buffer, VertexArray, Texture, Framebuffer, Program };
+
 namespace detail {
+/// Tells every live StateCache of this thread that object `id` of `kind` is being deleted: GL may
+/// hand its name to the next object created, which a cache still holding it as bound would then
+/// fail to bind (state_cache.hpp).
+void forgetBindings(BindableKind kind, GLuint id);
+
 struct BufferDeleter {
-  static void destroy(GLuint id) { glDeleteBuffers(1, &id); }
+  static void destroy(GLuint id) {
+    forgetBindings(BindableKind::Buffer, id);
+    glDeleteBuffers(1, &id);
+  }
 };
 struct VertexArrayDeleter {
-  static void destroy(GLuint id) { glDeleteVertexArrays(1, &id); }
+  static void destroy(GLuint id) {
+    forgetBindings(BindableKind::VertexArray, id);
+    glDeleteVertexArrays(1, &id);
+  }
 };
 struct TextureDeleter {
-  static void destroy(GLuint id) { glDeleteTextures(1, &id); }
+  static void destroy(GLuint id) {
+    forgetBindings(BindableKind::Texture, id);
+    glDeleteTextures(1, &id);
+  }
 };
 struct RenderbufferDeleter {
   static void destroy(GLuint id) { glDeleteRenderbuffers(1, &id); }
 };
 struct FramebufferDeleter {
-  static void destroy(GLuint id) { glDeleteFramebuffers(1, &id); }
+  static void destroy(GLuint id) {
+    forgetBindings(BindableKind::Framebuffer, id);
+    glDeleteFramebuffers(1, &id);
+  }
 };
 struct ProgramDeleter {
-  static void destroy(GLuint id) { glDeleteProgram(id); }
+  static void destroy(GLuint id) {
+    forgetBindings(BindableKind::Program, id);
+    glDeleteProgram(id);
+  }
 };
 struct ShaderDeleter {
   static void destroy(GLuint id) { glDeleteShader(id); }

@@ -31,8 +31,9 @@ class Program {
   static Result<Program> fromSources(const std::vector<std::pair<GLenum, std::string>>& sources,
                                      const std::string& name);
 
+  /// Made current with StateCache::useProgram; uniforms are set by name (glProgramUniform*),
+  /// current or not.
   [[nodiscard]] GLuint id() const { return handle_.id(); }
-  void use() const { glUseProgram(handle_.id()); }
 
   /// Uniform location (cached; -1 when the uniform is not active).
   GLint location(std::string_view name);

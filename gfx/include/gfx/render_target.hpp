@@ -48,8 +48,8 @@ class RenderTarget {
   /// copySampleInto().
   void resolveInto(const RenderTarget& single) const;
   /// Copies sample `sample` of colour, mask and depth into a single-sampled target (a shader
-  /// pass with texelFetch): for per-sample comparisons.
-  void copySampleInto(const RenderTarget& single, int sample) const;
+  /// pass with texelFetch): for per-sample comparisons. The bound target and viewport stay.
+  void copySampleInto(StateCache& cache, const RenderTarget& single, int sample) const;
 
  private:
   int width_;
@@ -72,20 +72,39 @@ struct RenderPassParams {
 inline constexpr float kReversedZFar = 0.0F;
 
 /// Binds the target (0 = the default framebuffer with the given size), sets the viewport and
-/// clears what `params` names, through the state cache.
+/// clears what `params` names, through the state cache. The target stays bound: a frame's pass.
+/// (StateCache::bindDrawTarget binds without clearing.)
 void beginRenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params);
-/// Binds the target (0 = the default framebuffer) and sets the viewport to its size, clearing
-/// nothing: a pass that continues drawing into a target another pass left.
-void bindDrawTarget(GLuint framebuffer, int width, int height);
 inline void beginRenderPass(StateCache& cache, const RenderTarget& target, const RenderPassParams& params) {
   beginRenderPass(cache, target.framebuffer(), target.width(), target.height(), params);
 }
+
+/// A pass into a framebuffer of its own, nested in whatever pass has its target bound (a drape
+/// texture rasterised while the frame is prepared): begins as beginRenderPass and, when it ends,
+/// binds the target and viewport that were bound before it, so nothing it did leaks into the
+/// enclosing pass.
+class RenderPass {
+ public:
+  RenderPass(StateCache& cache, GLuint framebuffer, int width, int height, const RenderPassParams& params = {});
+  ~RenderPass() { cache_.bindDrawTarget(previous_); }
+  RenderPass(const RenderPass&) = delete;
+  RenderPass& operator=(const RenderPass&) = delete;
+
+ private:
+  StateCache& cache_;
+  DrawTarget previous_;
+};
 
 /// Turns writes to a framebuffer's second draw buffer (the overlay mask) off or on. Passes whose
 /// shaders have no second output (the terrain) must run with it off: GL leaves unwritten
 /// outputs undefined. No effect on the default framebuffer (0).
 void enableMaskWrites(GLuint framebuffer, bool enabled);
 
+/// glReadPixels of a rectangle of `framebuffer` (0 = the default framebuffer) through its read
+/// buffer `readBuffer` (GL_COLOR_ATTACHMENT0, GL_BACK..., a valid one even for depth or stencil),
+/// bottom row first as GL returns it, rows packed without padding. Binds the read framebuffer only for the call.
+void readFramebuffer(GLuint framebuffer, GLenum readBuffer, int x, int y, int width, int height, GLenum format,
+                     GLenum type, void* pixels);
 /// Readback of a single-sampled target, top row first (image order).
 std::vector<std::uint8_t> readColorRgba8(const RenderTarget& target);
 /// Depth as stored (reversed-Z: 1 at the near plane, 0 at infinity), top row first, as float for

@@ -171,8 +171,8 @@ class OverlayRenderer {
   /// The normalised-device rectangle holding the boxes of pieces.order[first, last).
   static glm::vec4 rectOf(const OverlayView& view, const Pieces& pieces, std::size_t first, std::size_t last);
   /// Sets the per-frame uniforms (matrix, padding) and the pixel scale of lines in pixels; finds
-  /// the depth format of the draw framebuffer for the padding.
-  PixelScale beginFrame(const OverlayView& view, const OverlaySettings& settings,
+  /// the depth format of the bound draw framebuffer (the cache's) for the padding.
+  PixelScale beginFrame(gfx::StateCache& cache, const OverlayView& view, const OverlaySettings& settings,
                         std::span<const OverlayLayer* const> layers);
   /// The caps' padding at `distance` metres from the eye this frame (settings and depth format).
   [[nodiscard]] double padAt(const OverlaySettings& settings, double distance) const {
@@ -183,7 +183,7 @@ class OverlayRenderer {
   bool bindLayer(const OverlayView& view, const OverlayLayer& layer, const PixelScale& scale);
   void endLayer(bool inPixels);
   /// Draws `vertices` clipped triangles (uploadClippedPieces) of the bound layer.
-  void drawClipped(const OverlayLayer& layer, GLsizei vertices, bool inPixels);
+  void drawClipped(gfx::StateCache& cache, const OverlayLayer& layer, GLsizei vertices, bool inPixels);
   /// Marks the bound layer's pieces (our states) group by group and collects each group into a
   /// stencil flag (stencil_states.hpp).
   void markIntoFlag(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, const Pieces& pieces,
@@ -191,7 +191,7 @@ class OverlayRenderer {
                     const FlagMarkStates& states, LayerFrameStats& stats);
   void drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, std::size_t index,
                  const OverlaySettings& settings, const PixelScale& scale, LayerFrameStats& stats);
-  void multiDraw(const std::vector<Command>& commands);
+  void multiDraw(gfx::StateCache& cache, const std::vector<Command>& commands);
   /// The z-fail pieces as triangles relative to the eye, clipped on the CPU at half the near
   /// distance (shared edges cut bit-identically): GL never clips them at the eye plane, where
   /// independent clipping of neighbouring faces leaves one-pixel cracks. With `capped`, each
@@ -205,9 +205,9 @@ class OverlayRenderer {
   void switchToCover(const OverlaySettings& settings);
 
   /// Draws a screen rectangle with the cover program (colour and mask bit) in the current state.
-  void drawRect(const glm::vec4& rect, const glm::vec4& colour, float maskBit);
+  void drawRect(gfx::StateCache& cache, const glm::vec4& rect, const glm::vec4& colour, float maskBit);
   /// Draws disjoint screen rectangles in one instanced draw, as drawRect.
-  void drawRects(const std::vector<glm::vec4>& rects, const glm::vec4& colour, float maskBit);
+  void drawRects(gfx::StateCache& cache, const std::vector<glm::vec4>& rects, const glm::vec4& colour, float maskBit);
   static constexpr int kCoverTiles = 48;
   /// The cover of pieces.order[first, last): the tiles of a kCoverTiles² grid over the viewport
   /// that some piece's screen box touches, merged into disjoint rectangles (rows of tiles, and

@@ -71,8 +71,10 @@ class SelectionRenderer {
   /// drops faces seen exactly edge on, uploads them; per step its vertex range and the screen
   /// rectangle (NDC) of what remains.
   void upload(const OverlayView& view);
-  void drawRect(const glm::vec4& rect);
-  void drawStep(std::size_t step);
+  /// A screen rectangle with rectProgram_, or a step's volumes with volumeProgram_, in the
+  /// current pipeline state (each binds its program and vertex array).
+  void drawRect(gfx::StateCache& cache, const glm::vec4& rect);
+  void drawStep(gfx::StateCache& cache, std::size_t step);
 
   gfx::Program volumeProgram_;
   gfx::Program rectProgram_;

@@ -113,8 +113,9 @@ class OverlayTechnique {
   [[nodiscard]] virtual const TextureDrape* textureDrape() const { return nullptr; }
 
  private:
-  // What each technique implements; prepare() and draw() bind the target around them, so that
-  // no technique can leave another framebuffer bound.
+  // What each technique implements; prepare() and draw() bind the target before them. A technique
+  // that draws into a framebuffer of its own (a drape) does so in a gfx::RenderPass, which binds
+  // the frame's target again as it ends: none can leave another framebuffer bound.
   virtual std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
                                                    TechniqueFrameStats& stats) = 0;
   virtual void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) = 0;

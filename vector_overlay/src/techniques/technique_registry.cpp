@@ -1,24 +1,35 @@
 // The one list of overlay techniques (technique.hpp): the programs enumerate it.
+#include <cassert>
 #include <vector>
 
-#include "gfx/render_target.hpp"
+#include "gfx/state_cache.hpp"
 #include "techniques/techniques.hpp"
 
 namespace gis::overlay {
 
+namespace {
+
+/// The frame's target with a viewport over all of it, as prepare() and draw() bind it.
+gfx::DrawTarget frameTarget(const TechniqueFrame& frame) {
+  return {frame.target.framebuffer, {0, 0, frame.target.width, frame.target.height}};
+}
+
+}  // namespace
+
 std::optional<SurfaceDrape> OverlayTechnique::prepare(gfx::StateCache& cache, const TechniqueFrame& frame,
                                                       TechniqueFrameStats& stats) {
-  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  cache.bindDrawTarget(frameTarget(frame));
   std::optional<SurfaceDrape> drape = prepareFrame(cache, frame, stats);
-  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  assert(cache.drawTarget() == frameTarget(frame) && "passes into other targets are gfx::RenderPasses");
   return drape;
 }
 
 void OverlayTechnique::draw(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) {
-  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  cache.bindDrawTarget(frameTarget(frame));
   drawFrame(cache, frame, stats);
-  gfx::bindDrawTarget(frame.target.framebuffer, frame.target.width, frame.target.height);
+  assert(cache.drawTarget() == frameTarget(frame) && "passes into other targets are gfx::RenderPasses");
 }
+
 std::span<const TechniqueInfo> techniques() {
   // Default first. A new technique: its file in techniques/, its entry declared in
   // techniques.hpp and listed here. (Built at first use, after every file's initialisation.)
