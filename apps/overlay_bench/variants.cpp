@@ -135,7 +135,7 @@ struct VariantBench {
   app::RenderSettings settings;
   double aspect = 1.0;
 
-  VariantBench(const Options& options, const BenchSetup& setup, std::vector<Method>& variants);
+  VariantBench(const Options& options, std::vector<Method>& variants);
   [[nodiscard]] const gfx::RenderTarget& readable() const { return sample ? *sample : target; }
   void settingsFor(const Method& m);
   void drawPath(const std::vector<app::PathFrame>& path, const std::string& stem);
@@ -145,7 +145,7 @@ struct VariantBench {
   void edit(Method& m, const app::Camera& camera);
 };
 
-VariantBench::VariantBench(const Options& options, const BenchSetup& setup, std::vector<Method>& variants)
+VariantBench::VariantBench(const Options& options, std::vector<Method>& variants)
     : o(options),
       methods(variants),
       target(options.width, options.height, options.msaa, true),
@@ -366,7 +366,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
     std::fprintf(stderr, "overlay_bench: no frames on the path (--segments)\n");
     return 1;
   }
-  VariantBench bench(o, *setup, methods);
+  VariantBench bench(o, methods);
   bench.drawPath(path, stem);
   for (Method& m : methods) bench.edit(m, path.back().camera);
   reportVariants(o, methods, stem);
