@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 #include <unistd.h>
@@ -21,6 +23,7 @@
 #include "app/scene.hpp"
 #include "app/viewer_script.hpp"
 #include "geo/frame.hpp"
+#include "vector_overlay/technique.hpp"
 
 namespace {
 
@@ -200,44 +203,55 @@ void checkScript(const json& j, const std::string& text) {
   check(!r.diagnostics.hasErrors(), "a script with Errors has a value", text);
   const gis::app::ViewerScript& s = *r;
   if (s.window) check(s.window->x >= 1 && s.window->y >= 1, "window size not positive", text);
-  using gis::app::ScriptAction;
   for (std::size_t i = 0; i < s.steps.size(); ++i) {
     const gis::app::ScriptStep& st = s.steps[i];
     const std::string where = "step " + std::to_string(i + 1) + ": ";
     check(st.index == i + 1, where + "wrong index", text);
-    check(finite(st.seconds) && st.seconds >= 0.0, where + "seconds", text);
-    check(finite(st.value), where + "value not finite", text);
-    check(finite(st.at.x) && finite(st.at.y), where + "'at' not finite", text);
-    for (const glm::dvec2& p : st.points) check(finite(p.x) && finite(p.y), where + "a point not finite", text);
-    if (st.opacity) check(*st.opacity >= 0.0F && *st.opacity <= 1.0F, where + "opacity", text);
-    if (st.width) check(*st.width > 0.0 && finite(*st.width), where + "width", text);
-    if (st.lodTolerance) check(*st.lodTolerance > 0.0 && finite(*st.lodTolerance), where + "lod_tolerance", text);
-    if (st.fovYDeg) check(*st.fovYDeg > 0.0 && *st.fovYDeg < 180.0, where + "fov", text);
-    if (st.color) {
-      for (int c = 0; c < 4; ++c) check((*st.color)[c] >= 0.0F && (*st.color)[c] <= 1.0F, where + "colour", text);
-    }
-    switch (st.action) {
-      case ScriptAction::Wait:
-        check(st.frames >= 0, where + "negative wait", text);
-        break;
-      case ScriptAction::Exaggeration:
-        check(st.value > 0.0, where + "exaggeration not positive", text);
-        break;
-      case ScriptAction::Scroll:
-        check(st.value != 0.0, where + "scroll of 0", text);
-        break;
-      case ScriptAction::Lasso:
-        check(st.points.size() >= 3, where + "lasso with fewer than 3 points", text);
-        break;
-      case ScriptAction::Drag:
-        check(st.points.size() >= 2 && st.frames >= 1, where + "drag with fewer than 2 points or no frames", text);
-        break;
-      case ScriptAction::Camera:
-        check(st.camera.is_object(), where + "camera is not an object", text);
-        break;
-      default:
-        break;
-    }
+    // Each action's own fields, as typed when read: finite and in range.
+    auto points = [&](const std::vector<glm::dvec2>& ps, std::size_t least, const char* what) {
+      check(ps.size() >= least, where + what + " with too few points", text);
+      for (const glm::dvec2& p : ps) check(finite(p.x) && finite(p.y), where + "a point not finite", text);
+    };
+    auto pixel = [&](const glm::dvec2& at) { check(finite(at.x) && finite(at.y), where + "'at' not finite", text); };
+    std::visit(
+        [&](const auto& step) {
+          using T = std::decay_t<decltype(step)>;
+          if constexpr (std::is_same_v<T, gis::app::CameraStep>) {
+            check(finite(step.seconds) && step.seconds >= 0.0, where + "seconds", text);
+            check(step.camera.is_object(), where + "camera is not an object", text);
+          } else if constexpr (std::is_same_v<T, gis::app::WaitStep>) {
+            check(step.frames >= 0, where + "negative wait", text);
+          } else if constexpr (std::is_same_v<T, gis::app::SetLayerStep>) {
+            if (step.opacity) check(*step.opacity >= 0.0F && *step.opacity <= 1.0F, where + "opacity", text);
+            if (step.width) check(*step.width > 0.0 && finite(*step.width), where + "width", text);
+            if (step.color) {
+              for (int c = 0; c < 4; ++c) {
+                check((*step.color)[c] >= 0.0F && (*step.color)[c] <= 1.0F, where + "colour", text);
+              }
+            }
+          } else if constexpr (std::is_same_v<T, gis::app::MethodStep>) {
+            check(gis::overlay::findTechnique(step.name) != nullptr, where + "unknown technique", text);
+          } else if constexpr (std::is_same_v<T, gis::app::ExaggerationStep>) {
+            check(finite(step.value) && step.value > 0.0, where + "exaggeration not positive", text);
+          } else if constexpr (std::is_same_v<T, gis::app::LassoStep>) {
+            check(step.op != gis::overlay::SelectionOp::Invert, where + "a lasso that inverts", text);
+            points(step.points, 3, "lasso");
+          } else if constexpr (std::is_same_v<T, gis::app::IdentifyStep> || std::is_same_v<T, gis::app::ClickStep>) {
+            pixel(step.at);
+          } else if constexpr (std::is_same_v<T, gis::app::ScrollStep>) {
+            pixel(step.at);
+            check(finite(step.amount) && step.amount != 0.0, where + "scroll of 0", text);
+          } else if constexpr (std::is_same_v<T, gis::app::DragStep>) {
+            points(step.points, 2, "drag");
+            check(step.frames >= 1, where + "drag without frames", text);
+          } else if constexpr (std::is_same_v<T, gis::app::ViewStep>) {
+            if (step.lodTolerance) {
+              check(*step.lodTolerance > 0.0 && finite(*step.lodTolerance), where + "lod_tolerance", text);
+            }
+            if (step.fovYDeg) check(*step.fovYDeg > 0.0 && *step.fovYDeg < 180.0, where + "fov", text);
+          }
+        },
+        st.action);
   }
 }
 
