@@ -1,5 +1,5 @@
 // Fuzzes the three JSON file parsers of the programs with the same bytes: scene files
-// (app::parseScene), lasso files (app::parseLassoFile) and viewer scripts
+// (scene::parseScene), lasso files (scene::parseLassoFile) and viewer scripts
 // (app::parseViewerScript). Each must return, never throw or crash; a failure carries an Error
 // naming the file; a value is sane: the numbers the parser checks are in their ranges and
 // finite, or an Error names the key that was wrong (scene files keep what they could read).
@@ -19,10 +19,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/lasso_file.hpp"
-#include "app/scene.hpp"
 #include "app/viewer_script.hpp"
 #include "geo/frame.hpp"
+#include "scene/lasso_file.hpp"
+#include "scene/scene.hpp"
 #include "vector_overlay/technique.hpp"
 
 namespace {
@@ -62,9 +62,9 @@ bool errorOnKey(const gis::Diagnostics& d, const std::string& key) {
 }
 
 void checkScene(const std::string& text) {
-  gis::Result<gis::app::SceneDescription> r;
+  gis::Result<gis::scene::SceneDescription> r;
   try {
-    r = gis::app::parseScene(text, kScene);
+    r = gis::scene::parseScene(text, kScene);
   } catch (const std::exception& e) {
     fail(std::string("parseScene threw: ") + e.what(), text);
   }
@@ -73,7 +73,7 @@ void checkScene(const std::string& text) {
     check(errorNaming(r.diagnostics, kScene), "parseScene failed without an Error naming the file", text);
     return;
   }
-  const gis::app::SceneDescription& s = *r;
+  const gis::scene::SceneDescription& s = *r;
   // A value out of range is fine only when an Error names its key.
   auto sane = [&](bool ok, const std::string& key) {
     if (!ok && !errorOnKey(r.diagnostics, key)) fail("scene value '" + key + "' is out of range unreported", text);
@@ -86,7 +86,7 @@ void checkScene(const std::string& text) {
   sane(s.gpuBudgetMb >= 16.0 && finite(s.gpuBudgetMb), "terrain.gpu_budget_mb");
   sane(s.imageryBands.size() == 1 || s.imageryBands.size() == 3, "imagery.bands");
   for (std::size_t i = 0; i < s.layers.size(); ++i) {
-    const gis::app::LayerDescription& l = s.layers[i];
+    const gis::scene::LayerDescription& l = s.layers[i];
     check(!l.source.empty() && !l.name.empty(), "a layer without source or name", text);
     const gis::overlay::LayerStyle& st = l.style;
     // Layers with errors are left out, so a kept layer's style must be in range.
@@ -128,7 +128,7 @@ bool namesOtherFiles(const json& root) {
 struct Fixture {
   fs::path dir;
   gis::geo::SceneFrame frame;
-  gis::app::Camera camera;
+  gis::scene::Camera camera;
 };
 
 Fixture makeFixture() {
@@ -142,7 +142,7 @@ Fixture makeFixture() {
     std::fprintf(stderr, "app_files_fuzzer: no frame (EPSG:32725)\n");
     std::abort();
   }
-  gis::app::Camera camera;
+  gis::scene::Camera camera;
   camera.eye = glm::dvec3(0.0, -800.0, 600.0);
   camera.target = glm::dvec3(0.0);
   return Fixture{dir, *frame, camera};
@@ -160,9 +160,9 @@ void removeFixture() {
 
 void checkLasso(const json& j, const std::string& text) {
   const Fixture& f = fixture();
-  gis::Result<gis::app::SelectionRequest> r;
+  gis::Result<gis::scene::SelectionRequest> r;
   try {
-    r = gis::app::parseLassoFile(j, kLasso, f.dir.string(), f.frame, f.camera, 640, 480);
+    r = gis::scene::parseLassoFile(j, kLasso, f.dir.string(), f.frame, f.camera, 640, 480);
   } catch (const std::exception& e) {
     fail(std::string("parseLassoFile threw: ") + e.what(), text);
   }
@@ -171,7 +171,7 @@ void checkLasso(const json& j, const std::string& text) {
     return;
   }
   for (const gis::Diagnostic& d : r.diagnostics.items()) check(!d.file.empty(), "a diagnostic names no file", text);
-  const gis::app::SelectionRequest& s = *r;
+  const gis::scene::SelectionRequest& s = *r;
   check(!s.sampleSpacing || (*s.sampleSpacing > 0.0 && finite(*s.sampleSpacing)), "sample spacing out of range", text);
   check(s.highlight.opacity >= 0.0F && s.highlight.opacity <= 1.0F, "highlight opacity out of [0, 1]", text);
   for (const gis::overlay::SelectionStep& step : s.steps) {

@@ -20,15 +20,15 @@ bash scripts/paper_scale_scenes.sh build
 
 bench=build/apps/overlay_bench
 "$bench" --scene samples/olinda/scene.json --mode methods --frames 30 --width 1200 --height 1000 \
-  --drape-sizes 512,1024,2048,4096,8192 --error-every 3 --out "$o/methods"
+  --texture-sizes drape=512,1024,2048,4096,8192 --texture-sizes drape-tiles=256,512 --error-every 3 --out "$o/methods"
 "$bench" --scene samples/olinda/scene.json --mode ablation --frames 30 --width 1200 --height 1000 \
   --error-every 3 --out "$o/ablation"
 "$bench" --scene "$p/dem_16385_x1.json" --mode methods --frames 30 --width 1200 --height 1000 \
-  --drape-sizes 1024,4096,8192 --error-every 3 --out "$o/paper"
+  --texture-sizes drape=1024,4096,8192 --texture-sizes drape-tiles=256,512 --error-every 3 --out "$o/paper"
 "$bench" --scene "$p/dem_16385_x1.json" --mode ablation --frames 30 --width 1200 --height 1000 \
   --error-every 3 --out "$o/paper_ablation"
 "$bench" --scene "$p/dem_16385_x1.json" --mode methods --frames 15 --width 1920 --height 1080 --msaa 4 \
-  --drape-sizes 4096 --error-every 3 --out "$o/paper_1080_msaa4"
+  --texture-sizes drape=4096 --texture-sizes drape-tiles=256,512 --error-every 3 --out "$o/paper_1080_msaa4"
 "$bench" --mode scaling --scenes "$p/dem_1025_x1.json,$p/dem_4097_x1.json,$p/dem_16385_x1.json" \
   --frames 30 --width 1200 --height 1000 --error-every 5 --out "$o/scaling_dem"
 "$bench" --mode scaling --scenes "$p/dem_16385_x1.json,$p/dem_16385_x10.json,$p/dem_16385_x100.json" \

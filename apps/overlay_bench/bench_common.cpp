@@ -30,13 +30,13 @@ int finish(const Options& o, const nlohmann::json& result, gfx::Context& context
 
 std::optional<BenchSetup> setUp(const Options& o, bool withLayers) {
   const auto start = std::chrono::steady_clock::now();
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
+  Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene);
   app::report(description.diagnostics);
   if (!description) return std::nullopt;
   if (!withLayers) description->layers.clear();
-  app::LoadOptions loadOptions;
+  scene::LoadOptions loadOptions;
   loadOptions.paging = o.paging;
-  Result<app::LoadedScene> scene = app::loadScene(*description, loadOptions);
+  Result<scene::LoadedScene> scene = scene::loadScene(*description, loadOptions);
   app::report(scene.diagnostics);
   if (!scene) return std::nullopt;
   const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -46,29 +46,29 @@ std::optional<BenchSetup> setUp(const Options& o, bool withLayers) {
   return BenchSetup{std::move(*description), std::move(*scene), std::move(*context), loadSeconds};
 }
 
-app::RenderSettings comparisonSettings(const Options& o) {
-  app::RenderSettings settings;
+scene::RenderSettings comparisonSettings(const Options& o) {
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
   settings.waitForTiles = true;
   return settings;
 }
 
-std::vector<app::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup) {
+std::vector<scene::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup) {
   glm::dvec3 lo, hi;
-  app::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
-  return app::flyThrough(lo, hi, o.frames);
+  scene::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
+  return scene::flyThrough(lo, hi, o.frames);
 }
 
 double msSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
+std::vector<scene::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
   struct Spot {
     glm::dvec2 point, direction;
   };
   std::vector<Spot> roads, areas;
-  for (const app::LoadedLayer& layer : setup.scene.layers) {
+  for (const scene::LoadedLayer& layer : setup.scene.layers) {
     for (const geo::Feature& f : layer.data.features) {
       for (const geo::LineString& line : f.lines) {
         const std::size_t i = line.size() / 2;
@@ -84,7 +84,7 @@ std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
       }
     }
   }
-  std::vector<app::PathFrame> path;
+  std::vector<scene::PathFrame> path;
   const auto& bounds = *setup.scene.bounds;
   for (int k = 0; k < frames * 4 && static_cast<int>(path.size()) < frames; ++k) {
     const std::vector<Spot>& list = (k % 2 == 0 && !roads.empty()) || areas.empty() ? roads : areas;
@@ -93,7 +93,7 @@ std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
     const Spot& spot = list[(static_cast<std::size_t>(k) * 7919u) % list.size()];
     const double ground = bounds.fullResolutionHeightAt(spot.point);
     if (!std::isfinite(ground)) continue;
-    app::Camera c;
+    scene::Camera c;
     c.eye = glm::dvec3(spot.point, ground + 1.5);
     const double down = 10.0 * std::numbers::pi / 180.0;
     c.target = c.eye + glm::dvec3(std::cos(down) * spot.direction, -std::sin(down));
@@ -103,13 +103,13 @@ std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
   return path;
 }
 
-std::vector<app::PathFrame> methodsPath(const Options& o, const BenchSetup& setup) {
-  std::vector<app::PathFrame> all = flyThroughOf(o, setup);
-  const std::vector<app::PathFrame> close = closeUpPath(setup, std::max(o.frames / 3, 1));
+std::vector<scene::PathFrame> methodsPath(const Options& o, const BenchSetup& setup) {
+  std::vector<scene::PathFrame> all = flyThroughOf(o, setup);
+  const std::vector<scene::PathFrame> close = closeUpPath(setup, std::max(o.frames / 3, 1));
   all.insert(all.end(), close.begin(), close.end());
   if (o.segments.empty()) return all;
-  std::vector<app::PathFrame> kept;
-  for (app::PathFrame& f : all) {
+  std::vector<scene::PathFrame> kept;
+  for (scene::PathFrame& f : all) {
     if (std::find(o.segments.begin(), o.segments.end(), f.segment) != o.segments.end()) kept.push_back(std::move(f));
   }
   return kept;

@@ -15,12 +15,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/camera_path.hpp"
 #include "app/cli.hpp"
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "gfx/context.hpp"
+#include "scene/camera_path.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 
 namespace gis::bench {
 
@@ -31,15 +31,14 @@ struct Options {
   int width = 1200, height = 1000, frames = 90;
   int maxVolumes = 500, repeats = 5;  ///< lasso mode
   /// Methods mode: the sizes (texels per side) each texture technique is drawn at, by its name
-  /// (--drape-sizes, --tile-sizes); one not named here is drawn at its default size.
-  std::map<std::string, std::vector<int>, std::less<>> textureSizes{{"drape", {512, 1024, 2048, 4096}},
-                                                                    {"drape-tiles", {256, 512}}};
+  /// (--texture-sizes NAME=…); one not named here is drawn at its default size.
+  std::map<std::string, std::vector<int>, std::less<>> textureSizes;
   int errorEvery = 3;                 ///< methods mode: error on every n-th frame
   int msaa = 0;                       ///< methods mode: samples per pixel (0 = off)
   std::vector<std::string> segments;  ///< methods mode: path segments to draw (empty = all)
   std::vector<std::string> scenes;    ///< scaling mode: the scenes, in order
   double lodTolerance = 1.5;
-  std::optional<app::TerrainPaging> paging;
+  std::optional<scene::TerrainPaging> paging;
 
   [[nodiscard]] std::vector<int> textureSizesOf(const overlay::TechniqueInfo& technique) const {
     const auto found = textureSizes.find(technique.name);
@@ -59,8 +58,8 @@ int finish(const Options& o, const nlohmann::json& result, gfx::Context& context
 /// What every mode starts from: the scene file, the loaded scene and a headless GL context.
 /// Renderers made after it go before it (their GL objects need the context).
 struct BenchSetup {
-  app::SceneDescription description;
-  app::LoadedScene scene;
+  scene::SceneDescription description;
+  scene::LoadedScene scene;
   std::unique_ptr<gfx::Context> context;
   double loadSeconds = 0.0;  ///< reading the scene file and loading the scene
 };
@@ -72,10 +71,10 @@ std::optional<BenchSetup> setUp(const Options& o, bool withLayers);
 /// The render settings under which several methods draw the same frames: the options' LOD
 /// tolerance and every tile waited for, so the terrain is the same (the exaggeration is the
 /// scene's, held by its bounds).
-app::RenderSettings comparisonSettings(const Options& o);
+scene::RenderSettings comparisonSettings(const Options& o);
 
 /// The fly-through (top-down, oblique, horizon) over the scene's terrain, `o.frames` frames.
-std::vector<app::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup);
+std::vector<scene::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup);
 
 /// Milliseconds since `start`.
 double msSince(std::chrono::steady_clock::time_point start);
@@ -83,11 +82,11 @@ double msSince(std::chrono::steady_clock::time_point start);
 /// Close-up frames: the eye 1.5 m over the ground on a road's centre line looking along it, or
 /// over the vertex centroid of an area, looking across it 10° down; roads and areas taken in turn
 /// from the scene's layers (deterministic). Eyes inside a piece make the frame's pieces z-fail.
-std::vector<app::PathFrame> closeUpPath(const BenchSetup& setup, int frames);
+std::vector<scene::PathFrame> closeUpPath(const BenchSetup& setup, int frames);
 
 /// The methods' path: the fly-through (o.frames) and o.frames / 3 close-up frames, keeping the
 /// segments of `o.segments` (all when empty).
-std::vector<app::PathFrame> methodsPath(const Options& o, const BenchSetup& setup);
+std::vector<scene::PathFrame> methodsPath(const Options& o, const BenchSetup& setup);
 
 /// Mode "terrain": the fly-through, terrain only (terrain_mode.cpp).
 int runTerrain(const Options& o);

@@ -20,13 +20,13 @@
 #include <utility>
 #include <vector>
 
-#include "app/json_file.hpp"
 #include "bench_common.hpp"
 #include "gfx/gl.hpp"
 #include "gfx/pipeline_state.hpp"
 #include "gfx/program.hpp"
 #include "gfx/queries.hpp"
 #include "gfx/render_target.hpp"
+#include "scene/json_file.hpp"
 #include "vector_overlay/lasso.hpp"
 #include "vector_overlay/selection_renderer.hpp"
 
@@ -221,18 +221,18 @@ struct PassTimes {
 struct LassoBench {
   const Options& o;
   gfx::Program& passProgram;
-  app::Camera camera;
+  scene::Camera camera;
   glm::dmat4 viewProj{1.0};
   overlay::OverlayView view;
   gfx::StateCache cache;
   gfx::RenderTarget target;
-  app::FrameStats terrainFrame;
+  scene::FrameStats terrainFrame;
   std::size_t terrainPixels = 0;
   gfx::GpuTimer timer;
   gfx::PipelineStatistics statistics;
   gfx::VertexArrayHandle emptyVao = gfx::createVertexArray();
 
-  LassoBench(const Options& options, const BenchSetup& setup, app::SceneRenderer& renderer, gfx::Program& program);
+  LassoBench(const Options& options, const BenchSetup& setup, scene::SceneRenderer& renderer, gfx::Program& program);
   [[nodiscard]] std::vector<overlay::SelectionStep> stepsFor(const Lassos& l, const LassoSeries& s,
                                                              std::size_t n) const;
   Sample fullScreenPass();
@@ -244,22 +244,22 @@ struct LassoBench {
 
 /// One camera, the fly-through's first oblique frame (from the south, 40° down: terrain fills
 /// the view), and the terrain drawn once: the selection reads its depth.
-LassoBench::LassoBench(const Options& options, const BenchSetup& setup, app::SceneRenderer& renderer,
+LassoBench::LassoBench(const Options& options, const BenchSetup& setup, scene::SceneRenderer& renderer,
                        gfx::Program& program)
     : o(options), passProgram(program), target(options.width, options.height) {
   glm::dvec3 lo, hi;
-  app::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
-  const std::vector<app::PathFrame> path = app::flyThrough(lo, hi, 3);
+  scene::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
+  const std::vector<scene::PathFrame> path = scene::flyThrough(lo, hi, 3);
   camera =
-      std::find_if(path.begin(), path.end(), [](const app::PathFrame& f) { return f.segment == "oblique"; })->camera;
+      std::find_if(path.begin(), path.end(), [](const scene::PathFrame& f) { return f.segment == "oblique"; })->camera;
   const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
   viewProj = camera.projection(aspect) * camera.view();
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
   settings.waitForTiles = true;
   settings.overlays = false;
   terrainFrame = renderer.render(cache, target.framebuffer(), o.width, o.height, camera, settings);
-  view = app::overlayViewOf(camera, aspect);
+  view = scene::overlayViewOf(camera, aspect);
   for (float d : gfx::readDepth(target)) terrainPixels += d > 0.0F ? 1u : 0u;
 }
 
@@ -508,7 +508,7 @@ int runLasso(const Options& o) {
   std::optional<BenchSetup> setup = setUp(o, false);
   if (!setup) return 1;
   gfx::Context& context = *setup->context;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(setup->scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene);
   app::report(renderer.diagnostics);
   Result<gfx::Program> passProgram = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
   app::report(passProgram.diagnostics);
@@ -526,7 +526,7 @@ int runLasso(const Options& o) {
   units.passFragments = static_cast<double>(std::max<std::uint64_t>(passes.passFragments, 1));
   json series = report(o, lassos, passes, units, rendererName);
   const json result = resultJson(o, bench, lassos, passes, units, std::move(series), context);
-  std::ofstream(std::filesystem::path(o.out) / "lasso.json") << app::jsonText(result) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / "lasso.json") << scene::jsonText(result) << '\n';
   std::printf("\ngl_errors: %zu; wrote %s\n", context.debug().errorCount(),
               (std::filesystem::path(o.out) / "lasso.json").string().c_str());
   return context.debug().errorCount() == 0 ? 0 : 1;

@@ -18,12 +18,12 @@ constexpr const char* kUsage =
     "usage: overlay_bench --scene S.json [--mode terrain|overlay|methods|ablation|scaling|lasso] [--width W --height "
     "H] [--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
-    "                     [--repeats R] [--drape-sizes 512,1024,...] [--tile-sizes 256,512]\n"
+    "                     [--repeats R] [--texture-sizes TECHNIQUE=512,1024,...]...\n"
     "                     [--error-every N] [--msaa 0|2|4|8]\n"
     "                     [--segments top-down,oblique,horizon,close-up] --out DIR\n"
-    "--mode methods: terrain only, our stencil polyhedra, the paper's construction and texture draping\n"
-    "  at each --drape-sizes and per tile at each --tile-sizes (\"none\": no such method) on the same frames: frame "
-    "time, memory, build time and wrong pixels against\n"
+    "--mode methods: terrain only and every overlay technique on the same frames, a technique that\n"
+    "  rasterises textures at each of its --texture-sizes (repeatable, e.g. drape=512,4096; \"none\":\n"
+    "  leave it out; default: its default size): frame time, memory, build time and wrong pixels against\n"
     "  the CPU reference (every --error-every frames), GPU time and fragments per pass, per path segment\n"
     "  (--segments: which; close-up puts the eye 1.5 m over roads and areas); writes methods.json,\n"
     "  methods.csv, methods.md and plots; --msaa: multisampled targets, the error judged on sample 0\n"
@@ -60,6 +60,25 @@ bool setSizes(std::vector<int>& sizes, std::string_view value) {
   return true;
 }
 
+/// The techniques that rasterise textures, "a, b".
+std::string textureTechniqueNames() {
+  std::string names;
+  for (const overlay::TechniqueInfo& t : overlay::techniques()) {
+    if (t.usesTextures()) names += (names.empty() ? "" : ", ") + std::string(t.name);
+  }
+  return names;
+}
+
+/// Sets one technique's sizes from "NAME=a,b,…"; false when NAME is not a technique that
+/// rasterises textures, or a size is bad.
+bool setTextureSizes(Options& o, std::string_view value) {
+  const std::size_t equals = value.find('=');
+  if (equals == std::string_view::npos) return false;
+  const overlay::TechniqueInfo* technique = overlay::findTechnique(value.substr(0, equals));
+  if (technique == nullptr || !technique->usesTextures()) return false;
+  return setSizes(o.textureSizes[std::string(technique->name)], value.substr(equals + 1));
+}
+
 /// Sets `o.scenes` from "a,b,…" (empty names left out).
 bool setScenes(Options& o, std::string_view list) {
   o.scenes.clear();
@@ -84,14 +103,12 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   parser.option("--max-volumes", o.maxVolumes, 2, 500);
   parser.option("--repeats", o.repeats, 1, 100);
   parser.option("--lod-tolerance", o.lodTolerance, 0.0, std::numeric_limits<double>::max());
-  for (const auto& [flag, technique] :
-       {std::pair{"--drape-sizes", "drape"}, std::pair{"--tile-sizes", "drape-tiles"}}) {
-    parser.custom(
-        flag, [&o, technique](std::string_view v) { return setSizes(o.textureSizes[technique], v); }, "a value",
-        [flag](std::string_view) {
-          return std::string(flag) + ": a comma-separated list of sizes 16 to 16384 (or \"none\")";
-        });
-  }
+  parser.custom(
+      "--texture-sizes", [&o](std::string_view v) { return setTextureSizes(o, v); }, "a value",
+      [](std::string_view v) {
+        return "--texture-sizes: TECHNIQUE=sizes, TECHNIQUE one that rasterises textures (" + textureTechniqueNames() +
+               ") and sizes a comma-separated list of 16 to 16384 (or \"none\"), not '" + std::string(v) + "'";
+      });
   parser.option("--error-every", o.errorEvery, 1, kAny);
   parser.custom("--msaa", [&o](std::string_view v) {
     const std::optional<int> n = app::parseInt(v);
@@ -103,10 +120,10 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   parser.custom(
       "--segments", [&o](std::string_view v) { return setSegments(o, v); }, "a value",
       [](std::string_view) { return "--segments: a comma-separated list of top-down, oblique, horizon, close-up"; });
-  parser.choice<app::TerrainPaging>("--paging", o.paging,
-                                    {{"auto", app::TerrainPaging::Auto},
-                                     {"always", app::TerrainPaging::Always},
-                                     {"never", app::TerrainPaging::Never}});
+  parser.choice<scene::TerrainPaging>("--paging", o.paging,
+                                      {{"auto", scene::TerrainPaging::Auto},
+                                       {"always", scene::TerrainPaging::Always},
+                                       {"never", scene::TerrainPaging::Never}});
   if (std::string error = parser.parse(argc, argv); !error.empty()) return error;
   if (o.mode == "scaling" && o.scene.empty() && !o.scenes.empty()) o.scene = o.scenes.front();
   if (o.mode == "scaling" && o.scenes.empty()) return "--mode scaling needs --scenes A.json,B.json,...";

@@ -54,13 +54,13 @@ struct FrameCounts {
 /// Ours and the paper's construction (the terrain is the same), drawing into one target.
 struct OverlayBench {
   const Options& o;
-  app::SceneRenderer& ours;
-  app::SceneRenderer& paper;
-  app::RenderSettings settings;
+  scene::SceneRenderer& ours;
+  scene::SceneRenderer& paper;
+  scene::RenderSettings settings;
   gfx::StateCache cache;
   gfx::RenderTarget target;
 
-  OverlayBench(const Options& options, app::SceneRenderer& oursRenderer, app::SceneRenderer& paperRenderer)
+  OverlayBench(const Options& options, scene::SceneRenderer& oursRenderer, scene::SceneRenderer& paperRenderer)
       : o(options),
         ours(oursRenderer),
         paper(paperRenderer),
@@ -68,7 +68,8 @@ struct OverlayBench {
         target(options.width, options.height, 0, true) {}
 
   /// Milliseconds to draw the frame with `r`, glFinish to glFinish.
-  double timed(app::SceneRenderer& r, const app::Camera& camera, bool overlays, bool measure, app::FrameStats& stats) {
+  double timed(scene::SceneRenderer& r, const scene::Camera& camera, bool overlays, bool measure,
+               scene::FrameStats& stats) {
     settings.overlays = overlays;
     settings.measure = measure;
     glFinish();
@@ -78,16 +79,16 @@ struct OverlayBench {
     return msSince(start);
   }
 
-  FrameCounts count(const app::PathFrame& frame, OverlayFrames& f);
-  void drawPath(const std::vector<app::PathFrame>& path, OverlayFrames& f);
-  json edit(const app::Camera& camera);
+  FrameCounts count(const scene::PathFrame& frame, OverlayFrames& f);
+  void drawPath(const std::vector<scene::PathFrame>& path, OverlayFrames& f);
+  json edit(const scene::Camera& camera);
 };
 
 /// A counted frame (the queries wait): fragments of mark + cover against the pixels each layer
 /// covers (a pixel covered by two layers counts twice: each layer's floor is 2–3).
-FrameCounts OverlayBench::count(const app::PathFrame& frame, OverlayFrames& f) {
+FrameCounts OverlayBench::count(const scene::PathFrame& frame, OverlayFrames& f) {
   FrameCounts c;
-  app::FrameStats measured;
+  scene::FrameStats measured;
   timed(ours, frame.camera, true, true, measured);
   const std::vector<std::uint32_t> mask = gfx::readMask(target);
   for (std::size_t i = 0; i < measured.layers.size(); ++i) {
@@ -116,15 +117,15 @@ FrameCounts OverlayBench::count(const app::PathFrame& frame, OverlayFrames& f) {
 }
 
 /// Each frame of the path three ways, one line of frames.csv per frame.
-void OverlayBench::drawPath(const std::vector<app::PathFrame>& path, OverlayFrames& f) {
+void OverlayBench::drawPath(const std::vector<scene::PathFrame>& path, OverlayFrames& f) {
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
   csv << "frame,segment,terrain_ms,stencil_ms,paper_ms,covered_pixels,stencil_fragments,paper_fragments,stencil_zfail_"
          "pieces\n";
   for (std::size_t k = 0; k < path.size(); ++k) {
-    const app::Camera& camera = path[k].camera;
+    const scene::Camera& camera = path[k].camera;
     const std::string& segment = path[k].segment;
-    app::FrameStats a, b, c;
+    scene::FrameStats a, b, c;
     const double tMs = timed(ours, camera, false, false, a);
     const double sMs = timed(ours, camera, true, false, b);
     const double pMs = timed(paper, camera, true, false, c);
@@ -144,7 +145,7 @@ void OverlayBench::drawPath(const std::vector<app::PathFrame>& path, OverlayFram
 
 /// A one-feature edit: move a vertex of the first line (or polygon) feature by 10 m; the time
 /// to rebuild its pieces and draw the next frame.
-json OverlayBench::edit(const app::Camera& camera) {
+json OverlayBench::edit(const scene::Camera& camera) {
   for (std::size_t i = 0; i < ours.overlayLayers().size(); ++i) {
     overlay::OverlayLayer& layer = ours.overlayLayer(i);
     if (layer.features().empty()) continue;
@@ -159,7 +160,7 @@ json OverlayBench::edit(const app::Camera& camera) {
     const auto start = std::chrono::steady_clock::now();
     const Diagnostics d = layer.replaceFeature(0, feature);
     const double rebuildMs = msSince(start);
-    app::FrameStats after;
+    scene::FrameStats after;
     const double frameMs = timed(ours, camera, true, false, after);
     return {{"layer", layer.name()}, {"rebuild_ms", rebuildMs}, {"next_frame_ms", frameMs}};
   }
@@ -174,7 +175,7 @@ json summaryJson(const MethodFrames& m) {
   return json{{"median_ms", percentile(m.ms, 50)}, {"p95_ms", percentile(m.ms, 95)}, {"segments", segments}};
 }
 
-json layersJson(const app::SceneRenderer& renderer, OverlayFrames& f) {
+json layersJson(const scene::SceneRenderer& renderer, OverlayFrames& f) {
   json layers = json::array();
   for (std::size_t i = 0; i < renderer.overlayLayers().size(); ++i) {
     const overlay::OverlayLayer& l = renderer.overlayLayers()[i];
@@ -211,14 +212,14 @@ int runOverlay(const Options& o) {
   std::optional<BenchSetup> setup = setUp(o, true);
   if (!setup) return 1;
   // Two renderers: ours and the paper's construction (the terrain is the same).
-  app::OverlayBuildSettings ours, paper;
+  scene::OverlayBuildSettings ours, paper;
   paper.technique = overlay::findTechnique("paper");
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(setup->scene, ours);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene, ours);
   app::report(renderer.diagnostics);
-  Result<app::SceneRenderer> paperRenderer = app::SceneRenderer::create(setup->scene, paper);
+  Result<scene::SceneRenderer> paperRenderer = scene::SceneRenderer::create(setup->scene, paper);
   if (!renderer || !paperRenderer) return 1;
 
-  const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
+  const std::vector<scene::PathFrame> path = flyThroughOf(o, *setup);
   OverlayBench bench(o, *renderer, *paperRenderer);
   OverlayFrames f;
   bench.drawPath(path, f);

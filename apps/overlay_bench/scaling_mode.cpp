@@ -8,8 +8,8 @@
 #include <utility>
 #include <vector>
 
-#include "app/json_file.hpp"
 #include "bench_common.hpp"
+#include "scene/json_file.hpp"
 #include "svg_plot.hpp"
 #include "variants.hpp"
 
@@ -68,7 +68,7 @@ int runScaling(const Options& o) {
   axes.title = "Frame time against DEM size";
   axes.xLabel = "DEM posts";
   std::ofstream(std::filesystem::path(o.out) / "scaling_time_vs_dem.svg") << scatterSvg(byPosts, axes);
-  std::ofstream(std::filesystem::path(o.out) / "scaling.json") << app::jsonText(json{{"scenes", rows}}) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / "scaling.json") << scene::jsonText(json{{"scenes", rows}}) << '\n';
   std::printf("scaling: %s\n", (std::filesystem::path(o.out) / "scaling.md").string().c_str());
   return 0;
 }

@@ -27,10 +27,10 @@ struct TerrainFrames {
 };
 
 /// Draws each frame of `path`, one line of frames.csv per frame.
-TerrainFrames drawPath(const Options& o, app::SceneRenderer& renderer, const std::vector<app::PathFrame>& path) {
+TerrainFrames drawPath(const Options& o, scene::SceneRenderer& renderer, const std::vector<scene::PathFrame>& path) {
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
 
   std::filesystem::create_directories(o.out);
@@ -43,7 +43,8 @@ TerrainFrames drawPath(const Options& o, app::SceneRenderer& renderer, const std
     settings.measure = k % 10 == 0;
     glFinish();
     const auto start = std::chrono::steady_clock::now();
-    const app::FrameStats s = renderer.render(cache, target.framebuffer(), o.width, o.height, path[k].camera, settings);
+    const scene::FrameStats s =
+        renderer.render(cache, target.framebuffer(), o.width, o.height, path[k].camera, settings);
     glFinish();
     const double ms = msSince(start);
     if (k > 0 && !settings.measure) {  // frame 0 builds the first chunks: reported apart
@@ -62,9 +63,9 @@ TerrainFrames drawPath(const Options& o, app::SceneRenderer& renderer, const std
   return f;
 }
 
-json resultJson(const Options& o, const BenchSetup& setup, const app::SceneRenderer& renderer, std::size_t frames,
+json resultJson(const Options& o, const BenchSetup& setup, const scene::SceneRenderer& renderer, std::size_t frames,
                 const TerrainFrames& f) {
-  const app::LoadedScene& scene = setup.scene;
+  const scene::LoadedScene& scene = setup.scene;
   const terrain::TerrainGrid& grid = scene.quadtree->grid();
   json segments;
   for (const auto& [name, v] : f.bySegment) {
@@ -101,10 +102,10 @@ json resultJson(const Options& o, const BenchSetup& setup, const app::SceneRende
 int runTerrain(const Options& o) {
   std::optional<BenchSetup> setup = setUp(o, false /* terrain mode */);
   if (!setup) return 1;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(setup->scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene);
   app::report(renderer.diagnostics);
   if (!renderer) return 1;
-  const std::vector<app::PathFrame> path = flyThroughOf(o, *setup);
+  const std::vector<scene::PathFrame> path = flyThroughOf(o, *setup);
   const TerrainFrames frames = drawPath(o, *renderer, path);
   return finish(o, resultJson(o, *setup, *renderer, path.size(), frames), *setup->context);
 }

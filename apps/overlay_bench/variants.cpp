@@ -15,9 +15,9 @@
 #include <tuple>
 #include <utility>
 
-#include "app/json_file.hpp"
 #include "gfx/gl.hpp"
 #include "gfx/render_target.hpp"
+#include "scene/json_file.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::bench {
@@ -66,9 +66,9 @@ json tallyJson(const Tally& t, const Tally& ours, bool overlays) {
 
 namespace {
 
-std::size_t vectorVertices(const app::LoadedScene& scene) {
+std::size_t vectorVertices(const scene::LoadedScene& scene) {
   std::size_t n = 0;
-  for (const app::LoadedLayer& l : scene.layers) {
+  for (const scene::LoadedLayer& l : scene.layers) {
     for (const geo::Feature& f : l.data.features) n += f.vertexCount();
   }
   return n;
@@ -77,10 +77,10 @@ std::size_t vectorVertices(const app::LoadedScene& scene) {
 /// Makes each method's renderer; methods that build the same polyhedra (terrain only, ours and the
 /// ablation's switches at draw time) share one: the same terrain, and the memory of one copy. False
 /// when one cannot be made.
-bool buildRenderers(const app::LoadedScene& scene, std::vector<Method>& methods) {
-  std::map<std::tuple<std::string_view, int, int, bool>, app::SceneRenderer*> built;
+bool buildRenderers(const scene::LoadedScene& scene, std::vector<Method>& methods) {
+  std::map<std::tuple<std::string_view, int, int, bool>, scene::SceneRenderer*> built;
   for (Method& m : methods) {
-    app::OverlayBuildSettings build;
+    scene::OverlayBuildSettings build;
     build.technique = m.technique;
     build.cellPosts = m.cellPosts;
     build.adaptiveSplit = m.adaptiveSplit;
@@ -90,7 +90,7 @@ bool buildRenderers(const app::LoadedScene& scene, std::vector<Method>& methods)
     if (const auto found = built.find(key); found != built.end()) {
       m.shared = found->second;
     } else {
-      Result<app::SceneRenderer> r = app::SceneRenderer::create(scene, build);
+      Result<scene::SceneRenderer> r = scene::SceneRenderer::create(scene, build);
       app::report(r.diagnostics);
       if (!r) return false;
       m.renderer = std::move(*r);
@@ -132,17 +132,17 @@ struct VariantBench {
   gfx::StateCache cache;
   gfx::RenderTarget target;
   std::optional<gfx::RenderTarget> sample;  ///< MSAA: sample 0 of each judged frame
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   double aspect = 1.0;
 
   VariantBench(const Options& options, std::vector<Method>& variants);
   [[nodiscard]] const gfx::RenderTarget& readable() const { return sample ? *sample : target; }
   void settingsFor(const Method& m);
-  void drawPath(const std::vector<app::PathFrame>& path, const std::string& stem);
-  MethodFrame drawFrame(Method& m, std::size_t k, const app::Camera& camera, bool judged, FrameReference& ref);
-  void count(Method& m, const app::Camera& camera, Tally& frame);
-  void judge(const Method& m, const app::Camera& camera, Tally& frame, FrameReference& ref);
-  void edit(Method& m, const app::Camera& camera);
+  void drawPath(const std::vector<scene::PathFrame>& path, const std::string& stem);
+  MethodFrame drawFrame(Method& m, std::size_t k, const scene::Camera& camera, bool judged, FrameReference& ref);
+  void count(Method& m, const scene::Camera& camera, Tally& frame);
+  void judge(const Method& m, const scene::Camera& camera, Tally& frame, FrameReference& ref);
+  void edit(Method& m, const scene::Camera& camera);
 };
 
 VariantBench::VariantBench(const Options& options, std::vector<Method>& variants)
@@ -164,7 +164,7 @@ void VariantBench::settingsFor(const Method& m) {
 }
 
 /// Every frame of the path with every method, one line of stem.csv per frame and method.
-void VariantBench::drawPath(const std::vector<app::PathFrame>& path, const std::string& stem) {
+void VariantBench::drawPath(const std::vector<scene::PathFrame>& path, const std::string& stem) {
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / (stem + ".csv"));
   csv << "frame,segment,method,ms,wrong_pixels,terrain_pixels,wrong_away_from_edges,pixels_away_from_edges,covered_"
@@ -188,14 +188,14 @@ void VariantBench::drawPath(const std::vector<app::PathFrame>& path, const std::
 }
 
 /// The frame timed; on a judged frame also counted and judged.
-MethodFrame VariantBench::drawFrame(Method& m, std::size_t k, const app::Camera& camera, bool judged,
+MethodFrame VariantBench::drawFrame(Method& m, std::size_t k, const scene::Camera& camera, bool judged,
                                     FrameReference& ref) {
   MethodFrame f;  // this frame's figures, added to the whole path's and the segment's
   Tally& frame = f.tally;
   settingsFor(m);
   glFinish();
   const auto start = std::chrono::steady_clock::now();
-  const app::FrameStats stats = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+  const scene::FrameStats stats = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
   glFinish();
   f.ms = msSince(start);
   if (stats.texturesBuilt > 0 && m.shared->textureDrape() != nullptr) {
@@ -223,9 +223,9 @@ MethodFrame VariantBench::drawFrame(Method& m, std::size_t k, const app::Camera&
 
 /// The same frame again with the queries on (they wait, so untimed): GPU time per pass,
 /// fragments and triangles.
-void VariantBench::count(Method& m, const app::Camera& camera, Tally& frame) {
+void VariantBench::count(Method& m, const scene::Camera& camera, Tally& frame) {
   settings.measure = true;
-  const app::FrameStats counted = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+  const scene::FrameStats counted = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
   settings.measure = false;
   frame.terrainGpuMs.push_back(counted.terrain.gpuMilliseconds);
   double mark = 0.0, cover = 0.0;
@@ -247,7 +247,7 @@ void VariantBench::count(Method& m, const app::Camera& camera, Tally& frame) {
 
 /// Terrain only computes the frame's reference on its depth; the others' masks are judged against
 /// it, pixel by pixel.
-void VariantBench::judge(const Method& m, const app::Camera& camera, Tally& frame, FrameReference& ref) {
+void VariantBench::judge(const Method& m, const scene::Camera& camera, Tally& frame, FrameReference& ref) {
   if (sample) target.copySampleInto(cache, *sample, 0);
   if (!m.overlays) {
     ref.depth = gfx::readDepth(readable());
@@ -299,7 +299,7 @@ std::optional<geo::Feature> movedFirstFeature(const overlay::OverlayLayer& layer
 /// A one-feature edit, after the path: a vertex of the first feature of the first layer moved by 10
 /// m; the time to rebuild its pieces, plus for draping the texture (or the tiles over the feature)
 /// rasterised again in the next frame.
-void VariantBench::edit(Method& m, const app::Camera& camera) {
+void VariantBench::edit(Method& m, const scene::Camera& camera) {
   if (!m.overlays || m.shared->overlayLayers().empty()) return;
   overlay::OverlayLayer& layer = m.shared->overlayLayer(0);
   if (layer.features().empty()) return;
@@ -313,7 +313,7 @@ void VariantBench::edit(Method& m, const app::Camera& camera) {
   m.shared->invalidateOverlays(lo - margin, hi + margin);
   m.editMs = msSince(start);
   settingsFor(m);
-  const app::FrameStats after = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
+  const scene::FrameStats after = m.shared->render(cache, target.framebuffer(), o.width, o.height, camera, settings);
   m.editMs += 1e3 * after.textureSeconds;
 }
 
@@ -361,7 +361,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   // Declared after the context, so that their GL objects go while it is current.
   std::vector<Method> methods = std::move(variants);
   if (!buildRenderers(setup->scene, methods)) return 1;
-  const std::vector<app::PathFrame> path = methodsPath(o, *setup);
+  const std::vector<scene::PathFrame> path = methodsPath(o, *setup);
   if (path.empty()) {
     std::fprintf(stderr, "overlay_bench: no frames on the path (--segments)\n");
     return 1;
@@ -371,7 +371,7 @@ int runVariants(const Options& o, std::vector<Method> variants, const std::strin
   for (Method& m : methods) bench.edit(m, path.back().camera);
   reportVariants(o, methods, stem);
   const json result = resultJson(o, *setup, methods, bench.target.samples(), path.size());
-  std::ofstream(std::filesystem::path(o.out) / (stem + ".json")) << app::jsonText(result) << '\n';
+  std::ofstream(std::filesystem::path(o.out) / (stem + ".json")) << scene::jsonText(result) << '\n';
   if (summary != nullptr) *summary = result;
   gfx::Context& context = *setup->context;
   std::printf("gl_errors: %zu\n", static_cast<std::size_t>(context.debug().errorCount()));

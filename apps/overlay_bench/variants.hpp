@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "app/scene_renderer.hpp"
 #include "bench_common.hpp"
+#include "scene/scene_renderer.hpp"
 
 namespace gis::bench {
 
@@ -47,8 +47,8 @@ struct Method {
   int cellPosts = 16;         ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
-  std::optional<app::SceneRenderer> renderer;             ///< its own, or empty when it shares another's
-  app::SceneRenderer* shared = nullptr;                   ///< the renderer it draws with
+  std::optional<scene::SceneRenderer> renderer;           ///< its own, or empty when it shares another's
+  scene::SceneRenderer* shared = nullptr;                 ///< the renderer it draws with
   Tally all;
   std::map<std::string, Tally> segments;
   std::size_t gpuBytes = 0;

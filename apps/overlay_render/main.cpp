@@ -15,19 +15,20 @@
 #include <glm/trigonometric.hpp>
 #include <nlohmann/json.hpp>
 
-#include "app/camera.hpp"
 #include "app/cli.hpp"
-#include "app/json_file.hpp"
-#include "app/lasso_file.hpp"
 #include "app/option_parser.hpp"
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
-#include "app/scene_selection.hpp"
 #include "core/log.hpp"
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
+#include "scene/camera.hpp"
+#include "scene/frame_readback.hpp"
+#include "scene/json_file.hpp"
+#include "scene/lasso_file.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
+#include "scene/scene_selection.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/logical_selection.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
@@ -154,168 +155,52 @@ json countsJson(const gfx::PipelineCounts& c) {
 
 bool writeJson(const std::filesystem::path& path, const json& j) {
   std::ofstream out(path);
-  out << app::jsonText(j) << "\n";
+  out << scene::jsonText(j) << "\n";
   return static_cast<bool>(out);
-}
-
-struct SelectionOutput {
-  std::vector<std::uint8_t> pixels;  ///< 255 = selected, top row first
-  overlay::SelectionFrameStats stats;
-};
-
-/// Marks the selection into the stencil of the drawn scene, reads it, then highlights it (and
-/// draws the volumes when asked) into the colour.
-std::optional<SelectionOutput> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
-                                             const app::SelectionRequest& request, const app::Camera& camera, int width,
-                                             int height, Diagnostics& all) {
-  Result<overlay::SelectionRenderer> renderer = overlay::SelectionRenderer::create();
-  report(renderer.diagnostics);
-  all.append(renderer.diagnostics);
-  if (!renderer) return std::nullopt;
-  const Diagnostics built = renderer->setSteps(request.steps);
-  report(built);
-  all.append(built);
-  const overlay::OverlayView view = app::overlayViewOf(camera, static_cast<double>(width) / height);
-  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
-  gfx::enableMaskWrites(target.framebuffer(),
-                        false);  // the overlay mask stays as the layers left it
-  overlay::SelectionSettings settings;
-  settings.scheme = request.scheme;
-  settings.measure = true;
-  SelectionOutput out;
-  out.stats = renderer->select(cache, view, settings);
-  const std::vector<std::uint8_t> stencil = gfx::readStencil(target);
-  const std::vector<float> depth = gfx::readDepth(target);
-  out.pixels.resize(stencil.size());
-  for (std::size_t i = 0; i < stencil.size(); ++i) {
-    const bool selected = request.scheme == overlay::SelectionScheme::Runs ? (stencil[i] & overlay::kSelectedBit) != 0
-                                                                           : depth[i] > 0.0F && stencil[i] == 1;
-    out.pixels[i] = selected ? 255 : 0;
-  }
-  renderer->highlight(cache, request.highlight, settings);
-  if (request.showVolumes) renderer->drawVolumes(cache, view, *request.showVolumes);
-  gfx::enableMaskWrites(target.framebuffer(), true);
-  return out;
-}
-
-// Layer analysis (--overlap, --open-volumes) on the frame just drawn: marks read back from the
-// stencil between the mark and the cover, highlights blended into the colour.
-constexpr glm::vec4 kOverlapColour{1.0F, 0.0F, 1.0F, 0.6F};
-constexpr glm::vec4 kOpenColour{0.0F, 1.0F, 0.0F, 1.0F};
-
-/// The fill (not the outline) overlay layer of the scene layer with this name.
-std::optional<std::size_t> fillLayerNamed(const app::LoadedScene& scene, const app::SceneRenderer& renderer,
-                                          std::string_view name) {
-  for (std::size_t j = 0; j < renderer.overlaySources().size(); ++j) {
-    const auto& [layer, outline] = renderer.overlaySources()[j];
-    if (!outline && scene.layers[layer].description.name == name) return j;
-  }
-  return std::nullopt;
-}
-
-struct OverlapOutput {
-  std::size_t a = 0, b = 0;         ///< overlay layers
-  std::vector<std::uint8_t> flags;  ///< the stencil after marking, top row first
-  overlay::AnalysisMarks marks;
-};
-
-OverlapOutput drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
-                          std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
-  OverlapOutput out{a, b, {}, {}};
-  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
-  gfx::enableMaskWrites(target.framebuffer(),
-                        false);  // the overlay mask stays as the layers left it
-  overlay::OverlaySettings settings;
-  settings.measure = true;
-  out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.overlayLayers()[a],
-                                                     renderer.overlayLayers()[b], settings);
-  out.flags = gfx::readStencil(target);
-  renderer.overlayRenderer().coverOverlap(cache, out.marks, op, kOverlapColour);
-  gfx::enableMaskWrites(target.framebuffer(), true);
-  return out;
-}
-
-struct OpenVolumesOutput {
-  std::vector<std::uint8_t> pixels;  ///< 255 where some layer's volumes are open
-  json layers = json::array();
-  std::size_t openPixels = 0;
-};
-
-OpenVolumesOutput drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, app::SceneRenderer& renderer,
-                                  const overlay::OverlayView& view) {
-  OpenVolumesOutput out;
-  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
-  gfx::enableMaskWrites(target.framebuffer(), false);
-  overlay::OverlaySettings settings;
-  settings.measure = true;
-  out.pixels.assign(static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height()), 0);
-  for (const overlay::OverlayLayer& layer : renderer.overlayLayers()) {
-    const overlay::AnalysisMarks marks = renderer.overlayRenderer().countOpenFaces(cache, view, layer, settings);
-    const std::vector<std::uint8_t> counts = gfx::readStencil(target);
-    renderer.overlayRenderer().coverOpenFaces(cache, marks, kOpenColour);
-    std::size_t open = 0;
-    for (std::size_t i = 0; i < counts.size() && i < out.pixels.size(); ++i) {
-      if (counts[i] == 0) continue;
-      ++open;
-      out.pixels[i] = 255;
-    }
-    out.layers.push_back({{"name", layer.name()},
-                          {"open_pixels", open},
-                          {"pieces_counted", marks.a.zPassPieces + marks.a.zFailPieces},
-                          {"pieces_clipped_and_capped", marks.a.zFailPieces},
-                          {"gpu_ms", marks.gpuMilliseconds},
-                          {"fragments", marks.fragments}});
-  }
-  for (std::uint8_t p : out.pixels) out.openPixels += p != 0 ? 1u : 0u;
-  gfx::enableMaskWrites(target.framebuffer(), true);
-  return out;
 }
 
 /// The scene and the camera it is drawn from (no GL yet).
 struct Setup {
-  app::SceneDescription description;
-  app::LoadedScene scene;
+  scene::SceneDescription description;
+  scene::LoadedScene scene;
   double exaggeration = 1.0;
-  app::Camera camera;
-  std::optional<app::SelectionRequest> lasso;
+  scene::Camera camera;
+  std::optional<scene::SelectionRequest> lasso;
 };
 
 /// The GL side: the context, then the renderer (declared after it, so that its GL objects go while
 /// the context is current).
 struct Gpu {
   std::unique_ptr<gfx::Context> context;
-  std::optional<app::SceneRenderer> renderer;
+  std::optional<scene::SceneRenderer> renderer;
 };
 
 /// The frame drawn, with the analyses drawn over it, and read back.
 struct Frame {
-  app::FrameStats stats;
+  scene::FrameStats stats;
   overlay::OverlayView view;
-  std::optional<SelectionOutput> selection;
-  std::optional<OverlapOutput> overlap;
-  std::optional<OpenVolumesOutput> open;
-  int samples = 1;                 ///< per pixel, as the target has them
-  std::vector<std::uint8_t> rgb;   ///< top row first
-  std::vector<float> depth;        ///< as stored
-  std::vector<std::uint8_t> mask;  ///< a bit per layer of the scene file
+  std::optional<scene::SelectionPixels> selection;
+  std::optional<scene::OverlapPixels> overlap;
+  std::optional<scene::OpenVolumePixels> open;
+  scene::FrameImages images;
 };
 
 /// What the output files are made from.
 struct Drawn {
   const Options& o;
   const Setup& setup;
-  const app::SceneRenderer& renderer;
+  const scene::SceneRenderer& renderer;
   const Frame& frame;
 };
 
 /// selection.png, the logical selection (features, DEM posts), its agreement with the pixels and
 /// the GeoJSON exports; adds a "selection" block to stats.
 bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostics& all, json& stats) {
-  const SelectionOutput& selection = *d.frame.selection;
-  const app::SelectionRequest& request = *d.setup.lasso;
-  const app::LoadedScene& scene = d.setup.scene;
-  const app::SceneRenderer& renderer = d.renderer;
-  const app::Camera& camera = d.setup.camera;
+  const scene::SelectionPixels& selection = *d.frame.selection;
+  const scene::SelectionRequest& request = *d.setup.lasso;
+  const scene::LoadedScene& scene = d.setup.scene;
+  const scene::SceneRenderer& renderer = d.renderer;
+  const scene::Camera& camera = d.setup.camera;
   const int width = d.o.width, height = d.o.height;
   bool ok = true;
   const Result<bool> png = gfx::writeImage8((out / "selection.png").string(), width, height, 1, selection.pixels);
@@ -324,17 +209,17 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
   const std::span<const overlay::SelectionStep> steps(request.steps);
   // The CPU twin on the same depth buffer.
   const double aspect = static_cast<double>(width) / height;
-  const overlay::DepthImage image{width, height, d.frame.depth, camera.projection(aspect) * camera.view()};
+  const overlay::DepthImage image{width, height, d.frame.images.depth, camera.projection(aspect) * camera.view()};
   const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
   std::size_t selectedPixels = 0, disagreeing = 0;
   for (std::size_t i = 0; i < twin.size() && i < selection.pixels.size(); ++i) {
     selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
     disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
   }
-  const app::SceneSelection chosen =
-      app::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
+  const scene::SceneSelection chosen =
+      scene::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
   json layers = json::array();
-  for (const app::LayerSelection& l : chosen.layers) {
+  for (const scene::LayerSelection& l : chosen.layers) {
     const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
     json features = json::array();
     for (const overlay::FeatureSelection& f : l.features) {
@@ -347,10 +232,10 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
     layers.push_back({{"name", name},
                       {"selected", l.features.size()},
                       {"fully_inside", l.fullyInside},
-                      {"file", "selected_" + app::layerSlug(name) + ".geojson"},
+                      {"file", "selected_" + scene::layerSlug(name) + ".geojson"},
                       {"features", features}});
   }
-  const Diagnostics exported = app::exportSelection(scene, renderer, chosen, out / "selected_features.json", out);
+  const Diagnostics exported = scene::exportSelection(scene, renderer, chosen, out / "selected_features.json", out);
   report(exported);
   all.append(exported);
   ok = ok && !exported.hasErrors();
@@ -373,13 +258,13 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
 
 /// overlap.png and an "overlap" block in stats, with the CPU reference's answer on the same depth.
 bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats) {
-  const OverlapOutput& overlap = *d.frame.overlap;
+  const scene::OverlapPixels& overlap = *d.frame.overlap;
   const overlay::OverlapOp op = d.o.overlapOp;
-  const app::SceneRenderer& renderer = d.renderer;
+  const scene::SceneRenderer& renderer = d.renderer;
   const int width = d.o.width, height = d.o.height;
   const std::vector<overlay::ReferenceLayer> ref{overlay::referenceLayerOf(renderer.overlayLayers()[overlap.a]),
                                                  overlay::referenceLayerOf(renderer.overlayLayers()[overlap.b])};
-  const overlay::DepthImage image{width, height, d.frame.depth, d.frame.view.viewProj};
+  const overlay::DepthImage image{width, height, d.frame.images.depth, d.frame.view.viewProj};
   const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
   const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
   std::vector<std::uint8_t> pixels(overlap.flags.size(), 0);
@@ -416,37 +301,15 @@ bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats)
   return png.ok();
 }
 
-/// The camera: --camera's file, else the scene file's, else the overview of the terrain.
-std::optional<app::Camera> cameraFor(const Options& o, const Setup& s) {
-  if (!o.camera.empty()) {
-    Result<app::CameraSpec> spec = app::loadCameraFile(o.camera);
-    report(spec.diagnostics);
-    if (!spec) return std::nullopt;
-    Result<app::Camera> placed = app::placeCamera(*spec, s.scene.frame, o.camera);
-    report(placed.diagnostics);
-    if (!placed) return std::nullopt;
-    return *placed;
-  }
-  if (s.description.camera) {
-    Result<app::Camera> placed = app::placeCamera(*s.description.camera, s.scene.frame, o.scene);
-    report(placed.diagnostics);
-    if (!placed) return std::nullopt;
-    return *placed;
-  }
-  glm::dvec3 lo, hi;
-  app::terrainBox(s.scene, s.exaggeration, lo, hi);
-  return app::overviewCamera(lo, hi);
-}
-
 /// Reads the scene file, loads the scene, places the camera and reads the lasso file; nothing, with
 /// the problems reported, when one of them fails.
 std::optional<Setup> load(const Options& o, Diagnostics& all) {
-  Result<app::SceneDescription> description = app::loadSceneFile(o.scene);
+  Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene);
   report(description.diagnostics);
   all.append(description.diagnostics);
   if (!description) return std::nullopt;
 
-  Result<app::LoadedScene> scene = app::loadScene(*description);
+  Result<scene::LoadedScene> scene = scene::loadScene(*description);
   report(scene.diagnostics);
   all.append(scene.diagnostics);
   if (!scene) return std::nullopt;
@@ -454,12 +317,14 @@ std::optional<Setup> load(const Options& o, Diagnostics& all) {
   Setup s{std::move(*description), std::move(*scene), 1.0, {}, std::nullopt};
   s.exaggeration = o.exaggeration.value_or(s.description.verticalExaggeration);
   s.scene.bounds->setExaggeration(s.exaggeration);
-  std::optional<app::Camera> camera = cameraFor(o, s);
+  Result<scene::Camera> camera = scene::stillCamera(o.camera, s.description, o.scene, s.scene);
+  report(camera.diagnostics);
+  all.append(camera.diagnostics);
   if (!camera) return std::nullopt;
   s.camera = *camera;
 
   if (!o.lasso.empty()) {
-    Result<app::SelectionRequest> request = app::loadLassoFile(o.lasso, s.scene.frame, s.camera, o.width, o.height);
+    Result<scene::SelectionRequest> request = scene::loadLassoFile(o.lasso, s.scene.frame, s.camera, o.width, o.height);
     report(request.diagnostics);
     all.append(request.diagnostics);
     if (!request) return std::nullopt;
@@ -475,10 +340,10 @@ std::optional<Gpu> makeGpu(const Options& o, const Setup& s, Diagnostics& all) {
   report(context.diagnostics);
   if (!context) return std::nullopt;
   Gpu gpu{std::move(*context), std::nullopt};
-  app::OverlayBuildSettings build;
+  scene::OverlayBuildSettings build;
   build.technique = o.technique;
   build.textureSize = o.drapeSize;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(s.scene, build);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(s.scene, build);
   report(renderer.diagnostics);
   all.append(renderer.diagnostics);
   if (!renderer) return std::nullopt;
@@ -488,16 +353,16 @@ std::optional<Gpu> makeGpu(const Options& o, const Setup& s, Diagnostics& all) {
 
 /// The fill overlay layers --overlap names, into `layers`; false, with the scene's layers listed,
 /// when one of them is not drawn.
-bool findOverlapLayers(const Options& o, const Setup& s, const app::SceneRenderer& renderer,
+bool findOverlapLayers(const Options& o, const Setup& s, const scene::SceneRenderer& renderer,
                        std::optional<std::pair<std::size_t, std::size_t>>& layers) {
   if (o.overlap.empty()) return true;
   const std::size_t comma = o.overlap.find(',');
   const std::string nameA = o.overlap.substr(0, comma), nameB = o.overlap.substr(comma + 1);
-  const std::optional<std::size_t> a = fillLayerNamed(s.scene, renderer, nameA);
-  const std::optional<std::size_t> b = fillLayerNamed(s.scene, renderer, nameB);
+  const std::optional<std::size_t> a = scene::fillLayerNamed(s.scene, renderer, nameA);
+  const std::optional<std::size_t> b = scene::fillLayerNamed(s.scene, renderer, nameB);
   if (!a || !b) {
     std::string names;
-    for (const app::LoadedLayer& l : s.scene.layers) names += (names.empty() ? "" : ", ") + l.description.name;
+    for (const scene::LoadedLayer& l : s.scene.layers) names += (names.empty() ? "" : ", ") + l.description.name;
     logError(o.scene + ": --overlap: no drawn layer named '" + (a ? nameB : nameA) + "' (layers: " + names + ")");
     return false;
   }
@@ -505,97 +370,43 @@ bool findOverlapLayers(const Options& o, const Setup& s, const app::SceneRendere
   return true;
 }
 
-/// mask.png's bits: the GPU mask has a bit per overlay layer (fills and outlines); mask.png a bit
-/// per layer of the scene file, by its place there (a layer that failed to load keeps its bit,
-/// unset). With MSAA a pixel has a layer's bit when at least half its samples do; `resolved`
-/// receives each sample in turn.
-std::vector<std::uint8_t> sceneLayerMask(gfx::StateCache& cache, const Options& o, const app::LoadedScene& scene,
-                                         const app::SceneRenderer& renderer, const gfx::RenderTarget& target,
-                                         gfx::RenderTarget* resolved) {
-  const std::size_t pixels = static_cast<std::size_t>(o.width) * static_cast<std::size_t>(o.height);
-  // A sample covered by several overlay layers of one scene layer (fill and outline) votes once.
-  const auto sampleVotes = [&](const std::vector<std::uint32_t>& bits) {
-    std::vector<int> votes(pixels * 8, 0);
-    for (std::size_t i = 0; i < pixels; ++i) {
-      for (std::size_t j = 0; j < renderer.overlaySources().size() && j < 32; ++j) {
-        const std::size_t layer = scene.layers[renderer.overlaySources()[j].first].description.fileIndex;
-        if ((bits[i] >> j) & 1u && layer < 8) ++votes[i * 8 + layer];
-      }
-    }
-    return votes;
-  };
-  std::vector<int> votes(pixels * 8, 0);
-  int samples = 1;
-  if (resolved != nullptr) {
-    samples = target.samples();
-    for (int k = 0; k < samples; ++k) {
-      target.copySampleInto(cache, *resolved, k);
-      const std::vector<int> sample = sampleVotes(gfx::readMask(*resolved));
-      for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sample[i] > 0 ? 1 : 0;
-    }
-  } else {
-    const std::vector<int> sample = sampleVotes(gfx::readMask(target));
-    for (std::size_t i = 0; i < votes.size(); ++i) votes[i] = sample[i] > 0 ? 1 : 0;
-  }
-  std::vector<std::uint8_t> mask(pixels, 0);
-  for (std::size_t i = 0; i < pixels; ++i) {
-    for (std::size_t layer = 0; layer < 8; ++layer) {
-      if (2 * votes[i * 8 + layer] >= samples) mask[i] = static_cast<std::uint8_t>(mask[i] | (1u << layer));
-    }
-  }
-  return mask;
-}
-
-/// The mask, the colour (RGB) and the depth of the frame in `target` (resolved first with MSAA).
-void readBack(gfx::StateCache& cache, const Options& o, const app::LoadedScene& scene,
-              const app::SceneRenderer& renderer, const gfx::RenderTarget& target, Frame& frame) {
-  std::optional<gfx::RenderTarget> resolved;
-  if (target.multisampled()) resolved.emplace(o.width, o.height, 0, true);
-  frame.samples = target.samples();
-  frame.mask = sceneLayerMask(cache, o, scene, renderer, target, resolved ? &*resolved : nullptr);
-  if (resolved) target.resolveInto(*resolved);
-  const gfx::RenderTarget& readable = resolved ? *resolved : target;
-  const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(readable);
-  frame.depth = gfx::readDepth(readable);
-  frame.rgb.resize(rgba.size() / 4 * 3);
-  for (std::size_t i = 0, n = rgba.size() / 4; i < n; ++i) {
-    for (std::size_t c = 0; c < 3; ++c) frame.rgb[i * 3 + c] = rgba[i * 4 + c];
-  }
-}
-
 /// Draws the scene, then the selection and the analyses asked for over it, and reads the frame
 /// back; nothing when the selection cannot be drawn.
-std::optional<Frame> drawFrame(const Options& o, const Setup& s, app::SceneRenderer& renderer,
+std::optional<Frame> drawFrame(const Options& o, const Setup& s, scene::SceneRenderer& renderer,
                                const std::optional<std::pair<std::size_t, std::size_t>>& overlapLayers,
                                Diagnostics& all) {
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, o.msaa, true);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = o.lodTolerance;
   settings.measure = true;
   settings.waitForTiles = true;  // a still image: every tile the view needs
   Frame frame;
   frame.stats = renderer.render(cache, target.framebuffer(), o.width, o.height, s.camera, settings);
   if (s.lasso) {
-    frame.selection = drawSelection(cache, target, *s.lasso, s.camera, o.width, o.height, all);
-    if (!frame.selection) return std::nullopt;
+    Result<scene::SelectionPixels> selection = scene::drawSelection(cache, target, *s.lasso, s.camera);
+    report(selection.diagnostics);
+    all.append(selection.diagnostics);
+    if (!selection) return std::nullopt;
+    frame.selection = std::move(*selection);
   }
-  frame.view = app::overlayViewOf(s.camera, static_cast<double>(o.width) / o.height);
+  frame.view = scene::overlayViewOf(s.camera, static_cast<double>(o.width) / o.height);
   if (overlapLayers) {
-    frame.overlap =
-        drawOverlap(cache, target, renderer, overlapLayers->first, overlapLayers->second, o.overlapOp, frame.view);
+    frame.overlap = scene::drawOverlap(cache, target, renderer, overlapLayers->first, overlapLayers->second,
+                                       o.overlapOp, frame.view);
   }
-  if (o.openVolumes) frame.open = drawOpenVolumes(cache, target, renderer, frame.view);
-  readBack(cache, o, s.scene, renderer, target, frame);
+  if (o.openVolumes) frame.open = scene::drawOpenVolumes(cache, target, renderer, frame.view);
+  frame.images = scene::readFrame(cache, s.scene, renderer, target);
   return frame;
 }
 
 /// color.png, depth.tiff and mask.png.
 bool writeImages(const std::filesystem::path& out, const Options& o, const Frame& frame) {
   bool ok = true;
-  for (const auto& written : {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, frame.rgb),
-                              gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, frame.depth),
-                              gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, frame.mask)}) {
+  for (const auto& written :
+       {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, frame.images.rgb),
+        gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, frame.images.depth),
+        gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, frame.images.mask)}) {
     report(written.diagnostics);
     ok = ok && written.ok();
   }
@@ -629,16 +440,16 @@ json passesJson(const Drawn& d, std::size_t i) {
 
 /// stats.json's "layers": one per layer of the scene file.
 json layersJson(const Drawn& d) {
-  const app::LoadedScene& scene = d.setup.scene;
+  const scene::LoadedScene& scene = d.setup.scene;
   json layers = json::array();
   for (std::size_t i = 0; i < scene.layers.size(); ++i) {
-    const app::LoadedLayer& layer = scene.layers[i];
+    const scene::LoadedLayer& layer = scene.layers[i];
     const std::size_t bit = layer.description.fileIndex;
     std::size_t coveredPixels = 0;
-    for (std::uint8_t m : d.frame.mask) {
+    for (std::uint8_t m : d.frame.images.mask) {
       coveredPixels += bit < 8 && ((static_cast<unsigned>(m) >> bit) & 1u) != 0u ? 1u : 0u;
     }
-    const app::LayerSummary summary = d.renderer.layerSummary(scene, i);
+    const scene::LayerSummary summary = d.renderer.layerSummary(scene, i);
     layers.push_back({{"name", layer.description.name},
                       {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
                       {"source", layer.description.source},
@@ -659,13 +470,13 @@ json layersJson(const Drawn& d) {
 
 /// stats.json's "terrain": the DEM, its quadtree and this frame's LOD.
 json terrainJson(const Drawn& d) {
-  const app::LoadedScene& scene = d.setup.scene;
-  const app::FrameStats& frame = d.frame.stats;
+  const scene::LoadedScene& scene = d.setup.scene;
+  const scene::FrameStats& frame = d.frame.stats;
   const terrain::TerrainQuadtree& tree = *scene.quadtree;
   const terrain::TerrainGrid& grid = tree.grid();
   const terrain::NodeInfo& rootInfo = tree.info(tree.root());
   std::size_t terrainPixels = 0;
-  for (float depth : d.frame.depth) terrainPixels += depth > 0.0F ? 1 : 0;
+  for (float depth : d.frame.images.depth) terrainPixels += depth > 0.0F ? 1 : 0;
   return {{"posts", static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height)},
           {"paged", tree.paged()},
           {"dem_size", {grid.width, grid.height}},
@@ -689,12 +500,12 @@ json terrainJson(const Drawn& d) {
 
 /// stats.json without the analyses' blocks (they add theirs as they are written).
 json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
-  const app::FrameStats& frame = d.frame.stats;
+  const scene::FrameStats& frame = d.frame.stats;
   json stats = {
       {"scene", d.o.scene},
       {"width", d.o.width},
       {"height", d.o.height},
-      {"msaa", d.frame.samples},
+      {"msaa", d.frame.images.samples},
       {"gl", {{"renderer", context.info().renderer}, {"version", context.info().version}}},
       {"load_seconds", d.setup.scene.loadSeconds},
       {"terrain", terrainJson(d)},
@@ -731,12 +542,21 @@ bool writeAnalyses(const std::filesystem::path& out, const Drawn& d, Diagnostics
     stats["diagnostics"] = diagnosticsJson(all);
   }
   if (d.frame.overlap) ok = writeOverlap(out, d, stats) && ok;
-  if (const std::optional<OpenVolumesOutput>& open = d.frame.open) {
+  if (const std::optional<scene::OpenVolumePixels>& open = d.frame.open) {
     const Result<bool> png =
         gfx::writeImage8((out / "open_volumes.png").string(), d.o.width, d.o.height, 1, open->pixels);
     report(png.diagnostics);
     ok = ok && png.ok();
-    stats["open_volumes"] = {{"open_pixels", open->openPixels}, {"layers", open->layers}};
+    json layers = json::array();
+    for (const scene::OpenVolumeLayer& layer : open->layers) {
+      layers.push_back({{"name", layer.name},
+                        {"open_pixels", layer.openPixels},
+                        {"pieces_counted", layer.marks.a.zPassPieces + layer.marks.a.zFailPieces},
+                        {"pieces_clipped_and_capped", layer.marks.a.zFailPieces},
+                        {"gpu_ms", layer.marks.gpuMilliseconds},
+                        {"fragments", layer.marks.fragments}});
+    }
+    stats["open_volumes"] = {{"open_pixels", open->openPixels}, {"layers", layers}};
   }
   return ok;
 }
@@ -753,8 +573,9 @@ bool writeOutputs(const Drawn& d, gfx::Context& context, Diagnostics& all) {
   bool ok = writeImages(out, d.o, d.frame);
   json stats = statsJson(d, context, all);
   ok = writeAnalyses(out, d, all, stats) && ok;
-  ok = writeJson(out / "camera.json", app::cameraToJson(d.setup.camera, d.setup.scene.frame, d.o.width, d.o.height)) &&
-       ok;
+  ok =
+      writeJson(out / "camera.json", scene::cameraToJson(d.setup.camera, d.setup.scene.frame, d.o.width, d.o.height)) &&
+      ok;
   ok = writeJson(out / "stats.json", stats) && ok;
   if (!ok) return false;
   std::printf("%s\n", (std::filesystem::absolute(out) / "color.png").string().c_str());

@@ -14,9 +14,9 @@
 #include <imgui_impl_glfw.h>
 #include <imgui_impl_opengl3.h>
 
-#include "app/scene.hpp"
 #include "core/log.hpp"
 #include "gfx/window_context.hpp"
+#include "scene/scene.hpp"
 
 namespace gis::viewer {
 namespace {
@@ -150,40 +150,40 @@ bool Viewer::loadPath(const std::string& path) {
   if (isVectorFile(path)) {
     if (!description_) {
       // A vector file alone: over flat ground covering its extent.
-      Result<app::SceneDescription> alone = app::sceneForVectorFile(path);
+      Result<scene::SceneDescription> alone = scene::sceneForVectorFile(path);
       report(alone.diagnostics);
       return alone && useScene(std::move(*alone));
     }
     // A new layer of the current scene: its kind from what the file holds.
     // After every layer of the scene, those its file left out included.
     std::size_t next = description_->layers.size();
-    for (const app::LayerDescription& l : description_->layers) next = std::max(next, l.fileIndex + 1);
-    Result<std::vector<app::LayerDescription>> layers = app::layersForVectorFile(path, scene_->frame, next);
+    for (const scene::LayerDescription& l : description_->layers) next = std::max(next, l.fileIndex + 1);
+    Result<std::vector<scene::LayerDescription>> layers = scene::layersForVectorFile(path, scene_->frame, next);
     report(layers.diagnostics);
     if (!layers) return false;
-    app::SceneDescription grown = *description_;
+    scene::SceneDescription grown = *description_;
     grown.layers.insert(grown.layers.end(), layers->begin(), layers->end());
     return useScene(std::move(grown));
   }
   std::error_code ec;
-  if (isRasterFile(path) || std::filesystem::is_directory(path, ec)) return useScene(app::sceneForDem(path));
-  Result<app::SceneDescription> description = app::loadSceneFile(path);
+  if (isRasterFile(path) || std::filesystem::is_directory(path, ec)) return useScene(scene::sceneForDem(path));
+  Result<scene::SceneDescription> description = scene::loadSceneFile(path);
   report(description.diagnostics);
   if (!description) return false;
   return useScene(std::move(*description));
 }
 
-bool Viewer::useScene(app::SceneDescription description) {
+bool Viewer::useScene(scene::SceneDescription description) {
   finishSelection();  // its job reads the scene about to go
-  Result<app::LoadedScene> scene = app::loadScene(description);
+  Result<scene::LoadedScene> scene = scene::loadScene(description);
   for (const Diagnostic& d : scene.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
   if (!scene) return false;
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();
-  app::OverlayBuildSettings build;
+  scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene, build);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene, build);
   for (const Diagnostic& d : renderer.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
   if (!renderer) return false;
   scene_ = std::move(*scene);
@@ -191,10 +191,10 @@ bool Viewer::useScene(app::SceneDescription description) {
   description_ = std::move(description);
   scene_->bounds->setExaggeration(description_->verticalExaggeration);
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene_, description_->verticalExaggeration, lo, hi);
-  app::Camera home = app::overviewCamera(lo, hi, settings_.fovYDeg);
+  scene::terrainBox(*scene_, description_->verticalExaggeration, lo, hi);
+  scene::Camera home = scene::overviewCamera(lo, hi, settings_.fovYDeg);
   if (description_->camera) {
-    Result<app::Camera> placed = app::placeCamera(*description_->camera, scene_->frame, description_->path);
+    Result<scene::Camera> placed = scene::placeCamera(*description_->camera, scene_->frame, description_->path);
     if (placed) home = *placed;
   }
   if (controller_) {
@@ -233,8 +233,8 @@ double Viewer::aspect() const {
   return fb.y > 0 ? static_cast<double>(fb.x) / fb.y : 1.0;
 }
 
-app::Camera Viewer::camera() const {
-  app::Camera c = controller_->camera();
+scene::Camera Viewer::camera() const {
+  scene::Camera c = controller_->camera();
   c.fovYDeg = settings_.fovYDeg;
   return c;
 }
@@ -297,8 +297,8 @@ void Viewer::drawScene() {
   render_.measure = frameIndex_ % 30 == 1 || script_.has_value();  // queries wait for the GPU: sample them
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
   render_.imagery = settings_.imagery;
-  const app::Camera c = camera();
-  const app::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
+  const scene::Camera c = camera();
+  const scene::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
   if (render_.measure) {
     stats_ = s;
   } else {
@@ -308,7 +308,7 @@ void Viewer::drawScene() {
     stats_.tilesMissing = s.tilesMissing;
     stats_.pager = s.pager;
   }
-  const overlay::OverlayView view = app::overlayViewOf(c, aspect());
+  const overlay::OverlayView view = scene::overlayViewOf(c, aspect());
   if (!steps_.empty()) {
     selectionRenderer_->select(cache_, view);
     selectionRenderer_->highlight(cache_, highlight_);

@@ -17,15 +17,15 @@
 #include <glm/vec3.hpp>
 #include <nlohmann/json_fwd.hpp>
 
-#include "app/camera_controller.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
-#include "app/scene_selection.hpp"
 #include "app/viewer_script.hpp"
 #include "app/viewer_settings.hpp"
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
+#include "scene/camera_controller.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
+#include "scene/scene_selection.hpp"
 #include "vector_overlay/selection_renderer.hpp"
 
 namespace gis::viewer {
@@ -79,7 +79,7 @@ class Viewer {
   /// Loads a scene file (or makes a scene of a DEM, or adds a vector layer to the current
   /// scene) — what dropping a file on the window does. Reports and keeps the old scene on failure.
   bool loadPath(const std::string& path);
-  bool useScene(app::SceneDescription description);
+  bool useScene(scene::SceneDescription description);
   void frame(double seconds);
 
   // Input (viewer_input.cpp).
@@ -155,30 +155,30 @@ class Viewer {
   [[nodiscard]] glm::ivec2 framebufferSize() const;
   /// Window (screen) coordinates → framebuffer pixels (high-DPI).
   [[nodiscard]] glm::dvec2 toPixels(const glm::dvec2& window) const;
-  [[nodiscard]] app::Camera camera() const;
+  [[nodiscard]] scene::Camera camera() const;
   [[nodiscard]] double aspect() const;
 
   std::unique_ptr<gfx::Context> context_;
   ViewerOptions options_;
   app::ViewerSettings settings_;
-  std::optional<app::SceneDescription> description_;
-  std::optional<app::LoadedScene> scene_;
-  std::optional<app::SceneRenderer> renderer_;
-  std::optional<app::CameraController> controller_;
+  std::optional<scene::SceneDescription> description_;
+  std::optional<scene::LoadedScene> scene_;
+  std::optional<scene::SceneRenderer> renderer_;
+  std::optional<scene::CameraController> controller_;
   std::optional<overlay::SelectionRenderer> selectionRenderer_;
   std::optional<gfx::RenderTarget> target_;
   gfx::StateCache cache_;
-  app::RenderSettings render_;
+  scene::RenderSettings render_;
   const overlay::TechniqueInfo* technique_ = &overlay::defaultTechnique();
   int drapeSize_ = 2048;  ///< texture techniques: texels per side
   bool imgui_ = false;
 
   // Selection.
   std::vector<overlay::SelectionStep> steps_;
-  std::optional<app::SceneSelection> selected_;                       ///< the logical selection, once its job is done
-  std::future<std::pair<app::SceneSelection, double>> selectionJob_;  ///< and its wall time, ms
-  std::size_t selectionGeneration_ = 0;                               ///< counts changes of the lassos
-  std::size_t jobGeneration_ = 0;                                     ///< the lassos the running job selects with
+  std::optional<scene::SceneSelection> selected_;                       ///< the logical selection, once its job is done
+  std::future<std::pair<scene::SceneSelection, double>> selectionJob_;  ///< and its wall time, ms
+  std::size_t selectionGeneration_ = 0;                                 ///< counts changes of the lassos
+  std::size_t jobGeneration_ = 0;                                       ///< the lassos the running job selects with
   overlay::SelectionStyle highlight_;
   bool lassoTool_ = false;
   std::vector<glm::dvec2> lassoPoints_;  ///< being drawn, framebuffer pixels
@@ -187,7 +187,7 @@ class Viewer {
   bool showHelp_ = false;
   bool debugPieces_ = false;
   std::optional<Identified> identified_;
-  app::FrameStats stats_;
+  scene::FrameStats stats_;
   std::vector<overlay::LayerFrameStats> measured_;
   double frameMs_ = 16.0;
   double selectionMs_ = 0.0;  ///< wall time of the last logical selection (features and posts)

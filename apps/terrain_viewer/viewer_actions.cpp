@@ -13,9 +13,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/json_file.hpp"
-#include "app/scene.hpp"
 #include "gfx/image_io.hpp"
+#include "scene/json_file.hpp"
+#include "scene/scene.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {
@@ -53,7 +53,7 @@ void Viewer::rebuildOverlays() {
   for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
     scene_->layers[i].description = description_->layers[i];
   }
-  app::OverlayBuildSettings build;
+  scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
   for (const Diagnostic& d : renderer_->buildOverlays(*scene_, build).items()) {
@@ -70,7 +70,7 @@ void Viewer::addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points) {
   overlay::SelectionStep step;
   step.op = op;
   step.lasso.points = std::move(points);
-  const app::Camera c = camera();
+  const scene::Camera c = camera();
   step.lasso.viewProj = c.projection(aspect()) * c.view();
   step.lasso.width = fb.x;
   step.lasso.height = fb.y;
@@ -107,14 +107,14 @@ void Viewer::startSelection() {
   if (steps_.empty() || !scene_ || !renderer_) return;
   const glm::ivec2 fb = framebufferSize();
   const std::vector<overlay::SelectionStep> steps = steps_;
-  const app::Camera c = camera();
+  const scene::Camera c = camera();
   const int width = std::max(fb.x, 1), height = std::max(fb.y, 1);
   jobGeneration_ = selectionGeneration_;
   // Reads the scene and the layers only; whatever changes them waits for it first
   // (finishSelection). A paged scene loads tiles while it draws, so it selects in this thread.
   const auto job = [this, steps, c, width, height] {
     const auto start = std::chrono::steady_clock::now();
-    app::SceneSelection result = app::selectInScene(*scene_, *renderer_, steps, c, width, height);
+    scene::SceneSelection result = scene::selectInScene(*scene_, *renderer_, steps, c, width, height);
     return std::make_pair(std::move(result),
                           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
   };
@@ -148,8 +148,8 @@ bool Viewer::exportSelection(const std::filesystem::path& path) {
   }
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
-  const Diagnostics d = app::exportSelection(*scene_, *renderer_, *selected_, path,
-                                             path.has_parent_path() ? path.parent_path() : std::filesystem::path("."));
+  const Diagnostics d = scene::exportSelection(
+      *scene_, *renderer_, *selected_, path, path.has_parent_path() ? path.parent_path() : std::filesystem::path("."));
   for (const Diagnostic& m : d.items()) message(m.toString(), m.severity == Severity::Error);
   if (d.hasErrors()) return false;
   message("exported " + std::to_string(selected_->featureCount()) + " features to " + path.string());
@@ -184,7 +184,7 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
     std::ofstream(stem.string() + "_camera.json")
-        << app::jsonText(app::cameraToJson(camera(), scene_->frame, target_->width(), target_->height())) << "\n";
+        << scene::jsonText(scene::cameraToJson(camera(), scene_->frame, target_->width(), target_->height())) << "\n";
   }
   const Result<bool> png =
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);

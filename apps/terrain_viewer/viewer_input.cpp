@@ -81,7 +81,7 @@ overlay::SelectionOp lassoOpOf(const app::Modifiers& m) {
 }  // namespace
 
 void Viewer::handleInput(double seconds, const InputFrame& in) {
-  const bool fly = controller_->mode() == app::CameraController::Mode::Fly;
+  const bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
   if (!in.uiMouse) handleMouse(in);
   leftDown_ = in.left;
   rightDown_ = in.right;
@@ -101,7 +101,7 @@ void Viewer::handleMouse(const InputFrame& in) {
   const glm::dvec2 pixel = in.cursor, lastPixel = lastPixel_;
   const glm::ivec2 fb = framebufferSize();
   const bool left = in.left, right = in.right, middle = in.middle;
-  const bool fly = controller_->mode() == app::CameraController::Mode::Fly;
+  const bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
 
   if (left && !leftDown_) {
     pressCursor_ = pixel;
@@ -162,7 +162,7 @@ void Viewer::keyPressed(int key, bool fly) {
       controller_->goHome();
       break;
     case GLFW_KEY_F:
-      controller_->setMode(fly ? app::CameraController::Mode::Orbit : app::CameraController::Mode::Fly);
+      controller_->setMode(fly ? scene::CameraController::Mode::Orbit : scene::CameraController::Mode::Fly);
       break;
     case GLFW_KEY_L:
       lassoTool_ = !lassoTool_;

@@ -44,9 +44,9 @@ void Viewer::drawViewSection() {
   if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
   if (ImGui::Button("Home (H)")) controller_->goHome();
   ImGui::SameLine();
-  bool fly = controller_->mode() == app::CameraController::Mode::Fly;
+  bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
   if (ImGui::Checkbox("fly (F)", &fly)) {
-    controller_->setMode(fly ? app::CameraController::Mode::Fly : app::CameraController::Mode::Orbit);
+    controller_->setMode(fly ? scene::CameraController::Mode::Fly : scene::CameraController::Mode::Orbit);
   }
   float fov = static_cast<float>(settings_.fovYDeg);
   if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F, "%.0f°")) settings_.fovYDeg = fov;
@@ -125,7 +125,7 @@ void Viewer::drawLayersSection() {
 bool Viewer::drawLayer(std::size_t i) {
   bool rebuild = false;
   ImGui::PushID(static_cast<int>(i));
-  app::LayerDescription& layer = description_->layers[i];
+  scene::LayerDescription& layer = description_->layers[i];
   const std::optional<bool> state = layerShown(i);
   const bool built = state.has_value();
   bool shown = state.value_or(false);
@@ -133,7 +133,7 @@ bool Viewer::drawLayer(std::size_t i) {
   if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
   if (!built) ImGui::EndDisabled();
   ImGui::SameLine();
-  const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+  const scene::LayerSummary summary = renderer_->layerSummary(*scene_, i);
   const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
   if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
     // Nothing is lost silently: the counts here, each feature named under Messages.
@@ -210,7 +210,7 @@ void Viewer::drawSelectionSection() {
 }
 
 void Viewer::drawSelectedFeatures() {
-  for (const app::LayerSelection& l : selected_->layers) {
+  for (const scene::LayerSelection& l : selected_->layers) {
     const overlay::OverlayLayer& drawn = renderer_->overlayLayers()[l.overlayLayer];
     if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", scene_->layers[l.sceneLayer].description.name.c_str(),
                          l.features.size(), l.fullyInside)) {
@@ -284,7 +284,7 @@ void Viewer::drawHud() {
   if (scene_->paged()) {
     ImGui::Text("tiles: %zu resident, %zu loading", stats_.pager.residentTiles, stats_.pager.pending);
   }
-  const app::Camera c = camera();
+  const scene::Camera c = camera();
   if (const std::optional<glm::dvec3> ll =
           scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, scene_->bounds->exaggeration()))) {
     ImGui::Text("eye %.5f, %.5f, %.0f m", ll->y, ll->x, ll->z);

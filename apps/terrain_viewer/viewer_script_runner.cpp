@@ -14,7 +14,7 @@
 #include <GLFW/glfw3.h>
 #include <nlohmann/json.hpp>
 
-#include "app/json_file.hpp"
+#include "scene/json_file.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {
@@ -83,7 +83,7 @@ struct StepRunner {
   /// Writes `j` to `path`; false (reported) when it cannot.
   bool write(const std::string& path, const nlohmann::json& j) const {
     std::ofstream out(path);
-    out << app::jsonText(j) << "\n";
+    out << scene::jsonText(j) << "\n";
     if (!out) v.message(where + ": cannot write " + path, true);
     return static_cast<bool>(out);
   }
@@ -128,10 +128,10 @@ struct StepRunner {
   }
 
   bool operator()(const app::CameraStep& step) const {
-    Result<app::CameraSpec> spec = app::parseCameraSpec(step.camera, step.cameraFile);
+    Result<scene::CameraSpec> spec = scene::parseCameraSpec(step.camera, step.cameraFile);
     for (const Diagnostic& d : spec.diagnostics.items()) v.message(where + ": " + d.toString(), true);
     if (!spec) return false;
-    Result<app::Camera> placed = app::placeCamera(*spec, v.scene_->frame, where);
+    Result<scene::Camera> placed = scene::placeCamera(*spec, v.scene_->frame, where);
     for (const Diagnostic& d : placed.diagnostics.items()) v.message(where + ": " + d.toString(), true);
     if (!placed) return false;
     v.settings_.fovYDeg = spec->fovYDeg;

@@ -12,9 +12,9 @@
 #include <glm/matrix.hpp>
 #include <nlohmann/json.hpp>
 
-#include "app/json_file.hpp"
-#include "app/scene.hpp"
 #include "geo/vector.hpp"
+#include "scene/json_file.hpp"
+#include "scene/scene.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "viewer.hpp"
 
@@ -30,7 +30,7 @@ std::string attributeText(const geo::AttributeValue& v) {
         } else if constexpr (std::is_same_v<T, std::string>) {
           return x;
         } else {
-          return app::jsonText(nlohmann::json(x), -1);
+          return scene::jsonText(nlohmann::json(x), -1);
         }
       },
       v);
@@ -64,7 +64,7 @@ std::optional<glm::dvec3> Viewer::pointAt(const glm::dvec2& pixel) const {
   const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
   const std::optional<float> depth = depthAt(x, y);
   if (!depth) return std::nullopt;
-  const app::Camera c = camera();
+  const scene::Camera c = camera();
   const glm::dvec4 ndc(2.0 * (x + 0.5) / target_->width() - 1.0, 1.0 - 2.0 * (y + 0.5) / target_->height(),
                        static_cast<double>(*depth), 1.0);
   const glm::dvec4 p = glm::inverse(c.projection(aspect()) * c.view()) * ndc;
@@ -75,7 +75,7 @@ std::optional<glm::dvec3> Viewer::pointAt(const glm::dvec2& pixel) const {
 std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   const std::optional<glm::dvec3> world = pointAt(pixel);
   if (!world) return std::nullopt;
-  const app::Camera c = camera();
+  const scene::Camera c = camera();
   const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
   Identified id;
   id.frame = *world;
@@ -108,7 +108,7 @@ nlohmann::json Viewer::state() const {
     return {
         {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
   }
-  const app::OrbitPose& pose = controller_->shownPose();
+  const scene::OrbitPose& pose = controller_->shownPose();
   nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
   for (const overlay::SelectionStep& st : steps_) {
     steps.push_back(overlay::selectionOpName(st.op));
@@ -118,7 +118,7 @@ nlohmann::json Viewer::state() const {
   }
   nlohmann::json layers = nlohmann::json::array();
   for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-    const app::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+    const scene::LayerSummary summary = renderer_->layerSummary(*scene_, i);
     layers.push_back({{"name", scene_->layers[i].description.name},
                       {"shown", layerShown(i).value_or(false)},
                       {"features", summary.features},
@@ -127,8 +127,8 @@ nlohmann::json Viewer::state() const {
                       {"drawn_features", summary.drawnFeatures}});
   }
   nlohmann::json j = {
-      {"mode", controller_->mode() == app::CameraController::Mode::Fly ? "fly" : "orbit"},
-      {"camera", app::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
+      {"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
+      {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
       {"pose",
        {{"target", {pose.target.x, pose.target.y, pose.target.z}},
         {"yaw", pose.yaw},

@@ -22,12 +22,12 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "dem_files.hpp"
 #include "gfx/image_io.hpp"
 #include "gl_test.hpp"
 #include "program_output.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/lasso.hpp"
 
@@ -95,12 +95,12 @@ struct OlindaReference {
 
 OlindaReference olindaReference(const overlay::DepthImage& image) {
   OlindaReference r;
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  Result<scene::SceneDescription> description =
+      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
   if (!description.ok()) return r;
-  Result<app::LoadedScene> scene = app::loadScene(*description);
+  Result<scene::LoadedScene> scene = scene::loadScene(*description);
   if (!scene.ok()) return r;
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene);
   if (!renderer.ok() || renderer->overlaySources().empty() ||
       renderer->overlaySources()[0] != std::make_pair(std::size_t{0}, false))  // the tracts' fill first
     return r;
@@ -171,8 +171,8 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   const std::size_t pixels = static_cast<std::size_t>(kWidth) * kHeight;
 
   // Terrain visible without overlays.
-  const glm::dvec3 background(std::lround(app::kBackground.x * 255.0F), std::lround(app::kBackground.y * 255.0F),
-                              std::lround(app::kBackground.z * 255.0F));
+  const glm::dvec3 background(std::lround(scene::kBackground.x * 255.0F), std::lround(scene::kBackground.y * 255.0F),
+                              std::lround(scene::kBackground.z * 255.0F));
   std::size_t terrain = 0;
   for (std::size_t i = 0; i < pixels; ++i) terrain += depth.pixels[i] > 0.0F ? 1u : 0u;
   std::size_t notBackground = 0;

@@ -5,11 +5,11 @@
 
 #include <gtest/gtest.h>
 
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/window_context.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 
 namespace gis::test {
 namespace {
@@ -25,22 +25,22 @@ std::vector<std::uint8_t> renderOlinda(bool window) {
       window ? gfx::createWindowContext(options) : gfx::createHeadlessContext(options);
   EXPECT_TRUE(context.ok()) << (context.diagnostics.empty() ? "" : context.diagnostics.items().front().toString());
   if (!context) return {};
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  Result<app::LoadedScene> scene = app::loadScene(*description);
+  Result<scene::SceneDescription> description =
+      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  Result<scene::LoadedScene> scene = scene::loadScene(*description);
   EXPECT_TRUE(scene.ok());
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene);
   EXPECT_TRUE(renderer.ok());
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene, 1.0, lo, hi);
+  scene::terrainBox(*scene, 1.0, lo, hi);
   gfx::StateCache cache;
   gfx::RenderTarget target(kSize, kSize);
-  renderer->render(cache, target.framebuffer(), kSize, kSize, app::overviewCamera(lo, hi), {});
+  renderer->render(cache, target.framebuffer(), kSize, kSize, scene::overviewCamera(lo, hi), {});
   std::vector<std::uint8_t> pixels = gfx::readColorRgba8(target);
   EXPECT_EQ((*context)->debug().errorCount(), 0u);
   if (window) {
     // Also into the window's own back buffer, as the viewer draws.
-    renderer->render(cache, 0, kSize, kSize, app::overviewCamera(lo, hi), {});
+    renderer->render(cache, 0, kSize, kSize, scene::overviewCamera(lo, hi), {});
     (*context)->swapBuffers();
     EXPECT_EQ((*context)->debug().errorCount(), 0u);
   }

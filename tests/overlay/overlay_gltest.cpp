@@ -15,15 +15,15 @@
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "gfx/camera.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
 #include "overlay_compare.hpp"
 #include "random_features.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/terrain_engine.hpp"
@@ -58,22 +58,22 @@ overlay::LayerBuildOptions splitAtChunks(const terrain::TerrainGrid& grid) {
 /// The Olinda sample scene, loaded and uploaded (needs the GL context), with its overlay layers
 /// in draw order; empty optionals after a (reported) failure.
 struct OlindaScene {
-  std::optional<app::LoadedScene> scene;
-  std::optional<app::SceneRenderer> renderer;
+  std::optional<scene::LoadedScene> scene;
+  std::optional<scene::SceneRenderer> renderer;
   std::vector<const overlay::OverlayLayer*> layers;
 };
 
 OlindaScene loadOlinda() {
   OlindaScene o;
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  Result<scene::SceneDescription> description =
+      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
   EXPECT_TRUE(description.ok());
   if (!description) return o;
-  Result<app::LoadedScene> scene = app::loadScene(*description);
+  Result<scene::LoadedScene> scene = scene::loadScene(*description);
   EXPECT_TRUE(scene.ok());
   if (!scene) return o;
   o.scene = std::move(*scene);
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*o.scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*o.scene);
   EXPECT_TRUE(renderer.ok());
   if (!renderer) return o;
   o.renderer = std::move(*renderer);
@@ -92,9 +92,9 @@ TEST_F(OverlayGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
   ASSERT_GE(layers.size(), 2u);
 
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene, 1.0, lo, hi);
+  scene::terrainBox(*scene, 1.0, lo, hi);
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   std::mt19937 rng(4242);
   std::uniform_real_distribution<double> ux(lo.x + 300, hi.x - 300), uy(lo.y + 300, hi.y - 300);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -113,7 +113,7 @@ TEST_F(OverlayGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
     if (trial == 36) rng.seed(4242);
     settings.overlay.forceZFail = trial >= 36;
     const int kind = trial % 6;
-    app::Camera camera;
+    scene::Camera camera;
     camera.fovYDeg = 40.0;
     const glm::dvec2 target2(ux(rng), uy(rng));
     const double ground = scene->bounds->fullResolutionHeightAt(target2);
@@ -157,7 +157,7 @@ TEST_F(OverlayGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
         camera.nearPlane = 30.0;
         break;
     }
-    const app::FrameStats stats = renderer->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+    const scene::FrameStats stats = renderer->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
     const double aspect = static_cast<double>(kWidth) / kHeight;
     Comparison c = compare(target, camera.projection(aspect) * camera.view(), layers,
                            std::string(kinds[kind]) + " #" + std::to_string(trial));
@@ -243,15 +243,15 @@ TEST_F(OverlayGlTest, MsaaIsExactPerSample) {
   auto& renderer = olinda.renderer;
   const std::vector<const overlay::OverlayLayer*>& layers = olinda.layers;
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene, 1.0, lo, hi);
+  scene::terrainBox(*scene, 1.0, lo, hi);
   const glm::dvec3 centre = 0.5 * (lo + hi);
   gfx::RenderTarget msaa(kWidth, kHeight, 4, true), single(kWidth, kHeight, 0, true);
   ASSERT_EQ(msaa.samples(), 4);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   Comparison total;
   std::size_t differingSamples = 0;  // samples of one pixel that disagree: MSAA does anti-alias
   for (const glm::dvec3& offset : {glm::dvec3(-900, -1400, 1300), glm::dvec3(800, 200, 500)}) {
-    app::Camera camera;
+    scene::Camera camera;
     camera.eye = centre + offset;
     camera.target = centre;
     camera.fovYDeg = 40.0;
@@ -629,7 +629,7 @@ TEST_F(OverlayGlTest, ExaggerationHasOneOwnerAndTheLayersFollowIt) {
   OlindaScene olinda = loadOlinda();
   ASSERT_TRUE(olinda.renderer);
   glm::dvec3 lo, hi;
-  app::terrainBox(*olinda.scene, 1.0, lo, hi);
+  scene::terrainBox(*olinda.scene, 1.0, lo, hi);
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   const double aspect = static_cast<double>(kWidth) / kHeight;
   std::mt19937 rng(77);
@@ -638,7 +638,7 @@ TEST_F(OverlayGlTest, ExaggerationHasOneOwnerAndTheLayersFollowIt) {
   for (const double exaggeration : {0.3, 6.0, 1.0}) {
     olinda.scene->bounds->setExaggeration(exaggeration);
     for (int trial = 0; trial < 4; ++trial) {
-      app::Camera camera;
+      scene::Camera camera;
       camera.fovYDeg = 40.0;
       const glm::dvec2 t(ux(rng), uy(rng));
       const double a = 6.283 * unit(rng), d = 600.0 + 900.0 * unit(rng);

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <utility>
 
-#include "app/json_file.hpp"
+#include "scene/json_file.hpp"
 #include "vector_overlay/style.hpp"
 #include "vector_overlay/technique.hpp"
 
@@ -512,7 +512,7 @@ CameraStep readCamera(StepReader& r, const std::string& file, Diagnostics& d) {
   step.cameraFile = file;
   if (c.is_string() && !c.get<std::string>().empty()) {
     step.cameraFile = r.resolve(c.get<std::string>());
-    std::optional<json> spec = readJsonFile(step.cameraFile, d);
+    std::optional<json> spec = scene::readJsonFile(step.cameraFile, d);
     if (!spec) {
       r.problem("'camera': cannot read the camera file " + step.cameraFile);
     } else {
@@ -623,7 +623,7 @@ Result<ViewerScript> parseViewerScript(const json& j, const std::string& file) {
 
 Result<ViewerScript> loadViewerScript(const std::string& path) {
   Result<ViewerScript> failed;
-  const std::optional<json> j = readJsonFile(path, failed.diagnostics);
+  const std::optional<json> j = scene::readJsonFile(path, failed.diagnostics);
   if (!j) return failed;
   return parseViewerScript(*j, path);
 }

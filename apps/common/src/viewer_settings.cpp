@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/json_file.hpp"
+#include "scene/json_file.hpp"
 
 namespace gis::app {
 
@@ -96,7 +96,7 @@ Diagnostics saveViewerSettings(const ViewerSettings& s, const std::filesystem::p
                             {"imagery", s.imagery},
                             {"export_path", s.exportPath}};
   std::ofstream out(path);
-  out << jsonText(j) << "\n";
+  out << scene::jsonText(j) << "\n";
   if (!out) d.add({Severity::Warning, path.string(), "", "", "cannot write the viewer settings"});
   return d;
 }

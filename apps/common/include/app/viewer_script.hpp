@@ -72,7 +72,7 @@ struct Modifiers {
 // script file's directory when relative (and then absolute).
 
 struct CameraStep {
-  nlohmann::json camera;   ///< the spec, parsed later against the scene frame (app::parseCameraSpec)
+  nlohmann::json camera;   ///< the spec, parsed later against the scene frame (scene::parseCameraSpec)
   std::string cameraFile;  ///< where the spec came from (the script or the camera file it names), for messages
   double seconds = 0.0;    ///< eased move over this long; 0: a jump
 };

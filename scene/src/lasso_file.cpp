@@ -1,4 +1,4 @@
-#include "app/lasso_file.hpp"
+#include "scene/lasso_file.hpp"
 
 #include <cmath>
 #include <filesystem>
@@ -6,10 +6,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/json_file.hpp"
+#include "scene/json_file.hpp"
 #include "vector_overlay/style.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 namespace {
 
 using nlohmann::json;
@@ -206,4 +206,4 @@ Result<SelectionRequest> loadLassoFile(const std::string& path, const geo::Scene
   return parseLassoFile(*j, path, std::filesystem::path(path).parent_path().string(), frame, current, width, height);
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

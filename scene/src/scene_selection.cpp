@@ -1,4 +1,4 @@
-#include "app/scene_selection.hpp"
+#include "scene/scene_selection.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -10,7 +10,7 @@
 #include "geo/export.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 std::size_t SceneSelection::featureCount() const {
   std::size_t n = 0;
@@ -93,4 +93,4 @@ Diagnostics exportSelection(const LoadedScene& scene, const SceneRenderer& rende
   return all;
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -1,4 +1,4 @@
-#include "app/scene_loader.hpp"
+#include "scene/scene_loader.hpp"
 
 #include <unistd.h>
 
@@ -16,7 +16,7 @@
 #include "terrain/terrain_grid.hpp"
 #include "terrain/tile_pager.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 namespace {
 
@@ -310,4 +310,19 @@ void terrainBox(const LoadedScene& scene, double exaggeration, glm::dvec3& boxMi
   boxMax = glm::dvec3(glm::max(a, b), std::max(z0, z1));
 }
 
-}  // namespace gis::app
+Result<Camera> stillCamera(const std::string& cameraFile, const SceneDescription& description,
+                           const std::string& sceneFile, const LoadedScene& scene) {
+  if (!cameraFile.empty()) {
+    Result<CameraSpec> spec = loadCameraFile(cameraFile);
+    if (!spec) return {std::nullopt, std::move(spec.diagnostics)};
+    Result<Camera> placed = placeCamera(*spec, scene.frame, cameraFile);
+    spec.diagnostics.append(placed.diagnostics);
+    return {std::move(placed.value), std::move(spec.diagnostics)};
+  }
+  if (description.camera) return placeCamera(*description.camera, scene.frame, sceneFile);
+  glm::dvec3 lo, hi;
+  terrainBox(scene, scene.bounds->exaggeration(), lo, hi);
+  return {overviewCamera(lo, hi), {}};
+}
+
+}  // namespace gis::scene

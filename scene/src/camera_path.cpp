@@ -1,10 +1,10 @@
-#include "app/camera_path.hpp"
+#include "scene/camera_path.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-namespace gis::app {
+namespace gis::scene {
 
 std::vector<PathFrame> flyThrough(const glm::dvec3& boxMin, const glm::dvec3& boxMax, int frames, double fovYDeg) {
   std::vector<PathFrame> path;
@@ -46,4 +46,4 @@ std::vector<PathFrame> flyThrough(const glm::dvec3& boxMin, const glm::dvec3& bo
   return path;
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -12,7 +12,7 @@
 #include "core/diagnostics.hpp"
 #include "geo/frame.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 /// A camera as a file states it, before it is placed in a frame.
 struct CameraSpec {
@@ -51,4 +51,4 @@ Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double
 /// convention, frame (crs, origin) and the camera itself in both forms (readable as --camera).
 nlohmann::json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width, int height);
 
-}  // namespace gis::app
+}  // namespace gis::scene

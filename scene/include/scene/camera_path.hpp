@@ -3,9 +3,9 @@
 #include <string>
 #include <vector>
 
-#include "app/camera.hpp"
+#include "scene/camera.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 struct PathFrame {
   Camera camera;
@@ -18,4 +18,4 @@ struct PathFrame {
 std::vector<PathFrame> flyThrough(const glm::dvec3& boxMin, const glm::dvec3& boxMax, int frames,
                                   double fovYDeg = 45.0);
 
-}  // namespace gis::app
+}  // namespace gis::scene

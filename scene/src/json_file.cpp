@@ -1,8 +1,8 @@
-#include "app/json_file.hpp"
+#include "scene/json_file.hpp"
 
 #include <fstream>
 
-namespace gis::app {
+namespace gis::scene {
 
 std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics& d) {
   std::ifstream in(path);
@@ -20,4 +20,4 @@ std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics&
   }
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "app/camera.hpp"
-#include "app/scene.hpp"
+#include "scene/camera.hpp"
+#include "scene/scene.hpp"
 
 namespace gis::test {
 namespace {
@@ -21,7 +21,7 @@ bool mentions(const Diagnostics& d, const std::string& text) {
 }
 
 TEST(SceneFile, OlindaSampleNamesItsData) {
-  Result<app::SceneDescription> scene = app::loadSceneFile(kSamples + "/olinda/scene.json");
+  Result<scene::SceneDescription> scene = scene::loadSceneFile(kSamples + "/olinda/scene.json");
   ASSERT_TRUE(scene.ok());
   EXPECT_EQ(scene.diagnostics.count(Severity::Error), 0u);
   EXPECT_EQ(scene.diagnostics.count(Severity::Warning), 0u);
@@ -37,14 +37,14 @@ TEST(SceneFile, OlindaSampleNamesItsData) {
 }
 
 TEST(SceneFile, PathsAreRelativeToTheSceneFile) {
-  Result<app::SceneDescription> scene =
-      app::parseScene(R"({"terrain": {"dem": "../x/dem.tif"}})", "/data/scenes/a.json");
+  Result<scene::SceneDescription> scene =
+      scene::parseScene(R"({"terrain": {"dem": "../x/dem.tif"}})", "/data/scenes/a.json");
   ASSERT_TRUE(scene.ok());
   EXPECT_EQ(scene->dem, "/data/x/dem.tif");
 }
 
 TEST(SceneFile, DemMayBeAListOfFilesAndFoldersWithItsCrsUnitAndSpacing) {
-  Result<app::SceneDescription> scene = app::parseScene(
+  Result<scene::SceneDescription> scene = scene::parseScene(
       R"({"terrain": {"dem": ["srtm", "extra/N49E008.hgt"], "crs": "EPSG:4326", "height_unit": "ft",
                       "resolution_m": 30}})",
       "/data/scenes/a.json");
@@ -57,29 +57,29 @@ TEST(SceneFile, DemMayBeAListOfFilesAndFoldersWithItsCrsUnitAndSpacing) {
   EXPECT_EQ(spec.heightUnit, "ft");
   EXPECT_EQ(spec.resolutionMetres, 30.0);
   // One file is a list of one.
-  Result<app::SceneDescription> one = app::parseScene(R"({"terrain": {"dem": "dem.tif"}})", "/s/a.json");
+  Result<scene::SceneDescription> one = scene::parseScene(R"({"terrain": {"dem": "dem.tif"}})", "/s/a.json");
   ASSERT_TRUE(one.ok());
   EXPECT_EQ(one->demSpec().paths, (std::vector<std::string>{"/s/dem.tif"}));
   // Bad values name the key.
   for (const char* text : {R"({"terrain": {"dem": []}})", R"({"terrain": {"dem": ["a.tif", 3]}})"}) {
-    Result<app::SceneDescription> bad = app::parseScene(text, "b.json");
+    Result<scene::SceneDescription> bad = scene::parseScene(text, "b.json");
     EXPECT_FALSE(bad.ok()) << text;
     EXPECT_TRUE(mentions(bad.diagnostics, "terrain.dem")) << text;
   }
-  Result<app::SceneDescription> unit =
-      app::parseScene(R"({"terrain": {"dem": "d.tif", "height_unit": "cubit", "resolution_m": -1}})", "u.json");
+  Result<scene::SceneDescription> unit =
+      scene::parseScene(R"({"terrain": {"dem": "d.tif", "height_unit": "cubit", "resolution_m": -1}})", "u.json");
   EXPECT_TRUE(mentions(unit.diagnostics, "terrain.height_unit"));
   EXPECT_TRUE(mentions(unit.diagnostics, "terrain.resolution_m"));
 }
 
 TEST(SceneFile, NotJsonIsAnErrorNamingTheFile) {
-  Result<app::SceneDescription> scene = app::parseScene("{ nope", "broken.json");
+  Result<scene::SceneDescription> scene = scene::parseScene("{ nope", "broken.json");
   EXPECT_FALSE(scene.ok());
   EXPECT_TRUE(mentions(scene.diagnostics, "broken.json"));
 }
 
 TEST(SceneFile, MissingDemFailsTheScene) {
-  Result<app::SceneDescription> scene = app::parseScene(R"({"name": "x"})", "s.json");
+  Result<scene::SceneDescription> scene = scene::parseScene(R"({"name": "x"})", "s.json");
   EXPECT_FALSE(scene.ok());
   EXPECT_TRUE(mentions(scene.diagnostics, "terrain"));
 }
@@ -92,7 +92,7 @@ TEST(SceneFile, BrokenLayerIsLeftOutWithAMessageAndTheRestLoads) {
       {"name": "bad", "kind": "volcano", "source": "b.geojson"},
       {"name": "bad colour", "kind": "polygon", "source": "c.shp", "style": {"color": "red"}}
     ]})";
-  Result<app::SceneDescription> scene = app::parseScene(text, "s.json");
+  Result<scene::SceneDescription> scene = scene::parseScene(text, "s.json");
   ASSERT_TRUE(scene.ok());
   ASSERT_EQ(scene->layers.size(), 1u);
   EXPECT_EQ(scene->layers[0].name, "good");
@@ -102,14 +102,14 @@ TEST(SceneFile, BrokenLayerIsLeftOutWithAMessageAndTheRestLoads) {
 }
 
 TEST(SceneFile, UnknownKeysAreWarnings) {
-  Result<app::SceneDescription> scene = app::parseScene(R"({"terrain": {"dem": "d.tif", "colour": 1}})", "s.json");
+  Result<scene::SceneDescription> scene = scene::parseScene(R"({"terrain": {"dem": "d.tif", "colour": 1}})", "s.json");
   ASSERT_TRUE(scene.ok());
   EXPECT_EQ(scene.diagnostics.count(Severity::Warning), 1u);
   EXPECT_TRUE(mentions(scene.diagnostics, "terrain.colour"));
 }
 
 TEST(SceneFile, WidthsInPixels) {
-  Result<app::SceneDescription> scene = app::parseScene(R"({
+  Result<scene::SceneDescription> scene = scene::parseScene(R"({
     "terrain": {"dem": "dem.tif"},
     "layers": [
       {"name": "roads", "kind": "line", "source": "a.geojson", "style": {"width_px": 3, "max_width_m": 20}},
@@ -117,7 +117,7 @@ TEST(SceneFile, WidthsInPixels) {
       {"name": "both", "kind": "line", "source": "c.geojson", "style": {"width_px": 3, "width_m": 4}},
       {"name": "negative", "kind": "polygon", "source": "d.shp", "style": {"outline_width_px": -1}}
     ]})",
-                                                        "s.json");
+                                                            "s.json");
   ASSERT_TRUE(scene.ok());
   ASSERT_EQ(scene->layers.size(), 2u);  // a layer with a style error is left out
   EXPECT_EQ(scene->layers[0].style.widthPixels, 3.0);
@@ -142,7 +142,7 @@ TEST(SceneFile, NumbersThatDoNotFitAreErrorsNamingTheKey) {
        "layers[0].style.order"},
   };
   for (const auto& [text, key] : cases) {
-    Result<app::SceneDescription> scene = app::parseScene(text, "s.json");
+    Result<scene::SceneDescription> scene = scene::parseScene(text, "s.json");
     ASSERT_TRUE(scene.diagnostics.hasErrors()) << text;
     bool named = false;
     for (const Diagnostic& d : scene.diagnostics.items()) {
@@ -154,33 +154,33 @@ TEST(SceneFile, NumbersThatDoNotFitAreErrorsNamingTheKey) {
 }
 
 TEST(SceneFile, TerrainPagingKeys) {
-  Result<app::SceneDescription> scene = app::parseScene(
+  Result<scene::SceneDescription> scene = scene::parseScene(
       R"({"terrain": {"dem": "d.tif", "paging": "always", "chunk_cells": 32, "memory_budget_mb": 300,
                       "gpu_budget_mb": 200, "cache_dir": "cache"}})",
       "/data/s.json");
   ASSERT_TRUE(scene.ok());
   EXPECT_TRUE(scene.diagnostics.empty());
-  EXPECT_EQ(scene->paging, app::TerrainPaging::Always);
+  EXPECT_EQ(scene->paging, scene::TerrainPaging::Always);
   EXPECT_EQ(scene->chunkCells, 32);
   EXPECT_EQ(scene->memoryBudgetMb, 300.0);
   EXPECT_EQ(scene->gpuBudgetMb, 200.0);
   EXPECT_EQ(scene->cacheDir, "/data/cache");
 
-  Result<app::SceneDescription> bad = app::parseScene(
+  Result<scene::SceneDescription> bad = scene::parseScene(
       R"({"terrain": {"dem": "d.tif", "paging": "sometimes", "chunk_cells": 48, "memory_budget_mb": 1}})", "s.json");
   ASSERT_TRUE(bad.ok());  // the terrain still loads, with the defaults
   EXPECT_EQ(bad.diagnostics.count(Severity::Error), 3u);
   EXPECT_TRUE(mentions(bad.diagnostics, "terrain.paging"));
   EXPECT_TRUE(mentions(bad.diagnostics, "terrain.chunk_cells"));
   EXPECT_TRUE(mentions(bad.diagnostics, "terrain.memory_budget_mb"));
-  EXPECT_EQ(bad->paging, app::TerrainPaging::Auto);
+  EXPECT_EQ(bad->paging, scene::TerrainPaging::Auto);
   EXPECT_EQ(bad->chunkCells, 64);
 }
 
 TEST(CameraFile, LonLatAndFrameFormsParse) {
   nlohmann::json j = {
       {"eye", {{"lon", -34.9}, {"lat", -8.0}, {"h", 500.0}}}, {"target_xyz", {1.0, 2.0, 3.0}}, {"fov_y_deg", 30.0}};
-  Result<app::CameraSpec> spec = app::parseCameraSpec(j, "c.json");
+  Result<scene::CameraSpec> spec = scene::parseCameraSpec(j, "c.json");
   ASSERT_TRUE(spec.ok());
   ASSERT_TRUE(spec->eyeLonLatH.has_value());
   EXPECT_DOUBLE_EQ(spec->eyeLonLatH->z, 500.0);
@@ -189,7 +189,7 @@ TEST(CameraFile, LonLatAndFrameFormsParse) {
 }
 
 TEST(CameraFile, MissingEyeOrBadFovIsAnError) {
-  Result<app::CameraSpec> spec = app::parseCameraSpec({{"target_xyz", {0, 0, 0}}, {"fov_y_deg", 400}}, "c.json");
+  Result<scene::CameraSpec> spec = scene::parseCameraSpec({{"target_xyz", {0, 0, 0}}, {"fov_y_deg", 400}}, "c.json");
   EXPECT_FALSE(spec.ok());
   EXPECT_TRUE(mentions(spec.diagnostics, "eye"));
   EXPECT_TRUE(mentions(spec.diagnostics, "fov_y_deg"));

@@ -1,7 +1,7 @@
 #pragma once
 // Interactive camera for the desktop viewer: orbit, grab-pan and zoom-to-cursor around a target,
 // WASD flying, a shown camera that eases towards a goal, scripted keyframes and terrain following.
-// Pure maths on app::Camera: no GL, no window, so every gesture can be tested without a display.
+// Pure maths on scene::Camera: no GL, no window, so every gesture can be tested without a display.
 #include <functional>
 #include <numbers>
 #include <optional>
@@ -10,9 +10,9 @@
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
-#include "app/camera.hpp"
+#include "scene/camera.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 /// Height of the drawn terrain surface at frame (x, y) in metres (exaggerated), NaN off the terrain.
 using HeightAt = std::function<double(const glm::dvec2&)>;
@@ -158,4 +158,4 @@ class CameraController {
   std::optional<Animation> animation_;
 };
 
-}  // namespace gis::app
+}  // namespace gis::scene

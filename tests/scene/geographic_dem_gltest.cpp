@@ -24,14 +24,14 @@
 #include <ogr_spatialref.h>
 #include <nlohmann/json.hpp>
 
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "dem_files.hpp"
 #include "geo/raster.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
 #include "random_features.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 #include "synth/synthetic_dem.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
@@ -92,7 +92,7 @@ class GeographicDemGlTest : public GlTest {
     dir() = outputDir();
     demPath() = dir() + "/synth_lonlat.tif";
     ASSERT_TRUE(synth::writeSyntheticDem(demPath(), synth::geographicDemOptions(161, 11)).ok());
-    app::SceneDescription scene = app::sceneForDem(demPath());
+    scene::SceneDescription scene = scene::sceneForDem(demPath());
     scene.chunkCells = 16;
     scene.cacheDir = dir() + "/cache";
     // Features placed in the frame the DEM gets, written in longitude/latitude.
@@ -109,12 +109,12 @@ class GeographicDemGlTest : public GlTest {
     writeLonLatGeoJson(dir() + "/roads.geojson", lines, *frame);
     insideArea() = polygons[1].polygons[0].outer;
     road() = lines[4].lines[0];  // 28 m wide
-    app::LayerDescription areas;
+    scene::LayerDescription areas;
     areas.name = "areas";
     areas.kind = overlay::LayerKind::Polygon;
     areas.source = dir() + "/areas.geojson";
     areas.style.outlineWidthMetres = 8.0F;
-    app::LayerDescription roads;
+    scene::LayerDescription roads;
     roads.name = "roads";
     roads.kind = overlay::LayerKind::Line;
     roads.source = dir() + "/roads.geojson";
@@ -133,8 +133,8 @@ class GeographicDemGlTest : public GlTest {
     static std::string p;
     return p;
   }
-  static std::optional<app::SceneDescription>& description() {
-    static std::optional<app::SceneDescription> d;
+  static std::optional<scene::SceneDescription>& description() {
+    static std::optional<scene::SceneDescription> d;
     return d;
   }
   static geo::Ring& insideArea() {
@@ -151,19 +151,19 @@ TEST_F(GeographicDemGlTest, TerrainLiesOnTheSourceAndOverlaysAreExactPagedAndInM
   Result<geo::Raster> source = geo::readRaster(demPath());
   ASSERT_TRUE(source.ok());
   const geo::RasterInfo& si = source->info;
-  for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
-    const char* mode = paging == app::TerrainPaging::Never ? "in memory" : "paged";
-    app::LoadOptions options;
+  for (const scene::TerrainPaging paging : {scene::TerrainPaging::Never, scene::TerrainPaging::Always}) {
+    const char* mode = paging == scene::TerrainPaging::Never ? "in memory" : "paged";
+    scene::LoadOptions options;
     options.paging = paging;
     options.progress = [](double) {};
-    Result<app::LoadedScene> scene = app::loadScene(*description(), options);
+    Result<scene::LoadedScene> scene = scene::loadScene(*description(), options);
     ASSERT_TRUE(scene.ok());
-    ASSERT_EQ(scene->paged(), paging == app::TerrainPaging::Always);
+    ASSERT_EQ(scene->paged(), paging == scene::TerrainPaging::Always);
     EXPECT_EQ(scene->frame.epsg(), 32632);
     ASSERT_EQ(scene->layers.size(), 2u);
     Result<geo::CrsTransform> toSource = scene->frame.transformTo(si.crsWkt);
     ASSERT_TRUE(toSource.ok());
-    Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+    Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene);
     ASSERT_TRUE(renderer.ok());
     std::vector<overlay::ReferenceLayer> ref;
     for (const overlay::OverlayLayer& l : renderer->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
@@ -178,21 +178,21 @@ TEST_F(GeographicDemGlTest, TerrainLiesOnTheSourceAndOverlaysAreExactPagedAndInM
       return bilinearAt(source->samples, si.width, si.height, uv.x, uv.y);
     };
     glm::dvec3 lo, hi;
-    app::terrainBox(*scene, 1.0, lo, hi);
+    scene::terrainBox(*scene, 1.0, lo, hi);
     const glm::dvec3 centre = 0.5 * (lo + hi);
 
-    std::vector<app::Camera> cameras;
-    app::Camera top = app::overviewCamera(lo, hi);
+    std::vector<scene::Camera> cameras;
+    scene::Camera top = scene::overviewCamera(lo, hi);
     top.eye = centre + glm::dvec3(0.0, -10.0, 14000.0);
     top.target = centre;
     cameras.push_back(top);
-    app::Camera oblique = top;
+    scene::Camera oblique = top;
     oblique.eye = centre + glm::dvec3(2000.0, -9000.0, 5000.0);
     cameras.push_back(oblique);
     const glm::dvec2 low(centre.x, lo.y + 800.0);
     const double lowGround = groundAt(low);
     if (std::isnan(lowGround)) FAIL() << "no ground under the grazing camera";
-    app::Camera grazing = top;
+    scene::Camera grazing = top;
     grazing.eye = glm::dvec3(low, lowGround + 40.0);
     grazing.target = glm::dvec3(centre.x + 500.0, hi.y, lowGround + 10.0);
     grazing.nearPlane = 1.0;
@@ -200,7 +200,7 @@ TEST_F(GeographicDemGlTest, TerrainLiesOnTheSourceAndOverlaysAreExactPagedAndInM
     // The eye in an area's volume (just above the ground at a vertex's inner side) and in a road's.
     const glm::dvec2 areaCentre = 0.5 * (insideArea()[0] + insideArea()[insideArea().size() / 2]);
     const glm::dvec2 inArea = glm::mix(insideArea()[0], areaCentre, 0.3);
-    app::Camera inside = top;
+    scene::Camera inside = top;
     inside.eye = glm::dvec3(inArea, groundAt(inArea) + 2.0);
     inside.target = glm::dvec3(areaCentre, groundAt(areaCentre));
     inside.nearPlane = 0.3;
@@ -209,7 +209,7 @@ TEST_F(GeographicDemGlTest, TerrainLiesOnTheSourceAndOverlaysAreExactPagedAndInM
     std::size_t seg = 0;
     while (seg + 2 < road().size() && std::isnan(groundAt(glm::mix(road()[seg], road()[seg + 1], 0.5)))) ++seg;
     const glm::dvec2 onRoad = glm::mix(road()[seg], road()[seg + 1], 0.5);
-    app::Camera inRoad = top;
+    scene::Camera inRoad = top;
     inRoad.eye = glm::dvec3(onRoad, groundAt(onRoad) + 1.0);
     // Along the road, 10° down.
     const glm::dvec2 along = glm::normalize(road()[seg + 1] - road()[seg]);
@@ -219,11 +219,11 @@ TEST_F(GeographicDemGlTest, TerrainLiesOnTheSourceAndOverlaysAreExactPagedAndInM
     const char* names[] = {"top-down", "oblique", "grazing", "eye in an area", "eye in a road"};
 
     gfx::RenderTarget target(kSize, kSize, 0, true);
-    app::RenderSettings settings;
+    scene::RenderSettings settings;
     settings.lodTolerancePixels = 0.0;  // every post: the surface is the frame grid's
     settings.waitForTiles = true;
     for (std::size_t k = 0; k < cameras.size(); ++k) {
-      const app::Camera& camera = cameras[k];
+      const scene::Camera& camera = cameras[k];
       ASSERT_FALSE(std::isnan(camera.eye.z)) << names[k];
       renderer->render(cache_, target.framebuffer(), kSize, kSize, camera, settings);
       const std::vector<float> depth = gfx::readDepth(target);
@@ -329,22 +329,22 @@ TEST_F(GeographicDemGlTest, ImageryInLongitudeLatitudeLandsWhereItBelongs) {
               CE_None);
     GDALClose(GDALDataset::ToHandle(ds));
   }
-  app::SceneDescription description = *this->description();
+  scene::SceneDescription description = *this->description();
   description.layers.clear();
   description.imagery = path;
-  Result<app::LoadedScene> scene = app::loadScene(description);
+  Result<scene::LoadedScene> scene = scene::loadScene(description);
   ASSERT_TRUE(scene.ok());
   ASSERT_TRUE(scene->orthophoto.has_value());
-  Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene);
   ASSERT_TRUE(renderer.ok());
   glm::dvec3 lo, hi;
-  app::terrainBox(*scene, 1.0, lo, hi);
+  scene::terrainBox(*scene, 1.0, lo, hi);
   const glm::dvec3 centre = 0.5 * (lo + hi);
-  app::Camera camera = app::overviewCamera(lo, hi);
+  scene::Camera camera = scene::overviewCamera(lo, hi);
   camera.eye = centre + glm::dvec3(1500.0, -7000.0, 9000.0);
   camera.target = centre;
   gfx::RenderTarget target(kSize, kSize, 0, true);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   settings.overlays = false;
   renderer->render(cache_, target.framebuffer(), kSize, kSize, camera, settings);
   const std::vector<float> depth = gfx::readDepth(target);
@@ -398,26 +398,26 @@ TEST_F(GeographicDemGlTest, SrtmMosaicHasNoCrack) {
       paths.push_back(path);
     }
   }
-  app::SceneDescription description = app::sceneForDem(tiles);
+  scene::SceneDescription description = scene::sceneForDem(tiles);
   description.chunkCells = 16;
   description.cacheDir = dir() + "/cache-srtm";
-  for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
-    app::LoadOptions options;
+  for (const scene::TerrainPaging paging : {scene::TerrainPaging::Never, scene::TerrainPaging::Always}) {
+    scene::LoadOptions options;
     options.paging = paging;
     options.progress = [](double) {};
-    Result<app::LoadedScene> scene = app::loadScene(description, options);
+    Result<scene::LoadedScene> scene = scene::loadScene(description, options);
     ASSERT_TRUE(scene.ok());
-    Result<app::SceneRenderer> renderer = app::SceneRenderer::create(*scene);
+    Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene);
     ASSERT_TRUE(renderer.ok());
     Result<geo::CrsTransform> toLonLat = scene->frame.transformTo("EPSG:4326");
     ASSERT_TRUE(toLonLat.ok());
     // Centred on the corner where the four tiles meet, the seams through the middle.
     const glm::dvec3 corner = *scene->frame.fromLonLat(7.0, 50.0, 0.0);
     gfx::RenderTarget target(kSize, kSize, 0, true);
-    app::RenderSettings settings;
+    scene::RenderSettings settings;
     settings.lodTolerancePixels = 1.5;  // mixed levels of detail: their stitching is checked too
     settings.waitForTiles = true;
-    app::Camera camera;
+    scene::Camera camera;
     camera.eye = corner + glm::dvec3(0.0, -1.0, 30000.0);
     camera.target = corner;
     camera.fovYDeg = 60.0;
@@ -446,7 +446,7 @@ TEST_F(GeographicDemGlTest, SrtmMosaicHasNoCrack) {
       }
     }
     std::printf("mosaic (%s): %zu pixels inside, %zu without terrain\n",
-                paging == app::TerrainPaging::Never ? "in memory" : "paged", inside, cracks);
+                paging == scene::TerrainPaging::Never ? "in memory" : "paged", inside, cracks);
     EXPECT_GT(inside, static_cast<std::size_t>(kSize * kSize / 3));
     EXPECT_EQ(cracks, 0u);
   }

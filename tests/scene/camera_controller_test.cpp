@@ -16,16 +16,16 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "app/camera_controller.hpp"
+#include "scene/camera_controller.hpp"
 
 namespace gis::test {
 namespace {
 
-using app::Camera;
-using app::CameraController;
-using app::ControllerSettings;
-using app::HeightAt;
-using app::OrbitPose;
+using scene::Camera;
+using scene::CameraController;
+using scene::ControllerSettings;
+using scene::HeightAt;
+using scene::OrbitPose;
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -239,7 +239,7 @@ TEST(CameraControllerOrbit, NoPivotWhileTheViewIsStillMoving) {
   CameraController controller(oblique());  // smoothed
   controller.orbit(glm::dvec2(100.0, 0.0));
   controller.update(kFrame, {});
-  const app::OrbitPose shown = controller.shownPose(), goal = controller.goalPose();
+  const scene::OrbitPose shown = controller.shownPose(), goal = controller.goalPose();
   ASSERT_FALSE(shown == goal);
   controller.pivotAt(300.0);
   EXPECT_TRUE(controller.shownPose() == shown);

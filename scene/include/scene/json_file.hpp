@@ -11,7 +11,7 @@
 
 #include "core/diagnostics.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 /// JSON text for an output file. Strings that are not UTF-8 (a path in a Latin-1 folder name, say)
 /// get U+FFFD for their bad bytes instead of an exception (nlohmann's dump throws on them).
@@ -56,4 +56,4 @@ std::optional<T> numberAs(const nlohmann::json& v) {
   }
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -1,4 +1,4 @@
-#include "app/scene.hpp"
+#include "scene/scene.hpp"
 
 #include <filesystem>
 #include <fstream>
@@ -9,9 +9,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "app/json_file.hpp"
+#include "scene/json_file.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 namespace {
 
 using nlohmann::json;
@@ -322,4 +322,4 @@ Result<SceneDescription> loadSceneFile(const std::string& path) {
   return parseScene(text.str(), path);
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -7,17 +7,17 @@
 
 #include <glm/vec4.hpp>
 
-#include "app/camera.hpp"
-#include "app/scene_loader.hpp"
 #include "gfx/queries.hpp"
 #include "gfx/state_cache.hpp"
+#include "scene/camera.hpp"
+#include "scene/scene_loader.hpp"
 #include "terrain/terrain_engine.hpp"
 #include "terrain/tile_pager.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/technique.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 struct RenderSettings {
   double lodTolerancePixels = 1.5;
@@ -146,4 +146,4 @@ class SceneRenderer {
   std::optional<gfx::PipelineStatistics> statistics_;
 };
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -1,4 +1,4 @@
-#include "app/camera_controller.hpp"
+#include "scene/camera_controller.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <glm/geometric.hpp>
 
-namespace gis::app {
+namespace gis::scene {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -377,4 +377,4 @@ std::pair<glm::dvec3, glm::dvec3> CameraController::rayThrough(const glm::dvec2&
   return rayOf(shown_, pixel, viewport);
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

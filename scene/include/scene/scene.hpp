@@ -7,12 +7,12 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "app/camera.hpp"
 #include "core/diagnostics.hpp"
 #include "geo/dem_source.hpp"
+#include "scene/camera.hpp"
 #include "vector_overlay/style.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 struct LayerDescription {
   std::string name;
@@ -63,4 +63,4 @@ Result<SceneDescription> loadSceneFile(const std::string& path);
 /// Same from JSON text (`path` only names the file in messages and anchors relative paths).
 Result<SceneDescription> parseScene(const std::string& text, const std::string& path);
 
-}  // namespace gis::app
+}  // namespace gis::scene

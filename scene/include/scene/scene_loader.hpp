@@ -7,16 +7,16 @@
 #include <optional>
 #include <vector>
 
-#include "app/scene.hpp"
 #include "core/diagnostics.hpp"
 #include "geo/frame.hpp"
 #include "geo/vector.hpp"
+#include "scene/scene.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/quadtree.hpp"
 #include "terrain/terrain_engine.hpp"
 #include "terrain/tile_pyramid.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 struct LoadedLayer {
   LayerDescription description;
@@ -71,4 +71,10 @@ terrain::PyramidProgress consoleProgress(std::string label);
 /// The box that holds the terrain (frame coordinates, with the given exaggeration).
 void terrainBox(const LoadedScene& scene, double exaggeration, glm::dvec3& boxMin, glm::dvec3& boxMax);
 
-}  // namespace gis::app
+/// The camera a still image of the scene is drawn from: the camera file's when `cameraFile` is
+/// not empty, else the scene file's (`description`, read from `sceneFile`), else the overview of
+/// the terrain at the bounds' exaggeration.
+Result<Camera> stillCamera(const std::string& cameraFile, const SceneDescription& description,
+                           const std::string& sceneFile, const LoadedScene& scene);
+
+}  // namespace gis::scene

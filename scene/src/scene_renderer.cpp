@@ -1,4 +1,4 @@
-#include "app/scene_renderer.hpp"
+#include "scene/scene_renderer.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -11,7 +11,7 @@
 #include "gfx/render_target.hpp"
 #include "terrain/tile_pager.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 overlay::OverlayView overlayViewOf(const Camera& camera, double aspect) {
   overlay::OverlayView v;
@@ -302,4 +302,4 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   return stats;
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

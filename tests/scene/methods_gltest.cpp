@@ -19,11 +19,11 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::test {
@@ -44,51 +44,52 @@ class MethodsGlTest : public GlTest {
  protected:
   void SetUp() override {
     GlTest::SetUp();
-    Result<app::SceneDescription> description =
-        app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+    Result<scene::SceneDescription> description =
+        scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
     ASSERT_TRUE(description.ok());
-    Result<app::LoadedScene> loaded = app::loadScene(*description);
+    Result<scene::LoadedScene> loaded = scene::loadScene(*description);
     ASSERT_TRUE(loaded.ok());
     scene_ = std::move(*loaded);
     glm::dvec3 lo, hi;
-    app::terrainBox(*scene_, 1.0, lo, hi);
+    scene::terrainBox(*scene_, 1.0, lo, hi);
     const glm::dvec3 centre = 0.5 * (lo + hi);
-    cameras_ = {app::overviewCamera(lo, hi)};
-    app::Camera close = cameras_[0];
+    cameras_ = {scene::overviewCamera(lo, hi)};
+    scene::Camera close = cameras_[0];
     close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
     close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
     cameras_.push_back(close);
-    app::Camera street = cameras_[0];
+    scene::Camera street = cameras_[0];
     street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
     street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
     cameras_.push_back(street);
   }
 
-  std::optional<app::LoadedScene> scene_;
-  std::vector<app::Camera> cameras_;
+  std::optional<scene::LoadedScene> scene_;
+  std::vector<scene::Camera> cameras_;
 };
 
 TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTexture) {
-  std::optional<app::LoadedScene>& scene = scene_;
-  const std::vector<app::Camera>& cameras = cameras_;
+  std::optional<scene::LoadedScene>& scene = scene_;
+  const std::vector<scene::Camera>& cameras = cameras_;
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = 0.5;
   const double aspect = static_cast<double>(kWidth) / kHeight;
 
   // Our method on the same cameras, for the contrast, and the paper's construction.
-  Result<app::SceneRenderer> stencil = app::SceneRenderer::create(*scene);
+  Result<scene::SceneRenderer> stencil = scene::SceneRenderer::create(*scene);
   ASSERT_TRUE(stencil.ok());
-  app::OverlayBuildSettings paperBuild;
+  scene::OverlayBuildSettings paperBuild;
   paperBuild.technique = overlay::findTechnique("paper");
   ASSERT_NE(paperBuild.technique, nullptr);
-  Result<app::SceneRenderer> paper = app::SceneRenderer::create(*scene, paperBuild);
+  Result<scene::SceneRenderer> paper = scene::SceneRenderer::create(*scene, paperBuild);
   ASSERT_TRUE(paper.ok());
   std::vector<overlay::ReferenceLayer> ref;
   for (const overlay::OverlayLayer& l : stencil->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
 
-  const auto judge = [&](app::SceneRenderer& renderer, const app::Camera& camera, const overlay::TextureDrape* drape) {
+  const auto judge = [&](scene::SceneRenderer& renderer, const scene::Camera& camera,
+                         const overlay::TextureDrape* drape) {
     renderer.render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> mask = gfx::readMask(target);
@@ -132,10 +133,10 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
     EXPECT_EQ(papers.wrong, 0u);
     double previous = 1.0;
     for (const int size : {256, 1024, 4096}) {
-      app::OverlayBuildSettings build;
+      scene::OverlayBuildSettings build;
       build.technique = overlay::findTechnique("drape");
       build.textureSize = size;
-      Result<app::SceneRenderer> draped = app::SceneRenderer::create(*scene, build);
+      Result<scene::SceneRenderer> draped = scene::SceneRenderer::create(*scene, build);
       ASSERT_TRUE(draped.ok());
       draped->render(cache_, target.framebuffer(), kWidth, kHeight, cameras[c], settings);  // builds the drape
       ASSERT_NE(draped->textureDrape(), nullptr);
@@ -160,30 +161,30 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
 }
 
 TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
-  std::optional<app::LoadedScene>& scene = scene_;
+  std::optional<scene::LoadedScene>& scene = scene_;
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
-  app::RenderSettings settings;
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = 0.5;
   const double aspect = static_cast<double>(kWidth) / kHeight;
-  Result<app::SceneRenderer> stencil = app::SceneRenderer::create(*scene);
+  Result<scene::SceneRenderer> stencil = scene::SceneRenderer::create(*scene);
   ASSERT_TRUE(stencil.ok());
   std::vector<overlay::ReferenceLayer> ref;
   for (const overlay::OverlayLayer& l : stencil->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
 
-  for (const app::Camera& camera : {cameras_[1], cameras_[2]}) {  // close up: the coarse tiles show
+  for (const scene::Camera& camera : {cameras_[1], cameras_[2]}) {  // close up: the coarse tiles show
     double previous = 1.0;
     for (const int size : {64, 256, 1024}) {
-      app::OverlayBuildSettings build;
+      scene::OverlayBuildSettings build;
       build.technique = overlay::findTechnique("drape-tiles");
       build.textureSize = size;
-      Result<app::SceneRenderer> tiled = app::SceneRenderer::create(*scene, build);
+      Result<scene::SceneRenderer> tiled = scene::SceneRenderer::create(*scene, build);
       ASSERT_TRUE(tiled.ok());
-      const app::FrameStats first = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+      const scene::FrameStats first = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
       EXPECT_TRUE(first.draped);
       EXPECT_GT(first.texturesBuilt, 0u);
       // The same view again: every tile is resident.
-      const app::FrameStats again = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+      const scene::FrameStats again = tiled->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
       EXPECT_EQ(again.texturesBuilt, 0u);
       EXPECT_GT(tiled->techniqueGpuBytes(), 0u);
       const std::vector<float> depth = gfx::readDepth(target);

@@ -9,14 +9,14 @@
 #include <string>
 #include <vector>
 
-#include "app/camera.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "core/diagnostics.hpp"
+#include "scene/camera.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 #include "vector_overlay/lasso.hpp"
 #include "vector_overlay/logical_selection.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 struct LayerSelection {
   std::size_t sceneLayer = 0;    ///< index in LoadedScene::layers
@@ -50,4 +50,4 @@ Diagnostics exportSelection(const LoadedScene& scene, const SceneRenderer& rende
                             const std::filesystem::path& combined,
                             const std::optional<std::filesystem::path>& perLayerDir = std::nullopt);
 
-}  // namespace gis::app
+}  // namespace gis::scene

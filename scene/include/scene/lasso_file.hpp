@@ -14,13 +14,13 @@
 #include <glm/vec4.hpp>
 #include <nlohmann/json_fwd.hpp>
 
-#include "app/camera.hpp"
 #include "core/diagnostics.hpp"
 #include "geo/frame.hpp"
+#include "scene/camera.hpp"
 #include "vector_overlay/lasso.hpp"
 #include "vector_overlay/selection_renderer.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 
 struct SelectionRequest {
   std::vector<overlay::SelectionStep> steps;
@@ -43,4 +43,4 @@ Result<SelectionRequest> loadLassoFile(const std::string& path, const geo::Scene
 Result<SelectionRequest> parseLassoFile(const nlohmann::json& j, const std::string& file, const std::string& baseDir,
                                         const geo::SceneFrame& frame, const Camera& current, int width, int height);
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -16,9 +16,9 @@
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
 
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
 #include "dem_files.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
 #include "terrain/terrain_grid.hpp"
 
 namespace gis::test {
@@ -59,8 +59,8 @@ std::string writeDem(const std::string& name, Height height, std::optional<doubl
   return path;
 }
 
-app::SceneDescription sceneOf(const std::string& dem) {
-  app::SceneDescription d;
+scene::SceneDescription sceneOf(const std::string& dem) {
+  scene::SceneDescription d;
   d.path = outputDir() + "/scene.json";
   d.dem = dem;
   d.chunkCells = 16;
@@ -78,12 +78,12 @@ const Diagnostic* find(const Diagnostics& d, Severity severity, const std::strin
 /// Loading the scene of `dem`, in memory and paged, fails with an Error naming the file and
 /// saying `message`.
 void expectFailureNamingTheFile(const std::string& dem, const std::string& message) {
-  for (const app::TerrainPaging paging : {app::TerrainPaging::Never, app::TerrainPaging::Always}) {
-    SCOPED_TRACE(paging == app::TerrainPaging::Never ? "in memory" : "paged");
-    app::LoadOptions options;
+  for (const scene::TerrainPaging paging : {scene::TerrainPaging::Never, scene::TerrainPaging::Always}) {
+    SCOPED_TRACE(paging == scene::TerrainPaging::Never ? "in memory" : "paged");
+    scene::LoadOptions options;
     options.paging = paging;
     options.progress = [](double) {};
-    Result<app::LoadedScene> scene = app::loadScene(sceneOf(dem), options);
+    Result<scene::LoadedScene> scene = scene::loadScene(sceneOf(dem), options);
     EXPECT_FALSE(scene.ok());
     const Diagnostic* error = find(scene.diagnostics, Severity::Error, message);
     ASSERT_NE(error, nullptr) << (scene.diagnostics.empty() ? "" : scene.diagnostics.items().front().toString());
@@ -102,14 +102,14 @@ TEST(SceneLoader, UndeclaredNodataAndInfiniteHeightsBecomeHolesWithAWarning) {
     return 10.0F + 0.5F * static_cast<float>(c);
   });
   const std::uint64_t expected = kSize + 2;
-  app::SceneDescription description = sceneOf(dem);
+  scene::SceneDescription description = sceneOf(dem);
   std::filesystem::remove_all(description.cacheDir);
-  for (const app::TerrainPaging paging :
-       {app::TerrainPaging::Never, app::TerrainPaging::Always, app::TerrainPaging::Always}) {
-    app::LoadOptions options;
+  for (const scene::TerrainPaging paging :
+       {scene::TerrainPaging::Never, scene::TerrainPaging::Always, scene::TerrainPaging::Always}) {
+    scene::LoadOptions options;
     options.paging = paging;
     options.progress = [](double) {};
-    Result<app::LoadedScene> scene = app::loadScene(description, options);
+    Result<scene::LoadedScene> scene = scene::loadScene(description, options);
     ASSERT_TRUE(scene.ok());
     SCOPED_TRACE(scene->paged() ? (scene->pyramidBuild ? "paged, building" : "paged, reusing") : "in memory");
     const Diagnostic* warning = find(scene.diagnostics, Severity::Warning, "beyond ±10,000 km");
@@ -120,7 +120,7 @@ TEST(SceneLoader, UndeclaredNodataAndInfiniteHeightsBecomeHolesWithAWarning) {
     EXPECT_FALSE(scene.diagnostics.hasErrors());
     // The plausible posts stay: the highest is the one at exactly 1e7 m.
     glm::dvec3 lo, hi;
-    app::terrainBox(*scene, 1.0, lo, hi);
+    scene::terrainBox(*scene, 1.0, lo, hi);
     EXPECT_EQ(hi.z, static_cast<double>(terrain::kMaxPostHeight));
     EXPECT_GE(lo.z, 10.0);
   }
@@ -165,15 +165,15 @@ TEST(SceneLoader, AFolderOfGeographicTilesLoadsTheSameInMemoryAndPagedAndIsRebui
   };
   tile("a.tif", -35.0);
   tile("b.tif", -35.0 + 80 * step);
-  app::SceneDescription description = sceneOf(dir);
+  scene::SceneDescription description = sceneOf(dir);
   description.demPaths = {dir};
   std::filesystem::remove_all(description.cacheDir);
-  app::LoadOptions memory, paged;
-  memory.paging = app::TerrainPaging::Never;
-  paged.paging = app::TerrainPaging::Always;
+  scene::LoadOptions memory, paged;
+  memory.paging = scene::TerrainPaging::Never;
+  paged.paging = scene::TerrainPaging::Always;
   paged.progress = [](double) {};
-  Result<app::LoadedScene> m = app::loadScene(description, memory);
-  Result<app::LoadedScene> p = app::loadScene(description, paged);
+  Result<scene::LoadedScene> m = scene::loadScene(description, memory);
+  Result<scene::LoadedScene> p = scene::loadScene(description, paged);
   ASSERT_TRUE(m.ok() && p.ok());
   EXPECT_EQ(m->frame.epsg(), 32725);
   EXPECT_NE(find(m.diagnostics, Severity::Info, "resampled"), nullptr);
@@ -200,11 +200,11 @@ TEST(SceneLoader, AFolderOfGeographicTilesLoadsTheSameInMemoryAndPagedAndIsRebui
     }
   }
   EXPECT_GT(compared, 100u);
-  Result<app::LoadedScene> again = app::loadScene(description, paged);
+  Result<scene::LoadedScene> again = scene::loadScene(description, paged);
   ASSERT_TRUE(again.ok());
   EXPECT_FALSE(again->pyramidBuild.has_value()) << "reused";
   tile("c.tif", -35.0 + 160 * step);
-  Result<app::LoadedScene> grown = app::loadScene(description, paged);
+  Result<scene::LoadedScene> grown = scene::loadScene(description, paged);
   ASSERT_TRUE(grown.ok());
   EXPECT_TRUE(grown->pyramidBuild.has_value()) << "a tile added: rebuilt";
   EXPECT_GT(grown->quadtree->grid().width, g.width);

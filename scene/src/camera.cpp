@@ -1,4 +1,4 @@
-#include "app/camera.hpp"
+#include "scene/camera.hpp"
 
 #include <cmath>
 #include <fstream>
@@ -9,7 +9,7 @@
 
 #include "gfx/camera.hpp"
 
-namespace gis::app {
+namespace gis::scene {
 namespace {
 
 using nlohmann::json;
@@ -165,4 +165,4 @@ json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width,
   return j;
 }
 
-}  // namespace gis::app
+}  // namespace gis::scene

@@ -7,11 +7,11 @@
 
 #include <gtest/gtest.h>
 
-#include "app/scene.hpp"
-#include "app/scene_loader.hpp"
-#include "app/scene_renderer.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
 #include "terrain/tile_pager.hpp"
 
 namespace gis::test {
@@ -20,20 +20,20 @@ namespace {
 class PagedSceneGlTest : public GlTest {};
 
 TEST_F(PagedSceneGlTest, PyramidIsBuiltOnceAndRendersLikeMemory) {
-  Result<app::SceneDescription> description =
-      app::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  Result<scene::SceneDescription> description =
+      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
   ASSERT_TRUE(description.ok());
   description->layers.clear();
   description->chunkCells = 16;  // a deeper tree for a small DEM
   description->cacheDir = std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/cache-" + std::to_string(::getpid());
   std::filesystem::remove_all(description->cacheDir);
 
-  app::LoadOptions memoryOptions, pagedOptions;
-  memoryOptions.paging = app::TerrainPaging::Never;
-  pagedOptions.paging = app::TerrainPaging::Always;
+  scene::LoadOptions memoryOptions, pagedOptions;
+  memoryOptions.paging = scene::TerrainPaging::Never;
+  pagedOptions.paging = scene::TerrainPaging::Always;
   pagedOptions.progress = [](double) {};
-  Result<app::LoadedScene> memory = app::loadScene(*description, memoryOptions);
-  Result<app::LoadedScene> paged = app::loadScene(*description, pagedOptions);
+  Result<scene::LoadedScene> memory = scene::loadScene(*description, memoryOptions);
+  Result<scene::LoadedScene> paged = scene::loadScene(*description, pagedOptions);
   ASSERT_TRUE(memory.ok() && paged.ok());
   EXPECT_FALSE(memory->paged());
   ASSERT_TRUE(paged->paged());
@@ -41,27 +41,27 @@ TEST_F(PagedSceneGlTest, PyramidIsBuiltOnceAndRendersLikeMemory) {
   EXPECT_TRUE(std::filesystem::exists(paged->pyramidPath));
   EXPECT_EQ(std::filesystem::path(paged->pyramidPath).parent_path(), std::filesystem::path(description->cacheDir));
   EXPECT_EQ(paged->nodataPosts, memory->nodataPosts);
-  Result<app::LoadedScene> again = app::loadScene(*description, pagedOptions);
+  Result<scene::LoadedScene> again = scene::loadScene(*description, pagedOptions);
   ASSERT_TRUE(again.ok());
   EXPECT_FALSE(again->pyramidBuild.has_value()) << "second load reuses it";
 
-  Result<app::SceneRenderer> memoryRenderer = app::SceneRenderer::create(*memory);
-  Result<app::SceneRenderer> pagedRenderer = app::SceneRenderer::create(*paged);
+  Result<scene::SceneRenderer> memoryRenderer = scene::SceneRenderer::create(*memory);
+  Result<scene::SceneRenderer> pagedRenderer = scene::SceneRenderer::create(*paged);
   ASSERT_TRUE(memoryRenderer.ok() && pagedRenderer.ok());
   gfx::RenderTarget target(256, 192);
   glm::dvec3 lo, hi;
-  app::terrainBox(*memory, 1.0, lo, hi);
-  app::RenderSettings settings;
+  scene::terrainBox(*memory, 1.0, lo, hi);
+  scene::RenderSettings settings;
   settings.lodTolerancePixels = 0.5;
   settings.waitForTiles = true;
   const glm::dvec3 centre = 0.5 * (lo + hi);
   for (const glm::dvec3& offset : {glm::dvec3(0, -1800, 900), glm::dvec3(700, 300, 250), glm::dvec3(-400, -60, 60)}) {
-    app::Camera camera = app::overviewCamera(lo, hi);
+    scene::Camera camera = scene::overviewCamera(lo, hi);
     camera.eye = centre + offset;
     camera.target = centre;
     memoryRenderer->render(cache_, target.framebuffer(), 256, 192, camera, settings);
     const std::vector<std::uint8_t> expected = gfx::readColorRgba8(target);
-    const app::FrameStats s = pagedRenderer->render(cache_, target.framebuffer(), 256, 192, camera, settings);
+    const scene::FrameStats s = pagedRenderer->render(cache_, target.framebuffer(), 256, 192, camera, settings);
     EXPECT_EQ(s.tilesMissing, 0u);
     EXPECT_EQ(s.terrainDraw.chunksMissing, 0u);
     EXPECT_EQ(gfx::readColorRgba8(target), expected) << "eye offset " << offset.x << " " << offset.y;

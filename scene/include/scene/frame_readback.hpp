@@ -1,0 +1,90 @@
+#pragma once
+// What is drawn over a frame the scene renderer has drawn, and read back from it: the lasso
+// selection, the layer analyses (overlap of two layers, open volumes), and the frame's colour,
+// depth and per-scene-layer mask. Headless programs and tests read frames through these; a
+// windowed client may use them on any render target it owns.
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <glm/vec4.hpp>
+
+#include "core/diagnostics.hpp"
+#include "gfx/render_target.hpp"
+#include "gfx/state_cache.hpp"
+#include "scene/camera.hpp"
+#include "scene/lasso_file.hpp"
+#include "scene/scene_loader.hpp"
+#include "scene/scene_renderer.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/selection_renderer.hpp"
+
+namespace gis::scene {
+
+/// The selection's pixels as the GPU marked them.
+struct SelectionPixels {
+  std::vector<std::uint8_t> pixels;  ///< 255 = selected, top row first
+  overlay::SelectionFrameStats stats;
+};
+
+/// Marks the selection into the stencil of the frame in `target` (single-sampled, drawn from
+/// `camera`), reads it, then highlights it (and draws the volumes when the request asks) into the
+/// colour. The overlay mask stays as the layers left it.
+Result<SelectionPixels> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                      const SelectionRequest& request, const Camera& camera);
+
+/// The overlay layer that draws the fill (not the outline) of the scene layer with this name.
+std::optional<std::size_t> fillLayerNamed(const LoadedScene& scene, const SceneRenderer& renderer,
+                                          std::string_view name);
+
+inline constexpr glm::vec4 kOverlapColour{1.0F, 0.0F, 1.0F, 0.6F};
+inline constexpr glm::vec4 kOpenVolumeColour{0.0F, 1.0F, 0.0F, 1.0F};
+
+/// Where overlay layers a and b cover the frame, as marked between the mark and the cover.
+struct OverlapPixels {
+  std::size_t a = 0, b = 0;         ///< overlay layers
+  std::vector<std::uint8_t> flags;  ///< the stencil after marking (overlay::kOverlapFlagA/B), top row first
+  overlay::AnalysisMarks marks;
+};
+
+/// Marks overlay layers a and b over the frame in `target`, reads the marks, and colours where
+/// `op` holds.
+OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
+                          std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view);
+
+struct OpenVolumeLayer {
+  std::string name;  ///< the overlay layer's
+  std::size_t openPixels = 0;
+  overlay::AnalysisMarks marks;
+};
+
+/// Where some overlay layer's volumes are not closed (a defect: docs/overlay.md).
+struct OpenVolumePixels {
+  std::vector<std::uint8_t> pixels;  ///< 255 where some layer's volumes are open, top row first
+  std::vector<OpenVolumeLayer> layers;
+  std::size_t openPixels = 0;
+};
+
+/// Counts each overlay layer's open faces over the frame in `target` and colours them.
+OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
+                                 const overlay::OverlayView& view);
+
+/// The frame as files hold it.
+struct FrameImages {
+  int samples = 1;                 ///< per pixel, as the target has them
+  std::vector<std::uint8_t> rgb;   ///< top row first
+  std::vector<float> depth;        ///< as stored (reversed-Z)
+  std::vector<std::uint8_t> mask;  ///< bit i: the scene file's layer i (fileIndex) covers the pixel
+};
+
+/// Reads the frame in `target` back (resolving it first with MSAA). The GPU mask has a bit per
+/// overlay layer (fills and outlines); the returned mask a bit per layer of the scene file, by
+/// its place there (a layer that failed to load keeps its bit, unset). With MSAA a pixel has a
+/// layer's bit when at least half its samples do.
+FrameImages readFrame(gfx::StateCache& cache, const LoadedScene& scene, const SceneRenderer& renderer,
+                      const gfx::RenderTarget& target);
+
+}  // namespace gis::scene

@@ -1,0 +1,151 @@
+#include "scene/frame_readback.hpp"
+
+#include <utility>
+
+#include "vector_overlay/selection_states.hpp"
+
+namespace gis::scene {
+
+Result<SelectionPixels> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                      const SelectionRequest& request, const Camera& camera) {
+  Result<SelectionPixels> result;
+  Result<overlay::SelectionRenderer> renderer = overlay::SelectionRenderer::create();
+  result.diagnostics = std::move(renderer.diagnostics);
+  if (!renderer) return result;
+  result.diagnostics.append(renderer->setSteps(request.steps));
+  const overlay::OverlayView view =
+      overlayViewOf(camera, static_cast<double>(target.width()) / static_cast<double>(target.height()));
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
+  gfx::enableMaskWrites(target.framebuffer(), false);
+  overlay::SelectionSettings settings;
+  settings.scheme = request.scheme;
+  settings.measure = true;
+  SelectionPixels out;
+  out.stats = renderer->select(cache, view, settings);
+  const std::vector<std::uint8_t> stencil = gfx::readStencil(target);
+  const std::vector<float> depth = gfx::readDepth(target);
+  out.pixels.resize(stencil.size());
+  for (std::size_t i = 0; i < stencil.size(); ++i) {
+    const bool selected = request.scheme == overlay::SelectionScheme::Runs ? (stencil[i] & overlay::kSelectedBit) != 0
+                                                                           : depth[i] > 0.0F && stencil[i] == 1;
+    out.pixels[i] = selected ? 255 : 0;
+  }
+  renderer->highlight(cache, request.highlight, settings);
+  if (request.showVolumes) renderer->drawVolumes(cache, view, *request.showVolumes);
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  result.value = std::move(out);
+  return result;
+}
+
+std::optional<std::size_t> fillLayerNamed(const LoadedScene& scene, const SceneRenderer& renderer,
+                                          std::string_view name) {
+  for (std::size_t j = 0; j < renderer.overlaySources().size(); ++j) {
+    const auto& [layer, outline] = renderer.overlaySources()[j];
+    if (!outline && scene.layers[layer].description.name == name) return j;
+  }
+  return std::nullopt;
+}
+
+OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
+                          std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
+  OverlapPixels out{a, b, {}, {}};
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
+  gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
+  overlay::OverlaySettings settings;
+  settings.measure = true;
+  out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.overlayLayers()[a],
+                                                     renderer.overlayLayers()[b], settings);
+  out.flags = gfx::readStencil(target);
+  renderer.overlayRenderer().coverOverlap(cache, out.marks, op, kOverlapColour);
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  return out;
+}
+
+OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
+                                 const overlay::OverlayView& view) {
+  OpenVolumePixels out;
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
+  gfx::enableMaskWrites(target.framebuffer(), false);
+  overlay::OverlaySettings settings;
+  settings.measure = true;
+  out.pixels.assign(static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height()), 0);
+  for (const overlay::OverlayLayer& layer : renderer.overlayLayers()) {
+    OpenVolumeLayer counted{layer.name(), 0, renderer.overlayRenderer().countOpenFaces(cache, view, layer, settings)};
+    const std::vector<std::uint8_t> counts = gfx::readStencil(target);
+    renderer.overlayRenderer().coverOpenFaces(cache, counted.marks, kOpenVolumeColour);
+    for (std::size_t i = 0; i < counts.size() && i < out.pixels.size(); ++i) {
+      if (counts[i] == 0) continue;
+      ++counted.openPixels;
+      out.pixels[i] = 255;
+    }
+    out.layers.push_back(std::move(counted));
+  }
+  for (std::uint8_t p : out.pixels) out.openPixels += p != 0 ? 1u : 0u;
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  return out;
+}
+
+namespace {
+
+constexpr std::size_t kMaskBits = 8;  // mask.png is 8-bit: the scene file's first 8 layers
+
+/// Per pixel and scene-file layer: 1 when some overlay layer of that scene layer covers the pixel
+/// in `bits` (a fill and an outline of one scene layer vote once).
+std::vector<int> sceneLayerVotes(const LoadedScene& scene, const SceneRenderer& renderer,
+                                 const std::vector<std::uint32_t>& bits, std::size_t pixels) {
+  std::vector<int> votes(pixels * kMaskBits, 0);
+  for (std::size_t i = 0; i < pixels && i < bits.size(); ++i) {
+    for (std::size_t j = 0; j < renderer.overlaySources().size() && j < 32; ++j) {
+      const std::size_t layer = scene.layers[renderer.overlaySources()[j].first].description.fileIndex;
+      if (((bits[i] >> j) & 1u) != 0u && layer < kMaskBits) votes[i * kMaskBits + layer] = 1;
+    }
+  }
+  return votes;
+}
+
+std::vector<std::uint8_t> sceneLayerMask(gfx::StateCache& cache, const LoadedScene& scene,
+                                         const SceneRenderer& renderer, const gfx::RenderTarget& target,
+                                         gfx::RenderTarget* resolved) {
+  const std::size_t pixels = static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height());
+  std::vector<int> votes(pixels * kMaskBits, 0);
+  int samples = 1;
+  if (resolved != nullptr) {
+    samples = target.samples();
+    for (int k = 0; k < samples; ++k) {
+      target.copySampleInto(cache, *resolved, k);
+      const std::vector<int> sample = sceneLayerVotes(scene, renderer, gfx::readMask(*resolved), pixels);
+      for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sample[i];
+    }
+  } else {
+    votes = sceneLayerVotes(scene, renderer, gfx::readMask(target), pixels);
+  }
+  std::vector<std::uint8_t> mask(pixels, 0);
+  for (std::size_t i = 0; i < pixels; ++i) {
+    for (std::size_t layer = 0; layer < kMaskBits; ++layer) {
+      if (2 * votes[i * kMaskBits + layer] >= samples) mask[i] = static_cast<std::uint8_t>(mask[i] | (1u << layer));
+    }
+  }
+  return mask;
+}
+
+}  // namespace
+
+FrameImages readFrame(gfx::StateCache& cache, const LoadedScene& scene, const SceneRenderer& renderer,
+                      const gfx::RenderTarget& target) {
+  FrameImages frame;
+  std::optional<gfx::RenderTarget> resolved;
+  if (target.multisampled()) resolved.emplace(target.width(), target.height(), 0, true);
+  frame.samples = target.samples();
+  frame.mask = sceneLayerMask(cache, scene, renderer, target, resolved ? &*resolved : nullptr);
+  if (resolved) target.resolveInto(*resolved);
+  const gfx::RenderTarget& readable = resolved ? *resolved : target;
+  const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(readable);
+  frame.depth = gfx::readDepth(readable);
+  frame.rgb.resize(rgba.size() / 4 * 3);
+  for (std::size_t i = 0, n = rgba.size() / 4; i < n; ++i) {
+    for (std::size_t c = 0; c < 3; ++c) frame.rgb[i * 3 + c] = rgba[i * 4 + c];
+  }
+  return frame;
+}
+
+}  // namespace gis::scene
