@@ -78,15 +78,16 @@ std::size_t vectorVertices(const scene::LoadedScene& scene) {
 /// ablation's switches at draw time) share one: the same terrain, and the memory of one copy. False
 /// when one cannot be made.
 bool buildRenderers(const scene::LoadedScene& scene, std::vector<Method>& methods) {
-  std::map<std::tuple<std::string_view, int, int, bool>, scene::SceneRenderer*> built;
+  std::map<std::tuple<std::string_view, int, int, bool, bool>, scene::SceneRenderer*> built;
   for (Method& m : methods) {
     scene::OverlayBuildSettings build;
     build.technique = m.technique;
     build.cellPosts = m.cellPosts;
     build.adaptiveSplit = m.adaptiveSplit;
+    build.uniteLines = m.uniteLines;
     build.textureSize = m.drapeSize;
-    const std::tuple<std::string_view, int, int, bool> key{m.technique->name, m.cellPosts, m.drapeSize,
-                                                           m.adaptiveSplit};
+    const std::tuple<std::string_view, int, int, bool, bool> key{m.technique->name, m.cellPosts, m.drapeSize,
+                                                                 m.adaptiveSplit, m.uniteLines};
     if (const auto found = built.find(key); found != built.end()) {
       m.shared = found->second;
     } else {

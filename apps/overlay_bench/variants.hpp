@@ -46,6 +46,7 @@ struct Method {
   bool overlays = true;
   int cellPosts = 16;         ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
+  bool uniteLines = true;     ///< a line feature's shapes united per cell (the ablation keeps a piece per shape)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
   std::optional<scene::SceneRenderer> renderer;           ///< its own, or empty when it shares another's
   scene::SceneRenderer* shared = nullptr;                 ///< the renderer it draws with

@@ -26,34 +26,85 @@ std::size_t VectorLayer::vertexCount() const {
 
 namespace {
 
-/// Appends a and the points strictly between a and b along the geodesic, equally spaced in
-/// distance so that no piece is longer than maxSegmentMetres.
-void appendGeodesic(const GeographicLib::Geodesic& geodesic, const glm::dvec2& a, const glm::dvec2& b,
-                    double maxSegmentMetres, std::vector<glm::dvec2>& out) {
-  out.push_back(a);
-  if (!(maxSegmentMetres > 0.0) || !std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) ||
-      !std::isfinite(b.y)) {
-    return;
+/// The point at distance s along the geodesic (longitudes continued from its start: no jump at
+/// the antimeridian).
+glm::dvec2 positionAt(const GeographicLib::GeodesicLine& line, double s) {
+  double lat = 0.0;
+  double lon = 0.0;
+  double unused = 0.0;
+  line.GenPosition(false, s,
+                   GeographicLib::GeodesicLine::LATITUDE | GeographicLib::GeodesicLine::LONGITUDE |
+                       GeographicLib::GeodesicLine::LONG_UNROLL,
+                   lat, lon, unused, unused, unused, unused, unused, unused);
+  return {lon, lat};
+}
+
+/// Distance from p to the segment a–b.
+double distanceToSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
+  const glm::dvec2 ab = b - a;
+  const double len2 = glm::dot(ab, ab);
+  const double t = len2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + t * ab));
+}
+
+/// Refines the geodesic between distances s0 and s1 (mapped to p0 and p1) until the mapped chord
+/// stays within `tolerance` of the mapped geodesic, judged at a quarter, half and three quarters
+/// of each span (a short span of a smooth curve bulges most near its middle); appends the
+/// points strictly between, in order.
+void refine(const GeographicLib::GeodesicLine& line, const GeodesicProjection& project, double tolerance, double s0,
+            double s1, const glm::dvec2& p0, const glm::dvec2& p1, int depth, std::vector<glm::dvec2>& out) {
+  // 2^24 spans per edge at most: beyond, the caller gets the chord (no runaway on absurd input).
+  constexpr int kMaxDepth = 24;
+  if (depth >= kMaxDepth) return;
+  const double sm = 0.5 * (s0 + s1);
+  const glm::dvec2 mid = positionAt(line, sm);
+  const std::optional<glm::dvec2> pm = project(mid);
+  if (!pm) return;  // a point that cannot be projected: the reader reports the vertices that fail
+  double departure = distanceToSegment(*pm, p0, p1);
+  for (const double q : {0.25, 0.75}) {
+    if (departure > tolerance) break;
+    const std::optional<glm::dvec2> pq = project(positionAt(line, s0 + q * (s1 - s0)));
+    if (!pq) return;
+    departure = std::max(departure, distanceToSegment(*pq, p0, p1));
   }
+  if (!(departure > tolerance)) return;
+  refine(line, project, tolerance, s0, sm, p0, *pm, depth + 1, out);
+  out.push_back(mid);
+  refine(line, project, tolerance, sm, s1, *pm, p1, depth + 1, out);
+}
+
+/// Appends a and the points strictly between a and b along the geodesic: equally spaced in
+/// distance so that no piece is longer than maxSegmentMetres, then, with `project`, more
+/// wherever the projected geodesic departs from the projected chord by more than
+/// toleranceMetres.
+void appendGeodesic(const GeographicLib::Geodesic& geodesic, const glm::dvec2& a, const glm::dvec2& b,
+                    double maxSegmentMetres, double toleranceMetres, const GeodesicProjection* project,
+                    std::vector<glm::dvec2>& out) {
+  out.push_back(a);
+  if (!std::isfinite(a.x) || !std::isfinite(a.y) || !std::isfinite(b.x) || !std::isfinite(b.y) || a == b) return;
+  const bool byLength = maxSegmentMetres > 0.0 && std::isfinite(maxSegmentMetres);
+  const bool byTolerance = project != nullptr && toleranceMetres > 0.0 && std::isfinite(toleranceMetres);
+  if (!byLength && !byTolerance) return;
   const GeographicLib::GeodesicLine line = geodesic.InverseLine(a.y, a.x, b.y, b.x);
   const double length = line.Distance();
-  const double pieces = std::ceil(length / maxSegmentMetres);
-  if (!std::isfinite(pieces) || pieces <= 1.0) return;
+  if (!std::isfinite(length) || !(length > 0.0)) return;
+  const double pieces = byLength ? std::ceil(length / maxSegmentMetres) : 1.0;
   // A guard against absurd requests (e.g. 1 mm steps around the globe): beyond this many
   // pieces the caller gets longer pieces rather than an out-of-memory crash.
   constexpr double kMaxPieces = 1 << 22;
-  const auto n = static_cast<int>(std::min(pieces, kMaxPieces));
+  const int n = std::isfinite(pieces) ? static_cast<int>(std::clamp(pieces, 1.0, kMaxPieces)) : 1;
   const double step = length / n;
-  for (int i = 1; i < n; ++i) {
-    double lat = 0.0;
-    double lon = 0.0;
-    double unused = 0.0;
-    // LONG_UNROLL: longitudes continue from a's (no jump at the antimeridian).
-    line.GenPosition(false, step * i,
-                     GeographicLib::GeodesicLine::LATITUDE | GeographicLib::GeodesicLine::LONGITUDE |
-                         GeographicLib::GeodesicLine::LONG_UNROLL,
-                     lat, lon, unused, unused, unused, unused, unused, unused);
-    out.emplace_back(lon, lat);
+  std::optional<glm::dvec2> previous;
+  if (byTolerance) previous = (*project)(a);
+  for (int i = 1; i <= n; ++i) {
+    const glm::dvec2 next = i < n ? positionAt(line, step * i) : b;
+    if (byTolerance) {
+      const std::optional<glm::dvec2> projected = (*project)(next);
+      if (previous && projected)
+        refine(line, *project, toleranceMetres, step * (i - 1), step * i, *previous, *projected, 0, out);
+      previous = projected;
+    }
+    if (i < n) out.push_back(next);
   }
 }
 
@@ -64,7 +115,20 @@ std::vector<glm::dvec2> densifyGeodesic(const glm::dvec2& a, const glm::dvec2& b
   std::vector<glm::dvec2> out;
   try {
     const GeographicLib::Geodesic geodesic(semiMajor, flattening);
-    appendGeodesic(geodesic, a, b, maxSegmentMetres, out);
+    appendGeodesic(geodesic, a, b, maxSegmentMetres, 0.0, nullptr, out);
+  } catch (const std::exception&) {
+    // Invalid ellipsoid: no densification possible; the edge stays straight.
+    out.assign(1, a);
+  }
+  return out;
+}
+
+std::vector<glm::dvec2> densifyGeodesicWithin(const glm::dvec2& a, const glm::dvec2& b, double toleranceMetres,
+                                              double semiMajor, double flattening, const GeodesicProjection& project) {
+  std::vector<glm::dvec2> out;
+  try {
+    const GeographicLib::Geodesic geodesic(semiMajor, flattening);
+    appendGeodesic(geodesic, a, b, std::numeric_limits<double>::infinity(), toleranceMetres, &project, out);
   } catch (const std::exception&) {
     // Invalid ellipsoid: no densification possible; the edge stays straight.
     out.assign(1, a);
@@ -109,8 +173,12 @@ std::string formatPoint(const glm::dvec2& p) {
 class GeometryConverter {
  public:
   GeometryConverter(const SceneFrame& frame, const CrsTransform& toFrame,
-                    std::optional<GeographicLib::Geodesic> geodesic, double maxSegment)
-      : frame_(frame), toFrame_(toFrame), geodesic_(std::move(geodesic)), maxSegment_(maxSegment) {}
+                    std::optional<GeographicLib::Geodesic> geodesic, double maxSegment, double tolerance)
+      : frame_(frame),
+        toFrame_(toFrame),
+        geodesic_(std::move(geodesic)),
+        maxSegment_(maxSegment),
+        tolerance_(tolerance) {}
 
   /// A multi-part geometry keeps its good parts: each bad one goes into `leftOut` ("part 2 of 3:
   /// …"); only when no part is good is the feature broken (the returned message).
@@ -200,7 +268,7 @@ class GeometryConverter {
     if (!closed && distinct.size() < 2)
       return "line has " + std::to_string(distinct.size()) + " distinct point(s); at least 2 needed";
 
-    if (geodesic_ && std::isfinite(maxSegment_)) pts = densify(pts, closed);
+    if (geodesic_ && (std::isfinite(maxSegment_) || std::isfinite(tolerance_))) pts = densify(pts, closed);
 
     std::vector<glm::dvec2> projected = pts;
     if (!toFrame_.transform(projected.data(), projected.size())) {
@@ -216,14 +284,16 @@ class GeometryConverter {
     return {};
   }
 
-  /// Inserts geodesic points on every edge longer than maxSegment_ (for a ring including the
-  /// closing edge).
+  /// Inserts geodesic points on every edge (for a ring including the closing edge) where the
+  /// projected geodesic departs from the projected chord by more than tolerance_, and so that
+  /// no piece is longer than maxSegment_.
   std::vector<glm::dvec2> densify(const std::vector<glm::dvec2>& pts, bool closed) const {
     std::vector<glm::dvec2> out;
     out.reserve(pts.size());
     const std::size_t edges = closed ? pts.size() : pts.size() - 1;
+    const GeodesicProjection project = [this](const glm::dvec2& p) { return toFrame_.transform(p); };
     for (std::size_t i = 0; i < edges; ++i) {
-      appendGeodesic(*geodesic_, pts[i], pts[(i + 1) % pts.size()], maxSegment_, out);
+      appendGeodesic(*geodesic_, pts[i], pts[(i + 1) % pts.size()], maxSegment_, tolerance_, &project, out);
     }
     if (!closed) out.push_back(pts.back());
     return out;
@@ -233,6 +303,7 @@ class GeometryConverter {
   const CrsTransform& toFrame_;
   std::optional<GeographicLib::Geodesic> geodesic_;  // set when the source is geographic
   double maxSegment_;
+  double tolerance_;
 };
 
 /// The attributes of a feature, text as UTF-8 (`recoded` set when some was not: detail::toUtf8).
@@ -471,6 +542,8 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   };
   if (std::isnan(options.maxGeodesicSegmentMetres) || options.maxGeodesicSegmentMetres <= 0.0)
     return fail(options.layer, "maxGeodesicSegmentMetres must be > 0");
+  if (std::isnan(options.geodesicToleranceMetres) || options.geodesicToleranceMetres <= 0.0)
+    return fail(options.layer, "geodesicToleranceMetres must be > 0");
 
   std::string error;
   DatasetPtr ds = openVector(path, error, &gdal);
@@ -533,7 +606,8 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       return fail(result.name, std::string("invalid ellipsoid of the source CRS: ") + e.what());
     }
   }
-  const GeometryConverter converter(frame, *toFrame, std::move(geodesic), options.maxGeodesicSegmentMetres);
+  const GeometryConverter converter(frame, *toFrame, std::move(geodesic), options.maxGeodesicSegmentMetres,
+                                    options.geodesicToleranceMetres);
 
   Result<VectorLayer> r;
   r.diagnostics = std::move(openWarnings);

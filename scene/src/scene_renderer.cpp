@@ -77,6 +77,8 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   options.paperVariant = techniqueInfo_->construction == overlay::PieceConstruction::Paper;
   options.adaptiveSplit = settings.adaptiveSplit;
   options.footprints.chordTolerance = settings.chordToleranceMetres;
+  options.footprints.uniteLines = settings.uniteLines;
+  options.footprints.lineCellDivisions = std::max(1, settings.cellPosts / std::max(1, settings.lineCellPosts));
   const glm::dvec2 a = grid.postPosition(0, 0), b = grid.postPosition(grid.width - 1, grid.height - 1);
   overlay::CellGrid cells;
   cells.origin = glm::min(a, b);

@@ -17,6 +17,7 @@
 #include <glm/geometric.hpp>
 
 #include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
 #include <GeographicLib/TransverseMercator.hpp>
 
 #include "geo/raster.hpp"
@@ -58,6 +59,7 @@ SceneFrame olindaFrame() {
 VectorReadOptions undensified() {
   VectorReadOptions o;
   o.maxGeodesicSegmentMetres = kInf;
+  o.geodesicToleranceMetres = kInf;
   return o;
 }
 
@@ -184,14 +186,21 @@ TEST(VectorOlinda, TractVerticesAreInTheDemExtentAndMatchIndependentUtm) {
   EXPECT_EQ(compared, 12235u);
 }
 
-TEST(VectorOlinda, DefaultOptionsDensifyLongEdgesToAtMost100m) {
+TEST(VectorOlinda, DefaultOptionsAddNoPointsToShortEdgesAndASpacingCanBeAsked) {
   const SceneFrame frame = olindaFrame();
-  gis::Result<VectorLayer> dense = gis::geo::readVectorLayer(kTracts, frame);
+  // By tolerance (1 mm): the tracts' edges (at most a few hundred metres) bow by micrometres in
+  // the frame and gain no point.
+  gis::Result<VectorLayer> byDefault = gis::geo::readVectorLayer(kTracts, frame);
+  ASSERT_TRUE(byDefault.ok());
+  EXPECT_EQ(byDefault->features.size(), 470u);
+  EXPECT_EQ(byDefault->vertexCount(), 12235u);
+  // By length, when asked: pieces ≤ 100 m on the ellipsoid; in the frame that is ≤ 100 m × the
+  // UTM scale factor here (k ≈ 1.00014 at 210 km from the central meridian): 100.05 m stated.
+  VectorReadOptions every100m;
+  every100m.maxGeodesicSegmentMetres = 100.0;
+  gis::Result<VectorLayer> dense = gis::geo::readVectorLayer(kTracts, frame, every100m);
   ASSERT_TRUE(dense.ok());
-  EXPECT_EQ(dense->features.size(), 470u);
   EXPECT_GT(dense->vertexCount(), 12235u);  // some tract edges are longer than 100 m
-  // Pieces are ≤ 100 m on the ellipsoid; in the frame that is ≤ 100 m × the UTM scale factor
-  // here (k ≈ 1.00014 at 210 km from the central meridian): 100.05 m stated.
   double longest = 0.0;
   forEachEdge(*dense,
               [&](const glm::dvec2& a, const glm::dvec2& b) { longest = std::max(longest, glm::length(b - a)); });
@@ -544,6 +553,9 @@ TEST(VectorBroken, MissingLayerAndBadOptions) {
   VectorReadOptions zero;
   zero.maxGeodesicSegmentMetres = 0.0;
   EXPECT_FALSE(gis::geo::readVectorLayer(kTracts, frame, zero).ok());
+  VectorReadOptions noTolerance;
+  noTolerance.geodesicToleranceMetres = 0.0;
+  EXPECT_FALSE(gis::geo::readVectorLayer(kTracts, frame, noTolerance).ok());
 }
 
 TEST(VectorBroken, LayerWithoutCrsNeedsAnAssumedCrs) {
@@ -693,6 +705,7 @@ TEST(Densify, LongEdgesInCrs84AreDensifiedAlongTheGeodesic) {
   const std::string path = kData + "long_edge_crs84.geojson";
   VectorReadOptions o;
   o.maxGeodesicSegmentMetres = 1000.0;
+  o.geodesicToleranceMetres = kInf;  // by length alone
   gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(path, frame, o);
   ASSERT_TRUE(layer.ok());
   ASSERT_EQ(layer->features.size(), 2u);
@@ -732,6 +745,81 @@ TEST(Densify, LongEdgesInCrs84AreDensifiedAlongTheGeodesic) {
     maxOffParallel = std::max(maxOffParallel, (-8.0 - ll->y) * 111000.0);
   }
   EXPECT_GT(maxOffParallel, 10.0);  // about 30 m: (d²/8R)·tan 8°
+}
+
+/// The largest distance from points sampled densely along the geodesic a→b, mapped by
+/// `project`, to the mapped polyline through `pts` and b.
+double departureFromGeodesic(const glm::dvec2& a, const glm::dvec2& b, const std::vector<glm::dvec2>& pts,
+                             const gis::geo::GeodesicProjection& project) {
+  std::vector<glm::dvec2> polyline;
+  for (const glm::dvec2& p : pts) polyline.push_back(*project(p));
+  polyline.push_back(*project(b));
+  const GeographicLib::Geodesic& wgs = GeographicLib::Geodesic::WGS84();
+  const GeographicLib::GeodesicLine line = wgs.InverseLine(a.y, a.x, b.y, b.x);
+  constexpr int kAlong = 4000;
+  double worst = 0.0;
+  for (int i = 0; i <= kAlong; ++i) {
+    double lat = 0.0, lon = 0.0;
+    line.Position(line.Distance() * i / kAlong, lat, lon);
+    const glm::dvec2 q = *project(glm::dvec2(lon, lat));
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k + 1 < polyline.size(); ++k) {
+      const glm::dvec2 u = polyline[k], d = polyline[k + 1] - u;
+      const double t = std::clamp(glm::dot(q - u, d) / glm::dot(d, d), 0.0, 1.0);
+      nearest = std::min(nearest, glm::length(q - (u + t * d)));
+    }
+    worst = std::max(worst, nearest);
+  }
+  return worst;
+}
+
+TEST(Densify, ByToleranceTheProjectedEdgeStaysWithinItOfTheProjectedGeodesic) {
+  const SceneFrame frame = olindaFrame();  // UTM 25 S
+  gis::Result<gis::geo::CrsTransform> toFrame = frame.transformFrom("OGC:CRS84");
+  ASSERT_TRUE(toFrame.ok());
+  const gis::geo::GeodesicProjection project = [&](const glm::dvec2& p) { return toFrame->transform(p); };
+  const GeographicLib::Geodesic& wgs = GeographicLib::Geodesic::WGS84();
+  const glm::dvec2 a(-34.9, -8.0);
+  constexpr double kTolerance = 1e-3;
+  for (const double length : {1.0e3, 1.0e4, 1.0e5, 1.0e6}) {
+    for (const double bearing : {0.0, 57.0, 90.0, 135.0, 270.0}) {
+      double latB = 0.0, lonB = 0.0;
+      wgs.Direct(a.y, a.x, bearing, length, latB, lonB);
+      const glm::dvec2 b(lonB, latB);
+      const std::vector<glm::dvec2> pts =
+          gis::geo::densifyGeodesicWithin(a, b, kTolerance, wgs.EquatorialRadius(), wgs.Flattening(), project);
+      ASSERT_FALSE(pts.empty());
+      EXPECT_EQ(pts.front(), a);
+      // Within the tolerance (plus 1 %: the check samples a quarter, half and three quarters of
+      // each piece, the test 4,000 points of the edge).
+      const double departure = departureFromGeodesic(a, b, pts, project);
+      EXPECT_LE(departure, 1.01 * kTolerance) << length << " m at " << bearing << "°";
+      // Far fewer points than every 100 m: a 1 km edge needs none, a 1,000 km one about one per
+      // km (the bow grows with the square of the length).
+      if (length <= 1.0e3) {
+        EXPECT_EQ(pts.size(), 1u) << bearing << "°";
+      }
+      EXPECT_LT(static_cast<double>(pts.size()), length / 100.0 / 2.0 + 1.0) << length << " m at " << bearing << "°";
+      // And the undensified chord of a long edge is far off: the points are needed.
+      if (length >= 1.0e5) {
+        EXPECT_GT(departureFromGeodesic(a, b, {a}, project), 10.0 * kTolerance);
+      }
+    }
+  }
+}
+
+TEST(Densify, ShortLonLatEdgesGainNoPointsAtTheDefaultTolerance) {
+  // The Olinda tract outlines (lon/lat, edges of metres to a few hundred metres) read as they are
+  // stored; every 100 m they used to gain points.
+  const SceneFrame frame = olindaFrame();
+  gis::Result<VectorLayer> stored = gis::geo::readVectorLayer(kBoundaries, frame, undensified());
+  gis::Result<VectorLayer> byDefault = gis::geo::readVectorLayer(kBoundaries, frame);
+  VectorReadOptions every100m = undensified();
+  every100m.maxGeodesicSegmentMetres = 100.0;
+  gis::Result<VectorLayer> byLength = gis::geo::readVectorLayer(kBoundaries, frame, every100m);
+  ASSERT_TRUE(stored.ok() && byDefault.ok() && byLength.ok());
+  EXPECT_EQ(byDefault->vertexCount(), stored->vertexCount());
+  EXPECT_GT(byLength->vertexCount(), stored->vertexCount());
 }
 
 }  // namespace

@@ -112,11 +112,14 @@ void expectClosedAndBounded(const std::vector<Polyhedron>& pieces, const PlaneBo
   }
 }
 
-std::vector<Polyhedron> build(const geo::Feature& f, LayerKind kind, const PlaneBounds& plane, bool adaptive) {
+std::vector<Polyhedron> build(const geo::Feature& f, LayerKind kind, const PlaneBounds& plane, bool adaptive,
+                              bool uniteLines = true) {
   FeatureStyle style;
   style.shape.width = 12.0;
   Diagnostics d;
-  std::vector<Polyhedron> out = buildPolyhedra(f, 0, kind, style, "test", plane, optionsOnGrid(adaptive), d);
+  LayerBuildOptions options = optionsOnGrid(adaptive);
+  options.footprints.uniteLines = uniteLines;
+  std::vector<Polyhedron> out = buildPolyhedra(f, 0, kind, style, "test", plane, options, d);
   EXPECT_TRUE(d.items().empty());
   return out;
 }
@@ -175,15 +178,26 @@ TEST(AdaptiveSplit, APlaneNeverPaysForTheCutWalls) {
   expectClosedAndBounded(adaptive, steep);
 }
 
-TEST(AdaptiveSplit, RoadOnFlatGroundKeepsOnePiecePerShape) {
+TEST(AdaptiveSplit, RoadOnFlatGroundKeepsOnePiece) {
   const PlaneBounds flat(0.0, 0.0);
+  // United (the default): the road's shapes are one region, cut at the cells and welded back.
   const std::vector<Polyhedron> split = build(road(), LayerKind::Line, flat, false);
   const std::vector<Polyhedron> adaptive = build(road(), LayerKind::Line, flat, true);
-  // 3 segments, 2 joins, 2 caps.
-  EXPECT_EQ(adaptive.size(), 7u);
+  EXPECT_EQ(adaptive.size(), 1u);
   EXPECT_GT(split.size(), adaptive.size());
   EXPECT_NEAR(totalArea(adaptive), totalArea(split), 1e-6 * totalArea(split));
   expectClosedAndBounded(adaptive, flat);
+  // A piece per shape: 3 segments, 2 joins, 2 caps, each welded back.
+  const std::vector<Polyhedron> shapesSplit = build(road(), LayerKind::Line, flat, false, false);
+  const std::vector<Polyhedron> shapes = build(road(), LayerKind::Line, flat, true, false);
+  EXPECT_EQ(shapes.size(), 7u);
+  EXPECT_GT(shapesSplit.size(), shapes.size());
+  EXPECT_NEAR(totalArea(shapes), totalArea(shapesSplit), 1e-6 * totalArea(shapesSplit));
+  expectClosedAndBounded(shapes, flat);
+  // The union is no larger than its shapes (they overlap at the joins) and no smaller than
+  // its longest segment's rectangle.
+  EXPECT_LT(totalArea(adaptive), totalArea(shapes));
+  EXPECT_GT(totalArea(adaptive), 12.0 * std::hypot(830.0, 110.0));
 }
 
 TEST(AdaptiveSplit, ALongNarrowPieceUpASlopeKeepsItsParts) {

@@ -868,6 +868,12 @@ std::vector<Footprint> lines(const geo::Feature& f, const LineShape& shape, cons
   return out;
 }
 
+/// A piece per segment, join and cap shape (not united), to check each shape.
+std::vector<Footprint> shapes(const geo::Feature& f, const LineShape& shape, FootprintOptions options = {}) {
+  options.uniteLines = false;
+  return lines(f, shape, options);
+}
+
 LineShape shapeOf(double width, LineJoin join, LineCap cap, double miterLimit = 4.0) {
   LineShape shape;
   shape.width = width;
@@ -910,7 +916,7 @@ TEST(LineFootprints, StraightTwoSegmentRoundLineIsACapsule) {
     const geo::Feature f = lineFeature({{{0, 0}, {30, 40}, {75, 100}}});
     FootprintOptions o;
     o.chordTolerance = 0.02;
-    const auto out = lines(f, shapeOf(width, LineJoin::Round, LineCap::Round), o);
+    const auto out = shapes(f, shapeOf(width, LineJoin::Round, LineCap::Round), o);
     EXPECT_EQ(countKind(out, PieceKind::Segment), 2U);
     EXPECT_EQ(countKind(out, PieceKind::Join), 0U) << "nothing on a straight continuation";
     ASSERT_EQ(countKind(out, PieceKind::Cap), 2U);
@@ -971,7 +977,7 @@ TEST(LineFootprints, JoinAndCapShapesHaveTheirClosedFormAreas) {
       SCOPED_TRACE("turn " + std::to_string(turn));
       // bevel: triangle with legs h at angle φ
       {
-        const auto out = lines(f, shapeOf(width, LineJoin::Bevel, LineCap::Flat));
+        const auto out = shapes(f, shapeOf(width, LineJoin::Bevel, LineCap::Flat));
         EXPECT_EQ(countKind(out, PieceKind::Cap), 0U);
         ASSERT_EQ(countKind(out, PieceKind::Join), 1U);
         EXPECT_NEAR(totalArea(out, PieceKind::Join), 0.5 * h * h * std::sin(phi), 1e-12);
@@ -979,7 +985,7 @@ TEST(LineFootprints, JoinAndCapShapesHaveTheirClosedFormAreas) {
       }
       // miter within the limit: kite h² tan(φ/2); beyond it: the bevel
       for (const double limit : {1.5, 4.0, 10.0}) {
-        const auto out = lines(f, shapeOf(width, LineJoin::Miter, LineCap::Square, limit));
+        const auto out = shapes(f, shapeOf(width, LineJoin::Miter, LineCap::Square, limit));
         const bool miter = 1.0 / std::cos(phi / 2) <= limit;
         const double expected = miter ? h * h * std::tan(phi / 2) : 0.5 * h * h * std::sin(phi);
         EXPECT_NEAR(totalArea(out, PieceKind::Join), expected, 1e-12 * std::max(1.0, expected)) << "limit " << limit;
@@ -989,10 +995,10 @@ TEST(LineFootprints, JoinAndCapShapesHaveTheirClosedFormAreas) {
       // round join: the outer wedge of angle φ (the rectangles, 10 m ≥ h long, hold the rest of
       // the disc); with segments shorter than h, the full disc
       {
-        const auto out = lines(f, shapeOf(width, LineJoin::Round, LineCap::Round));
+        const auto out = shapes(f, shapeOf(width, LineJoin::Round, LineCap::Round));
         EXPECT_EQ(countKind(out, PieceKind::Join), 1U);
         EXPECT_NEAR(totalArea(out, PieceKind::Join), 0.5 * h * h * phi, arcBound(h, 0.02));
-        const auto wide = lines(f, shapeOf(25.0, LineJoin::Round, LineCap::Round));
+        const auto wide = shapes(f, shapeOf(25.0, LineJoin::Round, LineCap::Round));
         EXPECT_NEAR(totalArea(wide, PieceKind::Join), kPi * 12.5 * 12.5, arcBound(12.5, 0.02));
       }
     }
@@ -1001,10 +1007,10 @@ TEST(LineFootprints, JoinAndCapShapesHaveTheirClosedFormAreas) {
 
 TEST(LineFootprints, SinglePointLines) {
   const geo::Feature f = lineFeature({{{5, 5}, {5, 5}, {5, 5}}});
-  const auto round = lines(f, shapeOf(2.0, LineJoin::Round, LineCap::Round));
+  const auto round = shapes(f, shapeOf(2.0, LineJoin::Round, LineCap::Round));
   ASSERT_EQ(round.size(), 1U);
   EXPECT_NEAR(footprintArea(round[0]), kPi, arcBound(1.0, 0.02));
-  const auto square = lines(f, shapeOf(2.0, LineJoin::Round, LineCap::Square));
+  const auto square = shapes(f, shapeOf(2.0, LineJoin::Round, LineCap::Square));
   ASSERT_EQ(square.size(), 1U);
   EXPECT_NEAR(footprintArea(square[0]), 4.0, 1e-12);
   EXPECT_TRUE(lines(f, shapeOf(2.0, LineJoin::Round, LineCap::Flat)).empty());
@@ -1014,7 +1020,7 @@ TEST(LineFootprints, HairpinsAndZeroLengthSegments) {
   const geo::Feature f = lineFeature({{{0, 0}, {10, 0}, {10, 0}, {0, 0}, {0, 0}, {0, 10}}});
   for (const auto join : {LineJoin::Round, LineJoin::Bevel, LineJoin::Miter}) {
     for (const auto cap : {LineCap::Round, LineCap::Square, LineCap::Flat}) {
-      const auto out = lines(f, shapeOf(3.0, join, cap, 1000.0));
+      const auto out = shapes(f, shapeOf(3.0, join, cap, 1000.0));
       EXPECT_EQ(countKind(out, PieceKind::Segment), 3U);
       // 180° at (10, 0): a disc for round, nothing for bevel and miter; 90° at (0, 0): a join
       EXPECT_EQ(countKind(out, PieceKind::Join), 2U - (join == LineJoin::Round ? 0U : 1U));
@@ -1022,7 +1028,7 @@ TEST(LineFootprints, HairpinsAndZeroLengthSegments) {
   }
   // nearly a hairpin with a huge miter limit: a long but valid miter
   const geo::Feature g = lineFeature({{{0, 0}, {10, 0}, {0, 1e-7}}});
-  const auto out = lines(g, shapeOf(3.0, LineJoin::Miter, LineCap::Flat, 1e12));
+  const auto out = shapes(g, shapeOf(3.0, LineJoin::Miter, LineCap::Flat, 1e12));
   ASSERT_EQ(countKind(out, PieceKind::Join), 1U);
   EXPECT_GT(totalArea(out, PieceKind::Join), 1e5);
 }
@@ -1032,12 +1038,18 @@ TEST(LineFootprints, ExtremeWidths) {
   for (const double width : {0.01, 5000.0}) {
     for (const auto join : {LineJoin::Round, LineJoin::Bevel, LineJoin::Miter}) {
       for (const auto cap : {LineCap::Round, LineCap::Square, LineCap::Flat}) {
-        const auto out = lines(f, shapeOf(width, join, cap));
+        const auto out = shapes(f, shapeOf(width, join, cap));
         EXPECT_NEAR(totalArea(out, PieceKind::Segment), width * (5.0 + std::hypot(0.1, 0.25) + std::hypot(13.6, 14.0)),
                     1e-9 * width * 25);
         if (cap == LineCap::Square) {
           EXPECT_NEAR(totalArea(out, PieceKind::Cap), width * width, 1e-9 * width * width);
         }
+        // United: one valid piece, no larger than the shapes together, no smaller than the
+        // longest segment's rectangle.
+        const auto united = lines(f, shapeOf(width, join, cap));
+        ASSERT_EQ(united.size(), 1U);
+        EXPECT_LE(totalArea(united), totalArea(out) * (1.0 + 1e-9));
+        EXPECT_GE(totalArea(united), width * std::hypot(13.6, 14.0) * (1.0 - 1e-9));
       }
     }
   }
@@ -1132,7 +1144,7 @@ TEST(LineFootprints, SplittingAtCellsConservesEveryPiece) {
       const auto whole = lines(f, shape);
       const auto split = lines(f, shape, grid);
       EXPECT_GT(split.size(), whole.size());
-      for (const auto kind : {PieceKind::Segment, PieceKind::Join, PieceKind::Cap}) {
+      for (const auto kind : {PieceKind::Segment, PieceKind::Join, PieceKind::Cap, PieceKind::Line}) {
         const double a = totalArea(whole, kind);
         EXPECT_NEAR(totalArea(split, kind), a, 1e-9 * std::max(a, 1.0));
       }
@@ -1183,6 +1195,7 @@ TEST(LineFootprints, RandomLinesMatchTheCoverageRulesByMonteCarlo) {
                                     static_cast<LineCap>(integer(3)), 1.0 + 7 * u(rng));
     FootprintOptions options;
     options.chordTolerance = 0.005 + 0.3 * u(rng);
+    options.uniteLines = iteration % 2 == 0;  // one union piece per cell, or a piece per shape
     if (iteration % 6 == 2) {
       options.cells = CellGrid{{-30 + 40 * u(rng), -30 + 40 * u(rng)}, 5 + 40 * u(rng), 1 + integer(8), 1 + integer(8)};
     } else if (iteration % 6 == 5) {

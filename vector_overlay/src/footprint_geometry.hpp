@@ -9,7 +9,9 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -140,6 +142,20 @@ class FootprintBuilder {
   std::vector<std::array<std::uint32_t, 3>> triangles_;
   std::unordered_map<Key, std::uint32_t, KeyHash> index_;
 };
+
+// ---------------------------------------------------------------------------------------------
+// Regions as triangles
+
+using Triangle = std::array<glm::dvec2, 3>;
+
+/// The triangles inside an odd number of the rings (closed implicitly), vertices in double,
+/// when CGAL's fast triangulation keeps every constraint exactly on its ring edge (always so
+/// without crossings); nothing otherwise (polygon_footprints.cpp). Throws what CGAL throws.
+std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<std::vector<glm::dvec2>>& rings);
+
+/// The union of convex counter-clockwise polygons as triangles (line_union.cpp): its boundary's
+/// vertices are the polygons' vertices and their edges' crossings, rounded to double.
+std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>& parts);
 
 // ---------------------------------------------------------------------------------------------
 // Convex triangulation
@@ -344,6 +360,33 @@ void splitIntoCells(const ClipPolygon& poly, const CellGrid& grid, Emit&& emit) 
       dropRepeatedPoints(cell.points);
       if (cell.points.size() >= 3) emit(grid.cellIndex(column, row), cell.points);
     }
+  }
+}
+
+/// The footprints of a region given as triangles: one per grid cell it meets (every triangle
+/// clipped to the cells; neighbouring triangles compute the points where their shared edge
+/// crosses a grid line from the same segment, so the parts in one cell share their vertices bit
+/// for bit), or one for the whole region without a grid. Appended to `out`.
+inline void emitRegion(const std::vector<Triangle>& inside, const std::optional<CellGrid>& grid, std::uint32_t feature,
+                       PieceKind kind, std::uint32_t source, std::vector<Footprint>& out) {
+  if (!grid) {
+    FootprintBuilder builder;
+    for (const auto& t : inside) builder.addTriangle(t[0], t[1], t[2]);
+    if (!builder.empty()) {
+      out.push_back(builder.finish(feature, -1, kind));
+      out.back().source = source;
+    }
+    return;
+  }
+  std::map<int, FootprintBuilder> cells;
+  for (const auto& t : inside) {
+    splitIntoCells(makeClipPolygon({t[0], t[1], t[2]}), *grid,
+                   [&](int cell, const std::vector<glm::dvec2>& pts) { triangulateConvex(pts, cells[cell]); });
+  }
+  for (auto& [cell, builder] : cells) {
+    if (builder.empty()) continue;
+    out.push_back(builder.finish(feature, cell, kind));
+    out.back().source = source;
   }
 }
 

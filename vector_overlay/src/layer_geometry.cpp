@@ -220,7 +220,10 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
                                        const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
                                        Diagnostics& diagnostics) {
   FootprintOptions fo = options.footprints;
-  if (options.paperVariant) fo.cells.reset();
+  if (options.paperVariant) {
+    fo.cells.reset();
+    fo.uniteLines = false;  // the seed paper's pieces: one per segment, join and cap
+  }
   const std::size_t errorsBefore = diagnostics.count(Severity::Error);
   std::vector<Footprint> footprints =
       kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)

@@ -1,9 +1,12 @@
-// Line footprints: one convex piece per segment rectangle, join and cap (footprints.hpp gives
-// the shapes). With a cell grid every piece — segments, joins and caps alike — is split at the
+// Line footprints: one convex shape per segment rectangle, join and cap (footprints.hpp gives
+// the shapes). Lines in metres: the union of a feature's shapes (line_union.cpp), split at the
 // cell borders and clipped to the grid's extent, so that every footprint lies in its cell (a
-// join or cap of a 5 km wide road is not small) and gets that cell's height bounds.
+// join or cap of a 5 km wide road is not small) and gets that cell's height bounds; without
+// uniteLines every shape is its own piece, split the same way. Lines in pixels: a piece per
+// shape, unsplit (their shapes change with the view).
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -60,7 +63,7 @@ class PieceSink {
       : feature_(feature), options_(options), scalable_(scalable), h_(h), out_(out) {}
 
   /// Adds the convex polygon (counter-clockwise at every width up to h) as one footprint, or
-  /// one per cell (metre widths only).
+  /// one per cell (metre widths only); when lines are united, keeps it for unite().
   void add(PieceKind kind, std::vector<Pt> shape) {
     ++source_;
     if (scalable_) {
@@ -72,6 +75,10 @@ class PieceSink {
     for (const Pt& p : shape) pts.push_back(p.centre + h_ * p.direction);
     detail::dropRepeatedPoints(pts);
     if (pts.size() < 3) return;
+    if (uniting()) {
+      pending_.push_back(std::move(pts));
+      return;
+    }
     if (!options_.cells) {
       detail::triangulateConvex(pts, builder_);
       if (!builder_.empty()) push(builder_.finish(feature_, -1, kind));
@@ -82,6 +89,41 @@ class PieceSink {
                              detail::triangulateConvex(part, builder_);
                              if (!builder_.empty()) push(builder_.finish(feature_, cell, kind));
                            });
+  }
+
+  /// Whether the shapes are kept for one union (lines in metres with uniteLines).
+  [[nodiscard]] bool uniting() const { return !scalable_ && options_.uniteLines; }
+
+  /// The shapes added since the last call (uniting: those of the current line).
+  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& pending() const { return pending_; }
+
+  /// Keeps (true) or drops the pending shapes.
+  void settle(bool keep) {
+    if (keep) {
+      for (auto& part : pending_) parts_.push_back(std::move(part));
+    }
+    pending_.clear();
+  }
+
+  /// Uniting: the union of every kept shape as one footprint per fine cell (or one without a
+  /// grid), each with the index of the cell of `cells` that holds it.
+  void unite() {
+    if (parts_.empty()) return;
+    const std::vector<detail::Triangle> region = detail::unionTriangles(parts_);
+    parts_.clear();
+    const int k = std::max(1, options_.lineCellDivisions);
+    if (!options_.cells || k == 1) {
+      detail::emitRegion(region, options_.cells, feature_, PieceKind::Line, 0, out_);
+      return;
+    }
+    const CellGrid& coarse = *options_.cells;
+    const CellGrid fine{coarse.origin, coarse.cellSize / k, coarse.columns * k, coarse.rows * k};
+    const std::size_t first = out_.size();
+    detail::emitRegion(region, fine, feature_, PieceKind::Line, 0, out_);
+    for (std::size_t i = first; i < out_.size(); ++i) {
+      const int column = out_[i].cell % fine.columns, row = out_[i].cell / fine.columns;
+      out_[i].cell = coarse.cellIndex(column / k, row / k);
+    }
   }
 
  private:
@@ -133,6 +175,8 @@ class PieceSink {
   double h_;
   std::vector<Footprint>& out_;
   detail::FootprintBuilder builder_;
+  std::vector<std::vector<glm::dvec2>> pending_;  ///< uniting: the current line's shapes
+  std::vector<std::vector<glm::dvec2>> parts_;    ///< uniting: the feature's shapes so far
 };
 
 /// Unit directions to points on a circle from angle a0 to a1 (radians, a1 > a0:
@@ -311,9 +355,16 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
     // there): such a line is skipped like one with an out-of-range point.
     const std::size_t firstPiece = result.size();
     auto dropIfBeyond = [&] {
+      // Uniting with a grid: the union is clipped to the grid (validGrid keeps it in range).
       const bool within =
-          std::all_of(result.begin() + static_cast<std::ptrdiff_t>(firstPiece), result.end(),
-                      [](const Footprint& f) { return std::all_of(f.vertices.begin(), f.vertices.end(), inRange); });
+          sink.uniting()
+              ? options.cells ||
+                    std::all_of(sink.pending().begin(), sink.pending().end(),
+                                [](const auto& part) { return std::all_of(part.begin(), part.end(), inRange); })
+              : std::all_of(
+                    result.begin() + static_cast<std::ptrdiff_t>(firstPiece), result.end(),
+                    [](const Footprint& f) { return std::all_of(f.vertices.begin(), f.vertices.end(), inRange); });
+      sink.settle(within);
       if (within) return;
       result.erase(result.begin() + static_cast<std::ptrdiff_t>(firstPiece), result.end());
       diagnostics.add(
@@ -341,6 +392,14 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
     }
     build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]), glm::length(line[last] - line[last - 1]));
     dropIfBeyond();
+  }
+  try {
+    sink.unite();
+  } catch (const std::exception& e) {
+    diagnostics.add(
+        detail::featureError(Severity::Error, layerName, feature.fid,
+                             std::string("union of the line's shapes failed (") + e.what() + "); feature skipped"));
+    result.clear();
   }
   return result;
 }

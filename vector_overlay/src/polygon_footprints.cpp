@@ -30,6 +30,8 @@
 namespace gis::overlay {
 namespace {
 
+using detail::Triangle;
+
 struct FaceInfo {
   int parity = -1;  ///< −1 not reached yet; 0 outside; 1 inside (odd number of rings)
 };
@@ -47,8 +49,6 @@ using EvenOddTriangulation = CGAL::Constrained_triangulation_plus_2<CGAL::Constr
 
 using FastTriangulation = EvenOddTriangulation<CGAL::Epick, CGAL::Exact_predicates_tag>;
 using ExactTriangulation = EvenOddTriangulation<CGAL::Epeck, CGAL::Exact_intersections_tag>;
-
-using Triangle = std::array<glm::dvec2, 3>;
 
 /// Largest usable |coordinate|: far beyond any frame; products of larger coordinates could
 /// overflow in the area and intersection formulas.
@@ -198,6 +198,14 @@ std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring
 
 }  // namespace
 
+namespace detail {
+
+std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<std::vector<glm::dvec2>>& rings) {
+  return insideTriangles<FastTriangulation>(rings, true);
+}
+
+}  // namespace detail
+
 std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
                                          const std::string& layerName, const FootprintOptions& options,
                                          Diagnostics& diagnostics) {
@@ -260,32 +268,8 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
       continue;
     }
 
-    if (!options.cells) {
-      detail::FootprintBuilder builder;
-      for (const auto& t : inside) builder.addTriangle(t[0], t[1], t[2]);
-      if (!builder.empty()) {
-        result.push_back(builder.finish(featureIndex, -1, PieceKind::PolygonPart));
-        result.back().source = static_cast<std::uint32_t>(k);
-      }
-      continue;
-    }
-
-    // One footprint per cell: every inside triangle clipped to the cells it meets. Neighbouring
-    // triangles compute the points where their shared edge crosses a grid line from the same
-    // segment, so the pieces of one cell share their vertices bit for bit.
-    std::map<int, detail::FootprintBuilder> cells;
-    for (const auto& t : inside) {
-      const detail::ClipPolygon triangle = detail::makeClipPolygon({t[0], t[1], t[2]});
-      detail::splitIntoCells(triangle, *options.cells, [&](int cell, const std::vector<glm::dvec2>& pts) {
-        detail::triangulateConvex(pts, cells[cell]);
-      });
-    }
-    for (auto& [cell, builder] : cells) {
-      if (!builder.empty()) {
-        result.push_back(builder.finish(featureIndex, cell, PieceKind::PolygonPart));
-        result.back().source = static_cast<std::uint32_t>(k);
-      }
-    }
+    detail::emitRegion(inside, options.cells, featureIndex, PieceKind::PolygonPart, static_cast<std::uint32_t>(k),
+                       result);
   }
   return result;
 }

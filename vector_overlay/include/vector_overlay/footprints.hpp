@@ -25,8 +25,11 @@
 //   chord and arc (so the drawn shape lies inside the exact one, within that tolerance).
 //
 // Pieces: a polygon feature becomes one piece per grid cell it meets (its triangulation
-// clipped to the cell); a line feature one piece per segment, per join and per cap, each split
-// at cell borders (so every piece lies in its cell). A round join whose two segments are at
+// clipped to the cell). A line feature in metres is built from one convex shape per segment,
+// join and cap, and becomes one piece per grid cell it meets: the union of those shapes (all
+// lines of the feature), triangulated and clipped to the cell — no walls inside it and no caps
+// stacked where shapes overlap (FootprintOptions::uniteLines; without it, every shape is its
+// own piece, split at cell borders). A round join whose two segments are at
 // least w/2 long is drawn as its outer wedge only, and a round cap whose end segment is at least
 // w/2 long as its outer half disc: the rectangles hold the rest of the disc, so the union (the
 // coverage above) is the same with far fewer triangles. Every piece is a region with a
@@ -76,9 +79,19 @@ struct FootprintOptions {
   double chordTolerancePixels = 0.05;
   /// Split and clip at these cells; none = one piece per polygon feature, unclipped.
   std::optional<CellGrid> cells;
+  /// Lines in metres: one piece per cell for the union of a feature's segment, join and cap
+  /// shapes (PieceKind::Line); false: a piece per shape (per cell), overlapping.
+  bool uniteLines = true;
+  /// United lines are cut at cells this many times finer than `cells` (each fine cell lies in
+  /// one cell of `cells`, whose index the piece keeps): a union is as tight as the bounds of
+  /// the ground it covers, and a thin line crossing a large cell gets the bounds of the strip
+  /// it crosses, not of the whole cell.
+  int lineCellDivisions = 8;
 };
 
-enum class PieceKind : std::uint8_t { PolygonPart, Segment, Join, Cap };
+/// What a footprint was made from: a polygon, a line's segment, join or cap shape, or the
+/// union of a line feature's shapes.
+enum class PieceKind : std::uint8_t { PolygonPart, Segment, Join, Cap, Line };
 
 struct Footprint {
   std::uint32_t feature = 0;  ///< index of the feature in its layer
