@@ -534,6 +534,44 @@ std::string layerNames(GDALDataset& ds) {
 
 }  // namespace
 
+namespace {
+
+/// Gives the layer the spatial filter of a frame box (VectorReadOptions::filter): the box's
+/// outline, 32 points a side, mapped into the source CRS; their bounds, widened by 1 % a side
+/// for the bulge of the mapped sides between the points. An error message, or empty.
+std::string setSpatialFilter(OGRLayer& layer, const SceneFrame& frame, const std::string& sourceCrsWkt,
+                             const std::array<glm::dvec2, 2>& box) {
+  for (const glm::dvec2& corner : box) {
+    if (!std::isfinite(corner.x) || !std::isfinite(corner.y)) return "the spatial filter's box is not finite";
+  }
+  const glm::dvec2 lo = glm::min(box[0], box[1]), hi = glm::max(box[0], box[1]);
+  Result<CrsTransform> toSource = frame.transformTo(sourceCrsWkt);
+  if (!toSource) return "cannot map the spatial filter's box into the layer's CRS";
+  constexpr int kPerSide = 32;
+  const glm::dvec2 origin(frame.origin());
+  std::vector<glm::dvec2> outline;
+  for (int i = 0; i < kPerSide; ++i) {
+    const double t = static_cast<double>(i) / kPerSide;
+    outline.push_back(origin + glm::dvec2(lo.x + t * (hi.x - lo.x), lo.y));
+    outline.push_back(origin + glm::dvec2(hi.x, lo.y + t * (hi.y - lo.y)));
+    outline.push_back(origin + glm::dvec2(hi.x - t * (hi.x - lo.x), hi.y));
+    outline.push_back(origin + glm::dvec2(lo.x, hi.y - t * (hi.y - lo.y)));
+  }
+  glm::dvec2 a(std::numeric_limits<double>::infinity()), b(-std::numeric_limits<double>::infinity());
+  for (const glm::dvec2& p : outline) {
+    const std::optional<glm::dvec2> q = toSource->transform(p);
+    if (!q || !std::isfinite(q->x) || !std::isfinite(q->y))
+      return "the spatial filter's box does not map into the layer's CRS everywhere";
+    a = glm::min(a, *q);
+    b = glm::max(b, *q);
+  }
+  const glm::dvec2 margin = 0.01 * (b - a);
+  layer.SetSpatialFilterRect(a.x - margin.x, a.y - margin.y, b.x + margin.x, b.y + margin.y);
+  return {};
+}
+
+}  // namespace
+
 Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& frame,
                                     const VectorReadOptions& options) {
   detail::GdalMessages gdal;
@@ -596,6 +634,11 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   if (!toFrame) {
     const auto& items = toFrame.diagnostics.items();
     return fail(result.name, items.empty() ? "cannot transform into the frame" : items.front().message);
+  }
+
+  if (options.filter) {
+    if (const std::string e = setSpatialFilter(*layer, frame, result.sourceCrsWkt, *options.filter); !e.empty())
+      return fail(result.name, e);
   }
 
   std::optional<GeographicLib::Geodesic> geodesic;

@@ -49,6 +49,12 @@ struct VectorReadOptions {
   double maxGeodesicSegmentMetres = std::numeric_limits<double>::infinity();
   /// CRS assumed when the file has none (OGR user input, e.g. "OGC:CRS84"); empty = error.
   std::string assumedCrs;
+  /// Read only the features that may meet this box (frame coordinates, [min, max]): the box is
+  /// mapped into the source CRS (its outline sampled, the bounds widened by 1 %) and given to
+  /// OGR as a spatial filter, which the drivers with an index answer from it (GeoPackage's and
+  /// SpatiaLite's R-tree, FlatGeobuf's packed R-tree, a Shapefile's .qix, PostGIS's GiST).
+  /// Every feature that meets the box is read; some that do not may be read too. None: all.
+  std::optional<std::array<glm::dvec2, 2>> filter;
 };
 
 /// Names of the layers in a vector data source.
