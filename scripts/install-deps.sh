@@ -18,8 +18,8 @@ packages=(
   # maths, geodesy, geometry, geodata, images, json
   libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev
-  # tests
-  libgtest-dev libgmock-dev
+  # tests; a real PostgreSQL + PostGIS server for the PostGIS source test (tests/geo/with_postgis.sh)
+  libgtest-dev libgmock-dev postgresql postgresql-15-postgis-3
 )
 
 missing=()
