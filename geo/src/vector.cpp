@@ -15,6 +15,7 @@
 
 #include "gdal_support.hpp"
 #include "geojson_entries.hpp"
+#include "vector_tiles.hpp"
 
 namespace gis::geo {
 
@@ -147,10 +148,11 @@ using DatasetPtr = std::unique_ptr<GDALDataset, DatasetDeleter>;
 
 /// Opens a vector data source; null with `error` set (with every message GDAL gave when `gdal`
 /// collects them). Call inside a QuietGdal or a GdalMessages.
-DatasetPtr openVector(const std::string& path, std::string& error, const detail::GdalMessages* gdal = nullptr) {
+DatasetPtr openVector(const std::string& path, std::string& error, const detail::GdalMessages* gdal = nullptr,
+                      const char* const* openOptions = nullptr) {
   detail::ensureGdalRegistered();
-  DatasetPtr ds(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  DatasetPtr ds(GDALDataset::FromHandle(GDALOpenEx(
+      path.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, openOptions, nullptr)));
   if (!ds) {
     const std::string fallback = detail::QuietGdal::lastMessage("not a vector format OGR can read");
     error = "cannot open as vector data: " + (gdal != nullptr ? gdal->joined(fallback) : fallback);
@@ -584,8 +586,17 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
     return fail(options.layer, "geodesicToleranceMetres must be > 0");
 
   std::string error;
-  DatasetPtr ds = openVector(path, error, &gdal);
+  const std::string opened = detail::vectorTilePath(path);  // a folder of tiles: its deepest zoom
+  DatasetPtr ds = openVector(opened, error, &gdal);
   if (!ds) return fail("", error);
+  const std::optional<int> tileZoom = detail::vectorTileZoom(*ds, opened);
+  if (tileZoom) {
+    // Vector tiles unclipped: a feature's pieces then overlap by the tiles' buffer instead of
+    // meeting on the tile edges, so that their union has no sliver along an edge.
+    static constexpr const char* kUnclipped[] = {"CLIP=NO", nullptr};
+    ds = openVector(opened, error, &gdal, kUnclipped);
+    if (!ds) return fail("", error);
+  }
 
   OGRLayer* layer = nullptr;
   if (options.layer.empty()) {
@@ -656,11 +667,34 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   r.diagnostics = std::move(openWarnings);
   const OGRFeatureDefn* defn = layer->GetLayerDefn();
   layer->ResetReading();
+  // Vector tiles: each source feature once (its tiles' pieces stitched), and the quantisation
+  // said with its bound.
+  std::optional<std::vector<detail::FeaturePtr>> stitched;
+  std::size_t nextStitched = 0;
+  if (const std::optional<int> zoom = tileZoom) {
+    std::size_t failures = 0;
+    stitched = detail::stitchedTileFeatures(*layer, *zoom, failures);
+    result.quantisationMetres = detail::vectorTileQuantisation(*zoom);
+    std::ostringstream said;
+    said.precision(3);
+    said << "vector tiles of zoom " << *zoom << ": positions are quantised (4096 units a tile side), so the drawn "
+         << "features lie within " << result.quantisationMetres << " m of the source's";
+    r.diagnostics.add({Severity::Warning, path, result.name, "", said.str()});
+    if (failures > 0) {
+      r.diagnostics.add(
+          {Severity::Warning, path, result.name, "",
+           std::to_string(failures) + " features' tile pieces could not be united (GEOS); they draw as their parts"});
+    }
+  }
+  auto nextFeature = [&]() -> detail::FeaturePtr {
+    if (!stitched) return detail::FeaturePtr(layer->GetNextFeature());
+    return nextStitched < stitched->size() ? std::move((*stitched)[nextStitched++]) : nullptr;
+  };
   std::int64_t index = 0;
   bool recoded = false;
   for (;; ++index) {
     CPLErrorReset();
-    std::unique_ptr<OGRFeature, FeatureDeleter> feature(layer->GetNextFeature());
+    detail::FeaturePtr feature = nextFeature();
     if (!feature) {
       if (CPLGetLastErrorType() == CE_Failure || CPLGetLastErrorType() == CE_Fatal) {
         r.diagnostics.add({Severity::Error, path, result.name, "",

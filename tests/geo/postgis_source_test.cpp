@@ -9,8 +9,8 @@
 #include <map>
 #include <string>
 
-#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
@@ -81,8 +81,8 @@ void expectTableIsTheFile(const std::string& table, const std::string& file) {
     ASSERT_NE(found, byFid.end()) << "feature " << f.fid;
     worst = std::max(worst, vertexDistance(f, *found->second));
   }
-  std::printf("%s: %zu features, largest vertex distance to the file's %.3g m\n", table.c_str(),
-              db->features.size(), worst);
+  std::printf("%s: %zu features, largest vertex distance to the file's %.3g m\n", table.c_str(), db->features.size(),
+              worst);
   EXPECT_LE(worst, 1e-3);
 }
 

@@ -3,14 +3,19 @@
 // Olinda streets in longitude/latitude (the box mapped into a geographic CRS). Each filtered read
 // holds every feature that meets the box, identical to the unfiltered read, and far fewer than
 // the whole layer. PostGIS has its own test (postgis_source_test, with a real server).
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <map>
+#include <numbers>
 #include <string>
 #include <vector>
 
 #include <gdal_utils.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
@@ -34,12 +39,13 @@ geo::SceneFrame olindaFrame() {
 }
 
 /// The sample written by GDAL (as ogr2ogr would) in another format, into this test's folder.
-std::string translated(const std::string& source, const std::string& driver, const std::string& name) {
+std::string translated(const std::string& source, const std::string& driver, const std::string& name,
+                       std::vector<std::string> args = {}) {
   const std::filesystem::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
   std::filesystem::create_directories(dir);
   const std::string out = (dir / name).string();
-  std::filesystem::remove(out);
-  std::vector<std::string> args = {"-f", driver, "-preserve_fid"};
+  std::filesystem::remove_all(out);
+  args.insert(args.begin(), {"-f", driver, "-preserve_fid"});
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -121,6 +127,94 @@ TEST(SpatialFilter, ABoxOutsideTheDataReadsNothingAndABadBoxIsAnError) {
   Result<geo::VectorLayer> refused = geo::readVectorLayer(kTracts, frame, bad);
   EXPECT_FALSE(refused.ok());
   EXPECT_NE(said(refused.diagnostics).find("spatial filter"), std::string::npos) << said(refused.diagnostics);
+}
+
+/// Distance from p to the nearest edge of the feature's rings.
+double distanceToEdges(const glm::dvec2& p, const geo::Feature& f) {
+  double best = std::numeric_limits<double>::infinity();
+  auto ring = [&](const std::vector<glm::dvec2>& r) {
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const glm::dvec2 a = r[i], d = r[(i + 1) % r.size()] - a;
+      const double t = glm::dot(d, d) > 0.0 ? std::clamp(glm::dot(p - a, d) / glm::dot(d, d), 0.0, 1.0) : 0.0;
+      best = std::min(best, glm::length(p - (a + t * d)));
+    }
+  };
+  for (const geo::Polygon& polygon : f.polygons) {
+    ring(polygon.outer);
+    std::for_each(polygon.holes.begin(), polygon.holes.end(), ring);
+  }
+  return best;
+}
+
+double area(const geo::Feature& f) {
+  auto ringArea = [](const std::vector<glm::dvec2>& r) {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const glm::dvec2 a = r[i], b = r[(i + 1) % r.size()];
+      sum += a.x * b.y - a.y * b.x;
+    }
+    return 0.5 * std::abs(sum);
+  };
+  double total = 0.0;
+  for (const geo::Polygon& p : f.polygons) {
+    total += ringArea(p.outer);
+    for (const auto& hole : p.holes) total -= ringArea(hole);
+  }
+  return total;
+}
+
+TEST(VectorTiles, MbtilesAndATileFolderGiveEachTractOnceWithinTheStatedQuantisation) {
+  const geo::SceneFrame frame = olindaFrame();
+  Result<geo::VectorLayer> source = geo::readVectorLayer(kTracts, frame);
+  ASSERT_TRUE(source.ok());
+  std::map<std::int64_t, const geo::Feature*> byFid;
+  for (const geo::Feature& f : source->features) byFid[f.fid] = &f;
+  const std::vector<std::string> zoom15 = {"-dsco", "MINZOOM=15", "-dsco", "MAXZOOM=15", "-nln", "tracts"};
+  const std::vector<Source> tiles = {{"MBTiles", translated(kTracts, "MBTiles", "tracts.mbtiles", zoom15)},
+                                     {"MVT folder", translated(kTracts, "MVT", "tracts_tiles", zoom15)}};
+  // Zoom 15: 2π · 6378137 m / 2^15 / 4096 = 0.2986 m a unit; half a unit each way, and half a
+  // unit more along a tile edge where an edge crosses it.
+  const double bound = 0.5 * 0.29858 * (std::numbers::sqrt2 + 1.0);
+  for (const Source& t : tiles) {
+    SCOPED_TRACE(t.label);
+    geo::VectorReadOptions options;
+    options.layer = "tracts";
+    Result<geo::VectorLayer> read = geo::readVectorLayer(t.path, frame, options);
+    ASSERT_TRUE(read.ok()) << said(read.diagnostics);
+    EXPECT_NEAR(read->quantisationMetres, bound, 1e-4);
+    EXPECT_NE(said(read.diagnostics).find("quantised"), std::string::npos) << said(read.diagnostics);
+    EXPECT_EQ(read.diagnostics.count(Severity::Error), 0u) << said(read.diagnostics);
+    // Each tract once (the tiles hold 824 pieces of the 470), with its source id.
+    ASSERT_EQ(read->features.size(), 470u);
+    double worst = 0.0, worstBack = 0.0, worstArea = 0.0;
+    for (const geo::Feature& f : read->features) {
+      const auto found = byFid.find(f.fid);
+      ASSERT_NE(found, byFid.end()) << "feature " << f.fid;
+      const geo::Feature& s = *found->second;
+      double perimeter = 0.0;
+      for (const geo::Polygon& p : s.polygons) {
+        for (std::size_t i = 0; i < p.outer.size(); ++i)
+          perimeter += glm::length(p.outer[(i + 1) % p.outer.size()] - p.outer[i]);
+      }
+      // Every tile vertex near the source's outline and every source vertex near the tiles':
+      // no clip edge left inside, nothing lost.
+      for (const geo::Polygon& p : f.polygons) {
+        for (const glm::dvec2& v : p.outer) worst = std::max(worst, distanceToEdges(v, s));
+      }
+      for (const geo::Polygon& p : s.polygons) {
+        for (const glm::dvec2& v : p.outer) worstBack = std::max(worstBack, distanceToEdges(v, f));
+      }
+      worstArea = std::max(worstArea, std::abs(area(f) - area(s)) / perimeter);
+    }
+    std::printf(
+        "%s: vertices within %.3f m of the source outline, source vertices within %.3f m of the "
+        "tiles'; area change at most %.3f m x perimeter (bound %.3f m)\n",
+        t.label.c_str(), worst, worstBack, worstArea, bound);
+    // 1 % for the UTM scale factor (the bound is on the ground).
+    EXPECT_LE(worst, 1.01 * bound);
+    EXPECT_LE(worstBack, 1.01 * bound);
+    EXPECT_LE(worstArea, 1.01 * bound);
+  }
 }
 
 }  // namespace

@@ -28,6 +28,9 @@ struct VectorLayer {
   std::string sourceCrsWkt;
   GeometryKind kind = GeometryKind::Empty;
   std::vector<Feature> features;  ///< only the good ones; the broken ones are in diagnostics
+  /// Vector tiles (MBTiles, a folder of MVT tiles): the largest distance (metres, on the
+  /// ground) of a position from the source's, from the tiles' quantisation; 0 for other sources.
+  double quantisationMetres = 0.0;
 
   [[nodiscard]] std::size_t vertexCount() const;
 };
@@ -60,10 +63,12 @@ struct VectorReadOptions {
 /// Names of the layers in a vector data source.
 Result<std::vector<std::string>> listVectorLayers(const std::string& path);
 
-/// Reads one layer into the frame. A broken feature (empty or unsupported geometry, NaN/Inf
-/// coordinates, a point that cannot be projected, a ring with fewer than 3 distinct points)
-/// is left out with an error naming file, layer and feature; the good features still load.
-/// Only a file that cannot be opened, a missing layer or an unknown CRS fail as a whole.
+/// Reads one layer into the frame. `path` may be any OGR source (a file, a folder of
+/// Shapefiles, a "PG:" connection string for PostGIS, an MBTiles file or a folder of MVT tiles,
+/// read at its deepest zoom level with each feature's tile pieces stitched). A broken feature (empty or unsupported
+/// geometry, NaN/Inf coordinates, a point that cannot be projected, a ring with fewer than 3 distinct points) is left
+/// out with an error naming file, layer and feature; the good features still load. Only a file that cannot be opened, a
+/// missing layer or an unknown CRS fail as a whole.
 Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& frame,
                                     const VectorReadOptions& options = {});
 
