@@ -34,6 +34,15 @@ class SceneParser {
     return (p.is_absolute() ? p : (base_ / p)).lexically_normal().string();
   }
 
+  /// A layer's source: a path relative to the scene file, or as it is when GDAL names a
+  /// source that is not a file that way (a "PG:" connection string for PostGIS, a GDAL virtual
+  /// file system path such as /vsizip/..., a URL).
+  [[nodiscard]] std::string resolveSource(const std::string& source) const {
+    const bool connection =
+        source.rfind("PG:", 0) == 0 || source.rfind("/vsi", 0) == 0 || source.find("://") != std::string::npos;
+    return connection ? source : resolve(source);
+  }
+
   void warnUnknownKeys(const json& object, const std::set<std::string>& known, const std::string& where) {
     for (const auto& [key, value] : object.items()) {
       if (known.count(key) == 0) warning(where + key, "unknown key (ignored)");
@@ -99,7 +108,7 @@ class SceneParser {
     if (!read(j, "source", where, source) || source.empty())
       error(where + "source", "missing vector file");
     else
-      layer.source = resolve(source);
+      layer.source = resolveSource(source);
     read(j, "layer", where, layer.sourceLayer);
     read(j, "visible", where, layer.visible);
     if (j.contains("style")) style(j.at("style"), where + "style.", layer.style);

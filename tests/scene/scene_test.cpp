@@ -43,6 +43,18 @@ TEST(SceneFile, PathsAreRelativeToTheSceneFile) {
   EXPECT_EQ(scene->dem, "/data/x/dem.tif");
 }
 
+TEST(SceneFile, ALayerSourceMayBeAConnectionString) {
+  Result<scene::SceneDescription> scene = scene::parseScene(
+      R"({"terrain": {"dem": "dem.tif"}, "layers": [
+          {"name": "roads", "kind": "line", "source": "PG:host=/tmp/pg port=5432 dbname=gis", "layer": "roads"},
+          {"name": "tiles", "kind": "polygon", "source": "tiles/roads.mbtiles", "layer": "roads"}]})",
+      "/data/scenes/a.json");
+  ASSERT_TRUE(scene.ok());
+  ASSERT_EQ(scene->layers.size(), 2u);
+  EXPECT_EQ(scene->layers[0].source, "PG:host=/tmp/pg port=5432 dbname=gis");
+  EXPECT_EQ(scene->layers[1].source, "/data/scenes/tiles/roads.mbtiles");
+}
+
 TEST(SceneFile, DemMayBeAListOfFilesAndFoldersWithItsCrsUnitAndSpacing) {
   Result<scene::SceneDescription> scene = scene::parseScene(
       R"({"terrain": {"dem": ["srtm", "extra/N49E008.hgt"], "crs": "EPSG:4326", "height_unit": "ft",

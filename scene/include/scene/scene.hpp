@@ -17,7 +17,7 @@ namespace gis::scene {
 struct LayerDescription {
   std::string name;
   overlay::LayerKind kind = overlay::LayerKind::Polygon;
-  std::string source;       ///< absolute path
+  std::string source;       ///< absolute path, or a connection string ("PG:...", /vsi..., a URL)
   std::string sourceLayer;  ///< OGR layer name; empty = first
   overlay::LayerStyle style;
   bool visible = true;
