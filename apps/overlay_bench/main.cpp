@@ -28,8 +28,8 @@ constexpr const char* kUsage =
     "  (--segments: which; close-up puts the eye 1.5 m over roads and areas); writes methods.json,\n"
     "  methods.csv, methods.md and plots; --msaa: multisampled targets, the error judged on sample 0\n"
     "--mode ablation: ours with each saving switched off alone (z-fail everywhere, bottom caps in z-pass,\n"
-    "  no frustum culling, cover with the pieces, one cover rectangle, no split at cells, a piece per\n"
-    "  line shape), the same\n"
+    "  no frustum culling, cover with the pieces, one cover rectangle, no split at cells) and with\n"
+    "  lines united per cell, the same\n"
     "  figures; ablation.json\n"
     "--mode scaling --scenes A.json,B.json,...: terrain only, ours and the paper's on each scene (the\n"
     "  oblique segment unless --segments): scaling.md, frame time against vector vertices and DEM posts\n";

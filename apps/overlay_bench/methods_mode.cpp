@@ -50,8 +50,8 @@ int runAblation(const Options& o) {
   methods.back().adaptiveSplit = false;
   methods.emplace_back("no split at cells", ours, 0, true);
   methods.back().cellPosts = 1 << 20;
-  methods.emplace_back("a piece per line shape", ours, 0, true);
-  methods.back().uniteLines = false;
+  methods.emplace_back("lines united per cell", ours, 0, true);
+  methods.back().uniteLines = true;
   return runVariants(o, std::move(methods), "ablation");
 }
 

@@ -46,7 +46,7 @@ struct Method {
   bool overlays = true;
   int cellPosts = 16;         ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
-  bool uniteLines = true;     ///< a line feature's shapes united per cell (the ablation keeps a piece per shape)
+  bool uniteLines = false;    ///< a line feature's shapes united per cell (the ablation's comparison)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
   std::optional<scene::SceneRenderer> renderer;           ///< its own, or empty when it shares another's
   scene::SceneRenderer* shared = nullptr;                 ///< the renderer it draws with

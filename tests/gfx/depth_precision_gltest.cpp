@@ -351,14 +351,9 @@ TEST_F(DepthPrecisionGlTest, ClassificationErrorAgainstDistanceForFloatAnd24BitD
     for (const std::string nearPlane : {"1 m", "viewer"}) {
       const std::string at = std::to_string(static_cast<long>(distance)) + " m, near " + nearPlane;
       EXPECT_LE(row(distance, nearPlane, kD32F).edgeWrong, row(distance, nearPlane, kD32F).covered / 200) << at;
-      // The comparison does see too little padding, from 1 km on. At 100 m, with the roads
-      // built as they are drawn (one united piece per feature per cell), no cap of this scene
-      // comes close enough to the ground for leaving out the pad to show (measured: 0 wrong;
-      // with a piece per segment, join and cap shape it was 6.5 %).
-      if (distance >= 1e3) {
-        EXPECT_GT(wrongPercent(distance, nearPlane, kNoPad), 0.5) << at;
-        EXPECT_GT(row(distance, nearPlane, kPadOneStep).wrong, 0u) << at;
-      }
+      // The comparison does see too little padding, at every distance.
+      EXPECT_GT(wrongPercent(distance, nearPlane, kNoPad), 0.5) << at;
+      EXPECT_GT(row(distance, nearPlane, kPadOneStep).wrong, 0u) << at;
       // A larger near plane makes the 24-bit steps finer.
       EXPECT_LE(wrongPercent(distance, "viewer", kD24VsTruth), wrongPercent(distance, "1 m", kD24VsTruth)) << at;
     }

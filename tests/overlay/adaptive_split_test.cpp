@@ -113,7 +113,7 @@ void expectClosedAndBounded(const std::vector<Polyhedron>& pieces, const PlaneBo
 }
 
 std::vector<Polyhedron> build(const geo::Feature& f, LayerKind kind, const PlaneBounds& plane, bool adaptive,
-                              bool uniteLines = true) {
+                              bool uniteLines = false) {
   FeatureStyle style;
   style.shape.width = 12.0;
   Diagnostics d;
@@ -178,26 +178,27 @@ TEST(AdaptiveSplit, APlaneNeverPaysForTheCutWalls) {
   expectClosedAndBounded(adaptive, steep);
 }
 
-TEST(AdaptiveSplit, RoadOnFlatGroundKeepsOnePiece) {
+TEST(AdaptiveSplit, RoadOnFlatGroundKeepsOnePiecePerShape) {
   const PlaneBounds flat(0.0, 0.0);
-  // United (the default): the road's shapes are one region, cut at the cells and welded back.
+  // A piece per shape (the default): 3 segments, 2 joins, 2 caps, each welded back.
   const std::vector<Polyhedron> split = build(road(), LayerKind::Line, flat, false);
   const std::vector<Polyhedron> adaptive = build(road(), LayerKind::Line, flat, true);
-  EXPECT_EQ(adaptive.size(), 1u);
+  EXPECT_EQ(adaptive.size(), 7u);
   EXPECT_GT(split.size(), adaptive.size());
   EXPECT_NEAR(totalArea(adaptive), totalArea(split), 1e-6 * totalArea(split));
   expectClosedAndBounded(adaptive, flat);
-  // A piece per shape: 3 segments, 2 joins, 2 caps, each welded back.
-  const std::vector<Polyhedron> shapesSplit = build(road(), LayerKind::Line, flat, false, false);
-  const std::vector<Polyhedron> shapes = build(road(), LayerKind::Line, flat, true, false);
-  EXPECT_EQ(shapes.size(), 7u);
-  EXPECT_GT(shapesSplit.size(), shapes.size());
-  EXPECT_NEAR(totalArea(shapes), totalArea(shapesSplit), 1e-6 * totalArea(shapesSplit));
-  expectClosedAndBounded(shapes, flat);
+  // United (FootprintOptions::uniteLines): the road's shapes are one region, cut at the cells
+  // and welded back into one piece.
+  const std::vector<Polyhedron> unitedSplit = build(road(), LayerKind::Line, flat, false, true);
+  const std::vector<Polyhedron> united = build(road(), LayerKind::Line, flat, true, true);
+  EXPECT_EQ(united.size(), 1u);
+  EXPECT_GT(unitedSplit.size(), united.size());
+  EXPECT_NEAR(totalArea(united), totalArea(unitedSplit), 1e-6 * totalArea(unitedSplit));
+  expectClosedAndBounded(united, flat);
   // The union is no larger than its shapes (they overlap at the joins) and no smaller than
   // its longest segment's rectangle.
-  EXPECT_LT(totalArea(adaptive), totalArea(shapes));
-  EXPECT_GT(totalArea(adaptive), 12.0 * std::hypot(830.0, 110.0));
+  EXPECT_LT(totalArea(united), totalArea(adaptive));
+  EXPECT_GT(totalArea(united), 12.0 * std::hypot(830.0, 110.0));
 }
 
 TEST(AdaptiveSplit, ALongNarrowPieceUpASlopeKeepsItsParts) {

@@ -1046,7 +1046,9 @@ TEST(LineFootprints, ExtremeWidths) {
         }
         // United: one valid piece, no larger than the shapes together, no smaller than the
         // longest segment's rectangle.
-        const auto united = lines(f, shapeOf(width, join, cap));
+        FootprintOptions unite;
+        unite.uniteLines = true;
+        const auto united = lines(f, shapeOf(width, join, cap), unite);
         ASSERT_EQ(united.size(), 1U);
         EXPECT_LE(totalArea(united), totalArea(out) * (1.0 + 1e-9));
         EXPECT_GE(totalArea(united), width * std::hypot(13.6, 14.0) * (1.0 - 1e-9));

@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 #include <queue>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -19,6 +20,13 @@
 
 namespace gis::overlay::detail {
 namespace {
+
+struct PairHash {
+  std::size_t operator()(const std::pair<double, double>& p) const {
+    const std::size_t a = std::hash<double>{}(p.first), b = std::hash<double>{}(p.second);
+    return a ^ (b + 0x9e3779b97f4a7c15ULL + (a << 6) + (a >> 2));
+  }
+};
 
 struct WindingInfo {
   int winding = INT_MIN;  ///< INT_MIN: not reached yet
@@ -33,10 +41,14 @@ using UnionTriangulation = CGAL::Constrained_triangulation_plus_2<CGAL::Constrai
             UnionKernel, CGAL::Triangulation_face_base_with_info_2<WindingInfo, UnionKernel>>>,
     CGAL::Exact_intersections_tag>>;
 
-/// A vertex rounded to double (exactly evaluated first: polygon_footprints.cpp's toDouble).
-glm::dvec2 rounded(const UnionKernel::Point_2& p) {
-  return {CGAL::to_double(CGAL::exact(p.x())), CGAL::to_double(CGAL::exact(p.y()))};
+/// A coordinate rounded to double: an input coordinate is its interval's single value; a
+/// constructed one (a crossing) is evaluated exactly first (polygon_footprints.cpp's toDouble).
+double rounded(const UnionKernel::FT& c) {
+  const std::pair<double, double> i = CGAL::to_interval(c);
+  return i.first == i.second ? i.first : CGAL::to_double(CGAL::exact(c));
 }
+
+glm::dvec2 rounded(const UnionKernel::Point_2& p) { return {rounded(p.x()), rounded(p.y())}; }
 
 /// Change of the winding number from face f across its edge i into the neighbour: f lies on the
 /// left of va → vb (va = vertex ccw(i), vb = vertex cw(i)); a piece edge running va → vb has the
@@ -77,15 +89,18 @@ std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>&
     for (const auto& p : part) points.emplace_back(p.x, p.y);
   }
   cdt.insert(points.begin(), points.end());
+  // Each input point's vertex, found by its coordinates (input points are exact doubles):
+  // inserting the point again would locate it through exact comparisons of equal coordinates.
+  std::unordered_map<std::pair<double, double>, UnionTriangulation::Vertex_handle, PairHash> vertexAt;
+  vertexAt.reserve(points.size());
+  for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
+    const glm::dvec2 q = rounded(v->point());
+    vertexAt.emplace(std::pair{q.x + 0.0, q.y + 0.0}, v);  // + 0.0: −0 and 0 are one key
+  }
   std::vector<UnionTriangulation::Vertex_handle> handles;
   for (const auto& part : parts) {
     handles.clear();
-    UnionTriangulation::Face_handle hint;
-    for (const auto& p : part) {
-      const auto v = cdt.insert(UnionKernel::Point_2(p.x, p.y), hint);  // the vertex already there
-      hint = v->face();
-      handles.push_back(v);
-    }
+    for (const auto& p : part) handles.push_back(vertexAt.at(std::pair{p.x + 0.0, p.y + 0.0}));
     for (std::size_t i = 0; i < handles.size(); ++i) {
       const auto va = handles[i];
       const auto vb = handles[(i + 1) % handles.size()];

@@ -37,7 +37,7 @@ struct OverlayBuildSettings {
   int textureSize = 0;        ///< techniques that rasterise textures: texels per side (0: the technique's default)
   int cellPosts = 16;         ///< pieces are split at cells of this many DEM posts (tightness)
   bool adaptiveSplit = true;  ///< keep the split only where it pays (overlay::LayerBuildOptions)
-  bool uniteLines = true;     ///< one piece per cell for a line feature's shapes (overlay::FootprintOptions)
+  bool uniteLines = false;    ///< one piece per cell for a line feature's shapes (overlay::FootprintOptions)
   int lineCellPosts = 2;      ///< united lines are cut at cells of this many DEM posts (a divisor of cellPosts)
   double chordToleranceMetres = 0.02;
 };
