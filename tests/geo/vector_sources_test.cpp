@@ -217,5 +217,55 @@ TEST(VectorTiles, MbtilesAndATileFolderGiveEachTractOnceWithinTheStatedQuantisat
   }
 }
 
+TEST(VectorTiles, LinesComeOnceWithTheirTilePiecesAsParts) {
+  const geo::SceneFrame frame = olindaFrame();
+  Result<geo::VectorLayer> source = geo::readVectorLayer(kStreets, frame);
+  ASSERT_TRUE(source.ok());
+  std::map<std::int64_t, const geo::Feature*> byFid;
+  for (const geo::Feature& f : source->features) byFid[f.fid] = &f;
+  const std::string tiles = translated(kStreets, "MBTiles", "streets.mbtiles",
+                                       {"-dsco", "MINZOOM=16", "-dsco", "MAXZOOM=16", "-nln", "streets"});
+  geo::VectorReadOptions options;
+  options.layer = "streets";
+  Result<geo::VectorLayer> read = geo::readVectorLayer(tiles, frame, options);
+  ASSERT_TRUE(read.ok()) << said(read.diagnostics);
+  const double bound = read->quantisationMetres;
+  EXPECT_NEAR(bound, 0.5 * 0.14929 * (std::numbers::sqrt2 + 1.0), 1e-4);
+  // Each street once under its source id (the sample's 8 one-point lines are not in the tiles).
+  EXPECT_EQ(read->features.size(), source->features.size());
+  double worst = 0.0, worstBack = 0.0;
+  std::size_t parts = 0;
+  for (const geo::Feature& f : read->features) {
+    const auto found = byFid.find(f.fid);
+    ASSERT_NE(found, byFid.end()) << "feature " << f.fid;
+    parts += f.lines.size();
+    // Tile vertices near the source line; source vertices near the tiles' lines.
+    auto distanceToLines = [](const glm::dvec2& p, const geo::Feature& g) {
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto& line : g.lines) {
+        for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+          const glm::dvec2 a = line[i], d = line[i + 1] - a;
+          const double t = glm::dot(d, d) > 0.0 ? std::clamp(glm::dot(p - a, d) / glm::dot(d, d), 0.0, 1.0) : 0.0;
+          best = std::min(best, glm::length(p - (a + t * d)));
+        }
+      }
+      return best;
+    };
+    for (const auto& line : f.lines) {
+      for (const glm::dvec2& v : line) worst = std::max(worst, distanceToLines(v, *found->second));
+    }
+    for (const auto& line : found->second->lines) {
+      for (const glm::dvec2& v : line) worstBack = std::max(worstBack, distanceToLines(v, f));
+    }
+  }
+  std::printf(
+      "streets from MBTiles: %zu features in %zu parts; vertices within %.3f m of the source, source "
+      "vertices within %.3f m of the tiles' (bound %.3f m)\n",
+      read->features.size(), parts, worst, worstBack, bound);
+  EXPECT_GT(parts, read->features.size()) << "some streets cross tiles";
+  EXPECT_LE(worst, 1.01 * bound);
+  EXPECT_LE(worstBack, 1.01 * bound);
+}
+
 }  // namespace
 }  // namespace gis::test
