@@ -1,7 +1,10 @@
 // overlay_render: draws a scene headless and writes what tests, scripts and people need
 // (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png,
 // overlap.png, open_volumes.png).
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -498,6 +501,23 @@ json terrainJson(const Drawn& d) {
           {"pixels", terrainPixels}};
 }
 
+/// When the run started, and how long it took to the first frame read back (stats.json).
+struct RunClock {
+  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
+  double firstFrameSeconds = 0.0;
+};
+RunClock& runClock() {
+  static RunClock clock;
+  return clock;
+}
+
+/// The process's peak resident memory so far (bytes; 0 when it cannot be read).
+std::size_t peakResidentBytes() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // kilobytes on Linux
+}
+
 /// stats.json without the analyses' blocks (they add theirs as they are written).
 json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
   const scene::FrameStats& frame = d.frame.stats;
@@ -508,6 +528,11 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
       {"msaa", d.frame.images.samples},
       {"gl", {{"renderer", context.info().renderer}, {"version", context.info().version}}},
       {"load_seconds", d.setup.scene.loadSeconds},
+      // From the start of the run (options read) to the frame read back: loading, building
+      // every layer, drawing. And the process's peak resident memory by then (with Mesa's
+      // software rasteriser, GPU buffers live in it too).
+      {"first_frame_seconds", runClock().firstFrameSeconds},
+      {"cpu_peak_bytes", peakResidentBytes()},
       {"terrain", terrainJson(d)},
       {"layers", layersJson(d)},
       {"method", d.o.technique->name},
@@ -583,6 +608,7 @@ bool writeOutputs(const Drawn& d, gfx::Context& context, Diagnostics& all) {
 }
 
 int run(const Options& o) {
+  runClock().start = std::chrono::steady_clock::now();
   Diagnostics all;
   if ((!o.lasso.empty() || !o.overlap.empty() || o.openVolumes) && o.msaa > 1) {
     logError("--lasso, --overlap and --open-volumes with --msaa " + std::to_string(o.msaa) +
@@ -597,6 +623,8 @@ int run(const Options& o) {
   if (!findOverlapLayers(o, *setup, *gpu->renderer, overlapLayers)) return 2;
   const std::optional<Frame> frame = drawFrame(o, *setup, *gpu->renderer, overlapLayers, all);
   if (!frame) return 1;
+  runClock().firstFrameSeconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - runClock().start).count();
   if (!writeOutputs(Drawn{o, *setup, *gpu->renderer, *frame}, *gpu->context, all)) return 1;
   return gpu->context->debug().errorCount() == 0 ? 0 : 1;
 }
