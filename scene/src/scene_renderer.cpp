@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <thread>
 
 #include <glm/common.hpp>
 
@@ -76,6 +77,8 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   techniqueInfo_ = settings.technique != nullptr ? settings.technique : &overlay::defaultTechnique();
   options.paperVariant = techniqueInfo_->construction == overlay::PieceConstruction::Paper;
   options.adaptiveSplit = settings.adaptiveSplit;
+  // The terrain's bounds may be read from several threads at once.
+  options.threads = std::max(1U, std::thread::hardware_concurrency());
   options.footprints.chordTolerance = settings.chordToleranceMetres;
   options.footprints.uniteLines = settings.uniteLines;
   options.footprints.lineCellDivisions = std::max(1, settings.cellPosts / std::max(1, settings.lineCellPosts));

@@ -1,11 +1,14 @@
 #include "vector_overlay/layer_geometry.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <map>
 #include <sstream>
+#include <thread>
 #include <unordered_map>
 #include <variant>
 
@@ -346,15 +349,51 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
     assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());
   layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
-  for (std::size_t i = 0; i < layer.features_.size(); ++i) {
-    if (!layer.styles_[i].visible) continue;
-    const std::size_t errorsBefore = r.diagnostics.count(Severity::Error);
-    std::vector<Polyhedron> pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind,
-                                                    layer.styles_[i], layer.name_, bounds, options, r.diagnostics);
-    layer.setOutcome(i, !pieces.empty()                                       ? FeatureOutcome::Drawn
-                        : r.diagnostics.count(Severity::Error) > errorsBefore ? FeatureOutcome::Skipped
-                                                                              : FeatureOutcome::NothingToDraw);
-    layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces));
+  // Features in blocks: each block's pieces and messages built on options.threads threads
+  // (features taken from a shared counter), then added in feature order. A block at a time,
+  // so that no more than one block's pieces wait outside the arrays.
+  struct Built {
+    std::vector<Polyhedron> pieces;
+    Diagnostics diagnostics;
+  };
+  constexpr std::size_t kBlock = 2048;
+  std::vector<Built> built;
+  const unsigned threads = std::clamp(options.threads, 1U, 64U);
+  for (std::size_t blockStart = 0; blockStart < layer.features_.size(); blockStart += kBlock) {
+    const std::size_t blockEnd = std::min(blockStart + kBlock, layer.features_.size());
+    built.assign(blockEnd - blockStart, Built{});
+    std::atomic<std::size_t> next{blockStart};
+    const auto work = [&] {
+      for (std::size_t i = next.fetch_add(1); i < blockEnd; i = next.fetch_add(1)) {
+        if (!layer.styles_[i].visible) continue;
+        Built& b = built[i - blockStart];
+        try {
+          b.pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind, layer.styles_[i],
+                                    layer.name_, bounds, options, b.diagnostics);
+        } catch (const std::exception& e) {  // on a worker thread it would end the program
+          b.pieces.clear();
+          b.diagnostics.add(detail::featureError(Severity::Error, layer.name_, layer.features_[i].fid,
+                                                 std::string("cannot be built (") + e.what() + "); feature skipped"));
+        }
+      }
+    };
+    if (threads > 1 && blockEnd - blockStart > 1) {
+      std::vector<std::jthread> pool;
+      for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+      work();
+    } else {
+      work();
+    }
+    for (std::size_t i = blockStart; i < blockEnd; ++i) {
+      if (!layer.styles_[i].visible) continue;
+      Built& b = built[i - blockStart];
+      const bool errors = b.diagnostics.count(Severity::Error) > 0;
+      r.diagnostics.append(b.diagnostics);
+      layer.setOutcome(i, !b.pieces.empty() ? FeatureOutcome::Drawn
+                          : errors          ? FeatureOutcome::Skipped
+                                            : FeatureOutcome::NothingToDraw);
+      layer.addPieces(static_cast<std::uint32_t>(i), std::move(b.pieces));
+    }
   }
   layer.changes_ = GeometryChange{};  // everything is new: the first upload takes it all
   layer.stats_.features = layer.features_.size();

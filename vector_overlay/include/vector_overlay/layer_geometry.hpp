@@ -58,6 +58,10 @@ struct LayerBuildOptions {
   /// Off: every shape is split at every cell it meets.
   bool adaptiveSplit = true;
   double splitGain = 0.7;
+  /// Features are built on this many threads (the result is the same on any number). Above 1,
+  /// the HeightBoundsProvider is read from all of them at once: give more only for a provider
+  /// that allows it (terrain::QuadtreeHeightBounds does).
+  unsigned threads = 1;
 };
 
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
