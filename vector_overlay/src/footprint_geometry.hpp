@@ -112,6 +112,11 @@ class FootprintBuilder {
     }
     fp.vertices = std::move(vertices_);
     fp.triangles = std::move(triangles_);
+    // Grown by doubling, the arrays hold up to twice what they need, and a layer keeps its
+    // footprints (10^6–10^7 of them at scale): only what is used stays.
+    fp.vertices.shrink_to_fit();
+    fp.triangles.shrink_to_fit();
+    fp.boundary.shrink_to_fit();
     vertices_.clear();
     triangles_.clear();
     index_.clear();
