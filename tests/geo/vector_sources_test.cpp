@@ -129,20 +129,21 @@ TEST(SpatialFilter, ABoxOutsideTheDataReadsNothingAndABadBoxIsAnError) {
   EXPECT_NE(said(refused.diagnostics).find("spatial filter"), std::string::npos) << said(refused.diagnostics);
 }
 
-/// Distance from p to the nearest edge of the feature's rings.
+/// Distance from p to the nearest edge of the feature's rings and lines.
 double distanceToEdges(const glm::dvec2& p, const geo::Feature& f) {
   double best = std::numeric_limits<double>::infinity();
-  auto ring = [&](const std::vector<glm::dvec2>& r) {
-    for (std::size_t i = 0; i < r.size(); ++i) {
+  auto edges = [&](const std::vector<glm::dvec2>& r, bool closed) {
+    for (std::size_t i = 0; i + (closed ? 0 : 1) < r.size(); ++i) {
       const glm::dvec2 a = r[i], d = r[(i + 1) % r.size()] - a;
       const double t = glm::dot(d, d) > 0.0 ? std::clamp(glm::dot(p - a, d) / glm::dot(d, d), 0.0, 1.0) : 0.0;
       best = std::min(best, glm::length(p - (a + t * d)));
     }
   };
   for (const geo::Polygon& polygon : f.polygons) {
-    ring(polygon.outer);
-    std::for_each(polygon.holes.begin(), polygon.holes.end(), ring);
+    edges(polygon.outer, true);
+    for (const auto& hole : polygon.holes) edges(hole, true);
   }
+  for (const geo::LineString& line : f.lines) edges(line, false);
   return best;
 }
 
@@ -240,22 +241,11 @@ TEST(VectorTiles, LinesComeOnceWithTheirTilePiecesAsParts) {
     ASSERT_NE(found, byFid.end()) << "feature " << f.fid;
     parts += f.lines.size();
     // Tile vertices near the source line; source vertices near the tiles' lines.
-    auto distanceToLines = [](const glm::dvec2& p, const geo::Feature& g) {
-      double best = std::numeric_limits<double>::infinity();
-      for (const auto& line : g.lines) {
-        for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-          const glm::dvec2 a = line[i], d = line[i + 1] - a;
-          const double t = glm::dot(d, d) > 0.0 ? std::clamp(glm::dot(p - a, d) / glm::dot(d, d), 0.0, 1.0) : 0.0;
-          best = std::min(best, glm::length(p - (a + t * d)));
-        }
-      }
-      return best;
-    };
     for (const auto& line : f.lines) {
-      for (const glm::dvec2& v : line) worst = std::max(worst, distanceToLines(v, *found->second));
+      for (const glm::dvec2& v : line) worst = std::max(worst, distanceToEdges(v, *found->second));
     }
     for (const auto& line : found->second->lines) {
-      for (const glm::dvec2& v : line) worstBack = std::max(worstBack, distanceToLines(v, f));
+      for (const glm::dvec2& v : line) worstBack = std::max(worstBack, distanceToEdges(v, f));
     }
   }
   std::printf(

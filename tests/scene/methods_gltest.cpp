@@ -21,6 +21,7 @@
 
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "olinda_cameras.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
@@ -50,18 +51,7 @@ class MethodsGlTest : public GlTest {
     Result<scene::LoadedScene> loaded = scene::loadScene(*description);
     ASSERT_TRUE(loaded.ok());
     scene_ = std::move(*loaded);
-    glm::dvec3 lo, hi;
-    scene::terrainBox(*scene_, 1.0, lo, hi);
-    const glm::dvec3 centre = 0.5 * (lo + hi);
-    cameras_ = {scene::overviewCamera(lo, hi)};
-    scene::Camera close = cameras_[0];
-    close.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
-    close.target = centre + glm::dvec3(0.0, 400.0, 0.0);
-    cameras_.push_back(close);
-    scene::Camera street = cameras_[0];
-    street.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
-    street.target = centre + glm::dvec3(100.0, -300.0, 0.0);
-    cameras_.push_back(street);
+    cameras_ = olindaCameras(*scene_);
   }
 
   std::optional<scene::LoadedScene> scene_;

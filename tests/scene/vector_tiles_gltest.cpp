@@ -14,6 +14,7 @@
 
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "olinda_cameras.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
@@ -81,18 +82,7 @@ TEST_F(VectorTilesGlTest, TractsFromMbtilesMatchTheReferenceOfTheSourceAwayFromE
   for (const overlay::OverlayLayer& l : sourceRenderer->overlayLayers())
     reference.push_back(overlay::referenceLayerOf(l));
 
-  glm::dvec3 lo, hi;
-  scene::terrainBox(*fromSource, 1.0, lo, hi);
-  const glm::dvec3 centre = 0.5 * (lo + hi);
-  std::vector<scene::Camera> cameras = {scene::overviewCamera(lo, hi)};
-  scene::Camera oblique = cameras[0];
-  oblique.eye = centre + glm::dvec3(300.0, -1500.0, 700.0);
-  oblique.target = centre + glm::dvec3(0.0, 400.0, 0.0);
-  cameras.push_back(oblique);
-  scene::Camera close = cameras[0];
-  close.eye = centre + glm::dvec3(-200.0, -900.0, 150.0);
-  close.target = centre + glm::dvec3(100.0, -300.0, 0.0);
-  cameras.push_back(close);
+  const std::vector<scene::Camera> cameras = olindaCameras(*fromSource);
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   scene::RenderSettings settings;

@@ -9,7 +9,6 @@
 #include <exception>
 #include <map>
 #include <optional>
-#include <queue>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -65,19 +64,10 @@ int windingChange(const UnionTriangulation& cdt, UnionTriangulation::Face_handle
 }
 
 void markWinding(UnionTriangulation& cdt) {
-  std::queue<UnionTriangulation::Face_handle> queue;
-  cdt.infinite_face()->info().winding = 0;
-  queue.push(cdt.infinite_face());
-  while (!queue.empty()) {
-    const auto f = queue.front();
-    queue.pop();
-    for (int i = 0; i < 3; ++i) {
-      const auto g = f->neighbor(i);
-      if (g->info().winding != INT_MIN) continue;
-      g->info().winding = f->info().winding + windingChange(cdt, f, i);
-      queue.push(g);
-    }
-  }
+  using Face = UnionTriangulation::Face_handle;
+  floodFromOutside(
+      cdt, [](Face f) { f->info().winding = 0; }, [](Face f) { return f->info().winding != INT_MIN; },
+      [&](Face f, int i, Face g) { g->info().winding = f->info().winding + windingChange(cdt, f, i); });
 }
 
 }  // namespace

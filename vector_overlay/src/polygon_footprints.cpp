@@ -17,7 +17,6 @@
 #include <exception>
 #include <map>
 #include <optional>
-#include <queue>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -98,25 +97,18 @@ std::string describe(RingCheck check) {
 template <typename Tr>
 void markParity(Tr& cdt) {
   for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info().parity = -1;
-  std::queue<typename Tr::Face_handle> queue;
-  cdt.infinite_face()->info().parity = 0;
-  queue.push(cdt.infinite_face());
-  while (!queue.empty()) {
-    const auto f = queue.front();
-    queue.pop();
-    for (int i = 0; i < 3; ++i) {
-      const auto g = f->neighbor(i);
-      if (g->info().parity != -1) continue;
-      int flip = 0;
-      if (f->is_constrained(i)) {
-        const auto va = f->vertex(Tr::cw(i));
-        const auto vb = f->vertex(Tr::ccw(i));
-        flip = static_cast<int>(cdt.number_of_enclosing_constraints(va, vb) % 2);
-      }
-      g->info().parity = f->info().parity ^ flip;
-      queue.push(g);
-    }
-  }
+  using Face = typename Tr::Face_handle;
+  detail::floodFromOutside(
+      cdt, [](Face f) { f->info().parity = 0; }, [](Face f) { return f->info().parity != -1; },
+      [&](Face f, int i, Face g) {
+        int flip = 0;
+        if (f->is_constrained(i)) {
+          const auto va = f->vertex(Tr::cw(i));
+          const auto vb = f->vertex(Tr::ccw(i));
+          flip = static_cast<int>(cdt.number_of_enclosing_constraints(va, vb) % 2);
+        }
+        g->info().parity = f->info().parity ^ flip;
+      });
 }
 
 /// Whether every constraint of the triangulation runs exactly along its input segment: its
