@@ -76,6 +76,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   overlay::LayerBuildOptions options;
   techniqueInfo_ = settings.technique != nullptr ? settings.technique : &overlay::defaultTechnique();
   options.paperVariant = techniqueInfo_->construction == overlay::PieceConstruction::Paper;
+  const bool tiled = techniqueInfo_->construction == overlay::PieceConstruction::Tiled;
   options.adaptiveSplit = settings.adaptiveSplit;
   // The terrain's bounds may be read from several threads at once.
   options.threads = std::max(1U, std::thread::hardware_concurrency());
@@ -94,6 +95,12 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   overlay::TechniqueOptions techniqueOptions;
   techniqueOptions.textureSize = settings.textureSize;
   techniqueOptions.extent = overlay::DrapeExtent{cells.origin, glm::max(extent, glm::dvec2(1e-3))};
+  techniqueOptions.bounds = scene.bounds.get();
+  techniqueOptions.build = options;
+  techniqueOptions.tiling.gpuBudgetBytes =
+      static_cast<std::size_t>(std::max(1.0, scene.description.gpuBudgetMb) * 1024.0 * 1024.0);
+  // A tiled technique builds the pieces per tile: the layers keep their features only.
+  options.deferPieces = tiled;
   Result<std::unique_ptr<overlay::OverlayTechnique>> technique = techniqueInfo_->create(techniqueOptions);
   diagnostics.append(technique.diagnostics);
   if (technique) technique_ = std::move(*technique);
@@ -281,6 +288,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   frame.tiles = tiles;
   frame.settings = settings.overlay;
   frame.settings.measure = settings.measure;
+  frame.waitForTiles = settings.waitForTiles;
   overlay::TechniqueFrameStats techniqueStats;
   std::optional<overlay::SurfaceDrape> drape;
   if (overlays) drape = technique_->prepare(cache, frame, techniqueStats);
@@ -303,6 +311,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   if (overlays) {
     technique_->draw(cache, frame, techniqueStats);
     stats.layers = std::move(techniqueStats.layers);
+    stats.overlayTiles = std::move(techniqueStats);
   }
   return stats;
 }

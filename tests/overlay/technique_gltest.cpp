@@ -79,6 +79,9 @@ TEST_F(TechniqueGlTest, EveryTechniqueDrawsIntoTheTargetItIsGiven) {
     overlay::TechniqueOptions techniqueOptions;
     techniqueOptions.textureSize = info.usesTextures() ? 128 : 0;
     techniqueOptions.extent = overlay::DrapeExtent{lo, hi - lo};
+    techniqueOptions.bounds = bounds.get();
+    techniqueOptions.build = options;
+    techniqueOptions.tiling.finestTileCells = 2;  // several levels on this small terrain
     Result<std::unique_ptr<overlay::OverlayTechnique>> technique = info.create(techniqueOptions);
     ASSERT_TRUE(technique.ok());
 

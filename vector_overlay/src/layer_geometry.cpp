@@ -233,7 +233,7 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
                                  : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
   const bool nothing = std::none_of(footprints.begin(), footprints.end(),
                                     [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
-  if (nothing && diagnostics.count(Severity::Error) == errorsBefore) {
+  if (nothing && options.reportEmpty && diagnostics.count(Severity::Error) == errorsBefore) {
     // Not broken, but nothing to draw: say why, so that nothing vanishes silently.
     const bool hasGeometry = kind == LayerKind::Polygon ? !feature.polygons.empty() : !feature.lines.empty();
     const char* what = kind == LayerKind::Polygon ? "polygon" : "line";
@@ -334,6 +334,18 @@ GeometryChange LayerGeometry::takeChanges() {
 Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, const LayerStyle& style,
                                            std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
                                            const LayerBuildOptions& options) {
+  Diagnostics diagnostics;
+  std::vector<FeatureStyle> styles = resolveFeatureStyles(style, kind, features, &diagnostics, name);
+  Result<LayerGeometry> r =
+      build(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
+  diagnostics.append(r.diagnostics);
+  r.diagnostics = std::move(diagnostics);
+  return r;
+}
+
+Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, const LayerStyle& style,
+                                           std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                           const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   LayerGeometry layer;
   layer.name_ = std::move(name);
@@ -344,11 +356,21 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
   layer.bounds_ = &bounds;
   layer.boundsRevision_ = bounds.revision();
   Result<LayerGeometry> r;
-  layer.styles_ = resolveFeatureStyles(style, kind, layer.features_, &r.diagnostics, layer.name_);
-  for (std::size_t i = 0; i < layer.features_.size(); ++i)
-    assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
+  layer.styles_ = std::move(styles);
+  layer.styles_.resize(layer.features_.size());
+  if (!options.deferPieces) {
+    for (std::size_t i = 0; i < layer.features_.size(); ++i)
+      assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
+  }
   layer.featureSlots_.resize(layer.features_.size());
   layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
+  if (options.deferPieces) {
+    for (std::size_t i = 0; i < layer.features_.size(); ++i)
+      if (layer.styles_[i].visible) layer.setOutcome(i, FeatureOutcome::Drawn);
+    layer.stats_.features = layer.features_.size();
+    r.value = std::move(layer);
+    return r;
+  }
   // Features in blocks: each block's pieces and messages built on options.threads threads
   // (features taken from a shared counter), then added in feature order. A block at a time,
   // so that no more than one block's pieces wait outside the arrays.
@@ -606,7 +628,9 @@ Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
   Diagnostics diagnostics;
   freePieces(static_cast<std::uint32_t>(index));
   FeatureOutcome outcome = FeatureOutcome::Hidden;
-  if (styles_[index].visible && bounds_ != nullptr) {
+  if (styles_[index].visible && options_.deferPieces) {
+    outcome = FeatureOutcome::Drawn;  // a tiled technique builds the pieces
+  } else if (styles_[index].visible && bounds_ != nullptr) {
     std::vector<Polyhedron> pieces = buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_,
                                                     styles_[index], name_, *bounds_, options_, diagnostics);
     outcome = !pieces.empty()           ? FeatureOutcome::Drawn
@@ -648,6 +672,7 @@ void LayerGeometry::removeFeature(std::size_t index) {
 void LayerGeometry::refreshBounds(const HeightBoundsProvider& bounds) {
   bounds_ = &bounds;
   boundsRevision_ = bounds.revision();
+  if (options_.deferPieces) return;  // no pieces; a tiled technique reads the bounds per tile
   if (widthPixels() > 0.0) {
     // The anchors move with the terrain: rebuild every feature.
     for (std::size_t i = 0; i < features_.size(); ++i) {

@@ -122,18 +122,19 @@ void OverlayRenderer::drawRects(gfx::StateCache& cache, const std::vector<glm::v
   glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(rects.size()));
 }
 
-std::vector<glm::vec4> OverlayRenderer::tileRectsOf(const OverlayView& view, const Pieces& pieces, std::size_t first,
-                                                    std::size_t last) {
+std::vector<glm::vec4> OverlayRenderer::tileRectsOf(const OverlayView& view, std::span<const Pieces> chunks) {
   constexpr int n = kCoverTiles;
   std::vector<std::uint8_t> touched(static_cast<std::size_t>(n * n), 0);
   const auto tile = [](float ndc) {
     return std::clamp(static_cast<int>(std::floor((ndc + 1.0F) * 0.5F * n)), 0, n - 1);
   };
-  for (std::size_t k = first; k < last; ++k) {
-    const glm::vec4 r = screenRect(view.viewProj, view.nearPlane, pieces.boxes[k][0], pieces.boxes[k][1]);
-    if (!(r.z >= r.x && r.w >= r.y)) continue;
-    const int x0 = tile(r.x), x1 = tile(r.z), y0 = tile(r.y), y1 = tile(r.w);
-    for (int y = y0; y <= y1; ++y) std::fill_n(touched.begin() + y * n + x0, x1 - x0 + 1, std::uint8_t{1});
+  for (const Pieces& pieces : chunks) {
+    for (const auto& box : pieces.boxes) {
+      const glm::vec4 r = screenRect(view.viewProj, view.nearPlane, box[0], box[1]);
+      if (!(r.z >= r.x && r.w >= r.y)) continue;
+      const int x0 = tile(r.x), x1 = tile(r.z), y0 = tile(r.y), y1 = tile(r.w);
+      for (int y = y0; y <= y1; ++y) std::fill_n(touched.begin() + y * n + x0, x1 - x0 + 1, std::uint8_t{1});
+    }
   }
   // Tile edges from one formula, so neighbouring rectangles share their edges exactly (no pixel
   // is drawn twice or missed).
@@ -231,7 +232,20 @@ std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const
   std::vector<LayerFrameStats> stats(layers.size());
   const PixelScale scale = beginFrame(cache, view, settings, layers);
   for (std::size_t i = 0; i < layers.size(); ++i) {
-    if (layers[i] != nullptr) drawLayer(cache, view, *layers[i], i, settings, scale, stats[i]);
+    if (layers[i] != nullptr) drawLayer(cache, view, layers.subspan(i, 1), i, settings, scale, stats[i]);
+  }
+  return stats;
+}
+
+std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const OverlayView& view,
+                                                   std::span<const std::vector<const OverlayLayer*>> layers,
+                                                   const OverlaySettings& settings) {
+  std::vector<LayerFrameStats> stats(layers.size());
+  std::vector<const OverlayLayer*> all;
+  for (const auto& chunks : layers) all.insert(all.end(), chunks.begin(), chunks.end());
+  const PixelScale scale = beginFrame(cache, view, settings, all);
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    if (!layers[i].empty()) drawLayer(cache, view, layers[i], i, settings, scale, stats[i]);
   }
   return stats;
 }
@@ -392,77 +406,113 @@ void OverlayRenderer::markIntoFlag(gfx::StateCache& cache, const OverlayView& vi
   }
 }
 
-void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
-                                std::size_t index, const OverlaySettings& settings, const PixelScale& scale,
-                                LayerFrameStats& stats) {
-  Pieces pieces = classify(view, layer, settings, false, stats);
-  const std::optional<glm::vec4> rectColour =
-      layer.paperVariant() || !settings.rectangleCover ? std::nullopt : layer.uniformColor();
-  stats.rectangleCover = rectColour.has_value();
-  if (!layer.paperVariant() && !rectColour) {
-    pieces.coverZPass = pieces.zPass;
-    pieces.coverZFail = pieces.zFail;
+void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
+                                std::span<const OverlayLayer* const> chunks, std::size_t index,
+                                const OverlaySettings& settings, const PixelScale& scale, LayerFrameStats& stats) {
+  // The chunks of one layer (one, or its tiles) are marked one after the other into the same
+  // counts and covered once: pieces of different chunks may overlap (a tile and the parent
+  // drawn while it builds), and a pixel inside any of them is coloured once.
+  std::vector<Pieces> pieces;
+  pieces.reserve(chunks.size());
+  std::size_t total = 0, overlap = 0;
+  bool paper = false;
+  std::optional<glm::vec4> uniform;
+  bool uniformKnown = false, mixed = false;
+  for (const OverlayLayer* chunk : chunks) {
+    pieces.push_back(classify(view, *chunk, settings, false, stats));
+    total += pieces.back().order.size();
+    overlap += chunk->maxOverlap();
+    paper = paper || chunk->paperVariant();
+    if (pieces.back().order.empty()) continue;
+    const std::optional<glm::vec4> u = chunk->uniformColor();
+    if (!uniformKnown) {
+      uniform = u;
+      uniformKnown = true;
+    } else if (u != uniform) {
+      mixed = true;
+    }
   }
-  stats.drawCommands = pieces.zPass.size() + pieces.zFail.size() + pieces.coverZPass.size() + pieces.coverZFail.size();
-  if (pieces.order.empty()) return;
+  const std::optional<glm::vec4> rectColour = paper || !settings.rectangleCover || mixed ? std::nullopt : uniform;
+  stats.rectangleCover = rectColour.has_value();
+  for (Pieces& p : pieces) {
+    if (!paper && !rectColour) {
+      p.coverZPass = p.zPass;
+      p.coverZFail = p.zFail;
+    }
+    stats.drawCommands += p.zPass.size() + p.zFail.size() + p.coverZPass.size() + p.coverZFail.size();
+  }
+  if (total == 0) return;
   const float maskBit = static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(index, 23));
-  const glm::vec4 rect = rectOf(view, pieces, 0, pieces.order.size());
-  const std::vector<glm::vec4> rects =
-      rectColour && settings.tiledCover ? tileRectsOf(view, pieces, 0, pieces.order.size()) : std::vector{rect};
+  std::vector<glm::vec4> rects;
+  if (rectColour && settings.tiledCover) {
+    rects = tileRectsOf(view, pieces);
+  } else {
+    glm::vec4 rect(1.0F, 1.0F, -1.0F, -1.0F);
+    for (const Pieces& p : pieces) {
+      if (p.order.empty()) continue;
+      const glm::vec4 r = rectOf(view, p, 0, p.order.size());
+      rect = glm::vec4(glm::min(glm::vec2(rect), glm::vec2(r)), glm::max(glm::vec2(rect.z, rect.w), glm::vec2(r.z, r.w)));
+    }
+    rects.push_back(rect);
+  }
 
-  const bool grouped = !layer.paperVariant() && (settings.forceGroups || layer.maxOverlap() > 255);
+  const bool grouped = !paper && (settings.forceGroups || overlap > 255);
   stats.grouped = grouped;
   beginMeasure(settings);
-  const bool inPixels = bindLayer(view, layer, scale);
   program_.set("u_maskBit", maskBit);
-  if (grouped) {
-    // Groups of at most 127 pieces: mark (7-bit counts), collect into the flag; then one cover.
-    markIntoFlag(cache, view, layer, pieces, settings, scale, inPixels, kGroupedMark, stats);
-  }
-  if (layer.paperVariant()) {
+  if (paper) {
+    // The seed paper's construction: one chunk, marked with its own states, covered by boxes.
+    const OverlayLayer& layer = *chunks.front();
+    const Pieces& p = pieces.front();
+    const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kPaperMarkZPassFront);
-    multiDraw(cache, pieces.zPass);
+    multiDraw(cache, p.zPass);
     cache.apply(kPaperMarkZPassBack);
-    multiDraw(cache, pieces.zPass);
+    multiDraw(cache, p.zPass);
     cache.apply(kPaperMarkZFailBack);
-    multiDraw(cache, pieces.zFail);
+    multiDraw(cache, p.zFail);
     cache.apply(kPaperMarkZFailFront);
-    multiDraw(cache, pieces.zFail);
+    multiDraw(cache, p.zFail);
     switchToCover(settings);
     cache.apply(kPaperCoverZPass);
-    multiDraw(cache, pieces.coverZPass);
+    multiDraw(cache, p.coverZPass);
     cache.apply(kPaperCoverZFail);
-    multiDraw(cache, pieces.coverZFail);
-  } else if (!grouped) {
-    cache.apply(kMarkZPass);
-    multiDraw(cache, pieces.zPass);
-    const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
-    cache.apply(kMarkZFail);
-    drawClipped(cache, layer, clipped, inPixels);
-    switchToCover(settings);
-    if (rectColour) {
-      cache.apply(kCoverRect);
-      drawRects(cache, rects, *rectColour, maskBit);
-    } else {
-      cache.apply(kCoverZPass);
-      multiDraw(cache, pieces.zPass);
-      cache.apply(kCoverZFail);
-      drawClipped(cache, layer, clipped, inPixels);
-    }
+    multiDraw(cache, p.coverZFail);
+    endLayer(inPixels);
   } else {
+    // Mark every chunk (in groups into the flag when the counts could reach 256).
+    for (std::size_t c = 0; c < chunks.size(); ++c) {
+      if (pieces[c].order.empty()) continue;
+      const bool inPixels = bindLayer(view, *chunks[c], scale);
+      if (grouped) {
+        markIntoFlag(cache, view, *chunks[c], pieces[c], settings, scale, inPixels, kGroupedMark, stats);
+      } else {
+        cache.apply(kMarkZPass);
+        multiDraw(cache, pieces[c].zPass);
+        const GLsizei clipped = uploadClippedPieces(view, *chunks[c], pieces[c].zFailSlots, settings, scale);
+        cache.apply(kMarkZFail);
+        drawClipped(cache, *chunks[c], clipped, inPixels);
+      }
+      endLayer(inPixels);
+    }
     switchToCover(settings);
     if (rectColour) {
-      cache.apply(kCoverFlaggedRect);
+      cache.apply(grouped ? kCoverFlaggedRect : kCoverRect);
       drawRects(cache, rects, *rectColour, maskBit);
     } else {
-      cache.apply(kCoverFlaggedZPass);
-      multiDraw(cache, pieces.zPass);
-      const GLsizei clipped = uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale);
-      cache.apply(kCoverFlaggedZFail);
-      drawClipped(cache, layer, clipped, inPixels);
+      // Each chunk's pieces, front faces (z-pass) or back faces (z-fail), where marked.
+      for (std::size_t c = 0; c < chunks.size(); ++c) {
+        if (pieces[c].order.empty()) continue;
+        const bool inPixels = bindLayer(view, *chunks[c], scale);
+        cache.apply(grouped ? kCoverFlaggedZPass : kCoverZPass);
+        multiDraw(cache, pieces[c].zPass);
+        const GLsizei clipped = uploadClippedPieces(view, *chunks[c], pieces[c].zFailSlots, settings, scale);
+        cache.apply(grouped ? kCoverFlaggedZFail : kCoverZFail);
+        drawClipped(cache, *chunks[c], clipped, inPixels);
+        endLayer(inPixels);
+      }
     }
   }
-  endLayer(inPixels);
   if (settings.measure) {
     coverStats_->end();
     coverTimer_->end();

@@ -60,6 +60,7 @@ struct FrameStats {
   double textureSeconds = 0.0;                   ///< and the time that took (part of the frame)
   std::size_t tilesMissing = 0;                  ///< paged terrain: tiles wanted but not loaded (parents drawn)
   std::size_t tilesArrived = 0;                  ///< paged terrain: tiles that became resident this frame
+  overlay::TechniqueFrameStats overlayTiles;     ///< a tiled technique's tile counts (its layers moved to `layers`)
   terrain::TilePagerStats pager;
 };
 
@@ -104,7 +105,10 @@ class SceneRenderer {
   /// whatever technique draws the layers.
   [[nodiscard]] overlay::OverlayRenderer& overlayRenderer() { return *overlay_; }
   /// For editing features (the next frame shows the change; call invalidateOverlays).
-  [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) { return layers_[i]; }
+  [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) {
+    if (technique_) technique_->stopReading();  // a tiled technique's workers read the layers
+    return layers_[i];
+  }
   /// After an edit of overlayLayer(i) inside the frame-coordinate box [lo, hi]: what the
   /// technique derived from the layers there is made again at the next frame.
   void invalidateOverlays(const glm::dvec2& lo, const glm::dvec2& hi) {

@@ -62,6 +62,12 @@ struct LayerBuildOptions {
   /// the HeightBoundsProvider is read from all of them at once: give more only for a provider
   /// that allows it (terrain::QuadtreeHeightBounds does).
   unsigned threads = 1;
+  /// Keep the features and their styles, build no pieces: a tiled technique builds them per
+  /// tile and level of detail (tiled_layer.hpp). Visible features count as drawn.
+  bool deferPieces = false;
+  /// Warn about features that are fine but give nothing to draw (outside the terrain, no
+  /// geometry). Off for a tile's build: a feature near a tile need not reach into it.
+  bool reportEmpty = true;
 };
 
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
@@ -140,6 +146,12 @@ class LayerGeometry {
   static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
                                      std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
                                      const LayerBuildOptions& options = {});
+
+  /// The same with the features' styles resolved already (one per feature; their anchor
+  /// heights are assigned here).
+  static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
+                                     std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                     const HeightBoundsProvider& bounds, const LayerBuildOptions& options = {});
 
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] LayerKind kind() const { return kind_; }

@@ -117,6 +117,13 @@ class OverlayRenderer {
   std::vector<LayerFrameStats> draw(gfx::StateCache& cache, const OverlayView& view,
                                     std::span<const OverlayLayer* const> layers, const OverlaySettings& settings = {});
 
+  /// The same for layers drawn in chunks (tiled layers: layer i is the union of layers[i]'s
+  /// chunks, which may overlap: marked together and covered once, layer i → mask bit i). An
+  /// empty entry draws nothing (its bit stays).
+  std::vector<LayerFrameStats> draw(gfx::StateCache& cache, const OverlayView& view,
+                                    std::span<const std::vector<const OverlayLayer*>> layers,
+                                    const OverlaySettings& settings = {});
+
   /// Debug view: the layer's pieces in view, translucent over the terrain (depth tested, front
   /// faces), z-pass pieces in `zPassColour` and z-fail pieces in `zFailColour` (straight alpha).
   /// Uses no stencil. Returns the pieces as classified.
@@ -189,8 +196,9 @@ class OverlayRenderer {
   void markIntoFlag(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, const Pieces& pieces,
                     const OverlaySettings& settings, const PixelScale& scale, bool inPixels,
                     const FlagMarkStates& states, LayerFrameStats& stats);
-  void drawLayer(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, std::size_t index,
-                 const OverlaySettings& settings, const PixelScale& scale, LayerFrameStats& stats);
+  /// Draws one layer given as chunks (one OverlayLayer, or a tiled layer's tiles).
+  void drawLayer(gfx::StateCache& cache, const OverlayView& view, std::span<const OverlayLayer* const> chunks,
+                 std::size_t index, const OverlaySettings& settings, const PixelScale& scale, LayerFrameStats& stats);
   void multiDraw(gfx::StateCache& cache, const std::vector<Command>& commands);
   /// The z-fail pieces as triangles relative to the eye, clipped on the CPU at half the near
   /// distance (shared edges cut bit-identically): GL never clips them at the eye plane, where
@@ -209,11 +217,10 @@ class OverlayRenderer {
   /// Draws disjoint screen rectangles in one instanced draw, as drawRect.
   void drawRects(gfx::StateCache& cache, const std::vector<glm::vec4>& rects, const glm::vec4& colour, float maskBit);
   static constexpr int kCoverTiles = 48;
-  /// The cover of pieces.order[first, last): the tiles of a kCoverTiles² grid over the viewport
-  /// that some piece's screen box touches, merged into disjoint rectangles (rows of tiles, and
-  /// equal rows one above the other).
-  static std::vector<glm::vec4> tileRectsOf(const OverlayView& view, const Pieces& pieces, std::size_t first,
-                                            std::size_t last);
+  /// The cover of the chunks' pieces: the tiles of a kCoverTiles² grid over the viewport that
+  /// some piece's screen box touches, merged into disjoint rectangles (rows of tiles, and equal
+  /// rows one above the other).
+  static std::vector<glm::vec4> tileRectsOf(const OverlayView& view, std::span<const Pieces> chunks);
 
   gfx::Program program_;
   gfx::Program coverProgram_;       ///< screen-rectangle covers

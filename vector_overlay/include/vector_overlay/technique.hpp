@@ -30,6 +30,7 @@
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/texture_drape.hpp"
+#include "vector_overlay/tiled_layer.hpp"
 
 namespace gis::overlay {
 
@@ -69,6 +70,9 @@ struct TechniqueFrame {
   std::span<const OverlayLayer* const> layers;
   std::span<const DrawnTile> tiles;  ///< the terrain tiles drawn in this frame
   OverlaySettings settings;
+  /// A still image: wait for everything the view wants (tiles of the right detail) instead of
+  /// drawing coarser parents while it builds (a flight).
+  bool waitForTiles = false;
 };
 
 /// What a technique did in one frame.
@@ -77,12 +81,22 @@ struct TechniqueFrameStats {
   bool draped = false;                  ///< the terrain shader draws the layers (prepare returned a drape)
   std::size_t texturesBuilt = 0;        ///< textures (or tiles of one) rasterised in this frame
   double textureSeconds = 0.0;          ///< the time that took (part of the frame)
+  // Tiled techniques:
+  std::size_t tilesDrawn = 0;     ///< tiles drawn (parents standing in for building tiles included)
+  std::size_t tilesWanted = 0;    ///< tiles the view wants at its detail
+  std::size_t tilesMissing = 0;   ///< of those, still building (a parent drawn instead)
+  std::size_t tilesCulled = 0;    ///< tiles left out for lying outside the view
+  std::size_t tilesBuilt = 0;     ///< tiles that arrived (built and uploaded) in this frame
+  std::size_t tilesResident = 0;  ///< tiles on the GPU after the frame
+  std::size_t tilesEvicted = 0;   ///< tiles dropped for the budget in this frame
+  int finestTileLevel = -1;       ///< the finest level drawn (-1: none)
 };
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).
 enum class PieceConstruction {
   Ours,   ///< split at cells where that pays, tight bounds per piece (DESIGN §5)
   Paper,  ///< the seed paper's: one bound pair per feature, covered by bounding boxes
+  Tiled,  ///< none at load (LayerBuildOptions::deferPieces): the technique builds them per tile
 };
 
 class OverlayTechnique {
@@ -107,6 +121,8 @@ class OverlayTechnique {
     (void)hi;
     invalidate();
   }
+  /// Before the layers given to draw() are edited: stop reading them (work in flight ends).
+  virtual void stopReading() {}
   /// GPU bytes the technique holds beyond the layers' own buffers (textures, tiles).
   [[nodiscard]] virtual std::size_t gpuBytes() const { return 0; }
   /// A technique that drapes one texture over the whole terrain: that texture, as last built.
@@ -125,6 +141,11 @@ class OverlayTechnique {
 struct TechniqueOptions {
   int textureSize = 0;  ///< texels per side of a texture technique's texture (or tile); 0: its default
   DrapeExtent extent;   ///< the terrain's extent (frame coordinates): what a single drape covers
+  /// Techniques that build the pieces themselves (PieceConstruction::Tiled): the terrain's
+  /// bounds (must outlive the technique) and how to build.
+  const HeightBoundsProvider* bounds = nullptr;
+  LayerBuildOptions build;
+  TilingOptions tiling;
 };
 
 /// A technique's entry in the registry.

@@ -8,5 +8,6 @@ extern const TechniqueInfo kStencilTechnique;
 extern const TechniqueInfo kPaperTechnique;
 extern const TechniqueInfo kDrapeTechnique;
 extern const TechniqueInfo kTiledDrapeTechnique;
+extern const TechniqueInfo kTiledStencilTechnique;
 
 }  // namespace gis::overlay

@@ -1,0 +1,56 @@
+#pragma once
+// Generalisation for view-dependent detail (tiled_layer.hpp): line and ring simplification
+// with a known ground error, and the parts of a line that can reach a tile.
+//
+// The error bound. simplifyPolyline keeps a subset of the points (both ends always) such that
+// every dropped point lies within `epsilon` of the kept segment that replaces its run, measured
+// to the segment (not to its infinite line). Moving each point of the original run to its
+// nearest point on that segment is then a homotopy that stays within epsilon of the original
+// curve, so:
+// - a ring's winding number (and even-odd parity) is unchanged at every point farther than
+//   epsilon from the original ring: a polygon covers the same ground outside a band of
+//   epsilon around its boundary, whatever self-crossings the simplification makes;
+// - a line's round-joined, round-capped footprint of width w (the points within w/2 of the
+//   centre line) moves by at most epsilon (Hausdorff distance). Miter and bevel joins and flat
+//   or square caps depend on the directions of the segments, which simplification changes:
+//   their footprint moves by at most epsilon + lineShapeSlack(shape) (see there).
+#include <span>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "geo/feature.hpp"
+#include "vector_overlay/style.hpp"
+
+namespace gis::overlay {
+
+struct LineShape;
+
+/// Douglas–Peucker with the distance to the segment: the kept points, ends included. Fewer than
+/// 3 points are returned unchanged; epsilon <= 0 returns the points unchanged.
+std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, double epsilon);
+
+/// A closed ring (not repeating its first point) simplified as above, cut at its first point
+/// and at the point farthest from it. Keeps at least 3 points and returns the ring unchanged
+/// when the simplified one would have no area (so a usable ring stays usable).
+geo::Ring simplifyRing(const geo::Ring& ring, double epsilon);
+
+/// How far beyond epsilon a line's footprint can move when its centre line is simplified by
+/// epsilon: 0 for round joins and caps; otherwise the reach of a miter (miterLimit · w/2), a
+/// bevel or a square cap (w/2 · √2) beyond the round footprint, which simplification may add
+/// or take away.
+double lineShapeSlack(LineJoin join, LineCap cap, double miterLimit, double width);
+
+/// The feature's geometry simplified by epsilon (polygons' rings, lines), fid and attributes
+/// dropped (the caller keeps its style). epsilon <= 0 copies the geometry.
+geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon);
+
+/// Appends to `out` the runs of `line` that can reach the box [lo, hi] once widened by `reach`
+/// (half the width, or more for miters): the segments whose box widened by reach meets it, and
+/// one more segment at each end of a run, so that a run's own ends (and their caps) lie farther
+/// than reach from the box. Inside the box the runs' footprints cover exactly what the whole
+/// line's footprint covers (the joins inside are the same; cut ends are out of reach).
+void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi, double reach,
+                    std::vector<geo::LineString>& out);
+
+}  // namespace gis::overlay

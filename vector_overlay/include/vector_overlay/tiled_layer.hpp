@@ -1,0 +1,116 @@
+#pragma once
+// View-dependent detail for one vector layer (DESIGN §5, "cost follows the view"): the layer cut
+// into the tiles of a quadtree over the terrain, each tile's pieces built on demand from the
+// features that reach it, generalised so that the ground error of level L is known:
+//
+//   ε_L = tile size_L / tileResolution (+ lineShapeSlack for miter, bevel, flat or square
+//   lines, generalise.hpp) on every level but the finest, 0 (the source geometry) there.
+//
+// A tile is drawn when ε_L, seen from the eye at the distance of the tile's nearest point, is at
+// most `errorPixels` on screen (0.5: the drawn outline stays within half a pixel of the true
+// one), else its four children are (screen-space error, as the terrain chooses its chunks);
+// tiles outside the view are left out, and so are tiles no feature reaches.
+//
+// Pieces are clipped to their tile (CellGrid clipping), so the tiles of one level cover each
+// feature exactly once; tiles of different levels drawn side by side (or a parent drawn over
+// children that are still building) overlap only in ground that both cover within their ε:
+// one layer's tiles are marked together and covered once (OverlayRenderer::draw with chunks),
+// so an overlap never colours a pixel twice.
+//
+// LayerTiling is the CPU side (no GL, const methods safe from any thread): selection and tile
+// building. The tiled technique (techniques/tiled_stencil_technique.cpp) keeps the built tiles
+// on the GPU under a budget and builds them on worker threads.
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <glm/vec2.hpp>
+
+#include "core/diagnostics.hpp"
+#include "core/height_bounds.hpp"
+#include "vector_overlay/layer_geometry.hpp"
+#include "vector_overlay/near_clip.hpp"
+
+namespace gis::overlay {
+
+struct TilingOptions {
+  /// Generalised levels: ε_L = tile size / tileResolution.
+  int tileResolution = 1024;
+  /// The drawn outline stays within this many pixels of the true one.
+  double errorPixels = 0.5;
+  /// The finest tiles hold this many cells of the layer's grid (the source geometry, exact).
+  int finestTileCells = 32;
+  /// Coarser tiles cut their pieces at cells of tile size / cellsPerTile (never finer than the
+  /// layer's grid): fewer, taller pieces where they are seen from afar.
+  int cellsPerTile = 64;
+  /// GPU bytes the resident tiles may hold (least recently drawn tiles leave first; the tiles
+  /// of the frame being drawn always stay).
+  std::size_t gpuBudgetBytes = std::size_t{512} << 20U;
+  /// Worker threads that build tiles (0: one per core).
+  unsigned workers = 0;
+};
+
+struct TileKey {
+  int level = 0;
+  int x = 0;
+  int y = 0;
+  [[nodiscard]] std::uint64_t packed() const {
+    return (static_cast<std::uint64_t>(level) << 58U) | (static_cast<std::uint64_t>(x) << 29U) |
+           static_cast<std::uint64_t>(y);
+  }
+  [[nodiscard]] TileKey parent() const { return {level - 1, x / 2, y / 2}; }
+  friend bool operator==(const TileKey&, const TileKey&) = default;
+};
+
+/// A tile's pieces: a LayerGeometry of the features that reach the tile (generalised, lines cut
+/// to the runs near it), and which feature of the layer each of its features is.
+struct LayerTile {
+  TileKey key;
+  LayerGeometry geometry;
+  std::vector<std::uint32_t> featureIndex;  ///< per feature of geometry, its index in the layer
+  double groundError = 0.0;                 ///< metres: the footprint is within this of the source's
+};
+
+class LayerTiling {
+ public:
+  /// `source`: the layer's features and styles (its pieces are not used; a layer built with
+  /// LayerBuildOptions::deferPieces has none). `cells`: the layer's grid (the terrain's cells).
+  /// Both `source` and `bounds` must outlive the tiling and not change while tiles build.
+  LayerTiling(const LayerGeometry& source, const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
+              const TilingOptions& tiling);
+
+  [[nodiscard]] int finestLevel() const { return finestLevel_; }
+  [[nodiscard]] double tileSize(int level) const { return rootSize_ / static_cast<double>(1 << level); }
+  [[nodiscard]] std::pair<glm::dvec2, glm::dvec2> extent(const TileKey& key) const;
+  /// Metres between a level's drawn footprints and the source's, at most.
+  [[nodiscard]] double groundError(int level) const;
+  /// The tiles to draw for this view (screen-space error and frustum), coarse to fine.
+  /// `culled` counts the tiles left out for lying outside the view.
+  [[nodiscard]] std::vector<TileKey> select(const OverlayView& view, int viewportHeight,
+                                            std::size_t* culled = nullptr) const;
+  /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
+  [[nodiscard]] Result<LayerTile> build(const TileKey& key) const;
+  /// The features that reach the tile (their boxes widened by the lines' reach meet it).
+  [[nodiscard]] std::vector<std::uint32_t> featuresNear(const TileKey& key) const;
+  [[nodiscard]] const LayerGeometry& source() const { return *source_; }
+
+ private:
+  const LayerGeometry* source_;
+  const HeightBoundsProvider* bounds_;
+  LayerBuildOptions options_;
+  TilingOptions tiling_;
+  CellGrid grid_;
+  glm::dvec2 origin_{0.0};
+  double rootSize_ = 1.0;
+  int finestLevel_ = 0;
+  double slack_ = 0.0;  ///< lineShapeSlack of the widest line
+  std::vector<double> reach_;                 ///< per feature: how far its footprint reaches from its geometry
+  std::vector<std::pair<glm::dvec2, glm::dvec2>> boxes_;  ///< per feature, widened by its reach (empty: hidden)
+  // A bucket grid over the extent: each bucket lists the features whose widened box meets it.
+  int buckets_ = 1;
+  std::vector<std::vector<std::uint32_t>> bucket_;
+};
+
+}  // namespace gis::overlay

@@ -1,0 +1,164 @@
+#include "vector_overlay/generalise.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <glm/geometric.hpp>
+
+namespace gis::overlay {
+namespace {
+
+double distanceToSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
+  const glm::dvec2 ab = b - a;
+  const double len2 = glm::dot(ab, ab);
+  const double t = len2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(p - (a + t * ab));
+}
+
+/// Marks the points of [first, last] that Douglas–Peucker keeps (first and last are kept by the
+/// caller). An explicit stack: lines of millions of points do not recurse that deep.
+void markKept(std::span<const glm::dvec2> points, std::size_t first, std::size_t last, double epsilon,
+              std::vector<char>& keep) {
+  std::vector<std::pair<std::size_t, std::size_t>> stack{{first, last}};
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    if (b <= a + 1) continue;
+    double worst = -1.0;
+    std::size_t at = a;
+    for (std::size_t k = a + 1; k < b; ++k) {
+      const double d = distanceToSegment(points[k], points[a], points[b]);
+      if (d > worst) {
+        worst = d;
+        at = k;
+      }
+    }
+    if (!(worst <= epsilon)) {  // NaN keeps the point (the footprint builder reports it)
+      keep[at] = 1;
+      stack.emplace_back(a, at);
+      stack.emplace_back(at, b);
+    }
+  }
+}
+
+double twiceArea(const geo::Ring& ring) {
+  double a = 0.0;
+  for (std::size_t k = 0; k < ring.size(); ++k) {
+    const glm::dvec2& p = ring[k];
+    const glm::dvec2& q = ring[(k + 1) % ring.size()];
+    a += p.x * q.y - q.x * p.y;
+  }
+  return a;
+}
+
+}  // namespace
+
+std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, double epsilon) {
+  if (points.size() < 3 || !(epsilon > 0.0)) return {points.begin(), points.end()};
+  std::vector<char> keep(points.size(), 0);
+  keep.front() = keep.back() = 1;
+  markKept(points, 0, points.size() - 1, epsilon, keep);
+  std::vector<glm::dvec2> out;
+  for (std::size_t k = 0; k < points.size(); ++k)
+    if (keep[k] != 0) out.push_back(points[k]);
+  return out;
+}
+
+geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
+  if (ring.size() <= 3 || !(epsilon > 0.0)) return ring;
+  // Cut at point 0 and the point farthest from it; each half is a polyline with fixed ends.
+  std::size_t far = 1;
+  double farthest = -1.0;
+  for (std::size_t k = 1; k < ring.size(); ++k) {
+    const double d = glm::length(ring[k] - ring[0]);
+    if (d > farthest) {
+      farthest = d;
+      far = k;
+    }
+  }
+  std::vector<glm::dvec2> closed(ring.begin(), ring.end());
+  closed.push_back(ring.front());
+  std::vector<char> keep(closed.size(), 0);
+  keep[0] = keep[far] = keep.back() = 1;
+  markKept(closed, 0, far, epsilon, keep);
+  markKept(closed, far, closed.size() - 1, epsilon, keep);
+  geo::Ring out;
+  for (std::size_t k = 0; k + 1 < closed.size(); ++k)
+    if (keep[k] != 0) out.push_back(closed[k]);
+  if (out.size() < 3) {
+    // A third point: the one farthest from the chord (0, far).
+    std::size_t best = 0;
+    double d = -1.0;
+    for (std::size_t k = 1; k < ring.size(); ++k) {
+      if (k == far) continue;
+      const double e = distanceToSegment(ring[k], ring[0], ring[far]);
+      if (e > d) {
+        d = e;
+        best = k;
+      }
+    }
+    out = best < far ? geo::Ring{ring[0], ring[best], ring[far]} : geo::Ring{ring[0], ring[far], ring[best]};
+  }
+  // Still a ring with area: use it; otherwise the original (whose problems the builder reports).
+  return std::abs(twiceArea(out)) > 0.0 && std::isfinite(twiceArea(out)) ? out : ring;
+}
+
+double lineShapeSlack(LineJoin join, LineCap cap, double miterLimit, double width) {
+  double reach = 0.0;
+  if (join == LineJoin::Miter) reach = std::max(reach, std::max(1.0, miterLimit) * 0.5 * width);
+  if (join == LineJoin::Bevel) reach = std::max(reach, 0.5 * width);
+  if (cap == LineCap::Square) reach = std::max(reach, std::numbers::sqrt2 * 0.5 * width);
+  if (cap == LineCap::Flat) reach = std::max(reach, 0.5 * width);
+  return reach;
+}
+
+geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon) {
+  geo::Feature out;
+  out.fid = feature.fid;
+  out.polygons.reserve(feature.polygons.size());
+  for (const geo::Polygon& p : feature.polygons) {
+    geo::Polygon q;
+    q.outer = simplifyRing(p.outer, epsilon);
+    q.holes.reserve(p.holes.size());
+    for (const geo::Ring& h : p.holes) q.holes.push_back(simplifyRing(h, epsilon));
+    out.polygons.push_back(std::move(q));
+  }
+  out.lines.reserve(feature.lines.size());
+  for (const geo::LineString& l : feature.lines) out.lines.push_back(simplifyPolyline(l, epsilon));
+  return out;
+}
+
+void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi, double reach,
+                    std::vector<geo::LineString>& out) {
+  const std::size_t n = line.size();
+  if (n < 2) {
+    // A single point: its disc or square (within reach) either reaches the box or not.
+    if (n == 1 && line[0].x >= lo.x - reach && line[0].x <= hi.x + reach && line[0].y >= lo.y - reach &&
+        line[0].y <= hi.y + reach)
+      out.emplace_back(line.begin(), line.end());
+    return;
+  }
+  const auto near = [&](std::size_t s) {  // segment s = (s, s + 1)
+    const glm::dvec2 a = glm::min(line[s], line[s + 1]), b = glm::max(line[s], line[s + 1]);
+    return !(b.x < lo.x - reach || b.y < lo.y - reach || a.x > hi.x + reach || a.y > hi.y + reach);
+  };
+  // Whole line when every segment is near (the common case for a small tile's features).
+  std::size_t s = 0;
+  while (s + 1 < n) {
+    if (!near(s)) {
+      ++s;
+      continue;
+    }
+    std::size_t e = s;
+    while (e + 1 < n - 1 && near(e + 1)) ++e;
+    // Segments [s, e] are near: with one more on each side, points [s - 1, e + 2].
+    const std::size_t first = s > 0 ? s - 1 : 0;
+    const std::size_t last = std::min(n - 1, e + 2);
+    out.emplace_back(line.begin() + static_cast<std::ptrdiff_t>(first),
+                     line.begin() + static_cast<std::ptrdiff_t>(last) + 1);
+    s = e + 1;
+  }
+}
+
+}  // namespace gis::overlay

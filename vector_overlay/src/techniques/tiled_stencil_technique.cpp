@@ -1,0 +1,339 @@
+// Our stencil polyhedra in view-dependent tiles (tiled_layer.hpp): per layer the tiles the view
+// wants at its detail, built on worker threads, kept on the GPU under a budget (least recently
+// drawn leave first), a tile's nearest built ancestor drawn while it builds (flights), all of
+// them waited for when a still image asks (TechniqueFrame::waitForTiles) or when nothing would
+// stand in. Nothing is built for the whole dataset: the layers come with their features only
+// (PieceConstruction::Tiled).
+#include <algorithm>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <set>
+#include <thread>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "core/log.hpp"
+#include "techniques/techniques.hpp"
+
+namespace gis::overlay {
+namespace {
+
+/// Worker threads building tiles. request() replaces the jobs not yet started; take() hands
+/// over what is done.
+class TileWorkers {
+ public:
+  struct Job {
+    std::size_t layer = 0;
+    const LayerTiling* tiling = nullptr;
+    TileKey key;
+  };
+  struct Done {
+    std::size_t layer = 0;
+    TileKey key;
+    Result<LayerTile> tile;
+  };
+
+  explicit TileWorkers(unsigned count) {
+    for (unsigned k = 0; k < std::max(1U, count); ++k) threads_.emplace_back([this] { run(); });
+  }
+  ~TileWorkers() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+      queue_.clear();
+    }
+    wake_.notify_all();
+    threads_.clear();  // joins
+  }
+  TileWorkers(const TileWorkers&) = delete;
+  TileWorkers& operator=(const TileWorkers&) = delete;
+
+  /// The jobs wanted now, most urgent first; those running or done are not repeated.
+  void request(const std::vector<Job>& jobs) {
+    {
+      std::lock_guard lock(mutex_);
+      queue_.clear();
+      for (const Job& j : jobs) {
+        if (busy_.count({j.layer, j.key.packed()}) == 0) queue_.push_back(j);
+      }
+    }
+    wake_.notify_all();
+  }
+  /// Whether a tile is queued, being built, or built and not yet taken.
+  [[nodiscard]] bool pending(std::size_t layer, const TileKey& key) {
+    std::lock_guard lock(mutex_);
+    if (busy_.count({layer, key.packed()}) != 0) return true;
+    return std::any_of(queue_.begin(), queue_.end(),
+                       [&](const Job& j) { return j.layer == layer && j.key == key; });
+  }
+  std::vector<Done> take() {
+    std::lock_guard lock(mutex_);
+    std::vector<Done> out = std::move(done_);
+    done_.clear();
+    for (const Done& d : out) busy_.erase({d.layer, d.key.packed()});
+    return out;
+  }
+  /// Until nothing is queued or running.
+  void waitIdle() {
+    std::unique_lock lock(mutex_);
+    idle_.wait(lock, [&] { return queue_.empty() && running_ == 0; });
+  }
+  /// Drops the queue and waits for the running jobs (their results are dropped too).
+  void cancel() {
+    std::unique_lock lock(mutex_);
+    queue_.clear();
+    idle_.wait(lock, [&] { return running_ == 0; });
+    done_.clear();
+    busy_.clear();
+  }
+
+ private:
+  void run() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+      if (stop_) return;
+      const Job job = queue_.front();
+      queue_.pop_front();
+      busy_.insert({job.layer, job.key.packed()});
+      ++running_;
+      lock.unlock();
+      Result<LayerTile> tile;
+      try {
+        tile = job.tiling->build(job.key);
+      } catch (const std::exception& e) {  // on a worker thread it would end the program
+        tile.diagnostics.add({Severity::Error, "", job.tiling->source().name(), "",
+                              std::string("a tile cannot be built (") + e.what() + ")"});
+      }
+      lock.lock();
+      --running_;
+      done_.push_back({job.layer, job.key, std::move(tile)});
+      if (queue_.empty() && running_ == 0) idle_.notify_all();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_, idle_;
+  std::deque<Job> queue_;
+  std::set<std::pair<std::size_t, std::uint64_t>> busy_;  ///< running, or done and not taken
+  std::vector<Done> done_;
+  int running_ = 0;
+  bool stop_ = false;
+  std::vector<std::jthread> threads_;  // last: joined first
+};
+
+class TiledStencil final : public OverlayTechnique {
+ public:
+  TiledStencil(OverlayRenderer renderer, const TechniqueOptions& options)
+      : renderer_(std::move(renderer)),
+        bounds_(options.bounds),
+        build_(options.build),
+        tiling_(options.tiling),
+        workers_(options.tiling.workers > 0 ? options.tiling.workers
+                                            : std::max(1U, std::thread::hardware_concurrency())) {}
+  ~TiledStencil() override { workers_.cancel(); }
+
+  std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
+                                           TechniqueFrameStats& stats) override {
+    (void)cache;
+    (void)frame;
+    (void)stats;
+    return std::nullopt;
+  }
+
+  void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
+    ++frameNumber_;
+    if (layers_.size() != frame.layers.size()) layers_.resize(frame.layers.size());
+    for (std::size_t i = 0; i < frame.layers.size(); ++i) {
+      const OverlayLayer* layer = frame.layers[i];
+      if (layer == nullptr || layers_[i].source == layer) continue;
+      // Another layer in this place: its tiles are stale.
+      workers_.cancel();
+      for (auto& l : layers_) l.tiles.clear(), l.source = nullptr, l.tiling.reset();
+      break;
+    }
+    for (std::size_t i = 0; i < frame.layers.size(); ++i) {
+      const OverlayLayer* layer = frame.layers[i];
+      if (layer == nullptr || layers_[i].tiling) continue;
+      layers_[i].source = layer;
+      const HeightBoundsProvider* bounds = bounds_ != nullptr ? bounds_ : nullptr;
+      if (bounds == nullptr) continue;
+      layers_[i].tiling = std::make_unique<LayerTiling>(layer->geometry(), *bounds, build_, tiling_);
+    }
+    stats.tilesBuilt += collect();
+    std::vector<std::vector<const OverlayLayer*>> chunks;
+    std::vector<TileWorkers::Job> jobs;
+    bool standIn = gather(frame, chunks, jobs, stats);
+    if (!jobs.empty()) workers_.request(jobs);
+    if (!jobs.empty() && (frame.waitForTiles || !standIn)) {
+      // A still image, or a tile with no ancestor to stand in: wait for them.
+      workers_.waitIdle();
+      stats.tilesBuilt += collect();
+      const std::size_t built = stats.tilesBuilt;
+      stats = TechniqueFrameStats{};
+      stats.tilesBuilt = built;
+      chunks.clear();
+      jobs.clear();
+      standIn = gather(frame, chunks, jobs, stats);
+      if (!jobs.empty()) workers_.request(jobs);
+    }
+    stats.layers = renderer_.draw(cache, frame.view, chunks, frame.settings);
+    stats.tilesEvicted = evict();
+    for (const LayerState& l : layers_) stats.tilesResident += l.tiles.size();
+  }
+
+  void invalidate() override {
+    workers_.cancel();
+    for (LayerState& l : layers_) l.tiles.clear();
+  }
+  void invalidate(const glm::dvec2& lo, const glm::dvec2& hi) override {
+    workers_.cancel();
+    for (LayerState& l : layers_) {
+      if (!l.tiling) continue;
+      for (auto it = l.tiles.begin(); it != l.tiles.end();) {
+        const auto [tileLo, tileHi] = l.tiling->extent(it->second.key);
+        const bool meets = !(hi.x < tileLo.x || hi.y < tileLo.y || lo.x > tileHi.x || lo.y > tileHi.y);
+        it = meets ? l.tiles.erase(it) : std::next(it);
+      }
+    }
+  }
+  void stopReading() override { workers_.cancel(); }
+  [[nodiscard]] std::size_t gpuBytes() const override {
+    std::size_t bytes = 0;
+    for (const LayerState& l : layers_)
+      for (const auto& [key, t] : l.tiles) bytes += t.layer ? t.layer->stats().gpuBytes : 0;
+    return bytes;
+  }
+
+ private:
+  struct Resident {
+    TileKey key;
+    std::optional<OverlayLayer> layer;  ///< none: the tile has nothing to draw
+    std::uint64_t lastUsed = 0;
+  };
+  struct LayerState {
+    const OverlayLayer* source = nullptr;
+    std::unique_ptr<LayerTiling> tiling;
+    std::unordered_map<std::uint64_t, Resident> tiles;
+  };
+
+  /// Uploads the tiles the workers finished; returns how many.
+  std::size_t collect() {
+    std::size_t count = 0;
+    for (TileWorkers::Done& d : workers_.take()) {
+      if (d.layer >= layers_.size() || !layers_[d.layer].tiling) continue;
+      for (const Diagnostic& m : d.tile.diagnostics.items()) {
+        // A feature's problem is said once, not once per tile.
+        if (reported_.insert(m.toString()).second) logWarning(m.toString());
+      }
+      Resident r;
+      r.key = d.key;
+      r.lastUsed = frameNumber_;
+      if (d.tile && d.tile.value->geometry.stats().pieces > 0)
+        r.layer = OverlayLayer::upload(std::move(d.tile.value->geometry));
+      layers_[d.layer].tiles[d.key.packed()] = std::move(r);
+      ++count;
+    }
+    return count;
+  }
+
+  /// The chunks to draw per layer: each wanted tile if resident, else its nearest resident
+  /// ancestor (once), and the jobs for the missing ones. False when a missing tile has no
+  /// ancestor to stand in for it.
+  bool gather(const TechniqueFrame& frame, std::vector<std::vector<const OverlayLayer*>>& chunks,
+              std::vector<TileWorkers::Job>& jobs, TechniqueFrameStats& stats) {
+    bool standIn = true;
+    chunks.assign(frame.layers.size(), {});
+    for (std::size_t i = 0; i < frame.layers.size(); ++i) {
+      LayerState& l = layers_[i];
+      if (frame.layers[i] == nullptr || !l.tiling) continue;
+      const std::vector<TileKey> wanted = l.tiling->select(frame.view, frame.target.height, &stats.tilesCulled);
+      stats.tilesWanted += wanted.size();
+      std::unordered_set<std::uint64_t> used;
+      const auto use = [&](Resident& r) {
+        r.lastUsed = frameNumber_;
+        if (!used.insert(r.key.packed()).second) return;
+        ++stats.tilesDrawn;
+        stats.finestTileLevel = std::max(stats.finestTileLevel, r.key.level);
+        if (r.layer) chunks[i].push_back(&*r.layer);
+      };
+      for (const TileKey& key : wanted) {
+        if (auto it = l.tiles.find(key.packed()); it != l.tiles.end()) {
+          use(it->second);
+          continue;
+        }
+        ++stats.tilesMissing;
+        jobs.push_back({i, l.tiling.get(), key});
+        bool found = false;
+        for (TileKey a = key; a.level > 0 && !found;) {
+          a = a.parent();
+          if (auto it = l.tiles.find(a.packed()); it != l.tiles.end()) {
+            use(it->second);
+            found = true;
+          }
+        }
+        standIn = standIn && found;
+      }
+    }
+    return standIn;
+  }
+
+  /// Drops the least recently drawn tiles while over the budget (never those of this frame).
+  std::size_t evict() {
+    std::size_t bytes = gpuBytes();
+    if (bytes <= tiling_.gpuBudgetBytes) return 0;
+    std::vector<std::tuple<std::uint64_t, std::size_t, std::uint64_t>> order;  // (last used, layer, key)
+    for (std::size_t i = 0; i < layers_.size(); ++i)
+      for (const auto& [key, t] : layers_[i].tiles)
+        if (t.lastUsed < frameNumber_) order.emplace_back(t.lastUsed, i, key);
+    std::sort(order.begin(), order.end());
+    std::size_t evicted = 0;
+    for (const auto& [used, layer, key] : order) {
+      if (bytes <= tiling_.gpuBudgetBytes) break;
+      auto it = layers_[layer].tiles.find(key);
+      bytes -= it->second.layer ? it->second.layer->stats().gpuBytes : 0;
+      layers_[layer].tiles.erase(it);
+      ++evicted;
+    }
+    return evicted;
+  }
+
+  OverlayRenderer renderer_;
+  const HeightBoundsProvider* bounds_;
+  LayerBuildOptions build_;
+  TilingOptions tiling_;
+  std::vector<LayerState> layers_;
+  std::uint64_t frameNumber_ = 0;
+  std::set<std::string> reported_;
+  TileWorkers workers_;  // last: stopped first
+};
+
+Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
+  Result<std::unique_ptr<OverlayTechnique>> result;
+  if (options.bounds == nullptr) {
+    result.diagnostics.add({Severity::Error, "", "", "",
+                            "the technique stencil-tiles builds its pieces per tile and needs the terrain's height "
+                            "bounds (TechniqueOptions::bounds)"});
+    return result;
+  }
+  Result<OverlayRenderer> renderer = OverlayRenderer::create();
+  result.diagnostics = std::move(renderer.diagnostics);
+  if (renderer) result.value = std::make_unique<TiledStencil>(std::move(*renderer), options);
+  return result;
+}
+
+}  // namespace
+
+const TechniqueInfo kTiledStencilTechnique{
+    "stencil-tiles",
+    "stencil polyhedra in view tiles",
+    "our stencil polyhedra, built per view-dependent tile on worker threads (generalised within 0.5 px)",
+    "#2ca02c",
+    PieceConstruction::Tiled,
+    0,
+    {},
+    &create};
+
+}  // namespace gis::overlay

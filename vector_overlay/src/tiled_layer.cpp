@@ -1,0 +1,229 @@
+#include "vector_overlay/tiled_layer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+
+#include "gfx/camera.hpp"
+#include "vector_overlay/generalise.hpp"
+
+namespace gis::overlay {
+namespace {
+
+/// How far a line's footprint reaches from its centre line (the widest of its shapes).
+double lineReach(const LineShape& shape) {
+  double k = 1.0;
+  if (shape.cap == LineCap::Square) k = std::max(k, std::numbers::sqrt2);
+  if (shape.join == LineJoin::Miter) k = std::max(k, std::max(1.0, shape.miterLimit));
+  return 0.5 * shape.width * k;
+}
+
+bool meets(const std::pair<glm::dvec2, glm::dvec2>& a, const glm::dvec2& lo, const glm::dvec2& hi) {
+  return !(a.second.x < lo.x || a.second.y < lo.y || a.first.x > hi.x || a.first.y > hi.y);
+}
+
+}  // namespace
+
+LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider& bounds,
+                         const LayerBuildOptions& options, const TilingOptions& tiling)
+    : source_(&source), bounds_(&bounds), options_(options), tiling_(tiling) {
+  const std::vector<geo::Feature>& features = source.features();
+  const std::vector<FeatureStyle>& styles = source.featureStyles();
+  reach_.assign(features.size(), 0.0);
+  boxes_.assign(features.size(), {glm::dvec2(1.0), glm::dvec2(-1.0)});
+  glm::dvec2 all0(std::numeric_limits<double>::infinity()), all1(-std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    if (i >= styles.size() || !styles[i].visible) continue;
+    const geo::Feature& f = features[i];
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    const auto add = [&](const glm::dvec2& p) {
+      if (!std::isfinite(p.x) || !std::isfinite(p.y)) return;  // the builder reports it
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    };
+    if (source.kind() == LayerKind::Polygon) {
+      for (const geo::Polygon& p : f.polygons) std::for_each(p.outer.begin(), p.outer.end(), add);
+    } else {
+      for (const geo::LineString& l : f.lines) std::for_each(l.begin(), l.end(), add);
+      reach_[i] = lineReach(styles[i].shape);
+      slack_ = std::max(slack_, lineShapeSlack(styles[i].shape.join, styles[i].shape.cap, styles[i].shape.miterLimit,
+                                               styles[i].shape.width));
+    }
+    if (!(lo.x <= hi.x && lo.y <= hi.y)) continue;
+    boxes_[i] = {lo - reach_[i], hi + reach_[i]};
+    all0 = glm::min(all0, boxes_[i].first);
+    all1 = glm::max(all1, boxes_[i].second);
+  }
+  if (options.footprints.cells) {
+    grid_ = *options.footprints.cells;
+  } else {
+    // No terrain grid: one over the features (the pieces are not clipped to a terrain).
+    grid_.origin = std::isfinite(all0.x) ? all0 : glm::dvec2(0.0);
+    const glm::dvec2 size = std::isfinite(all0.x) ? glm::max(all1 - all0, glm::dvec2(1.0)) : glm::dvec2(1.0);
+    grid_.cellSize = std::max(size.x, size.y) / 256.0;
+    grid_.columns = static_cast<int>(std::ceil(size.x / grid_.cellSize));
+    grid_.rows = static_cast<int>(std::ceil(size.y / grid_.cellSize));
+  }
+  origin_ = grid_.origin;
+  const double finest = std::max(1, tiling_.finestTileCells) * grid_.cellSize;
+  const double extent = std::max(grid_.columns, grid_.rows) * grid_.cellSize;
+  finestLevel_ = 0;
+  while (finest * static_cast<double>(1 << finestLevel_) < extent && finestLevel_ < 24) ++finestLevel_;
+  rootSize_ = finest * static_cast<double>(1 << finestLevel_);
+  // Buckets: a grid of at most 128² over the root tile.
+  buckets_ = std::clamp(2 << finestLevel_, 1, 128);
+  bucket_.assign(static_cast<std::size_t>(buckets_) * static_cast<std::size_t>(buckets_), {});
+  const double bucketSize = rootSize_ / buckets_;
+  for (std::size_t i = 0; i < boxes_.size(); ++i) {
+    const auto& [lo, hi] = boxes_[i];
+    if (!(lo.x <= hi.x && lo.y <= hi.y)) continue;
+    const auto index = [&](double v, double o) {
+      return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
+    };
+    if (hi.x < origin_.x || hi.y < origin_.y || lo.x > origin_.x + rootSize_ || lo.y > origin_.y + rootSize_)
+      continue;  // outside the terrain: no tile has it (the full build says "nothing to draw")
+    const int x0 = index(lo.x, origin_.x), x1 = index(hi.x, origin_.x);
+    const int y0 = index(lo.y, origin_.y), y1 = index(hi.y, origin_.y);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x)
+        bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)]
+            .push_back(static_cast<std::uint32_t>(i));
+  }
+}
+
+std::pair<glm::dvec2, glm::dvec2> LayerTiling::extent(const TileKey& key) const {
+  const double size = tileSize(key.level);
+  const glm::dvec2 lo = origin_ + size * glm::dvec2(key.x, key.y);
+  return {lo, lo + glm::dvec2(size)};
+}
+
+double LayerTiling::groundError(int level) const {
+  if (level >= finestLevel_) return 0.0;
+  return tileSize(level) / std::max(1, tiling_.tileResolution) + slack_;
+}
+
+std::vector<std::uint32_t> LayerTiling::featuresNear(const TileKey& key) const {
+  const auto [lo, hi] = extent(key);
+  const double bucketSize = rootSize_ / buckets_;
+  const auto index = [&](double v, double o) {
+    return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
+  };
+  std::vector<std::uint32_t> out;
+  const int x0 = index(lo.x, origin_.x), x1 = index(hi.x, origin_.x);
+  const int y0 = index(lo.y, origin_.y), y1 = index(hi.y, origin_.y);
+  for (int y = y0; y <= y1; ++y) {
+    for (int x = x0; x <= x1; ++x) {
+      for (std::uint32_t f :
+           bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)])
+        if (meets(boxes_[f], lo, hi)) out.push_back(f);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHeight, std::size_t* culled) const {
+  std::vector<TileKey> out;
+  const std::array<glm::dvec4, 6> planes = gfx::frustumPlanes(view.viewProj);
+  const double metresPerPixel = pixelScaleOf(view.viewProj, std::max(1, viewportHeight)).metresPerPixel;
+  const HeightBounds global = bounds_->globalBounds();
+  const double zLo = std::isfinite(global.lo) ? global.lo - 1.0 : -1e4, zHi = std::isfinite(global.hi) ? global.hi + 1.0 : 1e4;
+  const double bucketSize = rootSize_ / buckets_;
+  const auto occupied = [&](const glm::dvec2& lo, const glm::dvec2& hi) {
+    const auto index = [&](double v, double o) {
+      return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
+    };
+    const int x0 = index(lo.x, origin_.x), x1 = index(std::nextafter(hi.x, lo.x), origin_.x);
+    const int y0 = index(lo.y, origin_.y), y1 = index(std::nextafter(hi.y, lo.y), origin_.y);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x)
+        if (!bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)]
+                 .empty())
+          return true;
+    return false;
+  };
+  const glm::dvec2 gridEnd = grid_.origin + grid_.cellSize * glm::dvec2(grid_.columns, grid_.rows);
+  std::vector<TileKey> stack{{0, 0, 0}};
+  while (!stack.empty()) {
+    const TileKey key = stack.back();
+    stack.pop_back();
+    const auto [lo, hi] = extent(key);
+    if (lo.x >= gridEnd.x || lo.y >= gridEnd.y || !occupied(lo, hi)) continue;  // no terrain, or no feature
+    const glm::dvec3 lo3(lo, zLo), hi3(hi, zHi);
+    if (!gfx::boxInFrustum(planes, lo3, hi3, false)) {
+      if (culled != nullptr) ++*culled;
+      continue;
+    }
+    const double distance = glm::length(view.eye - glm::clamp(view.eye, lo3, hi3));
+    const double error = groundError(key.level);
+    if (key.level >= finestLevel_ || error <= tiling_.errorPixels * metresPerPixel * distance) {
+      out.push_back(key);
+      continue;
+    }
+    for (int k = 3; k >= 0; --k) stack.push_back({key.level + 1, 2 * key.x + (k & 1), 2 * key.y + (k >> 1)});
+  }
+  std::sort(out.begin(), out.end(), [](const TileKey& a, const TileKey& b) { return a.level < b.level; });
+  return out;
+}
+
+Result<LayerTile> LayerTiling::build(const TileKey& key) const {
+  const auto [lo, hi] = extent(key);
+  const double size = tileSize(key.level);
+  const double epsilon = key.level < finestLevel_ ? size / std::max(1, tiling_.tileResolution) : 0.0;
+  const std::vector<geo::Feature>& features = source_->features();
+  const std::vector<FeatureStyle>& styles = source_->featureStyles();
+  std::vector<geo::Feature> local;
+  std::vector<FeatureStyle> localStyles;
+  std::vector<std::uint32_t> index;
+  for (const std::uint32_t i : featuresNear(key)) {
+    geo::Feature g;
+    if (epsilon > 0.0) {
+      g = generaliseGeometry(features[i], epsilon);
+    } else {
+      g.fid = features[i].fid;
+      g.polygons = features[i].polygons;
+      g.lines = features[i].lines;
+    }
+    if (source_->kind() == LayerKind::Line) {
+      std::vector<geo::LineString> runs;
+      for (const geo::LineString& l : g.lines) appendRunsNear(l, lo, hi, reach_[i], runs);
+      if (runs.empty()) continue;
+      g.lines = std::move(runs);
+      g.polygons.clear();
+    } else {
+      g.lines.clear();
+    }
+    local.push_back(std::move(g));
+    localStyles.push_back(styles[i]);
+    index.push_back(i);
+  }
+  LayerBuildOptions options = options_;
+  options.deferPieces = false;
+  options.reportEmpty = false;
+  options.threads = 1;
+  // The tile's cells: the layer's, or coarser on coarse levels; clipped to the tile and to the
+  // terrain's grid.
+  CellGrid cells;
+  cells.origin = lo;
+  cells.cellSize = grid_.cellSize;
+  while (cells.cellSize * 2.0 <= size / std::max(1, tiling_.cellsPerTile) + 1e-9 * size) cells.cellSize *= 2.0;
+  const glm::dvec2 gridEnd = grid_.origin + grid_.cellSize * glm::dvec2(grid_.columns, grid_.rows);
+  const glm::dvec2 end = glm::min(hi, gridEnd);
+  cells.columns = std::max(1, static_cast<int>(std::ceil((end.x - lo.x) / cells.cellSize - 1e-9)));
+  cells.rows = std::max(1, static_cast<int>(std::ceil((end.y - lo.y) / cells.cellSize - 1e-9)));
+  options.footprints.cells = cells;
+  Result<LayerGeometry> built = LayerGeometry::build(source_->name(), source_->kind(), source_->style(),
+                                                     std::move(local), std::move(localStyles), *bounds_, options);
+  Result<LayerTile> r;
+  r.diagnostics = std::move(built.diagnostics);
+  if (!built) return r;
+  r.value = LayerTile{key, std::move(*built), std::move(index), groundError(key.level)};
+  return r;
+}
+
+}  // namespace gis::overlay
