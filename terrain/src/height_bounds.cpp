@@ -205,6 +205,61 @@ HeightBounds QuadtreeHeightBounds::boundsOver(std::span<const glm::dvec2> footpr
   return boundsOverLevels(footprint, 0, tree_->rootLevel());
 }
 
+HeightBounds QuadtreeHeightBounds::boundsOverWithin(std::span<const glm::dvec2> footprint, double slackMetres) const {
+  const TerrainGrid& grid = tree_->grid();
+  const double spacing = std::min(std::abs(grid.step.x), std::abs(grid.step.y));
+  // Level l's surface over the footprint is made of its cells meeting it, or their parents'
+  // posts where stitched: all within 2^(l+1) · √2 posts of it. Those levels are bounded by every
+  // post within the slack (at least 3 posts, for level 0); the coarser ones exactly.
+  if (!(slackMetres >= spacing) || tree_->paged() || footprint.empty()) return boundsOver(footprint);
+  const double slack = std::max(3.0, slackMetres / spacing);  // in posts
+  int fast = -1;
+  while (fast < tree_->rootLevel() && std::ldexp(1.5, fast + 2) <= slack) ++fast;
+  std::vector<glm::dvec2> hull;
+  hull.reserve(footprint.size());
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const glm::dvec2& p : footprint) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return globalBounds();
+    hull.push_back(grid.gridCoordinates(p));
+    lo = glm::min(lo, hull.back());
+    hi = glm::max(hi, hull.back());
+  }
+  hull = convexHull(std::move(hull));
+  float zlo = kInf, zhi = -kInf;
+  // Bands of rows: each reads the posts in its rows whose columns lie within the slack of the
+  // hull's part in the band widened by the slack (a post within the slack of the hull lies in
+  // that rectangle).
+  const double band = std::max(1.0, std::floor(slack));
+  std::vector<glm::dvec2> part, scratch;
+  for (double y0 = std::floor(lo.y - slack); y0 <= hi.y + slack; y0 += band) {
+    part = hull;
+    if (hull.size() >= 3) {
+      clipAxis(part, scratch, 1, y0 - slack, -1.0);
+      clipAxis(part, scratch, 1, y0 + band + slack, 1.0);
+    }
+    if (part.empty()) continue;
+    double xlo = std::numeric_limits<double>::infinity(), xhi = -xlo;
+    for (const glm::dvec2& p : part) {
+      xlo = std::min(xlo, p.x);
+      xhi = std::max(xhi, p.x);
+    }
+    float l = kInf, h = -kInf;
+    pyramid_->query(static_cast<int>(std::floor(xlo - slack)), static_cast<int>(y0),
+                    static_cast<int>(std::ceil(xhi + slack)), static_cast<int>(y0 + band), l, h);
+    merge(zlo, zhi, l, h);
+  }
+  HeightBounds out{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  if (zlo <= zhi) {
+    const double a = zlo * exaggeration_, b = zhi * exaggeration_;
+    out = {std::min(a, b), std::max(a, b)};
+  }
+  if (fast < tree_->rootLevel()) {
+    const HeightBounds coarse = boundsOverLevels(footprint, fast + 1, tree_->rootLevel());
+    out = {std::min(out.lo, coarse.lo), std::max(out.hi, coarse.hi)};
+  }
+  return out.valid() ? out : globalBounds();
+}
+
 HeightBounds QuadtreeHeightBounds::boundsOverLevels(std::span<const glm::dvec2> footprint, int finestLevel,
                                                     int coarsestLevel) const {
   if (footprint.empty()) return globalBounds();
@@ -299,17 +354,29 @@ void QuadtreeHeightBounds::exactLevelRange(const std::vector<glm::dvec2>& hull, 
   const double s = static_cast<double>(1 << level);
   const int n = tree_->chunkCells();
   const bool stitchable = level < tree_->rootLevel();
-  std::vector<glm::dvec2> part, scratch;
+  std::vector<glm::dvec2> row, part, scratch;
   auto corner = [&](int c, int r) { return tree_->levelPost(level, c, r); };
   for (int r = r0; r <= r1; ++r) {
-    for (int c = c0; c <= c1; ++c) {
+    // The hull within the row, then only the row's cells it reaches (a thin diagonal piece
+    // meets a few cells of each row of its box).
+    row = hull;
+    clipAxis(row, scratch, 1, r * s, -1.0);
+    clipAxis(row, scratch, 1, (r + 1) * s, 1.0);
+    if (row.empty()) continue;
+    double xlo = std::numeric_limits<double>::infinity(), xhi = -xlo;
+    for (const glm::dvec2& p : row) {
+      xlo = std::min(xlo, p.x);
+      xhi = std::max(xhi, p.x);
+    }
+    // A vertex on a cell border meets both cells (as cellsMeeting counts them).
+    const int rc0 = std::max(c0, static_cast<int>(std::ceil(xlo / s)) - 1);
+    const int rc1 = std::min(c1, static_cast<int>(std::floor(xhi / s)));
+    for (int c = rc0; c <= rc1; ++c) {
       const float a = corner(c, r), b = corner(c + 1, r), d = corner(c, r + 1), e = corner(c + 1, r + 1);
       if (std::isnan(a) || std::isnan(b) || std::isnan(d) || std::isnan(e)) continue;
-      part = hull;
+      part = row;
       clipAxis(part, scratch, 0, c * s, -1.0);
       clipAxis(part, scratch, 0, (c + 1) * s, 1.0);
-      clipAxis(part, scratch, 1, r * s, -1.0);
-      clipAxis(part, scratch, 1, (r + 1) * s, 1.0);
       if (part.empty()) continue;
       auto surface = [&](const glm::dvec2& g) {
         const double fx = std::clamp(g.x / s - c, 0.0, 1.0), fy = std::clamp(g.y / s - r, 0.0, 1.0);

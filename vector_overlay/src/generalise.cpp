@@ -29,6 +29,11 @@ void markKept(std::span<const glm::dvec2> points, std::size_t first, std::size_t
     std::size_t at = a;
     for (std::size_t k = a + 1; k < b; ++k) {
       const double d = distanceToSegment(points[k], points[a], points[b]);
+      if (std::isnan(d)) {  // kept: the footprint builder reports the feature
+        worst = d;
+        at = k;
+        break;
+      }
       if (d > worst) {
         worst = d;
         at = k;
@@ -83,11 +88,9 @@ geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
   keep[0] = keep[far] = keep.back() = 1;
   markKept(closed, 0, far, epsilon, keep);
   markKept(closed, far, closed.size() - 1, epsilon, keep);
-  geo::Ring out;
-  for (std::size_t k = 0; k + 1 < closed.size(); ++k)
-    if (keep[k] != 0) out.push_back(closed[k]);
-  if (out.size() < 3) {
-    // A third point: the one farthest from the chord (0, far).
+  if (std::count(keep.begin(), keep.end() - 1, 1) < 3) {
+    // A third point: the one farthest from the chord (0, far); then the chains between the
+    // three simplified again, so that every point stays within epsilon of the triangle's edges.
     std::size_t best = 0;
     double d = -1.0;
     for (std::size_t k = 1; k < ring.size(); ++k) {
@@ -98,8 +101,19 @@ geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
         best = k;
       }
     }
-    out = best < far ? geo::Ring{ring[0], ring[best], ring[far]} : geo::Ring{ring[0], ring[far], ring[best]};
+    if (best != 0) {
+      keep[best] = 1;
+      std::size_t previous = 0;
+      for (std::size_t k = 1; k < closed.size(); ++k) {
+        if (keep[k] == 0) continue;
+        markKept(closed, previous, k, epsilon, keep);
+        previous = k;
+      }
+    }
   }
+  geo::Ring out;
+  for (std::size_t k = 0; k + 1 < closed.size(); ++k)
+    if (keep[k] != 0) out.push_back(closed[k]);
   // Still a ring with area: use it; otherwise the original (whose problems the builder reports).
   return std::abs(twiceArea(out)) > 0.0 && std::isfinite(twiceArea(out)) ? out : ring;
 }
@@ -152,11 +166,9 @@ void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, cons
     }
     std::size_t e = s;
     while (e + 1 < n - 1 && near(e + 1)) ++e;
-    // Segments [s, e] are near: with one more on each side, points [s - 1, e + 2].
-    const std::size_t first = s > 0 ? s - 1 : 0;
-    const std::size_t last = std::min(n - 1, e + 2);
-    out.emplace_back(line.begin() + static_cast<std::ptrdiff_t>(first),
-                     line.begin() + static_cast<std::ptrdiff_t>(last) + 1);
+    // Segments [s, e] are near: points [s, e + 1]. A cut end is also an end of a segment that is
+    // not near, so it lies farther than reach from the box, and so does its cap.
+    out.emplace_back(line.begin() + static_cast<std::ptrdiff_t>(s), line.begin() + static_cast<std::ptrdiff_t>(e) + 2);
     s = e + 1;
   }
 }

@@ -115,7 +115,7 @@ void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const
 namespace {
 
 /// The footprint extruded between its bounds (the global bounds where it has none).
-Polyhedron extrude(Footprint f, const HeightBoundsProvider& bounds) {
+Polyhedron extrude(Footprint f, const HeightBoundsProvider& bounds, double slack) {
   Polyhedron p;
   p.boxMin = glm::dvec2(std::numeric_limits<double>::infinity());
   p.boxMax = -p.boxMin;
@@ -123,7 +123,7 @@ Polyhedron extrude(Footprint f, const HeightBoundsProvider& bounds) {
     p.boxMin = glm::min(p.boxMin, v);
     p.boxMax = glm::max(p.boxMax, v);
   }
-  const HeightBounds b = bounds.boundsOver(f.vertices);
+  const HeightBounds b = slack > 0.0 ? bounds.boundsOverWithin(f.vertices, slack) : bounds.boundsOver(f.vertices);
   p.lo = b.lo;
   p.hi = b.hi;
   if (!b.valid() || !std::isfinite(b.lo) || !std::isfinite(b.hi)) {
@@ -266,7 +266,7 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
   HeightBounds featureBounds{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   for (Footprint& f : footprints) {
     if (f.triangles.empty() || f.vertices.empty()) continue;
-    Polyhedron p = extrude(std::move(f), bounds);
+    Polyhedron p = extrude(std::move(f), bounds, options.boundsSlack);
     featureBounds.lo = std::min(featureBounds.lo, p.lo);
     featureBounds.hi = std::max(featureBounds.hi, p.hi);
     out.push_back(std::move(p));

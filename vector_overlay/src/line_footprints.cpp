@@ -371,6 +371,7 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
           detail::featureError(Severity::Error, layerName, feature.fid,
                                "line " + std::to_string(k) + " reaches beyond ±1e15 m once widened; line skipped"));
     };
+    if (line.size() == 1 && options.segmentsOnly) continue;
     if (line.size() == 1) {
       if (shape.cap == LineCap::Round) {
         sink.add(PieceKind::Cap, around(line[0], anchor[0], disc(glm::dvec2(1.0, 0.0), full)));
@@ -381,16 +382,20 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
       continue;
     }
     const std::size_t last = line.size() - 1;
-    build.cap(line[0], anchor[0], unit(line[0] - line[1]), glm::length(line[1] - line[0]));
+    const bool ends = !options.segmentsOnly;
+    if (ends) build.cap(line[0], anchor[0], unit(line[0] - line[1]), glm::length(line[1] - line[0]));
     for (std::size_t i = 0; i < last; ++i) {
       const glm::dvec2 a = line[i];
       const glm::dvec2 b = line[i + 1];
       const glm::dvec2 n = perp(unit(b - a));
       sink.add(PieceKind::Segment,
                {{a, -n, anchor[i]}, {b, -n, anchor[i + 1]}, {b, n, anchor[i + 1]}, {a, n, anchor[i]}});
-      if (i + 2 < line.size()) build.join(a, b, anchor[i + 1], line[i + 2]);
+      if (ends && i + 2 < line.size()) build.join(a, b, anchor[i + 1], line[i + 2]);
     }
-    build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]), glm::length(line[last] - line[last - 1]));
+    if (ends) {
+      build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]),
+                glm::length(line[last] - line[last - 1]));
+    }
     dropIfBeyond();
   }
   try {

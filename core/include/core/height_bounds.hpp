@@ -24,6 +24,15 @@ class HeightBoundsProvider {
   /// Bounds over the convex hull of `footprint` (frame coordinates, metres). Outside the
   /// terrain, implementations return bounds that are still safe (e.g. the global range).
   [[nodiscard]] virtual HeightBounds boundsOver(std::span<const glm::dvec2> footprint) const = 0;
+  /// Bounds that may also hold the surface up to `slackMetres` outside the footprint: looser, and
+  /// cheaper for a provider that can use it (pieces seen from afar, whose walls may be a little
+  /// taller). Still under the contract: the surface over the footprint lies within them. The
+  /// default is boundsOver.
+  [[nodiscard]] virtual HeightBounds boundsOverWithin(std::span<const glm::dvec2> footprint,
+                                                      double slackMetres) const {
+    (void)slackMetres;
+    return boundsOver(footprint);
+  }
   /// Bounds of the whole terrain as drawn.
   [[nodiscard]] virtual HeightBounds globalBounds() const = 0;
   /// True if the terrain is drawn over the whole convex hull of `footprint` (inside the DEM, no

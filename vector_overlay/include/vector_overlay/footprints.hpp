@@ -90,6 +90,11 @@ struct FootprintOptions {
   /// the ground it covers, and a thin line crossing a large cell gets the bounds of the strip
   /// it crosses, not of the whole cell.
   int lineCellDivisions = 8;
+  /// Lines in metres: the segments' rectangles only, no joins and no caps (a line of one point
+  /// gives nothing). What is left out lies within w/2 of a vertex of the line, so the footprint
+  /// moves by at most w/2: for generalised tiles of lines thinner than their error
+  /// (tiled_layer.hpp).
+  bool segmentsOnly = false;
 };
 
 /// What a footprint was made from: a polygon, a line's segment, join or cap shape, or the

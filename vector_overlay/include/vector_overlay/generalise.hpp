@@ -41,15 +41,16 @@ geo::Ring simplifyRing(const geo::Ring& ring, double epsilon);
 /// or take away.
 double lineShapeSlack(LineJoin join, LineCap cap, double miterLimit, double width);
 
-/// The feature's geometry simplified by epsilon (polygons' rings, lines), fid and attributes
-/// dropped (the caller keeps its style). epsilon <= 0 copies the geometry.
+/// The feature's geometry simplified by epsilon (polygons' rings, lines), with its fid; the
+/// attributes are dropped (the caller keeps its style). epsilon <= 0 copies the geometry.
 geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon);
 
 /// Appends to `out` the runs of `line` that can reach the box [lo, hi] once widened by `reach`
-/// (half the width, or more for miters): the segments whose box widened by reach meets it, and
-/// one more segment at each end of a run, so that a run's own ends (and their caps) lie farther
-/// than reach from the box. Inside the box the runs' footprints cover exactly what the whole
-/// line's footprint covers (the joins inside are the same; cut ends are out of reach).
+/// (how far any of its shapes reaches from the line: half the width, more for miters and square
+/// caps): the maximal runs of segments whose box widened by reach meets the box. A run's cut end
+/// is an end of a segment that does not reach the box, so it and its cap lie farther than reach
+/// from it; the joins inside a run are the line's. So inside the box the runs' footprints cover
+/// exactly what the whole line's covers.
 void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi, double reach,
                     std::vector<geo::LineString>& out);
 

@@ -68,6 +68,10 @@ struct LayerBuildOptions {
   /// Warn about features that are fine but give nothing to draw (outside the terrain, no
   /// geometry). Off for a tile's build: a feature near a tile need not reach into it.
   bool reportEmpty = true;
+  /// Pieces' bounds may also hold the surface this many metres around them
+  /// (HeightBoundsProvider::boundsOverWithin): cheaper to find, a little taller. Tiles of
+  /// coarse levels, seen from afar, use their ground error.
+  double boundsSlack = 0.0;
 };
 
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at

@@ -4,7 +4,11 @@
 // features that reach it, generalised so that the ground error of level L is known:
 //
 //   ε_L = tile size_L / tileResolution (+ lineShapeSlack for miter, bevel, flat or square
-//   lines, generalise.hpp) on every level but the finest, 0 (the source geometry) there.
+//   lines, generalise.hpp) on every level but the finest, 0 (the source geometry) there:
+//   lines and rings simplified within 3/4 ε_L, arcs drawn with chords within 1/4 ε_L (or the
+//   layer's chord tolerance, if larger), and a line layer whose shapes reach at most 1/4 ε_L
+//   from the line drawn as its segments' rectangles only (FootprintOptions::segmentsOnly: the
+//   joins and caps left out lie within w/2 of a vertex).
 //
 // A tile is drawn when ε_L, seen from the eye at the distance of the tile's nearest point, is at
 // most `errorPixels` on screen (0.5: the drawn outline stays within half a pixel of the true
