@@ -53,8 +53,8 @@ OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& targe
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
   overlay::OverlaySettings settings;
   settings.measure = true;
-  out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.overlayLayers()[a],
-                                                     renderer.overlayLayers()[b], settings);
+  out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.drawnChunks(a), renderer.drawnChunks(b),
+                                                     settings);
   out.flags = gfx::readStencil(target);
   renderer.overlayRenderer().coverOverlap(cache, out.marks, op, kOverlapColour);
   gfx::enableMaskWrites(target.framebuffer(), true);
@@ -69,8 +69,9 @@ OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget
   overlay::OverlaySettings settings;
   settings.measure = true;
   out.pixels.assign(static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height()), 0);
-  for (const overlay::OverlayLayer& layer : renderer.overlayLayers()) {
-    OpenVolumeLayer counted{layer.name(), 0, renderer.overlayRenderer().countOpenFaces(cache, view, layer, settings)};
+  for (std::size_t j = 0; j < renderer.overlayLayers().size(); ++j) {
+    OpenVolumeLayer counted{renderer.overlayLayers()[j].name(), 0,
+                            renderer.overlayRenderer().countOpenFaces(cache, view, renderer.drawnChunks(j), settings)};
     const std::vector<std::uint8_t> counts = gfx::readStencil(target);
     renderer.overlayRenderer().coverOpenFaces(cache, counted.marks, kOpenVolumeColour);
     for (std::size_t i = 0; i < counts.size() && i < out.pixels.size(); ++i) {

@@ -39,13 +39,16 @@ TEST(TechniqueRegistry, NamesAreUniqueAndEveryEntryIsComplete) {
 
 TEST(TechniqueRegistry, OursIsTheDefaultAndNamesAreListedForMessages) {
   EXPECT_EQ(&overlay::defaultTechnique(), &overlay::techniques().front());
-  EXPECT_EQ(overlay::defaultTechnique().name, "stencil");
-  EXPECT_EQ(overlay::defaultTechnique().construction, overlay::PieceConstruction::Ours);
+  // Ours, in view-dependent tiles; "stencil" builds every piece at load.
+  EXPECT_EQ(overlay::defaultTechnique().name, "stencil-tiles");
+  EXPECT_EQ(overlay::defaultTechnique().construction, overlay::PieceConstruction::Tiled);
+  ASSERT_NE(overlay::findTechnique("stencil"), nullptr);
+  EXPECT_EQ(overlay::findTechnique("stencil")->construction, overlay::PieceConstruction::Ours);
   ASSERT_NE(overlay::findTechnique("paper"), nullptr);
   EXPECT_EQ(overlay::findTechnique("paper")->construction, overlay::PieceConstruction::Paper);
   EXPECT_EQ(overlay::findTechnique("raster"), nullptr);
   EXPECT_EQ(overlay::findTechnique(""), nullptr);
-  EXPECT_EQ(overlay::techniqueNameList(), "stencil, paper, drape or drape-tiles");
+  EXPECT_EQ(overlay::techniqueNameList(), "stencil-tiles, stencil, paper, drape or drape-tiles");
 }
 
 }  // namespace

@@ -216,7 +216,58 @@ std::vector<Polyhedron> mergeWhereSplitDoesNotPay(std::vector<Polyhedron> pieces
   return out;
 }
 
+/// Whether the feature's box (widened by a line's half width) misses the grid's extent.
+bool outsideGrid(const geo::Feature& feature, LayerKind kind, const FeatureStyle& style, const CellGrid& g) {
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  auto add = [&](const glm::dvec2& v) {
+    lo = glm::min(lo, v);
+    hi = glm::max(hi, v);
+  };
+  for (const geo::Polygon& polygon : feature.polygons) std::for_each(polygon.outer.begin(), polygon.outer.end(), add);
+  for (const geo::LineString& line : feature.lines) std::for_each(line.begin(), line.end(), add);
+  const double reach = kind == LayerKind::Line ? 0.5 * style.shape.width : 0.0;
+  const glm::dvec2 gridMax = g.origin + g.cellSize * glm::dvec2(g.columns, g.rows);
+  return hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x ||
+         lo.y - reach > gridMax.y;
+}
+
+/// A Warning saying why a feature that is not broken gives nothing to draw, so that nothing
+/// vanishes silently.
+void reportNothingToDraw(const geo::Feature& feature, LayerKind kind, const FeatureStyle& style,
+                         const FootprintOptions& fo, const std::string& layerName, Diagnostics& diagnostics) {
+  const bool hasGeometry = kind == LayerKind::Polygon ? !feature.polygons.empty() : !feature.lines.empty();
+  const char* what = kind == LayerKind::Polygon ? "polygon" : "line";
+  std::string why = std::string("has no ") + what + " geometry: nothing to draw";
+  if (hasGeometry) {
+    why = "has no area to draw (a single point with flat caps?)";
+    if (fo.cells && outsideGrid(feature, kind, style, *fo.cells)) why = "lies outside the terrain: nothing to draw";
+  }
+  diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid, why));
+}
+
 }  // namespace
+
+FeatureOutcome checkFeature(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
+                            const FeatureStyle& style, const std::string& layerName, const LayerBuildOptions& options,
+                            Diagnostics& diagnostics) {
+  // The footprints without cells (no clipping, no bounds): the same problems as a build finds.
+  FootprintOptions fo = options.footprints;
+  fo.cells.reset();
+  fo.uniteLines = false;
+  const std::size_t errorsBefore = diagnostics.count(Severity::Error);
+  const std::vector<Footprint> footprints =
+      kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)
+                                 : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
+  const bool nothing = std::none_of(footprints.begin(), footprints.end(),
+                                    [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
+  if (diagnostics.count(Severity::Error) > errorsBefore && nothing) return FeatureOutcome::Skipped;
+  const bool outside = options.footprints.cells && outsideGrid(feature, kind, style, *options.footprints.cells);
+  if (nothing || outside) {
+    reportNothingToDraw(feature, kind, style, options.footprints, layerName, diagnostics);
+    return FeatureOutcome::NothingToDraw;
+  }
+  return FeatureOutcome::Drawn;
+}
 
 std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
                                        const FeatureStyle& style, const std::string& layerName,
@@ -233,34 +284,8 @@ std::vector<Polyhedron> buildPolyhedra(const geo::Feature& feature, std::uint32_
                                  : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
   const bool nothing = std::none_of(footprints.begin(), footprints.end(),
                                     [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
-  if (nothing && options.reportEmpty && diagnostics.count(Severity::Error) == errorsBefore) {
-    // Not broken, but nothing to draw: say why, so that nothing vanishes silently.
-    const bool hasGeometry = kind == LayerKind::Polygon ? !feature.polygons.empty() : !feature.lines.empty();
-    const char* what = kind == LayerKind::Polygon ? "polygon" : "line";
-    std::string why = std::string("has no ") + what + " geometry: nothing to draw";
-    if (hasGeometry) {
-      why = "has no area to draw (a single point with flat caps?)";
-      if (fo.cells) {
-        // Outside when the feature's box (widened by the line's half width) misses the grid.
-        glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-        auto add = [&](const glm::dvec2& v) {
-          lo = glm::min(lo, v);
-          hi = glm::max(hi, v);
-        };
-        for (const geo::Polygon& polygon : feature.polygons)
-          std::for_each(polygon.outer.begin(), polygon.outer.end(), add);
-        for (const geo::LineString& line : feature.lines) std::for_each(line.begin(), line.end(), add);
-        const double reach = kind == LayerKind::Line ? 0.5 * style.shape.width : 0.0;
-        const CellGrid& g = *fo.cells;
-        const glm::dvec2 gridMax = g.origin + g.cellSize * glm::dvec2(g.columns, g.rows);
-        if (hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x ||
-            lo.y - reach > gridMax.y) {
-          why = "lies outside the terrain: nothing to draw";
-        }
-      }
-    }
-    diagnostics.add(detail::featureError(Severity::Warning, layerName, feature.fid, why));
-  }
+  if (nothing && options.reportEmpty && diagnostics.count(Severity::Error) == errorsBefore)
+    reportNothingToDraw(feature, kind, style, fo, layerName, diagnostics);
   std::vector<Polyhedron> out;
   out.reserve(footprints.size());
   HeightBounds featureBounds{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
@@ -365,9 +390,35 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
   layer.featureSlots_.resize(layer.features_.size());
   layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
   if (options.deferPieces) {
-    for (std::size_t i = 0; i < layer.features_.size(); ++i)
-      if (layer.styles_[i].visible) layer.setOutcome(i, FeatureOutcome::Drawn);
+    // No pieces, but every feature checked as a build would (its footprints, uncut): broken and
+    // empty features are named now, not when a tile first meets them.
+    std::vector<Diagnostics> found(layer.features_.size());
+    std::vector<FeatureOutcome> outcomes(layer.features_.size(), FeatureOutcome::Hidden);
+    std::atomic<std::size_t> next{0};
+    const auto work = [&] {
+      for (std::size_t i = next.fetch_add(1); i < layer.features_.size(); i = next.fetch_add(1)) {
+        if (!layer.styles_[i].visible) continue;
+        try {
+          outcomes[i] = checkFeature(layer.features_[i], static_cast<std::uint32_t>(i), kind, layer.styles_[i],
+                                     layer.name_, options, found[i]);
+        } catch (const std::exception& e) {  // on a worker thread it would end the program
+          outcomes[i] = FeatureOutcome::Skipped;
+          found[i].add(detail::featureError(Severity::Error, layer.name_, layer.features_[i].fid,
+                                            std::string("cannot be built (") + e.what() + "); feature skipped"));
+        }
+      }
+    };
+    {
+      std::vector<std::jthread> pool;
+      for (unsigned t = 1; t < std::clamp(options.threads, 1U, 64U); ++t) pool.emplace_back(work);
+      work();
+    }
+    for (std::size_t i = 0; i < layer.features_.size(); ++i) {
+      r.diagnostics.append(found[i]);
+      layer.setOutcome(i, outcomes[i]);
+    }
     layer.stats_.features = layer.features_.size();
+    layer.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.value = std::move(layer);
     return r;
   }
@@ -629,7 +680,9 @@ Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
   freePieces(static_cast<std::uint32_t>(index));
   FeatureOutcome outcome = FeatureOutcome::Hidden;
   if (styles_[index].visible && options_.deferPieces) {
-    outcome = FeatureOutcome::Drawn;  // a tiled technique builds the pieces
+    // A tiled technique builds the pieces; here the feature is checked.
+    outcome = checkFeature(features_[index], static_cast<std::uint32_t>(index), kind_, styles_[index], name_,
+                           options_, diagnostics);
   } else if (styles_[index].visible && bounds_ != nullptr) {
     std::vector<Polyhedron> pieces = buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_,
                                                     styles_[index], name_, *bounds_, options_, diagnostics);

@@ -20,23 +20,34 @@ glm::vec4 unite(const glm::vec4& a, const glm::vec4& b) {
 
 AnalysisMarks OverlayRenderer::markOverlap(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& a,
                                            const OverlayLayer& b, const OverlaySettings& settings) {
+  const std::array<const OverlayLayer*, 1> chunksA{&a}, chunksB{&b};
+  return markOverlap(cache, view, chunksA, chunksB, settings);
+}
+
+AnalysisMarks OverlayRenderer::markOverlap(gfx::StateCache& cache, const OverlayView& view,
+                                           std::span<const OverlayLayer* const> a,
+                                           std::span<const OverlayLayer* const> b, const OverlaySettings& settings) {
   AnalysisMarks marks;
-  const std::array<const OverlayLayer*, 2> layers{&a, &b};
-  const PixelScale scale = beginFrame(cache, view, settings, layers);
+  std::vector<const OverlayLayer*> all(a.begin(), a.end());
+  all.insert(all.end(), b.begin(), b.end());
+  const PixelScale scale = beginFrame(cache, view, settings, all);
   beginMeasure(settings);
   for (int k = 0; k < 2; ++k) {
-    const OverlayLayer& layer = k == 0 ? a : b;
     LayerFrameStats& stats = k == 0 ? marks.a : marks.b;
-    const Pieces pieces = classify(view, layer, settings, false, stats);
     stats.grouped = true;
-    if (pieces.order.empty()) continue;
-    marks.rect = unite(marks.rect, rectOf(view, pieces, 0, pieces.order.size()));
-    // Groups only where the layer may overlap deeper than the count holds (OverlayLayer::maxOverlap).
-    FlagMarkStates states = k == 0 ? kOverlapMarkA : kOverlapMarkB;
-    if (!settings.forceGroups && layer.maxOverlap() <= states.countMask) states.groupSize = pieces.order.size();
-    const bool inPixels = bindLayer(view, layer, scale);
-    markIntoFlag(cache, view, layer, pieces, settings, scale, inPixels, states, stats);
-    endLayer(inPixels);
+    // Each chunk (a layer, or one of its tiles) is marked and collected into the layer's flag.
+    for (const OverlayLayer* chunk : k == 0 ? a : b) {
+      const OverlayLayer& layer = *chunk;
+      const Pieces pieces = classify(view, layer, settings, false, stats);
+      if (pieces.order.empty()) continue;
+      marks.rect = unite(marks.rect, rectOf(view, pieces, 0, pieces.order.size()));
+      // Groups only where the layer may overlap deeper than the count holds (OverlayLayer::maxOverlap).
+      FlagMarkStates states = k == 0 ? kOverlapMarkA : kOverlapMarkB;
+      if (!settings.forceGroups && layer.maxOverlap() <= states.countMask) states.groupSize = pieces.order.size();
+      const bool inPixels = bindLayer(view, layer, scale);
+      markIntoFlag(cache, view, layer, pieces, settings, scale, inPixels, states, stats);
+      endLayer(inPixels);
+    }
   }
   endMeasure(settings, marks.gpuMilliseconds, marks.fragments);
   return marks;
@@ -65,21 +76,29 @@ void OverlayRenderer::coverOverlap(gfx::StateCache& cache, const AnalysisMarks& 
 
 AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const OverlayView& view,
                                               const OverlayLayer& layer, const OverlaySettings& settings) {
+  const std::array<const OverlayLayer*, 1> chunks{&layer};
+  return countOpenFaces(cache, view, chunks, settings);
+}
+
+AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const OverlayView& view,
+                                              std::span<const OverlayLayer* const> chunks,
+                                              const OverlaySettings& settings) {
   AnalysisMarks marks;
-  const std::array<const OverlayLayer*, 1> layers{&layer};
-  const PixelScale scale = beginFrame(cache, view, settings, layers);
-  // Every face: bottom caps too, and the pieces near the eye clipped and capped.
-  const Pieces pieces = classify(view, layer, settings, true, marks.a);
-  if (!pieces.order.empty()) {
-    marks.rect = rectOf(view, pieces, 0, pieces.order.size());
-    beginMeasure(settings);
+  const PixelScale scale = beginFrame(cache, view, settings, chunks);
+  beginMeasure(settings);
+  for (const OverlayLayer* chunk : chunks) {
+    const OverlayLayer& layer = *chunk;
+    // Every face: bottom caps too, and the pieces near the eye clipped and capped.
+    const Pieces pieces = classify(view, layer, settings, true, marks.a);
+    if (pieces.order.empty()) continue;
+    marks.rect = unite(marks.rect, rectOf(view, pieces, 0, pieces.order.size()));
     const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kCountFaces);
     multiDraw(cache, pieces.zPass);
     drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
     endLayer(inPixels);
-    endMeasure(settings, marks.gpuMilliseconds, marks.fragments);
   }
+  endMeasure(settings, marks.gpuMilliseconds, marks.fragments);
   return marks;
 }
 
@@ -92,11 +111,20 @@ void OverlayRenderer::coverOpenFaces(gfx::StateCache& cache, const AnalysisMarks
 LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
                                             const glm::vec4& zPassColour, const glm::vec4& zFailColour,
                                             const OverlaySettings& settings) {
+  const std::array<const OverlayLayer*, 1> chunks{&layer};
+  return drawPieces(cache, view, chunks, zPassColour, zFailColour, settings);
+}
+
+LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const OverlayView& view,
+                                            std::span<const OverlayLayer* const> chunks,
+                                            const glm::vec4& zPassColour, const glm::vec4& zFailColour,
+                                            const OverlaySettings& settings) {
   LayerFrameStats stats;
-  const std::array<const OverlayLayer*, 1> layers{&layer};
-  const PixelScale scale = beginFrame(cache, view, settings, layers);
-  const Pieces pieces = classify(view, layer, settings, true, stats);
-  if (!pieces.order.empty()) {
+  const PixelScale scale = beginFrame(cache, view, settings, chunks);
+  for (const OverlayLayer* chunk : chunks) {
+    const OverlayLayer& layer = *chunk;
+    const Pieces pieces = classify(view, layer, settings, true, stats);
+    if (pieces.order.empty()) continue;
     const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kDebugPieces);
     program_.set("u_maskBit", 0.0F);

@@ -104,6 +104,14 @@ class SceneRenderer {
   /// The stencil passes, for analysis on the frame just drawn (OverlayRenderer::markOverlap ...),
   /// whatever technique draws the layers.
   [[nodiscard]] overlay::OverlayRenderer& overlayRenderer() { return *overlay_; }
+  /// What drew overlay layer i in the last frame, for analyses on it (OverlayRenderer::
+  /// markOverlap, countOpenFaces, drawPieces): the layer itself, or the tiles a tiled technique
+  /// drew for it (valid until the next frame or edit).
+  [[nodiscard]] std::vector<const overlay::OverlayLayer*> drawnChunks(std::size_t i) const {
+    if (technique_ && techniqueInfo_->construction == overlay::PieceConstruction::Tiled)
+      return technique_->drawnChunks(i);
+    return {&layers_.at(i)};
+  }
   /// For editing features (the next frame shows the change; call invalidateOverlays).
   [[nodiscard]] overlay::OverlayLayer& overlayLayer(std::size_t i) {
     if (technique_) technique_->stopReading();  // a tiled technique's workers read the layers

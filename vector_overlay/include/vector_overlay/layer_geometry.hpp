@@ -120,6 +120,13 @@ enum class FeatureOutcome : std::uint8_t {
   Hidden,         ///< not visible (style) or removed
 };
 
+/// What buildPolyhedra would make of the feature (Drawn, Skipped for errors, NothingToDraw),
+/// with the same diagnostics, from its footprints uncut and without height bounds: how a layer
+/// built with LayerBuildOptions::deferPieces checks its features at load.
+FeatureOutcome checkFeature(const geo::Feature& feature, std::uint32_t featureIndex, LayerKind kind,
+                            const FeatureStyle& style, const std::string& layerName, const LayerBuildOptions& options,
+                            Diagnostics& diagnostics);
+
 /// What OverlayLayer::validate found.
 struct LayerValidation {
   Diagnostics problems;  ///< one Error per broken piece, naming the layer, feature and piece

@@ -130,6 +130,10 @@ class OverlayRenderer {
   LayerFrameStats drawPieces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
                              const glm::vec4& zPassColour, const glm::vec4& zFailColour,
                              const OverlaySettings& settings = {});
+  /// The same for a layer drawn in chunks (its tiles).
+  LayerFrameStats drawPieces(gfx::StateCache& cache, const OverlayView& view,
+                             std::span<const OverlayLayer* const> chunks, const glm::vec4& zPassColour,
+                             const glm::vec4& zFailColour, const OverlaySettings& settings = {});
 
   // Analysis with the same stencil core (after the stencil-volume-intersections article). Each
   // is two calls: mark into the stencil (read it in between if you like), then cover, which
@@ -142,6 +146,10 @@ class OverlayRenderer {
   /// (OverlayLayer::maxOverlap) is counted in groups of 63, so any depth of overlap is exact.
   AnalysisMarks markOverlap(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& a,
                             const OverlayLayer& b, const OverlaySettings& settings = {});
+  /// The same for layers drawn in chunks (their tiles, which may overlap: each is collected into
+  /// its layer's flag).
+  AnalysisMarks markOverlap(gfx::StateCache& cache, const OverlayView& view, std::span<const OverlayLayer* const> a,
+                            std::span<const OverlayLayer* const> b, const OverlaySettings& settings = {});
   /// Colours the pixels where `op` of the two marks holds, and zeroes the marks.
   void coverOverlap(gfx::StateCache& cache, const AnalysisMarks& marks, OverlapOp op, const glm::vec4& colour,
                     float maskValue = 0.0F);
@@ -153,6 +161,9 @@ class OverlayRenderer {
   /// so they sum to 0 too. A non-zero stencil marks a ray through a hole.
   AnalysisMarks countOpenFaces(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
                                const OverlaySettings& settings = {});
+  /// The same for a layer drawn in chunks: each chunk's volumes are closed on their own.
+  AnalysisMarks countOpenFaces(gfx::StateCache& cache, const OverlayView& view,
+                               std::span<const OverlayLayer* const> chunks, const OverlaySettings& settings = {});
   /// Colours the pixels with a non-zero count and zeroes the counts.
   void coverOpenFaces(gfx::StateCache& cache, const AnalysisMarks& marks, const glm::vec4& colour,
                       float maskValue = 0.0F);

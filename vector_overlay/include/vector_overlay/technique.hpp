@@ -121,6 +121,13 @@ class OverlayTechnique {
     (void)hi;
     invalidate();
   }
+  /// A technique that draws layers in chunks of its own (PieceConstruction::Tiled): the chunks
+  /// that drew layer i in the last frame (for analyses on that frame), valid until the next
+  /// frame or invalidation. Others: empty.
+  [[nodiscard]] virtual std::vector<const OverlayLayer*> drawnChunks(std::size_t layer) const {
+    (void)layer;
+    return {};
+  }
   /// Before the layers given to draw() are edited: stop reading them (work in flight ends).
   virtual void stopReading() {}
   /// GPU bytes the technique holds beyond the layers' own buffers (textures, tiles).

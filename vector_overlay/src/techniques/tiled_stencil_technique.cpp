@@ -151,6 +151,7 @@ class TiledStencil final : public OverlayTechnique {
       if (layer == nullptr || layers_[i].source == layer) continue;
       // Another layer in this place: its tiles are stale.
       workers_.cancel();
+      lastChunks_.clear();
       for (auto& l : layers_) l.tiles.clear(), l.source = nullptr, l.tiling.reset();
       break;
     }
@@ -180,16 +181,22 @@ class TiledStencil final : public OverlayTechnique {
       if (!jobs.empty()) workers_.request(jobs);
     }
     stats.layers = renderer_.draw(cache, frame.view, chunks, frame.settings);
+    lastChunks_ = std::move(chunks);
     stats.tilesEvicted = evict();
     for (const LayerState& l : layers_) stats.tilesResident += l.tiles.size();
   }
 
+  [[nodiscard]] std::vector<const OverlayLayer*> drawnChunks(std::size_t layer) const override {
+    return layer < lastChunks_.size() ? lastChunks_[layer] : std::vector<const OverlayLayer*>{};
+  }
   void invalidate() override {
     workers_.cancel();
+    lastChunks_.clear();
     for (LayerState& l : layers_) l.tiles.clear();
   }
   void invalidate(const glm::dvec2& lo, const glm::dvec2& hi) override {
     workers_.cancel();
+    lastChunks_.clear();
     for (LayerState& l : layers_) {
       if (!l.tiling) continue;
       for (auto it = l.tiles.begin(); it != l.tiles.end();) {
@@ -305,6 +312,7 @@ class TiledStencil final : public OverlayTechnique {
   LayerBuildOptions build_;
   TilingOptions tiling_;
   std::vector<LayerState> layers_;
+  std::vector<std::vector<const OverlayLayer*>> lastChunks_;  ///< per layer, as last drawn
   std::uint64_t frameNumber_ = 0;
   std::set<std::string> reported_;
   TileWorkers workers_;  // last: stopped first
