@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -157,8 +158,17 @@ json OverlayBench::edit(const scene::Camera& camera) {
     } else {
       continue;
     }
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const geo::Feature* f : {&layer.features().front(), static_cast<const geo::Feature*>(&feature)}) {
+      for (const geo::LineString& line : f->lines)
+        for (const glm::dvec2& p : line) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      for (const geo::Polygon& polygon : f->polygons)
+        for (const glm::dvec2& p : polygon.outer) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    }
+    const double margin = 2.0 * layer.style().maxWidthMetres + 20.0;  // widths and outlines
     const auto start = std::chrono::steady_clock::now();
     const Diagnostics d = layer.replaceFeature(0, feature);
+    ours.featureChanged(i, 0, lo - margin, hi + margin);
     const double rebuildMs = msSince(start);
     scene::FrameStats after;
     const double frameMs = timed(ours, camera, true, false, after);

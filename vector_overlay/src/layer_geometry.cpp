@@ -708,6 +708,21 @@ Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature featur
   return diagnostics;
 }
 
+Diagnostics LayerGeometry::setFeature(std::size_t index, geo::Feature feature, FeatureStyle style) {
+  if (index > features_.size()) return {};
+  if (index == features_.size()) {
+    features_.emplace_back();
+    styles_.emplace_back();
+    featureSlots_.emplace_back();
+    outcomes_.push_back(FeatureOutcome::Hidden);
+    stats_.features = features_.size();
+  }
+  features_[index] = std::move(feature);
+  if (bounds_ != nullptr) assignAnchorHeights(style, features_[index], *bounds_);
+  styles_[index] = std::move(style);
+  return rebuildFeature(index);
+}
+
 Diagnostics LayerGeometry::setFeatureStyle(std::size_t index, const FeatureStyle& style) {
   if (index >= features_.size()) return {};
   styles_[index] = style;

@@ -100,6 +100,12 @@ Diagnostics OverlayLayer::setFeatureStyle(std::size_t index, const FeatureStyle&
   return d;
 }
 
+Diagnostics OverlayLayer::setFeature(std::size_t index, geo::Feature feature, FeatureStyle style) {
+  Diagnostics d = geometry_.setFeature(index, std::move(feature), std::move(style));
+  sync();
+  return d;
+}
+
 void OverlayLayer::removeFeature(std::size_t index) {
   geometry_.removeFeature(index);
   sync();

@@ -31,32 +31,16 @@ bool meets(const std::pair<glm::dvec2, glm::dvec2>& a, const glm::dvec2& lo, con
 LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider& bounds,
                          const LayerBuildOptions& options, const TilingOptions& tiling)
     : source_(&source), bounds_(&bounds), options_(options), tiling_(tiling) {
-  const std::vector<geo::Feature>& features = source.features();
-  const std::vector<FeatureStyle>& styles = source.featureStyles();
-  reach_.assign(features.size(), 0.0);
-  boxes_.assign(features.size(), {glm::dvec2(1.0), glm::dvec2(-1.0)});
+  const std::size_t count = source.features().size();
+  reach_.assign(count, 0.0);
+  boxes_.assign(count, {glm::dvec2(1.0), glm::dvec2(-1.0)});
   glm::dvec2 all0(std::numeric_limits<double>::infinity()), all1(-std::numeric_limits<double>::infinity());
-  for (std::size_t i = 0; i < features.size(); ++i) {
-    if (i >= styles.size() || !styles[i].visible) continue;
-    const geo::Feature& f = features[i];
-    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    const auto add = [&](const glm::dvec2& p) {
-      if (!std::isfinite(p.x) || !std::isfinite(p.y)) return;  // the builder reports it
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    };
-    if (source.kind() == LayerKind::Polygon) {
-      for (const geo::Polygon& p : f.polygons) std::for_each(p.outer.begin(), p.outer.end(), add);
-    } else {
-      for (const geo::LineString& l : f.lines) std::for_each(l.begin(), l.end(), add);
-      reach_[i] = lineReach(styles[i].shape);
-      slack_ = std::max(slack_, lineShapeSlack(styles[i].shape.join, styles[i].shape.cap, styles[i].shape.miterLimit,
-                                               styles[i].shape.width));
-    }
+  for (std::size_t i = 0; i < count; ++i) {
+    measure(static_cast<std::uint32_t>(i));
+    const auto& [lo, hi] = boxes_[i];
     if (!(lo.x <= hi.x && lo.y <= hi.y)) continue;
-    boxes_[i] = {lo - reach_[i], hi + reach_[i]};
-    all0 = glm::min(all0, boxes_[i].first);
-    all1 = glm::max(all1, boxes_[i].second);
+    all0 = glm::min(all0, lo);
+    all1 = glm::max(all1, hi);
   }
   if (options.footprints.cells) {
     grid_ = *options.footprints.cells;
@@ -77,22 +61,77 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
   // Buckets: a grid of at most 128² over the root tile.
   buckets_ = std::clamp(2 << finestLevel_, 1, 128);
   bucket_.assign(static_cast<std::size_t>(buckets_) * static_cast<std::size_t>(buckets_), {});
-  const double bucketSize = rootSize_ / buckets_;
-  for (std::size_t i = 0; i < boxes_.size(); ++i) {
-    const auto& [lo, hi] = boxes_[i];
-    if (!(lo.x <= hi.x && lo.y <= hi.y)) continue;
-    const auto index = [&](double v, double o) {
-      return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
-    };
-    if (hi.x < origin_.x || hi.y < origin_.y || lo.x > origin_.x + rootSize_ || lo.y > origin_.y + rootSize_)
-      continue;  // outside the terrain: no tile has it (the full build says "nothing to draw")
-    const int x0 = index(lo.x, origin_.x), x1 = index(hi.x, origin_.x);
-    const int y0 = index(lo.y, origin_.y), y1 = index(hi.y, origin_.y);
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x)
-        bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)]
-            .push_back(static_cast<std::uint32_t>(i));
+  for (std::size_t i = 0; i < count; ++i) fill(static_cast<std::uint32_t>(i));
+}
+
+void LayerTiling::measure(std::uint32_t i) {
+  const geo::Feature& f = source_->features()[i];
+  const std::vector<FeatureStyle>& styles = source_->featureStyles();
+  reach_[i] = 0.0;
+  boxes_[i] = {glm::dvec2(1.0), glm::dvec2(-1.0)};
+  if (i >= styles.size() || !styles[i].visible) return;
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  const auto add = [&](const glm::dvec2& p) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return;  // the builder reports it
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  };
+  if (source_->kind() == LayerKind::Polygon) {
+    for (const geo::Polygon& p : f.polygons) std::for_each(p.outer.begin(), p.outer.end(), add);
+  } else {
+    for (const geo::LineString& l : f.lines) std::for_each(l.begin(), l.end(), add);
+    const LineShape& shape = styles[i].shape;
+    reach_[i] = lineReach(shape);
+    slack_ = std::max(slack_, lineShapeSlack(shape.join, shape.cap, shape.miterLimit, shape.width));
   }
+  if (lo.x <= hi.x && lo.y <= hi.y) boxes_[i] = {lo - reach_[i], hi + reach_[i]};
+}
+
+bool LayerTiling::bucketRange(const std::pair<glm::dvec2, glm::dvec2>& box, int& x0, int& y0, int& x1,
+                              int& y1) const {
+  const auto& [lo, hi] = box;
+  if (!(lo.x <= hi.x && lo.y <= hi.y)) return false;
+  // Outside the terrain: no tile has it (the full build says "nothing to draw").
+  if (hi.x < origin_.x || hi.y < origin_.y || lo.x > origin_.x + rootSize_ || lo.y > origin_.y + rootSize_)
+    return false;
+  const double bucketSize = rootSize_ / buckets_;
+  const auto index = [&](double v, double o) {
+    return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
+  };
+  x0 = index(lo.x, origin_.x);
+  x1 = index(hi.x, origin_.x);
+  y0 = index(lo.y, origin_.y);
+  y1 = index(hi.y, origin_.y);
+  return true;
+}
+
+void LayerTiling::fill(std::uint32_t i) {
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+  if (!bucketRange(boxes_[i], x0, y0, x1, y1)) return;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x)
+      bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)]
+          .push_back(i);
+}
+
+void LayerTiling::update(std::uint32_t i) {
+  if (i >= boxes_.size()) return;
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+  if (bucketRange(boxes_[i], x0, y0, x1, y1)) {
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        auto& b =
+            bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)];
+        b.erase(std::remove(b.begin(), b.end(), i), b.end());
+      }
+    }
+  }
+  measure(i);
+  fill(i);
+}
+
+double LayerTiling::widestReach() const {
+  return reach_.empty() ? 0.0 : *std::max_element(reach_.begin(), reach_.end());
 }
 
 std::pair<glm::dvec2, glm::dvec2> LayerTiling::extent(const TileKey& key) const {
@@ -171,36 +210,46 @@ std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHe
   return out;
 }
 
+std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uint32_t i) const {
+  const auto [lo, hi] = extent(key);
+  if (i >= boxes_.size() || !meets(boxes_[i], lo, hi)) return std::nullopt;
+  // Three quarters of the level's error to simplification (build() gives the arcs the rest).
+  const double epsilon =
+      key.level < finestLevel_ ? 0.75 * tileSize(key.level) / std::max(1, tiling_.tileResolution) : 0.0;
+  const geo::Feature& feature = source_->features()[i];
+  geo::Feature g;
+  if (epsilon > 0.0) {
+    g = generaliseGeometry(feature, epsilon);
+  } else {
+    g.fid = feature.fid;
+    g.polygons = feature.polygons;
+    g.lines = feature.lines;
+  }
+  if (source_->kind() == LayerKind::Line) {
+    std::vector<geo::LineString> runs;
+    for (const geo::LineString& l : g.lines) appendRunsNear(l, lo, hi, reach_[i], runs);
+    if (runs.empty()) return std::nullopt;
+    g.lines = std::move(runs);
+    g.polygons.clear();
+  } else {
+    g.lines.clear();
+  }
+  return g;
+}
+
 Result<LayerTile> LayerTiling::build(const TileKey& key) const {
   const auto [lo, hi] = extent(key);
   const double size = tileSize(key.level);
   // The level's error: three quarters to simplification, a quarter to the arcs' chords.
   const double error = key.level < finestLevel_ ? size / std::max(1, tiling_.tileResolution) : 0.0;
-  const double epsilon = 0.75 * error;
-  const std::vector<geo::Feature>& features = source_->features();
   const std::vector<FeatureStyle>& styles = source_->featureStyles();
   std::vector<geo::Feature> local;
   std::vector<FeatureStyle> localStyles;
   std::vector<std::uint32_t> index;
   for (const std::uint32_t i : featuresNear(key)) {
-    geo::Feature g;
-    if (epsilon > 0.0) {
-      g = generaliseGeometry(features[i], epsilon);
-    } else {
-      g.fid = features[i].fid;
-      g.polygons = features[i].polygons;
-      g.lines = features[i].lines;
-    }
-    if (source_->kind() == LayerKind::Line) {
-      std::vector<geo::LineString> runs;
-      for (const geo::LineString& l : g.lines) appendRunsNear(l, lo, hi, reach_[i], runs);
-      if (runs.empty()) continue;
-      g.lines = std::move(runs);
-      g.polygons.clear();
-    } else {
-      g.lines.clear();
-    }
-    local.push_back(std::move(g));
+    std::optional<geo::Feature> g = featureFor(key, i);
+    if (!g) continue;
+    local.push_back(std::move(*g));
     localStyles.push_back(styles[i]);
     index.push_back(i);
   }
@@ -223,8 +272,7 @@ Result<LayerTile> LayerTiling::build(const TileKey& key) const {
   options.boundsSlack = error;
   // Lines thinner than a quarter of the error: their rectangles only (what joins and caps add
   // lies within w/2 of a vertex), the pieces of a sub-pixel road network fall by two thirds.
-  const double widest = reach_.empty() ? 0.0 : *std::max_element(reach_.begin(), reach_.end());
-  options.footprints.segmentsOnly = source_->kind() == LayerKind::Line && widest <= 0.25 * error;
+  options.footprints.segmentsOnly = source_->kind() == LayerKind::Line && widestReach() <= 0.25 * error;
   Result<LayerGeometry> built = LayerGeometry::build(source_->name(), source_->kind(), source_->style(),
                                                      std::move(local), std::move(localStyles), *bounds_, options);
   Result<LayerTile> r;

@@ -122,6 +122,12 @@ class SceneRenderer {
   void invalidateOverlays(const glm::dvec2& lo, const glm::dvec2& hi) {
     if (technique_) technique_->invalidate(lo, hi);
   }
+  /// After an edit of feature `feature` of overlayLayer(i) (replaceFeature, setFeatureStyle,
+  /// removeFeature), [lo, hi] holding it before and after (widened by its width): the technique
+  /// updates what it derived from it (a tiled technique: that feature in its resident tiles).
+  void featureChanged(std::size_t i, std::size_t feature, const glm::dvec2& lo, const glm::dvec2& hi) {
+    if (technique_) technique_->featureChanged(i, feature, lo, hi);
+  }
   /// Shows or hides one overlay layer from the next frame on (no rebuild; mask bits keep their
   /// places). A rebuild shows every layer again.
   void setShown(std::size_t overlayLayer, bool shown) {

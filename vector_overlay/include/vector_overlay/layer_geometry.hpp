@@ -181,6 +181,9 @@ class LayerGeometry {
   Diagnostics replaceFeature(std::size_t index, geo::Feature feature);
   Diagnostics setFeatureStyle(std::size_t index, const FeatureStyle& style);
   void removeFeature(std::size_t index);  ///< hides it for good (indices stay stable)
+  /// A feature with its style resolved already (a tile's, whose features carry no attributes):
+  /// replaces feature `index`, or appends it when index == features().size().
+  Diagnostics setFeature(std::size_t index, geo::Feature feature, FeatureStyle style);
   /// Re-reads the height bounds of every piece from `bounds` (which replaces the one given to
   /// build): after the surface as drawn changed, e.g. another vertical exaggeration.
   void refreshBounds(const HeightBoundsProvider& bounds);

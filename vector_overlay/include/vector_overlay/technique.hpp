@@ -130,6 +130,13 @@ class OverlayTechnique {
   }
   /// Before the layers given to draw() are edited: stop reading them (work in flight ends).
   virtual void stopReading() {}
+  /// Feature `feature` of layer `layer` (an index into TechniqueFrame::layers) was edited; [lo, hi]
+  /// holds it before and after the edit (widened by its width). The default invalidates the box.
+  virtual void featureChanged(std::size_t layer, std::size_t feature, const glm::dvec2& lo, const glm::dvec2& hi) {
+    (void)layer;
+    (void)feature;
+    invalidate(lo, hi);
+  }
   /// GPU bytes the technique holds beyond the layers' own buffers (textures, tiles).
   [[nodiscard]] virtual std::size_t gpuBytes() const { return 0; }
   /// A technique that drapes one texture over the whole terrain: that texture, as last built.

@@ -96,6 +96,14 @@ class LayerTiling {
                                             std::size_t* culled = nullptr) const;
   /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
   [[nodiscard]] Result<LayerTile> build(const TileKey& key) const;
+  /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the
+  /// runs that reach the tile), or none when it does not reach the tile.
+  [[nodiscard]] std::optional<geo::Feature> featureFor(const TileKey& key, std::uint32_t i) const;
+  /// After feature i of the source changed (geometry or style): index it again. Not while tiles
+  /// build.
+  void update(std::uint32_t i);
+  /// The largest reach of the layer's features (how far their shapes reach from their lines).
+  [[nodiscard]] double widestReach() const;
   /// The features that reach the tile (their boxes widened by the lines' reach meet it).
   [[nodiscard]] std::vector<std::uint32_t> featuresNear(const TileKey& key) const;
   [[nodiscard]] const LayerGeometry& source() const { return *source_; }
@@ -115,6 +123,10 @@ class LayerTiling {
   // A bucket grid over the extent: each bucket lists the features whose widened box meets it.
   int buckets_ = 1;
   std::vector<std::vector<std::uint32_t>> bucket_;
+  void measure(std::uint32_t i);  ///< feature i's reach and widened box
+  void fill(std::uint32_t i);     ///< adds feature i to the buckets its box meets
+  /// The buckets [x0, x1] × [y0, y1] a box meets; false when it misses the root tile.
+  bool bucketRange(const std::pair<glm::dvec2, glm::dvec2>& box, int& x0, int& y0, int& x1, int& y1) const;
 };
 
 }  // namespace gis::overlay

@@ -207,6 +207,41 @@ class TiledStencil final : public OverlayTechnique {
     }
   }
   void stopReading() override { workers_.cancel(); }
+  void featureChanged(std::size_t layer, std::size_t feature, const glm::dvec2& lo, const glm::dvec2& hi) override {
+    // Only the feature, in each resident tile that has it or that it reaches now: one feature's
+    // pieces rebuilt per tile, not the tiles.
+    workers_.cancel();
+    if (layer >= layers_.size() || !layers_[layer].tiling) return invalidate(lo, hi);
+    LayerState& l = layers_[layer];
+    const auto index = static_cast<std::uint32_t>(feature);
+    l.tiling->update(index);
+    const FeatureStyle& style = l.tiling->source().featureStyles().at(feature);
+    for (auto it = l.tiles.begin(); it != l.tiles.end();) {
+      Resident& t = it->second;
+      std::optional<geo::Feature> g = l.tiling->featureFor(t.key, index);
+      const auto local = std::find(t.featureIndex.begin(), t.featureIndex.end(), index);
+      // A tile with nothing yet, or one whose thin lines are drawn as rectangles only, is built
+      // again when the feature reaches it (a wide line would need its joins).
+      const bool rebuild = g && (!t.layer || (t.layer->geometry().options().footprints.segmentsOnly &&
+                                              l.tiling->widestReach() > 0.25 * t.error));
+      if (rebuild) {
+        it = l.tiles.erase(it);
+        continue;
+      }
+      if (local != t.featureIndex.end()) {
+        const auto at = static_cast<std::size_t>(local - t.featureIndex.begin());
+        if (g) {
+          reportOnce(t.layer->setFeature(at, std::move(*g), style));
+        } else {
+          t.layer->removeFeature(at);
+        }
+      } else if (g) {
+        reportOnce(t.layer->setFeature(t.layer->features().size(), std::move(*g), style));
+        t.featureIndex.push_back(index);
+      }
+      ++it;
+    }
+  }
   [[nodiscard]] std::size_t gpuBytes() const override {
     std::size_t bytes = 0;
     for (const LayerState& l : layers_)
@@ -217,9 +252,18 @@ class TiledStencil final : public OverlayTechnique {
  private:
   struct Resident {
     TileKey key;
-    std::optional<OverlayLayer> layer;  ///< none: the tile has nothing to draw
+    std::optional<OverlayLayer> layer;        ///< none: the tile has nothing to draw
+    std::vector<std::uint32_t> featureIndex;  ///< per feature of layer, its index in the source layer
+    double error = 0.0;                       ///< the tile's ground error (LayerTile::groundError)
     std::uint64_t lastUsed = 0;
   };
+
+  /// Logs each problem once (a feature's problem is said once, not once per tile).
+  void reportOnce(const Diagnostics& diagnostics) {
+    for (const Diagnostic& m : diagnostics.items()) {
+      if (reported_.insert(m.toString()).second) logWarning(m.toString());
+    }
+  }
   struct LayerState {
     const OverlayLayer* source = nullptr;
     std::unique_ptr<LayerTiling> tiling;
@@ -231,15 +275,15 @@ class TiledStencil final : public OverlayTechnique {
     std::size_t count = 0;
     for (TileWorkers::Done& d : workers_.take()) {
       if (d.layer >= layers_.size() || !layers_[d.layer].tiling) continue;
-      for (const Diagnostic& m : d.tile.diagnostics.items()) {
-        // A feature's problem is said once, not once per tile.
-        if (reported_.insert(m.toString()).second) logWarning(m.toString());
-      }
+      reportOnce(d.tile.diagnostics);
       Resident r;
       r.key = d.key;
       r.lastUsed = frameNumber_;
-      if (d.tile && d.tile.value->geometry.stats().pieces > 0)
+      if (d.tile && d.tile.value->geometry.stats().pieces > 0) {
+        r.featureIndex = std::move(d.tile.value->featureIndex);
+        r.error = d.tile.value->groundError;
         r.layer = OverlayLayer::upload(std::move(d.tile.value->geometry));
+      }
       layers_[d.layer].tiles[d.key.packed()] = std::move(r);
       ++count;
     }
