@@ -8,6 +8,7 @@
 #include "app/cli.hpp"
 #include "app/option_parser.hpp"
 #include "bench_common.hpp"
+#include "scaling_mode.hpp"
 
 namespace {
 
@@ -31,8 +32,14 @@ constexpr const char* kUsage =
     "  no frustum culling, cover with the pieces, one cover rectangle, no split at cells) and with\n"
     "  lines united per cell, the same\n"
     "  figures; ablation.json\n"
-    "--mode scaling --scenes A.json,B.json,...: terrain only, ours and the paper's on each scene (the\n"
-    "  oblique segment unless --segments): scaling.md, frame time against vector vertices and DEM posts\n";
+    "--mode scaling --scenes A.json,B.json,... [--overlay-render PATH] [--whole-load-max-vertices N]:\n"
+    "  per scene, terrain only, stencil-tiles, and the techniques that build everything at load (stencil,\n"
+    "  paper) only up to N vector vertices (default 500000). Start: overlay_render (PATH; default the one\n"
+    "  beside overlay_bench) draws the still twice, cold (the scene's files dropped from the page cache)\n"
+    "  and warm: first frame s, peak RSS, GPU MB; terrain only is --overlays off. Frames: the methods\n"
+    "  path in this process (every segment unless --segments), per segment the median frame time and\n"
+    "  its ratio to terrain only. scaling.md, scaling.json and plots against vector vertices; default\n"
+    "  size 800 x 600\n";
 
 /// Sets `o.segments` from "a,b,…"; false when a name is not a segment of the path.
 bool setSegments(Options& o, std::string_view list) {
@@ -92,8 +99,16 @@ bool setScenes(Options& o, std::string_view list) {
 }
 
 /// Every argument is a flag and its value; a bad one is "bad argument FLAG VALUE".
-std::string parseArgs(int argc, char** argv, Options& o) {
+std::string parseArgs(int argc, char** argv, Options& o, ScalingOptions& scaling) {
   constexpr int kAny = std::numeric_limits<int>::max();
+  // The scaling mode's start runs are the 800 x 600 stills, and its frames are drawn at
+  // the same size; --width and --height, read after, still rule.
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (std::string_view(argv[i]) == "--mode" && std::string_view(argv[i + 1]) == "scaling") {
+      o.width = 800;
+      o.height = 600;
+    }
+  }
   app::OptionParser parser(app::OptionParser::Style::BadArgument);
   parser.option("--scene", o.scene);
   parser.option("--out", o.out);
@@ -118,6 +133,8 @@ std::string parseArgs(int argc, char** argv, Options& o) {
     return true;
   });
   parser.custom("--scenes", [&o](std::string_view v) { return setScenes(o, v); });
+  parser.option("--overlay-render", scaling.overlayRender);
+  parser.option("--whole-load-max-vertices", scaling.wholeLoadMaxVertices, 0, kAny);
   parser.custom(
       "--segments", [&o](std::string_view v) { return setSegments(o, v); }, "a value",
       [](std::string_view) { return "--segments: a comma-separated list of top-down, oblique, horizon, close-up"; });
@@ -135,12 +152,12 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   return {};
 }
 
-int run(const Options& o) {
+int run(const Options& o, const ScalingOptions& scaling) {
   if (o.mode == "overlay") return runOverlay(o);
   if (o.mode == "lasso") return runLasso(o);
   if (o.mode == "methods") return runMethods(o);
   if (o.mode == "ablation") return runAblation(o);
-  if (o.mode == "scaling") return runScaling(o);
+  if (o.mode == "scaling") return runScaling(o, scaling);
   return runTerrain(o);
 }
 
@@ -148,7 +165,8 @@ int run(const Options& o) {
 
 int main(int argc, char** argv) {
   Options options;
+  ScalingOptions scaling;
   return gis::app::programMain(
-      argc, argv, "overlay_bench", kUsage, [&](int n, char** v) { return parseArgs(n, v, options); },
-      [&] { return run(options); });
+      argc, argv, "overlay_bench", kUsage, [&](int n, char** v) { return parseArgs(n, v, options, scaling); },
+      [&] { return run(options, scaling); });
 }

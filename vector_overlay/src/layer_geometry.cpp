@@ -254,6 +254,9 @@ FeatureOutcome checkFeature(const geo::Feature& feature, std::uint32_t featureIn
   FootprintOptions fo = options.footprints;
   fo.cells.reset();
   fo.uniteLines = false;
+  // Arcs with the fewest chords: their shapes, not their smoothness, decide what is drawn.
+  fo.chordTolerance = 1e30;
+  fo.chordTolerancePixels = 1e30;
   const std::size_t errorsBefore = diagnostics.count(Severity::Error);
   const std::vector<Footprint> footprints =
       kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)
