@@ -558,6 +558,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
     const overlay::TechniqueFrameStats& t = frame.overlayTiles;
     stats["tiles"] = {{"drawn", t.tilesDrawn},         {"wanted", t.tilesWanted},
                       {"culled", t.tilesCulled},       {"built", t.tilesBuilt},
+                      {"read_from_disk", t.tilesFromDisk},
                       {"resident", t.tilesResident},   {"finest_level", t.finestTileLevel},
                       {"gpu_bytes", d.renderer.techniqueGpuBytes()}};
   } else if (d.o.technique->usesTextures()) {

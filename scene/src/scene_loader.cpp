@@ -165,6 +165,11 @@ std::string pyramidPathFor(const SceneDescription& description) {
   for (const std::string& p : description.demSpec().paths) all += fs::absolute(p).lexically_normal().string() + "\n";
   const std::string name =
       dem.stem().string() + "-b" + std::to_string(description.demBand) + "-" + pathHash(all) + ".sgpyr";
+  return (fs::path(cacheDirectoryFor(description)) / name).string();
+}
+
+std::string cacheDirectoryFor(const SceneDescription& description) {
+  namespace fs = std::filesystem;
   fs::path dir = description.cacheDir.empty() ? fs::absolute(description.path).parent_path() / ".stencil-gis-cache"
                                               : fs::path(description.cacheDir);
   if (!usableDirectory(dir)) {
@@ -177,7 +182,28 @@ std::string pyramidPathFor(const SceneDescription& description) {
     dir = fallback;
     usableDirectory(dir);
   }
-  return (dir / name).string();
+  return dir.string();
+}
+
+std::string terrainCacheKey(const LoadedScene& scene) {
+  namespace fs = std::filesystem;
+  std::string key;
+  for (const std::string& p : scene.description.demSpec().paths) {
+    key += fs::absolute(p).lexically_normal().string();
+    std::error_code ec;
+    const auto size = fs::file_size(p, ec);
+    if (!ec) key += " " + std::to_string(size);
+    const auto time = fs::last_write_time(p, ec);
+    if (!ec) key += " " + std::to_string(time.time_since_epoch().count());
+    key += "\n";
+  }
+  const terrain::TerrainGrid& grid = scene.quadtree->grid();
+  char numbers[512];
+  std::snprintf(numbers, sizeof(numbers), "band %d chunk %d grid %d x %d at %.17g %.17g step %.17g %.17g paged %d "
+                "exaggeration %.17g", scene.description.demBand, scene.quadtree->chunkCells(), grid.width,
+                grid.height, grid.origin.x, grid.origin.y, grid.step.x, grid.step.y, scene.paged() ? 1 : 0,
+                scene.bounds->exaggeration());
+  return key + numbers;
 }
 
 terrain::PyramidProgress consoleProgress(std::string label) {

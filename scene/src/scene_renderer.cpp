@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <thread>
 
@@ -99,6 +100,11 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   techniqueOptions.build = options;
   techniqueOptions.tiling.gpuBudgetBytes =
       static_cast<std::size_t>(std::max(1.0, scene.description.gpuBudgetMb) * 1024.0 * 1024.0);
+  if (settings.tileCache) {
+    techniqueOptions.tiling.cacheDirectory =
+        (std::filesystem::path(cacheDirectoryFor(scene.description)) / "vector-tiles").string();
+    techniqueOptions.tiling.cacheKey = terrainCacheKey(scene);
+  }
   // A tiled technique builds the pieces per tile: the layers keep their features only.
   options.deferPieces = tiled;
   Result<std::unique_ptr<overlay::OverlayTechnique>> technique = techniqueInfo_->create(techniqueOptions);

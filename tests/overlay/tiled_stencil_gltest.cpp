@@ -8,9 +8,12 @@
 // - a GPU budget smaller than one frame's tiles: tiles are evicted, images stay exact;
 // - an edit of one feature shows in the next frame.
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <cstdio>
 #include <random>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -92,7 +95,8 @@ class TiledStencilGlTest : public GlTest {
 
   /// The technique with small tiles, so that this 5 km terrain has 4 levels (ε 80, 40, 20 m and
   /// the source geometry).
-  std::unique_ptr<overlay::OverlayTechnique> technique(std::size_t budget = std::size_t{1} << 30U) {
+  std::unique_ptr<overlay::OverlayTechnique> technique(std::size_t budget = std::size_t{1} << 30U,
+                                                       const std::string& cache = {}, const std::string& key = {}) {
     overlay::TechniqueOptions o;
     o.extent = overlay::DrapeExtent{lo_, hi_ - lo_};
     o.bounds = bounds_.get();
@@ -101,6 +105,8 @@ class TiledStencilGlTest : public GlTest {
     o.tiling.finestTileCells = 2;
     o.tiling.tileResolution = 64;
     o.tiling.gpuBudgetBytes = budget;
+    o.tiling.cacheDirectory = cache;
+    o.tiling.cacheKey = key;
     const overlay::TechniqueInfo* info = overlay::findTechnique("stencil-tiles");
     EXPECT_NE(info, nullptr);
     Result<std::unique_ptr<overlay::OverlayTechnique>> t = info->create(o);
@@ -254,6 +260,71 @@ TEST_F(TiledStencilGlTest, EditsShowInTheNextFrame) {
   const Frame rebuilt = draw(*t, eye, glm::dvec3(centre, 0.0), false);
   EXPECT_EQ(rebuilt.comparison.wrong, 0u);
   EXPECT_GT(rebuilt.stats.tilesBuilt, 0u);
+}
+
+TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("tiled_stencil_gltest_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const glm::dvec2 centre = 0.5 * (lo_ + hi_);
+  const glm::dvec3 eye(centre - glm::dvec2(900.0, 700.0), bounds_->globalBounds().hi + 700.0);
+  std::vector<std::uint32_t> first;
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(f.comparison.wrong, 0u);
+    EXPECT_GT(f.stats.tilesBuilt, 0u);
+    EXPECT_EQ(f.stats.tilesFromDisk, 0u);
+    first = gfx::readMask(target_);
+  }
+  // The same layers and terrain: every tile read, the same image.
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(f.comparison.wrong, 0u);
+    EXPECT_EQ(f.stats.tilesFromDisk, f.stats.tilesBuilt);
+    EXPECT_EQ(gfx::readMask(target_), first);
+    // After an edit the files no longer hold the roads: theirs are not read again (the areas'
+    // still are).
+    t->stopReading();
+    geo::Feature moved = lines_->features()[1];
+    for (glm::dvec2& p : moved.lines[0]) p += glm::dvec2(40.0, 0.0);
+    ASSERT_FALSE(lines_->replaceFeature(1, moved).hasErrors());
+    t->featureChanged(1, 1, lo_, hi_);
+    t->invalidate();
+    const Frame edited = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(edited.comparison.wrong, 0u);
+    EXPECT_LT(edited.stats.tilesFromDisk, edited.stats.tilesBuilt);
+  }
+  // Another terrain (the scene's key), or other features: built again, not read.
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain B");
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(f.stats.tilesFromDisk, 0u);
+    EXPECT_EQ(f.comparison.wrong, 0u);
+  }
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_GT(f.stats.tilesBuilt, 0u);
+    EXPECT_LT(f.stats.tilesFromDisk, f.stats.tilesBuilt) << "the roads changed: their tiles are built again";
+    EXPECT_EQ(f.comparison.wrong, 0u);
+  }
+  // A damaged file is not used: built again (and written again).
+  std::size_t damaged = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+    if (entry.path().extension() != ".tile") continue;
+    std::filesystem::resize_file(entry.path(), std::filesystem::file_size(entry.path()) / 2);
+    ++damaged;
+  }
+  ASSERT_GT(damaged, 0u);
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(f.stats.tilesFromDisk, 0u);
+    EXPECT_EQ(f.comparison.wrong, 0u);
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

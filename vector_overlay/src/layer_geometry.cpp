@@ -478,6 +478,35 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
   return r;
 }
 
+LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const LayerStyle& style,
+                                      std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                      std::vector<std::vector<Polyhedron>> pieces, const HeightBoundsProvider& bounds,
+                                      const LayerBuildOptions& options) {
+  LayerGeometry layer;
+  layer.name_ = std::move(name);
+  layer.kind_ = kind;
+  layer.style_ = style;
+  layer.options_ = options;
+  layer.features_ = std::move(features);
+  layer.bounds_ = &bounds;
+  layer.boundsRevision_ = bounds.revision();
+  layer.styles_ = std::move(styles);
+  layer.styles_.resize(layer.features_.size());
+  for (std::size_t i = 0; i < layer.features_.size(); ++i)
+    assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
+  layer.featureSlots_.resize(layer.features_.size());
+  layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
+  pieces.resize(layer.features_.size());
+  for (std::size_t i = 0; i < layer.features_.size(); ++i) {
+    if (!layer.styles_[i].visible) continue;
+    layer.setOutcome(i, pieces[i].empty() ? FeatureOutcome::NothingToDraw : FeatureOutcome::Drawn);
+    layer.addPieces(static_cast<std::uint32_t>(i), std::move(pieces[i]));
+  }
+  layer.changes_ = GeometryChange{};
+  layer.stats_.features = layer.features_.size();
+  return layer;
+}
+
 std::uint32_t LayerGeometry::originFor(const Polyhedron& p) {
   const glm::dvec2 centre = 0.5 * (p.boxMin + p.boxMax);
   const glm::dvec2 origin = (glm::floor(centre / kOriginGrid) + 0.5) * kOriginGrid;

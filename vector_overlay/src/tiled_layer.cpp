@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <cstdio>
+#include <filesystem>
 #include <numbers>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
 #include "gfx/camera.hpp"
+#include "core/hash.hpp"
+#include "tile_cache.hpp"
 #include "vector_overlay/generalise.hpp"
 
 namespace gis::overlay {
@@ -62,6 +66,54 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
   buckets_ = std::clamp(2 << finestLevel_, 1, 128);
   bucket_.assign(static_cast<std::size_t>(buckets_) * static_cast<std::size_t>(buckets_), {});
   for (std::size_t i = 0; i < count; ++i) fill(static_cast<std::uint32_t>(i));
+  if (!tiling_.cacheDirectory.empty()) {
+    fingerprint_ = fingerprint();
+    char name[17];
+    std::snprintf(name, sizeof(name), "%016llx", static_cast<unsigned long long>(fingerprint_));
+    cacheFolder_ = (std::filesystem::path(tiling_.cacheDirectory) / name).string();
+    cacheRevision_ = bounds.revision();
+    cacheUsable_ = true;
+  }
+}
+
+std::uint64_t LayerTiling::fingerprint() const {
+  StableHasher h;
+  h.add(std::string_view("stencil-gis vector tiles 1"));
+  h.add(tiling_.cacheKey);
+  h.add(static_cast<std::uint64_t>(source_->kind()));
+  const FootprintOptions& fo = options_.footprints;
+  for (const double v : {grid_.origin.x, grid_.origin.y, grid_.cellSize, fo.chordTolerance, fo.chordTolerancePixels,
+                         options_.splitGain})
+    h.add(v);
+  for (const int v : {grid_.columns, grid_.rows, fo.lineCellDivisions, tiling_.tileResolution, tiling_.finestTileCells,
+                      tiling_.cellsPerTile, fo.uniteLines ? 1 : 0, options_.adaptiveSplit ? 1 : 0,
+                      options_.paperVariant ? 1 : 0})
+    h.add(static_cast<std::uint64_t>(static_cast<std::int64_t>(v)));
+  const std::vector<FeatureStyle>& styles = source_->featureStyles();
+  for (std::size_t i = 0; i < source_->features().size(); ++i) {
+    const geo::Feature& f = source_->features()[i];
+    const FeatureStyle& st = styles[i];
+    h.add(static_cast<std::uint64_t>(st.visible ? 1 : 0));
+    h.add(static_cast<std::uint64_t>(f.fid));
+    for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels}) h.add(v);
+    h.add(static_cast<std::uint64_t>(st.shape.join) * 8U + static_cast<std::uint64_t>(st.shape.cap));
+    const auto points = [&h](const std::vector<glm::dvec2>& ps) {
+      h.add(static_cast<std::uint64_t>(ps.size()));
+      for (const glm::dvec2& p : ps) {
+        h.add(p.x);
+        h.add(p.y);
+      }
+    };
+    h.add(static_cast<std::uint64_t>(f.polygons.size()));
+    for (const geo::Polygon& p : f.polygons) {
+      points(p.outer);
+      h.add(static_cast<std::uint64_t>(p.holes.size()));
+      for (const geo::Ring& r : p.holes) points(r);
+    }
+    h.add(static_cast<std::uint64_t>(f.lines.size()));
+    for (const geo::LineString& l : f.lines) points(l);
+  }
+  return h.value();
 }
 
 void LayerTiling::measure(std::uint32_t i) {
@@ -116,6 +168,7 @@ void LayerTiling::fill(std::uint32_t i) {
 
 void LayerTiling::update(std::uint32_t i) {
   if (i >= boxes_.size()) return;
+  cacheUsable_ = false;  // the tiles on disk hold the features as they were
   int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
   if (bucketRange(boxes_[i], x0, y0, x1, y1)) {
     for (int y = y0; y <= y1; ++y) {
@@ -238,21 +291,30 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
 }
 
 Result<LayerTile> LayerTiling::build(const TileKey& key) const {
+  // From the disk cache, while it holds what the tile would be built from.
+  const bool cached = cacheUsable_ && bounds_->revision() == cacheRevision_;
+  const std::filesystem::path file =
+      cached ? std::filesystem::path(cacheFolder_) /
+                   (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) + ".tile")
+             : std::filesystem::path();
+  if (cached) {
+    if (std::optional<LayerTile> tile = detail::readTile(file, fingerprint_, key, *source_, *bounds_, tileOptions(key))) {
+      ++tilesRead_;
+      tile->fromDisk = true;
+      Result<LayerTile> r;
+      r.value = std::move(*tile);
+      return r;
+    }
+  }
+  Result<LayerTile> built = buildNew(key);
+  if (cached && built && detail::writeTile(file, fingerprint_, *built)) ++tilesWritten_;
+  return built;
+}
+
+LayerBuildOptions LayerTiling::tileOptions(const TileKey& key) const {
   const auto [lo, hi] = extent(key);
   const double size = tileSize(key.level);
-  // The level's error: three quarters to simplification, a quarter to the arcs' chords.
   const double error = key.level < finestLevel_ ? size / std::max(1, tiling_.tileResolution) : 0.0;
-  const std::vector<FeatureStyle>& styles = source_->featureStyles();
-  std::vector<geo::Feature> local;
-  std::vector<FeatureStyle> localStyles;
-  std::vector<std::uint32_t> index;
-  for (const std::uint32_t i : featuresNear(key)) {
-    std::optional<geo::Feature> g = featureFor(key, i);
-    if (!g) continue;
-    local.push_back(std::move(*g));
-    localStyles.push_back(styles[i]);
-    index.push_back(i);
-  }
   LayerBuildOptions options = options_;
   options.deferPieces = false;
   options.reportEmpty = false;
@@ -273,6 +335,22 @@ Result<LayerTile> LayerTiling::build(const TileKey& key) const {
   // Lines thinner than a quarter of the error: their rectangles only (what joins and caps add
   // lies within w/2 of a vertex), the pieces of a sub-pixel road network fall by two thirds.
   options.footprints.segmentsOnly = source_->kind() == LayerKind::Line && widestReach() <= 0.25 * error;
+  return options;
+}
+
+Result<LayerTile> LayerTiling::buildNew(const TileKey& key) const {
+  const std::vector<FeatureStyle>& styles = source_->featureStyles();
+  std::vector<geo::Feature> local;
+  std::vector<FeatureStyle> localStyles;
+  std::vector<std::uint32_t> index;
+  for (const std::uint32_t i : featuresNear(key)) {
+    std::optional<geo::Feature> g = featureFor(key, i);
+    if (!g) continue;
+    local.push_back(std::move(*g));
+    localStyles.push_back(styles[i]);
+    index.push_back(i);
+  }
+  const LayerBuildOptions options = tileOptions(key);
   Result<LayerGeometry> built = LayerGeometry::build(source_->name(), source_->kind(), source_->style(),
                                                      std::move(local), std::move(localStyles), *bounds_, options);
   Result<LayerTile> r;

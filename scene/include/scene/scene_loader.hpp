@@ -65,6 +65,14 @@ Result<std::vector<LayerDescription>> layersForVectorFile(const std::string& pat
 /// else the user's cache directory).
 std::string pyramidPathFor(const SceneDescription& description);
 
+/// The scene's cache directory (its `cache_dir`, else ".stencil-gis-cache" beside the scene file;
+/// the user's cache directory when that cannot be written), made if needed.
+std::string cacheDirectoryFor(const SceneDescription& description);
+
+/// What overlay pieces built on the scene's terrain depend on, as text for a cache's fingerprint:
+/// the DEM files (path, size, date), band, chunk size, grid, paging and vertical exaggeration.
+std::string terrainCacheKey(const LoadedScene& scene);
+
 /// A progress bar on stderr (redrawn in place on a terminal, a line per 10 % otherwise).
 terrain::PyramidProgress consoleProgress(std::string label);
 

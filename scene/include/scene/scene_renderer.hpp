@@ -40,6 +40,9 @@ struct OverlayBuildSettings {
   bool uniteLines = false;    ///< one piece per cell for a line feature's shapes (overlay::FootprintOptions)
   int lineCellPosts = 2;      ///< united lines are cut at cells of this many DEM posts (a divisor of cellPosts)
   double chordToleranceMetres = 0.02;
+  /// A tiled technique keeps its tiles on disk for the next run, in the scene's cache directory
+  /// under vector-tiles/ (scene_loader.hpp: cacheDirectoryFor).
+  bool tileCache = true;
 };
 
 struct PassStats {

@@ -164,6 +164,13 @@ class LayerGeometry {
                                      std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
                                      const HeightBoundsProvider& bounds, const LayerBuildOptions& options = {});
 
+  /// A layer from pieces built before (a tile read from the disk cache): per feature its
+  /// polyhedra, added as build() adds them (the same arrays and slots).
+  static LayerGeometry assemble(std::string name, LayerKind kind, const LayerStyle& style,
+                                std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                std::vector<std::vector<Polyhedron>> pieces, const HeightBoundsProvider& bounds,
+                                const LayerBuildOptions& options);
+
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] LayerKind kind() const { return kind_; }
   [[nodiscard]] const LayerStyle& style() const { return style_; }

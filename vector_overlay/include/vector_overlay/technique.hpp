@@ -87,6 +87,7 @@ struct TechniqueFrameStats {
   std::size_t tilesMissing = 0;   ///< of those, still building (a parent drawn instead)
   std::size_t tilesCulled = 0;    ///< tiles left out for lying outside the view
   std::size_t tilesBuilt = 0;     ///< tiles that arrived (built and uploaded) in this frame
+  std::size_t tilesFromDisk = 0;  ///< of those, read from the disk cache instead of built
   std::size_t tilesResident = 0;  ///< tiles on the GPU after the frame
   std::size_t tilesEvicted = 0;   ///< tiles dropped for the budget in this frame
   int finestTileLevel = -1;       ///< the finest level drawn (-1: none)

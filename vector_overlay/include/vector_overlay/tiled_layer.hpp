@@ -24,7 +24,9 @@
 // LayerTiling is the CPU side (no GL, const methods safe from any thread): selection and tile
 // building. The tiled technique (techniques/tiled_stencil_technique.cpp) keeps the built tiles
 // on the GPU under a budget and builds them on worker threads.
+#include <atomic>
 #include <cstddef>
+#include <string>
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -54,6 +56,13 @@ struct TilingOptions {
   std::size_t gpuBudgetBytes = std::size_t{512} << 20U;
   /// Worker threads that build tiles (0: one per core).
   unsigned workers = 0;
+  /// Where built tiles are kept on disk for the next run (empty: nowhere). Each layer gets a
+  /// folder named after the fingerprint of what its pieces depend on: its features and styles,
+  /// the build and tiling options, and `cacheKey`.
+  std::string cacheDirectory;
+  /// What the pieces depend on that the layer cannot see: the terrain (DEM files and their
+  /// dates, band, chunk size, vertical exaggeration), as the scene states it.
+  std::string cacheKey;
 };
 
 struct TileKey {
@@ -75,6 +84,7 @@ struct LayerTile {
   LayerGeometry geometry;
   std::vector<std::uint32_t> featureIndex;  ///< per feature of geometry, its index in the layer
   double groundError = 0.0;                 ///< metres: the footprint is within this of the source's
+  bool fromDisk = false;                    ///< read from the disk cache, not built
 };
 
 class LayerTiling {
@@ -107,6 +117,11 @@ class LayerTiling {
   /// The features that reach the tile (their boxes widened by the lines' reach meet it).
   [[nodiscard]] std::vector<std::uint32_t> featuresNear(const TileKey& key) const;
   [[nodiscard]] const LayerGeometry& source() const { return *source_; }
+  /// The folder of this layer's tiles on disk (empty without a cache), and how many tiles were
+  /// read from it and written to it so far.
+  [[nodiscard]] const std::string& cacheFolder() const { return cacheFolder_; }
+  [[nodiscard]] std::size_t tilesRead() const { return tilesRead_; }
+  [[nodiscard]] std::size_t tilesWritten() const { return tilesWritten_; }
 
  private:
   const LayerGeometry* source_;
@@ -123,6 +138,15 @@ class LayerTiling {
   // A bucket grid over the extent: each bucket lists the features whose widened box meets it.
   int buckets_ = 1;
   std::vector<std::vector<std::uint32_t>> bucket_;
+  std::string cacheFolder_;          ///< empty: no disk cache
+  std::uint64_t fingerprint_ = 0;    ///< of what the pieces depend on
+  std::uint64_t cacheRevision_ = 0;  ///< the bounds' revision the fingerprint holds
+  bool cacheUsable_ = false;         ///< off after an edit (the fingerprint no longer holds)
+  mutable std::atomic<std::size_t> tilesRead_{0}, tilesWritten_{0};
+  [[nodiscard]] std::uint64_t fingerprint() const;
+  /// How tile `key` is built: its cells, chords, bounds slack and line shapes for its level.
+  [[nodiscard]] LayerBuildOptions tileOptions(const TileKey& key) const;
+  [[nodiscard]] Result<LayerTile> buildNew(const TileKey& key) const;
   void measure(std::uint32_t i);  ///< feature i's reach and widened box
   void fill(std::uint32_t i);     ///< adds feature i to the buckets its box meets
   /// The buckets [x0, x1] × [y0, y1] a box meets; false when it misses the root tile.

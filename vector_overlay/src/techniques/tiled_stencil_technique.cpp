@@ -164,6 +164,7 @@ class TiledStencil final : public OverlayTechnique {
       layers_[i].tiling = std::make_unique<LayerTiling>(layer->geometry(), *bounds, build_, tiling_);
     }
     stats.tilesBuilt += collect();
+    stats.tilesFromDisk += fromDisk_;
     std::vector<std::vector<const OverlayLayer*>> chunks;
     std::vector<TileWorkers::Job> jobs;
     bool standIn = gather(frame, chunks, jobs, stats);
@@ -172,9 +173,11 @@ class TiledStencil final : public OverlayTechnique {
       // A still image, or a tile with no ancestor to stand in: wait for them.
       workers_.waitIdle();
       stats.tilesBuilt += collect();
-      const std::size_t built = stats.tilesBuilt;
+      stats.tilesFromDisk += fromDisk_;
+      const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk;
       stats = TechniqueFrameStats{};
       stats.tilesBuilt = built;
+      stats.tilesFromDisk = read;
       chunks.clear();
       jobs.clear();
       standIn = gather(frame, chunks, jobs, stats);
@@ -273,12 +276,14 @@ class TiledStencil final : public OverlayTechnique {
   /// Uploads the tiles the workers finished; returns how many.
   std::size_t collect() {
     std::size_t count = 0;
+    fromDisk_ = 0;
     for (TileWorkers::Done& d : workers_.take()) {
       if (d.layer >= layers_.size() || !layers_[d.layer].tiling) continue;
       reportOnce(d.tile.diagnostics);
       Resident r;
       r.key = d.key;
       r.lastUsed = frameNumber_;
+      if (d.tile && d.tile.value->fromDisk) ++fromDisk_;
       if (d.tile && d.tile.value->geometry.stats().pieces > 0) {
         r.featureIndex = std::move(d.tile.value->featureIndex);
         r.error = d.tile.value->groundError;
@@ -358,6 +363,7 @@ class TiledStencil final : public OverlayTechnique {
   std::vector<LayerState> layers_;
   std::vector<std::vector<const OverlayLayer*>> lastChunks_;  ///< per layer, as last drawn
   std::uint64_t frameNumber_ = 0;
+  std::size_t fromDisk_ = 0;  ///< of the tiles the last collect() took, those read from disk
   std::set<std::string> reported_;
   TileWorkers workers_;  // last: stopped first
 };

@@ -1,0 +1,216 @@
+#include "tile_cache.hpp"
+
+#include <cstring>
+#include <fstream>
+#include <system_error>
+#include <thread>
+#include <type_traits>
+
+#include <unistd.h>
+
+namespace gis::overlay::detail {
+namespace {
+
+constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
+constexpr std::uint32_t kVersion = 1;
+/// Counts beyond this mean a damaged file (no tile holds 2^32 of anything).
+constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 32U;
+
+class Writer {
+ public:
+  explicit Writer(std::ostream& out) : out_(out) {}
+  template <typename T>
+  void value(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out_.write(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <typename T>
+  void array(const std::vector<T>& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    value(static_cast<std::uint64_t>(v.size()));
+    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+  }
+
+ private:
+  std::ostream& out_;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::istream& in) : in_(in) {}
+  template <typename T>
+  bool value(T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    in_.read(reinterpret_cast<char*>(&v), sizeof(T));
+    return static_cast<bool>(in_);
+  }
+  template <typename T>
+  bool array(std::vector<T>& v) {
+    std::uint64_t n = 0;
+    if (!value(n) || n >= kMaxCount) return false;
+    v.resize(static_cast<std::size_t>(n));
+    in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+    return static_cast<bool>(in_);
+  }
+  bool count(std::size_t& n) {
+    std::uint64_t c = 0;
+    if (!value(c) || c >= kMaxCount) return false;
+    n = static_cast<std::size_t>(c);
+    return true;
+  }
+
+ private:
+  std::istream& in_;
+};
+
+void writeFeature(Writer& w, const geo::Feature& f) {
+  w.value(f.fid);
+  w.value(static_cast<std::uint64_t>(f.polygons.size()));
+  for (const geo::Polygon& p : f.polygons) {
+    w.array(p.outer);
+    w.value(static_cast<std::uint64_t>(p.holes.size()));
+    for (const geo::Ring& h : p.holes) w.array(h);
+  }
+  w.value(static_cast<std::uint64_t>(f.lines.size()));
+  for (const geo::LineString& l : f.lines) w.array(l);
+}
+
+bool readFeature(Reader& r, geo::Feature& f) {
+  std::size_t n = 0;
+  if (!r.value(f.fid) || !r.count(n)) return false;
+  f.polygons.resize(n);
+  for (geo::Polygon& p : f.polygons) {
+    std::size_t holes = 0;
+    if (!r.array(p.outer) || !r.count(holes)) return false;
+    p.holes.resize(holes);
+    for (geo::Ring& h : p.holes)
+      if (!r.array(h)) return false;
+  }
+  if (!r.count(n)) return false;
+  f.lines.resize(n);
+  for (geo::LineString& l : f.lines)
+    if (!r.array(l)) return false;
+  return true;
+}
+
+void writePiece(Writer& w, const Polyhedron& p) {
+  const Footprint& f = p.footprint;
+  w.value(f.feature);
+  w.value(f.cell);
+  w.value(f.source);
+  w.value(static_cast<std::uint8_t>(f.kind));
+  w.array(f.vertices);
+  w.array(f.triangles);
+  w.array(f.boundary);
+  w.array(f.centres);
+  w.array(f.directions);
+  w.value(p.lo);
+  w.value(p.hi);
+  w.value(static_cast<std::uint8_t>(p.overSurface ? 1 : 0));
+  w.value(p.boxMin);
+  w.value(p.boxMax);
+}
+
+bool readPiece(Reader& r, Polyhedron& p) {
+  Footprint& f = p.footprint;
+  std::uint8_t kind = 0, over = 0;
+  if (!r.value(f.feature) || !r.value(f.cell) || !r.value(f.source) || !r.value(kind) || kind > 4) return false;
+  f.kind = static_cast<PieceKind>(kind);
+  if (!r.array(f.vertices) || !r.array(f.triangles) || !r.array(f.boundary) || !r.array(f.centres) ||
+      !r.array(f.directions))
+    return false;
+  if (!r.value(p.lo) || !r.value(p.hi) || !r.value(over) || !r.value(p.boxMin) || !r.value(p.boxMax)) return false;
+  p.overSurface = over != 0;
+  // Indices within the piece's vertices (a damaged file must not index out of bounds).
+  for (const auto& t : f.triangles)
+    for (const std::uint32_t k : t)
+      if (k >= f.vertices.size()) return false;
+  for (const auto& e : f.boundary)
+    for (const std::uint32_t k : e)
+      if (k >= f.vertices.size()) return false;
+  return f.centres.empty() || (f.centres.size() == f.vertices.size() && f.directions.size() == f.vertices.size());
+}
+
+}  // namespace
+
+bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile) {
+  std::error_code ec;
+  std::filesystem::create_directories(file.parent_path(), ec);
+  // Unique per process and thread: two programs (or two renderers' workers) may write the same
+  // tile at once.
+  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(::getpid()) + "-" +
+                                          std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) return false;
+    Writer w(out);
+    w.value(kMagic);
+    w.value(kVersion);
+    w.value(fingerprint);
+    w.value(tile.key.level);
+    w.value(tile.key.x);
+    w.value(tile.key.y);
+    w.value(tile.groundError);
+    const LayerGeometry& g = tile.geometry;
+    w.value(static_cast<std::uint64_t>(g.features().size()));
+    // Per feature: its index in the layer, its geometry, its live pieces.
+    std::vector<std::vector<std::size_t>> slotsOf(g.features().size());
+    for (std::size_t s = 0; s < g.slots().size(); ++s)
+      if (g.slots()[s].live) slotsOf[g.slots()[s].feature].push_back(s);
+    for (std::size_t i = 0; i < g.features().size(); ++i) {
+      w.value(tile.featureIndex.at(i));
+      writeFeature(w, g.features()[i]);
+      w.value(static_cast<std::uint64_t>(slotsOf[i].size()));
+      for (const std::size_t s : slotsOf[i]) writePiece(w, g.polyhedra()[s]);
+    }
+    w.value(kMagic);  // the end: a file cut short fails here
+    if (!out) {
+      out.close();
+      std::filesystem::remove(temporary, ec);
+      return false;
+    }
+  }
+  std::filesystem::rename(temporary, file, ec);
+  if (ec) std::filesystem::remove(temporary, ec);
+  return !ec;
+}
+
+std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
+                                  const LayerGeometry& source, const HeightBoundsProvider& bounds,
+                                  const LayerBuildOptions& options) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  Reader r(in);
+  std::uint32_t magic = 0, version = 0;
+  std::uint64_t stored = 0;
+  TileKey k;
+  double error = 0.0;
+  if (!r.value(magic) || magic != kMagic || !r.value(version) || version != kVersion || !r.value(stored) ||
+      stored != fingerprint || !r.value(k.level) || !r.value(k.x) || !r.value(k.y) || !(k == key) || !r.value(error))
+    return std::nullopt;
+  std::size_t count = 0;
+  if (!r.count(count)) return std::nullopt;
+  std::vector<geo::Feature> features(count);
+  std::vector<FeatureStyle> styles(count);
+  std::vector<std::vector<Polyhedron>> pieces(count);
+  std::vector<std::uint32_t> index(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    std::size_t n = 0;
+    if (!r.value(index[i]) || index[i] >= source.features().size() || !readFeature(r, features[i]) || !r.count(n))
+      return std::nullopt;
+    styles[i] = source.featureStyles()[index[i]];
+    pieces[i].resize(n);
+    for (Polyhedron& p : pieces[i]) {
+      if (!readPiece(r, p)) return std::nullopt;
+      p.footprint.feature = static_cast<std::uint32_t>(i);
+    }
+  }
+  if (!r.value(magic) || magic != kMagic) return std::nullopt;
+  LayerTile tile{key,
+                 LayerGeometry::assemble(source.name(), source.kind(), source.style(), std::move(features),
+                                         std::move(styles), std::move(pieces), bounds, options),
+                 std::move(index), error, true};
+  return tile;
+}
+
+}  // namespace gis::overlay::detail

@@ -1,0 +1,26 @@
+#pragma once
+// The disk cache of built tiles (tiled_layer.hpp): one file per tile holding its features (as
+// generalised and cut for the tile), which feature of the layer each is, and their polyhedra,
+// so that a second run reads what the first built instead of building it again. A file names
+// the fingerprint of everything its pieces depend on (the layer's features and styles, the
+// build and tiling options, the terrain); a file with another fingerprint, another format or
+// cut short is not used (and is written again).
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+
+#include "vector_overlay/tiled_layer.hpp"
+
+namespace gis::overlay::detail {
+
+/// Writes the tile (to a temporary file renamed into place: readers never see half a file).
+/// False when it cannot be written (the cache is then simply not used).
+bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile);
+
+/// The tile in `file` if it holds this fingerprint and key, its layer made with the source's
+/// name, kind, style and feature styles, `bounds` and `options` (as LayerTiling::build would).
+std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
+                                  const LayerGeometry& source, const HeightBoundsProvider& bounds,
+                                  const LayerBuildOptions& options);
+
+}  // namespace gis::overlay::detail
