@@ -71,6 +71,7 @@ terrain::TerrainEngine::Drape terrainDrapeOf(overlay::SurfaceDrape drape) {
 
 Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const OverlayBuildSettings& settings) {
   Diagnostics diagnostics;
+  technique_.reset();  // first: a tiled technique's workers read the layers
   layers_.clear();
   sources_.clear();
   const terrain::TerrainGrid& grid = scene.quadtree->grid();

@@ -353,6 +353,14 @@ void GeometryChange::add(std::size_t v0, std::size_t v1, std::size_t i0, std::si
   }
 }
 
+void LayerGeometry::releaseArrays() {
+  vertices_ = {};
+  indices_ = {};
+  scaling_ = {};
+  changes_ = GeometryChange{};
+  arraysReleased_ = true;
+}
+
 GeometryChange LayerGeometry::takeChanges() {
   GeometryChange c = changes_;
   changes_ = GeometryChange{};
@@ -597,8 +605,8 @@ LayerValidation LayerGeometry::validate() const {
     // The stored geometry: the same triangles, the vertices within float precision.
     std::vector<std::uint32_t> expected;
     appendPieceIndices(p.footprint, expected);
-    if (s.indexCount != expected.size() ||
-        !std::equal(expected.begin(), expected.end(), indices_.begin() + s.firstIndex)) {
+    if (!arraysReleased_ && (s.indexCount != expected.size() ||
+                             !std::equal(expected.begin(), expected.end(), indices_.begin() + s.firstIndex))) {
       problems.emplace_back("the stored indices are not the piece's triangles");
     }
     const glm::dvec2 origin = origins_[s.origin];
@@ -709,6 +717,11 @@ void LayerGeometry::setOutcome(std::size_t feature, FeatureOutcome outcome) {
 
 Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
   Diagnostics diagnostics;
+  if (arraysReleased_) {
+    diagnostics.add(detail::featureError(Severity::Error, name_, features_[index].fid,
+                                         "cannot be rebuilt: the layer's arrays were released (build it again)"));
+    return diagnostics;
+  }
   freePieces(static_cast<std::uint32_t>(index));
   FeatureOutcome outcome = FeatureOutcome::Hidden;
   if (styles_[index].visible && options_.deferPieces) {
@@ -773,6 +786,7 @@ void LayerGeometry::refreshBounds(const HeightBoundsProvider& bounds) {
   bounds_ = &bounds;
   boundsRevision_ = bounds.revision();
   if (options_.deferPieces) return;  // no pieces; a tiled technique reads the bounds per tile
+  if (arraysReleased_) return;       // the GPU copy cannot follow: the owner builds it again
   if (widthPixels() > 0.0) {
     // The anchors move with the terrain: rebuild every feature.
     for (std::size_t i = 0; i < features_.size(); ++i) {

@@ -199,6 +199,11 @@ class LayerGeometry {
   [[nodiscard]] bool boundsStale() const { return bounds_ != nullptr && bounds_->revision() != boundsRevision_; }
   /// What changed since the last call (and forgets it).
   GeometryChange takeChanges();
+  /// Frees the vertex and index arrays once the GPU holds them (a tile that is not edited in
+  /// place): then edits other than removeFeature and refreshBounds report an Error and change
+  /// nothing (build the layer again), and validate() checks the pieces only.
+  void releaseArrays();
+  [[nodiscard]] bool arraysReleased() const { return arraysReleased_; }
 
   [[nodiscard]] std::size_t maxOverlap() const;
   [[nodiscard]] std::optional<glm::vec4> uniformColor() const;
@@ -257,6 +262,7 @@ class LayerGeometry {
   std::vector<std::uint32_t> indices_;
   std::vector<glm::vec3> scaling_;  ///< lines in pixels only, per vertex
   std::size_t wastedIndices_ = 0;
+  bool arraysReleased_ = false;
   GeometryChange changes_;
   LayerStats stats_;
   const HeightBoundsProvider* bounds_ = nullptr;

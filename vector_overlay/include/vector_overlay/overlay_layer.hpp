@@ -46,6 +46,8 @@ class OverlayLayer {
   void removeFeature(std::size_t index);  ///< hides it for good (indices stay stable)
   /// LayerGeometry::setFeature (a tile's feature, its style given), uploaded.
   Diagnostics setFeature(std::size_t index, geo::Feature feature, FeatureStyle style);
+  /// Frees the CPU copy of the vertex and index arrays (LayerGeometry::releaseArrays).
+  void releaseCpuArrays() { geometry_.releaseArrays(); }
   /// An upper bound of how many of the layer's pieces overlap at any point (counted on a grid
   /// of their bounding boxes); above 255 the renderer draws the layer in groups.
   [[nodiscard]] std::size_t maxOverlap() const { return geometry_.maxOverlap(); }

@@ -225,8 +225,10 @@ class TiledStencil final : public OverlayTechnique {
       const auto local = std::find(t.featureIndex.begin(), t.featureIndex.end(), index);
       // A tile with nothing yet, or one whose thin lines are drawn as rectangles only, is built
       // again when the feature reaches it (a wide line would need its joins).
-      const bool rebuild = g && (!t.layer || (t.layer->geometry().options().footprints.segmentsOnly &&
-                                              l.tiling->widestReach() > 0.25 * t.error));
+      const bool holds = local != t.featureIndex.end();
+      const bool rebuild = (g || holds) && (!t.layer || t.layer->geometry().arraysReleased() ||
+                                            (g && t.layer->geometry().options().footprints.segmentsOnly &&
+                                             l.tiling->widestReach() > 0.25 * t.error));
       if (rebuild) {
         it = l.tiles.erase(it);
         continue;
@@ -288,6 +290,9 @@ class TiledStencil final : public OverlayTechnique {
         r.featureIndex = std::move(d.tile.value->featureIndex);
         r.error = d.tile.value->groundError;
         r.layer = OverlayLayer::upload(std::move(d.tile.value->geometry));
+        // Coarse tiles are built again after an edit (rarely drawn while editing close up):
+        // the GPU holds their arrays, the CPU need not.
+        if (d.key.level < layers_[d.layer].tiling->finestLevel()) r.layer->releaseCpuArrays();
       }
       layers_[d.layer].tiles[d.key.packed()] = std::move(r);
       ++count;
