@@ -556,10 +556,13 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                       {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
   } else if (d.o.technique->construction == overlay::PieceConstruction::Tiled) {
     const overlay::TechniqueFrameStats& t = frame.overlayTiles;
-    stats["tiles"] = {{"drawn", t.tilesDrawn},         {"wanted", t.tilesWanted},
-                      {"culled", t.tilesCulled},       {"built", t.tilesBuilt},
+    stats["tiles"] = {{"drawn", t.tilesDrawn},
+                      {"wanted", t.tilesWanted},
+                      {"culled", t.tilesCulled},
+                      {"built", t.tilesBuilt},
                       {"read_from_disk", t.tilesFromDisk},
-                      {"resident", t.tilesResident},   {"finest_level", t.finestTileLevel},
+                      {"resident", t.tilesResident},
+                      {"finest_level", t.finestTileLevel},
                       {"gpu_bytes", d.renderer.techniqueGpuBytes()}};
   } else if (d.o.technique->usesTextures()) {
     stats["drape"] = {{"tile_size", d.o.drapeSize},

@@ -53,8 +53,8 @@ OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& targe
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
   overlay::OverlaySettings settings;
   settings.measure = true;
-  out.marks = renderer.overlayRenderer().markOverlap(cache, view, renderer.drawnChunks(a), renderer.drawnChunks(b),
-                                                     settings);
+  out.marks =
+      renderer.overlayRenderer().markOverlap(cache, view, renderer.drawnChunks(a), renderer.drawnChunks(b), settings);
   out.flags = gfx::readStencil(target);
   renderer.overlayRenderer().coverOverlap(cache, out.marks, op, kOverlapColour);
   gfx::enableMaskWrites(target.framebuffer(), true);

@@ -199,10 +199,11 @@ std::string terrainCacheKey(const LoadedScene& scene) {
   }
   const terrain::TerrainGrid& grid = scene.quadtree->grid();
   char numbers[512];
-  std::snprintf(numbers, sizeof(numbers), "band %d chunk %d grid %d x %d at %.17g %.17g step %.17g %.17g paged %d "
-                "exaggeration %.17g", scene.description.demBand, scene.quadtree->chunkCells(), grid.width,
-                grid.height, grid.origin.x, grid.origin.y, grid.step.x, grid.step.y, scene.paged() ? 1 : 0,
-                scene.bounds->exaggeration());
+  std::snprintf(numbers, sizeof(numbers),
+                "band %d chunk %d grid %d x %d at %.17g %.17g step %.17g %.17g paged %d "
+                "exaggeration %.17g",
+                scene.description.demBand, scene.quadtree->chunkCells(), grid.width, grid.height, grid.origin.x,
+                grid.origin.y, grid.step.x, grid.step.y, scene.paged() ? 1 : 0, scene.bounds->exaggeration());
   return key + numbers;
 }
 

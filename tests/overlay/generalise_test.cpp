@@ -438,8 +438,7 @@ TEST(SimplifyRing, FallbackTriangleKeepsParityAwayFromTheBoundary) {
   const dvec2 p(25.0, 0.45);
   ASSERT_GT(distanceToRing(p, in), 1.0);
   EXPECT_FALSE(insideEvenOdd(p, in));
-  EXPECT_EQ(insideEvenOdd(p, out), insideEvenOdd(p, in))
-      << "ring " << describe(in) << "\nsimplified " << describe(out);
+  EXPECT_EQ(insideEvenOdd(p, out), insideEvenOdd(p, in)) << "ring " << describe(in) << "\nsimplified " << describe(out);
 }
 
 TEST(SimplifyRing, TrivialAndDegenerateRingsAreReturnedUnchanged) {

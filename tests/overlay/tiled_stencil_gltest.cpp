@@ -8,9 +8,9 @@
 // - a GPU budget smaller than one frame's tiles: tiles are evicted, images stay exact;
 // - an edit of one feature shows in the next frame.
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <cstdio>
 #include <random>
 
 #include <unistd.h>
@@ -168,10 +168,11 @@ TEST_F(TiledStencilGlTest, ExactAgainstTheSourceAtEveryDetail) {
     const double back = (height - global.lo) * (0.3 + 2.0 * u(rng)), heading = 6.283 * u(rng);
     const glm::dvec3 eye(at - back * glm::dvec2(std::cos(heading), std::sin(heading)), height);
     const Frame f = draw(*t, eye, glm::dvec3(at, 0.5 * (global.lo + global.hi)), true);
-    std::printf("camera %d: eye %.0f m up, %zu tiles drawn (finest level %d), %zu covered pixels, %zu wrong away "
-                "from edges, %zu on edges\n",
-                c, height - global.hi, f.stats.tilesDrawn, f.stats.finestTileLevel, f.comparison.covered,
-                f.comparison.wrong, f.comparison.edgeWrong);
+    std::printf(
+        "camera %d: eye %.0f m up, %zu tiles drawn (finest level %d), %zu covered pixels, %zu wrong away "
+        "from edges, %zu on edges\n",
+        c, height - global.hi, f.stats.tilesDrawn, f.stats.finestTileLevel, f.comparison.covered, f.comparison.wrong,
+        f.comparison.edgeWrong);
     EXPECT_EQ(f.comparison.wrong, 0u);
     EXPECT_EQ(f.stats.tilesMissing, 0u) << "a still image waits for its tiles";
     coarse += f.stats.finestTileLevel >= 0 && f.stats.finestTileLevel < 3 ? 1 : 0;
@@ -194,8 +195,8 @@ TEST_F(TiledStencilGlTest, FlightsDrawParentsWhileTilesBuildAndStillsAreExact) {
   // From afar first (coarse tiles resident), then straight down close: the fine tiles are not
   // built yet, their ancestors stand in, nothing waits.
   (void)draw(*t, glm::dvec3(centre - glm::dvec2(3000.0, 3000.0), top + 6000.0), glm::dvec3(centre, 0.0), true, false);
-  const Frame flight = draw(*t, glm::dvec3(centre - glm::dvec2(150.0, 100.0), top + 60.0), glm::dvec3(centre, 0.0),
-                            false, false);
+  const Frame flight =
+      draw(*t, glm::dvec3(centre - glm::dvec2(150.0, 100.0), top + 60.0), glm::dvec3(centre, 0.0), false, false);
   EXPECT_GT(flight.stats.tilesMissing, 0u);
   EXPECT_GT(flight.stats.tilesDrawn, 0u);
   // The same view as a still: exact.
@@ -263,8 +264,8 @@ TEST_F(TiledStencilGlTest, EditsShowInTheNextFrame) {
 }
 
 TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("tiled_stencil_gltest_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("tiled_stencil_gltest_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   const glm::dvec2 centre = 0.5 * (lo_ + hi_);
   const glm::dvec3 eye(centre - glm::dvec2(900.0, 700.0), bounds_->globalBounds().hi + 700.0);

@@ -227,8 +227,7 @@ bool outsideGrid(const geo::Feature& feature, LayerKind kind, const FeatureStyle
   for (const geo::LineString& line : feature.lines) std::for_each(line.begin(), line.end(), add);
   const double reach = kind == LayerKind::Line ? 0.5 * style.shape.width : 0.0;
   const glm::dvec2 gridMax = g.origin + g.cellSize * glm::dvec2(g.columns, g.rows);
-  return hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x ||
-         lo.y - reach > gridMax.y;
+  return hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x || lo.y - reach > gridMax.y;
 }
 
 /// A Warning saying why a feature that is not broken gives nothing to draw, so that nothing
@@ -726,8 +725,8 @@ Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
   FeatureOutcome outcome = FeatureOutcome::Hidden;
   if (styles_[index].visible && options_.deferPieces) {
     // A tiled technique builds the pieces; here the feature is checked.
-    outcome = checkFeature(features_[index], static_cast<std::uint32_t>(index), kind_, styles_[index], name_,
-                           options_, diagnostics);
+    outcome = checkFeature(features_[index], static_cast<std::uint32_t>(index), kind_, styles_[index], name_, options_,
+                           diagnostics);
   } else if (styles_[index].visible && bounds_ != nullptr) {
     std::vector<Polyhedron> pieces = buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_,
                                                     styles_[index], name_, *bounds_, options_, diagnostics);

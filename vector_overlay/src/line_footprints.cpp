@@ -393,8 +393,7 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
       if (ends && i + 2 < line.size()) build.join(a, b, anchor[i + 1], line[i + 2]);
     }
     if (ends) {
-      build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]),
-                glm::length(line[last] - line[last - 1]));
+      build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]), glm::length(line[last] - line[last - 1]));
     }
     dropIfBeyond();
   }

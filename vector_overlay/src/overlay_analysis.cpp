@@ -116,9 +116,8 @@ LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const Overla
 }
 
 LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const OverlayView& view,
-                                            std::span<const OverlayLayer* const> chunks,
-                                            const glm::vec4& zPassColour, const glm::vec4& zFailColour,
-                                            const OverlaySettings& settings) {
+                                            std::span<const OverlayLayer* const> chunks, const glm::vec4& zPassColour,
+                                            const glm::vec4& zFailColour, const OverlaySettings& settings) {
   LayerFrameStats stats;
   const PixelScale scale = beginFrame(cache, view, settings, chunks);
   for (const OverlayLayer* chunk : chunks) {

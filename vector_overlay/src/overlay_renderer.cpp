@@ -451,7 +451,8 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     for (const Pieces& p : pieces) {
       if (p.order.empty()) continue;
       const glm::vec4 r = rectOf(view, p, 0, p.order.size());
-      rect = glm::vec4(glm::min(glm::vec2(rect), glm::vec2(r)), glm::max(glm::vec2(rect.z, rect.w), glm::vec2(r.z, r.w)));
+      rect =
+          glm::vec4(glm::min(glm::vec2(rect), glm::vec2(r)), glm::max(glm::vec2(rect.z, rect.w), glm::vec2(r.z, r.w)));
     }
     rects.push_back(rect);
   }

@@ -2,16 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
-#include "gfx/camera.hpp"
 #include "core/hash.hpp"
+#include "gfx/camera.hpp"
 #include "tile_cache.hpp"
 #include "vector_overlay/generalise.hpp"
 
@@ -82,12 +82,12 @@ std::uint64_t LayerTiling::fingerprint() const {
   h.add(tiling_.cacheKey);
   h.add(static_cast<std::uint64_t>(source_->kind()));
   const FootprintOptions& fo = options_.footprints;
-  for (const double v : {grid_.origin.x, grid_.origin.y, grid_.cellSize, fo.chordTolerance, fo.chordTolerancePixels,
-                         options_.splitGain})
+  for (const double v :
+       {grid_.origin.x, grid_.origin.y, grid_.cellSize, fo.chordTolerance, fo.chordTolerancePixels, options_.splitGain})
     h.add(v);
-  for (const int v : {grid_.columns, grid_.rows, fo.lineCellDivisions, tiling_.tileResolution, tiling_.finestTileCells,
-                      tiling_.cellsPerTile, fo.uniteLines ? 1 : 0, options_.adaptiveSplit ? 1 : 0,
-                      options_.paperVariant ? 1 : 0})
+  for (const int v :
+       {grid_.columns, grid_.rows, fo.lineCellDivisions, tiling_.tileResolution, tiling_.finestTileCells,
+        tiling_.cellsPerTile, fo.uniteLines ? 1 : 0, options_.adaptiveSplit ? 1 : 0, options_.paperVariant ? 1 : 0})
     h.add(static_cast<std::uint64_t>(static_cast<std::int64_t>(v)));
   const std::vector<FeatureStyle>& styles = source_->featureStyles();
   for (std::size_t i = 0; i < source_->features().size(); ++i) {
@@ -139,8 +139,7 @@ void LayerTiling::measure(std::uint32_t i) {
   if (lo.x <= hi.x && lo.y <= hi.y) boxes_[i] = {lo - reach_[i], hi + reach_[i]};
 }
 
-bool LayerTiling::bucketRange(const std::pair<glm::dvec2, glm::dvec2>& box, int& x0, int& y0, int& x1,
-                              int& y1) const {
+bool LayerTiling::bucketRange(const std::pair<glm::dvec2, glm::dvec2>& box, int& x0, int& y0, int& x1, int& y1) const {
   const auto& [lo, hi] = box;
   if (!(lo.x <= hi.x && lo.y <= hi.y)) return false;
   // Outside the terrain: no tile has it (the full build says "nothing to draw").
@@ -162,8 +161,8 @@ void LayerTiling::fill(std::uint32_t i) {
   if (!bucketRange(boxes_[i], x0, y0, x1, y1)) return;
   for (int y = y0; y <= y1; ++y)
     for (int x = x0; x <= x1; ++x)
-      bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)]
-          .push_back(i);
+      bucket_[static_cast<std::size_t>(y) * static_cast<std::size_t>(buckets_) + static_cast<std::size_t>(x)].push_back(
+          i);
 }
 
 void LayerTiling::update(std::uint32_t i) {
@@ -224,7 +223,8 @@ std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHe
   const std::array<glm::dvec4, 6> planes = gfx::frustumPlanes(view.viewProj);
   const double metresPerPixel = pixelScaleOf(view.viewProj, std::max(1, viewportHeight)).metresPerPixel;
   const HeightBounds global = bounds_->globalBounds();
-  const double zLo = std::isfinite(global.lo) ? global.lo - 1.0 : -1e4, zHi = std::isfinite(global.hi) ? global.hi + 1.0 : 1e4;
+  const double zLo = std::isfinite(global.lo) ? global.lo - 1.0 : -1e4,
+               zHi = std::isfinite(global.hi) ? global.hi + 1.0 : 1e4;
   const double bucketSize = rootSize_ / buckets_;
   const auto occupied = [&](const glm::dvec2& lo, const glm::dvec2& hi) {
     const auto index = [&](double v, double o) {
@@ -298,7 +298,8 @@ Result<LayerTile> LayerTiling::build(const TileKey& key) const {
                    (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) + ".tile")
              : std::filesystem::path();
   if (cached) {
-    if (std::optional<LayerTile> tile = detail::readTile(file, fingerprint_, key, *source_, *bounds_, tileOptions(key))) {
+    if (std::optional<LayerTile> tile =
+            detail::readTile(file, fingerprint_, key, *source_, *bounds_, tileOptions(key))) {
       ++tilesRead_;
       tile->fromDisk = true;
       Result<LayerTile> r;

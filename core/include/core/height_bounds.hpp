@@ -28,8 +28,7 @@ class HeightBoundsProvider {
   /// cheaper for a provider that can use it (pieces seen from afar, whose walls may be a little
   /// taller). Still under the contract: the surface over the footprint lies within them. The
   /// default is boundsOver.
-  [[nodiscard]] virtual HeightBounds boundsOverWithin(std::span<const glm::dvec2> footprint,
-                                                      double slackMetres) const {
+  [[nodiscard]] virtual HeightBounds boundsOverWithin(std::span<const glm::dvec2> footprint, double slackMetres) const {
     (void)slackMetres;
     return boundsOver(footprint);
   }

@@ -67,8 +67,7 @@ class QuadtreeHeightBounds final : public HeightBoundsProvider {
   /// least 3 posts: level 0's cells and their stitched parents),
   /// read from the min/max pyramid in bands (O(bands · log) instead of a clip per cell); the
   /// coarser levels as boundsOver does.
-  [[nodiscard]] HeightBounds boundsOverWithin(std::span<const glm::dvec2> footprint,
-                                              double slackMetres) const override;
+  [[nodiscard]] HeightBounds boundsOverWithin(std::span<const glm::dvec2> footprint, double slackMetres) const override;
   [[nodiscard]] HeightBounds globalBounds() const override;
   /// Inside the DEM's posts and no nodata anywhere in the DEM (a conservative answer).
   [[nodiscard]] bool coversFootprint(std::span<const glm::dvec2> footprint) const override;

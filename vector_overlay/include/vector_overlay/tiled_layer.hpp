@@ -26,9 +26,9 @@
 // on the GPU under a budget and builds them on worker threads.
 #include <atomic>
 #include <cstddef>
-#include <string>
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -132,8 +132,8 @@ class LayerTiling {
   glm::dvec2 origin_{0.0};
   double rootSize_ = 1.0;
   int finestLevel_ = 0;
-  double slack_ = 0.0;  ///< lineShapeSlack of the widest line
-  std::vector<double> reach_;                 ///< per feature: how far its footprint reaches from its geometry
+  double slack_ = 0.0;         ///< lineShapeSlack of the widest line
+  std::vector<double> reach_;  ///< per feature: how far its footprint reaches from its geometry
   std::vector<std::pair<glm::dvec2, glm::dvec2>> boxes_;  ///< per feature, widened by its reach (empty: hidden)
   // A bucket grid over the extent: each bucket lists the features whose widened box meets it.
   int buckets_ = 1;

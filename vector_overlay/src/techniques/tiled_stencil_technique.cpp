@@ -65,8 +65,7 @@ class TileWorkers {
   [[nodiscard]] bool pending(std::size_t layer, const TileKey& key) {
     std::lock_guard lock(mutex_);
     if (busy_.count({layer, key.packed()}) != 0) return true;
-    return std::any_of(queue_.begin(), queue_.end(),
-                       [&](const Job& j) { return j.layer == layer && j.key == key; });
+    return std::any_of(queue_.begin(), queue_.end(), [&](const Job& j) { return j.layer == layer && j.key == key; });
   }
   std::vector<Done> take() {
     std::lock_guard lock(mutex_);
@@ -226,9 +225,10 @@ class TiledStencil final : public OverlayTechnique {
       // A tile with nothing yet, or one whose thin lines are drawn as rectangles only, is built
       // again when the feature reaches it (a wide line would need its joins).
       const bool holds = local != t.featureIndex.end();
-      const bool rebuild = (g || holds) && (!t.layer || t.layer->geometry().arraysReleased() ||
-                                            (g && t.layer->geometry().options().footprints.segmentsOnly &&
-                                             l.tiling->widestReach() > 0.25 * t.error));
+      const bool rebuild =
+          (g || holds) &&
+          (!t.layer || t.layer->geometry().arraysReleased() ||
+           (g && t.layer->geometry().options().footprints.segmentsOnly && l.tiling->widestReach() > 0.25 * t.error));
       if (rebuild) {
         it = l.tiles.erase(it);
         continue;
