@@ -105,6 +105,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     techniqueOptions.tiling.cacheDirectory =
         (std::filesystem::path(cacheDirectoryFor(scene.description)) / "vector-tiles").string();
     techniqueOptions.tiling.cacheKey = terrainCacheKey(scene);
+    techniqueOptions.tiling.cacheRevision = scene.bounds->revision();
   }
   // A tiled technique builds the pieces per tile: the layers keep their features only.
   options.deferPieces = tiled;

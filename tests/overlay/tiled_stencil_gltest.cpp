@@ -107,6 +107,7 @@ class TiledStencilGlTest : public GlTest {
     o.tiling.gpuBudgetBytes = budget;
     o.tiling.cacheDirectory = cache;
     o.tiling.cacheKey = key;
+    o.tiling.cacheRevision = bounds_->revision();
     const overlay::TechniqueInfo* info = overlay::findTechnique("stencil-tiles");
     EXPECT_NE(info, nullptr);
     Result<std::unique_ptr<overlay::OverlayTechnique>> t = info->create(o);

@@ -11,6 +11,7 @@
 #include <glm/geometric.hpp>
 
 #include "core/hash.hpp"
+#include "vector_overlay/pieces_fingerprint.hpp"
 #include "gfx/camera.hpp"
 #include "tile_cache.hpp"
 #include "vector_overlay/generalise.hpp"
@@ -71,14 +72,15 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
     char name[17];
     std::snprintf(name, sizeof(name), "%016llx", static_cast<unsigned long long>(fingerprint_));
     cacheFolder_ = (std::filesystem::path(tiling_.cacheDirectory) / name).string();
-    cacheRevision_ = bounds.revision();
-    cacheUsable_ = true;
+    cacheRevision_ = tiling_.cacheRevision;
+    cacheUsable_ = bounds.revision() == cacheRevision_;
   }
 }
 
 std::uint64_t LayerTiling::fingerprint() const {
   StableHasher h;
   h.add(std::string_view("stencil-gis vector tiles 1"));
+  h.add(std::string_view(STENCIL_GIS_PIECES_FINGERPRINT));  // the code that builds them
   h.add(tiling_.cacheKey);
   h.add(static_cast<std::uint64_t>(source_->kind()));
   const FootprintOptions& fo = options_.footprints;

@@ -63,6 +63,9 @@ struct TilingOptions {
   /// What the pieces depend on that the layer cannot see: the terrain (DEM files and their
   /// dates, band, chunk size, vertical exaggeration), as the scene states it.
   std::string cacheKey;
+  /// The bounds' revision() when cacheKey was stated: the cache is used only while the bounds
+  /// are still at it (another exaggeration is not in the key).
+  std::uint64_t cacheRevision = 0;
 };
 
 struct TileKey {
