@@ -11,10 +11,10 @@
 #include <glm/geometric.hpp>
 
 #include "core/hash.hpp"
-#include "vector_overlay/pieces_fingerprint.hpp"
 #include "gfx/camera.hpp"
 #include "tile_cache.hpp"
 #include "vector_overlay/generalise.hpp"
+#include "vector_overlay/pieces_fingerprint.hpp"
 
 namespace gis::overlay {
 namespace {
