@@ -431,10 +431,17 @@ json passesJson(const Drawn& d, std::size_t i) {
     const overlay::OverlayLayer& built = d.renderer.overlayLayers()[j];
     const overlay::LayerFrameStats f =
         j < d.frame.stats.layers.size() ? d.frame.stats.layers[j] : overlay::LayerFrameStats{};
+    // What drew the layer: the layer itself, or the tiles a tiled technique drew for it.
+    overlay::LayerStats drawn;
+    for (const overlay::OverlayLayer* chunk : d.renderer.drawnChunks(j)) {
+      drawn.pieces += chunk->stats().pieces;
+      drawn.triangles += chunk->stats().triangles;
+      drawn.gpuBytes += chunk->stats().gpuBytes;
+    }
     passes.push_back({{"name", built.name()},
-                      {"pieces", built.stats().pieces},
-                      {"triangles", built.stats().triangles},
-                      {"gpu_bytes", built.stats().gpuBytes},
+                      {"pieces", drawn.pieces},
+                      {"triangles", drawn.triangles},
+                      {"gpu_bytes", drawn.gpuBytes},
                       {"build_seconds", built.stats().buildSeconds},
                       {"z_pass_pieces", f.zPassPieces},
                       {"z_fail_pieces", f.zFailPieces},
