@@ -382,17 +382,8 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
                                            std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
                                            const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  LayerGeometry layer;
-  layer.name_ = std::move(name);
-  layer.kind_ = kind;
-  layer.style_ = style;
-  layer.options_ = options;
-  layer.features_ = std::move(features);
-  layer.bounds_ = &bounds;
-  layer.boundsRevision_ = bounds.revision();
+  LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
   Result<LayerGeometry> r;
-  layer.styles_ = std::move(styles);
-  layer.styles_.resize(layer.features_.size());
   if (!options.deferPieces) {
     for (std::size_t i = 0; i < layer.features_.size(); ++i)
       assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
@@ -485,10 +476,9 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
   return r;
 }
 
-LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const LayerStyle& style,
-                                      std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
-                                      std::vector<std::vector<Polyhedron>> pieces, const HeightBoundsProvider& bounds,
-                                      const LayerBuildOptions& options) {
+LayerGeometry LayerGeometry::empty(std::string name, LayerKind kind, const LayerStyle& style,
+                                   std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                   const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
   LayerGeometry layer;
   layer.name_ = std::move(name);
   layer.kind_ = kind;
@@ -499,6 +489,14 @@ LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const La
   layer.boundsRevision_ = bounds.revision();
   layer.styles_ = std::move(styles);
   layer.styles_.resize(layer.features_.size());
+  return layer;
+}
+
+LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const LayerStyle& style,
+                                      std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                      std::vector<std::vector<Polyhedron>> pieces, const HeightBoundsProvider& bounds,
+                                      const LayerBuildOptions& options) {
+  LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
   for (std::size_t i = 0; i < layer.features_.size(); ++i)
     assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());

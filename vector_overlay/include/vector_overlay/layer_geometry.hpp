@@ -237,6 +237,10 @@ class LayerGeometry {
 
  private:
   LayerGeometry() = default;
+  /// The layer's features and styles, with no pieces yet (build and assemble start here).
+  static LayerGeometry empty(std::string name, LayerKind kind, const LayerStyle& style,
+                             std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                             const HeightBoundsProvider& bounds, const LayerBuildOptions& options);
   void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
   void freePieces(std::uint32_t feature);
   Diagnostics rebuildFeature(std::size_t index);
