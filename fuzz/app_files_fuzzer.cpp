@@ -96,7 +96,8 @@ void checkScene(const std::string& text) {
     check(st.outlineWidthPixels >= 0.0F && std::isfinite(st.outlineWidthPixels), where + "outline_width_px", text);
     check(st.widthMetres > 0.0 && finite(st.widthMetres), where + "width_m", text);
     check(st.widthPixels >= 0.0 && finite(st.widthPixels), where + "width_px", text);
-    check(st.maxWidthMetres > 0.0 && finite(st.maxWidthMetres), where + "max_width_m", text);
+    check(st.maxWidthMetres >= 0.0 && finite(st.maxWidthMetres), where + "max_width_m", text);
+    check(st.minWidthPixels >= 0.0 && st.minWidthPixels <= 1e3, where + "min_width_px", text);
     for (float c : {st.color.x, st.color.y, st.color.z, st.color.w, st.outlineColor.x, st.outlineColor.w}) {
       check(c >= 0.0F && c <= 1.0F, where + "colour channel out of [0, 1]", text);
     }

@@ -4,14 +4,15 @@
 // attribute (baseInstance), already relative to the eye, so every float stays small near the
 // eye. Caps move out by a pad that grows with the distance from the eye (depth resolution).
 //
-// Lines in pixels: (x, y) is the centre the vertex belongs to, a_scaling its direction and the
-// centre's anchor height; the vertex lies at centre + direction · h with the half width
-// h = min(u_halfWidthPerMetre · distance from the eye to the anchored centre, u_maxHalfWidth).
-// Other layers leave the attribute disabled: (0, 0, 0), no offset.
+// Lines in pixels: (x, y) is the centre the vertex belongs to, a_scaling its direction, the
+// centre's anchor height and the least half width; the vertex lies at centre + direction · h
+// with the half width h = max(min(u_halfWidthPerMetre · distance from the eye to the anchored
+// centre, u_maxHalfWidth), least half width) (footprints.hpp, LineShape). Other layers leave
+// the attribute disabled: (0, 0, 0, 1), no offset.
 layout(location = 0) in vec4 a_position;
 layout(location = 1) in vec4 a_color;
 layout(location = 2) in vec3 a_origin;
-layout(location = 3) in vec3 a_scaling;
+layout(location = 3) in vec4 a_scaling;
 
 uniform mat4 u_modelViewProj;  // frame → clip, translated to the eye
 uniform float u_padBase;
@@ -26,7 +27,7 @@ out vec4 v_color;
 void main() {
   vec3 p = vec3(a_position.xy + a_origin.xy, a_position.z + a_origin.z);
   const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
-  p.xy += a_scaling.xy * min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth);
+  p.xy += a_scaling.xy * max(min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth), a_scaling.w);
   const float distance = length(p);
   p.z += a_position.w * (u_padBase + (u_padPerMetre + u_padPerMetreSquared * distance) * distance);
   v_color = u_debugColor.a > 0.0 ? u_debugColor : a_color;

@@ -120,11 +120,11 @@ class SceneParser {
       error(where, "expected an object");
       return;
     }
-    warnUnknownKeys(
-        j,
-        {"color", "opacity", "outline_width_m", "outline_width_px", "outline_color", "width_m", "width_px",
-         "max_width_m", "width_attribute", "join", "cap", "miter_limit", "color_attribute", "categories", "order"},
-        where);
+    warnUnknownKeys(j,
+                    {"color", "opacity", "outline_width_m", "outline_width_px", "outline_color", "width_m", "width_px",
+                     "min_width_px", "max_width_m", "width_attribute", "join", "cap", "miter_limit", "color_attribute",
+                     "categories", "order"},
+                    where);
     color(j, "color", where, s.color);
     color(j, "outline_color", where, s.outlineColor);
     if (read(j, "opacity", where, s.opacity) && (s.opacity < 0.0F || s.opacity > 1.0F)) {
@@ -141,6 +141,9 @@ class SceneParser {
     }
     if (read(j, "width_px", where, s.widthPixels) && !(s.widthPixels > 0.0)) {
       error(where + "width_px", "must be positive");
+    }
+    if (read(j, "min_width_px", where, s.minWidthPixels) && !(s.minWidthPixels >= 0.0 && s.minWidthPixels <= 1e3)) {
+      error(where + "min_width_px", "must be in [0, 1000] (0: lines exactly as wide as in metres)");
     }
     if (read(j, "max_width_m", where, s.maxWidthMetres) && !(s.maxWidthMetres > 0.0)) {
       error(where + "max_width_m", "must be positive");

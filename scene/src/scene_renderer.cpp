@@ -109,6 +109,9 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   }
   // A tiled technique builds the pieces per tile: the layers keep their features only.
   options.deferPieces = tiled;
+  // It also draws lines at least LayerStyle::minWidthPixels wide (each tile at the widths its
+  // view needs); the whole-load techniques draw the widths in metres.
+  options.minWidthInPixels = tiled;
   Result<std::unique_ptr<overlay::OverlayTechnique>> technique = techniqueInfo_->create(techniqueOptions);
   diagnostics.append(technique.diagnostics);
   if (technique) technique_ = std::move(*technique);

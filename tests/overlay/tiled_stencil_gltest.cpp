@@ -6,7 +6,9 @@
 // - flights: a tile still building is stood in for by its parent (no wait), and the next still
 //   image is exact again;
 // - a GPU budget smaller than one frame's tiles: tiles are evicted, images stay exact;
-// - an edit of one feature shows in the next frame.
+// - an edit of one feature shows in the next frame;
+// - lines are at least a pixel wide (min_width_px, the default, as the scene builds them): far
+//   roads stay lines instead of dots, exactly as the reference draws them.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -74,6 +76,7 @@ class TiledStencilGlTest : public GlTest {
     std::vector<geo::Feature> roads = randomLines(rng, lo_, hi_, 10);
     for (geo::Feature& f : denseLines(rng, lo_, hi_, 12)) roads.push_back(std::move(f));
     options_.deferPieces = true;
+    options_.minWidthInPixels = true;  // as the scene builds a tiled technique's layers
     overlay::CellGrid cells;
     cells.origin = lo_;
     cells.cellSize = 16 * grid.step.x;
@@ -327,6 +330,58 @@ TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
     EXPECT_EQ(f.comparison.wrong, 0u);
   }
   std::filesystem::remove_all(dir);
+}
+
+TEST_F(TiledStencilGlTest, FarLinesAreAtLeastOnePixelWide) {
+  std::unique_ptr<overlay::OverlayTechnique> t = technique();
+  const glm::dvec2 centre = 0.5 * (lo_ + hi_);
+  const double top = bounds_->globalBounds().hi;
+  std::size_t widened = 0;
+  // From afar the 3–18 m roads are thinner than a pixel (about 25–60 m here).
+  for (const double up : {3000.0, 9000.0}) {
+    SCOPED_TRACE("eye " + std::to_string(up) + " m up");
+    const glm::dvec3 eye(centre - glm::dvec2(0.6 * up, 0.5 * up), top + up);
+    const glm::dmat4 viewProj = [&] {
+      const double aspect = static_cast<double>(kWidth) / kHeight;
+      const double nearPlane = std::clamp(0.5 * (eye.z - bounds_->globalBounds().hi), 1.0, 50.0);
+      return gfx::reversedInfinitePerspective(glm::radians(50.0), aspect, nearPlane) *
+             gfx::lookAt(eye, glm::dvec3(centre, 0.0), glm::dvec3(0, 0, 1));
+    }();
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(f.comparison.wrong, 0u);
+    // The roads as the reference draws them, and in metres only (min_width_px 0).
+    const std::vector<float> depth = gfx::readDepth(target_);
+    const overlay::DepthImage image{kWidth, kHeight, depth, viewProj};
+    overlay::ReferenceLayer roads = overlay::referenceLayerOf(*lines_);
+    std::vector<overlay::ReferenceLayer> drawn{roads};
+    for (overlay::LineShape& shape : roads.shapes) {
+      ASSERT_GT(shape.minWidth, 0.0) << "round lines in metres get a least width in pixels";
+      shape.width = shape.minWidth;
+      shape.widthPixels = shape.minWidth = 0.0;
+    }
+    std::vector<overlay::ReferenceLayer> metres{roads};
+    const std::vector<std::uint32_t> wide = overlay::referenceMask(image, drawn);
+    const std::vector<std::uint32_t> thin = overlay::referenceMask(image, metres);
+    std::size_t wideCount = 0, thinCount = 0, thinNotWide = 0;
+    for (std::size_t i = 0; i < wide.size(); ++i) {
+      wideCount += wide[i] != 0 ? 1u : 0u;
+      thinCount += thin[i] != 0 ? 1u : 0u;
+      thinNotWide += thin[i] != 0 && wide[i] == 0 ? 1u : 0u;
+    }
+    std::printf("eye %.0f m up: road pixels %zu at min_width_px 1, %zu in metres; %zu tiles drawn\n", up, wideCount,
+                thinCount, f.stats.tilesDrawn);
+    EXPECT_EQ(thinNotWide, 0u) << "a least width only widens";
+    // From 3 km the 18 m roads are about a pixel wide already; from 9 km none is.
+    EXPECT_GT(2 * wideCount, 3 * thinCount) << "far roads are lines, not dots";
+    if (up > 5000.0) {
+      EXPECT_GT(wideCount, 3 * thinCount) << "far roads are lines, not dots";
+    }
+    widened += wideCount - thinCount;
+  }
+  EXPECT_GT(widened, 500u);
+  // Flying in again: tiles of a wider class than needed are still exact.
+  const glm::dvec3 near(centre - glm::dvec2(700.0, 500.0), top + 600.0);
+  EXPECT_EQ(draw(*t, near, glm::dvec3(centre, 0.0), true).comparison.wrong, 0u);
 }
 
 }  // namespace

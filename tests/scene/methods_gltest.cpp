@@ -75,11 +75,12 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
   ASSERT_NE(paperBuild.technique, nullptr);
   Result<scene::SceneRenderer> paper = scene::SceneRenderer::create(*scene, paperBuild);
   ASSERT_TRUE(paper.ok());
-  std::vector<overlay::ReferenceLayer> ref;
-  for (const overlay::OverlayLayer& l : stencil->overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
-
   const auto judge = [&](scene::SceneRenderer& renderer, const scene::Camera& camera,
                          const overlay::TextureDrape* drape) {
+    // Each technique against the reference of its own layers: ours draws lines at least a pixel
+    // wide (min_width_px), the whole-load techniques at their width in metres.
+    std::vector<overlay::ReferenceLayer> ref;
+    for (const overlay::OverlayLayer& l : renderer.overlayLayers()) ref.push_back(overlay::referenceLayerOf(l));
     renderer.render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> mask = gfx::readMask(target);

@@ -174,3 +174,54 @@ void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, cons
 }
 
 }  // namespace gis::overlay
+
+namespace gis::overlay {
+
+void appendClipped(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi,
+                   std::vector<geo::LineString>& out) {
+  const auto inside = [&](const glm::dvec2& p) { return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y; };
+  if (line.size() < 2) {
+    if (line.size() == 1 && inside(line[0])) out.emplace_back(line.begin(), line.end());
+    return;
+  }
+  geo::LineString run;
+  const auto finish = [&] {
+    if (run.size() >= 2) out.push_back(std::move(run));
+    run.clear();
+  };
+  for (std::size_t s = 0; s + 1 < line.size(); ++s) {
+    const glm::dvec2 a = line[s], d = line[s + 1] - a;
+    // Liang–Barsky: the parameters [t0, t1] of the segment inside the box.
+    double t0 = 0.0, t1 = 1.0;
+    bool misses = false;
+    const auto edge = [&](double p, double q) {  // p t <= q
+      if (p == 0.0) {
+        misses = misses || q < 0.0;
+        return;
+      }
+      const double t = q / p;
+      if (p < 0.0) {
+        t0 = std::max(t0, t);
+      } else {
+        t1 = std::min(t1, t);
+      }
+    };
+    edge(-d.x, a.x - lo.x);
+    edge(d.x, hi.x - a.x);
+    edge(-d.y, a.y - lo.y);
+    edge(d.y, hi.y - a.y);
+    if (misses || t0 > t1) {
+      finish();
+      continue;
+    }
+    const glm::dvec2 p0 = t0 > 0.0 ? a + t0 * d : a;
+    const glm::dvec2 p1 = t1 < 1.0 ? a + t1 * d : line[s + 1];
+    if (t0 > 0.0) finish();  // the segment enters the box: a new run
+    if (run.empty() || run.back() != p0) run.push_back(p0);
+    if (run.back() != p1) run.push_back(p1);
+    if (t1 < 1.0) finish();  // it leaves the box
+  }
+  finish();
+}
+
+}  // namespace gis::overlay

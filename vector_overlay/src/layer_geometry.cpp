@@ -55,7 +55,7 @@ constexpr double kOriginGrid = 1024.0;  ///< metres: vertices are floats relativ
 
 std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
                                                const std::vector<geo::Feature>& features, Diagnostics* diagnostics,
-                                               const std::string& layerName) {
+                                               const std::string& layerName, bool minWidthInPixels) {
   std::vector<FeatureStyle> out;
   out.reserve(features.size());
   for (const geo::Feature& f : features) {
@@ -70,7 +70,7 @@ std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKin
     }
     s.color = glm::vec4(colour.x, colour.y, colour.z, colour.w * style.opacity);
     if (kind == LayerKind::Line && style.widthPixels > 0.0) {
-      s.shape.width = style.maxWidthMetres;
+      s.shape.width = style.widthCap();
       s.shape.widthPixels = style.widthPixels;
     } else if (kind == LayerKind::Line) {
       s.shape.width = style.widthMetres;
@@ -91,6 +91,16 @@ std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKin
       s.shape.join = style.join;
       s.shape.cap = style.cap;
       s.shape.miterLimit = style.miterLimit;
+      if (minWidthInPixels && style.minWidthPixels > 0.0 && style.join == LineJoin::Round &&
+          style.cap == LineCap::Round) {
+        // At least minWidthPixels on screen: the width in metres becomes the least width. Round
+        // joins and caps only: a miter, bevel or square end reaches a width-dependent distance
+        // beyond the round footprint, which generalisation may move (lineShapeSlack) by more
+        // than half a pixel once the width is a pixel.
+        s.shape.minWidth = s.shape.width;
+        s.shape.widthPixels = style.minWidthPixels;
+        s.shape.width = std::max(s.shape.width, style.widthCap());
+      }
     }
     out.push_back(s);
   }
@@ -225,7 +235,8 @@ bool outsideGrid(const geo::Feature& feature, LayerKind kind, const FeatureStyle
   };
   for (const geo::Polygon& polygon : feature.polygons) std::for_each(polygon.outer.begin(), polygon.outer.end(), add);
   for (const geo::LineString& line : feature.lines) std::for_each(line.begin(), line.end(), add);
-  const double reach = kind == LayerKind::Line ? 0.5 * style.shape.width : 0.0;
+  const double reach =
+      kind == LayerKind::Line ? 0.5 * (style.shape.minWidth > 0.0 ? style.shape.minWidth : style.shape.width) : 0.0;
   const glm::dvec2 gridMax = g.origin + g.cellSize * glm::dvec2(g.columns, g.rows);
   return hi.x + reach < g.origin.x || hi.y + reach < g.origin.y || lo.x - reach > gridMax.x || lo.y - reach > gridMax.y;
 }
@@ -370,7 +381,8 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
                                            std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
                                            const LayerBuildOptions& options) {
   Diagnostics diagnostics;
-  std::vector<FeatureStyle> styles = resolveFeatureStyles(style, kind, features, &diagnostics, name);
+  std::vector<FeatureStyle> styles =
+      resolveFeatureStyles(style, kind, features, &diagnostics, name, options.minWidthInPixels);
   Result<LayerGeometry> r =
       build(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
   diagnostics.append(r.diagnostics);
@@ -543,15 +555,16 @@ void LayerGeometry::addPieces(std::uint32_t feature, std::vector<Polyhedron> pie
     v.reserve(2 * f.vertices.size() + 8);
     // Lines in pixels: the centres here, directions and anchors in the scaling stream.
     const bool scalable = f.scalable();
-    std::vector<glm::vec3> scaling;
+    std::vector<glm::vec4> scaling;
+    const auto minHalf = static_cast<float>(0.5 * styles_[feature].shape.minWidth);
     for (std::size_t k = 0; k < f.vertices.size(); ++k) {
       const glm::vec2 rel(scalable ? glm::dvec2(f.centres[k]) - origin : f.vertices[k] - origin);
       v.push_back({rel.x, rel.y, static_cast<float>(p.lo), -1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
       v.push_back({rel.x, rel.y, static_cast<float>(p.hi), 1.0F, {rgba[0], rgba[1], rgba[2], rgba[3]}});
       if (scalable) {
-        const glm::vec3 s3(static_cast<float>(f.directions[k].x), static_cast<float>(f.directions[k].y),
-                           static_cast<float>(f.centres[k].z));
-        scaling.insert(scaling.end(), {s3, s3});
+        const glm::vec4 s4(static_cast<float>(f.directions[k].x), static_cast<float>(f.directions[k].y),
+                           static_cast<float>(f.centres[k].z), minHalf);
+        scaling.insert(scaling.end(), {s4, s4});
       }
     }
     std::vector<std::uint32_t> idx;
@@ -576,7 +589,7 @@ void LayerGeometry::addPieces(std::uint32_t feature, std::vector<Polyhedron> pie
     if (options_.paperVariant) {
       for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
     }
-    if (widthPixels() > 0.0) scaling.resize(v.size(), glm::vec3(0.0F));  // the box does not scale
+    if (widthPixels() > 0.0) scaling.resize(v.size(), glm::vec4(0.0F));  // the box does not scale
     stats_.pieces += 1;
     stats_.triangles += s.indexCount / 3;
     slots_.push_back(s);
@@ -676,7 +689,7 @@ std::optional<glm::vec4> LayerGeometry::uniformColor() const {
 }
 
 void LayerGeometry::appendGeometry(std::size_t slot, const std::vector<Vertex>& v, const std::vector<std::uint32_t>& i,
-                                   const std::vector<glm::vec3>& scaling) {
+                                   const std::vector<glm::vec4>& scaling) {
   PieceSlot& s = slots_[slot];
   s.baseVertex = static_cast<std::uint32_t>(vertices_.size());
   s.firstIndex = static_cast<std::uint32_t>(indices_.size());
@@ -742,7 +755,7 @@ Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature featur
   features_[index] = std::move(feature);
   const std::vector<geo::Feature> one{features_[index]};
   Diagnostics diagnostics;
-  FeatureStyle style = resolveFeatureStyles(style_, kind_, one, &diagnostics, name_).front();
+  FeatureStyle style = resolveFeatureStyles(style_, kind_, one, &diagnostics, name_, options_.minWidthInPixels).front();
   style.visible = styles_[index].visible;
   if (bounds_ != nullptr) assignAnchorHeights(style, features_[index], *bounds_);
   styles_[index] = style;
@@ -834,8 +847,19 @@ ReferenceLayer referenceLayerOf(const LayerGeometry& layer) {
   r.name = layer.name();
   r.kind = layer.kind();
   r.features = &layer.features();
-  for (const FeatureStyle& s : layer.featureStyles()) {
-    if (r.kind == LayerKind::Line) r.shapes.push_back(s.shape);
+  for (std::size_t i = 0; i < layer.featureStyles().size(); ++i) {
+    const FeatureStyle& s = layer.featureStyles()[i];
+    if (r.kind == LayerKind::Line) {
+      r.shapes.push_back(s.shape);
+      // A layer without pieces (LayerBuildOptions::deferPieces) keeps no anchor heights: they
+      // are those its tiles' builds give each vertex.
+      if (s.shape.inPixels() && s.shape.anchorHeights.empty() && layer.bounds() != nullptr &&
+          i < layer.features().size()) {
+        FeatureStyle anchored = s;
+        assignAnchorHeights(anchored, layer.features()[i], *layer.bounds());
+        r.shapes.back() = std::move(anchored.shape);
+      }
+    }
     r.visible.push_back(s.visible);
   }
   return r;

@@ -329,9 +329,13 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
   const double h = 0.5 * shape.width;
   const bool scalable = shape.inPixels();
   PieceSink sink(featureIndex, options, scalable, h, result);
-  // Lines in pixels: chords counted on screen, where the radius is widthPixels / 2 at most.
-  const int full = scalable ? detail::circleSegments(0.5 * shape.widthPixels, options.chordTolerancePixels)
-                            : detail::circleSegments(h, options.chordTolerance);
+  // Lines in pixels: chords counted on screen, where the radius is widthPixels / 2 at most,
+  // and in metres at the least width (where that is wider than widthPixels on screen).
+  const int full =
+      scalable
+          ? std::max(detail::circleSegments(0.5 * shape.widthPixels, options.chordTolerancePixels),
+                     shape.minWidth > 0.0 ? detail::circleSegments(0.5 * shape.minWidth, options.chordTolerance) : 0)
+          : detail::circleSegments(h, options.chordTolerance);
   const Builder build{sink, shape, h, full, scalable};
 
   for (std::size_t k = 0; k < feature.lines.size(); ++k) {

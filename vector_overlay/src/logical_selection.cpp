@@ -30,8 +30,8 @@ LineShape shapeOf(const ReferenceLayer& layer, std::size_t i) {
   return i < layer.shapes.size() ? layer.shapes[i] : LineShape{};
 }
 
-/// The box of everything feature i can cover.
-Box featureBox(const ReferenceLayer& layer, std::size_t i) {
+/// The box of everything feature i can cover (lines in pixels: at the widths of `scale`).
+Box featureBox(const ReferenceLayer& layer, std::size_t i, const PixelScale& scale) {
   const geo::Feature& feature = (*layer.features)[i];
   Box box;
   if (layer.kind == LayerKind::Polygon) {
@@ -41,12 +41,19 @@ Box featureBox(const ReferenceLayer& layer, std::size_t i) {
   }
   const LineShape shape = shapeOf(layer, i);
   if (!reference::shapeUsable(shape)) return box;
-  for (const geo::LineString& line : feature.lines)
-    for (const glm::dvec2& p : line)
-      if (reference::finite(p)) box.add(p);
+  double half = shape.inPixels() ? 0.0 : 0.5 * shape.width;  // the widest this frame draws it
+  for (std::size_t l = 0; l < feature.lines.size(); ++l) {
+    const geo::LineString& line = feature.lines[l];
+    for (std::size_t v = 0; v < line.size(); ++v) {
+      if (!reference::finite(line[v])) continue;
+      box.add(line[v]);
+      if (shape.inPixels())
+        half = std::max(half, halfWidthAt(shape, scale, glm::dvec3(line[v], shape.anchorHeight(l, v))));
+    }
+  }
   if (box.empty()) return box;
-  box.lo -= glm::dvec2(0.5 * shape.width);
-  box.hi += glm::dvec2(0.5 * shape.width);
+  box.lo -= glm::dvec2(half);
+  box.hi += glm::dvec2(half);
   return box;
 }
 
@@ -205,7 +212,7 @@ std::vector<FeatureSelection> selectFeatures(const ReferenceLayer& layer, std::s
   std::vector<std::uint8_t> flags;
   for (std::size_t i = 0; i < layer.features->size(); ++i) {
     if (i < layer.visible.size() && !layer.visible[i]) continue;
-    const Box box = featureBox(layer, i);
+    const Box box = featureBox(layer, i, options.scale);
     if (box.empty()) continue;
     const std::optional<bool> constant =
         evaluator.constantOver(glm::dvec3(box.lo, options.minHeight), glm::dvec3(box.hi, options.maxHeight));

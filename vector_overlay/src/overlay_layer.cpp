@@ -39,10 +39,10 @@ void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapac
                     GL_DYNAMIC_DRAW);
   if (widthPixels() > 0.0) {
     scaling_ = gfx::createBuffer();
-    glNamedBufferData(scaling_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(glm::vec3)), nullptr,
+    glNamedBufferData(scaling_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(glm::vec4)), nullptr,
                       GL_DYNAMIC_DRAW);
     if (!geometry_.scaling().empty()) {
-      glNamedBufferSubData(scaling_.id(), 0, static_cast<GLsizeiptr>(geometry_.scaling().size() * sizeof(glm::vec3)),
+      glNamedBufferSubData(scaling_.id(), 0, static_cast<GLsizeiptr>(geometry_.scaling().size() * sizeof(glm::vec4)),
                            geometry_.scaling().data());
     }
   }
@@ -56,7 +56,7 @@ void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapac
                          indices.data());
   }
   gpuBytes_ =
-      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec3) : 0)) + indexCapacity_ * sizeof(std::uint32_t);
+      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec4) : 0)) + indexCapacity_ * sizeof(std::uint32_t);
 }
 
 void OverlayLayer::sync() {
@@ -76,8 +76,8 @@ void OverlayLayer::sync() {
     glNamedBufferSubData(vertices_.id(), static_cast<GLintptr>(change.vertexBegin * sizeof(Vertex)),
                          static_cast<GLsizeiptr>(n * sizeof(Vertex)), vertices.data() + change.vertexBegin);
     if (scaling_ && change.vertexEnd <= geometry_.scaling().size()) {
-      glNamedBufferSubData(scaling_.id(), static_cast<GLintptr>(change.vertexBegin * sizeof(glm::vec3)),
-                           static_cast<GLsizeiptr>(n * sizeof(glm::vec3)),
+      glNamedBufferSubData(scaling_.id(), static_cast<GLintptr>(change.vertexBegin * sizeof(glm::vec4)),
+                           static_cast<GLsizeiptr>(n * sizeof(glm::vec4)),
                            geometry_.scaling().data() + change.vertexBegin);
     }
   }

@@ -84,7 +84,7 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   glVertexArrayAttribBinding(vao, 2, 1);
   glVertexArrayBindingDivisor(vao, 1, 1);
   // Lines in pixels only (enabled per layer); disabled it reads (0, 0, 0): no offset.
-  glVertexArrayAttribFormat(vao, 3, 3, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribFormat(vao, 3, 4, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribBinding(vao, 3, 2);
   renderer.timer_.emplace();
   renderer.coverTimer_.emplace();
@@ -333,10 +333,10 @@ bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& lay
   glVertexArrayElementBuffer(vao, layer.indexBuffer());
   const bool inPixels = layer.widthPixels() > 0.0 && layer.scalingBuffer() != 0;
   if (inPixels) {
-    glVertexArrayVertexBuffer(vao, 2, layer.scalingBuffer(), 0, 3 * sizeof(float));
+    glVertexArrayVertexBuffer(vao, 2, layer.scalingBuffer(), 0, 4 * sizeof(float));
     glEnableVertexArrayAttrib(vao, 3);
     program_.set("u_halfWidthPerMetre", static_cast<float>(0.5 * layer.widthPixels() * scale.metresPerPixel));
-    program_.set("u_maxHalfWidth", static_cast<float>(0.5 * layer.style().maxWidthMetres));
+    program_.set("u_maxHalfWidth", static_cast<float>(0.5 * layer.style().widthCap()));
   }
   return inPixels;
 }

@@ -12,7 +12,7 @@ namespace gis::overlay::detail {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;
 /// Counts beyond this mean a damaged file (no tile holds 2^32 of anything).
 constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 32U;
 
@@ -150,6 +150,7 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
     w.value(tile.key.level);
     w.value(tile.key.x);
     w.value(tile.key.y);
+    w.value(tile.key.width);
     w.value(tile.groundError);
     const LayerGeometry& g = tile.geometry;
     w.value(static_cast<std::uint64_t>(g.features().size()));
@@ -177,7 +178,8 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
 
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
-                                  const LayerBuildOptions& options) {
+                                  const LayerBuildOptions& options,
+                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf) {
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
   Reader r(in);
@@ -186,7 +188,8 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
   TileKey k;
   double error = 0.0;
   if (!r.value(magic) || magic != kMagic || !r.value(version) || version != kVersion || !r.value(stored) ||
-      stored != fingerprint || !r.value(k.level) || !r.value(k.x) || !r.value(k.y) || !(k == key) || !r.value(error))
+      stored != fingerprint || !r.value(k.level) || !r.value(k.x) || !r.value(k.y) || !r.value(k.width) ||
+      !(k == key) || !r.value(error))
     return std::nullopt;
   std::size_t count = 0;
   if (!r.count(count)) return std::nullopt;
@@ -198,7 +201,7 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
     std::size_t n = 0;
     if (!r.value(index[i]) || index[i] >= source.features().size() || !readFeature(r, features[i]) || !r.count(n))
       return std::nullopt;
-    styles[i] = source.featureStyles()[index[i]];
+    styles[i] = styleOf(index[i]);
     pieces[i].resize(n);
     for (Polyhedron& p : pieces[i]) {
       if (!readPiece(r, p)) return std::nullopt;

@@ -7,6 +7,7 @@
 // cut short is not used (and is written again).
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 
 #include "vector_overlay/tiled_layer.hpp"
@@ -18,9 +19,11 @@ namespace gis::overlay::detail {
 bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile);
 
 /// The tile in `file` if it holds this fingerprint and key, its layer made with the source's
-/// name, kind, style and feature styles, `bounds` and `options` (as LayerTiling::build would).
+/// name, kind and style, each feature's style in the tile (`styleOf`, by the feature's index in
+/// the source), `bounds` and `options` (as LayerTiling::build would).
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
-                                  const LayerBuildOptions& options);
+                                  const LayerBuildOptions& options,
+                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf);
 
 }  // namespace gis::overlay::detail

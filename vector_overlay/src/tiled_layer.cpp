@@ -19,12 +19,16 @@
 namespace gis::overlay {
 namespace {
 
-/// How far a line's footprint reaches from its centre line (the widest of its shapes).
+/// Lines with a least width in pixels: their width in metres (the narrowest they are drawn).
+double metreWidth(const LineShape& shape) { return shape.minWidth > 0.0 ? shape.minWidth : shape.width; }
+
+/// How far a line's footprint reaches from its centre line (the widest of its shapes; for lines
+/// with a least width in pixels, at that least width: tiles of a wider class grow their box).
 double lineReach(const LineShape& shape) {
   double k = 1.0;
   if (shape.cap == LineCap::Square) k = std::max(k, std::numbers::sqrt2);
   if (shape.join == LineJoin::Miter) k = std::max(k, std::max(1.0, shape.miterLimit));
-  return 0.5 * shape.width * k;
+  return 0.5 * metreWidth(shape) * k;
 }
 
 bool meets(const std::pair<glm::dvec2, glm::dvec2>& a, const glm::dvec2& lo, const glm::dvec2& hi) {
@@ -79,7 +83,7 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
 
 std::uint64_t LayerTiling::fingerprint() const {
   StableHasher h;
-  h.add(std::string_view("stencil-gis vector tiles 1"));
+  h.add(std::string_view("stencil-gis vector tiles 2"));
   h.add(std::string_view(STENCIL_GIS_PIECES_FINGERPRINT));  // the code that builds them
   h.add(tiling_.cacheKey);
   h.add(static_cast<std::uint64_t>(source_->kind()));
@@ -97,7 +101,7 @@ std::uint64_t LayerTiling::fingerprint() const {
     const FeatureStyle& st = styles[i];
     h.add(static_cast<std::uint64_t>(st.visible ? 1 : 0));
     h.add(static_cast<std::uint64_t>(f.fid));
-    for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels}) h.add(v);
+    for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels, st.shape.minWidth}) h.add(v);
     h.add(static_cast<std::uint64_t>(st.shape.join) * 8U + static_cast<std::uint64_t>(st.shape.cap));
     const auto points = [&h](const std::vector<glm::dvec2>& ps) {
       h.add(static_cast<std::uint64_t>(ps.size()));
@@ -136,7 +140,12 @@ void LayerTiling::measure(std::uint32_t i) {
     for (const geo::LineString& l : f.lines) std::for_each(l.begin(), l.end(), add);
     const LineShape& shape = styles[i].shape;
     reach_[i] = lineReach(shape);
-    slack_ = std::max(slack_, lineShapeSlack(shape.join, shape.cap, shape.miterLimit, shape.width));
+    slack_ = std::max(slack_, lineShapeSlack(shape.join, shape.cap, shape.miterLimit, metreWidth(shape)));
+    if (shape.inPixels() && shape.minWidth > 0.0) {
+      minPixels_ = std::max(minPixels_, shape.widthPixels);
+      leastMinWidth_ = leastMinWidth_ > 0.0 ? std::min(leastMinWidth_, shape.minWidth) : shape.minWidth;
+      widestCap_ = std::max(widestCap_, shape.width);
+    }
   }
   if (lo.x <= hi.x && lo.y <= hi.y) boxes_[i] = {lo - reach_[i], hi + reach_[i]};
 }
@@ -200,7 +209,10 @@ double LayerTiling::groundError(int level) const {
 }
 
 std::vector<std::uint32_t> LayerTiling::featuresNear(const TileKey& key) const {
-  const auto [lo, hi] = extent(key);
+  const auto [tileLo, tileHi] = extent(key);
+  // A wider class reaches farther: its lines' boxes are widened by their metre reach only.
+  const double grow = key.width > 0 ? widthClassCap(key.width) : 0.0;
+  const glm::dvec2 lo = tileLo - grow, hi = tileHi + grow;
   const double bucketSize = rootSize_ / buckets_;
   const auto index = [&](double v, double o) {
     return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
@@ -247,27 +259,75 @@ std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHe
     const TileKey key = stack.back();
     stack.pop_back();
     const auto [lo, hi] = extent(key);
-    if (lo.x >= gridEnd.x || lo.y >= gridEnd.y || !occupied(lo, hi)) continue;  // no terrain, or no feature
-    const glm::dvec3 lo3(lo, zLo), hi3(hi, zHi);
+    if (lo.x >= gridEnd.x || lo.y >= gridEnd.y) continue;  // no terrain
+    // Lines wider than in metres reach up to their class's width beyond the tile (a child's class
+    // is never wider than its parent's: its farthest point is no farther).
+    const int width = widthClass(key, view.eye, metresPerPixel, zLo, zHi);
+    const double grow = width > 0 ? widthClassCap(width) : 0.0;
+    if (!occupied(lo - grow, hi + grow)) continue;  // no feature
+    const glm::dvec3 lo3(lo - grow, zLo), hi3(hi + grow, zHi);
     if (!gfx::boxInFrustum(planes, lo3, hi3, false)) {
       if (culled != nullptr) ++*culled;
       continue;
     }
-    const double distance = glm::length(view.eye - glm::clamp(view.eye, lo3, hi3));
+    const double distance = glm::length(view.eye - glm::clamp(view.eye, glm::dvec3(lo, zLo), glm::dvec3(hi, zHi)));
     const double error = groundError(key.level);
     if (key.level >= finestLevel_ || error <= tiling_.errorPixels * metresPerPixel * distance) {
-      out.push_back(key);
+      out.push_back({key.level, key.x, key.y, width});
       continue;
     }
-    for (int k = 3; k >= 0; --k) stack.push_back({key.level + 1, 2 * key.x + (k & 1), 2 * key.y + (k >> 1)});
+    for (int k = 3; k >= 0; --k) stack.push_back({key.level + 1, 2 * key.x + (k & 1), 2 * key.y + (k >> 1), 0});
   }
   std::sort(out.begin(), out.end(), [](const TileKey& a, const TileKey& b) { return a.level < b.level; });
   return out;
 }
 
+int LayerTiling::widthClass(const TileKey& key, const glm::dvec3& eye, double metresPerPixel, double zLo,
+                            double zHi) const {
+  if (minPixels_ <= 0.0 || !(metresPerPixel > 0.0)) return 0;
+  const auto [lo, hi] = extent(key);
+  // The farthest point of the tile grown by m (the shader measures from the lines' anchored
+  // centres, which lie in it, at heights within the global bounds).
+  const auto farthest = [&](double m) {
+    const glm::dvec3 a(lo - m, zLo), b(hi + m, zHi);
+    return glm::length(glm::max(glm::abs(eye - a), glm::abs(eye - b)));
+  };
+  const double need = minPixels_ * metresPerPixel * farthest(0.0);
+  if (!(need > leastMinWidth_)) return 0;  // every such line is at least as wide in metres
+  int c = std::clamp(static_cast<int>(std::ceil(std::log2(need))) + 8, 1, 60);
+  // Centres are cut to the tile grown by half the class's width.
+  while (c < 60 && widthClassCap(c) < widestCap_ &&
+         minPixels_ * metresPerPixel * farthest(0.5 * widthClassCap(c)) > widthClassCap(c))
+    ++c;
+  return c;
+}
+
+bool LayerTiling::scalableIn(std::uint32_t i, int c) const {
+  if (c <= 0 || i >= source_->featureStyles().size()) return false;
+  const LineShape& shape = source_->featureStyles()[i].shape;
+  return shape.inPixels() && shape.minWidth > 0.0 && widthClassCap(c) > shape.minWidth;
+}
+
+FeatureStyle LayerTiling::tileStyle(const TileKey& key, std::uint32_t i) const {
+  FeatureStyle s = source_->featureStyles().at(i);
+  LineShape& shape = s.shape;
+  if (!(shape.inPixels() && shape.minWidth > 0.0)) return s;
+  if (scalableIn(i, key.width)) {
+    shape.width = std::min(widthClassCap(key.width), shape.width);
+  } else {
+    shape.width = shape.minWidth;  // in metres: no pixel on this tile is wider
+    shape.widthPixels = 0.0;
+    shape.minWidth = 0.0;
+  }
+  return s;
+}
+
 std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uint32_t i) const {
   const auto [lo, hi] = extent(key);
-  if (i >= boxes_.size() || !meets(boxes_[i], lo, hi)) return std::nullopt;
+  // Lines drawn wider than in metres: their centres cut to the tile grown by the half width.
+  const bool scalable = scalableIn(i, key.width);
+  const double grow = scalable ? 0.5 * tileStyle(key, i).shape.width : 0.0;
+  if (i >= boxes_.size() || !meets(boxes_[i], lo - 2.0 * grow, hi + 2.0 * grow)) return std::nullopt;
   // Three quarters of the level's error to simplification (build() gives the arcs the rest).
   const double epsilon =
       key.level < finestLevel_ ? 0.75 * tileSize(key.level) / std::max(1, tiling_.tileResolution) : 0.0;
@@ -282,7 +342,13 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
   }
   if (source_->kind() == LayerKind::Line) {
     std::vector<geo::LineString> runs;
-    for (const geo::LineString& l : g.lines) appendRunsNear(l, lo, hi, reach_[i], runs);
+    for (const geo::LineString& l : g.lines) {
+      if (scalable) {
+        appendClipped(l, lo - grow, hi + grow, runs);
+      } else {
+        appendRunsNear(l, lo, hi, reach_[i], runs);
+      }
+    }
     if (runs.empty()) return std::nullopt;
     g.lines = std::move(runs);
     g.polygons.clear();
@@ -297,11 +363,12 @@ Result<LayerTile> LayerTiling::build(const TileKey& key) const {
   const bool cached = cacheUsable_ && bounds_->revision() == cacheRevision_;
   const std::filesystem::path file =
       cached ? std::filesystem::path(cacheFolder_) /
-                   (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) + ".tile")
+                   (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) +
+                    (key.width > 0 ? "-w" + std::to_string(key.width) : std::string()) + ".tile")
              : std::filesystem::path();
   if (cached) {
-    if (std::optional<LayerTile> tile =
-            detail::readTile(file, fingerprint_, key, *source_, *bounds_, tileOptions(key))) {
+    if (std::optional<LayerTile> tile = detail::readTile(file, fingerprint_, key, *source_, *bounds_, tileOptions(key),
+                                                         [&](std::uint32_t i) { return tileStyle(key, i); })) {
       ++tilesRead_;
       tile->fromDisk = true;
       Result<LayerTile> r;
@@ -321,6 +388,7 @@ LayerBuildOptions LayerTiling::tileOptions(const TileKey& key) const {
   LayerBuildOptions options = options_;
   options.deferPieces = false;
   options.reportEmpty = false;
+  options.minWidthInPixels = key.width > 0;  // else every line in metres: no per-vertex widths
   options.threads = 1;
   // The tile's cells: the layer's, or coarser on coarse levels; clipped to the tile and to the
   // terrain's grid.
@@ -337,12 +405,12 @@ LayerBuildOptions LayerTiling::tileOptions(const TileKey& key) const {
   options.boundsSlack = error;
   // Lines thinner than a quarter of the error: their rectangles only (what joins and caps add
   // lies within w/2 of a vertex), the pieces of a sub-pixel road network fall by two thirds.
-  options.footprints.segmentsOnly = source_->kind() == LayerKind::Line && widestReach() <= 0.25 * error;
+  options.footprints.segmentsOnly =
+      source_->kind() == LayerKind::Line && key.width == 0 && widestReach() <= 0.25 * error;
   return options;
 }
 
 Result<LayerTile> LayerTiling::buildNew(const TileKey& key) const {
-  const std::vector<FeatureStyle>& styles = source_->featureStyles();
   std::vector<geo::Feature> local;
   std::vector<FeatureStyle> localStyles;
   std::vector<std::uint32_t> index;
@@ -350,7 +418,7 @@ Result<LayerTile> LayerTiling::buildNew(const TileKey& key) const {
     std::optional<geo::Feature> g = featureFor(key, i);
     if (!g) continue;
     local.push_back(std::move(*g));
-    localStyles.push_back(styles[i]);
+    localStyles.push_back(tileStyle(key, i));
     index.push_back(i);
   }
   const LayerBuildOptions options = tileOptions(key);

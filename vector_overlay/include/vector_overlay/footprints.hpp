@@ -142,12 +142,19 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
 /// use their vertex's half width. So `width` is the largest width in metres: far away such a
 /// line gets thinner than widthPixels on screen. The line's polyhedra are built at that largest
 /// width (bounds, culling and the eye test stay conservative) and shrunk per frame.
+///
+/// A least width (`minWidth` > 0, the style's `min_width_px` over a width in metres): the half
+/// width is max(min(widthPixels / 2 · metresPerPixel · d, width / 2), minWidth / 2), so the
+/// line is minWidth wide near the eye and widthPixels wide on screen where that is wider, up to
+/// `width`. Every piece is star-shaped around its centres, so any width up to `width` lies
+/// inside the pieces built at `width`.
 struct LineShape {
   double width = 10.0;
   LineJoin join = LineJoin::Round;
   LineCap cap = LineCap::Round;
   double miterLimit = 4.0;
   double widthPixels = 0.0;  ///< > 0: width in pixels, `width` the largest in metres
+  double minWidth = 0.0;     ///< lines in pixels: the least width in metres
   /// Per line of the feature, per vertex (as given, repeated points included): the height at
   /// which the distance to the eye is measured. Missing entries count as 0.
   std::vector<std::vector<double>> anchorHeights;
@@ -169,12 +176,13 @@ struct PixelScale {
 PixelScale pixelScaleOf(const glm::dmat4& viewProj, int viewportHeight);
 
 /// The half width of a line with `shape` at a vertex raised to its anchor height (LineShape):
-/// width / 2 for metre widths.
+/// width / 2 for metre widths, clamped to [minWidth / 2, width / 2] for lines in pixels.
 inline double halfWidthAt(const LineShape& shape, const PixelScale& scale, const glm::dvec3& anchor) {
   if (!shape.inPixels()) return 0.5 * shape.width;
   const glm::dvec3 d = anchor - scale.eye;
   const double distance = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-  return std::min(0.5 * shape.widthPixels * scale.metresPerPixel * distance, 0.5 * shape.width);
+  return std::max(std::min(0.5 * shape.widthPixels * scale.metresPerPixel * distance, 0.5 * shape.width),
+                  0.5 * shape.minWidth);
 }
 
 /// The pieces of a line feature (all its lines). A feature with a non-positive, non-finite or

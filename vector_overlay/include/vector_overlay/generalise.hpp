@@ -54,4 +54,12 @@ geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon);
 void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi, double reach,
                     std::vector<geo::LineString>& out);
 
+/// Appends to `out` the parts of `line` inside the box [lo, hi] (closed), cut where its segments
+/// cross the box's edges; parts of less than two distinct points are left out, and a single
+/// point is kept when it lies inside. Each part follows the line: its round-joined,
+/// round-capped footprint is the line's inside the box shrunk by the half width, plus caps at
+/// the cuts that lie within the line's footprint (a disc on the centre line).
+void appendClipped(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi,
+                   std::vector<geo::LineString>& out);
+
 }  // namespace gis::overlay

@@ -46,7 +46,8 @@ struct FeatureStyle {
 /// Warning naming the layer and the feature (when `diagnostics` is given).
 std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
                                                const std::vector<geo::Feature>& features,
-                                               Diagnostics* diagnostics = nullptr, const std::string& layerName = {});
+                                               Diagnostics* diagnostics = nullptr, const std::string& layerName = {},
+                                               bool minWidthInPixels = false);
 
 struct LayerBuildOptions {
   FootprintOptions footprints;
@@ -65,6 +66,10 @@ struct LayerBuildOptions {
   /// Keep the features and their styles, build no pieces: a tiled technique builds them per
   /// tile and level of detail (tiled_layer.hpp). Visible features count as drawn.
   bool deferPieces = false;
+  /// Honour LayerStyle::minWidthPixels (lines in metres at least that wide on screen): the tiled
+  /// technique does, building each tile at the widths its view needs; the whole-load techniques
+  /// draw the widths in metres.
+  bool minWidthInPixels = false;
   /// Warn about features that are fine but give nothing to draw (outside the terrain, no
   /// geometry). Off for a tile's build: a feature near a tile need not reach into it.
   bool reportEmpty = true;
@@ -175,6 +180,8 @@ class LayerGeometry {
   [[nodiscard]] LayerKind kind() const { return kind_; }
   [[nodiscard]] const LayerStyle& style() const { return style_; }
   [[nodiscard]] const LayerBuildOptions& options() const { return options_; }
+  /// The height bounds the layer was built (or last refreshed) with; null for a default one.
+  [[nodiscard]] const HeightBoundsProvider* bounds() const { return bounds_; }
   [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_; }
   [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
   /// Counts and build time (gpuBytes is OverlayLayer's business: 0 here).
@@ -182,7 +189,11 @@ class LayerGeometry {
   [[nodiscard]] const std::vector<FeatureOutcome>& featureOutcomes() const { return outcomes_; }
   [[nodiscard]] bool paperVariant() const { return options_.paperVariant; }
   /// > 0 when the layer's lines are drawn in pixels (LayerStyle::widthPixels).
-  [[nodiscard]] double widthPixels() const { return kind_ == LayerKind::Line ? style_.widthPixels : 0.0; }
+  [[nodiscard]] double widthPixels() const {
+    if (kind_ != LayerKind::Line) return 0.0;
+    if (style_.widthPixels > 0.0) return style_.widthPixels;
+    return options_.minWidthInPixels ? style_.minWidthPixels : 0.0;
+  }
 
   // Editing: only the feature's pieces are rebuilt; changes() says what to upload.
   Diagnostics replaceFeature(std::size_t index, geo::Feature feature);
@@ -233,7 +244,7 @@ class LayerGeometry {
   [[nodiscard]] const std::vector<std::uint32_t>& indices() const { return indices_; }
   /// Lines in pixels: per vertex (direction x, y, anchor height) (Footprint::directions);
   /// vertices() then holds the centres. Empty for every other layer.
-  [[nodiscard]] const std::vector<glm::vec3>& scaling() const { return scaling_; }
+  [[nodiscard]] const std::vector<glm::vec4>& scaling() const { return scaling_; }
 
  private:
   LayerGeometry() = default;
@@ -246,7 +257,7 @@ class LayerGeometry {
   Diagnostics rebuildFeature(std::size_t index);
   std::uint32_t originFor(const Polyhedron& p);
   void appendGeometry(std::size_t slot, const std::vector<Vertex>& v, const std::vector<std::uint32_t>& i,
-                      const std::vector<glm::vec3>& scaling);
+                      const std::vector<glm::vec4>& scaling);
   /// Records a feature's outcome and keeps the stats' counts in step.
   void setOutcome(std::size_t feature, FeatureOutcome outcome);
 
@@ -264,7 +275,7 @@ class LayerGeometry {
   std::map<std::pair<std::int64_t, std::int64_t>, std::uint32_t> originIndex_;  ///< grid cell → index in origins_
   std::vector<Vertex> vertices_;
   std::vector<std::uint32_t> indices_;
-  std::vector<glm::vec3> scaling_;  ///< lines in pixels only, per vertex
+  std::vector<glm::vec4> scaling_;  ///< lines in pixels only, per vertex
   std::size_t wastedIndices_ = 0;
   bool arraysReleased_ = false;
   GeometryChange changes_;

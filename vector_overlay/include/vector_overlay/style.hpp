@@ -34,7 +34,18 @@ struct LayerStyle {
   /// > 0: lines (and outlines in pixels) keep this width on screen, up to `maxWidthMetres` on
   /// the ground (LineShape); `widthMetres` and `widthAttribute` are then not used.
   double widthPixels = 0.0;
-  double maxWidthMetres = 50.0;
+  /// Lines (and outlines) in metres are at least this many pixels wide on screen, up to
+  /// `maxWidthMetres` (LineShape::minWidth): far roads stay visible lines instead of breaking
+  /// into dots. 0: exactly their width in metres. Drawn by the tiled technique (the
+  /// whole-load techniques draw the width in metres: LayerBuildOptions::minWidthInPixels).
+  double minWidthPixels = 1.0;
+  /// The largest width in metres of lines in pixels; 0: 50 m for `widthPixels`, none (10⁷ m)
+  /// for `minWidthPixels`.
+  double maxWidthMetres = 0.0;
+  [[nodiscard]] double widthCap() const {
+    if (maxWidthMetres > 0.0) return maxWidthMetres;
+    return widthPixels > 0.0 ? 50.0 : 1e7;
+  }
 };
 
 /// "#rrggbb" or "#rrggbbaa" → RGBA in [0,1]; false if malformed.

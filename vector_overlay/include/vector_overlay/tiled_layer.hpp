@@ -21,10 +21,23 @@
 // one layer's tiles are marked together and covered once (OverlayRenderer::draw with chunks),
 // so an overlap never colours a pixel twice.
 //
+// Lines at least `min_width_px` wide (LayerStyle::minWidthPixels, round joins and caps): the
+// half width at a vertex is max(min(px / 2 · pixel size there, cap / 2), w / 2) (LineShape), a
+// shape that changes every frame, drawn from pieces built at the largest width they may take.
+// Each tile is built for a width class (TileKey::width): the narrowest power-of-two width that
+// holds minWidthPixels at the tile's farthest point (its box grown by that half width, heights
+// from the global bounds), 0 where that is no wider than the lines in metres (then they are
+// built in metres, split at cells, as without the option). In a class above 0 the wider lines
+// are cut to the tile grown by the class's half width (appendClipped) and not split at cells;
+// culling and the test for features near the tile grow the tile by it as well. A resident tile
+// of a wider class than the view needs is still exact (its pieces shrink in the shader), so a
+// class changes only when the view moves by a factor of two.
+//
 // LayerTiling is the CPU side (no GL, const methods safe from any thread): selection and tile
 // building. The tiled technique (techniques/tiled_stencil_technique.cpp) keeps the built tiles
 // on the GPU under a budget and builds them on worker threads.
 #include <atomic>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -72,13 +85,22 @@ struct TileKey {
   int level = 0;
   int x = 0;
   int y = 0;
+  /// Lines with a least width in pixels (LineShape::minWidth): the widths the tile is built
+  /// for. 0: every such line at its width in metres; c > 0: up to widthClassCap(c) metres, drawn
+  /// at least LayerStyle::minWidthPixels on screen (LayerTiling::select picks the class whose
+  /// width holds the tile's farthest pixel). Not in packed(): one tile per place.
+  int width = 0;
+  /// The place: level, x and y.
   [[nodiscard]] std::uint64_t packed() const {
     return (static_cast<std::uint64_t>(level) << 58U) | (static_cast<std::uint64_t>(x) << 29U) |
            static_cast<std::uint64_t>(y);
   }
-  [[nodiscard]] TileKey parent() const { return {level - 1, x / 2, y / 2}; }
+  [[nodiscard]] TileKey parent() const { return {level - 1, x / 2, y / 2, 0}; }
   friend bool operator==(const TileKey&, const TileKey&) = default;
 };
+
+/// The widest line (metres) a tile of width class c > 0 is built for: 2^(c − 8).
+inline double widthClassCap(int c) { return std::ldexp(1.0, c - 8); }
 
 /// A tile's pieces: a LayerGeometry of the features that reach the tile (generalised, lines cut
 /// to the runs near it), and which feature of the layer each of its features is.
@@ -115,8 +137,12 @@ class LayerTiling {
   /// After feature i of the source changed (geometry or style): index it again. Not while tiles
   /// build.
   void update(std::uint32_t i);
-  /// The largest reach of the layer's features (how far their shapes reach from their lines).
+  /// The largest reach of the layer's features (how far their shapes reach from their lines;
+  /// for lines with a least width in pixels, at that least width).
   [[nodiscard]] double widestReach() const;
+  /// Feature i's style in tile `key`: lines with a least width in pixels at the tile's width
+  /// class (in metres where the class is no wider than them), others as in the source.
+  [[nodiscard]] FeatureStyle tileStyle(const TileKey& key, std::uint32_t i) const;
   /// The features that reach the tile (their boxes widened by the lines' reach meet it).
   [[nodiscard]] std::vector<std::uint32_t> featuresNear(const TileKey& key) const;
   [[nodiscard]] const LayerGeometry& source() const { return *source_; }
@@ -135,8 +161,11 @@ class LayerTiling {
   glm::dvec2 origin_{0.0};
   double rootSize_ = 1.0;
   int finestLevel_ = 0;
-  double slack_ = 0.0;         ///< lineShapeSlack of the widest line
-  std::vector<double> reach_;  ///< per feature: how far its footprint reaches from its geometry
+  double slack_ = 0.0;          ///< lineShapeSlack of the widest line
+  double minPixels_ = 0.0;      ///< the layer's least width in pixels (0: no line has one)
+  double leastMinWidth_ = 0.0;  ///< the narrowest such line's width in metres
+  double widestCap_ = 0.0;      ///< the widest such line's largest width
+  std::vector<double> reach_;   ///< per feature: how far its footprint reaches from its geometry
   std::vector<std::pair<glm::dvec2, glm::dvec2>> boxes_;  ///< per feature, widened by its reach (empty: hidden)
   // A bucket grid over the extent: each bucket lists the features whose widened box meets it.
   int buckets_ = 1;
@@ -150,6 +179,11 @@ class LayerTiling {
   /// How tile `key` is built: its cells, chords, bounds slack and line shapes for its level.
   [[nodiscard]] LayerBuildOptions tileOptions(const TileKey& key) const;
   [[nodiscard]] Result<LayerTile> buildNew(const TileKey& key) const;
+  /// The width class a drawn tile needs (TileKey::width) for this eye and pixel size.
+  [[nodiscard]] int widthClass(const TileKey& key, const glm::dvec3& eye, double metresPerPixel, double zLo,
+                               double zHi) const;
+  /// Whether feature i is drawn in pixels in a tile of width class c.
+  [[nodiscard]] bool scalableIn(std::uint32_t i, int c) const;
   void measure(std::uint32_t i);  ///< feature i's reach and widened box
   void fill(std::uint32_t i);     ///< adds feature i to the buckets its box meets
   /// The buckets [x0, x1] × [y0, y1] a box meets; false when it misses the root tile.

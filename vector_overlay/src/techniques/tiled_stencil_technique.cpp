@@ -168,7 +168,7 @@ class TiledStencil final : public OverlayTechnique {
     std::vector<TileWorkers::Job> jobs;
     bool standIn = gather(frame, chunks, jobs, stats);
     if (!jobs.empty()) workers_.request(jobs);
-    if (!jobs.empty() && (frame.waitForTiles || !standIn)) {
+    if (stats.tilesMissing > 0 && (frame.waitForTiles || !standIn)) {
       // A still image, or a tile with no ancestor to stand in: wait for them.
       workers_.waitIdle();
       stats.tilesBuilt += collect();
@@ -202,7 +202,11 @@ class TiledStencil final : public OverlayTechnique {
     for (LayerState& l : layers_) {
       if (!l.tiling) continue;
       for (auto it = l.tiles.begin(); it != l.tiles.end();) {
-        const auto [tileLo, tileHi] = l.tiling->extent(it->second.key);
+        auto [tileLo, tileHi] = l.tiling->extent(it->second.key);
+        // Lines drawn wider than in metres reach beyond the tile by up to their class's width.
+        const double grow = it->second.key.width > 0 ? widthClassCap(it->second.key.width) : 0.0;
+        tileLo -= grow;
+        tileHi += grow;
         const bool meets = !(hi.x < tileLo.x || hi.y < tileLo.y || lo.x > tileHi.x || lo.y > tileHi.y);
         it = meets ? l.tiles.erase(it) : std::next(it);
       }
@@ -217,9 +221,9 @@ class TiledStencil final : public OverlayTechnique {
     LayerState& l = layers_[layer];
     const auto index = static_cast<std::uint32_t>(feature);
     l.tiling->update(index);
-    const FeatureStyle& style = l.tiling->source().featureStyles().at(feature);
     for (auto it = l.tiles.begin(); it != l.tiles.end();) {
       Resident& t = it->second;
+      const FeatureStyle style = l.tiling->tileStyle(t.key, index);
       std::optional<geo::Feature> g = l.tiling->featureFor(t.key, index);
       const auto local = std::find(t.featureIndex.begin(), t.featureIndex.end(), index);
       // A tile with nothing yet, or one whose thin lines are drawn as rectangles only, is built
@@ -300,9 +304,10 @@ class TiledStencil final : public OverlayTechnique {
     return count;
   }
 
-  /// The chunks to draw per layer: each wanted tile if resident, else its nearest resident
-  /// ancestor (once), and the jobs for the missing ones. False when a missing tile has no
-  /// ancestor to stand in for it.
+  /// The chunks to draw per layer: each wanted tile if resident (at its width class or a wider
+  /// one), else the tile at a narrower class or its nearest resident ancestor (once), and the
+  /// jobs for the missing ones (and for tiles resident at a class more than 4× too wide). False
+  /// when a missing tile has nothing to stand in for it.
   bool gather(const TechniqueFrame& frame, std::vector<std::vector<const OverlayLayer*>>& chunks,
               std::vector<TileWorkers::Job>& jobs, TechniqueFrameStats& stats) {
     bool standIn = true;
@@ -321,13 +326,17 @@ class TiledStencil final : public OverlayTechnique {
         if (r.layer) chunks[i].push_back(&*r.layer);
       };
       for (const TileKey& key : wanted) {
-        if (auto it = l.tiles.find(key.packed()); it != l.tiles.end()) {
-          use(it->second);
+        const auto here = l.tiles.find(key.packed());
+        if (here != l.tiles.end() && here->second.key.width >= key.width) {
+          // A wider class is exact too (its pieces shrink in the shader), only looser.
+          if (here->second.key.width > key.width + 2) jobs.push_back({i, l.tiling.get(), key});
+          use(here->second);
           continue;
         }
         ++stats.tilesMissing;
         jobs.push_back({i, l.tiling.get(), key});
-        bool found = false;
+        bool found = here != l.tiles.end();  // too narrow for a still, fine in a flight
+        if (found) use(here->second);
         for (TileKey a = key; a.level > 0 && !found;) {
           a = a.parent();
           if (auto it = l.tiles.find(a.packed()); it != l.tiles.end()) {
