@@ -637,8 +637,10 @@ TEST(OverlayRenderAnalysis, OverlapMatchesTheLayerMaskAndVolumesAreClosed) {
   EXPECT_EQ(s["pixels"].get<std::size_t>(), shown);
   EXPECT_EQ(s["both_pixels"].get<std::size_t>(), shown);
   EXPECT_EQ(s["differing_away_from_edges"].get<std::size_t>(), 0u);
+  // On edges only (the count above away from them is 0): generalised tiles draw outlines within
+  // half a pixel of the source's, which moves edge pixels (about 1.3 % of them here).
   EXPECT_LE(s["pixels_differing_from_cpu_reference"].get<std::size_t>(),
-            2 + (s["a_pixels"].get<std::size_t>() + s["b_pixels"].get<std::size_t>()) / 200);
+            2 + (s["a_pixels"].get<std::size_t>() + s["b_pixels"].get<std::size_t>()) / 40);
   EXPECT_EQ(stats["open_volumes"]["open_pixels"].get<std::size_t>(), 0u);
   EXPECT_EQ(stats["open_volumes"]["layers"].size(), 2u);
   EXPECT_EQ(stats["gl_errors"].get<std::size_t>(), 0u);

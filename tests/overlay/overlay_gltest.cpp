@@ -95,6 +95,7 @@ TEST_F(OverlayGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
   scene::terrainBox(*scene, 1.0, lo, hi);
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   scene::RenderSettings settings;
+  settings.waitForTiles = true;  // still images, judged against the reference
   std::mt19937 rng(4242);
   std::uniform_real_distribution<double> ux(lo.x + 300, hi.x - 300), uy(lo.y + 300, hi.y - 300);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -248,6 +249,7 @@ TEST_F(OverlayGlTest, MsaaIsExactPerSample) {
   gfx::RenderTarget msaa(kWidth, kHeight, 4, true), single(kWidth, kHeight, 0, true);
   ASSERT_EQ(msaa.samples(), 4);
   scene::RenderSettings settings;
+  settings.waitForTiles = true;  // still images, judged against the reference
   Comparison total;
   std::size_t differingSamples = 0;  // samples of one pixel that disagree: MSAA does anti-alias
   for (const glm::dvec3& offset : {glm::dvec3(-900, -1400, 1300), glm::dvec3(800, 200, 500)}) {

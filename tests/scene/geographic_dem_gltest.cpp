@@ -345,6 +345,7 @@ TEST_F(GeographicDemGlTest, ImageryInLongitudeLatitudeLandsWhereItBelongs) {
   camera.target = centre;
   gfx::RenderTarget target(kSize, kSize, 0, true);
   scene::RenderSettings settings;
+  settings.waitForTiles = true;  // still images, judged against the reference
   settings.overlays = false;
   renderer->render(cache_, target.framebuffer(), kSize, kSize, camera, settings);
   const std::vector<float> depth = gfx::readDepth(target);

@@ -64,6 +64,7 @@ TEST_F(MethodsGlTest, StencilMethodsAreExactAndTheDrapeErrorShrinksWithItsTextur
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   scene::RenderSettings settings;
+  settings.waitForTiles = true;  // still images, judged against the reference
   settings.lodTolerancePixels = 0.5;
   const double aspect = static_cast<double>(kWidth) / kHeight;
 
@@ -156,6 +157,7 @@ TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
 
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   scene::RenderSettings settings;
+  settings.waitForTiles = true;  // still images, judged against the reference
   settings.lodTolerancePixels = 0.5;
   const double aspect = static_cast<double>(kWidth) / kHeight;
   Result<scene::SceneRenderer> stencil = scene::SceneRenderer::create(*scene);

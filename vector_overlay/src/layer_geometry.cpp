@@ -647,25 +647,34 @@ std::size_t LayerGeometry::maxOverlap() const {
     lo = glm::min(lo, polyhedra_[k].boxMin);
     hi = glm::max(hi, polyhedra_[k].boxMax);
   }
+  pieceBox_ = live > 0 ? std::pair{lo, hi} : std::pair{glm::dvec2(1.0), glm::dvec2(-1.0)};
   if (live <= 255) return *(maxOverlap_ = live);  // cannot exceed the number of pieces
-  // Count the pieces' boxes on a 256 × 256 grid: a point lies in one cell, every piece holding
-  // it has its box over that cell.
-  constexpr int kCells = 256;
+  // Count the pieces' boxes on a grid: a point lies in one cell, every piece holding it has its
+  // box over that cell. 256 × 256 first; above 255 (the groups' threshold) once more on a grid
+  // 4× finer, which a coarse tile's many thin pieces need.
   const glm::dvec2 size = glm::max(hi - lo, glm::dvec2(1e-9));
-  std::vector<std::uint32_t> counts(static_cast<std::size_t>(kCells * kCells), 0);
-  std::uint32_t worst = 0;
-  for (std::size_t k = 0; k < slots_.size(); ++k) {
-    if (!slots_[k].live) continue;
-    const glm::dvec2 a = (polyhedra_[k].boxMin - lo) / size * static_cast<double>(kCells);
-    const glm::dvec2 b = (polyhedra_[k].boxMax - lo) / size * static_cast<double>(kCells);
-    const int x0 = std::clamp(static_cast<int>(std::floor(a.x)), 0, kCells - 1);
-    const int x1 = std::clamp(static_cast<int>(std::floor(b.x)), 0, kCells - 1);
-    const int y0 = std::clamp(static_cast<int>(std::floor(a.y)), 0, kCells - 1);
-    const int y1 = std::clamp(static_cast<int>(std::floor(b.y)), 0, kCells - 1);
-    for (int y = y0; y <= y1; ++y) {
-      for (int x = x0; x <= x1; ++x) worst = std::max(worst, ++counts[static_cast<std::size_t>(y * kCells + x)]);
+  const auto count = [&](int cells) {
+    std::vector<std::uint32_t> counts(static_cast<std::size_t>(cells) * static_cast<std::size_t>(cells), 0);
+    std::uint32_t worst = 0;
+    for (std::size_t k = 0; k < slots_.size(); ++k) {
+      if (!slots_[k].live) continue;
+      const glm::dvec2 a = (polyhedra_[k].boxMin - lo) / size * static_cast<double>(cells);
+      const glm::dvec2 b = (polyhedra_[k].boxMax - lo) / size * static_cast<double>(cells);
+      const int x0 = std::clamp(static_cast<int>(std::floor(a.x)), 0, cells - 1);
+      const int x1 = std::clamp(static_cast<int>(std::floor(b.x)), 0, cells - 1);
+      const int y0 = std::clamp(static_cast<int>(std::floor(a.y)), 0, cells - 1);
+      const int y1 = std::clamp(static_cast<int>(std::floor(b.y)), 0, cells - 1);
+      for (int y = y0; y <= y1; ++y) {
+        for (int x = x0; x <= x1; ++x)
+          worst = std::max(
+              worst,
+              ++counts[static_cast<std::size_t>(y) * static_cast<std::size_t>(cells) + static_cast<std::size_t>(x)]);
+      }
     }
-  }
+    return worst;
+  };
+  std::uint32_t worst = count(256);
+  if (worst > 255) worst = count(1024);
   return *(maxOverlap_ = worst);
 }
 

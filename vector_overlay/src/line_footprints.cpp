@@ -179,6 +179,9 @@ class PieceSink {
   std::vector<std::vector<glm::dvec2>> parts_;    ///< uniting: the feature's shapes so far
 };
 
+/// Lines in pixels at most this wide get wedges at joins and half discs at caps (lineFootprints).
+constexpr double kWedgeWidthPixels = 2.0;
+
 /// Unit directions to points on a circle from angle a0 to a1 (radians, a1 > a0:
 /// counter-clockwise), both ends included, `full` chords per full circle.
 std::vector<glm::dvec2> arc(double a0, double a1, int full) {
@@ -336,7 +339,14 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
           ? std::max(detail::circleSegments(0.5 * shape.widthPixels, options.chordTolerancePixels),
                      shape.minWidth > 0.0 ? detail::circleSegments(0.5 * shape.minWidth, options.chordTolerance) : 0)
           : detail::circleSegments(h, options.chordTolerance);
-  const Builder build{sink, shape, h, full, scalable};
+  // Lines in pixels need whole discs where the width changes fast along a segment. The half
+  // width changes by at most k = widthPixels / 2 · metresPerPixel per metre (≤ 0.04 for a pixel
+  // under 0.05 of the distance, times 1.5 for slopes up to 48°), so a trapezoid narrowing away
+  // from a join lacks at most k² h / 2 of the disc's inner half: 4·10⁻⁴ px for widths up to
+  // 2 px, far inside the pixels the reference calls edges. Such lines take the wedges and half
+  // discs of lines in metres (a quarter of the triangles on dense lines).
+  const bool wholeDiscs = scalable && shape.widthPixels > kWedgeWidthPixels;
+  const Builder build{sink, shape, h, full, wholeDiscs};
 
   for (std::size_t k = 0; k < feature.lines.size(); ++k) {
     const geo::LineString& raw = feature.lines[k];

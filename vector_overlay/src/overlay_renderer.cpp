@@ -15,6 +15,29 @@
 namespace gis::overlay {
 namespace {
 
+/// How many pieces of a layer's chunks may hold one point: per chunk, its own depth plus that of
+/// every other chunk whose pieces' box meets its box (tiles of one level only touch; a parent
+/// standing in, or lines drawn wider than their tile, overlap).
+std::size_t chunkOverlap(std::span<const OverlayLayer* const> chunks) {
+  std::size_t worst = 0;
+  for (const OverlayLayer* a : chunks) {
+    const auto [alo, ahi] = a->pieceBox();
+    if (!(alo.x <= ahi.x)) continue;
+    std::size_t depth = 0;
+    for (const OverlayLayer* b : chunks) {
+      const auto [blo, bhi] = b->pieceBox();
+      // Boxes that only touch (tiles side by side, pieces clipped to them, up to rounding) share
+      // no interior.
+      const double e = 1e-6 * (1.0 + std::max({std::abs(alo.x), std::abs(alo.y), std::abs(ahi.x), std::abs(ahi.y)}));
+      if (b == a ||
+          (blo.x <= bhi.x && blo.x < ahi.x - e && alo.x < bhi.x - e && blo.y < ahi.y - e && alo.y < bhi.y - e))
+        depth += b->maxOverlap();
+    }
+    worst = std::max(worst, depth);
+  }
+  return worst;
+}
+
 /// Shader-storage binding of the cover rectangles (overlay_cover.vert).
 constexpr GLuint kCoverRectsBinding = 3;
 
@@ -414,14 +437,13 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   // drawn while it builds), and a pixel inside any of them is coloured once.
   std::vector<Pieces> pieces;
   pieces.reserve(chunks.size());
-  std::size_t total = 0, overlap = 0;
+  std::size_t total = 0;
   bool paper = false;
   std::optional<glm::vec4> uniform;
   bool uniformKnown = false, mixed = false;
   for (const OverlayLayer* chunk : chunks) {
     pieces.push_back(classify(view, *chunk, settings, false, stats));
     total += pieces.back().order.size();
-    overlap += chunk->maxOverlap();
     paper = paper || chunk->paperVariant();
     if (pieces.back().order.empty()) continue;
     const std::optional<glm::vec4> u = chunk->uniformColor();
@@ -457,7 +479,7 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
     rects.push_back(rect);
   }
 
-  const bool grouped = !paper && (settings.forceGroups || overlap > 255);
+  const bool grouped = !paper && (settings.forceGroups || chunkOverlap(chunks) > 255);
   stats.grouped = grouped;
   beginMeasure(settings);
   program_.set("u_maskBit", maskBit);

@@ -62,7 +62,10 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
     grid_.rows = static_cast<int>(std::ceil(size.y / grid_.cellSize));
   }
   origin_ = grid_.origin;
-  const double finest = std::max(1, tiling_.finestTileCells) * grid_.cellSize;
+  // A small terrain still gets 8 finest tiles a side (of at least a cell): tiles are what
+  // culling, detail and the lines' width classes choose between.
+  const int cellsAcross = std::max(grid_.columns, grid_.rows);
+  const double finest = std::clamp(cellsAcross / 8, 1, std::max(1, tiling_.finestTileCells)) * grid_.cellSize;
   const double extent = std::max(grid_.columns, grid_.rows) * grid_.cellSize;
   finestLevel_ = 0;
   while (finest * static_cast<double>(1 << finestLevel_) < extent && finestLevel_ < 24) ++finestLevel_;

@@ -217,6 +217,11 @@ class LayerGeometry {
   [[nodiscard]] bool arraysReleased() const { return arraysReleased_; }
 
   [[nodiscard]] std::size_t maxOverlap() const;
+  /// The ground box of the live pieces (lo > hi without any).
+  [[nodiscard]] std::pair<glm::dvec2, glm::dvec2> pieceBox() const {
+    (void)maxOverlap();
+    return pieceBox_;
+  }
   [[nodiscard]] std::optional<glm::vec4> uniformColor() const;
   [[nodiscard]] LayerValidation validate() const;
 
@@ -281,9 +286,10 @@ class LayerGeometry {
   GeometryChange changes_;
   LayerStats stats_;
   const HeightBoundsProvider* bounds_ = nullptr;
-  std::uint64_t boundsRevision_ = 0;                              ///< bounds_->revision() when the bounds were read
-  mutable std::optional<std::size_t> maxOverlap_;                 ///< cleared by edits
-  mutable std::optional<std::optional<glm::vec4>> uniformColor_;  ///< cleared by edits
+  std::uint64_t boundsRevision_ = 0;  ///< bounds_->revision() when the bounds were read
+  mutable std::pair<glm::dvec2, glm::dvec2> pieceBox_{glm::dvec2(1.0), glm::dvec2(-1.0)};  ///< with maxOverlap_
+  mutable std::optional<std::size_t> maxOverlap_;                                          ///< cleared by edits
+  mutable std::optional<std::optional<glm::vec4>> uniformColor_;                           ///< cleared by edits
 };
 
 /// The layer as the CPU reference and the logical selection see it: its features, their line

@@ -51,6 +51,7 @@ class OverlayLayer {
   /// An upper bound of how many of the layer's pieces overlap at any point (counted on a grid
   /// of their bounding boxes); above 255 the renderer draws the layer in groups.
   [[nodiscard]] std::size_t maxOverlap() const { return geometry_.maxOverlap(); }
+  [[nodiscard]] std::pair<glm::dvec2, glm::dvec2> pieceBox() const { return geometry_.pieceBox(); }
   /// The colour (straight alpha, rounded to 8 bits as the vertices hold it) shared by every
   /// visible feature, or none when they differ; the renderer then covers the layer with one
   /// screen rectangle instead of its pieces.

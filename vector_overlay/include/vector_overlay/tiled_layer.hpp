@@ -59,7 +59,9 @@ struct TilingOptions {
   int tileResolution = 1024;
   /// The drawn outline stays within this many pixels of the true one.
   double errorPixels = 0.5;
-  /// The finest tiles hold this many cells of the layer's grid (the source geometry, exact).
+  /// The finest tiles hold this many cells of the layer's grid (the source geometry, exact), or
+  /// fewer on a grid less than 8 × that across, so that it has 8 finest tiles a side (of at
+  /// least one cell).
   int finestTileCells = 32;
   /// Coarser tiles cut their pieces at cells of tile size / cellsPerTile (never finer than the
   /// layer's grid): fewer, taller pieces where they are seen from afar.
