@@ -390,6 +390,7 @@ std::optional<Frame> drawFrame(const Options& o, const Setup& s, scene::SceneRen
   settings.lodTolerancePixels = o.lodTolerance;
   settings.measure = true;
   settings.waitForTiles = true;  // a still image: every tile the view needs
+  settings.tileProgress = scene::consoleProgress("vector tiles");
   Frame frame;
   frame.stats = renderer.render(cache, target.framebuffer(), o.width, o.height, s.camera, settings);
   if (s.lasso) {
@@ -570,6 +571,8 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                       {"read_from_disk", t.tilesFromDisk},
                       {"resident", t.tilesResident},
                       {"finest_level", t.finestTileLevel},
+                      {"error_px", t.tileErrorPixels},
+                      {"drawn_bytes", t.tileBytes},
                       {"gpu_bytes", d.renderer.techniqueGpuBytes()}};
   } else if (d.o.technique->usesTextures()) {
     stats["drape"] = {{"tile_size", d.o.drapeSize},

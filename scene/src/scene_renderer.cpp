@@ -300,6 +300,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   frame.settings = settings.overlay;
   frame.settings.measure = settings.measure;
   frame.waitForTiles = settings.waitForTiles;
+  frame.tileProgress = settings.tileProgress;
   overlay::TechniqueFrameStats techniqueStats;
   std::optional<overlay::SurfaceDrape> drape;
   if (overlays) drape = technique_->prepare(cache, frame, techniqueStats);

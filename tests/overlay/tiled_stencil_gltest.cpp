@@ -5,7 +5,8 @@
 //   most of their points there) and tiles out of view are left out;
 // - flights: a tile still building is stood in for by its parent (no wait), and the next still
 //   image is exact again;
-// - a GPU budget smaller than one frame's tiles: tiles are evicted, images stay exact;
+// - a GPU budget for one frame: tiles are evicted, images stay exact; a budget smaller than one
+//   frame's tiles: the detail coarsens until they fit (the budget is a promise);
 // - an edit of one feature shows in the next frame;
 // - lines are at least a pixel wide (min_width_px, the default, as the scene builds them): far
 //   roads stay lines instead of dots, exactly as the reference draws them.
@@ -211,19 +212,50 @@ TEST_F(TiledStencilGlTest, FlightsDrawParentsWhileTilesBuildAndStillsAreExact) {
   EXPECT_GT(still.comparison.covered, 100u);
 }
 
-TEST_F(TiledStencilGlTest, ABudgetBelowOneFrameEvictsAndStaysExact) {
-  std::unique_ptr<overlay::OverlayTechnique> t = technique(1);
+TEST_F(TiledStencilGlTest, ABudgetForOneFrameEvictsAndStaysExact) {
   const double top = bounds_->globalBounds().hi;
+  const auto at = [&](int k) { return lo_ + (hi_ - lo_) * glm::dvec2(0.2 + 0.2 * k, 0.3 + 0.1 * k); };
+  // The largest of the four frames at full detail.
+  std::size_t largest = 0;
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique();
+    for (int k = 0; k < 4; ++k)
+      largest = std::max(largest, draw(*t, glm::dvec3(at(k) - glm::dvec2(400.0, 300.0), top + 300.0),
+                                       glm::dvec3(at(k), 0.0), true, false)
+                                      .stats.tileBytes);
+  }
+  ASSERT_GT(largest, 0u);
+  std::unique_ptr<overlay::OverlayTechnique> t = technique(largest);
   std::size_t evicted = 0;
   for (int k = 0; k < 4; ++k) {
-    const glm::dvec2 at = lo_ + (hi_ - lo_) * glm::dvec2(0.2 + 0.2 * k, 0.3 + 0.1 * k);
-    const Frame f = draw(*t, glm::dvec3(at - glm::dvec2(400.0, 300.0), top + 300.0), glm::dvec3(at, 0.0), true);
+    const Frame f = draw(*t, glm::dvec3(at(k) - glm::dvec2(400.0, 300.0), top + 300.0), glm::dvec3(at(k), 0.0), true);
     EXPECT_EQ(f.comparison.wrong, 0u);
+    EXPECT_EQ(f.stats.tileErrorPixels, 0.5) << "every frame fits: full detail";
     evicted += f.stats.tilesEvicted;
-    // Only this frame's tiles stay.
-    EXPECT_LE(f.stats.tilesResident, f.stats.tilesDrawn);
+    EXPECT_LE(t->gpuBytes(), largest) << "the budget is kept";
   }
   EXPECT_GT(evicted, 0u);
+}
+
+TEST_F(TiledStencilGlTest, ABudgetBelowOneFrameCoarsensTheDetailAndIsKept) {
+  const glm::dvec2 centre = 0.5 * (lo_ + hi_);
+  const glm::dvec3 eye(centre - glm::dvec2(900.0, 700.0), bounds_->globalBounds().hi + 500.0);
+  std::unique_ptr<overlay::OverlayTechnique> full = technique();
+  const Frame exact = draw(*full, eye, glm::dvec3(centre, 0.0), true);
+  ASSERT_EQ(exact.comparison.wrong, 0u);
+  const std::size_t budget = exact.stats.tileBytes / 3;
+  std::unique_ptr<overlay::OverlayTechnique> t = technique(budget);
+  for (const bool still : {true, false, false}) {
+    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), still);
+    std::printf("budget %zu of %zu bytes: %zu drawn at %.1f px, %zu wrong away from edges of %zu covered\n", budget,
+                exact.stats.tileBytes, f.stats.tileBytes, f.stats.tileErrorPixels, f.comparison.wrong,
+                f.comparison.covered);
+    EXPECT_LE(f.stats.tileBytes, budget);
+    EXPECT_LE(t->gpuBytes(), budget) << "the budget is kept, also after the frame";
+    EXPECT_GT(f.stats.tileErrorPixels, 0.5) << "coarser detail instead";
+    // Coarser outlines: wrong pixels only near edges (within the coarser error), a few percent.
+    EXPECT_LT(f.comparison.wrong, f.comparison.covered / 10);
+  }
 }
 
 TEST_F(TiledStencilGlTest, EditsShowInTheNextFrame) {

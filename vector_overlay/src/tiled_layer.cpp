@@ -235,7 +235,8 @@ std::vector<std::uint32_t> LayerTiling::featuresNear(const TileKey& key) const {
   return out;
 }
 
-std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHeight, std::size_t* culled) const {
+std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHeight, std::size_t* culled,
+                                         double errorScale) const {
   std::vector<TileKey> out;
   const std::array<glm::dvec4, 6> planes = gfx::frustumPlanes(view.viewProj);
   const double metresPerPixel = pixelScaleOf(view.viewProj, std::max(1, viewportHeight)).metresPerPixel;
@@ -275,7 +276,7 @@ std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHe
     }
     const double distance = glm::length(view.eye - glm::clamp(view.eye, glm::dvec3(lo, zLo), glm::dvec3(hi, zHi)));
     const double error = groundError(key.level);
-    if (key.level >= finestLevel_ || error <= tiling_.errorPixels * metresPerPixel * distance) {
+    if (key.level >= finestLevel_ || error <= tiling_.errorPixels * errorScale * metresPerPixel * distance) {
       out.push_back({key.level, key.x, key.y, width});
       continue;
     }

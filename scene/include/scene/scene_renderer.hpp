@@ -2,6 +2,7 @@
 // Draws a loaded scene into any framebuffer, headless or windowed, pass by pass (DESIGN §4):
 // the terrain, then the vector layers as stencil polyhedra (the selection passes join later).
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -27,6 +28,9 @@ struct RenderSettings {
   /// Paged terrain: wait until every tile the view wants is loaded (still images), instead of
   /// drawing coarser parents while they load (flights).
   bool waitForTiles = false;
+  /// While a still waits more than a second for a tiled technique's tiles: the fraction done
+  /// (TechniqueFrame::tileProgress; e.g. consoleProgress).
+  std::function<void(double)> tileProgress;
   bool overlays = true;  ///< draw the vector layers
   overlay::OverlaySettings overlay;
 };

@@ -73,6 +73,9 @@ struct TechniqueFrame {
   /// A still image: wait for everything the view wants (tiles of the right detail) instead of
   /// drawing coarser parents while it builds (a flight).
   bool waitForTiles = false;
+  /// While a still waits more than a second for its tiles: called now and then with the fraction
+  /// of them done, and with 1 at the end (a progress bar).
+  std::function<void(double)> tileProgress;
 };
 
 /// What a technique did in one frame.
@@ -91,6 +94,11 @@ struct TechniqueFrameStats {
   std::size_t tilesResident = 0;  ///< tiles on the GPU after the frame
   std::size_t tilesEvicted = 0;   ///< tiles dropped for the budget in this frame
   int finestTileLevel = -1;       ///< the finest level drawn (-1: none)
+  /// The screen-space error the tiles were chosen for (TilingOptions::errorPixels), larger
+  /// where a frame's tiles would not fit the GPU budget at it (the budget is kept, the detail
+  /// coarsened: such a frame is exact only farther than this from edges); 0 without tiles.
+  double tileErrorPixels = 0.0;
+  std::size_t tileBytes = 0;  ///< GPU bytes of the tiles drawn
 };
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).

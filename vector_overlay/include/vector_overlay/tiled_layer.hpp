@@ -127,10 +127,11 @@ class LayerTiling {
   [[nodiscard]] std::pair<glm::dvec2, glm::dvec2> extent(const TileKey& key) const;
   /// Metres between a level's drawn footprints and the source's, at most.
   [[nodiscard]] double groundError(int level) const;
-  /// The tiles to draw for this view (screen-space error and frustum), coarse to fine.
-  /// `culled` counts the tiles left out for lying outside the view.
-  [[nodiscard]] std::vector<TileKey> select(const OverlayView& view, int viewportHeight,
-                                            std::size_t* culled = nullptr) const;
+  /// The tiles to draw for this view (screen-space error at most errorPixels · errorScale, and
+  /// frustum), coarse to fine. `culled` counts the tiles left out for lying outside the view.
+  [[nodiscard]] std::vector<TileKey> select(const OverlayView& view, int viewportHeight, std::size_t* culled = nullptr,
+                                            double errorScale = 1.0) const;
+  [[nodiscard]] double errorPixels() const { return tiling_.errorPixels; }
   /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
   [[nodiscard]] Result<LayerTile> build(const TileKey& key) const;
   /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the

@@ -5,6 +5,7 @@
 // stand in. Nothing is built for the whole dataset: the layers come with their features only
 // (PieceConstruction::Tiled).
 #include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -74,10 +75,15 @@ class TileWorkers {
     for (const Done& d : out) busy_.erase({d.layer, d.key.packed()});
     return out;
   }
-  /// Until nothing is queued or running.
-  void waitIdle() {
+  /// Until nothing is queued or running, or `timeout` passed: whether nothing is.
+  bool waitIdleFor(std::chrono::milliseconds timeout) {
     std::unique_lock lock(mutex_);
-    idle_.wait(lock, [&] { return queue_.empty() && running_ == 0; });
+    return idle_.wait_for(lock, timeout, [&] { return queue_.empty() && running_ == 0; });
+  }
+  /// Jobs queued or running.
+  [[nodiscard]] std::size_t remaining() {
+    std::lock_guard lock(mutex_);
+    return queue_.size() + static_cast<std::size_t>(running_);
   }
   /// Drops the queue and waits for the running jobs (their results are dropped too).
   void cancel() {
@@ -164,27 +170,47 @@ class TiledStencil final : public OverlayTechnique {
     }
     stats.tilesBuilt += collect();
     stats.tilesFromDisk += fromDisk_;
+    // A still starts from the finest detail the budget allowed lately.
+    if (frame.waitForTiles) errorScale_ = std::max(1.0, 0.5 * errorScale_);
     std::vector<std::vector<const OverlayLayer*>> chunks;
     std::vector<TileWorkers::Job> jobs;
-    bool standIn = gather(frame, chunks, jobs, stats);
-    if (!jobs.empty()) workers_.request(jobs);
-    if (stats.tilesMissing > 0 && (frame.waitForTiles || !standIn)) {
-      // A still image, or a tile with no ancestor to stand in: wait for them.
-      workers_.waitIdle();
-      stats.tilesBuilt += collect();
-      stats.tilesFromDisk += fromDisk_;
-      const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk;
-      stats = TechniqueFrameStats{};
-      stats.tilesBuilt = built;
-      stats.tilesFromDisk = read;
-      chunks.clear();
-      jobs.clear();
-      standIn = gather(frame, chunks, jobs, stats);
-      if (!jobs.empty()) workers_.request(jobs);
+    const auto choose = [&] {
+      for (;;) {
+        const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk, evicted = stats.tilesEvicted;
+        stats = TechniqueFrameStats{};
+        stats.tilesBuilt = built;
+        stats.tilesFromDisk = read;
+        stats.tilesEvicted = evicted;
+        chunks.clear();
+        jobs.clear();
+        const bool standIn = gather(frame, chunks, jobs, stats);
+        if (!jobs.empty()) workers_.request(jobs);
+        if (stats.tilesMissing == 0 || !(frame.waitForTiles || !standIn)) return;
+        // A still image, or a tile with no ancestor to stand in: wait for them (then every
+        // wanted tile is there), the budget made room for first (a finer detail that did not
+        // fit leaves before the coarser one builds).
+        stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
+        waitForBuilds(frame);
+        stats.tilesBuilt += collect();
+        stats.tilesFromDisk += fromDisk_;
+      }
+    };
+    choose();
+    // The budget is kept: where the frame's tiles do not fit it, coarser detail (a flight draws
+    // what is resident of it meanwhile); finer again from the next frame once they take under an
+    // eighth of it (a level finer takes about four times as much).
+    // (Not beyond the root tiles: then the budget cannot be kept, and the frame says so in
+    // tileBytes.)
+    while (chunkBytes(chunks) > tiling_.gpuBudgetBytes && errorScale_ < kMaxErrorScale && stats.finestTileLevel > 0) {
+      errorScale_ *= 2.0;
+      choose();
     }
+    if (!frame.waitForTiles && chunkBytes(chunks) < tiling_.gpuBudgetBytes / 8 && errorScale_ > 1.0)
+      errorScale_ = std::max(1.0, 0.5 * errorScale_);
+    stats.tileBytes = chunkBytes(chunks);
     stats.layers = renderer_.draw(cache, frame.view, chunks, frame.settings);
     lastChunks_ = std::move(chunks);
-    stats.tilesEvicted = evict();
+    stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
     for (const LayerState& l : layers_) stats.tilesResident += l.tiles.size();
   }
 
@@ -279,6 +305,31 @@ class TiledStencil final : public OverlayTechnique {
     std::unordered_map<std::uint64_t, Resident> tiles;
   };
 
+  /// The largest factor on TilingOptions::errorPixels the budget may force (the root tiles are
+  /// drawn long before).
+  static constexpr double kMaxErrorScale = 4096.0;
+
+  /// GPU bytes of the chunks to draw.
+  static std::size_t chunkBytes(const std::vector<std::vector<const OverlayLayer*>>& chunks) {
+    std::size_t bytes = 0;
+    for (const auto& layer : chunks)
+      for (const OverlayLayer* c : layer) bytes += c->stats().gpuBytes;
+    return bytes;
+  }
+
+  /// Until the workers are idle, telling frame.tileProgress after the first second.
+  void waitForBuilds(const TechniqueFrame& frame) {
+    const auto start = std::chrono::steady_clock::now();
+    const double total = static_cast<double>(std::max<std::size_t>(workers_.remaining(), 1));
+    bool told = false;
+    while (!workers_.waitIdleFor(std::chrono::milliseconds(250))) {
+      if (!frame.tileProgress || std::chrono::steady_clock::now() - start < std::chrono::seconds(1)) continue;
+      frame.tileProgress(std::clamp(1.0 - static_cast<double>(workers_.remaining()) / total, 0.0, 1.0));
+      told = true;
+    }
+    if (told) frame.tileProgress(1.0);
+  }
+
   /// Uploads the tiles the workers finished; returns how many.
   std::size_t collect() {
     std::size_t count = 0;
@@ -312,15 +363,19 @@ class TiledStencil final : public OverlayTechnique {
               std::vector<TileWorkers::Job>& jobs, TechniqueFrameStats& stats) {
     bool standIn = true;
     chunks.assign(frame.layers.size(), {});
+    frameTiles_.clear();
     for (std::size_t i = 0; i < frame.layers.size(); ++i) {
       LayerState& l = layers_[i];
       if (frame.layers[i] == nullptr || !l.tiling) continue;
-      const std::vector<TileKey> wanted = l.tiling->select(frame.view, frame.target.height, &stats.tilesCulled);
+      const std::vector<TileKey> wanted =
+          l.tiling->select(frame.view, frame.target.height, &stats.tilesCulled, errorScale_);
+      stats.tileErrorPixels = l.tiling->errorPixels() * errorScale_;
       stats.tilesWanted += wanted.size();
       std::unordered_set<std::uint64_t> used;
       const auto use = [&](Resident& r) {
         r.lastUsed = frameNumber_;
         if (!used.insert(r.key.packed()).second) return;
+        frameTiles_.insert({i, r.key.packed()});
         ++stats.tilesDrawn;
         stats.finestTileLevel = std::max(stats.finestTileLevel, r.key.level);
         if (r.layer) chunks[i].push_back(&*r.layer);
@@ -350,18 +405,19 @@ class TiledStencil final : public OverlayTechnique {
     return standIn;
   }
 
-  /// Drops the least recently drawn tiles while over the budget (never those of this frame).
-  std::size_t evict() {
+  /// Drops the least recently drawn tiles while over `budget` bytes (never those chosen for
+  /// this frame; those chosen and dropped for a coarser detail in it may go).
+  std::size_t evict(std::size_t budget) {
     std::size_t bytes = gpuBytes();
-    if (bytes <= tiling_.gpuBudgetBytes) return 0;
+    if (bytes <= budget) return 0;
     std::vector<std::tuple<std::uint64_t, std::size_t, std::uint64_t>> order;  // (last used, layer, key)
     for (std::size_t i = 0; i < layers_.size(); ++i)
       for (const auto& [key, t] : layers_[i].tiles)
-        if (t.lastUsed < frameNumber_) order.emplace_back(t.lastUsed, i, key);
+        if (frameTiles_.count({i, key}) == 0) order.emplace_back(t.lastUsed, i, key);
     std::sort(order.begin(), order.end());
     std::size_t evicted = 0;
     for (const auto& [used, layer, key] : order) {
-      if (bytes <= tiling_.gpuBudgetBytes) break;
+      if (bytes <= budget) break;
       auto it = layers_[layer].tiles.find(key);
       bytes -= it->second.layer ? it->second.layer->stats().gpuBytes : 0;
       layers_[layer].tiles.erase(it);
@@ -378,6 +434,8 @@ class TiledStencil final : public OverlayTechnique {
   std::vector<std::vector<const OverlayLayer*>> lastChunks_;  ///< per layer, as last drawn
   std::uint64_t frameNumber_ = 0;
   std::size_t fromDisk_ = 0;  ///< of the tiles the last collect() took, those read from disk
+  double errorScale_ = 1.0;   ///< on TilingOptions::errorPixels, where the budget needs it
+  std::set<std::pair<std::size_t, std::uint64_t>> frameTiles_;  ///< (layer, place) drawn in this frame
   std::set<std::string> reported_;
   TileWorkers workers_;  // last: stopped first
 };
