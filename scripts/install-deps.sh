@@ -18,6 +18,10 @@ packages=(
   # maths, geodesy, geometry, geodata, images, json
   libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev
+  # the national-border scene of scripts/border_scene.sh: GMT and the Digital Chart of the World
+  gmt gmt-dcw
+  # its --coast layer: GMT's full-resolution GSHHG shorelines
+  gmt-gshhg-full
   # tests; a real PostgreSQL + PostGIS server for the PostGIS source test (tests/geo/with_postgis.sh)
   libgtest-dev libgmock-dev postgresql postgresql-15-postgis-3
 )

@@ -268,11 +268,24 @@ FeatureOutcome checkFeature(const geo::Feature& feature, std::uint32_t featureIn
   fo.chordTolerance = 1e30;
   fo.chordTolerancePixels = 1e30;
   const std::size_t errorsBefore = diagnostics.count(Severity::Error);
-  const std::vector<Footprint> footprints =
-      kind == LayerKind::Polygon ? polygonFootprints(feature, featureIndex, layerName, fo, diagnostics)
-                                 : lineFootprints(feature, featureIndex, layerName, style.shape, fo, diagnostics);
-  const bool nothing = std::none_of(footprints.begin(), footprints.end(),
-                                    [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
+  // A line with a least width in pixels is checked at that width in metres: its widths per frame
+  // change no problem a build finds, and pieces of the largest width cost far more to make.
+  LineShape shape = style.shape;
+  if (shape.inPixels() && shape.minWidth > 0.0) {
+    shape.width = shape.minWidth;
+    shape.widthPixels = shape.minWidth = 0.0;
+  }
+  // Polygons: their rings checked and repaired as a build would, not triangulated (a 300 k
+  // vertex coastline takes seconds; a triangulation that fails, which no input has made yet,
+  // is reported when a tile first builds the polygon).
+  bool nothing = false;
+  if (kind == LayerKind::Polygon) {
+    nothing = usablePolygons(feature, layerName, diagnostics).empty();
+  } else {
+    const std::vector<Footprint> footprints = lineFootprints(feature, featureIndex, layerName, shape, fo, diagnostics);
+    nothing = std::none_of(footprints.begin(), footprints.end(),
+                           [](const Footprint& f) { return !f.triangles.empty() && !f.vertices.empty(); });
+  }
   if (diagnostics.count(Severity::Error) > errorsBefore && nothing) return FeatureOutcome::Skipped;
   const bool outside = options.footprints.cells && outsideGrid(feature, kind, style, *options.footprints.cells);
   if (nothing || outside) {

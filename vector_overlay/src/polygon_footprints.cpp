@@ -198,18 +198,8 @@ std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<s
 
 }  // namespace detail
 
-std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
-                                         const std::string& layerName, const FootprintOptions& options,
-                                         Diagnostics& diagnostics) {
-  std::vector<Footprint> result;
-  if (options.cells) {
-    std::string message;
-    if (!detail::validGrid(*options.cells, message)) {
-      diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid, message + "; feature skipped"));
-      return result;
-    }
-  }
-
+std::vector<std::vector<geo::Ring>> usablePolygons(const geo::Feature& feature, const std::string& layerName,
+                                                   Diagnostics& diagnostics) {
   // Validation and repair, ring by ring. Each polygon's rings are read with the even-odd rule;
   // the feature covers the union of its polygons (overlapping parts of an invalid
   // multipolygon stay covered, as a GIS viewer paints them), so each polygon is triangulated
@@ -246,7 +236,22 @@ std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint3
     for (auto& hole : holes) rings.push_back(std::move(hole));
     polygonRings.push_back(std::move(rings));
   }
+  return polygonRings;
+}
 
+std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
+                                         const std::string& layerName, const FootprintOptions& options,
+                                         Diagnostics& diagnostics) {
+  std::vector<Footprint> result;
+  if (options.cells) {
+    std::string message;
+    if (!detail::validGrid(*options.cells, message)) {
+      diagnostics.add(detail::featureError(Severity::Error, layerName, feature.fid, message + "; feature skipped"));
+      return result;
+    }
+  }
+
+  const std::vector<std::vector<geo::Ring>> polygonRings = usablePolygons(feature, layerName, diagnostics);
   for (std::size_t k = 0; k < polygonRings.size(); ++k) {
     const std::vector<geo::Ring>& rings = polygonRings[k];
     // Triangulation and even-odd marking.

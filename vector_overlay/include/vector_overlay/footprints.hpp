@@ -128,6 +128,11 @@ struct Footprint {
 /// an Error diagnostic naming the layer, the feature id and the problem; the feature's other
 /// polygons still count. A hole with fewer than 3 distinct points or zero area is dropped with
 /// a Warning (it changes no coverage). An invalid grid skips the feature with an Error.
+/// The feature's polygons that polygonFootprints would triangulate (outer ring first, usable
+/// holes after it, rings repaired), with the same diagnostics for the others; no triangulation.
+std::vector<std::vector<geo::Ring>> usablePolygons(const geo::Feature& feature, const std::string& layerName,
+                                                   Diagnostics& diagnostics);
+
 std::vector<Footprint> polygonFootprints(const geo::Feature& feature, std::uint32_t featureIndex,
                                          const std::string& layerName, const FootprintOptions& options,
                                          Diagnostics& diagnostics);
