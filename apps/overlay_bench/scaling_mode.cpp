@@ -1,10 +1,11 @@
 // overlay_bench --mode scaling: how start time, memory and frame time grow with the vector load
 // (and the DEM), scene by scene of --scenes, against the terrain alone.
 // - Start time and memory come from fresh processes, as a user meets them: overlay_render draws
-//   the scene's still frame twice in a row with the same arguments, "cold" (the scene's files
-//   dropped from the page cache first, so read from the disk as after a reboot) and "warm"
-//   (straight after); its stats.json gives the time to the first frame, the peak RSS and the GPU
-//   memory. Terrain only is overlay_render --overlays off: the layers are not even read.
+//   the scene's still frame twice in a row with the same arguments, "cold" (the scene's cached
+//   vector tiles and layers removed and its files dropped from the page cache first, so read
+//   from the disk and built as on a first run after a reboot) and "warm" (straight after); its stats.json gives the
+//   time to the first frame, the peak RSS and the GPU memory. Terrain only is overlay_render --overlays off: the layers
+//   are not even read.
 // - Frame time comes from this process: every method draws the same frames of the methods path
 //   in turn (variants.cpp), and per segment of the path the median frame time and the median
 //   ratio to terrain only on the same frames are kept.
@@ -36,6 +37,7 @@
 #include <vector>
 
 #include "scene/json_file.hpp"
+#include "scene/scene_loader.hpp"
 #include "svg_plot.hpp"
 #include "variants.hpp"
 
@@ -227,6 +229,8 @@ struct StillRunner {
   const Options& o;
   fs::path exe, keep, scratch;
   std::vector<fs::path> files;  ///< of the scene, dropped from the page cache before a cold run
+  /// The scene's caches of derived data removed before a cold run: vector tiles and layers as read.
+  std::vector<fs::path> caches;
 
   StillRun run(const ScalingMethod& m, bool cold) const;
 };
@@ -252,7 +256,11 @@ StillRun StillRunner::run(const ScalingMethod& m, bool cold) const {
     args.insert(args.end(), {"--overlays", "off"});
   }
   StillRun r;
-  if (cold) r.droppedBytes = dropFromPageCache(files);
+  if (cold) {
+    std::error_code removed;
+    for (const fs::path& c : caches) fs::remove_all(c, removed);
+    r.droppedBytes = dropFromPageCache(files);
+  }
   std::printf("scaling: %s, %s %s\n", o.scene.c_str(), m.name.c_str(), cold ? "cold" : "warm");
   std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
@@ -528,8 +536,9 @@ void writePlots(const fs::path& out, const std::vector<SceneResult>& results) {
 void writeMarkdown(const Options& o, const ScalingOptions& s, const std::vector<SceneResult>& results) {
   std::ofstream md(fs::path(o.out) / "scaling.md");
   md << "Start time and memory: overlay_render's still of the scene's home view at " << o.width << " × " << o.height
-     << ", each method in a process of its own, run twice: cold (the scene's files dropped from the page cache "
-        "first) and warm (straight after). First frame: from the start of the process to the frame read back; peak "
+     << ", each method in a process of its own, run twice: cold (the scene's cached vector tiles and "
+        "layers removed and its files dropped from the page cache first) and warm (straight after). First frame: from "
+        "the start of the process to the frame read back; peak "
         "RSS: the larger of the two runs (with a software rasteriser such as llvmpipe, GPU buffers are in it too); "
         "overlay GPU MB: the layers' "
         "buffers and the technique's tiles in view. Techniques that build every piece at load (whole-load) are run "
@@ -595,7 +604,13 @@ int runScaling(const Options& o, const ScalingOptions& s) {
     }
     const Options so = sceneOptions(o, r);
     fs::create_directories(fs::path(so.out) / "start");
-    const StillRunner runner{so, *exe, fs::path(so.out) / "start", *scratch, sceneFiles(*description)};
+    const fs::path cacheDir = scene::cacheDirectoryFor(*description);
+    const StillRunner runner{so,
+                             *exe,
+                             fs::path(so.out) / "start",
+                             *scratch,
+                             sceneFiles(*description),
+                             {cacheDir / "vector-tiles", cacheDir / "vector-layers"}};
     r.start = startRuns(runner, s, r.vectorVertices, r.demPosts);
     results.push_back(std::move(r));
   }

@@ -13,6 +13,7 @@
 #include "core/hash.hpp"
 #include "core/log.hpp"
 #include "geo/raster.hpp"
+#include "layer_cache.hpp"
 #include "terrain/terrain_grid.hpp"
 #include "terrain/tile_pager.hpp"
 
@@ -304,7 +305,15 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
   for (const LayerDescription& layer : description.layers) {
     geo::VectorReadOptions readOptions;
     readOptions.layer = layer.sourceLayer;
-    Result<geo::VectorLayer> data = geo::readVectorLayer(layer.source, scene.frame, readOptions);
+    // As read last time, when nothing it depends on has changed (layer_cache.hpp).
+    const std::optional<std::uint64_t> key =
+        options.layerCache ? detail::layerCacheKey(layer.source, scene.frame, readOptions) : std::nullopt;
+    const std::string cacheFile = key ? detail::layerCacheFile(cacheDirectoryFor(description), *key) : std::string();
+    std::optional<Result<geo::VectorLayer>> cached = key ? detail::readLayerCache(cacheFile, *key) : std::nullopt;
+    if (cached) ++scene.layersFromCache;
+    Result<geo::VectorLayer> data =
+        cached ? std::move(*cached) : geo::readVectorLayer(layer.source, scene.frame, readOptions);
+    if (key && !cached) (void)detail::writeLayerCache(cacheFile, *key, data);
     // Name our layer in every message about it, beside the file's own layer name.
     for (const Diagnostic& d : data.diagnostics.items()) {
       Diagnostic named = d;

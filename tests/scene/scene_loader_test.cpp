@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <optional>
 #include <string>
@@ -208,6 +210,94 @@ TEST(SceneLoader, AFolderOfGeographicTilesLoadsTheSameInMemoryAndPagedAndIsRebui
   ASSERT_TRUE(grown.ok());
   EXPECT_TRUE(grown->pyramidBuild.has_value()) << "a tile added: rebuilt";
   EXPECT_GT(grown->quadtree->grid().width, g.width);
+}
+
+TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
+  // A lon/lat GeoJSON (reprojected and densified when read) with a polygon, a line, attributes
+  // of every kind and a broken feature (a Warning or Error to repeat from the cache).
+  const std::string dem = writeDem("cached_layer_dem.tif", [](int c, int r) { return static_cast<float>(c + r); });
+  const std::string source = outputDir() + "/cached_layer.geojson";
+  const auto write = [&](double shift) {
+    std::ofstream(source) << R"({"type": "FeatureCollection", "features": [
+      {"type": "Feature", "properties": {"name": "a", "n": 3, "x": 2.5, "none": null},
+       "geometry": {"type": "Polygon", "coordinates": [[[-34.862, -8.050], [-34.858, -8.050], [-34.858, -8.046],
+                                                        [-34.862, -8.046], [-34.862, -8.050]]]}},
+      {"type": "Feature", "properties": {"name": "b"},
+       "geometry": {"type": "LineString", "coordinates": [[-34.861, -8.049], [)"
+                          << -34.859 + shift << R"(, -8.047]]}},
+      {"type": "Feature", "properties": {"name": "broken"},
+       "geometry": {"type": "Polygon", "coordinates": [[[-34.86, -8.05], [-34.86, -8.05]]]}}]})";
+  };
+  write(0.0);
+  scene::SceneDescription description = sceneOf(dem);
+  description.cacheDir = outputDir() + "/cached_layer_cache";
+  std::filesystem::remove_all(description.cacheDir);
+  scene::LayerDescription layer;
+  layer.name = "things";
+  layer.kind = overlay::LayerKind::Polygon;
+  layer.source = source;
+  description.layers.push_back(layer);
+  scene::LoadOptions options;
+  options.progress = [](double) {};
+  const auto load = [&] {
+    Result<scene::LoadedScene> s = scene::loadScene(description, options);
+    EXPECT_TRUE(s.ok());
+    return s;
+  };
+  const Result<scene::LoadedScene> first = load();
+  ASSERT_TRUE(first.ok() && first->layers.size() == 1u);
+  EXPECT_EQ(first->layersFromCache, 0u);
+  EXPECT_EQ(first->layers[0].data.features.size(), 2u);
+  ASSERT_NE(find(first.diagnostics, Severity::Error, ""), nullptr) << "the broken feature is named";
+
+  // Again: from the cache, the same features (geometry and attributes) and the same messages.
+  const Result<scene::LoadedScene> second = load();
+  ASSERT_TRUE(second.ok() && second->layers.size() == 1u);
+  EXPECT_EQ(second->layersFromCache, 1u);
+  const geo::VectorLayer& a = first->layers[0].data;
+  const geo::VectorLayer& b = second->layers[0].data;
+  EXPECT_EQ(b.name, a.name);
+  EXPECT_EQ(b.sourceCrsWkt, a.sourceCrsWkt);
+  EXPECT_EQ(b.kind, a.kind);
+  ASSERT_EQ(b.features.size(), a.features.size());
+  for (std::size_t i = 0; i < a.features.size(); ++i) {
+    EXPECT_EQ(b.features[i].fid, a.features[i].fid);
+    EXPECT_EQ(b.features[i].attributes, a.features[i].attributes);
+    ASSERT_EQ(b.features[i].polygons.size(), a.features[i].polygons.size());
+    for (std::size_t k = 0; k < a.features[i].polygons.size(); ++k) {
+      EXPECT_EQ(b.features[i].polygons[k].outer, a.features[i].polygons[k].outer);
+      EXPECT_EQ(b.features[i].polygons[k].holes, a.features[i].polygons[k].holes);
+    }
+    EXPECT_EQ(b.features[i].lines, a.features[i].lines);
+  }
+  ASSERT_EQ(second.diagnostics.items().size(), first.diagnostics.items().size());
+  for (std::size_t i = 0; i < first.diagnostics.items().size(); ++i)
+    EXPECT_EQ(second.diagnostics.items()[i].toString(), first.diagnostics.items()[i].toString());
+
+  // The file changes (its size and time): read again, and the change shows.
+  write(0.001);
+  std::filesystem::last_write_time(source, std::filesystem::last_write_time(source) + std::chrono::seconds(2));
+  const Result<scene::LoadedScene> changed = load();
+  ASSERT_TRUE(changed.ok() && changed->layers.size() == 1u);
+  EXPECT_EQ(changed->layersFromCache, 0u);
+  EXPECT_NE(changed->layers[0].data.features[1].lines, a.features[1].lines);
+
+  // A damaged cache file is not used: read again from the source (and written again).
+  std::size_t damaged = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(description.cacheDir)) {
+    if (entry.path().extension() != ".layer") continue;
+    std::filesystem::resize_file(entry.path(), std::filesystem::file_size(entry.path()) / 2);
+    ++damaged;
+  }
+  ASSERT_GT(damaged, 0u);
+  const Result<scene::LoadedScene> repaired = load();
+  ASSERT_TRUE(repaired.ok());
+  EXPECT_EQ(repaired->layersFromCache, 0u);
+  EXPECT_EQ(repaired->layers[0].data.features[1].lines, changed->layers[0].data.features[1].lines);
+  EXPECT_EQ(load()->layersFromCache, 1u);
+  // Without the cache (LoadOptions::layerCache), always from the source.
+  options.layerCache = false;
+  EXPECT_EQ(load()->layersFromCache, 0u);
 }
 
 TEST(TerrainGrid, ImplausibleHeightsToNodataCountsWhatItChanges) {

@@ -8,90 +8,15 @@
 
 #include <unistd.h>
 
+#include "geo/binary_io.hpp"
+
 namespace gis::overlay::detail {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
 constexpr std::uint32_t kVersion = 2;
-/// Counts beyond this mean a damaged file (no tile holds 2^32 of anything).
-constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 32U;
-
-class Writer {
- public:
-  explicit Writer(std::ostream& out) : out_(out) {}
-  template <typename T>
-  void value(const T& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    out_.write(reinterpret_cast<const char*>(&v), sizeof(T));
-  }
-  template <typename T>
-  void array(const std::vector<T>& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    value(static_cast<std::uint64_t>(v.size()));
-    out_.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
-  }
-
- private:
-  std::ostream& out_;
-};
-
-class Reader {
- public:
-  explicit Reader(std::istream& in) : in_(in) {}
-  template <typename T>
-  bool value(T& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    in_.read(reinterpret_cast<char*>(&v), sizeof(T));
-    return static_cast<bool>(in_);
-  }
-  template <typename T>
-  bool array(std::vector<T>& v) {
-    std::uint64_t n = 0;
-    if (!value(n) || n >= kMaxCount) return false;
-    v.resize(static_cast<std::size_t>(n));
-    in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
-    return static_cast<bool>(in_);
-  }
-  bool count(std::size_t& n) {
-    std::uint64_t c = 0;
-    if (!value(c) || c >= kMaxCount) return false;
-    n = static_cast<std::size_t>(c);
-    return true;
-  }
-
- private:
-  std::istream& in_;
-};
-
-void writeFeature(Writer& w, const geo::Feature& f) {
-  w.value(f.fid);
-  w.value(static_cast<std::uint64_t>(f.polygons.size()));
-  for (const geo::Polygon& p : f.polygons) {
-    w.array(p.outer);
-    w.value(static_cast<std::uint64_t>(p.holes.size()));
-    for (const geo::Ring& h : p.holes) w.array(h);
-  }
-  w.value(static_cast<std::uint64_t>(f.lines.size()));
-  for (const geo::LineString& l : f.lines) w.array(l);
-}
-
-bool readFeature(Reader& r, geo::Feature& f) {
-  std::size_t n = 0;
-  if (!r.value(f.fid) || !r.count(n)) return false;
-  f.polygons.resize(n);
-  for (geo::Polygon& p : f.polygons) {
-    std::size_t holes = 0;
-    if (!r.array(p.outer) || !r.count(holes)) return false;
-    p.holes.resize(holes);
-    for (geo::Ring& h : p.holes)
-      if (!r.array(h)) return false;
-  }
-  if (!r.count(n)) return false;
-  f.lines.resize(n);
-  for (geo::LineString& l : f.lines)
-    if (!r.array(l)) return false;
-  return true;
-}
+using geo::io::Reader;
+using geo::io::Writer;
 
 void writePiece(Writer& w, const Polyhedron& p) {
   const Footprint& f = p.footprint;
@@ -160,7 +85,7 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
       if (g.slots()[s].live) slotsOf[g.slots()[s].feature].push_back(s);
     for (std::size_t i = 0; i < g.features().size(); ++i) {
       w.value(tile.featureIndex.at(i));
-      writeFeature(w, g.features()[i]);
+      geo::io::writeGeometry(w, g.features()[i]);
       w.value(static_cast<std::uint64_t>(slotsOf[i].size()));
       for (const std::size_t s : slotsOf[i]) writePiece(w, g.polyhedra()[s]);
     }
@@ -199,7 +124,8 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
   std::vector<std::uint32_t> index(count);
   for (std::size_t i = 0; i < count; ++i) {
     std::size_t n = 0;
-    if (!r.value(index[i]) || index[i] >= source.features().size() || !readFeature(r, features[i]) || !r.count(n))
+    if (!r.value(index[i]) || index[i] >= source.features().size() || !geo::io::readGeometry(r, features[i]) ||
+        !r.count(n))
       return std::nullopt;
     styles[i] = styleOf(index[i]);
     pieces[i].resize(n);

@@ -36,6 +36,7 @@ struct LoadedScene {
   /// For a paged DEM: the tile pyramid, and its build statistics if it was built this time.
   std::string pyramidPath;
   std::optional<terrain::PyramidBuildStats> pyramidBuild;
+  std::size_t layersFromCache = 0;  ///< vector layers read from the cache instead of their source
   [[nodiscard]] bool paged() const { return quadtree->paged(); }
 };
 
@@ -44,6 +45,9 @@ struct LoadOptions {
   std::optional<TerrainPaging> paging;
   /// Progress of a tile-pyramid build; empty = a progress bar on stderr.
   terrain::PyramidProgress progress;
+  /// Keep the vector layers as read in the scene's cache directory, and read them from there
+  /// while their files, the frame and the reader are unchanged (scene/src/layer_cache.hpp).
+  bool layerCache = true;
 };
 
 Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOptions& options = {});

@@ -1,0 +1,36 @@
+#pragma once
+// The scene's vector layers as read, kept on disk for the next run (issue 23, "a second run
+// starts in seconds"): reading a large layer through OGR checks every polygon's validity (GEOS),
+// reprojects every point and densifies lon/lat edges, about 3 s for 900 k vertices. A cached
+// layer holds the features as read (in the scene frame) and every diagnostic the read gave, so
+// a warm start says the same things.
+//
+// The key covers what the result depends on: the source's absolute path and layer, the size and
+// modification time of the file and of its sidecars (a Shapefile's .dbf, .shx, .prj: every file
+// of the same stem beside it), the frame (CRS and origin), the read options, and the SHA-1 of the
+// reader's code. Sources that are not one file (a PostGIS table, a folder of vector tiles) are
+// not cached: they may change without a file telling.
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "core/diagnostics.hpp"
+#include "geo/frame.hpp"
+#include "geo/vector.hpp"
+
+namespace gis::scene::detail {
+
+/// The key of reading `source` with `options` into `frame`; none when it is not cached.
+std::optional<std::uint64_t> layerCacheKey(const std::string& source, const geo::SceneFrame& frame,
+                                           const geo::VectorReadOptions& options);
+
+/// The file in `directory` that holds the layer of `key`.
+std::string layerCacheFile(const std::string& directory, std::uint64_t key);
+
+/// The layer and its diagnostics as stored, or none (no file, another key, damaged).
+std::optional<Result<geo::VectorLayer>> readLayerCache(const std::string& file, std::uint64_t key);
+
+/// Stores the read (a failed one too: its diagnostics). False when it cannot be written.
+bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<geo::VectorLayer>& read);
+
+}  // namespace gis::scene::detail
