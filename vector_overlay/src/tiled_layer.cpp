@@ -289,11 +289,11 @@ std::vector<TileKey> LayerTiling::select(const OverlayView& view, int viewportHe
 int LayerTiling::widthClass(const TileKey& key, const glm::dvec3& eye, double metresPerPixel, double zLo,
                             double zHi) const {
   if (minPixels_ <= 0.0 || !(metresPerPixel > 0.0)) return 0;
-  const auto [lo, hi] = extent(key);
+  const std::pair<glm::dvec2, glm::dvec2> box = extent(key);
   // The farthest point of the tile grown by m (the shader measures from the lines' anchored
   // centres, which lie in it, at heights within the global bounds).
   const auto farthest = [&](double m) {
-    const glm::dvec3 a(lo - m, zLo), b(hi + m, zHi);
+    const glm::dvec3 a(box.first - m, zLo), b(box.second + m, zHi);
     return glm::length(glm::max(glm::abs(eye - a), glm::abs(eye - b)));
   };
   const double need = minPixels_ * metresPerPixel * farthest(0.0);
