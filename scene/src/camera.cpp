@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gfx/camera.hpp"
+#include "scene/json_file.hpp"
 
 namespace gis::scene {
 namespace {
@@ -86,15 +87,14 @@ Result<CameraSpec> parseCameraSpec(const json& j, const std::string& file) {
 }
 
 Result<CameraSpec> loadCameraFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Result<CameraSpec>::failure({Severity::Error, path, "", "", "cannot open camera file"});
-  json j;
-  try {
-    in >> j;
-  } catch (const json::exception& e) {
-    return Result<CameraSpec>::failure({Severity::Error, path, "", "", std::string("not JSON: ") + e.what()});
+  Diagnostics diagnostics;
+  const std::optional<json> j = readJsonFile(path, diagnostics);
+  if (!j) {
+    Result<CameraSpec> failed;
+    failed.diagnostics = std::move(diagnostics);
+    return failed;
   }
-  return parseCameraSpec(j, path);
+  return parseCameraSpec(*j, path);
 }
 
 Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame, const std::string& file) {

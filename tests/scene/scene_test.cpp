@@ -200,6 +200,18 @@ TEST(CameraFile, LonLatAndFrameFormsParse) {
   EXPECT_DOUBLE_EQ(spec->fovYDeg, 30.0);
 }
 
+TEST(CameraFile, AFolderOrAMissingFileIsAnErrorNamingIt) {
+  // A folder opens as a stream on Linux and throws when read (the fuzzer found a lasso file
+  // whose camera was "", its own folder): an Error, not an exception.
+  const std::string folder = std::filesystem::temp_directory_path().string();
+  Result<scene::CameraSpec> spec = scene::loadCameraFile(folder);
+  EXPECT_FALSE(spec.ok());
+  EXPECT_TRUE(mentions(spec.diagnostics, folder + ": is a folder, not a file"));
+  Result<scene::CameraSpec> missing = scene::loadCameraFile(folder + "/no such camera.json");
+  EXPECT_FALSE(missing.ok());
+  EXPECT_TRUE(mentions(missing.diagnostics, "cannot open"));
+}
+
 TEST(CameraFile, MissingEyeOrBadFovIsAnError) {
   Result<scene::CameraSpec> spec = scene::parseCameraSpec({{"target_xyz", {0, 0, 0}}, {"fov_y_deg", 400}}, "c.json");
   EXPECT_FALSE(spec.ok());
