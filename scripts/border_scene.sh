@@ -163,9 +163,11 @@ echo "border_scene.sh: borders in EPSG:32633 span $extent; DEM ${size}² posts a
   --seed 7 --relief 1500 --no-holes
 
 # 5. The scene file.
-cat >"$out/borders.json" <<EOF
+# write_scene FILE TITLE LAYER: a scene of dem.tif and one polygon layer LAYER (LAYER.gpkg).
+write_scene() {
+  cat >"$1" <<EOF
 {
-  "name": "National borders of ${codes^^} (Digital Chart of the World, gmt-dcw)",
+  "name": "$2",
   "terrain": {
     "dem": "dem.tif",
     "band": 1,
@@ -173,10 +175,10 @@ cat >"$out/borders.json" <<EOF
   },
   "layers": [
     {
-      "name": "borders",
+      "name": "$3",
       "kind": "polygon",
-      "source": "borders.gpkg",
-      "layer": "borders",
+      "source": "$3.gpkg",
+      "layer": "$3",
       "style": {
         "color": "#4e79a7",
         "opacity": 0.35,
@@ -187,6 +189,8 @@ cat >"$out/borders.json" <<EOF
   ]
 }
 EOF
+}
+write_scene "$out/borders.json" "National borders of ${codes^^} (Digital Chart of the World, gmt-dcw)" borders
 echo "border_scene.sh: wrote $out/borders.gpkg, $out/dem.tif, $out/borders.json"
 [[ $coast == 1 ]] || exit 0
 
@@ -369,28 +373,5 @@ awk -F, -v invalid="${invalid:-?}" 'NR == 2 { gsub(/"/, "")
   if ($4 != $1) { printf "border_scene.sh: %d parts of coast.gpkg are not valid (OGC)\n", $1 - $4 > "/dev/stderr"
     exit 1 } }' "$tmp/coast.csv"
 
-cat >"$out/coast.json" <<EOF
-{
-  "name": "Land of the ${codes^^} box $box (GSHHG full resolution, gmt-gshhg-full)",
-  "terrain": {
-    "dem": "dem.tif",
-    "band": 1,
-    "vertical_exaggeration": 1.0
-  },
-  "layers": [
-    {
-      "name": "coast",
-      "kind": "polygon",
-      "source": "coast.gpkg",
-      "layer": "coast",
-      "style": {
-        "color": "#4e79a7",
-        "opacity": 0.35,
-        "outline_width_m": 50,
-        "outline_color": "#1b2a49"
-      }
-    }
-  ]
-}
-EOF
+write_scene "$out/coast.json" "Land of the ${codes^^} box $box (GSHHG full resolution, gmt-gshhg-full)" coast
 echo "border_scene.sh: wrote $out/coast.gpkg, $out/coast.json"
