@@ -573,6 +573,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                       {"finest_level", t.finestTileLevel},
                       {"error_px", t.tileErrorPixels},
                       {"drawn_bytes", t.tileBytes},
+                      {"peak_bytes", t.tilePeakBytes},
                       {"gpu_bytes", d.renderer.techniqueGpuBytes()}};
   } else if (d.o.technique->usesTextures()) {
     stats["drape"] = {{"tile_size", d.o.drapeSize},

@@ -465,6 +465,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
     const auto work = [&] {
       for (std::size_t i = next.fetch_add(1); i < blockEnd; i = next.fetch_add(1)) {
         if (!layer.styles_[i].visible) continue;
+        if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) return;
         Built& b = built[i - blockStart];
         try {
           b.pieces = buildPolyhedra(layer.features_[i], static_cast<std::uint32_t>(i), kind, layer.styles_[i],
@@ -482,6 +483,10 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
       work();
     } else {
       work();
+    }
+    if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) {
+      r.diagnostics.add({Severity::Error, "", layer.name_, "", "the build was cancelled"});
+      return r;
     }
     for (std::size_t i = blockStart; i < blockEnd; ++i) {
       if (!layer.styles_[i].visible) continue;

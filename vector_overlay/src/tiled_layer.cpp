@@ -362,7 +362,7 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
   return g;
 }
 
-Result<LayerTile> LayerTiling::build(const TileKey& key) const {
+Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>* cancel) const {
   // From the disk cache, while it holds what the tile would be built from.
   const bool cached = cacheUsable_ && bounds_->revision() == cacheRevision_;
   const std::filesystem::path file =
@@ -380,7 +380,7 @@ Result<LayerTile> LayerTiling::build(const TileKey& key) const {
       return r;
     }
   }
-  Result<LayerTile> built = buildNew(key);
+  Result<LayerTile> built = buildNew(key, cancel);
   if (cached && built && detail::writeTile(file, fingerprint_, *built)) ++tilesWritten_;
   return built;
 }
@@ -414,18 +414,21 @@ LayerBuildOptions LayerTiling::tileOptions(const TileKey& key) const {
   return options;
 }
 
-Result<LayerTile> LayerTiling::buildNew(const TileKey& key) const {
+Result<LayerTile> LayerTiling::buildNew(const TileKey& key, const std::atomic<bool>* cancel) const {
   std::vector<geo::Feature> local;
   std::vector<FeatureStyle> localStyles;
   std::vector<std::uint32_t> index;
+  const auto cancelled = [&] { return cancel != nullptr && cancel->load(std::memory_order_relaxed); };
   for (const std::uint32_t i : featuresNear(key)) {
+    if (cancelled()) return {std::nullopt, Diagnostics{}};
     std::optional<geo::Feature> g = featureFor(key, i);
     if (!g) continue;
     local.push_back(std::move(*g));
     localStyles.push_back(tileStyle(key, i));
     index.push_back(i);
   }
-  const LayerBuildOptions options = tileOptions(key);
+  LayerBuildOptions options = tileOptions(key);
+  options.cancel = cancel;
   Result<LayerGeometry> built = LayerGeometry::build(source_->name(), source_->kind(), source_->style(),
                                                      std::move(local), std::move(localStyles), *bounds_, options);
   Result<LayerTile> r;

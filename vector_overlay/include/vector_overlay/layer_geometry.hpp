@@ -12,6 +12,7 @@
 // from the eye (depth precision), so padding is a per-frame setting. Indices of a piece are
 // [bottom cap | walls | top cap], so z-pass draws can leave out the bottom cap.
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -77,6 +78,9 @@ struct LayerBuildOptions {
   /// (HeightBoundsProvider::boundsOverWithin): cheaper to find, a little taller. Tiles of
   /// coarse levels, seen from afar, use their ground error.
   double boundsSlack = 0.0;
+  /// Once this is set (from any thread), the build stops early and fails: a tile no longer
+  /// wanted. Not part of what the pieces depend on.
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at

@@ -99,6 +99,9 @@ struct TechniqueFrameStats {
   /// coarsened: such a frame is exact only farther than this from edges); 0 without tiles.
   double tileErrorPixels = 0.0;
   std::size_t tileBytes = 0;  ///< GPU bytes of the tiles drawn
+  /// The most GPU bytes the resident tiles held in this frame (while tiles arrived): at most
+  /// the budget and the tiles that were being built when a detail was given up for it.
+  std::size_t tilePeakBytes = 0;
 };
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).

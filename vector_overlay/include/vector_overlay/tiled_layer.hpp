@@ -133,7 +133,8 @@ class LayerTiling {
                                             double errorScale = 1.0) const;
   [[nodiscard]] double errorPixels() const { return tiling_.errorPixels; }
   /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
-  [[nodiscard]] Result<LayerTile> build(const TileKey& key) const;
+  /// Once `cancel` is set the build stops early and fails (nothing is written to disk).
+  [[nodiscard]] Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel = nullptr) const;
   /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the
   /// runs that reach the tile), or none when it does not reach the tile.
   [[nodiscard]] std::optional<geo::Feature> featureFor(const TileKey& key, std::uint32_t i) const;
@@ -181,7 +182,7 @@ class LayerTiling {
   [[nodiscard]] std::uint64_t fingerprint() const;
   /// How tile `key` is built: its cells, chords, bounds slack and line shapes for its level.
   [[nodiscard]] LayerBuildOptions tileOptions(const TileKey& key) const;
-  [[nodiscard]] Result<LayerTile> buildNew(const TileKey& key) const;
+  [[nodiscard]] Result<LayerTile> buildNew(const TileKey& key, const std::atomic<bool>* cancel) const;
   /// The width class a drawn tile needs (TileKey::width) for this eye and pixel size.
   [[nodiscard]] int widthClass(const TileKey& key, const glm::dvec3& eye, double metresPerPixel, double zLo,
                                double zHi) const;

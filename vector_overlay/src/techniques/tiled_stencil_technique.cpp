@@ -75,21 +75,25 @@ class TileWorkers {
     for (const Done& d : out) busy_.erase({d.layer, d.key.packed()});
     return out;
   }
-  /// Until nothing is queued or running, or `timeout` passed: whether nothing is.
-  bool waitIdleFor(std::chrono::milliseconds timeout) {
+  /// Until nothing is queued or running, or a tile is done and not taken, or `timeout` passed:
+  /// whether nothing is queued or running.
+  bool waitIdleOrDoneFor(std::chrono::milliseconds timeout) {
     std::unique_lock lock(mutex_);
-    return idle_.wait_for(lock, timeout, [&] { return queue_.empty() && running_ == 0; });
+    idle_.wait_for(lock, timeout, [&] { return (queue_.empty() && running_ == 0) || !done_.empty(); });
+    return queue_.empty() && running_ == 0;
   }
   /// Jobs queued or running.
   [[nodiscard]] std::size_t remaining() {
     std::lock_guard lock(mutex_);
     return queue_.size() + static_cast<std::size_t>(running_);
   }
-  /// Drops the queue and waits for the running jobs (their results are dropped too).
+  /// Drops the queue and stops the running jobs (their results are dropped too).
   void cancel() {
     std::unique_lock lock(mutex_);
     queue_.clear();
+    cancelled_ = true;
     idle_.wait(lock, [&] { return running_ == 0; });
+    cancelled_ = false;
     done_.clear();
     busy_.clear();
   }
@@ -107,7 +111,7 @@ class TileWorkers {
       lock.unlock();
       Result<LayerTile> tile;
       try {
-        tile = job.tiling->build(job.key);
+        tile = job.tiling->build(job.key, &cancelled_);
       } catch (const std::exception& e) {  // on a worker thread it would end the program
         tile.diagnostics.add({Severity::Error, "", job.tiling->source().name(), "",
                               std::string("a tile cannot be built (") + e.what() + ")"});
@@ -115,7 +119,7 @@ class TileWorkers {
       lock.lock();
       --running_;
       done_.push_back({job.layer, job.key, std::move(tile)});
-      if (queue_.empty() && running_ == 0) idle_.notify_all();
+      idle_.notify_all();
     }
   }
 
@@ -124,6 +128,7 @@ class TileWorkers {
   std::deque<Job> queue_;
   std::set<std::pair<std::size_t, std::uint64_t>> busy_;  ///< running, or done and not taken
   std::vector<Done> done_;
+  std::atomic<bool> cancelled_{false};  ///< set while cancel() waits: running builds stop early
   int running_ = 0;
   bool stop_ = false;
   std::vector<std::jthread> threads_;  // last: joined first
@@ -170,17 +175,21 @@ class TiledStencil final : public OverlayTechnique {
     }
     stats.tilesBuilt += collect();
     stats.tilesFromDisk += fromDisk_;
+    stats.tilePeakBytes = gpuBytes();
     // A still starts from the finest detail the budget allowed lately.
     if (frame.waitForTiles) errorScale_ = std::max(1.0, 0.5 * errorScale_);
     std::vector<std::vector<const OverlayLayer*>> chunks;
     std::vector<TileWorkers::Job> jobs;
+    bool overBudget = false;  // the wanted tiles passed the budget while they built
     const auto choose = [&] {
       for (;;) {
-        const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk, evicted = stats.tilesEvicted;
+        const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk, evicted = stats.tilesEvicted,
+                          peak = stats.tilePeakBytes;
         stats = TechniqueFrameStats{};
         stats.tilesBuilt = built;
         stats.tilesFromDisk = read;
         stats.tilesEvicted = evicted;
+        stats.tilePeakBytes = peak;
         chunks.clear();
         jobs.clear();
         const bool standIn = gather(frame, chunks, jobs, stats);
@@ -188,11 +197,13 @@ class TiledStencil final : public OverlayTechnique {
         if (stats.tilesMissing == 0 || !(frame.waitForTiles || !standIn)) return;
         // A still image, or a tile with no ancestor to stand in: wait for them (then every
         // wanted tile is there), the budget made room for first (a finer detail that did not
-        // fit leaves before the coarser one builds).
+        // fit leaves before the coarser one builds). Where the wanted tiles pass the budget
+        // before all are there, the rest are not built: a coarser detail is chosen.
         stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
-        waitForBuilds(frame);
-        stats.tilesBuilt += collect();
-        stats.tilesFromDisk += fromDisk_;
+        if (!waitForBuilds(frame, stats, canCoarsen())) {
+          overBudget = true;
+          return;
+        }
       }
     };
     choose();
@@ -201,7 +212,8 @@ class TiledStencil final : public OverlayTechnique {
     // eighth of it (a level finer takes about four times as much).
     // (Not beyond the root tiles: then the budget cannot be kept, and the frame says so in
     // tileBytes.)
-    while (chunkBytes(chunks) > tiling_.gpuBudgetBytes && errorScale_ < kMaxErrorScale && stats.finestTileLevel > 0) {
+    while ((overBudget || chunkBytes(chunks) > tiling_.gpuBudgetBytes) && canCoarsen()) {
+      overBudget = false;
       errorScale_ *= 2.0;
       choose();
     }
@@ -317,18 +329,67 @@ class TiledStencil final : public OverlayTechnique {
     return bytes;
   }
 
-  /// Until the workers are idle, telling frame.tileProgress after the first second.
-  void waitForBuilds(const TechniqueFrame& frame) {
+  /// Until the workers are idle, uploading each tile as it comes (its host arrays go once it is
+  /// on the GPU, so that the host holds at most the tiles being built) and telling
+  /// frame.tileProgress after the first second. With `mayGiveUp`, once the wanted tiles that
+  /// are there take more than the budget, or are expected to take more than twice the budget
+  /// (expectedBytes: an estimate from the tiles there, hence the margin; at once it misjudges
+  /// a budget that fits one frame), the rest are dropped and the running builds stopped, and false is
+  /// returned: the caller coarsens instead of building a detail that cannot be kept.
+  bool waitForBuilds(const TechniqueFrame& frame, TechniqueFrameStats& stats, bool mayGiveUp) {
     const auto start = std::chrono::steady_clock::now();
     const double total = static_cast<double>(std::max<std::size_t>(workers_.remaining(), 1));
     bool told = false;
-    while (!workers_.waitIdleFor(std::chrono::milliseconds(250))) {
+    for (;;) {
+      const bool idle = workers_.waitIdleOrDoneFor(std::chrono::milliseconds(250));
+      stats.tilesBuilt += collect();
+      stats.tilesFromDisk += fromDisk_;
+      stats.tilePeakBytes = std::max(stats.tilePeakBytes, gpuBytes());
+      if (mayGiveUp && (wantedBytes() > tiling_.gpuBudgetBytes || expectedBytes() > 2 * tiling_.gpuBudgetBytes)) {
+        workers_.cancel();
+        if (told) frame.tileProgress(1.0);
+        return false;
+      }
+      if (idle) break;
       if (!frame.tileProgress || std::chrono::steady_clock::now() - start < std::chrono::seconds(1)) continue;
       frame.tileProgress(std::clamp(1.0 - static_cast<double>(workers_.remaining()) / total, 0.0, 1.0));
       told = true;
     }
     if (told) frame.tileProgress(1.0);
+    return true;
   }
+
+  /// GPU bytes of the resident tiles the last gather() wanted.
+  [[nodiscard]] std::size_t wantedBytes() const {
+    std::size_t bytes = 0;
+    for (const auto& [layer, key] : wanted_) {
+      const auto it = layers_[layer].tiles.find(key);
+      if (it != layers_[layer].tiles.end() && it->second.layer) bytes += it->second.layer->stats().gpuBytes;
+    }
+    return bytes;
+  }
+
+  /// GPU bytes the tiles the last gather() wanted are expected to take: per layer, those there,
+  /// and each missing one as much as those there on average.
+  [[nodiscard]] std::size_t expectedBytes() const {
+    std::vector<std::size_t> bytes(layers_.size(), 0), there(layers_.size(), 0), missing(layers_.size(), 0);
+    for (const auto& [layer, key] : wanted_) {
+      const auto it = layers_[layer].tiles.find(key);
+      if (it == layers_[layer].tiles.end()) {
+        ++missing[layer];
+        continue;
+      }
+      ++there[layer];
+      if (it->second.layer) bytes[layer] += it->second.layer->stats().gpuBytes;
+    }
+    std::size_t total = 0;
+    for (std::size_t i = 0; i < layers_.size(); ++i)
+      total += bytes[i] + (there[i] > 0 ? bytes[i] / there[i] * missing[i] : 0);
+    return total;
+  }
+
+  /// Whether a coarser detail than the last gather() wanted exists.
+  [[nodiscard]] bool canCoarsen() const { return errorScale_ < kMaxErrorScale && wantedFinestLevel_ > 0; }
 
   /// Uploads the tiles the workers finished; returns how many.
   std::size_t collect() {
@@ -364,6 +425,8 @@ class TiledStencil final : public OverlayTechnique {
     bool standIn = true;
     chunks.assign(frame.layers.size(), {});
     frameTiles_.clear();
+    wanted_.clear();
+    wantedFinestLevel_ = 0;
     for (std::size_t i = 0; i < frame.layers.size(); ++i) {
       LayerState& l = layers_[i];
       if (frame.layers[i] == nullptr || !l.tiling) continue;
@@ -381,6 +444,8 @@ class TiledStencil final : public OverlayTechnique {
         if (r.layer) chunks[i].push_back(&*r.layer);
       };
       for (const TileKey& key : wanted) {
+        wanted_.insert({i, key.packed()});
+        wantedFinestLevel_ = std::max(wantedFinestLevel_, key.level);
         const auto here = l.tiles.find(key.packed());
         if (here != l.tiles.end() && here->second.key.width >= key.width) {
           // A wider class is exact too (its pieces shrink in the shader), only looser.
@@ -436,6 +501,8 @@ class TiledStencil final : public OverlayTechnique {
   std::size_t fromDisk_ = 0;  ///< of the tiles the last collect() took, those read from disk
   double errorScale_ = 1.0;   ///< on TilingOptions::errorPixels, where the budget needs it
   std::set<std::pair<std::size_t, std::uint64_t>> frameTiles_;  ///< (layer, place) drawn in this frame
+  std::set<std::pair<std::size_t, std::uint64_t>> wanted_;      ///< (layer, place) the last gather() wanted
+  int wantedFinestLevel_ = 0;                                    ///< the finest level it wanted
   std::set<std::string> reported_;
   TileWorkers workers_;  // last: stopped first
 };
