@@ -502,7 +502,7 @@ class TiledStencil final : public OverlayTechnique {
   double errorScale_ = 1.0;   ///< on TilingOptions::errorPixels, where the budget needs it
   std::set<std::pair<std::size_t, std::uint64_t>> frameTiles_;  ///< (layer, place) drawn in this frame
   std::set<std::pair<std::size_t, std::uint64_t>> wanted_;      ///< (layer, place) the last gather() wanted
-  int wantedFinestLevel_ = 0;                                    ///< the finest level it wanted
+  int wantedFinestLevel_ = 0;                                   ///< the finest level it wanted
   std::set<std::string> reported_;
   TileWorkers workers_;  // last: stopped first
 };
