@@ -69,7 +69,7 @@ namespace {
 std::size_t vectorVertices(const scene::LoadedScene& scene) {
   std::size_t n = 0;
   for (const scene::LoadedLayer& l : scene.layers) {
-    for (const geo::Feature& f : l.data.features) n += f.vertexCount();
+    n += l.vertexCount();
   }
   return n;
 }

@@ -471,7 +471,7 @@ json layersJson(const Drawn& d) {
                       {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
                       {"source", layer.description.source},
                       {"features", summary.features},
-                      {"vertices", layer.data.vertexCount()},
+                      {"vertices", layer.vertexCount()},
                       {"skipped_features", summary.skipped()},
                       {"skipped_when_read", summary.skippedReading},
                       {"skipped_when_built", summary.skippedBuilding},

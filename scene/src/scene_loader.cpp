@@ -326,7 +326,9 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     for (const Diagnostic& d : data.diagnostics.items()) {
       if (d.severity == Severity::Error && !d.feature.empty()) skipped.insert(d.feature);
     }
-    LoadedLayer loaded{layer, std::move(*data), skipped.size()};
+    auto features = std::make_shared<const std::vector<geo::Feature>>(std::move(data->features));
+    data->features = {};
+    LoadedLayer loaded{layer, std::move(*data), skipped.size(), std::move(features)};
     scene.layers.push_back(std::move(loaded));
   }
   scene.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

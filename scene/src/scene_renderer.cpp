@@ -134,7 +134,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
       return out;
     };
     Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(
-        source.description.name, source.description.kind, style, source.data.features, *scene.bounds, options);
+        source.description.name, source.description.kind, style, source.features, *scene.bounds, options);
     diagnostics.append(named(std::move(layer.diagnostics)));
     if (!layer) continue;
     layers_.push_back(std::move(*layer));
@@ -152,7 +152,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
       outline.cap = overlay::LineCap::Round;
       Result<overlay::OverlayLayer> lines =
           overlay::OverlayLayer::build(source.description.name + " (outline)", overlay::LayerKind::Line, outline,
-                                       outlineFeatures(source.data.features), *scene.bounds, options);
+                                       outlineFeatures(*source.features), *scene.bounds, options);
       diagnostics.append(named(std::move(lines.diagnostics)));
       if (!lines) continue;
       layers_.push_back(std::move(*lines));
@@ -178,8 +178,8 @@ LayerSummary SceneRenderer::layerSummary(const LoadedScene& scene, std::size_t s
   if (sceneLayer >= scene.layers.size()) return summary;
   const LoadedLayer& source = scene.layers[sceneLayer];
   summary.skippedReading = source.skippedFeatures;
-  summary.features = source.data.features.size() + source.skippedFeatures;
-  std::vector<bool> skipped(source.data.features.size(), false), drawn(skipped.size(), false),
+  summary.features = source.features->size() + source.skippedFeatures;
+  std::vector<bool> skipped(source.features->size(), false), drawn(skipped.size(), false),
       empty(skipped.size(), false);
   for (std::size_t j = 0; j < sources_.size(); ++j) {
     if (sources_[j].first != sceneLayer) continue;

@@ -141,6 +141,38 @@ TEST(LayerGeometry, AnyNumberOfBuildThreadsGivesTheSameLayer) {
   }
 }
 
+TEST(LayerGeometry, LayersShareTheirFeaturesUntilOneIsEdited) {
+  std::mt19937 rng(4);
+  const WavyBounds bounds;
+  const auto read = std::make_shared<const std::vector<geo::Feature>>(
+      randomPolygons(rng, glm::dvec2(-2000.0), glm::dvec2(2000.0), 8));
+  const std::vector<geo::Feature> before = *read;
+  LayerBuildOptions deferred = onCells();
+  deferred.deferPieces = true;
+  Result<LayerGeometry> a = LayerGeometry::build("a", LayerKind::Polygon, {}, read, bounds, onCells());
+  Result<LayerGeometry> b = LayerGeometry::build("b", LayerKind::Polygon, {}, read, bounds, deferred);
+  ASSERT_TRUE(a.ok() && b.ok());
+  // No copy: both layers read the vector the scene read.
+  EXPECT_EQ(&a->features(), read.get());
+  EXPECT_EQ(&b->features(), read.get());
+  EXPECT_TRUE(a->sharedFeatures().shared());
+
+  // An edit copies the features of the edited layer only; the others and the source keep theirs.
+  geo::Feature moved = a->features()[2];
+  for (glm::dvec2& p : moved.polygons.front().outer) p += glm::dvec2(90.0, 10.0);
+  EXPECT_TRUE(a->replaceFeature(2, moved).empty());
+  EXPECT_NE(&a->features(), read.get());
+  EXPECT_EQ(a->features()[2].polygons.front().outer, moved.polygons.front().outer);
+  EXPECT_EQ(&b->features(), read.get());
+  EXPECT_EQ(read->at(2).polygons.front().outer, before.at(2).polygons.front().outer);
+  EXPECT_TRUE(a->validate().problems.empty());
+  // Ours alone now: the next edit changes it in place.
+  const std::vector<geo::Feature>* own = &a->features();
+  EXPECT_FALSE(a->sharedFeatures().shared());
+  EXPECT_TRUE(a->replaceFeature(3, a->features()[3]).empty());
+  EXPECT_EQ(&a->features(), own);
+}
+
 TEST(LayerGeometry, EditsNameExactlyWhatTheGpuCopyMustTakeAgain) {
   std::mt19937 rng(9);
   const WavyBounds bounds;

@@ -247,28 +247,28 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> first = load();
   ASSERT_TRUE(first.ok() && first->layers.size() == 1u);
   EXPECT_EQ(first->layersFromCache, 0u);
-  EXPECT_EQ(first->layers[0].data.features.size(), 2u);
+  EXPECT_EQ(first->layers[0].features->size(), 2u);
   ASSERT_NE(find(first.diagnostics, Severity::Error, ""), nullptr) << "the broken feature is named";
 
   // Again: from the cache, the same features (geometry and attributes) and the same messages.
   const Result<scene::LoadedScene> second = load();
   ASSERT_TRUE(second.ok() && second->layers.size() == 1u);
   EXPECT_EQ(second->layersFromCache, 1u);
-  const geo::VectorLayer& a = first->layers[0].data;
-  const geo::VectorLayer& b = second->layers[0].data;
-  EXPECT_EQ(b.name, a.name);
-  EXPECT_EQ(b.sourceCrsWkt, a.sourceCrsWkt);
-  EXPECT_EQ(b.kind, a.kind);
-  ASSERT_EQ(b.features.size(), a.features.size());
-  for (std::size_t i = 0; i < a.features.size(); ++i) {
-    EXPECT_EQ(b.features[i].fid, a.features[i].fid);
-    EXPECT_EQ(b.features[i].attributes, a.features[i].attributes);
-    ASSERT_EQ(b.features[i].polygons.size(), a.features[i].polygons.size());
-    for (std::size_t k = 0; k < a.features[i].polygons.size(); ++k) {
-      EXPECT_EQ(b.features[i].polygons[k].outer, a.features[i].polygons[k].outer);
-      EXPECT_EQ(b.features[i].polygons[k].holes, a.features[i].polygons[k].holes);
+  EXPECT_EQ(second->layers[0].data.name, first->layers[0].data.name);
+  EXPECT_EQ(second->layers[0].data.sourceCrsWkt, first->layers[0].data.sourceCrsWkt);
+  EXPECT_EQ(second->layers[0].data.kind, first->layers[0].data.kind);
+  const std::vector<geo::Feature>& a = *first->layers[0].features;
+  const std::vector<geo::Feature>& b = *second->layers[0].features;
+  ASSERT_EQ(b.size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(b[i].fid, a[i].fid);
+    EXPECT_EQ(b[i].attributes, a[i].attributes);
+    ASSERT_EQ(b[i].polygons.size(), a[i].polygons.size());
+    for (std::size_t k = 0; k < a[i].polygons.size(); ++k) {
+      EXPECT_EQ(b[i].polygons[k].outer, a[i].polygons[k].outer);
+      EXPECT_EQ(b[i].polygons[k].holes, a[i].polygons[k].holes);
     }
-    EXPECT_EQ(b.features[i].lines, a.features[i].lines);
+    EXPECT_EQ(b[i].lines, a[i].lines);
   }
   ASSERT_EQ(second.diagnostics.items().size(), first.diagnostics.items().size());
   for (std::size_t i = 0; i < first.diagnostics.items().size(); ++i)
@@ -280,7 +280,7 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> changed = load();
   ASSERT_TRUE(changed.ok() && changed->layers.size() == 1u);
   EXPECT_EQ(changed->layersFromCache, 0u);
-  EXPECT_NE(changed->layers[0].data.features[1].lines, a.features[1].lines);
+  EXPECT_NE(changed->layers[0].features->at(1).lines, a[1].lines);
 
   // A damaged cache file is not used: read again from the source (and written again).
   std::size_t damaged = 0;
@@ -293,7 +293,7 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> repaired = load();
   ASSERT_TRUE(repaired.ok());
   EXPECT_EQ(repaired->layersFromCache, 0u);
-  EXPECT_EQ(repaired->layers[0].data.features[1].lines, changed->layers[0].data.features[1].lines);
+  EXPECT_EQ(repaired->layers[0].features->at(1).lines, changed->layers[0].features->at(1).lines);
   EXPECT_EQ(load()->layersFromCache, 1u);
   // Without the cache (LoadOptions::layerCache), always from the source.
   options.layerCache = false;

@@ -391,11 +391,11 @@ GeometryChange LayerGeometry::takeChanges() {
 }
 
 Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, const LayerStyle& style,
-                                           std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                           SharedFeatures features, const HeightBoundsProvider& bounds,
                                            const LayerBuildOptions& options) {
   Diagnostics diagnostics;
   std::vector<FeatureStyle> styles =
-      resolveFeatureStyles(style, kind, features, &diagnostics, name, options.minWidthInPixels);
+      resolveFeatureStyles(style, kind, features.all(), &diagnostics, name, options.minWidthInPixels);
   Result<LayerGeometry> r =
       build(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
   diagnostics.append(r.diagnostics);
@@ -404,7 +404,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
 }
 
 Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, const LayerStyle& style,
-                                           std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                           SharedFeatures features, std::vector<FeatureStyle> styles,
                                            const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
@@ -507,7 +507,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
 }
 
 LayerGeometry LayerGeometry::empty(std::string name, LayerKind kind, const LayerStyle& style,
-                                   std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                   SharedFeatures features, std::vector<FeatureStyle> styles,
                                    const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
   LayerGeometry layer;
   layer.name_ = std::move(name);
@@ -779,7 +779,7 @@ Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
 
 Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature feature) {
   if (index >= features_.size()) return {};
-  features_[index] = std::move(feature);
+  features_.edit()[index] = std::move(feature);
   const std::vector<geo::Feature> one{features_[index]};
   Diagnostics diagnostics;
   FeatureStyle style = resolveFeatureStyles(style_, kind_, one, &diagnostics, name_, options_.minWidthInPixels).front();
@@ -793,13 +793,13 @@ Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature featur
 Diagnostics LayerGeometry::setFeature(std::size_t index, geo::Feature feature, FeatureStyle style) {
   if (index > features_.size()) return {};
   if (index == features_.size()) {
-    features_.emplace_back();
+    features_.edit().emplace_back();
     styles_.emplace_back();
     featureSlots_.emplace_back();
     outcomes_.push_back(FeatureOutcome::Hidden);
     stats_.features = features_.size();
   }
-  features_[index] = std::move(feature);
+  features_.edit()[index] = std::move(feature);
   if (bounds_ != nullptr) assignAnchorHeights(style, features_[index], *bounds_);
   styles_[index] = std::move(style);
   return rebuildFeature(index);

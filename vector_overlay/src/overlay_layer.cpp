@@ -7,7 +7,7 @@
 namespace gis::overlay {
 
 Result<OverlayLayer> OverlayLayer::build(std::string name, LayerKind kind, const LayerStyle& style,
-                                         std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                         SharedFeatures features, const HeightBoundsProvider& bounds,
                                          const LayerBuildOptions& options) {
   Result<LayerGeometry> geometry =
       LayerGeometry::build(std::move(name), kind, style, std::move(features), bounds, options);

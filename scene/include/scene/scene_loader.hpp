@@ -20,8 +20,19 @@ namespace gis::scene {
 
 struct LoadedLayer {
   LayerDescription description;
+  /// What was read, but for its features: those are in `features`.
   geo::VectorLayer data;
   std::size_t skippedFeatures = 0;  ///< features left out for errors (named in diagnostics)
+  /// The features read (only the good ones), shared with the overlay layers built from them:
+  /// one copy in memory however many layers draw them.
+  std::shared_ptr<const std::vector<geo::Feature>> features;
+
+  [[nodiscard]] std::size_t vertexCount() const {
+    std::size_t n = 0;
+    if (features)
+      for (const geo::Feature& f : *features) n += f.vertexCount();
+    return n;
+  }
 };
 
 struct LoadedScene {

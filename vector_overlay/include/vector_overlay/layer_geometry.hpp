@@ -15,7 +15,9 @@
 #include <atomic>
 #include <cstdint>
 #include <limits>
+#include <initializer_list>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -158,19 +160,51 @@ struct GeometryChange {
   void add(std::size_t v0, std::size_t v1, std::size_t i0, std::size_t i1);
 };
 
+/// A layer's features, shared with whoever else holds them (the scene that read them, the
+/// layer's outline, a rebuild for another style) and copied only when edited while shared:
+/// a layer costs no second copy of its features. Built from a vector (taken over) or from a
+/// shared one; reads are const and safe from any thread, edits are not.
+class SharedFeatures {
+ public:
+  SharedFeatures() : features_(std::make_shared<std::vector<geo::Feature>>()) {}
+  // NOLINTNEXTLINE(google-explicit-constructor): a vector of features is taken as is
+  SharedFeatures(std::vector<geo::Feature> features)
+      : features_(std::make_shared<std::vector<geo::Feature>>(std::move(features))) {}
+  SharedFeatures(std::initializer_list<geo::Feature> features)
+      : features_(std::make_shared<std::vector<geo::Feature>>(features)) {}
+  // NOLINTNEXTLINE(google-explicit-constructor)
+  SharedFeatures(std::shared_ptr<const std::vector<geo::Feature>> features)
+      : features_(features ? std::move(features) : std::make_shared<const std::vector<geo::Feature>>()) {}
+  [[nodiscard]] const std::vector<geo::Feature>& all() const { return *features_; }
+  [[nodiscard]] std::size_t size() const { return features_->size(); }
+  [[nodiscard]] const geo::Feature& operator[](std::size_t i) const { return (*features_)[i]; }
+  /// Whether another holder shares these features (an edit would copy them first).
+  [[nodiscard]] bool shared() const { return features_.use_count() > 1; }
+  /// The features to change: copied first while another holder shares them.
+  [[nodiscard]] std::vector<geo::Feature>& edit() {
+    if (shared()) features_ = std::make_shared<std::vector<geo::Feature>>(*features_);
+    // Ours alone now, and made by us as a non-const vector (make_shared above or in a
+    // constructor, or a caller's shared vector no one else holds any more).
+    return const_cast<std::vector<geo::Feature>&>(*features_);  // NOLINT(cppcoreguidelines-pro-type-const-cast)
+  }
+
+ private:
+  std::shared_ptr<const std::vector<geo::Feature>> features_;
+};
+
 class LayerGeometry {
  public:
   /// Builds every feature's polyhedra. Broken features are reported in `diagnostics` and left
   /// out; the rest is kept. Pure: no GL, no shared state (thread-safe for distinct layers when
   /// `bounds` may be read concurrently). `bounds` must outlive the geometry (edits read it).
   static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
-                                     std::vector<geo::Feature> features, const HeightBoundsProvider& bounds,
+                                     SharedFeatures features, const HeightBoundsProvider& bounds,
                                      const LayerBuildOptions& options = {});
 
   /// The same with the features' styles resolved already (one per feature; their anchor
   /// heights are assigned here).
   static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
-                                     std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+                                     SharedFeatures features, std::vector<FeatureStyle> styles,
                                      const HeightBoundsProvider& bounds, const LayerBuildOptions& options = {});
 
   /// A layer from pieces built before (a tile read from the disk cache): per feature its
@@ -186,7 +220,9 @@ class LayerGeometry {
   [[nodiscard]] const LayerBuildOptions& options() const { return options_; }
   /// The height bounds the layer was built (or last refreshed) with; null for a default one.
   [[nodiscard]] const HeightBoundsProvider* bounds() const { return bounds_; }
-  [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_; }
+  [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_.all(); }
+  /// The features as shared (another layer built from them shares them too).
+  [[nodiscard]] const SharedFeatures& sharedFeatures() const { return features_; }
   [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
   /// Counts and build time (gpuBytes is OverlayLayer's business: 0 here).
   [[nodiscard]] const LayerStats& stats() const { return stats_; }
@@ -258,8 +294,8 @@ class LayerGeometry {
  private:
   LayerGeometry() = default;
   /// The layer's features and styles, with no pieces yet (build and assemble start here).
-  static LayerGeometry empty(std::string name, LayerKind kind, const LayerStyle& style,
-                             std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
+  static LayerGeometry empty(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
+                             std::vector<FeatureStyle> styles,
                              const HeightBoundsProvider& bounds, const LayerBuildOptions& options);
   void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
   void freePieces(std::uint32_t feature);
@@ -274,7 +310,7 @@ class LayerGeometry {
   LayerKind kind_ = LayerKind::Polygon;
   LayerStyle style_;
   LayerBuildOptions options_;
-  std::vector<geo::Feature> features_;
+  SharedFeatures features_;
   std::vector<FeatureStyle> styles_;
   std::vector<std::vector<std::uint32_t>> featureSlots_;  ///< per feature, its slots
   std::vector<FeatureOutcome> outcomes_;                  ///< per feature
