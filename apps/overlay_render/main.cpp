@@ -570,6 +570,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                       {"built", t.tilesBuilt},
                       {"read_from_disk", t.tilesFromDisk},
                       {"resident", t.tilesResident},
+                      {"lean", t.tilesLean},
                       {"finest_level", t.finestTileLevel},
                       {"error_px", t.tileErrorPixels},
                       {"drawn_bytes", t.tileBytes},

@@ -10,6 +10,7 @@
 // - an edit of one feature shows in the next frame;
 // - lines are at least a pixel wide (min_width_px, the default, as the scene builds them): far
 //   roads stay lines instead of dots, exactly as the reference draws them.
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -210,6 +211,28 @@ TEST_F(TiledStencilGlTest, FlightsDrawParentsWhileTilesBuildAndStillsAreExact) {
   EXPECT_EQ(still.stats.tilesMissing, 0u);
   EXPECT_EQ(still.comparison.wrong, 0u);
   EXPECT_GT(still.comparison.covered, 100u);
+}
+
+TEST_F(TiledStencilGlTest, CoarseTilesKeepNoFootprintsAndStandInOnlyWhereTheyNeedNone) {
+  std::unique_ptr<overlay::OverlayTechnique> t = technique();
+  const glm::dvec2 centre = 0.5 * (lo_ + hi_);
+  const double top = bounds_->globalBounds().hi;
+  // From afar: coarse tiles, far from the eye, keep no footprints on the host.
+  const Frame far =
+      draw(*t, glm::dvec3(centre - glm::dvec2(3000.0, 3000.0), top + 6000.0), glm::dvec3(centre, 0.0), true);
+  EXPECT_EQ(far.comparison.wrong, 0u);
+  EXPECT_GT(far.stats.tilesLean, 0u);
+  // A flight frame down among them, the eye a few metres over the ground, inside their boxes:
+  // they cannot stand in (their pieces would be drawn z-fail, which needs the footprints), so
+  // the frame waits for its own tiles, and is exact.
+  const std::array<glm::dvec2, 1> spot{centre};
+  const double ground = bounds_->boundsOver(spot).hi;
+  ASSERT_LT(ground + 3.0, top);
+  const glm::dvec3 eye(centre, ground + 3.0);
+  const Frame low = draw(*t, eye, eye + glm::dvec3(400.0, 250.0, -40.0), false);
+  EXPECT_EQ(low.stats.tilesMissing, 0u) << "nothing could stand in: waited";
+  EXPECT_EQ(low.comparison.wrong, 0u);
+  EXPECT_GT(low.comparison.covered, 0u);
 }
 
 TEST_F(TiledStencilGlTest, ABudgetForOneFrameEvictsAndStaysExact) {

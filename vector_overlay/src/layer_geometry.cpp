@@ -349,8 +349,10 @@ bool mayContain(const Polyhedron& p, const glm::dvec3& point, double pad, double
       q.y > p.boxMax.y + margin) {
     return false;
   }
-  // Inside the footprint: inside one of its triangles, or within margin of one.
+  // Inside the footprint: inside one of its triangles, or within margin of one (a released
+  // footprint, LayerGeometry::releaseFootprints: anywhere in the box).
   const Footprint& f = p.footprint;
+  if (f.triangles.empty()) return true;
   for (const auto& t : f.triangles) {
     const glm::dvec2 a = f.vertices[t[0]], b = f.vertices[t[1]], c = f.vertices[t[2]];
     auto edge = [&](const glm::dvec2& u, const glm::dvec2& v) {
@@ -382,6 +384,35 @@ void LayerGeometry::releaseArrays() {
   scaling_ = {};
   changes_ = GeometryChange{};
   arraysReleased_ = true;
+}
+
+void LayerGeometry::releaseFootprints() {
+  releaseArrays();
+  const auto free = [](auto& v) { std::decay_t<decltype(v)>().swap(v); };
+  for (Polyhedron& p : polyhedra_) {
+    free(p.footprint.vertices);
+    free(p.footprint.triangles);
+    free(p.footprint.boundary);
+    free(p.footprint.centres);
+    free(p.footprint.directions);
+  }
+  // The features' geometry too (their fids stay, for messages): a released layer is built again
+  // before it is edited.
+  std::vector<geo::Feature> bare(features_.size());
+  for (std::size_t i = 0; i < bare.size(); ++i) bare[i].fid = features_[i].fid;
+  features_ = SharedFeatures(std::move(bare));
+  footprintsReleased_ = true;
+}
+
+std::pair<glm::dvec3, glm::dvec3> LayerGeometry::box3() const {
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    if (!slots_[k].live) continue;
+    const Polyhedron& p = polyhedra_[k];
+    lo = glm::min(lo, glm::dvec3(p.boxMin, p.lo));
+    hi = glm::max(hi, glm::dvec3(p.boxMax, p.hi));
+  }
+  return {lo, hi};
 }
 
 GeometryChange LayerGeometry::takeChanges() {

@@ -273,6 +273,23 @@ std::vector<LayerFrameStats> OverlayRenderer::draw(gfx::StateCache& cache, const
   return stats;
 }
 
+bool OverlayRenderer::mayDrawZFail(const OverlayView& view, const OverlaySettings& settings, const glm::dvec3& lo,
+                                   const glm::dvec3& hi) const {
+  if (settings.forceZFail) return true;
+  if (!(lo.x <= hi.x)) return false;  // no pieces
+  // classify's margin, and the padding of any piece in the box: its distance plus diagonal is at
+  // most the box's distance plus twice its diagonal. The quadratic term as the frame's, or as a
+  // 24-bit depth buffer needs it if that is more (this may be asked before the frame begins).
+  const double t = std::tan(view.fovYRadians / 2.0);
+  const double margin = view.nearPlane * std::sqrt(1.0 + t * t * (1.0 + view.aspect * view.aspect)) + 0.01;
+  const double d = distanceToBox(view.eye, lo, hi) + 2.0 * glm::length(hi - lo);
+  const double quadratic = std::max({padPerMetreSquared_, settings.padPerMetreSquared,
+                                     view.nearPlane > 0.0 ? 2.0 / (view.nearPlane * std::ldexp(1.0, 24)) : 0.0});
+  const double pad = settings.padBase + settings.padPerMetre * d + quadratic * d * d;
+  const glm::dvec3 grow(margin, margin, margin + pad);
+  return distanceToBox(view.eye, lo - grow, hi + grow) <= 0.0;
+}
+
 OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const OverlayLayer& layer,
                                                   const OverlaySettings& settings, bool wholePieces,
                                                   LayerFrameStats& stats) const {

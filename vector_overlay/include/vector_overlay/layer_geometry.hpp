@@ -255,6 +255,14 @@ class LayerGeometry {
   /// nothing (build the layer again), and validate() checks the pieces only.
   void releaseArrays();
   [[nodiscard]] bool arraysReleased() const { return arraysReleased_; }
+  /// After releaseArrays: frees the pieces' footprints and the features' geometry too, keeping
+  /// each piece's box and bounds (what a z-pass draw, culling and maxOverlap read). Such a
+  /// layer's pieces cannot be drawn z-fail (near-plane clipping needs their footprints): draw
+  /// it only where OverlayRenderer::mayDrawZFail says no piece in its box3() can be.
+  void releaseFootprints();
+  [[nodiscard]] bool footprintsReleased() const { return footprintsReleased_; }
+  /// The box of the live pieces, heights included (lo > hi without any).
+  [[nodiscard]] std::pair<glm::dvec3, glm::dvec3> box3() const;
 
   [[nodiscard]] std::size_t maxOverlap() const;
   /// The ground box of the live pieces (lo > hi without any).
@@ -323,6 +331,7 @@ class LayerGeometry {
   std::vector<glm::vec4> scaling_;  ///< lines in pixels only, per vertex
   std::size_t wastedIndices_ = 0;
   bool arraysReleased_ = false;
+  bool footprintsReleased_ = false;
   GeometryChange changes_;
   LayerStats stats_;
   const HeightBoundsProvider* bounds_ = nullptr;

@@ -48,6 +48,8 @@ class OverlayLayer {
   Diagnostics setFeature(std::size_t index, geo::Feature feature, FeatureStyle style);
   /// Frees the CPU copy of the vertex and index arrays (LayerGeometry::releaseArrays).
   void releaseCpuArrays() { geometry_.releaseArrays(); }
+  /// LayerGeometry::releaseFootprints (and the arrays).
+  void releaseFootprints() { geometry_.releaseFootprints(); }
   /// An upper bound of how many of the layer's pieces overlap at any point (counted on a grid
   /// of their bounding boxes); above 255 the renderer draws the layer in groups.
   [[nodiscard]] std::size_t maxOverlap() const { return geometry_.maxOverlap(); }

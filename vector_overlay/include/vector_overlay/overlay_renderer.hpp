@@ -117,6 +117,13 @@ class OverlayRenderer {
   std::vector<LayerFrameStats> draw(gfx::StateCache& cache, const OverlayView& view,
                                     std::span<const OverlayLayer* const> layers, const OverlaySettings& settings = {});
 
+  /// Whether a piece inside the box [lo, hi] (frame metres, heights exaggerated) could be drawn
+  /// z-fail in this view: the eye within the box grown by the padding of its farthest piece and
+  /// the near plane's reach (as the draw decides it per piece). A layer whose footprints were
+  /// released (LayerGeometry::releaseFootprints) may be drawn only where this is false.
+  [[nodiscard]] bool mayDrawZFail(const OverlayView& view, const OverlaySettings& settings, const glm::dvec3& lo,
+                                  const glm::dvec3& hi) const;
+
   /// The same for layers drawn in chunks (tiled layers: layer i is the union of layers[i]'s
   /// chunks, which may overlap: marked together and covered once, layer i → mask bit i). An
   /// empty entry draws nothing (its bit stays).

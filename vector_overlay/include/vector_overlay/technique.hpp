@@ -92,6 +92,9 @@ struct TechniqueFrameStats {
   std::size_t tilesBuilt = 0;     ///< tiles that arrived (built and uploaded) in this frame
   std::size_t tilesFromDisk = 0;  ///< of those, read from the disk cache instead of built
   std::size_t tilesResident = 0;  ///< tiles on the GPU after the frame
+  /// Of those, tiles that keep no footprints on the host (LayerGeometry::releaseFootprints):
+  /// coarse tiles far from the eye.
+  std::size_t tilesLean = 0;
   std::size_t tilesEvicted = 0;   ///< tiles dropped for the budget in this frame
   int finestTileLevel = -1;       ///< the finest level drawn (-1: none)
   /// The screen-space error the tiles were chosen for (TilingOptions::errorPixels), larger

@@ -15,6 +15,10 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "core/log.hpp"
 #include "techniques/techniques.hpp"
 
@@ -173,7 +177,7 @@ class TiledStencil final : public OverlayTechnique {
       if (bounds == nullptr) continue;
       layers_[i].tiling = std::make_unique<LayerTiling>(layer->geometry(), *bounds, build_, tiling_);
     }
-    stats.tilesBuilt += collect();
+    stats.tilesBuilt += collect(frame);
     stats.tilesFromDisk += fromDisk_;
     stats.tilePeakBytes = gpuBytes();
     // A still starts from the finest detail the budget allowed lately.
@@ -223,7 +227,11 @@ class TiledStencil final : public OverlayTechnique {
     stats.layers = renderer_.draw(cache, frame.view, chunks, frame.settings);
     lastChunks_ = std::move(chunks);
     stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
-    for (const LayerState& l : layers_) stats.tilesResident += l.tiles.size();
+    for (const LayerState& l : layers_) {
+      stats.tilesResident += l.tiles.size();
+      for (const auto& [key, t] : l.tiles)
+        stats.tilesLean += t.layer && t.layer->geometry().footprintsReleased() ? 1U : 0U;
+    }
   }
 
   [[nodiscard]] std::vector<const OverlayLayer*> drawnChunks(std::size_t layer) const override {
@@ -303,6 +311,7 @@ class TiledStencil final : public OverlayTechnique {
     std::vector<std::uint32_t> featureIndex;  ///< per feature of layer, its index in the source layer
     double error = 0.0;                       ///< the tile's ground error (LayerTile::groundError)
     std::uint64_t lastUsed = 0;
+    std::pair<glm::dvec3, glm::dvec3> box;  ///< of its pieces (LayerGeometry::box3)
   };
 
   /// Logs each problem once (a feature's problem is said once, not once per tile).
@@ -342,7 +351,7 @@ class TiledStencil final : public OverlayTechnique {
     bool told = false;
     for (;;) {
       const bool idle = workers_.waitIdleOrDoneFor(std::chrono::milliseconds(250));
-      stats.tilesBuilt += collect();
+      stats.tilesBuilt += collect(frame);
       stats.tilesFromDisk += fromDisk_;
       stats.tilePeakBytes = std::max(stats.tilePeakBytes, gpuBytes());
       if (mayGiveUp && (wantedBytes() > tiling_.gpuBudgetBytes || expectedBytes() > 2 * tiling_.gpuBudgetBytes)) {
@@ -391,9 +400,17 @@ class TiledStencil final : public OverlayTechnique {
   /// Whether a coarser detail than the last gather() wanted exists.
   [[nodiscard]] bool canCoarsen() const { return errorScale_ < kMaxErrorScale && wantedFinestLevel_ > 0; }
 
+  /// Whether a resident tile can be drawn in this frame: one whose footprints were released
+  /// only where none of its pieces could be drawn z-fail.
+  [[nodiscard]] bool drawable(const Resident& r, const TechniqueFrame& frame) const {
+    return !r.layer || !r.layer->geometry().footprintsReleased() ||
+           !renderer_.mayDrawZFail(frame.view, frame.settings, r.box.first, r.box.second);
+  }
+
   /// Uploads the tiles the workers finished; returns how many.
-  std::size_t collect() {
+  std::size_t collect(const TechniqueFrame& frame) {
     std::size_t count = 0;
+    bool released = false;
     fromDisk_ = 0;
     for (TileWorkers::Done& d : workers_.take()) {
       if (d.layer >= layers_.size() || !layers_[d.layer].tiling) continue;
@@ -406,13 +423,25 @@ class TiledStencil final : public OverlayTechnique {
         r.featureIndex = std::move(d.tile.value->featureIndex);
         r.error = d.tile.value->groundError;
         r.layer = OverlayLayer::upload(std::move(d.tile.value->geometry));
+        r.box = r.layer->geometry().box3();
         // Coarse tiles are built again after an edit (rarely drawn while editing close up):
-        // the GPU holds their arrays, the CPU need not.
-        if (d.key.level < layers_[d.layer].tiling->finestLevel()) r.layer->releaseCpuArrays();
+        // the GPU holds their arrays, the CPU need not. Their footprints go too while the eye
+        // is farther than their size from any piece that could be drawn z-fail (a tile drawn
+        // where one could is built again with them, drawable).
+        if (d.key.level < layers_[d.layer].tiling->finestLevel()) {
+          const glm::dvec3 size = r.box.second - r.box.first;
+          if (!renderer_.mayDrawZFail(frame.view, frame.settings, r.box.first - size, r.box.second + size)) {
+            r.layer->releaseFootprints();
+            released = true;
+          } else {
+            r.layer->releaseCpuArrays();
+          }
+        }
       }
       layers_[d.layer].tiles[d.key.packed()] = std::move(r);
       ++count;
     }
+    if (released) giveBackFreedMemory();
     return count;
   }
 
@@ -446,7 +475,11 @@ class TiledStencil final : public OverlayTechnique {
       for (const TileKey& key : wanted) {
         wanted_.insert({i, key.packed()});
         wantedFinestLevel_ = std::max(wantedFinestLevel_, key.level);
-        const auto here = l.tiles.find(key.packed());
+        auto here = l.tiles.find(key.packed());
+        if (here != l.tiles.end() && !drawable(here->second, frame)) {
+          l.tiles.erase(here);  // built again with its footprints (near the eye now)
+          here = l.tiles.end();
+        }
         if (here != l.tiles.end() && here->second.key.width >= key.width) {
           // A wider class is exact too (its pieces shrink in the shader), only looser.
           if (here->second.key.width > key.width + 2) jobs.push_back({i, l.tiling.get(), key});
@@ -459,7 +492,7 @@ class TiledStencil final : public OverlayTechnique {
         if (found) use(here->second);
         for (TileKey a = key; a.level > 0 && !found;) {
           a = a.parent();
-          if (auto it = l.tiles.find(a.packed()); it != l.tiles.end()) {
+          if (auto it = l.tiles.find(a.packed()); it != l.tiles.end() && drawable(it->second, frame)) {
             use(it->second);
             found = true;
           }
@@ -488,7 +521,17 @@ class TiledStencil final : public OverlayTechnique {
       layers_[layer].tiles.erase(it);
       ++evicted;
     }
+    if (evicted > 0) giveBackFreedMemory();
     return evicted;
+  }
+
+  /// Returns the heap's free pages to the system: a tile's many small arrays, freed, would
+  /// otherwise stay in the process (glibc keeps them for reuse), and the host would hold the
+  /// most any detail ever took instead of what is resident.
+  static void giveBackFreedMemory() {
+#if defined(__GLIBC__)
+    malloc_trim(0);
+#endif
   }
 
   OverlayRenderer renderer_;
