@@ -133,8 +133,8 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
       }
       return out;
     };
-    Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(
-        source.description.name, source.description.kind, style, source.features, *scene.bounds, options);
+    Result<overlay::OverlayLayer> layer = overlay::OverlayLayer::build(source.description.name, source.description.kind,
+                                                                       style, source.features, *scene.bounds, options);
     diagnostics.append(named(std::move(layer.diagnostics)));
     if (!layer) continue;
     layers_.push_back(std::move(*layer));
@@ -179,8 +179,7 @@ LayerSummary SceneRenderer::layerSummary(const LoadedScene& scene, std::size_t s
   const LoadedLayer& source = scene.layers[sceneLayer];
   summary.skippedReading = source.skippedFeatures;
   summary.features = source.features->size() + source.skippedFeatures;
-  std::vector<bool> skipped(source.features->size(), false), drawn(skipped.size(), false),
-      empty(skipped.size(), false);
+  std::vector<bool> skipped(source.features->size(), false), drawn(skipped.size(), false), empty(skipped.size(), false);
   for (std::size_t j = 0; j < sources_.size(); ++j) {
     if (sources_[j].first != sceneLayer) continue;
     summary.built = true;

@@ -537,9 +537,9 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
   return r;
 }
 
-LayerGeometry LayerGeometry::empty(std::string name, LayerKind kind, const LayerStyle& style,
-                                   SharedFeatures features, std::vector<FeatureStyle> styles,
-                                   const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
+LayerGeometry LayerGeometry::empty(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
+                                   std::vector<FeatureStyle> styles, const HeightBoundsProvider& bounds,
+                                   const LayerBuildOptions& options) {
   LayerGeometry layer;
   layer.name_ = std::move(name);
   layer.kind_ = kind;

@@ -14,8 +14,8 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
-#include <limits>
 #include <initializer_list>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -197,15 +197,14 @@ class LayerGeometry {
   /// Builds every feature's polyhedra. Broken features are reported in `diagnostics` and left
   /// out; the rest is kept. Pure: no GL, no shared state (thread-safe for distinct layers when
   /// `bounds` may be read concurrently). `bounds` must outlive the geometry (edits read it).
-  static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
-                                     SharedFeatures features, const HeightBoundsProvider& bounds,
-                                     const LayerBuildOptions& options = {});
+  static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
+                                     const HeightBoundsProvider& bounds, const LayerBuildOptions& options = {});
 
   /// The same with the features' styles resolved already (one per feature; their anchor
   /// heights are assigned here).
-  static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style,
-                                     SharedFeatures features, std::vector<FeatureStyle> styles,
-                                     const HeightBoundsProvider& bounds, const LayerBuildOptions& options = {});
+  static Result<LayerGeometry> build(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
+                                     std::vector<FeatureStyle> styles, const HeightBoundsProvider& bounds,
+                                     const LayerBuildOptions& options = {});
 
   /// A layer from pieces built before (a tile read from the disk cache): per feature its
   /// polyhedra, added as build() adds them (the same arrays and slots).
@@ -303,8 +302,8 @@ class LayerGeometry {
   LayerGeometry() = default;
   /// The layer's features and styles, with no pieces yet (build and assemble start here).
   static LayerGeometry empty(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
-                             std::vector<FeatureStyle> styles,
-                             const HeightBoundsProvider& bounds, const LayerBuildOptions& options);
+                             std::vector<FeatureStyle> styles, const HeightBoundsProvider& bounds,
+                             const LayerBuildOptions& options);
   void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
   void freePieces(std::uint32_t feature);
   Diagnostics rebuildFeature(std::size_t index);

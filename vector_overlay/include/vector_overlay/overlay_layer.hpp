@@ -18,9 +18,8 @@ class OverlayLayer {
  public:
   /// Builds every feature's polyhedra (LayerGeometry::build) and uploads them (needs a current
   /// GL context). Broken features are reported in `diagnostics` and left out; the rest is drawn.
-  static Result<OverlayLayer> build(std::string name, LayerKind kind, const LayerStyle& style,
-                                    SharedFeatures features, const HeightBoundsProvider& bounds,
-                                    const LayerBuildOptions& options = {});
+  static Result<OverlayLayer> build(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
+                                    const HeightBoundsProvider& bounds, const LayerBuildOptions& options = {});
   /// Uploads a geometry built elsewhere (e.g. on a worker thread). Needs a current GL context.
   static OverlayLayer upload(LayerGeometry geometry);
 

@@ -95,8 +95,8 @@ struct TechniqueFrameStats {
   /// Of those, tiles that keep no footprints on the host (LayerGeometry::releaseFootprints):
   /// coarse tiles far from the eye.
   std::size_t tilesLean = 0;
-  std::size_t tilesEvicted = 0;   ///< tiles dropped for the budget in this frame
-  int finestTileLevel = -1;       ///< the finest level drawn (-1: none)
+  std::size_t tilesEvicted = 0;  ///< tiles dropped for the budget in this frame
+  int finestTileLevel = -1;      ///< the finest level drawn (-1: none)
   /// The screen-space error the tiles were chosen for (TilingOptions::errorPixels), larger
   /// where a frame's tiles would not fit the GPU budget at it (the budget is kept, the detail
   /// coarsened: such a frame is exact only farther than this from edges); 0 without tiles.
