@@ -338,18 +338,28 @@ TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
   std::filesystem::remove_all(dir);
   const glm::dvec2 centre = 0.5 * (lo_ + hi_);
   const glm::dvec3 eye(centre - glm::dvec2(900.0, 700.0), bounds_->globalBounds().hi + 700.0);
-  std::vector<std::uint32_t> first;
+  const glm::dvec3 far(centre - glm::dvec2(3000.0, 3000.0), bounds_->globalBounds().hi + 6000.0);
+  std::vector<std::uint32_t> first, firstFar;
   {
     std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
-    const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    const Frame f = draw(*t, far, glm::dvec3(centre, 0.0), true);
     EXPECT_EQ(f.comparison.wrong, 0u);
-    EXPECT_GT(f.stats.tilesBuilt, 0u);
-    EXPECT_EQ(f.stats.tilesFromDisk, 0u);
+    firstFar = gfx::readMask(target_);
+    const Frame g = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(g.comparison.wrong, 0u);
+    EXPECT_GT(f.stats.tilesBuilt + g.stats.tilesBuilt, 0u);
+    EXPECT_EQ(f.stats.tilesFromDisk + g.stats.tilesFromDisk, 0u);
     first = gfx::readMask(target_);
   }
-  // The same layers and terrain: every tile read, the same image.
+  // The same layers and terrain: every tile read, the same images; from afar the coarse tiles
+  // are read lean (their GPU arrays and boxes only).
   {
     std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
+    const Frame farther = draw(*t, far, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(farther.comparison.wrong, 0u);
+    EXPECT_EQ(farther.stats.tilesFromDisk, farther.stats.tilesBuilt);
+    EXPECT_GT(farther.stats.tilesLean, 0u);
+    EXPECT_EQ(gfx::readMask(target_), firstFar);
     const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
     EXPECT_EQ(f.comparison.wrong, 0u);
     EXPECT_EQ(f.stats.tilesFromDisk, f.stats.tilesBuilt);
@@ -384,7 +394,9 @@ TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
   std::size_t damaged = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
     if (entry.path().extension() != ".tile") continue;
-    std::filesystem::resize_file(entry.path(), std::filesystem::file_size(entry.path()) / 2);
+    // Cut short in the lean section (which a far view would read) or in the whole one.
+    const std::uintmax_t size = std::filesystem::file_size(entry.path());
+    std::filesystem::resize_file(entry.path(), damaged % 2 == 0 ? size / 2 : std::min<std::uintmax_t>(size, 60));
     ++damaged;
   }
   ASSERT_GT(damaged, 0u);

@@ -17,6 +17,7 @@
 #include <glm/vector_relational.hpp>
 
 #include "footprint_geometry.hpp"
+#include "geo/binary_io.hpp"
 #include "vector_overlay/validation.hpp"
 
 namespace gis::overlay {
@@ -402,6 +403,108 @@ void LayerGeometry::releaseFootprints() {
   for (std::size_t i = 0; i < bare.size(); ++i) bare[i].fid = features_[i].fid;
   features_ = SharedFeatures(std::move(bare));
   footprintsReleased_ = true;
+}
+
+namespace {
+
+/// A piece as a lean layer keeps it: all but the footprint's arrays.
+struct LeanPiece {
+  std::uint32_t feature = 0;
+  std::int32_t cell = -1;
+  std::uint32_t source = 0;
+  std::uint8_t kind = 0;
+  std::uint8_t overSurface = 0;
+  double lo = 0.0, hi = 0.0;
+  glm::dvec2 boxMin{0.0}, boxMax{0.0};
+};
+
+}  // namespace
+
+void LayerGeometry::writeLean(geo::io::Writer& w) const {
+  std::vector<std::int64_t> fids(features_.size());
+  for (std::size_t i = 0; i < fids.size(); ++i) fids[i] = features_[i].fid;
+  w.array(fids);
+  w.array(outcomes_);
+  for (const std::vector<std::uint32_t>& f : featureSlots_) w.array(f);
+  w.array(slots_);
+  std::vector<LeanPiece> pieces(polyhedra_.size());
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const Polyhedron& p = polyhedra_[k];
+    pieces[k] = {p.footprint.feature,
+                 p.footprint.cell,
+                 p.footprint.source,
+                 static_cast<std::uint8_t>(p.footprint.kind),
+                 static_cast<std::uint8_t>(p.overSurface ? 1 : 0),
+                 p.lo,
+                 p.hi,
+                 p.boxMin,
+                 p.boxMax};
+  }
+  w.array(pieces);
+  w.array(origins_);
+  w.array(vertices_);
+  w.array(indices_);
+  w.array(scaling_);
+  w.value(static_cast<std::uint64_t>(wastedIndices_));
+  w.value(stats_);
+}
+
+std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::string name, LayerKind kind,
+                                                     const LayerStyle& style, std::vector<FeatureStyle> styles,
+                                                     const HeightBoundsProvider& bounds,
+                                                     const LayerBuildOptions& options) {
+  std::vector<std::int64_t> fids;
+  if (!r.array(fids) || fids.size() != styles.size()) return std::nullopt;
+  std::vector<geo::Feature> bare(fids.size());
+  for (std::size_t i = 0; i < fids.size(); ++i) bare[i].fid = fids[i];
+  LayerGeometry layer = empty(std::move(name), kind, style, std::move(bare), std::move(styles), bounds, options);
+  std::vector<LeanPiece> pieces;
+  std::uint64_t wasted = 0;
+  if (!r.array(layer.outcomes_) || layer.outcomes_.size() != fids.size()) return std::nullopt;
+  layer.featureSlots_.resize(fids.size());
+  for (std::vector<std::uint32_t>& f : layer.featureSlots_)
+    if (!r.array(f)) return std::nullopt;
+  if (!r.array(layer.slots_) || !r.array(pieces) || !r.array(layer.origins_) || !r.array(layer.vertices_) ||
+      !r.array(layer.indices_) || !r.array(layer.scaling_) || !r.value(wasted) || !r.value(layer.stats_))
+    return std::nullopt;
+  // Nothing a damaged file holds may index out of bounds.
+  const std::size_t slots = layer.slots_.size(), vertices = layer.vertices_.size();
+  if (pieces.size() != slots || (!layer.scaling_.empty() && layer.scaling_.size() != vertices)) return std::nullopt;
+  for (std::size_t i = 0; i < fids.size(); ++i) {
+    if (static_cast<std::uint8_t>(layer.outcomes_[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden))
+      return std::nullopt;
+    for (const std::uint32_t k : layer.featureSlots_[i])
+      if (k >= slots) return std::nullopt;
+  }
+  layer.polyhedra_.resize(slots);
+  for (std::size_t k = 0; k < slots; ++k) {
+    const PieceSlot& s = layer.slots_[k];
+    const LeanPiece& q = pieces[k];
+    if (s.feature >= fids.size() || s.origin >= layer.origins_.size() || q.kind > 4) return std::nullopt;
+    const std::uint64_t first = s.firstIndex, end = first + s.indexCount;
+    if (end > layer.indices_.size() || s.bottomCount > s.indexCount) return std::nullopt;
+    for (std::uint64_t i = first; i < end; ++i)
+      if (std::uint64_t{s.baseVertex} + layer.indices_[i] >= vertices) return std::nullopt;
+    Polyhedron& p = layer.polyhedra_[k];
+    p.footprint.feature = q.feature;
+    p.footprint.cell = q.cell;
+    p.footprint.source = q.source;
+    p.footprint.kind = static_cast<PieceKind>(q.kind);
+    p.lo = q.lo;
+    p.hi = q.hi;
+    p.overSurface = q.overSurface != 0;
+    p.boxMin = q.boxMin;
+    p.boxMax = q.boxMax;
+  }
+  for (std::size_t o = 0; o < layer.origins_.size(); ++o) {
+    const glm::dvec2 cell = glm::floor(layer.origins_[o] / kOriginGrid);
+    layer.originIndex_.emplace(std::pair{static_cast<std::int64_t>(cell.x), static_cast<std::int64_t>(cell.y)},
+                               static_cast<std::uint32_t>(o));
+  }
+  layer.wastedIndices_ = static_cast<std::size_t>(wasted);
+  layer.changes_ = GeometryChange{};  // everything is new: the first upload takes it all
+  layer.footprintsReleased_ = true;
+  return layer;
 }
 
 std::pair<glm::dvec3, glm::dvec3> LayerGeometry::box3() const {

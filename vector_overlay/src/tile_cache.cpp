@@ -14,7 +14,7 @@ namespace gis::overlay::detail {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
-constexpr std::uint32_t kVersion = 2;
+constexpr std::uint32_t kVersion = 3;
 using geo::io::Reader;
 using geo::io::Writer;
 
@@ -78,6 +78,18 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
     w.value(tile.key.width);
     w.value(tile.groundError);
     const LayerGeometry& g = tile.geometry;
+    // The lean section first (its length before it, so that a full read skips it): the tile as
+    // a far view draws it, read with a few large reads.
+    const std::streampos lengthAt = out.tellp();
+    w.value(std::uint64_t{0});
+    w.array(tile.featureIndex);
+    g.writeLean(w);
+    w.value(kMagic);
+    const std::streampos leanEnd = out.tellp();
+    out.seekp(lengthAt);
+    w.value(static_cast<std::uint64_t>(leanEnd - lengthAt) - sizeof(std::uint64_t));
+    out.seekp(leanEnd);
+    // The full section: features and pieces with their footprints.
     w.value(static_cast<std::uint64_t>(g.features().size()));
     // Per feature: its index in the layer, its geometry, its live pieces.
     std::vector<std::vector<std::size_t>> slotsOf(g.features().size());
@@ -104,7 +116,7 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
-                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf) {
+                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean) {
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
   Reader r(in);
@@ -116,6 +128,22 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
       stored != fingerprint || !r.value(k.level) || !r.value(k.x) || !r.value(k.y) || !r.value(k.width) ||
       !(k == key) || !r.value(error))
     return std::nullopt;
+  std::uint64_t leanLength = 0;
+  if (!r.value(leanLength)) return std::nullopt;
+  if (lean) {
+    std::vector<std::uint32_t> index;
+    if (!r.array(index)) return std::nullopt;
+    std::vector<FeatureStyle> styles(index.size());
+    for (std::size_t i = 0; i < index.size(); ++i) {
+      if (index[i] >= source.features().size()) return std::nullopt;
+      styles[i] = styleOf(index[i]);
+    }
+    std::optional<LayerGeometry> g =
+        LayerGeometry::readLean(r, source.name(), source.kind(), source.style(), std::move(styles), bounds, options);
+    if (!g || !r.value(magic) || magic != kMagic) return std::nullopt;
+    return LayerTile{key, std::move(*g), std::move(index), error, true};
+  }
+  in.seekg(static_cast<std::streamoff>(leanLength), std::ios::cur);
   std::size_t count = 0;
   if (!r.count(count)) return std::nullopt;
   std::vector<geo::Feature> features(count);

@@ -1,7 +1,9 @@
 #pragma once
 // The disk cache of built tiles (tiled_layer.hpp): one file per tile holding its features (as
 // generalised and cut for the tile), which feature of the layer each is, and their polyhedra,
-// so that a second run reads what the first built instead of building it again. A file names
+// so that a second run reads what the first built instead of building it again. Each file
+// holds the tile twice: lean (its GPU arrays and its pieces' boxes, which a far view draws,
+// LayerGeometry::writeLean) and whole (features and footprints, for views near it and edits). A file names
 // the fingerprint of everything its pieces depend on (the layer's features and styles, the
 // build and tiling options, the terrain); a file with another fingerprint, another format or
 // cut short is not used (and is written again).
@@ -20,10 +22,12 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
 
 /// The tile in `file` if it holds this fingerprint and key, its layer made with the source's
 /// name, kind and style, each feature's style in the tile (`styleOf`, by the feature's index in
-/// the source), `bounds` and `options` (as LayerTiling::build would).
+/// the source), `bounds` and `options` (as LayerTiling::build would). `lean`: as
+/// LayerGeometry::releaseFootprints leaves it (the GPU arrays, pieces' boxes and bounds; no
+/// footprints, no feature geometry), read with a few large reads.
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
-                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf);
+                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean = false);
 
 }  // namespace gis::overlay::detail

@@ -362,7 +362,7 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
   return g;
 }
 
-Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>* cancel) const {
+Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>* cancel, bool lean) const {
   // From the disk cache, while it holds what the tile would be built from.
   const bool cached = cacheUsable_ && bounds_->revision() == cacheRevision_;
   const std::filesystem::path file =
@@ -371,8 +371,9 @@ Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>
                     (key.width > 0 ? "-w" + std::to_string(key.width) : std::string()) + ".tile")
              : std::filesystem::path();
   if (cached) {
-    if (std::optional<LayerTile> tile = detail::readTile(file, fingerprint_, key, *source_, *bounds_, tileOptions(key),
-                                                         [&](std::uint32_t i) { return tileStyle(key, i); })) {
+    if (std::optional<LayerTile> tile = detail::readTile(
+            file, fingerprint_, key, *source_, *bounds_, tileOptions(key),
+            [&](std::uint32_t i) { return tileStyle(key, i); }, lean && key.level < finestLevel_)) {
       ++tilesRead_;
       tile->fromDisk = true;
       Result<LayerTile> r;

@@ -34,6 +34,11 @@
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/style.hpp"
 
+namespace gis::geo::io {
+class Writer;
+class Reader;
+}  // namespace gis::geo::io
+
 namespace gis::overlay {
 
 /// How one feature is drawn, resolved from the layer style and its attributes.
@@ -262,6 +267,16 @@ class LayerGeometry {
   [[nodiscard]] bool footprintsReleased() const { return footprintsReleased_; }
   /// The box of the live pieces, heights included (lo > hi without any).
   [[nodiscard]] std::pair<glm::dvec3, glm::dvec3> box3() const;
+  /// Writes the layer as releaseFootprints leaves it (the GPU arrays, the pieces' boxes and
+  /// bounds, the slots; no footprints, no feature geometry): for a disk cache of coarse tiles
+  /// that a reader takes with a few large reads. The arrays must not be released.
+  void writeLean(geo::io::Writer& w) const;
+  /// A layer written by writeLean, with footprints released (it is uploaded as built; its
+  /// colours are those written), or none when the data is damaged or does not fit `styles`.
+  [[nodiscard]] static std::optional<LayerGeometry> readLean(geo::io::Reader& r, std::string name, LayerKind kind,
+                                                             const LayerStyle& style, std::vector<FeatureStyle> styles,
+                                                             const HeightBoundsProvider& bounds,
+                                                             const LayerBuildOptions& options);
 
   [[nodiscard]] std::size_t maxOverlap() const;
   /// The ground box of the live pieces (lo > hi without any).

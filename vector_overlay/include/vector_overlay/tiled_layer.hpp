@@ -133,8 +133,11 @@ class LayerTiling {
                                             double errorScale = 1.0) const;
   [[nodiscard]] double errorPixels() const { return tiling_.errorPixels; }
   /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
-  /// Once `cancel` is set the build stops early and fails (nothing is written to disk).
-  [[nodiscard]] Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel = nullptr) const;
+  /// Once `cancel` is set the build stops early and fails (nothing is written to disk). `lean`:
+  /// a tile read from the disk cache may come lean (LayerGeometry::releaseFootprints), for a
+  /// view far from it; a built one is whole.
+  [[nodiscard]] Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel = nullptr,
+                                        bool lean = false) const;
   /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the
   /// runs that reach the tile), or none when it does not reach the tile.
   [[nodiscard]] std::optional<geo::Feature> featureFor(const TileKey& key, std::uint32_t i) const;

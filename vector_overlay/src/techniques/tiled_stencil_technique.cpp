@@ -33,6 +33,7 @@ class TileWorkers {
     std::size_t layer = 0;
     const LayerTiling* tiling = nullptr;
     TileKey key;
+    bool lean = false;  ///< may come lean from the disk cache (LayerTiling::build)
   };
   struct Done {
     std::size_t layer = 0;
@@ -115,7 +116,7 @@ class TileWorkers {
       lock.unlock();
       Result<LayerTile> tile;
       try {
-        tile = job.tiling->build(job.key, &cancelled_);
+        tile = job.tiling->build(job.key, &cancelled_, job.lean);
       } catch (const std::exception& e) {  // on a worker thread it would end the program
         tile.diagnostics.add({Severity::Error, "", job.tiling->source().name(), "",
                               std::string("a tile cannot be built (") + e.what() + ")"});
@@ -400,6 +401,20 @@ class TiledStencil final : public OverlayTechnique {
   /// Whether a coarser detail than the last gather() wanted exists.
   [[nodiscard]] bool canCoarsen() const { return errorScale_ < kMaxErrorScale && wantedFinestLevel_ > 0; }
 
+  /// Whether the eye is farther than its size from any piece of tile `key` that could be drawn
+  /// z-fail (as collect() decides to release a tile's footprints), by a box that holds every
+  /// piece the tile can have: then it may come lean from the disk cache.
+  [[nodiscard]] bool farFrom(const LayerTiling& tiling, const TileKey& key, const TechniqueFrame& frame) const {
+    if (key.level >= tiling.finestLevel() || bounds_ == nullptr) return false;
+    const auto [tileLo, tileHi] = tiling.extent(key);
+    const double grow = tiling.widestReach() + (key.width > 0 ? widthClassCap(key.width) : 0.0);
+    const HeightBounds z = bounds_->globalBounds();
+    const double slack = tiling.groundError(key.level);
+    const glm::dvec3 lo(tileLo - grow, z.lo - slack), hi(tileHi + grow, z.hi + slack);
+    const glm::dvec3 size = hi - lo;
+    return !renderer_.mayDrawZFail(frame.view, frame.settings, lo - size, hi + size);
+  }
+
   /// Whether a resident tile can be drawn in this frame: one whose footprints were released
   /// only where none of its pieces could be drawn z-fail.
   [[nodiscard]] bool drawable(const Resident& r, const TechniqueFrame& frame) const {
@@ -482,12 +497,13 @@ class TiledStencil final : public OverlayTechnique {
         }
         if (here != l.tiles.end() && here->second.key.width >= key.width) {
           // A wider class is exact too (its pieces shrink in the shader), only looser.
-          if (here->second.key.width > key.width + 2) jobs.push_back({i, l.tiling.get(), key});
+          if (here->second.key.width > key.width + 2)
+            jobs.push_back({i, l.tiling.get(), key, farFrom(*l.tiling, key, frame)});
           use(here->second);
           continue;
         }
         ++stats.tilesMissing;
-        jobs.push_back({i, l.tiling.get(), key});
+        jobs.push_back({i, l.tiling.get(), key, farFrom(*l.tiling, key, frame)});
         bool found = here != l.tiles.end();  // too narrow for a still, fine in a flight
         if (found) use(here->second);
         for (TileKey a = key; a.level > 0 && !found;) {
