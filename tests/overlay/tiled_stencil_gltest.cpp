@@ -291,6 +291,29 @@ TEST_F(TiledStencilGlTest, ABudgetBelowOneFrameCoarsensTheDetailAndIsKept) {
   }
 }
 
+TEST_F(TiledStencilGlTest, TheDiskCacheTellsWhatFitsTheBudgetBeforeAnythingIsRead) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("tiled_stencil_budget_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const glm::dvec2 centre = 0.5 * (lo_ + hi_);
+  const glm::dvec3 eye(centre - glm::dvec2(900.0, 700.0), bounds_->globalBounds().hi + 500.0);
+  std::size_t full = 0;
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t = technique(std::size_t{1} << 30U, dir.string(), "terrain A");
+    full = draw(*t, eye, glm::dvec3(centre, 0.0), true, false).stats.tileBytes;
+  }
+  // A second run under a third of that: the files say the full detail does not fit, so it is
+  // not read; the coarser one that fits is (built, as the first run did not draw it).
+  std::unique_ptr<overlay::OverlayTechnique> t = technique(full / 3, dir.string(), "terrain A");
+  const Frame f = draw(*t, eye, glm::dvec3(centre, 0.0), true);
+  std::printf("budget %zu of %zu bytes: at most %zu resident, drawn at %.1f px, %zu tiles read of %zu\n", full / 3,
+              full, f.stats.tilePeakBytes, f.stats.tileErrorPixels, f.stats.tilesFromDisk, f.stats.tilesBuilt);
+  EXPECT_LE(f.stats.tilePeakBytes, full / 3) << "nothing beyond the budget was read";
+  EXPECT_GT(f.stats.tileErrorPixels, 0.5);
+  EXPECT_EQ(f.comparison.wrong, 0u);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_F(TiledStencilGlTest, EditsShowInTheNextFrame) {
   std::unique_ptr<overlay::OverlayTechnique> t = technique();
   const glm::dvec2 centre = 0.5 * (lo_ + hi_);

@@ -113,6 +113,31 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
   return !ec;
 }
 
+namespace {
+
+/// Reads a tile file's header: whether it holds this format, fingerprint and key; its ground
+/// error and the length of its lean section.
+bool readHeader(Reader& r, std::uint64_t fingerprint, const TileKey& key, double& error, std::uint64_t& leanLength) {
+  std::uint32_t magic = 0, version = 0;
+  std::uint64_t stored = 0;
+  TileKey k;
+  return r.value(magic) && magic == kMagic && r.value(version) && version == kVersion && r.value(stored) &&
+         stored == fingerprint && r.value(k.level) && r.value(k.x) && r.value(k.y) && r.value(k.width) && k == key &&
+         r.value(error) && r.value(leanLength);
+}
+
+}  // namespace
+
+std::optional<std::size_t> tileBytes(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  Reader r(in);
+  double error = 0.0;
+  std::uint64_t leanLength = 0;
+  if (!readHeader(r, fingerprint, key, error, leanLength)) return std::nullopt;
+  return static_cast<std::size_t>(leanLength);
+}
+
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
@@ -120,16 +145,10 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
   Reader r(in);
-  std::uint32_t magic = 0, version = 0;
-  std::uint64_t stored = 0;
-  TileKey k;
   double error = 0.0;
-  if (!r.value(magic) || magic != kMagic || !r.value(version) || version != kVersion || !r.value(stored) ||
-      stored != fingerprint || !r.value(k.level) || !r.value(k.x) || !r.value(k.y) || !r.value(k.width) ||
-      !(k == key) || !r.value(error))
-    return std::nullopt;
   std::uint64_t leanLength = 0;
-  if (!r.value(leanLength)) return std::nullopt;
+  if (!readHeader(r, fingerprint, key, error, leanLength)) return std::nullopt;
+  std::uint32_t magic = 0;
   if (lean) {
     std::vector<std::uint32_t> index;
     if (!r.array(index)) return std::nullopt;

@@ -25,6 +25,10 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
 /// the source), `bounds` and `options` (as LayerTiling::build would). `lean`: as
 /// LayerGeometry::releaseFootprints leaves it (the GPU arrays, pieces' boxes and bounds; no
 /// footprints, no feature geometry), read with a few large reads.
+/// The length of the lean section of the tile in `file` (about its GPU bytes), if the file
+/// holds this fingerprint and key; reads the header only.
+std::optional<std::size_t> tileBytes(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key);
+
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,

@@ -362,14 +362,21 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
   return g;
 }
 
+std::filesystem::path LayerTiling::tileFile(const TileKey& key) const {
+  return std::filesystem::path(cacheFolder_) /
+         (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) +
+          (key.width > 0 ? "-w" + std::to_string(key.width) : std::string()) + ".tile");
+}
+
+std::optional<std::size_t> LayerTiling::cachedBytes(const TileKey& key) const {
+  if (!cacheUsable_ || bounds_->revision() != cacheRevision_) return std::nullopt;
+  return detail::tileBytes(tileFile(key), fingerprint_, key);
+}
+
 Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>* cancel, bool lean) const {
   // From the disk cache, while it holds what the tile would be built from.
   const bool cached = cacheUsable_ && bounds_->revision() == cacheRevision_;
-  const std::filesystem::path file =
-      cached ? std::filesystem::path(cacheFolder_) /
-                   (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) +
-                    (key.width > 0 ? "-w" + std::to_string(key.width) : std::string()) + ".tile")
-             : std::filesystem::path();
+  const std::filesystem::path file = cached ? tileFile(key) : std::filesystem::path();
   if (cached) {
     if (std::optional<LayerTile> tile = detail::readTile(
             file, fingerprint_, key, *source_, *bounds_, tileOptions(key),

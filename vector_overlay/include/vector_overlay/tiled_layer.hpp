@@ -40,6 +40,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <utility>
@@ -138,6 +139,10 @@ class LayerTiling {
   /// view far from it; a built one is whole.
   [[nodiscard]] Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel = nullptr,
                                         bool lean = false) const;
+  /// The GPU bytes of tile `key` as the disk cache holds it (its lean section: the arrays and
+  /// the pieces' boxes, a little more than the GPU takes), or none when the cache has no usable
+  /// file for it. Reads the file's header only.
+  [[nodiscard]] std::optional<std::size_t> cachedBytes(const TileKey& key) const;
   /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the
   /// runs that reach the tile), or none when it does not reach the tile.
   [[nodiscard]] std::optional<geo::Feature> featureFor(const TileKey& key, std::uint32_t i) const;
@@ -183,6 +188,7 @@ class LayerTiling {
   bool cacheUsable_ = false;         ///< off after an edit (the fingerprint no longer holds)
   mutable std::atomic<std::size_t> tilesRead_{0}, tilesWritten_{0};
   [[nodiscard]] std::uint64_t fingerprint() const;
+  [[nodiscard]] std::filesystem::path tileFile(const TileKey& key) const;
   /// How tile `key` is built: its cells, chords, bounds slack and line shapes for its level.
   [[nodiscard]] LayerBuildOptions tileOptions(const TileKey& key) const;
   [[nodiscard]] Result<LayerTile> buildNew(const TileKey& key, const std::atomic<bool>* cancel) const;

@@ -198,6 +198,11 @@ class TiledStencil final : public OverlayTechnique {
         chunks.clear();
         jobs.clear();
         const bool standIn = gather(frame, chunks, jobs, stats);
+        // A still whose tiles the disk cache says will not fit: coarser at once, nothing read.
+        if (frame.waitForTiles && canCoarsen() && knownBytes(jobs) > tiling_.gpuBudgetBytes) {
+          overBudget = true;
+          return;
+        }
         if (!jobs.empty()) workers_.request(jobs);
         if (stats.tilesMissing == 0 || !(frame.waitForTiles || !standIn)) return;
         // A still image, or a tile with no ancestor to stand in: wait for them (then every
@@ -396,6 +401,17 @@ class TiledStencil final : public OverlayTechnique {
     for (std::size_t i = 0; i < layers_.size(); ++i)
       total += bytes[i] + (there[i] > 0 ? bytes[i] / there[i] * missing[i] : 0);
     return total;
+  }
+
+  /// GPU bytes of the wanted tiles that are resident and of those the jobs would read from the
+  /// disk cache (as its files say; tiles to be built count nothing).
+  [[nodiscard]] std::size_t knownBytes(const std::vector<TileWorkers::Job>& jobs) const {
+    std::size_t bytes = wantedBytes();
+    for (const TileWorkers::Job& j : jobs) {
+      if (layers_[j.layer].tiles.count(j.key.packed()) != 0) continue;  // counted, or a wider class
+      bytes += j.tiling->cachedBytes(j.key).value_or(0);
+    }
+    return bytes;
   }
 
   /// Whether a coarser detail than the last gather() wanted exists.
