@@ -107,8 +107,12 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     techniqueOptions.tiling.cacheKey = terrainCacheKey(scene);
     techniqueOptions.tiling.cacheRevision = scene.bounds->revision();
   }
-  // A tiled technique builds the pieces per tile: the layers keep their features only.
+  // A tiled technique builds the pieces per tile: the layers keep their features only, checked
+  // at load (or as checked last time, with the tiles' cache).
   options.deferPieces = tiled;
+  if (tiled && settings.tileCache)
+    options.checkCacheDirectory =
+        (std::filesystem::path(cacheDirectoryFor(scene.description)) / "vector-checks").string();
   // It also draws lines at least LayerStyle::minWidthPixels wide (each tile at the widths its
   // view needs); the whole-load techniques draw the widths in metres.
   options.minWidthInPixels = tiled;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <future>
 #include <limits>
 #include <map>
@@ -13,6 +14,8 @@
 #include <string>
 #include <tuple>
 #include <vector>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -171,6 +174,61 @@ TEST(LayerGeometry, LayersShareTheirFeaturesUntilOneIsEdited) {
   EXPECT_FALSE(a->sharedFeatures().shared());
   EXPECT_TRUE(a->replaceFeature(3, a->features()[3]).empty());
   EXPECT_EQ(&a->features(), own);
+}
+
+TEST(LayerGeometry, DeferredChecksAreReadFromTheirCacheWhileNothingTheyDependOnChanged) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("layer_checks_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::mt19937 rng(12);
+  const WavyBounds bounds;
+  std::vector<geo::Feature> roads = randomLines(rng, glm::dvec2(-2000.0), glm::dvec2(2000.0), 10);
+  geo::Feature broken;  // one point: an Error, named
+  broken.fid = 77;
+  broken.lines.push_back({glm::dvec2(5.0, 5.0)});
+  roads.push_back(broken);
+  geo::Feature outside;  // far beyond the cells: a Warning, nothing to draw
+  outside.fid = 78;
+  outside.lines.push_back({glm::dvec2(9e4, 9e4), glm::dvec2(9.1e4, 9e4)});
+  roads.push_back(outside);
+  LayerStyle road;
+  road.widthMetres = 6.0F;
+  LayerBuildOptions options = onCells();
+  options.deferPieces = true;
+  options.checkCacheDirectory = dir.string();
+  const auto build = [&](const std::vector<geo::Feature>& features) {
+    Result<LayerGeometry> g = LayerGeometry::build("roads", LayerKind::Line, road, features, bounds, options);
+    EXPECT_TRUE(g.ok());
+    return g;
+  };
+  const auto messages = [](const Diagnostics& d) {
+    std::vector<std::string> out;
+    for (const Diagnostic& m : d.items()) out.push_back(m.toString());
+    return out;
+  };
+  const Result<LayerGeometry> first = build(roads);
+  EXPECT_FALSE(first->stats().checksFromCache);
+  ASSERT_FALSE(first.diagnostics.items().empty()) << "the broken features are named";
+  // Again: read, with the same outcomes and messages.
+  const Result<LayerGeometry> second = build(roads);
+  EXPECT_TRUE(second->stats().checksFromCache);
+  EXPECT_EQ(second->featureOutcomes(), first->featureOutcomes());
+  EXPECT_EQ(messages(second.diagnostics), messages(first.diagnostics));
+  EXPECT_EQ(second->contentFingerprint(), first->contentFingerprint());
+  // Another feature, or another width: checked again.
+  std::vector<geo::Feature> moved = roads;
+  moved[2].lines[0][0] += glm::dvec2(1.0, 0.0);
+  EXPECT_FALSE(build(moved)->stats().checksFromCache);
+  road.widthMetres = 8.0F;
+  EXPECT_FALSE(build(roads)->stats().checksFromCache);
+  EXPECT_TRUE(build(roads)->stats().checksFromCache);
+  // A damaged file: checked again (and written again).
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    std::filesystem::resize_file(entry.path(), std::filesystem::file_size(entry.path()) / 2);
+  const Result<LayerGeometry> repaired = build(roads);
+  EXPECT_FALSE(repaired->stats().checksFromCache);
+  EXPECT_TRUE(build(roads)->stats().checksFromCache);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(LayerGeometry, EditsNameExactlyWhatTheGpuCopyMustTakeAgain) {

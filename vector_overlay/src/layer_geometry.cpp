@@ -4,7 +4,10 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -12,12 +15,16 @@
 #include <unordered_map>
 #include <variant>
 
+#include <unistd.h>
+
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/vector_relational.hpp>
 
+#include "core/hash.hpp"
 #include "footprint_geometry.hpp"
 #include "geo/binary_io.hpp"
+#include "vector_overlay/pieces_fingerprint.hpp"
 #include "vector_overlay/validation.hpp"
 
 namespace gis::overlay {
@@ -407,6 +414,106 @@ void LayerGeometry::releaseFootprints() {
 
 namespace {
 
+constexpr std::uint32_t kChecksMagic = 0x4B484353;  // "SCHK"
+
+/// The checks of a deferred layer's features as written by writeChecks, if `file` holds as
+/// many as `outcomes` has and is whole.
+bool readChecks(const std::filesystem::path& file, std::vector<FeatureOutcome>& outcomes,
+                std::vector<Diagnostics>& found) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return false;
+  geo::io::Reader r(in);
+  std::uint32_t magic = 0;
+  std::vector<FeatureOutcome> read;
+  if (!r.value(magic) || magic != kChecksMagic || !r.array(read) || read.size() != outcomes.size()) return false;
+  std::vector<Diagnostics> messages(read.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    if (static_cast<std::uint8_t>(read[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden)) return false;
+    std::size_t n = 0;
+    if (!r.count(n)) return false;
+    for (std::size_t k = 0; k < n; ++k) {
+      Diagnostic d;
+      std::uint8_t severity = 0;
+      if (!r.value(severity) || severity > static_cast<std::uint8_t>(Severity::Error) || !r.text(d.file) ||
+          !r.text(d.layer) || !r.text(d.feature) || !r.text(d.message))
+        return false;
+      d.severity = static_cast<Severity>(severity);
+      messages[i].add(std::move(d));
+    }
+  }
+  if (!r.value(magic) || magic != kChecksMagic) return false;
+  outcomes = std::move(read);
+  found = std::move(messages);
+  return true;
+}
+
+/// Writes the checks (to a temporary file renamed into place); false when it cannot.
+bool writeChecks(const std::filesystem::path& file, const std::vector<FeatureOutcome>& outcomes,
+                 const std::vector<Diagnostics>& found) {
+  std::error_code ec;
+  std::filesystem::create_directories(file.parent_path(), ec);
+  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(::getpid());
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) return false;
+    geo::io::Writer w(out);
+    w.value(kChecksMagic);
+    w.array(outcomes);
+    for (const Diagnostics& d : found) {
+      w.value(static_cast<std::uint64_t>(d.items().size()));
+      for (const Diagnostic& m : d.items()) {
+        w.value(static_cast<std::uint8_t>(m.severity));
+        w.text(m.file);
+        w.text(m.layer);
+        w.text(m.feature);
+        w.text(m.message);
+      }
+    }
+    w.value(kChecksMagic);
+    if (!out) {
+      out.close();
+      std::filesystem::remove(temporary, ec);
+      return false;
+    }
+  }
+  std::filesystem::rename(temporary, file, ec);
+  if (ec) std::filesystem::remove(temporary, ec);
+  return !ec;
+}
+
+/// A hash of the features and of what their pieces take from their styles (visibility, fid,
+/// line shape, geometry), and of the layer's kind.
+std::uint64_t hashContent(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
+                          LayerKind kind) {
+  StableHasher h;
+  h.add(static_cast<std::uint64_t>(kind));
+  h.add(static_cast<std::uint64_t>(features.size()));
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    const geo::Feature& f = features[i];
+    const FeatureStyle& st = styles[i];
+    h.add(static_cast<std::uint64_t>(st.visible ? 1 : 0));
+    h.add(static_cast<std::uint64_t>(f.fid));
+    for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels, st.shape.minWidth}) h.add(v);
+    h.add(static_cast<std::uint64_t>(st.shape.join) * 8U + static_cast<std::uint64_t>(st.shape.cap));
+    const auto points = [&h](const std::vector<glm::dvec2>& ps) {
+      h.add(static_cast<std::uint64_t>(ps.size()));
+      for (const glm::dvec2& p : ps) {
+        h.add(p.x);
+        h.add(p.y);
+      }
+    };
+    h.add(static_cast<std::uint64_t>(f.polygons.size()));
+    for (const geo::Polygon& p : f.polygons) {
+      points(p.outer);
+      h.add(static_cast<std::uint64_t>(p.holes.size()));
+      for (const geo::Ring& r : p.holes) points(r);
+    }
+    h.add(static_cast<std::uint64_t>(f.lines.size()));
+    for (const geo::LineString& l : f.lines) points(l);
+  }
+  return h.value();
+}
+
 /// A piece as a lean layer keeps it: all but the footprint's arrays.
 struct LeanPiece {
   std::uint32_t feature = 0;
@@ -551,9 +658,41 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
   layer.outcomes_.assign(layer.features_.size(), FeatureOutcome::Hidden);
   if (options.deferPieces) {
     // No pieces, but every feature checked as a build would (its footprints, uncut): broken and
-    // empty features are named now, not when a tile first meets them.
+    // empty features are named now, not when a tile first meets them. As checked last time
+    // when the same features were checked the same way (checkCacheDirectory).
+    layer.contentFingerprint_ = hashContent(layer.features_.all(), layer.styles_, kind);
     std::vector<Diagnostics> found(layer.features_.size());
     std::vector<FeatureOutcome> outcomes(layer.features_.size(), FeatureOutcome::Hidden);
+    std::filesystem::path checksFile;
+    if (!options.checkCacheDirectory.empty()) {
+      StableHasher h;
+      h.add(std::string_view("stencil-gis checks 1"));
+      h.add(std::string_view(STENCIL_GIS_PIECES_FINGERPRINT));  // the code that checks them
+      h.add(layer.contentFingerprint_);
+      h.add(layer.name_);
+      const FootprintOptions& fo = options.footprints;
+      h.add(fo.chordTolerance);
+      h.add(fo.chordTolerancePixels);
+      h.add(static_cast<std::uint64_t>(fo.cells ? 1 : 0));
+      if (fo.cells) {
+        for (const double v : {fo.cells->origin.x, fo.cells->origin.y, fo.cells->cellSize}) h.add(v);
+        h.add(static_cast<std::uint64_t>(fo.cells->columns) * 65536U + static_cast<std::uint64_t>(fo.cells->rows));
+      }
+      char file[32];
+      std::snprintf(file, sizeof(file), "%016llx.checks", static_cast<unsigned long long>(h.value()));
+      checksFile = std::filesystem::path(options.checkCacheDirectory) / file;
+      if (readChecks(checksFile, outcomes, found)) {
+        layer.stats_.checksFromCache = true;
+        for (std::size_t i = 0; i < layer.features_.size(); ++i) {
+          r.diagnostics.append(found[i]);
+          layer.setOutcome(i, outcomes[i]);
+        }
+        layer.stats_.features = layer.features_.size();
+        layer.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        r.value = std::move(layer);
+        return r;
+      }
+    }
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
       for (std::size_t i = next.fetch_add(1); i < layer.features_.size(); i = next.fetch_add(1)) {
@@ -573,6 +712,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
       for (unsigned t = 1; t < std::clamp(options.threads, 1U, 64U); ++t) pool.emplace_back(work);
       work();
     }
+    if (!checksFile.empty()) (void)writeChecks(checksFile, outcomes, found);
     for (std::size_t i = 0; i < layer.features_.size(); ++i) {
       r.diagnostics.append(found[i]);
       layer.setOutcome(i, outcomes[i]);
@@ -912,6 +1052,7 @@ Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
 }
 
 Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature feature) {
+  contentFingerprint_ = 0;
   if (index >= features_.size()) return {};
   features_.edit()[index] = std::move(feature);
   const std::vector<geo::Feature> one{features_[index]};
@@ -925,6 +1066,7 @@ Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature featur
 }
 
 Diagnostics LayerGeometry::setFeature(std::size_t index, geo::Feature feature, FeatureStyle style) {
+  contentFingerprint_ = 0;
   if (index > features_.size()) return {};
   if (index == features_.size()) {
     features_.edit().emplace_back();
@@ -940,6 +1082,7 @@ Diagnostics LayerGeometry::setFeature(std::size_t index, geo::Feature feature, F
 }
 
 Diagnostics LayerGeometry::setFeatureStyle(std::size_t index, const FeatureStyle& style) {
+  contentFingerprint_ = 0;
   if (index >= features_.size()) return {};
   styles_[index] = style;
   if (bounds_ != nullptr) assignAnchorHeights(styles_[index], features_[index], *bounds_);
@@ -947,6 +1090,7 @@ Diagnostics LayerGeometry::setFeatureStyle(std::size_t index, const FeatureStyle
 }
 
 void LayerGeometry::removeFeature(std::size_t index) {
+  contentFingerprint_ = 0;
   if (index >= features_.size()) return;
   styles_[index].visible = false;
   freePieces(static_cast<std::uint32_t>(index));

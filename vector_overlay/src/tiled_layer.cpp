@@ -98,6 +98,13 @@ std::uint64_t LayerTiling::fingerprint() const {
        {grid_.columns, grid_.rows, fo.lineCellDivisions, tiling_.tileResolution, tiling_.finestTileCells,
         tiling_.cellsPerTile, fo.uniteLines ? 1 : 0, options_.adaptiveSplit ? 1 : 0, options_.paperVariant ? 1 : 0})
     h.add(static_cast<std::uint64_t>(static_cast<std::int64_t>(v)));
+  // The features as the layer hashed them when it was built, else hashed here alike.
+  if (const std::uint64_t content = source_->contentFingerprint(); content != 0) {
+    h.add(content);
+    return h.value();
+  }
+  h.add(static_cast<std::uint64_t>(source_->kind()));
+  h.add(static_cast<std::uint64_t>(source_->features().size()));
   const std::vector<FeatureStyle>& styles = source_->featureStyles();
   for (std::size_t i = 0; i < source_->features().size(); ++i) {
     const geo::Feature& f = source_->features()[i];

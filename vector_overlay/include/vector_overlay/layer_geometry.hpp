@@ -88,6 +88,10 @@ struct LayerBuildOptions {
   /// Once this is set (from any thread), the build stops early and fails: a tile no longer
   /// wanted. Not part of what the pieces depend on.
   const std::atomic<bool>* cancel = nullptr;
+  /// With deferPieces: where the features' checks are kept for the next run (empty: nowhere),
+  /// in a file named after what they depend on (the features, their line shapes, the layer's
+  /// name and kind, the chords and cells, the code), with their messages.
+  std::string checkCacheDirectory;
 };
 
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
@@ -126,6 +130,8 @@ struct LayerStats {
   std::size_t triangles = 0;
   std::size_t gpuBytes = 0;
   double buildSeconds = 0.0;
+  /// deferPieces: whether the features' checks were read from LayerBuildOptions::checkCacheDirectory.
+  bool checksFromCache = false;
 };
 
 /// What became of one feature of a layer.
@@ -227,6 +233,9 @@ class LayerGeometry {
   [[nodiscard]] const std::vector<geo::Feature>& features() const { return features_.all(); }
   /// The features as shared (another layer built from them shares them too).
   [[nodiscard]] const SharedFeatures& sharedFeatures() const { return features_; }
+  /// A layer built with deferPieces: a hash of its features as built (their geometry, fids,
+  /// visibility and line shapes, and the layer's kind); 0 otherwise and after an edit.
+  [[nodiscard]] std::uint64_t contentFingerprint() const { return contentFingerprint_; }
   [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return styles_; }
   /// Counts and build time (gpuBytes is OverlayLayer's business: 0 here).
   [[nodiscard]] const LayerStats& stats() const { return stats_; }
@@ -346,6 +355,7 @@ class LayerGeometry {
   std::size_t wastedIndices_ = 0;
   bool arraysReleased_ = false;
   bool footprintsReleased_ = false;
+  std::uint64_t contentFingerprint_ = 0;
   GeometryChange changes_;
   LayerStats stats_;
   const HeightBoundsProvider* bounds_ = nullptr;
