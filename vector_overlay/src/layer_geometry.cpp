@@ -481,10 +481,21 @@ bool writeChecks(const std::filesystem::path& file, const std::vector<FeatureOut
   return !ec;
 }
 
-/// A hash of the features and of what their pieces take from their styles (visibility, fid,
-/// line shape, geometry), and of the layer's kind.
-std::uint64_t hashContent(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
-                          LayerKind kind) {
+/// A piece as a lean layer keeps it: all but the footprint's arrays.
+struct LeanPiece {
+  std::uint32_t feature = 0;
+  std::int32_t cell = -1;
+  std::uint32_t source = 0;
+  std::uint8_t kind = 0;
+  std::uint8_t overSurface = 0;
+  double lo = 0.0, hi = 0.0;
+  glm::dvec2 boxMin{0.0}, boxMax{0.0};
+};
+
+}  // namespace
+
+std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
+                                  LayerKind kind) {
   StableHasher h;
   h.add(static_cast<std::uint64_t>(kind));
   h.add(static_cast<std::uint64_t>(features.size()));
@@ -513,19 +524,6 @@ std::uint64_t hashContent(const std::vector<geo::Feature>& features, const std::
   }
   return h.value();
 }
-
-/// A piece as a lean layer keeps it: all but the footprint's arrays.
-struct LeanPiece {
-  std::uint32_t feature = 0;
-  std::int32_t cell = -1;
-  std::uint32_t source = 0;
-  std::uint8_t kind = 0;
-  std::uint8_t overSurface = 0;
-  double lo = 0.0, hi = 0.0;
-  glm::dvec2 boxMin{0.0}, boxMax{0.0};
-};
-
-}  // namespace
 
 void LayerGeometry::writeLean(geo::io::Writer& w) const {
   std::vector<std::int64_t> fids(features_.size());
@@ -660,7 +658,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
     // No pieces, but every feature checked as a build would (its footprints, uncut): broken and
     // empty features are named now, not when a tile first meets them. As checked last time
     // when the same features were checked the same way (checkCacheDirectory).
-    layer.contentFingerprint_ = hashContent(layer.features_.all(), layer.styles_, kind);
+    layer.contentFingerprint_ = featuresFingerprint(layer.features_.all(), layer.styles_, kind);
     std::vector<Diagnostics> found(layer.features_.size());
     std::vector<FeatureOutcome> outcomes(layer.features_.size(), FeatureOutcome::Hidden);
     std::filesystem::path checksFile;

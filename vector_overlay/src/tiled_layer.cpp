@@ -99,36 +99,8 @@ std::uint64_t LayerTiling::fingerprint() const {
         tiling_.cellsPerTile, fo.uniteLines ? 1 : 0, options_.adaptiveSplit ? 1 : 0, options_.paperVariant ? 1 : 0})
     h.add(static_cast<std::uint64_t>(static_cast<std::int64_t>(v)));
   // The features as the layer hashed them when it was built, else hashed here alike.
-  if (const std::uint64_t content = source_->contentFingerprint(); content != 0) {
-    h.add(content);
-    return h.value();
-  }
-  h.add(static_cast<std::uint64_t>(source_->kind()));
-  h.add(static_cast<std::uint64_t>(source_->features().size()));
-  const std::vector<FeatureStyle>& styles = source_->featureStyles();
-  for (std::size_t i = 0; i < source_->features().size(); ++i) {
-    const geo::Feature& f = source_->features()[i];
-    const FeatureStyle& st = styles[i];
-    h.add(static_cast<std::uint64_t>(st.visible ? 1 : 0));
-    h.add(static_cast<std::uint64_t>(f.fid));
-    for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels, st.shape.minWidth}) h.add(v);
-    h.add(static_cast<std::uint64_t>(st.shape.join) * 8U + static_cast<std::uint64_t>(st.shape.cap));
-    const auto points = [&h](const std::vector<glm::dvec2>& ps) {
-      h.add(static_cast<std::uint64_t>(ps.size()));
-      for (const glm::dvec2& p : ps) {
-        h.add(p.x);
-        h.add(p.y);
-      }
-    };
-    h.add(static_cast<std::uint64_t>(f.polygons.size()));
-    for (const geo::Polygon& p : f.polygons) {
-      points(p.outer);
-      h.add(static_cast<std::uint64_t>(p.holes.size()));
-      for (const geo::Ring& r : p.holes) points(r);
-    }
-    h.add(static_cast<std::uint64_t>(f.lines.size()));
-    for (const geo::LineString& l : f.lines) points(l);
-  }
+  const std::uint64_t content = source_->contentFingerprint();
+  h.add(content != 0 ? content : featuresFingerprint(source_->features(), source_->featureStyles(), source_->kind()));
   return h.value();
 }
 

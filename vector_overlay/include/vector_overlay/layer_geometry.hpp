@@ -171,6 +171,11 @@ struct GeometryChange {
   void add(std::size_t v0, std::size_t v1, std::size_t i0, std::size_t i1);
 };
 
+/// A hash of the features and of what their pieces take from their styles (visibility, fid,
+/// line shape, geometry), and of the layer's kind (LayerGeometry::contentFingerprint).
+std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
+                                  LayerKind kind);
+
 /// A layer's features, shared with whoever else holds them (the scene that read them, the
 /// layer's outline, a rebuild for another style) and copied only when edited while shared:
 /// a layer costs no second copy of its features. Built from a vector (taken over) or from a
