@@ -102,7 +102,7 @@ std::optional<Result<geo::VectorLayer>> readLayerCache(const std::string& file, 
     std::size_t count = 0;
     if (!r.text(layer.path) || !r.text(layer.name) || !r.text(layer.sourceCrsWkt) || !r.value(kind) ||
         kind > static_cast<std::uint8_t>(geo::GeometryKind::Empty) || !r.value(layer.quantisationMetres) ||
-        !r.count(count))
+        !r.count(count, 32))  // a feature: fid, two counts, attributes' count
       return std::nullopt;
     layer.kind = static_cast<geo::GeometryKind>(kind);
     layer.features.resize(count);

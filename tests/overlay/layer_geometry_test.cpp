@@ -11,6 +11,7 @@
 #include <map>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -20,6 +21,7 @@
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "geo/binary_io.hpp"
 #include "gfx/camera.hpp"
 #include "random_features.hpp"
 #include "vector_overlay/layer_geometry.hpp"
@@ -229,6 +231,61 @@ TEST(LayerGeometry, DeferredChecksAreReadFromTheirCacheWhileNothingTheyDependOnC
   EXPECT_FALSE(repaired->stats().checksFromCache);
   EXPECT_TRUE(build(roads)->stats().checksFromCache);
   std::filesystem::remove_all(dir);
+}
+
+TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
+  std::mt19937 rng(21);
+  const WavyBounds bounds;
+  LayerStyle road;
+  road.widthMetres = 5.0F;
+  const std::vector<geo::Feature> roads = randomLines(rng, glm::dvec2(-2000.0), glm::dvec2(2000.0), 6);
+  Result<LayerGeometry> built = LayerGeometry::build("roads", LayerKind::Line, road, roads, bounds, onCells());
+  ASSERT_TRUE(built.ok());
+  std::ostringstream out;
+  {
+    geo::io::Writer w(out);
+    built->writeLean(w);
+  }
+  const std::string bytes = out.str();
+  const auto read = [&](const std::string& data) {
+    std::istringstream in(data);
+    geo::io::Reader r(in);
+    return LayerGeometry::readLean(r, "roads", LayerKind::Line, road, built->featureStyles(), bounds, onCells());
+  };
+  // Whole: the same arrays and slots, pieces' boxes and bounds, no footprints.
+  const std::optional<LayerGeometry> lean = read(bytes);
+  ASSERT_TRUE(lean.has_value());
+  EXPECT_TRUE(sameArrays(*lean, *built));
+  EXPECT_TRUE(lean->footprintsReleased());
+  EXPECT_EQ(lean->featureOutcomes(), built->featureOutcomes());
+  EXPECT_EQ(lean->box3(), built->box3());
+  EXPECT_EQ(lean->maxOverlap(), built->maxOverlap());
+  for (std::size_t k = 0; k < lean->polyhedra().size(); ++k) {
+    EXPECT_EQ(lean->polyhedra()[k].lo, built->polyhedra()[k].lo);
+    EXPECT_EQ(lean->polyhedra()[k].boxMax, built->polyhedra()[k].boxMax);
+    EXPECT_TRUE(lean->polyhedra()[k].footprint.vertices.empty());
+  }
+  // Cut short anywhere: refused.
+  for (std::size_t n = 0; n < bytes.size(); n += 1 + bytes.size() / 997)
+    EXPECT_FALSE(read(bytes.substr(0, n)).has_value()) << "cut at " << n;
+  // Bytes changed at random: refused, or read with every index within its arrays (the checks a
+  // draw relies on; the sanitizer build would see any read beyond them here).
+  std::uniform_int_distribution<std::size_t> at(0, bytes.size() - 1);
+  std::uniform_int_distribution<int> value(0, 255);
+  for (int trial = 0; trial < 400; ++trial) {
+    std::string damaged = bytes;
+    for (int k = 0; k < 1 + trial % 4; ++k) damaged[at(rng)] = static_cast<char>(value(rng));
+    const std::optional<LayerGeometry> g = read(damaged);
+    if (!g) continue;
+    for (const LayerGeometry::PieceSlot& s : g->slots()) {
+      ASSERT_LE(std::uint64_t{s.firstIndex} + s.indexCount, g->indices().size());
+      for (std::uint32_t i = s.firstIndex; i < s.firstIndex + s.indexCount; ++i)
+        ASSERT_LT(std::uint64_t{s.baseVertex} + g->indices()[i], g->vertices().size());
+      ASSERT_LT(s.origin, g->origins().size());
+    }
+    (void)g->box3();
+    (void)g->maxOverlap();
+  }
 }
 
 TEST(LayerGeometry, EditsNameExactlyWhatTheGpuCopyMustTakeAgain) {

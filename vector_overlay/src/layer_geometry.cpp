@@ -430,7 +430,7 @@ bool readChecks(const std::filesystem::path& file, std::vector<FeatureOutcome>& 
   for (std::size_t i = 0; i < read.size(); ++i) {
     if (static_cast<std::uint8_t>(read[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden)) return false;
     std::size_t n = 0;
-    if (!r.count(n)) return false;
+    if (!r.count(n, 33)) return false;  // severity and four texts' lengths
     for (std::size_t k = 0; k < n; ++k) {
       Diagnostic d;
       std::uint8_t severity = 0;

@@ -162,9 +162,10 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
     if (!g || !r.value(magic) || magic != kMagic) return std::nullopt;
     return LayerTile{key, std::move(*g), std::move(index), error, true};
   }
-  in.seekg(static_cast<std::streamoff>(leanLength), std::ios::cur);
+  if (!r.skip(leanLength)) return std::nullopt;
   std::size_t count = 0;
-  if (!r.count(count)) return std::nullopt;
+  // A feature takes at least its index, fid, three counts; a piece over 100 bytes.
+  if (!r.count(count, 36)) return std::nullopt;
   std::vector<geo::Feature> features(count);
   std::vector<FeatureStyle> styles(count);
   std::vector<std::vector<Polyhedron>> pieces(count);
@@ -172,7 +173,7 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
   for (std::size_t i = 0; i < count; ++i) {
     std::size_t n = 0;
     if (!r.value(index[i]) || index[i] >= source.features().size() || !geo::io::readGeometry(r, features[i]) ||
-        !r.count(n))
+        !r.count(n, 100))
       return std::nullopt;
     styles[i] = styleOf(index[i]);
     pieces[i].resize(n);

@@ -6,6 +6,7 @@
 // instead of allocating without bound.
 #include <cstdint>
 #include <istream>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <type_traits>
@@ -44,37 +45,68 @@ class Writer {
 
 class Reader {
  public:
-  explicit Reader(std::istream& in) : in_(in) {}
+  /// The stream's end is found once (where it can seek), so that a damaged count never makes
+  /// an array larger than the bytes that are left.
+  explicit Reader(std::istream& in) : in_(in) {
+    const std::istream::pos_type here = in_.tellg();
+    if (here == std::istream::pos_type(-1)) return;
+    in_.seekg(0, std::ios::end);
+    const std::istream::pos_type end = in_.tellg();
+    in_.seekg(here);
+    if (end != std::istream::pos_type(-1) && end >= here) left_ = static_cast<std::uint64_t>(end - here);
+  }
   template <typename T>
   bool value(T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
     in_.read(reinterpret_cast<char*>(&v), sizeof(T));
+    consumed(sizeof(T));
     return static_cast<bool>(in_);
   }
   template <typename T>
   bool array(std::vector<T>& v) {
     std::size_t n = 0;
-    if (!count(n)) return false;
+    if (!count(n) || !left(n, sizeof(T))) return false;
     v.resize(n);
     in_.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(v.size() * sizeof(T)));
+    consumed(n * sizeof(T));
     return static_cast<bool>(in_);
   }
   bool text(std::string& s) {
     std::size_t n = 0;
-    if (!count(n)) return false;
+    if (!count(n) || !left(n, 1)) return false;
     s.resize(n);
     in_.read(s.data(), static_cast<std::streamsize>(n));
+    consumed(n);
     return static_cast<bool>(in_);
   }
-  bool count(std::size_t& n) {
+  /// Skips `bytes` bytes; false when fewer are left.
+  bool skip(std::uint64_t bytes) {
+    if (left_ && bytes > *left_) return false;
+    in_.seekg(static_cast<std::streamoff>(bytes), std::ios::cur);
+    consumed(bytes);
+    return static_cast<bool>(in_);
+  }
+  /// A count of items each at least `minBytes` long in the stream: false beyond what is left
+  /// (a damaged count never allocates more than a few times the file's size).
+  bool count(std::size_t& n, std::size_t minBytes = 1) {
     std::uint64_t c = 0;
     if (!value(c) || c >= kMaxCount) return false;
     n = static_cast<std::size_t>(c);
-    return true;
+    return left(n, minBytes);
+  }
+
+  /// Whether `count` items of `size` bytes may still be in the stream (always, where its end
+  /// is unknown).
+  [[nodiscard]] bool left(std::size_t count, std::size_t size) const {
+    return !left_ || size == 0 || count <= *left_ / size;
   }
 
  private:
+  void consumed(std::uint64_t bytes) {
+    if (left_) *left_ = bytes > *left_ ? 0 : *left_ - bytes;
+  }
   std::istream& in_;
+  std::optional<std::uint64_t> left_;  ///< bytes left in the stream, where its end is known
 };
 
 /// A feature's fid, polygons and lines (not its attributes).
@@ -92,16 +124,16 @@ inline void writeGeometry(Writer& w, const Feature& f) {
 
 inline bool readGeometry(Reader& r, Feature& f) {
   std::size_t n = 0;
-  if (!r.value(f.fid) || !r.count(n)) return false;
+  if (!r.value(f.fid) || !r.count(n, 16)) return false;  // an outer ring's count, a hole count
   f.polygons.resize(n);
   for (Polygon& p : f.polygons) {
     std::size_t holes = 0;
-    if (!r.array(p.outer) || !r.count(holes)) return false;
+    if (!r.array(p.outer) || !r.count(holes, 8)) return false;
     p.holes.resize(holes);
     for (Ring& h : p.holes)
       if (!r.array(h)) return false;
   }
-  if (!r.count(n)) return false;
+  if (!r.count(n, 8)) return false;
   f.lines.resize(n);
   for (LineString& l : f.lines)
     if (!r.array(l)) return false;
