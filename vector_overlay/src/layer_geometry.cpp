@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -580,6 +581,14 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
       return std::nullopt;
     for (const std::uint32_t k : layer.featureSlots_[i])
       if (k >= slots) return std::nullopt;
+  }
+  // A flag read as bytes is a bool only if it is 0 or 1 (looked at as a byte, never as a bool).
+  layer.stats_.checksFromCache = false;
+  for (PieceSlot& s : layer.slots_) {
+    std::uint8_t live = 0;
+    static_assert(sizeof(s.live) == 1);
+    std::memcpy(&live, &s.live, 1);
+    if (live > 1) return std::nullopt;
   }
   layer.polyhedra_.resize(slots);
   for (std::size_t k = 0; k < slots; ++k) {
