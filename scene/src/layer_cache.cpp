@@ -115,14 +115,7 @@ std::optional<Result<geo::VectorLayer>> readLayerCache(const std::string& file, 
 }
 
 bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<geo::VectorLayer>& read) {
-  std::error_code ec;
-  fs::create_directories(fs::path(file).parent_path(), ec);
-  // Unique per process and thread; renamed into place, so readers never see half a file.
-  const std::string temporary = file + ".tmp" + std::to_string(::getpid()) + "-" +
-                                std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) return false;
+  return geo::io::writeFileAtomically(file, [&](std::ostream& out) {
     geo::io::Writer w(out);
     w.value(kMagic);
     w.value(kVersion);
@@ -143,15 +136,7 @@ bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<ge
       }
     }
     w.value(kMagic);
-    out.flush();
-    if (!out) {
-      fs::remove(temporary, ec);
-      return false;
-    }
-  }
-  fs::rename(temporary, file, ec);
-  if (ec) fs::remove(temporary, ec);
-  return !ec;
+  });
 }
 
 }  // namespace gis::scene::detail

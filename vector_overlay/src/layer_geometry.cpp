@@ -451,12 +451,7 @@ bool readChecks(const std::filesystem::path& file, std::vector<FeatureOutcome>& 
 /// Writes the checks (to a temporary file renamed into place); false when it cannot.
 bool writeChecks(const std::filesystem::path& file, const std::vector<FeatureOutcome>& outcomes,
                  const std::vector<Diagnostics>& found) {
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) return false;
+  return geo::io::writeFileAtomically(file, [&](std::ostream& out) {
     geo::io::Writer w(out);
     w.value(kChecksMagic);
     w.array(outcomes);
@@ -471,15 +466,7 @@ bool writeChecks(const std::filesystem::path& file, const std::vector<FeatureOut
       }
     }
     w.value(kChecksMagic);
-    if (!out) {
-      out.close();
-      std::filesystem::remove(temporary, ec);
-      return false;
-    }
-  }
-  std::filesystem::rename(temporary, file, ec);
-  if (ec) std::filesystem::remove(temporary, ec);
-  return !ec;
+  });
 }
 
 /// A piece as a lean layer keeps it: all but the footprint's arrays.
@@ -688,18 +675,8 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
       char file[32];
       std::snprintf(file, sizeof(file), "%016llx.checks", static_cast<unsigned long long>(h.value()));
       checksFile = std::filesystem::path(options.checkCacheDirectory) / file;
-      if (readChecks(checksFile, outcomes, found)) {
-        layer.stats_.checksFromCache = true;
-        for (std::size_t i = 0; i < layer.features_.size(); ++i) {
-          r.diagnostics.append(found[i]);
-          layer.setOutcome(i, outcomes[i]);
-        }
-        layer.stats_.features = layer.features_.size();
-        layer.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        r.value = std::move(layer);
-        return r;
-      }
     }
+    layer.stats_.checksFromCache = !checksFile.empty() && readChecks(checksFile, outcomes, found);
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
       for (std::size_t i = next.fetch_add(1); i < layer.features_.size(); i = next.fetch_add(1)) {
@@ -714,12 +691,14 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
         }
       }
     };
-    {
-      std::vector<std::jthread> pool;
-      for (unsigned t = 1; t < std::clamp(options.threads, 1U, 64U); ++t) pool.emplace_back(work);
-      work();
+    if (!layer.stats_.checksFromCache) {
+      {
+        std::vector<std::jthread> pool;
+        for (unsigned t = 1; t < std::clamp(options.threads, 1U, 64U); ++t) pool.emplace_back(work);
+        work();
+      }
+      if (!checksFile.empty()) (void)writeChecks(checksFile, outcomes, found);
     }
-    if (!checksFile.empty()) (void)writeChecks(checksFile, outcomes, found);
     for (std::size_t i = 0; i < layer.features_.size(); ++i) {
       r.diagnostics.append(found[i]);
       layer.setOutcome(i, outcomes[i]);

@@ -59,15 +59,8 @@ bool readPiece(Reader& r, Polyhedron& p) {
 }  // namespace
 
 bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile) {
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  // Unique per process and thread: two programs (or two renderers' workers) may write the same
-  // tile at once.
-  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(::getpid()) + "-" +
-                                          std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) return false;
+  // Two programs (or two renderers' workers) may write the same tile at once.
+  return geo::io::writeFileAtomically(file, [&](std::ostream& out) {
     Writer w(out);
     w.value(kMagic);
     w.value(kVersion);
@@ -102,15 +95,7 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
       for (const std::size_t s : slotsOf[i]) writePiece(w, g.polyhedra()[s]);
     }
     w.value(kMagic);  // the end: a file cut short fails here
-    if (!out) {
-      out.close();
-      std::filesystem::remove(temporary, ec);
-      return false;
-    }
-  }
-  std::filesystem::rename(temporary, file, ec);
-  if (ec) std::filesystem::remove(temporary, ec);
-  return !ec;
+  });
 }
 
 namespace {
