@@ -69,7 +69,7 @@ std::vector<scene::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
   };
   std::vector<Spot> roads, areas;
   for (const scene::LoadedLayer& layer : setup.scene.layers) {
-    for (const geo::Feature& f : *layer.features) {
+    for (const geo::Feature& f : layer.features.all()) {
       for (const geo::LineString& line : f.lines) {
         const std::size_t i = line.size() / 2;
         if (i == 0) continue;

@@ -11,6 +11,7 @@
 
 #include "core/hash.hpp"
 #include "geo/binary_io.hpp"
+#include "geo/feature_file.hpp"
 #include "scene/reader_fingerprint.hpp"
 
 namespace gis::scene::detail {
@@ -19,7 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::uint32_t kMagic = 0x4c564753;  // "SGVL"
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;         // 2: features indexed, read one at a time
 
 void writeDiagnostics(geo::io::Writer& w, const Diagnostics& diagnostics) {
   w.value(static_cast<std::uint64_t>(diagnostics.items().size()));
@@ -85,33 +86,43 @@ std::string layerCacheFile(const std::string& directory, std::uint64_t key) {
   return (fs::path(directory) / "vector-layers" / name).string();
 }
 
-std::optional<Result<geo::VectorLayer>> readLayerCache(const std::string& file, std::uint64_t key) {
+std::optional<CachedLayer> readLayerCache(const std::string& file, std::uint64_t key) {
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
   geo::io::Reader r(in);
   std::uint32_t magic = 0, version = 0;
   std::uint64_t stored = 0;
   std::uint8_t ok = 0;
-  Result<geo::VectorLayer> read;
+  CachedLayer cached;
+  Result<geo::VectorLayer>& read = cached.read;
   if (!r.value(magic) || magic != kMagic || !r.value(version) || version != kVersion || !r.value(stored) ||
       stored != key || !readDiagnostics(r, read.diagnostics) || !r.value(ok))
     return std::nullopt;
-  if (ok != 0) {
-    geo::VectorLayer layer;
-    std::uint8_t kind = 0;
-    std::size_t count = 0;
-    if (!r.text(layer.path) || !r.text(layer.name) || !r.text(layer.sourceCrsWkt) || !r.value(kind) ||
-        kind > static_cast<std::uint8_t>(geo::GeometryKind::Empty) || !r.value(layer.quantisationMetres) ||
-        !r.count(count, 32))  // a feature: fid, two counts, attributes' count
-      return std::nullopt;
-    layer.kind = static_cast<geo::GeometryKind>(kind);
-    layer.features.resize(count);
-    for (geo::Feature& f : layer.features)
-      if (!geo::io::readGeometry(r, f) || !geo::io::readAttributes(r, f)) return std::nullopt;
-    read.value = std::move(layer);
-  }
-  if (!r.value(magic) || magic != kMagic) return std::nullopt;
-  return read;
+  if (ok == 0) return cached;
+  geo::VectorLayer layer;
+  std::uint8_t kind = 0;
+  std::size_t count = 0;
+  if (!r.text(layer.path) || !r.text(layer.name) || !r.text(layer.sourceCrsWkt) || !r.value(kind) ||
+      kind > static_cast<std::uint8_t>(geo::GeometryKind::Empty) || !r.value(layer.quantisationMetres) ||
+      !r.count(count, 32))  // a feature: fid, two counts, attributes' count
+    return std::nullopt;
+  layer.kind = static_cast<geo::GeometryKind>(kind);
+  const auto first = static_cast<std::uint64_t>(in.tellg());
+  // The footer: the features' hash, where their index starts, the magic.
+  std::uint64_t content = 0, indexAt = 0;
+  in.seekg(-static_cast<std::streamoff>(2 * sizeof(std::uint64_t) + sizeof(std::uint32_t)), std::ios::end);
+  if (!in || !r.value(content) || !r.value(indexAt) || !r.value(magic) || magic != kMagic || indexAt < first)
+    return std::nullopt;
+  in.seekg(static_cast<std::streamoff>(indexAt));
+  geo::io::Reader index(in);
+  std::vector<geo::FeatureFileEntry> entries;
+  if (!in || !index.array(entries) || entries.size() != count || (count > 0 && entries.front().offset != first))
+    return std::nullopt;
+  std::string error;
+  cached.features = geo::FeatureFile::open(file, std::move(entries), indexAt, content, &error);
+  if (!cached.features) return std::nullopt;
+  read.value = std::move(layer);
+  return cached;
 }
 
 bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<geo::VectorLayer>& read) {
@@ -122,19 +133,40 @@ bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<ge
     w.value(key);
     writeDiagnostics(w, read.diagnostics);
     w.value(static_cast<std::uint8_t>(read ? 1 : 0));
-    if (read) {
-      const geo::VectorLayer& layer = *read;
-      w.text(layer.path);
-      w.text(layer.name);
-      w.text(layer.sourceCrsWkt);
-      w.value(static_cast<std::uint8_t>(layer.kind));
-      w.value(layer.quantisationMetres);
-      w.value(static_cast<std::uint64_t>(layer.features.size()));
-      for (const geo::Feature& f : layer.features) {
-        geo::io::writeGeometry(w, f);
-        geo::io::writeAttributes(w, f);
+    if (!read) return;
+    const geo::VectorLayer& layer = *read;
+    w.text(layer.path);
+    w.text(layer.name);
+    w.text(layer.sourceCrsWkt);
+    w.value(static_cast<std::uint8_t>(layer.kind));
+    w.value(layer.quantisationMetres);
+    w.value(static_cast<std::uint64_t>(layer.features.size()));
+    std::vector<geo::FeatureFileEntry> entries;
+    entries.reserve(layer.features.size());
+    StableHasher content;
+    for (const geo::Feature& f : layer.features) {
+      entries.push_back(geo::FeatureFileEntry::of(f, static_cast<std::uint64_t>(out.tellp())));
+      geo::io::writeGeometry(w, f);
+      geo::io::writeAttributes(w, f);
+      content.add(static_cast<std::uint64_t>(f.fid));
+      content.add(static_cast<std::uint64_t>(out.tellp()));  // the size of what was written
+      const auto points = [&content](const std::vector<glm::dvec2>& ps) {
+        content.add(static_cast<std::uint64_t>(ps.size()));
+        for (const glm::dvec2& p : ps) {
+          content.add(p.x);
+          content.add(p.y);
+        }
+      };
+      for (const geo::Polygon& p : f.polygons) {
+        points(p.outer);
+        for (const geo::Ring& h : p.holes) points(h);
       }
+      for (const geo::LineString& l : f.lines) points(l);
     }
+    const auto indexAt = static_cast<std::uint64_t>(out.tellp());
+    w.array(entries);
+    w.value(content.value());
+    w.value(indexAt);
     w.value(kMagic);
   });
 }

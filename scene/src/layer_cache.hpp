@@ -3,7 +3,8 @@
 // starts in seconds"): reading a large layer through OGR checks every polygon's validity (GEOS),
 // reprojects every point and densifies lon/lat edges, about 3 s for 900 k vertices. A cached
 // layer holds the features as read (in the scene frame) and every diagnostic the read gave, so
-// a warm start says the same things.
+// a warm start says the same things. Its features are indexed (geo::FeatureFile) and read one at
+// a time, when a tile needs them: the scene keeps the index, not the features.
 //
 // The key covers what the result depends on: the source's absolute path and layer, the size and
 // modification time of the file and of its sidecars (a Shapefile's .dbf, .shx, .prj: every file
@@ -11,10 +12,12 @@
 // reader's code. Sources that are not one file (a PostGIS table, a folder of vector tiles) are
 // not cached: they may change without a file telling.
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "core/diagnostics.hpp"
+#include "geo/feature_file.hpp"
 #include "geo/frame.hpp"
 #include "geo/vector.hpp"
 
@@ -27,8 +30,16 @@ std::optional<std::uint64_t> layerCacheKey(const std::string& source, const geo:
 /// The file in `directory` that holds the layer of `key`.
 std::string layerCacheFile(const std::string& directory, std::uint64_t key);
 
-/// The layer and its diagnostics as stored, or none (no file, another key, damaged).
-std::optional<Result<geo::VectorLayer>> readLayerCache(const std::string& file, std::uint64_t key);
+/// A layer as stored: what was read and said (its features left in the file), and the file's
+/// features, read one at a time (null when the read failed).
+struct CachedLayer {
+  Result<geo::VectorLayer> read;
+  std::shared_ptr<const geo::FeatureFile> features;
+};
+
+/// The layer and its diagnostics as stored, or none (no file, another key, damaged). Reads the
+/// header and the features' index only (about 80 bytes a feature): the features stay on disk.
+std::optional<CachedLayer> readLayerCache(const std::string& file, std::uint64_t key);
 
 /// Stores the read (a failed one too: its diagnostics). False when it cannot be written.
 bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<geo::VectorLayer>& read);

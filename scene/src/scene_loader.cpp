@@ -309,11 +309,16 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     const std::optional<std::uint64_t> key =
         options.layerCache ? detail::layerCacheKey(layer.source, scene.frame, readOptions) : std::nullopt;
     const std::string cacheFile = key ? detail::layerCacheFile(cacheDirectoryFor(description), *key) : std::string();
-    std::optional<Result<geo::VectorLayer>> cached = key ? detail::readLayerCache(cacheFile, *key) : std::nullopt;
-    if (cached) ++scene.layersFromCache;
-    Result<geo::VectorLayer> data =
-        cached ? std::move(*cached) : geo::readVectorLayer(layer.source, scene.frame, readOptions);
-    if (key && !cached) (void)detail::writeLayerCache(cacheFile, *key, data);
+    std::optional<detail::CachedLayer> cached = key ? detail::readLayerCache(cacheFile, *key) : std::nullopt;
+    if (cached) {
+      ++scene.layersFromCache;
+    } else {
+      Result<geo::VectorLayer> read = geo::readVectorLayer(layer.source, scene.frame, readOptions);
+      // Kept on disk and read back from there: the features stay in the file, not in memory.
+      if (key && detail::writeLayerCache(cacheFile, *key, read)) cached = detail::readLayerCache(cacheFile, *key);
+      if (!cached) cached = detail::CachedLayer{std::move(read), nullptr};
+    }
+    Result<geo::VectorLayer> data = std::move(cached->read);
     // Name our layer in every message about it, beside the file's own layer name.
     for (const Diagnostic& d : data.diagnostics.items()) {
       Diagnostic named = d;
@@ -326,7 +331,8 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     for (const Diagnostic& d : data.diagnostics.items()) {
       if (d.severity == Severity::Error && !d.feature.empty()) skipped.insert(d.feature);
     }
-    auto features = std::make_shared<const std::vector<geo::Feature>>(std::move(data->features));
+    overlay::SharedFeatures features = cached->features ? overlay::SharedFeatures(cached->features)
+                                                        : overlay::SharedFeatures(std::move(data->features));
     data->features = {};
     LoadedLayer loaded{layer, std::move(*data), skipped.size(), std::move(features)};
     scene.layers.push_back(std::move(loaded));

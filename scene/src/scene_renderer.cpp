@@ -27,31 +27,6 @@ overlay::OverlayView overlayViewOf(const Camera& camera, double aspect) {
 
 namespace {
 
-/// A polygon feature's rings as closed lines (the outline is a line layer along them).
-std::vector<geo::Feature> outlineFeatures(const std::vector<geo::Feature>& polygons) {
-  std::vector<geo::Feature> out;
-  out.reserve(polygons.size());
-  for (const geo::Feature& f : polygons) {
-    geo::Feature line;
-    line.fid = f.fid;
-    line.attributes = f.attributes;
-    for (const geo::Polygon& p : f.polygons) {
-      for (const geo::Ring* ring : [&] {
-             std::vector<const geo::Ring*> rings{&p.outer};
-             for (const geo::Ring& h : p.holes) rings.push_back(&h);
-             return rings;
-           }()) {
-        if (ring->size() < 2) continue;
-        geo::LineString closed = *ring;
-        closed.push_back(ring->front());
-        line.lines.push_back(std::move(closed));
-      }
-    }
-    out.push_back(std::move(line));
-  }
-  return out;
-}
-
 /// The terrain's view of a technique's drape.
 terrain::TerrainEngine::Drape terrainDrapeOf(overlay::SurfaceDrape drape) {
   terrain::TerrainEngine::Drape d;
@@ -156,7 +131,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
       outline.cap = overlay::LineCap::Round;
       Result<overlay::OverlayLayer> lines =
           overlay::OverlayLayer::build(source.description.name + " (outline)", overlay::LayerKind::Line, outline,
-                                       outlineFeatures(*source.features), *scene.bounds, options);
+                                       source.features.outlines(), *scene.bounds, options);
       diagnostics.append(named(std::move(lines.diagnostics)));
       if (!lines) continue;
       layers_.push_back(std::move(*lines));
@@ -182,8 +157,8 @@ LayerSummary SceneRenderer::layerSummary(const LoadedScene& scene, std::size_t s
   if (sceneLayer >= scene.layers.size()) return summary;
   const LoadedLayer& source = scene.layers[sceneLayer];
   summary.skippedReading = source.skippedFeatures;
-  summary.features = source.features->size() + source.skippedFeatures;
-  std::vector<bool> skipped(source.features->size(), false), drawn(skipped.size(), false), empty(skipped.size(), false);
+  summary.features = source.features.size() + source.skippedFeatures;
+  std::vector<bool> skipped(source.features.size(), false), drawn(skipped.size(), false), empty(skipped.size(), false);
   for (std::size_t j = 0; j < sources_.size(); ++j) {
     if (sources_[j].first != sceneLayer) continue;
     summary.built = true;

@@ -204,5 +204,49 @@ TEST_F(MethodsGlTest, TiledDrapeErrorShrinksWithItsTilesAndTilesAreKept) {
   }
 }
 
+TEST_F(MethodsGlTest, TilesReadTheirFeaturesFromDiskAndDrawWhatTheyDrawFromMemory) {
+  // The scene of SetUp keeps its layers' features in the layer cache (read one at a time by the
+  // tiles that need them); this one holds them in memory.
+  Result<scene::SceneDescription> description =
+      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  scene::LoadOptions inMemory;
+  inMemory.layerCache = false;
+  Result<scene::LoadedScene> memory = scene::loadScene(*description, inMemory);
+  ASSERT_TRUE(memory.ok());
+  ASSERT_EQ(memory->layers.size(), scene_->layers.size());
+  for (std::size_t l = 0; l < scene_->layers.size(); ++l) {
+    EXPECT_TRUE(scene_->layers[l].features.onDisk()) << scene_->layers[l].description.name;
+    EXPECT_FALSE(memory->layers[l].features.onDisk());
+    EXPECT_EQ(scene_->layers[l].vertexCount(), memory->layers[l].vertexCount());
+  }
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  scene::RenderSettings settings;
+  settings.waitForTiles = true;
+  settings.lodTolerancePixels = 0.5;
+  scene::OverlayBuildSettings build;
+  build.tileCache = false;  // every tile built from its features, none read built
+  Result<scene::SceneRenderer> fromDisk = scene::SceneRenderer::create(*scene_, build);
+  Result<scene::SceneRenderer> fromMemory = scene::SceneRenderer::create(*memory, build);
+  ASSERT_TRUE(fromDisk.ok() && fromMemory.ok());
+  ASSERT_EQ(fromDisk.diagnostics.items().size(), fromMemory.diagnostics.items().size());
+  for (std::size_t i = 0; i < fromDisk.diagnostics.items().size(); ++i)
+    EXPECT_EQ(fromDisk.diagnostics.items()[i].toString(), fromMemory.diagnostics.items()[i].toString());
+  std::size_t covered = 0;
+  for (const scene::Camera& camera : cameras_) {
+    EXPECT_GT(fromDisk->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings).overlayTiles.tilesBuilt,
+              0u);
+    const std::vector<std::uint32_t> disk = gfx::readMask(target);
+    fromMemory->render(cache_, target.framebuffer(), kWidth, kHeight, camera, settings);
+    const std::vector<std::uint32_t> held = gfx::readMask(target);
+    EXPECT_EQ(disk, held) << "the same tiles from features on disk and in memory";
+    for (const std::uint32_t m : held) covered += m != 0 ? 1u : 0u;
+  }
+  EXPECT_GT(covered, 1000u);
+  // Drawing read only the features the tiles needed: none of the layers was read whole.
+  for (const scene::LoadedLayer& layer : scene_->layers)
+    EXPECT_TRUE(layer.features.onDisk()) << layer.description.name << " was read into memory";
+}
+
 }  // namespace
 }  // namespace gis::test

@@ -247,7 +247,7 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> first = load();
   ASSERT_TRUE(first.ok() && first->layers.size() == 1u);
   EXPECT_EQ(first->layersFromCache, 0u);
-  EXPECT_EQ(first->layers[0].features->size(), 2u);
+  EXPECT_EQ(first->layers[0].features.size(), 2u);
   ASSERT_NE(find(first.diagnostics, Severity::Error, ""), nullptr) << "the broken feature is named";
 
   // Again: from the cache, the same features (geometry and attributes) and the same messages.
@@ -257,8 +257,8 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   EXPECT_EQ(second->layers[0].data.name, first->layers[0].data.name);
   EXPECT_EQ(second->layers[0].data.sourceCrsWkt, first->layers[0].data.sourceCrsWkt);
   EXPECT_EQ(second->layers[0].data.kind, first->layers[0].data.kind);
-  const std::vector<geo::Feature>& a = *first->layers[0].features;
-  const std::vector<geo::Feature>& b = *second->layers[0].features;
+  const std::vector<geo::Feature>& a = first->layers[0].features.all();
+  const std::vector<geo::Feature>& b = second->layers[0].features.all();
   ASSERT_EQ(b.size(), a.size());
   for (std::size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(b[i].fid, a[i].fid);
@@ -280,7 +280,7 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> changed = load();
   ASSERT_TRUE(changed.ok() && changed->layers.size() == 1u);
   EXPECT_EQ(changed->layersFromCache, 0u);
-  EXPECT_NE(changed->layers[0].features->at(1).lines, a[1].lines);
+  EXPECT_NE(changed->layers[0].features.all().at(1).lines, a[1].lines);
 
   // A damaged cache file is not used: read again from the source (and written again).
   std::size_t damaged = 0;
@@ -293,11 +293,102 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> repaired = load();
   ASSERT_TRUE(repaired.ok());
   EXPECT_EQ(repaired->layersFromCache, 0u);
-  EXPECT_EQ(repaired->layers[0].features->at(1).lines, changed->layers[0].features->at(1).lines);
+  EXPECT_EQ(repaired->layers[0].features.all().at(1).lines, changed->layers[0].features.all().at(1).lines);
   EXPECT_EQ(load()->layersFromCache, 1u);
   // Without the cache (LoadOptions::layerCache), always from the source.
   options.layerCache = false;
   EXPECT_EQ(load()->layersFromCache, 0u);
+}
+
+TEST(SceneLoader, CachedFeaturesStayOnDiskAndReadAsTheSourceGivesThem) {
+  // Two lon/lat polygons (one with a hole) and a two-part line, read through OGR into memory
+  // and through the layer cache, which keeps them on disk and reads one when asked.
+  const std::string dem = writeDem("on_disk_dem.tif", [](int c, int r) { return static_cast<float>(c * r % 7); });
+  const std::string source = outputDir() + "/on_disk.geojson";
+  std::ofstream(source) << R"({"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {"name": "holed", "n": 7},
+     "geometry": {"type": "Polygon", "coordinates": [
+       [[-34.862, -8.050], [-34.856, -8.050], [-34.856, -8.044], [-34.862, -8.044], [-34.862, -8.050]],
+       [[-34.860, -8.048], [-34.860, -8.046], [-34.858, -8.046], [-34.858, -8.048], [-34.860, -8.048]]]}},
+    {"type": "Feature", "properties": {"name": "two"},
+     "geometry": {"type": "MultiPolygon", "coordinates": [
+       [[[-34.861, -8.043], [-34.859, -8.043], [-34.859, -8.041], [-34.861, -8.043]]],
+       [[[-34.857, -8.043], [-34.855, -8.043], [-34.855, -8.041], [-34.857, -8.043]]]]}}]})";
+  scene::SceneDescription description = sceneOf(dem);
+  description.cacheDir = outputDir() + "/on_disk_cache";
+  std::filesystem::remove_all(description.cacheDir);
+  scene::LayerDescription layer;
+  layer.name = "areas";
+  layer.kind = overlay::LayerKind::Polygon;
+  layer.source = source;
+  description.layers.push_back(layer);
+  scene::LoadOptions options;
+  options.progress = [](double) {};
+  options.layerCache = false;
+  const Result<scene::LoadedScene> memory = scene::loadScene(description, options);
+  options.layerCache = true;
+  const Result<scene::LoadedScene> cold = scene::loadScene(description, options);  // read, written, reopened
+  const Result<scene::LoadedScene> warm = scene::loadScene(description, options);
+  ASSERT_TRUE(memory.ok() && cold.ok() && warm.ok());
+  EXPECT_EQ(warm->layersFromCache, 1u);
+  const overlay::SharedFeatures& held = memory->layers.at(0).features;
+  EXPECT_FALSE(held.onDisk());
+  for (const scene::LoadedScene* s : {&*cold, &*warm}) {
+    const overlay::SharedFeatures& kept = s->layers.at(0).features;
+    EXPECT_TRUE(kept.onDisk());
+    ASSERT_EQ(kept.size(), 2u);
+    EXPECT_EQ(kept.vertexCount(), held.vertexCount());
+    EXPECT_EQ(kept.fileContent(), warm->layers.at(0).features.fileContent());
+    EXPECT_NE(kept.fileContent(), 0u);
+    const overlay::SharedFeatures keptOutlines = kept.outlines(), heldOutlines = held.outlines();
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+      const std::shared_ptr<const geo::Feature> a = held.get(i), b = kept.get(i);
+      EXPECT_EQ(b->fid, a->fid);
+      EXPECT_EQ(b->attributes, a->attributes);
+      ASSERT_EQ(b->polygons.size(), a->polygons.size());
+      for (std::size_t k = 0; k < a->polygons.size(); ++k) {
+        EXPECT_EQ(b->polygons[k].outer, a->polygons[k].outer);
+        EXPECT_EQ(b->polygons[k].holes, a->polygons[k].holes);
+      }
+      for (const bool lines : {false, true}) {
+        EXPECT_EQ(kept.box(i, lines), held.box(i, lines)) << i << (lines ? " lines" : " rings");
+        EXPECT_EQ(keptOutlines.box(i, lines), heldOutlines.box(i, lines)) << i << (lines ? " lines" : " rings");
+      }
+      EXPECT_EQ(keptOutlines.get(i)->lines, heldOutlines.get(i)->lines);
+      EXPECT_FALSE(keptOutlines.get(i)->lines.empty());
+    }
+    EXPECT_TRUE(kept.onDisk()) << "get() reads one feature, not all";
+  }
+  EXPECT_TRUE(held.get(0)->polygons.at(0).holes.size() == 1u);
+
+  // A file cut short under a reader: reading says which file and feature, nothing is made up.
+  std::string file;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(description.cacheDir))
+    if (entry.path().extension() == ".layer") file = entry.path().string();
+  ASSERT_FALSE(file.empty());
+  const auto size = std::filesystem::file_size(file);
+  std::filesystem::resize_file(file, 40);
+  try {
+    (void)warm->layers.at(0).features.get(1);
+    ADD_FAILURE() << "a feature read from a file cut short";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("feature 1"), std::string::npos) << e.what();
+  }
+  // A damaged index (its offset in the footer) is refused when opened: read from the source.
+  std::filesystem::remove(file);
+  ASSERT_TRUE(scene::loadScene(description, options).ok());
+  ASSERT_EQ(std::filesystem::file_size(file), size);
+  {
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(size - 12));  // the index's offset, before the magic
+    const std::uint64_t beyond = size * 2;
+    f.write(reinterpret_cast<const char*>(&beyond), sizeof(beyond));
+  }
+  const Result<scene::LoadedScene> reread = scene::loadScene(description, options);
+  ASSERT_TRUE(reread.ok());
+  EXPECT_EQ(reread->layersFromCache, 0u);
+  EXPECT_EQ(reread->layers.at(0).features.get(0)->polygons.at(0).outer, held.get(0)->polygons.at(0).outer);
 }
 
 TEST(TerrainGrid, ImplausibleHeightsToNodataCountsWhatItChanges) {

@@ -62,12 +62,12 @@ constexpr double kOriginGrid = 1024.0;  ///< metres: vertices are floats relativ
 
 }  // namespace
 
-std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
-                                               const std::vector<geo::Feature>& features, Diagnostics* diagnostics,
-                                               const std::string& layerName, bool minWidthInPixels) {
-  std::vector<FeatureStyle> out;
-  out.reserve(features.size());
-  for (const geo::Feature& f : features) {
+namespace {
+
+/// Feature f's style (resolveFeatureStyles).
+FeatureStyle resolveStyle(const LayerStyle& style, LayerKind kind, const geo::Feature& f, Diagnostics* diagnostics,
+                          const std::string& layerName, bool minWidthInPixels) {
+  {
     FeatureStyle s;
     glm::vec4 colour = style.color;
     if (!style.colorAttribute.empty()) {
@@ -111,8 +111,38 @@ std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKin
         s.shape.width = std::max(s.shape.width, style.widthCap());
       }
     }
-    out.push_back(s);
+    return s;
   }
+}
+
+}  // namespace
+
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
+                                               const std::vector<geo::Feature>& features, Diagnostics* diagnostics,
+                                               const std::string& layerName, bool minWidthInPixels) {
+  std::vector<FeatureStyle> out;
+  out.reserve(features.size());
+  for (const geo::Feature& f : features)
+    out.push_back(resolveStyle(style, kind, f, diagnostics, layerName, minWidthInPixels));
+  return out;
+}
+
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind, const SharedFeatures& features,
+                                               Diagnostics* diagnostics, const std::string& layerName,
+                                               bool minWidthInPixels) {
+  if (!features.onDisk())
+    return resolveFeatureStyles(style, kind, features.all(), diagnostics, layerName, minWidthInPixels);
+  const bool attributes = !style.colorAttribute.empty() ||
+                          (kind == LayerKind::Line && style.widthPixels <= 0.0 && !style.widthAttribute.empty());
+  std::vector<FeatureStyle> out;
+  out.reserve(features.size());
+  if (!attributes) {
+    // Every feature alike: nothing to read.
+    out.assign(features.size(), resolveStyle(style, kind, geo::Feature{}, diagnostics, layerName, minWidthInPixels));
+    return out;
+  }
+  for (std::size_t i = 0; i < features.size(); ++i)
+    out.push_back(resolveStyle(style, kind, *features.get(i), diagnostics, layerName, minWidthInPixels));
   return out;
 }
 
@@ -482,6 +512,23 @@ struct LeanPiece {
 
 }  // namespace
 
+std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vector<FeatureStyle>& styles,
+                                  LayerKind kind) {
+  if (!features.onDisk()) return featuresFingerprint(features.all(), styles, kind);
+  StableHasher h;
+  h.add(std::string_view("features on disk"));
+  h.add(features.fileContent());
+  h.add(static_cast<std::uint64_t>(kind));
+  h.add(static_cast<std::uint64_t>(features.size()));
+  for (std::size_t i = 0; i < features.size() && i < styles.size(); ++i) {
+    const FeatureStyle& st = styles[i];
+    h.add(static_cast<std::uint64_t>(st.visible ? 1 : 0));
+    for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels, st.shape.minWidth}) h.add(v);
+    h.add(static_cast<std::uint64_t>(st.shape.join) * 8U + static_cast<std::uint64_t>(st.shape.cap));
+  }
+  return h.value();
+}
+
 std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind) {
   StableHasher h;
@@ -630,7 +677,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
                                            const LayerBuildOptions& options) {
   Diagnostics diagnostics;
   std::vector<FeatureStyle> styles =
-      resolveFeatureStyles(style, kind, features.all(), &diagnostics, name, options.minWidthInPixels);
+      resolveFeatureStyles(style, kind, features, &diagnostics, name, options.minWidthInPixels);
   Result<LayerGeometry> r =
       build(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
   diagnostics.append(r.diagnostics);
@@ -654,7 +701,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
     // No pieces, but every feature checked as a build would (its footprints, uncut): broken and
     // empty features are named now, not when a tile first meets them. As checked last time
     // when the same features were checked the same way (checkCacheDirectory).
-    layer.contentFingerprint_ = featuresFingerprint(layer.features_.all(), layer.styles_, kind);
+    layer.contentFingerprint_ = featuresFingerprint(layer.features_, layer.styles_, kind);
     std::vector<Diagnostics> found(layer.features_.size());
     std::vector<FeatureOutcome> outcomes(layer.features_.size(), FeatureOutcome::Hidden);
     std::filesystem::path checksFile;
@@ -681,12 +728,15 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
     const auto work = [&] {
       for (std::size_t i = next.fetch_add(1); i < layer.features_.size(); i = next.fetch_add(1)) {
         if (!layer.styles_[i].visible) continue;
+        std::int64_t fid = -1;
         try {
-          outcomes[i] = checkFeature(layer.features_[i], static_cast<std::uint32_t>(i), kind, layer.styles_[i],
-                                     layer.name_, options, found[i]);
+          const std::shared_ptr<const geo::Feature> feature = layer.features_.get(i);  // may read it from disk
+          fid = feature->fid;
+          outcomes[i] = checkFeature(*feature, static_cast<std::uint32_t>(i), kind, layer.styles_[i], layer.name_,
+                                     options, found[i]);
         } catch (const std::exception& e) {  // on a worker thread it would end the program
           outcomes[i] = FeatureOutcome::Skipped;
-          found[i].add(detail::featureError(Severity::Error, layer.name_, layer.features_[i].fid,
+          found[i].add(detail::featureError(Severity::Error, layer.name_, fid,
                                             std::string("cannot be built (") + e.what() + "); feature skipped"));
         }
       }
@@ -1014,8 +1064,9 @@ void LayerGeometry::setOutcome(std::size_t feature, FeatureOutcome outcome) {
 
 Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
   Diagnostics diagnostics;
+  const std::shared_ptr<const geo::Feature> feature = features_.get(index);  // on disk: read
   if (arraysReleased_) {
-    diagnostics.add(detail::featureError(Severity::Error, name_, features_[index].fid,
+    diagnostics.add(detail::featureError(Severity::Error, name_, feature->fid,
                                          "cannot be rebuilt: the layer's arrays were released (build it again)"));
     return diagnostics;
   }
@@ -1023,11 +1074,11 @@ Diagnostics LayerGeometry::rebuildFeature(std::size_t index) {
   FeatureOutcome outcome = FeatureOutcome::Hidden;
   if (styles_[index].visible && options_.deferPieces) {
     // A tiled technique builds the pieces; here the feature is checked.
-    outcome = checkFeature(features_[index], static_cast<std::uint32_t>(index), kind_, styles_[index], name_, options_,
-                           diagnostics);
+    outcome =
+        checkFeature(*feature, static_cast<std::uint32_t>(index), kind_, styles_[index], name_, options_, diagnostics);
   } else if (styles_[index].visible && bounds_ != nullptr) {
-    std::vector<Polyhedron> pieces = buildPolyhedra(features_[index], static_cast<std::uint32_t>(index), kind_,
-                                                    styles_[index], name_, *bounds_, options_, diagnostics);
+    std::vector<Polyhedron> pieces = buildPolyhedra(*feature, static_cast<std::uint32_t>(index), kind_, styles_[index],
+                                                    name_, *bounds_, options_, diagnostics);
     outcome = !pieces.empty()           ? FeatureOutcome::Drawn
               : diagnostics.hasErrors() ? FeatureOutcome::Skipped
                                         : FeatureOutcome::NothingToDraw;
@@ -1041,7 +1092,7 @@ Diagnostics LayerGeometry::replaceFeature(std::size_t index, geo::Feature featur
   contentFingerprint_ = 0;
   if (index >= features_.size()) return {};
   features_.edit()[index] = std::move(feature);
-  const std::vector<geo::Feature> one{features_[index]};
+  const std::vector<geo::Feature> one{features_.all()[index]};
   Diagnostics diagnostics;
   FeatureStyle style = resolveFeatureStyles(style_, kind_, one, &diagnostics, name_, options_.minWidthInPixels).front();
   style.visible = styles_[index].visible;
@@ -1071,7 +1122,7 @@ Diagnostics LayerGeometry::setFeatureStyle(std::size_t index, const FeatureStyle
   contentFingerprint_ = 0;
   if (index >= features_.size()) return {};
   styles_[index] = style;
-  if (bounds_ != nullptr) assignAnchorHeights(styles_[index], features_[index], *bounds_);
+  if (bounds_ != nullptr) assignAnchorHeights(styles_[index], *features_.get(index), *bounds_);
   return rebuildFeature(index);
 }
 

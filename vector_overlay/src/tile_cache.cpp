@@ -139,7 +139,7 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
     if (!r.array(index)) return std::nullopt;
     std::vector<FeatureStyle> styles(index.size());
     for (std::size_t i = 0; i < index.size(); ++i) {
-      if (index[i] >= source.features().size()) return std::nullopt;
+      if (index[i] >= source.sharedFeatures().size()) return std::nullopt;
       styles[i] = styleOf(index[i]);
     }
     std::optional<LayerGeometry> g =
@@ -157,7 +157,7 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
   std::vector<std::uint32_t> index(count);
   for (std::size_t i = 0; i < count; ++i) {
     std::size_t n = 0;
-    if (!r.value(index[i]) || index[i] >= source.features().size() || !geo::io::readGeometry(r, features[i]) ||
+    if (!r.value(index[i]) || index[i] >= source.sharedFeatures().size() || !geo::io::readGeometry(r, features[i]) ||
         !r.count(n, 100))
       return std::nullopt;
     styles[i] = styleOf(index[i]);

@@ -40,7 +40,7 @@ bool meets(const std::pair<glm::dvec2, glm::dvec2>& a, const glm::dvec2& lo, con
 LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider& bounds,
                          const LayerBuildOptions& options, const TilingOptions& tiling)
     : source_(&source), bounds_(&bounds), options_(options), tiling_(tiling) {
-  const std::size_t count = source.features().size();
+  const std::size_t count = source.sharedFeatures().size();
   reach_.assign(count, 0.0);
   boxes_.assign(count, {glm::dvec2(1.0), glm::dvec2(-1.0)});
   glm::dvec2 all0(std::numeric_limits<double>::infinity()), all1(-std::numeric_limits<double>::infinity());
@@ -100,26 +100,21 @@ std::uint64_t LayerTiling::fingerprint() const {
     h.add(static_cast<std::uint64_t>(static_cast<std::int64_t>(v)));
   // The features as the layer hashed them when it was built, else hashed here alike.
   const std::uint64_t content = source_->contentFingerprint();
-  h.add(content != 0 ? content : featuresFingerprint(source_->features(), source_->featureStyles(), source_->kind()));
+  h.add(content != 0 ? content
+                     : featuresFingerprint(source_->sharedFeatures(), source_->featureStyles(), source_->kind()));
   return h.value();
 }
 
 void LayerTiling::measure(std::uint32_t i) {
-  const geo::Feature& f = source_->features()[i];
   const std::vector<FeatureStyle>& styles = source_->featureStyles();
   reach_[i] = 0.0;
   boxes_[i] = {glm::dvec2(1.0), glm::dvec2(-1.0)};
   if (i >= styles.size() || !styles[i].visible) return;
-  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  const auto add = [&](const glm::dvec2& p) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return;  // the builder reports it
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  };
-  if (source_->kind() == LayerKind::Polygon) {
-    for (const geo::Polygon& p : f.polygons) std::for_each(p.outer.begin(), p.outer.end(), add);
-  } else {
-    for (const geo::LineString& l : f.lines) std::for_each(l.begin(), l.end(), add);
+  // The box of its finite points (the builder reports the others), from the index when the
+  // features are on disk: nothing is read. A polygon's holes count (a hole outside its outer
+  // ring, which the builder repairs or reports, widens the box: conservative).
+  const auto [lo, hi] = source_->sharedFeatures().box(i, source_->kind() == LayerKind::Line);
+  if (source_->kind() == LayerKind::Line) {
     const LineShape& shape = styles[i].shape;
     reach_[i] = lineReach(shape);
     slack_ = std::max(slack_, lineShapeSlack(shape.join, shape.cap, shape.miterLimit, metreWidth(shape)));
@@ -314,7 +309,8 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
   // Three quarters of the level's error to simplification (build() gives the arcs the rest).
   const double epsilon =
       key.level < finestLevel_ ? 0.75 * tileSize(key.level) / std::max(1, tiling_.tileResolution) : 0.0;
-  const geo::Feature& feature = source_->features()[i];
+  const std::shared_ptr<const geo::Feature> read = source_->sharedFeatures().get(i);  // on disk: read now
+  const geo::Feature& feature = *read;
   geo::Feature g;
   if (epsilon > 0.0) {
     g = generaliseGeometry(feature, epsilon);

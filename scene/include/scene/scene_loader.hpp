@@ -15,6 +15,7 @@
 #include "terrain/quadtree.hpp"
 #include "terrain/terrain_engine.hpp"
 #include "terrain/tile_pyramid.hpp"
+#include "vector_overlay/shared_features.hpp"
 
 namespace gis::scene {
 
@@ -24,15 +25,12 @@ struct LoadedLayer {
   geo::VectorLayer data;
   std::size_t skippedFeatures = 0;  ///< features left out for errors (named in diagnostics)
   /// The features read (only the good ones), shared with the overlay layers built from them:
-  /// one copy in memory however many layers draw them.
-  std::shared_ptr<const std::vector<geo::Feature>> features;
+  /// one copy however many layers draw them. Read from the scene's cache directory they stay
+  /// on disk, read one at a time by the tiles that need them (SharedFeatures::onDisk); all()
+  /// reads them into memory for whoever needs them all.
+  overlay::SharedFeatures features;
 
-  [[nodiscard]] std::size_t vertexCount() const {
-    std::size_t n = 0;
-    if (features)
-      for (const geo::Feature& f : *features) n += f.vertexCount();
-    return n;
-  }
+  [[nodiscard]] std::size_t vertexCount() const { return features.vertexCount(); }
 };
 
 struct LoadedScene {

@@ -32,6 +32,7 @@
 #include "geo/feature.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/footprints.hpp"
+#include "vector_overlay/shared_features.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::geo::io {
@@ -54,6 +55,11 @@ struct FeatureStyle {
 /// Warning naming the layer and the feature (when `diagnostics` is given).
 std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind,
                                                const std::vector<geo::Feature>& features,
+                                               Diagnostics* diagnostics = nullptr, const std::string& layerName = {},
+                                               bool minWidthInPixels = false);
+/// The same for features that may be on disk: read one at a time, and only when the style takes
+/// anything from their attributes.
+std::vector<FeatureStyle> resolveFeatureStyles(const LayerStyle& style, LayerKind kind, const SharedFeatures& features,
                                                Diagnostics* diagnostics = nullptr, const std::string& layerName = {},
                                                bool minWidthInPixels = false);
 
@@ -175,38 +181,10 @@ struct GeometryChange {
 /// line shape, geometry), and of the layer's kind (LayerGeometry::contentFingerprint).
 std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind);
-
-/// A layer's features, shared with whoever else holds them (the scene that read them, the
-/// layer's outline, a rebuild for another style) and copied only when edited while shared:
-/// a layer costs no second copy of its features. Built from a vector (taken over) or from a
-/// shared one; reads are const and safe from any thread, edits are not.
-class SharedFeatures {
- public:
-  SharedFeatures() : features_(std::make_shared<std::vector<geo::Feature>>()) {}
-  // NOLINTNEXTLINE(google-explicit-constructor): a vector of features is taken as is
-  SharedFeatures(std::vector<geo::Feature> features)
-      : features_(std::make_shared<std::vector<geo::Feature>>(std::move(features))) {}
-  SharedFeatures(std::initializer_list<geo::Feature> features)
-      : features_(std::make_shared<std::vector<geo::Feature>>(features)) {}
-  // NOLINTNEXTLINE(google-explicit-constructor)
-  SharedFeatures(std::shared_ptr<const std::vector<geo::Feature>> features)
-      : features_(features ? std::move(features) : std::make_shared<const std::vector<geo::Feature>>()) {}
-  [[nodiscard]] const std::vector<geo::Feature>& all() const { return *features_; }
-  [[nodiscard]] std::size_t size() const { return features_->size(); }
-  [[nodiscard]] const geo::Feature& operator[](std::size_t i) const { return (*features_)[i]; }
-  /// Whether another holder shares these features (an edit would copy them first).
-  [[nodiscard]] bool shared() const { return features_.use_count() > 1; }
-  /// The features to change: copied first while another holder shares them.
-  [[nodiscard]] std::vector<geo::Feature>& edit() {
-    if (shared()) features_ = std::make_shared<std::vector<geo::Feature>>(*features_);
-    // Ours alone now, and made by us as a non-const vector (make_shared above or in a
-    // constructor, or a caller's shared vector no one else holds any more).
-    return const_cast<std::vector<geo::Feature>&>(*features_);  // NOLINT(cppcoreguidelines-pro-type-const-cast)
-  }
-
- private:
-  std::shared_ptr<const std::vector<geo::Feature>> features_;
-};
+/// The same for features that may be on disk: there the file's content hash stands for their
+/// geometry and fids (nothing is read).
+std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vector<FeatureStyle>& styles,
+                                  LayerKind kind);
 
 class LayerGeometry {
  public:

@@ -28,6 +28,7 @@ class OverlayLayer {
   [[nodiscard]] LayerKind kind() const { return geometry_.kind(); }
   [[nodiscard]] const LayerStyle& style() const { return geometry_.style(); }
   [[nodiscard]] const std::vector<geo::Feature>& features() const { return geometry_.features(); }
+  [[nodiscard]] const SharedFeatures& sharedFeatures() const { return geometry_.sharedFeatures(); }
   [[nodiscard]] const std::vector<FeatureStyle>& featureStyles() const { return geometry_.featureStyles(); }
   /// The geometry's counts and build time, and the GPU bytes of its buffers.
   [[nodiscard]] LayerStats stats() const {

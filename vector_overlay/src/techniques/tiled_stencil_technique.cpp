@@ -297,7 +297,7 @@ class TiledStencil final : public OverlayTechnique {
           t.layer->removeFeature(at);
         }
       } else if (g) {
-        reportOnce(t.layer->setFeature(t.layer->features().size(), std::move(*g), style));
+        reportOnce(t.layer->setFeature(t.layer->sharedFeatures().size(), std::move(*g), style));
         t.featureIndex.push_back(index);
       }
       ++it;

@@ -1,0 +1,97 @@
+#include "geo/feature_file.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <stdexcept>
+
+#include "geo/binary_io.hpp"
+
+namespace gis::geo {
+namespace {
+
+void grow(glm::dvec2& lo, glm::dvec2& hi, const std::vector<glm::dvec2>& points) {
+  for (const glm::dvec2& p : points) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    if (lo.x > hi.x) {
+      lo = hi = p;
+      continue;
+    }
+    lo = glm::dvec2(std::min(lo.x, p.x), std::min(lo.y, p.y));
+    hi = glm::dvec2(std::max(hi.x, p.x), std::max(hi.y, p.y));
+  }
+}
+
+}  // namespace
+
+FeatureFileEntry FeatureFileEntry::of(const Feature& feature, std::uint64_t offset) {
+  FeatureFileEntry e;
+  e.offset = offset;
+  e.vertices = feature.vertexCount();
+  for (const Polygon& p : feature.polygons) {
+    grow(e.ringLo, e.ringHi, p.outer);
+    for (const Ring& h : p.holes) grow(e.ringLo, e.ringHi, h);
+  }
+  for (const LineString& l : feature.lines) grow(e.lineLo, e.lineHi, l);
+  return e;
+}
+
+std::shared_ptr<const FeatureFile> FeatureFile::open(const std::string& path, std::vector<FeatureFileEntry> entries,
+                                                     std::uint64_t end, std::uint64_t content, std::string* error) {
+  const auto fail = [&](const std::string& why) {
+    if (error != nullptr) *error = path + ": " + why;
+    return std::shared_ptr<const FeatureFile>();
+  };
+  std::shared_ptr<FeatureFile> file(new FeatureFile());
+  file->path_ = path;
+  file->fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (file->fd_ < 0) return fail(std::strerror(errno));
+  struct stat st {};
+  if (::fstat(file->fd_, &st) != 0 || st.st_size < 0 || static_cast<std::uint64_t>(st.st_size) < end)
+    return fail("shorter than its index says");
+  std::uint64_t previous = 0;
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if ((i > 0 && entries[i].offset <= previous) || entries[i].offset >= end) return fail("its index is damaged");
+    previous = entries[i].offset;
+    file->vertices_ += entries[i].vertices;
+  }
+  file->entries_ = std::move(entries);
+  file->end_ = end;
+  file->content_ = content;
+  return file;
+}
+
+FeatureFile::~FeatureFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+Feature FeatureFile::read(std::size_t i) const {
+  const auto fail = [&](const std::string& why) {
+    throw std::runtime_error(path_ + ": feature " + std::to_string(i) + " cannot be read (" + why + ")");
+  };
+  if (i >= entries_.size()) fail("no such feature");
+  const std::uint64_t begin = entries_[i].offset;
+  const std::uint64_t stop = i + 1 < entries_.size() ? entries_[i + 1].offset : end_;
+  std::string bytes(static_cast<std::size_t>(stop - begin), '\0');
+  std::size_t got = 0;
+  while (got < bytes.size()) {
+    const ssize_t n = ::pread(fd_, bytes.data() + got, bytes.size() - got, static_cast<off_t>(begin + got));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) fail(n < 0 ? std::strerror(errno) : "the file is shorter than when it was opened");
+    got += static_cast<std::size_t>(n);
+  }
+  std::istringstream in(std::move(bytes));
+  io::Reader r(in);
+  Feature f;
+  if (!io::readGeometry(r, f) || !io::readAttributes(r, f)) fail("damaged");
+  if (f.vertexCount() != entries_[i].vertices) fail("changed since it was indexed");
+  return f;
+}
+
+}  // namespace gis::geo
