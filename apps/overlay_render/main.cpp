@@ -575,6 +575,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                       {"error_px", t.tileErrorPixels},
                       {"drawn_bytes", t.tileBytes},
                       {"peak_bytes", t.tilePeakBytes},
+                      {"host_peak_bytes", t.tileHostPeakBytes},
                       {"gpu_bytes", d.renderer.techniqueGpuBytes()}};
   } else if (d.o.technique->usesTextures()) {
     stats["drape"] = {{"tile_size", d.o.drapeSize},

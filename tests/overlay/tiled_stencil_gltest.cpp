@@ -101,7 +101,8 @@ class TiledStencilGlTest : public GlTest {
   /// The technique with small tiles, so that this 5 km terrain has 4 levels (ε 80, 40, 20 m and
   /// the source geometry).
   std::unique_ptr<overlay::OverlayTechnique> technique(std::size_t budget = std::size_t{1} << 30U,
-                                                       const std::string& cache = {}, const std::string& key = {}) {
+                                                       const std::string& cache = {}, const std::string& key = {},
+                                                       std::size_t hostBytesInFlight = std::size_t{128} << 20U) {
     overlay::TechniqueOptions o;
     o.extent = overlay::DrapeExtent{lo_, hi_ - lo_};
     o.bounds = bounds_.get();
@@ -110,6 +111,7 @@ class TiledStencilGlTest : public GlTest {
     o.tiling.finestTileCells = 2;
     o.tiling.tileResolution = 64;
     o.tiling.gpuBudgetBytes = budget;
+    o.tiling.hostBytesInFlight = hostBytesInFlight;
     o.tiling.cacheDirectory = cache;
     o.tiling.cacheKey = key;
     o.tiling.cacheRevision = bounds_->revision();
@@ -374,6 +376,18 @@ TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
     EXPECT_EQ(f.stats.tilesFromDisk + g.stats.tilesFromDisk, 0u);
     first = gfx::readMask(target_);
   }
+  // Room on the host for one tile at a time: each read waits for the one before to be uploaded,
+  // and the images are the same.
+  {
+    std::unique_ptr<overlay::OverlayTechnique> t =
+        technique(std::size_t{1} << 30U, dir.string(), "terrain A", std::size_t{1});
+    const Frame farther = draw(*t, far, glm::dvec3(centre, 0.0), true);
+    EXPECT_EQ(farther.stats.tilesFromDisk, farther.stats.tilesBuilt);
+    EXPECT_GT(farther.stats.tilesFromDisk, 1u);
+    EXPECT_EQ(gfx::readMask(target_), firstFar);
+    EXPECT_GT(farther.stats.tileLargestReadBytes, 0u);
+    EXPECT_EQ(farther.stats.tileHostPeakBytes, farther.stats.tileLargestReadBytes) << "one tile at a time";
+  }
   // The same layers and terrain: every tile read, the same images; from afar the coarse tiles
   // are read lean (their GPU arrays and boxes only).
   {
@@ -387,6 +401,8 @@ TEST_F(TiledStencilGlTest, ASecondRunReadsItsTilesFromDisk) {
     EXPECT_EQ(f.comparison.wrong, 0u);
     EXPECT_EQ(f.stats.tilesFromDisk, f.stats.tilesBuilt);
     EXPECT_EQ(gfx::readMask(target_), first);
+    EXPECT_GE(f.stats.tileHostPeakBytes, f.stats.tileLargestReadBytes);
+    EXPECT_GT(f.stats.tileLargestReadBytes, 0u);
     // After an edit the files no longer hold the roads: theirs are not read again (the areas'
     // still are).
     t->stopReading();

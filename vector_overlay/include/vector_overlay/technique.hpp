@@ -105,6 +105,11 @@ struct TechniqueFrameStats {
   /// The most GPU bytes the resident tiles held in this frame (while tiles arrived): at most
   /// the budget and the tiles that were being built when a detail was given up for it.
   std::size_t tilePeakBytes = 0;
+  /// Since the technique was made: the most host bytes that tiles read from the disk cache held
+  /// at once between their read and their upload (TilingOptions::hostBytesInFlight, or the
+  /// largest tile alone), and the largest such tile (as its file says).
+  std::size_t tileHostPeakBytes = 0;
+  std::size_t tileLargestReadBytes = 0;
 };
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).

@@ -70,6 +70,10 @@ struct TilingOptions {
   /// GPU bytes the resident tiles may hold (least recently drawn tiles leave first; the tiles
   /// of the frame being drawn always stay).
   std::size_t gpuBudgetBytes = std::size_t{512} << 20U;
+  /// Host bytes that tiles read from the disk cache may hold at once, from their read to their
+  /// upload (one tile is read whatever its size): two workers reading two large tiles side by
+  /// side would hold both on the host beside the GPU's copy.
+  std::size_t hostBytesInFlight = std::size_t{128} << 20U;
   /// Worker threads that build tiles (0: one per core).
   unsigned workers = 0;
   /// Where built tiles are kept on disk for the next run (empty: nowhere). Each layer gets a

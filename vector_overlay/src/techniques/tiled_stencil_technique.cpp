@@ -39,9 +39,13 @@ class TileWorkers {
     std::size_t layer = 0;
     TileKey key;
     Result<LayerTile> tile;
+    std::size_t hostBytes = 0;  ///< held against the host limit until release()
   };
 
-  explicit TileWorkers(unsigned count) {
+  /// `hostLimit`: the host bytes that tiles read from the disk cache may hold at once, from their
+  /// read until their upload (release()); one tile is read whatever its size. Tiles built anew
+  /// are not counted (their size is not known before).
+  TileWorkers(unsigned count, std::size_t hostLimit) : hostLimit_(hostLimit) {
     for (unsigned k = 0; k < std::max(1U, count); ++k) threads_.emplace_back([this] { run(); });
   }
   ~TileWorkers() {
@@ -51,6 +55,7 @@ class TileWorkers {
       queue_.clear();
     }
     wake_.notify_all();
+    room_.notify_all();
     threads_.clear();  // joins
   }
   TileWorkers(const TileWorkers&) = delete;
@@ -92,15 +97,31 @@ class TileWorkers {
     std::lock_guard lock(mutex_);
     return queue_.size() + static_cast<std::size_t>(running_);
   }
+  /// The most host bytes tiles read from disk held at once, and the largest of them, so far.
+  [[nodiscard]] std::pair<std::size_t, std::size_t> hostPeak() {
+    std::lock_guard lock(mutex_);
+    return {peakInFlight_, largestRead_};
+  }
+  /// A taken tile's host bytes are no longer held (uploaded, or dropped).
+  void release(std::size_t bytes) {
+    {
+      std::lock_guard lock(mutex_);
+      inFlight_ -= std::min(inFlight_, bytes);
+    }
+    room_.notify_all();
+  }
   /// Drops the queue and stops the running jobs (their results are dropped too).
   void cancel() {
     std::unique_lock lock(mutex_);
     queue_.clear();
     cancelled_ = true;
+    room_.notify_all();
     idle_.wait(lock, [&] { return running_ == 0; });
     cancelled_ = false;
+    for (const Done& d : done_) inFlight_ -= std::min(inFlight_, d.hostBytes);
     done_.clear();
     busy_.clear();
+    room_.notify_all();
   }
 
  private:
@@ -114,22 +135,34 @@ class TileWorkers {
       busy_.insert({job.layer, job.key.packed()});
       ++running_;
       lock.unlock();
+      // A tile on disk is read once the host holds room for it (its file says how much).
+      const std::size_t bytes = job.tiling->cachedBytes(job.key).value_or(0);
+      lock.lock();
+      room_.wait(lock, [&] { return stop_ || cancelled_ || inFlight_ == 0 || inFlight_ + bytes <= hostLimit_; });
+      const bool skip = stop_ || cancelled_;
+      inFlight_ += bytes;
+      peakInFlight_ = std::max(peakInFlight_, inFlight_);
+      largestRead_ = std::max(largestRead_, bytes);
+      lock.unlock();
       Result<LayerTile> tile;
       try {
-        tile = job.tiling->build(job.key, &cancelled_, job.lean);
+        if (!skip) tile = job.tiling->build(job.key, &cancelled_, job.lean);
       } catch (const std::exception& e) {  // on a worker thread it would end the program
         tile.diagnostics.add({Severity::Error, "", job.tiling->source().name(), "",
                               std::string("a tile cannot be built (") + e.what() + ")"});
       }
       lock.lock();
       --running_;
-      done_.push_back({job.layer, job.key, std::move(tile)});
+      done_.push_back({job.layer, job.key, std::move(tile), bytes});
       idle_.notify_all();
     }
   }
 
   std::mutex mutex_;
-  std::condition_variable wake_, idle_;
+  std::condition_variable wake_, idle_, room_;
+  std::size_t hostLimit_ = 0;
+  std::size_t inFlight_ = 0;  ///< host bytes of tiles read and not yet released
+  std::size_t peakInFlight_ = 0, largestRead_ = 0;
   std::deque<Job> queue_;
   std::set<std::pair<std::size_t, std::uint64_t>> busy_;  ///< running, or done and not taken
   std::vector<Done> done_;
@@ -147,7 +180,8 @@ class TiledStencil final : public OverlayTechnique {
         build_(options.build),
         tiling_(options.tiling),
         workers_(options.tiling.workers > 0 ? options.tiling.workers
-                                            : std::max(1U, std::thread::hardware_concurrency())) {}
+                                            : std::max(1U, std::thread::hardware_concurrency()),
+                 options.tiling.hostBytesInFlight) {}
   ~TiledStencil() override { workers_.cancel(); }
 
   std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
@@ -238,6 +272,7 @@ class TiledStencil final : public OverlayTechnique {
       for (const auto& [key, t] : l.tiles)
         stats.tilesLean += t.layer && t.layer->geometry().footprintsReleased() ? 1U : 0U;
     }
+    std::tie(stats.tileHostPeakBytes, stats.tileLargestReadBytes) = workers_.hostPeak();
   }
 
   [[nodiscard]] std::vector<const OverlayLayer*> drawnChunks(std::size_t layer) const override {
@@ -444,6 +479,12 @@ class TiledStencil final : public OverlayTechnique {
     bool released = false;
     fromDisk_ = 0;
     for (TileWorkers::Done& d : workers_.take()) {
+      // Its host arrays are uploaded (and freed) below, or dropped.
+      struct Release {
+        TileWorkers& workers;
+        std::size_t bytes;
+        ~Release() { workers.release(bytes); }
+      } const release{workers_, d.hostBytes};
       if (d.layer >= layers_.size() || !layers_[d.layer].tiling) continue;
       reportOnce(d.tile.diagnostics);
       Resident r;
