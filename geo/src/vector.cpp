@@ -692,6 +692,8 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
   };
   std::int64_t index = 0;
   bool recoded = false;
+  bool anyPolygon = false, anyLine = false;
+  std::size_t kept = 0;
   for (;; ++index) {
     CPLErrorReset();
     detail::FeaturePtr feature = nextFeature();
@@ -760,7 +762,14 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       r.diagnostics.add({Severity::Warning, path, result.name, fid, part ? note + "; that part is left out" : note});
     }
     readAttributes(*feature, *defn, f, recoded);
-    result.features.push_back(std::move(f));
+    anyPolygon = anyPolygon || !f.polygons.empty();
+    anyLine = anyLine || !f.lines.empty();
+    ++kept;
+    if (options.sink) {
+      options.sink(std::move(f));
+    } else {
+      result.features.push_back(std::move(f));
+    }
   }
 
   addGdalMessages(gdal.take(), path, result.name, r.diagnostics);
@@ -776,17 +785,11 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
                        "attribute text is not UTF-8 and the file declares no encoding: read as Latin-1 "
                        "(ISO-8859-1); if that is wrong, declare the encoding (a .cpg file beside a Shapefile)"});
   }
-  bool anyPolygon = false;
-  bool anyLine = false;
-  for (const Feature& f : result.features) {
-    anyPolygon = anyPolygon || !f.polygons.empty();
-    anyLine = anyLine || !f.lines.empty();
-  }
   result.kind = anyPolygon && anyLine ? GeometryKind::Mixed
                 : anyPolygon          ? GeometryKind::Polygon
                 : anyLine             ? GeometryKind::Line
                                       : GeometryKind::Empty;
-  if (result.features.empty()) {
+  if (kept == 0) {
     r.diagnostics.add({Severity::Warning, path, result.name, "",
                        r.diagnostics.hasErrors() ? "no usable feature: nothing to draw"
                                                  : "the layer holds no features: nothing to draw"});

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <system_error>
 #include <thread>
 
@@ -20,7 +21,9 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::uint32_t kMagic = 0x4c564753;  // "SGVL"
-constexpr std::uint32_t kVersion = 2;         // 2: features indexed, read one at a time
+// 3: the features first, written as they are read, then what was said and the index; the
+// footer says where that starts.
+constexpr std::uint32_t kVersion = 3;
 
 void writeDiagnostics(geo::io::Writer& w, const Diagnostics& diagnostics) {
   w.value(static_cast<std::uint64_t>(diagnostics.items().size()));
@@ -89,67 +92,63 @@ std::string layerCacheFile(const std::string& directory, std::uint64_t key) {
 std::optional<CachedLayer> readLayerCache(const std::string& file, std::uint64_t key) {
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
-  geo::io::Reader r(in);
   std::uint32_t magic = 0, version = 0;
   std::uint64_t stored = 0;
-  std::uint8_t ok = 0;
+  {
+    geo::io::Reader r(in);
+    if (!r.value(magic) || magic != kMagic || !r.value(version) || version != kVersion || !r.value(stored) ||
+        stored != key)
+      return std::nullopt;
+  }
+  const auto first = static_cast<std::uint64_t>(in.tellg());
+  // The footer: where the trailer starts, the magic.
+  std::uint64_t trailerAt = 0;
+  in.seekg(-static_cast<std::streamoff>(sizeof(std::uint64_t) + sizeof(std::uint32_t)), std::ios::end);
+  {
+    geo::io::Reader r(in);
+    if (!in || !r.value(trailerAt) || !r.value(magic) || magic != kMagic || trailerAt < first) return std::nullopt;
+  }
+  in.seekg(static_cast<std::streamoff>(trailerAt));
+  geo::io::Reader r(in);
   CachedLayer cached;
   Result<geo::VectorLayer>& read = cached.read;
-  if (!r.value(magic) || magic != kMagic || !r.value(version) || version != kVersion || !r.value(stored) ||
-      stored != key || !readDiagnostics(r, read.diagnostics) || !r.value(ok))
-    return std::nullopt;
+  std::uint8_t ok = 0;
+  if (!in || !readDiagnostics(r, read.diagnostics) || !r.value(ok)) return std::nullopt;
   if (ok == 0) return cached;
   geo::VectorLayer layer;
   std::uint8_t kind = 0;
-  std::size_t count = 0;
+  std::uint64_t content = 0;
+  std::vector<geo::FeatureFileEntry> entries;
   if (!r.text(layer.path) || !r.text(layer.name) || !r.text(layer.sourceCrsWkt) || !r.value(kind) ||
       kind > static_cast<std::uint8_t>(geo::GeometryKind::Empty) || !r.value(layer.quantisationMetres) ||
-      !r.count(count, 32))  // a feature: fid, two counts, attributes' count
+      !r.array(entries) || !r.value(content) || (!entries.empty() && entries.front().offset != first))
     return std::nullopt;
   layer.kind = static_cast<geo::GeometryKind>(kind);
-  const auto first = static_cast<std::uint64_t>(in.tellg());
-  // The footer: the features' hash, where their index starts, the magic.
-  std::uint64_t content = 0, indexAt = 0;
-  in.seekg(-static_cast<std::streamoff>(2 * sizeof(std::uint64_t) + sizeof(std::uint32_t)), std::ios::end);
-  if (!in || !r.value(content) || !r.value(indexAt) || !r.value(magic) || magic != kMagic || indexAt < first)
-    return std::nullopt;
-  in.seekg(static_cast<std::streamoff>(indexAt));
-  geo::io::Reader index(in);
-  std::vector<geo::FeatureFileEntry> entries;
-  if (!in || !index.array(entries) || entries.size() != count || (count > 0 && entries.front().offset != first))
-    return std::nullopt;
   std::string error;
-  cached.features = geo::FeatureFile::open(file, std::move(entries), indexAt, content, &error);
+  cached.features = geo::FeatureFile::open(file, std::move(entries), trailerAt, content, &error);
   if (!cached.features) return std::nullopt;
   read.value = std::move(layer);
   return cached;
 }
 
-bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<geo::VectorLayer>& read) {
-  return geo::io::writeFileAtomically(file, [&](std::ostream& out) {
+std::optional<Result<geo::VectorLayer>> writeLayerCache(
+    const std::string& file, std::uint64_t key,
+    const std::function<Result<geo::VectorLayer>(const std::function<void(geo::Feature&&)>&)>& read) {
+  std::optional<Result<geo::VectorLayer>> done;
+  const bool written = geo::io::writeFileAtomically(file, [&](std::ostream& out) {
     geo::io::Writer w(out);
     w.value(kMagic);
     w.value(kVersion);
     w.value(key);
-    writeDiagnostics(w, read.diagnostics);
-    w.value(static_cast<std::uint8_t>(read ? 1 : 0));
-    if (!read) return;
-    const geo::VectorLayer& layer = *read;
-    w.text(layer.path);
-    w.text(layer.name);
-    w.text(layer.sourceCrsWkt);
-    w.value(static_cast<std::uint8_t>(layer.kind));
-    w.value(layer.quantisationMetres);
-    w.value(static_cast<std::uint64_t>(layer.features.size()));
+    // The features as they are read, each with its entry in the index and its share of the hash.
     std::vector<geo::FeatureFileEntry> entries;
-    entries.reserve(layer.features.size());
     StableHasher content;
-    for (const geo::Feature& f : layer.features) {
+    const auto add = [&](geo::Feature&& f) {
       entries.push_back(geo::FeatureFileEntry::of(f, static_cast<std::uint64_t>(out.tellp())));
       geo::io::writeGeometry(w, f);
       geo::io::writeAttributes(w, f);
       content.add(static_cast<std::uint64_t>(f.fid));
-      content.add(static_cast<std::uint64_t>(out.tellp()));  // the size of what was written
+      content.add(static_cast<std::uint64_t>(out.tellp()));  // where it ends: its size
       const auto points = [&content](const std::vector<glm::dvec2>& ps) {
         content.add(static_cast<std::uint64_t>(ps.size()));
         for (const glm::dvec2& p : ps) {
@@ -162,13 +161,31 @@ bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<ge
         for (const geo::Ring& h : p.holes) points(h);
       }
       for (const geo::LineString& l : f.lines) points(l);
+    };
+    done = read(add);
+    Result<geo::VectorLayer>& result = *done;
+    if (result) {
+      for (geo::Feature& f : result->features) add(std::move(f));  // a reader that kept them
+      result->features.clear();
     }
-    const auto indexAt = static_cast<std::uint64_t>(out.tellp());
-    w.array(entries);
-    w.value(content.value());
-    w.value(indexAt);
+    const auto trailerAt = static_cast<std::uint64_t>(out.tellp());
+    writeDiagnostics(w, result.diagnostics);
+    w.value(static_cast<std::uint8_t>(result ? 1 : 0));
+    if (result) {
+      const geo::VectorLayer& layer = *result;
+      w.text(layer.path);
+      w.text(layer.name);
+      w.text(layer.sourceCrsWkt);
+      w.value(static_cast<std::uint8_t>(layer.kind));
+      w.value(layer.quantisationMetres);
+      w.array(entries);
+      w.value(content.value());
+    }
+    w.value(trailerAt);
     w.value(kMagic);
   });
+  if (!written) return std::nullopt;
+  return done;
 }
 
 }  // namespace gis::scene::detail

@@ -12,6 +12,7 @@
 // reader's code. Sources that are not one file (a PostGIS table, a folder of vector tiles) are
 // not cached: they may change without a file telling.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -41,7 +42,13 @@ struct CachedLayer {
 /// header and the features' index only (about 80 bytes a feature): the features stay on disk.
 std::optional<CachedLayer> readLayerCache(const std::string& file, std::uint64_t key);
 
-/// Stores the read (a failed one too: its diagnostics). False when it cannot be written.
-bool writeLayerCache(const std::string& file, std::uint64_t key, const Result<geo::VectorLayer>& read);
+/// Reads a layer into the cache: `read` reads it, handing each good feature to the sink it is
+/// given (geo::VectorReadOptions::sink), which writes it to the file at once; what it returns
+/// (its diagnostics, a failure too, and the layer without its features) is stored after them.
+/// The layer is read in the memory of one feature, whatever its size. Returns what `read`
+/// returned, or none when the file cannot be written (then the features are lost: read again).
+std::optional<Result<geo::VectorLayer>> writeLayerCache(
+    const std::string& file, std::uint64_t key,
+    const std::function<Result<geo::VectorLayer>(const std::function<void(geo::Feature&&)>&)>& read);
 
 }  // namespace gis::scene::detail

@@ -313,10 +313,18 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     if (cached) {
       ++scene.layersFromCache;
     } else {
-      Result<geo::VectorLayer> read = geo::readVectorLayer(layer.source, scene.frame, readOptions);
-      // Kept on disk and read back from there: the features stay in the file, not in memory.
-      if (key && detail::writeLayerCache(cacheFile, *key, read)) cached = detail::readLayerCache(cacheFile, *key);
-      if (!cached) cached = detail::CachedLayer{std::move(read), nullptr};
+      // Streamed into the cache as read, and opened from there: the features stay in the file.
+      if (key) {
+        const std::optional<Result<geo::VectorLayer>> written =
+            detail::writeLayerCache(cacheFile, *key, [&](const std::function<void(geo::Feature &&)>& sink) {
+              geo::VectorReadOptions streamed = readOptions;
+              streamed.sink = sink;
+              return geo::readVectorLayer(layer.source, scene.frame, streamed);
+            });
+        if (written) cached = detail::readLayerCache(cacheFile, *key);
+      }
+      // No cache, or it could not be written: read into memory.
+      if (!cached) cached = detail::CachedLayer{geo::readVectorLayer(layer.source, scene.frame, readOptions), nullptr};
     }
     Result<geo::VectorLayer> data = std::move(cached->read);
     // Name our layer in every message about it, beside the file's own layer name.

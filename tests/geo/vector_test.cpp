@@ -523,6 +523,43 @@ TEST(VectorBroken, UnreadableSourcesFailWithAMessage) {
   }
 }
 
+TEST(VectorSources, ASinkTakesTheFeaturesAsReadAndTheLayerSaysTheSame) {
+  // Broken features (said, left out) beside good ones: streamed to a sink, the same features in
+  // the same order, the same messages and kind, and none kept in the layer.
+  const SceneFrame frame = olindaFrame();
+  const std::string path = kData + "broken_features.geojson";
+  const gis::Result<VectorLayer> kept = gis::geo::readVectorLayer(path, frame);
+  std::vector<Feature> streamed;
+  gis::geo::VectorReadOptions options;
+  options.sink = [&](Feature&& f) { streamed.push_back(std::move(f)); };
+  const gis::Result<VectorLayer> sunk = gis::geo::readVectorLayer(path, frame, options);
+  ASSERT_TRUE(kept.ok() && sunk.ok());
+  EXPECT_TRUE(sunk->features.empty());
+  EXPECT_EQ(sunk->kind, kept->kind);
+  ASSERT_EQ(streamed.size(), kept->features.size());
+  for (std::size_t i = 0; i < streamed.size(); ++i) {
+    EXPECT_EQ(streamed[i].fid, kept->features[i].fid);
+    EXPECT_EQ(streamed[i].lines, kept->features[i].lines);
+    EXPECT_EQ(streamed[i].attributes, kept->features[i].attributes);
+    ASSERT_EQ(streamed[i].polygons.size(), kept->features[i].polygons.size());
+    for (std::size_t k = 0; k < streamed[i].polygons.size(); ++k)
+      EXPECT_EQ(streamed[i].polygons[k].outer, kept->features[i].polygons[k].outer);
+  }
+  ASSERT_EQ(sunk.diagnostics.items().size(), kept.diagnostics.items().size());
+  for (std::size_t i = 0; i < kept.diagnostics.items().size(); ++i)
+    EXPECT_EQ(sunk.diagnostics.items()[i].toString(), kept.diagnostics.items()[i].toString());
+  // A layer with nothing good says so through a sink too.
+  std::size_t none = 0;
+  gis::geo::VectorReadOptions counting;
+  counting.sink = [&](Feature&&) { ++none; };
+  const gis::Result<VectorLayer> empty = gis::geo::readVectorLayer(kData + "empty_layer.geojson", frame, counting);
+  ASSERT_TRUE(empty.ok());
+  EXPECT_EQ(none, 0u);
+  EXPECT_EQ(empty->kind, GeometryKind::Empty);
+  ASSERT_EQ(empty.diagnostics.items().size(), 1u);
+  EXPECT_NE(empty.diagnostics.items()[0].message.find("no features"), std::string::npos);
+}
+
 TEST(VectorBroken, AnEmptyLayerLoadsWithAWarning) {
   gis::Result<VectorLayer> layer = gis::geo::readVectorLayer(kData + "empty_layer.geojson", olindaFrame());
   ASSERT_TRUE(layer.ok());

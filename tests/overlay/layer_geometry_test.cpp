@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <future>
 #include <limits>
 #include <map>
@@ -16,6 +17,7 @@
 #include <tuple>
 #include <vector>
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -252,6 +254,35 @@ TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
     geo::io::Reader r(in);
     return LayerGeometry::readLean(r, "roads", LayerKind::Line, road, built->featureStyles(), bounds, onCells());
   };
+  // The same with the GPU arrays left in the file (a lean tile's read, ArraysInFile): the same
+  // checks, the arrays read a slice at a time.
+  const std::string file = ::testing::TempDir() + "lean_copy_" + std::to_string(::getpid()) + ".bin";
+  const auto readInFile = [&](const std::string& data) {
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << data;
+    std::ifstream in(file, std::ios::binary);
+    geo::io::Reader r(in);
+    return LayerGeometry::readLean(r, "roads", LayerKind::Line, road, built->featureStyles(), bounds, onCells(),
+                                   std::make_shared<ArraysInFile>(::open(file.c_str(), O_RDONLY | O_CLOEXEC)));
+  };
+  const auto indicesInFile = [](const LayerGeometry& g) {
+    std::vector<std::uint32_t> indices(g.arraysInFile()->indexCount);
+    EXPECT_TRUE(g.arraysInFile()->read(
+        g.arraysInFile()->indicesAt, indices.size() * sizeof(std::uint32_t),
+        [&](const void* data, std::uint64_t offset, std::uint64_t n) {
+          std::memcpy(reinterpret_cast<char*>(indices.data()) + offset, data, static_cast<std::size_t>(n));
+        },
+        64));  // small slices: the slicing is what is tested
+    return indices;
+  };
+  {
+    const std::optional<LayerGeometry> inFile = readInFile(bytes);
+    ASSERT_TRUE(inFile.has_value());
+    ASSERT_NE(inFile->arraysInFile(), nullptr);
+    EXPECT_TRUE(inFile->vertices().empty());
+    EXPECT_EQ(inFile->vertexCount(), built->vertices().size());
+    EXPECT_EQ(inFile->indexCount(), built->indices().size());
+    EXPECT_EQ(indicesInFile(*inFile), built->indices());
+  }
   // Whole: the same arrays and slots, pieces' boxes and bounds, no footprints.
   const std::optional<LayerGeometry> lean = read(bytes);
   ASSERT_TRUE(lean.has_value());
@@ -266,8 +297,12 @@ TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
     EXPECT_TRUE(lean->polyhedra()[k].footprint.vertices.empty());
   }
   // Cut short anywhere: refused.
-  for (std::size_t n = 0; n < bytes.size(); n += 1 + bytes.size() / 997)
+  for (std::size_t n = 0; n < bytes.size(); n += 1 + bytes.size() / 997) {
     EXPECT_FALSE(read(bytes.substr(0, n)).has_value()) << "cut at " << n;
+    if (n % 7 == 0) {
+      EXPECT_FALSE(readInFile(bytes.substr(0, n)).has_value()) << "cut at " << n << ", in a file";
+    }
+  }
   // Bytes changed at random: refused, or read with every index within its arrays (the checks a
   // draw relies on; the sanitizer build would see any read beyond them here).
   std::uniform_int_distribution<std::size_t> at(0, bytes.size() - 1);
@@ -276,7 +311,12 @@ TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
     std::string damaged = bytes;
     for (int k = 0; k < 1 + trial % 4; ++k) damaged[at(rng)] = static_cast<char>(value(rng));
     const std::optional<LayerGeometry> g = read(damaged);
+    // Left in a file, the indices are checked slice by slice: the same answer.
+    const std::optional<LayerGeometry> f = readInFile(damaged);
+    ASSERT_EQ(f.has_value(), g.has_value()) << "trial " << trial;
     if (!g) continue;
+    const std::vector<std::uint32_t> fileIndices = indicesInFile(*f);
+    ASSERT_EQ(fileIndices, g->indices());
     for (const LayerGeometry::PieceSlot& s : g->slots()) {
       ASSERT_LE(std::uint64_t{s.firstIndex} + s.indexCount, g->indices().size());
       for (std::uint32_t i = s.firstIndex; i < s.firstIndex + s.indexCount; ++i)
@@ -286,6 +326,7 @@ TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
     (void)g->box3();
     (void)g->maxOverlap();
   }
+  std::filesystem::remove(file);
 }
 
 TEST(LayerGeometry, EditsNameExactlyWhatTheGpuCopyMustTakeAgain) {

@@ -381,7 +381,7 @@ TEST(SceneLoader, CachedFeaturesStayOnDiskAndReadAsTheSourceGivesThem) {
   ASSERT_EQ(std::filesystem::file_size(file), size);
   {
     std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
-    f.seekp(static_cast<std::streamoff>(size - 12));  // the index's offset, before the magic
+    f.seekp(static_cast<std::streamoff>(size - 12));  // where the index and messages start, before the magic
     const std::uint64_t beyond = size * 2;
     f.write(reinterpret_cast<const char*>(&beyond), sizeof(beyond));
   }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -418,6 +419,7 @@ void GeometryChange::add(std::size_t v0, std::size_t v1, std::size_t i0, std::si
 }
 
 void LayerGeometry::releaseArrays() {
+  arraysInFile_.reset();
   vertices_ = {};
   indices_ = {};
   scaling_ = {};
@@ -589,10 +591,35 @@ void LayerGeometry::writeLean(geo::io::Writer& w) const {
   w.value(stats_);
 }
 
+ArraysInFile::~ArraysInFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+bool ArraysInFile::read(std::uint64_t at, std::uint64_t bytes,
+                        const std::function<void(const void*, std::uint64_t, std::uint64_t)>& slice,
+                        std::size_t sliceBytes) const {
+  std::vector<char> buffer(
+      static_cast<std::size_t>(std::min<std::uint64_t>(bytes, std::max<std::size_t>(sliceBytes, 1))));
+  for (std::uint64_t done = 0; done < bytes;) {
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(buffer.size(), bytes - done));
+    std::size_t got = 0;
+    while (got < n) {
+      const ssize_t k = ::pread(fd_, buffer.data() + got, n - got, static_cast<off_t>(at + done + got));
+      if (k < 0 && errno == EINTR) continue;
+      if (k <= 0) return false;
+      got += static_cast<std::size_t>(k);
+    }
+    slice(buffer.data(), done, n);
+    done += n;
+  }
+  return true;
+}
+
 std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::string name, LayerKind kind,
                                                      const LayerStyle& style, std::vector<FeatureStyle> styles,
                                                      const HeightBoundsProvider& bounds,
-                                                     const LayerBuildOptions& options) {
+                                                     const LayerBuildOptions& options,
+                                                     std::shared_ptr<ArraysInFile> arrays) {
   std::vector<std::int64_t> fids;
   if (!r.array(fids) || fids.size() != styles.size()) return std::nullopt;
   std::vector<geo::Feature> bare(fids.size());
@@ -604,12 +631,22 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
   layer.featureSlots_.resize(fids.size());
   for (std::vector<std::uint32_t>& f : layer.featureSlots_)
     if (!r.array(f)) return std::nullopt;
-  if (!r.array(layer.slots_) || !r.array(pieces) || !r.array(layer.origins_) || !r.array(layer.vertices_) ||
-      !r.array(layer.indices_) || !r.array(layer.scaling_) || !r.value(wasted) || !r.value(layer.stats_))
+  if (!r.array(layer.slots_) || !r.array(pieces) || !r.array(layer.origins_)) return std::nullopt;
+  if (arrays) {
+    if (!r.skipArray(arrays->vertexCount, sizeof(Vertex), arrays->verticesAt) ||
+        !r.skipArray(arrays->indexCount, sizeof(std::uint32_t), arrays->indicesAt) ||
+        !r.skipArray(arrays->scalingCount, sizeof(glm::vec4), arrays->scalingAt))
+      return std::nullopt;
+  } else if (!r.array(layer.vertices_) || !r.array(layer.indices_) || !r.array(layer.scaling_)) {
     return std::nullopt;
+  }
+  if (!r.value(wasted) || !r.value(layer.stats_)) return std::nullopt;
   // Nothing a damaged file holds may index out of bounds.
-  const std::size_t slots = layer.slots_.size(), vertices = layer.vertices_.size();
-  if (pieces.size() != slots || (!layer.scaling_.empty() && layer.scaling_.size() != vertices)) return std::nullopt;
+  const std::size_t slots = layer.slots_.size();
+  const std::size_t vertices = arrays ? arrays->vertexCount : layer.vertices_.size();
+  const std::size_t indexCount = arrays ? arrays->indexCount : layer.indices_.size();
+  const std::size_t scalingCount = arrays ? arrays->scalingCount : layer.scaling_.size();
+  if (pieces.size() != slots || (scalingCount != 0 && scalingCount != vertices)) return std::nullopt;
   for (std::size_t i = 0; i < fids.size(); ++i) {
     if (static_cast<std::uint8_t>(layer.outcomes_[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden))
       return std::nullopt;
@@ -630,9 +667,11 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
     const LeanPiece& q = pieces[k];
     if (s.feature >= fids.size() || s.origin >= layer.origins_.size() || q.kind > 4) return std::nullopt;
     const std::uint64_t first = s.firstIndex, end = first + s.indexCount;
-    if (end > layer.indices_.size() || s.bottomCount > s.indexCount) return std::nullopt;
-    for (std::uint64_t i = first; i < end; ++i)
-      if (std::uint64_t{s.baseVertex} + layer.indices_[i] >= vertices) return std::nullopt;
+    if (end > indexCount || s.bottomCount > s.indexCount) return std::nullopt;
+    if (!arrays) {
+      for (std::uint64_t i = first; i < end; ++i)
+        if (std::uint64_t{s.baseVertex} + layer.indices_[i] >= vertices) return std::nullopt;
+    }
     Polyhedron& p = layer.polyhedra_[k];
     p.footprint.feature = q.feature;
     p.footprint.cell = q.cell;
@@ -648,6 +687,45 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
     const glm::dvec2 cell = glm::floor(layer.origins_[o] / kOriginGrid);
     layer.originIndex_.emplace(std::pair{static_cast<std::int64_t>(cell.x), static_cast<std::int64_t>(cell.y)},
                                static_cast<std::uint32_t>(o));
+  }
+  if (arrays) {
+    // The indices in the file, a slice at a time, each against the vertices its slot may use:
+    // the largest vertex an index may name, per index, is kept for one slice only.
+    std::vector<std::uint64_t> limit;  // per index of the slice: vertices − baseVertex (0: no slot)
+    constexpr std::size_t kSlice = std::size_t{1} << 20U;
+    std::vector<std::size_t> order(slots);
+    for (std::size_t k = 0; k < slots; ++k) order[k] = k;
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return layer.slots_[a].firstIndex < layer.slots_[b].firstIndex; });
+    std::size_t next = 0;  // in order: the first slot that may still reach this slice
+    bool fine = true;
+    const bool read = arrays->read(
+        arrays->indicesAt, std::uint64_t{indexCount} * sizeof(std::uint32_t),
+        [&](const void* data, std::uint64_t offset, std::uint64_t bytes) {
+          const std::uint64_t i0 = offset / sizeof(std::uint32_t), n = bytes / sizeof(std::uint32_t);
+          limit.assign(static_cast<std::size_t>(n), 0);
+          while (next < order.size() &&
+                 std::uint64_t{layer.slots_[order[next]].firstIndex} + layer.slots_[order[next]].indexCount <= i0)
+            ++next;
+          for (std::size_t k = next; k < order.size(); ++k) {
+            const PieceSlot& q = layer.slots_[order[k]];
+            if (q.firstIndex >= i0 + n) break;
+            const std::uint64_t from = std::max<std::uint64_t>(q.firstIndex, i0);
+            const std::uint64_t to = std::min<std::uint64_t>(std::uint64_t{q.firstIndex} + q.indexCount, i0 + n);
+            const std::uint64_t room = vertices > q.baseVertex ? vertices - q.baseVertex : 0;
+            for (std::uint64_t i = from; i < to; ++i) {
+              std::uint64_t& l = limit[static_cast<std::size_t>(i - i0)];
+              l = l == 0 ? room + 1 : std::min(l, room + 1);  // +1: 0 means "no slot"
+            }
+          }
+          std::vector<std::uint32_t> values(static_cast<std::size_t>(n));
+          std::memcpy(values.data(), data, static_cast<std::size_t>(bytes));
+          for (std::size_t i = 0; i < values.size(); ++i)
+            if (limit[i] != 0 && std::uint64_t{values[i]} + 1 >= limit[i]) fine = false;
+        },
+        kSlice * sizeof(std::uint32_t));
+    if (!read || !fine) return std::nullopt;
+    layer.arraysInFile_ = std::move(arrays);
   }
   layer.wastedIndices_ = static_cast<std::size_t>(wasted);
   layer.changes_ = GeometryChange{};  // everything is new: the first upload takes it all

@@ -21,8 +21,24 @@ OverlayLayer OverlayLayer::upload(LayerGeometry geometry) {
   OverlayLayer layer(std::move(geometry));
   // Buffers of exactly the built size: a layer that is never edited wastes nothing.
   (void)layer.geometry_.takeChanges();
-  layer.reallocate(std::max<std::size_t>(layer.geometry_.vertices().size(), 1),
-                   std::max<std::size_t>(layer.geometry_.indices().size(), 1));
+  layer.reallocate(std::max<std::size_t>(layer.geometry_.vertexCount(), 1),
+                   std::max<std::size_t>(layer.geometry_.indexCount(), 1));
+  if (const ArraysInFile* arrays = layer.geometry_.arraysInFile()) {
+    // Straight from the file into the buffers, a slice at a time (their indices were checked
+    // when read); then the file is let go, as a lean tile's arrays are.
+    const auto copy = [&](GLuint buffer, std::uint64_t at, std::uint64_t bytes) {
+      return arrays->read(at, bytes, [&](const void* data, std::uint64_t offset, std::uint64_t n) {
+        glNamedBufferSubData(buffer, static_cast<GLintptr>(offset), static_cast<GLsizeiptr>(n), data);
+      });
+    };
+    const bool copied =
+        copy(layer.vertices_.id(), arrays->verticesAt, arrays->vertexCount * sizeof(LayerGeometry::Vertex)) &&
+        copy(layer.indices_.id(), arrays->indicesAt, arrays->indexCount * sizeof(std::uint32_t)) &&
+        (!layer.scaling_ || copy(layer.scaling_.id(), arrays->scalingAt, arrays->scalingCount * sizeof(glm::vec4)));
+    // A file that cannot be read now (it was read a moment ago to check it): draw nothing of it.
+    if (!copied) layer.broken_ = true;
+    layer.geometry_.releaseArrays();
+  }
   return layer;
 }
 

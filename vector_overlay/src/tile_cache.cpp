@@ -1,5 +1,9 @@
 #include "tile_cache.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cstring>
 #include <fstream>
 #include <system_error>
@@ -127,8 +131,23 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
                                   const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean) {
+  // A lean read leaves the GPU arrays in the file for the upload (ArraysInFile), read through
+  // a descriptor opened first: if the file was replaced meanwhile (a writer renames a new one
+  // into place), the two would differ, and the arrays are read now instead.
+  std::shared_ptr<ArraysInFile> arrays;
+  if (lean) {
+    const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd >= 0) arrays = std::make_shared<ArraysInFile>(fd);
+  }
   std::ifstream in(file, std::ios::binary);
   if (!in) return std::nullopt;
+  if (arrays) {
+    struct stat a {
+    }, b{};
+    if (::fstat(arrays->descriptor(), &a) != 0 || ::stat(file.c_str(), &b) != 0 || a.st_ino != b.st_ino ||
+        a.st_dev != b.st_dev)
+      arrays.reset();
+  }
   Reader r(in);
   double error = 0.0;
   std::uint64_t leanLength = 0;
@@ -142,8 +161,8 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
       if (index[i] >= source.sharedFeatures().size()) return std::nullopt;
       styles[i] = styleOf(index[i]);
     }
-    std::optional<LayerGeometry> g =
-        LayerGeometry::readLean(r, source.name(), source.kind(), source.style(), std::move(styles), bounds, options);
+    std::optional<LayerGeometry> g = LayerGeometry::readLean(r, source.name(), source.kind(), source.style(),
+                                                             std::move(styles), bounds, options, std::move(arrays));
     if (!g || !r.value(magic) || magic != kMagic) return std::nullopt;
     return LayerTile{key, std::move(*g), std::move(index), error, true};
   }

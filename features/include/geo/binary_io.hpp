@@ -93,6 +93,15 @@ class Reader {
     consumed(bytes);
     return static_cast<bool>(in_);
   }
+  /// An array left where it is: its count (items of `size` bytes, no more than are left) and
+  /// where its items start in the stream (`at`), skipped, for a positioned read later.
+  bool skipArray(std::size_t& n, std::size_t size, std::uint64_t& at) {
+    if (!count(n) || !left(n, size)) return false;
+    const std::istream::pos_type here = in_.tellg();
+    if (here == std::istream::pos_type(-1)) return false;
+    at = static_cast<std::uint64_t>(here);
+    return skip(static_cast<std::uint64_t>(n) * size);
+  }
   /// A count of items each at least `minBytes` long in the stream: false beyond what is left
   /// (a damaged count never allocates more than a few times the file's size).
   bool count(std::size_t& n, std::size_t minBytes = 1) {

@@ -58,6 +58,10 @@ struct VectorReadOptions {
   /// SpatiaLite's R-tree, FlatGeobuf's packed R-tree, a Shapefile's .qix, PostGIS's GiST).
   /// Every feature that meets the box is read; some that do not may be read too. None: all.
   std::optional<std::array<glm::dvec2, 2>> filter;
+  /// Each good feature, as it is read, handed here instead of kept in VectorLayer::features
+  /// (which then stays empty): a layer of any size read in the memory of one feature (the
+  /// scene's layer cache writes them to its file so). Empty: kept.
+  std::function<void(Feature&&)> sink;
 };
 
 /// Names of the layers in a vector data source.

@@ -14,6 +14,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <initializer_list>
 #include <limits>
 #include <map>
@@ -186,6 +187,29 @@ std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, con
 std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind);
 
+/// A lean layer's GPU arrays left in its file (a coarse tile read from the disk cache,
+/// LayerGeometry::readLean): the uploader copies them into its buffers a slice at a time, so the
+/// host never holds them whole beside the GPU's copy (on llvmpipe both are host memory).
+class ArraysInFile {
+ public:
+  /// Takes `fd` (closed with this).
+  explicit ArraysInFile(int fd) : fd_(fd) {}
+  ArraysInFile(const ArraysInFile&) = delete;
+  ArraysInFile& operator=(const ArraysInFile&) = delete;
+  ~ArraysInFile();
+  std::uint64_t verticesAt = 0, indicesAt = 0, scalingAt = 0;  ///< file offsets
+  std::size_t vertexCount = 0, indexCount = 0, scalingCount = 0;
+  [[nodiscard]] int descriptor() const { return fd_; }
+  /// Calls `slice(data, offset, bytes)` for the file's [at, at + bytes) a slice of at most
+  /// `sliceBytes` at a time (offset from `at`); false when the file cannot be read.
+  bool read(std::uint64_t at, std::uint64_t bytes,
+            const std::function<void(const void*, std::uint64_t, std::uint64_t)>& slice,
+            std::size_t sliceBytes = std::size_t{8} << 20U) const;
+
+ private:
+  int fd_ = -1;
+};
+
 class LayerGeometry {
  public:
   /// Builds every feature's polyhedra. Broken features are reported in `diagnostics` and left
@@ -265,10 +289,20 @@ class LayerGeometry {
   void writeLean(geo::io::Writer& w) const;
   /// A layer written by writeLean, with footprints released (it is uploaded as built; its
   /// colours are those written), or none when the data is damaged or does not fit `styles`.
+  /// With `arrays` (the same file open for positioned reads): the GPU arrays are left in the
+  /// file (arraysInFile()), their indices checked against the slots slice by slice.
   [[nodiscard]] static std::optional<LayerGeometry> readLean(geo::io::Reader& r, std::string name, LayerKind kind,
                                                              const LayerStyle& style, std::vector<FeatureStyle> styles,
                                                              const HeightBoundsProvider& bounds,
-                                                             const LayerBuildOptions& options);
+                                                             const LayerBuildOptions& options,
+                                                             std::shared_ptr<ArraysInFile> arrays = nullptr);
+  /// The GPU arrays still in their file (a lean read), or null: then vertices(), indices() and
+  /// scaling() are empty, and vertexCount() and indexCount() say how many there are.
+  [[nodiscard]] const ArraysInFile* arraysInFile() const { return arraysInFile_.get(); }
+  [[nodiscard]] std::size_t vertexCount() const {
+    return arraysInFile_ ? arraysInFile_->vertexCount : vertices_.size();
+  }
+  [[nodiscard]] std::size_t indexCount() const { return arraysInFile_ ? arraysInFile_->indexCount : indices_.size(); }
 
   [[nodiscard]] std::size_t maxOverlap() const;
   /// The ground box of the live pieces (lo > hi without any).
@@ -334,7 +368,8 @@ class LayerGeometry {
   std::map<std::pair<std::int64_t, std::int64_t>, std::uint32_t> originIndex_;  ///< grid cell → index in origins_
   std::vector<Vertex> vertices_;
   std::vector<std::uint32_t> indices_;
-  std::vector<glm::vec4> scaling_;  ///< lines in pixels only, per vertex
+  std::vector<glm::vec4> scaling_;                    ///< lines in pixels only, per vertex
+  std::shared_ptr<const ArraysInFile> arraysInFile_;  ///< the arrays, while still in their file
   std::size_t wastedIndices_ = 0;
   bool arraysReleased_ = false;
   bool footprintsReleased_ = false;

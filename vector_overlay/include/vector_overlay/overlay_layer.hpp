@@ -78,6 +78,9 @@ class OverlayLayer {
   /// > 0 when the layer's lines are drawn in pixels (LayerStyle::widthPixels).
   [[nodiscard]] double widthPixels() const { return geometry_.widthPixels(); }
   [[nodiscard]] GLuint indexBuffer() const { return indices_.id(); }
+  /// Uploaded from arrays left in a file (LayerGeometry::arraysInFile) that could not be read
+  /// at upload: its buffers hold nothing to draw.
+  [[nodiscard]] bool broken() const { return broken_; }
 
  private:
   explicit OverlayLayer(LayerGeometry geometry) : geometry_(std::move(geometry)) {}
@@ -91,6 +94,7 @@ class OverlayLayer {
   gfx::BufferHandle vertices_, indices_, scaling_;
   std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
   std::size_t gpuBytes_ = 0;
+  bool broken_ = false;
 };
 
 /// The layer as the CPU reference and the logical selection see it (referenceLayerOf of its

@@ -179,9 +179,9 @@ class TiledStencil final : public OverlayTechnique {
         bounds_(options.bounds),
         build_(options.build),
         tiling_(options.tiling),
-        workers_(options.tiling.workers > 0 ? options.tiling.workers
-                                            : std::max(1U, std::thread::hardware_concurrency()),
-                 options.tiling.hostBytesInFlight) {}
+        workers_(
+            options.tiling.workers > 0 ? options.tiling.workers : std::max(1U, std::thread::hardware_concurrency()),
+            options.tiling.hostBytesInFlight) {}
   ~TiledStencil() override { workers_.cancel(); }
 
   std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
@@ -495,6 +495,18 @@ class TiledStencil final : public OverlayTechnique {
         r.featureIndex = std::move(d.tile.value->featureIndex);
         r.error = d.tile.value->groundError;
         r.layer = OverlayLayer::upload(std::move(d.tile.value->geometry));
+        if (r.layer->broken()) {
+          Diagnostics lost;
+          lost.add({Severity::Error, layers_[d.layer].tiling->cacheFolder(), layers_[d.layer].tiling->source().name(),
+                    "",
+                    "tile " + std::to_string(d.key.level) + "-" + std::to_string(d.key.x) + "-" +
+                        std::to_string(d.key.y) + " could not be read from the disk cache; it is left out"});
+          reportOnce(lost);
+          r.layer.reset();
+          layers_[d.layer].tiles[d.key.packed()] = std::move(r);
+          ++count;
+          continue;
+        }
         r.box = r.layer->geometry().box3();
         // Coarse tiles are built again after an edit (rarely drawn while editing close up):
         // the GPU holds their arrays, the CPU need not. Their footprints go too while the eye
