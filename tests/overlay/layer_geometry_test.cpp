@@ -3,6 +3,7 @@
 // built on this thread, edits say exactly what the GPU copy must take again, and the z-fail
 // pieces clipped at the near plane (and capped there) stay closed volumes.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <future>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <random>
 #include <sstream>
@@ -28,6 +30,7 @@
 #include "random_features.hpp"
 #include "vector_overlay/layer_geometry.hpp"
 #include "vector_overlay/near_clip.hpp"
+#include "vector_overlay/tiled_layer.hpp"
 
 namespace gis::test {
 namespace {
@@ -327,6 +330,55 @@ TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
     (void)g->maxOverlap();
   }
   std::filesystem::remove(file);
+}
+
+TEST(LayerGeometry, TileFoldersNoLayerOpensAnyMoreLeaveOldestFirst) {
+  // A cache folder with the tiles of three older versions of a layer (other features, terrain
+  // or code) beside this one's: opened an hour, a day and 40 days ago, and one opened a moment
+  // ago by another layer (or process).
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / ("tile_folders_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const auto folder = [&](const std::string& name, std::chrono::minutes age, std::size_t bytes) {
+    fs::create_directories(dir / name);
+    std::ofstream(dir / name / "0-0-0.tile", std::ios::binary) << std::string(bytes, 'x');
+    fs::last_write_time(dir / name, fs::file_time_type::clock::now() - age);
+  };
+  folder("hour", std::chrono::minutes(60), 3000);
+  folder("day", std::chrono::minutes(60 * 24), 3000);
+  folder("month", std::chrono::minutes(60 * 24 * 40), 10);
+  folder("moment", std::chrono::minutes(1), 3000);
+  std::mt19937 rng(3);
+  const WavyBounds bounds;
+  LayerBuildOptions options = onCells();
+  options.deferPieces = true;
+  Result<LayerGeometry> source =
+      LayerGeometry::build("areas", LayerKind::Polygon, {},
+                           randomPolygons(rng, glm::dvec2(-2000.0), glm::dvec2(2000.0), 4), bounds, options);
+  ASSERT_TRUE(source.ok());
+  const auto open = [&](std::uintmax_t budget) {
+    TilingOptions tiling;
+    tiling.cacheDirectory = dir.string();
+    tiling.cacheKey = "terrain";
+    tiling.cacheBudgetBytes = budget;
+    return std::make_unique<LayerTiling>(*source, bounds, options, tiling);
+  };
+  // Within the budget: only the folder unused for a month goes.
+  const auto roomy = open(std::uintmax_t{1} << 30U);
+  EXPECT_TRUE(fs::is_directory(roomy->cacheFolder()));
+  EXPECT_FALSE(fs::exists(dir / "month"));
+  EXPECT_TRUE(fs::exists(dir / "day") && fs::exists(dir / "hour") && fs::exists(dir / "moment"));
+  // Over it: the least recently opened leave until it holds; the one opened a moment ago and
+  // this layer's own stay.
+  const auto tight = open(7000);
+  EXPECT_EQ(tight->cacheFolder(), roomy->cacheFolder());
+  EXPECT_FALSE(fs::exists(dir / "day"));
+  EXPECT_TRUE(fs::exists(dir / "hour")) << "6,000 bytes are left: within 7,000";
+  const auto tighter = open(1);
+  EXPECT_FALSE(fs::exists(dir / "hour"));
+  EXPECT_TRUE(fs::exists(dir / "moment"));
+  EXPECT_TRUE(fs::is_directory(tighter->cacheFolder()));
+  fs::remove_all(dir);
 }
 
 TEST(LayerGeometry, EditsNameExactlyWhatTheGpuCopyMustTakeAgain) {

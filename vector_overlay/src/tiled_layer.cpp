@@ -79,6 +79,8 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
     char name[17];
     std::snprintf(name, sizeof(name), "%016llx", static_cast<unsigned long long>(fingerprint_));
     cacheFolder_ = (std::filesystem::path(tiling_.cacheDirectory) / name).string();
+    // Folders no layer opens any more (older features, terrain or code) leave, oldest first.
+    (void)detail::pruneTileFolders(tiling_.cacheDirectory, cacheFolder_, tiling_.cacheBudgetBytes);
     cacheRevision_ = tiling_.cacheRevision;
     cacheUsable_ = bounds.revision() == cacheRevision_;
   }

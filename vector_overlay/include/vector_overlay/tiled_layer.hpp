@@ -80,6 +80,11 @@ struct TilingOptions {
   /// folder named after the fingerprint of what its pieces depend on: its features and styles,
   /// the build and tiling options, and `cacheKey`.
   std::string cacheDirectory;
+  /// The folders of cacheDirectory that no layer opened lately (tiles of other features, other
+  /// terrain, other code: never read again) are removed, least recently opened first, while the
+  /// folder holds more than this; a folder unused for 30 days goes in any case. A folder opened
+  /// in the last 10 minutes stays (another layer of this scene, another process).
+  std::uintmax_t cacheBudgetBytes = std::uintmax_t{4} << 30U;
   /// What the pieces depend on that the layer cannot see: the terrain (DEM files and their
   /// dates, band, chunk size, vertical exaggeration), as the scene states it.
   std::string cacheKey;
