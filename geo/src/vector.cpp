@@ -690,11 +690,15 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
     if (!stitched) return detail::FeaturePtr(layer->GetNextFeature());
     return nextStitched < stitched->size() ? std::move((*stitched)[nextStitched++]) : nullptr;
   };
+  const GIntBig total = options.progress && !stitched ? layer->GetFeatureCount(FALSE) : -1;
+  const std::int64_t progressStep = total > 0 ? std::max<std::int64_t>(1, total / 100) : 0;
   std::int64_t index = 0;
   bool recoded = false;
   bool anyPolygon = false, anyLine = false;
   std::size_t kept = 0;
   for (;; ++index) {
+    if (progressStep > 0 && index % progressStep == 0)
+      options.progress(std::min(1.0, static_cast<double>(index) / static_cast<double>(total)));
     CPLErrorReset();
     detail::FeaturePtr feature = nextFeature();
     if (!feature) {
@@ -772,6 +776,7 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
     }
   }
 
+  if (progressStep > 0) options.progress(1.0);
   addGdalMessages(gdal.take(), path, result.name, r.diagnostics);
   // Entries of a GeoJSON "features" array that GDAL skipped without a word.
   if (const char* driver = ds->GetDriverName(); driver != nullptr && std::string(driver) == "GeoJSON") {

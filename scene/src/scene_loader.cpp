@@ -302,6 +302,18 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     }
   }
 
+  // A layer read from its source shows its progress where it is large (a bar per small layer
+  // would say nothing).
+  const auto readProgress = [&options](const std::string& name) -> std::function<void(double)> {
+    if (options.progress) return options.progress;
+    auto bar = std::make_shared<terrain::PyramidProgress>();
+    const auto began = std::chrono::steady_clock::now();
+    return [bar, began, name](double fraction) {
+      if (!*bar && std::chrono::steady_clock::now() - began < std::chrono::seconds(2)) return;
+      if (!*bar) *bar = consoleProgress("vector layer " + name);
+      (*bar)(fraction);
+    };
+  };
   for (const LayerDescription& layer : description.layers) {
     geo::VectorReadOptions readOptions;
     readOptions.layer = layer.sourceLayer;
@@ -319,6 +331,7 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
             detail::writeLayerCache(cacheFile, *key, [&](const std::function<void(geo::Feature &&)>& sink) {
               geo::VectorReadOptions streamed = readOptions;
               streamed.sink = sink;
+              streamed.progress = readProgress(layer.name);
               return geo::readVectorLayer(layer.source, scene.frame, streamed);
             });
         if (written) cached = detail::readLayerCache(cacheFile, *key);

@@ -532,8 +532,14 @@ TEST(VectorSources, ASinkTakesTheFeaturesAsReadAndTheLayerSaysTheSame) {
   std::vector<Feature> streamed;
   gis::geo::VectorReadOptions options;
   options.sink = [&](Feature&& f) { streamed.push_back(std::move(f)); };
+  std::vector<double> fractions;  // the progress of the read
+  options.progress = [&](double f) { fractions.push_back(f); };
   const gis::Result<VectorLayer> sunk = gis::geo::readVectorLayer(path, frame, options);
   ASSERT_TRUE(kept.ok() && sunk.ok());
+  ASSERT_GE(fractions.size(), 2u);
+  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_EQ(fractions.front(), 0.0);
+  EXPECT_EQ(fractions.back(), 1.0);
   EXPECT_TRUE(sunk->features.empty());
   EXPECT_EQ(sunk->kind, kept->kind);
   ASSERT_EQ(streamed.size(), kept->features.size());

@@ -62,6 +62,9 @@ struct VectorReadOptions {
   /// (which then stays empty): a layer of any size read in the memory of one feature (the
   /// scene's layer cache writes them to its file so). Empty: kept.
   std::function<void(Feature&&)> sink;
+  /// Called with the fraction of the layer's features read, about every percent, where the
+  /// source knows its feature count without a scan (GeoPackage, Shapefile, FlatGeobuf, PostGIS).
+  std::function<void(double)> progress;
 };
 
 /// Names of the layers in a vector data source.
