@@ -366,7 +366,20 @@ Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>
     }
   }
   Result<LayerTile> built = buildNew(key, cancel);
-  if (cached && built && detail::writeTile(file, fingerprint_, *built)) ++tilesWritten_;
+  if (cached && built && detail::writeTile(file, fingerprint_, *built)) {
+    ++tilesWritten_;
+    // A coarse tile for a view far from it: read back lean, so that its arrays go from the
+    // file to the GPU and the built copy (footprints, features, arrays) is freed before the
+    // upload instead of after it (at 1000× a root tile holds 0.6 GB of arrays).
+    if (lean && key.level < finestLevel_) {
+      if (std::optional<LayerTile> tile = detail::readTile(
+              file, fingerprint_, key, *source_, *bounds_, tileOptions(key),
+              [&](std::uint32_t i) { return tileStyle(key, i); }, true)) {
+        tile->fromDisk = false;  // built here
+        built.value = std::move(*tile);
+      }
+    }
+  }
   return built;
 }
 

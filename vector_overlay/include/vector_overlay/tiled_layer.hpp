@@ -145,7 +145,8 @@ class LayerTiling {
   /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
   /// Once `cancel` is set the build stops early and fails (nothing is written to disk). `lean`:
   /// a tile read from the disk cache may come lean (LayerGeometry::releaseFootprints), for a
-  /// view far from it; a built one is whole.
+  /// view far from it; a built one too once written there (read back lean, so that the built
+  /// copy is freed before the upload); otherwise a built one is whole.
   [[nodiscard]] Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel = nullptr,
                                         bool lean = false) const;
   /// The GPU bytes of tile `key` as the disk cache holds it (its lean section: the arrays and

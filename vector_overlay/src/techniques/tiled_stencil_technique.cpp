@@ -220,6 +220,7 @@ class TiledStencil final : public OverlayTechnique {
     std::vector<std::vector<const OverlayLayer*>> chunks;
     std::vector<TileWorkers::Job> jobs;
     bool overBudget = false;  // the wanted tiles passed the budget while they built
+    bool squeezed = false;    // a detail was given up for the budget in this frame
     const auto choose = [&] {
       for (;;) {
         const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk, evicted = stats.tilesEvicted,
@@ -243,7 +244,9 @@ class TiledStencil final : public OverlayTechnique {
         // wanted tile is there), the budget made room for first (a finer detail that did not
         // fit leaves before the coarser one builds). Where the wanted tiles pass the budget
         // before all are there, the rest are not built: a coarser detail is chosen.
-        stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
+        // Once a detail was given up for the budget, nothing but this frame's tiles stays: the
+        // given-up tiles would otherwise sit beside the coarser ones being built.
+        stats.tilesEvicted += evict(squeezed ? 0 : tiling_.gpuBudgetBytes);
         if (!waitForBuilds(frame, stats, canCoarsen())) {
           overBudget = true;
           return;
@@ -258,6 +261,7 @@ class TiledStencil final : public OverlayTechnique {
     // tileBytes.)
     while ((overBudget || chunkBytes(chunks) > tiling_.gpuBudgetBytes) && canCoarsen()) {
       overBudget = false;
+      squeezed = true;
       errorScale_ *= 2.0;
       choose();
     }
