@@ -212,6 +212,20 @@ TEST(SceneLoader, AFolderOfGeographicTilesLoadsTheSameInMemoryAndPagedAndIsRebui
   EXPECT_GT(grown->quadtree->grid().width, g.width);
 }
 
+/// A scene of `dem` with one polygon layer read from `source`, its cache in a fresh folder.
+scene::SceneDescription sceneWithCachedLayer(const std::string& dem, const std::string& source, const std::string& name,
+                                             const std::string& cacheFolder) {
+  scene::SceneDescription description = sceneOf(dem);
+  description.cacheDir = outputDir() + "/" + cacheFolder;
+  std::filesystem::remove_all(description.cacheDir);
+  scene::LayerDescription layer;
+  layer.name = name;
+  layer.kind = overlay::LayerKind::Polygon;
+  layer.source = source;
+  description.layers.push_back(layer);
+  return description;
+}
+
 TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   // A lon/lat GeoJSON (reprojected and densified when read) with a polygon, a line, attributes
   // of every kind and a broken feature (a Warning or Error to repeat from the cache).
@@ -229,14 +243,7 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
        "geometry": {"type": "Polygon", "coordinates": [[[-34.86, -8.05], [-34.86, -8.05]]]}}]})";
   };
   write(0.0);
-  scene::SceneDescription description = sceneOf(dem);
-  description.cacheDir = outputDir() + "/cached_layer_cache";
-  std::filesystem::remove_all(description.cacheDir);
-  scene::LayerDescription layer;
-  layer.name = "things";
-  layer.kind = overlay::LayerKind::Polygon;
-  layer.source = source;
-  description.layers.push_back(layer);
+  scene::SceneDescription description = sceneWithCachedLayer(dem, source, "things", "cached_layer_cache");
   scene::LoadOptions options;
   options.progress = [](double) {};
   const auto load = [&] {
@@ -314,14 +321,7 @@ TEST(SceneLoader, CachedFeaturesStayOnDiskAndReadAsTheSourceGivesThem) {
      "geometry": {"type": "MultiPolygon", "coordinates": [
        [[[-34.861, -8.043], [-34.859, -8.043], [-34.859, -8.041], [-34.861, -8.043]]],
        [[[-34.857, -8.043], [-34.855, -8.043], [-34.855, -8.041], [-34.857, -8.043]]]]}}]})";
-  scene::SceneDescription description = sceneOf(dem);
-  description.cacheDir = outputDir() + "/on_disk_cache";
-  std::filesystem::remove_all(description.cacheDir);
-  scene::LayerDescription layer;
-  layer.name = "areas";
-  layer.kind = overlay::LayerKind::Polygon;
-  layer.source = source;
-  description.layers.push_back(layer);
+  scene::SceneDescription description = sceneWithCachedLayer(dem, source, "areas", "on_disk_cache");
   scene::LoadOptions options;
   options.progress = [](double) {};
   options.layerCache = false;

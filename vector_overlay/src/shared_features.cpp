@@ -1,8 +1,5 @@
 #include "vector_overlay/shared_features.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <limits>
 #include <mutex>
 
 namespace gis::overlay {
@@ -16,28 +13,10 @@ struct SharedFeatures::Disk {
 
 namespace {
 
+/// Feature f's box as a file's index gives it (geo::FeatureFileEntry::of): one rule for both.
 std::pair<glm::dvec2, glm::dvec2> boxOf(const geo::Feature& f, bool lines) {
-  glm::dvec2 lo(1.0), hi(-1.0);
-  const auto add = [&](const std::vector<glm::dvec2>& points) {
-    for (const glm::dvec2& p : points) {
-      if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-      if (lo.x > hi.x) {
-        lo = hi = p;
-      } else {
-        lo = glm::dvec2(std::min(lo.x, p.x), std::min(lo.y, p.y));
-        hi = glm::dvec2(std::max(hi.x, p.x), std::max(hi.y, p.y));
-      }
-    }
-  };
-  if (lines) {
-    for (const geo::LineString& l : f.lines) add(l);
-  } else {
-    for (const geo::Polygon& p : f.polygons) {
-      add(p.outer);
-      for (const geo::Ring& h : p.holes) add(h);
-    }
-  }
-  return {lo, hi};
+  const geo::FeatureFileEntry e = geo::FeatureFileEntry::of(f, 0);
+  return lines ? std::pair{e.lineLo, e.lineHi} : std::pair{e.ringLo, e.ringHi};
 }
 
 }  // namespace
