@@ -54,6 +54,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   techniqueInfo_ = settings.technique != nullptr ? settings.technique : &overlay::defaultTechnique();
   options.paperVariant = techniqueInfo_->construction == overlay::PieceConstruction::Paper;
   const bool tiled = techniqueInfo_->construction == overlay::PieceConstruction::Tiled;
+  const bool noPieces = tiled || techniqueInfo_->construction == overlay::PieceConstruction::Features;
   options.adaptiveSplit = settings.adaptiveSplit;
   // The terrain's bounds may be read from several threads at once.
   options.threads = std::max(1U, std::thread::hardware_concurrency());
@@ -82,10 +83,10 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     techniqueOptions.tiling.cacheKey = terrainCacheKey(scene);
     techniqueOptions.tiling.cacheRevision = scene.bounds->revision();
   }
-  // A tiled technique builds the pieces per tile: the layers keep their features only, checked
-  // at load (or as checked last time, with the tiles' cache).
-  options.deferPieces = tiled;
-  if (tiled && settings.tileCache)
+  // A tiled technique builds the pieces per tile, the deferred one none: the layers keep their
+  // features only, checked at load (or as checked last time, with the cache).
+  options.deferPieces = noPieces;
+  if (noPieces && settings.tileCache)
     options.checkCacheDirectory =
         (std::filesystem::path(cacheDirectoryFor(scene.description)) / "vector-checks").string();
   // It also draws lines at least LayerStyle::minWidthPixels wide (each tile at the widths its

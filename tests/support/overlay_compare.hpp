@@ -16,6 +16,7 @@
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/technique.hpp"
 
 namespace gis::test::overlay_test {
 
@@ -89,6 +90,40 @@ inline std::vector<overlay::LayerFrameStats> drawTerrainAndLayers(
   engine.draw(cache, view.viewProj, view.eye, selection, exaggeration);
   gfx::enableMaskWrites(target.framebuffer(), true);
   return overlays.draw(cache, view, layers, settings);
+}
+
+/// The same with a technique (technique.hpp) drawing the layers instead of the renderer; the
+/// terrain's tiles are not given (no technique that needs them is drawn this way).
+inline std::vector<overlay::LayerFrameStats> drawTerrainAndTechnique(
+    gfx::StateCache& cache, gfx::RenderTarget& target, terrain::TerrainEngine& engine,
+    overlay::OverlayTechnique& technique, const terrain::LodSelection& selection, const overlay::OverlayView& view,
+    const std::vector<const overlay::OverlayLayer*>& layers, const overlay::OverlaySettings& settings = {},
+    double exaggeration = 1.0) {
+  gfx::enableReversedZ();
+  gfx::beginRenderPass(cache, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
+  gfx::enableMaskWrites(target.framebuffer(), false);
+  engine.draw(cache, view.viewProj, view.eye, selection, exaggeration);
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  overlay::TechniqueFrame frame;
+  frame.target = {target.framebuffer(), target.width(), target.height()};
+  frame.view = view;
+  frame.layers = layers;
+  frame.settings = settings;
+  overlay::TechniqueFrameStats stats;
+  technique.draw(cache, frame, stats);
+  return stats.layers;
+}
+
+/// The deferred technique (made for tests: fails the test if it cannot be).
+inline std::unique_ptr<overlay::OverlayTechnique> deferredTechnique(const HeightBoundsProvider* bounds = nullptr) {
+  const overlay::TechniqueInfo* info = overlay::findTechnique("deferred");
+  EXPECT_NE(info, nullptr);
+  if (info == nullptr) return nullptr;
+  overlay::TechniqueOptions options;
+  options.bounds = bounds;
+  Result<std::unique_ptr<overlay::OverlayTechnique>> made = info->create(options);
+  EXPECT_TRUE(made.ok());
+  return made ? std::move(*made) : nullptr;
 }
 
 inline double percent(std::size_t part, std::size_t whole) {

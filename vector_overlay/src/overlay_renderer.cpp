@@ -10,6 +10,7 @@
 
 #include "core/log.hpp"
 #include "gfx/camera.hpp"
+#include "screen_tiles.hpp"
 #include "vector_overlay/stencil_states.hpp"
 
 namespace gis::overlay {
@@ -58,23 +59,6 @@ int fixedPointDepthBits(GLuint fbo) {
   glGetNamedFramebufferAttachmentParameteriv(fbo, attachment, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &componentType);
   glGetNamedFramebufferAttachmentParameteriv(fbo, attachment, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE, &bits);
   return componentType == GL_UNSIGNED_NORMALIZED ? bits : 0;
-}
-
-glm::vec4 screenRect(const glm::dmat4& viewProj, double nearPlane, const glm::dvec3& lo, const glm::dvec3& hi) {
-  glm::dvec2 a(1.0), b(-1.0);
-  for (int k = 0; k < 8; ++k) {
-    const glm::dvec4 c =
-        viewProj * glm::dvec4((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z, 1.0);
-    if (!(c.w > 0.5 * nearPlane)) return {-1.0F, -1.0F, 1.0F, 1.0F};
-    const glm::dvec2 ndc(c.x / c.w, c.y / c.w);
-    a = glm::min(a, ndc);
-    b = glm::max(b, ndc);
-  }
-  // One pixel of slack for rounding is not needed: the stencil decides, the rectangle only has
-  // to hold every marked pixel, and the box holds every piece (caps padded).
-  a = glm::clamp(a, glm::dvec2(-1.0), glm::dvec2(1.0));
-  b = glm::clamp(b, glm::dvec2(-1.0), glm::dvec2(1.0));
-  return {static_cast<float>(a.x), static_cast<float>(a.y), static_cast<float>(b.x), static_cast<float>(b.y)};
 }
 
 }  // namespace
@@ -146,47 +130,10 @@ void OverlayRenderer::drawRects(gfx::StateCache& cache, const std::vector<glm::v
 }
 
 std::vector<glm::vec4> OverlayRenderer::tileRectsOf(const OverlayView& view, std::span<const Pieces> chunks) {
-  constexpr int n = kCoverTiles;
-  std::vector<std::uint8_t> touched(static_cast<std::size_t>(n * n), 0);
-  const auto tile = [](float ndc) {
-    return std::clamp(static_cast<int>(std::floor((ndc + 1.0F) * 0.5F * n)), 0, n - 1);
-  };
-  for (const Pieces& pieces : chunks) {
-    for (const auto& box : pieces.boxes) {
-      const glm::vec4 r = screenRect(view.viewProj, view.nearPlane, box[0], box[1]);
-      if (!(r.z >= r.x && r.w >= r.y)) continue;
-      const int x0 = tile(r.x), x1 = tile(r.z), y0 = tile(r.y), y1 = tile(r.w);
-      for (int y = y0; y <= y1; ++y) std::fill_n(touched.begin() + y * n + x0, x1 - x0 + 1, std::uint8_t{1});
-    }
-  }
-  // Tile edges from one formula, so neighbouring rectangles share their edges exactly (no pixel
-  // is drawn twice or missed).
-  const auto edge = [](int i) { return i == n ? 1.0F : -1.0F + 2.0F * static_cast<float>(i) / static_cast<float>(n); };
-  std::vector<glm::vec4> rects;
-  std::vector<glm::ivec3> open;  // runs (x0, x1, rect index) of the row below
-  for (int y = 0; y < n; ++y) {
-    std::vector<glm::ivec3> row;
-    for (int x = 0; x < n;) {
-      if (touched[static_cast<std::size_t>(y * n + x)] == 0) {
-        ++x;
-        continue;
-      }
-      const int x0 = x;
-      while (x < n && touched[static_cast<std::size_t>(y * n + x)] != 0) ++x;
-      // The same run in the row below: grow that rectangle up.
-      const auto below =
-          std::find_if(open.begin(), open.end(), [&](const glm::ivec3& r) { return r.x == x0 && r.y == x; });
-      if (below != open.end()) {
-        rects[static_cast<std::size_t>(below->z)].w = edge(y + 1);
-        row.push_back(*below);
-      } else {
-        row.push_back({x0, x, static_cast<int>(rects.size())});
-        rects.push_back({edge(x0), edge(y), edge(x), edge(y + 1)});
-      }
-    }
-    open = std::move(row);
-  }
-  return rects;
+  ScreenTiles tiles(kCoverTiles);
+  for (const Pieces& pieces : chunks)
+    for (const auto& box : pieces.boxes) tiles.add(screenRect(view.viewProj, view.nearPlane, box[0], box[1]));
+  return tiles.rects();
 }
 
 void OverlayRenderer::multiDraw(gfx::StateCache& cache, const std::vector<Command>& commands) {

@@ -290,6 +290,11 @@ struct LinePrimitive {
   double t0 = 0.0;  ///< Band: along-direction range [t0, t1] from the origin
   double t1 = 0.0;
   double half = 0.0;  ///< Band: half width; Disc: radius
+  /// The line's vertices (indices as given, repeated points included) whose half width the
+  /// primitive takes: a segment's two ends; a join's or cap's vertex twice. The deferred
+  /// technique scales primitives built at unit half width by these vertices' widths.
+  std::uint32_t anchor0 = 0;
+  std::uint32_t anchor1 = 0;
 
   /// Band: points whose coordinate along the direction is in [t0, t1] and whose distance to the
   /// axis is at most `half`.
@@ -441,22 +446,29 @@ bool emitLinePrimitives(const geo::LineString& line, std::size_t lineIndex, cons
                         const PixelScale& scale, Emit&& emit) {
   std::vector<glm::dvec2> pts;
   std::vector<double> halves;
+  std::vector<std::uint32_t> given;  // index of each kept point in `line`
   pts.reserve(line.size());
   for (std::size_t i = 0; i < line.size(); ++i) {
     const glm::dvec2& p = line[i];
     if (!usable(p)) return false;
     if (!pts.empty() && p == pts.back()) continue;
     pts.push_back(p);
+    given.push_back(static_cast<std::uint32_t>(i));
     halves.push_back(halfWidthAt(shape, scale, glm::dvec3(p, shape.anchorHeight(lineIndex, i))));
   }
   if (pts.empty()) return false;
+  auto anchored = [&given](LinePrimitive prim, std::size_t a, std::size_t b) {
+    prim.anchor0 = given[a];
+    prim.anchor1 = given[b];
+    return prim;
+  };
   if (pts.size() == 1) {
     const double h = halves[0];
     switch (shape.cap) {
       case LineCap::Round:
-        return emit(LinePrimitive::disc(pts[0], h));
+        return emit(anchored(LinePrimitive::disc(pts[0], h), 0, 0));
       case LineCap::Square:
-        return emit(LinePrimitive::band(pts[0], glm::dvec2(1.0, 0.0), -h, h, h));
+        return emit(anchored(LinePrimitive::band(pts[0], glm::dvec2(1.0, 0.0), -h, h, h), 0, 0));
       case LineCap::Flat:
         return false;
     }
@@ -472,12 +484,13 @@ bool emitLinePrimitives(const geo::LineString& line, std::size_t lineIndex, cons
     const glm::dvec2 d = pts[i + 1] - pts[i];
     const double h0 = halves[i], h1 = halves[i + 1];
     if (h0 == h1) {
-      if (emit(LinePrimitive::band(pts[i], unit(i), 0.0, std::sqrt(dot(d, d)), h0))) return true;
+      if (emit(anchored(LinePrimitive::band(pts[i], unit(i), 0.0, std::sqrt(dot(d, d)), h0), i, i + 1))) return true;
     } else {
       const glm::dvec2 u = unit(i);
       const glm::dvec2 normal(-u.y, u.x);
       const glm::dvec2 a = pts[i], b = pts[i + 1];
-      if (emit(LinePrimitive::convex({a - normal * h0, b - normal * h1, b + normal * h1, a + normal * h0}))) {
+      if (emit(anchored(LinePrimitive::convex({a - normal * h0, b - normal * h1, b + normal * h1, a + normal * h0}), i,
+                        i + 1))) {
         return true;
       }
     }
@@ -492,7 +505,7 @@ bool emitLinePrimitives(const geo::LineString& line, std::size_t lineIndex, cons
     const glm::dvec2& v = pts[i];
     const double h = halves[i];
     if (shape.join == LineJoin::Round) {
-      if (emit(LinePrimitive::disc(v, h))) return true;
+      if (emit(anchored(LinePrimitive::disc(v, h), i, i))) return true;
       continue;
     }
     if (turn == 0) continue;  // a full reversal: bevel and (infinite) miter have no area
@@ -508,19 +521,20 @@ bool emitLinePrimitives(const geo::LineString& line, std::size_t lineIndex, cons
     if (miter) {
       // The miter point lies on the bisector of the outer normals at distance h / sin(θ/2).
       const glm::dvec2 tip = v + (n1 + n2) * (h / (1.0 + along));
-      if (emit(LinePrimitive::convex({v, cornerIn, tip, cornerOut}))) return true;
+      if (emit(anchored(LinePrimitive::convex({v, cornerIn, tip, cornerOut}), i, i))) return true;
     } else {
-      if (emit(LinePrimitive::convex({v, cornerIn, cornerOut}))) return true;
+      if (emit(anchored(LinePrimitive::convex({v, cornerIn, cornerOut}), i, i))) return true;
     }
   }
   // Caps.
   const double hFirst = halves[0], hLast = halves[n - 1];
   switch (shape.cap) {
     case LineCap::Round:
-      return emit(LinePrimitive::disc(pts[0], hFirst)) || emit(LinePrimitive::disc(pts[n - 1], hLast));
+      return emit(anchored(LinePrimitive::disc(pts[0], hFirst), 0, 0)) ||
+             emit(anchored(LinePrimitive::disc(pts[n - 1], hLast), n - 1, n - 1));
     case LineCap::Square:
-      return emit(LinePrimitive::band(pts[0], unit(0), -hFirst, 0.0, hFirst)) ||
-             emit(LinePrimitive::band(pts[n - 1], unit(n - 2), 0.0, hLast, hLast));
+      return emit(anchored(LinePrimitive::band(pts[0], unit(0), -hFirst, 0.0, hFirst), 0, 0)) ||
+             emit(anchored(LinePrimitive::band(pts[n - 1], unit(n - 2), 0.0, hLast, hLast), n - 1, n - 1));
     case LineCap::Flat:
       return false;
   }

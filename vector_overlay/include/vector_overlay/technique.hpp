@@ -117,6 +117,9 @@ enum class PieceConstruction {
   Ours,   ///< split at cells where that pays, tight bounds per piece (DESIGN §5)
   Paper,  ///< the seed paper's: one bound pair per feature, covered by bounding boxes
   Tiled,  ///< none at load (LayerBuildOptions::deferPieces): the technique builds them per tile
+  /// None at all (LayerBuildOptions::deferPieces): the technique reads the features (the
+  /// deferred per-pixel lookup). Widths in metres, as the whole-load techniques draw them.
+  Features,
 };
 
 class OverlayTechnique {

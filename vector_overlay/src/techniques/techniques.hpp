@@ -9,5 +9,6 @@ extern const TechniqueInfo kPaperTechnique;
 extern const TechniqueInfo kDrapeTechnique;
 extern const TechniqueInfo kTiledDrapeTechnique;
 extern const TechniqueInfo kTiledStencilTechnique;
+extern const TechniqueInfo kDeferredTechnique;
 
 }  // namespace gis::overlay

@@ -1,0 +1,164 @@
+// The deferred technique's index (vector_overlay/src/deferred_index.hpp) against the CPU
+// reference, without a GPU: its test in float (the shader's, transcribed) must give the
+// reference's first covering feature at every point whose neighbourhood the reference covers
+// uniformly. Random polygons with holes and random lines with every join and cap, lines in
+// metres and in pixels, the robustness case matrix, near the frame origin and 9,900 km from it.
+#include <cstdio>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+
+#include "deferred_index.hpp"
+#include "extreme_cases.hpp"
+#include "random_features.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+
+namespace gis::test {
+namespace {
+
+using overlay::LayerKind;
+using overlay::ReferenceLayer;
+
+/// The reference's first covering feature of the layer at p, or -1.
+std::int64_t referenceFeature(const ReferenceLayer& layer, const glm::dvec2& p, const overlay::PixelScale& scale) {
+  const std::optional<std::size_t> f = overlay::coveringFeature(layer, p, scale);
+  return f ? static_cast<std::int64_t>(*f) : -1;
+}
+
+struct Tally {
+  std::size_t checked = 0, covered = 0, wrong = 0, nearEdges = 0;
+};
+
+/// Random points over [lo, hi]; those whose 8 neighbours at `radius` get the same answer from the
+/// reference must get it from the index too. The eye is above the point's region at `eyeHeight`.
+Tally compareAtRandomPoints(const ReferenceLayer& layer, const glm::dvec2& lo, const glm::dvec2& hi, int count,
+                            double radius, std::uint32_t seed, const overlay::PixelScale& scale = {},
+                            double eyeHeight = 500.0) {
+  std::vector<glm::vec4> colors(layer.features->size(), glm::vec4(1.0F));
+  const overlay::deferred::Index index = overlay::deferred::build(layer, colors);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y);
+  Tally t;
+  const glm::dvec3 eye(0.5 * (lo + hi) + glm::dvec2(37.0, -81.0), eyeHeight);
+  overlay::PixelScale pixels = scale;
+  pixels.eye = eye;
+  const overlay::deferred::EyeCells cells = overlay::deferred::eyeCells(index, eye);
+  for (int k = 0; k < count; ++k) {
+    const glm::dvec2 p(ux(rng), uy(rng));
+    const std::int64_t expected = referenceFeature(layer, p, pixels);
+    bool uniform = true;
+    for (int a = 0; a < 8 && uniform; ++a) {
+      const double angle = 0.785398 * a;
+      uniform = referenceFeature(layer, p + radius * glm::dvec2(std::cos(angle), std::sin(angle)), pixels) == expected;
+    }
+    if (!uniform) {
+      ++t.nearEdges;
+      continue;
+    }
+    ++t.checked;
+    t.covered += expected >= 0 ? 1 : 0;
+    const glm::vec3 relative(glm::dvec3(p, 0.0) - eye);
+    const std::int64_t got = overlay::deferred::coveringFeature(index, cells, relative, eye, pixels);
+    if (got != expected) {
+      if (t.wrong++ < 5)
+        ADD_FAILURE() << layer.name << ": at (" << p.x << ", " << p.y << ") the index gives " << got
+                      << ", the reference " << expected;
+    }
+  }
+  return t;
+}
+
+ReferenceLayer layerOf(std::string name, LayerKind kind, const std::vector<geo::Feature>& features,
+                       const overlay::LineShape& shape = {}) {
+  ReferenceLayer layer;
+  layer.name = std::move(name);
+  layer.kind = kind;
+  layer.features = &features;
+  if (kind == LayerKind::Line) layer.shapes.assign(features.size(), shape);
+  return layer;
+}
+
+TEST(DeferredIndexTest, RandomPolygonsAndLinesNearAndFarFromTheOrigin) {
+  for (const glm::dvec2 offset : {glm::dvec2(0.0), glm::dvec2(500000.0, 9900000.0)}) {
+    SCOPED_TRACE(offset.y > 0.0 ? "far" : "near");
+    const glm::dvec2 lo = offset + glm::dvec2(-1200.0), hi = offset + glm::dvec2(1300.0);
+    std::mt19937 rng(7);
+    const std::vector<geo::Feature> polygons = randomPolygons(rng, lo, hi, 40);
+    const std::vector<geo::Feature> lines = randomLines(rng, lo, hi, 40);
+    Tally all;
+    auto add = [&all](const Tally& t) {
+      all.checked += t.checked;
+      all.covered += t.covered;
+      all.wrong += t.wrong;
+      all.nearEdges += t.nearEdges;
+    };
+    add(compareAtRandomPoints(layerOf("polygons", LayerKind::Polygon, polygons), lo, hi, 6000, 0.002, 1));
+    const std::pair<overlay::LineJoin, overlay::LineCap> styles[] = {
+        {overlay::LineJoin::Round, overlay::LineCap::Round},
+        {overlay::LineJoin::Miter, overlay::LineCap::Square},
+        {overlay::LineJoin::Bevel, overlay::LineCap::Flat}};
+    for (const auto& [join, cap] : styles) {
+      overlay::LineShape shape;
+      shape.width = 24.0;
+      shape.join = join;
+      shape.cap = cap;
+      add(compareAtRandomPoints(layerOf("lines", LayerKind::Line, lines, shape), lo, hi, 6000, 0.002, 2));
+      // In pixels: 4 px at 1 m per 1,000 m from the eye, at most 40 m, at least 2 m.
+      shape.widthPixels = 4.0;
+      shape.width = 40.0;
+      shape.minWidth = 2.0;
+      add(compareAtRandomPoints(layerOf("lines in pixels", LayerKind::Line, lines, shape), lo, hi, 6000, 0.002, 3,
+                                {glm::dvec3(0.0), 1e-3}));
+    }
+    std::printf("%s: %zu points checked (%zu covered), %zu wrong, %zu near edges\n", offset.y > 0.0 ? "far" : "near",
+                all.checked, all.covered, all.wrong, all.nearEdges);
+    EXPECT_EQ(all.wrong, 0u);
+    EXPECT_GT(all.covered, 5000u);
+  }
+}
+
+void robustnessCases(const glm::dvec2& offset);
+
+TEST(DeferredIndexTest, TheRobustnessCasesMatchTheReference) {
+  for (const glm::dvec2 offset : {glm::dvec2(0.0), glm::dvec2(500000.0, 9900000.0)}) {
+    SCOPED_TRACE(offset.y > 0.0 ? "far" : "near");
+    robustnessCases(offset);
+  }
+}
+
+void robustnessCases(const glm::dvec2& offset) {
+  const glm::dvec2 lo = offset + glm::dvec2(-1280.0), hi = offset + glm::dvec2(1280.0);
+  const std::vector<GeometryCase> cases = geometryCases(lo, hi);
+  std::vector<geo::Feature> areas, roads;
+  for (const GeometryCase& c : cases) (c.kind == LayerKind::Polygon ? areas : roads).push_back(c.feature);
+  const Tally a = compareAtRandomPoints(layerOf("areas", LayerKind::Polygon, areas), lo, hi, 40000, 0.01, 4);
+  ReferenceLayer lines = layerOf("roads", LayerKind::Line, roads);
+  for (std::size_t i = 0; i < roads.size(); ++i) {
+    const auto w = roads[i].attributes.find("width_m");
+    if (w == roads[i].attributes.end()) continue;
+    if (const double* width = std::get_if<double>(&w->second); width != nullptr && std::isfinite(*width) && *width > 0.0)
+      lines.shapes[i].width = *width;
+  }
+  Tally l;
+  for (const overlay::LineJoin join : {overlay::LineJoin::Round, overlay::LineJoin::Miter, overlay::LineJoin::Bevel}) {
+    for (overlay::LineShape& shape : lines.shapes) {
+      shape.join = join;
+      shape.cap = join == overlay::LineJoin::Round   ? overlay::LineCap::Round
+                  : join == overlay::LineJoin::Miter ? overlay::LineCap::Square
+                                                     : overlay::LineCap::Flat;
+    }
+    const Tally t = compareAtRandomPoints(lines, lo, hi, 20000, 0.01, 5);
+    l.checked += t.checked;
+    l.covered += t.covered;
+    l.wrong += t.wrong;
+  }
+  std::printf("cases: areas %zu checked (%zu covered), roads %zu checked (%zu covered), wrong %zu\n", a.checked,
+              a.covered, l.checked, l.covered, a.wrong + l.wrong);
+  EXPECT_EQ(a.wrong + l.wrong, 0u);
+  EXPECT_GT(a.covered, 1000u);
+  EXPECT_GT(l.covered, 100u);
+}
+
+}  // namespace
+}  // namespace gis::test
