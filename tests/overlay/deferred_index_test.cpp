@@ -137,7 +137,8 @@ void robustnessCases(const glm::dvec2& offset) {
   for (std::size_t i = 0; i < roads.size(); ++i) {
     const auto w = roads[i].attributes.find("width_m");
     if (w == roads[i].attributes.end()) continue;
-    if (const double* width = std::get_if<double>(&w->second); width != nullptr && std::isfinite(*width) && *width > 0.0)
+    if (const double* width = std::get_if<double>(&w->second);
+        width != nullptr && std::isfinite(*width) && *width > 0.0)
       lines.shapes[i].width = *width;
   }
   Tally l;

@@ -250,11 +250,11 @@ FrameResult drawAndCompare(gfx::StateCache& cache, gfx::RenderTarget& target, Ca
   lod.exaggeration = s.bounds->exaggeration();
   const terrain::LodSelection selection = terrain::selectLod(*s.tree, {cam.eye, viewProj, kHeight, fov}, lod);
   const overlay::OverlayView view{viewProj, cam.eye, cam.nearPlane, fov, aspect};
-  const auto stats = technique != nullptr ? overlay_test::drawTerrainAndTechnique(cache, target, *s.engine, *technique,
-                                                                                 selection, view, s.drawn(), {},
-                                                                                 s.bounds->exaggeration())
-                                          : drawTerrainAndLayers(cache, target, *s.engine, overlays, selection, view,
-                                                                 s.drawn(), {}, s.bounds->exaggeration());
+  const auto stats = technique != nullptr
+                         ? overlay_test::drawTerrainAndTechnique(cache, target, *s.engine, *technique, selection, view,
+                                                                 s.drawn(), {}, s.bounds->exaggeration())
+                         : drawTerrainAndLayers(cache, target, *s.engine, overlays, selection, view, s.drawn(), {},
+                                                s.bounds->exaggeration());
   FrameResult r;
   for (const auto& l : stats) r.zFail += l.zFailPieces;
   r.c = compare(target, viewProj, s.drawn(), label);
@@ -319,9 +319,11 @@ void everyCaseFromEveryExtremeCamera(gfx::StateCache& cache_, bool deferred) {
       }
     }
   }
-  std::ofstream(outputDir() / (deferred ? "extreme_cameras_deferred.json" : "extreme_cameras.json")) << rows.dump(1) << "\n";
-  std::printf("%s: %zu covered pixels, %zu wrong away from edges, %zu on edges (%.3f %%)\n", deferred ? "deferred" : "stencil", total.covered,
-              total.wrong, total.edgeWrong, percent(total.edgeWrong, total.covered));
+  std::ofstream(outputDir() / (deferred ? "extreme_cameras_deferred.json" : "extreme_cameras.json"))
+      << rows.dump(1) << "\n";
+  std::printf("%s: %zu covered pixels, %zu wrong away from edges, %zu on edges (%.3f %%)\n",
+              deferred ? "deferred" : "stencil", total.covered, total.wrong, total.edgeWrong,
+              percent(total.edgeWrong, total.covered));
   EXPECT_EQ(total.wrong, 0u);
   EXPECT_LE(total.edgeWrong, total.covered / 100);
   EXPECT_GT(total.covered, 200000u);
@@ -464,7 +466,8 @@ TEST_F(ExtremeCasesGlTest, TheDeferredTechniqueHoldsFarFromTheFrameOrigin) {
   std::mt19937 rng(5);
   Comparison total;
   for (const NamedCamera& cam : extremeCameras(farScene, rng, 6)) {
-    const FrameResult r = drawAndCompare(cache_, target, farScene, *overlays, cam, "far / " + cam.name, technique.get());
+    const FrameResult r =
+        drawAndCompare(cache_, target, farScene, *overlays, cam, "far / " + cam.name, technique.get());
     total.covered += r.c.covered;
     total.wrong += r.c.wrong;
     total.edgeWrong += r.c.edgeWrong;

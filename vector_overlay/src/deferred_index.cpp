@@ -67,7 +67,7 @@ struct SourcePolygon {
 struct SourcePrimitive {
   LinePrimitive prim;
   std::uint32_t feature = 0;
-  bool segment = false;            ///< a segment's band: stored as the segment a → b, clipped per leaf
+  bool segment = false;       ///< a segment's band: stored as the segment a → b, clipped per leaf
   glm::dvec2 a{0.0}, b{0.0};  ///< segment ends, or the anchor (a)
   float heightA = 0.0F, heightB = 0.0F;
   double reach = 0.0;  ///< the largest half width (the margin a clipped segment keeps)
@@ -222,7 +222,8 @@ class Builder {
     if (out_.kind == LayerKind::Line) {
       // Items are in feature order: behind one that covers the whole node, later features never
       // show.
-      const auto covering = std::find_if(items.begin(), items.end(), [&](std::uint32_t i) { return coversBox(i, box); });
+      const auto covering =
+          std::find_if(items.begin(), items.end(), [&](std::uint32_t i) { return coversBox(i, box); });
       if (covering != items.end()) {
         const std::uint32_t feature = primitives_[*covering].feature;
         std::erase_if(items, [&](std::uint32_t i) { return primitives_[i].feature > feature; });

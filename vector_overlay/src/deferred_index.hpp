@@ -66,8 +66,8 @@ struct Edge {
   std::uint32_t flags = 0;
   float pad0 = 0.0F, pad1 = 0.0F;
 };
-inline constexpr std::uint32_t kCrossesX = 1U;   ///< the edge crosses x = X
-inline constexpr std::uint32_t kRightOfX = 2U;   ///< it does not, and lies right of it
+inline constexpr std::uint32_t kCrossesX = 1U;     ///< the edge crosses x = X
+inline constexpr std::uint32_t kRightOfX = 2U;     ///< it does not, and lies right of it
 inline constexpr std::uint32_t kRisingRight = 4U;  ///< (b.x − a.x)(b.y − a.y) > 0
 
 /// A line primitive relative to its leaf's corner (four vec4, std430). `header`: kind in bits
@@ -104,14 +104,14 @@ struct BuildOptions {
 
 struct Index {
   LayerKind kind = LayerKind::Polygon;
-  bool inPixels = false;        ///< some feature's widths are in pixels
-  glm::dvec2 origin{0.0};       ///< the root's corner (frame coordinates)
-  double size = 0.0;            ///< the root's side (metres); 0: empty
-  int depth = 0;                ///< the deepest leaf's level: integer coordinates are at this level
-  std::vector<Node> nodes;      ///< nodes[0] is the root
-  std::vector<Group> groups;    ///< polygon layers
+  bool inPixels = false;      ///< some feature's widths are in pixels
+  glm::dvec2 origin{0.0};     ///< the root's corner (frame coordinates)
+  double size = 0.0;          ///< the root's side (metres); 0: empty
+  int depth = 0;              ///< the deepest leaf's level: integer coordinates are at this level
+  std::vector<Node> nodes;    ///< nodes[0] is the root
+  std::vector<Group> groups;  ///< polygon layers
   std::vector<Edge> edges;
-  std::vector<Item> items;      ///< line layers
+  std::vector<Item> items;  ///< line layers
   std::vector<FeatureParams> features;
   /// Boxes (frame coordinates) holding every point the layer can cover, a few hundred at most:
   /// the technique draws only where they project.

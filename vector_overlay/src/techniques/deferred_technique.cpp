@@ -13,9 +13,9 @@
 #include <cstring>
 #include <unordered_map>
 
+#include <glm/gtc/matrix_transform.hpp>
 #include "../deferred_index.hpp"
 #include "../screen_tiles.hpp"
-#include <glm/gtc/matrix_transform.hpp>
 
 #include "gfx/program.hpp"
 #include "gfx/queries.hpp"
@@ -81,7 +81,8 @@ class DepthCopy {
         glTextureParameteri(texture_.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
         glTextureParameteri(texture_.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
       }
-      const bool stencil = format.internalFormat == GL_DEPTH32F_STENCIL8 || format.internalFormat == GL_DEPTH24_STENCIL8;
+      const bool stencil =
+          format.internalFormat == GL_DEPTH32F_STENCIL8 || format.internalFormat == GL_DEPTH24_STENCIL8;
       framebuffer_ = gfx::createFramebuffer();
       glNamedFramebufferTexture(framebuffer_.id(), stencil ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT,
                                 texture_.id(), 0);
@@ -126,7 +127,10 @@ gfx::BufferHandle upload(const std::vector<T>& data) {
 class DeferredTechnique final : public OverlayTechnique {
  public:
   DeferredTechnique(gfx::Program single, gfx::Program multi, const HeightBoundsProvider* bounds)
-      : single_(std::move(single)), multi_(std::move(multi)), bounds_(bounds), vao_(gfx::createVertexArray()),
+      : single_(std::move(single)),
+        multi_(std::move(multi)),
+        bounds_(bounds),
+        vao_(gfx::createVertexArray()),
         rects_(gfx::createBuffer()) {}
 
   std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
@@ -273,8 +277,7 @@ class DeferredTechnique final : public OverlayTechnique {
 
 Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
   Result<std::unique_ptr<OverlayTechnique>> result;
-  Result<gfx::Program> single =
-      gfx::Program::build({{"overlay_cover_rects.vert", {}}, {"overlay_deferred.frag", {}}});
+  Result<gfx::Program> single = gfx::Program::build({{"overlay_cover_rects.vert", {}}, {"overlay_deferred.frag", {}}});
   Result<gfx::Program> multi =
       gfx::Program::build({{"overlay_cover_rects.vert", {}}, {"overlay_deferred.frag", {"MULTISAMPLE"}}});
   result.diagnostics.append(single.diagnostics);

@@ -33,8 +33,8 @@ void OverlayTechnique::draw(gfx::StateCache& cache, const TechniqueFrame& frame,
 std::span<const TechniqueInfo> techniques() {
   // Default first. A new technique: its file in techniques/, its entry declared in
   // techniques.hpp and listed here. (Built at first use, after every file's initialisation.)
-  static const std::vector<TechniqueInfo> all{kTiledStencilTechnique, kStencilTechnique, kPaperTechnique,
-                                              kDrapeTechnique, kTiledDrapeTechnique, kDeferredTechnique};
+  static const std::vector<TechniqueInfo> all{kTiledStencilTechnique, kStencilTechnique,    kPaperTechnique,
+                                              kDrapeTechnique,        kTiledDrapeTechnique, kDeferredTechnique};
   return all;
 }
 
