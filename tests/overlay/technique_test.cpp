@@ -48,7 +48,9 @@ TEST(TechniqueRegistry, OursIsTheDefaultAndNamesAreListedForMessages) {
   EXPECT_EQ(overlay::findTechnique("paper")->construction, overlay::PieceConstruction::Paper);
   EXPECT_EQ(overlay::findTechnique("raster"), nullptr);
   EXPECT_EQ(overlay::findTechnique(""), nullptr);
-  EXPECT_EQ(overlay::techniqueNameList(), "stencil-tiles, stencil, paper, drape or drape-tiles");
+  ASSERT_NE(overlay::findTechnique("deferred"), nullptr);
+  EXPECT_EQ(overlay::findTechnique("deferred")->construction, overlay::PieceConstruction::Features);
+  EXPECT_EQ(overlay::techniqueNameList(), "stencil-tiles, stencil, paper, drape, drape-tiles or deferred");
 }
 
 }  // namespace
