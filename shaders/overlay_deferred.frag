@@ -1,9 +1,24 @@
 #version 450 core
 // The deferred technique (vector_overlay/src/deferred_index.hpp): per pixel (per sample with
-// MULTISAMPLE), the terrain point from the depth buffer, found in the layer's quadtree as
-// integer cells plus a remainder (never as an absolute float position), and tested against
-// what the leaf lists: polygons by the parity of a path inside the leaf, lines by the CPU
-// reference's primitives. deferred_index.cpp's coveringFeature is this test on the CPU.
+// MULTISAMPLE), the terrain point from the depth buffer; for each layer in draw order, found in
+// the layer's quadtree as integer cells plus a remainder (never as an absolute float position)
+// and tested against what the leaf lists: polygons by the parity of a path inside the leaf,
+// lines by the CPU reference's primitives. The layers' colours are composited here in order
+// (premultiplied), as blending each over the last would; the mask gets each covering layer's
+// bit. deferred_index.cpp's coveringFeature is this test on the CPU.
+const int kMaxLayers = 256;
+struct Layer {
+  uvec4 bases;  // nodes, entries (groups or items), edges, features: where the layer's arrays start
+  uvec2 kind;   // 1: polygons (0: lines); the finest level
+  vec2 scale;   // mask bit, cell size at the finest level (metres)
+  ivec2 eyeCell;  // the eye in cells of the finest level ...
+  vec2 eyeRemainder;  // ... plus this (metres)
+  uvec4 grid;  // where the layer's grid starts, its level, 1: widths in pixels
+};
+// A uniform block: the same for every pixel, read once per group of pixels, not per pixel.
+layout(std140, binding = 1) uniform Layers {
+  Layer layers[kMaxLayers];
+};
 layout(std430, binding = 4) readonly buffer Nodes {
   uvec4 nodes[];  // first, count (0xFFFFFFFF: internal), reference point x, y (float bits)
 };
@@ -16,6 +31,9 @@ layout(std430, binding = 6) readonly buffer Edges {
 layout(std430, binding = 7) readonly buffer Items {
   vec4 items[];  // per item four vec4 (deferred::Item)
 };
+layout(std430, binding = 10) readonly buffer Grid {
+  uint grid[];  // per cell of a layer's grid: node | level << 27
+};
 layout(std430, binding = 8) readonly buffer Features {
   vec4 features[];  // per feature: colour (straight alpha), (widthPixels/2, minWidth/2, width/2, -)
 };
@@ -27,14 +45,9 @@ uniform sampler2D u_depth;
 #endif
 uniform mat4 u_inverse;  // normalised device coordinates → frame coordinates relative to the eye
 uniform vec2 u_viewport;
-uniform ivec2 u_eyeCell;  // the eye in cells of the finest level ...
-uniform vec2 u_eyeRemainder;  // ... plus this (metres)
 uniform float u_eyeZ;
-uniform float u_cellSize;  // metres
-uniform int u_depthLevels;  // the finest level
-uniform int u_polygons;  // 1: a polygon layer, 0: lines
 uniform float u_metresPerPixel;
-uniform float u_maskBit;
+uniform int u_layerCount;
 
 layout(location = 0) out vec4 o_color;
 layout(location = 1) out vec4 o_mask;
@@ -46,65 +59,62 @@ const uint kRisingRight = 4u;
 
 float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
 
-float halfWidth(vec4 width, ivec2 leafCorner, vec2 anchor, float height) {
-  vec2 xy = vec2(leafCorner - u_eyeCell) * u_cellSize - u_eyeRemainder + anchor;
+float halfWidth(Layer l, vec4 width, ivec2 leafCorner, vec2 anchor, float height) {
+  vec2 xy = vec2(leafCorner - l.eyeCell) * l.scale.y - l.eyeRemainder + anchor;
   float distance = length(vec3(xy, height - u_eyeZ));
   return max(min(width.x * u_metresPerPixel * distance, width.z), width.y);
 }
 
-bool itemCovers(uint at, vec2 p, ivec2 leafCorner) {
-  vec4 p0 = items[4u * at], p1 = items[4u * at + 1u], p2 = items[4u * at + 2u];
+bool itemCovers(Layer l, uint at, vec2 p, ivec2 leafCorner) {
+  vec4 p0 = items[4u * at], p1 = items[4u * at + 1u];
   uint header = floatBitsToUint(p0.w);
   uint kind = header & 3u;
-  vec4 width = features[2u * (header >> 5u) + 1u];
-  bool pixels = width.x > 0.0;
-  vec2 a = p0.xy;
-  if (kind == 0u) {  // segment
-    vec2 d = p1.xy - a;
-    float len = length(d);
-    if (!(len > 0.0)) return false;
-    vec2 u = d / len;
-    float t = dot(p - a, u);
-    if (t < 0.0 || t > len) return false;
+  vec2 d = p - p0.xy;
+  if (kind == 0u) {  // segment: the part [f0, f1] of the line's segment, from a along u
+    float t = dot(d, p1.xy);
+    if (t < 0.0 || t > p1.z) return false;
     float h = p1.w;
-    if (pixels) {
-      float f0 = p0.z, f1 = p1.z;
-      vec2 start = a + d * ((0.0 - f0) / (f1 - f0));
-      vec2 end = a + d * ((1.0 - f0) / (f1 - f0));
-      float h0 = halfWidth(width, leafCorner, start, p2.x);
-      float h1 = halfWidth(width, leafCorner, end, p2.y);
-      h = h0 + (h1 - h0) * (f0 + (f1 - f0) * t / len);
+    vec4 width = l.grid.z != 0u ? features[2u * (l.bases.w + (header >> 5u)) + 1u] : vec4(0.0);
+    if (width.x > 0.0) {
+      vec4 p2 = items[4u * at + 2u];
+      float f0 = p0.z, f1 = p2.z;
+      float full = p1.z / (f1 - f0);
+      float h0 = halfWidth(l, width, leafCorner, p0.xy - p1.xy * (f0 * full), p2.x);
+      float h1 = halfWidth(l, width, leafCorner, p0.xy + p1.xy * ((1.0 - f0) * full), p2.y);
+      h = h0 + (h1 - h0) * (f0 + t / full);
     }
-    return abs(cross2(u, p - a)) <= h;
+    return abs(cross2(p1.xy, d)) <= h;
   }
-  float s = pixels ? halfWidth(width, leafCorner, a, p2.x) : 1.0;
+  float s = 1.0;
+  if (l.grid.z != 0u) {
+    vec4 width = features[2u * (l.bases.w + (header >> 5u)) + 1u];
+    if (width.x > 0.0) s = halfWidth(l, width, leafCorner, p0.xy, items[4u * at + 2u].x);
+  }
   if (kind == 1u) {  // band
-    vec2 d = p - a;
     float t = dot(d, p1.xy);
     return t >= p0.z * s && t <= p1.z * s && abs(cross2(p1.xy, d)) <= p1.w * s;
   }
   if (kind == 2u) {  // disc
-    vec2 d = p - a;
     float r = p0.z * s;
     return dot(d, d) <= r * r;
   }
   // convex, counter-clockwise offsets from the anchor
   vec4 p3 = items[4u * at + 3u];
   uint count = (header >> 2u) & 7u;
-  vec2 q = p - a;
   vec2 o[4] = vec2[4](p1.xy * s, p1.zw * s, p3.xy * s, p3.zw * s);
   for (uint k = 0u; k < count; ++k) {
     vec2 e0 = o[k], e1 = o[(k + 1u) % count];
-    if (cross2(e1 - e0, q - e0) < 0.0) return false;
+    if (cross2(e1 - e0, d - e0) < 0.0) return false;
   }
   return true;
 }
 
-bool groupCovers(uvec4 g, vec2 p, float yc) {
+bool groupCovers(uint edgeBase, uvec4 g, vec2 p, float yc) {
   bool inside = g.y != 0u;
   for (uint k = 0u; k < g.w; ++k) {
-    vec4 ab = edges[2u * (g.z + k)];
-    vec4 extra = edges[2u * (g.z + k) + 1u];
+    uint e = 2u * (edgeBase + g.z + k);
+    vec4 ab = edges[e];
+    vec4 extra = edges[e + 1u];
     uint flags = floatBitsToUint(extra.y);
     bool crosses = (flags & kCrossesX) != 0u;
     if ((ab.y > p.y) != (ab.w > p.y)) {
@@ -118,6 +128,40 @@ bool groupCovers(uvec4 g, vec2 p, float yc) {
   return inside;
 }
 
+/// The first feature of layer l covering the point rel (relative to the eye), or -1.
+int coveringFeature(Layer l, vec2 rel) {
+  vec2 v = l.eyeRemainder + rel;
+  vec2 k = floor(v / l.scale.y);
+  int levels = int(l.kind.y);
+  float cells = exp2(float(levels));
+  vec2 qf = vec2(l.eyeCell) + k;
+  if (qf.x < 0.0 || qf.y < 0.0 || qf.x >= cells || qf.y >= cells) return -1;
+  ivec2 q = l.eyeCell + ivec2(k);
+  vec2 r = v - k * l.scale.y;
+  int gridShift = levels - int(l.grid.y);
+  uint cell = grid[l.grid.x + (uint(q.y >> gridShift) << l.grid.y) + uint(q.x >> gridShift)];
+  uvec4 node = nodes[l.bases.x + (cell & 0x7FFFFFFu)];
+  int level = int(cell >> 27u);
+  while (node.y == kInternal && level < 32) {
+    int bit = levels - 1 - level;
+    node = nodes[l.bases.x + node.x + uint((q.x >> bit) & 1) + 2u * uint((q.y >> bit) & 1)];
+    ++level;
+  }
+  if (node.y == 0u) return -1;
+  int shift = levels - level;
+  ivec2 corner = (q >> shift) << shift;
+  vec2 p = vec2(q - corner) * l.scale.y + r;
+  for (uint i = 0u; i < node.y; ++i) {
+    if (l.kind.x != 0u) {
+      uvec4 g = groups[l.bases.y + node.x + i];
+      if (groupCovers(l.bases.z, g, p, uintBitsToFloat(node.w))) return int(g.x);
+    } else if (itemCovers(l, l.bases.y + node.x + i, p, corner)) {
+      return int(floatBitsToUint(items[4u * (l.bases.y + node.x + i)].w) >> 5u);
+    }
+  }
+  return -1;
+}
+
 void main() {
   ivec2 texel = ivec2(gl_FragCoord.xy);
 #ifdef MULTISAMPLE
@@ -129,39 +173,19 @@ void main() {
 #endif
   if (!(depth > 0.0)) discard;  // background
   vec4 h = u_inverse * vec4(2.0 * pixel / u_viewport - 1.0, depth, 1.0);
-  vec3 rel = h.xyz / h.w;
+  vec2 rel = h.xy / h.w;
 
-  vec2 v = u_eyeRemainder + rel.xy;
-  vec2 k = floor(v / u_cellSize);
-  float cells = exp2(float(u_depthLevels));
-  vec2 qf = vec2(u_eyeCell) + k;
-  if (qf.x < 0.0 || qf.y < 0.0 || qf.x >= cells || qf.y >= cells) discard;
-  ivec2 q = u_eyeCell + ivec2(k);
-  vec2 r = v - k * u_cellSize;
-
-  uint n = 0u;
-  int level = 0;
-  while (nodes[n].y == kInternal && level < 32) {
-    int bit = u_depthLevels - 1 - level;
-    n = nodes[n].x + uint((q.x >> bit) & 1) + 2u * uint((q.y >> bit) & 1);
-    ++level;
+  vec4 color = vec4(0.0);  // premultiplied, the layers composited in order
+  float mask = 0.0;
+  for (int i = 0; i < u_layerCount; ++i) {
+    Layer l = layers[i];
+    int feature = coveringFeature(l, rel);
+    if (feature < 0) continue;
+    vec4 c = features[2u * (l.bases.w + uint(feature))];
+    color = vec4(c.rgb * c.a, c.a) + (1.0 - c.a) * color;
+    mask += l.scale.x;
   }
-  uvec4 leaf = nodes[n];
-  int shift = u_depthLevels - level;
-  ivec2 corner = (q >> shift) << shift;
-  vec2 p = vec2(q - corner) * u_cellSize + r;
-
-  int feature = -1;
-  for (uint i = 0u; i < leaf.y && feature < 0; ++i) {
-    if (u_polygons != 0) {
-      uvec4 g = groups[leaf.x + i];
-      if (groupCovers(g, p, uintBitsToFloat(leaf.w))) feature = int(g.x);
-    } else if (itemCovers(leaf.x + i, p, corner)) {
-      feature = int(floatBitsToUint(items[4u * (leaf.x + i)].w) >> 5u);
-    }
-  }
-  if (feature < 0) discard;
-  vec4 c = features[2u * uint(feature)];
-  o_color = vec4(c.rgb * c.a, c.a);
-  o_mask = vec4(u_maskBit, 0.0, 0.0, 0.0);
+  if (mask == 0.0) discard;
+  o_color = color;
+  o_mask = vec4(mask, 0.0, 0.0, 0.0);
 }

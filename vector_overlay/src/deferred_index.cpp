@@ -132,6 +132,7 @@ class Builder {
     node(0, 0, 0, 0, std::move(items));
     if (out_.kind == LayerKind::Polygon) addCoveringPolygons();
     flatten();
+    makeGrid();
   }
 
  private:
@@ -230,20 +231,27 @@ class Builder {
       }
     }
     const double side = box.hi.x - box.lo.x;
-    bool split = level < options_.maxDepth && !items.empty() &&
+    bool split = level < options_.maxDepth && !items.empty() && out_.nodes.size() + 4 <= kGridNodeMask &&
                  (items.size() > options_.maxEntriesPerLeaf || side > options_.maxLeafSize);
     std::array<std::vector<std::uint32_t>, 4> children;
     if (split) {
-      std::size_t most = 0;
+      std::size_t sum = 0;
+      double smallest = std::numeric_limits<double>::infinity();
+      for (const std::uint32_t i : items) {
+        const Box& b = boxes_[i];
+        smallest = std::min(smallest, std::max(b.hi.x - b.lo.x, b.hi.y - b.lo.y));
+      }
       for (std::uint32_t c = 0; c < 4; ++c) {
         const Box childBox = nodeBox(level + 1, 2 * ix + (c & 1U), 2 * iy + (c >> 1U));
         for (const std::uint32_t i : items)
           if (meets(i, childBox)) children[c].push_back(i);
-        most = std::max(most, children[c].size());
+        sum += children[c].size();
       }
-      // Items that all meet one child (many edges at one vertex, lines on top of each other)
-      // are not separated by splitting: such a leaf stays as it is, unless it is too large.
-      split = side > options_.maxLeafSize || most < items.size();
+      // Split where it pays: a point then tests fewer entries on average (a junction's leaf
+      // shrinks around it), down to a sixteenth of the smallest item's extent (entries that all
+      // meet every small cell, such as lines on top of each other, stop there).
+      split = side > options_.maxLeafSize ||
+              (static_cast<double>(sum) < 0.8 * 4.0 * static_cast<double>(items.size()) && side > smallest / 16.0);
     }
     if (level == options_.coverLevel || (!split && level < options_.coverLevel)) coverAt_.push_back({index, box});
     if (!split) {
@@ -404,6 +412,27 @@ class Builder {
     }
   }
 
+  /// The lookup grid: each cell at gridLevel points to the node covering it there.
+  void makeGrid() {
+    out_.gridLevel = std::min(options_.gridLevel, out_.depth);
+    const std::uint32_t n = 1U << out_.gridLevel;
+    out_.grid.assign(static_cast<std::size_t>(n) * n, 0);
+    fillGrid(0, 0, 0, 0);
+  }
+  void fillGrid(std::uint32_t node, int level, std::uint32_t ix, std::uint32_t iy) {
+    const Node& nd = out_.nodes[node];
+    const int below = out_.gridLevel - level;
+    if (nd.count != kInternal || below == 0) {
+      const std::uint32_t n = 1U << out_.gridLevel;
+      const std::uint32_t span = 1U << below;
+      for (std::uint32_t y = iy << below; y < (iy << below) + span; ++y)
+        std::fill_n(out_.grid.begin() + static_cast<std::ptrdiff_t>(y * n + (ix << below)), span,
+                    node | (static_cast<std::uint32_t>(level) << kGridLevelShift));
+      return;
+    }
+    for (std::uint32_t c = 0; c < 4; ++c) fillGrid(nd.first + c, level + 1, 2 * ix + (c & 1U), 2 * iy + (c >> 1U));
+  }
+
   [[nodiscard]] bool subtreeHasContent(std::uint32_t index) const {
     const Node& n = out_.nodes[index];
     if (n.count != kInternal) return n.count > 0;
@@ -430,11 +459,16 @@ class Builder {
       const auto f = clipSegment(s.a, s.b, grown(leaf, s.reach + side / 8.0));
       if (!f || !(f->second > f->first)) return std::nullopt;
       const glm::dvec2 d = s.b - s.a;
-      put(0, (f->first == 0.0 ? s.a : s.a + d * f->first) - corner);
-      put(4, (f->second == 1.0 ? s.b : s.a + d * f->second) - corner);
-      v[2] = static_cast<float>(f->first);
-      v[6] = static_cast<float>(f->second);
+      const glm::dvec2 a = (f->first == 0.0 ? s.a : s.a + d * f->first) - corner;
+      const glm::dvec2 b = (f->second == 1.0 ? s.b : s.a + d * f->second) - corner;
+      // The direction of the whole segment (the reference's band's), the length of the part.
+      const glm::dvec2 u = d / std::sqrt(reference::dot(d, d));
+      put(0, a);
+      put(4, u);
+      v[6] = static_cast<float>(reference::dot(b - a, u));
       v[7] = static_cast<float>(prim.half);
+      v[2] = static_cast<float>(f->first);
+      v[10] = static_cast<float>(f->second);
     } else {
       switch (prim.kind) {
         case LinePrimitive::Kind::Band:
@@ -503,23 +537,21 @@ struct Eval {
     const glm::vec2 a(v[0], v[1]);
     switch (kind) {
       case ItemKind::Segment: {
-        const glm::vec2 b(v[4], v[5]);
-        const glm::vec2 d = b - a;
-        const float length = glm::length(d);
-        if (!(length > 0.0F)) return false;
-        const glm::vec2 u = d / length;
-        const float t = glm::dot(p - a, u);
+        const glm::vec2 u(v[4], v[5]);
+        const float length = v[6];
+        const glm::vec2 d = p - a;
+        const float t = glm::dot(d, u);
         if (t < 0.0F || t > length) return false;
         float h = v[7];
         if (pixels) {
-          const float f0 = v[2], f1 = v[6];
-          const glm::vec2 start = a + d * ((0.0F - f0) / (f1 - f0));
-          const glm::vec2 end = a + d * ((1.0F - f0) / (f1 - f0));
-          const float h0 = halfWidth(f, leafCorner, start, v[8]);
-          const float h1 = halfWidth(f, leafCorner, end, v[9]);
-          h = h0 + (h1 - h0) * (f0 + (f1 - f0) * t / length);
+          // The line's segment's ends, from the part's: their widths, linear in between.
+          const float f0 = v[2], f1 = v[10];
+          const float full = length / (f1 - f0);
+          const float h0 = halfWidth(f, leafCorner, a - u * (f0 * full), v[8]);
+          const float h1 = halfWidth(f, leafCorner, a + u * ((1.0F - f0) * full), v[9]);
+          h = h0 + (h1 - h0) * (f0 + t / full);
         }
-        return std::abs(cross2(u, p - a)) <= h;
+        return std::abs(cross2(u, d)) <= h;
       }
       case ItemKind::Band: {
         const float s = pixels ? halfWidth(f, leafCorner, a, v[8]) : 1.0F;
@@ -599,8 +631,14 @@ std::int64_t coveringFeature(const Index& index, const EyeCells& eye, const glm:
   if (!(qd.x >= 0.0 && qd.y >= 0.0 && qd.x < cells && qd.y < cells)) return -1;
   const glm::ivec2 q(qd);
   const glm::vec2 r = v - k * s;
-  std::uint32_t n = 0;
-  int level = 0;
+  // The grid gives the node at gridLevel (or the leaf above it); its level is where the walk
+  // goes on: count the levels below it by walking.
+  const int gridShift = index.depth - index.gridLevel;
+  const std::uint32_t gridSide = 1U << index.gridLevel;
+  const std::uint32_t cell = index.grid[static_cast<std::size_t>(
+      static_cast<std::uint32_t>(q.y >> gridShift) * gridSide + static_cast<std::uint32_t>(q.x >> gridShift))];
+  std::uint32_t n = cell & kGridNodeMask;
+  int level = static_cast<int>(cell >> kGridLevelShift);
   while (index.nodes[n].count == kInternal) {
     const int bit = index.depth - 1 - level;
     n = index.nodes[n].first + static_cast<std::uint32_t>((q.x >> bit) & 1) +

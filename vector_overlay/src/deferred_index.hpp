@@ -50,6 +50,9 @@ struct Node {
   std::uint32_t y = 0;
 };
 inline constexpr std::uint32_t kInternal = 0xFFFFFFFFU;
+/// Index::grid entries: the node in the low bits, its level from bit 27.
+inline constexpr std::uint32_t kGridLevelShift = 27;
+inline constexpr std::uint32_t kGridNodeMask = (1U << kGridLevelShift) - 1;
 
 /// One polygon in a leaf: its parity at the leaf's reference point, and its edges there.
 struct Group {
@@ -72,9 +75,9 @@ inline constexpr std::uint32_t kRisingRight = 4U;  ///< (b.x − a.x)(b.y − a.
 
 /// A line primitive relative to its leaf's corner (four vec4, std430). `header`: kind in bits
 /// 0–1, the convex vertex count in bits 2–4, the feature from bit 5.
-///   Segment: p0 = (a.x, a.y, f0, header), p1 = (b.x, b.y, f1, half), p2 = (anchor height a,
-///            anchor height b): the segment clipped to [f0, f1] of the line's segment; `half`
-///            for widths in metres.
+///   Segment: p0 = (a.x, a.y, f0, header), p1 = (u.x, u.y, length, half), p2 = (anchor height
+///            of the line's segment's start, of its end, f1): the part [f0, f1] of the line's
+///            segment, from a along the unit direction u; `half` for widths in metres.
 ///   Band:    p0 = (origin.x, origin.y, t0, header), p1 = (u.x, u.y, t1, half), p2.x anchor
 ///            height: square caps (unit half width when in pixels).
 ///   Disc:    p0 = (centre.x, centre.y, radius, header), p2.x anchor height.
@@ -94,12 +97,13 @@ struct FeatureParams {
 };
 
 struct BuildOptions {
-  std::size_t maxEntriesPerLeaf = 8;  ///< a leaf with more is split (down to maxDepth)
+  std::size_t maxEntriesPerLeaf = 4;  ///< a leaf with more is split (down to maxDepth)
   int maxDepth = 20;
   /// Leaves holding anything are at most this large (metres): stored coordinates stay small
   /// next to the pixels seen from 1 m (float keeps 2^-24 of this).
   double maxLeafSize = 1024.0;
   int coverLevel = 5;  ///< nodes at this depth (or leaves above it) with content are the cover boxes
+  int gridLevel = 9;   ///< the finest level of the lookup grid (Index::grid)
 };
 
 struct Index {
@@ -113,6 +117,11 @@ struct Index {
   std::vector<Edge> edges;
   std::vector<Item> items;  ///< line layers
   std::vector<FeatureParams> features;
+  /// A 2^gridLevel × 2^gridLevel grid over the root (row-major, y up): per cell the node where
+  /// the walk goes on (the leaf holding it, or its node at gridLevel) and that node's level
+  /// (kGridLevelShift), so that a lookup starts gridLevel levels down.
+  int gridLevel = 0;
+  std::vector<std::uint32_t> grid;
   /// Boxes (frame coordinates) holding every point the layer can cover, a few hundred at most:
   /// the technique draws only where they project.
   std::vector<std::array<glm::dvec2, 2>> cover;
@@ -121,7 +130,7 @@ struct Index {
   [[nodiscard]] bool empty() const { return size <= 0.0 || nodes.empty(); }
   [[nodiscard]] std::size_t bytes() const {
     return nodes.size() * sizeof(Node) + groups.size() * sizeof(Group) + edges.size() * sizeof(Edge) +
-           items.size() * sizeof(Item) + features.size() * sizeof(FeatureParams);
+           items.size() * sizeof(Item) + features.size() * sizeof(FeatureParams) + grid.size() * sizeof(std::uint32_t);
   }
   /// Side of a cell at the finest level.
   [[nodiscard]] double cellSize() const { return size / static_cast<double>(1ULL << depth); }

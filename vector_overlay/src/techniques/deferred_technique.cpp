@@ -11,6 +11,7 @@
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <span>
 #include <unordered_map>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -25,11 +26,15 @@ namespace gis::overlay {
 namespace {
 
 constexpr GLuint kRectsBinding = 3;  // overlay_cover_rects.vert
-constexpr GLuint kNodesBinding = 4;  // overlay_deferred.frag
+constexpr GLuint kLayersBinding =
+    1;  // overlay_deferred.frag (a uniform block of kMaxLayers: 16 KB, the least GL allows)
+constexpr std::size_t kMaxLayers = 256;
+constexpr GLuint kNodesBinding = 4;
 constexpr GLuint kGroupsBinding = 5;
 constexpr GLuint kEdgesBinding = 6;
 constexpr GLuint kItemsBinding = 7;
 constexpr GLuint kFeaturesBinding = 8;
+constexpr GLuint kGridBinding = 10;
 constexpr GLuint kDepthUnit = 0;
 constexpr int kScreenTiles = 32;
 
@@ -63,10 +68,32 @@ DepthFormat depthFormatOf(GLuint framebuffer) {
   return f;
 }
 
-/// A copy of the target's depth, remade when its size or format changes.
-class DepthCopy {
+/// The target's depth as a texture the pass can read: the target's own depth texture when it
+/// has one (the pass neither tests nor writes depth, so reading the attachment is no feedback
+/// loop), else a copy (a blit per frame: the default framebuffer, renderbuffers).
+class DepthSource {
  public:
-  /// Copies the depth of `framebuffer` (width × height); returns the texture.
+  GLuint texture(const DrawTarget& target) {
+    GLint type = GL_NONE, name = 0;
+    if (target.framebuffer != 0) {
+      glGetNamedFramebufferAttachmentParameteriv(target.framebuffer, GL_DEPTH_ATTACHMENT,
+                                                 GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE, &type);
+      glGetNamedFramebufferAttachmentParameteriv(target.framebuffer, GL_DEPTH_ATTACHMENT,
+                                                 GL_FRAMEBUFFER_ATTACHMENT_OBJECT_NAME, &name);
+    }
+    GLint samples = 0;
+    glGetNamedFramebufferParameteriv(target.framebuffer, GL_SAMPLES, &samples);
+    multisampled_ = samples > 1;
+    if (type == GL_TEXTURE && name != 0) return static_cast<GLuint>(name);
+    return copy(target);
+  }
+  [[nodiscard]] bool multisampled() const { return multisampled_; }
+  [[nodiscard]] std::size_t bytes() const {
+    return static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) *
+           static_cast<std::size_t>(std::max(1, format_.samples)) * 8;
+  }
+
+ private:
   GLuint copy(const DrawTarget& target) {
     const DepthFormat format = depthFormatOf(target.framebuffer);
     if (!texture_ || format != format_ || width_ != target.width || height_ != target.height) {
@@ -93,35 +120,49 @@ class DepthCopy {
                            GL_DEPTH_BUFFER_BIT, GL_NEAREST);
     return texture_.id();
   }
-  [[nodiscard]] bool multisampled() const { return format_.samples > 0; }
-  [[nodiscard]] std::size_t bytes() const {
-    return static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) *
-           static_cast<std::size_t>(std::max(1, format_.samples)) * 8;
-  }
 
- private:
+  bool multisampled_ = false;
   DepthFormat format_;
   int width_ = 0, height_ = 0;
   gfx::TextureHandle texture_;
   gfx::FramebufferHandle framebuffer_;
 };
 
-/// A layer's index on the GPU.
+/// A layer's index, with its cover boxes at the terrain's heights.
 struct LayerIndex {
   deferred::Index index;
-  std::vector<std::array<glm::dvec3, 2>> cover;  ///< the index's cover boxes with the terrain's heights
-  gfx::BufferHandle nodes, groups, edges, items, features;
+  std::vector<std::array<glm::dvec3, 2>> cover;
   double buildSeconds = 0.0;
-  std::size_t gpuBytes = 0;
+};
+
+/// Per drawn layer, what the shader reads of it (std430, overlay_deferred.frag's Layer).
+struct LayerHeader {
+  std::uint32_t nodeBase = 0, entryBase = 0, edgeBase = 0, featureBase = 0;
+  std::uint32_t polygons = 0, depth = 0;
+  float maskBit = 0.0F, cellSize = 0.0F;
+  std::int32_t eyeCellX = 0, eyeCellY = 0;
+  float eyeRemainderX = 0.0F, eyeRemainderY = 0.0F;
+  std::uint32_t gridBase = 0, gridLevel = 0, inPixels = 0, pad = 0;
+};
+static_assert(sizeof(LayerHeader) == 64);
+
+/// The indices of the layers drawn, one after another in shared buffers.
+struct Arena {
+  std::vector<const OverlayLayer*> layers;  ///< in the order their arrays are laid out
+  std::vector<LayerHeader> headers;         ///< their offsets (per-frame fields filled at draw)
+  gfx::BufferHandle nodes, groups, edges, items, features, grid;
+  std::size_t bytes = 0;
 };
 
 template <typename T>
-gfx::BufferHandle upload(const std::vector<T>& data) {
-  // An empty array still gets a buffer (binding a zero-sized range is an error).
-  const std::size_t bytes = std::max<std::size_t>(data.size() * sizeof(T), 16);
-  std::vector<std::uint8_t> padded(bytes, 0);
-  if (!data.empty()) std::memcpy(padded.data(), data.data(), data.size() * sizeof(T));
-  return gfx::createBufferWithData(padded.data(), bytes);
+void append(std::vector<std::uint8_t>& out, const std::vector<T>& data) {
+  const auto* p = reinterpret_cast<const std::uint8_t*>(data.data());
+  out.insert(out.end(), p, p + data.size() * sizeof(T));
+}
+
+gfx::BufferHandle bufferOf(std::vector<std::uint8_t> bytes) {
+  bytes.resize(std::max<std::size_t>(bytes.size(), 16), 0);  // binding a zero-sized range is an error
+  return gfx::createBufferWithData(bytes.data(), bytes.size());
 }
 
 class DeferredTechnique final : public OverlayTechnique {
@@ -131,7 +172,8 @@ class DeferredTechnique final : public OverlayTechnique {
         multi_(std::move(multi)),
         bounds_(bounds),
         vao_(gfx::createVertexArray()),
-        rects_(gfx::createBuffer()) {}
+        rects_(gfx::createBuffer()),
+        headers_(gfx::createBuffer()) {}
 
   std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
                                            TechniqueFrameStats& stats) override {
@@ -143,10 +185,43 @@ class DeferredTechnique final : public OverlayTechnique {
 
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     stats.layers.assign(frame.layers.size(), LayerFrameStats{});
-    if (std::none_of(frame.layers.begin(), frame.layers.end(), [](const OverlayLayer* l) { return l != nullptr; }))
-      return;
-    const GLuint depth = depthCopy_.copy(frame.target);
-    gfx::Program& program = depthCopy_.multisampled() ? multi_ : single_;
+    const OverlayView& view = frame.view;
+    // Every layer drawn in one pass: one depth read and reconstruction per pixel, the layers
+    // composited in order in the shader (as one blend of each over the last would give).
+    ensureArena(frame.layers);
+    ScreenTiles tiles(kScreenTiles);
+    std::vector<LayerHeader> headers;
+    std::optional<std::size_t> first;
+    for (std::size_t i = 0; i < frame.layers.size(); ++i) {
+      const OverlayLayer* layer = frame.layers[i];
+      if (layer == nullptr) continue;
+      const LayerIndex& li = layers_.at(layer);
+      if (li.index.empty()) continue;
+      bool onScreen = false;
+      for (const auto& box : li.cover) {
+        const glm::vec4 r = screenRect(view.viewProj, view.nearPlane, box[0], box[1]);
+        onScreen = onScreen || (r.z >= r.x && r.w >= r.y);
+        tiles.add(r);
+      }
+      if (!onScreen) continue;
+      LayerHeader h = arena_.headers[arenaSlot_.at(layer)];
+      const deferred::EyeCells eye = deferred::eyeCells(li.index, view.eye);
+      h.eyeCellX = eye.cell.x;
+      h.eyeCellY = eye.cell.y;
+      h.eyeRemainderX = eye.remainder.x;
+      h.eyeRemainderY = eye.remainder.y;
+      h.maskBit = static_cast<float>(std::uint32_t{1} << std::min<std::size_t>(i, 23));
+      headers.push_back(h);
+      stats.layers[i].rectangleCover = true;
+      if (!first) first = i;
+    }
+    const std::vector<glm::vec4> rects = tiles.rects();
+    if (headers.empty() || rects.empty()) return;
+    LayerFrameStats& s = stats.layers[*first];
+    s.drawCommands = 1;
+
+    const GLuint depth = depth_.texture(frame.target);
+    gfx::Program& program = depth_.multisampled() ? multi_ : single_;
     cache.useProgram(program);
     cache.bindTexture(kDepthUnit, depth);
     cache.bindVertexArray(vao_.id());
@@ -156,88 +231,126 @@ class DeferredTechnique final : public OverlayTechnique {
     state.blend = gfx::kBlendPremultipliedOver;
     state.raster.cull = gfx::CullMode::None;
     cache.apply(state);
-    const OverlayView& view = frame.view;
     const glm::dmat4 relative = view.viewProj * glm::translate(glm::dmat4(1.0), view.eye);
     program.set("u_depth", static_cast<int>(kDepthUnit));
     program.set("u_inverse", glm::mat4(glm::inverse(relative)));
     program.set("u_viewport", glm::vec2(frame.target.width, frame.target.height));
     program.set("u_eyeZ", static_cast<float>(view.eye.z));
-    const PixelScale scale = pixelScaleOf(view.viewProj, frame.target.height);
-    program.set("u_metresPerPixel", static_cast<float>(scale.metresPerPixel));
-
-    for (std::size_t i = 0; i < frame.layers.size() && i < 32; ++i) {
-      const OverlayLayer* layer = frame.layers[i];
-      if (layer == nullptr) continue;
-      LayerIndex& li = indexOf(*layer);
-      if (li.index.empty()) continue;
-      ScreenTiles tiles(kScreenTiles);
-      for (const auto& box : li.cover) tiles.add(screenRect(view.viewProj, view.nearPlane, box[0], box[1]));
-      const std::vector<glm::vec4> rects = tiles.rects();
-      LayerFrameStats& s = stats.layers[i];
-      s.rectangleCover = true;
-      s.drawCommands = rects.empty() ? 0 : 1;
-      if (rects.empty()) continue;
-      const deferred::EyeCells eye = deferred::eyeCells(li.index, view.eye);
-      glProgramUniform2i(program.id(), program.location("u_eyeCell"), eye.cell.x, eye.cell.y);
-      program.set("u_eyeRemainder", eye.remainder);
-      program.set("u_cellSize", static_cast<float>(li.index.cellSize()));
-      program.set("u_depthLevels", li.index.depth);
-      program.set("u_polygons", li.index.kind == LayerKind::Polygon ? 1 : 0);
-      program.set("u_maskBit", static_cast<float>(1U << i));
-      cache.bindStorageBuffer(kNodesBinding, li.nodes.id());
-      cache.bindStorageBuffer(kGroupsBinding, li.groups.id());
-      cache.bindStorageBuffer(kEdgesBinding, li.edges.id());
-      cache.bindStorageBuffer(kItemsBinding, li.items.id());
-      cache.bindStorageBuffer(kFeaturesBinding, li.features.id());
-      const std::size_t bytes = rects.size() * sizeof(glm::vec4);
-      if (rectsCapacity_ < bytes) {
-        rectsCapacity_ = std::max(bytes, 2 * rectsCapacity_);
-        rects_ = gfx::createBuffer();
-        glNamedBufferData(rects_.id(), static_cast<GLsizeiptr>(rectsCapacity_), nullptr, GL_STREAM_DRAW);
-      }
-      glNamedBufferSubData(rects_.id(), 0, static_cast<GLsizeiptr>(bytes), rects.data());
-      cache.bindStorageBuffer(kRectsBinding, rects_.id());
-      if (frame.settings.measure) {
-        timer_.begin();
-        statistics_.begin();
-      }
+    program.set("u_metresPerPixel",
+                static_cast<float>(pixelScaleOf(view.viewProj, frame.target.height).metresPerPixel));
+    upload(rects_, rectsCapacity_, rects.data(), rects.size() * sizeof(glm::vec4));
+    cache.bindStorageBuffer(kRectsBinding, rects_.id());
+    cache.bindStorageBuffer(kNodesBinding, arena_.nodes.id());
+    cache.bindStorageBuffer(kGroupsBinding, arena_.groups.id());
+    cache.bindStorageBuffer(kEdgesBinding, arena_.edges.id());
+    cache.bindStorageBuffer(kItemsBinding, arena_.items.id());
+    cache.bindStorageBuffer(kFeaturesBinding, arena_.features.id());
+    cache.bindStorageBuffer(kGridBinding, arena_.grid.id());
+    if (frame.settings.measure) {
+      timer_.begin();
+      statistics_.begin();
+    }
+    // The uniform block holds kMaxLayers layers: more are drawn in further passes, each
+    // blended over the last (the same as one pass).
+    for (std::size_t batch = 0; batch < headers.size(); batch += kMaxLayers) {
+      const std::size_t count = std::min(kMaxLayers, headers.size() - batch);
+      std::vector<LayerHeader> block(kMaxLayers);
+      std::copy_n(headers.begin() + static_cast<std::ptrdiff_t>(batch), count, block.begin());
+      upload(headers_, headersCapacity_, block.data(), block.size() * sizeof(LayerHeader));
+      cache.bindUniformBuffer(kLayersBinding, headers_.id());
+      program.set("u_layerCount", static_cast<int>(count));
       glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, static_cast<GLsizei>(rects.size()));
-      if (frame.settings.measure) {
-        statistics_.end();
-        timer_.end();
-        s.coverMilliseconds = static_cast<double>(timer_.nanoseconds().value_or(0)) * 1e-6;
-        s.gpuMilliseconds = s.coverMilliseconds;
-        const gfx::PipelineCounts counts = statistics_.result();
-        s.coverFragments = counts.fragmentShaderInvocations;
-        s.coverTriangles = counts.primitivesSubmitted;
-      }
+    }
+    if (frame.settings.measure) {
+      statistics_.end();
+      timer_.end();
+      s.coverMilliseconds = static_cast<double>(timer_.nanoseconds().value_or(0)) * 1e-6;
+      s.gpuMilliseconds = s.coverMilliseconds;
+      const gfx::PipelineCounts counts = statistics_.result();
+      s.coverFragments = counts.fragmentShaderInvocations;
+      s.coverTriangles = counts.primitivesSubmitted;
     }
   }
 
-  void invalidate() override { layers_.clear(); }
+  void invalidate() override { dropAll(); }
   void invalidate(const glm::dvec2& lo, const glm::dvec2& hi) override {
     (void)lo;
     (void)hi;
-    layers_.clear();
+    dropAll();
   }
   void featureChanged(std::size_t layer, std::size_t feature, const glm::dvec2& lo, const glm::dvec2& hi) override {
-    // The layer's index is made again at the next frame (one layer: its features only).
+    // Made again at the next frame, from the layer's features as they are then.
     (void)layer;
     (void)feature;
     (void)lo;
     (void)hi;
-    layers_.clear();
+    dropAll();
   }
-  [[nodiscard]] std::size_t gpuBytes() const override {
-    std::size_t bytes = depthCopy_.bytes();
-    for (const auto& [layer, li] : layers_) bytes += li.gpuBytes;
-    return bytes;
-  }
+  [[nodiscard]] std::size_t gpuBytes() const override { return depth_.bytes() + arena_.bytes; }
 
  private:
-  LayerIndex& indexOf(const OverlayLayer& layer) {
-    const auto found = layers_.find(&layer);
-    if (found != layers_.end()) return found->second;
+  void dropAll() {
+    layers_.clear();
+    arena_ = Arena{};
+    arenaSlot_.clear();
+  }
+
+  static void upload(gfx::BufferHandle& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
+    if (capacity < bytes) {
+      capacity = std::max(bytes, 2 * capacity);
+      buffer = gfx::createBuffer();
+      glNamedBufferData(buffer.id(), static_cast<GLsizeiptr>(capacity), nullptr, GL_STREAM_DRAW);
+    }
+    glNamedBufferSubData(buffer.id(), 0, static_cast<GLsizeiptr>(bytes), data);
+  }
+
+  /// Builds the indices of layers not indexed yet and lays out the arena for these layers.
+  void ensureArena(std::span<const OverlayLayer* const> frameLayers) {
+    std::vector<const OverlayLayer*> wanted;
+    for (const OverlayLayer* layer : frameLayers) {
+      if (layer == nullptr) continue;
+      if (!layers_.contains(layer)) layers_.emplace(layer, indexOf(*layer));
+      wanted.push_back(layer);
+    }
+    if (wanted == arena_.layers) return;
+    arena_ = Arena{};
+    arenaSlot_.clear();
+    std::vector<std::uint8_t> nodes, groups, edges, items, features, grid;
+    for (const OverlayLayer* layer : wanted) {
+      const deferred::Index& index = layers_.at(layer).index;
+      LayerHeader h;
+      h.nodeBase = static_cast<std::uint32_t>(nodes.size() / sizeof(deferred::Node));
+      h.entryBase =
+          static_cast<std::uint32_t>(index.kind == LayerKind::Polygon ? groups.size() / sizeof(deferred::Group)
+                                                                      : items.size() / sizeof(deferred::Item));
+      h.edgeBase = static_cast<std::uint32_t>(edges.size() / sizeof(deferred::Edge));
+      h.featureBase = static_cast<std::uint32_t>(features.size() / sizeof(deferred::FeatureParams));
+      h.polygons = index.kind == LayerKind::Polygon ? 1U : 0U;
+      h.depth = static_cast<std::uint32_t>(index.depth);
+      h.cellSize = static_cast<float>(index.cellSize());
+      h.gridBase = static_cast<std::uint32_t>(grid.size() / sizeof(std::uint32_t));
+      h.gridLevel = static_cast<std::uint32_t>(index.gridLevel);
+      h.inPixels = index.inPixels ? 1U : 0U;
+      append(grid, index.grid);
+      append(nodes, index.nodes);
+      append(groups, index.groups);
+      append(edges, index.edges);
+      append(items, index.items);
+      append(features, index.features);
+      arenaSlot_[layer] = arena_.headers.size();
+      arena_.headers.push_back(h);
+    }
+    arena_.bytes = nodes.size() + groups.size() + edges.size() + items.size() + features.size() + grid.size();
+    arena_.grid = bufferOf(std::move(grid));
+    arena_.nodes = bufferOf(std::move(nodes));
+    arena_.groups = bufferOf(std::move(groups));
+    arena_.edges = bufferOf(std::move(edges));
+    arena_.items = bufferOf(std::move(items));
+    arena_.features = bufferOf(std::move(features));
+    arena_.layers = std::move(wanted);
+  }
+
+  [[nodiscard]] LayerIndex indexOf(const OverlayLayer& layer) const {
     const auto start = std::chrono::steady_clock::now();
     LayerIndex li;
     std::vector<glm::vec4> colors;
@@ -254,23 +367,19 @@ class DeferredTechnique final : public OverlayTechnique {
       }
       li.cover.push_back({glm::dvec3(box[0], h.lo), glm::dvec3(box[1], h.hi)});
     }
-    li.nodes = upload(li.index.nodes);
-    li.groups = upload(li.index.groups);
-    li.edges = upload(li.index.edges);
-    li.items = upload(li.index.items);
-    li.features = upload(li.index.features);
-    li.gpuBytes = li.index.bytes();
     li.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return layers_.emplace(&layer, std::move(li)).first->second;
+    return li;
   }
 
   gfx::Program single_, multi_;
   const HeightBoundsProvider* bounds_;
   gfx::VertexArrayHandle vao_;
-  gfx::BufferHandle rects_;
-  std::size_t rectsCapacity_ = 0;
-  DepthCopy depthCopy_;
+  gfx::BufferHandle rects_, headers_;
+  std::size_t rectsCapacity_ = 0, headersCapacity_ = 0;
+  DepthSource depth_;
   std::unordered_map<const OverlayLayer*, LayerIndex> layers_;
+  std::unordered_map<const OverlayLayer*, std::size_t> arenaSlot_;
+  Arena arena_;
   gfx::GpuTimer timer_;
   gfx::PipelineStatistics statistics_;
 };
