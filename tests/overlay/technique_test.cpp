@@ -50,7 +50,7 @@ TEST(TechniqueRegistry, OursIsTheDefaultAndNamesAreListedForMessages) {
   EXPECT_EQ(overlay::findTechnique(""), nullptr);
   ASSERT_NE(overlay::findTechnique("deferred"), nullptr);
   EXPECT_EQ(overlay::findTechnique("deferred")->construction, overlay::PieceConstruction::Features);
-  EXPECT_EQ(overlay::techniqueNameList(), "stencil-tiles, stencil, paper, drape, drape-tiles or deferred");
+  EXPECT_EQ(overlay::techniqueNameList(), "stencil-tiles, stencil, paper, drape, drape-tiles, deferred or auto");
 }
 
 }  // namespace

@@ -110,7 +110,7 @@ class Builder {
         if (shape.inPixels()) {
           out_.inPixels = true;
           f.width = glm::vec4(static_cast<float>(0.5 * shape.widthPixels), static_cast<float>(0.5 * shape.minWidth),
-                              static_cast<float>(0.5 * shape.width), 0.0F);
+                              static_cast<float>(std::min(0.5 * shape.width, options_.maxReach)), 0.0F);
         }
         for (std::size_t k = 0; k < feature.lines.size(); ++k) addLine(feature.lines[k], k, shape, id);
       }
@@ -160,7 +160,11 @@ class Builder {
       unit.minWidth = 0.0;
       unit.width = 2.0;
     }
-    const double reach = 0.5 * shape.width;
+    // Lines in pixels are binned at their largest half width, or at maxReach when that is less
+    // (their widths are then clamped to it in the shader: exact while a view keeps within it,
+    // which Index::reach lets the technique check).
+    const double reach = pixels ? std::min(0.5 * shape.width, options_.maxReach) : 0.5 * shape.width;
+    out_.reach = std::max(out_.reach, reach);
     reference::emitLinePrimitives(line, lineIndex, unit, PixelScale{}, [&](const LinePrimitive& prim) {
       if (prim.kind == LinePrimitive::Kind::Convex && prim.count < 3) return false;  // no area
       SourcePrimitive s;

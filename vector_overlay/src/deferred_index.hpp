@@ -27,6 +27,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -104,6 +105,8 @@ struct BuildOptions {
   double maxLeafSize = 1024.0;
   int coverLevel = 5;  ///< nodes at this depth (or leaves above it) with content are the cover boxes
   int gridLevel = 9;   ///< the finest level of the lookup grid (Index::grid)
+  /// Lines in pixels: the largest half width binned (metres); wider ones are clamped to it.
+  double maxReach = std::numeric_limits<double>::infinity();
 };
 
 struct Index {
@@ -126,6 +129,7 @@ struct Index {
   /// the technique draws only where they project.
   std::vector<std::array<glm::dvec2, 2>> cover;
   std::size_t polygons = 0, primitives = 0;  ///< indexed source items
+  double reach = 0.0;                        ///< the largest half width of its lines in pixels as binned (0: none)
 
   [[nodiscard]] bool empty() const { return size <= 0.0 || nodes.empty(); }
   [[nodiscard]] std::size_t bytes() const {

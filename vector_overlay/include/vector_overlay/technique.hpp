@@ -110,6 +110,9 @@ struct TechniqueFrameStats {
   /// largest tile alone), and the largest such tile (as its file says).
   std::size_t tileHostPeakBytes = 0;
   std::size_t tileLargestReadBytes = 0;
+  /// `auto`: the layers the deferred lookup drew in this frame (the last ones; the others were
+  /// drawn by the stencil polyhedra).
+  std::size_t deferredLayers = 0;
 };
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).

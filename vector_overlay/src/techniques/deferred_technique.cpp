@@ -11,6 +11,7 @@
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <span>
 #include <unordered_map>
 
@@ -165,10 +166,11 @@ gfx::BufferHandle bufferOf(std::vector<std::uint8_t> bytes) {
   return gfx::createBufferWithData(bytes.data(), bytes.size());
 }
 
-class DeferredTechnique final : public OverlayTechnique {
+class DeferredTechnique final : public DeferredLookup {
  public:
-  DeferredTechnique(gfx::Program single, gfx::Program multi, const HeightBoundsProvider* bounds)
-      : single_(std::move(single)),
+  DeferredTechnique(gfx::Program single, gfx::Program multi, const HeightBoundsProvider* bounds, double maxReach)
+      : maxReach_(maxReach),
+        single_(std::move(single)),
         multi_(std::move(multi)),
         bounds_(bounds),
         vao_(gfx::createVertexArray()),
@@ -288,8 +290,66 @@ class DeferredTechnique final : public OverlayTechnique {
   }
   [[nodiscard]] std::size_t gpuBytes() const override { return depth_.bytes() + arena_.bytes; }
 
+  [[nodiscard]] bool canDraw(const OverlayLayer& layer, const OverlayView& view, int height,
+                             std::size_t maxIndexBytes) override {
+    auto found = reach_.find(&layer);
+    if (found == reach_.end()) found = reach_.emplace(&layer, reachOf(layer)).first;
+    const LayerReach& r = found->second;
+    if (layers_.contains(&layer)) return !r.pixels || r.boundedBy(view, height, maxReach_);
+    if (r.estimatedBytes > maxIndexBytes) return false;
+    return !r.pixels || r.boundedBy(view, height, maxReach_);
+  }
+
  private:
+  /// What canDraw needs of a layer, found once.
+  struct LayerReach {
+    bool pixels = false;  ///< some line's widths are in pixels
+    double pixelsHalf = 0.0, leastHalf = 0.0, largestHalf = 0.0;
+    glm::dvec3 lo{0.0}, hi{0.0};  ///< the layer's extent, with the terrain's heights
+    std::size_t estimatedBytes = 0;
+
+    /// Whether every width the layer can take in this view is within `maxReach` (or its own
+    /// largest width): the farthest corner of its extent bounds the distance of every vertex.
+    [[nodiscard]] bool boundedBy(const OverlayView& view, int height, double maxReach) const {
+      if (largestHalf <= maxReach) return true;
+      double far = 0.0;
+      for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 c((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z);
+        far = std::max(far, glm::length(c - view.eye));
+      }
+      const double widest = std::max(leastHalf, pixelsHalf * pixelScaleOf(view.viewProj, height).metresPerPixel * far);
+      return widest <= maxReach;
+    }
+  };
+
+  [[nodiscard]] LayerReach reachOf(const OverlayLayer& layer) const {
+    LayerReach r;
+    for (const FeatureStyle& f : layer.featureStyles()) {
+      if (layer.kind() != LayerKind::Line || !f.shape.inPixels()) continue;
+      r.pixels = true;
+      r.pixelsHalf = std::max(r.pixelsHalf, 0.5 * f.shape.widthPixels);
+      r.leastHalf = std::max(r.leastHalf, 0.5 * f.shape.minWidth);
+      r.largestHalf = std::max(r.largestHalf, 0.5 * f.shape.width);
+    }
+    const SharedFeatures& features = layer.sharedFeatures();
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (std::size_t i = 0; i < features.size(); ++i) {
+      const auto [a, b] = features.box(i, layer.kind() == LayerKind::Line);
+      if (!(a.x <= b.x && a.y <= b.y)) continue;
+      lo = glm::min(lo, a);
+      hi = glm::max(hi, b);
+    }
+    const HeightBounds h = bounds_ != nullptr ? bounds_->globalBounds() : HeightBounds{-1e4, 1e4};
+    const double grow = std::min(r.largestHalf, maxReach_);  // as the lines are binned
+    r.lo = glm::dvec3(lo - glm::dvec2(grow), h.lo);
+    r.hi = glm::dvec3(hi + glm::dvec2(grow), h.hi);
+    // About 160 bytes a source vertex (entries, leaves and grid) on the samples measured.
+    r.estimatedBytes = features.vertexCount() * 160;
+    return r;
+  }
+
   void dropAll() {
+    reach_.clear();
     layers_.clear();
     arena_ = Arena{};
     arenaSlot_.clear();
@@ -356,7 +416,9 @@ class DeferredTechnique final : public OverlayTechnique {
     std::vector<glm::vec4> colors;
     colors.reserve(layer.featureStyles().size());
     for (const FeatureStyle& s : layer.featureStyles()) colors.push_back(s.color);
-    li.index = deferred::build(referenceLayerOf(layer), colors);
+    deferred::BuildOptions options;
+    options.maxReach = maxReach_;
+    li.index = deferred::build(referenceLayerOf(layer), colors, options);
     for (const auto& box : li.index.cover) {
       HeightBounds h{-1e5, 1e5};
       if (bounds_ != nullptr) {
@@ -371,6 +433,7 @@ class DeferredTechnique final : public OverlayTechnique {
     return li;
   }
 
+  double maxReach_;
   gfx::Program single_, multi_;
   const HeightBoundsProvider* bounds_;
   gfx::VertexArrayHandle vao_;
@@ -379,24 +442,41 @@ class DeferredTechnique final : public OverlayTechnique {
   DepthSource depth_;
   std::unordered_map<const OverlayLayer*, LayerIndex> layers_;
   std::unordered_map<const OverlayLayer*, std::size_t> arenaSlot_;
+  std::unordered_map<const OverlayLayer*, LayerReach> reach_;
   Arena arena_;
   gfx::GpuTimer timer_;
   gfx::PipelineStatistics statistics_;
 };
 
-Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
-  Result<std::unique_ptr<OverlayTechnique>> result;
+Result<std::unique_ptr<DeferredTechnique>> make(const TechniqueOptions& options, double maxReach) {
+  Result<std::unique_ptr<DeferredTechnique>> result;
   Result<gfx::Program> single = gfx::Program::build({{"overlay_cover_rects.vert", {}}, {"overlay_deferred.frag", {}}});
   Result<gfx::Program> multi =
       gfx::Program::build({{"overlay_cover_rects.vert", {}}, {"overlay_deferred.frag", {"MULTISAMPLE"}}});
   result.diagnostics.append(single.diagnostics);
   result.diagnostics.append(multi.diagnostics);
   if (!single || !multi) return result;
-  result.value = std::make_unique<DeferredTechnique>(std::move(*single), std::move(*multi), options.bounds);
+  result.value = std::make_unique<DeferredTechnique>(std::move(*single), std::move(*multi), options.bounds, maxReach);
+  return result;
+}
+
+Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
+  Result<std::unique_ptr<DeferredTechnique>> made = make(options, std::numeric_limits<double>::infinity());
+  Result<std::unique_ptr<OverlayTechnique>> result;
+  result.diagnostics = std::move(made.diagnostics);
+  if (made) result.value = std::move(*made);
   return result;
 }
 
 }  // namespace
+
+Result<std::unique_ptr<DeferredLookup>> createDeferredLookup(const TechniqueOptions& options, double maxReach) {
+  Result<std::unique_ptr<DeferredTechnique>> made = make(options, maxReach);
+  Result<std::unique_ptr<DeferredLookup>> result;
+  result.diagnostics = std::move(made.diagnostics);
+  if (made) result.value = std::move(*made);
+  return result;
+}
 
 const TechniqueInfo kDeferredTechnique{
     "deferred",

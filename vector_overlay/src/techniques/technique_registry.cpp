@@ -34,7 +34,8 @@ std::span<const TechniqueInfo> techniques() {
   // Default first. A new technique: its file in techniques/, its entry declared in
   // techniques.hpp and listed here. (Built at first use, after every file's initialisation.)
   static const std::vector<TechniqueInfo> all{kTiledStencilTechnique, kStencilTechnique,    kPaperTechnique,
-                                              kDrapeTechnique,        kTiledDrapeTechnique, kDeferredTechnique};
+                                              kDrapeTechnique,        kTiledDrapeTechnique, kDeferredTechnique,
+                                              kAutoTechnique};
   return all;
 }
 
