@@ -56,6 +56,7 @@ struct Method {
   std::size_t triangles = 0;   ///< of the built polyhedra
   double buildSeconds = 0.0;   ///< polyhedra or drape build; for tiles, all tiles of the path
   std::size_t tilesBuilt = 0;  ///< DrapeTiles: tiles rasterised over the path
+  bool indexed = false;        ///< PieceConstruction::Features: the first frame (its index build) was drawn
   double editMs = 0.0;         ///< a one-feature edit: pieces rebuilt, and the drape (tiles) again
 };
 

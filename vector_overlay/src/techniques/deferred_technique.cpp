@@ -187,6 +187,7 @@ class DeferredTechnique final : public DeferredLookup {
 
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     stats.layers.assign(frame.layers.size(), LayerFrameStats{});
+    lastLayers_.assign(frame.layers.begin(), frame.layers.end());
     const OverlayView& view = frame.view;
     // Every layer drawn in one pass: one depth read and reconstruction per pixel, the layers
     // composited in order in the shader (as one blend of each over the last would give).
@@ -281,12 +282,12 @@ class DeferredTechnique final : public DeferredLookup {
     dropAll();
   }
   void featureChanged(std::size_t layer, std::size_t feature, const glm::dvec2& lo, const glm::dvec2& hi) override {
-    // Made again at the next frame, from the layer's features as they are then.
-    (void)layer;
+    // That layer's index is made again at the next frame, from its features as they are then.
     (void)feature;
-    (void)lo;
-    (void)hi;
-    dropAll();
+    if (layer >= lastLayers_.size() || lastLayers_[layer] == nullptr) return invalidate(lo, hi);
+    reach_.erase(lastLayers_[layer]);
+    layers_.erase(lastLayers_[layer]);
+    arena_.layers.clear();  // laid out again
   }
   [[nodiscard]] std::size_t gpuBytes() const override { return depth_.bytes() + arena_.bytes; }
 
@@ -349,6 +350,7 @@ class DeferredTechnique final : public DeferredLookup {
   }
 
   void dropAll() {
+    lastLayers_.clear();
     reach_.clear();
     layers_.clear();
     arena_ = Arena{};
@@ -443,6 +445,7 @@ class DeferredTechnique final : public DeferredLookup {
   std::unordered_map<const OverlayLayer*, LayerIndex> layers_;
   std::unordered_map<const OverlayLayer*, std::size_t> arenaSlot_;
   std::unordered_map<const OverlayLayer*, LayerReach> reach_;
+  std::vector<const OverlayLayer*> lastLayers_;  ///< the last frame's layers (featureChanged's indices)
   Arena arena_;
   gfx::GpuTimer timer_;
   gfx::PipelineStatistics statistics_;
