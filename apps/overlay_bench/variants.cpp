@@ -6,6 +6,7 @@
 #include "variants.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -113,9 +114,11 @@ bool buildRenderers(const scene::LoadedScene& scene, std::vector<Method>& method
 /// other methods' frames are divided by.
 struct FrameReference {
   std::vector<float> depth;
-  std::vector<std::uint32_t> expected;
-  std::vector<std::uint8_t> edges;
-  std::size_t covered = 0;
+  /// Per kind of widths (0: as ours draws them, lines at least min_width_px wide; 1: in metres, as
+  /// the techniques that build at load draw them), the expected mask, its edges and coverage.
+  std::array<std::vector<std::uint32_t>, 2> expected;
+  std::array<std::vector<std::uint8_t>, 2> edges;
+  std::array<std::size_t, 2> covered{};
   double terrainMs = 0.0;
 };
 
@@ -129,7 +132,8 @@ struct MethodFrame {
 struct VariantBench {
   const Options& o;
   std::vector<Method>& methods;
-  std::vector<overlay::ReferenceLayer> reference;  ///< of ours' layers
+  /// Of ours' layers, and of the first method's that draws widths in metres (empty if none).
+  std::array<std::vector<overlay::ReferenceLayer>, 2> reference;
   gfx::StateCache cache;
   gfx::RenderTarget target;
   std::optional<gfx::RenderTarget> sample;  ///< MSAA: sample 0 of each judged frame
@@ -153,7 +157,13 @@ VariantBench::VariantBench(const Options& options, std::vector<Method>& variants
       settings(comparisonSettings(options)),  // the same terrain for every method
       aspect(static_cast<double>(options.width) / static_cast<double>(options.height)) {
   for (const overlay::OverlayLayer& l : methods[1].shared->overlayLayers()) {
-    reference.push_back(overlay::referenceLayerOf(l));
+    reference[0].push_back(overlay::referenceLayerOf(l));
+  }
+  for (const Method& m : methods) {
+    if (!m.overlays || m.technique->construction == overlay::PieceConstruction::Tiled) continue;
+    for (const overlay::OverlayLayer& l : m.shared->overlayLayers())
+      reference[1].push_back(overlay::referenceLayerOf(l));
+    break;
   }
   if (target.multisampled()) sample.emplace(o.width, o.height, 0, true);
 }
@@ -276,24 +286,29 @@ void VariantBench::judge(const Method& m, const scene::Camera& camera, Tally& fr
   if (!m.overlays) {
     ref.depth = gfx::readDepth(readable());
     const overlay::DepthImage image{o.width, o.height, ref.depth, camera.projection(aspect) * camera.view()};
-    ref.expected = overlay::referenceMask(image, reference);
-    ref.edges = overlay::edgePixels(image, reference);
-    ref.covered = static_cast<std::size_t>(
-        std::count_if(ref.expected.begin(), ref.expected.end(), [](std::uint32_t bits) { return bits != 0; }));
+    for (std::size_t k = 0; k < 2; ++k) {
+      if (k == 1 && reference[1].empty()) continue;
+      ref.expected[k] = overlay::referenceMask(image, reference[k]);
+      ref.edges[k] = overlay::edgePixels(image, reference[k]);
+      ref.covered[k] = static_cast<std::size_t>(
+          std::count_if(ref.expected[k].begin(), ref.expected[k].end(), [](std::uint32_t bits) { return bits != 0; }));
+    }
     return;
   }
+  // Each method against the reference of the widths it draws.
+  const std::size_t k = m.technique->construction == overlay::PieceConstruction::Tiled || reference[1].empty() ? 0 : 1;
   const std::vector<std::uint32_t> mask = gfx::readMask(readable());
   for (std::size_t i = 0; i < mask.size(); ++i) {
     if (!(ref.depth[i] > 0.0F)) continue;
-    const bool bad = mask[i] != ref.expected[i];
+    const bool bad = mask[i] != ref.expected[k][i];
     ++frame.pixels;
     frame.wrong += bad ? 1u : 0u;
-    if (ref.edges[i] == 0) {
+    if (ref.edges[k][i] == 0) {
       ++frame.pixelsAway;
       frame.wrongAway += bad ? 1u : 0u;
     }
   }
-  frame.covered = ref.covered;
+  frame.covered = ref.covered[k];
 }
 
 /// A vertex of the layer's first feature moved by 10 m, and the box of that feature; nothing when

@@ -6,8 +6,9 @@
 // The rule:
 // - The candidates are k = n (every layer by the stencil polyhedra) and the smallest k such that
 //   the deferred technique can draw every visible layer from k on (DeferredLookup::canDraw: its
-//   index fits a quarter of the GPU budget, and lines in pixels keep within its reach in this
-//   view). With no such k below n, there is nothing to choose.
+//   index fits a quarter of the GPU budget, and lines in pixels keep within one of its reach
+//   classes in this view: 8 m × 2^c up to 32 km, an index per class made when a view needs it).
+//   With no such k below n, there is nothing to choose.
 // - Each candidate's cost is its GPU time (a timer query around its passes, read a few frames
 //   later without waiting; with OverlaySettings::measure, the passes' own timers), averaged per
 //   view. A view is the camera within 10 % of its height and 5° of its direction; another view
@@ -30,7 +31,7 @@ namespace gis::overlay {
 namespace {
 
 constexpr int kProbeEvery = 24;
-constexpr double kMaxReach = 32.0;  ///< metres: lines at least a pixel wide are binned this wide
+constexpr double kBaseReach = 8.0;  ///< metres: the narrowest reach class of lines in pixels
 
 class AutoTechnique final : public OverlayTechnique {
  public:
@@ -182,7 +183,7 @@ class AutoTechnique final : public OverlayTechnique {
 Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
   Result<std::unique_ptr<OverlayTechnique>> result;
   Result<std::unique_ptr<OverlayTechnique>> stencil = kTiledStencilTechnique.create(options);
-  Result<std::unique_ptr<DeferredLookup>> deferred = createDeferredLookup(options, kMaxReach);
+  Result<std::unique_ptr<DeferredLookup>> deferred = createDeferredLookup(options, kBaseReach);
   result.diagnostics = std::move(stencil.diagnostics);
   result.diagnostics.append(deferred.diagnostics);
   if (!stencil || !deferred) return result;

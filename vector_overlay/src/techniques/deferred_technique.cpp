@@ -10,7 +10,9 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <span>
 #include <unordered_map>
@@ -147,10 +149,24 @@ struct LayerHeader {
 };
 static_assert(sizeof(LayerHeader) == 64);
 
+/// A layer's index at a reach class: -1 for lines binned at their own largest width (or none in
+/// pixels), c ≥ 0 for lines in pixels binned at DeferredLookup's base reach × 2^c.
+using IndexKey = std::pair<const OverlayLayer*, int>;
+
+struct IndexKeyHash {
+  std::size_t operator()(const IndexKey& k) const {
+    return std::hash<const void*>()(k.first) ^ (std::hash<int>()(k.second) << 1U);
+  }
+};
+
+constexpr int kNaturalReach = -1;
+constexpr int kLargestReachClass = 12;  ///< base × 4096
+constexpr int kNoReach = 1000;          ///< wider than every class
+
 /// The indices of the layers drawn, one after another in shared buffers.
 struct Arena {
-  std::vector<const OverlayLayer*> layers;  ///< in the order their arrays are laid out
-  std::vector<LayerHeader> headers;         ///< their offsets (per-frame fields filled at draw)
+  std::vector<IndexKey> layers;      ///< in the order their arrays are laid out
+  std::vector<LayerHeader> headers;  ///< their offsets (per-frame fields filled at draw)
   gfx::BufferHandle nodes, groups, edges, items, features, grid;
   std::size_t bytes = 0;
 };
@@ -191,14 +207,21 @@ class DeferredTechnique final : public DeferredLookup {
     const OverlayView& view = frame.view;
     // Every layer drawn in one pass: one depth read and reconstruction per pixel, the layers
     // composited in order in the shader (as one blend of each over the last would give).
-    ensureArena(frame.layers);
+    std::vector<IndexKey> keys(frame.layers.size(), IndexKey{nullptr, kNaturalReach});
+    for (std::size_t i = 0; i < frame.layers.size(); ++i) {
+      if (frame.layers[i] == nullptr) continue;
+      // A view wider than every class (auto would not have chosen it) draws with the widest.
+      keys[i] = {frame.layers[i],
+                 std::min(reachClass(*frame.layers[i], view, frame.target.height), kLargestReachClass)};
+    }
+    ensureArena(keys);
     ScreenTiles tiles(kScreenTiles);
     std::vector<LayerHeader> headers;
     std::optional<std::size_t> first;
     for (std::size_t i = 0; i < frame.layers.size(); ++i) {
       const OverlayLayer* layer = frame.layers[i];
       if (layer == nullptr) continue;
-      const LayerIndex& li = layers_.at(layer);
+      const LayerIndex& li = layers_.at(keys[i]);
       if (li.index.empty()) continue;
       bool onScreen = false;
       for (const auto& box : li.cover) {
@@ -207,7 +230,7 @@ class DeferredTechnique final : public DeferredLookup {
         tiles.add(r);
       }
       if (!onScreen) continue;
-      LayerHeader h = arena_.headers[arenaSlot_.at(layer)];
+      LayerHeader h = arena_.headers[arenaSlot_.at(keys[i])];
       const deferred::EyeCells eye = deferred::eyeCells(li.index, view.eye);
       h.eyeCellX = eye.cell.x;
       h.eyeCellY = eye.cell.y;
@@ -285,20 +308,20 @@ class DeferredTechnique final : public DeferredLookup {
     // That layer's index is made again at the next frame, from its features as they are then.
     (void)feature;
     if (layer >= lastLayers_.size() || lastLayers_[layer] == nullptr) return invalidate(lo, hi);
-    reach_.erase(lastLayers_[layer]);
-    layers_.erase(lastLayers_[layer]);
+    const OverlayLayer* changed = lastLayers_[layer];
+    reach_.erase(changed);
+    std::erase_if(layers_, [changed](const auto& entry) { return entry.first.first == changed; });
     arena_.layers.clear();  // laid out again
   }
   [[nodiscard]] std::size_t gpuBytes() const override { return depth_.bytes() + arena_.bytes; }
 
   [[nodiscard]] bool canDraw(const OverlayLayer& layer, const OverlayView& view, int height,
                              std::size_t maxIndexBytes) override {
-    auto found = reach_.find(&layer);
-    if (found == reach_.end()) found = reach_.emplace(&layer, reachOf(layer)).first;
-    const LayerReach& r = found->second;
-    if (layers_.contains(&layer)) return !r.pixels || r.boundedBy(view, height, maxReach_);
-    if (r.estimatedBytes > maxIndexBytes) return false;
-    return !r.pixels || r.boundedBy(view, height, maxReach_);
+    const int c = reachClass(layer, view, height);
+    if (c == kNoReach) return false;
+    const auto built = layers_.find({&layer, c});
+    if (built != layers_.end()) return built->second.index.bytes() <= maxIndexBytes;
+    return reachInfo(layer).estimatedBytes <= maxIndexBytes;
   }
 
  private:
@@ -309,17 +332,16 @@ class DeferredTechnique final : public DeferredLookup {
     glm::dvec3 lo{0.0}, hi{0.0};  ///< the layer's extent, with the terrain's heights
     std::size_t estimatedBytes = 0;
 
-    /// Whether every width the layer can take in this view is within `maxReach` (or its own
-    /// largest width): the farthest corner of its extent bounds the distance of every vertex.
-    [[nodiscard]] bool boundedBy(const OverlayView& view, int height, double maxReach) const {
-      if (largestHalf <= maxReach) return true;
+    /// The widest half width the layer's lines can take in this view: the farthest corner of its
+    /// extent bounds the distance of every vertex.
+    [[nodiscard]] double widestHalf(const OverlayView& view, int height) const {
       double far = 0.0;
       for (int k = 0; k < 8; ++k) {
         const glm::dvec3 c((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z);
         far = std::max(far, glm::length(c - view.eye));
       }
-      const double widest = std::max(leastHalf, pixelsHalf * pixelScaleOf(view.viewProj, height).metresPerPixel * far);
-      return widest <= maxReach;
+      return std::min(largestHalf,
+                      std::max(leastHalf, pixelsHalf * pixelScaleOf(view.viewProj, height).metresPerPixel * far));
     }
   };
 
@@ -341,12 +363,37 @@ class DeferredTechnique final : public DeferredLookup {
       hi = glm::max(hi, b);
     }
     const HeightBounds h = bounds_ != nullptr ? bounds_->globalBounds() : HeightBounds{-1e4, 1e4};
-    const double grow = std::min(r.largestHalf, maxReach_);  // as the lines are binned
+    const double grow = std::min(r.largestHalf, reachOfClass(kLargestReachClass));  // as the lines are binned
     r.lo = glm::dvec3(lo - glm::dvec2(grow), h.lo);
     r.hi = glm::dvec3(hi + glm::dvec2(grow), h.hi);
     // About 160 bytes a source vertex (entries, leaves and grid) on the samples measured.
     r.estimatedBytes = features.vertexCount() * 160;
     return r;
+  }
+
+  const LayerReach& reachInfo(const OverlayLayer& layer) {
+    auto found = reach_.find(&layer);
+    if (found == reach_.end()) found = reach_.emplace(&layer, reachOf(layer)).first;
+    return found->second;
+  }
+
+  /// The reach a class bins lines in pixels at.
+  [[nodiscard]] double reachOfClass(int c) const {
+    if (c == kNaturalReach || !std::isfinite(maxReach_)) return maxReach_;
+    return std::ldexp(maxReach_, c);
+  }
+
+  /// The class whose index draws the layer exactly in this view: kNaturalReach when its lines
+  /// keep within the base reach (or it has no lines in pixels, or there is no base reach), the
+  /// smallest class holding the widest half width in view, or kNoReach beyond every class.
+  int reachClass(const OverlayLayer& layer, const OverlayView& view, int height) {
+    if (!std::isfinite(maxReach_)) return kNaturalReach;
+    const LayerReach& r = reachInfo(layer);
+    if (!r.pixels || r.largestHalf <= maxReach_) return kNaturalReach;
+    const double widest = r.widestHalf(view, height);
+    for (int c = 0; c <= kLargestReachClass; ++c)
+      if (widest <= reachOfClass(c)) return c;
+    return kNoReach;
   }
 
   void dropAll() {
@@ -366,20 +413,20 @@ class DeferredTechnique final : public DeferredLookup {
     glNamedBufferSubData(buffer.id(), 0, static_cast<GLsizeiptr>(bytes), data);
   }
 
-  /// Builds the indices of layers not indexed yet and lays out the arena for these layers.
-  void ensureArena(std::span<const OverlayLayer* const> frameLayers) {
-    std::vector<const OverlayLayer*> wanted;
-    for (const OverlayLayer* layer : frameLayers) {
-      if (layer == nullptr) continue;
-      if (!layers_.contains(layer)) layers_.emplace(layer, indexOf(*layer));
-      wanted.push_back(layer);
+  /// Builds the indices not made yet and lays out the arena for these layers (null keys skipped).
+  void ensureArena(const std::vector<IndexKey>& keys) {
+    std::vector<IndexKey> wanted;
+    for (const IndexKey& key : keys) {
+      if (key.first == nullptr) continue;
+      if (!layers_.contains(key)) layers_.emplace(key, indexOf(*key.first, reachOfClass(key.second)));
+      wanted.push_back(key);
     }
     if (wanted == arena_.layers) return;
     arena_ = Arena{};
     arenaSlot_.clear();
     std::vector<std::uint8_t> nodes, groups, edges, items, features, grid;
-    for (const OverlayLayer* layer : wanted) {
-      const deferred::Index& index = layers_.at(layer).index;
+    for (const IndexKey& key : wanted) {
+      const deferred::Index& index = layers_.at(key).index;
       LayerHeader h;
       h.nodeBase = static_cast<std::uint32_t>(nodes.size() / sizeof(deferred::Node));
       h.entryBase =
@@ -399,7 +446,7 @@ class DeferredTechnique final : public DeferredLookup {
       append(edges, index.edges);
       append(items, index.items);
       append(features, index.features);
-      arenaSlot_[layer] = arena_.headers.size();
+      arenaSlot_[key] = arena_.headers.size();
       arena_.headers.push_back(h);
     }
     arena_.bytes = nodes.size() + groups.size() + edges.size() + items.size() + features.size() + grid.size();
@@ -412,14 +459,14 @@ class DeferredTechnique final : public DeferredLookup {
     arena_.layers = std::move(wanted);
   }
 
-  [[nodiscard]] LayerIndex indexOf(const OverlayLayer& layer) const {
+  [[nodiscard]] LayerIndex indexOf(const OverlayLayer& layer, double maxReach) const {
     const auto start = std::chrono::steady_clock::now();
     LayerIndex li;
     std::vector<glm::vec4> colors;
     colors.reserve(layer.featureStyles().size());
     for (const FeatureStyle& s : layer.featureStyles()) colors.push_back(s.color);
     deferred::BuildOptions options;
-    options.maxReach = maxReach_;
+    options.maxReach = maxReach;
     li.index = deferred::build(referenceLayerOf(layer), colors, options);
     for (const auto& box : li.index.cover) {
       HeightBounds h{-1e5, 1e5};
@@ -442,8 +489,8 @@ class DeferredTechnique final : public DeferredLookup {
   gfx::BufferHandle rects_, headers_;
   std::size_t rectsCapacity_ = 0, headersCapacity_ = 0;
   DepthSource depth_;
-  std::unordered_map<const OverlayLayer*, LayerIndex> layers_;
-  std::unordered_map<const OverlayLayer*, std::size_t> arenaSlot_;
+  std::unordered_map<IndexKey, LayerIndex, IndexKeyHash> layers_;
+  std::unordered_map<IndexKey, std::size_t, IndexKeyHash> arenaSlot_;
   std::unordered_map<const OverlayLayer*, LayerReach> reach_;
   std::vector<const OverlayLayer*> lastLayers_;  ///< the last frame's layers (featureChanged's indices)
   Arena arena_;

@@ -17,15 +17,15 @@ class DeferredLookup : public OverlayTechnique {
  public:
   /// Whether it draws the layer exactly in this view (target `height` pixels high) within
   /// `maxIndexBytes`: polygons and lines in metres always, if their index fits; lines in pixels
-  /// while their widths anywhere in the layer stay within the index's reach (the largest half
-  /// width it bins: DeferredOptions::maxReach).
+  /// while their widths anywhere in the layer stay within a reach class (its lines binned at
+  /// maxReach × 2^c, c ≤ 12; an index per class, made when a view needs it).
   [[nodiscard]] virtual bool canDraw(const OverlayLayer& layer, const OverlayView& view, int height,
                                      std::size_t maxIndexBytes) = 0;
 };
 
-/// The deferred technique with lines in pixels binned at most `maxReach` metres wide (for layers
-/// whose widths in pixels have no useful largest width in metres, as LayerStyle::minWidthPixels
-/// gives them).
+/// The deferred technique with lines in pixels binned at most `maxReach` × 2^c metres wide,
+/// the class c chosen per view (for layers whose widths in pixels have no useful largest width in
+/// metres, as LayerStyle::minWidthPixels gives them).
 Result<std::unique_ptr<DeferredLookup>> createDeferredLookup(const TechniqueOptions& options, double maxReach);
 
 }  // namespace gis::overlay
