@@ -10,12 +10,12 @@
 //   classes in this view: 8 m × 2^c up to 32 km, an index per class made when a view needs it).
 //   With no such k below n, there is nothing to choose.
 // - Each candidate's cost is its GPU time (a timer query around its passes, read a few frames
-//   later without waiting; with OverlaySettings::measure, the passes' own timers), averaged per
-//   view. A view is the camera within 10 % of its height and 5° of its direction; another view
-//   starts the averages again.
-// - Until both have a measurement in this view, the stencil polyhedra draw (and, one frame in
-//   kProbeEvery, the other candidate, to measure it); then the cheaper one draws, the other being
-//   measured again one frame in kProbeEvery.
+//   later without waiting; with OverlaySettings::measure, the passes' own timers), averaged over
+//   its last measurements (each new one weighs half).
+// - The stencil polyhedra draw first; the deferred candidate draws the next frame to be measured;
+//   then the cheaper one draws and the other is measured again after kProbeEvery frames, or after
+//   kProbeAfterMove frames when the view has changed since (the camera moved by more than 10 % of
+//   its height or turned by more than 5°).
 #include <array>
 #include <cmath>
 #include <deque>
@@ -31,6 +31,7 @@ namespace gis::overlay {
 namespace {
 
 constexpr int kProbeEvery = 24;
+constexpr int kProbeAfterMove = 6;
 constexpr double kBaseReach = 8.0;  ///< metres: the narrowest reach class of lines in pixels
 
 class AutoTechnique final : public OverlayTechnique {
@@ -61,16 +62,22 @@ class AutoTechnique final : public OverlayTechnique {
                                          [](const OverlayLayer* l) { return l != nullptr; });
     if (!anyDeferred) split = n;
     newView(frame.view);
+    ++frameNumber_;
     // 0: all stencil; 1: deferred from `split` on.
     int plan = 0;
     if (split < n) {
-      const bool probe = ++framesInView_ % kProbeEvery == 0;
       if (!cost_[0] || !cost_[1]) {
-        plan = cost_[0] && probe ? 1 : 0;
+        plan = cost_[0] && !probedAt_[1] ? 1 : 0;
       } else {
         const int cheaper = *cost_[1] < *cost_[0] ? 1 : 0;
-        plan = probe ? 1 - cheaper : cheaper;
+        const int other = 1 - cheaper;
+        const std::uint64_t last = probedAt_[static_cast<std::size_t>(other)].value_or(0);
+        const bool moved = viewAt_[static_cast<std::size_t>(other)] != view_;
+        plan =
+            frameNumber_ - last >= static_cast<std::uint64_t>(moved ? kProbeAfterMove : kProbeEvery) ? other : cheaper;
       }
+      probedAt_[static_cast<std::size_t>(plan)] = frameNumber_;
+      viewAt_[static_cast<std::size_t>(plan)] = view_;
     }
     lastSplit_ = plan == 1 ? split : n;
 
@@ -147,12 +154,12 @@ class AutoTechnique final : public OverlayTechnique {
   }
 
   void record(int plan, std::uint64_t view, double ms) {
-    if (view != view_) return;
+    (void)view;
     std::optional<double>& c = cost_[static_cast<std::size_t>(plan)];
-    c = c ? 0.7 * *c + 0.3 * ms : ms;
+    c = c ? 0.5 * *c + 0.5 * ms : ms;
   }
 
-  /// Starts the averages again when the camera has moved to another view.
+  /// Counts a new view when the camera has moved or turned.
   void newView(const OverlayView& view) {
     const glm::dvec3 direction = glm::normalize(glm::dvec3(glm::transpose(view.viewProj)[3]));
     if (viewCount_ > 0) {
@@ -165,8 +172,6 @@ class AutoTechnique final : public OverlayTechnique {
     view_ = viewCount_;
     eye_ = view.eye;
     direction_ = direction;
-    cost_ = {};
-    framesInView_ = 0;
   }
 
   std::unique_ptr<OverlayTechnique> stencil_;
@@ -176,7 +181,9 @@ class AutoTechnique final : public OverlayTechnique {
   std::array<std::optional<double>, 2> cost_;
   std::uint64_t viewCount_ = 0, view_ = 0;
   glm::dvec3 eye_{0.0}, direction_{0.0};
-  int framesInView_ = 0;
+  std::uint64_t frameNumber_ = 0;
+  std::array<std::optional<std::uint64_t>, 2> probedAt_;  ///< the last frame each candidate drew
+  std::array<std::uint64_t, 2> viewAt_{};                 ///< the view it drew it in
   std::size_t lastSplit_ = 0;
 };
 
