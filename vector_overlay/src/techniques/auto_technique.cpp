@@ -13,16 +13,13 @@
 //   later without waiting; with OverlaySettings::measure, the passes' own timers), averaged over
 //   its last measurements (each new one weighs half).
 // - The stencil polyhedra draw first; the deferred candidate draws the next frame to be measured;
-//   then the cheaper one draws and the other is measured again after kProbeEvery frames, or after
-//   kProbeAfterMove frames when the view has changed since (the camera moved by more than 10 % of
-//   its height or turned by more than 5°).
+//   then the cheaper one draws and the other is measured again every kProbeEvery frames. (Probing
+//   sooner after the camera moves, every 6 frames, made the flights on Olinda 1.2× slower on
+//   llvmpipe: each probe of the dearer candidate costs a whole frame.)
+#include <algorithm>
 #include <array>
-#include <cmath>
 #include <deque>
 #include <optional>
-
-#include <glm/geometric.hpp>
-#include <glm/trigonometric.hpp>
 
 #include "gfx/queries.hpp"
 #include "techniques/techniques.hpp"
@@ -31,7 +28,6 @@ namespace gis::overlay {
 namespace {
 
 constexpr int kProbeEvery = 24;
-constexpr int kProbeAfterMove = 6;
 constexpr double kBaseReach = 8.0;  ///< metres: the narrowest reach class of lines in pixels
 
 class AutoTechnique final : public OverlayTechnique {
@@ -61,7 +57,6 @@ class AutoTechnique final : public OverlayTechnique {
     const bool anyDeferred = std::any_of(frame.layers.begin() + static_cast<std::ptrdiff_t>(split), frame.layers.end(),
                                          [](const OverlayLayer* l) { return l != nullptr; });
     if (!anyDeferred) split = n;
-    newView(frame.view);
     ++frameNumber_;
     // 0: all stencil; 1: deferred from `split` on.
     int plan = 0;
@@ -72,12 +67,9 @@ class AutoTechnique final : public OverlayTechnique {
         const int cheaper = *cost_[1] < *cost_[0] ? 1 : 0;
         const int other = 1 - cheaper;
         const std::uint64_t last = probedAt_[static_cast<std::size_t>(other)].value_or(0);
-        const bool moved = viewAt_[static_cast<std::size_t>(other)] != view_;
-        plan =
-            frameNumber_ - last >= static_cast<std::uint64_t>(moved ? kProbeAfterMove : kProbeEvery) ? other : cheaper;
+        plan = frameNumber_ - last >= static_cast<std::uint64_t>(kProbeEvery) ? other : cheaper;
       }
       probedAt_[static_cast<std::size_t>(plan)] = frameNumber_;
-      viewAt_[static_cast<std::size_t>(plan)] = view_;
     }
     lastSplit_ = plan == 1 ? split : n;
 
@@ -89,7 +81,6 @@ class AutoTechnique final : public OverlayTechnique {
     const bool ownTimer = !frame.settings.measure;
     Timing timing;
     timing.plan = plan;
-    timing.view = view_;
     if (ownTimer) timing.timer.begin();
     part.layers = first;
     stencil_->draw(cache, part, stats);
@@ -109,7 +100,7 @@ class AutoTechnique final : public OverlayTechnique {
     } else {
       double ms = 0.0;
       for (const LayerFrameStats& s : stats.layers) ms += s.gpuMilliseconds;
-      record(plan, view_, ms);
+      record(plan, ms);
     }
   }
 
@@ -139,39 +130,22 @@ class AutoTechnique final : public OverlayTechnique {
   struct Timing {
     gfx::GpuTimer timer;
     int plan = 0;
-    std::uint64_t view = 0;
   };
 
-  /// Averages the measurements that have arrived (of the current view only).
+  /// Averages the measurements that have arrived.
   void harvest() {
     while (!timings_.empty()) {
       const std::optional<std::uint64_t> ns = timings_.front().timer.nanoseconds(false);
       if (!ns && timings_.size() < 8) break;
       const std::uint64_t value = ns ? *ns : timings_.front().timer.nanoseconds(true).value_or(0);
-      record(timings_.front().plan, timings_.front().view, static_cast<double>(value) * 1e-6);
+      record(timings_.front().plan, static_cast<double>(value) * 1e-6);
       timings_.pop_front();
     }
   }
 
-  void record(int plan, std::uint64_t view, double ms) {
-    (void)view;
+  void record(int plan, double ms) {
     std::optional<double>& c = cost_[static_cast<std::size_t>(plan)];
     c = c ? 0.5 * *c + 0.5 * ms : ms;
-  }
-
-  /// Counts a new view when the camera has moved or turned.
-  void newView(const OverlayView& view) {
-    const glm::dvec3 direction = glm::normalize(glm::dvec3(glm::transpose(view.viewProj)[3]));
-    if (viewCount_ > 0) {
-      const double moved = glm::length(view.eye - eye_);
-      const double distance = std::max(1.0, std::abs(eye_.z) + 1.0);
-      const double turned = std::acos(std::clamp(glm::dot(direction, direction_), -1.0, 1.0));
-      if (moved <= 0.1 * distance && turned <= glm::radians(5.0)) return;
-    }
-    ++viewCount_;
-    view_ = viewCount_;
-    eye_ = view.eye;
-    direction_ = direction;
   }
 
   std::unique_ptr<OverlayTechnique> stencil_;
@@ -179,11 +153,8 @@ class AutoTechnique final : public OverlayTechnique {
   std::size_t indexBudget_;
   std::deque<Timing> timings_;
   std::array<std::optional<double>, 2> cost_;
-  std::uint64_t viewCount_ = 0, view_ = 0;
-  glm::dvec3 eye_{0.0}, direction_{0.0};
   std::uint64_t frameNumber_ = 0;
   std::array<std::optional<std::uint64_t>, 2> probedAt_;  ///< the last frame each candidate drew
-  std::array<std::uint64_t, 2> viewAt_{};                 ///< the view it drew it in
   std::size_t lastSplit_ = 0;
 };
 
