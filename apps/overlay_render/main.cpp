@@ -644,6 +644,11 @@ int run(const Options& o) {
              ": selection and analysis are drawn single-sampled only");
     return 2;
   }
+  if ((!o.overlap.empty() || o.openVolumes) && o.technique->construction == overlay::PieceConstruction::Features) {
+    logError("--overlap and --open-volumes mark the layers' stencil polyhedra, and --method " +
+             std::string(o.technique->name) + " draws none: use stencil-tiles, stencil or paper");
+    return 2;
+  }
   const std::optional<Setup> setup = load(o, all);
   if (!setup) return 1;
   std::optional<Gpu> gpu = makeGpu(o, *setup, all);

@@ -84,7 +84,9 @@ void Viewer::drawOverlaySection() {
     rebuildOverlays();
   }
   ImGui::Checkbox("debug: pieces", &debugPieces_);
-  if (debugPieces_) {
+  if (debugPieces_ && technique_->construction == overlay::PieceConstruction::Features) {
+    ImGui::TextWrapped("%s draws no pieces: nothing to show", std::string(technique_->label).c_str());
+  } else if (debugPieces_) {
     ImGui::SameLine();
     ImGui::TextColored(ImVec4(0.1F, 0.8F, 0.2F, 1.0F), "z-pass");
     ImGui::SameLine();

@@ -652,6 +652,39 @@ TEST(OverlayRenderAnalysis, OverlapMatchesTheLayerMaskAndVolumesAreClosed) {
   EXPECT_EQ(
       runOverlayRender(scene + " --overlap a,b --overlap-op nand --out " + (dir / "bad").string(), dir / "op.txt"), 2);
   EXPECT_NE(readText(dir / "op.txt").find("and, or, xor, subtract"), std::string::npos);
+  // The deferred lookup draws no polyhedra to analyse: refused, saying why, not an empty answer.
+  EXPECT_EQ(runOverlayRender(scene + " --method deferred --open-volumes --out " + (dir / "bad").string(),
+                             dir / "deferred.txt"),
+            2);
+  EXPECT_NE(readText(dir / "deferred.txt").find("draws none"), std::string::npos) << readText(dir / "deferred.txt");
+}
+
+TEST(OverlayRenderLasso, TheDeferredLookupLeavesTheSelectionAsItIs) {
+  // The lasso selects with volumes and footprints of its own: with --method deferred the
+  // selection image and the selected features are those of --method stencil (widths in metres
+  // both), and auto's are stencil-tiles' (lines at least a pixel wide both).
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("lasso_methods_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json lassos = {
+      {"lassos", json::array({{{"op", "single"}, {"points", {{40, 40}, {180, 30}, {200, 140}, {70, 150}}}}})}};
+  { std::ofstream(dir / "lasso.json") << lassos.dump(1); }
+  const std::string args = "--scene " + kSamples + "/olinda/scene.json --width " + std::to_string(kWidth) +
+                           " --height " + std::to_string(kHeight) + " --lasso " + (dir / "lasso.json").string();
+  for (const char* method : {"stencil", "deferred", "stencil-tiles", "auto"}) {
+    ASSERT_EQ(runOverlayRender(args + " --method " + method + " --out " + (dir / method).string(), dir / "log.txt"), 0)
+        << method << ": " << readText(dir / "log.txt");
+  }
+  for (const auto& [a, b] : {std::pair{"stencil", "deferred"}, std::pair{"stencil-tiles", "auto"}}) {
+    SCOPED_TRACE(std::string(a) + " against " + b);
+    const json fa = json::parse(readText(dir / a / "selected_features.json"));
+    const json fb = json::parse(readText(dir / b / "selected_features.json"));
+    EXPECT_GT(fa["features"].size(), 10u);
+    EXPECT_EQ(fa, fb);
+    const gfx::Image8 ia = *gfx::readImage8((dir / a / "selection.png").string());
+    const gfx::Image8 ib = *gfx::readImage8((dir / b / "selection.png").string());
+    EXPECT_EQ(ia.pixels, ib.pixels);
+  }
 }
 
 }  // namespace
