@@ -14,6 +14,7 @@
 #include "gfx/camera.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "olinda_scene.hpp"
 #include "overlay_compare.hpp"
 #include "random_features.hpp"
 #include "scene/scene.hpp"
@@ -48,36 +49,14 @@ void add(Comparison& total, const Comparison& c) {
 }
 
 /// Olinda drawn by the deferred technique through the scene renderer.
-struct OlindaDeferred {
-  std::optional<scene::LoadedScene> scene;
-  std::optional<scene::SceneRenderer> renderer;
-  std::vector<const overlay::OverlayLayer*> layers;
-};
-
-OlindaDeferred loadOlinda() {
-  OlindaDeferred o;
-  Result<scene::SceneDescription> description =
-      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  EXPECT_TRUE(description.ok());
-  if (!description) return o;
-  Result<scene::LoadedScene> scene = scene::loadScene(*description);
-  EXPECT_TRUE(scene.ok());
-  if (!scene) return o;
-  o.scene = std::move(*scene);
-  scene::OverlayBuildSettings settings;
-  settings.technique = overlay::findTechnique("deferred");
-  EXPECT_NE(settings.technique, nullptr);
-  settings.tileCache = false;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*o.scene, settings);
-  EXPECT_TRUE(renderer.ok());
-  if (!renderer) return o;
-  o.renderer = std::move(*renderer);
-  for (const overlay::OverlayLayer& l : o.renderer->overlayLayers()) o.layers.push_back(&l);
-  return o;
+OlindaScene loadOlindaDeferred() {
+  const overlay::TechniqueInfo* deferred = overlay::findTechnique("deferred");
+  EXPECT_NE(deferred, nullptr);
+  return loadOlinda(deferred);
 }
 
 TEST_F(DeferredGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
-  OlindaDeferred olinda = loadOlinda();
+  OlindaScene olinda = loadOlindaDeferred();
   ASSERT_TRUE(olinda.renderer);
   ASSERT_GE(olinda.layers.size(), 3u);
   glm::dvec3 lo, hi;
@@ -145,7 +124,7 @@ TEST_F(DeferredGlTest, OlindaMatchesTheCpuReferenceFromManyCameras) {
 }
 
 TEST_F(DeferredGlTest, MsaaIsExactPerSample) {
-  OlindaDeferred olinda = loadOlinda();
+  OlindaScene olinda = loadOlindaDeferred();
   ASSERT_TRUE(olinda.renderer);
   glm::dvec3 lo, hi;
   scene::terrainBox(*olinda.scene, 1.0, lo, hi);
@@ -361,19 +340,13 @@ namespace {
 TEST_F(DeferredGlTest, AutoMeasuresBothAndEveryFrameIsExact) {
   // `auto` draws with the stencil polyhedra, measures the deferred lookup now and then, and keeps
   // the cheaper: whichever draws, each frame matches the reference.
-  Result<scene::SceneDescription> description =
-      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  ASSERT_TRUE(description.ok());
-  Result<scene::LoadedScene> scene = scene::loadScene(*description);
-  ASSERT_TRUE(scene.ok());
-  scene::OverlayBuildSettings build;
-  build.technique = overlay::findTechnique("auto");
-  ASSERT_NE(build.technique, nullptr);
-  build.tileCache = false;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene, build);
-  ASSERT_TRUE(renderer.ok());
-  std::vector<const overlay::OverlayLayer*> layers;
-  for (const overlay::OverlayLayer& l : renderer->overlayLayers()) layers.push_back(&l);
+  const overlay::TechniqueInfo* autoTechnique = overlay::findTechnique("auto");
+  ASSERT_NE(autoTechnique, nullptr);
+  OlindaScene olinda = loadOlinda(autoTechnique);
+  ASSERT_TRUE(olinda.renderer);
+  auto& scene = olinda.scene;
+  auto& renderer = olinda.renderer;
+  const std::vector<const overlay::OverlayLayer*>& layers = olinda.layers;
   glm::dvec3 lo, hi;
   scene::terrainBox(*scene, 1.0, lo, hi);
   const glm::dvec3 centre = 0.5 * (lo + hi);

@@ -19,6 +19,7 @@
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
+#include "olinda_scene.hpp"
 #include "overlay_compare.hpp"
 #include "random_features.hpp"
 #include "scene/scene.hpp"
@@ -53,32 +54,6 @@ overlay::LayerBuildOptions splitAtChunks(const terrain::TerrainGrid& grid) {
   cells.columns = cells.rows = (grid.width - 1) / 16;
   options.footprints.cells = cells;
   return options;
-}
-
-/// The Olinda sample scene, loaded and uploaded (needs the GL context), with its overlay layers
-/// in draw order; empty optionals after a (reported) failure.
-struct OlindaScene {
-  std::optional<scene::LoadedScene> scene;
-  std::optional<scene::SceneRenderer> renderer;
-  std::vector<const overlay::OverlayLayer*> layers;
-};
-
-OlindaScene loadOlinda() {
-  OlindaScene o;
-  Result<scene::SceneDescription> description =
-      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
-  EXPECT_TRUE(description.ok());
-  if (!description) return o;
-  Result<scene::LoadedScene> scene = scene::loadScene(*description);
-  EXPECT_TRUE(scene.ok());
-  if (!scene) return o;
-  o.scene = std::move(*scene);
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*o.scene);
-  EXPECT_TRUE(renderer.ok());
-  if (!renderer) return o;
-  o.renderer = std::move(*renderer);
-  for (const overlay::OverlayLayer& l : o.renderer->overlayLayers()) o.layers.push_back(&l);
-  return o;
 }
 
 class OverlayGlTest : public GlTest {};

@@ -172,8 +172,14 @@ class OverlayTechnique {
   // What each technique implements; prepare() and draw() bind the target before them. A technique
   // that draws into a framebuffer of its own (a drape) does so in a gfx::RenderPass, which binds
   // the frame's target again as it ends: none can leave another framebuffer bound.
+  /// Techniques that do not drape have nothing to prepare: the default returns no drape.
   virtual std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
-                                                   TechniqueFrameStats& stats) = 0;
+                                                   TechniqueFrameStats& stats) {
+    (void)cache;
+    (void)frame;
+    (void)stats;
+    return std::nullopt;
+  }
   virtual void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) = 0;
 };
 

@@ -36,14 +36,6 @@ class AutoTechnique final : public OverlayTechnique {
                 std::size_t gpuBudget)
       : stencil_(std::move(stencil)), deferred_(std::move(deferred)), indexBudget_(gpuBudget / 4) {}
 
-  std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
-                                           TechniqueFrameStats& stats) override {
-    (void)cache;
-    (void)frame;
-    (void)stats;
-    return std::nullopt;
-  }
-
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     harvest();
     const std::size_t n = frame.layers.size();

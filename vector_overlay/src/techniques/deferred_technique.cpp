@@ -193,14 +193,6 @@ class DeferredTechnique final : public DeferredLookup {
         rects_(gfx::createBuffer()),
         headers_(gfx::createBuffer()) {}
 
-  std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
-                                           TechniqueFrameStats& stats) override {
-    (void)cache;
-    (void)frame;
-    (void)stats;
-    return std::nullopt;
-  }
-
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     stats.layers.assign(frame.layers.size(), LayerFrameStats{});
     lastLayers_.assign(frame.layers.begin(), frame.layers.end());

@@ -13,14 +13,6 @@ class StencilVolumes final : public OverlayTechnique {
  public:
   explicit StencilVolumes(OverlayRenderer renderer) : renderer_(std::move(renderer)) {}
 
-  std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
-                                           TechniqueFrameStats& stats) override {
-    (void)cache;
-    (void)frame;
-    (void)stats;
-    return std::nullopt;
-  }
-
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     stats.layers = renderer_.draw(cache, frame.view, frame.layers, frame.settings);
   }

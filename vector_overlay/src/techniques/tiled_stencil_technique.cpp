@@ -184,14 +184,6 @@ class TiledStencil final : public OverlayTechnique {
             options.tiling.hostBytesInFlight) {}
   ~TiledStencil() override { workers_.cancel(); }
 
-  std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
-                                           TechniqueFrameStats& stats) override {
-    (void)cache;
-    (void)frame;
-    (void)stats;
-    return std::nullopt;
-  }
-
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     ++frameNumber_;
     if (layers_.size() != frame.layers.size()) layers_.resize(frame.layers.size());
