@@ -9,7 +9,6 @@
 // framebuffer, the default one included, can be drawn into.
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -135,7 +134,6 @@ class DepthSource {
 struct LayerIndex {
   deferred::Index index;
   std::vector<std::array<glm::dvec3, 2>> cover;
-  double buildSeconds = 0.0;
 };
 
 /// Per drawn layer, what the shader reads of it (std430, overlay_deferred.frag's Layer).
@@ -452,7 +450,6 @@ class DeferredTechnique final : public DeferredLookup {
   }
 
   [[nodiscard]] LayerIndex indexOf(const OverlayLayer& layer, double maxReach) const {
-    const auto start = std::chrono::steady_clock::now();
     LayerIndex li;
     std::vector<glm::vec4> colors;
     colors.reserve(layer.featureStyles().size());
@@ -470,7 +467,6 @@ class DeferredTechnique final : public DeferredLookup {
       }
       li.cover.push_back({glm::dvec3(box[0], h.lo), glm::dvec3(box[1], h.hi)});
     }
-    li.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return li;
   }
 
