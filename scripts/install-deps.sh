@@ -13,6 +13,8 @@ packages=(
   libepoxy-dev libegl-dev libegl-mesa0 libgl1 libglx-mesa0 libgl1-mesa-dri
   # windowing and UI
   libglfw3-dev libimgui-dev libstb-dev libfreetype-dev xvfb xauth
+  # the panel's font (DejaVu Sans: arrows, ×, ², … beyond ImGui's ASCII font)
+  fonts-dejavu-core
   # the viewer's tests: real mouse and keys under Xvfb
   xdotool
   # maths, geodesy, geometry, geodata, images, json

@@ -36,6 +36,24 @@ bool isRasterFile(const std::string& path) {
          ext == ".dem" || ext == ".bil";
 }
 
+/// The panel's font: DejaVu Sans (Debian's fonts-dejavu-core) at 15 px, with what the panel
+/// writes beyond ASCII: Latin-1 and Latin Extended, punctuation (…, –), super- and subscripts
+/// (²), arrows (→), mathematical operators (×, ≤) and geometric shapes (▲ of the compass).
+/// ImGui's built-in font (13 px, ASCII only) is the fallback, said once.
+void loadFont(float scale) {
+  static const ImWchar kRanges[] = {0x0020, 0x024F, 0x2000, 0x206F, 0x2070, 0x209F, 0x2190,
+                                    0x21FF, 0x2200, 0x22FF, 0x25A0, 0x25FF, 0};
+  ImGuiIO& io = ImGui::GetIO();
+  for (const char* path : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"}) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) continue;
+    if (io.Fonts->AddFontFromFileTTF(path, 15.0F * scale, nullptr, kRanges) != nullptr) return;
+  }
+  logWarning("terrain_viewer: DejaVu Sans not found (Debian: fonts-dejavu-core); the panel uses ImGui's small font");
+  io.Fonts->AddFontDefault();
+  io.FontGlobalScale = scale;
+}
+
 bool isVectorFile(const std::string& path) {
   const std::string ext = lower(std::filesystem::path(path).extension().string());
   return ext == ".geojson" || ext == ".shp" || ext == ".gpkg" || ext == ".kml" || ext == ".gml" || ext == ".csv" ||
@@ -63,10 +81,18 @@ int Viewer::run(const ViewerOptions& options) {
   GLFWwindow* window = v.context_->window();
   double last = glfwGetTime();
   while (!glfwWindowShouldClose(window) && !v.quit_) {
-    glfwPollEvents();
+    // Draw on change; otherwise sleep until an event (input, a drop, an expose, a resize).
+    const bool waited = !v.needsFrame();
+    if (waited) {
+      glfwWaitEvents();
+    } else {
+      glfwPollEvents();
+    }
     const double now = glfwGetTime();
-    const double seconds = v.script_ ? kScriptFrameSeconds : std::clamp(now - last, 0.0, 0.25);
-    v.frameMs_ = 0.9 * v.frameMs_ + 0.1 * (now - last) * 1000.0;
+    // After a sleep the time since the last frame is no frame time, and no step for motion.
+    const double elapsed = waited ? std::min(now - last, 1.0 / 60.0) : now - last;
+    const double seconds = v.script_ ? kScriptFrameSeconds : std::clamp(elapsed, 0.0, 0.25);
+    if (!waited) v.frameMs_ = 0.9 * v.frameMs_ + 0.1 * elapsed * 1000.0;
     last = now;
     v.frame(seconds);
   }
@@ -119,14 +145,13 @@ bool Viewer::open(const ViewerOptions& options) {
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // our settings file keeps what matters
-  // High-DPI: scale the panel with the monitor's content scale.
+  // High-DPI: scale the panel with the monitor's content scale; the font is rasterised at it.
   float scaleX = 1.0F, scaleY = 1.0F;
   glfwGetWindowContentScale(window, &scaleX, &scaleY);
-  if (scaleX > 1.0F) {
-    ImGui::GetStyle().ScaleAllSizes(scaleX);
-    ImGui::GetIO().FontGlobalScale = scaleX;
-  }
-  ImGui_ImplGlfw_InitForOpenGL(window, true);  // chains to our callbacks
+  const float scale = std::max(scaleX, 1.0F);
+  if (scale > 1.0F) ImGui::GetStyle().ScaleAllSizes(scale);
+  loadFont(scale);
+  ImGui_ImplGlfw_InitForOpenGL(window, false);  // our queue passes it the events (takeInput)
   ImGui_ImplOpenGL3_Init("#version 450 core");
   imgui_ = true;
 
@@ -136,6 +161,7 @@ bool Viewer::open(const ViewerOptions& options) {
   selectionRenderer_ = std::move(*selection);
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
   render_.waitForTiles = script_.has_value();  // scripted screenshots show the finished view
+  render_.sky = true;
   // A scene that does not load leaves the window open with the messages, ready for another.
   if (!loadPath(options.scene)) {
     logInfo("terrain_viewer: nothing to show; the window waits for a scene, a DEM or a vector file dropped on it");
@@ -190,13 +216,7 @@ bool Viewer::useScene(scene::SceneDescription description) {
   renderer_ = std::move(*renderer);
   description_ = std::move(description);
   scene_->bounds->setExaggeration(description_->verticalExaggeration);
-  glm::dvec3 lo, hi;
-  scene::terrainBox(*scene_, description_->verticalExaggeration, lo, hi);
-  scene::Camera home = scene::overviewCamera(lo, hi, settings_.fovYDeg);
-  if (description_->camera) {
-    Result<scene::Camera> placed = scene::placeCamera(*description_->camera, scene_->frame, description_->path);
-    if (placed) home = *placed;
-  }
+  const scene::Camera home = homeCamera();
   if (controller_) {
     controller_->setHome(home);
     controller_->jumpTo(home);
@@ -209,6 +229,42 @@ bool Viewer::useScene(scene::SceneDescription description) {
       context_->window(),
       ("terrain_viewer — " + (description_->name.empty() ? description_->path : description_->name)).c_str());
   return true;
+}
+
+glm::dvec4 Viewer::freeRegion() const {
+  const glm::ivec2 fb = framebufferSize();
+  const ImGuiIO& io = ImGui::GetIO();
+  const glm::dvec2 scale(io.DisplayFramebufferScale.x > 0.0F ? io.DisplayFramebufferScale.x : 1.0F,
+                         io.DisplayFramebufferScale.y > 0.0F ? io.DisplayFramebufferScale.y : 1.0F);
+  double left = 0.0;
+  if (settings_.showPanel) {
+    // The panel as last drawn, or as it will first be drawn (drawPanel).
+    const double font = panelFont_ > 0.0F ? panelFont_ : 15.0;
+    const double windowWidth = fb.x / scale.x;
+    const double right = panelRight_ > 0.0F ? panelRight_ : 10.0 + std::min(26.0 * font, 0.6 * windowWidth);
+    left = std::min(right * scale.x, 0.7 * fb.x);
+  }
+  // The status bar's line at the bottom.
+  const double bottom = fb.y - 1.6 * (panelFont_ > 0.0F ? panelFont_ : 15.0) * scale.y;
+  return {left, 0.0, fb.x, std::max(bottom, 0.5 * fb.y)};
+}
+
+scene::Camera Viewer::homeCamera() const {
+  // The scene's own camera as its author placed it; otherwise the terrain framed in the part of
+  // the window the panel leaves free.
+  if (description_->camera) {
+    Result<scene::Camera> placed = scene::placeCamera(*description_->camera, scene_->frame, description_->path);
+    if (placed) return *placed;
+  }
+  glm::dvec3 lo, hi;
+  scene::terrainBox(*scene_, scene_->bounds->exaggeration(), lo, hi);
+  const scene::Camera overview = scene::overviewCamera(lo, hi, settings_.fovYDeg);
+  return scene::frameBoxInRegion(overview, lo, hi, framebufferSize(), freeRegion());
+}
+
+void Viewer::goHome() {
+  controller_->setHome(homeCamera());
+  controller_->goHome();
 }
 
 void Viewer::message(const std::string& text, bool error) {
@@ -245,19 +301,24 @@ void Viewer::frame(double seconds) {
   for (const std::string& path : std::exchange(dropped_, {})) loadPath(path);
   pollSelection(false);
 
+  redrawFrames_ = std::max(redrawFrames_ - 1, 0);
+  const InputFrame in = takeInput();  // always: the panel takes its part of the events
   if (script_ && !quit_) {
-    advanceScript(seconds);
+    advanceScript(seconds, in);
   } else if (scene_) {
-    handleInput(seconds, readInput());
-  } else {
-    static_cast<void>(readInput());  // nothing to steer yet
+    handleInput(seconds, in);
   }
   if (scene_) {
-    const bool moving =
+    moving_ =
         controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
-    if (animating_ && !moving) animating_ = false;
+    if (animating_ && !moving_) animating_ = false;
     drawScene();
+    // The coordinates under the cursor, unless the panel has it.
+    cursorGround_.reset();
+    if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) cursorGround_ = groundAt(lastPixel_);
   } else {
+    moving_ = false;
+    busy_ = false;
     animating_ = false;
     const glm::ivec2 fb = framebufferSize();
     gfx::beginRenderPass(cache_, 0, fb.x, fb.y, {glm::vec4(0.11F, 0.12F, 0.14F, 1.0F), std::nullopt, std::nullopt});
@@ -265,10 +326,14 @@ void Viewer::frame(double seconds) {
 
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
+  feedImGuiMouse();
   ImGui::NewFrame();
   if (!scene_) {
     drawNoScene();
   } else {
+    drawScaleBar();
+    drawCompass();
+    drawStatusBar();
     if (settings_.showPanel) drawPanel();
     if (settings_.showHud) drawHud();
     if (showHelp_) drawHelp();
@@ -299,6 +364,8 @@ void Viewer::drawScene() {
   render_.imagery = settings_.imagery;
   const scene::Camera c = camera();
   const scene::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
+  // Work arriving: draw again until it has (tiles built or paged in, a selection found).
+  busy_ = s.tilesMissing > 0 || s.pager.pending > 0 || s.overlayTiles.tilesMissing > 0 || selectionJob_.valid();
   if (render_.measure) {
     stats_ = s;
   } else {

@@ -5,6 +5,8 @@
 // under Xvfb. The scene is drawn into an offscreen target (float depth with stencil: reversed-Z
 // needs it, and identify and screenshots read it back), then copied to the window; the panel is
 // drawn over the copy.
+#include <array>
+#include <cstdint>
 #include <deque>
 #include <filesystem>
 #include <future>
@@ -35,11 +37,18 @@ struct ViewerOptions {
   std::optional<std::string> script;  ///< scripted run: settings neither read nor written
 };
 
+/// A point drawn at a pixel, in the coordinates a person reads: heights are true (above the DEM's
+/// datum), never exaggerated.
+struct GroundPoint {
+  glm::dvec3 drawn{0.0};              ///< frame coordinates as drawn (z exaggerated)
+  glm::dvec3 projected{0.0};          ///< the DEM's (scene's) CRS: easting, northing, height
+  std::optional<glm::dvec3> lonLatH;  ///< degrees on the CRS's datum, and the height
+};
+
 /// What is under a pixel: the terrain point and every feature that covers it.
 struct Identified {
-  glm::dvec3 frame{0.0};
-  std::optional<glm::dvec3> lonLatH;
-  double terrainHeight = 0.0;
+  GroundPoint point;
+  double terrainHeight = 0.0;  ///< the DEM's height there (full resolution), true
   struct Hit {
     std::string layer;
     std::size_t feature = 0;
@@ -50,7 +59,20 @@ struct Identified {
   [[nodiscard]] nlohmann::json toJson() const;
 };
 
-/// One frame's mouse and keyboard: read from GLFW, or played from a script (the same handling).
+/// A window event as GLFW reported it. Events are queued in order by GLFW's callbacks and taken
+/// a frame at a time (Viewer::takeInput), so none is lost at any frame rate.
+struct InputEvent {
+  enum class Kind : std::uint8_t { Cursor, Button, Key, Char, Scroll };
+  Kind kind = Kind::Cursor;
+  glm::dvec2 value{0.0};  ///< Cursor: window coordinates; Scroll: offsets
+  int code = 0;           ///< Button: GLFW button; Key: GLFW key; Char: code point
+  int scancode = 0;
+  int action = 0;  ///< GLFW_PRESS, GLFW_RELEASE or GLFW_REPEAT
+  int mods = 0;
+};
+
+/// One frame's mouse and keyboard: taken from the window's event queue, or played from a script
+/// (the same handling).
 struct InputFrame {
   glm::dvec2 cursor{0.0};  ///< framebuffer pixels, origin top-left
   bool left = false, right = false, middle = false;
@@ -61,6 +83,13 @@ struct InputFrame {
   bool uiMouse = false;      ///< the panel takes the mouse
   bool uiKeyboard = false;   ///< the panel takes the keyboard
 };
+
+/// "lon −34.854321°, lat −8.012345°": the order and labels used everywhere in the viewer.
+std::string formatLonLat(const glm::dvec3& lonLatH);
+/// A length for a person: "12.50 m", "350 m", "12.5 km".
+std::string formatMetres(double metres);
+/// The largest 1, 2 or 5 × 10^k not above `most` (a scale bar's length); 0 for none.
+double niceLength(double most);
 
 class Viewer {
  public:
@@ -81,16 +110,35 @@ class Viewer {
   bool loadPath(const std::string& path);
   bool useScene(scene::SceneDescription description);
   void frame(double seconds);
+  /// The part of the window the panel and the status bar leave free, framebuffer pixels
+  /// (x0, y0, x1, y1 from the top left).
+  [[nodiscard]] glm::dvec4 freeRegion() const;
+  /// The home view: the scene's camera, or the terrain framed in the free region.
+  [[nodiscard]] scene::Camera homeCamera() const;
+  void goHome();
 
   // Input (viewer_input.cpp).
-  /// Sends the window's scroll, drop and key events to this viewer.
+  /// Sends the window's events to this viewer's queue.
   void installCallbacks();
-  [[nodiscard]] InputFrame readInput();
+  /// This frame's input from the queue, and the same events passed to the panel (ImGui). A
+  /// frame takes events in order until one would change a button or key a second time (a
+  /// click shorter than a frame is a press frame and a release frame), and a button event is a
+  /// frame of its own, so the frame sees the cursor and modifiers it came with (releasing Shift
+  /// just after the mouse button keeps an Or lasso).
+  [[nodiscard]] InputFrame takeInput();
+  /// After ImGui's platform frame: the panel sees the queue's mouse, not the live one.
+  void feedImGuiMouse() const;
+  /// Whether the next frame must be drawn now: input to handle, motion, work arriving (tiles,
+  /// a selection), a script. Otherwise the loop sleeps until an event.
+  [[nodiscard]] bool needsFrame() const;
+  [[nodiscard]] bool keyDown(int key) const {
+    return key >= 0 && static_cast<std::size_t>(key) < keysDown_.size() && keysDown_[static_cast<std::size_t>(key)];
+  }
   void handleInput(double seconds, const InputFrame& in);
   void handleMouse(const InputFrame& in);
   /// A key pressed (edge-triggered): the viewer's key commands. `fly`: the camera mode when the
   /// frame's input began (F toggles from it).
-  void keyPressed(int key, bool fly);
+  void keyPressed(int key, bool fly, const app::Modifiers& modifiers);
   /// The GLFW key of a script's key name (app::KeyStep::key), or GLFW_KEY_UNKNOWN.
   static int keyCode(const std::string& name);
 
@@ -119,6 +167,18 @@ class Viewer {
   void drawIdentify();
   void drawLassoOutline();
 
+  // Map tools (viewer_map_tools.cpp).
+  /// Coordinates under the cursor: lon/lat, the scene CRS's easting and northing, true height.
+  void drawStatusBar();
+  void drawScaleBar();
+  /// North on screen; a click turns the view north-up.
+  void drawCompass();
+  /// A pixel's ground size at the view's centre (none when no terrain is there).
+  [[nodiscard]] std::optional<double> metresPerPixelAtCentre() const;
+  /// The heading (OrbitPose::yaw) that looks true north at the view's target.
+  [[nodiscard]] std::optional<double> northYaw() const;
+  void northUp();
+
   // Actions: the panel, the keys and the script call these.
   void setLayerShown(std::size_t sceneLayer, bool shown);
   /// Whether any overlay layer of a scene layer (fill or outline) is shown; none if the scene
@@ -140,14 +200,19 @@ class Viewer {
   [[nodiscard]] std::optional<float> depthAt(int x, int y) const;
   /// The frame point drawn at a pixel's centre in the last frame; none where nothing was drawn.
   [[nodiscard]] std::optional<glm::dvec3> pointAt(const glm::dvec2& pixel) const;
+  /// pointAt in the coordinates a person reads.
+  [[nodiscard]] std::optional<GroundPoint> groundAt(const glm::dvec2& pixel) const;
+  /// "EPSG:31985", or "CRS" when the scene's CRS has no code.
+  [[nodiscard]] std::string crsName() const;
   bool exportSelection(const std::filesystem::path& path);
   /// Scene only (`ui` false: also <stem>_depth.tiff and <stem>_camera.json beside it), or the
   /// whole window as shown.
   bool screenshot(const std::filesystem::path& path, bool ui);
 
   // Script (viewer_script_runner.cpp).
-  /// This frame's part of the script: played input, a live step, waits, or the next steps.
-  void advanceScript(double seconds);
+  /// This frame's part of the script: played input, a live step (`window`: the window's input),
+  /// waits, or the next steps.
+  void advanceScript(double seconds, const InputFrame& window);
   bool runStep(const app::ScriptStep& step);  ///< false: the step failed (reported)
 
   void message(const std::string& text, bool error = false);
@@ -185,8 +250,14 @@ class Viewer {
 
   // Views and panels.
   bool showHelp_ = false;
+  std::optional<float> exaggerationEdit_;  ///< the exaggeration slider's value while it is dragged
   bool debugPieces_ = false;
   std::optional<Identified> identified_;
+  std::optional<GroundPoint> cursorGround_;  ///< under the cursor in the last frame
+  float panelRight_ = 0.0F;                  ///< the panel's right edge as last drawn, window units (0: not yet)
+  float panelFont_ = 0.0F;                   ///< the panel's font size, window units (0: not yet)
+  double scaleBarMetres_ = 0.0;              ///< the scale bar's length as last drawn (0: none)
+  double compassAngle_ = 0.0;                ///< north on screen, radians clockwise from up, as last drawn
   scene::FrameStats stats_;
   std::vector<overlay::LayerFrameStats> measured_;
   double frameMs_ = 16.0;
@@ -199,9 +270,16 @@ class Viewer {
   glm::dvec2 pressCursor_{0.0};
   bool leftDown_ = false, rightDown_ = false, middleDown_ = false;
   bool dragged_ = false;
-  double scroll_ = 0.0;
   std::vector<std::string> dropped_;
-  std::vector<int> keysPressed_;        ///< GLFW keys pressed since the last frame (edge-triggered actions)
+  std::deque<InputEvent> events_;  ///< from GLFW's callbacks, not yet taken
+  // The queue's state as of the events taken so far.
+  glm::dvec2 cursorWindow_{0.0};
+  bool cursorInside_ = true;
+  std::array<bool, 3> buttonsDown_{};
+  std::array<bool, 512> keysDown_{};    ///< by GLFW key (GLFW_KEY_LAST is 348)
+  int redrawFrames_ = 2;                ///< frames still to draw after the last change (the panel settles)
+  bool moving_ = false;                 ///< the camera moved in the last frame
+  bool busy_ = false;                   ///< work arriving: tiles, pieces, a selection
   std::deque<InputFrame> scriptInput_;  ///< played mouse and keys, one per frame
   /// A script's live step: the window's own input until this file exists, for at most so many frames.
   std::optional<std::pair<std::filesystem::path, int>> live_;

@@ -1,5 +1,5 @@
-// The viewer's mouse and keys: read from GLFW each frame, or played from a script, and handled
-// the same way.
+// The viewer's mouse and keys: queued from GLFW's callbacks and taken a frame at a time, or played
+// from a script, and handled the same way.
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -12,58 +12,169 @@
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
+#include <imgui_impl_glfw.h>
 #include <glm/geometric.hpp>
 
 #include "viewer.hpp"
 
 namespace gis::viewer {
 
-// GLFW calls plain functions; they reach the viewer through the window's user pointer.
+// GLFW calls plain functions; they reach the viewer through the window's user pointer. Input is
+// queued, never applied at once; drops load at the next frame; focus and hover go to the panel.
 struct Callbacks {
   static Viewer& of(GLFWwindow* w) { return *static_cast<Viewer*>(glfwGetWindowUserPointer(w)); }
-  static void scroll(GLFWwindow* w, double, double dy) {
-    if (!ImGui::GetIO().WantCaptureMouse) of(w).scroll_ += dy;
+  static void push(GLFWwindow* w, const InputEvent& e) {
+    Viewer& v = of(w);
+    v.events_.push_back(e);
+    v.redrawFrames_ = std::max(v.redrawFrames_, 2);
+  }
+  static void cursor(GLFWwindow* w, double x, double y) {
+    InputEvent e;
+    e.kind = InputEvent::Kind::Cursor;
+    e.value = {x, y};
+    push(w, e);
+  }
+  static void button(GLFWwindow* w, int button, int action, int mods) {
+    InputEvent e;
+    e.kind = InputEvent::Kind::Button;
+    e.code = button;
+    e.action = action;
+    e.mods = mods;
+    push(w, e);
+  }
+  static void key(GLFWwindow* w, int key, int scancode, int action, int mods) {
+    InputEvent e;
+    e.kind = InputEvent::Kind::Key;
+    e.code = key;
+    e.scancode = scancode;
+    e.action = action;
+    e.mods = mods;
+    push(w, e);
+  }
+  static void character(GLFWwindow* w, unsigned int c) {
+    InputEvent e;
+    e.kind = InputEvent::Kind::Char;
+    e.code = static_cast<int>(c);
+    push(w, e);
+  }
+  static void scroll(GLFWwindow* w, double dx, double dy) {
+    InputEvent e;
+    e.kind = InputEvent::Kind::Scroll;
+    e.value = {dx, dy};
+    push(w, e);
   }
   static void drop(GLFWwindow* w, int count, const char** paths) {
     for (int i = 0; i < count; ++i) of(w).dropped_.emplace_back(paths[i]);
+    of(w).redrawFrames_ = std::max(of(w).redrawFrames_, 2);
   }
-  static void key(GLFWwindow* w, int key, int, int action, int) {
-    if (action == GLFW_PRESS && !ImGui::GetIO().WantCaptureKeyboard) of(w).keysPressed_.push_back(key);
+  static void focus(GLFWwindow* w, int focused) {
+    ImGui_ImplGlfw_WindowFocusCallback(w, focused);
+    of(w).redrawFrames_ = std::max(of(w).redrawFrames_, 2);
   }
+  static void enter(GLFWwindow* w, int entered) {
+    ImGui_ImplGlfw_CursorEnterCallback(w, entered);
+    of(w).cursorInside_ = entered != 0;
+    of(w).redrawFrames_ = std::max(of(w).redrawFrames_, 2);
+  }
+  static void refresh(GLFWwindow* w) { of(w).redrawFrames_ = std::max(of(w).redrawFrames_, 2); }
+  static void resized(GLFWwindow* w, int, int) { of(w).redrawFrames_ = std::max(of(w).redrawFrames_, 2); }
 };
 
 void Viewer::installCallbacks() {
   GLFWwindow* window = context_->window();
   glfwSetWindowUserPointer(window, this);
+  glfwSetCursorPosCallback(window, Callbacks::cursor);
+  glfwSetMouseButtonCallback(window, Callbacks::button);
+  glfwSetKeyCallback(window, Callbacks::key);
+  glfwSetCharCallback(window, Callbacks::character);
   glfwSetScrollCallback(window, Callbacks::scroll);
   glfwSetDropCallback(window, Callbacks::drop);
-  glfwSetKeyCallback(window, Callbacks::key);
+  glfwSetWindowFocusCallback(window, Callbacks::focus);
+  glfwSetCursorEnterCallback(window, Callbacks::enter);
+  glfwSetWindowRefreshCallback(window, Callbacks::refresh);
+  glfwSetFramebufferSizeCallback(window, Callbacks::resized);
+  glfwGetCursorPos(window, &cursorWindow_.x, &cursorWindow_.y);
 }
 
-InputFrame Viewer::readInput() {
+InputFrame Viewer::takeInput() {
   GLFWwindow* window = context_->window();
   const ImGuiIO& io = ImGui::GetIO();
   InputFrame in;
-  glm::dvec2 cursor(0.0);
-  glfwGetCursorPos(window, &cursor.x, &cursor.y);
-  in.cursor = toPixels(cursor);
-  in.left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
-  in.right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
-  in.middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
-  const auto down = [&](int a, int b) {
-    return glfwGetKey(window, a) == GLFW_PRESS || glfwGetKey(window, b) == GLFW_PRESS;
-  };
+  // The panel's claim on the mouse and keys is from the last frame: that is what was on screen
+  // where the events happened.
+  in.uiMouse = io.WantCaptureMouse;
+  in.uiKeyboard = io.WantCaptureKeyboard;
+  std::vector<int> keysChanged;
+  bool took = false;
+  while (!events_.empty()) {
+    const InputEvent e = events_.front();
+    if (e.kind == InputEvent::Kind::Button) {
+      if (took) break;  // a frame of its own
+      events_.pop_front();
+      if (e.code >= 0 && e.code < static_cast<int>(buttonsDown_.size()))
+        buttonsDown_[static_cast<std::size_t>(e.code)] = e.action == GLFW_PRESS;
+      break;
+    }
+    const bool keyChange = e.kind == InputEvent::Kind::Key && e.action != GLFW_REPEAT;
+    if (keyChange && std::find(keysChanged.begin(), keysChanged.end(), e.code) != keysChanged.end()) break;
+    if (keyChange) keysChanged.push_back(e.code);
+    events_.pop_front();
+    took = true;
+    switch (e.kind) {
+      case InputEvent::Kind::Cursor:
+        cursorWindow_ = e.value;
+        break;
+      case InputEvent::Kind::Key:
+        if (e.code >= 0 && e.code < static_cast<int>(keysDown_.size()) && e.action != GLFW_REPEAT) {
+          keysDown_[static_cast<std::size_t>(e.code)] = e.action == GLFW_PRESS;
+        }
+        if (e.action == GLFW_PRESS) in.pressed.push_back(e.code);
+        ImGui_ImplGlfw_KeyCallback(window, e.code, e.scancode, e.action, e.mods);
+        break;
+      case InputEvent::Kind::Char:
+        ImGui_ImplGlfw_CharCallback(window, static_cast<unsigned int>(e.code));
+        break;
+      case InputEvent::Kind::Scroll:
+        in.scroll += e.value.y;
+        ImGui_ImplGlfw_ScrollCallback(window, e.value.x, e.value.y);
+        break;
+      case InputEvent::Kind::Button:
+        break;
+    }
+  }
+  in.cursor = toPixels(cursorWindow_);
+  in.left = buttonsDown_[GLFW_MOUSE_BUTTON_LEFT];
+  in.right = buttonsDown_[GLFW_MOUSE_BUTTON_RIGHT];
+  in.middle = buttonsDown_[GLFW_MOUSE_BUTTON_MIDDLE];
+  const auto down = [&](int a, int b) { return keyDown(a) || keyDown(b); };
   in.modifiers.shift = down(GLFW_KEY_LEFT_SHIFT, GLFW_KEY_RIGHT_SHIFT);
   in.modifiers.ctrl = down(GLFW_KEY_LEFT_CONTROL, GLFW_KEY_RIGHT_CONTROL);
   in.modifiers.alt = down(GLFW_KEY_LEFT_ALT, GLFW_KEY_RIGHT_ALT);
   for (const int k : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E}) {
-    if (glfwGetKey(window, k) == GLFW_PRESS) in.held.push_back(k);
+    if (keyDown(k)) in.held.push_back(k);
   }
-  in.scroll = std::exchange(scroll_, 0.0);
-  in.pressed = std::exchange(keysPressed_, {});
-  in.uiMouse = io.WantCaptureMouse;
-  in.uiKeyboard = io.WantCaptureKeyboard;
   return in;
+}
+
+void Viewer::feedImGuiMouse() const {
+  ImGuiIO& io = ImGui::GetIO();
+  if (cursorInside_ || std::any_of(buttonsDown_.begin(), buttonsDown_.end(), [](bool b) { return b; })) {
+    io.MousePos = ImVec2(static_cast<float>(cursorWindow_.x), static_cast<float>(cursorWindow_.y));
+  }
+  for (std::size_t i = 0; i < buttonsDown_.size(); ++i) io.MouseDown[i] = buttonsDown_[i];
+}
+
+bool Viewer::needsFrame() const {
+  if (script_ || quit_ || pendingShot_ || !events_.empty() || !dropped_.empty() || redrawFrames_ > 0 || moving_ ||
+      busy_ || animating_) {
+    return true;
+  }
+  // Fly keys held move the camera every frame.
+  if (!controller_ || controller_->mode() != scene::CameraController::Mode::Fly) return false;
+  for (const int k : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E}) {
+    if (keyDown(k)) return true;
+  }
+  return false;
 }
 
 namespace {
@@ -94,7 +205,9 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
                           key(GLFW_KEY_E) - key(GLFW_KEY_Q));
     if (move != glm::dvec3(0.0)) controller_->fly(move * (in.modifiers.shift ? 4.0 : 1.0), seconds);
   }
-  for (const int k : in.pressed) keyPressed(k, fly);
+  if (!in.uiKeyboard) {
+    for (const int k : in.pressed) keyPressed(k, fly, in.modifiers);
+  }
 }
 
 void Viewer::handleMouse(const InputFrame& in) {
@@ -146,20 +259,28 @@ void Viewer::handleMouse(const InputFrame& in) {
   }
 }
 
-void Viewer::keyPressed(int key, bool fly) {
+void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
   switch (key) {
     case GLFW_KEY_ESCAPE:
-      if (lassoTool_) {
-        lassoTool_ = false;
+      // Backs out of one thing at a time, and never quits: nothing is lost to a stray key.
+      if (!lassoPoints_.empty()) {
         lassoPoints_.clear();
+      } else if (lassoTool_) {
+        lassoTool_ = false;
       } else if (showHelp_) {
         showHelp_ = false;
-      } else {
-        glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
+      } else if (identified_) {
+        identified_.reset();
       }
       break;
+    case GLFW_KEY_Q:
+      if (modifiers.ctrl) glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
+      break;
     case GLFW_KEY_H:
-      controller_->goHome();
+      goHome();
+      break;
+    case GLFW_KEY_N:
+      northUp();
       break;
     case GLFW_KEY_F:
       controller_->setMode(fly ? scene::CameraController::Mode::Orbit : scene::CameraController::Mode::Fly);

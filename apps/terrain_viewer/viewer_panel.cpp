@@ -14,6 +14,32 @@
 #include "viewer.hpp"
 
 namespace gis::viewer {
+namespace {
+
+/// What a slider did in this frame.
+struct SliderEdit {
+  bool changed = false;  ///< the value moved
+  bool done = false;     ///< released (or typed) after a change: the time to apply a costly change
+  bool active = false;   ///< held (or being typed into)
+};
+
+/// A slider whose value is written beside it, before its label, and not over the handle.
+SliderEdit valueSlider(const char* label, float* value, float lo, float hi, const char* format,
+                       ImGuiSliderFlags flags = 0) {
+  SliderEdit edit;
+  ImGui::PushID(label);
+  edit.changed = ImGui::SliderFloat("##value", value, lo, hi, "", flags);
+  edit.done = ImGui::IsItemDeactivatedAfterEdit();
+  edit.active = ImGui::IsItemActive();
+  ImGui::PopID();
+  char text[48];
+  std::snprintf(text, sizeof(text), format, static_cast<double>(*value));
+  ImGui::SameLine(0.0F, ImGui::GetStyle().ItemInnerSpacing.x);
+  ImGui::Text("%s %s", text, label);
+  return edit;
+}
+
+}  // namespace
 
 void Viewer::drawPanel() {
   // A column at the left, at most the window's height (it scrolls), about 24 characters of
@@ -21,15 +47,21 @@ void Viewer::drawPanel() {
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   const float font = ImGui::GetFontSize();
   ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + 10.0F, viewport->WorkPos.y + 10.0F), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(std::min(26.0F * font, viewport->WorkSize.x * 0.6F), viewport->WorkSize.y - 20.0F),
-                           ImGuiCond_FirstUseEver);
+  const float statusBar = ImGui::GetFrameHeight();
+  ImGui::SetNextWindowSize(
+      ImVec2(std::min(26.0F * font, viewport->WorkSize.x * 0.6F), viewport->WorkSize.y - 20.0F - statusBar),
+      ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSizeConstraints(ImVec2(12.0F * font, 4.0F * font),
                                       ImVec2(std::max(viewport->WorkSize.x - 20.0F, 12.0F * font),
-                                             std::max(viewport->WorkSize.y - 20.0F, 4.0F * font)));
+                                             std::max(viewport->WorkSize.y - 20.0F - statusBar, 4.0F * font)));
   ImGui::Begin("stencil-gis");
+  panelRight_ = ImGui::GetWindowPos().x + ImGui::GetWindowSize().x;  // the home view frames the rest
+  panelFont_ = font;
   ImGui::PushItemWidth(-10.0F * font);  // room for the labels
   ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
-  ImGui::TextDisabled("drop a scene, DEM or vector file on the window; ? for keys");
+  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+  ImGui::TextWrapped("Drop a scene, DEM or vector file on the window. ? lists the keys.");
+  ImGui::PopStyleColor();
 
   drawViewSection();
   drawOverlaySection();
@@ -42,24 +74,35 @@ void Viewer::drawPanel() {
 
 void Viewer::drawViewSection() {
   if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
-  if (ImGui::Button("Home (H)")) controller_->goHome();
+  if (ImGui::Button("Home (H)")) goHome();
   ImGui::SameLine();
   bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
   if (ImGui::Checkbox("fly (F)", &fly)) {
     controller_->setMode(fly ? scene::CameraController::Mode::Fly : scene::CameraController::Mode::Orbit);
   }
   float fov = static_cast<float>(settings_.fovYDeg);
-  if (ImGui::SliderFloat("field of view", &fov, 10.0F, 90.0F, "%.0f°")) settings_.fovYDeg = fov;
+  if (valueSlider("field of view", &fov, 10.0F, 90.0F, "%.0f°").changed) settings_.fovYDeg = fov;
   float tolerance = static_cast<float>(settings_.lodTolerancePixels);
-  if (ImGui::SliderFloat("LOD tolerance (px)", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic)) {
+  if (valueSlider("px LOD tolerance", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic).changed) {
     settings_.lodTolerancePixels = tolerance;
   }
-  float exaggeration = static_cast<float>(scene_->bounds->exaggeration());
-  ImGui::SliderFloat("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
-  if (ImGui::IsItemDeactivatedAfterEdit()) setExaggeration(exaggeration);
+  // The pieces' heights follow the exaggeration at release; until then the slider keeps the
+  // value being dragged (it must not snap back to the applied one).
+  float exaggeration = exaggerationEdit_.value_or(static_cast<float>(scene_->bounds->exaggeration()));
+  const SliderEdit edit =
+      valueSlider("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
+  if (edit.changed) exaggerationEdit_ = exaggeration;
+  if (edit.done) {
+    setExaggeration(exaggeration);
+    exaggerationEdit_.reset();
+  } else if (!edit.active) {
+    exaggerationEdit_.reset();
+  }
   ImGui::Checkbox("wireframe", &render_.wireframe);
-  ImGui::SameLine();
-  if (renderer_->terrainEngine().hasImagery()) ImGui::Checkbox("imagery", &settings_.imagery);
+  if (renderer_->terrainEngine().hasImagery()) {
+    ImGui::SameLine();
+    ImGui::Checkbox("imagery", &settings_.imagery);
+  }
 }
 
 void Viewer::drawOverlaySection() {
@@ -139,8 +182,11 @@ bool Viewer::drawLayer(std::size_t i) {
   const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
   if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
     // Nothing is lost silently: the counts here, each feature named under Messages.
-    ImGui::TextColored(ImVec4(1.0F, 0.75F, 0.3F, 1.0F), "    %zu skipped for errors, %zu with nothing to draw",
-                       summary.skipped(), summary.nothingToDraw);
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0F, 0.75F, 0.3F, 1.0F));
+    ImGui::Indent();
+    ImGui::TextWrapped("%zu skipped for errors, %zu with nothing to draw", summary.skipped(), summary.nothingToDraw);
+    ImGui::Unindent();
+    ImGui::PopStyleColor();
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("Each is named, with its problem, under Messages.");
   }
   if (open) {
@@ -289,7 +335,7 @@ void Viewer::drawHud() {
   const scene::Camera c = camera();
   if (const std::optional<glm::dvec3> ll =
           scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, scene_->bounds->exaggeration()))) {
-    ImGui::Text("eye %.5f, %.5f, %.0f m", ll->y, ll->x, ll->z);
+    ImGui::Text("eye: %s, height %.0f m", formatLonLat(*ll).c_str(), ll->z);
   }
   ImGui::End();
 }
@@ -322,13 +368,15 @@ void Viewer::drawHelp() {
       {"click", "identify: features, coordinates and height under the cursor"},
       {"F", "fly mode: W A S D move, Q E down/up, Shift faster"},
       {"H", "home view"},
+      {"N", "north up (or click the compass)"},
       {"L", "lasso tool: drag to draw; Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor"},
       {"I / C", "invert / clear the selection"},
       {"O", "all vector layers on/off (compare frame rate)"},
       {"P / U", "panel / HUD on/off"},
       {"F12", "screenshot (PNG, working directory)"},
       {"?", "this help"},
-      {"Esc", "leave the lasso tool, close help, quit"},
+      {"Esc", "cancel the lasso being drawn, leave the lasso tool, close help or identify"},
+      {"Ctrl+Q", "quit"},
   };
   if (ImGui::BeginTable("keys", 2)) {
     for (const auto& row : rows) {
@@ -345,16 +393,17 @@ void Viewer::drawHelp() {
 
 void Viewer::drawIdentify() {
   bool open = true;
-  // Bottom right, clear of the panel and the HUD.
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  // Above the compass and the status bar.
+  const float above = ImGui::GetFrameHeight() + 6.5F * ImGui::GetFontSize() + 10.0F;
   ImGui::SetNextWindowPos(
-      ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10.0F, viewport->WorkPos.y + viewport->WorkSize.y - 10.0F),
+      ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10.0F, viewport->WorkPos.y + viewport->WorkSize.y - above),
       ImGuiCond_FirstUseEver, ImVec2(1.0F, 1.0F));
   ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
   const Identified& id = *identified_;
-  ImGui::Text("frame: %.2f, %.2f, %.2f m", id.frame.x, id.frame.y, id.frame.z);
-  if (id.lonLatH) ImGui::Text("lon/lat: %.6f, %.6f", id.lonLatH->x, id.lonLatH->y);
-  ImGui::Text("terrain height: %.2f m", id.terrainHeight);
+  if (id.point.lonLatH) ImGui::TextUnformatted(formatLonLat(*id.point.lonLatH).c_str());
+  ImGui::Text("%s: E %.2f, N %.2f", crsName().c_str(), id.point.projected.x, id.point.projected.y);
+  ImGui::Text("height %.2f m (terrain %.2f m)", id.point.projected.z, id.terrainHeight);
   if (id.hits.empty()) ImGui::TextDisabled("no feature here");
   for (const Identified::Hit& h : id.hits) {
     if (ImGui::TreeNodeEx(&h, ImGuiTreeNodeFlags_DefaultOpen, "%s: fid %lld", h.layer.c_str(),

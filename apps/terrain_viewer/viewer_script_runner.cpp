@@ -19,10 +19,10 @@
 
 namespace gis::viewer {
 
-void Viewer::advanceScript(double seconds) {
+void Viewer::advanceScript(double seconds, const InputFrame& window) {
   if (live_) {
     // The real mouse and keys, as without a script, until the test says it is done.
-    handleInput(seconds, readInput());
+    handleInput(seconds, window);
     std::error_code ec;
     if (std::filesystem::exists(live_->first, ec)) {
       live_.reset();
@@ -214,7 +214,7 @@ struct StepRunner {
   }
 
   bool operator()(const app::HomeStep&) const {
-    v.controller_->goHome();
+    v.goHome();
     v.animating_ = true;
     return true;
   }
@@ -277,7 +277,7 @@ struct StepRunner {
 
   bool operator()(const app::LiveStep& step) const {
     v.live_ = {std::filesystem::path(step.untilFile), step.maxFrames};
-    static_cast<void>(v.readInput());  // forget what arrived before: only the live input counts
+    v.events_.clear();  // forget what arrived before: only the live input counts
     return true;
   }
 

@@ -45,9 +45,14 @@ nlohmann::json Identified::toJson() const {
     for (const auto& [k, v] : h.attributes) attributes[k] = v;
     features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"attributes", attributes}});
   }
-  nlohmann::json j = {
-      {"frame", {frame.x, frame.y, frame.z}}, {"terrain_height", terrainHeight}, {"features", features}};
-  if (lonLatH) j["lon_lat_h"] = {lonLatH->x, lonLatH->y, lonLatH->z};
+  const glm::dvec3& f = point.drawn;
+  const glm::dvec3& p = point.projected;
+  nlohmann::json j = {{"frame", {f.x, f.y, f.z}},
+                      {"crs_xyz", {p.x, p.y, p.z}},
+                      {"height", p.z},
+                      {"terrain_height", terrainHeight},
+                      {"features", features}};
+  if (point.lonLatH) j["lon_lat_h"] = {point.lonLatH->x, point.lonLatH->y, point.lonLatH->z};
   return j;
 }
 
@@ -72,23 +77,39 @@ std::optional<glm::dvec3> Viewer::pointAt(const glm::dvec2& pixel) const {
   return glm::dvec3(p) / p.w;
 }
 
-std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
+std::optional<GroundPoint> Viewer::groundAt(const glm::dvec2& pixel) const {
   const std::optional<glm::dvec3> world = pointAt(pixel);
   if (!world) return std::nullopt;
+  GroundPoint g;
+  g.drawn = *world;
+  const glm::dvec3 unexaggerated = *world / glm::dvec3(1.0, 1.0, scene_->bounds->exaggeration());
+  g.projected = scene_->frame.frameToProjected(unexaggerated);
+  g.lonLatH = scene_->frame.toLonLat(unexaggerated);
+  return g;
+}
+
+std::string Viewer::crsName() const {
+  const std::optional<int> code = scene_->frame.epsg();
+  return code ? "EPSG:" + std::to_string(*code) : std::string("CRS");
+}
+
+std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
+  const std::optional<GroundPoint> ground = groundAt(pixel);
+  if (!ground) return std::nullopt;
+  const glm::dvec3 world = ground->drawn;
   const scene::Camera c = camera();
   const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
   Identified id;
-  id.frame = *world;
+  id.point = *ground;
   const double exaggeration = scene_->bounds->exaggeration();
-  id.lonLatH = scene_->frame.toLonLat(*world / glm::dvec3(1.0, 1.0, exaggeration));
-  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(*world)) / exaggeration;
+  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(world)) / exaggeration;
   const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
   for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
     if (renderer_->overlaySources()[j].second || !renderer_->shown(j)) continue;
     const overlay::OverlayLayer& layer = renderer_->overlayLayers()[j];
     const overlay::ReferenceLayer ref = overlay::referenceLayerOf(layer);
     for (std::size_t f = 0; f < layer.features().size(); ++f) {
-      if (!overlay::featureCovers(ref, f, glm::dvec2(*world), scale)) continue;
+      if (!overlay::featureCovers(ref, f, glm::dvec2(world), scale)) continue;
       Identified::Hit hit;
       hit.layer = scene_->layers[renderer_->overlaySources()[j].first].description.name;
       hit.feature = f;
@@ -109,6 +130,7 @@ nlohmann::json Viewer::state() const {
         {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
   }
   const scene::OrbitPose& pose = controller_->shownPose();
+  const glm::dvec4 free = freeRegion();
   nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
   for (const overlay::SelectionStep& st : steps_) {
     steps.push_back(overlay::selectionOpName(st.op));
@@ -136,6 +158,7 @@ nlohmann::json Viewer::state() const {
         {"distance", pose.distance}}},
       {"framebuffer", {fb.x, fb.y}},
       {"window", {window.x, window.y}},
+      {"free_region", {free.x, free.y, free.z, free.w}},
       {"overlays", render_.overlays},
       {"method", technique_->name},
       {"view",

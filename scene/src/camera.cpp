@@ -2,8 +2,11 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <numbers>
 
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <nlohmann/json.hpp>
 
@@ -137,6 +140,97 @@ Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double
   camera.fovYDeg = fovYDeg;
   camera.nearPlane = std::max(0.1, distance * 1e-3);
   return camera;
+}
+
+Camera frameBoxInRegion(const Camera& camera, const glm::dvec3& boxMin, const glm::dvec3& boxMax,
+                        const glm::ivec2& viewport, const glm::dvec4& region, double margin) {
+  const glm::dvec2 regionSize(region.z - region.x, region.w - region.y);
+  if (viewport.x <= 0 || viewport.y <= 0 || !(regionSize.x > 0.0) || !(regionSize.y > 0.0) ||
+      !(glm::length(boxMax - boxMin) > 0.0)) {
+    return camera;
+  }
+  const glm::dvec2 fit = regionSize * (1.0 - 2.0 * margin);
+  const glm::dvec2 regionCentre(0.5 * (region.x + region.z), 0.5 * (region.y + region.w));
+  const double aspect = static_cast<double>(viewport.x) / viewport.y;
+  Camera c = camera;
+  // Two nested searches. Outside, the distance to the target, bisected in log space (the box's
+  // screen size shrinks as it grows). Inside, the box centred in the region at that distance by
+  // sliding the camera across the view (a perspective slide is nearly linear: a few steps).
+  const glm::dvec3 forward = glm::normalize(c.target - c.eye);
+  const glm::dvec3 right = glm::normalize(glm::cross(forward, c.up));
+  const glm::dvec3 up = glm::cross(right, forward);
+  struct Fit {
+    bool visible = false;  ///< every corner in front of the eye
+    glm::dvec2 lo{0.0}, hi{0.0};
+  };
+  const auto project = [&](const Camera& cam) {
+    Fit f;
+    const glm::dmat4 viewProj = cam.projection(aspect) * cam.view();
+    f.lo = glm::dvec2(std::numeric_limits<double>::infinity());
+    f.hi = -f.lo;
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec3 corner((k & 1) != 0 ? boxMax.x : boxMin.x, (k & 2) != 0 ? boxMax.y : boxMin.y,
+                              (k & 4) != 0 ? boxMax.z : boxMin.z);
+      const glm::dvec4 clip = viewProj * glm::dvec4(corner, 1.0);
+      if (clip.w <= 1e-9 * glm::length(boxMax - boxMin)) return f;
+      const glm::dvec2 pixel((clip.x / clip.w * 0.5 + 0.5) * viewport.x, (0.5 - clip.y / clip.w * 0.5) * viewport.y);
+      f.lo = glm::min(f.lo, pixel);
+      f.hi = glm::max(f.hi, pixel);
+    }
+    f.visible = true;
+    return f;
+  };
+  const glm::dvec3 centre = 0.5 * (boxMin + boxMax);
+  // At `distance`: the camera looking along `forward` with the box centred; its fill of the region.
+  // A slide along the view's right moves every corner's screen x the other way and leaves its
+  // screen y (and depth) alone, and a slide along its up the same for y: each axis is centred by
+  // its own bisection.
+  const double size = glm::length(boxMax - boxMin);
+  const auto place = [&](double distance, Camera& cam) {
+    const auto at = [&](double sx, double sy) {
+      Camera moved = cam;
+      moved.target = centre + sx * right + sy * up;
+      moved.eye = moved.target - forward * distance;
+      return moved;
+    };
+    const auto centreOf = [&](double sx, double sy, int axis) {
+      const Fit f = project(at(sx, sy));
+      return f.visible ? 0.5 * (f.lo[axis] + f.hi[axis]) : std::numeric_limits<double>::quiet_NaN();
+    };
+    double sx = 0.0, sy = 0.0;
+    for (int axis = 0; axis < 2; ++axis) {
+      // x decreases as the camera slides right; y (down the screen) increases as it slides up.
+      double lo = -10.0 * size, hi = 10.0 * size;
+      for (int step = 0; step < 60; ++step) {
+        const double mid = 0.5 * (lo + hi);
+        const double got = axis == 0 ? centreOf(mid, sy, 0) : centreOf(sx, mid, 1);
+        if (!std::isfinite(got)) return std::numeric_limits<double>::infinity();
+        const bool pastCentre = axis == 0 ? got < regionCentre.x : got > regionCentre.y;
+        (pastCentre ? hi : lo) = mid;
+      }
+      (axis == 0 ? sx : sy) = 0.5 * (lo + hi);
+    }
+    cam = at(sx, sy);
+    const Fit f = project(cam);
+    if (!f.visible) return std::numeric_limits<double>::infinity();
+    return std::max((f.hi.x - f.lo.x) / fit.x, (f.hi.y - f.lo.y) / fit.y);
+  };
+  double near = 1e-3 * size, far = 1e3 * size;
+  Camera best = c;
+  place(far, best);
+  for (int iteration = 0; iteration < 60; ++iteration) {
+    const double mid = std::sqrt(near * far);
+    Camera cam = c;
+    if (place(mid, cam) > 1.0) {
+      near = mid;  // too large: farther
+    } else {
+      far = mid;
+      best = cam;
+    }
+  }
+  c = best;
+  c.nearPlane = std::max(0.1, glm::length(c.target - c.eye) * 1e-3);
+  return c;
 }
 
 json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width, int height) {

@@ -231,6 +231,15 @@ void CameraController::goHome() {
   if (const std::optional<OrbitPose> pose = poseOf(home_)) setGoal(*pose);
 }
 
+void CameraController::setHeading(double yaw) {
+  if (!std::isfinite(yaw)) return;
+  OrbitPose g = goal_;
+  const glm::dvec3 eye = eyeOf(g);
+  g.yaw = wrapAngle(yaw);
+  if (eyeAnchored()) g.target = eye - g.distance * backward(g.yaw, g.pitch);
+  setGoal(g);
+}
+
 void CameraController::jumpTo(const Camera& c) {
   const std::optional<OrbitPose> pose = poseOf(c);
   if (!pose) return;

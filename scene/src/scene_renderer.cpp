@@ -8,7 +8,9 @@
 #include <thread>
 
 #include <glm/common.hpp>
+#include <glm/matrix.hpp>
 
+#include "core/log.hpp"
 #include "gfx/camera.hpp"
 #include "gfx/render_target.hpp"
 #include "terrain/tile_pager.hpp"
@@ -201,12 +203,35 @@ Result<SceneRenderer> SceneRenderer::create(const LoadedScene& scene, const Over
   return result;
 }
 
+void SceneRenderer::drawSky(gfx::StateCache& cache, const Camera& camera, double aspect, int width, int height) {
+  if (!sky_) {
+    Result<gfx::Program> program = gfx::Program::build({{"sample_copy.vert", {}}, {"sky.frag", {}}});
+    for (const Diagnostic& d : program.diagnostics.items()) logError(d.toString());
+    if (!program) return;
+    sky_ = std::move(*program);
+    emptyVao_ = gfx::createVertexArray();
+  }
+  gfx::PipelineState state;
+  state.depth = gfx::DepthState{false, false, gfx::CompareFunc::Always, false};
+  state.raster.cull = gfx::CullMode::None;
+  cache.apply(state);
+  // The view's rotation alone: rays relative to the eye, no large translation in float.
+  glm::dmat4 rotation = camera.view();
+  rotation[3] = glm::dvec4(0.0, 0.0, 0.0, 1.0);
+  sky_->set("u_rayFromClip", glm::mat4(glm::inverse(camera.projection(aspect) * rotation)));
+  sky_->set("u_viewport", glm::vec2(static_cast<float>(width), static_cast<float>(height)));
+  cache.useProgram(*sky_);
+  cache.bindVertexArray(emptyVao_.id());
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
 FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int width, int height,
                                  const Camera& camera, const RenderSettings& settings) {
   gfx::enableReversedZ();
   gfx::beginRenderPass(cache, framebuffer, width, height, {kBackground, gfx::kReversedZFar, 0});
   const double aspect = static_cast<double>(width) / static_cast<double>(std::max(height, 1));
   const glm::dmat4 viewProj = camera.projection(aspect) * camera.view();
+  if (settings.sky) drawSky(cache, camera, aspect, width, height);
 
   FrameStats stats;
   const auto selectStart = std::chrono::steady_clock::now();

@@ -53,6 +53,35 @@ double maxDifference(const glm::dvec3& a, const glm::dvec3& b) {
   return std::max({d.x, d.y, d.z});
 }
 
+/// Terrain pixels (depth > 0) of a scene screenshot inside and outside the region a state file
+/// gives as the part of the window the panel leaves free.
+struct RegionCount {
+  std::size_t inside = 0, outside = 0, regionPixels = 0;
+  /// How much of the region's width or height (the larger) the terrain spans: framed, it fills one.
+  double span = 0.0;
+};
+
+RegionCount terrainInFreeRegion(const fs::path& depthFile, const json& state) {
+  const gfx::ImageFloat depth = *gfx::readImageFloat(depthFile.string());
+  const std::vector<double> r = state["free_region"].get<std::vector<double>>();
+  RegionCount c;
+  glm::ivec2 lo(depth.width, depth.height), hi(-1);
+  for (int y = 0; y < depth.height; ++y) {
+    for (int x = 0; x < depth.width; ++x) {
+      const bool in = x + 0.5 >= r[0] && x + 0.5 < r[2] && y + 0.5 >= r[1] && y + 0.5 < r[3];
+      c.regionPixels += in ? 1u : 0u;
+      if (depth.pixels[static_cast<std::size_t>(y) * static_cast<std::size_t>(depth.width) +
+                       static_cast<std::size_t>(x)] > 0.0F) {
+        (in ? c.inside : c.outside) += 1;
+        lo = glm::min(lo, glm::ivec2(x, y));
+        hi = glm::max(hi, glm::ivec2(x, y));
+      }
+    }
+  }
+  if (hi.x >= lo.x) c.span = std::max((hi.x - lo.x + 1) / (r[2] - r[0]), (hi.y - lo.y + 1) / (r[3] - r[1]));
+  return c;
+}
+
 /// Where the twin selects, the highlight changed the pixel; elsewhere it did not. Pixels next to
 /// the selection's outline (in the twin) are not judged.
 struct HighlightCheck {
@@ -209,14 +238,15 @@ TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   EXPECT_EQ(fillWrong, 0u);
   EXPECT_EQ(clearWrong, 0u);
 
-  // Panel and HUD: drawn over the scene; the bottom-right corner they leave free is the scene.
+  // Panel, HUD, compass and status bar: drawn over the scene; the middle of the right edge, which
+  // they leave free, is the scene.
   std::size_t uiPixels = 0, cornerChanged = 0;
   for (int y = 0; y < kHeight; ++y) {
     for (int x = 0; x < kWidth; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x);
       const bool changed = maxDifference(rgbAt(window, i), rgbAt(with, i)) > 0.0;
       uiPixels += changed ? 1u : 0u;
-      if (x >= kWidth - 60 && y >= kHeight - 40) cornerChanged += changed ? 1u : 0u;
+      if (x >= kWidth - 60 && y >= kHeight / 2 - 20 && y < kHeight / 2 + 20) cornerChanged += changed ? 1u : 0u;
     }
   }
   EXPECT_GT(uiPixels, 5000u) << "no panel in the window screenshot";
@@ -568,10 +598,11 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
   EXPECT_EQ(named, 3u) << s2b["messages"].dump(1);
   EXPECT_NE(s3["scene"].get<std::string>().find("olinda_dem_utm25s.tif"), std::string::npos);
   EXPECT_EQ(s3["layers"].size(), 0u);
-  const gfx::ImageFloat demDepth = *gfx::readImageFloat((dir / "dem_depth.tiff").string());
-  std::size_t demTerrain = 0;
-  for (const float z : demDepth.pixels) demTerrain += z > 0.0F ? 1u : 0u;
-  EXPECT_GT(demTerrain, pixelsOf(kWidth, kHeight) / 5) << "the dropped DEM's home view shows little terrain";
+  // The home view frames the DEM in the part of the window the panel leaves free.
+  const RegionCount dem = terrainInFreeRegion(dir / "dem_depth.tiff", s3);
+  EXPECT_GT(dem.inside, dem.regionPixels / 8) << "the dropped DEM's home view shows little terrain";
+  EXPECT_GT(dem.span, 0.75) << "the dropped DEM's home view does not fill the free part of the window";
+  EXPECT_EQ(dem.outside, 0u) << "the home view puts terrain under the panel";
 }
 
 // A person's mouse and keys: real X events from xdotool reach the viewer through GLFW while a
@@ -669,13 +700,6 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
   auto save = [](const char* name) { return json{{"action", "save_state"}, {"path", name}}; };
   auto shot = [](const char* name) { return json{{"action", "screenshot"}, {"path", name}, {"ui", false}}; };
   auto state = [&](const fs::path& d, const char* name) { return json::parse(readText(d / name)); };
-  auto terrainPixels = [](const fs::path& depthFile) {
-    const gfx::ImageFloat depth = *gfx::readImageFloat(depthFile.string());
-    std::size_t n = 0;
-    for (float d : depth.pixels) n += d > 0.0F ? 1u : 0u;
-    return n;
-  };
-  const std::size_t pixels = static_cast<std::size_t>(kWidth) * kHeight;
 
   for (const std::string& open : {geographic, (dir / "tiles").string()}) {
     const fs::path d = outputDir(fs::path(open).filename().string());
@@ -683,7 +707,10 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
         d, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, shot("home.png"), save("s.json")}}}, open));
     const json s = state(d, "s.json");
     EXPECT_EQ(s["scene"], fs::absolute(open).lexically_normal().string());
-    EXPECT_GT(terrainPixels(d / "home_depth.tiff"), pixels / 5) << open << ": the home view shows the DEM";
+    const RegionCount home = terrainInFreeRegion(d / "home_depth.tiff", s);
+    EXPECT_GT(home.inside, home.regionPixels / 8) << open << ": the home view shows the DEM";
+    EXPECT_GT(home.span, 0.75) << open << ": the home view does not fill the free part of the window";
+    EXPECT_EQ(home.outside, 0u) << open << ": the home view puts terrain under the panel";
   }
 
   // A vector file alone: over flat ground, its one layer drawn.
@@ -694,7 +721,9 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
   const json sv = state(dv, "s.json");
   ASSERT_EQ(sv["layers"].size(), 1u);
   EXPECT_GT(sv["layers"][0]["drawn_features"].get<int>(), 0);
-  EXPECT_GT(terrainPixels(dv / "home_depth.tiff"), pixels / 10);
+  const RegionCount alone = terrainInFreeRegion(dv / "home_depth.tiff", sv);
+  EXPECT_GT(alone.inside, alone.regionPixels / 8);
+  EXPECT_EQ(alone.outside, 0u);
   EXPECT_GT(sv["frame"]["overlay_fragments"].get<double>(), 0.0) << "the layer is drawn";
 
   // Nothing that opens: the window stays, says why, and takes a DEM dropped on it.
@@ -720,8 +749,11 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
   std::size_t lit = 0;
   for (std::size_t i = 0; i < window.pixels.size(); i += 3) lit += window.pixels[i] > 150 ? 1u : 0u;
   EXPECT_GT(lit, 200u) << "the message window is drawn";
-  EXPECT_EQ(state(dm, "dropped.json")["scene"], geographic);
-  EXPECT_GT(terrainPixels(dm / "dropped_depth.tiff"), pixels / 5);
+  const json dropped = state(dm, "dropped.json");
+  EXPECT_EQ(dropped["scene"], geographic);
+  const RegionCount shown = terrainInFreeRegion(dm / "dropped_depth.tiff", dropped);
+  EXPECT_GT(shown.inside, shown.regionPixels / 8);
+  EXPECT_GT(shown.span, 0.75);
 }
 
 }  // namespace

@@ -232,7 +232,7 @@ TEST(VectorTiles, LinesComeOnceWithTheirTilePiecesAsParts) {
   ASSERT_TRUE(read.ok()) << said(read.diagnostics);
   const double bound = read->quantisationMetres;
   EXPECT_NEAR(bound, 0.5 * 0.14929 * (std::numbers::sqrt2 + 1.0), 1e-4);
-  // Each street once under its source id (the sample's 8 one-point lines are not in the tiles).
+  // Each street once under its source id.
   EXPECT_EQ(read->features.size(), source->features.size());
   double worst = 0.0, worstBack = 0.0;
   std::size_t parts = 0;

@@ -1081,7 +1081,6 @@ TEST(Olinda, ReferenceMaskOfTheRealLayers) {
   ASSERT_TRUE(tracts.ok());
   ASSERT_TRUE(streets.ok());
   ASSERT_EQ(tracts->features.size(), 470U);
-  // 1421 in the file; 8 of them (two copies of one point) are dropped by the reader.
   ASSERT_EQ(streets->features.size(), 1413U);
 
   std::vector<LineShape> shapes;

@@ -16,6 +16,7 @@
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "scene/camera.hpp"
 #include "scene/camera_controller.hpp"
 
 namespace gis::test {
@@ -212,6 +213,34 @@ TEST(CameraControllerOrbit, KeepsTargetAndDistance) {
   const double height = controller.goal().eye.z;
   controller.orbit(glm::dvec2(57.0, 0.0));
   EXPECT_NEAR(controller.goal().eye.z, height, 1e-9);
+}
+
+// The compass's north-up: the view turns to the heading asked, about the target in orbit mode and
+// about the eye in fly mode, keeping pitch and distance; a non-finite heading changes nothing.
+TEST(CameraControllerHeading, TurnsAboutTheTargetOrTheEye) {
+  CameraController controller(oblique(), unsmoothed());
+  controller.orbit(glm::dvec2(123.0, 0.0));
+  const OrbitPose turned = controller.goalPose();
+  controller.setHeading(0.0);
+  const Camera north = controller.goal();
+  expectNear(north.target, turned.target, 1e-9, "target");
+  EXPECT_NEAR(controller.goalPose().pitch, turned.pitch, 1e-12);
+  EXPECT_NEAR(controller.goalPose().distance, turned.distance, 1e-9);
+  // Yaw 0 looks north (+y), with no sideways component.
+  EXPECT_NEAR(direction(north).x, 0.0, 1e-12);
+  EXPECT_GT(direction(north).y, 0.0);
+
+  controller.setMode(CameraController::Mode::Fly);
+  const glm::dvec3 eye = controller.goal().eye;
+  controller.setHeading(kPi / 2.0);  // looks west
+  const Camera west = controller.goal();
+  expectNear(west.eye, eye, 1e-9, "eye");
+  EXPECT_NEAR(direction(west).y, 0.0, 1e-12);
+  EXPECT_LT(direction(west).x, 0.0);
+
+  const OrbitPose before = controller.goalPose();
+  controller.setHeading(kNaN);
+  EXPECT_EQ(controller.goalPose(), before);
 }
 
 TEST(CameraControllerOrbit, APivotOnTheViewAxisKeepsTheViewAndBecomesTheCentre) {
@@ -718,6 +747,56 @@ TEST(CameraController, BadSettingsAreReplaced) {
   controller.update(kFrame, flat(0.0));
   expectUsable(controller.camera());
   expectUsable(controller.goal());
+}
+
+}  // namespace
+}  // namespace gis::test
+
+namespace gis::test {
+namespace {
+
+// A home view in the part of the window a panel leaves free: every corner of the box projects
+// into the region (less its margin), the box fills it along one axis, and it is centred; the
+// direction of view is kept. Over boxes of many shapes, regions and directions.
+TEST(FrameBoxInRegion, FitsFillsAndCentresTheBox) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    const glm::dvec3 lo(-5000.0 * unit(random), -5000.0 * unit(random), 100.0 * unit(random));
+    const glm::dvec3 hi(lo.x + 100.0 + 20000.0 * unit(random), lo.y + 100.0 + 20000.0 * unit(random),
+                        lo.z + 1.0 + 1500.0 * unit(random));
+    const glm::ivec2 viewport(400 + static_cast<int>(1200 * unit(random)), 300 + static_cast<int>(900 * unit(random)));
+    const double left = viewport.x * 0.45 * unit(random);
+    const glm::dvec4 region(left, 0.0, viewport.x, viewport.y - 30.0);
+    Camera start = scene::overviewCamera(lo, hi, 30.0 + 30.0 * unit(random));
+    // Headings and pitches other than the overview's.
+    const double yaw = 2.0 * kPi * unit(random), pitch = 0.3 + 1.0 * unit(random);
+    const double distance = glm::length(start.eye - start.target);
+    start.eye = start.target + distance * glm::dvec3(std::cos(pitch) * std::sin(yaw), -std::cos(pitch) * std::cos(yaw),
+                                                     std::sin(pitch));
+    const double margin = 0.05;
+    const Camera c = scene::frameBoxInRegion(start, lo, hi, viewport, region, margin);
+    expectNear(direction(c), direction(start), 1e-9, "direction");
+    const glm::dmat4 viewProj = c.projection(static_cast<double>(viewport.x) / viewport.y) * c.view();
+    glm::dvec2 pmin(1e300), pmax(-1e300);
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec3 corner((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z);
+      const glm::dvec4 clip = viewProj * glm::dvec4(corner, 1.0);
+      ASSERT_GT(clip.w, 0.0);
+      const glm::dvec2 pixel((clip.x / clip.w * 0.5 + 0.5) * viewport.x, (0.5 - clip.y / clip.w * 0.5) * viewport.y);
+      pmin = glm::min(pmin, pixel);
+      pmax = glm::max(pmax, pixel);
+    }
+    const glm::dvec2 size(region.z - region.x, region.w - region.y);
+    const glm::dvec2 inner = size * (1.0 - 2.0 * margin);
+    EXPECT_GE(pmin.x, region.x + margin * size.x - 0.5) << i;
+    EXPECT_LE(pmax.x, region.z - margin * size.x + 0.5) << i;
+    EXPECT_GE(pmin.y, region.y + margin * size.y - 0.5) << i;
+    EXPECT_LE(pmax.y, region.w - margin * size.y + 0.5) << i;
+    EXPECT_GT(std::max((pmax.x - pmin.x) / inner.x, (pmax.y - pmin.y) / inner.y), 0.995) << i;
+    EXPECT_NEAR(0.5 * (pmin.x + pmax.x), 0.5 * (region.x + region.z), 0.5) << i;
+    EXPECT_NEAR(0.5 * (pmin.y + pmax.y), 0.5 * (region.y + region.w), 0.5) << i;
+  }
 }
 
 }  // namespace

@@ -47,6 +47,13 @@ Result<Camera> placeCamera(const CameraSpec& spec, const geo::SceneFrame& frame,
 /// An oblique overview of a box (frame coordinates): from the south, 40° down, the box filling the view.
 Camera overviewCamera(const glm::dvec3& boxMin, const glm::dvec3& boxMax, double fovYDeg = 45.0);
 
+/// `camera` moved, keeping its direction, so that the box's corners project into `region`
+/// (pixels x0, y0, x1, y1, origin top-left) of a `viewport` with `margin` (a fraction of the
+/// region) to spare: as large as fits and centred in it. A viewer's home view in the part of the
+/// window its panel leaves free. Returns `camera` unchanged when the region or box is empty.
+Camera frameBoxInRegion(const Camera& camera, const glm::dvec3& boxMin, const glm::dvec3& boxMax,
+                        const glm::ivec2& viewport, const glm::dvec4& region, double margin = 0.05);
+
 /// camera.json as overlay_render writes it: width, height, column-major view and proj, depth
 /// convention, frame (crs, origin) and the camera itself in both forms (readable as --camera).
 nlohmann::json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width, int height);

@@ -63,6 +63,9 @@ class CameraController {
   void setHome(const Camera& home);
   /// Smooth move to the home view (at the settings' smoothing rate).
   void goHome();
+  /// Turns the goal to look along heading `yaw` (OrbitPose::yaw), keeping pitch and distance:
+  /// about the target in orbit mode, about the eye in fly mode (north-up: the yaw of north).
+  void setHeading(double yaw);
   /// Shown camera and goal both become `c` (no animation). Ignored if `c` holds non-finite numbers.
   void jumpTo(const Camera& c);
   /// Scripted keyframe: the shown camera moves from where it is to `c` over `seconds` with smoothstep

@@ -8,6 +8,7 @@
 
 #include <glm/vec4.hpp>
 
+#include "gfx/program.hpp"
 #include "gfx/queries.hpp"
 #include "gfx/state_cache.hpp"
 #include "scene/camera.hpp"
@@ -32,6 +33,9 @@ struct RenderSettings {
   /// (TechniqueFrame::tileProgress; e.g. consoleProgress).
   std::function<void(double)> tileProgress;
   bool overlays = true;  ///< draw the vector layers
+  /// A sky behind the terrain (by the view ray's elevation) instead of the plain background.
+  /// Only for a target without the mask attachment (the sky writes colour 0 alone).
+  bool sky = false;
   overlay::OverlaySettings overlay;
 };
 
@@ -171,6 +175,10 @@ class SceneRenderer {
   terrain::LodSelection selection_;
   std::optional<gfx::GpuTimer> timer_;
   std::optional<gfx::PipelineStatistics> statistics_;
+  /// The sky's program and an empty vertex array for its full-screen triangle, made at first use.
+  std::optional<gfx::Program> sky_;
+  gfx::VertexArrayHandle emptyVao_;
+  void drawSky(gfx::StateCache& cache, const Camera& camera, double aspect, int width, int height);
 };
 
 }  // namespace gis::scene
