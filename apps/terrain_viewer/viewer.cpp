@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <limits>
 #include <string>
 #include <system_error>
 #include <utility>
@@ -64,6 +66,7 @@ bool isVectorFile(const std::string& path) {
 
 Viewer::~Viewer() {
   if (selectionJob_.valid()) selectionJob_.wait();  // it reads the scene and the layers
+  if (loading_) loading_->job.wait();
   if (imgui_) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
@@ -81,12 +84,16 @@ int Viewer::run(const ViewerOptions& options) {
   GLFWwindow* window = v.context_->window();
   double last = glfwGetTime();
   while (!glfwWindowShouldClose(window) && !v.quit_) {
-    // Draw on change; otherwise sleep until an event (input, a drop, an expose, a resize).
-    const bool waited = !v.needsFrame();
-    if (waited) {
+    // Draw on change; otherwise sleep until an event (input, a drop, an expose, a resize), or
+    // until work in the background may have finished.
+    const double wait = v.idleWait();
+    const bool waited = wait > 0.0;
+    if (!waited) {
+      glfwPollEvents();
+    } else if (std::isinf(wait)) {
       glfwWaitEvents();
     } else {
-      glfwPollEvents();
+      glfwWaitEventsTimeout(wait);
     }
     const double now = glfwGetTime();
     // After a sleep the time since the last frame is no frame time, and no step for motion.
@@ -163,9 +170,7 @@ bool Viewer::open(const ViewerOptions& options) {
   render_.waitForTiles = script_.has_value();  // scripted screenshots show the finished view
   render_.sky = true;
   // A scene that does not load leaves the window open with the messages, ready for another.
-  if (!loadPath(options.scene)) {
-    logInfo("terrain_viewer: nothing to show; the window waits for a scene, a DEM or a vector file dropped on it");
-  }
+  loadPath(options.scene);
   return true;
 }
 
@@ -200,10 +205,27 @@ bool Viewer::loadPath(const std::string& path) {
 }
 
 bool Viewer::useScene(scene::SceneDescription description) {
-  finishSelection();  // its job reads the scene about to go
-  Result<scene::LoadedScene> scene = scene::loadScene(description);
+  // Read on a worker (DEM, tile pyramid, imagery, vector layers: no GL) while the window keeps
+  // drawing, with a progress bar; the GPU part follows on this thread when it is done.
+  auto load = std::make_unique<PendingLoad>();
+  load->progress = std::make_shared<std::atomic<double>>(-1.0);
+  load->started = glfwGetTime();
+  load->label = description.name.empty() ? description.path : description.name;
+  scene::LoadOptions options;
+  options.progress = [progress = load->progress](double fraction) { progress->store(fraction); };
+  load->job = std::async(std::launch::async, [description, options] { return scene::loadScene(description, options); });
+  load->description = std::move(description);
+  loading_ = std::move(load);
+  return true;
+}
+
+void Viewer::finishLoad(bool wait) {
+  if (!loading_ || (!wait && loading_->job.wait_for(std::chrono::seconds(0)) != std::future_status::ready)) return;
+  const std::unique_ptr<PendingLoad> load = std::move(loading_);
+  Result<scene::LoadedScene> scene = load->job.get();
   for (const Diagnostic& d : scene.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
-  if (!scene) return false;
+  if (!scene) return;
+  finishSelection();  // its job reads the scene about to go
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();
   scene::OverlayBuildSettings build;
@@ -211,10 +233,14 @@ bool Viewer::useScene(scene::SceneDescription description) {
   build.textureSize = drapeSize_;
   Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene, build);
   for (const Diagnostic& d : renderer.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
-  if (!renderer) return false;
+  if (!renderer) {
+    scene_.reset();  // the old one has no renderer any more
+    description_.reset();
+    return;
+  }
   scene_ = std::move(*scene);
   renderer_ = std::move(*renderer);
-  description_ = std::move(description);
+  description_ = load->description;
   scene_->bounds->setExaggeration(description_->verticalExaggeration);
   const scene::Camera home = homeCamera();
   if (controller_) {
@@ -223,12 +249,60 @@ bool Viewer::useScene(scene::SceneDescription description) {
   } else {
     controller_.emplace(home);
   }
+  undo_.clear();
+  redo_.clear();
   clearSelection();
   identified_.reset();
   glfwSetWindowTitle(
       context_->window(),
       ("terrain_viewer — " + (description_->name.empty() ? description_->path : description_->name)).c_str());
-  return true;
+}
+
+void Viewer::notify(const std::string& text, bool error) {
+  said_.erase((error && text.rfind("error: ", 0) != 0 ? "error: " : "") + text);  // said again, each time
+  message(text, error);
+  notice_ = Notice{text, glfwGetTime() + 4.0, error};
+}
+
+void Viewer::drawNotice() {
+  if (!notice_) return;
+  if (glfwGetTime() > notice_->until) {
+    notice_.reset();
+    return;
+  }
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(ImVec2(viewport->GetCenter().x, viewport->WorkPos.y + 12.0F), ImGuiCond_Always,
+                          ImVec2(0.5F, 0.0F));
+  ImGui::SetNextWindowBgAlpha(0.85F);
+  ImGui::Begin("notice", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs |
+                   ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoSavedSettings);
+  ImGui::PushTextWrapPos(0.6F * viewport->WorkSize.x);
+  if (notice_->error) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0F, 0.45F, 0.4F, 1.0F));
+  ImGui::TextUnformatted(notice_->text.c_str());
+  if (notice_->error) ImGui::PopStyleColor();
+  ImGui::PopTextWrapPos();
+  ImGui::End();
+}
+
+void Viewer::drawLoading() {
+  if (!loading_ || glfwGetTime() - loading_->started < 0.3) return;
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(ImVec2(viewport->GetCenter().x, viewport->WorkPos.y + 0.3F * viewport->WorkSize.y),
+                          ImGuiCond_Always, ImVec2(0.5F, 0.5F));
+  ImGui::SetNextWindowSize(ImVec2(std::min(30.0F * ImGui::GetFontSize(), viewport->WorkSize.x * 0.8F), 0.0F));
+  ImGui::Begin("Loading", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoSavedSettings);
+  ImGui::TextWrapped("Loading %s", loading_->label.c_str());
+  const double fraction = loading_->progress->load();
+  if (fraction >= 0.0) {
+    // Only a tile pyramid's build reports how far it is.
+    char text[64];
+    std::snprintf(text, sizeof(text), "building the tile pyramid: %.0f %%", 100.0 * fraction);
+    ImGui::ProgressBar(static_cast<float>(fraction), ImVec2(-1.0F, 0.0F), text);
+  } else {
+    ImGui::TextDisabled("%.0f s", glfwGetTime() - loading_->started);
+  }
+  ImGui::End();
 }
 
 glm::dvec4 Viewer::freeRegion() const {
@@ -268,9 +342,12 @@ void Viewer::goHome() {
 }
 
 void Viewer::message(const std::string& text, bool error) {
-  (error ? logError : logInfo)(text);
   // Diagnostics say "error: " themselves.
-  messages_.push_back((error && text.rfind("error: ", 0) != 0 ? "error: " : "") + text);
+  std::string line = (error && text.rfind("error: ", 0) != 0 ? "error: " : "") + text;
+  // Said once: a repeat (the same warning at each rebuild) only counts.
+  if (++said_[line] > 1) return;
+  (error ? logError : logInfo)(text);
+  messages_.push_back(std::move(line));
   if (messages_.size() > 200) messages_.erase(messages_.begin(), messages_.begin() + 100);
 }
 
@@ -297,8 +374,10 @@ scene::Camera Viewer::camera() const {
 
 void Viewer::frame(double seconds) {
   ++frameIndex_;
-  // Dropped files: the last scene wins; vector files add layers.
-  for (const std::string& path : std::exchange(dropped_, {})) loadPath(path);
+  // A scene read in the background; dropped files once it is in (the last scene wins; vector
+  // files add layers to it).
+  finishLoad(false);
+  if (!loading_ && !dropped_.empty()) loadPath(dropped_.front()), dropped_.erase(dropped_.begin());
   pollSelection(false);
 
   redrawFrames_ = std::max(redrawFrames_ - 1, 0);
@@ -328,8 +407,10 @@ void Viewer::frame(double seconds) {
   ImGui_ImplGlfw_NewFrame();
   feedImGuiMouse();
   ImGui::NewFrame();
+  drawLoading();
+  drawNotice();
   if (!scene_) {
-    drawNoScene();
+    if (!loading_) drawNoScene();
   } else {
     drawScaleBar();
     drawCompass();
@@ -365,7 +446,7 @@ void Viewer::drawScene() {
   const scene::Camera c = camera();
   const scene::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
   // Work arriving: draw again until it has (tiles built or paged in, a selection found).
-  busy_ = s.tilesMissing > 0 || s.pager.pending > 0 || s.overlayTiles.tilesMissing > 0 || selectionJob_.valid();
+  busy_ = s.tilesMissing > 0 || s.pager.pending > 0 || s.overlayTiles.tilesMissing > 0;
   if (render_.measure) {
     stats_ = s;
   } else {

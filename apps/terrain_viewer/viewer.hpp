@@ -6,6 +6,7 @@
 // needs it, and identify and screenshots read it back), then copied to the window; the panel is
 // drawn over the copy.
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <deque>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -91,6 +93,15 @@ std::string formatMetres(double metres);
 /// The largest 1, 2 or 5 × 10^k not above `most` (a scale bar's length); 0 for none.
 double niceLength(double most);
 
+/// A scene being read on a worker thread.
+struct PendingLoad {
+  std::future<Result<scene::LoadedScene>> job;
+  scene::SceneDescription description;
+  std::shared_ptr<std::atomic<double>> progress;  ///< a tile pyramid's build, 0…1; negative: none reported
+  double started = 0.0;                           ///< glfwGetTime
+  std::string label;
+};
+
 class Viewer {
  public:
   /// Opens the window and runs until it is closed (or the script ends). Returns the exit status:
@@ -108,7 +119,13 @@ class Viewer {
   /// Loads a scene file (or makes a scene of a DEM, or adds a vector layer to the current
   /// scene) — what dropping a file on the window does. Reports and keeps the old scene on failure.
   bool loadPath(const std::string& path);
+  /// Starts reading the scene on a worker (finishLoad takes it when done).
   bool useScene(scene::SceneDescription description);
+  /// The scene read in the background, made current (renderer, home view) when it is ready;
+  /// `wait`: waits for it.
+  void finishLoad(bool wait);
+  /// The progress of a load that takes more than a moment.
+  void drawLoading();
   void frame(double seconds);
   /// The part of the window the panel and the status bar leave free, framebuffer pixels
   /// (x0, y0, x1, y1 from the top left).
@@ -131,6 +148,8 @@ class Viewer {
   /// Whether the next frame must be drawn now: input to handle, motion, work arriving (tiles,
   /// a selection), a script. Otherwise the loop sleeps until an event.
   [[nodiscard]] bool needsFrame() const;
+  /// How long the loop may sleep before the next frame: 0 to draw now, infinity until an event.
+  [[nodiscard]] double idleWait() const;
   [[nodiscard]] bool keyDown(int key) const {
     return key >= 0 && static_cast<std::size_t>(key) < keysDown_.size() && keysDown_[static_cast<std::size_t>(key)];
   }
@@ -186,6 +205,11 @@ class Viewer {
   [[nodiscard]] std::optional<bool> layerShown(std::size_t sceneLayer) const;
   void rebuildOverlays();
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
+  /// Before a change of the selection's steps: the steps as they were, for undo.
+  void rememberSelection();
+  /// Ctrl+Z and Ctrl+Y (Ctrl+Shift+Z): a step of the selection's history back or forward.
+  void undoSelection();
+  void redoSelection();
   void invertSelection();
   void clearSelection();
   void setExaggeration(double exaggeration);
@@ -216,6 +240,9 @@ class Viewer {
   bool runStep(const app::ScriptStep& step);  ///< false: the step failed (reported)
 
   void message(const std::string& text, bool error = false);
+  /// A message that also shows for a few seconds at the top of the window (export, screenshot).
+  void notify(const std::string& text, bool error = false);
+  void drawNotice();
 
   [[nodiscard]] glm::ivec2 framebufferSize() const;
   /// Window (screen) coordinates → framebuffer pixels (high-DPI).
@@ -227,6 +254,7 @@ class Viewer {
   ViewerOptions options_;
   app::ViewerSettings settings_;
   std::optional<scene::SceneDescription> description_;
+  std::unique_ptr<PendingLoad> loading_;
   std::optional<scene::LoadedScene> scene_;
   std::optional<scene::SceneRenderer> renderer_;
   std::optional<scene::CameraController> controller_;
@@ -240,6 +268,7 @@ class Viewer {
 
   // Selection.
   std::vector<overlay::SelectionStep> steps_;
+  std::vector<std::vector<overlay::SelectionStep>> undo_, redo_;        ///< the steps before (after) each change
   std::optional<scene::SceneSelection> selected_;                       ///< the logical selection, once its job is done
   std::future<std::pair<scene::SceneSelection, double>> selectionJob_;  ///< and its wall time, ms
   std::size_t selectionGeneration_ = 0;                                 ///< counts changes of the lassos
@@ -263,7 +292,14 @@ class Viewer {
   double frameMs_ = 16.0;
   double selectionMs_ = 0.0;  ///< wall time of the last logical selection (features and posts)
   std::size_t frameIndex_ = 0;
-  std::vector<std::string> messages_;
+  struct Notice {
+    std::string text;
+    double until = 0.0;  ///< glfwGetTime
+    bool error = false;
+  };
+  std::optional<Notice> notice_;
+  std::vector<std::string> messages_;                  ///< each said once, in order
+  std::unordered_map<std::string, std::size_t> said_;  ///< how often each message was said
 
   // Input.
   glm::dvec2 lastPixel_{0.0};

@@ -74,13 +74,37 @@ void Viewer::addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points) {
   step.lasso.viewProj = c.projection(aspect()) * c.view();
   step.lasso.width = fb.x;
   step.lasso.height = fb.y;
+  rememberSelection();
   // A plain click-drag replaces the selection (Single starts a new chain).
   if (op == overlay::SelectionOp::Single) steps_.clear();
   steps_.push_back(std::move(step));
   selectionChanged();
 }
 
+void Viewer::rememberSelection() {
+  undo_.push_back(steps_);
+  if (undo_.size() > 100) undo_.erase(undo_.begin());
+  redo_.clear();
+}
+
+void Viewer::undoSelection() {
+  if (undo_.empty()) return;
+  redo_.push_back(std::move(steps_));
+  steps_ = std::move(undo_.back());
+  undo_.pop_back();
+  selectionChanged();
+}
+
+void Viewer::redoSelection() {
+  if (redo_.empty()) return;
+  undo_.push_back(std::move(steps_));
+  steps_ = std::move(redo_.back());
+  redo_.pop_back();
+  selectionChanged();
+}
+
 void Viewer::invertSelection() {
+  rememberSelection();
   overlay::SelectionStep step;
   step.op = overlay::SelectionOp::Invert;
   steps_.push_back(step);
@@ -88,6 +112,7 @@ void Viewer::invertSelection() {
 }
 
 void Viewer::clearSelection() {
+  if (!steps_.empty()) rememberSelection();
   steps_.clear();
   selectionChanged();
 }
@@ -143,7 +168,7 @@ void Viewer::finishSelection() { pollSelection(true); }
 bool Viewer::exportSelection(const std::filesystem::path& path) {
   finishSelection();
   if (!selected_ || selected_->featureCount() == 0) {
-    message(path.string() + ": nothing selected to export", true);
+    notify(path.string() + ": nothing selected to export", true);
     return false;
   }
   std::error_code ec;
@@ -151,8 +176,12 @@ bool Viewer::exportSelection(const std::filesystem::path& path) {
   const Diagnostics d = scene::exportSelection(
       *scene_, *renderer_, *selected_, path, path.has_parent_path() ? path.parent_path() : std::filesystem::path("."));
   for (const Diagnostic& m : d.items()) message(m.toString(), m.severity == Severity::Error);
-  if (d.hasErrors()) return false;
-  message("exported " + std::to_string(selected_->featureCount()) + " features to " + path.string());
+  if (d.hasErrors()) {
+    notify("Export to " + path.string() + " failed: see Messages", true);
+    return false;
+  }
+  notify("Exported " + std::to_string(selected_->featureCount()) + " features to " +
+         std::filesystem::absolute(path, ec).lexically_normal().string());
   return true;
 }
 
@@ -190,7 +219,11 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);
   for (const Diagnostic& d : png.diagnostics.items()) message(d.toString(), true);
   ok = ok && png.ok();
-  if (ok) message("screenshot " + path.string());
+  if (ok) {
+    notify("Screenshot saved to " + std::filesystem::absolute(path, ec).lexically_normal().string());
+  } else {
+    notify("Screenshot " + path.string() + " failed: see Messages", true);
+  }
   return ok;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -164,6 +165,16 @@ void Viewer::feedImGuiMouse() const {
   for (std::size_t i = 0; i < buttonsDown_.size(); ++i) io.MouseDown[i] = buttonsDown_[i];
 }
 
+double Viewer::idleWait() const {
+  if (needsFrame()) return 0.0;
+  double wait = std::numeric_limits<double>::infinity();
+  // Look again soon for work on other threads (a scene being read, a selection being found);
+  // a notice disappears when its time is up.
+  if (loading_ || selectionJob_.valid()) wait = 0.1;
+  if (notice_) wait = std::min(wait, std::max(notice_->until - glfwGetTime(), 0.01));
+  return wait;
+}
+
 bool Viewer::needsFrame() const {
   if (script_ || quit_ || pendingShot_ || !events_.empty() || !dropped_.empty() || redrawFrames_ > 0 || moving_ ||
       busy_ || animating_) {
@@ -293,6 +304,16 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
       break;
     case GLFW_KEY_C:
       clearSelection();
+      break;
+    case GLFW_KEY_Z:
+      if (modifiers.ctrl && modifiers.shift) {
+        redoSelection();
+      } else if (modifiers.ctrl) {
+        undoSelection();
+      }
+      break;
+    case GLFW_KEY_Y:
+      if (modifiers.ctrl) redoSelection();
       break;
     case GLFW_KEY_O:
       render_.overlays = !render_.overlays;

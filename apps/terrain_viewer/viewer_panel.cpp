@@ -238,6 +238,13 @@ void Viewer::drawSelectionSection() {
   if (ImGui::Button("Clear (C)")) clearSelection();
   ImGui::SameLine();
   ImGui::ColorEdit3("highlight", &highlight_.color.x, ImGuiColorEditFlags_NoInputs);
+  ImGui::BeginDisabled(undo_.empty());
+  if (ImGui::Button("Undo (Ctrl+Z)")) undoSelection();
+  ImGui::EndDisabled();
+  ImGui::SameLine();
+  ImGui::BeginDisabled(redo_.empty());
+  if (ImGui::Button("Redo (Ctrl+Y)")) redoSelection();
+  ImGui::EndDisabled();
   if (!steps_.empty()) {
     std::string chain;
     for (const overlay::SelectionStep& s : steps_)
@@ -290,7 +297,12 @@ void Viewer::drawSelectedFeatures() {
 void Viewer::drawMessagesSection() {
   if (messages_.empty() || !ImGui::CollapsingHeader("Messages")) return;
   for (std::size_t k = messages_.size() > 30 ? messages_.size() - 30 : 0; k < messages_.size(); ++k) {
-    ImGui::TextWrapped("%s", messages_[k].c_str());
+    const auto repeats = said_.find(messages_[k]);
+    if (repeats != said_.end() && repeats->second > 1) {
+      ImGui::TextWrapped("%s (×%zu)", messages_[k].c_str(), repeats->second);
+    } else {
+      ImGui::TextWrapped("%s", messages_[k].c_str());
+    }
   }
 }
 
@@ -371,6 +383,7 @@ void Viewer::drawHelp() {
       {"N", "north up (or click the compass)"},
       {"L", "lasso tool: drag to draw; Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor"},
       {"I / C", "invert / clear the selection"},
+      {"Ctrl+Z / Ctrl+Y", "undo / redo a step of the selection"},
       {"O", "all vector layers on/off (compare frame rate)"},
       {"P / U", "panel / HUD on/off"},
       {"F12", "screenshot (PNG, working directory)"},

@@ -20,6 +20,7 @@
 namespace gis::viewer {
 
 void Viewer::advanceScript(double seconds, const InputFrame& window) {
+  if (loading_) return;  // the next steps act on the scene being read
   if (live_) {
     // The real mouse and keys, as without a script, until the test says it is done.
     handleInput(seconds, window);
