@@ -223,8 +223,10 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
     selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
     disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
   }
+  const auto logicalStart = std::chrono::steady_clock::now();
   const scene::SceneSelection chosen =
       scene::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
+  const double logicalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - logicalStart).count();
   json layers = json::array();
   for (const scene::LayerSelection& l : chosen.layers) {
     const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
@@ -258,6 +260,8 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
                         {"selected_pixels", selectedPixels},
                         {"pixels_differing_from_cpu_twin", disagreeing},
                         {"sample_spacing_m", chosen.sampleSpacing},
+                        {"logical_seconds", logicalSeconds},
+                        {"tested_samples", chosen.testedSamples},
                         {"layers", layers},
                         {"dem_posts", posts}};
   return ok;

@@ -1,6 +1,7 @@
 #include "scene/scene_selection.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <numbers>
@@ -42,7 +43,21 @@ SceneSelection selectInScene(const LoadedScene& scene, const SceneRenderer& rend
   options.minHeight = global.lo;
   options.maxHeight = global.hi;
   out.sampleSpacing = options.sampleSpacing;
+  options.testedSamples = &out.testedSamples;
   const auto heightAt = [&scene](const glm::dvec2& p) { return scene.bounds->fullResolutionHeightAt(p); };
+  // The full-resolution surface's posts around a box bound it there (padded for the rounding of
+  // its interpolation); off the DEM there is no terrain.
+  const terrain::TerrainGrid& dem = scene.quadtree->grid();
+  options.heightBounds = [&scene, &dem](const glm::dvec2& lo, const glm::dvec2& hi) {
+    const glm::dvec2 a = dem.gridCoordinates(lo), b = dem.gridCoordinates(hi);
+    const glm::dvec2 glo = glm::min(a, b), ghi = glm::max(a, b);
+    if (ghi.x < 0.0 || ghi.y < 0.0 || glo.x > dem.width - 1 || glo.y > dem.height - 1) return HeightBounds{1.0, 0.0};
+    const std::array<glm::dvec2, 4> corners = {lo, glm::dvec2(hi.x, lo.y), hi, glm::dvec2(lo.x, hi.y)};
+    HeightBounds z = scene.bounds->boundsOverLevels(corners, 0, 0);
+    z.lo -= 1e-3 + 1e-6 * std::abs(z.lo);
+    z.hi += 1e-3 + 1e-6 * std::abs(z.hi);
+    return z;
+  };
   for (std::size_t j = 0; j < renderer.overlaySources().size(); ++j) {
     if (renderer.overlaySources()[j].second) continue;  // an outline: its fill has the features
     LayerSelection layer;

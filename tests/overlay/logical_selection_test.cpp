@@ -198,15 +198,28 @@ TEST(LogicalSelection, FeaturesAnyPartAndFullyInside) {
   EXPECT_EQ(u[0].feature, 0u);
   EXPECT_EQ(u[1].feature, 5u);
 
-  // The height range lets far features be skipped without sampling; the answer is the same.
+  // The height range lets far features be skipped and blocks answered whole; the answer is the
+  // same, found with fewer samples tested.
   options.minHeight = -10.0;
   options.maxHeight = 10.0;
   const std::vector<overlay::FeatureSelection> v = overlay::selectFeatures(layer, steps, kFlat, options);
   ASSERT_EQ(v.size(), s.size());
   for (std::size_t i = 0; i < v.size(); ++i) {
     EXPECT_EQ(v[i].feature, s[i].feature);
-    EXPECT_EQ(v[i].selectedSamples, s[i].selectedSamples);
+    EXPECT_EQ(v[i].fullyInside, s[i].fullyInside);
+    EXPECT_LE(v[i].samples, s[i].samples);
   }
+  EXPECT_LT(v[0].samples, s[0].samples / 10);  // the square inside: its blocks answered whole
+  // Every sample tested: the same answer again, from every sample.
+  options.exhaustive = true;
+  const std::vector<overlay::FeatureSelection> w = overlay::selectFeatures(layer, steps, kFlat, options);
+  ASSERT_EQ(w.size(), s.size());
+  for (std::size_t i = 0; i < w.size(); ++i) {
+    EXPECT_EQ(w[i].feature, s[i].feature);
+    EXPECT_EQ(w[i].fullyInside, s[i].fullyInside);
+    EXPECT_GE(w[i].samples, s[i].samples);
+  }
+  EXPECT_EQ(w[0].samples, w[0].selectedSamples);
 }
 
 TEST(LogicalSelection, LinesCountTheirWidthAndTheTerrainHeight) {

@@ -28,13 +28,16 @@ struct LayerSelection {
 struct SceneSelection {
   std::vector<LayerSelection> layers;  ///< every drawn scene layer, in scene order
   double sampleSpacing = 0.0;          ///< metres, of the feature sampling
+  std::size_t testedSamples = 0;       ///< samples tested over every feature, selected or not
   /// Selected DEM posts; none for a paged DEM (its posts are not all in memory).
   std::optional<overlay::PostSelection> posts;
   [[nodiscard]] std::size_t featureCount() const;
 };
 
 /// The features and posts the steps select. Features are sampled at `sampleSpacing` metres, by
-/// default half a pixel's footprint at the camera's target in a view `height` pixels high.
+/// default half a pixel's footprint at the camera's target in a view `height` pixels high; the
+/// samples are classified by blocks against the volumes with the DEM's full-resolution height
+/// bounds (logical_selection.hpp), so the work follows the lassos' walls, not the features' area.
 SceneSelection selectInScene(const LoadedScene& scene, const SceneRenderer& renderer,
                              std::span<const overlay::SelectionStep> steps, const Camera& camera, int width, int height,
                              std::optional<double> sampleSpacing = std::nullopt);
