@@ -95,6 +95,12 @@ int Viewer::run(const ViewerOptions& options) {
     } else {
       glfwWaitEventsTimeout(wait);
     }
+    // Woken with nothing to draw: look at the work in the background, and sleep again unless it
+    // changed something.
+    if (waited && !v.needsFrame()) {
+      v.idleTick();
+      if (!v.needsFrame()) continue;
+    }
     const double now = glfwGetTime();
     // After a sleep the time since the last frame is no frame time, and no step for motion.
     const double elapsed = waited ? std::min(now - last, 1.0 / 60.0) : now - last;

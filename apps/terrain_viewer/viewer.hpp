@@ -11,6 +11,7 @@
 #include <deque>
 #include <filesystem>
 #include <future>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -77,13 +78,22 @@ struct InputEvent {
 /// (the same handling).
 struct InputFrame {
   glm::dvec2 cursor{0.0};  ///< framebuffer pixels, origin top-left
+  /// Every cursor position taken in this frame, in order (the last is `cursor`): a lasso drawn
+  /// faster than the frames keeps its shape.
+  std::vector<glm::dvec2> cursorPath;
   bool left = false, right = false, middle = false;
   app::Modifiers modifiers;
-  double scroll = 0.0;       ///< wheel steps since the last frame, positive zooms in
-  std::vector<int> held;     ///< GLFW keys held down (fly: W A S D Q E)
-  std::vector<int> pressed;  ///< GLFW keys pressed since the last frame (edge-triggered actions)
-  bool uiMouse = false;      ///< the panel takes the mouse
-  bool uiKeyboard = false;   ///< the panel takes the keyboard
+  double scroll = 0.0;    ///< wheel steps since the last frame, positive zooms in
+  std::vector<int> held;  ///< GLFW keys held down (fly: W A S D Q E)
+  /// A key pressed, with the modifiers held when it was (Ctrl+Z: Ctrl may be up by the end of
+  /// the frame).
+  struct KeyPress {
+    int key = 0;
+    app::Modifiers modifiers;
+  };
+  std::vector<KeyPress> pressed;  ///< since the last frame (edge-triggered actions)
+  bool uiMouse = false;           ///< the panel takes the mouse
+  bool uiKeyboard = false;        ///< the panel takes the keyboard
 };
 
 /// "lon −34.854321°, lat −8.012345°": the order and labels used everywhere in the viewer.
@@ -139,9 +149,10 @@ class Viewer {
   void installCallbacks();
   /// This frame's input from the queue, and the same events passed to the panel (ImGui). A
   /// frame takes events in order until one would change a button or key a second time (a
-  /// click shorter than a frame is a press frame and a release frame), and a button event is a
+  /// click shorter than a frame is a press frame and a release frame); a button event is a
   /// frame of its own, so the frame sees the cursor and modifiers it came with (releasing Shift
-  /// just after the mouse button keeps an Or lasso).
+  /// just after the mouse button keeps an Or lasso); a modifier's change after another key's
+  /// starts the next frame (Ctrl+A released at once still selects all in a text field).
   [[nodiscard]] InputFrame takeInput();
   /// After ImGui's platform frame: the panel sees the queue's mouse, not the live one.
   void feedImGuiMouse() const;
@@ -150,6 +161,9 @@ class Viewer {
   [[nodiscard]] bool needsFrame() const;
   /// How long the loop may sleep before the next frame: 0 to draw now, infinity until an event.
   [[nodiscard]] double idleWait() const;
+  /// Woken from a sleep with nothing to draw: asks for a frame if work finished in the
+  /// background (a scene read, a selection found), a notice expired or a live step's file came.
+  void idleTick();
   [[nodiscard]] bool keyDown(int key) const {
     return key >= 0 && static_cast<std::size_t>(key) < keysDown_.size() && keysDown_[static_cast<std::size_t>(key)];
   }
@@ -163,12 +177,16 @@ class Viewer {
 
   /// What a test of the viewer checks: camera and pose, window, selection, identify, layers.
   [[nodiscard]] nlohmann::json state() const;
+  /// The GLFW keys held down as the queue has them (a stuck key shows here).
+  [[nodiscard]] nlohmann::json keysDownJson() const;
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
 
   // The panel, a function per section (viewer_panel.cpp).
   void drawPanel();
+  /// The last item's rectangle (window units) under `name`, for tests that click it.
+  void rememberRect(const std::string& name);
   void drawViewSection();
   void drawOverlaySection();
   /// The drape's (or each tile's) texture size, for the draping methods.
@@ -280,6 +298,10 @@ class Viewer {
   // Views and panels.
   bool showHelp_ = false;
   std::optional<float> exaggerationEdit_;  ///< the exaggeration slider's value while it is dragged
+  std::array<char, 512> exportBuffer_{};   ///< the export path's field
+  bool exportEditing_ = false;
+  /// Where controls were drawn (window units: x0, y0, x1, y1), in save_state for tests.
+  std::map<std::string, glm::vec4> uiRects_;
   bool debugPieces_ = false;
   std::optional<Identified> identified_;
   std::optional<GroundPoint> cursorGround_;  ///< under the cursor in the last frame

@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
+#include <filesystem>
 #include <limits>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <utility>
 
 #include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
@@ -97,6 +100,16 @@ void Viewer::installCallbacks() {
   glfwGetCursorPos(window, &cursorWindow_.x, &cursorWindow_.y);
 }
 
+namespace {
+
+bool isModifier(int key) {
+  return key == GLFW_KEY_LEFT_SHIFT || key == GLFW_KEY_RIGHT_SHIFT || key == GLFW_KEY_LEFT_CONTROL ||
+         key == GLFW_KEY_RIGHT_CONTROL || key == GLFW_KEY_LEFT_ALT || key == GLFW_KEY_RIGHT_ALT ||
+         key == GLFW_KEY_LEFT_SUPER || key == GLFW_KEY_RIGHT_SUPER;
+}
+
+}  // namespace
+
 InputFrame Viewer::takeInput() {
   GLFWwindow* window = context_->window();
   const ImGuiIO& io = ImGui::GetIO();
@@ -118,18 +131,28 @@ InputFrame Viewer::takeInput() {
     }
     const bool keyChange = e.kind == InputEvent::Kind::Key && e.action != GLFW_REPEAT;
     if (keyChange && std::find(keysChanged.begin(), keysChanged.end(), e.code) != keysChanged.end()) break;
+    // A modifier's change starts a frame: keys pressed before it see it as it was (Ctrl+A in
+    // the panel's text fields, whose Ctrl is read at the end of the frame).
+    if (keyChange && !keysChanged.empty() && isModifier(e.code)) break;
     if (keyChange) keysChanged.push_back(e.code);
     events_.pop_front();
     took = true;
     switch (e.kind) {
       case InputEvent::Kind::Cursor:
         cursorWindow_ = e.value;
+        in.cursorPath.push_back(toPixels(e.value));
         break;
       case InputEvent::Kind::Key:
         if (e.code >= 0 && e.code < static_cast<int>(keysDown_.size()) && e.action != GLFW_REPEAT) {
           keysDown_[static_cast<std::size_t>(e.code)] = e.action == GLFW_PRESS;
         }
-        if (e.action == GLFW_PRESS) in.pressed.push_back(e.code);
+        if (e.action == GLFW_PRESS) {
+          app::Modifiers held;
+          held.shift = (e.mods & GLFW_MOD_SHIFT) != 0;
+          held.ctrl = (e.mods & GLFW_MOD_CONTROL) != 0;
+          held.alt = (e.mods & GLFW_MOD_ALT) != 0;
+          in.pressed.push_back({e.code, held});
+        }
         ImGui_ImplGlfw_KeyCallback(window, e.code, e.scancode, e.action, e.mods);
         break;
       case InputEvent::Kind::Char:
@@ -165,19 +188,32 @@ void Viewer::feedImGuiMouse() const {
   for (std::size_t i = 0; i < buttonsDown_.size(); ++i) io.MouseDown[i] = buttonsDown_[i];
 }
 
+void Viewer::idleTick() {
+  const auto ready = [](const auto& job) {
+    return job.valid() && job.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+  };
+  std::error_code ec;
+  if ((loading_ && ready(loading_->job)) || ready(selectionJob_) || (notice_ && glfwGetTime() > notice_->until) ||
+      (live_ && std::filesystem::exists(live_->first, ec))) {
+    redrawFrames_ = std::max(redrawFrames_, 1);
+  }
+}
+
 double Viewer::idleWait() const {
   if (needsFrame()) return 0.0;
   double wait = std::numeric_limits<double>::infinity();
   // Look again soon for work on other threads (a scene being read, a selection being found);
   // a notice disappears when its time is up.
-  if (loading_ || selectionJob_.valid()) wait = 0.1;
+  if (loading_ || selectionJob_.valid() || live_) wait = 0.1;  // a live step looks for its file
   if (notice_) wait = std::min(wait, std::max(notice_->until - glfwGetTime(), 0.01));
   return wait;
 }
 
 bool Viewer::needsFrame() const {
-  if (script_ || quit_ || pendingShot_ || !events_.empty() || !dropped_.empty() || redrawFrames_ > 0 || moving_ ||
-      busy_ || animating_) {
+  // A script draws every frame (time advances by frames), except while it hands the window to
+  // the real mouse and keys: then the viewer behaves as without one.
+  if ((script_ && !live_) || quit_ || pendingShot_ || !events_.empty() || !dropped_.empty() || redrawFrames_ > 0 ||
+      moving_ || busy_ || animating_) {
     return true;
   }
   // Fly keys held move the camera every frame.
@@ -217,7 +253,7 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
     if (move != glm::dvec3(0.0)) controller_->fly(move * (in.modifiers.shift ? 4.0 : 1.0), seconds);
   }
   if (!in.uiKeyboard) {
-    for (const int k : in.pressed) keyPressed(k, fly, in.modifiers);
+    for (const InputFrame::KeyPress& k : in.pressed) keyPressed(k.key, fly, k.modifiers);
   }
 }
 
@@ -241,6 +277,9 @@ void Viewer::handleMouse(const InputFrame& in) {
   }
   if (left && glm::length(pixel - pressCursor_) > 3.0) dragged_ = true;
   if (left && lassoTool_) {
+    for (const glm::dvec2& p : in.cursorPath) {
+      if (glm::length(p - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(p);
+    }
     if (glm::length(pixel - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(pixel);
   } else if (left && leftDown_ && dragged_) {
     if (fly) {

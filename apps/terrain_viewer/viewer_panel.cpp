@@ -21,6 +21,7 @@ struct SliderEdit {
   bool changed = false;  ///< the value moved
   bool done = false;     ///< released (or typed) after a change: the time to apply a costly change
   bool active = false;   ///< held (or being typed into)
+  ImVec2 min, max;       ///< the slider's rectangle, window units
 };
 
 /// A slider whose value is written beside it, before its label, and not over the handle.
@@ -31,6 +32,8 @@ SliderEdit valueSlider(const char* label, float* value, float lo, float hi, cons
   edit.changed = ImGui::SliderFloat("##value", value, lo, hi, "", flags);
   edit.done = ImGui::IsItemDeactivatedAfterEdit();
   edit.active = ImGui::IsItemActive();
+  edit.min = ImGui::GetItemRectMin();
+  edit.max = ImGui::GetItemRectMax();
   ImGui::PopID();
   char text[48];
   std::snprintf(text, sizeof(text), format, static_cast<double>(*value));
@@ -40,6 +43,11 @@ SliderEdit valueSlider(const char* label, float* value, float lo, float hi, cons
 }
 
 }  // namespace
+
+void Viewer::rememberRect(const std::string& name) {
+  const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+  uiRects_[name] = {lo.x, lo.y, hi.x, hi.y};
+}
 
 void Viewer::drawPanel() {
   // A column at the left, at most the window's height (it scrolls), about 24 characters of
@@ -91,6 +99,7 @@ void Viewer::drawViewSection() {
   float exaggeration = exaggerationEdit_.value_or(static_cast<float>(scene_->bounds->exaggeration()));
   const SliderEdit edit =
       valueSlider("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
+  uiRects_["exaggeration"] = {edit.min.x, edit.min.y, edit.max.x, edit.max.y};
   if (edit.changed) exaggerationEdit_ = exaggeration;
   if (edit.done) {
     setExaggeration(exaggeration);
@@ -256,10 +265,14 @@ void Viewer::drawSelectionSection() {
     ImGui::Text("%zu features selected", selected_->featureCount());
     if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
     drawSelectedFeatures();
-    char path[512];
-    std::snprintf(path, sizeof(path), "%s", settings_.exportPath.c_str());
-    if (ImGui::InputText("##export", path, sizeof(path))) settings_.exportPath = path;
-    ImGui::SameLine();
+    // The field keeps its text while it is edited; Enter exports, as the button does.
+    if (!exportEditing_) std::snprintf(exportBuffer_.data(), exportBuffer_.size(), "%s", settings_.exportPath.c_str());
+    const bool enter =
+        ImGui::InputText("##export", exportBuffer_.data(), exportBuffer_.size(), ImGuiInputTextFlags_EnterReturnsTrue);
+    exportEditing_ = ImGui::IsItemActive();
+    rememberRect("export_path");
+    if (ImGui::IsItemEdited() || enter) settings_.exportPath = exportBuffer_.data();
+    if (enter) exportSelection(settings_.exportPath);
     if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
   }
 }

@@ -225,7 +225,7 @@ struct StepRunner {
     if (!codes) return false;
     InputFrame in;
     in.cursor = v.lastPixel_;
-    in.pressed = std::move(*codes);
+    for (const int code : *codes) in.pressed.push_back({code, {}});
     v.scriptInput_.push_back(in);
     return true;
   }

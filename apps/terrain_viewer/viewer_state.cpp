@@ -121,6 +121,14 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   return id;
 }
 
+nlohmann::json Viewer::keysDownJson() const {
+  nlohmann::json keys = nlohmann::json::array();
+  for (std::size_t k = 0; k < keysDown_.size(); ++k) {
+    if (keysDown_[k]) keys.push_back(k);
+  }
+  return keys;
+}
+
 nlohmann::json Viewer::state() const {
   const glm::ivec2 fb = framebufferSize();
   glm::ivec2 window(0);
@@ -131,6 +139,8 @@ nlohmann::json Viewer::state() const {
   }
   const scene::OrbitPose& pose = controller_->shownPose();
   const glm::dvec4 free = freeRegion();
+  nlohmann::json rects = nlohmann::json::object();
+  for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
   nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
   for (const overlay::SelectionStep& st : steps_) {
     steps.push_back(overlay::selectionOpName(st.op));
@@ -159,6 +169,23 @@ nlohmann::json Viewer::state() const {
       {"framebuffer", {fb.x, fb.y}},
       {"window", {window.x, window.y}},
       {"free_region", {free.x, free.y, free.z, free.w}},
+      {"exaggeration", scene_->bounds->exaggeration()},
+      {"ui_rects", rects},
+      {"notice", notice_ ? nlohmann::json(notice_->text) : nlohmann::json()},
+      {"keys_down", keysDownJson()},
+      {"undo_steps", undo_.size()},
+      {"redo_steps", redo_.size()},
+      {"compass_angle", compassAngle_},
+      {"scale_bar_m", scaleBarMetres_},
+      {"cursor",
+       cursorGround_
+           ? nlohmann::json(
+                 {{"crs_xyz", {cursorGround_->projected.x, cursorGround_->projected.y, cursorGround_->projected.z}},
+                  {"lon_lat_h", cursorGround_->lonLatH
+                                    ? nlohmann::json({cursorGround_->lonLatH->x, cursorGround_->lonLatH->y,
+                                                      cursorGround_->lonLatH->z})
+                                    : nlohmann::json()}})
+           : nlohmann::json()},
       {"overlays", render_.overlays},
       {"method", technique_->name},
       {"view",
