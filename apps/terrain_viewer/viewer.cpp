@@ -257,6 +257,12 @@ void Viewer::finishLoad(bool wait) {
   }
   undo_.clear();
   redo_.clear();
+  table_.reset();
+  outlines_.clear();
+  labelSets_.clear();
+  labelPlacer_.forget();
+  clearMeasure();
+  measureEllipsoid_.reset();
   clearSelection();
   identified_.reset();
   glfwSetWindowTitle(
@@ -392,6 +398,11 @@ void Viewer::frame(double seconds) {
     advanceScript(seconds, in);
   } else if (scene_) {
     handleInput(seconds, in);
+  } else if (!in.uiKeyboard) {
+    // Nothing to steer: only opening a file.
+    for (const InputFrame::KeyPress& k : in.pressed) {
+      if (k.key == GLFW_KEY_O && k.modifiers.ctrl) openFileBrowser();
+    }
   }
   if (scene_) {
     moving_ =
@@ -415,12 +426,19 @@ void Viewer::frame(double seconds) {
   ImGui::NewFrame();
   drawLoading();
   drawNotice();
+  drawFileBrowser();
   if (!scene_) {
     if (!loading_) drawNoScene();
   } else {
+    drawHighlights();
+    drawMeasure();
+    if (showLabels_) drawLabels();
+    windowRects_.clear();  // recorded again as the windows are drawn below
     drawScaleBar();
     drawCompass();
     drawStatusBar();
+    drawLegend();
+    drawAttributeTable();
     if (settings_.showPanel) drawPanel();
     if (settings_.showHud) drawHud();
     if (showHelp_) drawHelp();

@@ -14,20 +14,24 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include <imgui.h>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <nlohmann/json_fwd.hpp>
 
+#include "app/labels.hpp"
 #include "app/viewer_script.hpp"
 #include "app/viewer_settings.hpp"
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
 #include "scene/camera_controller.hpp"
+#include "scene/measure.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
 #include "scene/scene_selection.hpp"
@@ -100,6 +104,8 @@ struct InputFrame {
 std::string formatLonLat(const glm::dvec3& lonLatH);
 /// A length for a person: "12.50 m", "350 m", "12.5 km".
 std::string formatMetres(double metres);
+/// An area for a person: "850 m²", "12.5 ha", "3.20 km²".
+std::string formatArea(double squareMetres);
 /// The largest 1, 2 or 5 × 10^k not above `most` (a scale bar's length); 0 for none.
 double niceLength(double most);
 
@@ -110,6 +116,47 @@ struct PendingLoad {
   std::shared_ptr<std::atomic<double>> progress;  ///< a tile pyramid's build, 0…1; negative: none reported
   double started = 0.0;                           ///< glfwGetTime
   std::string label;
+};
+
+/// An attribute's value as a person reads it ("" for none).
+std::string attributeText(const geo::AttributeValue& value);
+
+/// The attribute table of one layer (viewer_attributes.cpp).
+struct AttributeTable {
+  std::size_t sceneLayer = 0;
+  std::size_t overlayLayer = 0;      ///< its fill: the features
+  std::vector<std::string> columns;  ///< every attribute name of the layer (after fid)
+  std::array<char, 128> search{};
+  int searchColumn = -1;  ///< -1: every column
+  bool onlySelected = false;
+  int sortColumn = 0;  ///< 0: fid, c: columns[c - 1]
+  bool sortAscending = true;
+  bool showSort = false;          ///< the sort was set outside the table's headers: show it there
+  std::vector<std::size_t> rows;  ///< features shown, in order
+  std::set<std::size_t> selectedRows;
+  bool dirty = true;  ///< rows to recompute
+};
+
+/// One layer's labels: the attribute, each feature's text and ground anchor, the anchors' heights.
+struct LabelSet {
+  std::string attribute;
+  std::vector<app::FeatureLabel> labels;
+  std::vector<double> heights;  ///< as drawn, at `exaggeration`
+  double exaggeration = 0.0;    ///< 0: heights not looked up yet
+};
+
+/// The open-file dialog's state (viewer_file_browser.cpp).
+struct FileBrowser {
+  struct Entry {
+    std::string name;
+    bool directory = false;
+  };
+  bool open = false;
+  bool focusPath = false;  ///< the path field takes the keyboard when the dialog opens
+  std::filesystem::path directory;
+  std::vector<Entry> entries;  ///< folders first, then the files the viewer opens
+  std::array<char, 1024> path{};
+  std::string error;
 };
 
 class Viewer {
@@ -179,6 +226,8 @@ class Viewer {
   [[nodiscard]] nlohmann::json state() const;
   /// The GLFW keys held down as the queue has them (a stuck key shows here).
   [[nodiscard]] nlohmann::json keysDownJson() const;
+  [[nodiscard]] nlohmann::json measureJson() const;
+  [[nodiscard]] nlohmann::json firstRows(const AttributeTable& table) const;
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
@@ -203,6 +252,69 @@ class Viewer {
   void drawHelp();
   void drawIdentify();
   void drawLassoOutline();
+
+  // Attributes, legend, highlights (viewer_attributes.cpp).
+  /// The overlay layer holding a scene layer's features (its fill); none if it is not built.
+  [[nodiscard]] std::optional<std::size_t> fillLayerOf(std::size_t sceneLayer) const;
+  [[nodiscard]] std::vector<std::string> attributeNames(std::size_t overlayLayer) const;
+  /// Moves the camera (animated) to frame a box in the free part of the window, keeping the heading.
+  void zoomToBox(glm::dvec3 lo, glm::dvec3 hi);
+  void zoomToFeatures(std::size_t overlayLayer, const std::vector<std::size_t>& features);
+  void zoomToLayer(std::size_t sceneLayer);
+  void openTable(std::size_t sceneLayer);
+  /// Colours a layer by category of an attribute (a palette over its values); false when it has
+  /// more than kMaxCategories values (said in the messages).
+  bool setCategories(std::size_t sceneLayer, const std::string& attribute);
+  static constexpr std::size_t kMaxCategories = 40;
+  /// The layer's colour-by-category control; true when the style changed (to rebuild).
+  bool drawCategories(std::size_t sceneLayer);
+  /// The layer's label control: none, or an attribute.
+  void drawLabelChoice(std::size_t sceneLayer);
+  void refreshTableRows();
+  /// The features of an overlay layer the lasso selected.
+  [[nodiscard]] std::set<std::size_t> selectedFeatureSet(std::size_t overlayLayer) const;
+  void drawAttributeTable();
+  void drawLegend();
+  /// The DEM's colour ramp in the legend, when the terrain is tinted by height.
+  void drawElevationLegend();
+  /// Identified, lasso-selected and table-selected features: (overlay layer, feature).
+  [[nodiscard]] std::set<std::pair<std::size_t, std::size_t>> highlightedFeatures() const;
+  /// A feature's boundary lifted onto the terrain as drawn (cached).
+  const std::vector<std::vector<glm::dvec3>>& outlineOf(std::size_t overlayLayer, std::size_t feature);
+  /// The highlighted features' own outlines over the scene, hidden parts left out.
+  void drawHighlights();
+  /// The last frame's depth (top row first), read once per frame.
+  const std::vector<float>& frameDepth();
+  /// A path on the ground (frame points, heights as drawn) over the scene: its visible parts.
+  void drawLifted(const std::vector<glm::dvec3>& path, ImU32 colour, float width);
+  /// Frame x/y points lifted onto the terrain as drawn, densified to follow the relief.
+  [[nodiscard]] std::vector<glm::dvec3> liftPath(const std::vector<glm::dvec2>& points, bool closed) const;
+  void drawGroundPath(const std::vector<glm::dvec2>& points, ImU32 colour, float width);
+
+  // The open-file dialog (viewer_file_browser.cpp).
+  void openFileBrowser();
+  void browseTo(const std::filesystem::path& directory);
+  /// A file opens (at the next frame, as if dropped); a folder is browsed into, unless it holds
+  /// DEM tiles only (then it opens as one DEM).
+  void openFromBrowser(const std::filesystem::path& path);
+  void drawFileBrowser();
+
+  // Measuring (viewer_measure.cpp).
+  /// Measures along the ground points under these pixels (a ring when `closed`); false when a
+  /// pixel shows no terrain.
+  bool measureAtPixels(const std::vector<glm::dvec2>& pixels, bool closed);
+  void addMeasurePoint(const glm::dvec2& frameXY);
+  void clearMeasure();
+  void remeasure();
+  void drawMeasure();
+  void drawMeasureSection();
+
+  // Labels (viewer_labels.cpp).
+  /// Labels a layer with an attribute's values ("" removes its labels).
+  void setLabels(std::size_t sceneLayer, const std::string& attribute);
+  void drawLabels();
+  /// The current ImGui window's rectangle, which labels keep clear of in the next frame.
+  void rememberWindow(const std::string& name);
 
   // Map tools (viewer_map_tools.cpp).
   /// Coordinates under the cursor: lon/lat, the scene CRS's easting and northing, true height.
@@ -304,6 +416,24 @@ class Viewer {
   std::map<std::string, glm::vec4> uiRects_;
   bool debugPieces_ = false;
   std::optional<Identified> identified_;
+  std::optional<AttributeTable> table_;
+  FileBrowser browser_;
+  bool showLabels_ = false;
+  std::map<std::size_t, LabelSet> labelSets_;  ///< by scene layer
+  app::LabelPlacer labelPlacer_;
+  std::size_t labelsPlaced_ = 0;
+  std::map<std::string, glm::vec4> windowRects_;  ///< the panel's windows as drawn (x0, y0, x1, y1)
+  bool measureTool_ = false;
+  bool measureClosed_ = false;
+  std::vector<glm::dvec2> measurePoints_;  ///< frame x/y, in order
+  std::optional<scene::Measurement> measurement_;
+  std::optional<scene::Ellipsoid> measureEllipsoid_;  ///< the scene frame's, looked up once
+  std::vector<float> frameDepth_;
+  std::size_t depthFrame_ = 0;  ///< the frame frameDepth_ was read in (0: none)
+  bool showLegend_ = true;
+  std::map<std::pair<std::size_t, std::size_t>, std::vector<std::vector<glm::dvec3>>> outlines_;
+  double outlinesExaggeration_ = 0.0;
+  std::size_t highlightedCount_ = 0;         ///< features outlined in the last frame
   std::optional<GroundPoint> cursorGround_;  ///< under the cursor in the last frame
   float panelRight_ = 0.0F;                  ///< the panel's right edge as last drawn, window units (0: not yet)
   float panelFont_ = 0.0F;                   ///< the panel's font size, window units (0: not yet)

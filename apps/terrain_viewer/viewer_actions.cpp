@@ -62,6 +62,8 @@ void Viewer::rebuildOverlays() {
   for (std::size_t i = 0; i < hidden.size(); ++i) {
     if (hidden[i]) setLayerShown(i, false);
   }
+  outlines_.clear();
+  if (table_) table_->dirty = true;
   selectionChanged();
 }
 

@@ -299,6 +299,8 @@ void Viewer::handleMouse(const InputFrame& in) {
       overlay::SelectionOp op = lassoOpOf(in.modifiers);
       if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
       addLasso(op, std::exchange(lassoPoints_, {}));
+    } else if (!dragged_ && measureTool_) {
+      if (const std::optional<glm::dvec3> ground = pointAt(pixel)) addMeasurePoint(glm::dvec2(*ground));
     } else if (!dragged_) {
       identified_ = identify(pixel);
     }
@@ -317,6 +319,10 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
         lassoPoints_.clear();
       } else if (lassoTool_) {
         lassoTool_ = false;
+      } else if (!measurePoints_.empty()) {
+        clearMeasure();
+      } else if (measureTool_) {
+        measureTool_ = false;
       } else if (showHelp_) {
         showHelp_ = false;
       } else if (identified_) {
@@ -337,6 +343,17 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
       break;
     case GLFW_KEY_L:
       lassoTool_ = !lassoTool_;
+      if (lassoTool_) measureTool_ = false;
+      break;
+    case GLFW_KEY_M:
+      measureTool_ = !measureTool_;
+      if (measureTool_) lassoTool_ = false;
+      break;
+    case GLFW_KEY_BACKSPACE:
+      if (!measurePoints_.empty()) {
+        measurePoints_.pop_back();
+        remeasure();
+      }
       break;
     case GLFW_KEY_I:
       if (!steps_.empty()) invertSelection();
@@ -355,7 +372,11 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
       if (modifiers.ctrl) redoSelection();
       break;
     case GLFW_KEY_O:
-      render_.overlays = !render_.overlays;
+      if (modifiers.ctrl) {
+        openFileBrowser();
+      } else {
+        render_.overlays = !render_.overlays;
+      }
       break;
     case GLFW_KEY_P:
       settings_.showPanel = !settings_.showPanel;

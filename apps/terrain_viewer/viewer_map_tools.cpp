@@ -36,6 +36,18 @@ std::string formatMetres(double metres) {
   return text;
 }
 
+std::string formatArea(double squareMetres) {
+  char text[32];
+  if (squareMetres >= 1e6) {
+    std::snprintf(text, sizeof(text), "%.2f km²", squareMetres / 1e6);
+  } else if (squareMetres >= 1e4) {
+    std::snprintf(text, sizeof(text), "%.2f ha", squareMetres / 1e4);
+  } else {
+    std::snprintf(text, sizeof(text), "%.0f m²", squareMetres);
+  }
+  return text;
+}
+
 double niceLength(double most) {
   // The largest 1, 2 or 5 × 10^k not above `most`.
   if (!(most > 0.0) || !std::isfinite(most)) return 0.0;
@@ -74,6 +86,8 @@ std::optional<double> Viewer::northYaw() const {
 void Viewer::northUp() {
   if (const std::optional<double> yaw = northYaw()) controller_->setHeading(*yaw);
 }
+
+void Viewer::drawElevationLegend() {}
 
 void Viewer::drawStatusBar() {
   const ImGuiViewport* viewport = ImGui::GetMainViewport();

@@ -64,17 +64,20 @@ void Viewer::drawPanel() {
                                              std::max(viewport->WorkSize.y - 20.0F - statusBar, 4.0F * font)));
   ImGui::Begin("stencil-gis");
   panelRight_ = ImGui::GetWindowPos().x + ImGui::GetWindowSize().x;  // the home view frames the rest
+  rememberWindow("panel");
   panelFont_ = font;
   ImGui::PushItemWidth(-10.0F * font);  // room for the labels
   ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
+  if (ImGui::Button("Open… (Ctrl+O)")) openFileBrowser();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Drop a scene, DEM or vector file on the window. ? lists the keys.");
+  ImGui::TextWrapped("or drop a scene, DEM or vector file on the window. ? lists the keys.");
   ImGui::PopStyleColor();
 
   drawViewSection();
   drawOverlaySection();
   drawLayersSection();
   drawSelectionSection();
+  drawMeasureSection();
   drawMessagesSection();
   ImGui::PopItemWidth();
   ImGui::End();
@@ -107,6 +110,10 @@ void Viewer::drawViewSection() {
   } else if (!edit.active) {
     exaggerationEdit_.reset();
   }
+  ImGui::Checkbox("legend", &showLegend_);
+  ImGui::SameLine();
+  ImGui::Checkbox("labels", &showLabels_);
+  ImGui::SameLine();
   ImGui::Checkbox("wireframe", &render_.wireframe);
   if (renderer_->terrainEngine().hasImagery()) {
     ImGui::SameLine();
@@ -201,13 +208,14 @@ bool Viewer::drawLayer(std::size_t i) {
   if (open) {
     ImGui::ColorEdit3("colour", &layer.style.color.x, ImGuiColorEditFlags_NoInputs);
     rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
-    ImGui::SliderFloat("opacity", &layer.style.opacity, 0.0F, 1.0F);
-    rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+    rebuild = valueSlider("opacity", &layer.style.opacity, 0.0F, 1.0F, "%.2f").done || rebuild;
     if (layer.kind == overlay::LayerKind::Line) {
       constexpr double kMinWidth = 0.5, kMaxWidth = 200.0;
-      ImGui::SliderScalar("width (m)", ImGuiDataType_Double, &layer.style.widthMetres, &kMinWidth, &kMaxWidth, "%.1f",
-                          ImGuiSliderFlags_Logarithmic);
-      rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+      auto width = static_cast<float>(layer.style.widthMetres);
+      const SliderEdit edit = valueSlider("m wide", &width, static_cast<float>(kMinWidth),
+                                          static_cast<float>(kMaxWidth), "%.1f", ImGuiSliderFlags_Logarithmic);
+      if (edit.changed) layer.style.widthMetres = width;
+      rebuild = edit.done || rebuild;
     } else {
       bool outline = layer.style.outlineWidthMetres > 0.0F || layer.style.outlineWidthPixels > 0.0F;
       if (ImGui::Checkbox("outline", &outline)) {
@@ -215,7 +223,23 @@ bool Viewer::drawLayer(std::size_t i) {
         layer.style.outlineWidthPixels = 0.0F;
         rebuild = true;
       }
+      if (outline) {
+        ImGui::SameLine();
+        ImGui::ColorEdit3("##outline colour", &layer.style.outlineColor.x, ImGuiColorEditFlags_NoInputs);
+        rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+        const bool pixels = layer.style.outlineWidthPixels > 0.0F;
+        float& width = pixels ? layer.style.outlineWidthPixels : layer.style.outlineWidthMetres;
+        rebuild = valueSlider(pixels ? "px outline" : "m outline", &width, pixels ? 0.5F : 0.5F,
+                              pixels ? 20.0F : 100.0F, "%.1f", ImGuiSliderFlags_Logarithmic)
+                      .done ||
+                  rebuild;
+      }
     }
+    rebuild = drawCategories(i) || rebuild;
+    drawLabelChoice(i);
+    if (ImGui::SmallButton("attribute table")) openTable(i);
+    ImGui::SameLine();
+    if (ImGui::SmallButton("zoom to layer")) zoomToLayer(i);
     // Draw order: earlier layers are drawn first (below).
     if (ImGui::ArrowButton("down", ImGuiDir_Up) && i > 0) {
       std::swap(layer.style.drawOrder, description_->layers[i - 1].style.drawOrder);
@@ -236,9 +260,59 @@ bool Viewer::drawLayer(std::size_t i) {
   return rebuild;
 }
 
+bool Viewer::drawCategories(std::size_t i) {
+  // Colours by category: an attribute's values, each its colour (features with another value
+  // keep the layer's colour).
+  scene::LayerDescription& layer = description_->layers[i];
+  const std::optional<std::size_t> fill = fillLayerOf(i);
+  if (!fill) return false;
+  bool rebuild = false;
+  const std::string current = layer.style.colorAttribute.empty() ? "one colour" : "by " + layer.style.colorAttribute;
+  ImGui::SetNextItemWidth(12.0F * ImGui::GetFontSize());
+  if (ImGui::BeginCombo("colours", current.c_str())) {
+    if (ImGui::Selectable("one colour", layer.style.colorAttribute.empty()) && !layer.style.colorAttribute.empty()) {
+      layer.style.colorAttribute.clear();
+      layer.style.categories.clear();
+      rebuild = true;
+    }
+    for (const std::string& name : attributeNames(*fill)) {
+      if (ImGui::Selectable(name.c_str(), name == layer.style.colorAttribute) && name != layer.style.colorAttribute) {
+        rebuild = setCategories(i, name) || rebuild;
+      }
+    }
+    ImGui::EndCombo();
+  }
+  for (auto& [value, colour] : layer.style.categories) {
+    ImGui::PushID(value.c_str());
+    ImGui::ColorEdit3("##category", &colour.x, ImGuiColorEditFlags_NoInputs);
+    rebuild = rebuild || ImGui::IsItemDeactivatedAfterEdit();
+    ImGui::SameLine();
+    ImGui::TextUnformatted(value.empty() ? "(empty)" : value.c_str());
+    ImGui::PopID();
+  }
+  return rebuild;
+}
+
+void Viewer::drawLabelChoice(std::size_t i) {
+  const std::optional<std::size_t> fill = fillLayerOf(i);
+  if (!fill) return;
+  const auto current = labelSets_.find(i);
+  const std::string shown = current == labelSets_.end() ? "no labels" : "labels: " + current->second.attribute;
+  ImGui::SetNextItemWidth(12.0F * ImGui::GetFontSize());
+  if (ImGui::BeginCombo("##labels", shown.c_str())) {
+    if (ImGui::Selectable("no labels", current == labelSets_.end())) setLabels(i, "");
+    for (const std::string& name : attributeNames(*fill)) {
+      if (ImGui::Selectable(name.c_str(), current != labelSets_.end() && current->second.attribute == name)) {
+        setLabels(i, name);
+      }
+    }
+    ImGui::EndCombo();
+  }
+}
+
 void Viewer::drawSelectionSection() {
   if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
-  ImGui::Checkbox("lasso tool (L)", &lassoTool_);
+  if (ImGui::Checkbox("lasso tool (L)", &lassoTool_) && lassoTool_) measureTool_ = false;
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   ImGui::TextWrapped("drag to draw: alone a new selection, Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
   ImGui::PopStyleColor();
@@ -333,6 +407,7 @@ void Viewer::drawHud() {
   ImGui::Begin("HUD", nullptr,
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoFocusOnAppearing |
                    ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs);
+  rememberWindow("hud");
   ImGui::Text("%.1f fps  %.1f ms", 1000.0 / std::max(frameMs_, 1e-3), frameMs_);
   ImGui::Text("terrain: %zu triangles, %zu chunks, GPU %.2f ms", stats_.terrainDraw.triangles,
               stats_.terrainDraw.chunks, stats_.terrain.gpuMilliseconds);
@@ -373,6 +448,7 @@ void Viewer::drawNoScene() {
   ImGui::TextWrapped(
       "Drop on this window a scene file (.json), a DEM (a GeoTIFF, SRTM .hgt or any raster GDAL reads, in any CRS; "
       "a folder of tiles; a VRT) or a vector file (shown over flat ground).");
+  if (ImGui::Button("Open… (Ctrl+O)")) openFileBrowser();
   ImGui::Separator();
   for (std::size_t k = messages_.size() > 30 ? messages_.size() - 30 : 0; k < messages_.size(); ++k) {
     const bool error = messages_[k].rfind("error", 0) == 0;
@@ -396,9 +472,11 @@ void Viewer::drawHelp() {
       {"N", "north up (or click the compass)"},
       {"L", "lasso tool: drag to draw; Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor"},
       {"I / C", "invert / clear the selection"},
+      {"M", "measure tool: click points; Backspace removes the last, Esc clears"},
       {"Ctrl+Z / Ctrl+Y", "undo / redo a step of the selection"},
       {"O", "all vector layers on/off (compare frame rate)"},
       {"P / U", "panel / HUD on/off"},
+      {"Ctrl+O", "open a scene, DEM or vector file"},
       {"F12", "screenshot (PNG, working directory)"},
       {"?", "this help"},
       {"Esc", "cancel the lasso being drawn, leave the lasso tool, close help or identify"},
@@ -426,6 +504,7 @@ void Viewer::drawIdentify() {
       ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10.0F, viewport->WorkPos.y + viewport->WorkSize.y - above),
       ImGuiCond_FirstUseEver, ImVec2(1.0F, 1.0F));
   ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
+  rememberWindow("identify");
   const Identified& id = *identified_;
   if (id.point.lonLatH) ImGui::TextUnformatted(formatLonLat(*id.point.lonLatH).c_str());
   ImGui::Text("%s: E %.2f, N %.2f", crsName().c_str(), id.point.projected.x, id.point.projected.y);

@@ -1,4 +1,6 @@
 // A viewer script, run frame by frame: each step's action on the viewer (app/viewer_script.hpp).
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -164,8 +166,91 @@ struct StepRunner {
     if (step.color) style.color = *step.color;
     if (step.opacity) style.opacity = *step.opacity;
     if (step.width) style.widthMetres = static_cast<float>(*step.width);
-    if (step.color || step.opacity || step.width) v.rebuildOverlays();
+    if (step.outlineColor) style.outlineColor = *step.outlineColor;
+    if (step.outlineWidth) {
+      style.outlineWidthMetres = static_cast<float>(*step.outlineWidth);
+      style.outlineWidthPixels = 0.0F;
+    }
+    bool rebuild = step.color || step.opacity || step.width || step.outlineColor || step.outlineWidth;
+    if (step.colorAttribute && step.colorAttribute->empty()) {
+      style.colorAttribute.clear();
+      style.categories.clear();
+      rebuild = true;
+    } else if (step.colorAttribute) {
+      if (!v.setCategories(*i, *step.colorAttribute)) {
+        v.message(where + ": cannot colour '" + step.layer + "' by '" + *step.colorAttribute + "'", true);
+        return false;
+      }
+      rebuild = true;
+    }
+    if (rebuild) v.rebuildOverlays();
     if (step.visible) v.setLayerShown(*i, *step.visible);
+    if (step.labelAttribute) v.setLabels(*i, *step.labelAttribute);
+    return true;
+  }
+
+  bool operator()(const app::TableStep& step) const {
+    const auto i = sceneLayer(step.layer);
+    if (!i) return false;
+    if (step.close) {
+      v.table_.reset();
+      return true;
+    }
+    if (!v.table_ || v.table_->sceneLayer != *i) v.openTable(*i);
+    if (!v.table_) return false;
+    AttributeTable& t = *v.table_;
+    const auto column = [&](const std::string& name) -> std::optional<int> {
+      const auto c = std::find(t.columns.begin(), t.columns.end(), name);
+      if (c != t.columns.end()) return static_cast<int>(c - t.columns.begin());
+      v.message(where + ": the layer '" + step.layer + "' has no attribute '" + name + "'", true);
+      return std::nullopt;
+    };
+    if (step.search) std::snprintf(t.search.data(), t.search.size(), "%s", step.search->c_str());
+    if (step.searchIn) {
+      const std::optional<int> c = column(*step.searchIn);
+      if (!c) return false;
+      t.searchColumn = *c;
+    }
+    if (step.sortBy) {
+      if (*step.sortBy == "fid") {
+        t.sortColumn = 0;
+      } else {
+        const std::optional<int> c = column(*step.sortBy);
+        if (!c) return false;
+        t.sortColumn = *c + 1;
+      }
+      t.sortAscending = !step.descending;
+      t.showSort = true;
+    }
+    v.refreshTableRows();
+    if (step.select) {
+      t.selectedRows.clear();
+      const std::vector<geo::Feature>& features = v.renderer_->overlayLayers()[t.overlayLayer].features();
+      for (const std::int64_t fid : *step.select) {
+        const auto f =
+            std::find_if(features.begin(), features.end(), [&](const geo::Feature& x) { return x.fid == fid; });
+        if (f == features.end()) {
+          v.message(where + ": the layer '" + step.layer + "' has no feature " + std::to_string(fid), true);
+          return false;
+        }
+        t.selectedRows.insert(static_cast<std::size_t>(f - features.begin()));
+      }
+    }
+    if (step.zoomTo == "layer") {
+      v.zoomToLayer(*i);
+      v.animating_ = true;
+    } else if (step.zoomTo == "rows") {
+      v.zoomToFeatures(t.overlayLayer, std::vector<std::size_t>(t.selectedRows.begin(), t.selectedRows.end()));
+      v.animating_ = true;
+    }
+    return true;
+  }
+
+  bool operator()(const app::MeasureStep& step) const {
+    if (!v.measureAtPixels(step.points, step.closed)) {
+      v.message(where + ": a measured point is not on the terrain", true);
+      return false;
+    }
     return true;
   }
 
@@ -271,6 +356,8 @@ struct StepRunner {
     if (step.debugPieces) v.debugPieces_ = *step.debugPieces;
     if (step.panel) v.settings_.showPanel = *step.panel;
     if (step.hud) v.settings_.showHud = *step.hud;
+    if (step.legend) v.showLegend_ = *step.legend;
+    if (step.labels) v.showLabels_ = *step.labels;
     if (step.lodTolerance) v.settings_.lodTolerancePixels = *step.lodTolerance;
     if (step.fovYDeg) v.settings_.fovYDeg = *step.fovYDeg;
     return true;

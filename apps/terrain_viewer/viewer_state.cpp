@@ -19,25 +19,6 @@
 #include "viewer.hpp"
 
 namespace gis::viewer {
-namespace {
-
-std::string attributeText(const geo::AttributeValue& v) {
-  return std::visit(
-      [](const auto& x) -> std::string {
-        using T = std::decay_t<decltype(x)>;
-        if constexpr (std::is_same_v<T, std::monostate>) {
-          return "";
-        } else if constexpr (std::is_same_v<T, std::string>) {
-          return x;
-        } else {
-          return scene::jsonText(nlohmann::json(x), -1);
-        }
-      },
-      v);
-}
-
-}  // namespace
-
 nlohmann::json Identified::toJson() const {
   nlohmann::json features = nlohmann::json::array();
   for (const Hit& h : hits) {
@@ -121,6 +102,26 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   return id;
 }
 
+nlohmann::json Viewer::firstRows(const AttributeTable& table) const {
+  // The fids of the first rows as shown (sorted, searched): what a test of the table checks.
+  nlohmann::json fids = nlohmann::json::array();
+  const std::vector<geo::Feature>& features = renderer_->overlayLayers()[table.overlayLayer].features();
+  for (std::size_t r = 0; r < table.rows.size() && r < 20; ++r) fids.push_back(features[table.rows[r]].fid);
+  return fids;
+}
+
+nlohmann::json Viewer::measureJson() const {
+  if (!measurement_) return {{"points", measurePoints_.size()}};
+  const scene::Measurement& m = *measurement_;
+  nlohmann::json j = {{"points", measurePoints_.size()}, {"closed", m.closed},
+                      {"geodesic_m", m.geodesicMetres},  {"surface_m", m.surfaceMetres},
+                      {"planar_m", m.planarMetres},      {"surface_complete", m.surfaceComplete}};
+  if (m.geodesicAreaM2) j["geodesic_area_m2"] = *m.geodesicAreaM2;
+  if (m.surfaceAreaM2) j["surface_area_m2"] = *m.surfaceAreaM2;
+  if (m.planarAreaM2) j["planar_area_m2"] = *m.planarAreaM2;
+  return j;
+}
+
 nlohmann::json Viewer::keysDownJson() const {
   nlohmann::json keys = nlohmann::json::array();
   for (std::size_t k = 0; k < keysDown_.size(); ++k) {
@@ -174,6 +175,15 @@ nlohmann::json Viewer::state() const {
       {"notice", notice_ ? nlohmann::json(notice_->text) : nlohmann::json()},
       {"keys_down", keysDownJson()},
       {"undo_steps", undo_.size()},
+      {"highlighted_features", highlightedCount_},
+      {"labels_placed", labelsPlaced_},
+      {"measure", measureJson()},
+      {"legend", showLegend_},
+      {"table", table_ ? nlohmann::json({{"layer", scene_->layers[table_->sceneLayer].description.name},
+                                         {"rows", table_->rows.size()},
+                                         {"first_rows", firstRows(*table_)},
+                                         {"selected_rows", table_->selectedRows.size()}})
+                       : nlohmann::json()},
       {"redo_steps", redo_.size()},
       {"compass_angle", compassAngle_},
       {"scale_bar_m", scaleBarMetres_},

@@ -249,8 +249,35 @@ ScriptAction readSetLayer(StepReader& r) {
       r.problem("'color': expected \"#rrggbb\", \"#rrggbbaa\" or [r, g, b(, a)] in [0, 1], got " + c->dump());
   }
   step.width = r.number("width", false, "a positive number", [](double v) { return v > 0.0; });
-  const bool anyGiven = r.has("visible") || r.has("opacity") || r.has("color") || r.has("width");
-  if (!anyGiven) r.problem("nothing to set: give any of 'visible', 'opacity', 'color', 'width'");
+  if (const json* a = r.field("color_attribute", false)) {
+    if (a->is_string()) {
+      step.colorAttribute = a->get<std::string>();
+    } else {
+      r.problem("'color_attribute': expected an attribute name (\"\" for one colour), got " + a->dump());
+    }
+  }
+  if (const json* a = r.field("label_attribute", false)) {
+    if (a->is_string()) {
+      step.labelAttribute = a->get<std::string>();
+    } else {
+      r.problem("'label_attribute': expected an attribute name (\"\" for no labels), got " + a->dump());
+    }
+  }
+  if (const json* c = r.field("outline_color", false)) {
+    step.outlineColor = readColour(*c);
+    if (!step.outlineColor)
+      r.problem("'outline_color': expected \"#rrggbb\", \"#rrggbbaa\" or [r, g, b(, a)] in [0, 1], got " + c->dump());
+  }
+  step.outlineWidth =
+      r.number("outline_width", false, "a width in metres, 0 or more", [](double v) { return v >= 0.0 && v <= 1e4; });
+  bool anyGiven = false;
+  for (const char* key :
+       {"visible", "opacity", "color", "width", "color_attribute", "outline_color", "outline_width", "label_attribute"})
+    anyGiven = anyGiven || r.has(key);
+  if (!anyGiven)
+    r.problem(
+        "nothing to set: give any of 'visible', 'opacity', 'color', 'width', 'color_attribute', 'outline_color', "
+        "'outline_width', 'label_attribute'");
   return step;
 }
 
@@ -408,17 +435,67 @@ ScriptAction readView(StepReader& r) {
   step.debugPieces = r.boolean("debug_pieces", false);
   step.panel = r.boolean("panel", false);
   step.hud = r.boolean("hud", false);
+  step.legend = r.boolean("legend", false);
+  step.labels = r.boolean("labels", false);
   step.lodTolerance =
       r.number("lod_tolerance", false, "a number of pixels in (0, 64]", [](double v) { return v > 0.0 && v <= 64.0; });
   step.fovYDeg =
       r.number("fov", false, "a number of degrees in (0, 180)", [](double v) { return v > 0.0 && v < 180.0; });
   bool any = false;
-  for (const char* key : {"wireframe", "imagery", "debug_pieces", "panel", "hud", "lod_tolerance", "fov"})
+  for (const char* key :
+       {"wireframe", "imagery", "debug_pieces", "panel", "hud", "legend", "labels", "lod_tolerance", "fov"})
     any = any || r.has(key);
   if (!any)
     r.problem(
-        "nothing to set: give any of 'wireframe', 'imagery', 'debug_pieces', 'panel', 'hud', "
+        "nothing to set: give any of 'wireframe', 'imagery', 'debug_pieces', 'panel', 'hud', 'legend', 'labels', "
         "'lod_tolerance', 'fov'");
+  return step;
+}
+
+ScriptAction readTable(StepReader& r) {
+  TableStep step;
+  step.layer = r.string("layer", true).value_or("");
+  if (const json* v = r.field("search", false)) {
+    if (v->is_string()) {
+      step.search = v->get<std::string>();
+    } else {
+      r.problem("'search': expected text, got " + v->dump());
+    }
+  }
+  step.searchIn = r.string("search_in", false);
+  step.sortBy = r.string("sort_by", false);
+  step.descending = r.boolean("descending", false).value_or(false);
+  if (const json* v = r.field("select", false)) {
+    bool ok = v->is_array();
+    std::vector<std::int64_t> fids;
+    for (const json& f : ok ? *v : json::array()) {
+      if (!f.is_number_integer()) {
+        ok = false;
+        break;
+      }
+      fids.push_back(f.get<std::int64_t>());
+    }
+    if (ok) {
+      step.select = std::move(fids);
+    } else {
+      r.problem("'select': expected a list of feature ids (whole numbers), got " + v->dump());
+    }
+  }
+  if (const std::optional<std::string> z = r.string("zoom_to", false)) {
+    if (*z == "rows" || *z == "layer") {
+      step.zoomTo = *z;
+    } else {
+      r.problem("'zoom_to': expected \"rows\" or \"layer\", got \"" + *z + "\"");
+    }
+  }
+  step.close = r.boolean("close", false).value_or(false);
+  return step;
+}
+
+ScriptAction readMeasure(StepReader& r) {
+  MeasureStep step;
+  step.closed = r.boolean("closed", false).value_or(false);
+  step.points = r.pixels("points", step.closed ? 3 : 2);
   return step;
 }
 
@@ -457,7 +534,7 @@ struct ActionReader {
 };
 
 // "camera" and "wait" are steps of their own, not actions: they are the keys of the step.
-constexpr std::array<ActionReader, 23> kActions{{{"toggle_layer", readToggleLayer},
+constexpr std::array<ActionReader, 25> kActions{{{"toggle_layer", readToggleLayer},
                                                  {"set_layer", readSetLayer},
                                                  {"overlays", readOverlays},
                                                  {"method", readMethod},
@@ -479,6 +556,8 @@ constexpr std::array<ActionReader, 23> kActions{{{"toggle_layer", readToggleLaye
                                                  {"view", readView},
                                                  {"drop", readDrop},
                                                  {"live", readLive},
+                                                 {"table", readTable},
+                                                 {"measure", readMeasure},
                                                  {"quit", readPlain<QuitStep>}}};
 
 std::string actionList() {

@@ -45,6 +45,7 @@
 // camera file (read here; a camera.json of overlay_render works). Colours are "#rrggbb",
 // "#rrggbbaa" or [r, g, b] / [r, g, b, a] in [0, 1]. Paths are relative to the script file.
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <variant>
@@ -92,6 +93,31 @@ struct SetLayerStep {
   std::optional<float> opacity;    ///< [0, 1]
   std::optional<glm::vec4> color;  ///< straight RGBA in [0, 1]
   std::optional<double> width;     ///< > 0, in the layer's width unit (metres or pixels)
+  /// Colours by category of this attribute (a palette over its values); "": one colour.
+  std::optional<std::string> colorAttribute;
+  std::optional<glm::vec4> outlineColor;  ///< polygons
+  std::optional<double> outlineWidth;     ///< polygons: metres, > 0 (0: no outline)
+  /// Labels the features with this attribute's values ("": no labels).
+  std::optional<std::string> labelAttribute;
+};
+
+/// A layer's attribute table: opened, searched, sorted, rows selected (by fid), zoomed to.
+struct TableStep {
+  std::string layer;
+  std::optional<std::string> search;    ///< text searched for, case-insensitive ("" clears)
+  std::optional<std::string> searchIn;  ///< an attribute to search in; absent: every column
+  std::optional<std::string> sortBy;    ///< "fid" or an attribute
+  bool descending = false;
+  std::optional<std::vector<std::int64_t>> select;  ///< rows selected, by fid
+  std::optional<std::string> zoomTo;                ///< "rows" or "layer"
+  bool close = false;
+};
+
+/// A measurement: the ground points under these pixels, in order; `closed` also measures the
+/// area of the ring.
+struct MeasureStep {
+  std::vector<glm::dvec2> points;  ///< at least 2 (3 when closed); framebuffer pixels
+  bool closed = false;
 };
 
 struct OverlaysStep {
@@ -171,7 +197,7 @@ struct SaveStateStep {
 
 /// Only what is given changes.
 struct ViewStep {
-  std::optional<bool> wireframe, imagery, debugPieces, panel, hud;
+  std::optional<bool> wireframe, imagery, debugPieces, panel, hud, legend, labels;
   std::optional<double> lodTolerance;  ///< pixels, > 0
   std::optional<double> fovYDeg;       ///< degrees, in (0, 180)
 };
@@ -186,10 +212,11 @@ struct LiveStep {
   int maxFrames = 3000;
 };
 
-using ScriptAction = std::variant<CameraStep, WaitStep, ToggleLayerStep, SetLayerStep, OverlaysStep, MethodStep,
-                                  ExaggerationStep, LassoStep, InvertStep, ClearSelectionStep, IdentifyStep, ExportStep,
-                                  ScreenshotStep, HomeStep, KeyStep, DragStep, ClickStep, ScrollStep, HoldKeysStep,
-                                  ResizeStep, SaveStateStep, ViewStep, DropStep, LiveStep, QuitStep>;
+using ScriptAction =
+    std::variant<CameraStep, WaitStep, ToggleLayerStep, SetLayerStep, OverlaysStep, MethodStep, ExaggerationStep,
+                 LassoStep, InvertStep, ClearSelectionStep, IdentifyStep, ExportStep, ScreenshotStep, HomeStep, KeyStep,
+                 DragStep, ClickStep, ScrollStep, HoldKeysStep, ResizeStep, SaveStateStep, ViewStep, DropStep, LiveStep,
+                 QuitStep, TableStep, MeasureStep>;
 
 /// One step of a script: its action, read completely, and where it stands in the script.
 struct ScriptStep {

@@ -1,0 +1,118 @@
+// The measure tool (M): clicks put points on the ground; the path between them is measured along
+// the ellipsoid (geodesic) and along the terrain's surface, and, closed into a ring, its area.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "gfx/gl.hpp"
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include "viewer.hpp"
+
+namespace gis::viewer {
+
+void Viewer::addMeasurePoint(const glm::dvec2& frameXY) {
+  measurePoints_.push_back(frameXY);
+  remeasure();
+}
+
+void Viewer::clearMeasure() {
+  measurePoints_.clear();
+  measurement_.reset();
+}
+
+void Viewer::remeasure() {
+  measurement_.reset();
+  if (measurePoints_.size() < 2) return;
+  const double exaggeration = scene_->bounds->exaggeration();
+  const auto height = [this, exaggeration](const glm::dvec2& p) {
+    return scene_->bounds->fullResolutionHeightAt(p) / exaggeration;
+  };
+  scene::MeasureOptions options;
+  const terrain::TerrainGrid& grid = scene_->quadtree->grid();
+  if (grid.width > 0) options.sampleStepMetres = 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y));
+  if (!measureEllipsoid_) measureEllipsoid_ = scene::ellipsoidOf(scene_->frame);
+  options.ellipsoid = measureEllipsoid_;
+  Result<scene::Measurement> m =
+      scene::measure(scene_->frame, measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
+  for (const Diagnostic& d : m.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  if (m) measurement_ = std::move(*m);
+}
+
+bool Viewer::measureAtPixels(const std::vector<glm::dvec2>& pixels, bool closed) {
+  clearMeasure();
+  measureClosed_ = closed;
+  for (const glm::dvec2& p : pixels) {
+    const std::optional<glm::dvec3> ground = pointAt(p);
+    if (!ground) {
+      clearMeasure();
+      return false;
+    }
+    measurePoints_.emplace_back(*ground);
+  }
+  remeasure();
+  return true;
+}
+
+void Viewer::drawMeasure() {
+  if (measurePoints_.empty()) return;
+  std::vector<glm::dvec2> ring = measurePoints_;
+  if (measureClosed_ && ring.size() >= 3) ring.push_back(ring.front());
+  const ImU32 colour = IM_COL32(255, 235, 60, 255);
+  drawGroundPath(ring, colour, 2.5F);
+  // The points themselves, and the length at the last one.
+  const scene::Camera c = camera();
+  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
+  const glm::ivec2 fb = framebufferSize();
+  const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+  ImDrawList* draw = ImGui::GetBackgroundDrawList();
+  std::optional<ImVec2> last;
+  for (const glm::dvec2& p : measurePoints_) {
+    const glm::dvec4 clip = viewProj * glm::dvec4(p, scene_->bounds->fullResolutionHeightAt(p), 1.0);
+    if (!(clip.w > 0.0)) continue;
+    const ImVec2 at(static_cast<float>((clip.x / clip.w * 0.5 + 0.5) * fb.x) / scale.x,
+                    static_cast<float>((0.5 - clip.y / clip.w * 0.5) * fb.y) / scale.y);
+    draw->AddCircleFilled(at, 4.0F, colour);
+    last = at;
+  }
+  if (measurement_ && last) {
+    std::string text = formatMetres(measurement_->geodesicMetres);
+    if (measurement_->geodesicAreaM2) text += ", " + formatArea(*measurement_->geodesicAreaM2);
+    const ImVec2 size = ImGui::CalcTextSize(text.c_str());
+    const ImVec2 at(last->x + 8.0F, last->y - size.y - 4.0F);
+    draw->AddRectFilled(ImVec2(at.x - 3.0F, at.y - 2.0F), ImVec2(at.x + size.x + 3.0F, at.y + size.y + 2.0F),
+                        IM_COL32(0, 0, 0, 170), 3.0F);
+    draw->AddText(at, IM_COL32(255, 255, 255, 255), text.c_str());
+  }
+}
+
+void Viewer::drawMeasureSection() {
+  if (!ImGui::CollapsingHeader("Measure")) return;
+  if (ImGui::Checkbox("measure tool (M)", &measureTool_) && measureTool_) lassoTool_ = false;
+  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+  ImGui::TextWrapped("click points on the ground; Backspace removes the last, Esc clears");
+  ImGui::PopStyleColor();
+  if (ImGui::Checkbox("area (close the ring)", &measureClosed_)) remeasure();
+  ImGui::SameLine();
+  if (ImGui::Button("Clear##measure")) clearMeasure();
+  if (!measurement_) {
+    ImGui::TextDisabled("%zu point(s)", measurePoints_.size());
+    return;
+  }
+  const scene::Measurement& m = *measurement_;
+  ImGui::Text("%zu points", measurePoints_.size());
+  ImGui::Text("geodesic %s", formatMetres(m.geodesicMetres).c_str());
+  ImGui::Text("on the surface %s%s", formatMetres(m.surfaceMetres).c_str(),
+              m.surfaceComplete ? "" : " (partly off the DEM)");
+  ImGui::TextDisabled("in %s: %s", crsName().c_str(), formatMetres(m.planarMetres).c_str());
+  if (m.geodesicAreaM2) {
+    ImGui::Text("area %s", formatArea(*m.geodesicAreaM2).c_str());
+    if (m.surfaceAreaM2) ImGui::Text("surface area %s", formatArea(*m.surfaceAreaM2).c_str());
+  }
+}
+
+}  // namespace gis::viewer
