@@ -19,6 +19,7 @@ uniform vec2 u_drapeUvBase;   // texture drape: uv at the centre
 uniform vec2 u_drapeUvScale;  // and per metre
 
 out vec3 v_position;
+out float v_height;  // true (unexaggerated) height, for the elevation ramp
 out vec2 v_uv;
 out vec2 v_drapeUv;
 
@@ -27,6 +28,7 @@ void main() {
   vec2 xy = vec2(post - u_eyePost) * u_step;
   vec3 p = vec3(xy, a_height * u_exaggeration);
   v_position = p;
+  v_height = a_height;
   v_uv = u_uvBase + xy * u_uvScale;
   v_drapeUv = u_drapeUvBase + xy * u_drapeUvScale;
   gl_Position = u_modelViewProj * vec4(p, 1.0);

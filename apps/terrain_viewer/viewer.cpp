@@ -19,6 +19,7 @@
 #include "core/log.hpp"
 #include "gfx/window_context.hpp"
 #include "scene/scene.hpp"
+#include "terrain/elevation_ramp.hpp"
 
 namespace gis::viewer {
 namespace {
@@ -257,6 +258,7 @@ void Viewer::finishLoad(bool wait) {
   }
   undo_.clear();
   redo_.clear();
+  demRange_ = terrain::demHeightRange(*scene_->quadtree);
   table_.reset();
   outlines_.clear();
   labelSets_.clear();
@@ -467,6 +469,9 @@ void Viewer::drawScene() {
   render_.measure = frameIndex_ % 30 == 1 || script_.has_value();  // queries wait for the GPU: sample them
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
   render_.imagery = settings_.imagery;
+  // Without imagery shown, the terrain is tinted by height (with its legend).
+  render_.elevationRamp.reset();
+  if (!settings_.imagery || !renderer_->terrainEngine().hasImagery()) render_.elevationRamp = demRange_;
   const scene::Camera c = camera();
   const scene::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
   // Work arriving: draw again until it has (tiles built or paged in, a selection found).

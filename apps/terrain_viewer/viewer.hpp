@@ -199,7 +199,9 @@ class Viewer {
   /// click shorter than a frame is a press frame and a release frame); a button event is a
   /// frame of its own, so the frame sees the cursor and modifiers it came with (releasing Shift
   /// just after the mouse button keeps an Or lasso); a modifier's change after another key's
-  /// starts the next frame (Ctrl+A released at once still selects all in a text field).
+  /// starts the next frame (Ctrl+A released at once still selects all in a text field). Keys
+  /// of printable characters typed into a text field do not hold a frame each (their text
+  /// comes as characters, in order).
   [[nodiscard]] InputFrame takeInput();
   /// After ImGui's platform frame: the panel sees the queue's mouse, not the live one.
   void feedImGuiMouse() const;
@@ -385,6 +387,8 @@ class Viewer {
   app::ViewerSettings settings_;
   std::optional<scene::SceneDescription> description_;
   std::unique_ptr<PendingLoad> loading_;
+  /// The DEM's lowest and highest post (true heights): the elevation tint's range.
+  std::optional<std::pair<double, double>> demRange_;
   std::optional<scene::LoadedScene> scene_;
   std::optional<scene::SceneRenderer> renderer_;
   std::optional<scene::CameraController> controller_;

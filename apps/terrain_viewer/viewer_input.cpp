@@ -130,7 +130,11 @@ InputFrame Viewer::takeInput() {
       break;
     }
     const bool keyChange = e.kind == InputEvent::Kind::Key && e.action != GLFW_REPEAT;
-    if (keyChange && std::find(keysChanged.begin(), keysChanged.end(), e.code) != keysChanged.end()) break;
+    // While a text field takes the keyboard, typed characters come as Char events in order: the
+    // keys of printable characters need no frame each (Enter, Backspace, arrows still do).
+    const bool typed = keyChange && io.WantTextInput && e.code >= GLFW_KEY_SPACE && e.code <= GLFW_KEY_GRAVE_ACCENT &&
+                       (e.mods & (GLFW_MOD_CONTROL | GLFW_MOD_ALT | GLFW_MOD_SUPER)) == 0;
+    if (keyChange && !typed && std::find(keysChanged.begin(), keysChanged.end(), e.code) != keysChanged.end()) break;
     // A modifier's change starts a frame: keys pressed before it see it as it was (Ctrl+A in
     // the panel's text fields, whose Ctrl is read at the end of the frame).
     if (keyChange && !keysChanged.empty() && isModifier(e.code)) break;

@@ -14,6 +14,7 @@
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 
+#include "terrain/elevation_ramp.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {
@@ -87,7 +88,29 @@ void Viewer::northUp() {
   if (const std::optional<double> yaw = northYaw()) controller_->setHeading(*yaw);
 }
 
-void Viewer::drawElevationLegend() {}
+void Viewer::drawElevationLegend() {
+  if (!render_.elevationRamp) return;
+  // The terrain's tint by height: a bar from the lowest to the highest post, as on flat ground.
+  const auto [low, high] = *render_.elevationRamp;
+  ImGui::Separator();
+  ImGui::TextUnformatted("terrain height");
+  const terrain::ElevationRamp& ramp = terrain::ElevationRamp::hypsometric();
+  const float width = 10.0F * ImGui::GetFontSize(), height = ImGui::GetTextLineHeight();
+  const ImVec2 p = ImGui::GetCursorScreenPos();
+  ImDrawList* draw = ImGui::GetWindowDrawList();
+  constexpr int kSteps = 48;
+  for (int k = 0; k < kSteps; ++k) {
+    const glm::vec3 c = ramp.colorAt((k + 0.5) / kSteps);
+    const float x0 = p.x + width * static_cast<float>(k) / kSteps,
+                x1 = p.x + width * static_cast<float>(k + 1) / kSteps;
+    draw->AddRectFilled(ImVec2(x0, p.y), ImVec2(x1 + 0.5F, p.y + height),
+                        ImGui::ColorConvertFloat4ToU32(ImVec4(c.x, c.y, c.z, 1.0F)));
+  }
+  ImGui::Dummy(ImVec2(width, height));
+  ImGui::Text("%.0f m", low);
+  ImGui::SameLine(std::max(width - ImGui::CalcTextSize("0000 m").x, 0.0F));
+  ImGui::Text("%.0f m", high);
+}
 
 void Viewer::drawStatusBar() {
   const ImGuiViewport* viewport = ImGui::GetMainViewport();

@@ -152,12 +152,20 @@ nlohmann::json Viewer::state() const {
   nlohmann::json layers = nlohmann::json::array();
   for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
     const scene::LayerSummary summary = renderer_->layerSummary(*scene_, i);
-    layers.push_back({{"name", scene_->layers[i].description.name},
-                      {"shown", layerShown(i).value_or(false)},
-                      {"features", summary.features},
-                      {"skipped_features", summary.skipped()},
-                      {"features_with_nothing_to_draw", summary.nothingToDraw},
-                      {"drawn_features", summary.drawnFeatures}});
+    const overlay::LayerStyle& style = description_->layers[i].style;
+    nlohmann::json categories = nlohmann::json::object();
+    for (const auto& [value, c] : style.categories) categories[value] = {c.x, c.y, c.z};
+    layers.push_back(
+        {{"name", scene_->layers[i].description.name},
+         {"color", {style.color.x, style.color.y, style.color.z}},
+         {"color_attribute", style.colorAttribute},
+         {"categories", categories},
+         {"labels", labelSets_.contains(i) ? nlohmann::json(labelSets_.at(i).attribute) : nlohmann::json()},
+         {"shown", layerShown(i).value_or(false)},
+         {"features", summary.features},
+         {"skipped_features", summary.skipped()},
+         {"features_with_nothing_to_draw", summary.nothingToDraw},
+         {"drawn_features", summary.drawnFeatures}});
   }
   nlohmann::json j = {
       {"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
@@ -176,6 +184,14 @@ nlohmann::json Viewer::state() const {
       {"keys_down", keysDownJson()},
       {"undo_steps", undo_.size()},
       {"highlighted_features", highlightedCount_},
+      {"elevation_ramp", render_.elevationRamp
+                             ? nlohmann::json({render_.elevationRamp->first, render_.elevationRamp->second})
+                             : nlohmann::json()},
+      {"file_dialog",
+       {{"open", browser_.open},
+        {"directory", browser_.directory.string()},
+        {"path", std::string(browser_.path.data())},
+        {"error", browser_.error}}},
       {"labels_placed", labelsPlaced_},
       {"measure", measureJson()},
       {"legend", showLegend_},

@@ -316,6 +316,7 @@ FrameStats SceneRenderer::render(gfx::StateCache& cache, GLuint framebuffer, int
   gfx::enableMaskWrites(framebuffer, stats.draped);
   terrain_->setWireframe(settings.wireframe);
   terrain_->setImagery(settings.imagery);
+  terrain_->setElevationRamp(settings.elevationRamp);
   stats.terrainDraw = terrain_->draw(cache, viewProj, camera.eye, selection_, exaggeration);
   if (settings.measure) {
     statistics_->end();

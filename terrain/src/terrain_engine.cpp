@@ -1,7 +1,9 @@
 #include "terrain/terrain_engine.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <span>
 
 #include "gfx/camera.hpp"
 
@@ -74,7 +76,7 @@ Result<TerrainEngine> TerrainEngine::create(std::shared_ptr<const TerrainQuadtre
   e.program_.set("u_drapeTiles", 3);
   e.program_.set("u_drapeTileMask", 4);
   e.program_.set("u_hasImagery", e.imageryTransform_ ? 1 : 0);
-  e.program_.set("u_lightDirection", glm::vec3(-0.5F, 0.6F, 0.8F));
+  e.program_.set("u_lightDirection", glm::vec3(kLightDirection));
   Result<TerrainEngine> r;
   r.value = std::move(e);
   return r;
@@ -184,6 +186,24 @@ TerrainDrawStats TerrainEngine::draw(gfx::StateCache& cache, const glm::dmat4& v
     program_.set("u_uvBase", glm::vec2(pixel / imagerySize_));
     program_.set("u_uvScale", glm::vec2(1.0 / (g[1] * imagerySize_.x), 1.0 / (g[5] * imagerySize_.y)));
     cache.bindTexture(0, imagery_.id());
+  }
+  program_.set("u_hasRamp", rampRange_ ? 1 : 0);
+  if (rampRange_) {
+    // t = (height − low) · scale: ElevationRamp::normalised in float.
+    const auto [low, high] = *rampRange_;
+    program_.set("u_rampLow", static_cast<float>(low));
+    program_.set("u_rampScale", high > low ? static_cast<float>(1.0 / (high - low)) : 0.0F);
+    const std::span<const RampStop> stops = ramp_.stops();
+    std::array<float, ElevationRamp::kMaxStops> t{};
+    std::array<glm::vec3, ElevationRamp::kMaxStops> colors{};
+    for (std::size_t k = 0; k < stops.size(); ++k) {
+      t[k] = static_cast<float>(stops[k].t);
+      colors[k] = stops[k].color;
+    }
+    const auto count = static_cast<GLsizei>(stops.size());
+    program_.set("u_rampStops", static_cast<int>(count));
+    glProgramUniform1fv(program_.id(), program_.location("u_rampT"), count, t.data());
+    glProgramUniform3fv(program_.id(), program_.location("u_rampColors"), count, &colors[0].x);
   }
   const bool tiled = drape_ && drape_->tileOf;
   program_.set("u_hasDrape", drape_ ? 1 : 0);

@@ -17,6 +17,7 @@
 
 #include <csignal>
 #include <iterator>
+#include <map>
 #include <sstream>
 
 #include <sys/wait.h>
@@ -30,6 +31,7 @@
 #include "gfx/image_io.hpp"
 #include "gl_test.hpp"
 #include "program_output.hpp"
+#include "scene/measure.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
 #include "vector_overlay/cpu_reference.hpp"
@@ -520,7 +522,7 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
   const auto isHillshade = [](const glm::dvec3& c) {
     return std::abs(c.x * 0.57 - c.y * 0.55) <= 1.5 && std::abs(c.z * 0.57 - c.y * 0.52) <= 1.5;
   };
-  std::size_t uncovered = 0, greyWithout = 0, greyWith = 0, wireChanged = 0, debugTinted = 0, debugChanged = 0;
+  std::size_t uncovered = 0, tintedWithout = 0, greyWith = 0, wireChanged = 0, debugTinted = 0, debugChanged = 0;
   for (std::size_t i = 0; i < depth.pixels.size(); ++i) {
     wireChanged += maxDifference(rgbAt(wireframe, i), rgbAt(plain, i)) > 0.0 ? 1u : 0u;
     const bool changed = maxDifference(rgbAt(debug, i), rgbAt(plain, i)) > 0.0;
@@ -529,15 +531,17 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
     debugTinted += changed && rgbAt(debug, i).y > rgbAt(plain, i).y ? 1u : 0u;
     if (depth.pixels[i] <= 0.0F || mask[i] != 0u || edges[i] != 0) continue;
     ++uncovered;
-    greyWithout += isHillshade(rgbAt(hillshade, i)) ? 1u : 0u;
+    // Without imagery the terrain is tinted by height: neither grey nor the photo.
+    tintedWithout +=
+        !isHillshade(rgbAt(hillshade, i)) && maxDifference(rgbAt(hillshade, i), rgbAt(plain, i)) > 0.0 ? 1u : 0u;
     greyWith += isHillshade(rgbAt(plain, i)) ? 1u : 0u;
   }
   std::printf(
-      "view: %zu uncovered terrain pixels, %zu hillshade without imagery, %zu with; wireframe changed %zu; "
+      "view: %zu uncovered terrain pixels, %zu tinted by height without imagery, %zu grey with; wireframe changed %zu; "
       "debug view changed %zu (%zu greener)\n",
-      uncovered, greyWithout, greyWith, wireChanged, debugChanged, debugTinted);
+      uncovered, tintedWithout, greyWith, wireChanged, debugChanged, debugTinted);
   EXPECT_GT(uncovered, 5000u);
-  EXPECT_EQ(greyWithout, uncovered);
+  EXPECT_GT(tintedWithout, uncovered * 9 / 10);
   EXPECT_LT(greyWith, uncovered / 4);
   EXPECT_GT(wireChanged, pixelsOf(kWidth, kHeight) / 20);
   EXPECT_GT(debugChanged, pixelsOf(kWidth, kHeight) / 20);
@@ -602,6 +606,19 @@ TEST_F(ViewerScriptTest, ViewSwitchesAndDroppedFiles) {
   EXPECT_EQ(named, 3u) << s2b["messages"].dump(1);
   EXPECT_NE(s3["scene"].get<std::string>().find("olinda_dem_utm25s.tif"), std::string::npos);
   EXPECT_EQ(s3["layers"].size(), 0u);
+  // A DEM without imagery is tinted by height, not grey.
+  ASSERT_FALSE(s3["elevation_ramp"].is_null());
+  EXPECT_LT(s3["elevation_ramp"][0].get<double>(), s3["elevation_ramp"][1].get<double>());
+  const gfx::Image8 demColour = *gfx::readImage8((dir / "dem.png").string());
+  const gfx::ImageFloat demDepthImage = *gfx::readImageFloat((dir / "dem_depth.tiff").string());
+  std::size_t terrainPixels = 0, tinted = 0;
+  for (std::size_t i = 0; i < demDepthImage.pixels.size(); ++i) {
+    if (demDepthImage.pixels[i] <= 0.0F) continue;
+    ++terrainPixels;
+    const glm::dvec3 c = rgbAt(demColour, i);
+    tinted += std::max({c.x, c.y, c.z}) - std::min({c.x, c.y, c.z}) > 20.0 ? 1u : 0u;
+  }
+  EXPECT_GT(tinted, terrainPixels / 2) << "the DEM alone is drawn grey";
   // The home view frames the DEM in the part of the window the panel leaves free.
   const RegionCount dem = terrainInFreeRegion(dir / "dem_depth.tiff", s3);
   EXPECT_GT(dem.inside, dem.regionPixels / 8) << "the dropped DEM's home view shows little terrain";
@@ -758,6 +775,8 @@ TEST_F(ViewerScriptTest, RealInputIsNeverLost) {
                                   liveStep("exported"),
                                   saveStep("exported.json"),
                                   liveStep("idle"),
+                                  liveStep("opened"),
+                                  saveStep("opened.json"),
                                   {{"action", "quit"}}});
   // Tall enough that the panel shows the export field without scrolling.
   LiveViewer viewer(dir, {{"window", {800, 900}}, {"steps", steps}});
@@ -821,6 +840,13 @@ TEST_F(ViewerScriptTest, RealInputIsNeverLost) {
     idleCpu = viewer.cpuSeconds() - before;
   }
   viewer.release("idle");
+  // The open-file dialog with the keyboard alone: Ctrl+O, a path, Enter.
+  const std::string dem = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/olinda_dem_utm25s.tif";
+  if (ok) {
+    viewer.gesture("sleep 0.5 && xdotool key ctrl+o && sleep 1 && xdotool key ctrl+a && xdotool type \"" + dem +
+                   "\" && xdotool key Return && sleep 5");
+  }
+  viewer.release("opened");
   ASSERT_EQ(viewer.finish(), 0) << readText(dir / "log.txt");
   ASSERT_TRUE(ok) << "the viewer did not reach every stage:\n" << readText(dir / "log.txt");
 
@@ -843,6 +869,251 @@ TEST_F(ViewerScriptTest, RealInputIsNeverLost) {
               slid["exaggeration"].get<double>());
   EXPECT_GE(idleCpu, 0.0);
   EXPECT_LT(idleCpu, 0.3) << "the viewer works while nothing changes";
+  const json opened = viewer.state("opened.json");
+  EXPECT_EQ(opened["scene"], dem) << "the dialog opened the DEM";
+  EXPECT_EQ(opened["layers"].size(), 0u);
+}
+
+// Issue 25's map tools, driven by a script and checked by image and state against what the test
+// computes itself from the scene's own files:
+// - colours by category: a pixel that only one tract's fill covers has that tract's category
+//   colour blended over the terrain;
+// - the attribute table searched and sorted holds the rows the source's attributes give;
+// - identify and table rows outline their features in the UI shot, nothing before;
+// - the measure tool's lengths and area are scene::measure's on the ground points under the
+//   pixels (unprojected here from the viewer's depth);
+// - labels, scale bar, compass and north-up, the sky above the horizon, the cursor readout.
+TEST_F(ViewerScriptTest, MapToolsByImageAndState) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  const fs::path dir = outputDir("viewer_tools");
+  constexpr int kW = 640, kH = 480;
+  auto save = [](const char* name) { return json{{"action", "save_state"}, {"path", name}}; };
+  const std::vector<std::vector<double>> measured{{330, 200}, {560, 190}, {520, 330}};
+  const json script = {
+      {"window", {kW, kH}},
+      {"steps",
+       json::array(
+           {{{"camera", {{"eye_xyz", {-300, -6500, 4200}}, {"target_xyz", {-300, 0, 0}}, {"fov_y_deg", 45}}}},
+            {{"wait", 2}},
+            {{"action", "view"}, {"panel", false}, {"hud", false}, {"legend", false}},
+            {{"action", "screenshot"}, {"path", "plain_ui.png"}, {"ui", true}},
+            {{"action", "set_layer"}, {"layer", "census tracts"}, {"color_attribute", "TIPO"}},
+            {{"action", "overlays"}, {"on", false}},
+            {{"action", "screenshot"}, {"path", "without.png"}, {"ui", false}},
+            {{"action", "overlays"}, {"on", true}},
+            {{"action", "set_layer"}, {"layer", "streets"}, {"visible", false}},
+            {{"action", "set_layer"}, {"layer", "census tracts"}, {"outline_width", 0}},
+            {{"action", "screenshot"}, {"path", "categories.png"}, {"ui", false}},
+            {{"action", "table"},
+             {"layer", "census tracts"},
+             {"search", "fragoso"},
+             {"search_in", "NM_BAIR"},
+             {"sort_by", "V014"},
+             {"descending", true},
+             {"select", {29}}},
+            {{"action", "identify"}, {"x", 250}, {"y", 185}},
+            {{"action", "measure"}, {"points", measured}, {"closed", true}},
+            {{"action", "set_layer"}, {"layer", "census tracts"}, {"label_attribute", "NM_BAIR"}},
+            {{"wait", 2}},
+            {{"action", "screenshot"}, {"path", "tools_ui.png"}, {"ui", true}},
+            save("tools.json"),
+            {{"action", "table"}, {"layer", "census tracts"}, {"close", true}},
+            {{"action", "click"}, {"at", {300, 240}}},
+            {{"wait", 2}},
+            save("cursor.json"),
+            {{"camera", {{"eye_xyz", {6000, -3000, 900}}, {"target_xyz", {-2000, 3000, 0}}, {"fov_y_deg", 45}}}},
+            {{"wait", 2}},
+            {{"action", "screenshot"}, {"path", "horizon.png"}, {"ui", false}},
+            save("turned.json"),
+            {{"action", "key"}, {"key", "n"}},
+            {{"wait", 2}},
+            save("north.json"),
+            {{"action", "quit"}}})}};
+  ASSERT_TRUE(runViewer(dir, script));
+  const auto state = [&](const char* name) { return json::parse(readText(dir / name)); };
+  const auto image = [&](const char* name) { return *gfx::readImage8((dir / name).string()); };
+
+  // The scene's own tracts, as the reader gives them.
+  Result<scene::SceneDescription> description =
+      scene::loadSceneFile(std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json");
+  ASSERT_TRUE(description.ok());
+  Result<scene::LoadedScene> scene = scene::loadScene(*description);
+  ASSERT_TRUE(scene.ok());
+  const std::vector<geo::Feature>& tracts = scene->layers[0].features.all();
+  const auto text = [](const geo::Feature& f, const char* key) {
+    const auto v = f.attributes.find(key);
+    if (v == f.attributes.end()) return std::string();
+    if (const auto* s = std::get_if<std::string>(&v->second)) return *s;
+    if (const auto* i = std::get_if<std::int64_t>(&v->second)) return std::to_string(*i);
+    if (const auto* d = std::get_if<double>(&v->second)) return std::to_string(*d);
+    return std::string();
+  };
+
+  // Categories: a pixel whose ground point and those of the pixels 2 away around it lie in one
+  // tract (so away from every edge) has that tract's category colour blended over the terrain.
+  const json tools = state("tools.json");
+  const json& tractsState = tools["layers"][0];
+  ASSERT_EQ(tractsState["color_attribute"], "TIPO");
+  const gfx::Image8 with = image("categories.png"), without = image("without.png");
+  const gfx::ImageFloat depth = *gfx::readImageFloat((dir / "categories_depth.tiff").string());
+  const glm::dmat4 viewProj = viewProjOf(json::parse(readText(dir / "categories_camera.json")));
+  const auto inRing = [](const geo::Ring& ring, const glm::dvec2& p) {
+    bool inside = false;
+    for (std::size_t a = 0, b = ring.size() - 1; a < ring.size(); b = a++) {
+      if ((ring[a].y > p.y) != (ring[b].y > p.y) &&
+          p.x < ring[b].x + (ring[a].x - ring[b].x) * (p.y - ring[b].y) / (ring[a].y - ring[b].y))
+        inside = !inside;
+    }
+    return inside;
+  };
+  const auto tractAt = [&](const glm::dvec2& p) {
+    std::optional<std::size_t> found;
+    for (std::size_t f = 0; f < tracts.size(); ++f) {
+      bool in = false;
+      for (const geo::Polygon& poly : tracts[f].polygons) {
+        bool inPoly = inRing(poly.outer, p);
+        for (const geo::Ring& h : poly.holes) inPoly = inPoly && !inRing(h, p);
+        in = in != inPoly;
+      }
+      if (!in) continue;
+      if (found) return std::optional<std::size_t>();  // overlapping tracts: not judged
+      found = f;
+    }
+    return found;
+  };
+  const double alpha = std::round(static_cast<double>(description->layers[0].style.opacity) * 255.0) / 255.0;
+  std::size_t judged = 0, wrong = 0;
+  std::map<std::string, std::size_t> perCategory;
+  for (int y = 3; y + 3 < kH; y += 3) {
+    for (int x = 3; x + 3 < kW; x += 3) {
+      std::optional<std::size_t> tract;
+      bool same = true;
+      for (int dy = -2; dy <= 2 && same; dy += 2) {
+        for (int dx = -2; dx <= 2 && same; dx += 2) {
+          const float z = depth.pixels[static_cast<std::size_t>(y + dy) * kW + static_cast<std::size_t>(x + dx)];
+          if (z <= 0.0F) {
+            same = false;
+            break;
+          }
+          const std::optional<std::size_t> t = tractAt(glm::dvec2(unproject(viewProj, x + dx, y + dy, z, kW, kH)));
+          if (!t || (tract && *t != *tract)) same = false;
+          tract = t;
+        }
+      }
+      if (!same || !tract) continue;
+      const std::string category = text(tracts[*tract], "TIPO");
+      const json& c =
+          tractsState["categories"].contains(category) ? tractsState["categories"][category] : tractsState["color"];
+      const glm::dvec3 colour =
+          glm::round(glm::dvec3(c[0].get<double>(), c[1].get<double>(), c[2].get<double>()) * 255.0) / 255.0;
+      const std::size_t i = static_cast<std::size_t>(y) * kW + static_cast<std::size_t>(x);
+      const glm::dvec3 expected = 255.0 * colour * alpha + rgbAt(without, i) * (1.0 - alpha);
+      ++judged;
+      ++perCategory[category];
+      wrong += maxDifference(rgbAt(with, i), expected) > 2.5 ? 1u : 0u;
+    }
+  }
+  std::printf("categories: %zu pixels judged (", judged);
+  for (const auto& [k, n] : perCategory) std::printf(" %s %zu", k.c_str(), n);
+  std::printf(" ), %zu wrong\n", wrong);
+  EXPECT_GE(perCategory.size(), 2u) << "both categories in view";
+  EXPECT_GT(judged, 1000u);
+  EXPECT_EQ(wrong, 0u);
+
+  // The table: searched in NM_BAIR for "fragoso", sorted by V014 descending (ties keep fid order).
+  std::vector<std::pair<double, std::int64_t>> rows;
+  for (const geo::Feature& f : tracts) {
+    std::string name = text(f, "NM_BAIR");
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    if (name.find("fragoso") == std::string::npos) continue;
+    const auto v = f.attributes.find("V014");
+    double value = -1e300;
+    if (v != f.attributes.end()) {
+      if (const auto* n = std::get_if<std::int64_t>(&v->second)) value = static_cast<double>(*n);
+      if (const auto* d = std::get_if<double>(&v->second)) value = *d;
+    }
+    rows.emplace_back(value, f.fid);
+  }
+  std::stable_sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  ASSERT_EQ(tools["table"]["rows"].get<std::size_t>(), rows.size());
+  for (std::size_t r = 0; r < tools["table"]["first_rows"].size(); ++r) {
+    EXPECT_EQ(tools["table"]["first_rows"][r].get<std::int64_t>(), rows[r].second) << "row " << r;
+  }
+  EXPECT_EQ(tools["table"]["selected_rows"], 1);
+
+  // Outlines: the identified tract (cyan) and the table's row (the highlight colour) in the UI
+  // shot, and nothing of the kind before.
+  ASSERT_FALSE(tools["identified"].is_null());
+  EXPECT_EQ(tools["highlighted_features"], 2);
+  const gfx::Image8 plainUi = image("plain_ui.png"), toolsUi = image("tools_ui.png");
+  const auto cyan = [](const gfx::Image8& im) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < im.pixels.size() / 3; ++i) {
+      n += maxDifference(rgbAt(im, i), glm::dvec3(40, 230, 255)) <= 1.0 ? 1u : 0u;
+    }
+    return n;
+  };
+  std::printf("outlines: %zu cyan pixels (%zu before)\n", cyan(toolsUi), cyan(plainUi));
+  EXPECT_EQ(cyan(plainUi), 0u);
+  EXPECT_GT(cyan(toolsUi), 30u);
+
+  // Measure: the same numbers as scene::measure on the ground points under the pixels.
+  const gfx::ImageFloat toolsDepth = depth;  // same camera, same terrain
+  std::vector<glm::dvec2> ground;
+  for (const auto& p : measured) {
+    const int x = static_cast<int>(p[0]), y = static_cast<int>(p[1]);
+    const float z = toolsDepth.pixels[static_cast<std::size_t>(y) * kW + static_cast<std::size_t>(x)];
+    ASSERT_GT(z, 0.0F);
+    ground.emplace_back(unproject(viewProj, x, y, z, kW, kH));
+  }
+  const terrain::TerrainGrid& grid = scene->quadtree->grid();
+  scene::MeasureOptions options;
+  options.sampleStepMetres = 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y));
+  const Result<scene::Measurement> expected = scene::measure(
+      scene->frame, ground, true, [&](const glm::dvec2& q) { return scene->bounds->fullResolutionHeightAt(q); },
+      options);
+  ASSERT_TRUE(expected.ok());
+  const json& m = tools["measure"];
+  std::printf("measure: geodesic %.2f m (expected %.2f), surface %.2f m, area %.0f m² (expected %.0f)\n",
+              m["geodesic_m"].get<double>(), expected->geodesicMetres, m["surface_m"].get<double>(),
+              m["geodesic_area_m2"].get<double>(), *expected->geodesicAreaM2);
+  EXPECT_NEAR(m["geodesic_m"].get<double>(), expected->geodesicMetres, 1e-6 * expected->geodesicMetres);
+  EXPECT_NEAR(m["surface_m"].get<double>(), expected->surfaceMetres, 1e-6 * expected->surfaceMetres);
+  EXPECT_NEAR(m["geodesic_area_m2"].get<double>(), *expected->geodesicAreaM2, 1e-6 * *expected->geodesicAreaM2);
+  EXPECT_GE(m["surface_m"].get<double>(), m["geodesic_m"].get<double>());
+
+  // Labels, scale bar.
+  EXPECT_GT(tools["labels_placed"].get<int>(), 10);
+  EXPECT_GT(tools["scale_bar_m"].get<double>(), 0.0);
+
+  // The cursor readout after a click: the same point identify names.
+  const json cursor = state("cursor.json");
+  ASSERT_FALSE(cursor["cursor"].is_null());
+  ASSERT_FALSE(cursor["identified"].is_null());
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_NEAR(cursor["cursor"]["lon_lat_h"][k].get<double>(), cursor["identified"]["lon_lat_h"][k].get<double>(),
+                1e-9);
+  }
+
+  // The sky: above the horizon (no terrain) the picture is sky blue, not the dark background.
+  const gfx::Image8 horizon = image("horizon.png");
+  const gfx::ImageFloat horizonDepth = *gfx::readImageFloat((dir / "horizon_depth.tiff").string());
+  std::size_t sky = 0, blue = 0;
+  for (std::size_t i = 0; i < horizonDepth.pixels.size() / 3; ++i) {  // the top third
+    if (horizonDepth.pixels[i] > 0.0F) continue;
+    ++sky;
+    const glm::dvec3 c = rgbAt(horizon, i);
+    blue += c.z > c.x + 20.0 && c.z > 120.0 ? 1u : 0u;
+  }
+  EXPECT_GT(sky, 1000u) << "the camera shows the horizon";
+  EXPECT_EQ(blue, sky);
+
+  // Compass and north-up: turned, north is off the top of the screen; after N it is up.
+  const json turned = state("turned.json"), north = state("north.json");
+  std::printf("compass: %.3f rad turned, %.4f rad after north-up\n", turned["compass_angle"].get<double>(),
+              north["compass_angle"].get<double>());
+  EXPECT_GT(std::abs(turned["compass_angle"].get<double>()), 0.3);
+  EXPECT_NEAR(north["compass_angle"].get<double>(), 0.0, 1e-3);
 }
 
 // First contact (issue 20): a DEM in longitude/latitude, a folder of tiles and a vector file

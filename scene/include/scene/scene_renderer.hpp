@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <utility>
 
 #include <glm/vec4.hpp>
 
@@ -24,7 +25,11 @@ namespace gis::scene {
 struct RenderSettings {
   double lodTolerancePixels = 1.5;
   bool wireframe = false;
-  bool imagery = true;   ///< off: hillshade
+  bool imagery = true;  ///< off: hillshade
+  /// A hypsometric tint (terrain::ElevationRamp::hypsometric) wherever there is no imagery to
+  /// show: this range of true heights (low, high; unexaggerated, e.g. terrain::demHeightRange)
+  /// mapped onto the ramp, shaded by the hillshade. nullopt: grey hillshade.
+  std::optional<std::pair<double, double>> elevationRamp;
   bool measure = false;  ///< wrap passes in GPU timer and pipeline-statistics queries (waits)
   /// Paged terrain: wait until every tile the view wants is loaded (still images), instead of
   /// drawing coarser parents while they load (flights).

@@ -14,13 +14,16 @@
 #include <utility>
 #include <vector>
 
+#include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "geo/raster.hpp"
 #include "gfx/handles.hpp"
 #include "gfx/program.hpp"
 #include "gfx/state_cache.hpp"
+#include "terrain/elevation_ramp.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/orthophoto.hpp"
 #include "terrain/quadtree.hpp"
@@ -33,6 +36,19 @@ struct FrameOrthophoto {
   Orthophoto image;
   geo::GeoTransform frameTransform;  ///< pixel corner → frame coordinates
 };
+
+/// Towards the hillshade's light, frame coordinates (from the north-west, high).
+inline constexpr glm::dvec3 kLightDirection{-0.5, 0.6, 0.8};
+
+/// The hillshade's brightness for a surface normal (frame coordinates, drawn heights): what the
+/// terrain shader multiplies the grey or the elevation tint by, from the normal of the drawn
+/// triangle.
+inline double hillshadeFactor(const glm::dvec3& normal) {
+  glm::dvec3 n = glm::normalize(normal);
+  if (n.z < 0.0) n = -n;
+  const double shade = glm::clamp(glm::dot(n, glm::normalize(kLightDirection)), 0.0, 1.0);
+  return 0.35 + 0.65 * shade;
+}
 
 struct TerrainDrawStats {
   std::size_t chunks = 0;
@@ -80,6 +96,14 @@ class TerrainEngine {
   /// Off: hillshade even where there is imagery (the viewer's "imagery" switch).
   void setImagery(bool on) { imageryOn_ = on; }
   [[nodiscard]] bool hasImagery() const { return imageryTransform_.has_value(); }
+  /// A hypsometric tint where the terrain is hill-shaded (no imagery, imagery off, or outside
+  /// it): the ramp's colour at the true height (exaggeration undone) normalised over `range`
+  /// (low, high; ElevationRamp::normalised), times the hillshade. nullopt: grey (the default).
+  void setElevationRamp(std::optional<std::pair<double, double>> range,
+                        const ElevationRamp& ramp = ElevationRamp::hypsometric()) {
+    rampRange_ = range;
+    ramp_ = ramp;
+  }
 
  private:
   struct GpuChunk {
@@ -110,6 +134,8 @@ class TerrainEngine {
   std::size_t gpuBudget_ = kDefaultGpuBudgetBytes;
   bool wireframe_ = false;
   bool imageryOn_ = true;
+  std::optional<std::pair<double, double>> rampRange_;
+  ElevationRamp ramp_ = ElevationRamp::hypsometric();
   std::optional<Drape> drape_;
 };
 
