@@ -43,18 +43,19 @@ bool isRasterFile(const std::string& path) {
 /// writes beyond ASCII: Latin-1 and Latin Extended, punctuation (…, –), super- and subscripts
 /// (²), arrows (→), mathematical operators (×, ≤) and geometric shapes (▲ of the compass).
 /// ImGui's built-in font (13 px, ASCII only) is the fallback, said once.
-void loadFont(float scale) {
+std::string loadFont(float scale) {
   static const ImWchar kRanges[] = {0x0020, 0x024F, 0x2000, 0x206F, 0x2070, 0x209F, 0x2190,
                                     0x21FF, 0x2200, 0x22FF, 0x25A0, 0x25FF, 0};
   ImGuiIO& io = ImGui::GetIO();
   for (const char* path : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"}) {
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) continue;
-    if (io.Fonts->AddFontFromFileTTF(path, 15.0F * scale, nullptr, kRanges) != nullptr) return;
+    if (io.Fonts->AddFontFromFileTTF(path, 15.0F * scale, nullptr, kRanges) != nullptr) return path;
   }
   logWarning("terrain_viewer: DejaVu Sans not found (Debian: fonts-dejavu-core); the panel uses ImGui's small font");
   io.Fonts->AddFontDefault();
   io.FontGlobalScale = scale;
+  return "ImGui's built-in font";
 }
 
 bool isVectorFile(const std::string& path) {
@@ -164,7 +165,7 @@ bool Viewer::open(const ViewerOptions& options) {
   glfwGetWindowContentScale(window, &scaleX, &scaleY);
   const float scale = std::max(scaleX, 1.0F);
   if (scale > 1.0F) ImGui::GetStyle().ScaleAllSizes(scale);
-  loadFont(scale);
+  font_ = loadFont(scale);
   ImGui_ImplGlfw_InitForOpenGL(window, false);  // our queue passes it the events (takeInput)
   ImGui_ImplOpenGL3_Init("#version 450 core");
   imgui_ = true;

@@ -399,6 +399,7 @@ class Viewer {
   const overlay::TechniqueInfo* technique_ = &overlay::defaultTechnique();
   int drapeSize_ = 2048;  ///< texture techniques: texels per side
   bool imgui_ = false;
+  std::string font_;  ///< the panel's font file
 
   // Selection.
   std::vector<overlay::SelectionStep> steps_;

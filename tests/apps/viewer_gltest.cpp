@@ -18,6 +18,7 @@
 #include <csignal>
 #include <iterator>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <sys/wait.h>
@@ -1081,6 +1082,16 @@ TEST_F(ViewerScriptTest, MapToolsByImageAndState) {
   EXPECT_NEAR(m["surface_m"].get<double>(), expected->surfaceMetres, 1e-6 * expected->surfaceMetres);
   EXPECT_NEAR(m["geodesic_area_m2"].get<double>(), *expected->geodesicAreaM2, 1e-6 * *expected->geodesicAreaM2);
   EXPECT_GE(m["surface_m"].get<double>(), m["geodesic_m"].get<double>());
+
+  // The sample loads clean, and a message repeated by the style changes is said once.
+  std::set<std::string> said;
+  for (const json& said1 : tools["messages"]) {
+    const std::string line = said1.get<std::string>();
+    EXPECT_NE(line.rfind("error", 0), 0u) << line;
+    EXPECT_TRUE(said.insert(line).second) << "said twice: " << line;
+  }
+  // The panel's font has the arrows, × and ² it writes (DejaVu Sans from fonts-dejavu-core).
+  EXPECT_NE(tools["font"].get<std::string>().find("DejaVuSans"), std::string::npos) << tools["font"];
 
   // Labels, scale bar.
   EXPECT_GT(tools["labels_placed"].get<int>(), 10);
