@@ -929,6 +929,14 @@ TEST_F(ViewerScriptTest, MapToolsByImageAndState) {
             {{"action", "key"}, {"key", "n"}},
             {{"wait", 2}},
             save("north.json"),
+            {{"action", "table"}, {"layer", "census tracts"}, {"select", {29}}, {"zoom_to", "rows"}},
+            {{"wait", 2}},
+            save("zoomed.json"),
+            {{"action", "table"}, {"layer", "census tracts"}, {"close", true}},
+            {{"action", "exaggeration"}, {"value", 8.0}},
+            {{"wait", 2}},
+            {{"action", "identify"}, {"x", 320}, {"y", 300}},
+            save("exaggerated.json"),
             {{"action", "quit"}}})}};
   ASSERT_TRUE(runViewer(dir, script));
   const auto state = [&](const char* name) { return json::parse(readText(dir / name)); };
@@ -1125,6 +1133,40 @@ TEST_F(ViewerScriptTest, MapToolsByImageAndState) {
               north["compass_angle"].get<double>());
   EXPECT_GT(std::abs(turned["compass_angle"].get<double>()), 0.3);
   EXPECT_NEAR(north["compass_angle"].get<double>(), 0.0, 1e-3);
+
+  // Zoom to a table row: the tract is framed in the free part of the window.
+  const json zoomed = state("zoomed.json");
+  const auto tract = std::find_if(tracts.begin(), tracts.end(), [](const geo::Feature& f) { return f.fid == 29; });
+  ASSERT_NE(tract, tracts.end());
+  glm::dvec2 lo(1e300), hi(-1e300);
+  for (const geo::Polygon& poly : tract->polygons) {
+    for (const glm::dvec2& v : poly.outer) {
+      lo = glm::min(lo, v);
+      hi = glm::max(hi, v);
+    }
+  }
+  const glm::dvec2 middle = 0.5 * (lo + hi);
+  const glm::dvec3 onGround(middle, scene->bounds->fullResolutionHeightAt(middle));
+  const glm::dvec2 seen = project(viewProjOf(zoomed["camera"]), onGround, kW, kH);
+  const std::vector<double> region = zoomed["free_region"].get<std::vector<double>>();
+  const glm::dvec2 regionCentre(0.5 * (region[0] + region[2]), 0.5 * (region[1] + region[3]));
+  std::printf("zoom to row: the tract's centre at (%.1f, %.1f), the free region's at (%.1f, %.1f)\n", seen.x, seen.y,
+              regionCentre.x, regionCentre.y);
+  EXPECT_LT(std::abs(seen.x - regionCentre.x), 0.15 * (region[2] - region[0]));
+  EXPECT_LT(std::abs(seen.y - regionCentre.y), 0.15 * (region[3] - region[1]));
+  EXPECT_LT(zoomed["pose"]["distance"].get<double>(), 0.5 * north["pose"]["distance"].get<double>());
+
+  // Identify at 8x exaggeration tells true heights (Olinda's DEM: -1 to 88 m).
+  const json exaggerated = state("exaggerated.json");
+  ASSERT_FALSE(exaggerated["identified"].is_null());
+  const double height = exaggerated["identified"]["height"].get<double>();
+  std::printf("identify at 8x: height %.2f m, terrain %.2f m, drawn at %.2f m\n", height,
+              exaggerated["identified"]["terrain_height"].get<double>(),
+              exaggerated["identified"]["frame"][2].get<double>());
+  EXPECT_GT(height, -2.0);
+  EXPECT_LT(height, 90.0);
+  EXPECT_NEAR(height, exaggerated["identified"]["terrain_height"].get<double>(), 1.0);
+  EXPECT_NEAR(exaggerated["identified"]["lon_lat_h"][2].get<double>(), height, 1e-9);
 }
 
 // First contact (issue 20): a DEM in longitude/latitude, a folder of tiles and a vector file
