@@ -392,7 +392,11 @@ void Viewer::frame(double seconds) {
   // A scene read in the background; dropped files once it is in (the last scene wins; vector
   // files add layers to it).
   finishLoad(false);
-  if (!loading_ && !dropped_.empty()) loadPath(dropped_.front()), dropped_.erase(dropped_.begin());
+  if (!loading_ && !dropped_.empty()) {
+    const std::string path = dropped_.front();
+    dropped_.erase(dropped_.begin());
+    loadPath(path);
+  }
   pollSelection(false);
 
   redrawFrames_ = std::max(redrawFrames_ - 1, 0);
