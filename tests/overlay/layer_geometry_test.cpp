@@ -87,6 +87,29 @@ bool sameArrays(const LayerGeometry& a, const LayerGeometry& b) {
          a.slots().size() == b.slots().size();
 }
 
+// Cached pieces (vector tiles, checks) are found by this hash. Their vertices hold each
+// feature's colour, drawn as they are when the colours differ (by category): such colours are in
+// the hash. A layer of one colour is drawn with it as a uniform, so its colour is not (changing
+// it keeps the cache).
+TEST(LayerGeometry, FingerprintHoldsColoursThatDifferBetweenFeatures) {
+  std::vector<geo::Feature> features(3);
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    features[i].fid = static_cast<std::int64_t>(i);
+    const double x = 100.0 * static_cast<double>(i);
+    features[i].polygons.push_back({{{x, 0.0}, {x + 50.0, 0.0}, {x + 50.0, 50.0}}, {}});
+  }
+  const auto hash = [&](const std::vector<glm::vec4>& colours) {
+    std::vector<FeatureStyle> styles(features.size());
+    for (std::size_t i = 0; i < styles.size(); ++i) styles[i].color = colours[i];
+    return featuresFingerprint(features, styles, LayerKind::Polygon);
+  };
+  const glm::vec4 orange(1.0F, 0.5F, 0.0F, 0.45F), blue(0.1F, 0.4F, 0.7F, 0.45F);
+  EXPECT_EQ(hash({orange, orange, orange}), hash({blue, blue, blue})) << "one colour: drawn as a uniform";
+  EXPECT_NE(hash({orange, blue, orange}), hash({orange, orange, orange}));
+  EXPECT_NE(hash({orange, blue, orange}), hash({blue, orange, orange}));
+  EXPECT_EQ(hash({orange, blue, orange}), hash({orange, blue, orange}));
+}
+
 TEST(LayerGeometry, BuiltOnWorkerThreadsIsTheSameAsOnThisOneAndValid) {
   std::mt19937 rng(5);
   const glm::dvec2 lo(-2800.0), hi(2800.0);

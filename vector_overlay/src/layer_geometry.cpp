@@ -514,6 +514,25 @@ struct LeanPiece {
 
 }  // namespace
 
+namespace {
+
+/// The pieces' vertices hold each feature's colour. A layer of one colour is drawn with it as a
+/// uniform (LayerGeometry::uniformColor), so only colours that differ between features (by
+/// category) are part of what cached pieces depend on; a one-colour layer's hash is unchanged.
+void addFeatureColours(StableHasher& h, const std::vector<FeatureStyle>& styles) {
+  const auto rgba = [](const FeatureStyle& st) {
+    return (std::uint64_t{unorm8(st.color.x)} << 24U) | (std::uint64_t{unorm8(st.color.y)} << 16U) |
+           (std::uint64_t{unorm8(st.color.z)} << 8U) | std::uint64_t{unorm8(st.color.w)};
+  };
+  const bool uniform = std::all_of(styles.begin(), styles.end(),
+                                   [&](const FeatureStyle& st) { return rgba(st) == rgba(styles.front()); });
+  if (uniform) return;
+  h.add(std::string_view("colours by feature"));
+  for (const FeatureStyle& st : styles) h.add(rgba(st));
+}
+
+}  // namespace
+
 std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind) {
   if (!features.onDisk()) return featuresFingerprint(features.all(), styles, kind);
@@ -528,6 +547,7 @@ std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vec
     for (const double v : {st.shape.width, st.shape.miterLimit, st.shape.widthPixels, st.shape.minWidth}) h.add(v);
     h.add(static_cast<std::uint64_t>(st.shape.join) * 8U + static_cast<std::uint64_t>(st.shape.cap));
   }
+  addFeatureColours(h, styles);
   return h.value();
 }
 
@@ -559,6 +579,7 @@ std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, con
     h.add(static_cast<std::uint64_t>(f.lines.size()));
     for (const geo::LineString& l : f.lines) points(l);
   }
+  addFeatureColours(h, styles);
   return h.value();
 }
 

@@ -179,7 +179,8 @@ struct GeometryChange {
 };
 
 /// A hash of the features and of what their pieces take from their styles (visibility, fid,
-/// line shape, geometry), and of the layer's kind (LayerGeometry::contentFingerprint).
+/// line shape, geometry, and the colours when they differ between features: the vertices hold
+/// them), and of the layer's kind (LayerGeometry::contentFingerprint).
 std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind);
 /// The same for features that may be on disk: there the file's content hash stands for their
