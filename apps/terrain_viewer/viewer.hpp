@@ -387,6 +387,8 @@ class Viewer {
   app::ViewerSettings settings_;
   std::optional<scene::SceneDescription> description_;
   std::unique_ptr<PendingLoad> loading_;
+  std::size_t loadingFramesShown_ = 0;  ///< frames drawn with the loading window
+  double lastLoadProgress_ = -1.0;      ///< the last load's last reported fraction (-1: none)
   /// The DEM's lowest and highest post (true heights): the elevation tint's range.
   std::optional<std::pair<double, double>> demRange_;
   std::optional<scene::LoadedScene> scene_;

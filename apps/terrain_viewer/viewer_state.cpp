@@ -184,6 +184,7 @@ nlohmann::json Viewer::state() const {
       {"keys_down", keysDownJson()},
       {"undo_steps", undo_.size()},
       {"highlighted_features", highlightedCount_},
+      {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
       {"font", font_},
       {"elevation_ramp", render_.elevationRamp
                              ? nlohmann::json({render_.elevationRamp->first, render_.elevationRamp->second})

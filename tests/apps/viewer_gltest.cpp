@@ -1205,6 +1205,23 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
     EXPECT_EQ(home.outside, 0u) << open << ": the home view puts terrain under the panel";
   }
 
+  // A DEM paged from a tile pyramid built at load: the window shows the load's progress bar, and
+  // the build's progress reaches the end.
+  {
+    const fs::path dp = outputDir("paged_progress");
+    const json pagedScene = {
+        {"name", "paged"},
+        {"terrain", {{"dem", geographic}, {"paging", "always"}, {"cache_dir", (dp / "cache").string()}}}};
+    { std::ofstream(dp / "paged.json") << pagedScene.dump(1); }
+    ASSERT_TRUE(runViewer(dp, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, save("s.json")}}},
+                          (dp / "paged.json").string()));
+    const json sp = state(dp, "s.json");
+    std::printf("paged load: the progress window in %d frame(s), last progress %.3f\n",
+                sp["loading"]["frames_shown"].get<int>(), sp["loading"]["last_progress"].get<double>());
+    EXPECT_GE(sp["loading"]["frames_shown"].get<int>(), 1);
+    EXPECT_NEAR(sp["loading"]["last_progress"].get<double>(), 1.0, 1e-9);
+  }
+
   // A vector file alone: over flat ground, its one layer drawn.
   const std::string vector = std::string(STENCIL_GIS_TEST_DATA_DIR) + "/holes_and_multipolygons.geojson";
   const fs::path dv = outputDir("vector_alone");
