@@ -24,6 +24,9 @@ packages=(
   gmt gmt-dcw
   # its --coast layer: GMT's full-resolution GSHHG shorelines
   gmt-gshhg-full
+  # the globe scene of scripts/globe_scene.sh: GSHHG's crude, low and intermediate shorelines for
+  # the DEM's land/sea mask, and PROJ's grids for EGM96 (egm96_15.gtx) for its ellipsoidal heights
+  gmt-gshhg-low proj-data
   # tests; a real PostgreSQL + PostGIS server for the PostGIS source test (tests/geo/with_postgis.sh)
   libgtest-dev libgmock-dev postgresql postgresql-15-postgis-3
 )

@@ -104,5 +104,8 @@ int runAblation(const Options& o);
 int runScaling(const Options& o);
 /// Mode "lasso": the time of lasso selection against the number of volumes (lasso_mode.cpp).
 int runLasso(const Options& o);
+/// Mode "globe": a scene on the globe along a path from space to a few kilometres, terrain only
+/// and with its overlays on each frame (globe_mode.cpp).
+int runGlobe(const Options& o);
 
 }  // namespace gis::bench

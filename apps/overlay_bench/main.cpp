@@ -16,7 +16,8 @@ using namespace gis;
 using namespace gis::bench;
 
 constexpr const char* kUsage =
-    "usage: overlay_bench --scene S.json [--mode terrain|overlay|methods|ablation|scaling|lasso] [--width W --height "
+    "usage: overlay_bench --scene S.json [--mode terrain|overlay|methods|ablation|scaling|lasso|globe] [--width W "
+    "--height "
     "H] [--frames N]\n"
     "                     [--lod-tolerance PX] [--paging auto|always|never] [--max-volumes N]\n"
     "                     [--repeats R] [--texture-sizes TECHNIQUE=512,1024,...]...\n"
@@ -28,6 +29,9 @@ constexpr const char* kUsage =
     "  the CPU reference (every --error-every frames), GPU time and fragments per pass, per path segment\n"
     "  (--segments: which; close-up puts the eye 1.5 m over roads and areas); writes methods.json,\n"
     "  methods.csv, methods.md and plots; --msaa: multisampled targets, the error judged on sample 0\n"
+    "--mode globe: a scene on the globe (docs/globe.md) along a path from 9,000 km to 5 km (space,\n"
+    "  continent, regional, low over an edge, across the antimeridian, over the south pole): per frame the\n"
+    "  GPU time with the terrain alone and with the overlays, their ratio; bench.json, frames.csv\n"
     "--mode ablation: ours with each saving switched off alone (z-fail everywhere, bottom caps in z-pass,\n"
     "  no frustum culling, cover with the pieces, one cover rectangle, no split at cells) and with\n"
     "  lines united per cell, the same\n"
@@ -147,8 +151,8 @@ std::string parseArgs(int argc, char** argv, Options& o, ScalingOptions& scaling
   if (o.mode == "scaling" && o.scenes.empty()) return "--mode scaling needs --scenes A.json,B.json,...";
   if (o.scene.empty() || o.out.empty()) return "--scene and --out are required";
   if (o.mode != "terrain" && o.mode != "overlay" && o.mode != "lasso" && o.mode != "methods" && o.mode != "ablation" &&
-      o.mode != "scaling")
-    return "--mode: \"terrain\", \"overlay\", \"methods\", \"ablation\", \"scaling\" or \"lasso\"";
+      o.mode != "scaling" && o.mode != "globe")
+    return "--mode: \"terrain\", \"overlay\", \"methods\", \"ablation\", \"scaling\", \"lasso\" or \"globe\"";
   return {};
 }
 
@@ -158,6 +162,7 @@ int run(const Options& o, const ScalingOptions& scaling) {
   if (o.mode == "methods") return runMethods(o);
   if (o.mode == "ablation") return runAblation(o);
   if (o.mode == "scaling") return runScaling(o, scaling);
+  if (o.mode == "globe") return runGlobe(o);
   return runTerrain(o);
 }
 

@@ -24,8 +24,10 @@
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
+#include "globe_render.hpp"
 #include "scene/camera.hpp"
 #include "scene/frame_readback.hpp"
+#include "scene/globe_scene.hpp"
 #include "scene/json_file.hpp"
 #include "scene/lasso_file.hpp"
 #include "scene/scene.hpp"
@@ -652,6 +654,19 @@ int run(const Options& o) {
     logError("--overlap and --open-volumes mark the layers' stencil polyhedra, and --method " +
              std::string(o.technique->name) + " draws none: use stencil-tiles, stencil or paper");
     return 2;
+  }
+  // A scene drawn on the globe (docs/globe.md) takes its own path.
+  if (Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene); description.ok()) {
+    Result<std::string> globe = scene::globeReason(*description);
+    if (globe.ok() && !globe->empty()) {
+      if (!o.lasso.empty() || !o.overlap.empty() || o.openVolumes || o.msaa > 1 || !o.camera.empty()) {
+        logError("the scene is drawn on the globe (" + *globe +
+                 "): --lasso, --overlap, --open-volumes, --msaa and --camera are not available there yet");
+        return 2;
+      }
+      report(description.diagnostics);
+      return app::runGlobeRender(*description, *globe, {o.out, o.width, o.height, o.overlays});
+    }
   }
   const std::optional<Setup> setup = load(o, all);
   if (!setup) return 1;

@@ -198,6 +198,16 @@ Result<SceneFrame> SceneFrame::fromCrs(const std::string& crs, const glm::dvec3&
   return r;
 }
 
+SceneFrame SceneFrame::wgs84LonLat() {
+  OGRSpatialReference wgs84;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  std::string error;
+  auto impl = Impl::make(wgs84, error);  // a well-known CRS: cannot fail
+  return SceneFrame(std::move(impl), glm::dvec3(0.0));
+}
+
+bool SceneFrame::geographic() const { return impl_ && impl_->projected->IsGeographic() != 0; }
+
 Result<SceneFrame> SceneFrame::forRaster(const RasterInfo& dem) {
   auto fail = [&dem](const std::string& message) {
     return Result<SceneFrame>::failure({Severity::Error, dem.path, "", "", message});

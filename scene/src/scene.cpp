@@ -207,8 +207,19 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
   SceneParser p(path, result.diagnostics);
   SceneDescription scene;
   scene.path = path;
-  p.warnUnknownKeys(root, {"name", "terrain", "imagery", "layers", "camera"}, "");
+  p.warnUnknownKeys(root, {"name", "frame", "terrain", "imagery", "layers", "camera"}, "");
   p.read(root, "name", "", scene.name);
+  if (std::string frame; p.read(root, "frame", "", frame)) {
+    if (frame == "auto") {
+      scene.frame = FrameKind::Auto;
+    } else if (frame == "projected") {
+      scene.frame = FrameKind::Projected;
+    } else if (frame == "globe") {
+      scene.frame = FrameKind::Globe;
+    } else {
+      p.error("frame", "expected \"auto\", \"projected\" or \"globe\", got \"" + frame + "\"");
+    }
+  }
 
   if (!root.contains("terrain") || !root["terrain"].is_object()) {
     p.error("terrain", "missing (an object with \"dem\")");

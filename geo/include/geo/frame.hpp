@@ -26,6 +26,13 @@ class SceneFrame {
   /// Fails (with a message) if the CRS is unknown or not projected.
   static Result<SceneFrame> fromCrs(const std::string& crs, const glm::dvec3& origin);
 
+  /// WGS 84 longitude/latitude in degrees (x = lon, y = lat), origin 0: not a frame to draw in,
+  /// but what the globe (docs/globe.md) reads vector data into (readVectorLayer with it gives
+  /// features in lon/lat on WGS 84, from any source CRS).
+  static SceneFrame wgs84LonLat();
+  /// True for wgs84LonLat(): coordinates are degrees, not metres.
+  [[nodiscard]] bool geographic() const;
+
   /// The frame for a DEM: its own CRS if projected in metres, otherwise (geographic, or
   /// projected in feet) the UTM zone (WGS 84) of its centre; origin at the centre of its extent,
   /// z = 0.

@@ -26,13 +26,19 @@ struct LayerDescription {
   std::size_t fileIndex = 0;
 };
 
+/// The frame a scene is drawn in (docs/globe.md): a projected CRS, or the WGS 84 globe. Auto:
+/// the globe when the DEM is in longitude/latitude and the data reach where one projected frame
+/// would distort them (scene/globe_scene.hpp, globeReason).
+enum class FrameKind { Auto, Projected, Globe };
+
 /// Whether the DEM is held in memory or paged from a tile pyramid on disk.
 enum class TerrainPaging { Auto, Always, Never };
 
 struct SceneDescription {
   std::string path;  ///< the scene file
   std::string name;
-  std::string dem;  ///< absolute path (the first, when the DEM is several files or folders)
+  FrameKind frame = FrameKind::Auto;  ///< "frame": "auto" | "projected" | "globe"
+  std::string dem;                    ///< absolute path (the first, when the DEM is several files or folders)
   /// Every file or folder of the DEM (absolute): one, a list, a folder of tiles or a VRT. Empty
   /// means {dem}.
   std::vector<std::string> demPaths;

@@ -1,0 +1,157 @@
+// overlay_bench --mode globe: a scene on the globe (docs/globe.md), drawn along a path from space
+// down to a few kilometres (the data's middle from 9,000 km, the continent from 3,000 km and
+// 500 km, low over its edge, across the antimeridian, over the south pole). Each frame is drawn
+// once to build what it needs, then timed with the terrain alone and with the overlays, one after
+// the other (GPU timer queries): the ratio of the two is taken frame by frame, as the machine is
+// shared. Writes bench.json and frames.csv.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "bench_common.hpp"
+#include "gfx/render_target.hpp"
+#include "globe/globe_renderer.hpp"
+#include "scene/globe_scene.hpp"
+
+namespace gis::bench {
+
+namespace {
+
+struct GlobeFrame {
+  std::string segment;
+  globe::Geodetic eye, target;
+};
+
+/// The path: six segments of frames, each moving a little across the data.
+std::vector<GlobeFrame> globePath(const scene::LoadedGlobeScene& s, int frames) {
+  const auto [west, south, east, north] = s.extent;
+  const double lon = 0.5 * (west + std::min(east, west + 360.0)), lat = 0.5 * (south + north);
+  const int per = std::max(1, frames / 6);
+  std::vector<GlobeFrame> out;
+  const auto segment = [&](const std::string& name, auto&& at) {
+    for (int k = 0; k < per; ++k) {
+      const double t = per == 1 ? 0.0 : static_cast<double>(k) / (per - 1);
+      GlobeFrame f = at(t);
+      f.segment = name;
+      out.push_back(f);
+    }
+  };
+  segment("space 9000 km", [&](double t) {
+    const double l = lon - 20.0 + 40.0 * t;
+    return GlobeFrame{{}, {l, lat, 9e6}, {l, lat, 0.0}};
+  });
+  segment("continent 3000 km", [&](double t) {
+    const double l = lon - 10.0 + 20.0 * t;
+    return GlobeFrame{{}, {l, lat - 25.0, 3e6}, {l, lat, 0.0}};
+  });
+  segment("regional 500 km", [&](double t) {
+    const double l = west + 0.25 * (east - west) + 4.0 * t;
+    return GlobeFrame{{}, {l, lat - 6.0, 5e5}, {l, lat - 2.0, 0.0}};
+  });
+  segment("low 5 km over an edge", [&](double t) {
+    const double l = west + 0.1 * (east - west) + 0.2 * t;
+    const double ground = s.heights->heightAt(l, lat);
+    return GlobeFrame{{}, {l, lat, std::max(ground, 0.0) + 5000.0}, {l + 0.6, lat + 0.3, std::max(ground, 0.0)}};
+  });
+  segment("antimeridian 1500 km", [&](double t) {
+    const double l = 170.0 + 20.0 * t;
+    return GlobeFrame{{}, {l, 60.0, 1.5e6}, {l, 66.0, 0.0}};
+  });
+  segment("south pole 2000 km", [&](double t) {
+    const double l = -180.0 + 90.0 * t;
+    return GlobeFrame{{}, {l, -75.0, 2e6}, {l + 180.0, -88.0, 0.0}};
+  });
+  return out;
+}
+
+}  // namespace
+
+int runGlobe(const Options& o) {
+  const auto start = std::chrono::steady_clock::now();
+  Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene);
+  app::report(description.diagnostics);
+  if (!description) return 1;
+  Result<scene::LoadedGlobeScene> loaded = scene::loadGlobeScene(*description);
+  app::report(loaded.diagnostics);
+  if (!loaded) return 1;
+  const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
+  app::report(context.diagnostics);
+  if (!context) return 1;
+
+  std::vector<const globe::GlobeLayer*> layers;
+  std::size_t vertices = 0;
+  for (const globe::GlobeLayer& l : loaded->layers) {
+    layers.push_back(&l);
+    for (const globe::GlobePolygon& p : l.polygons()) {
+      for (const auto& ring : p.rings) vertices += ring.size();
+    }
+  }
+  gfx::StateCache cache;
+  gfx::RenderTarget target(o.width, o.height, 0, true);
+  const globe::GlobeFrameTarget frameTarget{target.framebuffer(), o.width, o.height, true};
+  globe::GlobeRenderer renderer(loaded->heights);
+  const std::vector<GlobeFrame> path = globePath(*loaded, o.frames);
+
+  std::filesystem::create_directories(o.out);
+  std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
+  csv << "frame,segment,terrain_only_ms,terrain_ms,overlay_ms,ratio,tiles,terrain_triangles,pieces,z_fail_pieces,"
+         "overlay_triangles,build_ms\n";
+  std::vector<double> ratios, terrainOnly, withOverlay;
+  std::map<std::string, std::vector<double>> segmentRatios, segmentTerrain, segmentOverlay;
+  std::map<std::string, double> segmentPieces, segmentTiles;
+  for (std::size_t k = 0; k < path.size(); ++k) {
+    const GlobeFrame& f = path[k];
+    const double ground = loaded->heights->heightAt(f.eye.lon, f.eye.lat);
+    const globe::GlobeView view =
+        globe::GlobeView::looking(globe::toEcef(f.eye), globe::toEcef(f.target), 45.0, o.width, o.height, ground);
+    // Untimed: builds the tiles and pieces this view needs.
+    const auto buildStart = std::chrono::steady_clock::now();
+    renderer.render(cache, frameTarget, view, layers, false);
+    glFinish();
+    const double buildMs = msSince(buildStart);
+    const globe::GlobeFrameStats bare = renderer.render(cache, frameTarget, view, {}, true);
+    const globe::GlobeFrameStats full = renderer.render(cache, frameTarget, view, layers, true);
+    const double ratio = (full.terrainGpuMilliseconds + full.overlayGpuMilliseconds) / bare.terrainGpuMilliseconds;
+    csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
+        << full.overlayGpuMilliseconds << ',' << ratio << ',' << full.terrain.tiles << ',' << full.terrain.triangles
+        << ',' << full.overlay.pieces << ',' << full.overlay.zFailPieces << ',' << full.overlay.triangles << ','
+        << buildMs << '\n';
+    ratios.push_back(ratio);
+    terrainOnly.push_back(bare.terrainGpuMilliseconds);
+    withOverlay.push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
+    segmentRatios[f.segment].push_back(ratio);
+    segmentTerrain[f.segment].push_back(bare.terrainGpuMilliseconds);
+    segmentOverlay[f.segment].push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
+    segmentPieces[f.segment] += static_cast<double>(full.overlay.pieces) / std::max(1, o.frames / 6);
+    segmentTiles[f.segment] += static_cast<double>(full.terrain.tiles) / std::max(1, o.frames / 6);
+  }
+  json segments = json::object();
+  for (const auto& [name, r] : segmentRatios) {
+    segments[name] = {{"ratio_median", percentile(r, 50.0)},
+                      {"terrain_only_ms_median", percentile(segmentTerrain[name], 50.0)},
+                      {"with_overlay_ms_median", percentile(segmentOverlay[name], 50.0)},
+                      {"tiles_mean", segmentTiles[name]},
+                      {"pieces_mean", segmentPieces[name]}};
+  }
+  const json result = {
+      {"mode", "globe"},
+      {"scene", o.scene},
+      {"width", o.width},
+      {"height", o.height},
+      {"frames", path.size()},
+      {"load_seconds", loadSeconds},
+      {"layer_vertices", vertices},
+      {"terrain_only_gpu_ms_median", percentile(terrainOnly, 50.0)},
+      {"with_overlay_gpu_ms_median", percentile(withOverlay, 50.0)},
+      {"overlay_over_terrain_ratio_median", percentile(ratios, 50.0)},
+      {"terrain_only_fps_median", 1000.0 / std::max(percentile(terrainOnly, 50.0), 1e-9)},
+      {"with_overlay_fps_median", 1000.0 / std::max(percentile(withOverlay, 50.0), 1e-9)},
+      {"segments", segments},
+      {"memory_peak_bytes", processMemory("VmHWM")},
+  };
+  return finish(o, result, **context);
+}
+
+}  // namespace gis::bench

@@ -1,0 +1,139 @@
+#include "globe_render.hpp"
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "app/cli.hpp"
+#include "gfx/context.hpp"
+#include "gfx/image_io.hpp"
+#include "gfx/render_target.hpp"
+#include "globe/globe_renderer.hpp"
+#include "scene/globe_scene.hpp"
+
+namespace gis::app {
+
+namespace {
+
+using nlohmann::json;
+
+json matrixJson(const glm::dmat4& m) {
+  json out = json::array();
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) out.push_back(m[c][r]);
+  }
+  return out;
+}
+
+bool writeJson(const std::filesystem::path& path, const json& j) {
+  std::ofstream f(path);
+  f << j.dump(2) << '\n';
+  return static_cast<bool>(f);
+}
+
+}  // namespace
+
+int runGlobeRender(const scene::SceneDescription& description, const std::string& reason, const GlobeRenderOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  scene::SceneDescription d = description;
+  if (!o.overlays) d.layers.clear();
+  Result<scene::LoadedGlobeScene> loaded = scene::loadGlobeScene(d);
+  report(loaded.diagnostics);
+  if (!loaded) return 1;
+  Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
+  report(context.diagnostics);
+  if (!context) return 1;
+
+  const globe::GlobeView view = scene::globeStillView(*loaded, o.width, o.height);
+  gfx::StateCache cache;
+  gfx::RenderTarget target(o.width, o.height, 0, true);
+  globe::GlobeRenderer renderer(loaded->heights);
+  std::vector<const globe::GlobeLayer*> layers;
+  for (const globe::GlobeLayer& l : loaded->layers) layers.push_back(&l);
+  const globe::GlobeFrameStats stats =
+      renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true);
+  const double firstFrame = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // mask.png: bit i for the scene file's layer i (as overlay_render's projected path).
+  const std::vector<std::uint32_t> bits = gfx::readMask(target);
+  std::vector<std::uint8_t> mask(bits.size(), 0);
+  for (std::size_t i = 0; i < bits.size(); ++i) {
+    for (std::size_t l = 0; l < loaded->layerFileIndex.size(); ++l) {
+      if ((bits[i] & (1U << l)) != 0 && loaded->layerFileIndex[l] < 8)
+        mask[i] |= static_cast<std::uint8_t>(1U << loaded->layerFileIndex[l]);
+    }
+  }
+  const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
+  std::vector<std::uint8_t> rgb;
+  rgb.reserve(rgba.size() / 4 * 3);
+  for (std::size_t i = 0; i < rgba.size(); i += 4) rgb.insert(rgb.end(), {rgba[i], rgba[i + 1], rgba[i + 2]});
+  const std::filesystem::path out(o.out);
+  std::filesystem::create_directories(out);
+  bool ok = true;
+  for (const auto& written :
+       {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, rgb),
+        gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, gfx::readDepth(target)),
+        gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, mask)}) {
+    report(written.diagnostics);
+    ok = ok && written.ok();
+  }
+  const globe::Geodetic eye = globe::toGeodetic(view.eye), at = globe::toGeodetic(view.target);
+  json camera = {{"width", o.width},
+                 {"height", o.height},
+                 {"frame", "globe"},
+                 {"crs", "EPSG:4978 (WGS 84 earth-centred, metres)"},
+                 {"view_proj_ecef", matrixJson(view.viewProj())},
+                 {"eye_ecef", {view.eye.x, view.eye.y, view.eye.z}},
+                 {"depth", "reversed-Z: near / distance along the view axis, 0 = background"},
+                 {"near", view.near},
+                 {"fov_y_deg", view.fovYDeg},
+                 {"eye", {{"lon", eye.lon}, {"lat", eye.lat}, {"h", eye.h}}},
+                 {"target", {{"lon", at.lon}, {"lat", at.lat}, {"h", at.h}}}};
+  json layersJson = json::array();
+  for (std::size_t l = 0; l < loaded->layers.size(); ++l) {
+    std::size_t pixels = 0;
+    for (const std::uint32_t b : bits) pixels += (b & (1U << l)) != 0 ? 1U : 0U;
+    layersJson.push_back({{"name", loaded->layers[l].name()},
+                          {"polygons", loaded->layers[l].polygons().size()},
+                          {"mask_bit", loaded->layerFileIndex[l]},
+                          {"covered_pixels", pixels}});
+  }
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  json diagnostics = json::array();
+  for (const Diagnostic& m : loaded.diagnostics.items()) diagnostics.push_back(m.toString());
+  json s = {{"frame", "globe"},
+            {"globe_reason", reason},
+            {"width", o.width},
+            {"height", o.height},
+            {"load_seconds", loaded->loadSeconds},
+            {"first_frame_seconds", firstFrame},
+            {"cpu_peak_bytes", static_cast<std::size_t>(usage.ru_maxrss) * 1024},
+            {"dem",
+             {{"width", loaded->heights->width()},
+              {"height", loaded->heights->height()},
+              {"step_deg", loaded->heights->step()}}},
+            {"terrain",
+             {{"tiles", stats.terrain.tiles},
+              {"triangles", stats.terrain.triangles},
+              {"select_ms", stats.selectMilliseconds},
+              {"gpu_ms", stats.terrainGpuMilliseconds}}},
+            {"overlay",
+             {{"pieces", stats.overlay.pieces},
+              {"z_fail_pieces", stats.overlay.zFailPieces},
+              {"triangles", stats.overlay.triangles},
+              {"tiles_built", stats.overlay.builtTiles},
+              {"gpu_ms", stats.overlayGpuMilliseconds}}},
+            {"layers", layersJson},
+            {"diagnostics", diagnostics}};
+  ok = writeJson(out / "camera.json", camera) && ok;
+  ok = writeJson(out / "stats.json", s) && ok;
+  if (!ok) return 1;
+  return (*context)->debug().errorCount() == 0 ? 0 : 1;
+}
+
+}  // namespace gis::app

@@ -1,0 +1,156 @@
+#pragma once
+// Vector overlays on the globe (docs/globe.md): polygons in longitude/latitude made into closed
+// stencil polyhedra on the WGS 84 ellipsoid, per drawn terrain tile, and their CPU reference.
+//
+// - A ring's edges are geodesics: points are added along each so that no piece is longer than
+//   maxSegmentMetres (GeographicLib). Between those points an edge is drawn as the wall through
+//   the ellipsoid normals at its ends: the plane through both ends that holds their mean normal
+//   (edgeSide); the reference classifies with that same plane.
+// - Rings are unwrapped (consecutive longitudes differ by less than 180°) so that a ring across the
+//   antimeridian is one ring. A ring that winds once around a pole (Antarctica's coast) is closed
+//   along that pole: points at latitude ±90 stand for the pole, and an edge between two of them
+//   runs along it (it has no length; its walls have no area).
+// - Pieces: a polygon clipped to a drawn tile's box — widened a little so neighbouring tiles'
+//   pieces overlap, which the stencil count (≠ 0) allows — its cap triangulated with points inside
+//   it every few posts (so no cap triangle cuts the ground for the ellipsoid's curvature), extruded
+//   along the normals between the ground's bounds there (the terrain's bounds contract).
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "core/diagnostics.hpp"
+#include "geo/feature.hpp"
+#include "gfx/program.hpp"
+#include "gfx/state_cache.hpp"
+#include "globe/geo_grid.hpp"
+#include "globe/globe_terrain.hpp"
+#include "globe/globe_view.hpp"
+#include "globe/tile.hpp"
+
+namespace gis::globe {
+
+namespace detail {
+struct PolygonIndex;
+}
+
+/// One polygon of a feature, prepared: its rings (the first the outer one) unwrapped, densified,
+/// closed along a pole where they wind around one. Points are (lon, lat) degrees.
+struct GlobePolygon {
+  std::uint32_t feature = 0;
+  std::vector<std::vector<glm::dvec2>> rings;
+  LonLatRect box;                                     ///< of the rings, in their unwrapped longitudes
+  std::shared_ptr<const detail::PolygonIndex> index;  ///< for contains()
+};
+
+/// The side of edge p → q (unwrapped (lon, lat) degrees) a point (ECEF) is on: > 0 north of an
+/// edge that runs east (south of one that runs west). The edge's plane holds both ends on the
+/// ellipsoid and their mean normal.
+double edgeSide(const glm::dvec2& p, const glm::dvec2& q, const glm::dvec3& point);
+
+/// Whether a point (ECEF, and its longitude and latitude) is in the polygon: even-odd over its
+/// rings, each edge as edgeSide draws it.
+bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDeg, double latDeg);
+
+struct GlobeLayerOptions {
+  double maxSegmentMetres = 1000.0;  ///< geodesic densification
+};
+
+class GlobeLayer {
+ public:
+  /// Features with polygons in (lon, lat) degrees on WGS 84. A broken polygon (fewer than 3
+  /// points, a latitude beyond ±90, a coordinate that is not finite) is left out with an Error
+  /// naming the layer, feature and polygon; the rest is kept.
+  static Result<GlobeLayer> build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
+                                  const GlobeLayerOptions& options = {});
+
+  [[nodiscard]] const std::string& name() const { return name_; }
+  [[nodiscard]] const glm::vec4& color() const { return color_; }
+  [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
+  /// Whether a point is in any polygon of the layer (the CPU reference).
+  [[nodiscard]] bool contains(const glm::dvec3& point, double lonDeg, double latDeg) const;
+
+ private:
+  std::string name_;
+  glm::vec4 color_{1.0F};
+  std::vector<GlobePolygon> polygons_;
+};
+
+/// A vertex of a piece as the GPU reads it.
+struct PieceVertex {
+  SplitPosition position;
+  glm::vec3 normal{0.0F};  ///< the surface normal: caps are padded along it
+  float side = 0.0F;       ///< −1 bottom, +1 top (padded outward), 0 none
+};
+static_assert(sizeof(PieceVertex) == 40);
+
+/// The pieces of one layer over one tile.
+struct TilePieces {
+  struct Piece {
+    std::uint32_t firstIndex = 0;
+    std::uint32_t bottomCount = 0;      ///< bottom cap's indices, first
+    std::uint32_t indexCount = 0;       ///< all: bottom cap, walls, top cap
+    glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
+    double lo = 0.0, hi = 0.0;          ///< heights of its caps
+  };
+  std::vector<PieceVertex> vertices;
+  std::vector<std::uint32_t> indices;
+  std::vector<Piece> pieces;
+};
+
+/// The pieces of `layer` over tile `key`, bounded by the ground of `heights` (heights contract:
+/// globe_terrain.hpp).
+TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights);
+
+struct GlobeOverlaySettings {
+  double padBase = 0.05;  ///< caps move out by padBase + padPerMetre · distance (depth precision)
+  double padPerMetre = 2e-6;
+  std::size_t cacheTiles = 4096;  ///< tiles' pieces kept on the GPU per layer
+};
+
+struct GlobeOverlayStats {
+  std::size_t pieces = 0;
+  std::size_t zFailPieces = 0;
+  std::size_t triangles = 0;
+  std::size_t builtTiles = 0;  ///< this frame
+};
+
+/// Draws layers over the drawn tiles: per layer, marks its pieces into the stencil (z-pass, or
+/// z-fail where the near plane may cut one), then covers the marked pixels with its colour and
+/// its bit in the mask attachment (bit i for layers[i]). Needs the terrain's depth in the bound
+/// target and a zero stencil.
+class GlobeOverlayRenderer {
+ public:
+  GlobeOverlayRenderer();
+  ~GlobeOverlayRenderer();
+  GlobeOverlayRenderer(const GlobeOverlayRenderer&) = delete;
+  GlobeOverlayRenderer& operator=(const GlobeOverlayRenderer&) = delete;
+
+  void draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
+            const std::vector<const GlobeLayer*>& layers, const GlobeOverlaySettings& settings = {});
+  [[nodiscard]] const GlobeOverlayStats& stats() const { return stats_; }
+
+ private:
+  struct Gpu;
+  std::unique_ptr<Gpu> gpu_;
+  GlobeOverlayStats stats_;
+};
+
+/// The CPU reference: per pixel (row 0 = top) bit i set when layers[i] holds the terrain point
+/// the depth buffer (reversed-Z, as gfx::readDepth returns it) shows there; 0 on background.
+std::vector<std::uint32_t> referenceMask(const std::vector<float>& depth, const GlobeView& view,
+                                         const std::vector<const GlobeLayer*>& layers);
+/// Per pixel, 1 where the reference changes within the pixel's 3 × 3 neighbourhood (mask bits, or
+/// terrain against background): the edge band, where GPU and reference may differ.
+std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth, int width,
+                                     int height);
+/// The ECEF point a pixel's depth shows (row 0 = top), or nothing on background.
+bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out);
+
+}  // namespace gis::globe

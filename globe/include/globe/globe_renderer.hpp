@@ -1,0 +1,48 @@
+#pragma once
+// One frame of a globe scene (docs/globe.md): the terrain's tiles for the view, then the layers'
+// stencil polyhedra over them, into the bound framebuffer, with GPU times per part.
+#include <memory>
+#include <vector>
+
+#include "gfx/state_cache.hpp"
+#include "globe/globe_overlay.hpp"
+#include "globe/globe_terrain.hpp"
+
+namespace gis::globe {
+
+struct GlobeFrameStats {
+  TerrainStats terrain;
+  GlobeOverlayStats overlay;
+  std::size_t selectedTiles = 0;
+  double selectMilliseconds = 0.0;
+  double terrainGpuMilliseconds = 0.0;  ///< GL_TIME_ELAPSED; 0 unless timed
+  double overlayGpuMilliseconds = 0.0;
+};
+
+struct GlobeFrameTarget {
+  GLuint framebuffer = 0;
+  int width = 0, height = 0;
+  bool hasMask = false;  ///< a second draw buffer for the layers' bits (gfx::RenderTarget's mask)
+  glm::vec4 clearColor{0.02F, 0.03F, 0.08F, 1.0F};
+};
+
+class GlobeRenderer {
+ public:
+  GlobeRenderer(std::shared_ptr<const GeoGrid> heights, TerrainOptions terrain = {});
+
+  /// Clears the target and draws the terrain and (unless empty) the layers; with `timed`, waits
+  /// for GPU timer queries around each part.
+  GlobeFrameStats render(gfx::StateCache& cache, const GlobeFrameTarget& target, const GlobeView& view,
+                         const std::vector<const GlobeLayer*>& layers, bool timed = false,
+                         const GlobeOverlaySettings& settings = {});
+
+  [[nodiscard]] GlobeTerrain& terrain() { return terrain_; }
+  [[nodiscard]] const GeoGrid& heights() const { return *heights_; }
+
+ private:
+  std::shared_ptr<const GeoGrid> heights_;
+  GlobeTerrain terrain_;
+  GlobeOverlayRenderer overlay_;
+};
+
+}  // namespace gis::globe

@@ -1,0 +1,96 @@
+#pragma once
+// The globe's terrain (docs/globe.md): the geographic quadtree of tile.hpp sampled from a
+// GeoGrid, drawn relative to the eye. Per frame, select() picks the tiles a view needs: split
+// while a tile's geometric error covers more than maxScreenError pixels, culled by the frustum
+// and the ellipsoid's horizon, then balanced so that neighbours (across the antimeridian too)
+// differ by at most one level; a tile beside a coarser neighbour stitches that edge (leaves out
+// its odd posts there), so the surface is closed: crack-free, with every shared vertex computed
+// from the same double and split the same way in both tiles.
+//
+// The bounds contract in ellipsoidal heights (what the overlay relies on): over any box within a
+// drawn tile of level L (and a strip of its neighbours along its sides), the surface drawn lies
+// between lo − triangleSag(6.5 posts) and hi, where (lo, hi) = GeoGrid::bounds of the box widened
+// by five posts of level L (groundBounds). Why: a point there lies in a triangle of this tile or
+// of a neighbour at most one level coarser, whose corners are within five posts of level L
+// (two of the neighbour's, or four along its stitched edge, and a diagonal) and are DEM samples,
+// and a flat triangle at most 6.5 posts long sags below its lowest corner by triangleSag.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "gfx/state_cache.hpp"
+#include "globe/geo_grid.hpp"
+#include "globe/globe_view.hpp"
+#include "globe/tile.hpp"
+
+namespace gis::globe {
+
+struct TerrainOptions {
+  double maxScreenError = 2.0;  ///< pixels
+  /// Posts at most this many pixels apart (0: no limit): the terrain's colours (heights, and
+  /// imagery later) and the overlay's pieces follow the view, not only its geometric error.
+  double maxPostPixels = 8.0;
+  int maxLevel = 20;              ///< finest level drawn
+  std::size_t cacheTiles = 4096;  ///< GPU meshes kept (least recently drawn go first)
+  float occluderHeight = 0.0F;    ///< the horizon test's ellipsoid (≤ the lowest ground)
+};
+
+struct DrawnTile {
+  TileKey key;
+  /// Edges whose neighbour is one level coarser (stitched): bit 0 west, 1 east, 2 south, 3 north.
+  std::uint8_t stitch = 0;
+};
+
+struct TerrainStats {
+  std::size_t tiles = 0;      ///< drawn in the last frame
+  std::size_t triangles = 0;  ///< drawn in the last frame
+  std::size_t uploads = 0;    ///< meshes built and uploaded in the last frame
+  std::size_t resident = 0;   ///< meshes on the GPU
+};
+
+/// The bounds of the contract above over `box` for tiles of `level` (heights in metres above the
+/// ellipsoid): (lo − sag, hi).
+std::pair<double, double> groundBounds(const GeoGrid& heights, const LonLatRect& box, int level);
+/// groundBounds of a tile's own box.
+std::pair<double, double> terrainBounds(const GeoGrid& heights, const TileKey& key);
+
+/// A tile's mesh as drawn, without GL (for tests and CPU references): the ECEF positions of its
+/// kTilePosts² posts, row j (from the south) by column i (from the west): index j · kTilePosts + i.
+std::vector<glm::dvec3> tilePostPositions(const GeoGrid& heights, const TileKey& key);
+/// The triangles of stitch variant `stitch` (DrawnTile::stitch) as index triples into those posts,
+/// counter-clockwise seen from outside the ellipsoid; the same for every tile.
+std::vector<std::uint16_t> tileTriangles(std::uint8_t stitch);
+
+class GlobeTerrain {
+ public:
+  explicit GlobeTerrain(std::shared_ptr<const GeoGrid> heights, TerrainOptions options = {});
+  ~GlobeTerrain();
+  GlobeTerrain(const GlobeTerrain&) = delete;
+  GlobeTerrain& operator=(const GlobeTerrain&) = delete;
+
+  [[nodiscard]] const GeoGrid& heights() const { return *heights_; }
+  [[nodiscard]] const TerrainOptions& options() const { return options_; }
+
+  /// The tiles the view needs (no GL): they cover, without overlap, every part of the globe the
+  /// view may see.
+  [[nodiscard]] std::vector<DrawnTile> select(const GlobeView& view) const;
+
+  /// Draws the tiles into the bound target (depth and colour, mask writes must be off), building
+  /// and uploading the meshes it lacks. Needs a current GL 4.5 context.
+  void draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles);
+
+  [[nodiscard]] const TerrainStats& stats() const { return stats_; }
+
+ private:
+  struct Gpu;
+  std::shared_ptr<const GeoGrid> heights_;
+  TerrainOptions options_;
+  struct Lod;
+  std::unique_ptr<Gpu> gpu_;
+  std::unique_ptr<Lod> lod_;  ///< per-tile errors and bounds, cached across frames (select is const)
+  TerrainStats stats_;
+};
+
+}  // namespace gis::globe

@@ -1,0 +1,48 @@
+#pragma once
+// Internals shared by the globe overlay's sources.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+#include "globe/ellipsoid.hpp"
+#include "globe/globe_overlay.hpp"
+
+namespace gis::globe::detail {
+
+inline bool isPole(double latDeg) { return std::abs(latDeg) >= 90.0; }
+/// d in (−180, 180].
+double wrap180(double d);
+
+/// The plane an edge is drawn in: through a (its first end on the ellipsoid), holding the mean
+/// normal n of its ends; m = n × (b − a) points north of an eastward edge.
+struct EdgePlane {
+  glm::dvec3 a{0.0}, n{0.0, 0.0, 1.0}, m{0.0};
+};
+EdgePlane edgePlane(const glm::dvec2& p, const glm::dvec2& q);
+
+struct IndexedEdge {
+  double lon0 = 0.0, lon1 = 0.0;  ///< [lon0, lon1): the meridians it crosses
+  bool eastward = true;
+  int pole = 0;  ///< +1 / −1: along the north / south pole
+  EdgePlane plane;
+};
+
+/// A polygon's edges that cross meridians, in buckets of longitude.
+struct PolygonIndex {
+  double west = 0.0, bucketWidth = 1.0;
+  std::vector<IndexedEdge> edges;
+  std::vector<std::vector<std::uint32_t>> buckets;
+  [[nodiscard]] std::size_t bucketOf(double lon) const {
+    const double f = std::floor((lon - west) / bucketWidth);
+    return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(buckets.size() - 1)));
+  }
+};
+std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon);
+
+}  // namespace gis::globe::detail

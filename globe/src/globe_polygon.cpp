@@ -1,0 +1,297 @@
+// Preparing polygons for the globe (globe_overlay.hpp): densified along geodesics, unwrapped,
+// closed along a pole; the edges' planes and the reference's point-in-polygon test.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
+
+#include "globe/globe_overlay.hpp"
+#include "globe_detail.hpp"
+
+namespace gis::globe {
+
+namespace detail {
+
+double wrap180(double d) {
+  d = std::remainder(d, 360.0);  // [−180, 180]
+  return d <= -180.0 ? d + 360.0 : d;
+}
+
+EdgePlane edgePlane(const glm::dvec2& p, const glm::dvec2& q) {
+  EdgePlane e;
+  e.a = toEcef(p.x, p.y, 0.0);
+  const glm::dvec3 b = toEcef(q.x, q.y, 0.0);
+  e.n = glm::normalize(surfaceNormal(p.x, p.y) + surfaceNormal(q.x, q.y));
+  e.m = glm::cross(e.n, b - e.a);
+  return e;
+}
+
+}  // namespace detail
+
+double edgeSide(const glm::dvec2& p, const glm::dvec2& q, const glm::dvec3& point) {
+  const detail::EdgePlane e = detail::edgePlane(p, q);
+  return glm::dot(point - e.a, e.m);
+}
+
+namespace {
+
+using detail::isPole;
+using detail::wrap180;
+
+/// The ring's points with geodesic points added, unwrapped, closed along a pole if it winds
+/// around one; empty with `problem` set when it cannot be used.
+std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem) {
+  std::vector<glm::dvec2> ring;
+  for (const glm::dvec2& p : input) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+      problem = "a coordinate is not a finite number";
+      return {};
+    }
+    if (std::abs(p.y) > 90.0) {
+      problem = "latitude " + std::to_string(p.y) + " is beyond ±90°";
+      return {};
+    }
+    if (!ring.empty() && ring.back() == p) continue;
+    ring.push_back(p);
+  }
+  while (ring.size() > 1 && ring.back() == ring.front()) ring.pop_back();
+  // Start at a point that is not a pole (its longitude means something).
+  const auto firstPlain = std::find_if(ring.begin(), ring.end(), [](const glm::dvec2& p) { return !isPole(p.y); });
+  if (firstPlain == ring.end()) {
+    problem = "every point is at a pole";
+    return {};
+  }
+  std::rotate(ring.begin(), firstPlain, ring.end());
+  if (ring.size() < 3) {
+    problem = "fewer than 3 distinct points";
+    return {};
+  }
+
+  // Geodesic points: no piece longer than maxSegment.
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  std::vector<glm::dvec2> dense;
+  const std::size_t n = ring.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const glm::dvec2 p = ring[i], q = ring[(i + 1) % n];
+    dense.push_back(p);
+    if (isPole(p.y) && isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole: no length
+    double s12 = 0.0;
+    const GeographicLib::GeodesicLine line = geod.InverseLine(p.y, p.x, q.y, q.x);
+    s12 = line.Distance();
+    const auto pieces = static_cast<std::size_t>(std::ceil(s12 / maxSegment));
+    for (std::size_t k = 1; k < pieces; ++k) {
+      double lat = 0.0, lon = 0.0;
+      line.Position(s12 * static_cast<double>(k) / static_cast<double>(pieces), lat, lon);
+      dense.emplace_back(lon, lat);
+    }
+  }
+
+  // Unwrap. A run of pole points becomes two: the pole on the meridian it is reached by and on
+  // the one it is left by; the turn between them is the run's own (a run of two or more points
+  // says how far it goes round), else the shorter way.
+  std::vector<glm::dvec2> out;
+  out.reserve(dense.size() + 4);
+  out.push_back(dense[0]);
+  double lastRaw = dense[0].x;
+  std::size_t i = 1;
+  const std::size_t m = dense.size();
+  while (i <= m) {
+    const bool closing = i == m;
+    const glm::dvec2 q = dense[i % m];
+    if (!closing && isPole(q.y)) {
+      std::size_t j = i;
+      while (j < m && isPole(dense[j].y) && (dense[j].y > 0) == (q.y > 0)) ++j;
+      const glm::dvec2 next = dense[j % m];  // not a pole: the ring starts with a plain point
+      double turn = 0.0;
+      if (j - i >= 2) {
+        turn = wrap180(dense[i].x - lastRaw) + (dense[j - 1].x - dense[i].x) + wrap180(next.x - dense[j - 1].x);
+      } else {
+        turn = wrap180(next.x - lastRaw);
+      }
+      const double pole = q.y > 0 ? 90.0 : -90.0;
+      out.emplace_back(out.back().x, pole);
+      if (j == m) {
+        // The run ends the ring: it turns back to the first point's meridian, whichever way
+        // closes the ring (it encloses the pole then, like Antarctica's coast and its pole edge).
+        out.emplace_back(out.front().x, pole);
+        break;
+      }
+      out.emplace_back(out.back().x + turn, pole);
+      out.emplace_back(out.back().x, next.y);
+      lastRaw = next.x;
+      i = j + 1;
+      continue;
+    }
+    if (closing) {
+      const double total = out.back().x + wrap180(dense[0].x - lastRaw) - out.front().x;
+      if (std::abs(total) > 1e-9) {
+        if (std::abs(std::abs(total) - 360.0) > 1e-6) {
+          problem = "the ring winds around a pole more than once";
+          return {};
+        }
+        // Winds once around a pole: close it along the nearer one.
+        double meanLat = 0.0;
+        for (const glm::dvec2& p : out) meanLat += p.y;
+        const double pole = meanLat < 0.0 ? -90.0 : 90.0;
+        const double end = out.back().x + wrap180(dense[0].x - lastRaw);
+        out.emplace_back(end, out.back().y);  // the first point again, 360° on
+        out.emplace_back(end, pole);
+        out.emplace_back(out.front().x, pole);
+      }
+      break;
+    }
+    out.emplace_back(out.back().x + wrap180(q.x - lastRaw), q.y);
+    lastRaw = q.x;
+    ++i;
+  }
+  // Remove repeated points the unwrapping may leave.
+  std::vector<glm::dvec2> clean;
+  for (const glm::dvec2& p : out) {
+    if (clean.empty() || clean.back() != p) clean.push_back(p);
+  }
+  while (clean.size() > 1 && clean.back() == clean.front()) clean.pop_back();
+  if (clean.size() < 3) {
+    problem = "fewer than 3 distinct points";
+    return {};
+  }
+  return clean;
+}
+
+}  // namespace
+
+Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
+                                     const GlobeLayerOptions& options) {
+  Result<GlobeLayer> out;
+  GlobeLayer layer;
+  layer.name_ = std::move(name);
+  layer.color_ = color;
+  for (std::size_t f = 0; f < features.size(); ++f) {
+    for (std::size_t k = 0; k < features[f].polygons.size(); ++k) {
+      const geo::Polygon& polygon = features[f].polygons[k];
+      GlobePolygon prepared;
+      prepared.feature = static_cast<std::uint32_t>(f);
+      std::string problem;
+      std::vector<const geo::Ring*> rings{&polygon.outer};
+      for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
+      bool ok = true;
+      for (std::size_t r = 0; r < rings.size() && ok; ++r) {
+        std::vector<glm::dvec2> ring = prepareRing(*rings[r], options.maxSegmentMetres, problem);
+        if (ring.empty()) {
+          out.diagnostics.add({Severity::Error,
+                               {},
+                               layer.name_,
+                               std::to_string(features[f].fid),
+                               "polygon " + std::to_string(k) +
+                                   (r == 0 ? ", outer ring: " : ", hole " + std::to_string(r) + ": ") + problem +
+                                   "; the polygon is left out"});
+          ok = false;
+          break;
+        }
+        prepared.rings.push_back(std::move(ring));
+      }
+      if (!ok) continue;
+      // Every ring in the outer ring's turn of longitudes: the outer ring's west end in
+      // [−180, 180), the holes moved by whole turns to lie nearest its middle.
+      const auto lonRange = [](const std::vector<glm::dvec2>& ring) {
+        double lo = std::numeric_limits<double>::max(), hi = -lo;
+        for (const glm::dvec2& p : ring) {
+          lo = std::min(lo, p.x);
+          hi = std::max(hi, p.x);
+        }
+        return std::pair{lo, hi};
+      };
+      const auto shift = [](std::vector<glm::dvec2>& ring, double by) {
+        for (glm::dvec2& p : ring) p.x += by;
+      };
+      auto [west, east] = lonRange(prepared.rings[0]);
+      const double outerShift = -360.0 * std::floor((west + 180.0) / 360.0);
+      shift(prepared.rings[0], outerShift);
+      const double middle = 0.5 * (west + east) + outerShift;
+      for (std::size_t r = 1; r < prepared.rings.size(); ++r) {
+        const auto [hw, he] = lonRange(prepared.rings[r]);
+        shift(prepared.rings[r], 360.0 * std::round((middle - 0.5 * (hw + he)) / 360.0));
+      }
+      LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+      for (const auto& ring : prepared.rings) {
+        for (const glm::dvec2& p : ring) {
+          box.west = std::min(box.west, p.x);
+          box.east = std::max(box.east, p.x);
+          box.south = std::min(box.south, p.y);
+          box.north = std::max(box.north, p.y);
+        }
+      }
+      prepared.box = box;
+      prepared.index = detail::buildIndex(prepared);
+      layer.polygons_.push_back(std::move(prepared));
+    }
+  }
+  out.value = std::move(layer);
+  return out;
+}
+
+namespace detail {
+
+std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon) {
+  auto index = std::make_shared<PolygonIndex>();
+  index->west = polygon.box.west;
+  const double span = std::max(polygon.box.east - polygon.box.west, 1e-9);
+  std::size_t edges = 0;
+  for (const auto& ring : polygon.rings) edges += ring.size();
+  index->buckets.resize(std::clamp<std::size_t>(edges / 4, 1, 8192));
+  index->bucketWidth = span / static_cast<double>(index->buckets.size());
+  for (const auto& ring : polygon.rings) {
+    for (std::size_t i = 0; i < ring.size(); ++i) {
+      const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
+      if (p.x == q.x) continue;  // along a meridian: never crosses one
+      IndexedEdge e;
+      e.lon0 = std::min(p.x, q.x);
+      e.lon1 = std::max(p.x, q.x);
+      e.eastward = q.x > p.x;
+      if (isPole(p.y) && isPole(q.y) && (p.y > 0) == (q.y > 0)) {
+        e.pole = p.y > 0 ? 1 : -1;
+      } else {
+        e.plane = edgePlane(p, q);
+      }
+      const auto b0 = index->bucketOf(e.lon0), b1 = index->bucketOf(e.lon1);
+      const auto at = static_cast<std::uint32_t>(index->edges.size());
+      index->edges.push_back(e);
+      for (std::size_t b = b0; b <= b1; ++b) index->buckets[b].push_back(at);
+    }
+  }
+  return index;
+}
+
+}  // namespace detail
+
+bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDeg, double latDeg) {
+  if (latDeg < polygon.box.south || latDeg > polygon.box.north || !polygon.index) return false;
+  const detail::PolygonIndex& index = *polygon.index;
+  // The meridian through the point, in each turn of longitudes the polygon spans.
+  int crossings = 0;
+  double lon = lonDeg - 360.0 * std::ceil((lonDeg - polygon.box.west) / 360.0);  // ≤ west
+  for (; lon <= polygon.box.east; lon += 360.0) {
+    if (lon < polygon.box.west) continue;
+    for (const std::uint32_t e : index.buckets[index.bucketOf(lon)]) {
+      const detail::IndexedEdge& edge = index.edges[e];
+      if (!(lon >= edge.lon0 && lon < edge.lon1)) continue;
+      // Does the edge meet the meridian north of the point?
+      if (edge.pole != 0) {
+        crossings += edge.pole > 0 ? 1 : 0;
+        continue;
+      }
+      const double side = glm::dot(point - edge.plane.a, edge.plane.m);
+      if (edge.eastward ? side < 0.0 : side > 0.0) ++crossings;
+    }
+  }
+  return (crossings & 1) != 0;
+}
+
+bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg) const {
+  return std::any_of(polygons_.begin(), polygons_.end(),
+                     [&](const GlobePolygon& p) { return globe::contains(p, point, lonDeg, latDeg); });
+}
+
+}  // namespace gis::globe

@@ -1,0 +1,49 @@
+#pragma once
+// A scene drawn on the WGS 84 globe (docs/globe.md): its DEM as heights in longitude/latitude
+// (globe::GeoGrid), its polygon layers read in longitude/latitude (globe::GlobeLayer), and the
+// choice between the globe and a projected frame.
+#include <array>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/diagnostics.hpp"
+#include "globe/geo_grid.hpp"
+#include "globe/globe_overlay.hpp"
+#include "globe/globe_view.hpp"
+#include "scene/scene.hpp"
+
+namespace gis::scene {
+
+/// Why the scene is drawn on the globe, or empty when it keeps a projected frame. "frame": "globe"
+/// or "projected" decide; "auto" (the default) keeps a projected DEM's own CRS (the user chose
+/// it) and puts a DEM in longitude/latitude on the globe when one projected frame would distort
+/// it: the frame for such a DEM is the UTM zone of its centre, whose scale error k − 1 =
+/// 0.9996 (1 + x²/2R²) − 1 passes 0.1 % at x = 337 km from the zone's central meridian, and UTM
+/// ends at 84° N and 80° S. So the globe is chosen when the DEM reaches farther than 337 km east
+/// or west of that meridian (at its widest latitude), beyond 84° N or 80° S, or across ±180°.
+Result<std::string> globeReason(const SceneDescription& description);
+
+struct LoadedGlobeScene {
+  SceneDescription description;
+  std::string reason;  ///< globeReason's
+  std::shared_ptr<const globe::GeoGrid> heights;
+  std::vector<globe::GlobeLayer> layers;    ///< the scene's polygon layers, in order
+  std::vector<std::size_t> layerFileIndex;  ///< per layer: its place in the scene file (its mask bit)
+  /// The data's box in longitude/latitude (west, south, east, north): the layers', else the
+  /// DEM's. West may be below −180 and east above 180 for data across the antimeridian.
+  std::array<double, 4> extent{-180.0, -90.0, 180.0, 90.0};
+  double loadSeconds = 0.0;
+};
+
+/// Reads the DEM (one GeoTIFF or any raster GDAL reads, reprojected to lon/lat if it is not) and
+/// the polygon layers. A layer that cannot be read, or a line layer (not drawn on the globe
+/// yet), is reported and left out; only a DEM that cannot be read fails the scene.
+Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
+
+/// The view a still of the scene is drawn from: the scene's camera (eye and target in lon, lat,
+/// h), else one from above the data's middle, far enough to hold their extent.
+globe::GlobeView globeStillView(const LoadedGlobeScene& scene, int width, int height);
+
+}  // namespace gis::scene

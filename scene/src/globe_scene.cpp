@@ -1,0 +1,144 @@
+#include "scene/globe_scene.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "geo/frame.hpp"
+#include "geo/raster.hpp"
+#include "geo/vector.hpp"
+
+namespace gis::scene {
+
+namespace {
+
+constexpr double kUtmReachMetres = 337000.0;  ///< 0.1 % scale error from the central meridian
+constexpr double kMetresPerDegreeEquator = 111319.49;
+
+/// The DEM's box in longitude/latitude (west, south, east, north), if its CRS is geographic.
+std::optional<std::array<double, 4>> geographicBox(const geo::RasterInfo& info) {
+  if (!info.crsIsGeographic) return std::nullopt;
+  const glm::dvec2 a = info.geoTransform.pixelToCrs(0.0, 0.0);
+  const glm::dvec2 b = info.geoTransform.pixelToCrs(info.width, info.height);
+  return std::array<double, 4>{std::min(a.x, b.x), std::min(a.y, b.y), std::max(a.x, b.x), std::max(a.y, b.y)};
+}
+
+}  // namespace
+
+Result<std::string> globeReason(const SceneDescription& description) {
+  Result<std::string> out;
+  if (description.frame == FrameKind::Globe) {
+    out.value = "the scene asks for the globe (\"frame\": \"globe\")";
+    return out;
+  }
+  if (description.frame == FrameKind::Projected) {
+    out.value = std::string();
+    return out;
+  }
+  Result<geo::RasterInfo> info = geo::inspectRaster(description.dem);
+  out.diagnostics = info.diagnostics;
+  if (!info.ok()) return out;
+  const std::optional<std::array<double, 4>> box = geographicBox(*info);
+  out.value = std::string();
+  if (!box) return out;  // a projected DEM keeps its own CRS
+  const auto [west, south, east, north] = *box;
+  if (east - west >= 180.0 || west < -180.0 || east > 180.0) {
+    out.value = "the DEM spans " + std::to_string(east - west) + "° of longitude or crosses ±180°";
+    return out;
+  }
+  if (north > 84.0 || south < -80.0) {
+    out.value = "the DEM reaches beyond UTM's latitudes (84° N, 80° S)";
+    return out;
+  }
+  const double centreLon = 0.5 * (west + east);
+  const double meridian = std::floor((centreLon + 180.0) / 6.0) * 6.0 - 177.0;
+  const double widestLat = (south <= 0.0 && north >= 0.0) ? 0.0 : std::min(std::abs(south), std::abs(north));
+  const double reach = std::max(meridian - west, east - meridian) * kMetresPerDegreeEquator *
+                       std::cos(widestLat * 3.14159265358979323846 / 180.0);
+  if (reach > kUtmReachMetres) {
+    out.value = "the DEM reaches " + std::to_string(static_cast<long>(reach / 1000.0)) +
+                " km from its UTM zone's central meridian (beyond 337 km the scale error passes 0.1 %)";
+  }
+  return out;
+}
+
+Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
+  const auto start = std::chrono::steady_clock::now();
+  Result<LoadedGlobeScene> out;
+  Result<std::string> reason = globeReason(description);
+  out.diagnostics.append(reason.diagnostics);
+  Result<globe::GeoGrid> grid = globe::GeoGrid::fromRaster(description.dem);
+  out.diagnostics.append(grid.diagnostics);
+  if (!grid.ok()) return out;
+  LoadedGlobeScene scene;
+  scene.description = description;
+  scene.reason = reason.ok() ? *reason : std::string();
+  scene.heights = std::make_shared<const globe::GeoGrid>(std::move(*grid));
+  const globe::GeoGrid& g = *scene.heights;
+  scene.extent = {g.west(), g.north() - (g.height() - 1) * g.step(), g.west() + (g.width() - 1) * g.step(), g.north()};
+  if (scene.extent[2] - scene.extent[0] > 360.0) scene.extent[2] = scene.extent[0] + 360.0;
+
+  const geo::SceneFrame lonLat = geo::SceneFrame::wgs84LonLat();
+  for (const LayerDescription& layer : description.layers) {
+    if (layer.kind != overlay::LayerKind::Polygon) {
+      out.diagnostics.add({Severity::Warning,
+                           layer.source,
+                           layer.name,
+                           {},
+                           "line layers are not drawn on the globe yet; the layer is left out"});
+      continue;
+    }
+    geo::VectorReadOptions options;
+    options.layer = layer.sourceLayer;
+    options.geodesicToleranceMetres = std::numeric_limits<double>::infinity();  // the globe densifies
+    Result<geo::VectorLayer> read = geo::readVectorLayer(layer.source, lonLat, options);
+    out.diagnostics.append(read.diagnostics);
+    if (!read.ok()) continue;
+    glm::vec4 color = layer.style.color;
+    color.w *= layer.style.opacity;
+    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, read->features, color);
+    out.diagnostics.append(built.diagnostics);
+    if (!built.ok()) continue;
+    scene.layers.push_back(std::move(*built));
+    scene.layerFileIndex.push_back(layer.fileIndex);
+  }
+  // The layers' box, when there are layers: what a first view should show.
+  globe::LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+  for (const globe::GlobeLayer& layer : scene.layers) {
+    for (const globe::GlobePolygon& p : layer.polygons()) {
+      box.west = std::min(box.west, p.box.west);
+      box.east = std::max(box.east, p.box.east);
+      box.south = std::min(box.south, p.box.south);
+      box.north = std::max(box.north, p.box.north);
+    }
+  }
+  if (box.west <= box.east) scene.extent = {box.west, box.south, std::min(box.east, box.west + 360.0), box.north};
+  scene.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out.value = std::move(scene);
+  return out;
+}
+
+globe::GlobeView globeStillView(const LoadedGlobeScene& scene, int width, int height) {
+  const std::optional<CameraSpec>& spec = scene.description.camera;
+  if (spec && spec->eyeLonLatH && spec->targetLonLatH) {
+    const glm::dvec3 e = *spec->eyeLonLatH, t = *spec->targetLonLatH;
+    return globe::GlobeView::looking(globe::toEcef(e.x, e.y, e.z), globe::toEcef(t.x, t.y, t.z), spec->fovYDeg, width,
+                                     height, scene.heights->heightAt(e.x, e.y));
+  }
+  // From above the middle of the data, far enough that the box's corners are in view.
+  const auto [west, south, east, north] = scene.extent;
+  const double lon = 0.5 * (west + east), lat = 0.5 * (south + north);
+  const glm::dvec3 centre = globe::toEcef(lon, lat, 0.0);
+  double radius = 0.0;
+  for (const double x : {west, lon, east}) {
+    for (const double y : {south, lat, north})
+      radius = std::max(radius, glm::length(globe::toEcef(x, y, 0.0) - centre));
+  }
+  const double fov = 45.0;
+  const double distance = std::min(radius / std::tan(0.5 * fov * 3.14159265358979323846 / 180.0) * 1.1 + 1000.0, 3e7);
+  const glm::dvec3 up = globe::surfaceNormal(lon, lat);
+  return globe::GlobeView::looking(centre + up * distance, centre, fov, width, height, 0.0);
+}
+
+}  // namespace gis::scene

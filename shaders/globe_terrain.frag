@@ -1,0 +1,33 @@
+#version 450 core
+// The globe's terrain: a hypsometric tint by height (blues below sea level; green, brown, then
+// white above) times a hillshade from the screen-space normal, lit from the north-west a little
+// off the local up. Writes colour only: the terrain pass runs with the mask attachment's writes off.
+in vec3 v_position;
+in vec3 v_up;
+in float v_height;
+
+layout(location = 0) out vec4 o_color;
+
+vec3 tint(float h) {
+  if (h < 0.0) return mix(vec3(0.30, 0.50, 0.72), vec3(0.08, 0.16, 0.38), clamp(-h / 6000.0, 0.0, 1.0));
+  const float stops[5] = float[](0.0, 500.0, 1500.0, 3000.0, 5000.0);
+  const vec3 colors[5] = vec3[](vec3(0.30, 0.55, 0.30), vec3(0.55, 0.68, 0.36), vec3(0.62, 0.52, 0.34),
+                                vec3(0.50, 0.40, 0.32), vec3(0.96, 0.96, 0.96));
+  for (int k = 1; k < 5; ++k) {
+    if (h <= stops[k]) return mix(colors[k - 1], colors[k], (h - stops[k - 1]) / (stops[k] - stops[k - 1]));
+  }
+  return colors[4];
+}
+
+void main() {
+  vec3 up = normalize(v_up);
+  vec3 n = cross(dFdx(v_position), dFdy(v_position));
+  n = dot(n, n) > 0.0 ? normalize(n) : up;
+  if (dot(n, up) < 0.0) n = -n;
+  vec3 east = cross(vec3(0.0, 0.0, 1.0), up);
+  east = dot(east, east) > 1e-8 ? normalize(east) : vec3(0.0, 1.0, 0.0);
+  vec3 north = cross(up, east);
+  vec3 light = normalize(1.5 * up + 0.5 * (north - east));
+  float shade = clamp(dot(n, light), 0.0, 1.0) / dot(up, light);
+  o_color = vec4(tint(v_height) * (0.35 + 0.65 * clamp(shade, 0.0, 1.2)), 1.0);
+}

@@ -1,0 +1,137 @@
+// The globe overlay on the GPU against the CPU reference on the same depth buffer (docs/globe.md):
+// 0 wrong pixels away from edges from space, oblique and grazing, across the antimeridian, over
+// both poles and from 1 m above the ground.
+#include <cstdio>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "gfx/image_io.hpp"
+#include "gfx/render_target.hpp"
+#include "gl_test.hpp"
+#include "globe/globe_overlay.hpp"
+#include "globe/globe_terrain.hpp"
+#include "globe_scene.hpp"
+
+namespace gis::globe {
+namespace {
+
+class GlobeOverlayGl : public test::GlTest {
+ protected:
+  static void SetUpTestSuite() {
+    test::GlTest::SetUpTestSuite();
+    grid() = test::globe_scene::syntheticGrid(0.5);
+  }
+  static std::shared_ptr<const GeoGrid>& grid() {
+    static std::shared_ptr<const GeoGrid> g;
+    return g;
+  }
+
+  struct Outcome {
+    std::size_t covered = 0, wrong = 0, edgeWrong = 0, terrain = 0, tiles = 0, pieces = 0, zFail = 0;
+  };
+
+  /// Draws the terrain and the layers for the view and compares the mask with the reference.
+  Outcome drawAndCompare(const GlobeView& view, const std::vector<const GlobeLayer*>& layers,
+                         const std::string& label) {
+    GlobeTerrain terrain(grid());
+    GlobeOverlayRenderer overlay;
+    gfx::RenderTarget target(view.width, view.height, 0, true);
+    const std::vector<DrawnTile> tiles = terrain.select(view);
+    gfx::beginRenderPass(cache_, target, {glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), gfx::kReversedZFar, 0});
+    gfx::enableMaskWrites(target.framebuffer(), false);
+    terrain.draw(cache_, view, tiles);
+    gfx::enableMaskWrites(target.framebuffer(), true);
+    overlay.draw(cache_, view, tiles, *grid(), layers);
+    const std::vector<float> depth = gfx::readDepth(target);
+    const std::vector<std::uint32_t> gpu = gfx::readMask(target);
+    std::filesystem::create_directories(STENCIL_GIS_TEST_OUTPUT_DIR);
+    std::string file = label;
+    for (char& ch : file) ch = std::isalnum(static_cast<unsigned char>(ch)) != 0 ? ch : '_';
+    (void)gfx::writeImage8(std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/" + file + ".png", view.width, view.height, 4,
+                           gfx::readColorRgba8(target));
+    const std::vector<std::uint32_t> expected = referenceMask(depth, view, layers);
+    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, view.width, view.height);
+    Outcome o;
+    o.tiles = tiles.size();
+    o.pieces = overlay.stats().pieces;
+    o.zFail = overlay.stats().zFailPieces;
+    int reported = 0;
+    for (std::size_t i = 0; i < gpu.size(); ++i) {
+      o.terrain += depth[i] > 0.0F ? 1U : 0U;
+      o.covered += expected[i] != 0 ? 1U : 0U;
+      if (gpu[i] == expected[i]) continue;
+      if (edges[i] != 0) {
+        ++o.edgeWrong;
+        continue;
+      }
+      ++o.wrong;
+      if (reported++ < 5) {
+        ADD_FAILURE() << label << ": pixel (" << i % static_cast<std::size_t>(view.width) << ", "
+                      << i / static_cast<std::size_t>(view.width) << ") GPU " << gpu[i] << ", reference " << expected[i]
+                      << ", depth " << depth[i];
+      }
+    }
+    std::printf("%-28s tiles %4zu pieces %5zu (z-fail %3zu) terrain px %6zu covered %6zu wrong %zu edge-wrong %zu\n",
+                label.c_str(), o.tiles, o.pieces, o.zFail, o.terrain, o.covered, o.wrong, o.edgeWrong);
+    EXPECT_EQ(o.wrong, 0u) << label;
+    return o;
+  }
+
+  static GlobeView view(const Geodetic& eye, const Geodetic& target, double fov = 45.0) {
+    return GlobeView::looking(toEcef(eye), toEcef(target), fov, 256, 256,
+                              grid() ? grid()->heightAt(eye.lon, eye.lat) : 0.0);
+  }
+};
+
+struct Layers {
+  GlobeLayer all, boxes, field;
+};
+
+Layers makeLayers() {
+  const auto features = test::globe_scene::features();
+  std::vector<geo::Feature> large(features.begin(), features.end() - 1);
+  Result<GlobeLayer> all = GlobeLayer::build("features", large, glm::vec4(0.2F, 0.5F, 0.9F, 0.6F));
+  Result<GlobeLayer> field = GlobeLayer::build("field", {features.back()}, glm::vec4(0.9F, 0.9F, 0.2F, 0.6F));
+  std::vector<geo::Feature> boxes(1);
+  boxes[0].polygons.push_back(test::globe_scene::box(-70.0, -40.0, -50.0, -10.0));
+  boxes[0].polygons.push_back(test::globe_scene::box(160.0, -30.0, 200.0, -10.0));  // written past 180
+  boxes[0].polygons.push_back(test::globe_scene::box(-20.0, 60.0, 40.0, 85.0));
+  Result<GlobeLayer> second = GlobeLayer::build("boxes", boxes, glm::vec4(0.9F, 0.4F, 0.1F, 0.5F));
+  EXPECT_TRUE(all.ok() && second.ok() && field.ok());
+  return {std::move(*all), std::move(*second), std::move(*field)};
+}
+
+TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround) {
+  const Layers layers = makeLayers();
+  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &layers.field};
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+    double fov = 45.0;
+    std::size_t minCovered = 200;
+  };
+  const double field = grid()->heightAt(8.5, 47.3);
+  const std::vector<Case> cases{
+      {"space 10,000 km", {-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}, 45.0, 2000},
+      {"space 20,000 km", {150.0, 10.0, 2e7}, {150.0, 10.0, -6e6}, 45.0, 500},
+      {"oblique 800 km", {-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}},
+      {"grazing 3 km", {-37.5, -8.0, 3000.0}, {-33.0, -6.0, 1500.0}},
+      {"antimeridian 4,000 km", {180.0, -14.0, 4e6}, {180.0, -14.0, 0.0}},
+      {"antimeridian oblique", {165.0, -40.0, 6e5}, {-178.0, -21.0, 0.0}},
+      {"north pole from above", {0.0, 90.0, 3e6}, {0.0, 90.0, 0.0}},
+      {"north pole oblique", {30.0, 70.0, 4e5}, {120.0, 89.0, 0.0}},
+      {"south pole from above", {0.0, -90.0, 6e6}, {0.0, -90.0, 0.0}},
+      {"south pole low", {45.0, -86.0, 20000.0}, {-135.0, -89.0, 0.0}},
+      {"1 m above the ground", {8.5 - 2e-5, 47.3 + 0.004, field + 1.0}, {8.5 + 2e-4, 47.3 + 0.004, field - 30.0}, 60.0},
+  };
+  for (const Case& c : cases) {
+    const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), all, c.label);
+    EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the features";
+  }
+}
+
+}  // namespace
+}  // namespace gis::globe

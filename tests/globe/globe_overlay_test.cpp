@@ -1,0 +1,227 @@
+// The globe overlay on the CPU (docs/globe.md): the ellipsoid's arithmetic, polygons prepared
+// across the antimeridian and around the poles, and the pieces: closed, and holding exactly the
+// ground the reference says is inside, point by point, in ECEF.
+#include <cmath>
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "globe/ellipsoid.hpp"
+#include "globe/globe_overlay.hpp"
+#include "globe/globe_terrain.hpp"
+#include "globe_scene.hpp"
+
+namespace gis::globe {
+namespace {
+
+TEST(Ellipsoid, RoundTripsAndNormals) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> lon(-180.0, 180.0), lat(-90.0, 90.0), h(-1e4, 2e7);
+  for (int i = 0; i < 1000; ++i) {
+    const double lo = lon(rng), la = lat(rng), he = h(rng);
+    const glm::dvec3 p = toEcef(lo, la, he);
+    const Geodetic g = toGeodetic(p);
+    EXPECT_NEAR(g.h, he, 1e-6);
+    EXPECT_NEAR(glm::length(toEcef(g) - p), 0.0, 1e-6);
+    // The normal is the direction of growing height.
+    const glm::dvec3 up = (toEcef(lo, la, he + 1.0) - p);
+    EXPECT_NEAR(glm::length(up - surfaceNormal(lo, la)), 0.0, 1e-6);
+  }
+}
+
+TEST(Ellipsoid, SplitPositionsAreExactOnTheGpuAnywhere) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> c(-3e7, 3e7);
+  for (int i = 0; i < 1000; ++i) {
+    const glm::dvec3 p(c(rng), c(rng), c(rng));
+    const SplitPosition s = splitPosition(p);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(std::fmod(static_cast<double>(s.high[k]), 16.0), 0.0);
+      EXPECT_LE(std::abs(s.low[k]), 8.0F);
+      EXPECT_NEAR(static_cast<double>(s.high[k]) + static_cast<double>(s.low[k]), p[k], 1e-6);
+    }
+  }
+}
+
+TEST(Ellipsoid, HorizonHidesThePointsBehindTheEarthOnly) {
+  const glm::dvec3 eye = toEcef(0.0, 0.0, 1e6);
+  EXPECT_FALSE(hiddenByEllipsoid(eye, toEcef(0.0, 0.0, 0.0)));
+  EXPECT_FALSE(hiddenByEllipsoid(eye, toEcef(5.0, 0.0, 0.0)));
+  EXPECT_TRUE(hiddenByEllipsoid(eye, toEcef(180.0, 0.0, 0.0)));
+  EXPECT_TRUE(hiddenByEllipsoid(eye, toEcef(40.0, 0.0, 0.0)));   // beyond the horizon (~29.2° away)
+  EXPECT_FALSE(hiddenByEllipsoid(eye, toEcef(40.0, 0.0, 1e6)));  // a point as high as the eye
+}
+
+std::vector<geo::Feature> one(geo::Polygon p) {
+  geo::Feature f;
+  f.fid = 7;
+  f.polygons.push_back(std::move(p));
+  return {f};
+}
+
+bool inside(const GlobeLayer& layer, double lon, double lat) { return layer.contains(toEcef(lon, lat, 0.0), lon, lat); }
+
+TEST(GlobePolygons, AcrossTheAntimeridian) {
+  const auto features = test::globe_scene::features();
+  Result<GlobeLayer> layer = GlobeLayer::build("t", {features[1]}, glm::vec4(1.0F));
+  ASSERT_TRUE(layer.ok());
+  ASSERT_EQ(layer->polygons().size(), 1u);
+  const LonLatRect box = layer->polygons()[0].box;
+  EXPECT_LT(box.east - box.west, 40.0) << "one ring across ±180, not one around the earth";
+  EXPECT_TRUE(inside(*layer, 179.9, -12.0));
+  EXPECT_TRUE(inside(*layer, -179.9, -12.0));
+  EXPECT_TRUE(inside(*layer, 180.0, -12.0));
+  EXPECT_FALSE(inside(*layer, 160.0, -12.0));
+  EXPECT_FALSE(inside(*layer, -160.0, -12.0));
+  EXPECT_FALSE(inside(*layer, 0.0, -12.0));
+}
+
+TEST(GlobePolygons, AroundThePoles) {
+  const auto features = test::globe_scene::features();
+  Result<GlobeLayer> arctic = GlobeLayer::build("arctic", {features[2]}, glm::vec4(1.0F));
+  Result<GlobeLayer> antarctica = GlobeLayer::build("antarctica", {features[3]}, glm::vec4(1.0F));
+  ASSERT_TRUE(arctic.ok() && antarctica.ok());
+  for (double lon = -180.0; lon <= 180.0; lon += 7.3) {
+    EXPECT_TRUE(inside(*arctic, lon, 85.0)) << lon;
+    EXPECT_TRUE(inside(*arctic, lon, 89.999)) << lon;
+    EXPECT_FALSE(inside(*arctic, lon, 70.0)) << lon;
+    EXPECT_FALSE(inside(*arctic, lon, -85.0)) << lon;
+    EXPECT_TRUE(inside(*antarctica, lon, -80.0)) << lon;
+    EXPECT_TRUE(inside(*antarctica, lon, -89.999)) << lon;
+    EXPECT_FALSE(inside(*antarctica, lon, -60.0)) << lon;
+    EXPECT_FALSE(inside(*antarctica, lon, 80.0)) << lon;
+  }
+}
+
+TEST(GlobePolygons, HolesAndBrokenRings) {
+  const auto features = test::globe_scene::features();
+  Result<GlobeLayer> layer = GlobeLayer::build("holes", {features[4]}, glm::vec4(1.0F));
+  ASSERT_TRUE(layer.ok());
+  EXPECT_TRUE(inside(*layer, 5.0, 50.0));
+  EXPECT_FALSE(inside(*layer, 15.0, 48.0));
+  EXPECT_TRUE(inside(*layer, 25.0, 48.0));
+
+  geo::Polygon bad = test::globe_scene::box(0.0, 0.0, 1.0, 1.0);
+  bad.outer[2].y = 91.0;
+  std::vector<geo::Feature> mixed = one(bad);
+  mixed.push_back(features[0]);
+  Result<GlobeLayer> partly = GlobeLayer::build("mixed", mixed, glm::vec4(1.0F));
+  ASSERT_TRUE(partly.ok());
+  EXPECT_EQ(partly->polygons().size(), 1u) << "the good feature is kept";
+  ASSERT_FALSE(partly.diagnostics.empty());
+  const std::string message = partly.diagnostics.items().front().toString();
+  EXPECT_NE(message.find("layer 'mixed': feature 7"), std::string::npos) << message;
+  EXPECT_NE(message.find("beyond"), std::string::npos) << message;
+}
+
+TEST(GlobePolygons, EdgesFollowGeodesics) {
+  // A long edge along a geodesic: the points added along it lie on the geodesic, and points a
+  // little to either side of its middle are classified by the side they are on.
+  Result<GlobeLayer> layer =
+      GlobeLayer::build("g", one({{{-60.0, 50.0}, {60.0, 50.0}, {60.0, 20.0}, {-60.0, 20.0}}, {}}), glm::vec4(1.0F));
+  ASSERT_TRUE(layer.ok());
+  // The geodesic from (−60, 50) to (60, 50) runs far north of the parallel: at lon 0 it is at
+  // about 67.2° (on a sphere, tan φ = tan 50° / cos 60°). That is where the north edge is.
+  EXPECT_TRUE(inside(*layer, 0.0, 66.5));
+  EXPECT_FALSE(inside(*layer, 0.0, 68.0));
+  EXPECT_FALSE(inside(*layer, -60.5, 51.0));
+}
+
+/// Whether a point lies inside any of the pieces (closed triangle meshes): parity of the
+/// crossings of a ray with each.
+bool insideMesh(const TilePieces& t, const glm::dvec3& point, const glm::dvec3& dir) {
+  const auto at = [&](std::uint32_t i) {
+    const SplitPosition& s = t.vertices[i].position;
+    return glm::dvec3(s.high) + glm::dvec3(s.low);
+  };
+  for (const TilePieces::Piece& p : t.pieces) {
+    int crossings = 0;
+    for (std::uint32_t k = p.firstIndex; k + 2 < p.firstIndex + p.indexCount; k += 3) {
+      const glm::dvec3 a = at(t.indices[k]), b = at(t.indices[k + 1]), c = at(t.indices[k + 2]);
+      // Möller–Trumbore.
+      const glm::dvec3 e1 = b - a, e2 = c - a, pv = glm::cross(dir, e2);
+      const double det = glm::dot(e1, pv);
+      if (std::abs(det) < 1e-18) continue;
+      const glm::dvec3 tv = point - a;
+      const double u = glm::dot(tv, pv) / det;
+      if (u < 0.0 || u > 1.0) continue;
+      const glm::dvec3 qv = glm::cross(tv, e1);
+      const double v = glm::dot(dir, qv) / det;
+      if (v < 0.0 || u + v > 1.0) continue;
+      if (glm::dot(e2, qv) / det > 0.0) ++crossings;
+    }
+    if ((crossings & 1) != 0) return true;
+  }
+  return false;
+}
+
+/// Every directed edge of a piece has its reverse: each piece is a closed surface.
+void expectClosed(const TilePieces& t, const std::string& label) {
+  for (const TilePieces::Piece& p : t.pieces) {
+    std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+    for (std::uint32_t k = p.firstIndex; k < p.firstIndex + p.indexCount; k += 3) {
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t a = t.indices[k + static_cast<std::uint32_t>(e)];
+        const std::uint32_t b = t.indices[k + static_cast<std::uint32_t>((e + 1) % 3)];
+        ++edges[{a, b}];
+      }
+    }
+    for (const auto& [e, n] : edges) {
+      ASSERT_EQ(n, 1) << label << ": edge used twice the same way";
+      ASSERT_EQ(edges.count({e.second, e.first}), 1u) << label << ": open edge";
+    }
+  }
+}
+
+TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
+  const auto grid = test::globe_scene::syntheticGrid(1.0);
+  const auto features = test::globe_scene::features();
+  Result<GlobeLayer> layer = GlobeLayer::build("all", features, glm::vec4(1.0F), {20000.0});
+  ASSERT_TRUE(layer.ok());
+  // Tiles on the features' edges and inside them: the continent, across ±180, at both poles,
+  // the hole, the small field; coarse and fine.
+  const std::vector<std::pair<double, double>> places{{-60.0, -20.0}, {-40.0, -5.0}, {179.0, -20.0}, {-179.0, -6.0},
+                                                      {10.0, 79.0},   {100.0, 89.5}, {-30.0, -71.0}, {60.0, -89.7},
+                                                      {10.0, 45.0},   {20.0, 52.0},  {8.5, 47.3}};
+  std::mt19937 rng(11);
+  std::size_t checked = 0, insideCount = 0;
+  for (const auto& [lon, lat] : places) {
+    for (const int level : {0, 1, 2, 5, 9, 13}) {
+      const double size = 180.0 / (1 << level);
+      TileKey key{level, static_cast<int>(std::floor((lon + 180.0) / size)),
+                  static_cast<int>(std::floor((lat + 90.0) / size))};
+      const TilePieces pieces = buildTilePieces(*layer, key, *grid);
+      const std::string label =
+          "tile " + std::to_string(level) + "/" + std::to_string(key.x) + "/" + std::to_string(key.y);
+      expectClosed(pieces, label);
+      const LonLatRect r = key.rect();
+      std::uniform_real_distribution<double> ulon(r.west, r.east), ulat(r.south, r.north), unit(-1.0, 1.0);
+      for (int i = 0; i < 200; ++i) {
+        const double plon = ulon(rng), plat = ulat(rng);
+        const glm::dvec3 x = toEcef(plon, plat, grid->heightAt(plon, plat));
+        const bool expected = layer->contains(x, plon, plat);
+        // Points within a metre of an edge may go either way (the walls are the edges' planes
+        // through the normals at their ends, to millimetres): tell them by nudging the point.
+        bool nearEdge = false;
+        const glm::dmat3 enu = enuBasis(plon, plat);
+        for (const glm::dvec3& d : {enu[0], -enu[0], enu[1], -enu[1]}) {
+          const glm::dvec3 y = x + d * 1.0;
+          const Geodetic g = toGeodetic(y);
+          if (layer->contains(y, g.lon, g.lat) != expected) nearEdge = true;
+        }
+        if (nearEdge) continue;
+        const glm::dvec3 dir = glm::normalize(glm::dvec3(unit(rng), unit(rng), unit(rng)));
+        const bool got = insideMesh(pieces, x, dir);
+        ++checked;
+        insideCount += expected ? 1U : 0U;
+        EXPECT_EQ(got, expected) << label << " at (" << plon << ", " << plat << ")";
+      }
+    }
+  }
+  std::printf("%zu ground points checked against the pieces, %zu inside\n", checked, insideCount);
+  EXPECT_GT(insideCount, checked / 5);
+}
+
+}  // namespace
+}  // namespace gis::globe
