@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 
 #include "bench_common.hpp"
@@ -23,10 +24,42 @@ struct GlobeFrame {
   globe::Geodetic eye, target;
 };
 
+/// Where the path looks: the scene camera's target, else the middle of the data.
+globe::Geodetic focusOf(const scene::LoadedGlobeScene& s) {
+  if (s.description.camera && s.description.camera->targetLonLatH) {
+    const glm::dvec3 t = *s.description.camera->targetLonLatH;
+    return {t.x, t.y, 0.0};
+  }
+  const auto [west, south, east, north] = s.extent;
+  return {0.5 * (west + std::min(east, west + 360.0)), 0.5 * (south + north), 0.0};
+}
+
+/// The point of the layers' rings nearest the focus (an edge to fly low over), else the focus.
+globe::Geodetic edgeNear(const scene::LoadedGlobeScene& s, const globe::Geodetic& focus) {
+  globe::Geodetic best = focus;
+  double nearest = std::numeric_limits<double>::max();
+  const glm::dvec3 f = globe::toEcef(focus);
+  for (const globe::GlobeLayer& layer : s.layers) {
+    for (const globe::GlobePolygon& p : layer.polygons()) {
+      for (const auto& ring : p.rings) {
+        for (std::size_t k = 0; k < ring.size(); k += 16) {
+          const double d = glm::length(globe::toEcef(ring[k].x, ring[k].y, 0.0) - f);
+          if (d < nearest) {
+            nearest = d;
+            best = {ring[k].x, ring[k].y, 0.0};
+          }
+        }
+      }
+    }
+  }
+  return best;
+}
+
 /// The path: six segments of frames, each moving a little across the data.
 std::vector<GlobeFrame> globePath(const scene::LoadedGlobeScene& s, int frames) {
-  const auto [west, south, east, north] = s.extent;
-  const double lon = 0.5 * (west + std::min(east, west + 360.0)), lat = 0.5 * (south + north);
+  const globe::Geodetic focus = focusOf(s);
+  const globe::Geodetic edge = edgeNear(s, focus);
+  const double lon = focus.lon, lat = focus.lat;
   const int per = std::max(1, frames / 6);
   std::vector<GlobeFrame> out;
   const auto segment = [&](const std::string& name, auto&& at) {
@@ -46,13 +79,13 @@ std::vector<GlobeFrame> globePath(const scene::LoadedGlobeScene& s, int frames) 
     return GlobeFrame{{}, {l, lat - 25.0, 3e6}, {l, lat, 0.0}};
   });
   segment("regional 500 km", [&](double t) {
-    const double l = west + 0.25 * (east - west) + 4.0 * t;
-    return GlobeFrame{{}, {l, lat - 6.0, 5e5}, {l, lat - 2.0, 0.0}};
+    const double l = edge.lon - 2.0 + 4.0 * t;
+    return GlobeFrame{{}, {l, edge.lat - 4.0, 5e5}, {l, edge.lat, 0.0}};
   });
   segment("low 5 km over an edge", [&](double t) {
-    const double l = west + 0.1 * (east - west) + 0.2 * t;
-    const double ground = s.heights->heightAt(l, lat);
-    return GlobeFrame{{}, {l, lat, std::max(ground, 0.0) + 5000.0}, {l + 0.6, lat + 0.3, std::max(ground, 0.0)}};
+    const double l = edge.lon - 0.1 + 0.2 * t;
+    const double ground = std::max(s.heights->heightAt(l, edge.lat), 0.0);
+    return GlobeFrame{{}, {l, edge.lat - 0.2, ground + 5000.0}, {l, edge.lat, ground}};
   });
   segment("antimeridian 1500 km", [&](double t) {
     const double l = 170.0 + 20.0 * t;

@@ -344,7 +344,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
                                 rect.north + latMargin};
       if (!overlaps(tileRect, polygon.box)) continue;
       std::vector<Ring> inTile;
-      for (const Ring& ring : polygon.rings) {
+      for (const Ring& ring : polygon.ringsAt(key.level)) {
         Ring clipped = clipRect(ring, tileRect);
         if (clipped.size() >= 3) inTile.push_back(std::move(clipped));
       }

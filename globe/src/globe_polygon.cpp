@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <set>
 #include <string>
 
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
 
 #include "globe/globe_overlay.hpp"
+#include "globe/tile.hpp"
 #include "globe_detail.hpp"
 
 namespace gis::globe {
@@ -160,7 +163,96 @@ std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double
   return clean;
 }
 
+/// Douglas–Peucker on ring[first .. last] (indices, last may wrap), keeping points whose distance
+/// from the chord, in degrees of arc with longitude scaled by the cosine of their latitude and
+/// divided by it again, exceeds `tolerance`: a tolerance in arc at the equator that shrinks with
+/// the cosine of the latitude. Points at a pole are always kept (the ring runs along it there).
+void simplifySpan(const std::vector<glm::dvec2>& ring, std::size_t first, std::size_t last, double tolerance,
+                  std::vector<char>& keep) {
+  const std::size_t n = ring.size();
+  std::vector<std::pair<std::size_t, std::size_t>> stack{{first, last}};
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    if (b <= a + 1) continue;
+    const glm::dvec2 pa = ring[a % n], pb = ring[b % n];
+    double worst = -1.0;
+    std::size_t at = a;
+    for (std::size_t k = a + 1; k < b; ++k) {
+      const glm::dvec2 p = ring[k % n];
+      if (isPole(p.y)) {
+        worst = std::numeric_limits<double>::infinity();
+        at = k;
+        break;
+      }
+      const double c = std::cos(p.y * kDegree);
+      const glm::dvec2 u((pa.x - p.x) * c, pa.y - p.y), v((pb.x - p.x) * c, pb.y - p.y);
+      const glm::dvec2 d = v - u;
+      const double len2 = glm::dot(d, d);
+      const double t = len2 > 0.0 ? std::clamp(-glm::dot(u, d) / len2, 0.0, 1.0) : 0.0;
+      const double dist = glm::length(u + d * t) / std::max(c, 1e-12);
+      if (dist > worst) {
+        worst = dist;
+        at = k;
+      }
+    }
+    if (worst > tolerance) {
+      keep[at % n] = 1;
+      stack.emplace_back(a, at);
+      stack.emplace_back(at, b);
+    }
+  }
+}
+
+/// A point's key for finding the points rings share: its longitude in [−180, 180) and latitude.
+std::pair<double, double> pointKey(const glm::dvec2& p) {
+  double lon = std::fmod(p.x + 180.0, 360.0);
+  if (lon < 0.0) lon += 360.0;
+  return {lon - 180.0, p.y};
+}
+
+/// GlobePolygon::simplified: each level's rings, until a level keeps nearly every point. Points in
+/// `shared` (on more than one ring of the layer: a boundary two features share) are kept, so that
+/// neighbouring features keep meeting exactly and no sliver opens between them.
+void simplifyLevels(GlobePolygon& polygon, const std::set<std::pair<double, double>>& shared) {
+  for (int level = 0; level < kMaxLevel; ++level) {
+    std::size_t before = 0, after = 0;
+    std::vector<std::vector<glm::dvec2>> rings;
+    for (const auto& ring : polygon.rings) {
+      const std::size_t n = ring.size();
+      std::vector<char> keep(n, 0);
+      // Split the ring at its first point and the point farthest from it (in lon/lat).
+      std::size_t far = 0;
+      double farthest = -1.0;
+      for (std::size_t k = 0; k < n; ++k) {
+        const double d = glm::length(ring[k] - ring[0]);
+        if (d > farthest) {
+          farthest = d;
+          far = k;
+        }
+        if (isPole(ring[k].y) || (!shared.empty() && shared.count(pointKey(ring[k])) != 0)) keep[k] = 1;
+      }
+      keep[0] = keep[far] = 1;
+      const double tolerance = simplifyTolerance(level);
+      simplifySpan(ring, 0, far, tolerance, keep);
+      simplifySpan(ring, far, n, tolerance, keep);
+      std::vector<glm::dvec2> kept;
+      for (std::size_t k = 0; k < n; ++k) {
+        if (keep[k] != 0) kept.push_back(ring[k]);
+      }
+      before += n;
+      after += kept.size();
+      if (kept.size() >= 3) rings.push_back(std::move(kept));
+    }
+    if (after * 10 >= before * 9) break;  // nearly nothing left to leave out: the full rings
+    polygon.simplified.push_back(std::move(rings));
+  }
+}
+
 }  // namespace
+
+double simplifyTolerance(int level) { return TileKey{level, 0, 0}.postStep() / 64.0; }
 
 Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
                                      const GlobeLayerOptions& options) {
@@ -228,6 +320,21 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       layer.polygons_.push_back(std::move(prepared));
     }
   }
+  // Generalised rings for coarse tiles, keeping the points rings share.
+  std::map<std::pair<double, double>, int> uses;
+  for (const GlobePolygon& p : layer.polygons_) {
+    for (const auto& ring : p.rings) {
+      std::set<std::pair<double, double>> own;
+      for (const glm::dvec2& q : ring) {
+        if (own.insert(pointKey(q)).second) ++uses[pointKey(q)];
+      }
+    }
+  }
+  std::set<std::pair<double, double>> shared;
+  for (const auto& [key, n] : uses) {
+    if (n > 1) shared.insert(key);
+  }
+  for (GlobePolygon& p : layer.polygons_) simplifyLevels(p, shared);
   out.value = std::move(layer);
   return out;
 }

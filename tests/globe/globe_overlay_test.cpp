@@ -201,12 +201,15 @@ TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
         const double plon = ulon(rng), plat = ulat(rng);
         const glm::dvec3 x = toEcef(plon, plat, grid->heightAt(plon, plat));
         const bool expected = layer->contains(x, plon, plat);
-        // Points within a metre of an edge may go either way (the walls are the edges' planes
-        // through the normals at their ends, to millimetres): tell them by nudging the point.
+        // Points near an edge may go either way: within a metre (the walls are the edges' planes
+        // through the normals at their ends, to millimetres), or within the level's
+        // generalisation (simplifyTolerance). Tell them by nudging the point.
         bool nearEdge = false;
         const glm::dmat3 enu = enuBasis(plon, plat);
-        for (const glm::dvec3& d : {enu[0], -enu[0], enu[1], -enu[1]}) {
-          const glm::dvec3 y = x + d * 1.0;
+        const double nudge = 1.0 + 1.2 * simplifyTolerance(level) * kMetresPerDegreeMax;
+        for (const glm::dvec3& d : {enu[0], -enu[0], enu[1], -enu[1], (enu[0] + enu[1]) * 0.7071,
+                                    (enu[0] - enu[1]) * 0.7071, (enu[1] - enu[0]) * 0.7071, -(enu[0] + enu[1]) * 0.7071}) {
+          const glm::dvec3 y = x + d * nudge;
           const Geodetic g = toGeodetic(y);
           if (layer->contains(y, g.lon, g.lat) != expected) nearEdge = true;
         }

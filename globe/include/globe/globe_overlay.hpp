@@ -47,7 +47,21 @@ struct GlobePolygon {
   std::vector<std::vector<glm::dvec2>> rings;
   LonLatRect box;                                     ///< of the rings, in their unwrapped longitudes
   std::shared_ptr<const detail::PolygonIndex> index;  ///< for contains()
+  /// The rings generalised for tiles of level L = 0, 1, ... (simplifyTolerance): what that level's
+  /// pieces are cut from. Levels past the end use `rings`.
+  std::vector<std::vector<std::vector<glm::dvec2>>> simplified;
+
+  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& ringsAt(int level) const {
+    return level >= 0 && static_cast<std::size_t>(level) < simplified.size() ? simplified[static_cast<std::size_t>(level)]
+                                                                                : rings;
+  }
 };
+
+/// How far (degrees of arc, times the cosine of the latitude) the rings a tile of `level` is cut
+/// from may stray from the true ones: 1/64 of a post. The terrain keeps posts at most 8 pixels
+/// apart along their parallels (TerrainOptions::maxPostPixels), so the drawn edges are within
+/// 1/8 of a pixel of the true ones: the reference's edge band holds the difference.
+double simplifyTolerance(int level);
 
 /// The side of edge p → q (unwrapped (lon, lat) degrees) a point (ECEF) is on: > 0 north of an
 /// edge that runs east (south of one that runs west). The edge's plane holds both ends on the
