@@ -207,8 +207,9 @@ TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
         bool nearEdge = false;
         const glm::dmat3 enu = enuBasis(plon, plat);
         const double nudge = 1.0 + 1.2 * simplifyTolerance(level) * kMetresPerDegreeMax;
-        for (const glm::dvec3& d : {enu[0], -enu[0], enu[1], -enu[1], (enu[0] + enu[1]) * 0.7071,
-                                    (enu[0] - enu[1]) * 0.7071, (enu[1] - enu[0]) * 0.7071, -(enu[0] + enu[1]) * 0.7071}) {
+        for (const glm::dvec3& d :
+             {enu[0], -enu[0], enu[1], -enu[1], (enu[0] + enu[1]) * 0.7071, (enu[0] - enu[1]) * 0.7071,
+              (enu[1] - enu[0]) * 0.7071, -(enu[0] + enu[1]) * 0.7071}) {
           const glm::dvec3 y = x + d * nudge;
           const Geodetic g = toGeodetic(y);
           if (layer->contains(y, g.lon, g.lat) != expected) nearEdge = true;

@@ -52,8 +52,9 @@ struct GlobePolygon {
   std::vector<std::vector<std::vector<glm::dvec2>>> simplified;
 
   [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& ringsAt(int level) const {
-    return level >= 0 && static_cast<std::size_t>(level) < simplified.size() ? simplified[static_cast<std::size_t>(level)]
-                                                                                : rings;
+    return level >= 0 && static_cast<std::size_t>(level) < simplified.size()
+               ? simplified[static_cast<std::size_t>(level)]
+               : rings;
   }
 };
 
