@@ -45,4 +45,7 @@ struct PolygonIndex {
 };
 std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon);
 
+/// Whether a point (ECEF, and its lon/lat) is within the line's half width of it (GlobeLayer::contains).
+bool nearLine(const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg);
+
 }  // namespace gis::globe::detail

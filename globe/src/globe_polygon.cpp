@@ -254,15 +254,197 @@ void simplifyLevels(GlobePolygon& polygon, const std::set<std::pair<double, doub
 
 double simplifyTolerance(int level) { return TileKey{level, 0, 0}.postStep() / 64.0; }
 
+namespace {
+
+/// A line's points densified along geodesics and unwrapped (empty with `problem` set when it
+/// cannot be used).
+std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem,
+                                    std::vector<char>& given) {
+  std::vector<glm::dvec2> line;
+  for (const glm::dvec2& p : input) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+      problem = "a coordinate is not a finite number";
+      return {};
+    }
+    if (std::abs(p.y) > 90.0) {
+      problem = "latitude " + std::to_string(p.y) + " is beyond ±90°";
+      return {};
+    }
+    if (line.empty() || line.back() != p) line.push_back(p);
+  }
+  if (line.size() < 2) {
+    problem = "fewer than 2 distinct points";
+    return {};
+  }
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  std::vector<glm::dvec2> out{line[0]};
+  given.assign(1, 1);
+  for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+    const glm::dvec2 p = line[i], q = line[i + 1];
+    const GeographicLib::GeodesicLine g = geod.InverseLine(p.y, p.x, q.y, q.x);
+    const auto pieces = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(g.Distance() / maxSegment)));
+    for (std::size_t k = 1; k <= pieces; ++k) {
+      double lat = q.y, lon = q.x;
+      if (k < pieces) g.Position(g.Distance() * static_cast<double>(k) / static_cast<double>(pieces), lat, lon);
+      out.emplace_back(out.back().x + wrap180(lon - out.back().x), lat);
+      given.push_back(k == pieces ? 1 : 0);
+    }
+  }
+  return out;
+}
+
+/// The polygons a line is drawn with: a band along each piece (its ends' offsets by the half
+/// width across the geodesic: consecutive bands along one geodesic share their corners) and a
+/// disc at each point the line was given with (its joins and caps: a polygon inscribed in the
+/// circle, its chords within `chordTolerance` of it, with at most 256 sides).
+std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& line, const std::vector<char>& given,
+                                                double halfWidth, double chordTolerance) {
+  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
+  const auto offset = [&](const glm::dvec2& p, double azimuth) {
+    double lat = 0.0, lon = 0.0;
+    geod.Direct(p.y, p.x, azimuth, halfWidth, lat, lon);
+    return glm::dvec2(p.x + wrap180(lon - p.x), lat);
+  };
+  std::vector<std::vector<glm::dvec2>> out;
+  // One band per piece between given points: the offsets of its points on both sides (a
+  // geodesic's: consecutive pieces share their points' offsets).
+  std::vector<glm::dvec2> right, left;
+  for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+    const glm::dvec2 p = line[i], q = line[i + 1];
+    double s12 = 0.0, azi1 = 0.0, azi2 = 0.0;
+    geod.Inverse(p.y, p.x, q.y, q.x, s12, azi1, azi2);
+    if (s12 > 0.0) {
+      if (right.empty()) {
+        right.push_back(offset(p, azi1 + 90.0));
+        left.push_back(offset(p, azi1 - 90.0));
+      }
+      right.push_back(offset(q, azi2 + 90.0));
+      left.push_back(offset(q, azi2 - 90.0));
+    }
+    if (given[i + 1] != 0 && right.size() >= 2) {
+      std::vector<glm::dvec2> band = right;
+      band.insert(band.end(), left.rbegin(), left.rend());
+      out.push_back(std::move(band));
+      right.clear();
+      left.clear();
+    }
+  }
+  const double tol = std::min(chordTolerance, 0.5 * halfWidth);
+  const int sides =
+      std::clamp(static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / halfWidth))), 8, 256);
+  for (std::size_t k = 0; k < line.size(); ++k) {
+    const glm::dvec2& p = line[k];
+    if (given[k] == 0 || isPole(p.y)) continue;  // at a pole the bands meet in the pole already
+    std::vector<glm::dvec2> disc;
+    for (int side = 0; side < sides; ++side) disc.push_back(offset(p, 360.0 * side / sides));
+    out.push_back(std::move(disc));
+  }
+  return out;
+}
+
+}  // namespace
+
 Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
                                      const GlobeLayerOptions& options) {
   Result<GlobeLayer> out;
   GlobeLayer layer;
   layer.name_ = std::move(name);
   layer.color_ = color;
+  // Lines (line strings, or the rings of an outline layer) first become polygons of their own.
+  std::vector<geo::Feature> shapes;
+  std::vector<std::uint32_t> shapeFeature;  ///< per shape, its feature
+  const bool drawLines = options.outlines || std::any_of(features.begin(), features.end(),
+                                                         [](const geo::Feature& f) { return !f.lines.empty(); });
+  const double halfWidth = 0.5 * options.lineWidthMetres;
+  if (drawLines && !(halfWidth > 0.0 && std::isfinite(halfWidth))) {
+    out.diagnostics.add({Severity::Error,
+                         {},
+                         layer.name_,
+                         {},
+                         "line width " + std::to_string(options.lineWidthMetres) + " m is not a positive width"});
+    return out;
+  }
   for (std::size_t f = 0; f < features.size(); ++f) {
-    for (std::size_t k = 0; k < features[f].polygons.size(); ++k) {
-      const geo::Polygon& polygon = features[f].polygons[k];
+    std::vector<std::vector<glm::dvec2>> lines;
+    for (const geo::LineString& l : features[f].lines) lines.push_back(l);
+    if (options.outlines) {
+      for (const geo::Polygon& polygon : features[f].polygons) {
+        std::vector<const geo::Ring*> rings{&polygon.outer};
+        for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
+        for (const geo::Ring* ring : rings) {
+          std::vector<glm::dvec2> closed = *ring;
+          if (!closed.empty()) closed.push_back(closed.front());
+          lines.push_back(std::move(closed));
+        }
+      }
+    }
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+      std::string problem;
+      std::vector<char> given;
+      std::vector<glm::dvec2> line = prepareLine(lines[k], options.maxSegmentMetres, problem, given);
+      if (line.empty()) {
+        out.diagnostics.add({Severity::Error,
+                             {},
+                             layer.name_,
+                             std::to_string(features[f].fid),
+                             "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
+        continue;
+      }
+      GlobeLine g;
+      g.feature = static_cast<std::uint32_t>(f);
+      g.halfWidth = halfWidth;
+      const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
+      for (glm::dvec2& p : line) p.x += shift;
+      g.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+      for (const glm::dvec2& p : line) {
+        g.surface.push_back(toEcef(p.x, p.y, 0.0));
+        g.box.west = std::min(g.box.west, p.x);
+        g.box.east = std::max(g.box.east, p.x);
+        g.box.south = std::min(g.box.south, p.y);
+        g.box.north = std::max(g.box.north, p.y);
+      }
+      // Widened by the half width (in degrees of latitude; longitude at the box's highest latitude).
+      const double dLat = halfWidth / 110000.0;
+      const double high = std::min(89.9, std::max(std::abs(g.box.south), std::abs(g.box.north)) + dLat);
+      const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+      g.box = g.box.expanded(g.box.north + dLat >= 90.0 || g.box.south - dLat <= -90.0 ? 360.0 : dLon, dLat);
+      {
+        // Pieces by longitude for the reference.
+        const std::size_t n = std::clamp<std::size_t>(line.size() / 4, 1, 4096);
+        g.bucketWidth = std::max(g.box.east - g.box.west, 1e-9) / static_cast<double>(n);
+        g.buckets.assign(n, {});
+        const auto bucketOf = [&](double lon) {
+          return static_cast<std::size_t>(
+              std::clamp(std::floor((lon - g.box.west) / g.bucketWidth), 0.0, static_cast<double>(n - 1)));
+        };
+        for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+          const double lo = std::min(line[i].x, line[i + 1].x) - dLon, hi = std::max(line[i].x, line[i + 1].x) + dLon;
+          for (std::size_t b = bucketOf(lo); b <= bucketOf(hi); ++b)
+            g.buckets[b].push_back(static_cast<std::uint32_t>(i));
+        }
+      }
+      geo::Feature drawn;
+      drawn.fid = features[f].fid;
+      for (std::vector<glm::dvec2>& shape : lineShapes(line, given, halfWidth, options.chordTolerance))
+        drawn.polygons.push_back({std::move(shape), {}});
+      g.points = std::move(line);
+      layer.lines_.push_back(std::move(g));
+      shapes.push_back(std::move(drawn));
+      shapeFeature.push_back(static_cast<std::uint32_t>(f));
+    }
+  }
+  std::vector<std::pair<const geo::Feature*, std::uint32_t>> sources;
+  if (!options.outlines) {
+    for (std::size_t f = 0; f < features.size(); ++f) sources.emplace_back(&features[f], static_cast<std::uint32_t>(f));
+  }
+  const std::size_t areaSources = sources.size();
+  for (std::size_t k = 0; k < shapes.size(); ++k) sources.emplace_back(&shapes[k], shapeFeature[k]);
+  for (std::size_t src = 0; src < sources.size(); ++src) {
+    const std::size_t f = sources[src].second;
+    const geo::Feature& feature = *sources[src].first;
+    if (src == areaSources) layer.areaPolygons_ = layer.polygons_.size();
+    for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
+      const geo::Polygon& polygon = feature.polygons[k];
       GlobePolygon prepared;
       prepared.feature = static_cast<std::uint32_t>(f);
       std::string problem;
@@ -275,7 +457,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
           out.diagnostics.add({Severity::Error,
                                {},
                                layer.name_,
-                               std::to_string(features[f].fid),
+                               std::to_string(feature.fid),
                                "polygon " + std::to_string(k) +
                                    (r == 0 ? ", outer ring: " : ", hole " + std::to_string(r) + ": ") + problem +
                                    "; the polygon is left out"});
@@ -320,6 +502,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       layer.polygons_.push_back(std::move(prepared));
     }
   }
+  if (sources.size() == areaSources) layer.areaPolygons_ = layer.polygons_.size();
   // Generalised rings for coarse tiles, keeping the points rings share.
   std::map<std::pair<double, double>, int> uses;
   for (const GlobePolygon& p : layer.polygons_) {
@@ -371,6 +554,43 @@ std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon) {
   return index;
 }
 
+bool nearLine(const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg) {
+  if (latDeg < line.box.south || latDeg > line.box.north || line.buckets.empty()) return false;
+  const double r = line.halfWidth;
+  // The walls are vertical (they hold the normals): a disc is a cylinder around the normal at its
+  // point, a band the slab between two planes parallel to its piece's plane.
+  const auto nearPoint = [&](std::size_t k) {
+    const glm::dvec2& p = line.points[k];
+    if (isPole(p.y)) return false;
+    const glm::dvec3 n = surfaceNormal(p.x, p.y);
+    const glm::dvec3 d = point - line.surface[k];
+    return glm::length(d - n * glm::dot(d, n)) <= r;
+  };
+  const auto nearPiece = [&](std::size_t k) {
+    if (nearPoint(k) || nearPoint(k + 1)) return true;
+    const glm::dvec3 a = line.surface[k], b = line.surface[k + 1];
+    const glm::dvec3 along = b - a;
+    const double length = glm::length(along);
+    if (!(length > 0.0)) return false;
+    const double s = glm::dot(point - a, along / length);
+    if (s < 0.0 || s > length) return false;
+    const glm::dvec2 p = line.points[k], q = line.points[k + 1];
+    const glm::dvec3 n = glm::normalize(surfaceNormal(p.x, p.y) + surfaceNormal(q.x, q.y));
+    const glm::dvec3 m = glm::normalize(glm::cross(n, along));
+    return std::abs(glm::dot(point - a, m)) <= r;
+  };
+  const std::size_t n = line.buckets.size();
+  for (double lon = lonDeg - 360.0 * std::ceil((lonDeg - line.box.west) / 360.0); lon <= line.box.east; lon += 360.0) {
+    if (lon < line.box.west) continue;
+    const auto b = static_cast<std::size_t>(
+        std::clamp(std::floor((lon - line.box.west) / line.bucketWidth), 0.0, static_cast<double>(n - 1)));
+    for (const std::uint32_t k : line.buckets[b]) {
+      if (nearPiece(k)) return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace detail
 
 bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDeg, double latDeg) {
@@ -397,8 +617,11 @@ bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDe
 }
 
 bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg) const {
-  return std::any_of(polygons_.begin(), polygons_.end(),
-                     [&](const GlobePolygon& p) { return globe::contains(p, point, lonDeg, latDeg); });
+  for (std::size_t k = 0; k < areaPolygons_; ++k) {
+    if (globe::contains(polygons_[k], point, lonDeg, latDeg)) return true;
+  }
+  return std::any_of(lines_.begin(), lines_.end(),
+                     [&](const GlobeLine& l) { return detail::nearLine(l, point, lonDeg, latDeg); });
 }
 
 }  // namespace gis::globe

@@ -81,27 +81,61 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
 
   const geo::SceneFrame lonLat = geo::SceneFrame::wgs84LonLat();
   for (const LayerDescription& layer : description.layers) {
-    if (layer.kind != overlay::LayerKind::Polygon) {
-      out.diagnostics.add({Severity::Warning,
-                           layer.source,
-                           layer.name,
-                           {},
-                           "line layers are not drawn on the globe yet; the layer is left out"});
-      continue;
-    }
     geo::VectorReadOptions options;
     options.layer = layer.sourceLayer;
     options.geodesicToleranceMetres = std::numeric_limits<double>::infinity();  // the globe densifies
     Result<geo::VectorLayer> read = geo::readVectorLayer(layer.source, lonLat, options);
     out.diagnostics.append(read.diagnostics);
     if (!read.ok()) continue;
-    glm::vec4 color = layer.style.color;
-    color.w *= layer.style.opacity;
-    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, read->features, color);
+    const overlay::LayerStyle& style = layer.style;
+    // What the globe draws of the style so far: colour and opacity, lines and outlines in metres
+    // with round joins and caps. The rest is said once per layer.
+    std::vector<std::string> unsupported;
+    if (style.widthPixels > 0.0 || style.outlineWidthPixels > 0.0F) unsupported.push_back("widths in pixels");
+    if (!style.widthAttribute.empty()) unsupported.push_back("widths from an attribute");
+    if (!style.colorAttribute.empty()) unsupported.push_back("colours by category");
+    if (layer.kind == overlay::LayerKind::Line &&
+        (style.join != overlay::LineJoin::Round || style.cap != overlay::LineCap::Round))
+      unsupported.push_back("joins and caps other than round");
+    if (!unsupported.empty()) {
+      std::string list;
+      for (const std::string& u : unsupported) list += (list.empty() ? "" : ", ") + u;
+      out.diagnostics.add(
+          {Severity::Warning,
+           layer.source,
+           layer.name,
+           {},
+           "on the globe " + list + " are not drawn yet: the layer is drawn in its colour, " +
+               (layer.kind == overlay::LayerKind::Line
+                    ? std::to_string(style.widthPixels > 0.0 ? style.widthCap() : style.widthMetres) + " m wide"
+                    : std::string("its outline in metres")) +
+               " with round joins"});
+    }
+    glm::vec4 color = style.color;
+    color.w *= style.opacity;
+    globe::GlobeLayerOptions build;
+    build.lineWidthMetres = style.widthPixels > 0.0 ? style.widthCap() : style.widthMetres;
+    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, read->features, color, build);
     out.diagnostics.append(built.diagnostics);
-    if (!built.ok()) continue;
-    scene.layers.push_back(std::move(*built));
-    scene.layerFileIndex.push_back(layer.fileIndex);
+    if (built.ok()) {
+      scene.layers.push_back(std::move(*built));
+      scene.layerFileIndex.push_back(layer.fileIndex);
+    }
+    // A polygon layer's outline: a layer of its own, with the same bit in mask.png.
+    if (layer.kind == overlay::LayerKind::Polygon && style.outlineWidthMetres > 0.0F) {
+      globe::GlobeLayerOptions outline;
+      outline.outlines = true;
+      outline.lineWidthMetres = style.outlineWidthMetres;
+      glm::vec4 outlineColor = style.outlineColor;
+      outlineColor.w *= style.opacity;
+      Result<globe::GlobeLayer> lines =
+          globe::GlobeLayer::build(layer.name + " (outline)", read->features, outlineColor, outline);
+      out.diagnostics.append(lines.diagnostics);
+      if (lines.ok()) {
+        scene.layers.push_back(std::move(*lines));
+        scene.layerFileIndex.push_back(layer.fileIndex);
+      }
+    }
   }
   // The layers' box, when there are layers: what a first view should show.
   globe::LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};

@@ -87,8 +87,14 @@ class GlobeOverlayGl : public test::GlTest {
 };
 
 struct Layers {
-  GlobeLayer all, boxes, field;
+  GlobeLayer all, boxes, field, lines, outlines, road;
 };
+
+geo::Feature lineFeature(std::vector<glm::dvec2> points) {
+  geo::Feature f;
+  f.lines.push_back(std::move(points));
+  return f;
+}
 
 Layers makeLayers() {
   const auto features = test::globe_scene::features();
@@ -100,13 +106,34 @@ Layers makeLayers() {
   boxes[0].polygons.push_back(test::globe_scene::box(160.0, -30.0, 200.0, -10.0));  // written past 180
   boxes[0].polygons.push_back(test::globe_scene::box(-20.0, 60.0, 40.0, 85.0));
   Result<GlobeLayer> second = GlobeLayer::build("boxes", boxes, glm::vec4(0.9F, 0.4F, 0.1F, 0.5F));
-  EXPECT_TRUE(all.ok() && second.ok() && field.ok());
-  return {std::move(*all), std::move(*second), std::move(*field)};
+  // Lines 30 km wide: a route over the continent, one across ±180°, one near the north pole,
+  // and a 10 m road across the field.
+  GlobeLayerOptions wide;
+  wide.lineWidthMetres = 30000.0;
+  Result<GlobeLayer> lines = GlobeLayer::build(
+      "lines",
+      {lineFeature({{-75.0, -5.0}, {-55.0, -25.0}, {-45.0, -15.0}}), lineFeature({{165.0, -35.0}, {-170.0, -28.0}}),
+       lineFeature({{-30.0, 80.0}, {60.0, 88.5}, {150.0, 82.0}})},
+      glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), wide);
+  GlobeLayerOptions road;
+  road.lineWidthMetres = 10.0;
+  Result<GlobeLayer> roads =
+      GlobeLayer::build("road", {lineFeature({{8.5 - 0.002, 47.3 + 0.004}, {8.5 + 0.01, 47.3 + 0.0041}})},
+                        glm::vec4(0.2F, 0.2F, 0.2F, 0.9F), road);
+  // The boxes' outlines, 20 km wide.
+  GlobeLayerOptions outline;
+  outline.outlines = true;
+  outline.lineWidthMetres = 20000.0;
+  Result<GlobeLayer> outlines = GlobeLayer::build("box outlines", boxes, glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), outline);
+  EXPECT_TRUE(all.ok() && second.ok() && field.ok() && lines.ok() && roads.ok() && outlines.ok());
+  return {std::move(*all),   std::move(*second),   std::move(*field),
+          std::move(*lines), std::move(*outlines), std::move(*roads)};
 }
 
 TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround) {
   const Layers layers = makeLayers();
-  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &layers.field};
+  const std::vector<const GlobeLayer*> all{&layers.all,   &layers.boxes,    &layers.field,
+                                           &layers.lines, &layers.outlines, &layers.road};
   struct Case {
     std::string label;
     Geodetic eye, target;
@@ -125,7 +152,7 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
       {"north pole oblique", {30.0, 70.0, 4e5}, {120.0, 89.0, 0.0}},
       {"south pole from above", {0.0, -90.0, 6e6}, {0.0, -90.0, 0.0}},
       {"south pole low", {45.0, -86.0, 20000.0}, {-135.0, -89.0, 0.0}},
-      {"1 m above the ground", {8.5 - 2e-5, 47.3 + 0.004, field + 1.0}, {8.5 + 2e-4, 47.3 + 0.004, field - 30.0}, 60.0},
+      {"1 m above the ground", {8.5, 47.30407, grid()->heightAt(8.5, 47.30407) + 1.0}, {8.5005, 47.304, field}, 60.0},
   };
   for (const Case& c : cases) {
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), all, c.label);

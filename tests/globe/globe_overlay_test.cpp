@@ -174,45 +174,37 @@ void expectClosed(const TilePieces& t, const std::string& label) {
   }
 }
 
-TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
-  const auto grid = test::globe_scene::syntheticGrid(1.0);
-  const auto features = test::globe_scene::features();
-  Result<GlobeLayer> layer = GlobeLayer::build("all", features, glm::vec4(1.0F), {20000.0});
-  ASSERT_TRUE(layer.ok());
-  // Tiles on the features' edges and inside them: the continent, across ±180, at both poles,
-  // the hole, the small field; coarse and fine.
-  const std::vector<std::pair<double, double>> places{{-60.0, -20.0}, {-40.0, -5.0}, {179.0, -20.0}, {-179.0, -6.0},
-                                                      {10.0, 79.0},   {100.0, 89.5}, {-30.0, -71.0}, {60.0, -89.7},
-                                                      {10.0, 45.0},   {20.0, 52.0},  {8.5, 47.3}};
+/// For tiles of several levels at each place: every piece closed, and random ground points in
+/// the tile inside a piece exactly when the layer (the reference) holds them, but for points
+/// within `slack` metres (plus the level's generalisation) of an edge.
+void expectPiecesHoldTheGround(const GlobeLayer& layer, const GeoGrid& grid,
+                               const std::vector<std::pair<double, double>>& places, const std::vector<int>& levels,
+                               double slack, std::size_t& checked, std::size_t& insideCount) {
   std::mt19937 rng(11);
-  std::size_t checked = 0, insideCount = 0;
   for (const auto& [lon, lat] : places) {
-    for (const int level : {0, 1, 2, 5, 9, 13}) {
+    for (const int level : levels) {
       const double size = 180.0 / (1 << level);
       TileKey key{level, static_cast<int>(std::floor((lon + 180.0) / size)),
                   static_cast<int>(std::floor((lat + 90.0) / size))};
-      const TilePieces pieces = buildTilePieces(*layer, key, *grid);
+      const TilePieces pieces = buildTilePieces(layer, key, grid);
       const std::string label =
-          "tile " + std::to_string(level) + "/" + std::to_string(key.x) + "/" + std::to_string(key.y);
+          layer.name() + " tile " + std::to_string(level) + "/" + std::to_string(key.x) + "/" + std::to_string(key.y);
       expectClosed(pieces, label);
       const LonLatRect r = key.rect();
       std::uniform_real_distribution<double> ulon(r.west, r.east), ulat(r.south, r.north), unit(-1.0, 1.0);
       for (int i = 0; i < 200; ++i) {
         const double plon = ulon(rng), plat = ulat(rng);
-        const glm::dvec3 x = toEcef(plon, plat, grid->heightAt(plon, plat));
-        const bool expected = layer->contains(x, plon, plat);
-        // Points near an edge may go either way: within a metre (the walls are the edges' planes
-        // through the normals at their ends, to millimetres), or within the level's
-        // generalisation (simplifyTolerance). Tell them by nudging the point.
+        const glm::dvec3 x = toEcef(plon, plat, grid.heightAt(plon, plat));
+        const bool expected = layer.contains(x, plon, plat);
+        // Points near an edge may go either way: tell them by nudging the point.
         bool nearEdge = false;
         const glm::dmat3 enu = enuBasis(plon, plat);
-        const double nudge = 1.0 + 1.2 * simplifyTolerance(level) * kMetresPerDegreeMax;
-        for (const glm::dvec3& d :
-             {enu[0], -enu[0], enu[1], -enu[1], (enu[0] + enu[1]) * 0.7071, (enu[0] - enu[1]) * 0.7071,
-              (enu[1] - enu[0]) * 0.7071, -(enu[0] + enu[1]) * 0.7071}) {
+        const double nudge = slack + 1.2 * simplifyTolerance(level) * kMetresPerDegreeMax;
+        const glm::dvec3 ne = (enu[0] + enu[1]) * 0.7071, nw = (enu[1] - enu[0]) * 0.7071;
+        for (const glm::dvec3& d : {enu[0], -enu[0], enu[1], -enu[1], ne, -ne, nw, -nw}) {
           const glm::dvec3 y = x + d * nudge;
           const Geodetic g = toGeodetic(y);
-          if (layer->contains(y, g.lon, g.lat) != expected) nearEdge = true;
+          if (layer.contains(y, g.lon, g.lat) != expected) nearEdge = true;
         }
         if (nearEdge) continue;
         const glm::dvec3 dir = glm::normalize(glm::dvec3(unit(rng), unit(rng), unit(rng)));
@@ -223,8 +215,62 @@ TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
       }
     }
   }
+}
+
+TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
+  const auto grid = test::globe_scene::syntheticGrid(1.0);
+  const auto features = test::globe_scene::features();
+  Result<GlobeLayer> layer = GlobeLayer::build("all", features, glm::vec4(1.0F), {20000.0});
+  ASSERT_TRUE(layer.ok());
+  // Tiles on the features' edges and inside them: the continent, across ±180, at both poles,
+  // the hole, the small field; coarse and fine. Points within a metre of an edge go either way
+  // (the walls are the edges' planes through the normals at their ends, to millimetres).
+  const std::vector<std::pair<double, double>> places{{-60.0, -20.0}, {-40.0, -5.0}, {179.0, -20.0}, {-179.0, -6.0},
+                                                      {10.0, 79.0},   {100.0, 89.5}, {-30.0, -71.0}, {60.0, -89.7},
+                                                      {10.0, 45.0},   {20.0, 52.0},  {8.5, 47.3}};
+  std::size_t checked = 0, insideCount = 0;
+  expectPiecesHoldTheGround(*layer, *grid, places, {0, 1, 2, 5, 9, 13}, 1.0, checked, insideCount);
   std::printf("%zu ground points checked against the pieces, %zu inside\n", checked, insideCount);
   EXPECT_GT(insideCount, checked / 5);
+}
+
+geo::Feature lineFeature(std::vector<glm::dvec2> points) {
+  geo::Feature f;
+  f.lines.push_back(std::move(points));
+  return f;
+}
+
+TEST(GlobePieces, LinesAndOutlinesHoldTheGroundWithinTheirWidth) {
+  const auto grid = test::globe_scene::syntheticGrid(1.0);
+  // 30 km lines: with a join, across ±180°, near the north pole; a 10 m road.
+  GlobeLayerOptions wide;
+  wide.lineWidthMetres = 30000.0;
+  Result<GlobeLayer> lines = GlobeLayer::build(
+      "lines",
+      {lineFeature({{-75.0, -5.0}, {-55.0, -25.0}, {-45.0, -15.0}}), lineFeature({{165.0, -35.0}, {-170.0, -28.0}}),
+       lineFeature({{-30.0, 80.0}, {60.0, 88.5}, {150.0, 82.0}})},
+      glm::vec4(1.0F), wide);
+  GlobeLayerOptions narrow;
+  narrow.lineWidthMetres = 10.0;
+  Result<GlobeLayer> road = GlobeLayer::build("road", {lineFeature({{8.498, 47.304}, {8.51, 47.3041}, {8.515, 47.31}})},
+                                              glm::vec4(1.0F), narrow);
+  GlobeLayerOptions outline;
+  outline.outlines = true;
+  outline.lineWidthMetres = 5000.0;
+  Result<GlobeLayer> outlines =
+      GlobeLayer::build("outlines", {test::globe_scene::features()[4]}, glm::vec4(1.0F), outline);
+  ASSERT_TRUE(lines.ok() && road.ok() && outlines.ok());
+  EXPECT_EQ(lines->lines().size(), 3u);
+  EXPECT_EQ(outlines->lines().size(), 2u) << "the outer ring and the hole";
+  std::size_t checked = 0, insideCount = 0;
+  // The discs of the joins are within 1.2 m of their circles (256 sides at 15 km).
+  expectPiecesHoldTheGround(*lines, *grid, {{-55.0, -25.0}, {-65.0, -15.0}, {179.9, -31.0}, {60.0, 88.5}}, {3, 6, 9},
+                            2.0, checked, insideCount);
+  expectPiecesHoldTheGround(*road, *grid, {{8.5, 47.304}, {8.51, 47.3041}}, {13, 16, 19}, 0.05, checked, insideCount);
+  expectPiecesHoldTheGround(*outlines, *grid, {{0.0, 50.0}, {10.0, 45.0}, {30.0, 60.0}}, {5, 8}, 1.0, checked,
+                            insideCount);
+  std::printf("%zu ground points checked against the lines' pieces, %zu inside\n", checked, insideCount);
+  EXPECT_GT(insideCount, checked / 10);
 }
 
 }  // namespace

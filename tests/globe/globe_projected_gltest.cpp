@@ -44,7 +44,7 @@ TEST_F(GlobeProjectedGl, OlindaTractsAgreeWithTheProjectedFrame) {
   onGlobe.frame = scene::FrameKind::Globe;
   Result<scene::LoadedGlobeScene> globe = scene::loadGlobeScene(onGlobe);
   ASSERT_TRUE(globe.ok());
-  ASSERT_EQ(globe->layers.size(), 1u);
+  ASSERT_EQ(globe->layers.size(), 2u);  // the tracts and their outline
   const std::vector<const GlobeLayer*> layers{&globe->layers[0]};
   GlobeRenderer renderer(globe->heights);
 

@@ -75,6 +75,30 @@ bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDe
 
 struct GlobeLayerOptions {
   double maxSegmentMetres = 1000.0;  ///< geodesic densification
+  /// Lines (the features' line strings, and with `outlines` the polygons' rings): their width in
+  /// metres on the ground, round joins and caps. Drawn as a band along each piece of the line
+  /// and a disc at each point it was given with, inscribed in the circle with its chords within
+  /// `chordTolerance` of it (as in a projected frame: footprints.hpp) but at most 256 sides
+  /// (within r (1 − cos(π/256)) = 7.5·10⁻⁵ r for a line wider than 530 m).
+  double lineWidthMetres = 10.0;
+  double chordTolerance = 0.02;
+  /// Draw the polygons' rings as lines (an outline layer) instead of their areas. (Like a fill
+  /// and its outline in a projected frame, the two are layers of their own, each with its bit in
+  /// the mask; a reader unites them: scene/globe_scene.hpp, LoadedGlobeScene::layerFileIndex.)
+  bool outlines = false;
+};
+
+/// A line of a layer, for the CPU reference: within halfWidth of its geodesic pieces.
+struct GlobeLine {
+  std::uint32_t feature = 0;
+  double halfWidth = 0.0;
+  std::vector<glm::dvec2> points;   ///< unwrapped (lon, lat), densified
+  std::vector<glm::dvec3> surface;  ///< the points on the ellipsoid (ECEF)
+  LonLatRect box;                   ///< of the points, widened by the half width
+  /// Its pieces (i: points i, i + 1) by longitude, widened by the half width: buckets of
+  /// bucketWidth degrees from box.west.
+  double bucketWidth = 360.0;
+  std::vector<std::vector<std::uint32_t>> buckets;
 };
 
 class GlobeLayer {
@@ -87,14 +111,20 @@ class GlobeLayer {
 
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] const glm::vec4& color() const { return color_; }
+  /// What is drawn: the areas, and for lines their bands and discs.
   [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
-  /// Whether a point is in any polygon of the layer (the CPU reference).
+  [[nodiscard]] const std::vector<GlobeLine>& lines() const { return lines_; }
+  /// Whether a point is in the layer (the CPU reference): in one of its areas (the polygons it
+  /// was built from), or within half the width of one of its lines (exactly; the drawn discs
+  /// lie within the chord tolerance inside).
   [[nodiscard]] bool contains(const glm::dvec3& point, double lonDeg, double latDeg) const;
 
  private:
   std::string name_;
   glm::vec4 color_{1.0F};
   std::vector<GlobePolygon> polygons_;
+  std::size_t areaPolygons_ = 0;  ///< polygons_[0, areaPolygons_) are areas; the rest draw lines
+  std::vector<GlobeLine> lines_;
 };
 
 /// A vertex of a piece as the GPU reads it.

@@ -38,8 +38,9 @@ struct LoadedGlobeScene {
 };
 
 /// Reads the DEM (one GeoTIFF or any raster GDAL reads, reprojected to lon/lat if it is not) and
-/// the polygon layers. A layer that cannot be read, or a line layer (not drawn on the globe
-/// yet), is reported and left out; only a DEM that cannot be read fails the scene.
+/// the layers: polygons, lines and outlines in metres with round joins (what else a style asks
+/// for is said in a warning, and drawn so). A layer that cannot be read is reported and left
+/// out; only a DEM that cannot be read fails the scene.
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
 
 /// The view a still of the scene is drawn from: the scene's camera (eye and target in lon, lat,
