@@ -262,7 +262,8 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
 
   // Bounds: the ground drawn over the cell (the terrain's contract), the top raised by the sag of
   // the longest cap edge.
-  const auto [lo, ground1] = groundBounds(heights, widened, level);
+  const std::pair<double, double> bounds = groundBounds(heights, widened, level);
+  const double lo = bounds.first, ground1 = bounds.second;
   double longest = 0.0;
   std::vector<Cdt::Face_handle> inside;
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {

@@ -199,7 +199,8 @@ std::vector<std::uint16_t> tileTriangles(std::uint8_t stitch) {
       pushTriangle(out, {i, j}, {i + 1, j + 1}, {i, j + 1});
     }
   }
-  for (int side = 0; side < 4; ++side) pushBorder(out, side, (stitch >> side & 1U) != 0);
+  for (int side = 0; side < 4; ++side)
+    pushBorder(out, side, ((static_cast<unsigned>(stitch) >> static_cast<unsigned>(side)) & 1U) != 0);
   return out;
 }
 
