@@ -44,19 +44,25 @@ namespace {
 using detail::isPole;
 using detail::wrap180;
 
+/// False, with `problem` set, for a point that is not a longitude and latitude.
+bool usablePoint(const glm::dvec2& p, std::string& problem) {
+  if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+    problem = "a coordinate is not a finite number";
+    return false;
+  }
+  if (std::abs(p.y) > 90.0) {
+    problem = "latitude " + std::to_string(p.y) + " is beyond ±90°";
+    return false;
+  }
+  return true;
+}
+
 /// The ring's points with geodesic points added, unwrapped, closed along a pole if it winds
 /// around one; empty with `problem` set when it cannot be used.
 std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem) {
   std::vector<glm::dvec2> ring;
   for (const glm::dvec2& p : input) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
-      problem = "a coordinate is not a finite number";
-      return {};
-    }
-    if (std::abs(p.y) > 90.0) {
-      problem = "latitude " + std::to_string(p.y) + " is beyond ±90°";
-      return {};
-    }
+    if (!usablePoint(p, problem)) return {};
     if (!ring.empty() && ring.back() == p) continue;
     ring.push_back(p);
   }
@@ -262,14 +268,7 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
                                     std::vector<char>& given) {
   std::vector<glm::dvec2> line;
   for (const glm::dvec2& p : input) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
-      problem = "a coordinate is not a finite number";
-      return {};
-    }
-    if (std::abs(p.y) > 90.0) {
-      problem = "latitude " + std::to_string(p.y) + " is beyond ±90°";
-      return {};
-    }
+    if (!usablePoint(p, problem)) return {};
     if (line.empty() || line.back() != p) line.push_back(p);
   }
   if (line.size() < 2) {

@@ -6,13 +6,21 @@
 
 namespace gis::globe {
 
-bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out) {
-  if (!(depth > 0.0F)) return false;  // reversed-Z: 0 is infinitely far (background)
-  const glm::dmat4 inverse = glm::inverse(view.eyeViewProj());
+namespace {
+
+/// The ECEF point of pixel (col, row) at `depth`, through `inverse` (of view.eyeViewProj()).
+glm::dvec3 unprojectWith(const glm::dmat4& inverse, const GlobeView& view, int col, int row, float depth) {
   const double x = (col + 0.5) / view.width * 2.0 - 1.0;
   const double y = 1.0 - (row + 0.5) / view.height * 2.0;
   const glm::dvec4 p = inverse * glm::dvec4(x, y, static_cast<double>(depth), 1.0);
-  out = view.eye + glm::dvec3(p) / p.w;
+  return view.eye + glm::dvec3(p) / p.w;
+}
+
+}  // namespace
+
+bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out) {
+  if (!(depth > 0.0F)) return false;  // reversed-Z: 0 is infinitely far (background)
+  out = unprojectWith(glm::inverse(view.eyeViewProj()), view, col, row, depth);
   return true;
 }
 
@@ -25,10 +33,7 @@ std::vector<std::uint32_t> referenceMask(const std::vector<float>& depth, const 
       const std::size_t i =
           static_cast<std::size_t>(row) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(col);
       if (!(depth[i] > 0.0F)) continue;
-      const double x = (col + 0.5) / view.width * 2.0 - 1.0;
-      const double y = 1.0 - (row + 0.5) / view.height * 2.0;
-      const glm::dvec4 p = inverse * glm::dvec4(x, y, static_cast<double>(depth[i]), 1.0);
-      const glm::dvec3 point = view.eye + glm::dvec3(p) / p.w;
+      const glm::dvec3 point = unprojectWith(inverse, view, col, row, depth[i]);
       const Geodetic g = toGeodetic(point);
       for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
         if (layers[l]->contains(point, g.lon, g.lat)) mask[i] |= 1U << l;

@@ -90,11 +90,7 @@ struct Layers {
   GlobeLayer all, boxes, field, lines, outlines, road;
 };
 
-geo::Feature lineFeature(std::vector<glm::dvec2> points) {
-  geo::Feature f;
-  f.lines.push_back(std::move(points));
-  return f;
-}
+using test::globe_scene::lineFeature;
 
 Layers makeLayers() {
   const auto features = test::globe_scene::features();
@@ -110,11 +106,8 @@ Layers makeLayers() {
   // and a 10 m road across the field.
   GlobeLayerOptions wide;
   wide.lineWidthMetres = 30000.0;
-  Result<GlobeLayer> lines = GlobeLayer::build(
-      "lines",
-      {lineFeature({{-75.0, -5.0}, {-55.0, -25.0}, {-45.0, -15.0}}), lineFeature({{165.0, -35.0}, {-170.0, -28.0}}),
-       lineFeature({{-30.0, 80.0}, {60.0, 88.5}, {150.0, 82.0}})},
-      glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), wide);
+  Result<GlobeLayer> lines =
+      GlobeLayer::build("lines", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), wide);
   GlobeLayerOptions road;
   road.lineWidthMetres = 10.0;
   Result<GlobeLayer> roads =

@@ -234,22 +234,14 @@ TEST(GlobePieces, ClosedAndHoldingExactlyTheGroundInside) {
   EXPECT_GT(insideCount, checked / 5);
 }
 
-geo::Feature lineFeature(std::vector<glm::dvec2> points) {
-  geo::Feature f;
-  f.lines.push_back(std::move(points));
-  return f;
-}
+using test::globe_scene::lineFeature;
 
 TEST(GlobePieces, LinesAndOutlinesHoldTheGroundWithinTheirWidth) {
   const auto grid = test::globe_scene::syntheticGrid(1.0);
   // 30 km lines: with a join, across ±180°, near the north pole; a 10 m road.
   GlobeLayerOptions wide;
   wide.lineWidthMetres = 30000.0;
-  Result<GlobeLayer> lines = GlobeLayer::build(
-      "lines",
-      {lineFeature({{-75.0, -5.0}, {-55.0, -25.0}, {-45.0, -15.0}}), lineFeature({{165.0, -35.0}, {-170.0, -28.0}}),
-       lineFeature({{-30.0, 80.0}, {60.0, 88.5}, {150.0, 82.0}})},
-      glm::vec4(1.0F), wide);
+  Result<GlobeLayer> lines = GlobeLayer::build("lines", test::globe_scene::wideLines(), glm::vec4(1.0F), wide);
   GlobeLayerOptions narrow;
   narrow.lineWidthMetres = 10.0;
   Result<GlobeLayer> road = GlobeLayer::build("road", {lineFeature({{8.498, 47.304}, {8.51, 47.3041}, {8.515, 47.31}})},

@@ -72,4 +72,17 @@ inline std::vector<geo::Feature> features() {
   return out;
 }
 
+inline geo::Feature lineFeature(std::vector<glm::dvec2> points) {
+  geo::Feature f;
+  f.lines.push_back(std::move(points));
+  return f;
+}
+
+/// Lines to draw 30 km wide: a route over the continent with two joins, one across ±180°, one
+/// near the north pole.
+inline std::vector<geo::Feature> wideLines() {
+  return {lineFeature({{-75.0, -5.0}, {-55.0, -25.0}, {-45.0, -15.0}}), lineFeature({{165.0, -35.0}, {-170.0, -28.0}}),
+          lineFeature({{-30.0, 80.0}, {60.0, 88.5}, {150.0, 82.0}})};
+}
+
 }  // namespace gis::test::globe_scene
