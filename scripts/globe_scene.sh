@@ -376,7 +376,7 @@ cat >"$out/scene.json" <<'EOF'
 {
   "name": "globe: South America, Antarctica, Russia, Fiji",
   "frame": "globe",
-  "terrain": {"dem": "dem.tif"},
+  "terrain": {"dem": "dem.tif", "vertical_datum": "ellipsoid"},
   "camera": {"eye": {"lon": -62.0, "lat": -28.0, "h": 9000000.0}, "target": {"lon": -62.0, "lat": -28.0, "h": 0.0},
              "fov_y_deg": 45.0},
   "layers": [

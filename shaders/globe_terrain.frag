@@ -1,10 +1,16 @@
 #version 450 core
 // The globe's terrain: a hypsometric tint by height (blues below sea level; green, brown, then
 // white above) times a hillshade from the screen-space normal, lit from the north-west a little
-// off the local up. Writes colour only: the terrain pass runs with the mask attachment's writes off.
+// off the local up; where the tile has imagery, the imagery (unshaded, as the projected frame's
+// orthophoto) over it by its coverage. Writes colour only: the terrain pass runs with the mask
+// attachment's writes off.
 in vec3 v_position;
 in vec3 v_up;
 in float v_height;
+in vec2 v_uv;
+
+uniform sampler2D u_imagery;  // the tile's texels, row 0 at its south side
+uniform int u_hasImagery;
 
 layout(location = 0) out vec4 o_color;
 
@@ -29,5 +35,10 @@ void main() {
   vec3 north = cross(up, east);
   vec3 light = normalize(1.5 * up + 0.5 * (north - east));
   float shade = clamp(dot(n, light), 0.0, 1.0) / dot(up, light);
-  o_color = vec4(tint(v_height) * (0.35 + 0.65 * clamp(shade, 0.0, 1.2)), 1.0);
+  vec3 color = tint(v_height) * (0.35 + 0.65 * clamp(shade, 0.0, 1.2));
+  if (u_hasImagery != 0) {
+    vec4 photo = texture(u_imagery, v_uv);
+    color = mix(color, photo.rgb, photo.a);
+  }
+  o_color = vec4(color, 1.0);
 }

@@ -13,11 +13,14 @@ uniform vec3 u_eyeLow;
 out vec3 v_position;  // eye-relative, metres
 out vec3 v_up;        // the geocentric direction: near enough the local up for lighting
 out float v_height;   // metres above the ellipsoid
+out vec2 v_uv;        // the tile's imagery texture: post (i, j) at (i, j) / 32, exactly
 
 void main() {
   precise vec3 p = (a_high - u_eyeHigh) + (a_low - u_eyeLow);
   v_position = p;
   v_up = normalize(a_high + a_low);
   v_height = a_height;
+  // The vertex is post (i, j) = (id mod 33, id / 33) of its tile (globe_terrain.cpp: postIndex).
+  v_uv = vec2(float(gl_VertexID % 33), float(gl_VertexID / 33)) / 32.0;
   gl_Position = u_eyeViewProj * vec4(p, 1.0);
 }

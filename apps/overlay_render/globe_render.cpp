@@ -13,6 +13,7 @@
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
 #include "globe/globe_renderer.hpp"
+#include "scene/camera.hpp"
 #include "scene/globe_scene.hpp"
 
 namespace gis::app {
@@ -48,15 +49,36 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   report(context.diagnostics);
   if (!context) return 1;
 
-  const globe::GlobeView view = scene::globeStillView(*loaded, o.width, o.height);
+  globe::GlobeView view = scene::globeStillView(*loaded, o.width, o.height);
+  if (!o.camera.empty()) {
+    Result<scene::CameraSpec> spec = scene::loadCameraFile(o.camera);
+    report(spec.diagnostics);
+    if (!spec) return 1;
+    Result<globe::GlobeView> placed = scene::globeViewOf(*spec, *loaded->heights, o.width, o.height, o.camera);
+    report(placed.diagnostics);
+    if (!placed) return 1;
+    view = *placed;
+  }
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, 0, true);
   globe::GlobeRenderer renderer(loaded->heights);
+  renderer.setImagery(loaded->imagery);
   std::vector<const globe::GlobeLayer*> layers;
   for (const globe::GlobeLayer& l : loaded->layers) layers.push_back(&l);
+  // A still waits for every drawn tile's imagery (built a few tiles a frame).
+  for (int k = 0; k < 4096 && loaded->imagery; ++k) {
+    if (renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, {}).terrain.imageryPending == 0)
+      break;
+  }
   const globe::GlobeFrameStats stats =
       renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true);
   const double firstFrame = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::filesystem::path out(o.out);
+  std::filesystem::create_directories(out);
+  json analyses = json::object();
+  if (const int status = drawGlobeAnalyses(o.analyses, cache, target, renderer, *loaded, view, out, analyses);
+      status != 0)
+    return status;
 
   // mask.png: bit i for the scene file's layer i (as overlay_render's projected path).
   const std::vector<std::uint32_t> bits = gfx::readMask(target);
@@ -71,8 +93,6 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   std::vector<std::uint8_t> rgb;
   rgb.reserve(rgba.size() / 4 * 3);
   for (std::size_t i = 0; i < rgba.size(); i += 4) rgb.insert(rgb.end(), {rgba[i], rgba[i + 1], rgba[i + 2]});
-  const std::filesystem::path out(o.out);
-  std::filesystem::create_directories(out);
   bool ok = true;
   for (const auto& written :
        {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, rgb),
@@ -116,20 +136,25 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
             {"dem",
              {{"width", loaded->heights->width()},
               {"height", loaded->heights->height()},
-              {"step_deg", loaded->heights->step()}}},
+              {"step_deg", loaded->heights->step()},
+              {"vertical_datum", loaded->heights->verticalSource()}}},
             {"terrain",
              {{"tiles", stats.terrain.tiles},
               {"triangles", stats.terrain.triangles},
               {"select_ms", stats.selectMilliseconds},
-              {"gpu_ms", stats.terrainGpuMilliseconds}}},
+              {"gpu_ms", stats.terrainGpuMilliseconds},
+              {"fragments", stats.terrainFragments}}},
             {"overlay",
              {{"pieces", stats.overlay.pieces},
               {"z_fail_pieces", stats.overlay.zFailPieces},
               {"triangles", stats.overlay.triangles},
               {"tiles_built", stats.overlay.builtTiles},
-              {"gpu_ms", stats.overlayGpuMilliseconds}}},
+              {"gpu_ms", stats.overlayGpuMilliseconds},
+              {"fragments", stats.overlayFragments},
+              {"primitives", stats.overlayPrimitives}}},
             {"layers", layersJson},
             {"diagnostics", diagnostics}};
+  s.update(analyses);
   ok = writeJson(out / "camera.json", camera) && ok;
   ok = writeJson(out / "stats.json", s) && ok;
   if (!ok) return 1;

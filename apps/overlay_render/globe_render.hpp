@@ -3,6 +3,7 @@
 // camera.json (ECEF) and stats.json.
 #include <string>
 
+#include "globe_analysis.hpp"
 #include "scene/scene.hpp"
 
 namespace gis::app {
@@ -11,6 +12,8 @@ struct GlobeRenderOptions {
   std::string out;
   int width = 1024, height = 768;
   bool overlays = true;
+  GlobeAnalysisRequest analyses;  ///< --lasso, --overlap
+  std::string camera;             ///< --camera: a camera file (eye and target in lon/lat/h); empty: the scene's
 };
 
 /// Loads and draws the scene on the globe (`reason` says why it is drawn there); the process's

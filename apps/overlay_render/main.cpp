@@ -18,6 +18,7 @@
 #include <glm/trigonometric.hpp>
 #include <nlohmann/json.hpp>
 
+#include "analysis_report.hpp"
 #include "app/cli.hpp"
 #include "app/option_parser.hpp"
 #include "core/log.hpp"
@@ -95,20 +96,6 @@ struct Options {
   int drapeSize = 2048;
   bool overlays = true;
 };
-
-const char* overlapOpName(overlay::OverlapOp op) {
-  switch (op) {
-    case overlay::OverlapOp::And:
-      return "and";
-    case overlay::OverlapOp::Or:
-      return "or";
-    case overlay::OverlapOp::Xor:
-      return "xor";
-    case overlay::OverlapOp::Subtract:
-      return "subtract";
-  }
-  return "?";
-}
 
 /// Returns an error message, or an empty string when the options are good.
 std::string parseArgs(int argc, char** argv, Options& o) {
@@ -280,37 +267,19 @@ bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats)
   const overlay::DepthImage image{width, height, d.frame.images.depth, d.frame.view.viewProj};
   const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
   const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
-  std::vector<std::uint8_t> pixels(overlap.flags.size(), 0);
-  std::size_t inA = 0, inB = 0, both = 0, selected = 0, differing = 0, differingAwayFromEdges = 0;
-  for (std::size_t i = 0; i < pixels.size() && i < expected.size(); ++i) {
-    const bool a = (overlap.flags[i] & overlay::kOverlapFlagA) != 0,
-               b = (overlap.flags[i] & overlay::kOverlapFlagB) != 0;
-    inA += a ? 1u : 0u;
-    inB += b ? 1u : 0u;
-    both += a && b ? 1u : 0u;
-    const bool gpu = overlay::overlapHolds(op, a, b),
-               cpu = overlay::overlapHolds(op, (expected[i] & 1u) != 0, (expected[i] & 2u) != 0);
-    pixels[i] = gpu ? 255 : 0;
-    selected += gpu ? 1u : 0u;
-    differing += gpu != cpu ? 1u : 0u;
-    differingAwayFromEdges += gpu != cpu && edges[i] == 0 ? 1u : 0u;
-  }
-  const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), width, height, 1, pixels);
+  const app::OverlapCounts counts = app::countOverlap(overlap.flags, expected, edges, op);
+  const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), width, height, 1, counts.pixels);
   report(png.diagnostics);
   const auto nameOf = [&](std::size_t j) {
     return d.setup.scene.layers[renderer.overlaySources()[j].first].description.name;
   };
-  stats["overlap"] = {{"layers", {nameOf(overlap.a), nameOf(overlap.b)}},
-                      {"op", overlapOpName(op)},
-                      {"pixels", selected},
-                      {"a_pixels", inA},
-                      {"b_pixels", inB},
-                      {"both_pixels", both},
-                      {"pixels_differing_from_cpu_reference", differing},
-                      {"differing_away_from_edges", differingAwayFromEdges},
-                      {"groups", overlap.marks.a.groups + overlap.marks.b.groups},
-                      {"gpu_ms", overlap.marks.gpuMilliseconds},
-                      {"fragments", overlap.marks.fragments}};
+  json block = app::overlapJson(counts);
+  block["layers"] = {nameOf(overlap.a), nameOf(overlap.b)};
+  block["op"] = app::overlapOpName(op);
+  block["groups"] = overlap.marks.a.groups + overlap.marks.b.groups;
+  block["gpu_ms"] = overlap.marks.gpuMilliseconds;
+  block["fragments"] = overlap.marks.fragments;
+  stats["overlap"] = std::move(block);
   return png.ok();
 }
 
@@ -659,13 +628,14 @@ int run(const Options& o) {
   if (Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene); description.ok()) {
     Result<std::string> globe = scene::globeReason(*description);
     if (globe.ok() && !globe->empty()) {
-      if (!o.lasso.empty() || !o.overlap.empty() || o.openVolumes || o.msaa > 1 || !o.camera.empty()) {
+      if (o.openVolumes || o.msaa > 1) {
         logError("the scene is drawn on the globe (" + *globe +
-                 "): --lasso, --overlap, --open-volumes, --msaa and --camera are not available there yet");
+                 "): --open-volumes and --msaa are not available there yet");
         return 2;
       }
       report(description.diagnostics);
-      return app::runGlobeRender(*description, *globe, {o.out, o.width, o.height, o.overlays});
+      return app::runGlobeRender(*description, *globe,
+                                 {o.out, o.width, o.height, o.overlays, {o.lasso, o.overlap, o.overlapOp}, o.camera});
     }
   }
   const std::optional<Setup> setup = load(o, all);

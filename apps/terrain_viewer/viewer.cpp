@@ -68,7 +68,8 @@ bool isVectorFile(const std::string& path) {
 
 Viewer::~Viewer() {
   if (selectionJob_.valid()) selectionJob_.wait();  // it reads the scene and the layers
-  if (loading_) loading_->job.wait();
+  if (globeSelectionJob_.valid()) globeSelectionJob_.wait();
+  if (loading_) loading_->wait();
   if (imgui_) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
@@ -76,6 +77,7 @@ Viewer::~Viewer() {
   }
   // GL objects go while the context is current.
   selectionRenderer_.reset();
+  globe_.reset();
   target_.reset();
   renderer_.reset();
 }
@@ -193,6 +195,10 @@ bool Viewer::loadPath(const std::string& path) {
       report(alone.diagnostics);
       return alone && useScene(std::move(*alone));
     }
+    if (globe_) {
+      notOnGlobe("Adding a vector file to a scene on the globe");
+      return false;
+    }
     // A new layer of the current scene: its kind from what the file holds.
     // After every layer of the scene, those its file left out included.
     std::size_t next = description_->layers.size();
@@ -219,6 +225,15 @@ bool Viewer::useScene(scene::SceneDescription description) {
   load->progress = std::make_shared<std::atomic<double>>(-1.0);
   load->started = glfwGetTime();
   load->label = description.name.empty() ? description.path : description.name;
+  // A scene its data's extent puts on the globe (scene::globeReason) is read for the globe;
+  // any other keeps the projected path (a reason that cannot be found: the projected load says why).
+  const Result<std::string> reason = scene::globeReason(description);
+  if (reason.ok() && !reason->empty()) {
+    load->globeJob = std::async(std::launch::async, [description] { return scene::loadGlobeScene(description); });
+    load->description = std::move(description);
+    loading_ = std::move(load);
+    return true;
+  }
   scene::LoadOptions options;
   options.progress = [progress = load->progress](double fraction) { progress->store(fraction); };
   load->job = std::async(std::launch::async, [description, options] { return scene::loadScene(description, options); });
@@ -228,8 +243,13 @@ bool Viewer::useScene(scene::SceneDescription description) {
 }
 
 void Viewer::finishLoad(bool wait) {
-  if (!loading_ || (!wait && loading_->job.wait_for(std::chrono::seconds(0)) != std::future_status::ready)) return;
+  if (!loading_ || (!wait && !loading_->ready())) return;
   const std::unique_ptr<PendingLoad> load = std::move(loading_);
+  if (load->globeJob.valid()) {
+    lastLoadProgress_ = load->progress->load();
+    useGlobeScene(load->globeJob.get(), load->description);
+    return;
+  }
   Result<scene::LoadedScene> scene = load->job.get();
   lastLoadProgress_ = load->progress->load();
   for (const Diagnostic& d : scene.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
@@ -237,6 +257,7 @@ void Viewer::finishLoad(bool wait) {
   finishSelection();  // its job reads the scene about to go
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();
+  globe_.reset();
   scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
@@ -406,7 +427,7 @@ void Viewer::frame(double seconds) {
   const InputFrame in = takeInput();  // always: the panel takes its part of the events
   if (script_ && !quit_) {
     advanceScript(seconds, in);
-  } else if (scene_) {
+  } else if (scene_ || globe_) {
     handleInput(seconds, in);
   } else if (!in.uiKeyboard) {
     // Nothing to steer: only opening a file.
@@ -422,6 +443,10 @@ void Viewer::frame(double seconds) {
     // The coordinates under the cursor, unless the panel has it.
     cursorGround_.reset();
     if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) cursorGround_ = groundAt(lastPixel_);
+  } else if (globe_) {
+    moving_ = false;  // the globe's camera jumps: no motion to settle
+    if (animating_) animating_ = false;
+    drawGlobe();
   } else {
     moving_ = false;
     busy_ = false;
@@ -437,7 +462,9 @@ void Viewer::frame(double seconds) {
   drawLoading();
   drawNotice();
   drawFileBrowser();
-  if (!scene_) {
+  if (globe_) {
+    drawGlobeUi();
+  } else if (!scene_) {
     if (!loading_) drawNoScene();
   } else {
     drawHighlights();
@@ -470,7 +497,7 @@ void Viewer::frame(double seconds) {
 void Viewer::drawScene() {
   const glm::ivec2 fb = framebufferSize();
   if (fb.x <= 0 || fb.y <= 0) return;
-  if (!target_ || target_->width() != fb.x || target_->height() != fb.y) {
+  if (!target_ || target_->width() != fb.x || target_->height() != fb.y || target_->hasMask()) {
     target_.emplace(fb.x, fb.y, 0, false);
     if (!steps_.empty()) selectionChanged();  // the lassos' pixel viewport is the target's
   }

@@ -7,6 +7,7 @@
 // drawn over the copy.
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <filesystem>
@@ -30,7 +31,11 @@
 #include "gfx/context.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
+#include "globe/globe_renderer.hpp"
 #include "scene/camera_controller.hpp"
+#include "scene/globe_camera.hpp"
+#include "scene/globe_scene.hpp"
+#include "scene/globe_selection.hpp"
 #include "scene/measure.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
@@ -109,14 +114,30 @@ std::string formatArea(double squareMetres);
 /// The largest 1, 2 or 5 × 10^k not above `most` (a scale bar's length); 0 for none.
 double niceLength(double most);
 
-/// A scene being read on a worker thread.
+/// A scene being read on a worker thread: a projected scene (`job`) or one on the globe
+/// (`globeJob`, when scene::globeReason says so); one of the two is valid.
 struct PendingLoad {
   std::future<Result<scene::LoadedScene>> job;
+  std::future<Result<scene::LoadedGlobeScene>> globeJob;
+  [[nodiscard]] bool ready() const {
+    const auto done = [](const auto& f) {
+      return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+    };
+    return done(job) || done(globeJob);
+  }
+  void wait() const {
+    if (job.valid()) job.wait();
+    if (globeJob.valid()) globeJob.wait();
+  }
   scene::SceneDescription description;
   std::shared_ptr<std::atomic<double>> progress;  ///< a tile pyramid's build, 0…1; negative: none reported
   double started = 0.0;                           ///< glfwGetTime
   std::string label;
 };
+
+/// The lasso operator the modifiers choose (docs/viewer.md): Shift Or, Ctrl Subtract, Ctrl+Shift
+/// And, Alt Xor; none: Single.
+overlay::SelectionOp lassoOpOf(const app::Modifiers& m);
 
 /// An attribute's value as a person reads it ("" for none).
 std::string attributeText(const geo::AttributeValue& value);
@@ -143,6 +164,35 @@ struct LabelSet {
   std::vector<app::FeatureLabel> labels;
   std::vector<double> heights;  ///< as drawn, at `exaggeration`
   double exaggeration = 0.0;    ///< 0: heights not looked up yet
+};
+
+/// What is under a pixel on the globe: the ground point and every feature of a shown layer there.
+struct GlobeIdentified {
+  globe::Geodetic point;       ///< degrees, metres above the ellipsoid
+  glm::dvec3 ecef{0.0};        ///< the same point, ECEF metres
+  double terrainHeight = 0.0;  ///< the DEM's height there, above the ellipsoid
+  std::vector<Identified::Hit> hits;
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+/// A scene on the globe (viewer_globe.cpp, docs/viewer.md "On the globe"): its layers, renderer
+/// and camera, and what the globe's HUD, status bar and identify show. The projected scene's
+/// members (Viewer::scene_ and the rest) are empty while it is shown.
+struct GlobeMode {
+  scene::LoadedGlobeScene scene;
+  std::unique_ptr<globe::GlobeRenderer> renderer;            ///< GL objects: made and dropped on the GL thread
+  std::unique_ptr<scene::GlobeCameraController> controller;  ///< reads scene.heights
+  std::vector<char> shown;                                   ///< per layer of `scene`
+  globe::GlobeView view;                                     ///< the last frame's
+  globe::GlobeFrameStats stats;                              ///< the last measured frame's
+  std::optional<GlobeIdentified> identified;
+  std::optional<globe::Geodetic> cursor;   ///< under the cursor in the last frame
+  std::set<std::string> saidNotAvailable;  ///< projected-only tools asked for (said once each)
+  /// The DEM's highest height above the ellipsoid: how far a lasso's volume reaches
+  /// (globe::lassoIn).
+  double maxGroundHeight = 9000.0;
+  /// The features the lassos select (scene::selectOnGlobe), once its job is done.
+  std::optional<scene::GlobeSelection> selected;
 };
 
 /// The open-file dialog's state (viewer_file_browser.cpp).
@@ -246,6 +296,9 @@ class Viewer {
   /// Scene layer i's row and, when open, its style; true when the style changed (to rebuild).
   bool drawLayer(std::size_t i);
   void drawSelectionSection();
+  /// The lasso tool, the operators' hint, Invert, Clear, the highlight's colour, undo and redo,
+  /// and the chain of steps: the same in a projected scene and on the globe.
+  void drawLassoControls();
   void drawSelectedFeatures();
   void drawMessagesSection();
   /// The window without a scene: what went wrong, and what to open.
@@ -365,6 +418,41 @@ class Viewer {
   /// whole window as shown.
   bool screenshot(const std::filesystem::path& path, bool ui);
 
+  // The globe (viewer_globe.cpp).
+  /// Makes a globe scene current (renderer, camera at home); on failure the old scene stays.
+  void useGlobeScene(Result<scene::LoadedGlobeScene> loaded, const scene::SceneDescription& description);
+  /// Home on the globe: the scene's camera, else its data's extent framed.
+  void globeHome();
+  void drawGlobe();
+  void handleGlobeInput(const InputFrame& in);
+  void globeKeyPressed(int key, const app::Modifiers& modifiers);
+  /// Says once that a projected-only tool is not on the globe yet; nothing else happens.
+  void notOnGlobe(const std::string& tool);
+  /// The panel, HUD, status bar, compass, scale bar, identify and help of the globe.
+  void drawGlobeUi();
+  void drawGlobePanel();
+  void drawGlobeHud();
+  void drawGlobeIdentify();
+  /// The panel's selection section on the globe: the lasso controls and the selected features.
+  void drawGlobeSelectionSection();
+  /// The lasso's selection marked and highlighted over the globe frame in the target.
+  void drawGlobeSelection();
+  /// Starts scene::selectOnGlobe on a worker for the current steps.
+  void startGlobeSelection();
+  /// The selection's steps (operators) and lasso outlines, as the state has them.
+  [[nodiscard]] nlohmann::json selectionStepsJson() const;
+  [[nodiscard]] nlohmann::json globeSelectionJson() const;
+  /// The ECEF point the last frame drew at a pixel's centre; none on background.
+  [[nodiscard]] std::optional<glm::dvec3> globePointAt(const glm::dvec2& pixel) const;
+  std::optional<GlobeIdentified> identifyOnGlobe(const glm::dvec2& pixel);
+  [[nodiscard]] std::optional<double> globeMetresPerPixelAtCentre() const;
+  [[nodiscard]] nlohmann::json globeState() const;
+  /// The last frame's camera as overlay_render's globe camera.json has it.
+  [[nodiscard]] nlohmann::json globeCameraJson() const;
+  /// A script step on the globe: its result, or none when the projected runner does it (input,
+  /// waits, screenshots, the window: what needs no projected scene).
+  std::optional<bool> runGlobeStep(const app::ScriptAction& action, const std::string& where);
+
   // Script (viewer_script_runner.cpp).
   /// This frame's part of the script: played input, a live step (`window`: the window's input),
   /// waits, or the next steps.
@@ -392,6 +480,7 @@ class Viewer {
   /// The DEM's lowest and highest post (true heights): the elevation tint's range.
   std::optional<std::pair<double, double>> demRange_;
   std::optional<scene::LoadedScene> scene_;
+  std::unique_ptr<GlobeMode> globe_;  ///< a scene on the globe (then scene_ is empty)
   std::optional<scene::SceneRenderer> renderer_;
   std::optional<scene::CameraController> controller_;
   std::optional<overlay::SelectionRenderer> selectionRenderer_;
@@ -408,8 +497,10 @@ class Viewer {
   std::vector<std::vector<overlay::SelectionStep>> undo_, redo_;        ///< the steps before (after) each change
   std::optional<scene::SceneSelection> selected_;                       ///< the logical selection, once its job is done
   std::future<std::pair<scene::SceneSelection, double>> selectionJob_;  ///< and its wall time, ms
-  std::size_t selectionGeneration_ = 0;                                 ///< counts changes of the lassos
-  std::size_t jobGeneration_ = 0;                                       ///< the lassos the running job selects with
+  /// On the globe: scene::selectOnGlobe on a worker, and its wall time, ms.
+  std::future<std::pair<scene::GlobeSelection, double>> globeSelectionJob_;
+  std::size_t selectionGeneration_ = 0;  ///< counts changes of the lassos
+  std::size_t jobGeneration_ = 0;        ///< the lassos the running job selects with
   overlay::SelectionStyle highlight_;
   bool lassoTool_ = false;
   std::vector<glm::dvec2> lassoPoints_;  ///< being drawn, framebuffer pixels

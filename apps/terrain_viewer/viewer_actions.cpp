@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gfx/image_io.hpp"
+#include "globe/globe_selection.hpp"
 #include "scene/json_file.hpp"
 #include "scene/scene.hpp"
 #include "viewer.hpp"
@@ -71,11 +72,17 @@ void Viewer::addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points) {
   const glm::ivec2 fb = framebufferSize();
   overlay::SelectionStep step;
   step.op = op;
-  step.lasso.points = std::move(points);
-  const scene::Camera c = camera();
-  step.lasso.viewProj = c.projection(aspect()) * c.view();
-  step.lasso.width = fb.x;
-  step.lasso.height = fb.y;
+  if (globe_) {
+    // In the view the lasso was drawn in (the last frame's), reaching that eye's horizon: not
+    // through the globe to its other side.
+    step.lasso = globe::lassoIn(globe_->view, std::move(points), globe_->maxGroundHeight);
+  } else {
+    step.lasso.points = std::move(points);
+    const scene::Camera c = camera();
+    step.lasso.viewProj = c.projection(aspect()) * c.view();
+    step.lasso.width = fb.x;
+    step.lasso.height = fb.y;
+  }
   rememberSelection();
   // A plain click-drag replaces the selection (Single starts a new chain).
   if (op == overlay::SelectionOp::Single) steps_.clear();
@@ -126,11 +133,17 @@ void Viewer::selectionChanged() {
   const Diagnostics diagnostics = selectionRenderer_->setSteps(steps_);
   for (const Diagnostic& d : diagnostics.items()) message(d.toString(), true);
   selected_.reset();
+  if (globe_) globe_->selected.reset();
   ++selectionGeneration_;
-  if (!selectionJob_.valid()) startSelection();  // else restarted when the running job ends
+  // Else restarted when the running job ends.
+  if (!selectionJob_.valid() && !globeSelectionJob_.valid()) startSelection();
 }
 
 void Viewer::startSelection() {
+  if (globe_) {
+    startGlobeSelection();
+    return;
+  }
   if (steps_.empty() || !scene_ || !renderer_) return;
   const glm::ivec2 fb = framebufferSize();
   const std::vector<overlay::SelectionStep> steps = steps_;
@@ -150,7 +163,7 @@ void Viewer::startSelection() {
 
 void Viewer::pollSelection(bool wait) {
   while (selectionJob_.valid()) {
-    if (!wait && selectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    if (!wait && selectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) break;
     auto [result, ms] = selectionJob_.get();
     if (jobGeneration_ == selectionGeneration_) {
       selected_ = std::move(result);
@@ -158,6 +171,21 @@ void Viewer::pollSelection(bool wait) {
       char text[160];
       std::snprintf(text, sizeof(text), "selection: %zu features, %zu DEM posts (%.0f ms)", selected_->featureCount(),
                     selected_->posts ? selected_->posts->selected : std::size_t{0}, selectionMs_);
+      message(text);
+      break;
+    }
+    startSelection();  // the lassos changed while it ran
+  }
+  while (globeSelectionJob_.valid()) {
+    if (!wait && globeSelectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    auto [result, ms] = globeSelectionJob_.get();
+    if (jobGeneration_ == selectionGeneration_ && globe_) {
+      std::size_t features = 0;
+      for (const scene::GlobeLayerSelection& l : result.layers) features += l.features.size();
+      globe_->selected = std::move(result);
+      selectionMs_ = ms;
+      char text[160];
+      std::snprintf(text, sizeof(text), "selection: %zu features (%.0f ms)", features, selectionMs_);
       message(text);
       return;
     }
@@ -168,6 +196,10 @@ void Viewer::pollSelection(bool wait) {
 void Viewer::finishSelection() { pollSelection(true); }
 
 bool Viewer::exportSelection(const std::filesystem::path& path) {
+  if (globe_) {
+    notOnGlobe("Exporting the selection (GeoJSON)");
+    return true;
+  }
   finishSelection();
   if (!selected_ || selected_->featureCount() == 0) {
     notify(path.string() + ": nothing selected to export", true);
@@ -215,7 +247,9 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
     std::ofstream(stem.string() + "_camera.json")
-        << scene::jsonText(scene::cameraToJson(camera(), scene_->frame, target_->width(), target_->height())) << "\n";
+        << scene::jsonText(globe_ ? globeCameraJson()
+                                  : scene::cameraToJson(camera(), scene_->frame, target_->width(), target_->height()))
+        << "\n";
   }
   const Result<bool> png =
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);

@@ -60,6 +60,7 @@ double niceLength(double most) {
 }
 
 std::optional<double> Viewer::metresPerPixelAtCentre() const {
+  if (globe_) return globeMetresPerPixelAtCentre();
   const glm::ivec2 fb = framebufferSize();
   const std::optional<glm::dvec3> centre = pointAt(glm::dvec2(fb) * 0.5);
   if (!centre || fb.y <= 0) return std::nullopt;
@@ -85,6 +86,10 @@ std::optional<double> Viewer::northYaw() const {
 }
 
 void Viewer::northUp() {
+  if (globe_) {
+    globe_->controller->northUp();
+    return;
+  }
   if (const std::optional<double> yaw = northYaw()) controller_->setHeading(*yaw);
 }
 
@@ -124,7 +129,12 @@ void Viewer::drawStatusBar() {
   ImGui::Begin("status", nullptr,
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoInputs | ImGuiWindowFlags_NoFocusOnAppearing |
                    ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoSavedSettings);
-  if (cursorGround_) {
+  if (globe_ && globe_->cursor) {
+    const globe::Geodetic& g = *globe_->cursor;
+    ImGui::Text("%s   height %.2f m (WGS 84 ellipsoid)", formatLonLat(glm::dvec3(g.lon, g.lat, g.h)).c_str(), g.h);
+  } else if (globe_) {
+    ImGui::TextDisabled("move the cursor over the globe for its coordinates");
+  } else if (cursorGround_) {
     const GroundPoint& g = *cursorGround_;
     const std::string ll = g.lonLatH ? formatLonLat(*g.lonLatH) + "   " : std::string();
     ImGui::Text("%s%s E %.1f, N %.1f   height %.2f m", ll.c_str(), crsName().c_str(), g.projected.x, g.projected.y,
@@ -164,10 +174,16 @@ void Viewer::drawScaleBar() {
 }
 
 void Viewer::drawCompass() {
-  const std::optional<double> yawNorth = northYaw();
-  if (!yawNorth) return;
-  // On screen, north is turned clockwise from up by how far the view is turned from north.
-  const double screenAngle = controller_->shownPose().yaw - *yawNorth;
+  // On screen, north is turned clockwise from up by how far the view is turned from north (on
+  // the globe: the heading, clockwise from north).
+  double screenAngle = 0.0;
+  if (globe_) {
+    screenAngle = -globe_->controller->heading();
+  } else if (const std::optional<double> yawNorth = northYaw()) {
+    screenAngle = controller_->shownPose().yaw - *yawNorth;
+  } else {
+    return;
+  }
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   const float radius = 1.6F * ImGui::GetFontSize();
   const float margin = ImGui::GetFontSize() + 10.0F;

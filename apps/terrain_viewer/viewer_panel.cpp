@@ -312,7 +312,27 @@ void Viewer::drawLabelChoice(std::size_t i) {
 
 void Viewer::drawSelectionSection() {
   if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  drawLassoControls();
+  if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
+  if (selected_) {
+    ImGui::Text("%zu features selected", selected_->featureCount());
+    if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
+    drawSelectedFeatures();
+    // The field keeps its text while it is edited; Enter exports, as the button does.
+    if (!exportEditing_) std::snprintf(exportBuffer_.data(), exportBuffer_.size(), "%s", settings_.exportPath.c_str());
+    const bool enter =
+        ImGui::InputText("##export", exportBuffer_.data(), exportBuffer_.size(), ImGuiInputTextFlags_EnterReturnsTrue);
+    exportEditing_ = ImGui::IsItemActive();
+    rememberRect("export_path");
+    if (ImGui::IsItemEdited() || enter) settings_.exportPath = exportBuffer_.data();
+    if (enter) exportSelection(settings_.exportPath);
+    if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
+  }
+}
+
+void Viewer::drawLassoControls() {
   if (ImGui::Checkbox("lasso tool (L)", &lassoTool_) && lassoTool_) measureTool_ = false;
+  rememberRect("lasso_tool");
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   ImGui::TextWrapped("drag to draw: alone a new selection, Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor");
   ImGui::PopStyleColor();
@@ -333,21 +353,6 @@ void Viewer::drawSelectionSection() {
     for (const overlay::SelectionStep& s : steps_)
       chain += std::string(chain.empty() ? "" : " → ") + overlay::selectionOpName(s.op);
     ImGui::TextWrapped("steps: %s", chain.c_str());
-  }
-  if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
-  if (selected_) {
-    ImGui::Text("%zu features selected", selected_->featureCount());
-    if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
-    drawSelectedFeatures();
-    // The field keeps its text while it is edited; Enter exports, as the button does.
-    if (!exportEditing_) std::snprintf(exportBuffer_.data(), exportBuffer_.size(), "%s", settings_.exportPath.c_str());
-    const bool enter =
-        ImGui::InputText("##export", exportBuffer_.data(), exportBuffer_.size(), ImGuiInputTextFlags_EnterReturnsTrue);
-    exportEditing_ = ImGui::IsItemActive();
-    rememberRect("export_path");
-    if (ImGui::IsItemEdited() || enter) settings_.exportPath = exportBuffer_.data();
-    if (enter) exportSelection(settings_.exportPath);
-    if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
   }
 }
 

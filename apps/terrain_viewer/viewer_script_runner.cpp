@@ -380,6 +380,11 @@ struct StepRunner {
     return write(step.path, v.state());
   }
 
+  bool operator()(const app::GlobeCameraStep&) const {
+    v.message(where + ": a globe camera needs a scene on the globe (this one is projected: use \"camera\")", true);
+    return false;
+  }
+
   bool operator()(const app::QuitStep&) const {
     v.quit_ = true;
     return true;
@@ -388,9 +393,12 @@ struct StepRunner {
 
 bool Viewer::runStep(const app::ScriptStep& step) {
   const std::string where = script_->file + ": step " + std::to_string(step.index);
-  if (!scene_ && needsScene(step.action)) {
+  if (!scene_ && !globe_ && needsScene(step.action)) {
     message(where + ": no scene is loaded", true);
     return false;
+  }
+  if (globe_) {
+    if (const std::optional<bool> done = runGlobeStep(step.action, where)) return *done;
   }
   return std::visit(StepRunner{*this, where}, step.action);
 }

@@ -130,10 +130,22 @@ nlohmann::json Viewer::keysDownJson() const {
   return keys;
 }
 
+nlohmann::json Viewer::selectionStepsJson() const {
+  nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
+  for (const overlay::SelectionStep& st : steps_) {
+    steps.push_back(overlay::selectionOpName(st.op));
+    nlohmann::json points = nlohmann::json::array();
+    for (const glm::dvec2& p : st.lasso.points) points.push_back({p.x, p.y});
+    lassos.push_back(points);
+  }
+  return {{"steps", steps}, {"lassos", lassos}};
+}
+
 nlohmann::json Viewer::state() const {
   const glm::ivec2 fb = framebufferSize();
   glm::ivec2 window(0);
   glfwGetWindowSize(context_->window(), &window.x, &window.y);
+  if (globe_) return globeState();
   if (!scene_) {
     return {
         {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
@@ -142,13 +154,6 @@ nlohmann::json Viewer::state() const {
   const glm::dvec4 free = freeRegion();
   nlohmann::json rects = nlohmann::json::object();
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
-  nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
-  for (const overlay::SelectionStep& st : steps_) {
-    steps.push_back(overlay::selectionOpName(st.op));
-    nlohmann::json points = nlohmann::json::array();
-    for (const glm::dvec2& p : st.lasso.points) points.push_back({p.x, p.y});
-    lassos.push_back(points);
-  }
   nlohmann::json layers = nlohmann::json::array();
   for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
     const scene::LayerSummary summary = renderer_->layerSummary(*scene_, i);
@@ -167,6 +172,10 @@ nlohmann::json Viewer::state() const {
          {"features_with_nothing_to_draw", summary.nothingToDraw},
          {"drawn_features", summary.drawnFeatures}});
   }
+  nlohmann::json selection = selectionStepsJson();
+  selection["features"] = selected_ ? selected_->featureCount() : 0;
+  selection["dem_posts"] =
+      selected_ && selected_->posts ? nlohmann::json(selected_->posts->selected) : nlohmann::json();
   nlohmann::json j = {
       {"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
       {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
@@ -233,11 +242,7 @@ nlohmann::json Viewer::state() const {
       {"messages", messages_},
       {"lasso_tool", lassoTool_},
       {"layers", layers},
-      {"selection",
-       {{"steps", steps},
-        {"lassos", lassos},
-        {"features", selected_ ? selected_->featureCount() : 0},
-        {"dem_posts", selected_ && selected_->posts ? nlohmann::json(selected_->posts->selected) : nlohmann::json()}}},
+      {"selection", selection},
       {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
   return j;
 }

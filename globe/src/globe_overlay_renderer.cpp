@@ -1,18 +1,21 @@
 // Drawing the globe's layers (globe_overlay.hpp): the stencil core's mark and cover passes
 // (vector_overlay/stencil_states.hpp) over the pieces of the drawn tiles.
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <list>
 #include <unordered_map>
 
 #include "gfx/handles.hpp"
 #include "gfx/program.hpp"
 #include "globe/globe_overlay.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/stencil_states.hpp"
 
 namespace gis::globe {
 
-namespace {
+namespace detail {
 
 struct TileGpu {
   gfx::BufferHandle vertices, indices;
@@ -21,6 +24,12 @@ struct TileGpu {
   std::size_t indexCount = 0;
   std::list<std::pair<const GlobeLayer*, std::uint64_t>>::iterator lru;
 };
+
+}  // namespace detail
+
+namespace {
+
+using detail::TileGpu;
 
 struct PairHash {
   std::size_t operator()(const std::pair<const GlobeLayer*, std::uint64_t>& k) const {
@@ -32,6 +41,8 @@ struct PairHash {
 
 struct GlobeOverlayRenderer::Gpu {
   gfx::Program program;
+  gfx::Program rect;  ///< the screen pass of the overlap's cover (overlay_cover.vert)
+  gfx::VertexArrayHandle emptyVao;
   std::unordered_map<std::pair<const GlobeLayer*, std::uint64_t>, TileGpu, PairHash> tiles;
   std::list<std::pair<const GlobeLayer*, std::uint64_t>> lru;  ///< most recently drawn first
 };
@@ -39,13 +50,48 @@ struct GlobeOverlayRenderer::Gpu {
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
 GlobeOverlayRenderer::~GlobeOverlayRenderer() = default;
 
-void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
-                                const GeoGrid& heights, const std::vector<const GlobeLayer*>& layers,
-                                const GlobeOverlaySettings& settings) {
-  stats_ = {};
+/// A tile's pieces in this frame: z-pass or z-fail each.
+struct detail::DrawnPieces {
+  TileGpu* tile = nullptr;
+  std::vector<char> zFail;
+  bool allZPass = true;
+};
+
+namespace {
+
+using detail::DrawnPieces;
+
+/// Draws the chosen pieces of `drawn` (z-fail ones or z-pass ones) in the current state, pieces
+/// [first, last) counted over all tiles in order.
+void drawPieces(gfx::StateCache& cache, const std::vector<DrawnPieces>& drawn, bool wantZFail, std::size_t first = 0,
+                std::size_t last = SIZE_MAX) {
+  std::size_t counted = 0;
+  for (const DrawnPieces& d : drawn) {
+    const auto& pieces = d.tile->pieces;
+    const std::size_t begin = counted, end = counted + pieces.size();
+    counted = end;
+    if (end <= first || begin >= last) continue;
+    cache.bindVertexArray(d.tile->vao.id());
+    const bool whole = first <= begin && end <= last;
+    if (whole && !wantZFail && d.allZPass) {  // the whole tile in one draw
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(d.tile->indexCount), GL_UNSIGNED_INT, nullptr);
+      continue;
+    }
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+      if (begin + k < first || begin + k >= last || (d.zFail[k] != 0) != wantZFail) continue;
+      glDrawElements(
+          GL_TRIANGLES, static_cast<GLsizei>(pieces[k].indexCount), GL_UNSIGNED_INT,
+          reinterpret_cast<const void*>(static_cast<std::uintptr_t>(pieces[k].firstIndex) * sizeof(std::uint32_t)));
+    }
+  }
+}
+
+}  // namespace
+
+bool GlobeOverlayRenderer::begin(const GlobeView& view, const GlobeOverlaySettings& settings) {
   if (!gpu_->program.id()) {
     Result<gfx::Program> built = gfx::Program::build({{"globe_volume.vert", {}}, {"overlay_volume.frag", {}}});
-    if (!built.ok()) return;  // a broken build of the shaders: the GL tests report it
+    if (!built.ok()) return false;  // a broken build of the shaders: the GL tests report it
     gpu_->program = std::move(*built);
   }
   gfx::Program& program = gpu_->program;
@@ -55,100 +101,173 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   program.set("u_eyeLow", eye.low);
   program.set("u_padBase", static_cast<float>(settings.padBase));
   program.set("u_padPerMetre", static_cast<float>(settings.padPerMetre));
+  return true;
+}
+
+std::vector<detail::DrawnPieces> GlobeOverlayRenderer::prepare(const GlobeView& view,
+                                                               const std::vector<DrawnTile>& tiles,
+                                                               const GeoGrid& heights, const GlobeLayer& layer,
+                                                               const GlobeOverlaySettings& settings,
+                                                               GlobeOverlayStats& stats) {
   // The near plane's corners are this far from the eye at most: a piece whose padded box comes
   // closer may be cut by the near plane and is marked z-fail.
   const double tanY = std::tan(0.5 * view.fovYDeg * 3.14159265358979323846 / 180.0);
   const double nearReach = view.near * std::sqrt(1.0 + tanY * tanY * (1.0 + view.aspect() * view.aspect())) * 1.01;
-
-  for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
-    const GlobeLayer* layer = layers[l];
-    // The tiles' pieces, built and uploaded where missing.
-    std::vector<TileGpu*> drawn;
-    for (const DrawnTile& tile : tiles) {
-      const auto key = std::make_pair(layer, tile.key.id());
-      auto found = gpu_->tiles.find(key);
-      if (found == gpu_->tiles.end()) {
-        TilePieces pieces = buildTilePieces(*layer, tile.key, heights);
-        ++stats_.builtTiles;
-        TileGpu gpu;
-        gpu.pieces = std::move(pieces.pieces);
-        gpu.indexCount = pieces.indices.size();
-        if (!pieces.indices.empty()) {
-          gpu.vertices =
-              gfx::createBufferWithData(pieces.vertices.data(), pieces.vertices.size() * sizeof(PieceVertex));
-          gpu.indices = gfx::createBufferWithData(pieces.indices.data(), pieces.indices.size() * sizeof(std::uint32_t));
-          gpu.vao = gfx::createVertexArray();
-          const GLuint vao = gpu.vao.id();
-          glVertexArrayVertexBuffer(vao, 0, gpu.vertices.id(), 0, sizeof(PieceVertex));
-          glVertexArrayElementBuffer(vao, gpu.indices.id());
-          const GLuint offsets[4] = {0, 12, 24, 36};
-          const GLint sizes[4] = {3, 3, 3, 1};
-          for (GLuint a = 0; a < 4; ++a) {
-            glEnableVertexArrayAttrib(vao, a);
-            glVertexArrayAttribFormat(vao, a, sizes[a], GL_FLOAT, GL_FALSE, offsets[a]);
-            glVertexArrayAttribBinding(vao, a, 0);
-          }
+  std::vector<DrawnPieces> drawn;
+  for (const DrawnTile& tile : tiles) {
+    const auto key = std::make_pair(&layer, tile.key.id());
+    auto found = gpu_->tiles.find(key);
+    if (found == gpu_->tiles.end()) {
+      TilePieces pieces = buildTilePieces(layer, tile.key, heights);
+      ++stats.builtTiles;
+      TileGpu gpu;
+      gpu.pieces = std::move(pieces.pieces);
+      gpu.indexCount = pieces.indices.size();
+      if (!pieces.indices.empty()) {
+        gpu.vertices = gfx::createBufferWithData(pieces.vertices.data(), pieces.vertices.size() * sizeof(PieceVertex));
+        gpu.indices = gfx::createBufferWithData(pieces.indices.data(), pieces.indices.size() * sizeof(std::uint32_t));
+        gpu.vao = gfx::createVertexArray();
+        const GLuint vao = gpu.vao.id();
+        glVertexArrayVertexBuffer(vao, 0, gpu.vertices.id(), 0, sizeof(PieceVertex));
+        glVertexArrayElementBuffer(vao, gpu.indices.id());
+        const GLuint offsets[4] = {0, 12, 24, 36};
+        const GLint sizes[4] = {3, 3, 3, 1};
+        for (GLuint a = 0; a < 4; ++a) {
+          glEnableVertexArrayAttrib(vao, a);
+          glVertexArrayAttribFormat(vao, a, sizes[a], GL_FLOAT, GL_FALSE, offsets[a]);
+          glVertexArrayAttribBinding(vao, a, 0);
         }
-        gpu_->lru.push_front(key);
-        gpu.lru = gpu_->lru.begin();
-        found = gpu_->tiles.emplace(key, std::move(gpu)).first;
-      } else {
-        gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
       }
-      if (found->second.indexCount > 0) drawn.push_back(&found->second);
+      gpu_->lru.push_front(key);
+      gpu.lru = gpu_->lru.begin();
+      found = gpu_->tiles.emplace(key, std::move(gpu)).first;
+    } else {
+      gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
     }
+    if (found->second.indexCount == 0) continue;
     // z-pass or z-fail, per piece.
-    std::vector<std::vector<char>> zFail(drawn.size());
-    for (std::size_t t = 0; t < drawn.size(); ++t) {
-      for (const TilePieces::Piece& p : drawn[t]->pieces) {
-        const double far = glm::length(glm::max(glm::abs(p.boxLo - view.eye), glm::abs(p.boxHi - view.eye)));
-        const double reach = nearReach + settings.padBase + settings.padPerMetre * far;
-        const glm::dvec3 lo = p.boxLo - reach, hi = p.boxHi + reach;
-        const bool cut = glm::all(glm::greaterThanEqual(view.eye, lo)) && glm::all(glm::lessThanEqual(view.eye, hi));
-        zFail[t].push_back(cut ? 1 : 0);
-        ++stats_.pieces;
-        stats_.zFailPieces += cut ? 1U : 0U;
-        stats_.triangles += p.indexCount / 3;
-      }
+    DrawnPieces d;
+    d.tile = &found->second;
+    for (const TilePieces::Piece& p : d.tile->pieces) {
+      const double far = glm::length(glm::max(glm::abs(p.boxLo - view.eye), glm::abs(p.boxHi - view.eye)));
+      const double reach = nearReach + settings.padBase + settings.padPerMetre * far;
+      const glm::dvec3 lo = p.boxLo - reach, hi = p.boxHi + reach;
+      const bool cut = glm::all(glm::greaterThanEqual(view.eye, lo)) && glm::all(glm::lessThanEqual(view.eye, hi));
+      d.zFail.push_back(cut ? 1 : 0);
+      d.allZPass = d.allZPass && !cut;
+      ++stats.pieces;
+      stats.zFailPieces += cut ? 1U : 0U;
+      stats.triangles += p.indexCount / 3;
     }
-    cache.useProgram(program);
-    program.set("u_color", layer->color());
-    program.set("u_maskBit", static_cast<float>(1U << l));
-    const auto drawPieces = [&](bool wantZFail, bool skipBottom) {
-      for (std::size_t t = 0; t < drawn.size(); ++t) {
-        cache.bindVertexArray(drawn[t]->vao.id());
-        const auto& pieces = drawn[t]->pieces;
-        const bool allZPass = std::none_of(zFail[t].begin(), zFail[t].end(), [](char z) { return z != 0; });
-        if (!wantZFail && allZPass && !skipBottom) {  // the whole tile in one draw
-          glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(drawn[t]->indexCount), GL_UNSIGNED_INT, nullptr);
-          continue;
-        }
-        for (std::size_t k = 0; k < pieces.size(); ++k) {
-          if ((zFail[t][k] != 0) != wantZFail) continue;
-          const std::uint32_t skip = skipBottom ? pieces[k].bottomCount : 0;
-          glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(pieces[k].indexCount - skip), GL_UNSIGNED_INT,
-                         reinterpret_cast<const void*>(static_cast<std::uintptr_t>(pieces[k].firstIndex + skip) *
-                                                       sizeof(std::uint32_t)));
-        }
-      }
-    };
-    // z-pass keeps the bottom caps: a ray that misses the ground (the sky past the limb) must
-    // leave every polyhedron it entered.
-    cache.apply(overlay::kMarkZPass);
-    drawPieces(false, false);
-    cache.apply(overlay::kMarkZFail);
-    drawPieces(true, false);
-    cache.apply(overlay::kCoverZPass);
-    drawPieces(false, true);
-    cache.apply(overlay::kCoverZFail);
-    drawPieces(true, false);
+    drawn.push_back(std::move(d));
   }
+  return drawn;
+}
+
+void GlobeOverlayRenderer::trim(std::size_t layers, const GlobeOverlaySettings& settings) {
   // Least recently drawn tiles go beyond the budget.
-  const std::size_t budget = settings.cacheTiles * std::max<std::size_t>(layers.size(), 1);
+  const std::size_t budget = settings.cacheTiles * std::max<std::size_t>(layers, 1);
   while (gpu_->tiles.size() > budget) {
     gpu_->tiles.erase(gpu_->lru.back());
     gpu_->lru.pop_back();
   }
+}
+
+void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                                const GeoGrid& heights, const std::vector<const GlobeLayer*>& layers,
+                                const GlobeOverlaySettings& settings) {
+  stats_ = {};
+  if (!begin(view, settings)) return;
+  gfx::Program& program = gpu_->program;
+  for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
+    const GlobeLayer* layer = layers[l];
+    const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, *layer, settings, stats_);
+    cache.useProgram(program);
+    program.set("u_color", layer->color());
+    program.set("u_maskBit", static_cast<float>(1U << l));
+    // z-pass keeps the bottom caps: a ray that misses the ground (the sky past the limb) must
+    // leave every polyhedron it entered.
+    cache.apply(overlay::kMarkZPass);
+    drawPieces(cache, drawn, false);
+    cache.apply(overlay::kMarkZFail);
+    drawPieces(cache, drawn, true);
+    // The cover's bottom caps face away from an eye above them (culled), and any face of the layer
+    // may cover: it colours only where the stencil holds the layer's count. So each tile whose
+    // pieces are all z-pass is one draw.
+    cache.apply(overlay::kCoverZPass);
+    drawPieces(cache, drawn, false);
+    cache.apply(overlay::kCoverZFail);
+    drawPieces(cache, drawn, true);
+  }
+  trim(layers.size(), settings);
+}
+
+GlobeAnalysisStats GlobeOverlayRenderer::markOverlap(gfx::StateCache& cache, const GlobeView& view,
+                                                     const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
+                                                     const GlobeLayer& a, const GlobeLayer& b,
+                                                     const GlobeOverlaySettings& settings) {
+  GlobeAnalysisStats out;
+  if (!begin(view, settings)) return out;
+  gfx::Program& program = gpu_->program;
+  cache.useProgram(program);
+  program.set("u_color", glm::vec4(0.0F));
+  program.set("u_maskBit", 0.0F);
+  const std::array<std::pair<const GlobeLayer*, const overlay::FlagMarkStates*>, 2> marked{
+      {{&a, &overlay::kOverlapMarkA}, {&b, &overlay::kOverlapMarkB}}};
+  for (std::size_t m = 0; m < marked.size(); ++m) {
+    GlobeOverlayStats& stats = m == 0 ? out.a : out.b;
+    const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, *marked[m].first, settings, stats);
+    const overlay::FlagMarkStates& states = *marked[m].second;
+    // Groups of at most countMask pieces: each counts in the low bits (every piece holds a pixel
+    // once at most, so the count of a group never wraps to 0 where a piece holds it), and its
+    // pieces' own faces, drawn without the depth test, reach every pixel they marked to collect it.
+    for (std::size_t first = 0; first < stats.pieces; first += states.groupSize) {
+      const std::size_t last = std::min<std::size_t>(first + states.groupSize, stats.pieces);
+      cache.apply(states.markZPass);
+      drawPieces(cache, drawn, false, first, last);
+      cache.apply(states.markZFail);
+      drawPieces(cache, drawn, true, first, last);
+      cache.apply(states.collect);
+      drawPieces(cache, drawn, false, first, last);
+      drawPieces(cache, drawn, true, first, last);
+      ++out.groups;
+    }
+  }
+  trim(2, settings);
+  return out;
+}
+
+void GlobeOverlayRenderer::coverOverlap(gfx::StateCache& cache, overlay::OverlapOp op, const glm::vec4& colour,
+                                        float maskValue) {
+  if (!gpu_->rect.id()) {
+    Result<gfx::Program> built = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
+    if (!built.ok()) return;
+    gpu_->rect = std::move(*built);
+    gpu_->emptyVao = gfx::createVertexArray();
+  }
+  cache.useProgram(gpu_->rect);
+  gpu_->rect.set("u_rect", glm::vec4(-1.0F, -1.0F, 1.0F, 1.0F));
+  gpu_->rect.set("u_color", colour);
+  gpu_->rect.set("u_maskBit", maskValue);
+  cache.bindVertexArray(gpu_->emptyVao.id());
+  const auto screen = [] { glDrawArrays(GL_TRIANGLE_STRIP, 0, 4); };
+  switch (op) {
+    case overlay::OverlapOp::And:
+      cache.apply(overlay::kOverlapAnd);
+      break;
+    case overlay::OverlapOp::Or:
+      cache.apply(overlay::kOverlapOr);
+      break;
+    case overlay::OverlapOp::Subtract:
+      cache.apply(overlay::kOverlapSubtract);
+      break;
+    case overlay::OverlapOp::Xor:
+      cache.apply(overlay::kOverlapXorFirst);
+      screen();
+      cache.apply(overlay::kOverlapXorLast);
+      break;
+  }
+  screen();
 }
 
 }  // namespace gis::globe

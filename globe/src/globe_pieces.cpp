@@ -260,9 +260,23 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
     }
   }
 
-  // Bounds: the ground drawn over the cell (the terrain's contract), the top raised by the sag of
-  // the longest cap edge.
-  const std::pair<double, double> bounds = groundBounds(heights, widened, level);
+  // Bounds: the ground drawn under the piece (the terrain's contract holds over any box within a
+  // drawn tile: here the box of the piece's own points, within the widened cell), the top raised
+  // by the sag of the longest cap edge. A small piece (a street in a large cell) gets the bounds
+  // of the ground it covers, not of the whole cell.
+  LonLatRect box{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
+                 -std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
+  for (const auto& [a, b] : segments) {
+    for (const Pt& p : {a, b}) {
+      box.west = std::min(box.west, p.x);
+      box.east = std::max(box.east, p.x);
+      box.south = std::min(box.south, p.y);
+      box.north = std::max(box.north, p.y);
+    }
+  }
+  box = {std::max(box.west, widened.west), std::max(box.south, widened.south), std::min(box.east, widened.east),
+         std::min(box.north, widened.north)};
+  const std::pair<double, double> bounds = groundBounds(heights, box, level);
   const double lo = bounds.first, ground1 = bounds.second;
   double longest = 0.0;
   std::vector<Cdt::Face_handle> inside;

@@ -292,10 +292,17 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
   return out;
 }
 
-/// The polygons a line is drawn with: a band along each piece (its ends' offsets by the half
-/// width across the geodesic: consecutive bands along one geodesic share their corners) and a
-/// disc at each point the line was given with (its joins and caps: a polygon inscribed in the
-/// circle, its chords within `chordTolerance` of it, with at most 256 sides).
+/// The polygons a line is drawn with, in metres with round joins and caps (the points within the
+/// half width of the line; the reference is GlobeLayer::contains):
+/// - a band along each run between given points (its points' offsets by the half width across
+///   the geodesic: consecutive pieces of a run share their offsets);
+/// - at a join, the sector between the two bands' ends on the outside of the turn, and at an
+///   end, the half disc beyond the band: glued to the band ending there (it attaches along half
+///   of the band's end edge, so the ring stays simple). The rest of the disc around the point lies
+///   in the bands, when each is at least 1.5 half widths long;
+/// - a whole disc at a given point next to a shorter band.
+/// Arcs are polygons inscribed in the circle, their chords within `chordTolerance` of it (at most
+/// 256 sides a turn). Shapes may overlap; the stencil count (≠ 0) unites them.
 std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& line, const std::vector<char>& given,
                                                 double halfWidth, double chordTolerance) {
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
@@ -304,39 +311,93 @@ std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& l
     geod.Direct(p.y, p.x, azimuth, halfWidth, lat, lon);
     return glm::dvec2(p.x + wrap180(lon - p.x), lat);
   };
-  std::vector<std::vector<glm::dvec2>> out;
-  // One band per piece between given points: the offsets of its points on both sides (a
-  // geodesic's: consecutive pieces share their points' offsets).
-  std::vector<glm::dvec2> right, left;
+  const double tol = std::min(chordTolerance, 0.5 * halfWidth);
+  const int sides =
+      std::clamp(static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / halfWidth))), 8, 256);
+  const double stepDeg = 360.0 / sides;
+  /// The points of the arc around p from azimuth `from` by `sweep` degrees, ends left out.
+  const auto arc = [&](std::vector<glm::dvec2>& out, const glm::dvec2& p, double from, double sweep) {
+    const int n = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / stepDeg - 1e-9)));
+    for (int i = 1; i < n; ++i) out.push_back(offset(p, from + sweep * i / n));
+  };
+
+  // The runs between given points.
+  struct Run {
+    std::vector<glm::dvec2> right, left;  ///< offsets at azimuth + 90° and − 90°, in order
+    double length = 0.0;
+    double start = 0.0, end = 0.0;  ///< azimuths leaving its first point and reaching its last
+    std::size_t first = 0, last = 0;
+  };
+  std::vector<Run> runs;
+  Run run;
   for (std::size_t i = 0; i + 1 < line.size(); ++i) {
     const glm::dvec2 p = line[i], q = line[i + 1];
     double s12 = 0.0, azi1 = 0.0, azi2 = 0.0;
     geod.Inverse(p.y, p.x, q.y, q.x, s12, azi1, azi2);
     if (s12 > 0.0) {
-      if (right.empty()) {
-        right.push_back(offset(p, azi1 + 90.0));
-        left.push_back(offset(p, azi1 - 90.0));
+      if (run.right.empty()) {
+        run.right.push_back(offset(p, azi1 + 90.0));
+        run.left.push_back(offset(p, azi1 - 90.0));
+        run.start = azi1;
       }
-      right.push_back(offset(q, azi2 + 90.0));
-      left.push_back(offset(q, azi2 - 90.0));
+      run.right.push_back(offset(q, azi2 + 90.0));
+      run.left.push_back(offset(q, azi2 - 90.0));
+      run.end = azi2;
+      run.length += s12;
     }
-    if (given[i + 1] != 0 && right.size() >= 2) {
-      std::vector<glm::dvec2> band = right;
-      band.insert(band.end(), left.rbegin(), left.rend());
-      out.push_back(std::move(band));
-      right.clear();
-      left.clear();
+    if (given[i + 1] != 0) {
+      run.last = i + 1;
+      if (run.right.size() >= 2) runs.push_back(std::move(run));
+      run = Run{};
+      run.first = i + 1;
     }
   }
-  const double tol = std::min(chordTolerance, 0.5 * halfWidth);
-  const int sides =
-      std::clamp(static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / halfWidth))), 8, 256);
+
+  std::vector<std::vector<glm::dvec2>> out;
+  const double least = 1.5 * halfWidth;
+  const auto disc = [&](const glm::dvec2& p) {
+    std::vector<glm::dvec2> d;
+    for (int side = 0; side < sides; ++side) d.push_back(offset(p, 360.0 * side / sides));
+    out.push_back(std::move(d));
+  };
+  // Given points that get a whole disc: next to a short band, or where runs do not meet (a
+  // repeated point between them); none at a pole, where the bands meet in the pole already.
+  std::vector<char> whole(line.size(), 0);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const bool shortRun = runs[r].length < least;
+    if (shortRun || r == 0 || runs[r - 1].last != runs[r].first) whole[runs[r].first] = 1;
+    if (shortRun || r + 1 == runs.size() || runs[r + 1].first != runs[r].last) whole[runs[r].last] = 1;
+  }
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const Run& b = runs[r];
+    const glm::dvec2 p = line[b.first], q = line[b.last];
+    std::vector<glm::dvec2> ring = b.right;
+    // Its end: a cap, or the join's outer sector (the next run's start azimuth).
+    if (!isPole(q.y) && !whole[b.last]) {
+      const double turn = r + 1 < runs.size() ? wrap180(runs[r + 1].start - b.end) : 0.0;
+      if (r + 1 == runs.size() || runs[r + 1].first != b.last) {
+        arc(ring, q, b.end + 90.0, -180.0);  // a cap: through the direction ahead
+      } else if (turn < 0.0) {
+        // Turning left: outside on the right, from this band's right corner to the next one's.
+        arc(ring, q, b.end + 90.0, turn);
+        ring.push_back(offset(q, runs[r + 1].start + 90.0));
+        ring.push_back(q);
+      } else if (turn > 0.0) {
+        // Turning right: outside on the left, from the next band's left corner back to this one's.
+        ring.push_back(q);
+        ring.push_back(offset(q, runs[r + 1].start - 90.0));
+        arc(ring, q, runs[r + 1].start - 90.0, -turn);
+      }
+    }
+    ring.insert(ring.end(), b.left.rbegin(), b.left.rend());
+    // Its start: a cap when it is the line's first run (joins are glued to the run before).
+    if (!isPole(p.y) && !whole[b.first] && (r == 0 || runs[r - 1].last != b.first)) {
+      arc(ring, p, b.start - 90.0, -180.0);  // through the direction behind
+    }
+    out.push_back(std::move(ring));
+  }
   for (std::size_t k = 0; k < line.size(); ++k) {
-    const glm::dvec2& p = line[k];
-    if (given[k] == 0 || isPole(p.y)) continue;  // at a pole the bands meet in the pole already
-    std::vector<glm::dvec2> disc;
-    for (int side = 0; side < sides; ++side) disc.push_back(offset(p, 360.0 * side / sides));
-    out.push_back(std::move(disc));
+    if (given[k] != 0 && whole[k] != 0 && !isPole(line[k].y)) disc(line[k]);
   }
   return out;
 }

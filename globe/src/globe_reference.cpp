@@ -2,7 +2,10 @@
 // coordinates, tested against the layers' polygons.
 #include <glm/gtc/matrix_inverse.hpp>
 
+#include <cmath>
+
 #include "globe/globe_overlay.hpp"
+#include "globe/globe_selection.hpp"
 
 namespace gis::globe {
 
@@ -16,6 +19,19 @@ glm::dvec3 unprojectWith(const glm::dmat4& inverse, const GlobeView& view, int c
   return view.eye + glm::dvec3(p) / p.w;
 }
 
+/// Calls visit(i, point) for every pixel i (row 0 = top) whose depth shows terrain, with its ECEF point.
+template <typename Visit>
+void forEachGroundPixel(const std::vector<float>& depth, const GlobeView& view, Visit&& visit) {
+  const glm::dmat4 inverse = glm::inverse(view.eyeViewProj());
+  for (int row = 0; row < view.height; ++row) {
+    for (int col = 0; col < view.width; ++col) {
+      const std::size_t i =
+          static_cast<std::size_t>(row) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(col);
+      if (i < depth.size() && depth[i] > 0.0F) visit(i, unprojectWith(inverse, view, col, row, depth[i]));
+    }
+  }
+}
+
 }  // namespace
 
 bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out) {
@@ -27,19 +43,47 @@ bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::d
 std::vector<std::uint32_t> referenceMask(const std::vector<float>& depth, const GlobeView& view,
                                          const std::vector<const GlobeLayer*>& layers) {
   std::vector<std::uint32_t> mask(depth.size(), 0);
-  const glm::dmat4 inverse = glm::inverse(view.eyeViewProj());
-  for (int row = 0; row < view.height; ++row) {
-    for (int col = 0; col < view.width; ++col) {
-      const std::size_t i =
-          static_cast<std::size_t>(row) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(col);
-      if (!(depth[i] > 0.0F)) continue;
-      const glm::dvec3 point = unprojectWith(inverse, view, col, row, depth[i]);
-      const Geodetic g = toGeodetic(point);
-      for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
-        if (layers[l]->contains(point, g.lon, g.lat)) mask[i] |= 1U << l;
-      }
+  forEachGroundPixel(depth, view, [&](std::size_t i, const glm::dvec3& point) {
+    const Geodetic g = toGeodetic(point);
+    for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
+      if (layers[l]->contains(point, g.lon, g.lat)) mask[i] |= 1U << l;
     }
-  }
+  });
+  return mask;
+}
+
+overlay::OverlayView overlayViewOf(const GlobeView& view) {
+  overlay::OverlayView v;
+  v.viewProj = view.viewProj();
+  v.eye = view.eye;
+  v.nearPlane = view.near;
+  v.fovYRadians = view.fovYDeg * 3.14159265358979323846 / 180.0;
+  v.aspect = view.aspect();
+  return v;
+}
+
+double horizonReach(const glm::dvec3& eye, double maxGroundHeight) {
+  const double b = kSemiMinor, top = kSemiMajor + std::max(maxGroundHeight, 0.0);
+  const double r = std::max(glm::length(eye), b);
+  return std::sqrt(r * r - b * b) + std::sqrt(top * top - b * b);
+}
+
+overlay::Lasso lassoIn(const GlobeView& view, std::vector<glm::dvec2> points, double maxGroundHeight) {
+  overlay::Lasso lasso;
+  lasso.distance = horizonReach(view.eye, maxGroundHeight);
+  lasso.points = std::move(points);
+  lasso.viewProj = view.viewProj();
+  lasso.width = view.width;
+  lasso.height = view.height;
+  return lasso;
+}
+
+std::vector<std::uint8_t> selectionMask(const std::vector<float>& depth, const GlobeView& view,
+                                        std::span<const overlay::SelectionStep> steps) {
+  std::vector<std::uint8_t> mask(depth.size(), 0);
+  forEachGroundPixel(depth, view, [&](std::size_t i, const glm::dvec3& point) {
+    if (overlay::selectedAt(steps, point)) mask[i] = 1;
+  });
   return mask;
 }
 

@@ -17,7 +17,8 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
                                       const GlobeOverlaySettings& settings) {
   GlobeFrameStats stats;
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<DrawnTile> tiles = terrain_.select(view);
+  tiles_ = terrain_.select(view);
+  const std::vector<DrawnTile>& tiles = tiles_;
   stats.selectMilliseconds =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   stats.selectedTiles = tiles.size();
@@ -26,20 +27,40 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
   gfx::beginRenderPass(cache, target.framebuffer, target.width, target.height,
                        {target.clearColor, gfx::kReversedZFar, 0});
   std::optional<gfx::GpuTimer> terrainTimer, overlayTimer;
+  std::optional<gfx::PipelineStatistics> counts;
   if (timed) {
     terrainTimer.emplace();
     overlayTimer.emplace();
   }
   if (target.hasMask) gfx::enableMaskWrites(target.framebuffer, false);
-  if (terrainTimer) terrainTimer->begin();
+  std::optional<gfx::PipelineStatistics> terrainCounts;
+  if (terrainTimer) {
+    terrainTimer->begin();
+    terrainCounts.emplace();
+    terrainCounts->begin();
+  }
   terrain_.draw(cache, view, tiles);
-  if (terrainTimer) terrainTimer->end();
+  if (terrainTimer) {
+    terrainCounts->end();
+    terrainTimer->end();
+    stats.terrainFragments = terrainCounts->result().fragmentShaderInvocations;
+  }
   stats.terrain = terrain_.stats();
   if (!layers.empty()) {
     if (target.hasMask) gfx::enableMaskWrites(target.framebuffer, true);
-    if (overlayTimer) overlayTimer->begin();
+    if (overlayTimer) {
+      overlayTimer->begin();
+      counts.emplace();
+      counts->begin();
+    }
     overlay_.draw(cache, view, tiles, *heights_, layers, settings);
-    if (overlayTimer) overlayTimer->end();
+    if (overlayTimer) {
+      counts->end();
+      overlayTimer->end();
+      const gfx::PipelineCounts c = counts->result();
+      stats.overlayFragments = c.fragmentShaderInvocations;
+      stats.overlayPrimitives = c.clippingInputPrimitives;
+    }
     stats.overlay = overlay_.stats();
   }
   if (terrainTimer) stats.terrainGpuMilliseconds = static_cast<double>(terrainTimer->nanoseconds().value_or(0)) * 1e-6;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cassert>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -435,13 +436,48 @@ struct GlobeTerrain::Gpu {
     gfx::BufferHandle vertices;
     gfx::VertexArrayHandle vao;
     std::list<TileKey>::iterator lru;
+    enum class Imagery { Unknown, None, Ready } imagery = Imagery::Unknown;
+    gfx::TextureHandle texture;
+    std::size_t textureBytes = 0;
   };
   gfx::Program program;
   std::array<gfx::BufferHandle, 16> indices;
   std::array<GLsizei, 16> indexCounts{};
   std::unordered_map<TileKey, Mesh, TileKeyHash> meshes;
   std::list<TileKey> lru;  ///< most recently drawn first
+  std::size_t textureBytes = 0;
 };
+
+void GlobeTerrain::setImagery(std::shared_ptr<const GlobeImagery> imagery) {
+  imagery_ = std::move(imagery);
+  if (!gpu_) return;
+  for (auto& [key, mesh] : gpu_->meshes) {
+    mesh.imagery = Gpu::Mesh::Imagery::Unknown;
+    mesh.texture = {};
+    mesh.textureBytes = 0;
+  }
+  gpu_->textureBytes = 0;
+}
+
+namespace {
+
+/// A tile's texels as a mip-mapped RGBA8 texture (row 0 at the south: t = j / 32).
+gfx::TextureHandle uploadTileImage(const TileImage& image) {
+  gfx::TextureHandle texture = gfx::createTexture(GL_TEXTURE_2D);
+  const GLuint id = texture.id();
+  int levels = 1;
+  while ((image.size >> levels) > 0) ++levels;
+  glTextureStorage2D(id, levels, GL_RGBA8, image.size, image.size);
+  glTextureSubImage2D(id, 0, 0, 0, image.size, image.size, GL_RGBA, GL_UNSIGNED_BYTE, image.rgba.data());
+  glGenerateTextureMipmap(id);
+  glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return texture;
+}
+
+}  // namespace
 
 GlobeTerrain::~GlobeTerrain() = default;
 
@@ -468,6 +504,10 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
   const SplitPosition eye = view.eyeSplit();
   gpu.program.set("u_eyeHigh", eye.high);
   gpu.program.set("u_eyeLow", eye.low);
+  gpu.program.set("u_imagery", 0);
+  bool imageryBound = false;
+  gpu.program.set("u_hasImagery", 0);
+  const auto buildStart = std::chrono::steady_clock::now();
 
   for (const DrawnTile& tile : tiles) {
     auto found = gpu.meshes.find(tile.key);
@@ -502,6 +542,38 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
     } else {
       gpu.lru.splice(gpu.lru.begin(), gpu.lru, found->second.lru);
     }
+    Gpu::Mesh& mesh = found->second;
+    if (imagery_ && mesh.imagery == Gpu::Mesh::Imagery::Unknown) {
+      if (!imagery_->covers(tile.key)) {
+        mesh.imagery = Gpu::Mesh::Imagery::None;
+      } else if (stats_.imageryBuilt < std::max<std::size_t>(options_.imageryTilesPerFrame, 1) &&
+                 (stats_.imageryBuilt == 0 ||
+                  std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - buildStart).count() <
+                      options_.imageryMillisecondsPerFrame)) {
+        const std::optional<TileImage> image = imagery_->tileImage(tile.key);
+        ++stats_.imageryBuilt;
+        if (image) {
+          mesh.texture = uploadTileImage(*image);
+          // The mip chain adds a third.
+          mesh.textureBytes = static_cast<std::size_t>(image->size) * static_cast<std::size_t>(image->size) * 4 * 4 / 3;
+          gpu.textureBytes += mesh.textureBytes;
+          mesh.imagery = Gpu::Mesh::Imagery::Ready;
+        } else {
+          mesh.imagery = Gpu::Mesh::Imagery::None;
+        }
+      } else {
+        ++stats_.imageryPending;
+      }
+    }
+    const bool textured = mesh.imagery == Gpu::Mesh::Imagery::Ready;
+    if (textured) {
+      cache.bindTexture(0, mesh.texture.id());
+      ++stats_.imageryTiles;
+    }
+    if (textured != imageryBound) {
+      gpu.program.set("u_hasImagery", textured ? 1 : 0);
+      imageryBound = textured;
+    }
     const std::uint8_t mask = tile.stitch & 15U;
     glVertexArrayElementBuffer(found->second.vao.id(), gpu.indices[mask].id());
     cache.bindVertexArray(found->second.vao.id());
@@ -509,12 +581,19 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
     ++stats_.tiles;
     stats_.triangles += static_cast<std::size_t>(gpu.indexCounts[mask]) / 3;
   }
-  // This frame's meshes are the most recent: the least recently drawn go first.
-  while (gpu.meshes.size() > std::max<std::size_t>(options_.cacheTiles, 1) && !gpu.lru.empty()) {
-    gpu.meshes.erase(gpu.lru.back());
+  // This frame's meshes are the most recent: the least recently drawn go first, down to the
+  // mesh count and the textures' budget (never this frame's own tiles for the textures).
+  const auto textureBudget = static_cast<std::size_t>(std::max(options_.imageryGpuBudgetMb, 0.0) * 1024.0 * 1024.0);
+  while (!gpu.lru.empty() && (gpu.meshes.size() > std::max<std::size_t>(options_.cacheTiles, 1) ||
+                              (gpu.textureBytes > textureBudget && gpu.meshes.size() > tiles.size()))) {
+    const auto evicted = gpu.meshes.find(gpu.lru.back());
+    gpu.textureBytes -= evicted->second.textureBytes;
+    gpu.meshes.erase(evicted);
     gpu.lru.pop_back();
   }
+  if (stats_.imageryTiles > 0) cache.bindTexture(0, 0);
   stats_.resident = gpu.meshes.size();
+  stats_.imageryBytes = gpu.textureBytes;
 }
 
 }  // namespace gis::globe

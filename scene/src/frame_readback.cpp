@@ -8,13 +8,18 @@ namespace gis::scene {
 
 Result<SelectionPixels> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
                                       const SelectionRequest& request, const Camera& camera) {
+  return drawSelection(
+      cache, target, request,
+      overlayViewOf(camera, static_cast<double>(target.width()) / static_cast<double>(target.height())));
+}
+
+Result<SelectionPixels> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                      const SelectionRequest& request, const overlay::OverlayView& view) {
   Result<SelectionPixels> result;
   Result<overlay::SelectionRenderer> renderer = overlay::SelectionRenderer::create();
   result.diagnostics = std::move(renderer.diagnostics);
   if (!renderer) return result;
   result.diagnostics.append(renderer->setSteps(request.steps));
-  const overlay::OverlayView view =
-      overlayViewOf(camera, static_cast<double>(target.width()) / static_cast<double>(target.height()));
   cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);
   overlay::SelectionSettings settings;

@@ -68,7 +68,11 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   Result<LoadedGlobeScene> out;
   Result<std::string> reason = globeReason(description);
   out.diagnostics.append(reason.diagnostics);
-  Result<globe::GeoGrid> grid = globe::GeoGrid::fromRaster(description.dem);
+  globe::GeoGridReadOptions gridOptions;
+  gridOptions.vertical = globe::parseVerticalDatum(description.demVerticalDatum).value_or(globe::VerticalDatum::Auto);
+  gridOptions.memoryBudgetMb = description.memoryBudgetMb;
+  gridOptions.sceneFile = description.path;
+  Result<globe::GeoGrid> grid = globe::GeoGrid::fromDem(description.demSpec(), gridOptions);
   out.diagnostics.append(grid.diagnostics);
   if (!grid.ok()) return out;
   LoadedGlobeScene scene;
@@ -78,6 +82,14 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   const globe::GeoGrid& g = *scene.heights;
   scene.extent = {g.west(), g.north() - (g.height() - 1) * g.step(), g.west() + (g.width() - 1) * g.step(), g.north()};
   if (scene.extent[2] - scene.extent[0] > 360.0) scene.extent[2] = scene.extent[0] + 360.0;
+
+  // The imagery, in any CRS: read per drawn tile later. One that cannot be read is said and left out.
+  if (description.imagery) {
+    Result<std::shared_ptr<globe::GlobeImagery>> imagery =
+        globe::GlobeImagery::open(*description.imagery, description.imageryBands);
+    out.diagnostics.append(imagery.diagnostics);
+    if (imagery.ok()) scene.imagery = std::move(*imagery);
+  }
 
   const geo::SceneFrame lonLat = geo::SceneFrame::wgs84LonLat();
   for (const LayerDescription& layer : description.layers) {
@@ -111,6 +123,15 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
                     : std::string("its outline in metres")) +
                " with round joins"});
     }
+    // Identify's attributes: the features without their geometry.
+    auto attributes = std::make_shared<std::vector<geo::Feature>>();
+    attributes->reserve(read->features.size());
+    for (const geo::Feature& f : read->features) {
+      geo::Feature kept;
+      kept.fid = f.fid;
+      kept.attributes = f.attributes;
+      attributes->push_back(std::move(kept));
+    }
     glm::vec4 color = style.color;
     color.w *= style.opacity;
     globe::GlobeLayerOptions build;
@@ -120,6 +141,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     if (built.ok()) {
       scene.layers.push_back(std::move(*built));
       scene.layerFileIndex.push_back(layer.fileIndex);
+      scene.layerFeatures.push_back(attributes);
     }
     // A polygon layer's outline: a layer of its own, with the same bit in mask.png.
     if (layer.kind == overlay::LayerKind::Polygon && style.outlineWidthMetres > 0.0F) {
@@ -134,6 +156,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
       if (lines.ok()) {
         scene.layers.push_back(std::move(*lines));
         scene.layerFileIndex.push_back(layer.fileIndex);
+        scene.layerFeatures.push_back(attributes);
       }
     }
   }
@@ -153,12 +176,25 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   return out;
 }
 
+Result<globe::GlobeView> globeViewOf(const CameraSpec& spec, const globe::GeoGrid& ground, int width, int height,
+                                     const std::string& where) {
+  if (!spec.eyeLonLatH || !spec.targetLonLatH) {
+    return Result<globe::GlobeView>::failure(
+        {Severity::Error, where, "", "", "camera: on the globe, 'eye' and 'target' are given in lon/lat/h"});
+  }
+  const glm::dvec3 e = *spec.eyeLonLatH, t = *spec.targetLonLatH;
+  globe::GlobeView view = globe::GlobeView::looking(globe::toEcef(e.x, e.y, e.z), globe::toEcef(t.x, t.y, t.z),
+                                                    spec.fovYDeg, width, height, ground.heightAt(e.x, e.y));
+  if (spec.nearPlane) view.near = *spec.nearPlane;
+  Result<globe::GlobeView> out;
+  out.value = view;
+  return out;
+}
+
 globe::GlobeView globeStillView(const LoadedGlobeScene& scene, int width, int height) {
-  const std::optional<CameraSpec>& spec = scene.description.camera;
-  if (spec && spec->eyeLonLatH && spec->targetLonLatH) {
-    const glm::dvec3 e = *spec->eyeLonLatH, t = *spec->targetLonLatH;
-    return globe::GlobeView::looking(globe::toEcef(e.x, e.y, e.z), globe::toEcef(t.x, t.y, t.z), spec->fovYDeg, width,
-                                     height, scene.heights->heightAt(e.x, e.y));
+  if (const std::optional<CameraSpec>& spec = scene.description.camera) {
+    if (Result<globe::GlobeView> view = globeViewOf(*spec, *scene.heights, width, height, scene.description.path))
+      return *view;
   }
   // From above the middle of the data, far enough that the box's corners are in view.
   const auto [west, south, east, north] = scene.extent;

@@ -6,6 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "globe/globe_selection.hpp"
+#include "scene/globe_scene.hpp"
 #include "scene/json_file.hpp"
 #include "vector_overlay/style.hpp"
 
@@ -44,10 +46,44 @@ bool readColour(const json& j, const char* key, const std::string& file, glm::ve
   return ok;
 }
 
+LassoCamera lassoCameraOf(const Camera& camera) {
+  return {[camera](int w, int h) { return camera.projection(static_cast<double>(w) / h) * camera.view(); },
+          camera.nearPlane};
+}
+
+/// A projected scene's cameras (scene/camera.hpp) placed in its frame.
+LassoCameraPlacer projectedPlacer(const geo::SceneFrame& frame) {
+  return [&frame](const json& spec, const std::string& where, Diagnostics& d) -> std::optional<LassoCamera> {
+    Result<CameraSpec> parsed = parseCameraSpec(spec, where);
+    d.append(parsed.diagnostics);
+    if (!parsed) return std::nullopt;
+    Result<Camera> placed = placeCamera(*parsed, frame, where);
+    d.append(placed.diagnostics);
+    if (!placed) return std::nullopt;
+    return lassoCameraOf(*placed);
+  };
+}
+
+LassoCamera lassoCameraOf(const globe::GlobeView& view, const globe::GeoGrid& ground) {
+  return {[view](int w, int h) {
+            globe::GlobeView sized = view;
+            sized.width = w;
+            sized.height = h;
+            return sized.viewProj();
+          },
+          view.near, globe::horizonReach(view.eye, ground.bounds({-180.0, -90.0, 180.0, 90.0}).second)};
+}
+
 }  // namespace
 
 Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, const std::string& baseDir,
                                         const geo::SceneFrame& frame, const Camera& current, int width, int height) {
+  return parseLassoFile(j, file, baseDir, lassoCameraOf(current), projectedPlacer(frame), width, height);
+}
+
+Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, const std::string& baseDir,
+                                        const LassoCamera& current, const LassoCameraPlacer& place, int width,
+                                        int height) {
   Result<SelectionRequest> result;
   Diagnostics& d = result.diagnostics;
   if (!j.is_object() || !j.contains("lassos") || !j["lassos"].is_array()) {
@@ -112,7 +148,7 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
       continue;
     }
     // The camera and viewport it was drawn with.
-    Camera camera = current;
+    LassoCamera camera = current;
     int w = width, h = height;
     if (entry.contains("camera")) {
       const json& c = entry["camera"];
@@ -134,19 +170,12 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
         bad("camera file cannot be read");
         continue;
       }
-      Result<CameraSpec> parsed = parseCameraSpec(*spec, where);
-      d.append(parsed.diagnostics);
-      if (!parsed) {
-        bad("camera cannot be read");
-        continue;
-      }
-      Result<Camera> placed = placeCamera(*parsed, frame, where);
-      d.append(placed.diagnostics);
+      std::optional<LassoCamera> placed = place(*spec, where, d);
       if (!placed) {
         bad("camera cannot be placed");
         continue;
       }
-      camera = *placed;
+      camera = std::move(*placed);
     }
     for (const char* key : {"width", "height"}) {
       if (!entry.contains(key)) continue;
@@ -161,7 +190,8 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
     if (w < 1 || h < 1) continue;
     step.lasso.width = w;
     step.lasso.height = h;
-    step.lasso.viewProj = camera.projection(static_cast<double>(w) / h) * camera.view();
+    step.lasso.viewProj = camera.viewProj(w, h);
+    step.lasso.distance = camera.distance;
     if (entry.contains("distance")) {
       const json& dist = entry["distance"];
       if (dist.is_null()) {
@@ -196,6 +226,26 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
 
 Result<SelectionRequest> loadLassoFile(const std::string& path, const geo::SceneFrame& frame, const Camera& current,
                                        int width, int height) {
+  return loadLassoFile(path, lassoCameraOf(current), projectedPlacer(frame), width, height);
+}
+
+Result<SelectionRequest> loadGlobeLassoFile(const std::string& path, const globe::GlobeView& current,
+                                            const globe::GeoGrid& ground) {
+  const LassoCameraPlacer place = [&ground](const json& spec, const std::string& where,
+                                            Diagnostics& d) -> std::optional<LassoCamera> {
+    Result<CameraSpec> parsed = parseCameraSpec(spec, where);
+    d.append(parsed.diagnostics);
+    if (!parsed) return std::nullopt;
+    Result<globe::GlobeView> view = globeViewOf(*parsed, ground, 1, 1, where);
+    d.append(view.diagnostics);
+    if (!view) return std::nullopt;
+    return lassoCameraOf(*view, ground);
+  };
+  return loadLassoFile(path, lassoCameraOf(current, ground), place, current.width, current.height);
+}
+
+Result<SelectionRequest> loadLassoFile(const std::string& path, const LassoCamera& current,
+                                       const LassoCameraPlacer& place, int width, int height) {
   Diagnostics d;
   const std::optional<json> j = readJsonFile(path, d);
   if (!j) {
@@ -203,7 +253,7 @@ Result<SelectionRequest> loadLassoFile(const std::string& path, const geo::Scene
     failed.diagnostics = d;
     return failed;
   }
-  return parseLassoFile(*j, path, std::filesystem::path(path).parent_path().string(), frame, current, width, height);
+  return parseLassoFile(*j, path, std::filesystem::path(path).parent_path().string(), current, place, width, height);
 }
 
 }  // namespace gis::scene

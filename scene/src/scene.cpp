@@ -226,8 +226,8 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
   } else {
     const json& t = root["terrain"];
     p.warnUnknownKeys(t,
-                      {"dem", "band", "crs", "height_unit", "resolution_m", "vertical_exaggeration", "paging",
-                       "chunk_cells", "memory_budget_mb", "gpu_budget_mb", "cache_dir"},
+                      {"dem", "band", "crs", "height_unit", "vertical_datum", "resolution_m", "vertical_exaggeration",
+                       "paging", "chunk_cells", "memory_budget_mb", "gpu_budget_mb", "cache_dir"},
                       "terrain.");
     // One file, a folder of tiles, a VRT, or a list of those.
     std::vector<std::string> dems;
@@ -256,6 +256,14 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
         !(geo::metresPerHeightUnit(scene.demHeightUnit) > 0.0)) {
       p.error("terrain.height_unit", "expected \"m\", \"ft\" or \"us-ft\", got \"" + scene.demHeightUnit + "\"");
       scene.demHeightUnit.clear();
+    }
+    if (std::string datum; p.read(t, "vertical_datum", "terrain.", datum)) {
+      if (datum == "auto" || datum == "ellipsoid" || datum == "egm96" || datum == "egm2008") {
+        scene.demVerticalDatum = datum;
+      } else {
+        p.error("terrain.vertical_datum",
+                "expected \"auto\", \"ellipsoid\", \"egm96\" or \"egm2008\", got \"" + datum + "\"");
+      }
     }
     if (p.read(t, "resolution_m", "terrain.", scene.demResolution) && !(scene.demResolution > 0.0)) {
       p.error("terrain.resolution_m", "must be a positive number of metres");

@@ -685,5 +685,76 @@ TEST(OverlayRenderLasso, TheDeferredLookupLeavesTheSelectionAsItIs) {
   }
 }
 
+TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
+  // The Olinda sample drawn on the globe ("frame": "globe"), with a lasso chain (one lasso in the
+  // view drawn, a second from a camera file in lon/lat, subtracted) and the overlap of tracts and
+  // streets (xor): selection.png and overlap.png agree with the CPU twins on the same depth away
+  // from edges, and they select what they must.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
+  const std::string olinda = kSamples + "/olinda/";
+  description["frame"] = "globe";
+  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
+  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
+  for (json& layer : description["layers"]) {
+    layer["source"] = olinda + layer["source"].get<std::string>();
+    layer["style"].erase("outline_width_m");  // mask.png's bit 0 is then the tracts' areas alone
+  }
+  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  const json camera = {{"eye", {{"lon", -34.855}, {"lat", -8.03}, {"h", 3000.0}}},
+                       {"target", {{"lon", -34.855}, {"lat", -8.01}, {"h", 0.0}}},
+                       {"width", kWidth},
+                       {"height", kHeight}};
+  { std::ofstream(dir / "lasso_camera.json") << camera.dump(1); }
+  const json lassos = {{"lassos",
+                        {{{"op", "single"}, {"points", {{20, 20}, {230, 30}, {200, 170}, {40, 160}}}},
+                         {{"op", "subtract"},
+                          {"camera", "lasso_camera.json"},
+                          {"points", {{60, 60}, {190, 60}, {190, 150}, {60, 150}}}}}}};
+  { std::ofstream(dir / "lassos.json") << lassos.dump(1); }
+  const fs::path out = dir / "out";
+  ASSERT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                                 " --height " + std::to_string(kHeight) + " --lasso " + (dir / "lassos.json").string() +
+                                 " --overlap \"census tracts,streets\" --overlap-op xor --out " + out.string(),
+                             dir / "log.txt"),
+            0)
+      << readText(dir / "log.txt");
+  const json stats = json::parse(readText(out / "stats.json"));
+  ASSERT_EQ(stats["frame"], "globe") << stats.dump(1);
+  const json& selection = stats["selection"];
+  EXPECT_EQ(selection["steps"].get<int>(), 2);
+  EXPECT_EQ(selection["differing_away_from_edges"].get<std::size_t>(), 0u) << selection.dump(1);
+  EXPECT_GT(selection["selected_pixels"].get<std::size_t>(), 5000u) << selection.dump(1);
+  const gfx::Image8 selected = *gfx::readImage8((out / "selection.png").string());
+  std::size_t shown = 0;
+  for (const std::uint8_t p : selected.pixels) shown += p != 0 ? 1u : 0u;
+  EXPECT_EQ(shown, selection["selected_pixels"].get<std::size_t>());
+  // The features: tracts and streets under the selected ground, some of them whole; fids as read.
+  const json features = json::parse(readText(out / "selected_features.json"));
+  ASSERT_EQ(features["layers"].size(), 2u) << features.dump(1);
+  for (const json& layer : features["layers"]) {
+    EXPECT_GT(layer["selected"].get<std::size_t>(), 3u) << layer["name"];
+    EXPECT_LE(layer["fully_inside"].get<std::size_t>(), layer["selected"].get<std::size_t>());
+    for (const json& f : layer["features"]) {
+      EXPECT_GE(f["fid"].get<std::int64_t>(), 0);
+      EXPECT_GT(f["selected_samples"].get<std::size_t>(), 0u);
+    }
+  }
+  EXPECT_GT(features["layers"][0]["fully_inside"].get<std::size_t>(), 0u);
+  const json& overlap = stats["overlap"];
+  EXPECT_EQ(overlap["op"], "xor");
+  EXPECT_EQ(overlap["differing_away_from_edges"].get<std::size_t>(), 0u) << overlap.dump(1);
+  EXPECT_GT(overlap["both_pixels"].get<std::size_t>(), 100u) << overlap.dump(1);
+  EXPECT_GT(overlap["pixels"].get<std::size_t>(), 1000u) << overlap.dump(1);
+  // The layers' mask is the layers' own, not the analyses': both bits where the flags say both.
+  const gfx::Image8 mask = *gfx::readImage8((out / "mask.png").string());
+  std::size_t both = 0;
+  for (const std::uint8_t m : mask.pixels) both += (m & 3) == 3 ? 1u : 0u;
+  EXPECT_NEAR(static_cast<double>(both), overlap["both_pixels"].get<double>(),
+              2.0 + overlap["both_pixels"].get<double>() / 20.0);
+}
+
 }  // namespace
 }  // namespace gis::test

@@ -461,5 +461,51 @@ TEST_F(ViewerScript, NotJsonIsAnErrorNamingTheFile) {
   EXPECT_TRUE(hasDiagnostic(s.diagnostics, Severity::Error, file, "", "not JSON")) << dump(s.diagnostics);
 }
 
+TEST_F(ViewerScript, GlobeCameraReadsItsFields) {
+  Result<app::ViewerScript> s = app::parseViewerScript(json::parse(R"({"steps": [
+        {"globe_camera": {"lon": 179.5, "lat": -16.5, "distance": 2.5e6, "heading": 30, "pitch": 45}},
+        {"globe_camera": {"lon": -10, "lat": 89, "distance": 100}}]})"),
+                                                       "s.json");
+  ASSERT_TRUE(s.ok()) << dump(s.diagnostics);
+  ASSERT_EQ(s->steps.size(), 2U);
+  const auto& a = as<app::GlobeCameraStep>(s->steps[0]);
+  EXPECT_DOUBLE_EQ(a.lon, 179.5);
+  EXPECT_DOUBLE_EQ(a.lat, -16.5);
+  EXPECT_DOUBLE_EQ(a.distance, 2.5e6);
+  EXPECT_DOUBLE_EQ(a.heading, 30.0);
+  EXPECT_DOUBLE_EQ(a.pitch, 45.0);
+  // Heading and pitch default to north up, straight down.
+  const auto& b = as<app::GlobeCameraStep>(s->steps[1]);
+  EXPECT_DOUBLE_EQ(b.lat, 89.0);
+  EXPECT_DOUBLE_EQ(b.heading, 0.0);
+  EXPECT_DOUBLE_EQ(b.pitch, 90.0);
+}
+
+TEST_F(ViewerScript, BrokenGlobeCamerasAreErrorsNamingTheStep) {
+  struct Case {
+    const char* what;
+    json step;
+    const char* mentions;
+  };
+  const std::vector<Case> cases = {
+      {"not an object", json::parse(R"({"globe_camera": [1, 2]})"), "expected an object"},
+      {"no distance", json::parse(R"({"globe_camera": {"lon": 1, "lat": 2}})"), "missing 'distance'"},
+      {"latitude beyond the pole", json::parse(R"({"globe_camera": {"lon": 1, "lat": 91, "distance": 5}})"), "'lat'"},
+      {"zero distance", json::parse(R"({"globe_camera": {"lon": 1, "lat": 2, "distance": 0}})"), "'distance'"},
+      {"pitch above the horizon", json::parse(R"({"globe_camera": {"lon": 1, "lat": 2, "distance": 5, "pitch": -3}})"),
+       "'pitch'"},
+      {"a typo", json::parse(R"({"globe_camera": {"lon": 1, "lat": 2, "distance": 5, "headin": 3}})"),
+       "unknown key 'headin'"},
+      {"with a camera", json::parse(R"({"globe_camera": {"lon": 1, "lat": 2, "distance": 5}, "wait": 3})"),
+       "exactly one of"},
+  };
+  for (const Case& c : cases) {
+    Result<app::ViewerScript> s = app::parseViewerScript(scriptAround(c.step), "s.json");
+    EXPECT_FALSE(s.ok()) << c.what;
+    EXPECT_TRUE(hasDiagnostic(s.diagnostics, Severity::Error, "s.json", "step 2", c.mentions)) << c.what << "\n"
+                                                                                               << dump(s.diagnostics);
+  }
+}
+
 }  // namespace
 }  // namespace gis::test

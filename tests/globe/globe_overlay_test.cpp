@@ -265,5 +265,44 @@ TEST(GlobePieces, LinesAndOutlinesHoldTheGroundWithinTheirWidth) {
   EXPECT_GT(insideCount, checked / 10);
 }
 
+TEST(GlobePieces, JoinsAndCapsOfEveryKindHoldTheGroundWithinTheirWidth) {
+  // A 20 m line (half width 10 m) that turns by 5°, 90° left and right, 170° and 179° (nearly
+  // back on itself), with segments shorter than 1.5 half widths (whole discs there) and a
+  // repeated point; and a line of one segment (two caps). Tiles of levels 16 to 19 around each
+  // point given, so the ground checked lies near the joins.
+  const auto grid = test::globe_scene::syntheticGrid(1.0);
+  const double m = 1.0 / 111000.0;  // about a metre of latitude, in degrees
+  const double lon0 = 8.6, lat0 = 47.35, k = 1.0 / std::cos(lat0 * 3.14159265358979323846 / 180.0);
+  std::vector<glm::dvec2> zigzag;
+  std::vector<std::pair<double, double>> places;
+  for (const auto& [x, y] : std::vector<std::pair<double, double>>{{0, 0},
+                                                                   {100, 0},
+                                                                   {199, 9},
+                                                                   {199, 109},
+                                                                   {299, 109},
+                                                                   {299, 9},
+                                                                   {200, 7},
+                                                                   {200.1, 7.9},
+                                                                   {209, 8},
+                                                                   {215, 8},
+                                                                   {215, 8},
+                                                                   {300, -60}}) {
+    zigzag.emplace_back(lon0 + x * m * k, lat0 + y * m);
+    places.emplace_back(zigzag.back().x, zigzag.back().y);
+  }
+  GlobeLayerOptions options;
+  options.lineWidthMetres = 20.0;
+  Result<GlobeLayer> lines = GlobeLayer::build(
+      "zigzag", {lineFeature(zigzag), lineFeature({{lon0, lat0 - 50 * m}, {lon0 + 60 * m * k, lat0 - 40 * m}})},
+      glm::vec4(1.0F), options);
+  ASSERT_TRUE(lines.ok());
+  places.emplace_back(lon0, lat0 - 50 * m);
+  places.emplace_back(lon0 + 60 * m * k, lat0 - 40 * m);
+  std::size_t checked = 0, insideCount = 0;
+  expectPiecesHoldTheGround(*lines, *grid, places, {16, 17, 18, 19}, 0.05, checked, insideCount);
+  std::printf("%zu ground points near joins and caps checked, %zu inside\n", checked, insideCount);
+  EXPECT_GT(insideCount, checked / 5);
+}
+
 }  // namespace
 }  // namespace gis::globe

@@ -619,6 +619,30 @@ CameraStep readCamera(StepReader& r, const std::string& file, Diagnostics& d) {
   return step;
 }
 
+/// {"globe_camera": {"lon": …, "lat": …, "distance": …, "heading": …, "pitch": …}}.
+GlobeCameraStep readGlobeCamera(StepReader& r) {
+  GlobeCameraStep step;
+  const json& c = *r.field("globe_camera", true);
+  if (!c.is_object()) {
+    r.problem("'globe_camera': expected an object with lon, lat, distance (and heading, pitch), got " + c.dump());
+    return step;
+  }
+  std::vector<std::string> inner;
+  StepReader camera(c, fs::path(), inner);
+  step.lon =
+      camera.number("lon", true, "degrees in [-540, 540]", [](double v) { return std::abs(v) <= 540.0; }).value_or(0.0);
+  step.lat =
+      camera.number("lat", true, "degrees in [-90, 90]", [](double v) { return std::abs(v) <= 90.0; }).value_or(0.0);
+  step.distance =
+      camera.number("distance", true, "metres > 0", [](double v) { return v > 0.0 && v <= 1e9; }).value_or(1e7);
+  step.heading = camera.number("heading", false).value_or(0.0);
+  step.pitch =
+      camera.number("pitch", false, "degrees in (0, 90]", [](double v) { return v > 0.0 && v <= 90.0; }).value_or(90.0);
+  for (const std::string& key : camera.unknownKeys()) inner.push_back("unknown key '" + key + "'");
+  for (const std::string& problem : inner) r.problem("'globe_camera': " + problem);
+  return step;
+}
+
 WaitStep readWait(StepReader& r) {
   const std::optional<double> frames = r.number("wait", true, "a whole number of frames >= 0", [](double v) {
     return v >= 0.0 && v == std::floor(v) && v <= static_cast<double>(std::numeric_limits<int>::max());
@@ -629,15 +653,18 @@ WaitStep readWait(StepReader& r) {
 /// The action of a step, or nothing when it has none to run; problems and unknown keys are
 /// reported by the caller.
 std::optional<ScriptAction> readStep(StepReader& r, const std::string& file, Diagnostics& d) {
-  const bool hasCamera = r.has("camera"), hasWait = r.has("wait"), hasAction = r.has("action");
-  if ((hasCamera ? 1 : 0) + (hasWait ? 1 : 0) + (hasAction ? 1 : 0) != 1) {
+  const bool hasCamera = r.has("camera"), hasWait = r.has("wait"), hasAction = r.has("action"),
+             hasGlobe = r.has("globe_camera");
+  if ((hasCamera ? 1 : 0) + (hasWait ? 1 : 0) + (hasAction ? 1 : 0) + (hasGlobe ? 1 : 0) != 1) {
     r.field("camera", false);  // the keys are not unknown, only too many or too few
     r.field("wait", false);
     r.field("action", false);
-    r.problem("expected exactly one of \"camera\", \"wait\" and \"action\"");
+    r.field("globe_camera", false);
+    r.problem("expected exactly one of \"camera\", \"globe_camera\", \"wait\" and \"action\"");
     return std::nullopt;
   }
   if (hasCamera) return readCamera(r, file, d);
+  if (hasGlobe) return readGlobeCamera(r);
   if (hasWait) return readWait(r);
   return readAction(r);
 }

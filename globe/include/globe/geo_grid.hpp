@@ -4,14 +4,36 @@
 // and what the overlay's height bounds are taken from (the bounds contract in ellipsoidal
 // heights).
 #include <array>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "core/diagnostics.hpp"
+#include "geo/dem_source.hpp"
 #include "globe/tile.hpp"
 
 namespace gis::globe {
+
+/// What a DEM's heights are measured from (docs/globe.md, "Heights above the ellipsoid"). The
+/// globe draws heights above the WGS 84 ellipsoid; a DEM of geoid (orthometric) heights H is
+/// converted post by post to h = H + N(lon, lat) by PROJ, with the geoid grid of proj-data.
+/// Auto: the DEM's vertical CRS when its CRS is compound (or ellipsoidal heights for a 3D
+/// geographic CRS), otherwise EGM96 (SRTM, Copernicus and most lon/lat DEMs hold geoid
+/// heights), said in an Info diagnostic.
+enum class VerticalDatum { Auto, Ellipsoid, Egm96, Egm2008 };
+
+/// "auto", "ellipsoid", "egm96", "egm2008" (as the scene file spells them); nullopt otherwise.
+std::optional<VerticalDatum> parseVerticalDatum(const std::string& text);
+
+struct GeoGridReadOptions {
+  VerticalDatum vertical = VerticalDatum::Auto;
+  /// Refuse (an error, nothing allocated) a DEM that would take more than this in memory once
+  /// read into a GeoGrid (about 20 bytes a post); 0: no limit.
+  double memoryBudgetMb = 0.0;
+  /// The scene file, named in the memory error.
+  std::string sceneFile;
+};
 
 class GeoGrid {
  public:
@@ -23,6 +45,16 @@ class GeoGrid {
   /// A geographic raster (any CRS GDAL knows; reprojected to WGS 84 lon/lat if needed), heights
   /// taken as above the ellipsoid (docs/globe.md says what that means for geoid heights).
   static Result<GeoGrid> fromRaster(const std::string& path);
+
+  /// A DEM as the projected path reads it (geo::DemSpec: one file, several, folders of tiles, a
+  /// VRT; the CRS and height-unit overrides; the band), in any CRS GDAL knows, warped (bilinear,
+  /// nodata kept out of heights) onto one north-up grid in WGS 84 longitude/latitude at the
+  /// sources' finest resolution, then converted to heights above the ellipsoid as
+  /// `options.vertical` says. Read whole: a DEM beyond `options.memoryBudgetMb` is refused.
+  static Result<GeoGrid> fromDem(const geo::DemSpec& spec, const GeoGridReadOptions& options = {});
+
+  /// What the heights were converted from, for messages and stats ("ellipsoid", "EGM96 ...").
+  [[nodiscard]] const std::string& verticalSource() const { return verticalSource_; }
 
   [[nodiscard]] int width() const { return width_; }
   [[nodiscard]] int height() const { return height_; }
@@ -49,6 +81,7 @@ class GeoGrid {
   double west_ = 0.0, north_ = 0.0, step_ = 1.0;
   bool wraps_ = false;
   std::vector<float> heights_;
+  std::string verticalSource_ = "ellipsoid";
   std::array<double, 2> poleHeight_{0.0, 0.0};  ///< north, south
   /// Level k: blocks of 2^k × 2^k posts, (min, max) each, row-major.
   std::vector<std::vector<std::pair<float, float>>> pyramid_;

@@ -33,12 +33,14 @@
 #include "globe/globe_terrain.hpp"
 #include "globe/globe_view.hpp"
 #include "globe/tile.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
 
 namespace gis::globe {
 
 namespace detail {
 struct PolygonIndex;
-}
+struct DrawnPieces;
+}  // namespace detail
 
 /// One polygon of a feature, prepared: its rings (the first the outer one) unwrapped, densified,
 /// closed along a pole where they wind around one. Points are (lon, lat) degrees.
@@ -114,6 +116,8 @@ class GlobeLayer {
   /// What is drawn: the areas, and for lines their bands and discs.
   [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
   [[nodiscard]] const std::vector<GlobeLine>& lines() const { return lines_; }
+  /// polygons()[0, areaCount()) are the areas; the rest draw the lines.
+  [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
   /// Whether a point is in the layer (the CPU reference): in one of its areas (the polygons it
   /// was built from), or within half the width of one of its lines (exactly; the drawn discs
   /// lie within the chord tolerance inside).
@@ -166,6 +170,12 @@ struct GlobeOverlayStats {
   std::size_t builtTiles = 0;  ///< this frame
 };
 
+/// What GlobeOverlayRenderer::markOverlap drew.
+struct GlobeAnalysisStats {
+  GlobeOverlayStats a, b;
+  std::size_t groups = 0;  ///< mark-and-collect groups, both layers
+};
+
 /// Draws layers over the drawn tiles: per layer, marks its pieces into the stencil (z-pass, or
 /// z-fail where the near plane may cut one), then covers the marked pixels with its colour and
 /// its bit in the mask attachment (bit i for layers[i]). Needs the terrain's depth in the bound
@@ -181,8 +191,32 @@ class GlobeOverlayRenderer {
             const std::vector<const GlobeLayer*>& layers, const GlobeOverlaySettings& settings = {});
   [[nodiscard]] const GlobeOverlayStats& stats() const { return stats_; }
 
+  // Layer analysis with the same stencil core (as OverlayRenderer::markOverlap in a projected
+  // frame): mark, then cover, which colours and returns the stencil to 0. The stencil must be 0
+  // and the depth buffer hold the terrain.
+
+  /// Where layer a, and where layer b, covers the terrain: bit overlay::kOverlapFlagA /
+  /// kOverlapFlagB of the stencil. Each layer's pieces are counted in groups of at most 63 in the
+  /// low six bits and collected into its flag after every group (a ground point may lie in
+  /// several pieces: neighbouring tiles' pieces overlap, and so may features), so any depth of
+  /// overlap is exact.
+  GlobeAnalysisStats markOverlap(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                                 const GeoGrid& heights, const GlobeLayer& a, const GlobeLayer& b,
+                                 const GlobeOverlaySettings& settings = {});
+  /// Colours (straight alpha, blended over) the pixels where `op` of the two flags holds, adds
+  /// `maskValue` to the mask attachment there, and zeroes the stencil everywhere.
+  void coverOverlap(gfx::StateCache& cache, overlay::OverlapOp op, const glm::vec4& colour, float maskValue = 0.0F);
+
  private:
   struct Gpu;
+  /// The volume program's per-frame uniforms; false if its shaders do not build.
+  bool begin(const GlobeView& view, const GlobeOverlaySettings& settings);
+  /// The layer's pieces over the tiles (built and uploaded where missing), z-pass or z-fail each.
+  std::vector<detail::DrawnPieces> prepare(const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                                           const GeoGrid& heights, const GlobeLayer& layer,
+                                           const GlobeOverlaySettings& settings, GlobeOverlayStats& stats);
+  /// Drops the least recently drawn tiles' pieces beyond the budget.
+  void trim(std::size_t layers, const GlobeOverlaySettings& settings);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
 };
@@ -197,5 +231,15 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
                                      int height);
 /// The ECEF point a pixel's depth shows (row 0 = top), or nothing on background.
 bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out);
+
+}  // namespace gis::globe
+
+namespace gis::globe {
+
+/// Identify: the features (GlobePolygon::feature, GlobeLine::feature: indices into the features
+/// the layer was built from) whose area holds the point (ECEF, and its longitude and latitude),
+/// or whose line passes within half its width of it; each once, in increasing order
+/// (globe_identify.cpp).
+std::vector<std::uint32_t> featuresAt(const GlobeLayer& layer, const glm::dvec3& point, double lonDeg, double latDeg);
 
 }  // namespace gis::globe

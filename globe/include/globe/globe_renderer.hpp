@@ -1,6 +1,7 @@
 #pragma once
 // One frame of a globe scene (docs/globe.md): the terrain's tiles for the view, then the layers'
 // stencil polyhedra over them, into the bound framebuffer, with GPU times per part.
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -17,6 +18,10 @@ struct GlobeFrameStats {
   double selectMilliseconds = 0.0;
   double terrainGpuMilliseconds = 0.0;  ///< GL_TIME_ELAPSED; 0 unless timed
   double overlayGpuMilliseconds = 0.0;
+  /// The layers' passes as the pipeline counts them (deterministic, unlike times); 0 unless timed.
+  std::uint64_t overlayFragments = 0;
+  std::uint64_t overlayPrimitives = 0;  ///< entering the clipper
+  std::uint64_t terrainFragments = 0;
 };
 
 struct GlobeFrameTarget {
@@ -36,13 +41,21 @@ class GlobeRenderer {
                          const std::vector<const GlobeLayer*>& layers, bool timed = false,
                          const GlobeOverlaySettings& settings = {});
 
+  /// Imagery draped over the terrain's tiles (GlobeTerrain::setImagery); null: the height tint.
+  void setImagery(std::shared_ptr<const GlobeImagery> imagery) { terrain_.setImagery(std::move(imagery)); }
+
   [[nodiscard]] GlobeTerrain& terrain() { return terrain_; }
+  /// The layers' renderer, for analyses over the last frame (GlobeOverlayRenderer::markOverlap).
+  [[nodiscard]] GlobeOverlayRenderer& overlay() { return overlay_; }
+  /// The tiles the last frame drew.
+  [[nodiscard]] const std::vector<DrawnTile>& tiles() const { return tiles_; }
   [[nodiscard]] const GeoGrid& heights() const { return *heights_; }
 
  private:
   std::shared_ptr<const GeoGrid> heights_;
   GlobeTerrain terrain_;
   GlobeOverlayRenderer overlay_;
+  std::vector<DrawnTile> tiles_;
 };
 
 }  // namespace gis::globe

@@ -22,6 +22,7 @@
 
 #include "gfx/state_cache.hpp"
 #include "globe/geo_grid.hpp"
+#include "globe/globe_imagery.hpp"
 #include "globe/globe_view.hpp"
 #include "globe/tile.hpp"
 
@@ -35,6 +36,14 @@ struct TerrainOptions {
   int maxLevel = 20;              ///< finest level drawn
   std::size_t cacheTiles = 4096;  ///< GPU meshes kept (least recently drawn go first)
   float occluderHeight = 0.0F;    ///< the horizon test's ellipsoid (≤ the lowest ground)
+  /// Imagery textures (setImagery): built on the GL thread while drawing, at most this many tiles
+  /// and (after the first) this many milliseconds a frame; the rest keep the height tint until a
+  /// later frame builds them (TerrainStats::imageryPending).
+  std::size_t imageryTilesPerFrame = 16;
+  double imageryMillisecondsPerFrame = 50.0;
+  /// GPU memory for the textures: beyond it the least recently drawn tiles (mesh and texture)
+  /// go first, never those of the frame being drawn.
+  double imageryGpuBudgetMb = 256.0;
 };
 
 struct DrawnTile {
@@ -44,10 +53,14 @@ struct DrawnTile {
 };
 
 struct TerrainStats {
-  std::size_t tiles = 0;      ///< drawn in the last frame
-  std::size_t triangles = 0;  ///< drawn in the last frame
-  std::size_t uploads = 0;    ///< meshes built and uploaded in the last frame
-  std::size_t resident = 0;   ///< meshes on the GPU
+  std::size_t tiles = 0;           ///< drawn in the last frame
+  std::size_t triangles = 0;       ///< drawn in the last frame
+  std::size_t uploads = 0;         ///< meshes built and uploaded in the last frame
+  std::size_t resident = 0;        ///< meshes on the GPU
+  std::size_t imageryTiles = 0;    ///< drawn with their imagery texture in the last frame
+  std::size_t imageryBuilt = 0;    ///< imagery textures built in the last frame
+  std::size_t imageryPending = 0;  ///< drawn tiles the imagery reaches whose texture is not built yet
+  std::size_t imageryBytes = 0;    ///< imagery textures on the GPU
 };
 
 /// The bounds of the contract above over `box` for tiles of `level` (heights in metres above the
@@ -73,6 +86,11 @@ class GlobeTerrain {
   [[nodiscard]] const GeoGrid& heights() const { return *heights_; }
   [[nodiscard]] const TerrainOptions& options() const { return options_; }
 
+  /// Drapes imagery over the tiles it reaches (none: the height tint everywhere). Textures built
+  /// for earlier imagery are dropped.
+  void setImagery(std::shared_ptr<const GlobeImagery> imagery);
+  [[nodiscard]] const std::shared_ptr<const GlobeImagery>& imagery() const { return imagery_; }
+
   /// The tiles the view needs (no GL): they cover, without overlap, every part of the globe the
   /// view may see.
   [[nodiscard]] std::vector<DrawnTile> select(const GlobeView& view) const;
@@ -87,6 +105,7 @@ class GlobeTerrain {
   struct Gpu;
   std::shared_ptr<const GeoGrid> heights_;
   TerrainOptions options_;
+  std::shared_ptr<const GlobeImagery> imagery_;
   struct Lod;
   std::unique_ptr<Gpu> gpu_;
   std::unique_ptr<Lod> lod_;  ///< per-tile errors and bounds, cached across frames (select is const)

@@ -35,6 +35,9 @@ struct SelectionPixels {
 /// colour. The overlay mask stays as the layers left it.
 Result<SelectionPixels> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
                                       const SelectionRequest& request, const Camera& camera);
+/// The same for a frame drawn in any frame of reference (the globe's: globe::overlayViewOf).
+Result<SelectionPixels> drawSelection(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                      const SelectionRequest& request, const overlay::OverlayView& view);
 
 /// The overlay layer that draws the fill (not the outline) of the scene layer with this name.
 std::optional<std::size_t> fillLayerNamed(const LoadedScene& scene, const SceneRenderer& renderer,

@@ -10,6 +10,7 @@
 
 #include "core/diagnostics.hpp"
 #include "globe/geo_grid.hpp"
+#include "globe/globe_imagery.hpp"
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_view.hpp"
 #include "scene/scene.hpp"
@@ -29,19 +30,34 @@ struct LoadedGlobeScene {
   SceneDescription description;
   std::string reason;  ///< globeReason's
   std::shared_ptr<const globe::GeoGrid> heights;
+  /// The scene's imagery (bands imageryBands), for GlobeRenderer::setImagery; null without one or
+  /// when it cannot be read (said in the diagnostics).
+  std::shared_ptr<const globe::GlobeImagery> imagery;
   std::vector<globe::GlobeLayer> layers;    ///< the scene's polygon layers, in order
   std::vector<std::size_t> layerFileIndex;  ///< per layer: its place in the scene file (its mask bit)
+  /// Per layer: the features it was built from, with their fid and attributes but no geometry
+  /// (GlobePolygon::feature and GlobeLine::feature index them; a fill and its outline share them):
+  /// what identify shows.
+  std::vector<std::shared_ptr<const std::vector<geo::Feature>>> layerFeatures;
   /// The data's box in longitude/latitude (west, south, east, north): the layers', else the
   /// DEM's. West may be below −180 and east above 180 for data across the antimeridian.
   std::array<double, 4> extent{-180.0, -90.0, 180.0, 90.0};
   double loadSeconds = 0.0;
 };
 
-/// Reads the DEM (one GeoTIFF or any raster GDAL reads, reprojected to lon/lat if it is not) and
-/// the layers: polygons, lines and outlines in metres with round joins (what else a style asks
-/// for is said in a warning, and drawn so). A layer that cannot be read is reported and left
-/// out; only a DEM that cannot be read fails the scene.
+/// Reads the DEM (globe::GeoGrid::fromDem: one file, several, folders of tiles or a VRT, any CRS,
+/// warped to lon/lat, heights converted to the ellipsoid as terrain.vertical_datum says, refused
+/// beyond terrain.memory_budget_mb), the imagery, and the layers: polygons, lines and outlines in metres with round
+/// joins (what else a style asks for is said in a warning, and drawn so). A layer that cannot be read is reported and
+/// left out; only a DEM that cannot be read fails the scene.
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
+
+/// The view of a camera stated in lon/lat/h (eye and target; a scene's "camera", a camera file,
+/// overlay_render's globe camera.json), its near plane the camera's "near" or a fraction of the
+/// eye's height above `ground`; nothing (an Error naming `where`) for a camera given in frame
+/// coordinates (eye_xyz), which mean nothing on the globe.
+Result<globe::GlobeView> globeViewOf(const CameraSpec& spec, const globe::GeoGrid& ground, int width, int height,
+                                     const std::string& where);
 
 /// The view a still of the scene is drawn from: the scene's camera (eye and target in lon, lat,
 /// h), else one from above the data's middle, far enough to hold their extent.

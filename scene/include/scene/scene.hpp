@@ -46,6 +46,9 @@ struct SceneDescription {
   std::string demCrs;          ///< overrides the DEM files' CRS (needed when they have none)
   std::string demHeightUnit;   ///< overrides the heights' unit ("m", "ft", "us-ft")
   double demResolution = 0.0;  ///< metres between the posts of a resampled DEM; 0 = the source's finest
+  /// What the DEM's heights are above, for the globe (terrain.vertical_datum: "auto", "ellipsoid",
+  /// "egm96", "egm2008"; globe::VerticalDatum). A projected frame draws the heights as they are.
+  std::string demVerticalDatum = "auto";
   double verticalExaggeration = 1.0;
   /// Auto: paged when the DEM in memory (about 7 bytes a post with its bounds) would exceed
   /// memoryBudgetMb; a paged DEM keeps a third of the budget for tiles.

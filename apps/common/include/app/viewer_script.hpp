@@ -5,6 +5,8 @@
 //   {"window": [960, 640],                      optional: window size in screen coordinates
 //    "steps": [
 //      {"camera": {...} or "camera.json", "seconds": 1.5},   eased move (0 or absent: a jump)
+//      {"globe_camera": {"lon": 10, "lat": 50, "distance": 2e6,   a globe scene's camera (a jump):
+//       "heading": 0, "pitch": 90}},                          target, metres to it, degrees
 //      {"wait": 10},                                          frames to draw
 //      {"action": "toggle_layer", "layer": "streets"},
 //      {"action": "set_layer", "layer": "census tracts",      any of visible, opacity, color, width
@@ -76,6 +78,16 @@ struct CameraStep {
   nlohmann::json camera;   ///< the spec, parsed later against the scene frame (scene::parseCameraSpec)
   std::string cameraFile;  ///< where the spec came from (the script or the camera file it names), for messages
   double seconds = 0.0;    ///< eased move over this long; 0: a jump
+};
+
+/// A globe scene's camera (scene::GlobePose): it looks at the ground at (lon, lat) from `distance`
+/// metres, along `heading` (degrees clockwise from north) and `pitch` (degrees below the horizontal,
+/// 90 = straight down). A jump.
+struct GlobeCameraStep {
+  double lon = 0.0, lat = 0.0;  ///< degrees; lon in [-540, 540], lat in [-90, 90]
+  double distance = 1e7;        ///< metres, > 0
+  double heading = 0.0;         ///< degrees
+  double pitch = 90.0;          ///< degrees, in (0, 90]
 };
 
 struct WaitStep {
@@ -216,7 +228,7 @@ using ScriptAction =
     std::variant<CameraStep, WaitStep, ToggleLayerStep, SetLayerStep, OverlaysStep, MethodStep, ExaggerationStep,
                  LassoStep, InvertStep, ClearSelectionStep, IdentifyStep, ExportStep, ScreenshotStep, HomeStep, KeyStep,
                  DragStep, ClickStep, ScrollStep, HoldKeysStep, ResizeStep, SaveStateStep, ViewStep, DropStep, LiveStep,
-                 QuitStep, TableStep, MeasureStep>;
+                 QuitStep, TableStep, MeasureStep, GlobeCameraStep>;
 
 /// One step of a script: its action, read completely, and where it stands in the script.
 struct ScriptStep {

@@ -1,0 +1,785 @@
+// The viewer on the globe (docs/viewer.md, "On the globe"): a globe scene read on the worker,
+// drawn with globe::GlobeRenderer into the offscreen target, flown with
+// scene::GlobeCameraController (grab, orbit, zoom to the cursor from space to a metre above the
+// ground, home, north up), with its panel, HUD, status bar, identify, the lasso selection and
+// script steps. The projected scene's other tools are not on the globe yet: asked for, they say
+// so once and do nothing.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <set>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <variant>
+
+#include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <glm/geometric.hpp>
+#include <glm/mat3x3.hpp>
+#include <nlohmann/json.hpp>
+
+#include "globe/globe_selection.hpp"
+#include "scene/json_file.hpp"
+#include "viewer.hpp"
+
+namespace gis::viewer {
+namespace {
+
+using nlohmann::json;
+
+constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
+/// Orbit (right drag, Ctrl+left drag): radians of heading and pitch per pixel.
+constexpr double kOrbitPerPixel = 0.005;
+/// Arrow keys: heading and pitch steps, radians.
+constexpr double kArrowHeading = 10.0 * kRadiansPerDegree;
+constexpr double kArrowPitch = 5.0 * kRadiansPerDegree;
+
+/// The pose that looks at `target` from `eye` (ECEF): its distance, and heading and pitch in the
+/// target's east-north-up frame (scene::GlobePose).
+scene::GlobePose poseLooking(const glm::dvec3& eye, const glm::dvec3& target) {
+  scene::GlobePose p;
+  p.target = globe::toGeodetic(target);
+  const glm::dvec3 d = eye - target;
+  p.distance = glm::length(d);
+  if (!(p.distance > 0.0)) return p;
+  const glm::dmat3 enu = globe::enuBasis(p.target.lon, p.target.lat);
+  const glm::dvec3 local(glm::dot(d, enu[0]), glm::dot(d, enu[1]), glm::dot(d, enu[2]));
+  p.pitch = std::asin(std::clamp(local.z / p.distance, -1.0, 1.0));
+  // The view looks along −d: its heading is that of (−east, −north).
+  p.heading = (local.x == 0.0 && local.y == 0.0) ? 0.0 : std::atan2(-local.x, -local.y);
+  return p;
+}
+
+json geodeticJson(const globe::Geodetic& g) { return {{"lon", g.lon}, {"lat", g.lat}, {"h", g.h}}; }
+
+json matrixJson(const glm::dmat4& m) {
+  json out = json::array();
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) out.push_back(m[c][r]);
+  }
+  return out;
+}
+
+/// The keys and mouse on the globe (?).
+void drawGlobeHelp(bool* open) {
+  ImGui::SetNextWindowPos(ImGui::GetMainViewport()->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5F, 0.5F));
+  ImGui::Begin("Keys and mouse on the globe (?)", open, ImGuiWindowFlags_AlwaysAutoResize);
+  const char* rows[][2] = {
+      {"left drag", "grab the globe: it spins from space, pans near the ground"},
+      {"right / middle drag, Ctrl+left drag", "orbit about the target: heading and pitch"},
+      {"wheel", "zoom to the point under the cursor (space to 1 m above the ground)"},
+      {"click", "identify: lon/lat, height and the features under the cursor"},
+      {"L", "lasso tool on/off: drag to select"},
+      {"lasso + Shift / Ctrl / Ctrl+Shift / Alt", "or / subtract / and / xor"},
+      {"I / C", "invert / clear the selection"},
+      {"Ctrl+Z / Ctrl+Y", "undo / redo the selection"},
+      {"H / Home", "home view"},
+      {"N", "north up (or click the compass)"},
+      {"arrows", "turn (left, right) and tilt (up, down)"},
+      {"Page Up / Page Down", "zoom in / out at the centre"},
+      {"O", "all vector layers on/off"},
+      {"P / U", "panel / HUD on/off"},
+      {"Ctrl+O", "open a scene, DEM or vector file"},
+      {"F12", "screenshot (PNG, working directory)"},
+      {"Esc", "drop the lasso being drawn, the lasso tool, help or identify"},
+      {"Ctrl+Q", "quit"},
+  };
+  if (ImGui::BeginTable("keys", 2)) {
+    for (const auto& row : rows) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row[0]);
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row[1]);
+    }
+    ImGui::EndTable();
+  }
+  ImGui::End();
+}
+
+}  // namespace
+
+json GlobeIdentified::toJson() const {
+  json features = json::array();
+  for (const Identified::Hit& h : hits) {
+    json attributes = json::object();
+    for (const auto& [k, v] : h.attributes) attributes[k] = v;
+    features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"feature", h.feature}, {"attributes", attributes}});
+  }
+  return {{"frame", "globe"},
+          {"lon_lat_h", {point.lon, point.lat, point.h}},
+          {"ecef", {ecef.x, ecef.y, ecef.z}},
+          {"height", point.h},
+          {"terrain_height", terrainHeight},
+          {"features", features}};
+}
+
+void Viewer::useGlobeScene(Result<scene::LoadedGlobeScene> loaded, const scene::SceneDescription& description) {
+  for (const Diagnostic& d : loaded.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  if (!loaded) return;
+  finishSelection();  // its job reads the scene about to go
+  // One scene on the GPU at a time.
+  renderer_.reset();
+  scene_.reset();
+  globe_.reset();
+  auto g = std::make_unique<GlobeMode>();
+  g->scene = std::move(*loaded);
+  g->renderer = std::make_unique<globe::GlobeRenderer>(g->scene.heights);
+  scene::GlobeCameraSettings camera;
+  camera.fovYDeg = settings_.fovYDeg;
+  g->controller = std::make_unique<scene::GlobeCameraController>(g->scene.heights.get(), camera);
+  g->shown.assign(g->scene.layers.size(), static_cast<char>(1));
+  // The DEM's highest post: no ground a lasso's eye sees lies beyond its horizon reach.
+  g->maxGroundHeight = std::max(g->scene.heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
+  if (g->scene.imagery) g->renderer->setImagery(g->scene.imagery);
+  globe_ = std::move(g);
+  description_ = description;
+  message("on the globe: " + globe_->scene.reason);
+  globeHome();
+  // The tools start empty again.
+  steps_.clear();
+  undo_.clear();
+  redo_.clear();
+  selectionChanged();
+  lassoTool_ = false;
+  lassoPoints_.clear();
+  measureTool_ = false;
+  clearMeasure();
+  table_.reset();
+  outlines_.clear();
+  labelSets_.clear();
+  labelPlacer_.forget();
+  identified_.reset();
+  demRange_.reset();
+  glfwSetWindowTitle(
+      context_->window(),
+      ("terrain_viewer — " + (description_->name.empty() ? description_->path : description_->name) + " (globe)")
+          .c_str());
+}
+
+void Viewer::globeHome() {
+  GlobeMode& g = *globe_;
+  const glm::ivec2 fb = framebufferSize();
+  const std::optional<scene::CameraSpec>& spec = g.scene.description.camera;
+  if (spec && spec->eyeLonLatH && spec->targetLonLatH) {
+    // The scene's own camera, as its author placed it.
+    const globe::GlobeView v = scene::globeStillView(g.scene, std::max(fb.x, 1), std::max(fb.y, 1));
+    g.controller->setPose(poseLooking(v.eye, v.target));
+    return;
+  }
+  const std::array<double, 4>& e = g.scene.extent;
+  g.controller->home(e[0], e[1], e[2], e[3], glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)));
+}
+
+void Viewer::notOnGlobe(const std::string& tool) {
+  if (globe_->saidNotAvailable.insert(tool).second) message(tool + " is not available on the globe yet");
+}
+
+void Viewer::drawGlobe() {
+  const glm::ivec2 fb = framebufferSize();
+  if (fb.x <= 0 || fb.y <= 0) return;
+  // The globe's layers write their bits into a mask attachment.
+  if (!target_ || !target_->hasMask() || target_->width() != fb.x || target_->height() != fb.y) {
+    target_.emplace(fb.x, fb.y, 0, true);
+  }
+  GlobeMode& g = *globe_;
+  g.view = g.controller->view(fb.x, fb.y);
+  std::vector<const globe::GlobeLayer*> layers;
+  if (render_.overlays) {
+    for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+      if (g.shown[i] != 0) layers.push_back(&g.scene.layers[i]);
+    }
+  }
+  // GPU timer queries wait for the GPU: sample them (every frame in a script).
+  const bool timed = frameIndex_ % 30 == 1 || script_.has_value();
+  const globe::GlobeFrameStats s =
+      g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed);
+  if (timed) {
+    g.stats = s;
+  } else {
+    const double terrainMs = g.stats.terrainGpuMilliseconds, overlayMs = g.stats.overlayGpuMilliseconds;
+    g.stats = s;
+    g.stats.terrainGpuMilliseconds = terrainMs;
+    g.stats.overlayGpuMilliseconds = overlayMs;
+  }
+  if (!steps_.empty()) drawGlobeSelection();
+  busy_ = false;  // the globe builds what a frame needs in that frame
+  glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
+                         GL_NEAREST);
+  cache_.bindDrawTarget(0, fb.x, fb.y);
+  // The coordinates under the cursor, unless the panel has it.
+  g.cursor.reset();
+  if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) {
+    if (const std::optional<glm::dvec3> p = globePointAt(lastPixel_)) g.cursor = globe::toGeodetic(*p);
+  }
+}
+
+std::optional<glm::dvec3> Viewer::globePointAt(const glm::dvec2& pixel) const {
+  const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
+  const std::optional<float> depth = depthAt(x, y);
+  if (!depth || !globe_) return std::nullopt;
+  glm::dvec3 out(0.0);
+  if (!globe::unprojectPixel(globe_->view, x, y, *depth, out)) return std::nullopt;
+  return out;
+}
+
+std::optional<double> Viewer::globeMetresPerPixelAtCentre() const {
+  const glm::ivec2 fb = framebufferSize();
+  const std::optional<glm::dvec3> centre = globePointAt(glm::dvec2(fb) * 0.5);
+  if (!centre) return std::nullopt;
+  const globe::GlobeView& v = globe_->view;
+  const double depth = glm::dot(*centre - v.eye, glm::normalize(v.target - v.eye));
+  return v.pixelSizeAt(depth);
+}
+
+std::optional<GlobeIdentified> Viewer::identifyOnGlobe(const glm::dvec2& pixel) {
+  const std::optional<glm::dvec3> p = globePointAt(pixel);
+  if (!p) return std::nullopt;
+  const GlobeMode& g = *globe_;
+  GlobeIdentified id;
+  id.ecef = *p;
+  id.point = globe::toGeodetic(*p);
+  id.terrainHeight = g.controller->groundHeight(id.point.lon, id.point.lat);
+  std::set<std::pair<std::size_t, std::uint32_t>> seen;  // a fill and its outline name a feature once
+  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+    if (g.shown[i] == 0) continue;
+    const std::size_t fileIndex = g.scene.layerFileIndex[i];
+    std::string name = g.scene.layers[i].name();
+    for (const scene::LayerDescription& l : g.scene.description.layers) {
+      if (l.fileIndex == fileIndex) name = l.name;
+    }
+    for (const std::uint32_t f : globe::featuresAt(g.scene.layers[i], id.ecef, id.point.lon, id.point.lat)) {
+      if (!seen.insert({fileIndex, f}).second) continue;
+      Identified::Hit hit;
+      hit.layer = name;
+      hit.feature = f;
+      if (i < g.scene.layerFeatures.size() && g.scene.layerFeatures[i] && f < g.scene.layerFeatures[i]->size()) {
+        const geo::Feature& feature = (*g.scene.layerFeatures[i])[f];
+        hit.fid = feature.fid;
+        for (const auto& [k, v] : feature.attributes) hit.attributes.emplace_back(k, attributeText(v));
+      }
+      id.hits.push_back(std::move(hit));
+    }
+  }
+  return id;
+}
+
+void Viewer::handleGlobeInput(const InputFrame& in) {
+  GlobeMode& g = *globe_;
+  scene::GlobeCameraController& c = *g.controller;
+  const glm::ivec2 fb = framebufferSize();
+  if (!in.uiMouse) {
+    const glm::dvec2 pixel = in.cursor, last = lastPixel_;
+    if (in.left && !leftDown_) {
+      pressCursor_ = pixel;
+      dragged_ = false;
+      if (lassoTool_) lassoPoints_.assign(1, pixel);
+    }
+    // With the lasso tool a left drag draws the lasso (as in a projected scene): every cursor
+    // position taken in the frame, so a fast drag keeps its shape.
+    const bool lassoing = lassoTool_ && in.left && !lassoPoints_.empty();
+    if (lassoing) {
+      if (glm::length(pixel - pressCursor_) > 3.0) dragged_ = true;
+      for (const glm::dvec2& p : in.cursorPath) {
+        if (glm::length(p - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(p);
+      }
+      if (glm::length(pixel - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(pixel);
+    }
+    // A drag starts once the cursor is 3 px from the press; the globe then follows it from there.
+    const bool leftDrags = in.left && leftDown_ && !lassoTool_;
+    const bool dragStarts = leftDrags && !dragged_ && glm::length(pixel - pressCursor_) > 3.0;
+    if (dragStarts) dragged_ = true;
+    const bool orbit =
+        (in.right && rightDown_) || (in.middle && middleDown_) || (leftDrags && dragged_ && in.modifiers.ctrl);
+    if (orbit) {
+      const glm::dvec2 move = dragStarts ? pixel - pressCursor_ : pixel - last;
+      if (move != glm::dvec2(0.0)) c.orbit(move.x * kOrbitPerPixel, move.y * kOrbitPerPixel);
+    } else if (leftDrags && dragged_) {
+      const glm::dvec2 from = dragStarts ? pressCursor_ : last;
+      if (from != pixel) c.grab(from, pixel, fb);
+    }
+    if (!in.left && leftDown_) {
+      if (lassoTool_ && lassoPoints_.size() >= 3) {
+        overlay::SelectionOp op = lassoOpOf(in.modifiers);
+        if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
+        addLasso(op, std::exchange(lassoPoints_, {}));
+      } else if (!dragged_) {
+        g.identified = identifyOnGlobe(pixel);
+      }
+      lassoPoints_.clear();
+    }
+    if (in.scroll != 0.0) c.zoomToCursor(in.scroll, pixel, fb);
+  }
+  leftDown_ = in.left;
+  rightDown_ = in.right;
+  middleDown_ = in.middle;
+  lastPixel_ = in.cursor;
+  if (!in.uiKeyboard) {
+    for (const InputFrame::KeyPress& k : in.pressed) globeKeyPressed(k.key, k.modifiers);
+  }
+}
+
+void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
+  GlobeMode& g = *globe_;
+  scene::GlobeCameraController& c = *g.controller;
+  const glm::ivec2 fb = framebufferSize();
+  switch (key) {
+    case GLFW_KEY_ESCAPE:
+      // Backs out of one thing at a time, as in a projected scene.
+      if (!lassoPoints_.empty()) {
+        lassoPoints_.clear();
+      } else if (lassoTool_) {
+        lassoTool_ = false;
+      } else if (showHelp_) {
+        showHelp_ = false;
+      } else if (g.identified) {
+        g.identified.reset();
+      }
+      break;
+    case GLFW_KEY_Q:
+      if (modifiers.ctrl) glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
+      break;
+    case GLFW_KEY_H:
+    case GLFW_KEY_HOME:
+      globeHome();
+      break;
+    case GLFW_KEY_N:
+      northUp();
+      break;
+    case GLFW_KEY_LEFT:
+      c.orbit(-kArrowHeading, 0.0);
+      break;
+    case GLFW_KEY_RIGHT:
+      c.orbit(kArrowHeading, 0.0);
+      break;
+    case GLFW_KEY_UP:
+      c.orbit(0.0, -kArrowPitch);
+      break;
+    case GLFW_KEY_DOWN:
+      c.orbit(0.0, kArrowPitch);
+      break;
+    case GLFW_KEY_PAGE_UP:
+      c.zoomToCursor(1.0, glm::dvec2(fb) * 0.5, fb);
+      break;
+    case GLFW_KEY_PAGE_DOWN:
+      c.zoomToCursor(-1.0, glm::dvec2(fb) * 0.5, fb);
+      break;
+    case GLFW_KEY_O:
+      if (modifiers.ctrl) {
+        openFileBrowser();
+      } else {
+        render_.overlays = !render_.overlays;
+      }
+      break;
+    case GLFW_KEY_P:
+      settings_.showPanel = !settings_.showPanel;
+      break;
+    case GLFW_KEY_U:
+      settings_.showHud = !settings_.showHud;
+      break;
+    case GLFW_KEY_F12:
+      pendingShot_ = {std::filesystem::path("terrain_viewer_" + std::to_string(frameIndex_) + ".png"), true};
+      break;
+    case GLFW_KEY_SLASH:
+      showHelp_ = !showHelp_;
+      break;
+    case GLFW_KEY_F:
+      notOnGlobe("Fly mode (F)");
+      break;
+    case GLFW_KEY_L:
+      lassoTool_ = !lassoTool_;
+      break;
+    case GLFW_KEY_M:
+      notOnGlobe("The measure tool (M)");
+      break;
+    case GLFW_KEY_I:
+      if (!steps_.empty()) invertSelection();
+      break;
+    case GLFW_KEY_C:
+      clearSelection();
+      break;
+    case GLFW_KEY_Z:
+      if (modifiers.ctrl && modifiers.shift) {
+        redoSelection();
+      } else if (modifiers.ctrl) {
+        undoSelection();
+      }
+      break;
+    case GLFW_KEY_Y:
+      if (modifiers.ctrl) redoSelection();
+      break;
+    default:
+      break;
+  }
+}
+
+void Viewer::drawGlobeUi() {
+  windowRects_.clear();
+  drawScaleBar();
+  drawCompass();
+  drawStatusBar();
+  if (settings_.showPanel) drawGlobePanel();
+  if (settings_.showHud) drawGlobeHud();
+  if (showHelp_) drawGlobeHelp(&showHelp_);
+  if (globe_->identified) drawGlobeIdentify();
+  drawLassoOutline();
+}
+
+void Viewer::drawGlobePanel() {
+  GlobeMode& g = *globe_;
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  const float font = ImGui::GetFontSize();
+  const float statusBar = ImGui::GetFrameHeight();
+  ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + 10.0F, viewport->WorkPos.y + 10.0F), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(
+      ImVec2(std::min(26.0F * font, viewport->WorkSize.x * 0.6F), viewport->WorkSize.y - 20.0F - statusBar),
+      ImGuiCond_FirstUseEver);
+  ImGui::Begin("stencil-gis");
+  panelRight_ = ImGui::GetWindowPos().x + ImGui::GetWindowSize().x;
+  rememberWindow("panel");
+  panelFont_ = font;
+  ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
+  if (ImGui::Button("Open… (Ctrl+O)")) openFileBrowser();
+  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+  ImGui::TextWrapped("On the globe: %s. ? lists the keys.", g.scene.reason.c_str());
+  ImGui::PopStyleColor();
+  if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
+    if (ImGui::Button("Home (H)")) globeHome();
+    rememberRect("globe_home");
+    ImGui::SameLine();
+    if (ImGui::Button("North up (N)")) northUp();
+    const scene::GlobePose& pose = g.controller->pose();
+    ImGui::Text("heading %.1f°, pitch %.1f°", pose.heading / kRadiansPerDegree, pose.pitch / kRadiansPerDegree);
+    ImGui::Text("%s to the target", formatMetres(pose.distance).c_str());
+  }
+  if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
+    ImGui::Checkbox("vector layers (O)", &render_.overlays);
+    for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+      ImGui::PushID(static_cast<int>(i));
+      const glm::vec4& c = g.scene.layers[i].color();
+      ImGui::ColorButton("##colour", ImVec4(c.x, c.y, c.z, 1.0F), ImGuiColorEditFlags_NoTooltip, ImVec2(font, font));
+      ImGui::SameLine();
+      bool on = g.shown[i] != 0;
+      if (ImGui::Checkbox(g.scene.layers[i].name().c_str(), &on)) g.shown[i] = static_cast<char>(on);
+      ImGui::PopID();
+    }
+  }
+  drawGlobeSelectionSection();
+  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+  ImGui::TextWrapped(
+      "Not on the globe yet: measure, labels, the attribute table, colours by category, draping, fly mode, "
+      "exaggeration and exporting the selection.");
+  ImGui::PopStyleColor();
+  drawMessagesSection();
+  ImGui::End();
+}
+
+void Viewer::drawGlobeHud() {
+  const GlobeMode& g = *globe_;
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10, viewport->WorkPos.y + 10),
+                          ImGuiCond_Always, ImVec2(1.0F, 0.0F));
+  ImGui::SetNextWindowBgAlpha(0.55F);
+  ImGui::Begin("HUD", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoFocusOnAppearing |
+                   ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs);
+  rememberWindow("hud");
+  ImGui::Text("%.1f fps  %.1f ms", 1000.0 / std::max(frameMs_, 1e-3), frameMs_);
+  ImGui::Text("globe terrain: %zu triangles, %zu tiles, GPU %.2f ms", g.stats.terrain.triangles, g.stats.terrain.tiles,
+              g.stats.terrainGpuMilliseconds);
+  if (!render_.overlays) {
+    ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
+  } else {
+    ImGui::Text("overlays: GPU %.2f ms, %zu pieces, %zu z-fail", g.stats.overlayGpuMilliseconds, g.stats.overlay.pieces,
+                g.stats.overlay.zFailPieces);
+  }
+  const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
+  ImGui::Text("eye: lon %.6f°, lat %.6f°, height %s above ground, %s above the ellipsoid", eye.lon, eye.lat,
+              formatMetres(g.controller->heightAboveGround()).c_str(), formatMetres(eye.h).c_str());
+  ImGui::End();
+}
+
+void Viewer::drawGlobeIdentify() {
+  bool open = true;
+  const ImGuiViewport* viewport = ImGui::GetMainViewport();
+  const float above = ImGui::GetFrameHeight() + 6.5F * ImGui::GetFontSize() + 10.0F;
+  ImGui::SetNextWindowPos(
+      ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10.0F, viewport->WorkPos.y + viewport->WorkSize.y - above),
+      ImGuiCond_FirstUseEver, ImVec2(1.0F, 1.0F));
+  ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
+  rememberWindow("identify");
+  const GlobeIdentified& id = *globe_->identified;
+  ImGui::TextUnformatted(formatLonLat(glm::dvec3(id.point.lon, id.point.lat, id.point.h)).c_str());
+  ImGui::Text("height %.2f m above the ellipsoid (terrain %.2f m)", id.point.h, id.terrainHeight);
+  if (id.hits.empty()) ImGui::TextDisabled("no feature here");
+  for (const Identified::Hit& h : id.hits) {
+    if (ImGui::TreeNodeEx(&h, ImGuiTreeNodeFlags_DefaultOpen, "%s: fid %lld", h.layer.c_str(),
+                          static_cast<long long>(h.fid))) {
+      for (const auto& [k, v] : h.attributes) ImGui::BulletText("%s: %s", k.c_str(), v.c_str());
+      ImGui::TreePop();
+    }
+  }
+  ImGui::End();
+  if (!open) globe_->identified.reset();
+}
+
+json Viewer::globeCameraJson() const {
+  const globe::GlobeView& v = globe_->view;
+  return {{"width", v.width},
+          {"height", v.height},
+          {"frame", "globe"},
+          {"crs", "EPSG:4978 (WGS 84 earth-centred, metres)"},
+          {"view_proj_ecef", matrixJson(v.viewProj())},
+          {"eye_ecef", {v.eye.x, v.eye.y, v.eye.z}},
+          {"depth", "reversed-Z: near / distance along the view axis, 0 = background"},
+          {"near", v.near},
+          {"fov_y_deg", v.fovYDeg},
+          {"eye", geodeticJson(globe::toGeodetic(v.eye))},
+          {"target", geodeticJson(globe::toGeodetic(v.target))}};
+}
+
+json Viewer::globeState() const {
+  const GlobeMode& g = *globe_;
+  const glm::ivec2 fb = framebufferSize();
+  glm::ivec2 window(0);
+  glfwGetWindowSize(context_->window(), &window.x, &window.y);
+  const glm::dvec4 free = freeRegion();
+  const scene::GlobePose& pose = g.controller->pose();
+  const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
+  json layers = json::array();
+  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+    const globe::GlobeLayer& l = g.scene.layers[i];
+    const glm::vec4& c = l.color();
+    layers.push_back(
+        {{"name", l.name()},
+         {"shown", g.shown[i] != 0},
+         {"color", {c.x, c.y, c.z, c.w}},
+         {"mask_bit", g.scene.layerFileIndex[i]},
+         {"polygons", l.polygons().size()},
+         {"lines", l.lines().size()},
+         {"features",
+          i < g.scene.layerFeatures.size() && g.scene.layerFeatures[i] ? g.scene.layerFeatures[i]->size() : 0U}});
+  }
+  nlohmann::json rects = nlohmann::json::object();
+  for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
+  return {{"scene", description_->path},
+          {"mode", "globe"},
+          {"frame", "globe"},
+          {"globe_reason", g.scene.reason},
+          {"globe",
+           {{"target", geodeticJson(pose.target)},
+            {"distance", pose.distance},
+            {"heading", pose.heading},
+            {"pitch", pose.pitch},
+            {"heading_deg", pose.heading / kRadiansPerDegree},
+            {"pitch_deg", pose.pitch / kRadiansPerDegree},
+            {"eye", geodeticJson(eye)},
+            {"eye_height_above_ground", g.controller->heightAboveGround()},
+            {"extent", {g.scene.extent[0], g.scene.extent[1], g.scene.extent[2], g.scene.extent[3]}},
+            {"camera", globeCameraJson()}}},
+          {"framebuffer", {fb.x, fb.y}},
+          {"window", {window.x, window.y}},
+          {"free_region", {free.x, free.y, free.z, free.w}},
+          {"overlays", render_.overlays},
+          {"layers", layers},
+          {"cursor", g.cursor ? geodeticJson(*g.cursor) : json()},
+          {"identified", g.identified ? g.identified->toJson() : json()},
+          {"compass_angle", compassAngle_},
+          {"scale_bar_m", scaleBarMetres_},
+          {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
+          {"overlay", {{"pieces", g.stats.overlay.pieces}, {"z_fail_pieces", g.stats.overlay.zFailPieces}}},
+          {"view", {{"panel", settings_.showPanel}, {"hud", settings_.showHud}, {"fov", settings_.fovYDeg}}},
+          {"ui_rects", rects},
+          {"notice", notice_ ? json(notice_->text) : json()},
+          {"keys_down", keysDownJson()},
+          {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
+          {"lasso_tool", lassoTool_},
+          {"undo_steps", undo_.size()},
+          {"redo_steps", redo_.size()},
+          {"selection", globeSelectionJson()},
+          {"messages", messages_}};
+}
+
+json Viewer::globeSelectionJson() const {
+  // The projected state's keys where they mean the same (no DEM posts on the globe), and per
+  // layer the features as overlay_render's selected_features.json lists them.
+  json out = selectionStepsJson();
+  const GlobeMode& g = *globe_;
+  out["dem_posts"] = nullptr;
+  out["selection_ms"] = selectionMs_;
+  if (!g.selected) {
+    out["features"] = 0;
+    out["layers"] = json::array();
+    return out;
+  }
+  std::size_t count = 0;
+  json layers = json::array();
+  for (const scene::GlobeLayerSelection& l : g.selected->layers) {
+    const auto& features = l.layer < g.scene.layerFeatures.size() ? g.scene.layerFeatures[l.layer] : nullptr;
+    json list = json::array();
+    for (const overlay::FeatureSelection& f : l.features) {
+      const std::int64_t fid = features && f.feature < features->size() ? (*features)[f.feature].fid : -1;
+      list.push_back({{"fid", fid},
+                      {"feature", f.feature},
+                      {"fully_inside", f.fullyInside},
+                      {"samples", f.samples},
+                      {"selected_samples", f.selectedSamples}});
+    }
+    count += l.features.size();
+    layers.push_back({{"name", g.scene.layers[l.layer].name()},
+                      {"selected", l.features.size()},
+                      {"fully_inside", l.fullyInside},
+                      {"features", list}});
+  }
+  out["features"] = count;
+  out["layers"] = layers;
+  out["sample_spacing_m"] = g.selected->sampleSpacing;
+  out["tested_samples"] = g.selected->testedSamples;
+  return out;
+}
+
+void Viewer::drawGlobeSelection() {
+  // As a projected frame does it (drawScene): the lassos' volumes marked into the stencil the
+  // globe's layers left 0, then the highlight blended over the selected ground. The layers' mask
+  // attachment keeps what the layers wrote.
+  const GlobeMode& g = *globe_;
+  cache_.bindDrawTarget(target_->framebuffer(), target_->width(), target_->height());
+  gfx::enableMaskWrites(target_->framebuffer(), false);
+  selectionRenderer_->select(cache_, globe::overlayViewOf(g.view));
+  selectionRenderer_->highlight(cache_, highlight_);
+  gfx::enableMaskWrites(target_->framebuffer(), true);
+}
+
+void Viewer::startGlobeSelection() {
+  if (steps_.empty() || !globe_) return;
+  const std::vector<overlay::SelectionStep> steps = steps_;
+  const globe::GlobeView view = globe_->view;  // the sample spacing: a pixel's footprint at its target
+  const scene::LoadedGlobeScene* scene = &globe_->scene;
+  jobGeneration_ = selectionGeneration_;
+  // Reads the scene only (heights and layers, which nothing changes while it is shown); a new
+  // scene waits for it first (finishSelection).
+  globeSelectionJob_ = std::async(std::launch::async, [scene, steps, view] {
+    const auto start = std::chrono::steady_clock::now();
+    scene::GlobeSelection result = scene::selectOnGlobe(*scene, steps, view);
+    return std::make_pair(std::move(result),
+                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  });
+}
+
+void Viewer::drawGlobeSelectionSection() {
+  if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  drawLassoControls();
+  const GlobeMode& g = *globe_;
+  if (!steps_.empty() && !g.selected) ImGui::TextDisabled("finding the selected features…");
+  if (!g.selected) return;
+  std::size_t count = 0;
+  for (const scene::GlobeLayerSelection& l : g.selected->layers) count += l.features.size();
+  ImGui::Text("%zu features selected (%.0f ms)", count, selectionMs_);
+  for (const scene::GlobeLayerSelection& l : g.selected->layers) {
+    if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", g.scene.layers[l.layer].name().c_str(), l.features.size(),
+                         l.fullyInside)) {
+      continue;
+    }
+    const auto& features = l.layer < g.scene.layerFeatures.size() ? g.scene.layerFeatures[l.layer] : nullptr;
+    const std::size_t shown = std::min<std::size_t>(l.features.size(), 200);
+    for (std::size_t k = 0; k < shown; ++k) {
+      const overlay::FeatureSelection& f = l.features[k];
+      const geo::Feature* feature = features && f.feature < features->size() ? &(*features)[f.feature] : nullptr;
+      if (ImGui::TreeNode(&f, "fid %lld%s", static_cast<long long>(feature ? feature->fid : -1),
+                          f.fullyInside ? " (inside)" : "")) {
+        if (feature) {
+          for (const auto& [key, value] : feature->attributes)
+            ImGui::BulletText("%s: %s", key.c_str(), attributeText(value).c_str());
+        }
+        ImGui::TreePop();
+      }
+    }
+    if (shown < l.features.size()) ImGui::TextDisabled("… and %zu more", l.features.size() - shown);
+    ImGui::TreePop();
+  }
+  ImGui::TextDisabled("GeoJSON export is not on the globe yet");
+}
+
+std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const std::string& where) {
+  return std::visit(
+      [this, &where](const auto& step) -> std::optional<bool> {
+        using Step = std::decay_t<decltype(step)>;
+        if constexpr (std::is_same_v<Step, app::GlobeCameraStep>) {
+          scene::GlobePose p;
+          p.target.lon = step.lon;
+          p.target.lat = step.lat;
+          p.distance = step.distance;
+          p.heading = std::remainder(step.heading * kRadiansPerDegree, 2.0 * std::numbers::pi);
+          p.pitch = step.pitch * kRadiansPerDegree;
+          globe_->controller->setPose(p);
+          animating_ = true;  // the next steps see a frame drawn from it
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::CameraStep>) {
+          message(where + ": a projected camera on the globe: use {\"globe_camera\": {...}}", true);
+          return false;
+        } else if constexpr (std::is_same_v<Step, app::HomeStep>) {
+          globeHome();
+          animating_ = true;
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::IdentifyStep>) {
+          globe_->identified = identifyOnGlobe(step.at);
+          if (step.out.empty()) return true;
+          std::ofstream out(step.out);
+          out << scene::jsonText(globe_->identified ? globe_->identified->toJson() : json(nullptr)) << "\n";
+          if (!out) message(where + ": cannot write " + step.out, true);
+          return static_cast<bool>(out);
+        } else if constexpr (std::is_same_v<Step, app::ToggleLayerStep> || std::is_same_v<Step, app::SetLayerStep>) {
+          // A scene layer: its fill and its outline.
+          GlobeMode& g = *globe_;
+          bool found = false;
+          for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+            const std::string& name = g.scene.layers[i].name();
+            if (name != step.layer && name != step.layer + " (outline)") continue;
+            found = true;
+            if constexpr (std::is_same_v<Step, app::ToggleLayerStep>) {
+              g.shown[i] = static_cast<char>(g.shown[i] == 0);
+            } else if (step.visible) {
+              g.shown[i] = static_cast<char>(*step.visible);
+            }
+          }
+          if (!found) {
+            message(where + ": no layer named '" + step.layer + "'", true);
+            return false;
+          }
+          if constexpr (std::is_same_v<Step, app::SetLayerStep>) {
+            if (step.color || step.opacity || step.width || step.outlineColor || step.outlineWidth)
+              notOnGlobe("Changing a layer's style");
+            if (step.colorAttribute) notOnGlobe("Colours by category");
+            if (step.labelAttribute) notOnGlobe("Labels");
+          }
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::TableStep>) {
+          notOnGlobe("The attribute table");
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::MeasureStep>) {
+          notOnGlobe("The measure tool");
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::MethodStep>) {
+          notOnGlobe("Overlay methods other than the stencil polyhedra (draping)");
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::ExaggerationStep>) {
+          notOnGlobe("Vertical exaggeration");
+          return true;
+        } else if constexpr (std::is_same_v<Step, app::ExportStep>) {
+          notOnGlobe("Exporting the selection (GeoJSON)");
+          return true;
+        } else {
+          return std::nullopt;  // needs no projected scene: the common runner
+        }
+      },
+      action);
+}
+
+}  // namespace gis::viewer
