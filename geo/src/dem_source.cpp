@@ -17,7 +17,7 @@
 #include <glm/geometric.hpp>
 
 #include "core/hash.hpp"
-#include "gdal_support.hpp"
+#include "geo/gdal_support.hpp"
 
 namespace gis::geo {
 
@@ -25,12 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct DatasetDeleter {
-  void operator()(GDALDataset* ds) const {
-    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
-  }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, DatasetDeleter>;
+using detail::DatasetPtr;
 
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });

@@ -14,7 +14,7 @@
 #include <gdal_version.h>
 #include <ogrsf_frmts.h>
 
-#include "gdal_support.hpp"
+#include "geo/gdal_support.hpp"
 
 namespace gis::geo {
 

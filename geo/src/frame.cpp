@@ -9,7 +9,7 @@
 
 #include <GeographicLib/UTMUPS.hpp>
 
-#include "gdal_support.hpp"
+#include "geo/gdal_support.hpp"
 #include "geo/raster.hpp"
 
 namespace gis::geo {

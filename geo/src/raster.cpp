@@ -6,7 +6,7 @@
 
 #include <gdalwarper.h>
 
-#include "gdal_support.hpp"
+#include "geo/gdal_support.hpp"
 
 namespace gis::geo {
 
@@ -24,12 +24,7 @@ std::optional<glm::dvec2> GeoTransform::crsToPixel(const glm::dvec2& p) const {
 
 namespace {
 
-struct DatasetDeleter {
-  void operator()(GDALDataset* ds) const {
-    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
-  }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, DatasetDeleter>;
+using detail::DatasetPtr;
 
 Diagnostic rasterError(const std::string& path, std::string message) {
   return {Severity::Error, path, "", "", std::move(message)};

@@ -13,7 +13,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 
-#include "gdal_support.hpp"
+#include "geo/gdal_support.hpp"
 #include "geojson_entries.hpp"
 #include "vector_tiles.hpp"
 

@@ -14,6 +14,7 @@
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
 
+#include "geo/gdal_support.hpp"
 #include "geo/raster.hpp"
 
 namespace gis::globe {
@@ -24,54 +25,15 @@ namespace {
 /// pyramid (8 · 4/3) and the warped grid they are read from (4), rounded up.
 constexpr double kBytesPerPost = 20.0;
 
-struct DatasetCloser {
-  void operator()(GDALDataset* ds) const {
-    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
-  }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
-
 struct TransformCloser {
   void operator()(OGRCoordinateTransformation* t) const { OGRCoordinateTransformation::DestroyCT(t); }
 };
 using TransformPtr = std::unique_ptr<OGRCoordinateTransformation, TransformCloser>;
 
-/// GDAL's messages go nowhere while alive (they become diagnostics); the last stays readable.
-class QuietGdal {
- public:
-  QuietGdal() {
-    CPLPushErrorHandler(CPLQuietErrorHandler);
-    CPLErrorReset();
-  }
-  ~QuietGdal() { CPLPopErrorHandler(); }
-  QuietGdal(const QuietGdal&) = delete;
-  QuietGdal& operator=(const QuietGdal&) = delete;
-  static std::string last(const std::string& fallback) {
-    const char* m = CPLGetLastErrorMsg();
-    return m != nullptr && *m != '\0' ? std::string(m) : fallback;
-  }
-};
-
-/// Options of a GDAL utility (GDALTranslate, GDALWarp) from a list of arguments.
-template <typename Options, typename ForBinary, Options* (*New)(char**, ForBinary*), void (*Free)(Options*)>
-struct UtilityOptions {
-  explicit UtilityOptions(const std::vector<std::string>& args) {
-    std::vector<char*> argv;
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    options = New(argv.data(), nullptr);
-  }
-  ~UtilityOptions() {
-    if (options != nullptr) Free(options);
-  }
-  UtilityOptions(const UtilityOptions&) = delete;
-  UtilityOptions& operator=(const UtilityOptions&) = delete;
-  Options* options = nullptr;
-};
-using TranslateOptions = UtilityOptions<GDALTranslateOptions, GDALTranslateOptionsForBinary, GDALTranslateOptionsNew,
-                                        GDALTranslateOptionsFree>;
-using WarpOptions =
-    UtilityOptions<GDALWarpAppOptions, GDALWarpAppOptionsForBinary, GDALWarpAppOptionsNew, GDALWarpAppOptionsFree>;
+using geo::detail::DatasetPtr;
+using geo::detail::QuietGdal;
+using geo::detail::TranslateOptions;
+using geo::detail::WarpOptions;
 
 OGRSpatialReference traditional(const char* userInput) {
   OGRSpatialReference srs;
@@ -127,7 +89,7 @@ Result<TransformPtr> geoidTransform(const OGRSpatialReference& vertical, const s
                          "cannot convert " + what +
                              " heights to heights above the ellipsoid: PROJ has no usable "
                              "transformation (" +
-                             QuietGdal::last("no message") + ")" +
+                             QuietGdal::lastMessage("no message") + ")" +
                              (grid.empty() ? std::string()
                                            : "; it needs the geoid grid " + grid +
                                                  ", which is not installed (Debian's proj-data ships EGM96's "
@@ -179,6 +141,7 @@ std::optional<VerticalDatum> parseVerticalDatum(const std::string& text) {
 }
 
 Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOptions& options) {
+  geo::detail::ensureGdalRegistered();
   Result<GeoGrid> out;
   Result<geo::DemSource> source = geo::DemSource::open(spec);
   out.diagnostics.append(source.diagnostics);
@@ -229,7 +192,7 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
     int usageError = 0;
     DatasetPtr vrt(
         GDALDataset::FromHandle(GDALTranslate("", GDALDataset::ToHandle(ds.get()), translate.options, &usageError)));
-    if (!vrt) return fail("cannot read " + file + ": " + QuietGdal::last("GDALTranslate failed"));
+    if (!vrt) return fail("cannot read " + file + ": " + QuietGdal::lastMessage("GDALTranslate failed"));
     // Where the tile lands in lon/lat, and the resolution that keeps its posts.
     const std::string dst = "DST_SRS=" + wgs84Wkt;
     const char* const transformerOptions[] = {dst.c_str(), nullptr};
@@ -241,7 +204,8 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
         transformer != nullptr && GDALSuggestedWarpOutput(GDALDataset::ToHandle(vrt.get()), GDALGenImgProjTransform,
                                                           transformer, gt, &pixels, &lines) == CE_None;
     if (transformer != nullptr) GDALDestroyGenImgProjTransformer(transformer);
-    if (!placed) return fail("cannot place " + file + " in longitude/latitude: " + QuietGdal::last("no message"));
+    if (!placed)
+      return fail("cannot place " + file + " in longitude/latitude: " + QuietGdal::lastMessage("no message"));
     step = std::min({step, gt[1], -gt[5]});
     west = std::min(west, gt[0]);
     east = std::max(east, gt[0] + pixels * gt[1]);
@@ -269,7 +233,7 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
   if (mem == nullptr) return fail("GDAL has no MEM driver");
   DatasetPtr grid(mem->Create("", width, height, 1, GDT_Float32, nullptr));
-  if (!grid) return fail("cannot allocate the DEM grid: " + QuietGdal::last("no message"));
+  if (!grid) return fail("cannot allocate the DEM grid: " + QuietGdal::lastMessage("no message"));
   double gt[6] = {west, step, 0.0, north, 0.0, -step};
   grid->SetGeoTransform(gt);
   grid->SetSpatialRef(&wgs84);
@@ -283,12 +247,12 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
   int usageError = 0;
   if (GDALWarp(nullptr, GDALDataset::ToHandle(grid.get()), static_cast<int>(handles.size()), handles.data(),
                warp.options, &usageError) == nullptr) {
-    return fail("cannot resample the DEM into longitude/latitude: " + QuietGdal::last("GDALWarp failed"));
+    return fail("cannot resample the DEM into longitude/latitude: " + QuietGdal::lastMessage("GDALWarp failed"));
   }
   std::vector<float> heights(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
   if (grid->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, width, height, heights.data(), width, height, GDT_Float32, 0, 0,
                                        nullptr) != CE_None) {
-    return fail("cannot read the resampled DEM: " + QuietGdal::last("RasterIO failed"));
+    return fail("cannot read the resampled DEM: " + QuietGdal::lastMessage("RasterIO failed"));
   }
   grid.reset();
   bands.clear();
@@ -401,38 +365,6 @@ GeoGrid::GeoGrid(int width, int height, double west, double north, double step, 
   };
   poleHeight_ = {rowMean(90.0), rowMean(-90.0)};
   buildPyramid();
-}
-
-Result<GeoGrid> GeoGrid::fromRaster(const std::string& path) {
-  Result<geo::Raster> raster = geo::readRasterInCrs(path, {1}, "EPSG:4326");
-  Result<GeoGrid> out;
-  out.diagnostics = raster.diagnostics;
-  if (!raster.ok()) return out;
-  const geo::RasterInfo& info = raster->info;
-  const auto& c = info.geoTransform.c;
-  if (c[2] != 0.0 || c[4] != 0.0 || c[1] <= 0.0 || c[5] >= 0.0 || std::abs(c[1] + c[5]) > 1e-9 * c[1]) {
-    out.diagnostics.add(
-        {Severity::Error, path, {}, {}, "the DEM is not a north-up grid of square cells in longitude and latitude"});
-    return out;
-  }
-  std::vector<float> heights(raster->samples);
-  std::size_t holes = 0;
-  for (float& h : heights) {
-    if (!std::isfinite(h) || std::abs(h) > 1e5F) {
-      h = 0.0F;
-      ++holes;
-    }
-  }
-  if (holes > 0)
-    out.diagnostics.add(
-        {Severity::Warning,
-         path,
-         {},
-         {},
-         std::to_string(holes) + " posts without a height (nodata) are drawn at the ellipsoid (height 0)"});
-  // Posts at the centres of the raster's cells.
-  out.value.emplace(info.width, info.height, c[0] + 0.5 * c[1], c[3] + 0.5 * c[5], c[1], std::move(heights));
-  return out;
 }
 
 double GeoGrid::post(int c, int r) const {

@@ -9,38 +9,16 @@
 #include <gdal_priv.h>
 #include <gdal_utils.h>
 
+#include "geo/gdal_support.hpp"
+
 namespace gis::globe {
 
 namespace {
 
-struct DatasetCloser {
-  void operator()(GDALDataset* ds) const {
-    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
-  }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
-
-class QuietGdal {
- public:
-  QuietGdal() {
-    CPLPushErrorHandler(CPLQuietErrorHandler);
-    CPLErrorReset();
-  }
-  ~QuietGdal() { CPLPopErrorHandler(); }
-  QuietGdal(const QuietGdal&) = delete;
-  QuietGdal& operator=(const QuietGdal&) = delete;
-  static std::string last(const std::string& fallback) {
-    const char* m = CPLGetLastErrorMsg();
-    return m != nullptr && *m != '\0' ? std::string(m) : fallback;
-  }
-};
-
-std::vector<char*> argv(const std::vector<std::string>& args) {
-  std::vector<char*> out;
-  for (const std::string& a : args) out.push_back(const_cast<char*>(a.c_str()));
-  out.push_back(nullptr);
-  return out;
-}
+using geo::detail::DatasetPtr;
+using geo::detail::QuietGdal;
+using geo::detail::TranslateOptions;
+using geo::detail::WarpOptions;
 
 /// Value at a percentile of `values` (nearest rank), as terrain::makeOrthophoto's.
 float percentile(std::vector<float> values, double pct) {
@@ -81,8 +59,7 @@ double GlobeImagery::step() const { return std::min(state_->gt[1], -state_->gt[5
 
 Result<std::shared_ptr<GlobeImagery>> GlobeImagery::open(const std::string& path, const std::vector<int>& bands,
                                                          const ImageryOptions& options) {
-  static std::once_flag registered;
-  std::call_once(registered, [] { GDALAllRegister(); });
+  geo::detail::ensureGdalRegistered();
   Result<std::shared_ptr<GlobeImagery>> out;
   const auto fail = [&](const std::string& message) {
     out.diagnostics.add({Severity::Error, path, {}, {}, message});
@@ -96,7 +73,7 @@ Result<std::shared_ptr<GlobeImagery>> GlobeImagery::open(const std::string& path
     return fail("imagery needs 1 (grey) or 3 (red, green, blue) bands, got " + std::to_string(bands.size()));
   state->channels = static_cast<int>(bands.size());
   state->source.reset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-  if (!state->source) return fail("cannot open the imagery: " + QuietGdal::last("GDAL cannot read it"));
+  if (!state->source) return fail("cannot open the imagery: " + QuietGdal::lastMessage("GDAL cannot read it"));
   GDALDataset& src = *state->source;
   for (const int b : bands) {
     if (b < 1 || b > src.GetRasterCount())
@@ -109,21 +86,19 @@ Result<std::shared_ptr<GlobeImagery>> GlobeImagery::open(const std::string& path
   // The chosen bands, then those warped into WGS 84 lon/lat with an alpha band (coverage).
   std::vector<std::string> translateArgs{"-of", "VRT"};
   for (const int b : bands) translateArgs.insert(translateArgs.end(), {"-b", std::to_string(b)});
-  std::vector<char*> targs = argv(translateArgs);
-  GDALTranslateOptions* topt = GDALTranslateOptionsNew(targs.data(), nullptr);
+  const TranslateOptions translate(translateArgs);
   int usageError = 0;
-  state->bands.reset(GDALDataset::FromHandle(GDALTranslate("", GDALDataset::ToHandle(&src), topt, &usageError)));
-  GDALTranslateOptionsFree(topt);
-  if (!state->bands) return fail("cannot select the imagery's bands: " + QuietGdal::last("GDALTranslate failed"));
+  state->bands.reset(
+      GDALDataset::FromHandle(GDALTranslate("", GDALDataset::ToHandle(&src), translate.options, &usageError)));
+  if (!state->bands)
+    return fail("cannot select the imagery's bands: " + QuietGdal::lastMessage("GDALTranslate failed"));
   // The transformation is approximated within 0.05 of a cell (GDAL's default is 0.125).
-  std::vector<char*> wargs =
-      argv({"-of", "VRT", "-t_srs", "EPSG:4326", "-r", "bilinear", "-dstalpha", "-et", "0.05", "-ot", "Float32"});
-  GDALWarpAppOptions* wopt = GDALWarpAppOptionsNew(wargs.data(), nullptr);
+  const WarpOptions warp(
+      {"-of", "VRT", "-t_srs", "EPSG:4326", "-r", "bilinear", "-dstalpha", "-et", "0.05", "-ot", "Float32"});
   GDALDatasetH bandsHandle = GDALDataset::ToHandle(state->bands.get());
-  state->warped.reset(GDALDataset::FromHandle(GDALWarp("", nullptr, 1, &bandsHandle, wopt, &usageError)));
-  GDALWarpAppOptionsFree(wopt);
+  state->warped.reset(GDALDataset::FromHandle(GDALWarp("", nullptr, 1, &bandsHandle, warp.options, &usageError)));
   if (!state->warped)
-    return fail("cannot warp the imagery into longitude/latitude: " + QuietGdal::last("GDALWarp failed"));
+    return fail("cannot warp the imagery into longitude/latitude: " + QuietGdal::lastMessage("GDALWarp failed"));
   GDALDataset& w = *state->warped;
   if (w.GetRasterCount() != state->channels + 1 || w.GetGeoTransform(state->gt.data()) != CE_None ||
       state->gt[2] != 0.0 || state->gt[4] != 0.0 || !(state->gt[1] > 0.0) || !(state->gt[5] < 0.0))
@@ -141,7 +116,7 @@ Result<std::shared_ptr<GlobeImagery>> GlobeImagery::open(const std::string& path
     GDALRasterBand* band = src.GetRasterBand(b);
     std::vector<float> samples(static_cast<std::size_t>(rw) * static_cast<std::size_t>(rh));
     if (band->RasterIO(GF_Read, 0, 0, sw, sh, samples.data(), rw, rh, GDT_Float32, 0, 0, nullptr) != CE_None)
-      return fail("cannot read imagery band " + std::to_string(b) + ": " + QuietGdal::last("RasterIO failed"));
+      return fail("cannot read imagery band " + std::to_string(b) + ": " + QuietGdal::lastMessage("RasterIO failed"));
     int has = 0;
     const double nodata = band->GetNoDataValue(&has);
     std::vector<float> valid;

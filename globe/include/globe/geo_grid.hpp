@@ -42,10 +42,6 @@ class GeoGrid {
   /// outside the grid the height is 0 (the ellipsoid).
   GeoGrid(int width, int height, double west, double north, double step, std::vector<float> heights);
 
-  /// A geographic raster (any CRS GDAL knows; reprojected to WGS 84 lon/lat if needed), heights
-  /// taken as above the ellipsoid (docs/globe.md says what that means for geoid heights).
-  static Result<GeoGrid> fromRaster(const std::string& path);
-
   /// A DEM as the projected path reads it (geo::DemSpec: one file, several, folders of tiles, a
   /// VRT; the CRS and height-unit overrides; the band), in any CRS GDAL knows, warped (bilinear,
   /// nodata kept out of heights) onto one north-up grid in WGS 84 longitude/latitude at the

@@ -1,7 +1,9 @@
 #pragma once
-// Private helpers shared by the GDAL-based readers: one-time driver registration, a guard that
-// keeps GDAL from printing (its errors become Diagnostics instead) and spatial-reference
+// Helpers shared by the GDAL-based readers (geo's, and the globe's DEM and imagery): one-time
+// driver registration, a guard that keeps GDAL from printing (its errors become Diagnostics
+// instead), owning pointers, GDAL utilities' options from argument lists, and spatial-reference
 // helpers that always use the traditional GIS axis order (x = lon/easting, y = lat/northing).
+// Internals: a GIS client needs none of it, and it includes GDAL's headers.
 #include <memory>
 #include <mutex>
 #include <string>
@@ -11,6 +13,7 @@
 #include <cpl_conv.h>
 #include <cpl_error.h>
 #include <gdal_priv.h>
+#include <gdal_utils.h>
 #include <ogr_spatialref.h>
 
 namespace gis::geo::detail {
@@ -50,6 +53,35 @@ class QuietGdal {
     return msg;
   }
 };
+
+/// A dataset that closes itself.
+struct DatasetDeleter {
+  void operator()(GDALDataset* ds) const {
+    if (ds != nullptr) GDALClose(GDALDataset::ToHandle(ds));
+  }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, DatasetDeleter>;
+
+/// Options of a GDAL utility (GDALTranslate, GDALWarp) from a list of arguments, freed with it.
+template <typename Options, typename ForBinary, Options* (*New)(char**, ForBinary*), void (*Free)(Options*)>
+struct UtilityOptions {
+  explicit UtilityOptions(const std::vector<std::string>& args) {
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    options = New(argv.data(), nullptr);
+  }
+  ~UtilityOptions() {
+    if (options != nullptr) Free(options);
+  }
+  UtilityOptions(const UtilityOptions&) = delete;
+  UtilityOptions& operator=(const UtilityOptions&) = delete;
+  Options* options = nullptr;
+};
+using TranslateOptions = UtilityOptions<GDALTranslateOptions, GDALTranslateOptionsForBinary, GDALTranslateOptionsNew,
+                                        GDALTranslateOptionsFree>;
+using WarpOptions =
+    UtilityOptions<GDALWarpAppOptions, GDALWarpAppOptionsForBinary, GDALWarpAppOptionsNew, GDALWarpAppOptionsFree>;
 
 /// While alive, GDAL's messages on this thread are kept (not printed), in order, so that they
 /// can reach the diagnostics attached to the file they are about. The last message stays
