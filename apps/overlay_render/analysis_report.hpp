@@ -12,19 +12,7 @@
 
 namespace gis::app {
 
-inline const char* overlapOpName(overlay::OverlapOp op) {
-  switch (op) {
-    case overlay::OverlapOp::And:
-      return "and";
-    case overlay::OverlapOp::Or:
-      return "or";
-    case overlay::OverlapOp::Xor:
-      return "xor";
-    case overlay::OverlapOp::Subtract:
-      return "subtract";
-  }
-  return "?";
-}
+using overlay::overlapOpName;
 
 struct OverlapCounts {
   std::vector<std::uint8_t> pixels;  ///< 255 where the GPU's answer holds (overlap.png)

@@ -275,7 +275,7 @@ bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats)
   };
   json block = app::overlapJson(counts);
   block["layers"] = {nameOf(overlap.a), nameOf(overlap.b)};
-  block["op"] = app::overlapOpName(op);
+  block["op"] = overlay::overlapOpName(op);
   block["groups"] = overlap.marks.a.groups + overlap.marks.b.groups;
   block["gpu_ms"] = overlap.marks.gpuMilliseconds;
   block["fragments"] = overlap.marks.fragments;

@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -113,6 +114,8 @@ std::string formatMetres(double metres);
 std::string formatArea(double squareMetres);
 /// The largest 1, 2 or 5 × 10^k not above `most` (a scale bar's length); 0 for none.
 double niceLength(double most);
+/// A window listing keys and what they do (the help, ?), centred when it appears.
+void drawKeysWindow(const char* title, bool* open, std::span<const std::array<const char*, 2>> rows);
 
 /// A scene being read on a worker thread: a projected scene (`job`) or one on the globe
 /// (`globeJob`, when scene::globeReason says so); one of the two is valid.
@@ -271,6 +274,9 @@ class Viewer {
   /// A key pressed (edge-triggered): the viewer's key commands. `fly`: the camera mode when the
   /// frame's input began (F toggles from it).
   void keyPressed(int key, bool fly, const app::Modifiers& modifiers);
+  /// The keys that do the same in a projected scene and on the globe (quit, the selection's
+  /// invert, clear, undo and redo, overlays, panel, HUD, screenshot, help).
+  void sharedKeyPressed(int key, const app::Modifiers& modifiers);
   /// The GLFW key of a script's key name (app::KeyStep::key), or GLFW_KEY_UNKNOWN.
   static int keyCode(const std::string& name);
 

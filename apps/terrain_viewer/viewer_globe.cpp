@@ -69,9 +69,7 @@ json matrixJson(const glm::dmat4& m) {
 
 /// The keys and mouse on the globe (?).
 void drawGlobeHelp(bool* open) {
-  ImGui::SetNextWindowPos(ImGui::GetMainViewport()->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5F, 0.5F));
-  ImGui::Begin("Keys and mouse on the globe (?)", open, ImGuiWindowFlags_AlwaysAutoResize);
-  const char* rows[][2] = {
+  static const std::array<const char*, 2> kRows[] = {
       {"left drag", "grab the globe: it spins from space, pans near the ground"},
       {"right / middle drag, Ctrl+left drag", "orbit about the target: heading and pitch"},
       {"wheel", "zoom to the point under the cursor (space to 1 m above the ground)"},
@@ -91,17 +89,7 @@ void drawGlobeHelp(bool* open) {
       {"Esc", "drop the lasso being drawn, the lasso tool, help or identify"},
       {"Ctrl+Q", "quit"},
   };
-  if (ImGui::BeginTable("keys", 2)) {
-    for (const auto& row : rows) {
-      ImGui::TableNextRow();
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(row[0]);
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(row[1]);
-    }
-    ImGui::EndTable();
-  }
-  ImGui::End();
+  drawKeysWindow("Keys and mouse on the globe (?)", open, kRows);
 }
 
 }  // namespace
@@ -343,9 +331,6 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
         g.identified.reset();
       }
       break;
-    case GLFW_KEY_Q:
-      if (modifiers.ctrl) glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
-      break;
     case GLFW_KEY_H:
     case GLFW_KEY_HOME:
       globeHome();
@@ -371,25 +356,6 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
     case GLFW_KEY_PAGE_DOWN:
       c.zoomToCursor(-1.0, glm::dvec2(fb) * 0.5, fb);
       break;
-    case GLFW_KEY_O:
-      if (modifiers.ctrl) {
-        openFileBrowser();
-      } else {
-        render_.overlays = !render_.overlays;
-      }
-      break;
-    case GLFW_KEY_P:
-      settings_.showPanel = !settings_.showPanel;
-      break;
-    case GLFW_KEY_U:
-      settings_.showHud = !settings_.showHud;
-      break;
-    case GLFW_KEY_F12:
-      pendingShot_ = {std::filesystem::path("terrain_viewer_" + std::to_string(frameIndex_) + ".png"), true};
-      break;
-    case GLFW_KEY_SLASH:
-      showHelp_ = !showHelp_;
-      break;
     case GLFW_KEY_F:
       notOnGlobe("Fly mode (F)");
       break;
@@ -399,23 +365,8 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
     case GLFW_KEY_M:
       notOnGlobe("The measure tool (M)");
       break;
-    case GLFW_KEY_I:
-      if (!steps_.empty()) invertSelection();
-      break;
-    case GLFW_KEY_C:
-      clearSelection();
-      break;
-    case GLFW_KEY_Z:
-      if (modifiers.ctrl && modifiers.shift) {
-        redoSelection();
-      } else if (modifiers.ctrl) {
-        undoSelection();
-      }
-      break;
-    case GLFW_KEY_Y:
-      if (modifiers.ctrl) redoSelection();
-      break;
     default:
+      sharedKeyPressed(key, modifiers);
       break;
   }
 }

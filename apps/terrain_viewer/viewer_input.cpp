@@ -332,9 +332,6 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
         identified_.reset();
       }
       break;
-    case GLFW_KEY_Q:
-      if (modifiers.ctrl) glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
-      break;
     case GLFW_KEY_H:
       goHome();
       break;
@@ -357,6 +354,17 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
         measurePoints_.pop_back();
         remeasure();
       }
+      break;
+    default:
+      sharedKeyPressed(key, modifiers);
+      break;
+  }
+}
+
+void Viewer::sharedKeyPressed(int key, const app::Modifiers& modifiers) {
+  switch (key) {
+    case GLFW_KEY_Q:
+      if (modifiers.ctrl) glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
       break;
     case GLFW_KEY_I:
       if (!steps_.empty()) invertSelection();

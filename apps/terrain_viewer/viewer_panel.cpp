@@ -464,10 +464,24 @@ void Viewer::drawNoScene() {
   ImGui::End();
 }
 
-void Viewer::drawHelp() {
+void drawKeysWindow(const char* title, bool* open, std::span<const std::array<const char*, 2>> rows) {
   ImGui::SetNextWindowPos(ImGui::GetMainViewport()->GetCenter(), ImGuiCond_Appearing, ImVec2(0.5F, 0.5F));
-  ImGui::Begin("Keys and mouse (?)", &showHelp_, ImGuiWindowFlags_AlwaysAutoResize);
-  const char* rows[][2] = {
+  ImGui::Begin(title, open, ImGuiWindowFlags_AlwaysAutoResize);
+  if (ImGui::BeginTable("keys", 2)) {
+    for (const auto& row : rows) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row[0]);
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(row[1]);
+    }
+    ImGui::EndTable();
+  }
+  ImGui::End();
+}
+
+void Viewer::drawHelp() {
+  static const std::array<const char*, 2> kRows[] = {
       {"left drag", "orbit around the point in view (fly mode: look)"},
       {"right / middle drag", "pan: the ground under the cursor follows it"},
       {"wheel", "zoom to the point under the cursor"},
@@ -487,17 +501,7 @@ void Viewer::drawHelp() {
       {"Esc", "cancel the lasso being drawn, leave the lasso tool, close help or identify"},
       {"Ctrl+Q", "quit"},
   };
-  if (ImGui::BeginTable("keys", 2)) {
-    for (const auto& row : rows) {
-      ImGui::TableNextRow();
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(row[0]);
-      ImGui::TableNextColumn();
-      ImGui::TextUnformatted(row[1]);
-    }
-    ImGui::EndTable();
-  }
-  ImGui::End();
+  drawKeysWindow("Keys and mouse (?)", &showHelp_, kRows);
 }
 
 void Viewer::drawIdentify() {

@@ -96,20 +96,6 @@ Layers makeLayers() {
   return {std::move(*a), std::move(*b)};
 }
 
-const char* opName(overlay::OverlapOp op) {
-  switch (op) {
-    case overlay::OverlapOp::And:
-      return "and";
-    case overlay::OverlapOp::Or:
-      return "or";
-    case overlay::OverlapOp::Xor:
-      return "xor";
-    case overlay::OverlapOp::Subtract:
-      return "subtract";
-  }
-  return "?";
-}
-
 TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
   const Layers layers = makeLayers();
   GlobeTerrain terrain(grid());
@@ -155,8 +141,8 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
       }
     }
     std::printf("%-24s %-8s groups %3zu pieces %5zu both %6zu shown %6zu wrong %zu/%zu edge %zu\n", c.label.c_str(),
-                opName(op), marks.groups, marks.a.pieces + marks.b.pieces, both, holds, wrongFlags, wrongShown,
-                edgeWrong);
+                overlay::overlapOpName(op), marks.groups, marks.a.pieces + marks.b.pieces, both, holds, wrongFlags,
+                wrongShown, edgeWrong);
     EXPECT_EQ(wrongFlags, 0U) << c.label;
     EXPECT_EQ(wrongShown, 0U) << c.label;
     EXPECT_EQ(left, 0U) << c.label << ": the cover leaves the stencil 0";

@@ -99,6 +99,21 @@ constexpr bool overlapHolds(OverlapOp op, bool a, bool b) {
   return false;
 }
 
+/// The operator's name as the command line takes it: "and", "or", "xor", "subtract".
+constexpr const char* overlapOpName(OverlapOp op) {
+  switch (op) {
+    case OverlapOp::And:
+      return "and";
+    case OverlapOp::Or:
+      return "or";
+    case OverlapOp::Xor:
+      return "xor";
+    case OverlapOp::Subtract:
+      return "subtract";
+  }
+  return "?";
+}
+
 /// What markOverlap / countOpenFaces leave in the stencil, for the cover that follows.
 struct AnalysisMarks {
   glm::vec4 rect{0.0F};          ///< normalised-device rectangle holding every marked pixel (empty: none)
