@@ -1,6 +1,7 @@
 // overlay_bench --mode globe: a scene on the globe (docs/globe.md), drawn along a path from space
 // down to a few kilometres (the data's middle from 9,000 km, the continent from 3,000 km and
-// 500 km, low over its edge, across the antimeridian, over the south pole). Each frame is drawn
+// 500 km, low over its edge, across the antimeridian, over the south pole); regional data
+// (smaller than 200 km) along a path of its own: above it, obliquely, low over an edge, 100 m up. Each frame is drawn
 // once to build what it needs, then timed with the terrain alone and with the overlays, one after
 // the other (GPU timer queries): the ratio of the two is taken frame by frame, as the machine is
 // shared. Writes bench.json and frames.csv.
@@ -55,8 +56,54 @@ globe::Geodetic edgeNear(const scene::LoadedGlobeScene& s, const globe::Geodetic
   return best;
 }
 
-/// The path: six segments of frames, each moving a little across the data.
+/// The data's size, metres: the larger side of its box.
+double extentMetres(const scene::LoadedGlobeScene& s) {
+  const auto [west, south, east, north] = s.extent;
+  const double midLat = 0.5 * (south + north) * 3.14159265358979323846 / 180.0;
+  return 111320.0 * std::max((std::min(east, west + 360.0) - west) * std::cos(midLat), north - south);
+}
+
+/// The path over regional data (a city, a county: smaller than 200 km): from above it, obliquely
+/// over it, low over its edge, and a few hundred metres above its middle.
+std::vector<GlobeFrame> regionalPath(const scene::LoadedGlobeScene& s, int frames) {
+  const globe::Geodetic focus = focusOf(s);
+  const globe::Geodetic edge = edgeNear(s, focus);
+  const double size = extentMetres(s), degrees = size / 111320.0;
+  const int per = std::max(1, frames / 4);
+  std::vector<GlobeFrame> out;
+  const auto ground = [&](double lon, double lat) { return std::max(s.heights->heightAt(lon, lat), 0.0); };
+  const auto segment = [&](const std::string& name, auto&& at) {
+    for (int k = 0; k < per; ++k) {
+      GlobeFrame f = at(per == 1 ? 0.0 : static_cast<double>(k) / (per - 1));
+      f.segment = name;
+      out.push_back(f);
+    }
+  };
+  segment("above the data", [&](double t) {
+    const double l = focus.lon + degrees * (t - 0.5) * 0.2;
+    return GlobeFrame{{}, {l, focus.lat, 1.2 * size}, {l, focus.lat, 0.0}};
+  });
+  segment("oblique over the data", [&](double t) {
+    const double l = focus.lon + degrees * (t - 0.5) * 0.3;
+    return GlobeFrame{{}, {l, focus.lat - 0.6 * degrees, 0.3 * size}, {l, focus.lat, ground(l, focus.lat)}};
+  });
+  segment("low over an edge", [&](double t) {
+    const double l = edge.lon + degrees * (t - 0.5) * 0.05;
+    const double h = ground(l, edge.lat);
+    return GlobeFrame{{}, {l, edge.lat - 0.02 * degrees, h + 0.02 * size}, {l, edge.lat, h}};
+  });
+  segment("street level", [&](double t) {
+    const double l = focus.lon + degrees * (t - 0.5) * 0.02;
+    const double h = ground(l, focus.lat);
+    return GlobeFrame{{}, {l, focus.lat - 0.004 * degrees, h + 100.0}, {l, focus.lat, h}};
+  });
+  return out;
+}
+
+/// The path: six segments of frames, each moving a little across the data (regionalPath for data
+/// smaller than 200 km).
 std::vector<GlobeFrame> globePath(const scene::LoadedGlobeScene& s, int frames) {
+  if (extentMetres(s) < 2e5) return regionalPath(s, frames);
   const globe::Geodetic focus = focusOf(s);
   const globe::Geodetic edge = edgeNear(s, focus);
   const double lon = focus.lon, lat = focus.lat;
@@ -131,10 +178,10 @@ int runGlobe(const Options& o) {
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
   csv << "frame,segment,terrain_only_ms,terrain_ms,overlay_ms,ratio,tiles,terrain_triangles,pieces,z_fail_pieces,"
-         "overlay_triangles,build_ms\n";
+         "overlay_triangles,terrain_fragments,overlay_fragments,build_ms\n";
   std::vector<double> ratios, terrainOnly, withOverlay;
   std::map<std::string, std::vector<double>> segmentRatios, segmentTerrain, segmentOverlay;
-  std::map<std::string, double> segmentPieces, segmentTiles;
+  std::map<std::string, double> segmentPieces, segmentTiles, segmentTriangles;
   for (std::size_t k = 0; k < path.size(); ++k) {
     const GlobeFrame& f = path[k];
     const double ground = loaded->heights->heightAt(f.eye.lon, f.eye.lat);
@@ -153,23 +200,25 @@ int runGlobe(const Options& o) {
     csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
         << full.overlayGpuMilliseconds << ',' << ratio << ',' << full.terrain.tiles << ',' << full.terrain.triangles
         << ',' << full.overlay.pieces << ',' << full.overlay.zFailPieces << ',' << full.overlay.triangles << ','
-        << buildMs << '\n';
+        << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << '\n';
     ratios.push_back(ratio);
     terrainOnly.push_back(bare.terrainGpuMilliseconds);
     withOverlay.push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
     segmentRatios[f.segment].push_back(ratio);
     segmentTerrain[f.segment].push_back(bare.terrainGpuMilliseconds);
     segmentOverlay[f.segment].push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
-    segmentPieces[f.segment] += static_cast<double>(full.overlay.pieces) / std::max(1, o.frames / 6);
-    segmentTiles[f.segment] += static_cast<double>(full.terrain.tiles) / std::max(1, o.frames / 6);
+    segmentPieces[f.segment] += static_cast<double>(full.overlay.pieces);
+    segmentTiles[f.segment] += static_cast<double>(full.terrain.tiles);
+    segmentTriangles[f.segment] += static_cast<double>(full.overlay.triangles);
   }
   json segments = json::object();
   for (const auto& [name, r] : segmentRatios) {
     segments[name] = {{"ratio_median", percentile(r, 50.0)},
                       {"terrain_only_ms_median", percentile(segmentTerrain[name], 50.0)},
                       {"with_overlay_ms_median", percentile(segmentOverlay[name], 50.0)},
-                      {"tiles_mean", segmentTiles[name]},
-                      {"pieces_mean", segmentPieces[name]}};
+                      {"tiles_mean", segmentTiles[name] / static_cast<double>(r.size())},
+                      {"pieces_mean", segmentPieces[name] / static_cast<double>(r.size())},
+                      {"overlay_triangles_mean", segmentTriangles[name] / static_cast<double>(r.size())}};
   }
   const json result = {
       {"mode", "globe"},
