@@ -198,7 +198,9 @@ void Viewer::drawGlobe() {
     g.stats.overlayGpuMilliseconds = overlayMs;
   }
   if (!steps_.empty()) drawGlobeSelection();
-  busy_ = false;  // the globe builds what a frame needs in that frame
+  // The globe builds the meshes and pieces a frame needs in that frame; imagery comes a few tiles
+  // a frame: draw again until it is all there.
+  busy_ = s.terrain.imageryPending > 0;
   glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
                          GL_NEAREST);
   cache_.bindDrawTarget(0, fb.x, fb.y);

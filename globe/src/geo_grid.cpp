@@ -2,10 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <functional>
 #include <limits>
+#include <list>
 #include <memory>
 #include <mutex>
 #include <sstream>
+#include <unordered_map>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -14,6 +22,7 @@
 #include <gdal_utils.h>
 #include <ogr_spatialref.h>
 
+#include "core/hash.hpp"
 #include "geo/gdal_support.hpp"
 #include "geo/raster.hpp"
 
@@ -132,6 +141,260 @@ HeightConversion heightConversion(GDALRasterBand& band, const OGRSpatialReferenc
 
 }  // namespace
 
+/// A paged grid (GeoGrid::fromDem): its file, the blocks read from it (least recently used first
+/// out beyond the budget), the min/max pyramid over its blocks and its poles.
+///
+/// The file: a header (kHeaderBytes: magic, sizes, the holes and failed conversions counted when
+/// it was written, the poles' heights), then each block's (min, max), then the blocks, each
+/// block × block floats row-major (posts beyond the grid's east and south edges are 0).
+struct GeoGrid::Paged {
+  struct Block {
+    int w = 0, h = 0;  ///< its posts inside the grid
+    std::vector<float> heights;
+    /// Level k = 1 … log2(block): cells of 2^k × 2^k posts, (min, max) over its posts in the grid.
+    std::vector<std::vector<std::pair<float, float>>> levels;
+  };
+  static constexpr char kMagic[8] = {'S', 'G', 'G', 'L', 'O', 'B', 'E', '1'};
+  static constexpr std::size_t kHeaderBytes = 128;
+
+  std::string path;
+  int fd = -1;
+  int width = 0, height = 0, block = 256, levels = 8, blocksX = 0, blocksY = 0;
+  std::size_t budget = 0;
+  std::size_t holes = 0, failed = 0;
+  std::array<double, 2> poles{0.0, 0.0};
+  bool made = false;
+  /// Level j: cells of 2^j × 2^j blocks, (min, max) each, row-major.
+  std::vector<std::vector<std::pair<float, float>>> pyramid;
+  std::vector<std::pair<int, int>> pyramidSize;
+
+  mutable std::mutex mutex;
+  mutable std::list<std::size_t> lru;  ///< block indices, most recently used first
+  mutable std::unordered_map<std::size_t, std::pair<std::shared_ptr<const Block>, std::list<std::size_t>::iterator>>
+      cache;
+  mutable std::size_t cachedBytes = 0, reads = 0;
+
+  Paged() = default;
+  Paged(const Paged&) = delete;
+  Paged& operator=(const Paged&) = delete;
+  ~Paged() {
+    if (fd >= 0) ::close(fd);
+  }
+
+  [[nodiscard]] std::uint64_t blockOffset(std::size_t index) const {
+    return kHeaderBytes + static_cast<std::uint64_t>(blocksX) * static_cast<std::uint64_t>(blocksY) * 8U +
+           static_cast<std::uint64_t>(index) * static_cast<std::uint64_t>(block) * static_cast<std::uint64_t>(block) *
+               4U;
+  }
+  [[nodiscard]] std::size_t blockBytes() const {
+    return static_cast<std::size_t>(block) * static_cast<std::size_t>(block) * (4U + 8U * 4U / 3U);
+  }
+
+  /// Block (bx, by), read if it is not cached (nothing if the file cannot be read: heights 0).
+  std::shared_ptr<const Block> load(int bx, int by) const {
+    const std::size_t index =
+        static_cast<std::size_t>(by) * static_cast<std::size_t>(blocksX) + static_cast<std::size_t>(bx);
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (const auto found = cache.find(index); found != cache.end()) {
+      lru.splice(lru.begin(), lru, found->second.second);
+      return found->second.first;
+    }
+    auto b = std::make_shared<Block>();
+    b->w = std::min(block, width - bx * block);
+    b->h = std::min(block, height - by * block);
+    b->heights.assign(static_cast<std::size_t>(block) * static_cast<std::size_t>(block), 0.0F);
+    const std::size_t bytes = b->heights.size() * sizeof(float);
+    const ssize_t got = ::pread(fd, b->heights.data(), bytes, static_cast<off_t>(blockOffset(index)));
+    if (got != static_cast<ssize_t>(bytes)) std::fill(b->heights.begin(), b->heights.end(), 0.0F);
+    ++reads;
+    // Its own min/max levels, over its posts inside the grid.
+    for (int k = 1, n = block / 2; n >= 1; ++k, n /= 2) {
+      std::vector<std::pair<float, float>> level(
+          static_cast<std::size_t>(n) * static_cast<std::size_t>(n),
+          {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()});
+      for (int r = 0; r < b->h; ++r) {
+        for (int c = 0; c < b->w; ++c) {
+          const float v =
+              b->heights[static_cast<std::size_t>(r) * static_cast<std::size_t>(block) + static_cast<std::size_t>(c)];
+          auto& o =
+              level[static_cast<std::size_t>(r >> k) * static_cast<std::size_t>(n) + static_cast<std::size_t>(c >> k)];
+          o.first = std::min(o.first, v);
+          o.second = std::max(o.second, v);
+        }
+      }
+      b->levels.push_back(std::move(level));
+    }
+    lru.push_front(index);
+    cache.emplace(index, std::make_pair(std::shared_ptr<const Block>(b), lru.begin()));
+    cachedBytes += blockBytes();
+    while (cachedBytes > budget && lru.size() > 1) {
+      cache.erase(lru.back());
+      lru.pop_back();
+      cachedBytes -= blockBytes();
+    }
+    return b;
+  }
+
+  [[nodiscard]] float post(int c, int r) const {
+    const std::shared_ptr<const Block> b = load(c / block, r / block);
+    return b->heights[static_cast<std::size_t>(r % block) * static_cast<std::size_t>(block) +
+                      static_cast<std::size_t>(c % block)];
+  }
+};
+
+namespace {
+
+/// The paged grid of `file`: opened if it is there and whole, else written block by block with
+/// `read` (which counts the holes and failed conversions it leaves: kept in the file).
+Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(
+    const std::string& file, int width, int height, int block, std::size_t budget, double postNorth, double step,
+    std::size_t& holes, std::size_t& failed,
+    const std::function<std::string(int, int, int, int, std::vector<float>&)>& read) {
+  using Paged = GeoGrid::Paged;
+  Result<std::shared_ptr<const Paged>> out;
+  auto p = std::make_shared<Paged>();
+  p->path = file;
+  p->width = width;
+  p->height = height;
+  p->block = block;
+  p->levels = static_cast<int>(std::lround(std::log2(block)));
+  p->blocksX = (width + block - 1) / block;
+  p->blocksY = (height + block - 1) / block;
+  p->budget = budget;
+  const std::size_t blocks = static_cast<std::size_t>(p->blocksX) * static_cast<std::size_t>(p->blocksY);
+  const std::uint64_t size = p->blockOffset(blocks);
+  std::vector<std::pair<float, float>> ranges(blocks);
+  // The rows heightAt takes each pole's height from (the GeoGrid constructor's rowMean).
+  std::array<int, 2> poleRow{-1, -1};
+  for (std::size_t k = 0; k < 2; ++k) {
+    const double fr = (postNorth - (k == 0 ? 90.0 : -90.0)) / step;
+    if (fr >= -0.5 && fr <= height - 0.5) poleRow[k] = std::clamp(static_cast<int>(std::lround(fr)), 0, height - 1);
+  }
+  struct Header {
+    char magic[8];
+    std::int32_t width, height, block, blocksX, blocksY;
+    std::uint64_t holes, failed;
+    double poles[2];
+  };
+  static_assert(sizeof(Header) <= Paged::kHeaderBytes);
+  std::error_code ec;
+  if (std::filesystem::file_size(file, ec) == size && !ec) {
+    const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    Header h{};
+    if (fd >= 0 && ::pread(fd, &h, sizeof h, 0) == static_cast<ssize_t>(sizeof h) &&
+        std::equal(std::begin(h.magic), std::end(h.magic), std::begin(Paged::kMagic)) && h.width == width &&
+        h.height == height && h.block == block &&
+        ::pread(fd, ranges.data(), blocks * 8U, static_cast<off_t>(Paged::kHeaderBytes)) ==
+            static_cast<ssize_t>(blocks * 8U)) {
+      p->fd = fd;
+      holes = h.holes;
+      failed = h.failed;
+      p->poles = {h.poles[0], h.poles[1]};
+    } else if (fd >= 0) {
+      ::close(fd);
+    }
+  }
+  if (p->fd < 0) {
+    // Written to a temporary file, renamed when whole: a file found in the cache is always whole.
+    std::filesystem::create_directories(std::filesystem::path(file).parent_path(), ec);
+    const std::string temporary = file + ".part" + std::to_string(::getpid());
+    const int fd = ::open(temporary.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) {
+      out.diagnostics.add({Severity::Error, {}, {}, {}, "cannot write the paged DEM " + temporary});
+      return out;
+    }
+    const auto abandon = [&](const std::string& problem) {
+      ::close(fd);
+      std::filesystem::remove(temporary, ec);
+      out.diagnostics.add({Severity::Error, {}, {}, {}, problem});
+      return std::move(out);
+    };
+    std::array<double, 2> poleSum{0.0, 0.0};
+    std::vector<float> posts, padded(static_cast<std::size_t>(block) * static_cast<std::size_t>(block));
+    for (int by = 0; by < p->blocksY; ++by) {
+      for (int bx = 0; bx < p->blocksX; ++bx) {
+        const int x0 = bx * block, y0 = by * block;
+        const int w = std::min(block, width - x0), h = std::min(block, height - y0);
+        if (const std::string problem = read(x0, y0, w, h, posts); !problem.empty()) return abandon(problem);
+        std::fill(padded.begin(), padded.end(), 0.0F);
+        auto& range =
+            ranges[static_cast<std::size_t>(by) * static_cast<std::size_t>(p->blocksX) + static_cast<std::size_t>(bx)];
+        range = {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
+        for (int r = 0; r < h; ++r) {
+          for (int c = 0; c < w; ++c) {
+            const float v =
+                posts[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
+            padded[static_cast<std::size_t>(r) * static_cast<std::size_t>(block) + static_cast<std::size_t>(c)] = v;
+            range.first = std::min(range.first, v);
+            range.second = std::max(range.second, v);
+          }
+          for (std::size_t k = 0; k < 2; ++k) {
+            if (y0 + r != poleRow[k]) continue;
+            for (int c = 0; c < w; ++c)
+              poleSum[k] +=
+                  posts[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
+          }
+        }
+        const std::size_t bytes = padded.size() * sizeof(float);
+        const std::size_t index =
+            static_cast<std::size_t>(by) * static_cast<std::size_t>(p->blocksX) + static_cast<std::size_t>(bx);
+        if (::pwrite(fd, padded.data(), bytes, static_cast<off_t>(p->blockOffset(index))) !=
+            static_cast<ssize_t>(bytes))
+          return abandon("cannot write the paged DEM " + temporary);
+      }
+    }
+    for (std::size_t k = 0; k < 2; ++k) p->poles[k] = poleRow[k] >= 0 && width > 0 ? poleSum[k] / width : 0.0;
+    Header h{};
+    std::copy(std::begin(Paged::kMagic), std::end(Paged::kMagic), std::begin(h.magic));
+    h.width = width;
+    h.height = height;
+    h.block = block;
+    h.blocksX = p->blocksX;
+    h.blocksY = p->blocksY;
+    h.holes = holes;
+    h.failed = failed;
+    h.poles[0] = p->poles[0];
+    h.poles[1] = p->poles[1];
+    std::vector<char> header(Paged::kHeaderBytes, 0);
+    std::memcpy(header.data(), &h, sizeof h);
+    if (::pwrite(fd, header.data(), header.size(), 0) != static_cast<ssize_t>(header.size()) ||
+        ::pwrite(fd, ranges.data(), blocks * 8U, static_cast<off_t>(Paged::kHeaderBytes)) !=
+            static_cast<ssize_t>(blocks * 8U) ||
+        ::fsync(fd) != 0)
+      return abandon("cannot write the paged DEM " + temporary);
+    std::filesystem::rename(temporary, file, ec);
+    if (ec) return abandon("cannot place the paged DEM at " + file + ": " + ec.message());
+    p->fd = fd;
+    p->made = true;
+  }
+  // The pyramid over the blocks.
+  p->pyramid.push_back(std::move(ranges));
+  p->pyramidSize.emplace_back(p->blocksX, p->blocksY);
+  for (int w = p->blocksX, h = p->blocksY; w > 1 || h > 1;) {
+    const int nw = (w + 1) / 2, nh = (h + 1) / 2;
+    const auto& prev = p->pyramid.back();
+    std::vector<std::pair<float, float>> next(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh),
+                                              {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()});
+    for (int r = 0; r < h; ++r) {
+      for (int c = 0; c < w; ++c) {
+        const auto& v = prev[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
+        auto& o =
+            next[static_cast<std::size_t>(r / 2) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(c / 2)];
+        o.first = std::min(o.first, v.first);
+        o.second = std::max(o.second, v.second);
+      }
+    }
+    p->pyramid.push_back(std::move(next));
+    p->pyramidSize.emplace_back(nw, nh);
+    w = nw;
+    h = nh;
+  }
+  out.value = std::shared_ptr<const Paged>(std::move(p));
+  return out;
+}
+
+}  // namespace
+
 std::optional<VerticalDatum> parseVerticalDatum(const std::string& text) {
   if (text == "auto") return VerticalDatum::Auto;
   if (text == "ellipsoid") return VerticalDatum::Ellipsoid;
@@ -193,17 +456,29 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
     DatasetPtr vrt(
         GDALDataset::FromHandle(GDALTranslate("", GDALDataset::ToHandle(ds.get()), translate.options, &usageError)));
     if (!vrt) return fail("cannot read " + file + ": " + QuietGdal::lastMessage("GDALTranslate failed"));
-    // Where the tile lands in lon/lat, and the resolution that keeps its posts.
-    const std::string dst = "DST_SRS=" + wgs84Wkt;
-    const char* const transformerOptions[] = {dst.c_str(), nullptr};
-    void* transformer = GDALCreateGenImgProjTransformer2(GDALDataset::ToHandle(vrt.get()), nullptr,
-                                                         const_cast<char**>(transformerOptions));
+    // Where the tile lands in lon/lat, and the resolution that keeps its posts: its own grid when
+    // it is in WGS 84 lon/lat already (GDALSuggestedWarpOutput widens a raster that touches a pole
+    // to all 360° of longitude), else GDAL's suggestion.
     double gt[6];
     int pixels = 0, lines = 0;
-    const bool placed =
-        transformer != nullptr && GDALSuggestedWarpOutput(GDALDataset::ToHandle(vrt.get()), GDALGenImgProjTransform,
-                                                          transformer, gt, &pixels, &lines) == CE_None;
-    if (transformer != nullptr) GDALDestroyGenImgProjTransformer(transformer);
+    bool placed = false;
+    double own[6];
+    if (srs.IsGeographic() != 0 && srs.IsSameGeogCS(&wgs84) != 0 && vrt->GetGeoTransform(own) == CE_None &&
+        own[2] == 0.0 && own[4] == 0.0 && own[1] > 0.0 && own[5] < 0.0 && own[0] >= -540.0 && own[0] <= 540.0) {
+      std::copy(std::begin(own), std::end(own), std::begin(gt));
+      pixels = vrt->GetRasterXSize();
+      lines = vrt->GetRasterYSize();
+      placed = true;
+    } else {
+      const std::string dst = "DST_SRS=" + wgs84Wkt;
+      const char* const transformerOptions[] = {dst.c_str(), nullptr};
+      void* transformer = GDALCreateGenImgProjTransformer2(GDALDataset::ToHandle(vrt.get()), nullptr,
+                                                           const_cast<char**>(transformerOptions));
+      placed =
+          transformer != nullptr && GDALSuggestedWarpOutput(GDALDataset::ToHandle(vrt.get()), GDALGenImgProjTransform,
+                                                            transformer, gt, &pixels, &lines) == CE_None;
+      if (transformer != nullptr) GDALDestroyGenImgProjTransformer(transformer);
+    }
     if (!placed)
       return fail("cannot place " + file + " in longitude/latitude: " + QuietGdal::lastMessage("no message"));
     step = std::min({step, gt[1], -gt[5]});
@@ -221,60 +496,18 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
   // Cells of `step` from the north-west corner, covering the extent.
   const double cols = std::ceil((east - west) / step - 1e-6), rows = std::ceil((north - south) / step - 1e-6);
   const double megabytes = cols * rows * kBytesPerPost / (1024.0 * 1024.0);
-  if (options.memoryBudgetMb > 0.0 && megabytes > options.memoryBudgetMb) {
+  const bool overBudget = options.memoryBudgetMb > 0.0 && megabytes > options.memoryBudgetMb;
+  if (overBudget && options.paging == GridPaging::Never) {
     return fail((options.sceneFile.empty() ? std::string() : options.sceneFile + ": ") + "the DEM " + label +
                 " would take " + format(megabytes, 4) + " MB in memory on the globe (" + format(cols, 10) + " x " +
                 format(rows, 10) + " posts of " + format(step * 3600.0, 4) +
                 "\"), more than terrain.memory_budget_mb (" + format(options.memoryBudgetMb, 6) +
-                "): the globe reads its DEM whole (paging on the globe is not built); cut the DEM or raise the budget");
+                ") and terrain.paging is \"never\": page it, cut the DEM or raise the budget");
   }
+  const bool page = options.paging == GridPaging::Always || overBudget;
   const int width = static_cast<int>(cols), height = static_cast<int>(rows);
 
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  if (mem == nullptr) return fail("GDAL has no MEM driver");
-  DatasetPtr grid(mem->Create("", width, height, 1, GDT_Float32, nullptr));
-  if (!grid) return fail("cannot allocate the DEM grid: " + QuietGdal::lastMessage("no message"));
-  double gt[6] = {west, step, 0.0, north, 0.0, -step};
-  grid->SetGeoTransform(gt);
-  grid->SetSpatialRef(&wgs84);
-  grid->GetRasterBand(1)->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
-  grid->GetRasterBand(1)->Fill(std::numeric_limits<double>::quiet_NaN());
-  // Bilinear, exact transformation (no approximation), nodata kept out of the heights. The grid
-  // starts as nodata (above); no INIT_DEST, which would wipe one tile's posts with the next's pass.
-  WarpOptions warp({"-r", "bilinear", "-et", "0", "-dstnodata", "nan"});
-  std::vector<GDALDatasetH> handles;
-  for (const DatasetPtr& b : bands) handles.push_back(GDALDataset::ToHandle(b.get()));
-  int usageError = 0;
-  if (GDALWarp(nullptr, GDALDataset::ToHandle(grid.get()), static_cast<int>(handles.size()), handles.data(),
-               warp.options, &usageError) == nullptr) {
-    return fail("cannot resample the DEM into longitude/latitude: " + QuietGdal::lastMessage("GDALWarp failed"));
-  }
-  std::vector<float> heights(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
-  if (grid->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, width, height, heights.data(), width, height, GDT_Float32, 0, 0,
-                                       nullptr) != CE_None) {
-    return fail("cannot read the resampled DEM: " + QuietGdal::lastMessage("RasterIO failed"));
-  }
-  grid.reset();
-  bands.clear();
-  files.clear();
-
-  // Holes (nodata, or an undeclared nodata value) at height 0 of the DEM's datum.
-  std::size_t holes = 0;
-  for (float& h : heights) {
-    if (!std::isfinite(h) || std::abs(h) > 1e5F) {
-      h = 0.0F;
-      ++holes;
-    }
-  }
-  if (holes > 0)
-    out.diagnostics.add(
-        {Severity::Warning,
-         label,
-         {},
-         {},
-         std::to_string(holes) + " posts without a height (nodata) are drawn at height 0 of the DEM's vertical datum"});
-
-  // The vertical datum.
+  // The vertical datum, decided before any post is read.
   VerticalDatum datum = options.vertical;
   std::optional<OGRSpatialReference> geoid;
   std::string what, gridName;
@@ -307,6 +540,7 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
     what = egm96 ? "EGM96 height (EPSG:5773)" : "EGM2008 height (EPSG:3855)";
     gridName = egm96 ? "us_nga_egm96_15.tif (egm96_15.gtx)" : "us_nga_egm08_25.tif";
   }
+  TransformPtr toEllipsoid;
   std::string verticalSource = "ellipsoid";
   if (geoid) {
     Result<TransformPtr> t = geoidTransform(*geoid, what, gridName);
@@ -315,28 +549,80 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
       out.diagnostics.add(std::move(d));
     }
     if (!t.ok()) return out;
-    std::vector<double> x(static_cast<std::size_t>(width)), y(x.size()), z(x.size());
-    std::vector<int> ok(x.size());
-    std::size_t failed = 0;
-    for (int r = 0; r < height; ++r) {
-      const double lat = north - (r + 0.5) * step;
-      float* row = heights.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(width);
-      for (int c = 0; c < width; ++c) {
-        const auto k = static_cast<std::size_t>(c);
-        x[k] = west + (c + 0.5) * step;
-        y[k] = lat;
-        z[k] = row[c];
+    toEllipsoid = std::move(*t);
+    verticalSource = what;
+  }
+
+  // A window of the grid: warped (bilinear, exact transformation, nodata kept out of the
+  // heights), holes at height 0 of the DEM's datum, converted to the ellipsoid. Each post depends
+  // on its own position, so windows give the posts the whole grid gives; except beside nodata,
+  // where GDAL's bilinear kernel at a source cell's centre may or may not reach the nodata
+  // neighbour by the rounding of the window's offset, and keeps or drops the post with it.
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  if (mem == nullptr) return fail("GDAL has no MEM driver");
+  std::vector<GDALDatasetH> handles;
+  for (const DatasetPtr& b : bands) handles.push_back(GDALDataset::ToHandle(b.get()));
+  std::size_t holes = 0, failed = 0;
+  const auto readWindow = [&](int x0, int y0, int w, int h, std::vector<float>& posts) -> std::string {
+    DatasetPtr grid(mem->Create("", w, h, 1, GDT_Float32, nullptr));
+    if (!grid) return "cannot allocate the DEM grid: " + QuietGdal::lastMessage("no message");
+    double gt[6] = {west + x0 * step, step, 0.0, north - y0 * step, 0.0, -step};
+    grid->SetGeoTransform(gt);
+    grid->SetSpatialRef(&wgs84);
+    grid->GetRasterBand(1)->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
+    grid->GetRasterBand(1)->Fill(std::numeric_limits<double>::quiet_NaN());
+    // The grid starts as nodata (above); no INIT_DEST, which would wipe one tile's posts with the
+    // next's pass.
+    WarpOptions warp({"-r", "bilinear", "-et", "0", "-dstnodata", "nan"});
+    int usageError = 0;
+    if (GDALWarp(nullptr, GDALDataset::ToHandle(grid.get()), static_cast<int>(handles.size()), handles.data(),
+                 warp.options, &usageError) == nullptr) {
+      return "cannot resample the DEM into longitude/latitude: " + QuietGdal::lastMessage("GDALWarp failed");
+    }
+    posts.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0.0F);
+    if (grid->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, w, h, posts.data(), w, h, GDT_Float32, 0, 0, nullptr) !=
+        CE_None) {
+      return "cannot read the resampled DEM: " + QuietGdal::lastMessage("RasterIO failed");
+    }
+    for (float& v : posts) {
+      if (!std::isfinite(v) || std::abs(v) > 1e5F) {
+        v = 0.0F;
+        ++holes;
       }
-      (*t)->Transform(width, x.data(), y.data(), z.data(), nullptr, ok.data());
-      for (int c = 0; c < width; ++c) {
-        const auto k = static_cast<std::size_t>(c);
-        if (ok[k] != 0 && std::isfinite(z[k])) {
-          row[c] = static_cast<float>(z[k]);
-        } else {
-          ++failed;
+    }
+    if (toEllipsoid) {
+      std::vector<double> x(static_cast<std::size_t>(w)), y(x.size()), z(x.size());
+      std::vector<int> ok(x.size());
+      for (int r = 0; r < h; ++r) {
+        const double lat = north - (y0 + r + 0.5) * step;
+        float* row = posts.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(w);
+        for (int c = 0; c < w; ++c) {
+          const auto k = static_cast<std::size_t>(c);
+          x[k] = west + (x0 + c + 0.5) * step;
+          y[k] = lat;
+          z[k] = row[c];
+        }
+        toEllipsoid->Transform(static_cast<std::size_t>(w), x.data(), y.data(), z.data(), nullptr, ok.data());
+        for (int c = 0; c < w; ++c) {
+          const auto k = static_cast<std::size_t>(c);
+          if (ok[k] != 0 && std::isfinite(z[k])) {
+            row[c] = static_cast<float>(z[k]);
+          } else {
+            ++failed;
+          }
         }
       }
     }
+    return {};
+  };
+  const auto report = [&] {
+    if (holes > 0)
+      out.diagnostics.add({Severity::Warning,
+                           label,
+                           {},
+                           {},
+                           std::to_string(holes) +
+                               " posts without a height (nodata) are drawn at height 0 of the DEM's vertical datum"});
     if (failed > 0)
       out.diagnostics.add({Severity::Warning,
                            label,
@@ -344,10 +630,48 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
                            {},
                            std::to_string(failed) + " posts could not be converted from " + what +
                                " to the ellipsoid (kept as they are)"});
-    verticalSource = what;
+  };
+
+  if (!page) {
+    std::vector<float> heights;
+    if (const std::string problem = readWindow(0, 0, width, height, heights); !problem.empty()) return fail(problem);
+    report();
+    // Posts at the centres of the grid's cells.
+    out.value.emplace(width, height, west + 0.5 * step, north - 0.5 * step, step, std::move(heights));
+    out.value->verticalSource_ = verticalSource;
+    return out;
   }
-  // Posts at the centres of the grid's cells.
-  out.value.emplace(width, height, west + 0.5 * step, north - 0.5 * step, step, std::move(heights));
+
+  // Paged: the grid written block by block into the cache (once for this DEM and these options).
+  const int block = std::clamp(options.blockPosts, 16, 4096);
+  if ((block & (block - 1)) != 0) return fail("the page block size must be a power of two");
+  std::ostringstream key;
+  key << "globe-dem v1|" << source->fingerprint() << "|band " << spec.band << "|crs " << spec.crs << "|unit "
+      << spec.heightUnit << "|" << verticalSource << "|" << format(west, 17) << " " << format(north, 17) << " "
+      << format(step, 17) << " " << width << "x" << height << "|block " << block;
+  const std::string dir = options.cacheDir ? options.cacheDir() : std::string(".");
+  const std::string file = dir + "/globe-dem-" + stableHashHex(key.str()) + ".grid";
+  const double budgetMb =
+      options.pageBudgetMb > 0.0 ? options.pageBudgetMb : std::max(16.0, options.memoryBudgetMb / 3.0);
+  Result<std::shared_ptr<const Paged>> paged = openPaged(
+      file, width, height, block, static_cast<std::size_t>(budgetMb * 1024.0 * 1024.0), north - 0.5 * step, step, holes,
+      failed, [&](int x0, int y0, int w, int h, std::vector<float>& posts) { return readWindow(x0, y0, w, h, posts); });
+  for (Diagnostic d : paged.diagnostics.items()) {
+    d.file = label;
+    out.diagnostics.add(std::move(d));
+  }
+  if (!paged.ok()) return out;
+  report();
+  if ((*paged)->made) {
+    out.diagnostics.add({Severity::Info,
+                         label,
+                         {},
+                         {},
+                         "the DEM (" + format(megabytes, 4) + " MB in memory) is paged on the globe from " + file +
+                             ", written once; blocks of " + std::to_string(block) + " posts are kept within " +
+                             format(budgetMb, 4) + " MB"});
+  }
+  out.value.emplace(GeoGrid(width, height, west + 0.5 * step, north - 0.5 * step, step, std::move(*paged)));
   out.value->verticalSource_ = verticalSource;
   return out;
 }
@@ -367,6 +691,32 @@ GeoGrid::GeoGrid(int width, int height, double west, double north, double step, 
   buildPyramid();
 }
 
+GeoGrid::GeoGrid(int width, int height, double west, double north, double step, std::shared_ptr<const Paged> paged)
+    : width_(width), height_(height), west_(west), north_(north), step_(step), paged_(std::move(paged)) {
+  wraps_ = width_ * step_ >= 360.0 - 1e-9;
+  poleHeight_ = paged_->poles;
+}
+
+std::size_t GeoGrid::residentBytes() const {
+  if (!paged_) {
+    std::size_t bytes = heights_.size() * sizeof(float);
+    for (const auto& level : pyramid_) bytes += level.size() * sizeof(level[0]);
+    return bytes;
+  }
+  const std::lock_guard<std::mutex> lock(paged_->mutex);
+  std::size_t bytes = paged_->cachedBytes;
+  for (const auto& level : paged_->pyramid) bytes += level.size() * sizeof(level[0]);
+  return bytes;
+}
+
+std::size_t GeoGrid::blocksRead() const {
+  if (!paged_) return 0;
+  const std::lock_guard<std::mutex> lock(paged_->mutex);
+  return paged_->reads;
+}
+
+bool GeoGrid::pageFileMade() const { return paged_ && paged_->made; }
+
 double GeoGrid::post(int c, int r) const {
   if (r < 0 || r >= height_) return 0.0;
   if (wraps_) {
@@ -375,6 +725,7 @@ double GeoGrid::post(int c, int r) const {
   } else if (c < 0 || c >= width_) {
     return 0.0;
   }
+  if (paged_) return paged_->post(c, r);
   return heights_[static_cast<std::size_t>(r) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(c)];
 }
 
@@ -454,15 +805,46 @@ std::pair<double, double> GeoGrid::postRange(long c0, long c1, long r0, long r1)
     c1 = std::clamp<long>(c1, 0, width_ - 1);
   }
   // A pyramid level with at most ~16 blocks across the box.
+  const std::size_t levels =
+      paged_ ? static_cast<std::size_t>(paged_->levels) + paged_->pyramid.size() : pyramid_.size();
   std::size_t k = 0;
-  while (k + 1 < pyramid_.size() && ((c1 - c0) >> k) > 16 && ((r1 - r0) >> k) > 16) ++k;
-  while (k + 1 < pyramid_.size() && (((c1 - c0) >> k) > 64 || ((r1 - r0) >> k) > 64)) ++k;
-  const auto& level = pyramid_[k];
-  const long w = pyramidSize_[k].first;
-  for (long r = r0 >> k; r <= (r1 >> k); ++r) {
-    for (long c = c0 >> k; c <= (c1 >> k); ++c) {
-      const auto& v = level[static_cast<std::size_t>(r * w + c)];
-      include(v.first, v.second);
+  while (k + 1 < levels && ((c1 - c0) >> k) > 16 && ((r1 - r0) >> k) > 16) ++k;
+  while (k + 1 < levels && (((c1 - c0) >> k) > 64 || ((r1 - r0) >> k) > 64)) ++k;
+  const auto cells = [&](const std::vector<std::pair<float, float>>& level, long w, long shift, long cBegin, long cEnd,
+                         long rBegin, long rEnd) {
+    for (long r = rBegin >> shift; r <= (rEnd >> shift); ++r) {
+      for (long c = cBegin >> shift; c <= (cEnd >> shift); ++c) {
+        const auto& v = level[static_cast<std::size_t>(r * w + c)];
+        include(v.first, v.second);
+      }
+    }
+  };
+  if (!paged_) {
+    cells(pyramid_[k], pyramidSize_[k].first, static_cast<long>(k), c0, c1, r0, r1);
+    return {lo, hi};
+  }
+  // Paged: levels of whole blocks and up stay in memory; finer ones are the blocks' own.
+  const auto kb = static_cast<std::size_t>(paged_->levels);
+  if (k >= kb) {
+    cells(paged_->pyramid[k - kb], paged_->pyramidSize[k - kb].first, static_cast<long>(k), c0, c1, r0, r1);
+    return {lo, hi};
+  }
+  const long b = paged_->block;
+  for (long by = r0 / b; by <= r1 / b; ++by) {
+    for (long bx = c0 / b; bx <= c1 / b; ++bx) {
+      const std::shared_ptr<const Paged::Block> block = paged_->load(static_cast<int>(bx), static_cast<int>(by));
+      const long bc0 = std::max(c0, bx * b) - bx * b, bc1 = std::min(c1, bx * b + b - 1) - bx * b;
+      const long br0 = std::max(r0, by * b) - by * b, br1 = std::min(r1, by * b + b - 1) - by * b;
+      if (k == 0) {
+        for (long r = br0; r <= br1; ++r) {
+          for (long c = bc0; c <= bc1; ++c) {
+            const float v = block->heights[static_cast<std::size_t>(r * b + c)];
+            include(v, v);
+          }
+        }
+      } else {
+        cells(block->levels[k - 1], b >> k, static_cast<long>(k), bc0, bc1, br0, br1);
+      }
     }
   }
   return {lo, hi};

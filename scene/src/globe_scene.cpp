@@ -1,5 +1,7 @@
 #include "scene/globe_scene.hpp"
 
+#include "scene/scene_loader.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -71,6 +73,10 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   globe::GeoGridReadOptions gridOptions;
   gridOptions.vertical = globe::parseVerticalDatum(description.demVerticalDatum).value_or(globe::VerticalDatum::Auto);
   gridOptions.memoryBudgetMb = description.memoryBudgetMb;
+  gridOptions.paging = description.paging == TerrainPaging::Always  ? globe::GridPaging::Always
+                       : description.paging == TerrainPaging::Never ? globe::GridPaging::Never
+                                                                    : globe::GridPaging::Auto;
+  gridOptions.cacheDir = [&description] { return cacheDirectoryFor(description); };
   gridOptions.sceneFile = description.path;
   Result<globe::GeoGrid> grid = globe::GeoGrid::fromDem(description.demSpec(), gridOptions);
   out.diagnostics.append(grid.diagnostics);

@@ -756,5 +756,52 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
               2.0 + overlap["both_pixels"].get<double>() / 20.0);
 }
 
+TEST(OverlayRenderGlobe, APagedDemDrawsTheSameFrame) {
+  // Olinda on the globe with its DEM read whole and paged from the cache (terrain.paging
+  // "always"): the same depth and layers' mask on every pixel; the second run finds the paged
+  // DEM in the cache.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_paged_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
+  const std::string olinda = kSamples + "/olinda/";
+  description["frame"] = "globe";
+  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
+  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
+  for (json& layer : description["layers"]) layer["source"] = olinda + layer["source"].get<std::string>();
+  { std::ofstream(dir / "whole.json") << description.dump(1); }
+  description["terrain"]["paging"] = "always";
+  description["terrain"]["cache_dir"] = (dir / "cache").string();
+  { std::ofstream(dir / "paged.json") << description.dump(1); }
+  const std::string size = " --width " + std::to_string(kWidth) + " --height " + std::to_string(kHeight);
+  for (const std::string run : {"whole", "paged", "paged_again"}) {
+    const std::string scene = run == "whole" ? "whole.json" : "paged.json";
+    ASSERT_EQ(runOverlayRender("--scene " + (dir / scene).string() + size + " --out " + (dir / run).string(),
+                               dir / (run + ".txt")),
+              0)
+        << readText(dir / (run + ".txt"));
+  }
+  EXPECT_NE(readText(dir / "paged.txt").find("is paged on the globe"), std::string::npos)
+      << readText(dir / "paged.txt");
+  EXPECT_EQ(readText(dir / "paged_again.txt").find("is paged on the globe"), std::string::npos)
+      << "the second run finds the paged DEM in the cache";
+  const gfx::ImageFloat wholeDepth = *gfx::readImageFloat((dir / "whole" / "depth.tiff").string());
+  const gfx::Image8 wholeMask = *gfx::readImage8((dir / "whole" / "mask.png").string());
+  for (const std::string run : {"paged", "paged_again"}) {
+    const gfx::ImageFloat depth = *gfx::readImageFloat((dir / run / "depth.tiff").string());
+    const gfx::Image8 mask = *gfx::readImage8((dir / run / "mask.png").string());
+    ASSERT_EQ(depth.pixels.size(), wholeDepth.pixels.size());
+    std::size_t depthDiffering = 0, maskDiffering = 0, ground = 0;
+    for (std::size_t i = 0; i < depth.pixels.size(); ++i) {
+      ground += wholeDepth.pixels[i] > 0.0F ? 1u : 0u;
+      depthDiffering += depth.pixels[i] != wholeDepth.pixels[i] ? 1u : 0u;
+      maskDiffering += mask.pixels[i] != wholeMask.pixels[i] ? 1u : 0u;
+    }
+    EXPECT_GT(ground, depth.pixels.size() / 2);
+    EXPECT_EQ(depthDiffering, 0u) << run;
+    EXPECT_EQ(maskDiffering, 0u) << run;
+  }
+}
+
 }  // namespace
 }  // namespace gis::test

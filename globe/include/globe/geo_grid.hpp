@@ -4,6 +4,9 @@
 // and what the overlay's height bounds are taken from (the bounds contract in ellipsoidal
 // heights).
 #include <array>
+#include <cstddef>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -26,11 +29,22 @@ enum class VerticalDatum { Auto, Ellipsoid, Egm96, Egm2008 };
 /// "auto", "ellipsoid", "egm96", "egm2008" (as the scene file spells them); nullopt otherwise.
 std::optional<VerticalDatum> parseVerticalDatum(const std::string& text);
 
+/// Whether a GeoGrid holds its heights in memory or pages them from a file in the cache.
+enum class GridPaging { Auto, Always, Never };
+
 struct GeoGridReadOptions {
   VerticalDatum vertical = VerticalDatum::Auto;
-  /// Refuse (an error, nothing allocated) a DEM that would take more than this in memory once
-  /// read into a GeoGrid (about 20 bytes a post); 0: no limit.
-  double memoryBudgetMb = 0.0;
+  /// Auto: paged when the DEM would take more than memoryBudgetMb in memory (about 20 bytes a
+  /// post); Never: such a DEM is refused (an error, nothing allocated); Always: paged.
+  GridPaging paging = GridPaging::Auto;
+  double memoryBudgetMb = 0.0;  ///< 0: no limit
+  /// A paged grid: the directory its file goes in (made once, reused while the DEM and these
+  /// options are the same), asked for only when the grid is paged (null: the working directory),
+  /// and how much of the budget its cached blocks may take (0: a third of memoryBudgetMb, at
+  /// least 16 MB).
+  std::function<std::string()> cacheDir;
+  double pageBudgetMb = 0.0;
+  int blockPosts = 256;  ///< a paged grid's blocks, posts a side (a power of two, 16 … 4096)
   /// The scene file, named in the memory error.
   std::string sceneFile;
 };
@@ -46,7 +60,11 @@ class GeoGrid {
   /// VRT; the CRS and height-unit overrides; the band), in any CRS GDAL knows, warped (bilinear,
   /// nodata kept out of heights) onto one north-up grid in WGS 84 longitude/latitude at the
   /// sources' finest resolution, then converted to heights above the ellipsoid as
-  /// `options.vertical` says. Read whole: a DEM beyond `options.memoryBudgetMb` is refused.
+  /// `options.vertical` says. Read whole, or (options.paging) written once block by block into a
+  /// file in options.cacheDir and paged from it: blocks are read when heightAt or bounds need
+  /// them and the least recently used go beyond the page budget; a min/max pyramid over the
+  /// blocks stays in memory. A paged grid's heights, bounds and poles are those of the grid read
+  /// whole, bit for bit.
   static Result<GeoGrid> fromDem(const geo::DemSpec& spec, const GeoGridReadOptions& options = {});
 
   /// What the heights were converted from, for messages and stats ("ellipsoid", "EGM96 ...").
@@ -58,7 +76,16 @@ class GeoGrid {
   [[nodiscard]] double north() const { return north_; }
   [[nodiscard]] double step() const { return step_; }
   [[nodiscard]] bool wraps() const { return wraps_; }
+  /// The posts, row-major (empty for a paged grid).
   [[nodiscard]] const std::vector<float>& heights() const { return heights_; }
+  [[nodiscard]] bool paged() const { return paged_ != nullptr; }
+  /// Bytes of heights and bounds held in memory now (a paged grid: its cached blocks and the
+  /// pyramid over them).
+  [[nodiscard]] std::size_t residentBytes() const;
+  /// A paged grid: blocks read from its file so far, and whether the file was made by this read
+  /// (false: found in the cache).
+  [[nodiscard]] std::size_t blocksRead() const;
+  [[nodiscard]] bool pageFileMade() const;
 
   /// Bilinear height at (lon, lat), degrees. A pure function of its arguments: the same post
   /// coordinates give the same height in every tile.
@@ -67,7 +94,12 @@ class GeoGrid {
   /// unwrapped ones too): from a min/max pyramid over the posts it may read. Conservative.
   [[nodiscard]] std::pair<double, double> bounds(const LonLatRect& box) const;
 
+  /// A paged grid's storage (geo_grid.cpp).
+  struct Paged;
+
  private:
+  /// A paged grid over `paged` (its poles and block pyramid read with it).
+  GeoGrid(int width, int height, double west, double north, double step, std::shared_ptr<const Paged> paged);
   void buildPyramid();
   [[nodiscard]] double post(int c, int r) const;
   /// Min/max over post columns [c0, c1] (may exceed the grid: wrapped or 0) and rows [r0, r1].
@@ -82,6 +114,7 @@ class GeoGrid {
   /// Level k: blocks of 2^k × 2^k posts, (min, max) each, row-major.
   std::vector<std::vector<std::pair<float, float>>> pyramid_;
   std::vector<std::pair<int, int>> pyramidSize_;
+  std::shared_ptr<const Paged> paged_;  ///< null: heights_ and pyramid_ hold everything
 };
 
 }  // namespace gis::globe
