@@ -67,6 +67,38 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   return png.ok() ? 0 : 1;
 }
 
+int drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, globe::GlobeRenderer& renderer,
+                    const scene::LoadedGlobeScene& scene, const globe::GlobeView& view,
+                    const std::filesystem::path& out, json& stats) {
+  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
+  gfx::enableMaskWrites(target.framebuffer(), false);
+  std::vector<std::uint8_t> pixels(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height), 0);
+  json layers = json::array();
+  std::size_t open = 0;
+  for (const globe::GlobeLayer& layer : scene.layers) {
+    const globe::GlobeOverlayStats counted =
+        renderer.overlay().countOpenFaces(cache, view, renderer.tiles(), renderer.heights(), layer);
+    const std::vector<std::uint8_t> counts = gfx::readStencil(target);
+    renderer.overlay().coverOpenFaces(cache, scene::kOpenVolumeColour);
+    std::size_t layerOpen = 0;
+    for (std::size_t i = 0; i < counts.size() && i < pixels.size(); ++i) {
+      if (counts[i] == 0) continue;
+      ++layerOpen;
+      pixels[i] = 255;
+    }
+    layers.push_back({{"name", layer.name()},
+                      {"open_pixels", layerOpen},
+                      {"pieces_counted", counted.pieces - counted.zFailPieces},
+                      {"pieces_left_out_near_the_eye", counted.zFailPieces}});
+  }
+  gfx::enableMaskWrites(target.framebuffer(), true);
+  for (const std::uint8_t p : pixels) open += p != 0 ? 1U : 0U;
+  const Result<bool> png = gfx::writeImage8((out / "open_volumes.png").string(), view.width, view.height, 1, pixels);
+  report(png.diagnostics);
+  stats["open_volumes"] = {{"open_pixels", open}, {"layers", layers}};
+  return png.ok() ? 0 : 1;
+}
+
 int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, const gfx::RenderTarget& target,
                   const scene::LoadedGlobeScene& scene, const globe::GlobeView& view, const std::vector<float>& depth,
                   const std::filesystem::path& out, json& stats) {
@@ -138,10 +170,14 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
 int drawGlobeAnalyses(const GlobeAnalysisRequest& request, gfx::StateCache& cache, const gfx::RenderTarget& target,
                       globe::GlobeRenderer& renderer, const scene::LoadedGlobeScene& scene,
                       const globe::GlobeView& view, const std::filesystem::path& out, json& stats) {
-  if (request.overlap.empty() && request.lasso.empty()) return 0;
+  if (request.overlap.empty() && request.lasso.empty() && !request.openVolumes) return 0;
   const std::vector<float> depth = gfx::readDepth(target);
   if (!request.overlap.empty()) {
     if (const int status = drawOverlap(request, cache, target, renderer, scene, view, depth, out, stats); status != 0)
+      return status;
+  }
+  if (request.openVolumes) {
+    if (const int status = drawOpenVolumes(cache, target, renderer, scene, view, out, stats); status != 0)
       return status;
   }
   if (!request.lasso.empty()) return drawSelection(request, cache, target, scene, view, depth, out, stats);

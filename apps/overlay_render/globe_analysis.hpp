@@ -18,10 +18,12 @@ struct GlobeAnalysisRequest {
   std::string lasso;    ///< a lasso file (scene/lasso_file.hpp); empty: none
   std::string overlap;  ///< "A,B": two layers' names; empty: none
   overlay::OverlapOp overlapOp = overlay::OverlapOp::And;
+  bool openVolumes = false;  ///< where a layer's volumes are not closed
 };
 
 /// Draws what `request` asks for over the frame in `target` (drawn from `view`): the overlap
-/// (overlap.png, stats "overlap") and then the selection (selection.png, stats "selection"),
+/// (overlap.png, stats "overlap"), the open volumes (open_volumes.png, stats "open_volumes") and
+/// then the selection (selection.png, stats "selection"),
 /// colouring the frame as the projected path does. Returns 0, 1 (a file could not be written or
 /// read) or 2 (a layer named that is not in the scene).
 int drawGlobeAnalyses(const GlobeAnalysisRequest& request, gfx::StateCache& cache, const gfx::RenderTarget& target,

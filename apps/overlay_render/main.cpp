@@ -628,14 +628,14 @@ int run(const Options& o) {
   if (Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene); description.ok()) {
     Result<std::string> globe = scene::globeReason(*description);
     if (globe.ok() && !globe->empty()) {
-      if (o.openVolumes || o.msaa > 1) {
-        logError("the scene is drawn on the globe (" + *globe +
-                 "): --open-volumes and --msaa are not available there yet");
+      if (o.msaa > 1) {
+        logError("the scene is drawn on the globe (" + *globe + "): --msaa is not available there yet");
         return 2;
       }
       report(description.diagnostics);
-      return app::runGlobeRender(*description, *globe,
-                                 {o.out, o.width, o.height, o.overlays, {o.lasso, o.overlap, o.overlapOp}, o.camera});
+      return app::runGlobeRender(
+          *description, *globe,
+          {o.out, o.width, o.height, o.overlays, {o.lasso, o.overlap, o.overlapOp, o.openVolumes}, o.camera});
     }
   }
   const std::optional<Setup> setup = load(o, all);

@@ -237,8 +237,7 @@ GlobeAnalysisStats GlobeOverlayRenderer::markOverlap(gfx::StateCache& cache, con
   return out;
 }
 
-void GlobeOverlayRenderer::coverOverlap(gfx::StateCache& cache, overlay::OverlapOp op, const glm::vec4& colour,
-                                        float maskValue) {
+void GlobeOverlayRenderer::drawScreen(gfx::StateCache& cache, const glm::vec4& colour, float maskValue) {
   if (!gpu_->rect.id()) {
     Result<gfx::Program> built = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
     if (!built.ok()) return;
@@ -250,7 +249,11 @@ void GlobeOverlayRenderer::coverOverlap(gfx::StateCache& cache, overlay::Overlap
   gpu_->rect.set("u_color", colour);
   gpu_->rect.set("u_maskBit", maskValue);
   cache.bindVertexArray(gpu_->emptyVao.id());
-  const auto screen = [] { glDrawArrays(GL_TRIANGLE_STRIP, 0, 4); };
+  glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
+}
+
+void GlobeOverlayRenderer::coverOverlap(gfx::StateCache& cache, overlay::OverlapOp op, const glm::vec4& colour,
+                                        float maskValue) {
   switch (op) {
     case overlay::OverlapOp::And:
       cache.apply(overlay::kOverlapAnd);
@@ -263,11 +266,31 @@ void GlobeOverlayRenderer::coverOverlap(gfx::StateCache& cache, overlay::Overlap
       break;
     case overlay::OverlapOp::Xor:
       cache.apply(overlay::kOverlapXorFirst);
-      screen();
+      drawScreen(cache, colour, maskValue);
       cache.apply(overlay::kOverlapXorLast);
       break;
   }
-  screen();
+  drawScreen(cache, colour, maskValue);
+}
+
+GlobeOverlayStats GlobeOverlayRenderer::countOpenFaces(gfx::StateCache& cache, const GlobeView& view,
+                                                       const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
+                                                       const GlobeLayer& layer, const GlobeOverlaySettings& settings) {
+  GlobeOverlayStats stats;
+  if (!begin(view, settings)) return stats;
+  const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, layer, settings, stats);
+  cache.useProgram(gpu_->program);
+  gpu_->program.set("u_color", glm::vec4(0.0F));
+  gpu_->program.set("u_maskBit", 0.0F);
+  cache.apply(overlay::kCountFaces);
+  drawPieces(cache, drawn, false);
+  trim(1, settings);
+  return stats;
+}
+
+void GlobeOverlayRenderer::coverOpenFaces(gfx::StateCache& cache, const glm::vec4& colour, float maskValue) {
+  cache.apply(overlay::kCoverRect);
+  drawScreen(cache, colour, maskValue);
 }
 
 }  // namespace gis::globe

@@ -715,11 +715,12 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
                           {"points", {{60, 60}, {190, 60}, {190, 150}, {60, 150}}}}}}};
   { std::ofstream(dir / "lassos.json") << lassos.dump(1); }
   const fs::path out = dir / "out";
-  ASSERT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
-                                 " --height " + std::to_string(kHeight) + " --lasso " + (dir / "lassos.json").string() +
-                                 " --overlap \"census tracts,streets\" --overlap-op xor --out " + out.string(),
-                             dir / "log.txt"),
-            0)
+  ASSERT_EQ(
+      runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                           " --height " + std::to_string(kHeight) + " --lasso " + (dir / "lassos.json").string() +
+                           " --overlap \"census tracts,streets\" --overlap-op xor --open-volumes --out " + out.string(),
+                       dir / "log.txt"),
+      0)
       << readText(dir / "log.txt");
   const json stats = json::parse(readText(out / "stats.json"));
   ASSERT_EQ(stats["frame"], "globe") << stats.dump(1);
@@ -743,6 +744,8 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
     }
   }
   EXPECT_GT(features["layers"][0]["fully_inside"].get<std::size_t>(), 0u);
+  EXPECT_EQ(stats["open_volumes"]["open_pixels"].get<std::size_t>(), 0u) << stats["open_volumes"].dump(1);
+  EXPECT_EQ(stats["open_volumes"]["layers"].size(), 2u);
   const json& overlap = stats["overlap"];
   EXPECT_EQ(overlap["op"], "xor");
   EXPECT_EQ(overlap["differing_away_from_edges"].get<std::size_t>(), 0u) << overlap.dump(1);

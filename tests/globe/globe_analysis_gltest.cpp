@@ -1,6 +1,7 @@
 // Lasso selection and layer overlap on the globe (docs/globe.md) against their CPU twins on the
 // same depth buffer: 0 differing pixels away from edges from space, across the antimeridian, over
 // both poles and from 1 m above the ground, for every operator.
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -148,6 +149,20 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     EXPECT_EQ(left, 0U) << c.label << ": the cover leaves the stencil 0";
     EXPECT_GE(marks.groups, 2U) << c.label;
     EXPECT_GT(both, 100U) << c.label << ": the view must show the layers overlapping";
+    // Every piece closed: front and back faces cancel on every pixel (pieces drawn z-fail, which
+    // may hold the eye, are left out of the count).
+    for (const GlobeLayer* layer : {&layers.a, &layers.b}) {
+      const GlobeOverlayStats counted = overlay.countOpenFaces(cache_, v, tiles, *grid(), *layer);
+      const std::vector<std::uint8_t> counts = gfx::readStencil(target);
+      overlay.coverOpenFaces(cache_, glm::vec4(0.0F, 1.0F, 0.0F, 1.0F));
+      std::size_t open = 0;
+      for (const std::uint8_t n : counts) open += n != 0 ? 1U : 0U;
+      EXPECT_EQ(open, 0U) << c.label << " " << layer->name() << ": open volumes";
+      EXPECT_GT(counted.pieces - counted.zFailPieces, 0U) << c.label;
+      const std::vector<std::uint8_t> cleared = gfx::readStencil(target);
+      EXPECT_EQ(std::count(cleared.begin(), cleared.end(), std::uint8_t{0}),
+                static_cast<std::ptrdiff_t>(cleared.size()));
+    }
   }
 }
 

@@ -207,6 +207,17 @@ class GlobeOverlayRenderer {
   /// `maskValue` to the mask attachment there, and zeroes the stencil everywhere.
   void coverOverlap(gfx::StateCache& cache, overlay::OverlapOp op, const glm::vec4& colour, float maskValue = 0.0F);
 
+  /// Where the layer's volumes are not closed (a defect): every face of its pieces counted with
+  /// no depth test, front faces +1 and back faces −1 (mod 256), as a projected frame does it. A
+  /// closed piece sums to 0 on every pixel when the eye is outside it; pieces that may hold the
+  /// eye or meet the near plane (drawn z-fail) are left out of the count (their number is in the
+  /// stats' zFailPieces). The count is left in the stencil.
+  GlobeOverlayStats countOpenFaces(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                                   const GeoGrid& heights, const GlobeLayer& layer,
+                                   const GlobeOverlaySettings& settings = {});
+  /// Colours the pixels with a non-zero count and zeroes the stencil.
+  void coverOpenFaces(gfx::StateCache& cache, const glm::vec4& colour, float maskValue = 0.0F);
+
  private:
   struct Gpu;
   /// The volume program's per-frame uniforms; false if its shaders do not build.
@@ -215,6 +226,8 @@ class GlobeOverlayRenderer {
   std::vector<detail::DrawnPieces> prepare(const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                            const GeoGrid& heights, const GlobeLayer& layer,
                                            const GlobeOverlaySettings& settings, GlobeOverlayStats& stats);
+  /// One screen-filling pass in the current state, with `colour` and `maskValue`.
+  void drawScreen(gfx::StateCache& cache, const glm::vec4& colour, float maskValue);
   /// Drops the least recently drawn tiles' pieces beyond the budget.
   void trim(std::size_t layers, const GlobeOverlaySettings& settings);
   std::unique_ptr<Gpu> gpu_;
