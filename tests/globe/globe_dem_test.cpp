@@ -289,9 +289,10 @@ TEST(GlobeDem, PagedGridIsTheWholeGridBitForBit) {
   }
   EXPECT_EQ(boundsDiffering, 0U) << "bounds";
   EXPECT_GT(bounded, 2000U);
-  std::printf("paged against whole: %zu heights and %zu bounds compared, %zu blocks read, %zu bytes resident "
-              "(whole: %zu)\n",
-              checked, bounded, paged->blocksRead(), paged->residentBytes(), whole->residentBytes());
+  std::printf(
+      "paged against whole: %zu heights and %zu bounds compared, %zu blocks read, %zu bytes resident "
+      "(whole: %zu)\n",
+      checked, bounded, paged->blocksRead(), paged->residentBytes(), whole->residentBytes());
   // 32 × 8 blocks of 64 posts; the budget holds one (57 KB with its levels).
   EXPECT_GT(paged->blocksRead(), 256U) << "blocks come and go";
   EXPECT_LT(paged->residentBytes(), static_cast<std::size_t>(0.08 * 1024 * 1024) + 64U * 1024U);
