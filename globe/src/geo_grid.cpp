@@ -34,6 +34,34 @@ namespace {
 /// pyramid (8 · 4/3) and the warped grid they are read from (4), rounded up.
 constexpr double kBytesPerPost = 20.0;
 
+/// A min/max pyramid: level 0 as given (w × h cells, row-major), each next level's cell the
+/// union of 2 × 2 of the level below, up to one cell.
+void buildMinMaxPyramid(std::vector<std::pair<float, float>> level0, int w, int h,
+                        std::vector<std::vector<std::pair<float, float>>>& pyramid,
+                        std::vector<std::pair<int, int>>& sizes) {
+  pyramid.push_back(std::move(level0));
+  sizes.emplace_back(w, h);
+  while (w > 1 || h > 1) {
+    const int nw = (w + 1) / 2, nh = (h + 1) / 2;
+    const auto& prev = pyramid.back();
+    std::vector<std::pair<float, float>> next(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh),
+                                              {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()});
+    for (int r = 0; r < h; ++r) {
+      for (int c = 0; c < w; ++c) {
+        const auto& v = prev[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
+        auto& o =
+            next[static_cast<std::size_t>(r / 2) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(c / 2)];
+        o.first = std::min(o.first, v.first);
+        o.second = std::max(o.second, v.second);
+      }
+    }
+    pyramid.push_back(std::move(next));
+    sizes.emplace_back(nw, nh);
+    w = nw;
+    h = nh;
+  }
+}
+
 struct TransformCloser {
   void operator()(OGRCoordinateTransformation* t) const { OGRCoordinateTransformation::DestroyCT(t); }
 };
@@ -368,27 +396,7 @@ Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(
     p->made = true;
   }
   // The pyramid over the blocks.
-  p->pyramid.push_back(std::move(ranges));
-  p->pyramidSize.emplace_back(p->blocksX, p->blocksY);
-  for (int w = p->blocksX, h = p->blocksY; w > 1 || h > 1;) {
-    const int nw = (w + 1) / 2, nh = (h + 1) / 2;
-    const auto& prev = p->pyramid.back();
-    std::vector<std::pair<float, float>> next(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh),
-                                              {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()});
-    for (int r = 0; r < h; ++r) {
-      for (int c = 0; c < w; ++c) {
-        const auto& v = prev[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
-        auto& o =
-            next[static_cast<std::size_t>(r / 2) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(c / 2)];
-        o.first = std::min(o.first, v.first);
-        o.second = std::max(o.second, v.second);
-      }
-    }
-    p->pyramid.push_back(std::move(next));
-    p->pyramidSize.emplace_back(nw, nh);
-    w = nw;
-    h = nh;
-  }
+  buildMinMaxPyramid(std::move(ranges), p->blocksX, p->blocksY, p->pyramid, p->pyramidSize);
   out.value = std::shared_ptr<const Paged>(std::move(p));
   return out;
 }
@@ -752,28 +760,7 @@ void GeoGrid::buildPyramid() {
   pyramidSize_.clear();
   std::vector<std::pair<float, float>> level(heights_.size());
   for (std::size_t i = 0; i < heights_.size(); ++i) level[i] = {heights_[i], heights_[i]};
-  int w = width_, h = height_;
-  pyramid_.push_back(std::move(level));
-  pyramidSize_.emplace_back(w, h);
-  while (w > 1 || h > 1) {
-    const int nw = (w + 1) / 2, nh = (h + 1) / 2;
-    const auto& prev = pyramid_.back();
-    std::vector<std::pair<float, float>> next(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh),
-                                              {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()});
-    for (int r = 0; r < h; ++r) {
-      for (int c = 0; c < w; ++c) {
-        const auto& v = prev[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
-        auto& o =
-            next[static_cast<std::size_t>(r / 2) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(c / 2)];
-        o.first = std::min(o.first, v.first);
-        o.second = std::max(o.second, v.second);
-      }
-    }
-    pyramid_.push_back(std::move(next));
-    pyramidSize_.emplace_back(nw, nh);
-    w = nw;
-    h = nh;
-  }
+  buildMinMaxPyramid(std::move(level), width_, height_, pyramid_, pyramidSize_);
 }
 
 std::pair<double, double> GeoGrid::postRange(long c0, long c1, long r0, long r1) const {

@@ -41,6 +41,16 @@ int runOverlayRender(const std::string& args, const fs::path& log) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+/// The Olinda sample's scene file with its files' paths made absolute (to write elsewhere).
+json olindaScene() {
+  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
+  const std::string olinda = kSamples + "/olinda/";
+  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
+  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
+  for (json& layer : description["layers"]) layer["source"] = olinda + layer["source"].get<std::string>();
+  return description;
+}
+
 /// Height of the full-resolution DEM surface at frame (x, y): triangles a-d-e and a-e-b per cell
 /// (what is drawn at --lod-tolerance 0).
 std::optional<double> drawnHeight(const geo::Raster& dem, const geo::SceneFrame& frame, double x, double y) {
@@ -597,14 +607,8 @@ TEST(OverlayRenderAnalysis, OverlapMatchesTheLayerMaskAndVolumesAreClosed) {
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("analysis_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
-  const std::string olinda = kSamples + "/olinda/";
-  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
-  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
-  for (json& layer : description["layers"]) {
-    layer["source"] = olinda + layer["source"].get<std::string>();
-    layer["style"].erase("outline_width_m");
-  }
+  json description = olindaScene();
+  for (json& layer : description["layers"]) layer["style"].erase("outline_width_m");
   { std::ofstream(dir / "scene.json") << description.dump(1); }
   const std::string scene = "--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
                             " --height " + std::to_string(kHeight);
@@ -693,13 +697,9 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
-  const std::string olinda = kSamples + "/olinda/";
+  json description = olindaScene();
   description["frame"] = "globe";
-  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
-  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
   for (json& layer : description["layers"]) {
-    layer["source"] = olinda + layer["source"].get<std::string>();
     layer["style"].erase("outline_width_m");  // mask.png's bit 0 is then the tracts' areas alone
   }
   { std::ofstream(dir / "scene.json") << description.dump(1); }
@@ -766,12 +766,8 @@ TEST(OverlayRenderGlobe, APagedDemDrawsTheSameFrame) {
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_paged_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  json description = json::parse(readText(kSamples + "/olinda/scene.json"));
-  const std::string olinda = kSamples + "/olinda/";
+  json description = olindaScene();
   description["frame"] = "globe";
-  description["terrain"]["dem"] = olinda + description["terrain"]["dem"].get<std::string>();
-  description["imagery"]["path"] = olinda + description["imagery"]["path"].get<std::string>();
-  for (json& layer : description["layers"]) layer["source"] = olinda + layer["source"].get<std::string>();
   { std::ofstream(dir / "whole.json") << description.dump(1); }
   description["terrain"]["paging"] = "always";
   description["terrain"]["cache_dir"] = (dir / "cache").string();
