@@ -610,7 +610,7 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
           y[k] = lat;
           z[k] = row[c];
         }
-        toEllipsoid->Transform(static_cast<std::size_t>(w), x.data(), y.data(), z.data(), nullptr, ok.data());
+        toEllipsoid->Transform(w, x.data(), y.data(), z.data(), nullptr, ok.data());
         for (int c = 0; c < w; ++c) {
           const auto k = static_cast<std::size_t>(c);
           if (ok[k] != 0 && std::isfinite(z[k])) {
