@@ -310,6 +310,8 @@ class Viewer {
   /// The window without a scene: what went wrong, and what to open.
   void drawNoScene();
   void drawHud();
+  /// The HUD window (top right, see-through, no input) with the frame rate; End() is the caller's.
+  void beginHud();
   void drawHelp();
   void drawIdentify();
   void drawLassoOutline();

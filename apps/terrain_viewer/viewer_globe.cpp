@@ -436,15 +436,7 @@ void Viewer::drawGlobePanel() {
 
 void Viewer::drawGlobeHud() {
   const GlobeMode& g = *globe_;
-  const ImGuiViewport* viewport = ImGui::GetMainViewport();
-  ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10, viewport->WorkPos.y + 10),
-                          ImGuiCond_Always, ImVec2(1.0F, 0.0F));
-  ImGui::SetNextWindowBgAlpha(0.55F);
-  ImGui::Begin("HUD", nullptr,
-               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoFocusOnAppearing |
-                   ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs);
-  rememberWindow("hud");
-  ImGui::Text("%.1f fps  %.1f ms", 1000.0 / std::max(frameMs_, 1e-3), frameMs_);
+  beginHud();
   ImGui::Text("globe terrain: %zu triangles, %zu tiles, GPU %.2f ms", g.stats.terrain.triangles, g.stats.terrain.tiles,
               g.stats.terrainGpuMilliseconds);
   if (!render_.overlays) {

@@ -404,7 +404,7 @@ std::uint64_t Viewer::overlayFragments() const {
   return fragments;
 }
 
-void Viewer::drawHud() {
+void Viewer::beginHud() {
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10, viewport->WorkPos.y + 10),
                           ImGuiCond_Always, ImVec2(1.0F, 0.0F));
@@ -414,6 +414,10 @@ void Viewer::drawHud() {
                    ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoInputs);
   rememberWindow("hud");
   ImGui::Text("%.1f fps  %.1f ms", 1000.0 / std::max(frameMs_, 1e-3), frameMs_);
+}
+
+void Viewer::drawHud() {
+  beginHud();
   ImGui::Text("terrain: %zu triangles, %zu chunks, GPU %.2f ms", stats_.terrainDraw.triangles,
               stats_.terrainDraw.chunks, stats_.terrain.gpuMilliseconds);
   if (!render_.overlays) {
