@@ -1,7 +1,6 @@
 #include "globe_analysis.hpp"
 
 #include <chrono>
-#include <fstream>
 
 #include <nlohmann/json.hpp>
 
@@ -53,7 +52,8 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   gfx::enableMaskWrites(target.framebuffer(), true);
 
   const std::vector<std::uint32_t> expected = globe::referenceMask(depth, view, {&scene.layers[*a], &scene.layers[*b]});
-  const std::vector<std::uint8_t> edges = globe::edgePixels(expected, depth, view.width, view.height);
+  const std::vector<std::uint8_t> edges =
+      globe::edgePixels(expected, depth, view, {&scene.layers[*a], &scene.layers[*b]});
   const OverlapCounts counts = countOverlap(flags, expected, edges, request.overlapOp);
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), view.width, view.height, 1, counts.pixels);
   report(png.diagnostics);
@@ -138,15 +138,19 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
                       {"selected_samples", f.selectedSamples},
                       {"spacing_m", f.spacing}});
     }
-    layers.push_back({{"name", scene.layers[l.layer].name()},
+    // The scene file's name for the layer, as the export's files and properties have it.
+    const scene::LayerDescription* described = scene::sceneLayerOf(scene, l.layer);
+    const std::string name = described != nullptr ? described->name : scene.layers[l.layer].name();
+    layers.push_back({{"name", name},
                       {"selected", l.features.size()},
                       {"fully_inside", l.fullyInside},
+                      {"file", scene::selectedLayerFileName(name)},
                       {"features", list}});
   }
-  std::ofstream file(out / "selected_features.json");
-  file << json{{"frame", "globe"}, {"sample_spacing_m", chosen.sampleSpacing}, {"layers", layers}}.dump(1) << '\n';
-  const bool written = static_cast<bool>(file);
-  if (!written) logError((out / "selected_features.json").string() + ": cannot be written");
+  // The GeoJSON exports, as a projected scene's: the combined RFC 7946 file and one per layer.
+  const Diagnostics exported = scene::exportGlobeSelection(scene, chosen, out / "selected_features.json", out);
+  report(exported);
+  const bool written = !exported.hasErrors();
   const overlay::SelectionFrameStats& s = drawn->stats;
   stats["selection"] = {{"steps", lassos->steps.size()},
                         {"scheme", lassos->scheme == overlay::SelectionScheme::Runs ? "runs" : "report"},
@@ -161,7 +165,8 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
                         {"sample_spacing_m", chosen.sampleSpacing},
                         {"logical_seconds", logicalSeconds},
                         {"tested_samples", chosen.testedSamples},
-                        {"layers", layers}};
+                        {"layers", layers},
+                        {"dem_posts", nullptr}};  // not computed on the globe
   return png.ok() && written ? 0 : 1;
 }
 

@@ -306,6 +306,9 @@ class Viewer {
   /// and the chain of steps: the same in a projected scene and on the globe.
   void drawLassoControls();
   void drawSelectedFeatures();
+  /// The export path's field (Enter exports) and the Export GeoJSON button: the same in a
+  /// projected scene and on the globe.
+  void drawExportControls();
   void drawMessagesSection();
   /// The window without a scene: what went wrong, and what to open.
   void drawNoScene();
@@ -421,6 +424,9 @@ class Viewer {
   [[nodiscard]] std::optional<GroundPoint> groundAt(const glm::dvec2& pixel) const;
   /// "EPSG:31985", or "CRS" when the scene's CRS has no code.
   [[nodiscard]] std::string crsName() const;
+  /// The selected features as GeoJSON: `path` (RFC 7946, every layer) and selected_<layer>.geojson
+  /// beside it per layer in its source's CRS, in a projected scene or on the globe; false when
+  /// nothing is selected or a file could not be written.
   bool exportSelection(const std::filesystem::path& path);
   /// Scene only (`ui` false: also <stem>_depth.tiff and <stem>_camera.json beside it), or the
   /// whole window as shown.

@@ -196,25 +196,30 @@ void Viewer::pollSelection(bool wait) {
 void Viewer::finishSelection() { pollSelection(true); }
 
 bool Viewer::exportSelection(const std::filesystem::path& path) {
-  if (globe_) {
-    notOnGlobe("Exporting the selection (GeoJSON)");
-    return true;
-  }
   finishSelection();
-  if (!selected_ || selected_->featureCount() == 0) {
+  std::size_t count = 0;
+  if (globe_) {
+    if (globe_->selected) {
+      for (const scene::GlobeLayerSelection& l : globe_->selected->layers) count += l.features.size();
+    }
+  } else if (selected_) {
+    count = selected_->featureCount();
+  }
+  if (count == 0) {
     notify(path.string() + ": nothing selected to export", true);
     return false;
   }
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
-  const Diagnostics d = scene::exportSelection(
-      *scene_, *renderer_, *selected_, path, path.has_parent_path() ? path.parent_path() : std::filesystem::path("."));
+  const std::filesystem::path beside = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+  const Diagnostics d = globe_ ? scene::exportGlobeSelection(globe_->scene, *globe_->selected, path, beside)
+                               : scene::exportSelection(*scene_, *renderer_, *selected_, path, beside);
   for (const Diagnostic& m : d.items()) message(m.toString(), m.severity == Severity::Error);
   if (d.hasErrors()) {
     notify("Export to " + path.string() + " failed: see Messages", true);
     return false;
   }
-  notify("Exported " + std::to_string(selected_->featureCount()) + " features to " +
+  notify("Exported " + std::to_string(count) + " features to " +
          std::filesystem::absolute(path, ec).lexically_normal().string());
   return true;
 }

@@ -427,8 +427,8 @@ void Viewer::drawGlobePanel() {
   drawGlobeSelectionSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   ImGui::TextWrapped(
-      "Not on the globe yet: measure, labels, the attribute table, colours by category, draping, fly mode, "
-      "exaggeration and exporting the selection.");
+      "Not on the globe yet: measure, labels, the attribute table, colours by category, draping, fly mode "
+      "and exaggeration.");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -554,7 +554,7 @@ json Viewer::globeState() const {
 
 json Viewer::globeSelectionJson() const {
   // The projected state's keys where they mean the same (no DEM posts on the globe), and per
-  // layer the features as overlay_render's selected_features.json lists them.
+  // layer the features as overlay_render's stats.json lists them in its selection block.
   json out = selectionStepsJson();
   const GlobeMode& g = *globe_;
   out["dem_posts"] = nullptr;
@@ -649,7 +649,7 @@ void Viewer::drawGlobeSelectionSection() {
     if (shown < l.features.size()) ImGui::TextDisabled("… and %zu more", l.features.size() - shown);
     ImGui::TreePop();
   }
-  ImGui::TextDisabled("GeoJSON export is not on the globe yet");
+  drawExportControls();
 }
 
 std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const std::string& where) {
@@ -718,8 +718,7 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
           notOnGlobe("Vertical exaggeration");
           return true;
         } else if constexpr (std::is_same_v<Step, app::ExportStep>) {
-          notOnGlobe("Exporting the selection (GeoJSON)");
-          return true;
+          return exportSelection(step.path);
         } else {
           return std::nullopt;  // needs no projected scene: the common runner
         }

@@ -318,16 +318,20 @@ void Viewer::drawSelectionSection() {
     ImGui::Text("%zu features selected", selected_->featureCount());
     if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
     drawSelectedFeatures();
-    // The field keeps its text while it is edited; Enter exports, as the button does.
-    if (!exportEditing_) std::snprintf(exportBuffer_.data(), exportBuffer_.size(), "%s", settings_.exportPath.c_str());
-    const bool enter =
-        ImGui::InputText("##export", exportBuffer_.data(), exportBuffer_.size(), ImGuiInputTextFlags_EnterReturnsTrue);
-    exportEditing_ = ImGui::IsItemActive();
-    rememberRect("export_path");
-    if (ImGui::IsItemEdited() || enter) settings_.exportPath = exportBuffer_.data();
-    if (enter) exportSelection(settings_.exportPath);
-    if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
+    drawExportControls();
   }
+}
+
+void Viewer::drawExportControls() {
+  // The field keeps its text while it is edited; Enter exports, as the button does.
+  if (!exportEditing_) std::snprintf(exportBuffer_.data(), exportBuffer_.size(), "%s", settings_.exportPath.c_str());
+  const bool enter =
+      ImGui::InputText("##export", exportBuffer_.data(), exportBuffer_.size(), ImGuiInputTextFlags_EnterReturnsTrue);
+  exportEditing_ = ImGui::IsItemActive();
+  rememberRect("export_path");
+  if (ImGui::IsItemEdited() || enter) settings_.exportPath = exportBuffer_.data();
+  if (enter) exportSelection(settings_.exportPath);
+  if (ImGui::Button("Export GeoJSON")) exportSelection(settings_.exportPath);
 }
 
 void Viewer::drawLassoControls() {

@@ -61,23 +61,39 @@ namespace {
 
 using detail::DrawnPieces;
 
-/// Draws the chosen pieces of `drawn` (z-fail ones or z-pass ones) in the current state, pieces
-/// [first, last) counted over all tiles in order.
+/// Draws the chosen pieces of `drawn` (z-fail ones or z-pass ones; of one colour group, or all
+/// for kAllGroups) in the current state, pieces [first, last) counted over all tiles in order.
+constexpr std::uint32_t kAllGroups = UINT32_MAX;
 void drawPieces(gfx::StateCache& cache, const std::vector<DrawnPieces>& drawn, bool wantZFail, std::size_t first = 0,
-                std::size_t last = SIZE_MAX) {
+                std::size_t last = SIZE_MAX, std::uint32_t group = kAllGroups) {
   std::size_t counted = 0;
   for (const DrawnPieces& d : drawn) {
     const auto& pieces = d.tile->pieces;
     const std::size_t begin = counted, end = counted + pieces.size();
     counted = end;
     if (end <= first || begin >= last) continue;
+    // The group's pieces: a run of them, their indices a run too (buildTilePieces).
+    std::size_t from = 0, to = pieces.size();
+    if (group != kAllGroups) {
+      const auto below = [](const TilePieces::Piece& p, std::uint32_t g) { return p.group < g; };
+      from = static_cast<std::size_t>(std::lower_bound(pieces.begin(), pieces.end(), group, below) - pieces.begin());
+      to = from;
+      while (to < pieces.size() && pieces[to].group == group) ++to;
+      if (from == to) continue;
+    }
     cache.bindVertexArray(d.tile->vao.id());
     const bool whole = first <= begin && end <= last;
-    if (whole && !wantZFail && d.allZPass) {  // the whole tile in one draw
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(d.tile->indexCount), GL_UNSIGNED_INT, nullptr);
+    const bool allZPass =
+        d.allZPass || std::none_of(d.zFail.begin() + static_cast<std::ptrdiff_t>(from),
+                                   d.zFail.begin() + static_cast<std::ptrdiff_t>(to), [](char z) { return z != 0; });
+    if (whole && !wantZFail && allZPass) {  // the tile's (group's) pieces in one draw
+      const std::uint32_t firstIndex = pieces[from].firstIndex;
+      const std::uint32_t count = pieces[to - 1].firstIndex + pieces[to - 1].indexCount - firstIndex;
+      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(count), GL_UNSIGNED_INT,
+                     reinterpret_cast<const void*>(static_cast<std::uintptr_t>(firstIndex) * sizeof(std::uint32_t)));
       continue;
     }
-    for (std::size_t k = 0; k < pieces.size(); ++k) {
+    for (std::size_t k = from; k < to; ++k) {
       if (begin + k < first || begin + k >= last || (d.zFail[k] != 0) != wantZFail) continue;
       glDrawElements(
           GL_TRIANGLES, static_cast<GLsizei>(pieces[k].indexCount), GL_UNSIGNED_INT,
@@ -183,21 +199,26 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     const GlobeLayer* layer = layers[l];
     const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, *layer, settings, stats_);
     cache.useProgram(program);
-    program.set("u_color", layer->color());
     program.set("u_maskBit", static_cast<float>(1U << l));
-    // z-pass keeps the bottom caps: a ray that misses the ground (the sky past the limb) must
-    // leave every polyhedron it entered.
-    cache.apply(overlay::kMarkZPass);
-    drawPieces(cache, drawn, false);
-    cache.apply(overlay::kMarkZFail);
-    drawPieces(cache, drawn, true);
-    // The cover's bottom caps face away from an eye above them (culled), and any face of the layer
-    // may cover: it colours only where the stencil holds the layer's count. So each tile whose
-    // pieces are all z-pass is one draw.
-    cache.apply(overlay::kCoverZPass);
-    drawPieces(cache, drawn, false);
-    cache.apply(overlay::kCoverZFail);
-    drawPieces(cache, drawn, true);
+    // One mark and cover a colour (one for a layer of one colour).
+    const std::size_t groups = std::max<std::size_t>(layer->colors().size(), 1);
+    for (std::size_t g = 0; g < groups; ++g) {
+      const auto group = groups == 1 ? kAllGroups : static_cast<std::uint32_t>(g);
+      program.set("u_color", layer->colors().empty() ? layer->color() : layer->colors()[g]);
+      // z-pass keeps the bottom caps: a ray that misses the ground (the sky past the limb) must
+      // leave every polyhedron it entered.
+      cache.apply(overlay::kMarkZPass);
+      drawPieces(cache, drawn, false, 0, SIZE_MAX, group);
+      cache.apply(overlay::kMarkZFail);
+      drawPieces(cache, drawn, true, 0, SIZE_MAX, group);
+      // The cover's bottom caps face away from an eye above them (culled), and any face of the
+      // layer may cover: it colours only where the stencil holds the layer's count. So each
+      // tile's pieces that are all z-pass are one draw.
+      cache.apply(overlay::kCoverZPass);
+      drawPieces(cache, drawn, false, 0, SIZE_MAX, group);
+      cache.apply(overlay::kCoverZFail);
+      drawPieces(cache, drawn, true, 0, SIZE_MAX, group);
+    }
   }
   trim(layers.size(), settings);
 }

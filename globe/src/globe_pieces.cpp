@@ -352,7 +352,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   for (int k = 0; k <= kCellsPerSide; ++k)
     latMargin = std::max(latMargin, parallelStray(rect.south + k * cellSize, postStep));
   latMargin = 2.0 * latMargin + lonMargin;
-  for (const GlobePolygon& polygon : layer.polygons()) {
+  const auto addPolygon = [&](const GlobePolygon& polygon) {
     for (int turn = -1; turn <= 1; ++turn) {
       const double shift = 360.0 * turn;
       const LonLatRect tileRect{rect.west + shift - lonMargin, rect.south - latMargin, rect.east + shift + lonMargin,
@@ -386,10 +386,35 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
             }
             inCell.push_back(std::move(clipped));
           }
-          if (!inCell.empty()) addPiece(out, inCell, cell, widened, heights, postStep, key.level);
+          if (inCell.empty()) continue;
+          const std::size_t before = out.pieces.size();
+          addPiece(out, inCell, cell, widened, heights, postStep, key.level);
+          for (std::size_t k = before; k < out.pieces.size(); ++k) out.pieces[k].group = polygon.group;
         }
       }
     }
+  };
+  const std::vector<GlobePolygon>& polygons = layer.polygons();
+  const GlobeLayer::LineShapes* lines = layer.lineShapesAt(key.level);
+  const std::size_t own = lines != nullptr ? layer.areaCount() : polygons.size();
+  for (std::size_t k = 0; k < own; ++k) addPolygon(polygons[k]);
+  if (lines != nullptr) {
+    for (const std::uint32_t k : lines->full) addPolygon(polygons[k]);
+    for (const GlobePolygon& polygon : lines->generalised) addPolygon(polygon);
+  }
+  // Each colour's pieces together, and their indices too (one draw a colour).
+  if (std::any_of(out.pieces.begin(), out.pieces.end(), [](const TilePieces::Piece& p) { return p.group != 0; })) {
+    std::stable_sort(out.pieces.begin(), out.pieces.end(),
+                     [](const TilePieces::Piece& a, const TilePieces::Piece& b) { return a.group < b.group; });
+    std::vector<std::uint32_t> indices;
+    indices.reserve(out.indices.size());
+    for (TilePieces::Piece& p : out.pieces) {
+      const auto first = static_cast<std::uint32_t>(indices.size());
+      indices.insert(indices.end(), out.indices.begin() + p.firstIndex,
+                     out.indices.begin() + p.firstIndex + p.indexCount);
+      p.firstIndex = first;
+    }
+    out.indices = std::move(indices);
   }
   return out;
 }

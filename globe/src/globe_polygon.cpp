@@ -1,9 +1,12 @@
 // Preparing polygons for the globe (globe_overlay.hpp): densified along geodesics, unwrapped,
 // closed along a pole; the edges' planes and the reference's point-in-polygon test.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <set>
 #include <string>
 
@@ -218,6 +221,48 @@ std::pair<double, double> pointKey(const glm::dvec2& p) {
   return {lon - 180.0, p.y};
 }
 
+/// The ring simplified to `tolerance` (simplifySpan), split at its first point and the point
+/// farthest from it; points in `shared` and at a pole are kept.
+std::vector<glm::dvec2> simplifyRing(const std::vector<glm::dvec2>& ring, double tolerance,
+                                     const std::set<std::pair<double, double>>& shared) {
+  const std::size_t n = ring.size();
+  std::vector<char> keep(n, 0);
+  std::size_t far = 0;
+  double farthest = -1.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double d = glm::length(ring[k] - ring[0]);
+    if (d > farthest) {
+      farthest = d;
+      far = k;
+    }
+    if (isPole(ring[k].y) || (!shared.empty() && shared.count(pointKey(ring[k])) != 0)) keep[k] = 1;
+  }
+  keep[0] = keep[far] = 1;
+  simplifySpan(ring, 0, far, tolerance, keep);
+  simplifySpan(ring, far, n, tolerance, keep);
+  std::vector<glm::dvec2> kept;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (keep[k] != 0) kept.push_back(ring[k]);
+  }
+  return kept;
+}
+
+/// The points on more than one of the rings (a boundary two rings share).
+std::set<std::pair<double, double>> sharedPoints(const std::vector<const std::vector<glm::dvec2>*>& rings) {
+  std::map<std::pair<double, double>, int> uses;
+  for (const std::vector<glm::dvec2>* ring : rings) {
+    std::set<std::pair<double, double>> own;
+    for (const glm::dvec2& q : *ring) {
+      if (own.insert(pointKey(q)).second) ++uses[pointKey(q)];
+    }
+  }
+  std::set<std::pair<double, double>> shared;
+  for (const auto& [key, n] : uses) {
+    if (n > 1) shared.insert(key);
+  }
+  return shared;
+}
+
 /// GlobePolygon::simplified: each level's rings, until a level keeps nearly every point. Points in
 /// `shared` (on more than one ring of the layer: a boundary two features share) are kept, so that
 /// neighbouring features keep meeting exactly and no sliver opens between them.
@@ -226,28 +271,8 @@ void simplifyLevels(GlobePolygon& polygon, const std::set<std::pair<double, doub
     std::size_t before = 0, after = 0;
     std::vector<std::vector<glm::dvec2>> rings;
     for (const auto& ring : polygon.rings) {
-      const std::size_t n = ring.size();
-      std::vector<char> keep(n, 0);
-      // Split the ring at its first point and the point farthest from it (in lon/lat).
-      std::size_t far = 0;
-      double farthest = -1.0;
-      for (std::size_t k = 0; k < n; ++k) {
-        const double d = glm::length(ring[k] - ring[0]);
-        if (d > farthest) {
-          farthest = d;
-          far = k;
-        }
-        if (isPole(ring[k].y) || (!shared.empty() && shared.count(pointKey(ring[k])) != 0)) keep[k] = 1;
-      }
-      keep[0] = keep[far] = 1;
-      const double tolerance = simplifyTolerance(level);
-      simplifySpan(ring, 0, far, tolerance, keep);
-      simplifySpan(ring, far, n, tolerance, keep);
-      std::vector<glm::dvec2> kept;
-      for (std::size_t k = 0; k < n; ++k) {
-        if (keep[k] != 0) kept.push_back(ring[k]);
-      }
-      before += n;
+      std::vector<glm::dvec2> kept = simplifyRing(ring, simplifyTolerance(level), shared);
+      before += ring.size();
       after += kept.size();
       if (kept.size() >= 3) rings.push_back(std::move(kept));
     }
@@ -299,7 +324,8 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
 /// - at a join, the sector between the two bands' ends on the outside of the turn, and at an
 ///   end, the half disc beyond the band: glued to the band ending there (it attaches along half
 ///   of the band's end edge, so the ring stays simple). The rest of the disc around the point lies
-///   in the bands, when each is at least 1.5 half widths long;
+///   in the bands, when each is at least 1.5 half widths long. A turn whose sector is thinner
+///   than the chord tolerance gets none;
 /// - a whole disc at a given point next to a shorter band.
 /// Arcs are polygons inscribed in the circle, their chords within `chordTolerance` of it (at most
 /// 256 sides a turn). Shapes may overlap; the stencil count (≠ 0) unites them.
@@ -374,7 +400,11 @@ std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& l
     std::vector<glm::dvec2> ring = b.right;
     // Its end: a cap, or the join's outer sector (the next run's start azimuth).
     if (!isPole(q.y) && !whole[b.last]) {
-      const double turn = r + 1 < runs.size() ? wrap180(runs[r + 1].start - b.end) : 0.0;
+      double turn = r + 1 < runs.size() ? wrap180(runs[r + 1].start - b.end) : 0.0;
+      // A turn so slight that the sector is thinner than the arcs' tolerance (its points lie
+      // within half width · sin(turn / 2) of the bands) gets none: its corners would nearly
+      // repeat the bands' and leave slivers for the caps' triangulation.
+      if (halfWidth * std::abs(turn) * 3.14159265358979323846 / 360.0 <= tol) turn = 0.0;
       if (r + 1 == runs.size() || runs[r + 1].first != b.last) {
         arc(ring, q, b.end + 90.0, -180.0);  // a cap: through the direction ahead
       } else if (turn < 0.0) {
@@ -402,6 +432,53 @@ std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& l
   return out;
 }
 
+/// A polygon's rings prepared (prepareRing), the outer one's west end in [−180, 180) and the
+/// holes moved by whole turns to lie nearest its middle, and its box. False, with `problem`
+/// naming the ring, when a ring cannot be used.
+bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon& prepared, std::string& problem) {
+  std::vector<const geo::Ring*> rings{&polygon.outer};
+  for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
+  prepared.rings.clear();
+  for (std::size_t r = 0; r < rings.size(); ++r) {
+    std::vector<glm::dvec2> ring = prepareRing(*rings[r], maxSegment, problem);
+    if (ring.empty()) {
+      problem = (r == 0 ? "outer ring: " : "hole " + std::to_string(r) + ": ") + problem;
+      return false;
+    }
+    prepared.rings.push_back(std::move(ring));
+  }
+  const auto lonRange = [](const std::vector<glm::dvec2>& ring) {
+    double lo = std::numeric_limits<double>::max(), hi = -lo;
+    for (const glm::dvec2& p : ring) {
+      lo = std::min(lo, p.x);
+      hi = std::max(hi, p.x);
+    }
+    return std::pair{lo, hi};
+  };
+  const auto shift = [](std::vector<glm::dvec2>& ring, double by) {
+    for (glm::dvec2& p : ring) p.x += by;
+  };
+  auto [west, east] = lonRange(prepared.rings[0]);
+  const double outerShift = -360.0 * std::floor((west + 180.0) / 360.0);
+  shift(prepared.rings[0], outerShift);
+  const double middle = 0.5 * (west + east) + outerShift;
+  for (std::size_t r = 1; r < prepared.rings.size(); ++r) {
+    const auto [hw, he] = lonRange(prepared.rings[r]);
+    shift(prepared.rings[r], 360.0 * std::round((middle - 0.5 * (hw + he)) / 360.0));
+  }
+  LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+  for (const auto& ring : prepared.rings) {
+    for (const glm::dvec2& p : ring) {
+      box.west = std::min(box.west, p.x);
+      box.east = std::max(box.east, p.x);
+      box.south = std::min(box.south, p.y);
+      box.north = std::max(box.north, p.y);
+    }
+  }
+  prepared.box = box;
+  return true;
+}
+
 }  // namespace
 
 Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
@@ -410,6 +487,17 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
   GlobeLayer layer;
   layer.name_ = std::move(name);
   layer.color_ = color;
+  layer.chordTolerance_ = options.chordTolerance;
+  layer.maxSegment_ = options.maxSegmentMetres;
+  layer.levels_ = std::make_shared<detail::LineLevels>();
+  // Each feature's colour group.
+  layer.colors_.assign(1, color);
+  std::vector<std::uint32_t> groupOf(features.size(), 0);
+  for (std::size_t f = 0; f < features.size() && f < options.featureColors.size(); ++f) {
+    const auto found = std::find(layer.colors_.begin(), layer.colors_.end(), options.featureColors[f]);
+    groupOf[f] = static_cast<std::uint32_t>(found - layer.colors_.begin());
+    if (found == layer.colors_.end()) layer.colors_.push_back(options.featureColors[f]);
+  }
   // Lines (line strings, or the rings of an outline layer) first become polygons of their own.
   std::vector<geo::Feature> shapes;
   std::vector<std::uint32_t> shapeFeature;  ///< per shape, its feature
@@ -452,7 +540,11 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       }
       GlobeLine g;
       g.feature = static_cast<std::uint32_t>(f);
+      g.group = groupOf[f];
       g.halfWidth = halfWidth;
+      if (f < options.featureWidthMetres.size() && options.featureWidthMetres[f] > 0.0 &&
+          std::isfinite(options.featureWidthMetres[f]))
+        g.halfWidth = 0.5 * options.featureWidthMetres[f];
       const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
       for (glm::dvec2& p : line) p.x += shift;
       g.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
@@ -464,7 +556,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
         g.box.north = std::max(g.box.north, p.y);
       }
       // Widened by the half width (in degrees of latitude; longitude at the box's highest latitude).
-      const double dLat = halfWidth / 110000.0;
+      const double dLat = g.halfWidth / 110000.0;
       const double high = std::min(89.9, std::max(std::abs(g.box.south), std::abs(g.box.north)) + dLat);
       const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
       g.box = g.box.expanded(g.box.north + dLat >= 90.0 || g.box.south - dLat <= -90.0 ? 360.0 : dLon, dLat);
@@ -485,9 +577,10 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       }
       geo::Feature drawn;
       drawn.fid = features[f].fid;
-      for (std::vector<glm::dvec2>& shape : lineShapes(line, given, halfWidth, options.chordTolerance))
+      for (std::vector<glm::dvec2>& shape : lineShapes(line, given, g.halfWidth, options.chordTolerance))
         drawn.polygons.push_back({std::move(shape), {}});
       g.points = std::move(line);
+      g.given = std::move(given);
       layer.lines_.push_back(std::move(g));
       shapes.push_back(std::move(drawn));
       shapeFeature.push_back(static_cast<std::uint32_t>(f));
@@ -502,81 +595,35 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
   for (std::size_t src = 0; src < sources.size(); ++src) {
     const std::size_t f = sources[src].second;
     const geo::Feature& feature = *sources[src].first;
-    if (src == areaSources) layer.areaPolygons_ = layer.polygons_.size();
+    if (src == areaSources) {
+      layer.areaPolygons_ = layer.polygons_.size();
+      layer.lineShapes_.push_back(layer.areaPolygons_);
+    }
     for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
-      const geo::Polygon& polygon = feature.polygons[k];
       GlobePolygon prepared;
       prepared.feature = static_cast<std::uint32_t>(f);
+      prepared.group = groupOf[f];
       std::string problem;
-      std::vector<const geo::Ring*> rings{&polygon.outer};
-      for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
-      bool ok = true;
-      for (std::size_t r = 0; r < rings.size() && ok; ++r) {
-        std::vector<glm::dvec2> ring = prepareRing(*rings[r], options.maxSegmentMetres, problem);
-        if (ring.empty()) {
-          out.diagnostics.add({Severity::Error,
-                               {},
-                               layer.name_,
-                               std::to_string(feature.fid),
-                               "polygon " + std::to_string(k) +
-                                   (r == 0 ? ", outer ring: " : ", hole " + std::to_string(r) + ": ") + problem +
-                                   "; the polygon is left out"});
-          ok = false;
-          break;
-        }
-        prepared.rings.push_back(std::move(ring));
+      if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
+        out.diagnostics.add({Severity::Error,
+                             {},
+                             layer.name_,
+                             std::to_string(feature.fid),
+                             "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
+        continue;
       }
-      if (!ok) continue;
-      // Every ring in the outer ring's turn of longitudes: the outer ring's west end in
-      // [−180, 180), the holes moved by whole turns to lie nearest its middle.
-      const auto lonRange = [](const std::vector<glm::dvec2>& ring) {
-        double lo = std::numeric_limits<double>::max(), hi = -lo;
-        for (const glm::dvec2& p : ring) {
-          lo = std::min(lo, p.x);
-          hi = std::max(hi, p.x);
-        }
-        return std::pair{lo, hi};
-      };
-      const auto shift = [](std::vector<glm::dvec2>& ring, double by) {
-        for (glm::dvec2& p : ring) p.x += by;
-      };
-      auto [west, east] = lonRange(prepared.rings[0]);
-      const double outerShift = -360.0 * std::floor((west + 180.0) / 360.0);
-      shift(prepared.rings[0], outerShift);
-      const double middle = 0.5 * (west + east) + outerShift;
-      for (std::size_t r = 1; r < prepared.rings.size(); ++r) {
-        const auto [hw, he] = lonRange(prepared.rings[r]);
-        shift(prepared.rings[r], 360.0 * std::round((middle - 0.5 * (hw + he)) / 360.0));
-      }
-      LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
-      for (const auto& ring : prepared.rings) {
-        for (const glm::dvec2& p : ring) {
-          box.west = std::min(box.west, p.x);
-          box.east = std::max(box.east, p.x);
-          box.south = std::min(box.south, p.y);
-          box.north = std::max(box.north, p.y);
-        }
-      }
-      prepared.box = box;
       prepared.index = detail::buildIndex(prepared);
       layer.polygons_.push_back(std::move(prepared));
     }
+    if (src >= areaSources) layer.lineShapes_.push_back(layer.polygons_.size());
   }
   if (sources.size() == areaSources) layer.areaPolygons_ = layer.polygons_.size();
   // Generalised rings for coarse tiles, keeping the points rings share.
-  std::map<std::pair<double, double>, int> uses;
+  std::vector<const std::vector<glm::dvec2>*> rings;
   for (const GlobePolygon& p : layer.polygons_) {
-    for (const auto& ring : p.rings) {
-      std::set<std::pair<double, double>> own;
-      for (const glm::dvec2& q : ring) {
-        if (own.insert(pointKey(q)).second) ++uses[pointKey(q)];
-      }
-    }
+    for (const auto& ring : p.rings) rings.push_back(&ring);
   }
-  std::set<std::pair<double, double>> shared;
-  for (const auto& [key, n] : uses) {
-    if (n > 1) shared.insert(key);
-  }
+  const std::set<std::pair<double, double>> shared = sharedPoints(rings);
   for (GlobePolygon& p : layer.polygons_) simplifyLevels(p, shared);
   out.value = std::move(layer);
   return out;
@@ -674,6 +721,133 @@ bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDe
     }
   }
   return (crossings & 1) != 0;
+}
+
+namespace detail {
+
+struct LineLevels {
+  std::mutex mutex;
+  std::array<std::unique_ptr<GlobeLayer::LineShapes>, kMaxLevel + 1> levels;
+  std::array<bool, kMaxLevel + 1> made{};
+};
+
+}  // namespace detail
+
+namespace {
+
+/// The line's points Douglas–Peucker keeps for `tolerance` metres: each left-out point lies within
+/// it of the chord between the kept ones around it, on the ellipsoid (ECEF: the chord's sag counts
+/// too, so long chords are split where the ground curves away from them). The ends and any point
+/// at a pole are kept.
+std::vector<glm::dvec2> generalisedCentreline(const GlobeLine& line, double tolerance) {
+  const std::size_t n = line.points.size();
+  std::vector<char> keep(n, 0);
+  keep[0] = keep[n - 1] = 1;
+  for (std::size_t k = 0; k < n; ++k) keep[k] = static_cast<char>(keep[k] != 0 || isPole(line.points[k].y));
+  std::vector<std::pair<std::size_t, std::size_t>> stack;
+  std::size_t from = 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if (keep[k] == 0) continue;
+    stack.emplace_back(from, k);
+    from = k;
+  }
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    if (b <= a + 1) continue;
+    const glm::dvec3 pa = line.surface[a], along = line.surface[b] - pa;
+    const double length2 = glm::dot(along, along);
+    double worst = -1.0;
+    std::size_t at = a;
+    for (std::size_t k = a + 1; k < b; ++k) {
+      const glm::dvec3 d = line.surface[k] - pa;
+      const double t = length2 > 0.0 ? std::clamp(glm::dot(d, along) / length2, 0.0, 1.0) : 0.0;
+      const double dist = glm::length(d - along * t);
+      if (dist > worst) {
+        worst = dist;
+        at = k;
+      }
+    }
+    if (worst > tolerance) {
+      keep[at] = 1;
+      stack.emplace_back(a, at);
+      stack.emplace_back(at, b);
+    }
+  }
+  std::vector<glm::dvec2> kept;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (keep[k] != 0) kept.push_back(line.points[k]);
+  }
+  return kept;
+}
+
+std::size_t pointCount(const GlobePolygon& polygon) {
+  std::size_t n = 0;
+  for (const auto& ring : polygon.rings) n += ring.size();
+  return n;
+}
+
+}  // namespace
+
+const GlobeLayer::LineShapes* GlobeLayer::lineShapesAt(int level) const {
+  if (lines_.empty() || !levels_ || level < 0 || level > kMaxLevel) return nullptr;
+  const std::lock_guard<std::mutex> lock(levels_->mutex);
+  const auto at = static_cast<std::size_t>(level);
+  if (levels_->made[at]) return levels_->levels[at].get();
+  levels_->made[at] = true;
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  auto shapes = std::make_unique<LineShapes>();
+  bool generalised = false;
+  for (std::size_t j = 0; j < lines_.size(); ++j) {
+    const GlobeLine& line = lines_[j];
+    const auto own = [&] {
+      for (std::size_t i = lineShapes_[j]; i < lineShapes_[j + 1]; ++i)
+        shapes->full.push_back(static_cast<std::uint32_t>(i));
+    };
+    const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
+    const double tolerance = simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
+    if (tolerance <= 4.0 * chordTolerance_) {
+      own();
+      continue;
+    }
+    // A quarter of the tolerance for the centreline, a quarter for the arcs, and half for the
+    // shapes' rings (densified along geodesics, which far tiles need not follow point by point).
+    const std::vector<glm::dvec2> centre = generalisedCentreline(line, 0.25 * tolerance);
+    std::vector<GlobePolygon> made;
+    std::size_t points = 0, ownPoints = 0;
+    bool ok = centre.size() >= 2;
+    for (std::vector<glm::dvec2>& shape : ok ? lineShapes(centre, std::vector<char>(centre.size(), 1), line.halfWidth,
+                                                          std::max(chordTolerance_, 0.25 * tolerance))
+                                             : std::vector<std::vector<glm::dvec2>>{}) {
+      GlobePolygon p;
+      p.feature = line.feature;
+      p.group = line.group;
+      std::string problem;
+      if (!preparePolygon({std::move(shape), {}}, maxSegment_, p, problem)) {
+        ok = false;  // a shape too small to prepare: the line keeps its own shapes
+        break;
+      }
+      made.push_back(std::move(p));
+    }
+    // The rings simplified, keeping the points the shapes share (where bands and sectors meet).
+    std::vector<const std::vector<glm::dvec2>*> rings;
+    for (const GlobePolygon& p : made) rings.push_back(&p.rings.front());
+    const std::set<std::pair<double, double>> shared = sharedPoints(rings);
+    for (GlobePolygon& p : made) {
+      std::vector<glm::dvec2> ring = simplifyRing(p.rings.front(), 0.5 * simplifyTolerance(level), shared);
+      if (ring.size() >= 3) p.rings.front() = std::move(ring);
+      points += pointCount(p);
+    }
+    for (std::size_t i = lineShapes_[j]; i < lineShapes_[j + 1]; ++i) ownPoints += pointCount(polygons_[i]);
+    if (!ok || points >= ownPoints) {
+      own();
+      continue;
+    }
+    generalised = true;
+    for (GlobePolygon& p : made) shapes->generalised.push_back(std::move(p));
+  }
+  if (generalised) levels_->levels[at] = std::move(shapes);
+  return levels_->levels[at].get();
 }
 
 bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg) const {

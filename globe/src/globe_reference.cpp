@@ -2,10 +2,14 @@
 // coordinates, tested against the layers' polygons.
 #include <glm/gtc/matrix_inverse.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numeric>
 
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_selection.hpp"
+#include "globe_detail.hpp"
 
 namespace gis::globe {
 
@@ -108,6 +112,212 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
           }
         }
       }
+    }
+  }
+  return edges;
+}
+
+namespace {
+
+/// A piece of a layer's border on the ellipsoid: an area ring's edge (halfWidth 0), or a line's
+/// piece, whose border lies halfWidth from it. Its walls hold the normals at its ends.
+struct BorderPiece {
+  glm::dvec3 a{0.0}, b{0.0};      ///< ends on the ellipsoid (ECEF)
+  glm::dvec3 na{0.0}, nb{0.0};    ///< their normals
+  bool endA = true, endB = true;  ///< whether an end counts as a point (not at a pole)
+  double halfWidth = 0.0;
+  std::uint32_t layer = 0;
+  glm::dvec3 lo{0.0}, hi{0.0};  ///< box of the ends, widened by the half width and the chord's sag
+};
+
+/// The distance from `point` to the piece measured across the normals (the walls are vertical):
+/// to its segment where the point is beside it, else to its nearer end.
+double acrossDistance(const BorderPiece& piece, const glm::dvec3& point) {
+  double best = std::numeric_limits<double>::infinity();
+  const auto toEnd = [&](const glm::dvec3& end, const glm::dvec3& n) {
+    const glm::dvec3 d = point - end;
+    return glm::length(d - n * glm::dot(d, n));
+  };
+  if (piece.endA) best = std::min(best, toEnd(piece.a, piece.na));
+  if (piece.endB) best = std::min(best, toEnd(piece.b, piece.nb));
+  const glm::dvec3 along = piece.b - piece.a;
+  const double length = glm::length(along);
+  if (length > 0.0) {
+    const double s = glm::dot(point - piece.a, along / length);
+    if (s >= 0.0 && s <= length) {
+      const glm::dvec3 m = glm::normalize(glm::cross(glm::normalize(piece.na + piece.nb), along));
+      best = std::min(best, std::abs(glm::dot(point - piece.a, m)));
+    }
+  }
+  return best;
+}
+
+/// A bounding volume hierarchy over the layers' border pieces, for "every piece within r of a
+/// point".
+class BorderIndex {
+ public:
+  explicit BorderIndex(std::vector<BorderPiece> pieces) : pieces_(std::move(pieces)) {
+    order_.resize(pieces_.size());
+    std::iota(order_.begin(), order_.end(), 0U);
+    if (!pieces_.empty()) build(0, order_.size());
+  }
+  /// Calls visit(piece) for every piece whose box lies within `radius` of the point.
+  template <typename Visit>
+  void near(const glm::dvec3& point, double radius, Visit&& visit) const {
+    if (nodes_.empty()) return;
+    std::vector<std::uint32_t> stack{0};
+    while (!stack.empty()) {
+      const Node& node = nodes_[stack.back()];
+      stack.pop_back();
+      if (boxDistance(node.lo, node.hi, point) > radius) continue;
+      if (node.count > 0) {
+        for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+          const BorderPiece& p = pieces_[order_[k]];
+          if (boxDistance(p.lo, p.hi, point) <= radius) visit(p);
+        }
+      } else {
+        stack.push_back(node.first);
+        stack.push_back(node.first + 1);
+      }
+    }
+  }
+
+ private:
+  struct Node {
+    glm::dvec3 lo{0.0}, hi{0.0};
+    std::uint32_t first = 0;  ///< leaf: first in order_; inner: its first child (the second follows)
+    std::uint32_t count = 0;  ///< leaf: pieces; inner: 0
+  };
+  static double boxDistance(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& p) {
+    const glm::dvec3 d = glm::max(glm::max(lo - p, p - hi), glm::dvec3(0.0));
+    return glm::length(d);
+  }
+  /// Builds the node of order_[first, last) at the end of nodes_ (iteratively: deep data stays
+  /// off the call stack).
+  void build(std::size_t first, std::size_t last) {
+    struct Job {
+      std::size_t node, first, last;
+    };
+    nodes_.push_back({});
+    std::vector<Job> jobs{{0, first, last}};
+    while (!jobs.empty()) {
+      const Job job = jobs.back();
+      jobs.pop_back();
+      Node& node = nodes_[job.node];
+      node.lo = glm::dvec3(std::numeric_limits<double>::infinity());
+      node.hi = -node.lo;
+      for (std::size_t k = job.first; k < job.last; ++k) {
+        node.lo = glm::min(node.lo, pieces_[order_[k]].lo);
+        node.hi = glm::max(node.hi, pieces_[order_[k]].hi);
+      }
+      if (job.last - job.first <= 4) {
+        node.first = static_cast<std::uint32_t>(job.first);
+        node.count = static_cast<std::uint32_t>(job.last - job.first);
+        continue;
+      }
+      const glm::dvec3 size = node.hi - node.lo;
+      const int axis = size.x >= size.y && size.x >= size.z ? 0 : (size.y >= size.z ? 1 : 2);
+      const std::size_t middle = (job.first + job.last) / 2;
+      const auto centre = [&](std::uint32_t i) { return pieces_[i].lo[axis] + pieces_[i].hi[axis]; };
+      std::nth_element(order_.begin() + static_cast<std::ptrdiff_t>(job.first),
+                       order_.begin() + static_cast<std::ptrdiff_t>(middle),
+                       order_.begin() + static_cast<std::ptrdiff_t>(job.last),
+                       [&](std::uint32_t x, std::uint32_t y) { return centre(x) < centre(y); });
+      const auto child = static_cast<std::uint32_t>(nodes_.size());
+      nodes_[job.node].first = child;
+      nodes_[job.node].count = 0;
+      nodes_.push_back({});
+      nodes_.push_back({});
+      jobs.push_back({child, job.first, middle});
+      jobs.push_back({child + 1, middle, job.last});
+    }
+  }
+  std::vector<BorderPiece> pieces_;
+  std::vector<std::uint32_t> order_;
+  std::vector<Node> nodes_;
+};
+
+BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWidth, std::uint32_t layer) {
+  BorderPiece piece;
+  piece.a = toEcef(p.x, p.y, 0.0);
+  piece.b = toEcef(q.x, q.y, 0.0);
+  piece.na = surfaceNormal(p.x, p.y);
+  piece.nb = surfaceNormal(q.x, q.y);
+  piece.endA = !detail::isPole(p.y);
+  piece.endB = !detail::isPole(q.y);
+  piece.halfWidth = halfWidth;
+  piece.layer = layer;
+  const double length = glm::length(piece.b - piece.a);
+  const double pad = halfWidth + length * length / (8.0 * kSemiMinor) + 1.0;  // the chord's sag, and a metre
+  piece.lo = glm::min(piece.a, piece.b) - glm::dvec3(pad);
+  piece.hi = glm::max(piece.a, piece.b) + glm::dvec3(pad);
+  return piece;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth,
+                                     const GlobeView& view, const std::vector<const GlobeLayer*>& layers) {
+  std::vector<std::uint8_t> edges = edgePixels(mask, depth, view.width, view.height);
+  std::vector<BorderPiece> pieces;
+  for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
+    const auto layer = static_cast<std::uint32_t>(l);
+    for (std::size_t k = 0; k < layers[l]->areaCount(); ++k) {
+      for (const auto& ring : layers[l]->polygons()[k].rings) {
+        for (std::size_t i = 0; i < ring.size(); ++i) {
+          const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
+          if (detail::isPole(p.y) && detail::isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole
+          pieces.push_back(borderPiece(p, q, 0.0, layer));
+        }
+      }
+    }
+    for (const GlobeLine& line : layers[l]->lines()) {
+      for (std::size_t i = 0; i + 1 < line.points.size(); ++i)
+        pieces.push_back(borderPiece(line.points[i], line.points[i + 1], line.halfWidth, layer));
+    }
+  }
+  if (pieces.empty()) return edges;
+  const BorderIndex index(std::move(pieces));
+
+  std::vector<glm::dvec3> points(depth.size());
+  std::vector<char> ground(depth.size(), 0);
+  forEachGroundPixel(depth, view, [&](std::size_t i, const glm::dvec3& point) {
+    points[i] = point;
+    ground[i] = 1;
+  });
+  const int w = view.width, h = view.height;
+  std::vector<char> outer(layers.size()), inner(layers.size());
+  for (int row = 0; row < h; ++row) {
+    for (int col = 0; col < w; ++col) {
+      const std::size_t i = static_cast<std::size_t>(row) * static_cast<std::size_t>(w) + static_cast<std::size_t>(col);
+      if (ground[i] == 0 || edges[i] != 0) continue;
+      double reach = 0.0;
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int c = col + dc, r = row + dr;
+          if (c < 0 || r < 0 || c >= w || r >= h) continue;
+          const std::size_t j = static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c);
+          if (ground[j] != 0) reach = std::max(reach, glm::length(points[j] - points[i]));
+        }
+      }
+      // The pieces are on the ellipsoid and the point above it: a piece whose walls pass within
+      // d of it (across the normals) is within d + |height| of it.
+      const Geodetic g = toGeodetic(points[i]);
+      std::fill(outer.begin(), outer.end(), 0);
+      std::fill(inner.begin(), inner.end(), 0);
+      bool edge = false;
+      index.near(points[i], reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
+        if (edge) return;
+        const double d = acrossDistance(piece, points[i]);
+        if (piece.halfWidth == 0.0) {
+          edge = d <= reach;  // an area's border
+        } else {
+          outer[piece.layer] |= static_cast<char>(d <= piece.halfWidth + reach);
+          inner[piece.layer] |= static_cast<char>(d <= piece.halfWidth - reach);
+        }
+      });
+      for (std::size_t l = 0; l < layers.size() && !edge; ++l) edge = outer[l] != 0 && inner[l] == 0;
+      edges[i] = edge ? 1 : 0;
     }
   }
   return edges;

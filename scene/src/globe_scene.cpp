@@ -10,6 +10,7 @@
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
 #include "geo/vector.hpp"
+#include "vector_overlay/layer_geometry.hpp"
 
 namespace gis::scene {
 
@@ -90,9 +91,12 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   if (scene.extent[2] - scene.extent[0] > 360.0) scene.extent[2] = scene.extent[0] + 360.0;
 
   // The imagery, in any CRS: read per drawn tile later. One that cannot be read is said and left out.
+  // Large imagery without overviews gets them built once into the scene's cache.
   if (description.imagery) {
+    globe::ImageryOptions imageryOptions;
+    imageryOptions.cacheDir = [&description] { return cacheDirectoryFor(description); };
     Result<std::shared_ptr<globe::GlobeImagery>> imagery =
-        globe::GlobeImagery::open(*description.imagery, description.imageryBands);
+        globe::GlobeImagery::open(*description.imagery, description.imageryBands, imageryOptions);
     out.diagnostics.append(imagery.diagnostics);
     if (imagery.ok()) scene.imagery = std::move(*imagery);
   }
@@ -110,8 +114,6 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     // with round joins and caps. The rest is said once per layer.
     std::vector<std::string> unsupported;
     if (style.widthPixels > 0.0 || style.outlineWidthPixels > 0.0F) unsupported.push_back("widths in pixels");
-    if (!style.widthAttribute.empty()) unsupported.push_back("widths from an attribute");
-    if (!style.colorAttribute.empty()) unsupported.push_back("colours by category");
     if (layer.kind == overlay::LayerKind::Line &&
         (style.join != overlay::LineJoin::Round || style.cap != overlay::LineCap::Round))
       unsupported.push_back("joins and caps other than round");
@@ -142,6 +144,17 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     color.w *= style.opacity;
     globe::GlobeLayerOptions build;
     build.lineWidthMetres = style.widthPixels > 0.0 ? style.widthCap() : style.widthMetres;
+    // Colours by category and widths from an attribute, per feature (the projected frame's
+    // resolution: a width that is not a positive number gets the layer's, with a warning).
+    if (!style.colorAttribute.empty() || (!style.widthAttribute.empty() && style.widthPixels <= 0.0)) {
+      const std::vector<overlay::FeatureStyle> styles =
+          overlay::resolveFeatureStyles(style, layer.kind, read->features, &out.diagnostics, layer.name);
+      for (const overlay::FeatureStyle& f : styles) {
+        if (!style.colorAttribute.empty()) build.featureColors.push_back(f.color);
+        if (!style.widthAttribute.empty() && style.widthPixels <= 0.0)
+          build.featureWidthMetres.push_back(f.shape.width);
+      }
+    }
     Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, read->features, color, build);
     out.diagnostics.append(built.diagnostics);
     if (built.ok()) {

@@ -130,4 +130,51 @@ GlobeSelection selectOnGlobe(const LoadedGlobeScene& scene, std::span<const over
   return out;
 }
 
+const LayerDescription* sceneLayerOf(const LoadedGlobeScene& scene, std::size_t globeLayer) {
+  if (globeLayer >= scene.layerFileIndex.size()) return nullptr;
+  for (const LayerDescription& d : scene.description.layers) {
+    if (d.fileIndex == scene.layerFileIndex[globeLayer]) return &d;
+  }
+  return nullptr;
+}
+
+std::vector<SelectedLayerFeatures> selectedSourceFeatures(const LoadedGlobeScene& scene,
+                                                          const GlobeSelection& selection) {
+  // Per file layer (by its place in the scene file): feature index → fully inside.
+  std::map<std::size_t, std::map<std::size_t, bool>> united;
+  for (const GlobeLayerSelection& l : selection.layers) {
+    if (sceneLayerOf(scene, l.layer) == nullptr) continue;
+    std::map<std::size_t, bool>& features = united[scene.layerFileIndex[l.layer]];
+    for (const overlay::FeatureSelection& f : l.features) {
+      const auto [at, added] = features.emplace(f.feature, f.fullyInside);
+      if (!added) at->second = at->second && f.fullyInside;
+    }
+  }
+  std::vector<SelectedLayerFeatures> out;
+  for (const LayerDescription& d : scene.description.layers) {
+    const auto found = united.find(d.fileIndex);
+    if (found == united.end()) continue;
+    // The features' fids: any of this file layer's globe layers holds them (they share one list).
+    const std::vector<geo::Feature>* features = nullptr;
+    for (std::size_t l = 0; l < scene.layerFileIndex.size() && features == nullptr; ++l) {
+      if (scene.layerFileIndex[l] == d.fileIndex && l < scene.layerFeatures.size()) {
+        features = scene.layerFeatures[l].get();
+      }
+    }
+    SelectedLayerFeatures layer{d.name, d.source, d.sourceLayer, {}};
+    for (const auto& [feature, fullyInside] : found->second) {
+      if (features == nullptr || feature >= features->size()) continue;
+      layer.features.push_back({(*features)[feature].fid, fullyInside});
+    }
+    out.push_back(std::move(layer));
+  }
+  return out;
+}
+
+Diagnostics exportGlobeSelection(const LoadedGlobeScene& scene, const GlobeSelection& selection,
+                                 const std::filesystem::path& combined,
+                                 const std::optional<std::filesystem::path>& perLayerDir) {
+  return exportSelectedFeatures(selectedSourceFeatures(scene, selection), combined, perLayerDir);
+}
+
 }  // namespace gis::scene

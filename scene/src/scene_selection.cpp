@@ -2,13 +2,11 @@
 
 #include <algorithm>
 #include <array>
-#include <cctype>
 #include <cmath>
 #include <numbers>
 
 #include <glm/geometric.hpp>
 
-#include "geo/export.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::scene {
@@ -17,15 +15,6 @@ std::size_t SceneSelection::featureCount() const {
   std::size_t n = 0;
   for (const LayerSelection& l : layers) n += l.features.size();
   return n;
-}
-
-std::string layerSlug(const std::string& name) {
-  std::string s;
-  for (const char c : name) {
-    const auto u = static_cast<unsigned char>(c);
-    s += std::isalnum(u) != 0 ? static_cast<char>(std::tolower(u)) : '_';
-  }
-  return s.empty() ? "layer" : s;
 }
 
 SceneSelection selectInScene(const LoadedScene& scene, const SceneRenderer& renderer,
@@ -85,27 +74,19 @@ SceneSelection selectInScene(const LoadedScene& scene, const SceneRenderer& rend
 Diagnostics exportSelection(const LoadedScene& scene, const SceneRenderer& renderer, const SceneSelection& selection,
                             const std::filesystem::path& combined,
                             const std::optional<std::filesystem::path>& perLayerDir) {
-  Diagnostics all;
-  std::vector<geo::ExportSource> sources;
+  std::vector<SelectedLayerFeatures> layers;
+  layers.reserve(selection.layers.size());
   for (const LayerSelection& l : selection.layers) {
-    const LoadedLayer& layer = scene.layers[l.sceneLayer];
+    const LayerDescription& description = scene.layers[l.sceneLayer].description;
     const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
-    geo::ExportSource source;
-    source.path = layer.description.source;
-    source.layer = layer.description.sourceLayer;
-    source.label = layer.description.name;
+    SelectedLayerFeatures layer{description.name, description.source, description.sourceLayer, {}};
+    layer.features.reserve(l.features.size());
     for (const overlay::FeatureSelection& f : l.features) {
-      source.features.push_back(
-          {drawn.features()[f.feature].fid, {{"selection_fully_inside", std::int64_t{f.fullyInside ? 1 : 0}}}});
+      layer.features.push_back({drawn.features()[f.feature].fid, f.fullyInside});
     }
-    if (perLayerDir) {
-      all.append(geo::exportFeaturesGeoJson(
-          source, (*perLayerDir / ("selected_" + layerSlug(layer.description.name) + ".geojson")).string()));
-    }
-    sources.push_back(std::move(source));
+    layers.push_back(std::move(layer));
   }
-  all.append(geo::exportFeaturesGeoJsonCombined(sources, combined.string()));
-  return all;
+  return exportSelectedFeatures(layers, combined, perLayerDir);
 }
 
 }  // namespace gis::scene

@@ -7,7 +7,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -689,6 +692,109 @@ TEST(OverlayRenderLasso, TheDeferredLookupLeavesTheSelectionAsItIs) {
   }
 }
 
+/// Every position (lon, lat) of a GeoJSON geometry's coordinates, at any depth of nesting.
+void positionsOf(const json& coordinates, std::vector<glm::dvec2>& out) {
+  if (coordinates.is_array() && coordinates.size() >= 2 && coordinates[0].is_number()) {
+    out.emplace_back(coordinates[0].get<double>(), coordinates[1].get<double>());
+    return;
+  }
+  for (const json& c : coordinates) positionsOf(c, out);
+}
+
+/// The exports of a lasso on the globe (overlay_render --lasso on Olinda's scene `scene`) in
+/// `out`, against its stats.json's "selection" block: selected_<layer>.geojson per layer holds
+/// exactly the listed features (read through GDAL, ids the listed fids, each the source's feature
+/// of that FID with its attributes) and selected_features.json all of them in WGS 84 lon/lat,
+/// within Olinda's box.
+void expectGlobeExport(const fs::path& out, const json& selection, const json& scene) {
+  const json combined = json::parse(readText(out / "selected_features.json"));
+  EXPECT_EQ(combined["type"], "FeatureCollection");
+  EXPECT_FALSE(combined.contains("crs")) << "RFC 7946: WGS 84 lon/lat, no crs member";
+  std::size_t total = 0;
+  std::map<std::string, std::set<std::int64_t>> listed;  // per layer name: the fids stats.json lists
+  GDALAllRegister();
+  for (std::size_t l = 0; l < selection["layers"].size(); ++l) {
+    const json& layer = selection["layers"][l];
+    const std::string name = layer["name"].get<std::string>();
+    SCOPED_TRACE(name);
+    EXPECT_EQ(name, scene["layers"][l]["name"].get<std::string>()) << "the scene file's names, in its order";
+    const std::size_t n = layer["selected"].get<std::size_t>();
+    total += n;
+    ASSERT_TRUE(layer.contains("file"));
+    const fs::path file = out / layer["file"].get<std::string>();
+    const json own = json::parse(readText(file));
+    ASSERT_EQ(own["features"].size(), n) << file;
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::int64_t fid = layer["features"][k]["fid"].get<std::int64_t>();
+      listed[name].insert(fid);
+      EXPECT_EQ(own["features"][k]["id"].get<std::int64_t>(), fid);
+      EXPECT_EQ(own["features"][k]["properties"]["selection_fully_inside"].get<int>() == 1,
+                layer["features"][k]["fully_inside"].get<bool>());
+    }
+    // GDAL reads the layer's file back, and each feature is the source's of the same FID.
+    GDALDatasetUniquePtr exported(GDALDataset::Open(file.string().c_str(), GDAL_OF_VECTOR));
+    ASSERT_NE(exported, nullptr) << file;
+    OGRLayer* read = exported->GetLayer(0);
+    ASSERT_NE(read, nullptr);
+    EXPECT_EQ(read->GetFeatureCount(), static_cast<GIntBig>(n));
+    const std::string sourcePath = scene["layers"][l]["source"].get<std::string>();
+    GDALDatasetUniquePtr source(GDALDataset::Open(sourcePath.c_str(), GDAL_OF_VECTOR));
+    ASSERT_NE(source, nullptr) << sourcePath;
+    OGRLayer* sourceLayer = source->GetLayer(0);
+    ASSERT_NE(sourceLayer, nullptr);
+    std::size_t checkedFields = 0;
+    read->ResetReading();
+    while (OGRFeature* f = read->GetNextFeature()) {
+      const OGRFeatureUniquePtr feature(f);
+      EXPECT_EQ(listed[name].count(feature->GetFID()), 1u) << "fid " << feature->GetFID();
+      const OGRFeatureUniquePtr original(sourceLayer->GetFeature(feature->GetFID()));
+      ASSERT_NE(original, nullptr) << "fid " << feature->GetFID() << " is not in " << sourcePath;
+      EXPECT_NE(feature->GetGeometryRef(), nullptr);
+      for (int i = 0; i < original->GetFieldCount(); ++i) {
+        const char* field = original->GetFieldDefnRef(i)->GetNameRef();
+        const int at = feature->GetFieldIndex(field);
+        ASSERT_GE(at, 0) << field;
+        switch (original->GetFieldDefnRef(i)->GetType()) {
+          case OFTInteger:
+          case OFTInteger64:
+            EXPECT_EQ(feature->GetFieldAsInteger64(at), original->GetFieldAsInteger64(i)) << field;
+            break;
+          case OFTReal:
+            EXPECT_DOUBLE_EQ(feature->GetFieldAsDouble(at), original->GetFieldAsDouble(i)) << field;
+            break;
+          default:
+            EXPECT_STREQ(feature->GetFieldAsString(at), original->GetFieldAsString(i)) << field;
+        }
+        ++checkedFields;
+      }
+    }
+    EXPECT_GT(checkedFields, 0u);
+  }
+  // The combined file: every listed feature once, with its layer, fid and attributes, in lon/lat
+  // within Olinda's box (35.0–34.75° W, 8.15–7.85° S): not metres, not latitude first.
+  ASSERT_EQ(combined["features"].size(), total);
+  std::map<std::string, std::set<std::int64_t>> found;
+  std::size_t positions = 0;
+  for (const json& f : combined["features"]) {
+    const json& p = f["properties"];
+    const std::string layer = p["selection_layer"].get<std::string>();
+    EXPECT_TRUE(found[layer].insert(p["selection_fid"].get<std::int64_t>()).second) << "twice: " << p.dump();
+    EXPECT_TRUE(p.contains("selection_fully_inside"));
+    if (layer == "census tracts") {
+      EXPECT_TRUE(p.contains("CD_GEOCODI")) << p.dump();
+    }
+    std::vector<glm::dvec2> lonLat;
+    positionsOf(f["geometry"]["coordinates"], lonLat);
+    EXPECT_FALSE(lonLat.empty());
+    for (const glm::dvec2& q : lonLat) {
+      EXPECT_TRUE(q.x > -35.0 && q.x < -34.75 && q.y > -8.15 && q.y < -7.85) << layer << ": " << q.x << ", " << q.y;
+      ++positions;
+    }
+  }
+  EXPECT_EQ(found, listed);
+  EXPECT_GT(positions, 100u);
+}
+
 TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
   // The Olinda sample drawn on the globe ("frame": "globe"), with a lasso chain (one lasso in the
   // view drawn, a second from a camera file in lon/lat, subtracted) and the overlap of tracts and
@@ -733,17 +839,19 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
   for (const std::uint8_t p : selected.pixels) shown += p != 0 ? 1u : 0u;
   EXPECT_EQ(shown, selection["selected_pixels"].get<std::size_t>());
   // The features: tracts and streets under the selected ground, some of them whole; fids as read.
-  const json features = json::parse(readText(out / "selected_features.json"));
-  ASSERT_EQ(features["layers"].size(), 2u) << features.dump(1);
-  for (const json& layer : features["layers"]) {
+  ASSERT_EQ(selection["layers"].size(), 2u) << selection.dump(1);
+  EXPECT_TRUE(selection["dem_posts"].is_null());
+  for (const json& layer : selection["layers"]) {
     EXPECT_GT(layer["selected"].get<std::size_t>(), 3u) << layer["name"];
     EXPECT_LE(layer["fully_inside"].get<std::size_t>(), layer["selected"].get<std::size_t>());
+    ASSERT_EQ(layer["features"].size(), layer["selected"].get<std::size_t>()) << layer["name"];
     for (const json& f : layer["features"]) {
       EXPECT_GE(f["fid"].get<std::int64_t>(), 0);
       EXPECT_GT(f["selected_samples"].get<std::size_t>(), 0u);
     }
   }
-  EXPECT_GT(features["layers"][0]["fully_inside"].get<std::size_t>(), 0u);
+  EXPECT_GT(selection["layers"][0]["fully_inside"].get<std::size_t>(), 0u);
+  expectGlobeExport(out, selection, description);
   EXPECT_EQ(stats["open_volumes"]["open_pixels"].get<std::size_t>(), 0u) << stats["open_volumes"].dump(1);
   EXPECT_EQ(stats["open_volumes"]["layers"].size(), 2u);
   const json& overlap = stats["overlap"];

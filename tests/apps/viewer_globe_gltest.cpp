@@ -11,7 +11,9 @@
 //   scripted run exits 1 on one);
 // - the lasso (L and mouse drags) selects the box: the state lists it, the highlight is blended
 //   over the ground inside the lassos and nowhere outside; Shift adds (Or), Ctrl subtracts, and a
-//   real Ctrl+Z (xdotool) undoes the subtraction.
+//   real Ctrl+Z (xdotool) undoes the subtraction;
+// - the script's export writes the selected box as GeoJSON (combined and per layer), as in a
+//   projected scene.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -439,6 +441,8 @@ TEST_F(ViewerGlobeTest, LassoSelectsOnTheGlobe) {
                              {{"action", "drag"}, {"points", points(lassoA)}, {"frames", 3}},
                              {{"action", "screenshot"}, {"path", "a.png"}, {"ui", false}},
                              {{"action", "save_state"}, {"path", "a.json"}},
+                             {{"action", "export"}, {"path", "export/a_selected.json"}},
+                             {{"action", "save_state"}, {"path", "a_exported.json"}},
                              {{"action", "drag"}, {"points", points(lassoB)}, {"frames", 3}, {"modifiers", {"shift"}}},
                              {{"action", "save_state"}, {"path", "b.json"}},
                              {{"action", "drag"}, {"points", points(lassoC)}, {"frames", 3}, {"modifiers", {"ctrl"}}},
@@ -471,6 +475,41 @@ TEST_F(ViewerGlobeTest, LassoSelectsOnTheGlobe) {
   EXPECT_EQ(undone["redo_steps"], 1);
   for (const json& m : undone["messages"])
     EXPECT_EQ(m.get<std::string>().find("lasso"), std::string::npos) << m.get<std::string>();
+
+  // The export step after A: the box as selected (partly inside), in the combined RFC 7946 file
+  // with its attributes and in the layer's own file, with its fid, where the source has it.
+  const json exportedState = readJson("a_exported.json");
+  EXPECT_NE(exportedState["notice"].get<std::string>().find("Exported 1 features"), std::string::npos)
+      << exportedState["messages"].dump(1);
+  const json combined = readJson("export/a_selected.json");
+  EXPECT_EQ(combined["type"], "FeatureCollection");
+  ASSERT_EQ(combined["features"].size(), 1U) << combined.dump(1);
+  const json& properties = combined["features"][0]["properties"];
+  EXPECT_EQ(properties["selection_layer"], "fiji");
+  EXPECT_EQ(properties["selection_fid"], a["selection"]["layers"][0]["features"][0]["fid"]);
+  EXPECT_EQ(properties["selection_fully_inside"], 0);
+  EXPECT_EQ(properties["name"], "Fiji box");
+  EXPECT_EQ(properties["code"], 7);
+  // Its coordinates: the box's, in lon/lat (across ±180° as GDAL writes RFC 7946).
+  std::vector<double> flat;
+  const auto collect = [&flat](const json& value, const auto& self) -> void {
+    if (value.is_number()) {
+      flat.push_back(value.get<double>());
+      return;
+    }
+    for (const json& e : value) self(e, self);
+  };
+  collect(combined["features"][0]["geometry"]["coordinates"], collect);
+  ASSERT_GE(flat.size(), 8U);
+  for (std::size_t i = 0; i + 1 < flat.size(); i += 2) {
+    EXPECT_NEAR(unwrap(flat[i]), 180.0, 5.0 + 1e-9) << flat[i];
+    EXPECT_NEAR(flat[i + 1], -15.0, 5.0 + 1e-9) << flat[i + 1];
+  }
+  const json own = readJson("export/selected_fiji.geojson");
+  ASSERT_EQ(own["features"].size(), 1U) << own.dump(1);
+  EXPECT_EQ(own["features"][0]["id"], a["selection"]["layers"][0]["features"][0]["fid"]);
+  EXPECT_EQ(own["features"][0]["properties"]["selection_fully_inside"], 0);
+  EXPECT_EQ(own["features"][0]["geometry"]["coordinates"][0].size(), 5U) << "the source's ring, not densified";
 
   // The pixels, 3 px from the lassos' outlines: highlighted over the ground inside the selection,
   // unchanged outside it.

@@ -110,7 +110,7 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     const std::vector<DrawnTile> tiles = drawTerrain(terrain, target, v);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> expected = referenceMask(depth, v, {&layers.a, &layers.b});
-    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, v.width, v.height);
+    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, v, {&layers.a, &layers.b});
     std::size_t both = 0;
     for (const std::uint32_t e : expected) both += e == 3U ? 1U : 0U;
     // One operator per view (each in more than one view), marked anew each time: the cover zeroes.

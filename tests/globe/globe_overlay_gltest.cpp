@@ -1,6 +1,7 @@
 // The globe overlay on the GPU against the CPU reference on the same depth buffer (docs/globe.md):
 // 0 wrong pixels away from edges from space, oblique and grazing, across the antimeridian, over
 // both poles and from 1 m above the ground.
+#include <array>
 #include <cstdio>
 #include <string>
 
@@ -31,6 +32,9 @@ class GlobeOverlayGl : public test::GlTest {
 
   struct Outcome {
     std::size_t covered = 0, wrong = 0, edgeWrong = 0, terrain = 0, tiles = 0, pieces = 0, zFail = 0;
+    std::vector<float> depth;
+    std::vector<std::uint32_t> expected;
+    std::vector<std::uint8_t> edges, rgba;
   };
 
   /// Draws the terrain and the layers for the view and compares the mask with the reference.
@@ -50,10 +54,11 @@ class GlobeOverlayGl : public test::GlTest {
     std::filesystem::create_directories(STENCIL_GIS_TEST_OUTPUT_DIR);
     std::string file = label;
     for (char& ch : file) ch = std::isalnum(static_cast<unsigned char>(ch)) != 0 ? ch : '_';
+    const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
     (void)gfx::writeImage8(std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/" + file + ".png", view.width, view.height, 4,
-                           gfx::readColorRgba8(target));
+                           rgba);
     const std::vector<std::uint32_t> expected = referenceMask(depth, view, layers);
-    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, view.width, view.height);
+    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, view, layers);
     Outcome o;
     o.tiles = tiles.size();
     o.pieces = overlay.stats().pieces;
@@ -77,6 +82,10 @@ class GlobeOverlayGl : public test::GlTest {
     std::printf("%-28s tiles %4zu pieces %5zu (z-fail %3zu) terrain px %6zu covered %6zu wrong %zu edge-wrong %zu\n",
                 label.c_str(), o.tiles, o.pieces, o.zFail, o.terrain, o.covered, o.wrong, o.edgeWrong);
     EXPECT_EQ(o.wrong, 0u) << label;
+    o.depth = depth;
+    o.expected = expected;
+    o.edges = edges;
+    o.rgba = rgba;
     return o;
   }
 
@@ -151,6 +160,67 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), all, c.label);
     EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the features";
   }
+}
+
+TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {
+  // Three fields in colours of their own (the third in the layer's), opaque so each pixel shows
+  // its feature's colour exactly; and two roads, 25 km and 80 km wide, across them.
+  std::vector<geo::Feature> fields(3);
+  fields[0].polygons.push_back(test::globe_scene::box(-70.0, -40.0, -61.0, -30.0));
+  fields[1].polygons.push_back(test::globe_scene::box(-59.0, -40.0, -51.0, -30.0));
+  fields[2].polygons.push_back(test::globe_scene::box(-49.0, -40.0, -40.0, -30.0));
+  const std::vector<glm::vec4> colours{{1.0F, 0.0F, 0.0F, 1.0F}, {0.0F, 1.0F, 0.0F, 1.0F}, {0.0F, 0.0F, 1.0F, 1.0F}};
+  GlobeLayerOptions byFeature;
+  byFeature.featureColors = {colours[0], colours[1]};
+  Result<GlobeLayer> areas = GlobeLayer::build("fields", fields, colours[2], byFeature);
+  GlobeLayerOptions widths;
+  widths.featureWidthMetres = {25000.0, 80000.0};
+  Result<GlobeLayer> roads = GlobeLayer::build(
+      "roads", {lineFeature({{-72.0, -33.0}, {-38.0, -34.0}}), lineFeature({{-72.0, -37.0}, {-38.0, -36.0}})},
+      glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), widths);
+  ASSERT_TRUE(areas.ok() && roads.ok());
+  EXPECT_EQ(areas->colors().size(), 3u);
+  ASSERT_EQ(roads->lines().size(), 2u);
+  EXPECT_EQ(roads->lines()[0].halfWidth, 12500.0);
+  EXPECT_EQ(roads->lines()[1].halfWidth, 40000.0);
+  const GlobeView v = view({-55.0, -35.0, 2.5e6}, {-55.0, -35.0, 0.0});
+  const Outcome o = drawAndCompare(v, {&*areas, &*roads}, "colours and widths by feature");
+  std::array<std::size_t, 3> seen{};
+  std::size_t wrongColour = 0, narrow = 0, wide = 0;
+  for (int row = 0; row < v.height; ++row) {
+    for (int col = 0; col < v.width; ++col) {
+      const std::size_t i =
+          static_cast<std::size_t>(row) * static_cast<std::size_t>(v.width) + static_cast<std::size_t>(col);
+      if (o.edges[i] != 0 || o.expected[i] == 0) continue;
+      glm::dvec3 p;
+      ASSERT_TRUE(unprojectPixel(v, col, row, o.depth[i], p));
+      const Geodetic g = toGeodetic(p);
+      if ((o.expected[i] & 2U) != 0) {
+        const std::vector<std::uint32_t> road = featuresAt(*roads, p, g.lon, g.lat);
+        ASSERT_EQ(road.size(), 1u);
+        (road[0] == 0 ? narrow : wide) += 1;
+        continue;  // the roads are drawn over the fields
+      }
+      const std::vector<std::uint32_t> f = featuresAt(*areas, p, g.lon, g.lat);
+      ASSERT_EQ(f.size(), 1u);
+      ++seen[f[0]];
+      // The pixel shows its feature's colour.
+      const std::size_t px = i * 4;
+      for (int c = 0; c < 3; ++c) {
+        const int want = static_cast<int>(colours[f[0]][c] * 255.0F + 0.5F);
+        if (std::abs(static_cast<int>(o.rgba[px + static_cast<std::size_t>(c)]) - want) > 1) {
+          ++wrongColour;
+          break;
+        }
+      }
+    }
+  }
+  std::printf("fields' pixels %zu %zu %zu, wrong colour %zu; road pixels 25 km %zu, 80 km %zu\n", seen[0], seen[1],
+              seen[2], wrongColour, narrow, wide);
+  EXPECT_EQ(wrongColour, 0u);
+  for (const std::size_t n : seen) EXPECT_GT(n, 500u);
+  EXPECT_GT(wide, 3 * narrow);
+  EXPECT_GT(narrow, 20u);
 }
 
 }  // namespace

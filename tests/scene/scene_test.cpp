@@ -1,11 +1,15 @@
 // Scene and camera files: the sample parses into what it names; bad files give errors that
 // name the file and the key, and a broken layer entry does not take the scene down.
+#include <cstdint>
 #include <filesystem>
+#include <memory>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "scene/camera.hpp"
+#include "scene/globe_selection.hpp"
 #include "scene/scene.hpp"
 
 namespace gis::test {
@@ -217,6 +221,70 @@ TEST(CameraFile, MissingEyeOrBadFovIsAnError) {
   EXPECT_FALSE(spec.ok());
   EXPECT_TRUE(mentions(spec.diagnostics, "eye"));
   EXPECT_TRUE(mentions(spec.diagnostics, "fov_y_deg"));
+}
+
+TEST(GlobeSelectionExport, EachFileLayerOnceWithItsFillAndOutlineUnited) {
+  // A scene file's polygon layer drawn on the globe as a fill and an outline (globe layers 0 and
+  // 1, one feature list), and a line layer (globe layer 2) whose entry comes after a broken one
+  // (file place 2). The export's input: one entry per file layer, in the scene's order, with the
+  // scene's names and sources, the features of fill and outline united by FID, fully inside only
+  // when every globe layer selecting the feature says so.
+  scene::LoadedGlobeScene scene;
+  scene::LayerDescription tracts;
+  tracts.name = "census tracts";
+  tracts.source = "/data/tracts.shp";
+  tracts.sourceLayer = "tracts";
+  tracts.fileIndex = 0;
+  scene::LayerDescription streets;
+  streets.name = "streets";
+  streets.kind = overlay::LayerKind::Line;
+  streets.source = "/data/streets.geojson";
+  streets.fileIndex = 2;
+  scene.description.layers = {tracts, streets};
+  scene.layerFileIndex = {0, 0, 2};
+  const auto featuresWithFids = [](std::vector<std::int64_t> fids) {
+    auto list = std::make_shared<std::vector<geo::Feature>>();
+    for (const std::int64_t fid : fids) {
+      geo::Feature f;
+      f.fid = fid;
+      list->push_back(f);
+    }
+    return std::shared_ptr<const std::vector<geo::Feature>>(list);
+  };
+  const auto tractFeatures = featuresWithFids({10, 11, 12, 13});
+  scene.layerFeatures = {tractFeatures, tractFeatures, featuresWithFids({100, 101})};
+  const auto chosen = [](std::size_t feature, bool fullyInside) {
+    overlay::FeatureSelection f;
+    f.feature = feature;
+    f.fullyInside = fullyInside;
+    return f;
+  };
+  scene::GlobeSelection selection;
+  selection.layers.push_back({0, {chosen(0, true), chosen(2, true)}, 2});
+  selection.layers.push_back({1, {chosen(1, true), chosen(2, false)}, 1});
+  selection.layers.push_back({2, {chosen(1, false)}, 0});
+  ASSERT_NE(scene::sceneLayerOf(scene, 1), nullptr);
+  EXPECT_EQ(scene::sceneLayerOf(scene, 1)->name, "census tracts");
+  EXPECT_EQ(scene::sceneLayerOf(scene, 2)->name, "streets");
+  EXPECT_EQ(scene::sceneLayerOf(scene, 3), nullptr);
+
+  const std::vector<scene::SelectedLayerFeatures> out = scene::selectedSourceFeatures(scene, selection);
+  ASSERT_EQ(out.size(), 2U);
+  EXPECT_EQ(out[0].name, "census tracts");
+  EXPECT_EQ(out[0].source, "/data/tracts.shp");
+  EXPECT_EQ(out[0].sourceLayer, "tracts");
+  ASSERT_EQ(out[0].features.size(), 3U);
+  EXPECT_EQ(out[0].features[0].fid, 10);
+  EXPECT_TRUE(out[0].features[0].fullyInside);
+  EXPECT_EQ(out[0].features[1].fid, 11);
+  EXPECT_TRUE(out[0].features[1].fullyInside);
+  EXPECT_EQ(out[0].features[2].fid, 12);
+  EXPECT_FALSE(out[0].features[2].fullyInside) << "its outline is not all inside";
+  EXPECT_EQ(out[1].name, "streets");
+  ASSERT_EQ(out[1].features.size(), 1U);
+  EXPECT_EQ(out[1].features[0].fid, 101);
+  EXPECT_FALSE(out[1].features[0].fullyInside);
+  EXPECT_EQ(scene::selectedLayerFileName(out[0].name), "selected_census_tracts.geojson");
 }
 
 }  // namespace

@@ -3,9 +3,12 @@
 // (Landsat in UTM, an orthophoto in a national grid, ...), warped once into WGS 84
 // longitude/latitude (a GDAL warped VRT, bilinear, opened once) and read per terrain tile into
 // the tile's longitude/latitude box (RasterIO, bilinear): the texels a tile's posts (i, j) sample
-// at texture coordinates (i, j) / 32. Reading needs no GL; GlobeTerrain uploads and caches the
+// at texture coordinates (i, j) / 32. A coarse tile reads an overview level warped the same way
+// (the source's own overviews, or ones built once into the cache), so what a tile costs follows
+// its texels, not the imagery's size. Reading needs no GL; GlobeTerrain uploads and caches the
 // textures with its meshes.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -23,6 +26,24 @@ struct ImageryOptions {
   double highPercentile = 98.0;
   int maxTexels = 256;  ///< a tile's texture is at most this many texels a side
   int minTexels = 32;   ///< ... and at least this many
+  /// A tile whose texels are coarser than the imagery reads the overview level whose cell is the
+  /// largest not coarser than a texel; false: every tile reads the full resolution (comparisons).
+  bool overviews = true;
+  /// Imagery without overviews of its own more than this many cells wide or high gets them built
+  /// once (a VRT of the chosen bands and its .ovr, averaged) in cacheDir, reused while the file
+  /// (path, size, time) and the bands are the same.
+  int buildOverviewsAbove = 4096;
+  /// The directory those overviews go in, asked for only when they are needed (null: none are
+  /// built, and such imagery is read at full resolution from afar too).
+  std::function<std::string()> cacheDir;
+};
+
+/// Where a GlobeImagery's overview levels come from.
+enum class ImageryOverviews {
+  None,    ///< full resolution only (small imagery, overviews off, or no cache directory)
+  Source,  ///< the source's own (GTiff internal or .ovr)
+  Built,   ///< built by this open into the cache directory
+  Cached,  ///< built by an earlier run, found in the cache directory
 };
 
 /// A tile's texels: RGBA8, `size` × `size`, row 0 along the tile's south side, column 0 along its
@@ -56,6 +77,17 @@ class GlobeImagery {
   /// The tile's texels; nullopt where the imagery does not reach the tile (or a read failed).
   /// Thread-safe: the one GDAL dataset is read under a lock.
   [[nodiscard]] std::optional<TileImage> tileImage(const TileKey& key) const;
+
+  /// Where the overview levels come from, how many there are beyond the full resolution, and the
+  /// cache's VRT (empty unless Built or Cached).
+  [[nodiscard]] ImageryOverviews overviews() const;
+  [[nodiscard]] int overviewLevels() const;
+  [[nodiscard]] const std::string& overviewFile() const;
+  /// The level a tile reads: 0 the full resolution, k the k-th overview.
+  [[nodiscard]] int levelFor(const TileKey& key) const;
+  /// Source pixels the warps have read for tiles so far (the cells read from every chosen band,
+  /// over their number): about a far tile's texels, not the imagery's size.
+  [[nodiscard]] std::uint64_t sourcePixelsRead() const;
 
  private:
   struct State;

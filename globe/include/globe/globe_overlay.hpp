@@ -40,12 +40,14 @@ namespace gis::globe {
 namespace detail {
 struct PolygonIndex;
 struct DrawnPieces;
+struct LineLevels;
 }  // namespace detail
 
 /// One polygon of a feature, prepared: its rings (the first the outer one) unwrapped, densified,
 /// closed along a pole where they wind around one. Points are (lon, lat) degrees.
 struct GlobePolygon {
   std::uint32_t feature = 0;
+  std::uint32_t group = 0;  ///< its colour: GlobeLayer::colors()[group]
   std::vector<std::vector<glm::dvec2>> rings;
   LonLatRect box;                                     ///< of the rings, in their unwrapped longitudes
   std::shared_ptr<const detail::PolygonIndex> index;  ///< for contains()
@@ -88,13 +90,21 @@ struct GlobeLayerOptions {
   /// and its outline in a projected frame, the two are layers of their own, each with its bit in
   /// the mask; a reader unites them: scene/globe_scene.hpp, LoadedGlobeScene::layerFileIndex.)
   bool outlines = false;
+  /// Per feature (in the order given to build), optional: its colour (straight alpha, opacity
+  /// applied; empty: the layer's colour for all) and its line width in metres (empty, or a
+  /// width that is not positive and finite: lineWidthMetres). Features of one colour are drawn
+  /// together, one mark and cover per colour.
+  std::vector<glm::vec4> featureColors;
+  std::vector<double> featureWidthMetres;
 };
 
 /// A line of a layer, for the CPU reference: within halfWidth of its geodesic pieces.
 struct GlobeLine {
   std::uint32_t feature = 0;
+  std::uint32_t group = 0;  ///< its colour: GlobeLayer::colors()[group]
   double halfWidth = 0.0;
   std::vector<glm::dvec2> points;   ///< unwrapped (lon, lat), densified
+  std::vector<char> given;          ///< per point, 1 where the source gave it (0: added along a geodesic)
   std::vector<glm::dvec3> surface;  ///< the points on the ellipsoid (ECEF)
   LonLatRect box;                   ///< of the points, widened by the half width
   /// Its pieces (i: points i, i + 1) by longitude, widened by the half width: buckets of
@@ -113,11 +123,26 @@ class GlobeLayer {
 
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] const glm::vec4& color() const { return color_; }
+  /// The colours its features are drawn in (GlobePolygon::group), the layer's colour first.
+  [[nodiscard]] const std::vector<glm::vec4>& colors() const { return colors_; }
   /// What is drawn: the areas, and for lines their bands and discs.
   [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
   [[nodiscard]] const std::vector<GlobeLine>& lines() const { return lines_; }
   /// polygons()[0, areaCount()) are the areas; the rest draw the lines.
   [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
+  /// What tiles of a level draw of the lines (docs/globe.md, "Lines"): where a level's tolerance
+  /// (simplifyTolerance, in metres at the line's highest latitude) is more than four times the
+  /// chord tolerance, a line is drawn from its centreline generalised to a quarter of that
+  /// tolerance (Douglas–Peucker on its points on the ellipsoid), arcs within another quarter,
+  /// and the shapes' rings simplified within the other half; elsewhere from its own shapes
+  /// (`full`: indices into polygons()). Made on first use and kept; null when every line is
+  /// drawn from its own shapes at that level. Thread-safe.
+  struct LineShapes {
+    std::vector<std::uint32_t> full;
+    std::vector<GlobePolygon> generalised;
+  };
+  [[nodiscard]] const LineShapes* lineShapesAt(int level) const;
+
   /// Whether a point is in the layer (the CPU reference): in one of its areas (the polygons it
   /// was built from), or within half the width of one of its lines (exactly; the drawn discs
   /// lie within the chord tolerance inside).
@@ -126,9 +151,13 @@ class GlobeLayer {
  private:
   std::string name_;
   glm::vec4 color_{1.0F};
+  std::vector<glm::vec4> colors_;
   std::vector<GlobePolygon> polygons_;
   std::size_t areaPolygons_ = 0;  ///< polygons_[0, areaPolygons_) are areas; the rest draw lines
   std::vector<GlobeLine> lines_;
+  std::vector<std::size_t> lineShapes_;  ///< line j's own shapes: polygons_[lineShapes_[j], lineShapes_[j + 1])
+  double chordTolerance_ = 0.02, maxSegment_ = 1000.0;
+  std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesAt's, made as asked for
 };
 
 /// A vertex of a piece as the GPU reads it.
@@ -147,6 +176,7 @@ struct TilePieces {
     std::uint32_t indexCount = 0;       ///< all: bottom cap, walls, top cap
     glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
     double lo = 0.0, hi = 0.0;          ///< heights of its caps
+    std::uint32_t group = 0;            ///< its polygon's colour (pieces are in order of it)
   };
   std::vector<PieceVertex> vertices;
   std::vector<std::uint32_t> indices;
@@ -242,6 +272,14 @@ std::vector<std::uint32_t> referenceMask(const std::vector<float>& depth, const 
 /// terrain against background): the edge band, where GPU and reference may differ.
 std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth, int width,
                                      int height);
+/// The edge band of the layers' reference: edgePixels(mask, ...) above, and by geometry every
+/// pixel whose ground point lies within its footprint's reach (the distance to the farthest of its
+/// 8 neighbours' ground points) of a layer's border: an area's ring, or the border of a line's
+/// union of capsules (|distance to the line − half width| ≤ reach, so a line narrower than a pixel,
+/// which the mask may not show at all, has its band too). Drawn shapes generalised by a fraction of
+/// a pixel (simplifyTolerance, lineShapesAt) stay inside it.
+std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth,
+                                     const GlobeView& view, const std::vector<const GlobeLayer*>& layers);
 /// The ECEF point a pixel's depth shows (row 0 = top), or nothing on background.
 bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out);
 

@@ -13,6 +13,7 @@
 #include "scene/camera.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
+#include "scene/selection_export.hpp"
 #include "vector_overlay/lasso.hpp"
 #include "vector_overlay/logical_selection.hpp"
 
@@ -42,13 +43,9 @@ SceneSelection selectInScene(const LoadedScene& scene, const SceneRenderer& rend
                              std::span<const overlay::SelectionStep> steps, const Camera& camera, int width, int height,
                              std::optional<double> sampleSpacing = std::nullopt);
 
-/// A file name from a layer name: lower-case letters, digits and underscores.
-std::string layerSlug(const std::string& name);
-
-/// Writes every selected feature into one RFC 7946 FeatureCollection at `combined` (with
-/// selection_layer, selection_fid, selection_fully_inside) and, when `perLayerDir` is given,
-/// selected_<slug>.geojson per layer there in the source's own CRS. Features are re-read by
-/// FID from their source files, so geometry and attributes are the file's own.
+/// The GeoJSON export of the selected features (selection_export.hpp, exportSelectedFeatures):
+/// one RFC 7946 FeatureCollection at `combined` and, when `perLayerDir` is given,
+/// selected_<slug>.geojson per layer there in the source's own CRS.
 Diagnostics exportSelection(const LoadedScene& scene, const SceneRenderer& renderer, const SceneSelection& selection,
                             const std::filesystem::path& combined,
                             const std::optional<std::filesystem::path>& perLayerDir = std::nullopt);
