@@ -805,7 +805,8 @@ const GlobeLayer::LineShapes* GlobeLayer::lineShapesAt(int level) const {
         shapes->full.push_back(static_cast<std::uint32_t>(i));
     };
     const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
-    const double tolerance = simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
+    const double tolerance =
+        kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
     if (tolerance <= 4.0 * chordTolerance_) {
       own();
       continue;
@@ -834,7 +835,8 @@ const GlobeLayer::LineShapes* GlobeLayer::lineShapesAt(int level) const {
     for (const GlobePolygon& p : made) rings.push_back(&p.rings.front());
     const std::set<std::pair<double, double>> shared = sharedPoints(rings);
     for (GlobePolygon& p : made) {
-      std::vector<glm::dvec2> ring = simplifyRing(p.rings.front(), 0.5 * simplifyTolerance(level), shared);
+      std::vector<glm::dvec2> ring =
+          simplifyRing(p.rings.front(), 0.5 * kLineGeneralisation * simplifyTolerance(level), shared);
       if (ring.size() >= 3) p.rings.front() = std::move(ring);
       points += pointCount(p);
     }

@@ -67,6 +67,9 @@ struct GlobePolygon {
 /// apart along their parallels (TerrainOptions::maxPostPixels), so the drawn edges are within
 /// 1/8 of a pixel of the true ones: the reference's edge band holds the difference.
 double simplifyTolerance(int level);
+/// Lines from afar (GlobeLayer::lineShapesAt) may stray this many times simplifyTolerance from
+/// the true ones: within half a pixel, as lines do in a projected frame's tiles. (Areas keep 1/8.)
+inline constexpr double kLineGeneralisation = 4.0;
 
 /// The side of edge p → q (unwrapped (lon, lat) degrees) a point (ECEF) is on: > 0 north of an
 /// edge that runs east (south of one that runs west). The edge's plane holds both ends on the
@@ -131,8 +134,8 @@ class GlobeLayer {
   /// polygons()[0, areaCount()) are the areas; the rest draw the lines.
   [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
   /// What tiles of a level draw of the lines (docs/globe.md, "Lines"): where a level's tolerance
-  /// (simplifyTolerance, in metres at the line's highest latitude) is more than four times the
-  /// chord tolerance, a line is drawn from its centreline generalised to a quarter of that
+  /// (kLineGeneralisation × simplifyTolerance, in metres at the line's highest latitude) is more
+  /// than four times the chord tolerance, a line is drawn from its centreline generalised to a quarter of that
   /// tolerance (Douglas–Peucker on its points on the ellipsoid), arcs within another quarter,
   /// and the shapes' rings simplified within the other half; elsewhere from its own shapes
   /// (`full`: indices into polygons()). Made on first use and kept; null when every line is
