@@ -201,6 +201,12 @@ struct GeoGrid::Paged {
   mutable std::unordered_map<std::size_t, std::pair<std::shared_ptr<const Block>, std::list<std::size_t>::iterator>>
       cache;
   mutable std::size_t cachedBytes = 0, reads = 0;
+  /// Posts read one by one, and per block how many times a post of it was asked for while it
+  /// was not cached: a block is read whole only from its kDenseTouches-th (a far view's tiles ask
+  /// a few posts of each block, a near view's many of a few).
+  mutable std::size_t postReads = 0;
+  mutable std::unordered_map<std::size_t, std::uint32_t> touches;
+  static constexpr std::uint32_t kDenseTouches = 64;
 
   Paged() = default;
   Paged(const Paged&) = delete;
@@ -264,9 +270,23 @@ struct GeoGrid::Paged {
   }
 
   [[nodiscard]] float post(int c, int r) const {
-    const std::shared_ptr<const Block> b = load(c / block, r / block);
-    return b->heights[static_cast<std::size_t>(r % block) * static_cast<std::size_t>(block) +
-                      static_cast<std::size_t>(c % block)];
+    const std::size_t inBlock =
+        static_cast<std::size_t>(r % block) * static_cast<std::size_t>(block) + static_cast<std::size_t>(c % block);
+    {
+      const std::size_t index =
+          static_cast<std::size_t>(r / block) * static_cast<std::size_t>(blocksX) + static_cast<std::size_t>(c / block);
+      const std::lock_guard<std::mutex> lock(mutex);
+      if (cache.count(index) == 0 && ++touches[index] < kDenseTouches) {
+        // The one post, from the file (the same float the block holds).
+        float v = 0.0F;
+        if (::pread(fd, &v, sizeof v, static_cast<off_t>(blockOffset(index) + inBlock * sizeof(float))) !=
+            static_cast<ssize_t>(sizeof v))
+          v = 0.0F;
+        ++postReads;
+        return v;
+      }
+    }
+    return load(c / block, r / block)->heights[inBlock];
   }
 };
 
@@ -721,6 +741,12 @@ std::size_t GeoGrid::blocksRead() const {
   if (!paged_) return 0;
   const std::lock_guard<std::mutex> lock(paged_->mutex);
   return paged_->reads;
+}
+
+std::size_t GeoGrid::postsRead() const {
+  if (!paged_) return 0;
+  const std::lock_guard<std::mutex> lock(paged_->mutex);
+  return paged_->postReads;
 }
 
 bool GeoGrid::pageFileMade() const { return paged_ && paged_->made; }

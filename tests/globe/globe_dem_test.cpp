@@ -299,6 +299,45 @@ TEST(GlobeDem, PagedGridIsTheWholeGridBitForBit) {
   EXPECT_GT(whole->residentBytes(), 8U * 1000U * 1000U);
 }
 
+TEST(GlobeDem, AFarViewReadsItsPostsAndANearOneItsBlocks) {
+  // A far view's tiles take a post here and there from every block: each is read alone (the DEM
+  // is 32 × 8 blocks of 64 posts; 33 × 33 posts over all of it touch every block a few times).
+  // A near view's tile takes every post of a few blocks: those are read whole, once.
+  const fs::path cache = dir() / "cache_far_near";
+  fs::remove_all(cache);
+  const Result<GeoGrid> paged = readPaged(cache, 16.0, 64);
+  const Result<GeoGrid> whole = read({polarDem()}, VerticalDatum::Egm96);
+  ASSERT_TRUE(paged.ok() && whole.ok() && paged->paged());
+  std::size_t differing = 0, samples = 0;
+  for (int j = 0; j <= 32; ++j) {
+    for (int i = 0; i <= 32; ++i) {
+      const double x = -10.0 + 20.0 * i / 32.0, y = 85.0 + 4.99 * j / 32.0;
+      if (besideTheHole(x, y)) continue;
+      ++samples;
+      differing += paged->heightAt(x, y) != whole->heightAt(x, y) ? 1U : 0U;
+    }
+  }
+  EXPECT_EQ(differing, 0U);
+  std::printf("far: %zu samples, %zu posts read alone, %zu blocks read\n", samples, paged->postsRead(),
+              paged->blocksRead());
+  EXPECT_EQ(paged->blocksRead(), 0U) << "no block is read whole for a few of its posts";
+  EXPECT_LE(paged->postsRead(), 4 * samples + 16);
+  // Near: 200 × 200 samples over 1° × 0.5° (100 × 50 posts: 2 × 1 to 3 × 2 blocks).
+  const std::size_t postsBefore = paged->postsRead();
+  for (int j = 0; j < 200; ++j) {
+    for (int i = 0; i < 200; ++i) {
+      const double x = 2.0 + i / 200.0, y = 86.0 + 0.5 * j / 200.0;
+      differing += paged->heightAt(x, y) != whole->heightAt(x, y) ? 1U : 0U;
+    }
+  }
+  EXPECT_EQ(differing, 0U);
+  std::printf("near: 40,000 samples, %zu more posts read alone, %zu blocks read\n", paged->postsRead() - postsBefore,
+              paged->blocksRead());
+  EXPECT_GE(paged->blocksRead(), 2U);
+  EXPECT_LE(paged->blocksRead(), 6U);
+  EXPECT_LE(paged->postsRead() - postsBefore, 6U * 64U);
+}
+
 TEST(GlobeDem, APagedGridIsWrittenOnceAndFoundInTheCache) {
   const fs::path cache = dir() / "cache_reuse";
   fs::remove_all(cache);

@@ -85,6 +85,11 @@ class GeoGrid {
   /// A paged grid: blocks read from its file so far, and whether the file was made by this read
   /// (false: found in the cache).
   [[nodiscard]] std::size_t blocksRead() const;
+  /// A paged grid: posts read one by one from its file. A block is read whole only once its posts
+  /// have been asked for 64 times while it was not cached; until then each post heightAt needs is
+  /// read alone. So a far view, whose tiles take a few posts from each of many blocks, reads
+  /// about its tiles' posts, not the DEM; a near view reads the few blocks it needs.
+  [[nodiscard]] std::size_t postsRead() const;
   [[nodiscard]] bool pageFileMade() const;
 
   /// Bilinear height at (lon, lat), degrees. A pure function of its arguments: the same post
