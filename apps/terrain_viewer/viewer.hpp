@@ -351,7 +351,10 @@ class Viewer {
   void drawHighlights();
   /// The last frame's depth (top row first), read once per frame.
   const std::vector<float>& frameDepth();
-  /// A path on the ground (frame points, heights as drawn) over the scene: its visible parts.
+  /// Frame (or, on the globe, ECEF) coordinates → clip coordinates of the frame drawn.
+  [[nodiscard]] glm::dmat4 screenViewProj() const;
+  /// A path on the ground (frame points, heights as drawn; ECEF on the globe) over the scene: its
+  /// visible parts.
   void drawLifted(const std::vector<glm::dvec3>& path, ImU32 colour, float width);
   /// Frame x/y points lifted onto the terrain as drawn, densified to follow the relief.
   [[nodiscard]] std::vector<glm::dvec3> liftPath(const std::vector<glm::dvec2>& points, bool closed) const;
@@ -370,6 +373,10 @@ class Viewer {
   /// pixel shows no terrain.
   bool measureAtPixels(const std::vector<glm::dvec2>& pixels, bool closed);
   void addMeasurePoint(const glm::dvec2& frameXY);
+  /// The measure point under a pixel: frame x/y, or lon/lat on the globe.
+  [[nodiscard]] std::optional<glm::dvec2> measurePointAt(const glm::dvec2& pixel) const;
+  /// A measure point on the ground as drawn: frame x/y/z, or ECEF on the globe.
+  [[nodiscard]] glm::dvec3 measurePointPosition(const glm::dvec2& point) const;
   void clearMeasure();
   void remeasure();
   void drawMeasure();
@@ -537,7 +544,7 @@ class Viewer {
   std::map<std::string, glm::vec4> windowRects_;  ///< the panel's windows as drawn (x0, y0, x1, y1)
   bool measureTool_ = false;
   bool measureClosed_ = false;
-  std::vector<glm::dvec2> measurePoints_;  ///< frame x/y, in order
+  std::vector<glm::dvec2> measurePoints_;  ///< frame x/y (on the globe lon/lat), in order
   std::optional<scene::Measurement> measurement_;
   std::optional<scene::Ellipsoid> measureEllipsoid_;  ///< the scene frame's, looked up once
   std::vector<float> frameDepth_;

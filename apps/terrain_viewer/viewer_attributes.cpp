@@ -482,13 +482,18 @@ const std::vector<float>& Viewer::frameDepth() {
   return frameDepth_;
 }
 
+glm::dmat4 Viewer::screenViewProj() const {
+  if (globe_) return globe_->view.viewProj();
+  const scene::Camera c = camera();
+  return c.projection(aspect()) * c.view();
+}
+
 void Viewer::drawLifted(const std::vector<glm::dvec3>& path, ImU32 colour, float width) {
   // Hidden parts (behind a hill) are left out: a point shows when it is no farther than the
   // surface drawn at its pixel (or a neighbour), within half a percent.
   const std::vector<float>& depth = frameDepth();
   const int w = target_->width(), h = target_->height();
-  const scene::Camera c = camera();
-  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
+  const glm::dmat4 viewProj = screenViewProj();
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
   const auto visible = [&](const glm::dvec3& pixel) {
     const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));

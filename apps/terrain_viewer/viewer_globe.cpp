@@ -2,8 +2,8 @@
 // drawn with globe::GlobeRenderer into the offscreen target, flown with
 // scene::GlobeCameraController (grab, orbit, zoom to the cursor from space to a metre above the
 // ground, home, north up), with its panel, HUD, status bar, identify, the lasso selection and
-// script steps. The projected scene's other tools are not on the globe yet: asked for, they say
-// so once and do nothing.
+// script steps, and the measure tool (geodesics on WGS 84). The projected scene's other tools
+// are not on the globe yet: asked for, they say so once and do nothing.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -75,6 +75,8 @@ void drawGlobeHelp(bool* open) {
       {"wheel", "zoom to the point under the cursor (space to 1 m above the ground)"},
       {"click", "identify: lon/lat, height and the features under the cursor"},
       {"L", "lasso tool on/off: drag to select"},
+      {"M", "measure tool on/off: click points; geodesic and surface lengths, and the area with the ring closed"},
+      {"Backspace", "remove the last measured point"},
       {"lasso + Shift / Ctrl / Ctrl+Shift / Alt", "or / subtract / and / xor"},
       {"I / C", "invert / clear the selection"},
       {"Ctrl+Z / Ctrl+Y", "undo / redo the selection"},
@@ -86,7 +88,7 @@ void drawGlobeHelp(bool* open) {
       {"P / U", "panel / HUD on/off"},
       {"Ctrl+O", "open a scene, DEM or vector file"},
       {"F12", "screenshot (PNG, working directory)"},
-      {"Esc", "drop the lasso being drawn, the lasso tool, help or identify"},
+      {"Esc", "drop the lasso being drawn, the lasso tool, the measured points, the measure tool, help or identify"},
       {"Ctrl+Q", "quit"},
   };
   drawKeysWindow("Keys and mouse on the globe (?)", open, kRows);
@@ -300,6 +302,8 @@ void Viewer::handleGlobeInput(const InputFrame& in) {
         overlay::SelectionOp op = lassoOpOf(in.modifiers);
         if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
         addLasso(op, std::exchange(lassoPoints_, {}));
+      } else if (!dragged_ && measureTool_) {
+        if (const std::optional<glm::dvec2> ground = measurePointAt(pixel)) addMeasurePoint(*ground);
       } else if (!dragged_) {
         g.identified = identifyOnGlobe(pixel);
       }
@@ -327,6 +331,10 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
         lassoPoints_.clear();
       } else if (lassoTool_) {
         lassoTool_ = false;
+      } else if (!measurePoints_.empty()) {
+        clearMeasure();
+      } else if (measureTool_) {
+        measureTool_ = false;
       } else if (showHelp_) {
         showHelp_ = false;
       } else if (g.identified) {
@@ -363,9 +371,17 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
       break;
     case GLFW_KEY_L:
       lassoTool_ = !lassoTool_;
+      if (lassoTool_) measureTool_ = false;
       break;
     case GLFW_KEY_M:
-      notOnGlobe("The measure tool (M)");
+      measureTool_ = !measureTool_;
+      if (measureTool_) lassoTool_ = false;
+      break;
+    case GLFW_KEY_BACKSPACE:
+      if (!measurePoints_.empty()) {
+        measurePoints_.pop_back();
+        remeasure();
+      }
       break;
     default:
       sharedKeyPressed(key, modifiers);
@@ -382,6 +398,7 @@ void Viewer::drawGlobeUi() {
   if (settings_.showHud) drawGlobeHud();
   if (showHelp_) drawGlobeHelp(&showHelp_);
   if (globe_->identified) drawGlobeIdentify();
+  drawMeasure();
   drawLassoOutline();
 }
 
@@ -425,9 +442,10 @@ void Viewer::drawGlobePanel() {
     }
   }
   drawGlobeSelectionSection();
+  drawMeasureSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   ImGui::TextWrapped(
-      "Not on the globe yet: measure, labels, the attribute table, colours by category, draping, fly mode "
+      "Not on the globe yet: labels, the attribute table, choosing colours by category here, draping, fly mode "
       "and exaggeration.");
   ImGui::PopStyleColor();
   drawMessagesSection();
@@ -546,6 +564,8 @@ json Viewer::globeState() const {
           {"keys_down", keysDownJson()},
           {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
           {"lasso_tool", lassoTool_},
+          {"measure_tool", measureTool_},
+          {"measure", measureJson()},
           {"undo_steps", undo_.size()},
           {"redo_steps", redo_.size()},
           {"selection", globeSelectionJson()},
@@ -707,9 +727,6 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
           return true;
         } else if constexpr (std::is_same_v<Step, app::TableStep>) {
           notOnGlobe("The attribute table");
-          return true;
-        } else if constexpr (std::is_same_v<Step, app::MeasureStep>) {
-          notOnGlobe("The measure tool");
           return true;
         } else if constexpr (std::is_same_v<Step, app::MethodStep>) {
           notOnGlobe("Overlay methods other than the stencil polyhedra (draping)");

@@ -303,7 +303,7 @@ void Viewer::handleMouse(const InputFrame& in) {
       if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
       addLasso(op, std::exchange(lassoPoints_, {}));
     } else if (!dragged_ && measureTool_) {
-      if (const std::optional<glm::dvec3> ground = pointAt(pixel)) addMeasurePoint(glm::dvec2(*ground));
+      if (const std::optional<glm::dvec2> ground = measurePointAt(pixel)) addMeasurePoint(*ground);
     } else if (!dragged_) {
       identified_ = identify(pixel);
     }

@@ -1,5 +1,7 @@
 // The measure tool (M): clicks put points on the ground; the path between them is measured along
-// the ellipsoid (geodesic) and along the terrain's surface, and, closed into a ring, its area.
+// the ellipsoid (geodesic) and along the terrain's surface, and, closed into a ring, its area. In
+// a projected scene the points are frame x/y; on the globe they are lon/lat, and the segments are
+// drawn along their geodesics.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,9 +13,16 @@
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 
+#include "globe/ellipsoid.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {
+namespace {
+
+/// Metres per degree of latitude, near enough for a sampling step.
+constexpr double kMetresPerDegree = 111'320.0;
+
+}  // namespace
 
 void Viewer::addMeasurePoint(const glm::dvec2& frameXY) {
   measurePoints_.push_back(frameXY);
@@ -28,6 +37,18 @@ void Viewer::clearMeasure() {
 void Viewer::remeasure() {
   measurement_.reset();
   if (measurePoints_.size() < 2) return;
+  if (globe_) {
+    // On the globe the points are lon/lat, the segments geodesics on WGS 84.
+    const std::shared_ptr<const globe::GeoGrid> heights = globe_->scene.heights;
+    scene::MeasureOptions options;
+    if (heights && heights->width() > 0) options.sampleStepMetres = 0.5 * heights->step() * kMetresPerDegree;
+    const auto height = [heights](double lon, double lat) { return heights ? heights->heightAt(lon, lat) : 0.0; };
+    Result<scene::Measurement> m =
+        scene::measureOnGlobe(measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
+    for (const Diagnostic& d : m.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+    if (m) measurement_ = std::move(*m);
+    return;
+  }
   const double exaggeration = scene_->bounds->exaggeration();
   const auto height = [this, exaggeration](const glm::dvec2& p) {
     return scene_->bounds->fullResolutionHeightAt(p) / exaggeration;
@@ -47,32 +68,57 @@ bool Viewer::measureAtPixels(const std::vector<glm::dvec2>& pixels, bool closed)
   clearMeasure();
   measureClosed_ = closed;
   for (const glm::dvec2& p : pixels) {
-    const std::optional<glm::dvec3> ground = pointAt(p);
+    const std::optional<glm::dvec2> ground = measurePointAt(p);
     if (!ground) {
       clearMeasure();
       return false;
     }
-    measurePoints_.emplace_back(*ground);
+    measurePoints_.push_back(*ground);
   }
   remeasure();
   return true;
 }
 
+std::optional<glm::dvec2> Viewer::measurePointAt(const glm::dvec2& pixel) const {
+  if (globe_) {
+    const std::optional<glm::dvec3> p = globePointAt(pixel);
+    if (!p) return std::nullopt;
+    const globe::Geodetic g = globe::toGeodetic(*p);
+    return glm::dvec2(g.lon, g.lat);
+  }
+  const std::optional<glm::dvec3> ground = pointAt(pixel);
+  return ground ? std::optional<glm::dvec2>(glm::dvec2(*ground)) : std::nullopt;
+}
+
+glm::dvec3 Viewer::measurePointPosition(const glm::dvec2& p) const {
+  if (!globe_) return {p, scene_->bounds->fullResolutionHeightAt(p)};
+  const std::shared_ptr<const globe::GeoGrid>& heights = globe_->scene.heights;
+  return globe::toEcef(p.x, p.y, heights ? heights->heightAt(p.x, p.y) : 0.0);
+}
+
 void Viewer::drawMeasure() {
   if (measurePoints_.empty()) return;
-  std::vector<glm::dvec2> ring = measurePoints_;
-  if (measureClosed_ && ring.size() >= 3) ring.push_back(ring.front());
   const ImU32 colour = IM_COL32(255, 235, 60, 255);
-  drawGroundPath(ring, colour, 2.5F);
+  const bool ring = measureClosed_ && measurePoints_.size() >= 3;
+  if (globe_) {
+    // Along the geodesics, in pieces of a few pixels where the view looks (at most 4,096 a segment).
+    const double step = std::max(4.0 * globeMetresPerPixelAtCentre().value_or(1000.0), 0.5);
+    std::vector<glm::dvec3> path;
+    for (const glm::dvec2& p : scene::geodesicPath(measurePoints_, ring, step)) path.push_back(measurePointPosition(p));
+    if (target_ && path.size() >= 2) drawLifted(path, colour, 2.5F);
+  } else {
+    std::vector<glm::dvec2> path = measurePoints_;
+    if (ring) path.push_back(path.front());
+    drawGroundPath(path, colour, 2.5F);
+  }
   // The points themselves, and the length at the last one.
-  const scene::Camera c = camera();
-  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
+  const glm::dmat4 viewProj = screenViewProj();
   const glm::ivec2 fb = framebufferSize();
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
   ImDrawList* draw = ImGui::GetBackgroundDrawList();
   std::optional<ImVec2> last;
   for (const glm::dvec2& p : measurePoints_) {
-    const glm::dvec4 clip = viewProj * glm::dvec4(p, scene_->bounds->fullResolutionHeightAt(p), 1.0);
+    const glm::dvec4 clip = viewProj * glm::dvec4(measurePointPosition(p), 1.0);
     if (!(clip.w > 0.0)) continue;
     const ImVec2 at(static_cast<float>((clip.x / clip.w * 0.5 + 0.5) * fb.x) / scale.x,
                     static_cast<float>((0.5 - clip.y / clip.w * 0.5) * fb.y) / scale.y);
@@ -108,7 +154,11 @@ void Viewer::drawMeasureSection() {
   ImGui::Text("geodesic %s", formatMetres(m.geodesicMetres).c_str());
   ImGui::Text("on the surface %s%s", formatMetres(m.surfaceMetres).c_str(),
               m.surfaceComplete ? "" : " (partly off the DEM)");
-  ImGui::TextDisabled("in %s: %s", crsName().c_str(), formatMetres(m.planarMetres).c_str());
+  if (globe_) {
+    ImGui::TextDisabled("straight through the earth: %s", formatMetres(m.planarMetres).c_str());
+  } else {
+    ImGui::TextDisabled("in %s: %s", crsName().c_str(), formatMetres(m.planarMetres).c_str());
+  }
   if (m.geodesicAreaM2) {
     ImGui::Text("area %s", formatArea(*m.geodesicAreaM2).c_str());
     if (m.surfaceAreaM2) ImGui::Text("surface area %s", formatArea(*m.surfaceAreaM2).c_str());

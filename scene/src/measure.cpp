@@ -8,7 +8,10 @@
 #include <string>
 #include <utility>
 
+#include <GeographicLib/AzimuthalEquidistant.hpp>
+#include <GeographicLib/Geocentric.hpp>
 #include <GeographicLib/Geodesic.hpp>
+#include <GeographicLib/GeodesicLine.hpp>
 #include <GeographicLib/PolygonArea.hpp>
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -216,6 +219,59 @@ double planarArea(std::span<const glm::dvec2> ring) {
   return 0.5 * std::abs(twice);
 }
 
+constexpr const char* kBadEllipsoid = "the ellipsoid needs a positive semi-major axis and a flattening below 1";
+
+bool validEllipsoid(const Ellipsoid& e) {
+  return std::isfinite(e.semiMajorMetres) && e.semiMajorMetres > 0.0 && std::isfinite(e.flattening) &&
+         e.flattening < 1.0;
+}
+
+/// Step budget shared by both frames: the asked step, coarsened until the samples fit.
+double budgetedStep(const MeasureOptions& options, bool withHeights, std::span<const double> lengths,
+                    std::span<const glm::dvec2> ring) {
+  double step = options.sampleStepMetres;
+  if (withHeights) {
+    const auto budget = static_cast<double>(options.maxSamples);
+    for (int n = 0; n < kMaxCoarsenings && estimatedSamples(lengths, ring, step) > budget; ++n) step *= kCoarsening;
+  }
+  return step;
+}
+
+/// Surface length of the geodesic a→b (lon/lat) of length seg.geodesicMetres, sampled along it.
+void sampleGeodesic(const GeographicLib::Geodesic& geodesic, const glm::dvec2& a, const glm::dvec2& b, double step,
+                    const GeodeticHeight& height, SegmentMeasure& seg, std::size_t& samples) {
+  seg.surfaceMetres = seg.geodesicMetres;
+  if (seg.geodesicMetres == 0.0) return;
+  if (!height) {
+    seg.surfaceComplete = false;
+    return;
+  }
+  const GeographicLib::GeodesicLine line = geodesic.InverseLine(a.y, a.x, b.y, b.x);
+  const std::size_t n = stepsOf(seg.geodesicMetres, step);
+  const double d = seg.geodesicMetres / static_cast<double>(n);
+  const auto at = [&](const glm::dvec2& ll) {
+    ++samples;
+    const double h = height(ll.x, ll.y);
+    return std::isfinite(h) ? h : std::numeric_limits<double>::quiet_NaN();
+  };
+  double surface = 0.0;
+  double previous = at(a);
+  for (std::size_t i = 1; i <= n; ++i) {
+    glm::dvec2 p = b;
+    if (i < n) line.Position(d * static_cast<double>(i), p.y, p.x);
+    const double h = at(p);
+    if (std::isfinite(h) && std::isfinite(previous)) {
+      const double dh = h - previous;
+      surface += std::sqrt(d * d + dh * dh);
+    } else {
+      surface += d;
+      seg.surfaceComplete = false;
+    }
+    previous = h;
+  }
+  seg.surfaceMetres = surface;
+}
+
 }  // namespace
 
 Ellipsoid ellipsoidOf(const geo::SceneFrame& frame) {
@@ -233,10 +289,7 @@ Result<Measurement> measure(const geo::SceneFrame& frame, std::span<const glm::d
     return failure("", "sampleStepMetres must be positive and finite");
   }
   const Ellipsoid ellipsoid = options.ellipsoid ? *options.ellipsoid : ellipsoidOf(frame);
-  if (!(std::isfinite(ellipsoid.semiMajorMetres) && ellipsoid.semiMajorMetres > 0.0 &&
-        std::isfinite(ellipsoid.flattening) && ellipsoid.flattening < 1.0)) {
-    return failure("", "the ellipsoid needs a positive semi-major axis and a flattening below 1");
-  }
+  if (!validEllipsoid(ellipsoid)) return failure("", kBadEllipsoid);
 
   // lon/lat of every point first: a bad point fails the whole measurement before any sampling.
   std::vector<glm::dvec2> lonLat;
@@ -265,13 +318,7 @@ Result<Measurement> measure(const geo::SceneFrame& frame, std::span<const glm::d
 
   const bool hasArea = closed && frameXY.size() >= 3;
   const std::span<const glm::dvec2> ring = hasArea ? frameXY : std::span<const glm::dvec2>();
-  double step = options.sampleStepMetres;
-  if (height) {
-    const auto budget = static_cast<double>(options.maxSamples);
-    for (int n = 0; n < kMaxCoarsenings && estimatedSamples(planarLengths, ring, step) > budget; ++n) {
-      step *= kCoarsening;
-    }
-  }
+  const double step = budgetedStep(options, static_cast<bool>(height), planarLengths, ring);
   m.sampleStepMetres = step;
   m.surfaceComplete = static_cast<bool>(height);
 
@@ -309,6 +356,124 @@ Result<Measurement> measure(const geo::SceneFrame& frame, std::span<const glm::d
   Result<Measurement> r;
   r.value = std::move(m);
   return r;
+}
+
+Result<Measurement> measureOnGlobe(std::span<const glm::dvec2> lonLat, bool closed, const GeodeticHeight& height,
+                                   const MeasureOptions& options) {
+  if (!(std::isfinite(options.sampleStepMetres) && options.sampleStepMetres > 0.0)) {
+    return failure("", "sampleStepMetres must be positive and finite");
+  }
+  const Ellipsoid ellipsoid = options.ellipsoid.value_or(Ellipsoid::wgs84());
+  if (!validEllipsoid(ellipsoid)) return failure("", kBadEllipsoid);
+  for (std::size_t i = 0; i < lonLat.size(); ++i) {
+    if (!isFinite(lonLat[i])) return failure("point " + std::to_string(i), "longitude or latitude is not finite");
+    if (std::abs(lonLat[i].y) > 90.0) return failure("point " + std::to_string(i), "latitude outside [-90, 90]");
+  }
+
+  Measurement m;
+  m.closed = closed;
+  m.ellipsoid = ellipsoid;
+  const GeographicLib::Geodesic geodesic(ellipsoid.semiMajorMetres, ellipsoid.flattening);
+  const GeographicLib::Geocentric geocentric(ellipsoid.semiMajorMetres, ellipsoid.flattening);
+  const auto ecef = [&geocentric](const glm::dvec2& ll) {
+    glm::dvec3 p(0.0);
+    geocentric.Forward(ll.y, ll.x, 0.0, p.x, p.y, p.z);
+    return p;
+  };
+  const auto pairs = segmentsOf(lonLat.size(), closed);
+  std::vector<double> lengths;
+  for (const auto& [i, j] : pairs) {
+    SegmentMeasure seg;
+    seg.planarMetres = glm::length(ecef(lonLat[j]) - ecef(lonLat[i]));
+    geodesic.Inverse(lonLat[i].y, lonLat[i].x, lonLat[j].y, lonLat[j].x, seg.geodesicMetres);
+    lengths.push_back(seg.geodesicMetres);
+    m.segments.push_back(seg);
+  }
+
+  // The ring in the azimuthal equidistant plane about its centre, for the slope factors' grid.
+  const bool hasArea = closed && lonLat.size() >= 3;
+  std::vector<glm::dvec2> plane;
+  std::optional<GeographicLib::AzimuthalEquidistant> projection;
+  glm::dvec2 centre(0.0);
+  if (hasArea) {
+    glm::dvec3 sum(0.0);
+    for (const glm::dvec2& ll : lonLat) sum += glm::normalize(ecef(ll));
+    // On the ellipsoid's scale: near the earth's centre geodetic latitude means nothing.
+    sum = glm::length(sum) > 0.0 ? glm::normalize(sum) * ellipsoid.semiMajorMetres : glm::dvec3(ecef(lonLat[0]));
+    double h = 0.0;
+    geocentric.Reverse(sum.x, sum.y, sum.z, centre.y, centre.x, h);
+    projection.emplace(geodesic);
+    for (const glm::dvec2& ll : lonLat) {
+      glm::dvec2 xy(0.0);
+      projection->Forward(centre.y, centre.x, ll.y, ll.x, xy.x, xy.y);
+      plane.push_back(xy);
+    }
+  }
+  const double step = budgetedStep(options, static_cast<bool>(height), lengths, plane);
+  m.sampleStepMetres = step;
+  m.surfaceComplete = static_cast<bool>(height);
+
+  for (std::size_t s = 0; s < pairs.size(); ++s) {
+    SegmentMeasure& seg = m.segments[s];
+    sampleGeodesic(geodesic, lonLat[pairs[s].first], lonLat[pairs[s].second], step, height, seg, m.samples);
+    m.planarMetres += seg.planarMetres;
+    m.geodesicMetres += seg.geodesicMetres;
+    m.surfaceMetres += seg.surfaceMetres;
+    m.surfaceComplete = m.surfaceComplete && seg.surfaceComplete;
+  }
+
+  if (closed) {
+    m.planarAreaM2 = 0.0;
+    m.geodesicAreaM2 = 0.0;
+    m.surfaceAreaM2 = 0.0;
+  }
+  if (hasArea) {
+    GeographicLib::PolygonArea polygon(geodesic, false);
+    for (const glm::dvec2& ll : lonLat) polygon.AddPoint(ll.y, ll.x);
+    double perimeter = 0.0;
+    double area = 0.0;
+    polygon.Compute(false, true, perimeter, area);
+    m.planarAreaM2 = planarArea(plane);
+    m.geodesicAreaM2 = std::abs(area);
+    double factor = 1.0;
+    if (height && *m.planarAreaM2 > 0.0) {
+      const TerrainHeight inPlane = [&](const glm::dvec2& xy) {
+        double lat = 0.0, lon = 0.0;
+        projection->Reverse(centre.y, centre.x, xy.x, xy.y, lat, lon);
+        return height(lon, lat);
+      };
+      bool complete = true;
+      factor = meanSlopeFactor(plane, step, inPlane, m.samples, complete);
+      m.surfaceComplete = m.surfaceComplete && complete;
+    }
+    m.surfaceAreaM2 = *m.geodesicAreaM2 * factor;
+  }
+
+  Result<Measurement> r;
+  r.value = std::move(m);
+  return r;
+}
+
+std::vector<glm::dvec2> geodesicPath(std::span<const glm::dvec2> lonLat, bool closed, double stepMetres,
+                                     std::size_t maxPiecesPerSegment) {
+  std::vector<glm::dvec2> path;
+  const GeographicLib::Geodesic& geodesic = GeographicLib::Geodesic::WGS84();
+  const auto pairs = segmentsOf(lonLat.size(), closed);
+  for (const auto& [i, j] : pairs) {
+    const glm::dvec2 a = lonLat[i], b = lonLat[j];
+    const GeographicLib::GeodesicLine line = geodesic.InverseLine(a.y, a.x, b.y, b.x);
+    const double length = line.Distance();
+    const std::size_t n = std::min(std::max<std::size_t>(maxPiecesPerSegment, 1),
+                                   stepMetres > 0.0 && std::isfinite(length) ? stepsOf(length, stepMetres) : 1);
+    path.push_back(a);
+    for (std::size_t k = 1; k < n; ++k) {
+      glm::dvec2 p(0.0);
+      line.Position(length * static_cast<double>(k) / static_cast<double>(n), p.y, p.x);
+      path.push_back(p);
+    }
+  }
+  if (!pairs.empty()) path.push_back(closed ? lonLat.front() : lonLat.back());
+  return path;
 }
 
 }  // namespace gis::scene

@@ -9,6 +9,8 @@
 //   metre above the ground with every number finite;
 // - projected-only tools say they are not on the globe yet; GL reports no error (the viewer's
 //   scripted run exits 1 on one);
+// - the measure tool measures the ground under its pixels along geodesics (scripted and by M and
+//   a click) and draws its path;
 // - the lasso (L and mouse drags) selects the box: the state lists it, the highlight is blended
 //   over the ground inside the lassos and nowhere outside; Shift adds (Or), Ctrl subtracts, and a
 //   real Ctrl+Z (xdotool) undoes the subtraction;
@@ -37,6 +39,7 @@
 #include "gfx/image_io.hpp"
 #include "globe/ellipsoid.hpp"
 #include "program_output.hpp"
+#include "scene/measure.hpp"
 
 namespace gis::test {
 namespace {
@@ -253,7 +256,7 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
            {{"action", "key"}, {"key", "n"}},
            {{"action", "save_state"}, {"path", "s4.json"}},
            {{"action", "key"}, {"key", "f"}},
-           {{"action", "key"}, {"key", "m"}},
+           {{"action", "exaggeration"}, {"value", 2}},
            {{"globe_camera", {{"lon", 179.5}, {"lat", -15.2}, {"distance", 3000}, {"heading", 30}, {"pitch", 60}}}},
            {{"action", "save_state"}, {"path", "s5.json"}},
            {{"action", "scroll"}, {"at", {240.5, 180.5}}, {"amount", 45}},
@@ -262,7 +265,16 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
            {{"action", "screenshot"}, {"path", "low.png"}, {"ui", false}},
            {{"action", "key"}, {"key", "h"}},
            {{"action", "save_state"}, {"path", "s7.json"}},
-           {{"action", "screenshot"}, {"path", "window_after.png"}, {"ui", true}}})));
+           {{"action", "screenshot"}, {"path", "window_after.png"}, {"ui", true}},
+           // The measure tool: a scripted ring, then M and a click add a point, Esc clears them.
+           {{"action", "measure"}, {"points", {at(in), at(out), at(zoomAt)}}, {"closed", true}},
+           {{"action", "save_state"}, {"path", "s8.json"}},
+           {{"action", "screenshot"}, {"path", "measured.png"}, {"ui", true}},
+           {{"action", "key"}, {"key", "m"}},
+           {{"action", "click"}, {"at", at(grabFrom)}},
+           {{"action", "save_state"}, {"path", "s9.json"}},
+           {{"action", "key"}, {"key", "escape"}},
+           {{"action", "save_state"}, {"path", "s10.json"}}})));
 
   // Identify: the feature and its attributes inside, the pixel's lon/lat; nothing outside.
   const json idIn = readJson("identify_in.json");
@@ -344,6 +356,60 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
   EXPECT_NEAR(s7["globe"]["distance"].get<double>(), homeGlobe["distance"].get<double>(),
               1e-6 * homeGlobe["distance"].get<double>());
   EXPECT_NEAR(s7["globe"]["heading"].get<double>(), 0.0, 1e-9);
+
+  // The measure tool on the globe, from the home view the first run's depth shows: its points are
+  // the ground under the pixels (unprojected here from that depth), its lengths and area those of
+  // scene::measureOnGlobe on them (measure_test checks that against closed forms), to 1e-5.
+  const glm::dmat4 homeViewProj = matrix(s7["globe"]["camera"]["view_proj_ecef"]);
+  for (int k = 0; k < 16; ++k) {
+    const double a = homeViewProj[k / 4][k % 4], b = matrix(camera["view_proj_ecef"])[k / 4][k % 4];
+    ASSERT_NEAR(a, b, 1e-9 * std::max(1.0, std::abs(b))) << "home is not the first run's view";
+  }
+  std::vector<glm::dvec2> measuredLonLat;
+  for (const glm::dvec2& p : {in, out, zoomAt}) {
+    const int x = static_cast<int>(p.x), y = static_cast<int>(p.y);
+    const float d = depth.pixels[static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x)];
+    ASSERT_GT(d, 0.0F) << "no ground at " << x << ", " << y;
+    const globe::Geodetic g = globe::toGeodetic(unproject(inverse, x, y, d));
+    measuredLonLat.emplace_back(g.lon, g.lat);
+  }
+  const Result<scene::Measurement> expected = scene::measureOnGlobe(measuredLonLat, true, {});
+  ASSERT_TRUE(expected.ok());
+  const json s8 = readJson("s8.json");
+  const json& m = s8["measure"];
+  ASSERT_EQ(m["points"], 3) << s8["messages"].dump(1);
+  ASSERT_TRUE(m.contains("geodesic_area_m2")) << m.dump(1);
+  std::printf("measure: perimeter %.1f m (expected %.1f), area %.4g m² (expected %.4g), surface %.1f m\n",
+              m["geodesic_m"].get<double>(), expected->geodesicMetres, m["geodesic_area_m2"].get<double>(),
+              *expected->geodesicAreaM2, m["surface_m"].get<double>());
+  EXPECT_NEAR(m["geodesic_m"].get<double>(), expected->geodesicMetres, 1e-5 * expected->geodesicMetres);
+  EXPECT_NEAR(m["geodesic_area_m2"].get<double>(), *expected->geodesicAreaM2, 1e-5 * *expected->geodesicAreaM2);
+  // Over relief of at most 1,000 m per 1° post: longer than the geodesic, and by less than 1 %.
+  EXPECT_TRUE(m["surface_complete"].get<bool>());
+  EXPECT_GT(m["surface_m"].get<double>(), m["geodesic_m"].get<double>());
+  EXPECT_LT(m["surface_m"].get<double>(), 1.01 * m["geodesic_m"].get<double>());
+  EXPECT_GE(m["surface_area_m2"].get<double>(), m["geodesic_area_m2"].get<double>());
+  // The path is drawn (its yellow), where the same view before had none of it.
+  const auto yellow = [](const gfx::Image8& image) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i + 2 < image.pixels.size(); i += 3) {
+      n += std::abs(image.pixels[i] - 255) <= 3 && std::abs(image.pixels[i + 1] - 235) <= 3 &&
+                   std::abs(image.pixels[i + 2] - 60) <= 3
+               ? 1U
+               : 0U;
+    }
+    return n;
+  };
+  const std::size_t yellowBefore = yellow(*gfx::readImage8((dir_ / "window_after.png").string()));
+  const std::size_t yellowAfter = yellow(*gfx::readImage8((dir_ / "measured.png").string()));
+  std::printf("measure: %zu path pixels drawn (%zu before)\n", yellowAfter, yellowBefore);
+  EXPECT_GT(yellowAfter, yellowBefore + 200U);
+  // M and a click add a point; Esc clears them.
+  const json s9 = readJson("s9.json"), s10 = readJson("s10.json");
+  EXPECT_TRUE(s9["measure_tool"].get<bool>());
+  EXPECT_EQ(s9["measure"]["points"], 4);
+  EXPECT_GT(s9["measure"]["geodesic_m"].get<double>(), m["geodesic_m"].get<double>());
+  EXPECT_EQ(s10["measure"]["points"], 0);
 }
 
 /// A screen polygon (pixels, y down).

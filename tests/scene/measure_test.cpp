@@ -388,5 +388,98 @@ TEST(Measure, EllipsoidFollowsTheFrameDatum) {
   EXPECT_EQ(onGrs80.ellipsoid.flattening, grs80.flattening);
 }
 
+// --- On the globe: points in lon/lat, segments geodesics, no CRS. ---
+
+Measurement onGlobe(const std::vector<glm::dvec2>& lonLat, bool closed, const scene::GeodeticHeight& height,
+                    MeasureOptions options = {}) {
+  Result<Measurement> r = scene::measureOnGlobe(lonLat, closed, height, options);
+  EXPECT_TRUE(r.ok());
+  return r.ok() ? *r.value : Measurement{};
+}
+
+TEST(MeasureOnGlobe, AcrossTheAntimeridianTheShortWay) {
+  // 179.5° E to 179.5° W on the equator: one degree of the equator, a·π/180 = 111,319.491 m, not
+  // the 359° the other way. Tolerance 1 mm. The chord is 2a·sin(0.5°).
+  const Measurement m = onGlobe({{179.5, 0.0}, {-179.5, 0.0}}, false, {});
+  EXPECT_NEAR(m.geodesicMetres, kA * kDeg, 1e-3);
+  EXPECT_NEAR(m.planarMetres, 2.0 * kA * std::sin(0.5 * kDeg), 1e-3);
+  EXPECT_FALSE(m.surfaceComplete) << "no heights";
+  // Along a meridian, over 10°: Simpson on the meridian radius of curvature.
+  const Measurement meridian = onGlobe({{-180.0, 0.0}, {-180.0, 10.0}}, false, {});
+  EXPECT_NEAR(meridian.geodesicMetres, meridianArc(10.0), 1e-3);
+  // What the tool draws: the short way too, in 1 km pieces (112 of them), every point within
+  // 0.5° of the antimeridian and on the equator.
+  const std::vector<glm::dvec2> path =
+      scene::geodesicPath(std::vector<glm::dvec2>{{179.5, 0.0}, {-179.5, 0.0}}, false, 1000.0);
+  ASSERT_EQ(path.size(), 113u);
+  for (const glm::dvec2& p : path) {
+    EXPECT_GE(std::abs(p.x), 179.5 - 1e-9);
+    EXPECT_NEAR(p.y, 0.0, 1e-9);
+  }
+  EXPECT_EQ(path.back(), glm::dvec2(-179.5, 0.0));
+}
+
+TEST(MeasureOnGlobe, ARingRoundThePoleEnclosesThePole) {
+  // 3,600 points along 80° N (0.1° apart; each geodesic chord bows ~0.4 m poleward, ~2 km² over
+  // the ring, 5e-7 of it): the polar cap above 80° N (closed form, 3.9 M km²), tolerance 1e-5
+  // relative; the cap, not the rest of the earth.
+  std::vector<glm::dvec2> ring;
+  for (int i = 0; i < 3600; ++i) ring.emplace_back(-180.0 + 0.1 * i, 80.0);
+  const auto flat = [](double, double) { return 25.0; };
+  const Measurement m = onGlobe(ring, true, flat);
+  ASSERT_TRUE(m.geodesicAreaM2.has_value());
+  const double cap = graticuleArea(80.0, 90.0, 360.0);
+  EXPECT_NEAR(2.0 * graticuleArea(0.0, 90.0, 360.0) / 1e6, 510065621.7, 0.2) << "the earth's area";
+  EXPECT_LT(relative(*m.geodesicAreaM2, cap), 1e-5) << *m.geodesicAreaM2 << " vs " << cap;
+  // The parallel's length, N(80°)·cos 80°·2π, within the chords' shortening (1e-6).
+  const double e2 = kF * (2.0 - kF);
+  const double s80 = std::sin(80.0 * kDeg);
+  const double parallel = kA / std::sqrt(1.0 - e2 * s80 * s80) * std::cos(80.0 * kDeg) * 2.0 * kPi;
+  EXPECT_LT(relative(m.geodesicMetres, parallel), 1e-6);
+  // Constant height: the surface is the geodesic, length and area exactly.
+  EXPECT_TRUE(m.surfaceComplete);
+  EXPECT_DOUBLE_EQ(m.surfaceMetres, m.geodesicMetres);
+  ASSERT_TRUE(m.surfaceAreaM2.has_value());
+  EXPECT_LT(relative(*m.surfaceAreaM2, *m.geodesicAreaM2), 1e-12);
+  // The same ring the other way round: the same area.
+  std::reverse(ring.begin(), ring.end());
+  const Measurement reversed = onGlobe(ring, true, flat);
+  EXPECT_LT(relative(*reversed.geodesicAreaM2, cap), 1e-5);
+}
+
+TEST(MeasureOnGlobe, ASlopeNorthwardsScalesTheSurface) {
+  // Terrain rising northwards at a grade g per metre of meridian arc, on 0.1° about (10° E, 0°):
+  // the meridian's surface length is sqrt(1 + g²) times its geodesic, a parallel's is its
+  // geodesic (no rise east-west), and the ring's surface area is sqrt(1 + g²) times its area.
+  // The grade is per metre of arc exactly only along the meridian; across the ring it varies by the
+  // meridian radius's change over 0.1° (1e-7) and the azimuthal map's scale (1e-6): tolerance 1e-5.
+  const double grade = 0.3;
+  const auto slope = [grade](double, double lat) { return 100.0 + grade * meridianArc(lat); };
+  MeasureOptions options;
+  options.sampleStepMetres = 50.0;
+  const Measurement north = onGlobe({{10.0, 0.0}, {10.0, 0.1}}, false, slope, options);
+  EXPECT_LT(relative(north.surfaceMetres, north.geodesicMetres * std::sqrt(1.0 + grade * grade)), 1e-7);
+  EXPECT_GT(north.samples, 200u) << "sampled every 50 m along 11 km";
+  const Measurement east = onGlobe({{9.95, 0.05}, {10.05, 0.05}}, false, slope, options);
+  EXPECT_LT(relative(east.surfaceMetres, east.geodesicMetres), 1e-7);
+  const Measurement ring = onGlobe({{9.95, 0.0}, {10.05, 0.0}, {10.05, 0.1}, {9.95, 0.1}}, true, slope, options);
+  ASSERT_TRUE(ring.surfaceAreaM2.has_value());
+  EXPECT_LT(relative(*ring.surfaceAreaM2, *ring.geodesicAreaM2 * std::sqrt(1.0 + grade * grade)), 1e-5);
+  // The plane: the azimuthal equidistant map about the centre keeps areas to 1e-6 at 6 km.
+  EXPECT_LT(relative(*ring.planarAreaM2, *ring.geodesicAreaM2), 1e-5);
+}
+
+TEST(MeasureOnGlobe, BadPointsAreNamed) {
+  Result<Measurement> r = scene::measureOnGlobe(std::vector<glm::dvec2>{{0.0, 0.0}, {10.0, 95.0}}, false, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.diagnostics.items().front().feature, "point 1");
+  r = scene::measureOnGlobe(std::vector<glm::dvec2>{{kNaN, 0.0}, {10.0, 5.0}}, false, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.diagnostics.items().front().feature, "point 0");
+  MeasureOptions zero;
+  zero.sampleStepMetres = 0.0;
+  EXPECT_FALSE(scene::measureOnGlobe(std::vector<glm::dvec2>{{0.0, 0.0}, {1.0, 0.0}}, false, {}, zero).ok());
+}
+
 }  // namespace
 }  // namespace gis::test

@@ -102,4 +102,37 @@ struct Measurement {
 Result<Measurement> measure(const geo::SceneFrame& frame, std::span<const glm::dvec2> frameXY, bool closed,
                             const TerrainHeight& height, const MeasureOptions& options = {});
 
+/// True terrain height in metres above the ellipsoid at (lon, lat), degrees; NaN where there is
+/// no terrain.
+using GeodeticHeight = std::function<double(double lonDeg, double latDeg)>;
+
+/// Measures the polyline (or, with `closed`, the ring) through `lonLat` (degrees, x = longitude)
+/// on the ellipsoid of `options` (WGS 84 unset): the globe's measure tool. Segments are geodesics
+/// (GeographicLib), so a segment across ±180° is the short way over it and a ring round a pole
+/// encloses the pole (PolygonArea).
+///
+/// Surface length: each geodesic is sampled at equal steps of at most `sampleStepMetres` along
+/// it (GeodesicLine), each step counting sqrt(d² + Δh²), d the step's geodesic length: flat
+/// ground gives exactly the geodesic length.
+///
+/// Surface area: the ring mapped to the azimuthal equidistant plane about its centre (the
+/// normalised mean of its points' unit vectors), where the same grid of slope factors as in
+/// `measure` runs, heights read back through the inverse map; the surface area is the geodesic
+/// area times that mean slope factor.
+///
+/// Planar values have no CRS on the globe: `planarMetres` is the sum of the straight chords
+/// between the points on the ellipsoid (height 0), `planarAreaM2` the ring's area in that
+/// azimuthal equidistant plane.
+///
+/// Fails, with a message naming the point, if a longitude or latitude is not finite or a
+/// latitude is outside [−90°, 90°], or if `sampleStepMetres` is not positive and finite.
+Result<Measurement> measureOnGlobe(std::span<const glm::dvec2> lonLat, bool closed, const GeodeticHeight& height,
+                                   const MeasureOptions& options = {});
+
+/// Points along the geodesics through `lonLat` (degrees, x = longitude; closed: back to the
+/// first), each segment cut into equal pieces of at most `stepMetres` (at most `maxPiecesPerSegment`
+/// of them): what the measure tool draws on the globe. Longitudes stay in [−180°, 180°].
+std::vector<glm::dvec2> geodesicPath(std::span<const glm::dvec2> lonLat, bool closed, double stepMetres,
+                                     std::size_t maxPiecesPerSegment = 4096);
+
 }  // namespace gis::scene
