@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <utility>
 
 #include "cgal_globe.hpp"
@@ -171,21 +172,33 @@ std::vector<std::pair<Pt, Pt>> oddSegments(const std::vector<Ring>& rings, const
   return out;
 }
 
+/// Whether segment a → b runs along the cell's south or north line (a parallel, not a pole).
+bool onCellParallel(const Pt& a, const Pt& b, const LonLatRect& cell) {
+  return a.y == b.y && (a.y == cell.south || a.y == cell.north) && !detail::isPole(a.y);
+}
+
+/// The longitudes of the tile grid's posts strictly between lo and hi, increasing.
+std::vector<double> postsBetween(double lo, double hi, double postStep) {
+  std::vector<double> xs;
+  for (double x = (std::floor((lo + 180.0) / postStep) + 1.0) * postStep - 180.0; x < hi; x += postStep) {
+    if (x > lo && (xs.empty() || x > xs.back())) xs.push_back(x);
+  }
+  return xs;
+}
+
 /// Points along segments on the cell's south and north lines every post of the tile's grid:
 /// their walls (chords) then stray from the parallel by parallelStray at most.
 std::vector<std::pair<Pt, Pt>> splitParallels(const std::vector<std::pair<Pt, Pt>>& segments, const LonLatRect& cell,
                                               double postStep) {
   std::vector<std::pair<Pt, Pt>> out;
   for (const auto& [a, b] : segments) {
-    const bool parallel = a.y == b.y && (a.y == cell.south || a.y == cell.north) && !detail::isPole(a.y);
-    if (!parallel) {
+    if (!onCellParallel(a, b, cell)) {
       out.emplace_back(a, b);
       continue;
     }
     const double lo = std::min(a.x, b.x), hi = std::max(a.x, b.x);
     double prev = lo;
-    for (double x = (std::floor((lo + 180.0) / postStep) + 1.0) * postStep - 180.0; x < hi; x += postStep) {
-      if (x <= prev) continue;
+    for (const double x : postsBetween(lo, hi, postStep)) {
       out.emplace_back(Pt(prev, a.y), Pt(x, a.y));
       prev = x;
     }
@@ -194,57 +207,223 @@ std::vector<std::pair<Pt, Pt>> splitParallels(const std::vector<std::pair<Pt, Pt
   return out;
 }
 
-/// Appends the piece of `rings` (clipped to `cell`, widened) to `out`.
-void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
-              const GeoGrid& heights, double postStep, int level) {
-  std::vector<std::pair<Pt, Pt>> segments = splitParallels(oddSegments(rings, widened), widened, postStep);
-  if (segments.empty()) return;
-  // The cap is triangulated in the cell's gnomonic projection (the central one from the earth's
-  // centre onto the plane at the cell's middle): there a straight line is the image of every
-  // chord, so the cap's flat triangles, seen from the centre, tile the cell without folding
-  // (in longitude and latitude, long thin triangles would fold over each other).
-  const double midLon = 0.5 * (cell.west + cell.east), midLat = 0.5 * (cell.south + cell.north);
-  const glm::dvec3 axis = glm::normalize(toEcef(midLon, midLat, 0.0));
-  const glm::dmat3 enu = enuBasis(midLon, midLat);
-  const glm::dvec3 e1 = glm::normalize(enu[0] - glm::dot(enu[0], axis) * axis);
-  const glm::dvec3 e2 = glm::cross(axis, e1);
-  const auto project = [&](const Pt& lonLat) {
+/// A ring with the points splitParallels adds on the cell's lines, in the ring's order.
+Ring withParallelPosts(const Ring& ring, const LonLatRect& cell, double postStep) {
+  Ring out;
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    const Pt& a = ring[i];
+    const Pt& b = ring[(i + 1) % ring.size()];
+    out.push_back(a);
+    if (a == b || !onCellParallel(a, b, cell)) continue;
+    std::vector<double> xs = postsBetween(std::min(a.x, b.x), std::max(a.x, b.x), postStep);
+    if (b.x < a.x) std::reverse(xs.begin(), xs.end());
+    for (const double x : xs) out.emplace_back(x, a.y);
+  }
+  return out;
+}
+
+/// Every segment of the rings once (a segment two rings share, or one ring runs twice, once):
+/// the constraints of a union.
+std::vector<std::pair<Pt, Pt>> allSegments(const std::vector<Ring>& rings) {
+  std::set<std::pair<std::pair<double, double>, std::pair<double, double>>> seen;
+  std::vector<std::pair<Pt, Pt>> out;
+  for (const Ring& ring : rings) {
+    for (std::size_t i = 0; i < ring.size(); ++i) {
+      Pt a = ring[i], b = ring[(i + 1) % ring.size()];
+      if (a == b) continue;
+      if (std::make_pair(b.x, b.y) < std::make_pair(a.x, a.y)) std::swap(a, b);
+      if (seen.insert({{a.x, a.y}, {b.x, b.y}}).second) out.emplace_back(a, b);
+    }
+  }
+  return out;
+}
+
+/// Whether a point lies in any of a set of simple rings (plane coordinates): the union's
+/// inside, through a grid of buckets over the rings' boxes.
+class RingUnion {
+ public:
+  explicit RingUnion(std::vector<std::vector<glm::dvec2>> rings) : rings_(std::move(rings)) {
+    lo_ = glm::dvec2(std::numeric_limits<double>::max());
+    hi_ = glm::dvec2(-std::numeric_limits<double>::max());
+    for (const auto& r : rings_) {
+      glm::dvec2 a(std::numeric_limits<double>::max()), b(-std::numeric_limits<double>::max());
+      for (const glm::dvec2& p : r) {
+        a = glm::min(a, p);
+        b = glm::max(b, p);
+      }
+      boxes_.emplace_back(a, b);
+      lo_ = glm::min(lo_, a);
+      hi_ = glm::max(hi_, b);
+    }
+    side_ = std::clamp(static_cast<int>(std::sqrt(static_cast<double>(rings_.size())) * 2.0), 1, 64);
+    buckets_.assign(static_cast<std::size_t>(side_) * static_cast<std::size_t>(side_), {});
+    for (std::size_t k = 0; k < rings_.size(); ++k) {
+      const glm::ivec2 a = cellOf(boxes_[k].first), b = cellOf(boxes_[k].second);
+      for (int y = a.y; y <= b.y; ++y) {
+        for (int x = a.x; x <= b.x; ++x) buckets_[static_cast<std::size_t>(y * side_ + x)].push_back(k);
+      }
+    }
+  }
+
+  [[nodiscard]] bool contains(const glm::dvec2& p) const {
+    if (rings_.empty() || p.x < lo_.x || p.y < lo_.y || p.x > hi_.x || p.y > hi_.y) return false;
+    const glm::ivec2 c = cellOf(p);
+    for (const std::size_t k : buckets_[static_cast<std::size_t>(c.y * side_ + c.x)]) {
+      const auto& [a, b] = boxes_[k];
+      if (p.x < a.x || p.y < a.y || p.x > b.x || p.y > b.y) continue;
+      const std::vector<glm::dvec2>& r = rings_[k];
+      bool in = false;
+      for (std::size_t i = 0, j = r.size() - 1; i < r.size(); j = i++) {
+        if ((r[i].y > p.y) != (r[j].y > p.y) && p.x < r[j].x + (r[i].x - r[j].x) * (p.y - r[j].y) / (r[i].y - r[j].y)) {
+          in = !in;
+        }
+      }
+      if (in) return true;
+    }
+    return false;
+  }
+
+ private:
+  [[nodiscard]] glm::ivec2 cellOf(const glm::dvec2& p) const {
+    const glm::dvec2 size = glm::max(hi_ - lo_, glm::dvec2(1e-300));
+    const glm::dvec2 t = (p - lo_) / size * static_cast<double>(side_);
+    return {std::clamp(static_cast<int>(t.x), 0, side_ - 1), std::clamp(static_cast<int>(t.y), 0, side_ - 1)};
+  }
+  std::vector<std::vector<glm::dvec2>> rings_;
+  std::vector<std::pair<glm::dvec2, glm::dvec2>> boxes_;
+  glm::dvec2 lo_{0.0}, hi_{0.0};
+  int side_ = 1;
+  std::vector<std::vector<std::size_t>> buckets_;
+};
+
+/// How a piece's rings make its inside: even-odd (an area, its holes included), or the union of
+/// simple rings (a line's shapes, which overlap: bands, discs and sectors).
+enum class Fill { EvenOdd, Union };
+
+/// A cell's gnomonic projection (the central one from the earth's centre onto the plane at the
+/// cell's middle): there a straight line is the image of every chord, so a cap's flat triangles,
+/// seen from the centre, tile the cell without folding (in longitude and latitude, long thin
+/// triangles would fold over each other).
+class Gnomonic {
+ public:
+  explicit Gnomonic(const LonLatRect& cell)
+      : midLon_(0.5 * (cell.west + cell.east)),
+        axis_(glm::normalize(toEcef(midLon_, 0.5 * (cell.south + cell.north), 0.0))) {
+    const glm::dmat3 enu = enuBasis(midLon_, 0.5 * (cell.south + cell.north));
+    e1_ = glm::normalize(enu[0] - glm::dot(enu[0], axis_) * axis_);
+    e2_ = glm::cross(axis_, e1_);
+  }
+  [[nodiscard]] Cdt::Point project(const Pt& lonLat) const {
     const glm::dvec3 p = toEcef(lonLat.x, lonLat.y, 0.0);
-    const glm::dvec3 d = p / glm::dot(p, axis);
-    return Cdt::Point(glm::dot(d, e1), glm::dot(d, e2));
-  };
-  const auto unproject = [&](const Cdt::Point& q) {
-    const glm::dvec3 d = axis + e1 * q.x() + e2 * q.y();
+    const glm::dvec3 d = p / glm::dot(p, axis_);
+    return {glm::dot(d, e1_), glm::dot(d, e2_)};
+  }
+  [[nodiscard]] Pt unproject(const Cdt::Point& q) const {
+    const glm::dvec3 d = axis_ + e1_ * q.x() + e2_ * q.y();
     const double t =
         1.0 / std::sqrt((d.x * d.x + d.y * d.y) / (kSemiMajor * kSemiMajor) + d.z * d.z / (kSemiMinor * kSemiMinor));
     const Geodetic g = toGeodetic(d * t);
-    return Pt(g.lon + 360.0 * std::round((midLon - g.lon) / 360.0), g.lat);
-  };
-  Cdt cdt;
-  const auto insert = [&](const Pt& lonLat) {
-    const Cdt::Vertex_handle v = cdt.insert(project(lonLat));
+    return {g.lon + 360.0 * std::round((midLon_ - g.lon) / 360.0), g.lat};
+  }
+
+ private:
+  double midLon_;
+  glm::dvec3 axis_, e1_{0.0}, e2_{0.0};
+};
+
+/// A point of a triangulation: where it is in the projection, and its longitude and latitude.
+struct Node {
+  Cdt::Point at;
+  Pt lonLat;
+};
+
+/// The constrained triangulation of `segments` and `points` in the projection, every vertex
+/// with its longitude and latitude (those given, or the projection's of a crossing).
+void triangulate(Cdt& cdt, const Gnomonic& g, const std::vector<std::pair<Node, Node>>& segments,
+                 const std::vector<Pt>& points) {
+  const auto insert = [&](const Node& n) {
+    const Cdt::Vertex_handle v = cdt.insert(n.at);
     if (!v->info().placed) {
       v->info().placed = true;
-      v->info().lonLat = lonLat;
+      v->info().lonLat = n.lonLat;
     }
     return v;
   };
   for (const auto& [a, b] : segments) {
-    if (a == b) continue;
+    if (a.at == b.at) continue;
     const Cdt::Vertex_handle va = insert(a), vb = insert(b);
     if (va != vb) cdt.insert_constraint(va, vb);
   }
-  // Points inside the cap every few posts: no cap triangle is longer than a few posts.
-  const double step = postStep * (level < 4 ? 1 : kCapPointStep);
-  for (double y = cell.south + step; y < cell.north - 0.5 * step; y += step) {
-    for (double x = cell.west + step; x < cell.east - 0.5 * step; x += step) insert(Pt(x, y));
-  }
+  for (const Pt& p : points) insert({g.project(p), p});
   for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
     if (!v->info().placed) {
       v->info().placed = true;
-      v->info().lonLat = unproject(v->point());
+      v->info().lonLat = g.unproject(v->point());
     }
   }
+}
+
+/// The boundary of the union of simple rings, as segments (`segments`: theirs, split at the
+/// posts on the cell's lines). The rings' segments are triangulated, and a face is inside when
+/// its centroid is in one of the rings (taken with the same points on the cell's lines): the
+/// constraints part every ring's inside from its outside, so a whole face is in or out of each.
+/// The edges between inside and outside faces are the boundary; overlaps inside leave none.
+/// Its points are the triangulation's own (a crossing projected back from lon/lat could land on
+/// a point beside it and close the boundary there).
+std::vector<std::pair<Node, Node>> unionBoundary(const std::vector<std::pair<Node, Node>>& segments,
+                                                 const std::vector<Ring>& rings, const LonLatRect& widened,
+                                                 double postStep, const Gnomonic& g) {
+  Cdt cdt;
+  triangulate(cdt, g, segments, {});
+  std::vector<std::vector<glm::dvec2>> plane;
+  for (const Ring& ring : rings) {
+    std::vector<glm::dvec2> r;
+    for (const Pt& p : withParallelPosts(ring, widened, postStep)) {
+      const Cdt::Point q = g.project(p);
+      r.emplace_back(q.x(), q.y());
+    }
+    if (r.size() >= 3) plane.push_back(std::move(r));
+  }
+  const RingUnion inUnion(std::move(plane));
+  for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) {
+    glm::dvec2 c(0.0);
+    if (!cdt.is_infinite(f)) {
+      for (int i = 0; i < 3; ++i) c += glm::dvec2(f->vertex(i)->point().x(), f->vertex(i)->point().y()) / 3.0;
+    }
+    f->info().parity = !cdt.is_infinite(f) && inUnion.contains(c) ? 1 : 0;
+  }
+  std::vector<std::pair<Node, Node>> boundary;
+  const auto node = [](const Cdt::Vertex_handle& v) { return Node{v->point(), v->info().lonLat}; };
+  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
+    if (f->info().parity != 1) continue;
+    for (int i = 0; i < 3; ++i) {
+      if (f->neighbor(i)->info().parity == 1) continue;
+      boundary.emplace_back(node(f->vertex((i + 1) % 3)), node(f->vertex((i + 2) % 3)));
+    }
+  }
+  return boundary;
+}
+
+/// Appends the piece of `rings` (clipped to `cell`, widened) to `out`.
+void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
+              const GeoGrid& heights, double postStep, int level, Fill fill) {
+  const Gnomonic gnomonic(cell);
+  std::vector<std::pair<Node, Node>> segments;
+  for (const auto& [a, b] :
+       splitParallels(fill == Fill::Union ? allSegments(rings) : oddSegments(rings, widened), widened, postStep)) {
+    segments.push_back({{gnomonic.project(a), a}, {gnomonic.project(b), b}});
+  }
+  // A union is capped as the area its boundary encloses: no triangle for the overlaps inside.
+  if (fill == Fill::Union && !segments.empty()) segments = unionBoundary(segments, rings, widened, postStep, gnomonic);
+  if (segments.empty()) return;
+  // Points inside the cap every few posts: no cap triangle is longer than a few posts.
+  std::vector<Pt> capPoints;
+  const double step = postStep * (level < 4 ? 1 : kCapPointStep);
+  for (double y = cell.south + step; y < cell.north - 0.5 * step; y += step) {
+    for (double x = cell.west + step; x < cell.east - 0.5 * step; x += step) capPoints.emplace_back(x, y);
+  }
+  Cdt cdt;
+  triangulate(cdt, gnomonic, segments, capPoints);
   // Even-odd: a face is inside when an odd number of constraints part it from the outside.
   for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info().parity = -1;
   std::vector<Cdt::Face_handle> queue{cdt.infinite_face()};
@@ -267,7 +446,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   LonLatRect box{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
                  -std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
   for (const auto& [a, b] : segments) {
-    for (const Pt& p : {a, b}) {
+    for (const Pt& p : {a.lonLat, b.lonLat}) {
       box.west = std::min(box.west, p.x);
       box.east = std::max(box.east, p.x);
       box.south = std::min(box.south, p.y);
@@ -352,7 +531,10 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   for (int k = 0; k <= kCellsPerSide; ++k)
     latMargin = std::max(latMargin, parallelStray(rect.south + k * cellSize, postStep));
   latMargin = 2.0 * latMargin + lonMargin;
-  const auto addPolygon = [&](const GlobePolygon& polygon) {
+  // A line's shapes (bands, discs, sectors) overlap: per cell, those of one colour are united
+  // into one piece, which leaves out the walls and caps inside the union.
+  std::map<std::pair<std::uint32_t, int>, std::vector<Ring>> lineCells;  // (colour, cell) → rings
+  const auto addPolygon = [&](const GlobePolygon& polygon, bool line) {
     for (int turn = -1; turn <= 1; ++turn) {
       const double shift = 360.0 * turn;
       const LonLatRect tileRect{rect.west + shift - lonMargin, rect.south - latMargin, rect.east + shift + lonMargin,
@@ -387,8 +569,13 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
             inCell.push_back(std::move(clipped));
           }
           if (inCell.empty()) continue;
+          if (line) {
+            std::vector<Ring>& united = lineCells[{polygon.group, cy * kCellsPerSide + cx}];
+            for (Ring& r : inCell) united.push_back(std::move(r));
+            continue;
+          }
           const std::size_t before = out.pieces.size();
-          addPiece(out, inCell, cell, widened, heights, postStep, key.level);
+          addPiece(out, inCell, cell, widened, heights, postStep, key.level, Fill::EvenOdd);
           for (std::size_t k = before; k < out.pieces.size(); ++k) out.pieces[k].group = polygon.group;
         }
       }
@@ -396,11 +583,22 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   };
   const std::vector<GlobePolygon>& polygons = layer.polygons();
   const GlobeLayer::LineShapes* lines = layer.lineShapesAt(key.level);
-  const std::size_t own = lines != nullptr ? layer.areaCount() : polygons.size();
-  for (std::size_t k = 0; k < own; ++k) addPolygon(polygons[k]);
+  for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], false);
   if (lines != nullptr) {
-    for (const std::uint32_t k : lines->full) addPolygon(polygons[k]);
-    for (const GlobePolygon& polygon : lines->generalised) addPolygon(polygon);
+    for (const std::uint32_t k : lines->full) addPolygon(polygons[k], true);
+    for (const GlobePolygon& polygon : lines->generalised) addPolygon(polygon, true);
+  } else {
+    for (std::size_t k = layer.areaCount(); k < polygons.size(); ++k) addPolygon(polygons[k], true);
+  }
+  for (const auto& [groupCell, rings] : lineCells) {
+    const int cx = groupCell.second % kCellsPerSide, cy = groupCell.second / kCellsPerSide;
+    const LonLatRect cell{rect.west + cx * cellSize, rect.south + cy * cellSize, rect.west + (cx + 1) * cellSize,
+                          rect.south + (cy + 1) * cellSize};
+    const LonLatRect widened{cell.west - lonMargin, cell.south - latMargin, cell.east + lonMargin,
+                             cell.north + latMargin};
+    const std::size_t before = out.pieces.size();
+    addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union);
+    for (std::size_t k = before; k < out.pieces.size(); ++k) out.pieces[k].group = groupCell.first;
   }
   // Each colour's pieces together, and their indices too (one draw a colour).
   if (std::any_of(out.pieces.begin(), out.pieces.end(), [](const TilePieces::Piece& p) { return p.group != 0; })) {
