@@ -101,12 +101,14 @@ int drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, glo
 
 int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, const gfx::RenderTarget& target,
                   const scene::LoadedGlobeScene& scene, const globe::GlobeView& view, const std::vector<float>& depth,
-                  const std::filesystem::path& out, json& stats) {
+                  const std::filesystem::path& out, json& stats, Diagnostics& diagnostics) {
   Result<scene::SelectionRequest> lassos = scene::loadGlobeLassoFile(request.lasso, view, *scene.heights);
   report(lassos.diagnostics);
+  diagnostics.append(lassos.diagnostics);
   if (!lassos) return 1;
   Result<scene::SelectionPixels> drawn = scene::drawSelection(cache, target, *lassos, globe::overlayViewOf(view));
   report(drawn.diagnostics);
+  diagnostics.append(drawn.diagnostics);
   if (!drawn) return 1;
   const std::vector<std::uint8_t> twin = globe::selectionMask(depth, view, lassos->steps);
   // The twin's edge band: where its answer changes within a pixel's neighbours.
@@ -150,6 +152,7 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
   // The GeoJSON exports, as a projected scene's: the combined RFC 7946 file and one per layer.
   const Diagnostics exported = scene::exportGlobeSelection(scene, chosen, out / "selected_features.json", out);
   report(exported);
+  diagnostics.append(exported);
   const bool written = !exported.hasErrors();
   const overlay::SelectionFrameStats& s = drawn->stats;
   stats["selection"] = {{"steps", lassos->steps.size()},
@@ -174,7 +177,8 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
 
 int drawGlobeAnalyses(const GlobeAnalysisRequest& request, gfx::StateCache& cache, const gfx::RenderTarget& target,
                       globe::GlobeRenderer& renderer, const scene::LoadedGlobeScene& scene,
-                      const globe::GlobeView& view, const std::filesystem::path& out, json& stats) {
+                      const globe::GlobeView& view, const std::filesystem::path& out, json& stats,
+                      Diagnostics& diagnostics) {
   if (request.overlap.empty() && request.lasso.empty() && !request.openVolumes) return 0;
   const std::vector<float> depth = gfx::readDepth(target);
   if (!request.overlap.empty()) {
@@ -185,7 +189,7 @@ int drawGlobeAnalyses(const GlobeAnalysisRequest& request, gfx::StateCache& cach
     if (const int status = drawOpenVolumes(cache, target, renderer, scene, view, out, stats); status != 0)
       return status;
   }
-  if (!request.lasso.empty()) return drawSelection(request, cache, target, scene, view, depth, out, stats);
+  if (!request.lasso.empty()) return drawSelection(request, cache, target, scene, view, depth, out, stats, diagnostics);
   return 0;
 }
 

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "core/diagnostics.hpp"
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
 #include "globe/globe_renderer.hpp"
@@ -24,10 +25,12 @@ struct GlobeAnalysisRequest {
 /// Draws what `request` asks for over the frame in `target` (drawn from `view`): the overlap
 /// (overlap.png, stats "overlap"), the open volumes (open_volumes.png, stats "open_volumes") and
 /// then the selection (selection.png, stats "selection"),
-/// colouring the frame as the projected path does. Returns 0, 1 (a file could not be written or
-/// read) or 2 (a layer named that is not in the scene).
+/// colouring the frame as the projected path does. Its messages (the lasso file's, the export's)
+/// are logged and added to `diagnostics`, for stats.json. Returns 0, 1 (a file could not be
+/// written or read) or 2 (a layer named that is not in the scene).
 int drawGlobeAnalyses(const GlobeAnalysisRequest& request, gfx::StateCache& cache, const gfx::RenderTarget& target,
                       globe::GlobeRenderer& renderer, const scene::LoadedGlobeScene& scene,
-                      const globe::GlobeView& view, const std::filesystem::path& out, nlohmann::json& stats);
+                      const globe::GlobeView& view, const std::filesystem::path& out, nlohmann::json& stats,
+                      Diagnostics& diagnostics);
 
 }  // namespace gis::app

@@ -75,10 +75,13 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   const double firstFrame = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const std::filesystem::path out(o.out);
   std::filesystem::create_directories(out);
+  // An analysis that fails (its lasso file, a file it writes) still leaves the frame's files and
+  // stats.json with its messages, as the projected path does; the exit status says it failed.
   json analyses = json::object();
-  if (const int status = drawGlobeAnalyses(o.analyses, cache, target, renderer, *loaded, view, out, analyses);
-      status != 0)
-    return status;
+  Diagnostics analysisDiagnostics;
+  const int analysisStatus =
+      drawGlobeAnalyses(o.analyses, cache, target, renderer, *loaded, view, out, analyses, analysisDiagnostics);
+  if (analysisStatus == 2) return analysisStatus;  // a layer named that is not in the scene: nothing drawn
 
   // mask.png: bit i for the scene file's layer i (as overlay_render's projected path).
   const std::vector<std::uint32_t> bits = gfx::readMask(target);
@@ -126,6 +129,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   getrusage(RUSAGE_SELF, &usage);
   json diagnostics = json::array();
   for (const Diagnostic& m : loaded.diagnostics.items()) diagnostics.push_back(m.toString());
+  for (const Diagnostic& m : analysisDiagnostics.items()) diagnostics.push_back(m.toString());
   json s = {{"frame", "globe"},
             {"globe_reason", reason},
             {"width", o.width},
@@ -163,6 +167,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   ok = writeJson(out / "camera.json", camera) && ok;
   ok = writeJson(out / "stats.json", s) && ok;
   if (!ok) return 1;
+  if (analysisStatus != 0) return analysisStatus;
   return (*context)->debug().errorCount() == 0 ? 0 : 1;
 }
 

@@ -867,6 +867,35 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
               2.0 + overlap["both_pixels"].get<double>() / 20.0);
 }
 
+TEST(OverlayRenderGlobe, AFailedExportIsInStatsAndTheExitStatus) {
+  // The export cannot write its combined file (a folder of that name is in the way): the run
+  // fails, but the frame's files and stats.json are written, and stats.json's diagnostics name
+  // the file, as in a projected frame.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_export_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "out" / "selected_features.json");
+  json description = olindaScene();
+  description["frame"] = "globe";
+  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  const json lassos = {{"lassos", {{{"op", "single"}, {"points", {{10, 10}, {110, 15}, {100, 80}, {20, 85}}}}}}};
+  { std::ofstream(dir / "lassos.json") << lassos.dump(1); }
+  const fs::path out = dir / "out";
+  EXPECT_NE(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 128 --height 96 --lasso " +
+                                 (dir / "lassos.json").string() + " --out " + out.string(),
+                             dir / "log.txt"),
+            0)
+      << readText(dir / "log.txt");
+  ASSERT_TRUE(fs::exists(out / "stats.json")) << readText(dir / "log.txt");
+  ASSERT_TRUE(fs::exists(out / "color.png"));
+  const json stats = json::parse(readText(out / "stats.json"));
+  EXPECT_GT(stats["selection"]["selected_pixels"].get<std::size_t>(), 1000u);
+  std::size_t named = 0;
+  for (const json& d : stats["diagnostics"]) {
+    named += d.get<std::string>().find("selected_features.json") != std::string::npos ? 1u : 0u;
+  }
+  EXPECT_GE(named, 1u) << stats["diagnostics"].dump(1);
+}
+
 TEST(OverlayRenderGlobe, APagedDemDrawsTheSameFrame) {
   // Olinda on the globe with its DEM read whole and paged from the cache (terrain.paging
   // "always"): the same depth and layers' mask on every pixel; the second run finds the paged
