@@ -618,13 +618,15 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
     if (src >= areaSources) layer.lineShapes_.push_back(layer.polygons_.size());
   }
   if (sources.size() == areaSources) layer.areaPolygons_ = layer.polygons_.size();
-  // Generalised rings for coarse tiles, keeping the points rings share.
+  // Generalised rings for the areas' coarse tiles, keeping the points rings share. (Lines get
+  // theirs per level as tiles ask: lineShapesAt. A line drawn from its own shapes at a coarse
+  // level, whose generalised shapes would have as many points, draws its full rings.)
   std::vector<const std::vector<glm::dvec2>*> rings;
-  for (const GlobePolygon& p : layer.polygons_) {
-    for (const auto& ring : p.rings) rings.push_back(&ring);
+  for (std::size_t k = 0; k < layer.areaPolygons_; ++k) {
+    for (const auto& ring : layer.polygons_[k].rings) rings.push_back(&ring);
   }
   const std::set<std::pair<double, double>> shared = sharedPoints(rings);
-  for (GlobePolygon& p : layer.polygons_) simplifyLevels(p, shared);
+  for (std::size_t k = 0; k < layer.areaPolygons_; ++k) simplifyLevels(layer.polygons_[k], shared);
   out.value = std::move(layer);
   return out;
 }
