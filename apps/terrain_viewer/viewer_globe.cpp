@@ -369,20 +369,6 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
     case GLFW_KEY_F:
       notOnGlobe("Fly mode (F)");
       break;
-    case GLFW_KEY_L:
-      lassoTool_ = !lassoTool_;
-      if (lassoTool_) measureTool_ = false;
-      break;
-    case GLFW_KEY_M:
-      measureTool_ = !measureTool_;
-      if (measureTool_) lassoTool_ = false;
-      break;
-    case GLFW_KEY_BACKSPACE:
-      if (!measurePoints_.empty()) {
-        measurePoints_.pop_back();
-        remeasure();
-      }
-      break;
     default:
       sharedKeyPressed(key, modifiers);
       break;

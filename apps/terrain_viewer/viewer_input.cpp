@@ -341,6 +341,15 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
     case GLFW_KEY_F:
       controller_->setMode(fly ? scene::CameraController::Mode::Orbit : scene::CameraController::Mode::Fly);
       break;
+    default:
+      sharedKeyPressed(key, modifiers);
+      break;
+  }
+}
+
+void Viewer::sharedKeyPressed(int key, const app::Modifiers& modifiers) {
+  switch (key) {
+    // The lasso and measure tools: the same keys in a projected scene and on the globe.
     case GLFW_KEY_L:
       lassoTool_ = !lassoTool_;
       if (lassoTool_) measureTool_ = false;
@@ -355,14 +364,6 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
         remeasure();
       }
       break;
-    default:
-      sharedKeyPressed(key, modifiers);
-      break;
-  }
-}
-
-void Viewer::sharedKeyPressed(int key, const app::Modifiers& modifiers) {
-  switch (key) {
     case GLFW_KEY_Q:
       if (modifiers.ctrl) glfwSetWindowShouldClose(context_->window(), GLFW_TRUE);
       break;

@@ -219,6 +219,42 @@ double planarArea(std::span<const glm::dvec2> ring) {
   return 0.5 * std::abs(twice);
 }
 
+/// The totals of the segments (lengths, and whether every sample had a height).
+void sumSegments(Measurement& m) {
+  for (const SegmentMeasure& seg : m.segments) {
+    m.planarMetres += seg.planarMetres;
+    m.geodesicMetres += seg.geodesicMetres;
+    m.surfaceMetres += seg.surfaceMetres;
+    m.surfaceComplete = m.surfaceComplete && seg.surfaceComplete;
+  }
+}
+
+/// A ring's areas (zero for fewer than three points): on the ellipsoid, edges being geodesics
+/// (lonLat); planar, of `ring` (its points in a plane); and on the surface, the geodesic area
+/// times the mean slope factor over `ring`, with `height` read in that plane.
+void measureArea(Measurement& m, const GeographicLib::Geodesic& geodesic, std::span<const glm::dvec2> lonLat,
+                 std::span<const glm::dvec2> ring, double step, const TerrainHeight& height) {
+  if (!m.closed) return;
+  m.planarAreaM2 = 0.0;
+  m.geodesicAreaM2 = 0.0;
+  m.surfaceAreaM2 = 0.0;
+  if (lonLat.size() < 3 || ring.size() < 3) return;
+  GeographicLib::PolygonArea polygon(geodesic, false);
+  for (const glm::dvec2& ll : lonLat) polygon.AddPoint(ll.y, ll.x);
+  double perimeter = 0.0;
+  double area = 0.0;
+  polygon.Compute(false, true, perimeter, area);
+  m.planarAreaM2 = planarArea(ring);
+  m.geodesicAreaM2 = std::abs(area);
+  double factor = 1.0;
+  if (height && *m.planarAreaM2 > 0.0) {
+    bool complete = true;
+    factor = meanSlopeFactor(ring, step, height, m.samples, complete);
+    m.surfaceComplete = m.surfaceComplete && complete;
+  }
+  m.surfaceAreaM2 = *m.geodesicAreaM2 * factor;
+}
+
 constexpr const char* kBadEllipsoid = "the ellipsoid needs a positive semi-major axis and a flattening below 1";
 
 bool validEllipsoid(const Ellipsoid& e) {
@@ -323,35 +359,10 @@ Result<Measurement> measure(const geo::SceneFrame& frame, std::span<const glm::d
   m.surfaceComplete = static_cast<bool>(height);
 
   for (std::size_t s = 0; s < pairs.size(); ++s) {
-    SegmentMeasure& seg = m.segments[s];
-    sampleSegment(frameXY[pairs[s].first], frameXY[pairs[s].second], step, height, seg, m.samples);
-    m.planarMetres += seg.planarMetres;
-    m.geodesicMetres += seg.geodesicMetres;
-    m.surfaceMetres += seg.surfaceMetres;
-    m.surfaceComplete = m.surfaceComplete && seg.surfaceComplete;
+    sampleSegment(frameXY[pairs[s].first], frameXY[pairs[s].second], step, height, m.segments[s], m.samples);
   }
-
-  if (closed) {
-    m.planarAreaM2 = 0.0;
-    m.geodesicAreaM2 = 0.0;
-    m.surfaceAreaM2 = 0.0;
-  }
-  if (hasArea) {
-    GeographicLib::PolygonArea polygon(geodesic, false);
-    for (const glm::dvec2& ll : lonLat) polygon.AddPoint(ll.y, ll.x);
-    double perimeter = 0.0;
-    double area = 0.0;
-    polygon.Compute(false, true, perimeter, area);
-    m.planarAreaM2 = planarArea(ring);
-    m.geodesicAreaM2 = std::abs(area);
-    double factor = 1.0;
-    if (height && *m.planarAreaM2 > 0.0) {
-      bool complete = true;
-      factor = meanSlopeFactor(ring, step, height, m.samples, complete);
-      m.surfaceComplete = m.surfaceComplete && complete;
-    }
-    m.surfaceAreaM2 = *m.geodesicAreaM2 * factor;
-  }
+  sumSegments(m);
+  measureArea(m, geodesic, lonLat, ring, step, height);
 
   Result<Measurement> r;
   r.value = std::move(m);
@@ -414,40 +425,18 @@ Result<Measurement> measureOnGlobe(std::span<const glm::dvec2> lonLat, bool clos
   m.surfaceComplete = static_cast<bool>(height);
 
   for (std::size_t s = 0; s < pairs.size(); ++s) {
-    SegmentMeasure& seg = m.segments[s];
-    sampleGeodesic(geodesic, lonLat[pairs[s].first], lonLat[pairs[s].second], step, height, seg, m.samples);
-    m.planarMetres += seg.planarMetres;
-    m.geodesicMetres += seg.geodesicMetres;
-    m.surfaceMetres += seg.surfaceMetres;
-    m.surfaceComplete = m.surfaceComplete && seg.surfaceComplete;
+    sampleGeodesic(geodesic, lonLat[pairs[s].first], lonLat[pairs[s].second], step, height, m.segments[s], m.samples);
   }
-
-  if (closed) {
-    m.planarAreaM2 = 0.0;
-    m.geodesicAreaM2 = 0.0;
-    m.surfaceAreaM2 = 0.0;
+  sumSegments(m);
+  TerrainHeight inPlane;
+  if (height && projection) {
+    inPlane = [&](const glm::dvec2& xy) {
+      double lat = 0.0, lon = 0.0;
+      projection->Reverse(centre.y, centre.x, xy.x, xy.y, lat, lon);
+      return height(lon, lat);
+    };
   }
-  if (hasArea) {
-    GeographicLib::PolygonArea polygon(geodesic, false);
-    for (const glm::dvec2& ll : lonLat) polygon.AddPoint(ll.y, ll.x);
-    double perimeter = 0.0;
-    double area = 0.0;
-    polygon.Compute(false, true, perimeter, area);
-    m.planarAreaM2 = planarArea(plane);
-    m.geodesicAreaM2 = std::abs(area);
-    double factor = 1.0;
-    if (height && *m.planarAreaM2 > 0.0) {
-      const TerrainHeight inPlane = [&](const glm::dvec2& xy) {
-        double lat = 0.0, lon = 0.0;
-        projection->Reverse(centre.y, centre.x, xy.x, xy.y, lat, lon);
-        return height(lon, lat);
-      };
-      bool complete = true;
-      factor = meanSlopeFactor(plane, step, inPlane, m.samples, complete);
-      m.surfaceComplete = m.surfaceComplete && complete;
-    }
-    m.surfaceAreaM2 = *m.geodesicAreaM2 * factor;
-  }
+  measureArea(m, geodesic, lonLat, plane, step, inPlane);
 
   Result<Measurement> r;
   r.value = std::move(m);
