@@ -85,22 +85,15 @@ double heightAt(const TerrainHeight& height, const glm::dvec2& p, std::size_t& s
   return std::isfinite(h) ? h : std::numeric_limits<double>::quiet_NaN();
 }
 
-/// Fills `seg.surfaceMetres` (and `surfaceComplete`) of segment a→b from its planar and geodesic lengths.
-void sampleSegment(const glm::dvec2& a, const glm::dvec2& b, double step, const TerrainHeight& height,
-                   SegmentMeasure& seg, std::size_t& samples) {
-  seg.surfaceMetres = seg.geodesicMetres;
-  if (seg.planarMetres == 0.0) return;
-  if (!height) {
-    seg.surfaceComplete = false;
-    return;
-  }
-  const std::size_t n = stepsOf(seg.planarMetres, step);
-  const double d = seg.geodesicMetres / static_cast<double>(n);
+/// `seg.surfaceMetres` over n equal steps of length d, `heightOf(i)` the height at the end of
+/// step i (0: the start): each step counts sqrt(d² + Δh²), or d alone where an end has no height
+/// (then `seg.surfaceComplete` is false).
+template <typename HeightOf>
+void sumSteps(std::size_t n, double d, SegmentMeasure& seg, HeightOf heightOf) {
   double surface = 0.0;
-  double previous = heightAt(height, a, samples);
+  double previous = heightOf(std::size_t{0});
   for (std::size_t i = 1; i <= n; ++i) {
-    const glm::dvec2 p = i == n ? b : a + (b - a) * (static_cast<double>(i) / static_cast<double>(n));
-    const double h = heightAt(height, p, samples);
+    const double h = heightOf(i);
     if (std::isfinite(h) && std::isfinite(previous)) {
       const double dh = h - previous;
       surface += std::sqrt(d * d + dh * dh);
@@ -111,6 +104,22 @@ void sampleSegment(const glm::dvec2& a, const glm::dvec2& b, double step, const 
     previous = h;
   }
   seg.surfaceMetres = surface;
+}
+
+/// Fills `seg.surfaceMetres` (and `surfaceComplete`) of segment a→b from its planar and geodesic lengths.
+void sampleSegment(const glm::dvec2& a, const glm::dvec2& b, double step, const TerrainHeight& height,
+                   SegmentMeasure& seg, std::size_t& samples) {
+  seg.surfaceMetres = seg.geodesicMetres;
+  if (seg.planarMetres == 0.0) return;
+  if (!height) {
+    seg.surfaceComplete = false;
+    return;
+  }
+  const std::size_t n = stepsOf(seg.planarMetres, step);
+  sumSteps(n, seg.geodesicMetres / static_cast<double>(n), seg, [&](std::size_t i) {
+    const glm::dvec2 p = i == 0 ? a : (i == n ? b : a + (b - a) * (static_cast<double>(i) / static_cast<double>(n)));
+    return heightAt(height, p, samples);
+  });
 }
 
 /// Adds the part of [u0, u1] (in cell widths from the grid's left edge) each cell holds.
@@ -285,27 +294,13 @@ void sampleGeodesic(const GeographicLib::Geodesic& geodesic, const glm::dvec2& a
   const GeographicLib::GeodesicLine line = geodesic.InverseLine(a.y, a.x, b.y, b.x);
   const std::size_t n = stepsOf(seg.geodesicMetres, step);
   const double d = seg.geodesicMetres / static_cast<double>(n);
-  const auto at = [&](const glm::dvec2& ll) {
+  sumSteps(n, d, seg, [&](std::size_t i) {
+    glm::dvec2 p = i == 0 ? a : b;
+    if (i > 0 && i < n) line.Position(d * static_cast<double>(i), p.y, p.x);
     ++samples;
-    const double h = height(ll.x, ll.y);
+    const double h = height(p.x, p.y);
     return std::isfinite(h) ? h : std::numeric_limits<double>::quiet_NaN();
-  };
-  double surface = 0.0;
-  double previous = at(a);
-  for (std::size_t i = 1; i <= n; ++i) {
-    glm::dvec2 p = b;
-    if (i < n) line.Position(d * static_cast<double>(i), p.y, p.x);
-    const double h = at(p);
-    if (std::isfinite(h) && std::isfinite(previous)) {
-      const double dh = h - previous;
-      surface += std::sqrt(d * d + dh * dh);
-    } else {
-      surface += d;
-      seg.surfaceComplete = false;
-    }
-    previous = h;
-  }
-  seg.surfaceMetres = surface;
+  });
 }
 
 }  // namespace
