@@ -162,6 +162,7 @@ struct AttributeTable {
 };
 
 /// One layer's labels: the attribute, each feature's text and ground anchor, the anchors' heights.
+/// On the globe the anchors are (lon, lat) degrees and the heights above the ellipsoid.
 struct LabelSet {
   std::string attribute;
   std::vector<app::FeatureLabel> labels;
@@ -385,6 +386,11 @@ class Viewer {
   // Labels (viewer_labels.cpp).
   /// Labels a layer with an attribute's values ("" removes its labels).
   void setLabels(std::size_t sceneLayer, const std::string& attribute);
+  /// On the globe: each feature of the scene file's layer `fileIndex` that has the attribute,
+  /// anchored as in a projected scene, in a plane about the feature's middle.
+  [[nodiscard]] LabelSet globeLabels(std::size_t fileIndex, const std::string& attribute) const;
+  /// Whether a label set's layer is shown (projected or globe).
+  [[nodiscard]] bool labelLayerShown(std::size_t sceneLayer) const;
   void drawLabels();
   /// The current ImGui window's rectangle, which labels keep clear of in the next frame.
   void rememberWindow(const std::string& name);

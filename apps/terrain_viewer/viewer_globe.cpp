@@ -2,8 +2,8 @@
 // drawn with globe::GlobeRenderer into the offscreen target, flown with
 // scene::GlobeCameraController (grab, orbit, zoom to the cursor from space to a metre above the
 // ground, home, north up), with its panel, HUD, status bar, identify, the lasso selection and
-// script steps, and the measure tool (geodesics on WGS 84). The projected scene's other tools
-// are not on the globe yet: asked for, they say so once and do nothing.
+// script steps, the measure tool (geodesics on WGS 84) and labels. The projected scene's other
+// tools are not on the globe yet: asked for, they say so once and do nothing.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -376,6 +376,7 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
 }
 
 void Viewer::drawGlobeUi() {
+  if (showLabels_) drawLabels();  // clear of the windows as last drawn
   windowRects_.clear();
   drawScaleBar();
   drawCompass();
@@ -417,6 +418,10 @@ void Viewer::drawGlobePanel() {
   }
   if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("vector layers (O)", &render_.overlays);
+    if (!labelSets_.empty()) {
+      ImGui::SameLine();
+      ImGui::Checkbox("labels", &showLabels_);
+    }
     for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
       ImGui::PushID(static_cast<int>(i));
       const glm::vec4& c = g.scene.layers[i].color();
@@ -431,8 +436,8 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   ImGui::TextWrapped(
-      "Not on the globe yet: labels, the attribute table, choosing colours by category here, draping, fly mode "
-      "and exaggeration.");
+      "Not on the globe yet: the attribute table, choosing colours by category or labels here, draping, fly "
+      "mode and exaggeration.");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -511,6 +516,9 @@ json Viewer::globeState() const {
          {"shown", g.shown[i] != 0},
          {"color", {c.x, c.y, c.z, c.w}},
          {"mask_bit", g.scene.layerFileIndex[i]},
+         {"labels", labelSets_.contains(g.scene.layerFileIndex[i])
+                        ? json(labelSets_.at(g.scene.layerFileIndex[i]).attribute)
+                        : json()},
          {"polygons", l.polygons().size()},
          {"lines", l.lines().size()},
          {"features",
@@ -549,6 +557,7 @@ json Viewer::globeState() const {
           {"notice", notice_ ? json(notice_->text) : json()},
           {"keys_down", keysDownJson()},
           {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
+          {"labels_placed", labelsPlaced_},
           {"lasso_tool", lassoTool_},
           {"measure_tool", measureTool_},
           {"measure", measureJson()},
@@ -708,7 +717,15 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
             if (step.color || step.opacity || step.width || step.outlineColor || step.outlineWidth)
               notOnGlobe("Changing a layer's style");
             if (step.colorAttribute) notOnGlobe("Colours by category");
-            if (step.labelAttribute) notOnGlobe("Labels");
+            if (step.labelAttribute) {
+              for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+                const std::string& name = g.scene.layers[i].name();
+                if (name == step.layer || name == step.layer + " (outline)") {
+                  setLabels(g.scene.layerFileIndex[i], *step.labelAttribute);
+                  break;
+                }
+              }
+            }
           }
           return true;
         } else if constexpr (std::is_same_v<Step, app::TableStep>) {

@@ -1,9 +1,12 @@
 // Labels from an attribute (per layer): anchors on the ground computed once (app/labels.hpp),
 // projected every frame, hidden ones left out, and placed on screen without overlap, clear of the
-// panel, the HUD and the status bar.
+// panel, the HUD and the status bar. On the globe the anchors are found in a plane about each
+// feature's middle and kept in lon/lat.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "gfx/gl.hpp"
 
@@ -11,16 +14,107 @@
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 
 #include "gfx/render_target.hpp"
+#include "globe/ellipsoid.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {
+
+namespace {
+
+/// Metres per degree of latitude, for the plane a globe feature is anchored in.
+constexpr double kMetresPerDegree = 111'320.0;
+
+/// A plane about (lon0, lat0): degrees to metres, east and north (equirectangular), and back.
+struct LocalPlane {
+  double lon0 = 0.0, lat0 = 0.0, east = kMetresPerDegree;
+  [[nodiscard]] glm::dvec2 forward(const glm::dvec2& ll) const {
+    return {(ll.x - lon0) * east, (ll.y - lat0) * kMetresPerDegree};
+  }
+  [[nodiscard]] glm::dvec2 back(const glm::dvec2& xy) const {
+    return {lon0 + xy.x / east, lat0 + xy.y / kMetresPerDegree};
+  }
+};
+
+}  // namespace
+
+LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute) const {
+  const GlobeMode& g = *globe_;
+  LabelSet set;
+  set.attribute = attribute;
+  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+    if (g.scene.layerFileIndex[i] != fileIndex || !g.scene.layerFeatures[i]) continue;
+    const globe::GlobeLayer& layer = g.scene.layers[i];
+    const std::vector<geo::Feature>& features = *g.scene.layerFeatures[i];
+    // Each feature's geometry as drawn: its areas (the fill layer), else its lines.
+    std::vector<std::vector<const std::vector<glm::dvec2>*>> parts(features.size());
+    std::vector<char> isLine(features.size(), 0);
+    for (std::size_t k = 0; k < layer.areaCount(); ++k) {
+      const globe::GlobePolygon& p = layer.polygons()[k];
+      if (p.feature < features.size() && !p.rings.empty()) parts[p.feature].push_back(&p.rings.front());
+    }
+    for (const globe::GlobeLine& l : layer.lines()) {
+      if (l.feature < features.size() && parts[l.feature].empty()) isLine[l.feature] = 1;
+    }
+    for (const globe::GlobeLine& l : layer.lines()) {
+      if (l.feature < features.size() && isLine[l.feature] != 0) parts[l.feature].push_back(&l.points);
+    }
+    for (std::size_t f = 0; f < features.size(); ++f) {
+      if (parts[f].empty()) continue;
+      std::optional<std::string> text = app::labelText(features[f], attribute);
+      if (!text) continue;
+      glm::dvec2 sum(0.0);
+      std::size_t n = 0;
+      for (const std::vector<glm::dvec2>* part : parts[f]) {
+        for (const glm::dvec2& p : *part) sum += p;
+        n += part->size();
+      }
+      LocalPlane plane;
+      plane.lon0 = sum.x / static_cast<double>(n);
+      plane.lat0 = std::clamp(sum.y / static_cast<double>(n), -89.0, 89.0);
+      plane.east = kMetresPerDegree * std::cos(glm::radians(plane.lat0));
+      geo::Feature flat;
+      for (const std::vector<glm::dvec2>* part : parts[f]) {
+        std::vector<glm::dvec2> xy;
+        for (const glm::dvec2& p : *part) xy.push_back(plane.forward(p));
+        if (isLine[f] != 0) {
+          flat.lines.push_back(std::move(xy));
+        } else {
+          flat.polygons.push_back({std::move(xy), {}});
+        }
+      }
+      std::optional<app::LabelAnchor> anchor = app::featureLabelAnchor(flat);
+      if (!anchor) continue;
+      anchor->point = plane.back(anchor->point);
+      set.labels.push_back({f, features[f].fid, std::move(*text), *anchor});
+      set.heights.push_back(g.scene.heights ? g.scene.heights->heightAt(anchor->point.x, anchor->point.y) : 0.0);
+    }
+    break;  // the fill (or the line layer) labels the scene layer
+  }
+  set.exaggeration = 1.0;
+  return set;
+}
+
+bool Viewer::labelLayerShown(std::size_t sceneLayer) const {
+  if (!globe_) return layerShown(sceneLayer).value_or(false);
+  const GlobeMode& g = *globe_;
+  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+    if (g.scene.layerFileIndex[i] == sceneLayer && g.shown[i] != 0) return true;
+  }
+  return false;
+}
 
 void Viewer::setLabels(std::size_t sceneLayer, const std::string& attribute) {
   labelSets_.erase(sceneLayer);
   labelPlacer_.forget();
   if (attribute.empty()) return;
+  if (globe_) {
+    labelSets_[sceneLayer] = globeLabels(sceneLayer, attribute);
+    showLabels_ = true;
+    return;
+  }
   const std::optional<std::size_t> fill = fillLayerOf(sceneLayer);
   if (!fill) return;
   LabelSet set;
@@ -37,17 +131,16 @@ void Viewer::rememberWindow(const std::string& name) {
 
 void Viewer::drawLabels() {
   if (labelSets_.empty() || !target_) return;
-  const double exaggeration = scene_->bounds->exaggeration();
-  const scene::Camera c = camera();
-  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
+  const double exaggeration = globe_ ? 1.0 : scene_->bounds->exaggeration();
+  const glm::dmat4 viewProj = screenViewProj();
   const int w = target_->width(), h = target_->height();
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
   const std::vector<float>& depth = frameDepth();
   std::vector<app::LabelCandidate> candidates;
   std::vector<const std::string*> texts;
   for (auto& [sceneLayer, set] : labelSets_) {
-    if (!layerShown(sceneLayer).value_or(false)) continue;
-    if (set.exaggeration != exaggeration) {
+    if (!labelLayerShown(sceneLayer)) continue;
+    if (!globe_ && set.exaggeration != exaggeration) {
       // The anchors' heights as drawn, once per exaggeration.
       set.heights.resize(set.labels.size());
       for (std::size_t k = 0; k < set.labels.size(); ++k) {
@@ -58,7 +151,9 @@ void Viewer::drawLabels() {
     for (std::size_t k = 0; k < set.labels.size(); ++k) {
       const app::FeatureLabel& label = set.labels[k];
       if (!std::isfinite(set.heights[k])) continue;
-      const glm::dvec4 clip = viewProj * glm::dvec4(label.anchor.point, set.heights[k], 1.0);
+      const glm::dvec3 at = globe_ ? globe::toEcef(label.anchor.point.x, label.anchor.point.y, set.heights[k])
+                                   : glm::dvec3(label.anchor.point, set.heights[k]);
+      const glm::dvec4 clip = viewProj * glm::dvec4(at, 1.0);
       if (!(clip.w > 0.0)) continue;
       const glm::dvec3 ndc = glm::dvec3(clip) / clip.w;
       const double px = (ndc.x * 0.5 + 0.5) * w, py = (0.5 - ndc.y * 0.5) * h;

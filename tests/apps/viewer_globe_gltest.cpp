@@ -10,7 +10,7 @@
 // - projected-only tools say they are not on the globe yet; GL reports no error (the viewer's
 //   scripted run exits 1 on one);
 // - the measure tool measures the ground under its pixels along geodesics (scripted and by M and
-//   a click) and draws its path;
+//   a click) and draws its path; a layer's labels are placed while it is shown;
 // - the lasso (L and mouse drags) selects the box: the state lists it, the highlight is blended
 //   over the ground inside the lassos and nowhere outside; Shift adds (Or), Ctrl subtracts, and a
 //   real Ctrl+Z (xdotool) undoes the subtraction;
@@ -274,7 +274,19 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
            {{"action", "click"}, {"at", at(grabFrom)}},
            {{"action", "save_state"}, {"path", "s9.json"}},
            {{"action", "key"}, {"key", "escape"}},
-           {{"action", "save_state"}, {"path", "s10.json"}}})));
+           {{"action", "save_state"}, {"path", "s10.json"}},
+           // Labels from an attribute, and none once the layer is hidden. (Esc twice more: the
+           // measure tool off, then the identify window closed; no panel: room for the label.)
+           {{"action", "key"}, {"key", "escape"}},
+           {{"action", "key"}, {"key", "escape"}},
+           {{"action", "view"}, {"panel", false}, {"hud", false}},
+           {{"action", "set_layer"}, {"layer", "fiji"}, {"label_attribute", "name"}},
+           {{"wait", 2}},
+           {{"action", "save_state"}, {"path", "s11.json"}},
+           {{"action", "screenshot"}, {"path", "labelled.png"}, {"ui", true}},
+           {{"action", "toggle_layer"}, {"layer", "fiji"}},
+           {{"wait", 2}},
+           {{"action", "save_state"}, {"path", "s12.json"}}})));
 
   // Identify: the feature and its attributes inside, the pixel's lon/lat; nothing outside.
   const json idIn = readJson("identify_in.json");
@@ -410,6 +422,12 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
   EXPECT_EQ(s9["measure"]["points"], 4);
   EXPECT_GT(s9["measure"]["geodesic_m"].get<double>(), m["geodesic_m"].get<double>());
   EXPECT_EQ(s10["measure"]["points"], 0);
+
+  // Labels: the box's name placed once while its layer is shown, none when it is hidden.
+  const json s11 = readJson("s11.json"), s12 = readJson("s12.json");
+  EXPECT_EQ(s11["layers"][0]["labels"], "name") << s11["messages"].dump(1);
+  EXPECT_EQ(s11["labels_placed"], 1) << s11["messages"].dump(1);
+  EXPECT_EQ(s12["labels_placed"], 0);
 }
 
 /// A screen polygon (pixels, y down).
