@@ -48,43 +48,45 @@ LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute
     if (g.scene.layerFileIndex[i] != fileIndex || !g.scene.layerFeatures[i]) continue;
     const globe::GlobeLayer& layer = g.scene.layers[i];
     const std::vector<geo::Feature>& features = *g.scene.layerFeatures[i];
-    // Each feature's geometry as drawn: its areas (the fill layer), else its lines.
-    std::vector<std::vector<const std::vector<glm::dvec2>*>> parts(features.size());
-    std::vector<char> isLine(features.size(), 0);
+    // Each feature's geometry as drawn: its areas (the fill layer, holes included), else its lines.
+    std::vector<std::vector<const std::vector<std::vector<glm::dvec2>>*>> areas(features.size());
+    std::vector<std::vector<const std::vector<glm::dvec2>*>> lines(features.size());
     for (std::size_t k = 0; k < layer.areaCount(); ++k) {
       const globe::GlobePolygon& p = layer.polygons()[k];
-      if (p.feature < features.size() && !p.rings.empty()) parts[p.feature].push_back(&p.rings.front());
+      if (p.feature < features.size() && !p.rings.empty()) areas[p.feature].push_back(&p.rings);
     }
     for (const globe::GlobeLine& l : layer.lines()) {
-      if (l.feature < features.size() && parts[l.feature].empty()) isLine[l.feature] = 1;
-    }
-    for (const globe::GlobeLine& l : layer.lines()) {
-      if (l.feature < features.size() && isLine[l.feature] != 0) parts[l.feature].push_back(&l.points);
+      if (l.feature < features.size() && areas[l.feature].empty()) lines[l.feature].push_back(&l.points);
     }
     for (std::size_t f = 0; f < features.size(); ++f) {
-      if (parts[f].empty()) continue;
+      if (areas[f].empty() && lines[f].empty()) continue;
       std::optional<std::string> text = app::labelText(features[f], attribute);
       if (!text) continue;
       glm::dvec2 sum(0.0);
       std::size_t n = 0;
-      for (const std::vector<glm::dvec2>* part : parts[f]) {
-        for (const glm::dvec2& p : *part) sum += p;
-        n += part->size();
-      }
+      const auto add = [&](const std::vector<glm::dvec2>& points) {
+        for (const glm::dvec2& p : points) sum += p;
+        n += points.size();
+      };
+      for (const auto* rings : areas[f]) add(rings->front());
+      for (const auto* line : lines[f]) add(*line);
       LocalPlane plane;
       plane.lon0 = sum.x / static_cast<double>(n);
       plane.lat0 = std::clamp(sum.y / static_cast<double>(n), -89.0, 89.0);
       plane.east = kMetresPerDegree * std::cos(glm::radians(plane.lat0));
-      geo::Feature flat;
-      for (const std::vector<glm::dvec2>* part : parts[f]) {
+      const auto flatten = [&plane](const std::vector<glm::dvec2>& points) {
         std::vector<glm::dvec2> xy;
-        for (const glm::dvec2& p : *part) xy.push_back(plane.forward(p));
-        if (isLine[f] != 0) {
-          flat.lines.push_back(std::move(xy));
-        } else {
-          flat.polygons.push_back({std::move(xy), {}});
-        }
+        xy.reserve(points.size());
+        for (const glm::dvec2& p : points) xy.push_back(plane.forward(p));
+        return xy;
+      };
+      geo::Feature flat;
+      for (const auto* rings : areas[f]) {
+        geo::Polygon polygon{flatten(rings->front()), {}};
+        for (std::size_t r = 1; r < rings->size(); ++r) polygon.holes.push_back(flatten((*rings)[r]));
+        flat.polygons.push_back(std::move(polygon));
       }
+      for (const auto* line : lines[f]) flat.lines.push_back(flatten(*line));
       std::optional<app::LabelAnchor> anchor = app::featureLabelAnchor(flat);
       if (!anchor) continue;
       anchor->point = plane.back(anchor->point);
