@@ -3,6 +3,7 @@
 // geodesic densification.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -857,6 +858,31 @@ TEST(Densify, ByToleranceTheProjectedEdgeStaysWithinItOfTheProjectedGeodesic) {
         EXPECT_GT(departureFromGeodesic(a, b, {a}, project), 10.0 * kTolerance);
       }
     }
+  }
+}
+
+TEST(Densify, AnEdgeRoundMostOfTheEarthFarFromTheZoneStopsAtTheRefinementBudget) {
+  // 89.9° W to 179.9° E along 8° S (the fuzzer's input): the geodesic runs far outside UTM 25 S,
+  // where 1 mm is never reached. The refinement stops at 2^16 spans (it took 2^24 points, out of
+  // memory under the fuzzer); the points are still in order along the geodesic.
+  const SceneFrame frame = olindaFrame();
+  gis::Result<gis::geo::CrsTransform> toFrame = frame.transformFrom("OGC:CRS84");
+  ASSERT_TRUE(toFrame.ok());
+  const gis::geo::GeodesicProjection project = [&](const glm::dvec2& p) { return toFrame->transform(p); };
+  const GeographicLib::Geodesic& wgs = GeographicLib::Geodesic::WGS84();
+  const glm::dvec2 a(-89.9, -8.0), b(179.9, -8.0);
+  const std::vector<glm::dvec2> pts =
+      gis::geo::densifyGeodesicWithin(a, b, 1e-3, wgs.EquatorialRadius(), wgs.Flattening(), project);
+  ASSERT_FALSE(pts.empty());
+  EXPECT_EQ(pts.front(), a);
+  EXPECT_LE(pts.size(), std::size_t{1} << 16U);
+  std::printf("a 270° edge far from the zone: %zu points\n", pts.size());
+  double previous = -1.0;
+  for (const glm::dvec2& p : pts) {
+    double s = 0.0;
+    wgs.Inverse(a.y, a.x, p.y, p.x, s);
+    EXPECT_GE(s, previous) << "out of order";
+    previous = s;
   }
 }
 
