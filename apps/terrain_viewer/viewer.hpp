@@ -161,6 +161,10 @@ struct AttributeTable {
   bool dirty = true;  ///< rows to recompute
 };
 
+/// Metres in a degree of latitude (and of longitude at the equator), near enough for sampling
+/// steps and local planes on the globe.
+inline constexpr double kMetresPerDegree = 111'320.0;
+
 /// One layer's labels: the attribute, each feature's text and ground anchor, the anchors' heights.
 /// On the globe the anchors are (lon, lat) degrees and the heights above the ellipsoid.
 struct LabelSet {

@@ -24,9 +24,6 @@ namespace gis::viewer {
 
 namespace {
 
-/// Metres per degree of latitude, for the plane a globe feature is anchored in.
-constexpr double kMetresPerDegree = 111'320.0;
-
 /// A plane about (lon0, lat0): degrees to metres, east and north (equirectangular), and back.
 struct LocalPlane {
   double lon0 = 0.0, lat0 = 0.0, east = kMetresPerDegree;

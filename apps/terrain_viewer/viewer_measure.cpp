@@ -17,12 +17,6 @@
 #include "viewer.hpp"
 
 namespace gis::viewer {
-namespace {
-
-/// Metres per degree of latitude, near enough for a sampling step.
-constexpr double kMetresPerDegree = 111'320.0;
-
-}  // namespace
 
 void Viewer::addMeasurePoint(const glm::dvec2& frameXY) {
   measurePoints_.push_back(frameXY);

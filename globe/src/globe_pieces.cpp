@@ -404,9 +404,9 @@ std::vector<std::pair<Node, Node>> unionBoundary(const std::vector<std::pair<Nod
   return boundary;
 }
 
-/// Appends the piece of `rings` (clipped to `cell`, widened) to `out`.
+/// Appends the piece of `rings` (clipped to `cell`, widened) to `out`, in colour `group`.
 void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
-              const GeoGrid& heights, double postStep, int level, Fill fill) {
+              const GeoGrid& heights, double postStep, int level, Fill fill, std::uint32_t group) {
   const Gnomonic gnomonic(cell);
   std::vector<std::pair<Node, Node>> segments;
   for (const auto& [a, b] :
@@ -475,6 +475,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) v->info().index = -1;
   const auto base = static_cast<std::uint32_t>(out.vertices.size());
   TilePieces::Piece piece;
+  piece.group = group;
   piece.lo = lo;
   piece.hi = hi;
   piece.boxLo = glm::dvec3(std::numeric_limits<double>::max());
@@ -531,6 +532,13 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   for (int k = 0; k <= kCellsPerSide; ++k)
     latMargin = std::max(latMargin, parallelStray(rect.south + k * cellSize, postStep));
   latMargin = 2.0 * latMargin + lonMargin;
+  // Cell (cx, cy) of the tile, and the same widened by the margins.
+  const auto cellRects = [&](int cx, int cy) {
+    const LonLatRect cell{rect.west + cx * cellSize, rect.south + cy * cellSize, rect.west + (cx + 1) * cellSize,
+                          rect.south + (cy + 1) * cellSize};
+    return std::make_pair(
+        cell, LonLatRect{cell.west - lonMargin, cell.south - latMargin, cell.east + lonMargin, cell.north + latMargin});
+  };
   // A line's shapes (bands, discs, sectors) overlap: per cell, those of one colour are united
   // into one piece, which leaves out the walls and caps inside the union.
   std::map<std::pair<std::uint32_t, int>, std::vector<Ring>> lineCells;  // (colour, cell) → rings
@@ -548,10 +556,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
       if (inTile.empty()) continue;
       for (int cy = 0; cy < kCellsPerSide; ++cy) {
         for (int cx = 0; cx < kCellsPerSide; ++cx) {
-          const LonLatRect cell{rect.west + cx * cellSize, rect.south + cy * cellSize, rect.west + (cx + 1) * cellSize,
-                                rect.south + (cy + 1) * cellSize};
-          const LonLatRect widened{cell.west - lonMargin, cell.south - latMargin, cell.east + lonMargin,
-                                   cell.north + latMargin};
+          const auto [cell, widened] = cellRects(cx, cy);
           LonLatRect shifted = widened;
           shifted.west += shift;
           shifted.east += shift;
@@ -574,9 +579,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
             for (Ring& r : inCell) united.push_back(std::move(r));
             continue;
           }
-          const std::size_t before = out.pieces.size();
-          addPiece(out, inCell, cell, widened, heights, postStep, key.level, Fill::EvenOdd);
-          for (std::size_t k = before; k < out.pieces.size(); ++k) out.pieces[k].group = polygon.group;
+          addPiece(out, inCell, cell, widened, heights, postStep, key.level, Fill::EvenOdd, polygon.group);
         }
       }
     }
@@ -591,14 +594,8 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
     for (std::size_t k = layer.areaCount(); k < polygons.size(); ++k) addPolygon(polygons[k], true);
   }
   for (const auto& [groupCell, rings] : lineCells) {
-    const int cx = groupCell.second % kCellsPerSide, cy = groupCell.second / kCellsPerSide;
-    const LonLatRect cell{rect.west + cx * cellSize, rect.south + cy * cellSize, rect.west + (cx + 1) * cellSize,
-                          rect.south + (cy + 1) * cellSize};
-    const LonLatRect widened{cell.west - lonMargin, cell.south - latMargin, cell.east + lonMargin,
-                             cell.north + latMargin};
-    const std::size_t before = out.pieces.size();
-    addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union);
-    for (std::size_t k = before; k < out.pieces.size(); ++k) out.pieces[k].group = groupCell.first;
+    const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
+    addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union, groupCell.first);
   }
   // Each colour's pieces together, and their indices too (one draw a colour).
   if (std::any_of(out.pieces.begin(), out.pieces.end(), [](const TilePieces::Piece& p) { return p.group != 0; })) {
