@@ -16,6 +16,7 @@
 #include <imgui_impl_glfw.h>
 #include <imgui_impl_opengl3.h>
 
+#include "app/cli.hpp"
 #include "core/log.hpp"
 #include "gfx/window_context.hpp"
 #include "scene/scene.hpp"
@@ -118,7 +119,7 @@ int Viewer::run(const ViewerOptions& options) {
     glfwGetWindowSize(window, &size.x, &size.y);
     if (size.x > 0 && size.y > 0) v.settings_.windowSize = size;
     if (const auto path = app::settingsPath()) {
-      for (const Diagnostic& d : app::saveViewerSettings(v.settings_, *path).items()) logWarning(d.toString());
+      app::report(app::saveViewerSettings(v.settings_, *path));
     }
   }
   const std::size_t glErrors = v.context_->debug().errorCount();
@@ -133,14 +134,12 @@ bool Viewer::open(const ViewerOptions& options) {
   options_ = options;
   if (options.script) {
     Result<app::ViewerScript> script = app::loadViewerScript(*options.script);
-    for (const Diagnostic& d : script.diagnostics.items()) {
-      (d.severity == Severity::Error ? logError : logWarning)(d.toString());
-    }
+    app::report(script.diagnostics);
     if (!script) return false;
     script_ = std::move(*script);
   } else if (const auto path = app::settingsPath()) {
     Result<app::ViewerSettings> loaded = app::loadViewerSettings(*path);
-    for (const Diagnostic& d : loaded.diagnostics.items()) logWarning(d.toString());
+    app::report(loaded.diagnostics);
     settings_ = *loaded;
   }
   gfx::ContextOptions context;
@@ -152,7 +151,7 @@ bool Viewer::open(const ViewerOptions& options) {
   context.vsync = !script_;
   Result<std::unique_ptr<gfx::Context>> created = gfx::createWindowContext(context);
   if (!created) {
-    for (const Diagnostic& d : created.diagnostics.items()) logError(d.toString());
+    app::report(created.diagnostics);
     return false;
   }
   context_ = std::move(*created);
@@ -173,7 +172,7 @@ bool Viewer::open(const ViewerOptions& options) {
   imgui_ = true;
 
   Result<overlay::SelectionRenderer> selection = overlay::SelectionRenderer::create();
-  for (const Diagnostic& d : selection.diagnostics.items()) logError(d.toString());
+  app::report(selection.diagnostics);
   if (!selection) return false;
   selectionRenderer_ = std::move(*selection);
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
@@ -185,14 +184,11 @@ bool Viewer::open(const ViewerOptions& options) {
 }
 
 bool Viewer::loadPath(const std::string& path) {
-  auto report = [this](const Diagnostics& diagnostics) {
-    for (const Diagnostic& d : diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
-  };
   if (isVectorFile(path)) {
     if (!description_) {
       // A vector file alone: over flat ground covering its extent.
       Result<scene::SceneDescription> alone = scene::sceneForVectorFile(path);
-      report(alone.diagnostics);
+      message(alone.diagnostics);
       return alone && useScene(std::move(*alone));
     }
     if (globe_) {
@@ -204,7 +200,7 @@ bool Viewer::loadPath(const std::string& path) {
     std::size_t next = description_->layers.size();
     for (const scene::LayerDescription& l : description_->layers) next = std::max(next, l.fileIndex + 1);
     Result<std::vector<scene::LayerDescription>> layers = scene::layersForVectorFile(path, scene_->frame, next);
-    report(layers.diagnostics);
+    message(layers.diagnostics);
     if (!layers) return false;
     scene::SceneDescription grown = *description_;
     grown.layers.insert(grown.layers.end(), layers->begin(), layers->end());
@@ -213,7 +209,7 @@ bool Viewer::loadPath(const std::string& path) {
   std::error_code ec;
   if (isRasterFile(path) || std::filesystem::is_directory(path, ec)) return useScene(scene::sceneForDem(path));
   Result<scene::SceneDescription> description = scene::loadSceneFile(path);
-  report(description.diagnostics);
+  message(description.diagnostics);
   if (!description) return false;
   return useScene(std::move(*description));
 }
@@ -252,7 +248,7 @@ void Viewer::finishLoad(bool wait) {
   }
   Result<scene::LoadedScene> scene = load->job.get();
   lastLoadProgress_ = load->progress->load();
-  for (const Diagnostic& d : scene.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  message(scene.diagnostics);
   if (!scene) return;
   finishSelection();  // its job reads the scene about to go
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
@@ -262,7 +258,7 @@ void Viewer::finishLoad(bool wait) {
   build.technique = technique_;
   build.textureSize = drapeSize_;
   Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene, build);
-  for (const Diagnostic& d : renderer.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  message(renderer.diagnostics);
   if (!renderer) {
     scene_.reset();  // the old one has no renderer any more
     description_.reset();
@@ -388,6 +384,12 @@ void Viewer::message(const std::string& text, bool error) {
   (error ? logError : logInfo)(text);
   messages_.push_back(std::move(line));
   if (messages_.size() > 200) messages_.erase(messages_.begin(), messages_.begin() + 100);
+}
+
+void Viewer::message(const Diagnostics& diagnostics, const std::string& where, bool errors) {
+  for (const DiagnosticGroup& g : groupDiagnostics(diagnostics)) {
+    message((where.empty() ? "" : where + ": ") + g.toString(), errors || g.severity == Severity::Error);
+  }
 }
 
 glm::ivec2 Viewer::framebufferSize() const { return context_->framebufferSize(); }

@@ -491,6 +491,10 @@ class Viewer {
   bool runStep(const app::ScriptStep& step);  ///< false: the step failed (reported)
 
   void message(const std::string& text, bool error = false);
+  /// Each kind of diagnostic once, with its count and first features (groupDiagnostics: a layer
+  /// of 16,906 one-point lines is one message), an error as an error; `where` (a script step)
+  /// before each; with `errors`, every one said as an error.
+  void message(const Diagnostics& diagnostics, const std::string& where = {}, bool errors = false);
   /// A message that also shows for a few seconds at the top of the window (export, screenshot).
   void notify(const std::string& text, bool error = false);
   void drawNotice();

@@ -57,9 +57,7 @@ void Viewer::rebuildOverlays() {
   scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
-  for (const Diagnostic& d : renderer_->buildOverlays(*scene_, build).items()) {
-    message(d.toString(), d.severity == Severity::Error);
-  }
+  message(renderer_->buildOverlays(*scene_, build));
   for (std::size_t i = 0; i < hidden.size(); ++i) {
     if (hidden[i]) setLayerShown(i, false);
   }
@@ -131,7 +129,7 @@ void Viewer::selectionChanged() {
   // posts: the CPU twin, about a second on Olinda) follows from a worker thread, so drawing a
   // lasso never stalls the frames.
   const Diagnostics diagnostics = selectionRenderer_->setSteps(steps_);
-  for (const Diagnostic& d : diagnostics.items()) message(d.toString(), true);
+  message(diagnostics, {}, true);
   selected_.reset();
   if (globe_) globe_->selected.reset();
   ++selectionGeneration_;
@@ -214,7 +212,7 @@ bool Viewer::exportSelection(const std::filesystem::path& path) {
   const std::filesystem::path beside = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   const Diagnostics d = globe_ ? scene::exportGlobeSelection(globe_->scene, *globe_->selected, path, beside)
                                : scene::exportSelection(*scene_, *renderer_, *selected_, path, beside);
-  for (const Diagnostic& m : d.items()) message(m.toString(), m.severity == Severity::Error);
+  message(d);
   if (d.hasErrors()) {
     notify("Export to " + path.string() + " failed: see Messages", true);
     return false;
@@ -258,7 +256,7 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
   }
   const Result<bool> png =
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);
-  for (const Diagnostic& d : png.diagnostics.items()) message(d.toString(), true);
+  message(png.diagnostics, {}, true);
   ok = ok && png.ok();
   if (ok) {
     notify("Screenshot saved to " + std::filesystem::absolute(path, ec).lexically_normal().string());

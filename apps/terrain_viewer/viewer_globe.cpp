@@ -112,7 +112,7 @@ json GlobeIdentified::toJson() const {
 }
 
 void Viewer::useGlobeScene(Result<scene::LoadedGlobeScene> loaded, const scene::SceneDescription& description) {
-  for (const Diagnostic& d : loaded.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  message(loaded.diagnostics);
   if (!loaded) return;
   finishSelection();  // its job reads the scene about to go
   // One scene on the GPU at a time.
@@ -434,6 +434,7 @@ void Viewer::drawGlobePanel() {
   }
   drawGlobeSelectionSection();
   drawMeasureSection();
+  drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   ImGui::TextWrapped(
       "Not on the globe yet: the attribute table, choosing colours by category or labels here, draping, fly "

@@ -39,7 +39,7 @@ void Viewer::remeasure() {
     const auto height = [heights](double lon, double lat) { return heights ? heights->heightAt(lon, lat) : 0.0; };
     Result<scene::Measurement> m =
         scene::measureOnGlobe(measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
-    for (const Diagnostic& d : m.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+    message(m.diagnostics);
     if (m) measurement_ = std::move(*m);
     return;
   }
@@ -54,7 +54,7 @@ void Viewer::remeasure() {
   options.ellipsoid = measureEllipsoid_;
   Result<scene::Measurement> m =
       scene::measure(scene_->frame, measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
-  for (const Diagnostic& d : m.diagnostics.items()) message(d.toString(), d.severity == Severity::Error);
+  message(m.diagnostics);
   if (m) measurement_ = std::move(*m);
 }
 

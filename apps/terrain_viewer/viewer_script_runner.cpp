@@ -132,10 +132,10 @@ struct StepRunner {
 
   bool operator()(const app::CameraStep& step) const {
     Result<scene::CameraSpec> spec = scene::parseCameraSpec(step.camera, step.cameraFile);
-    for (const Diagnostic& d : spec.diagnostics.items()) v.message(where + ": " + d.toString(), true);
+    v.message(spec.diagnostics, where, true);
     if (!spec) return false;
     Result<scene::Camera> placed = scene::placeCamera(*spec, v.scene_->frame, where);
-    for (const Diagnostic& d : placed.diagnostics.items()) v.message(where + ": " + d.toString(), true);
+    v.message(placed.diagnostics, where, true);
     if (!placed) return false;
     v.settings_.fovYDeg = spec->fovYDeg;
     if (step.seconds > 0.0) {

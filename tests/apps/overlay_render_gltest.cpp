@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,7 @@
 #include <glm/mat4x4.hpp>
 #include <nlohmann/json.hpp>
 
+#include "core/diagnostics.hpp"
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
 #include "gfx/image_io.hpp"
@@ -478,6 +481,134 @@ TEST(OverlayRenderCli, MessyLayersAreCountedNamedAndTheRestDraws) {
                               "with nothing to draw"}) {
     EXPECT_NE(log.find(summary), std::string::npos) << summary << "\n" << log;
   }
+}
+
+/// A diagnostic line of the log ("[error] error: …"), with how many messages it stands for: the
+/// count of a grouped line ("…: 500 features: …", "…: 7 messages about 3 features: …", "… (2
+/// times)"), else 1.
+struct LoggedKind {
+  std::string line;
+  std::size_t count = 1;
+};
+
+std::size_t countIn(const std::string& text) {
+  std::string digits;
+  for (const char c : text) {
+    if (c != ',') digits += c;
+  }
+  return static_cast<std::size_t>(std::stoull(digits));
+}
+
+std::vector<LoggedKind> loggedKinds(const std::string& log) {
+  static const std::regex kDiagnostic(R"(^\[(info|warning|error)\] (info|warning|error): )");
+  static const std::regex kFeatures(R"(: ([0-9,]+) (features|messages about [0-9,]+ features?): )");
+  static const std::regex kTimes(R"(\(([0-9,]+) times\)$)");
+  std::vector<LoggedKind> kinds;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) {
+    if (!std::regex_search(line, kDiagnostic)) continue;
+    LoggedKind k{line, 1};
+    std::smatch m;
+    if (std::regex_search(line, m, kFeatures) || std::regex_search(line, m, kTimes)) k.count = countIn(m[1].str());
+    kinds.push_back(std::move(k));
+  }
+  return kinds;
+}
+
+TEST(OverlayRenderCli, RepeatedMessagesAreOneLineEachWithTheCountsOfStatsJson) {
+  // 500 one-point lines, 7 lines with an infinite coordinate (at vertex 0, 1 or 2), 3 features
+  // without geometry and 4 lines beyond the DEM among 20 good lines: the log says each kind once
+  // with its count and first features, the counts are stats.json's, and stats.json keeps every
+  // message.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("grouped_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ostringstream features;
+  auto feature = [&, first = true](int id, const std::string& geometry) mutable {
+    features << (first ? "" : ",\n") << R"({"type": "Feature", "id": )" << id << R"(, "properties": {}, "geometry": )"
+             << geometry << "}";
+    first = false;
+  };
+  auto line = [](const std::vector<std::string>& points) {
+    std::string g = R"({"type": "LineString", "coordinates": [)";
+    for (std::size_t i = 0; i < points.size(); ++i) g += (i > 0 ? ", " : "") + points[i];
+    return g + "]}";
+  };
+  auto point = [](double lon, double lat) {
+    char text[64];
+    std::snprintf(text, sizeof text, "[%.6f, %.6f]", lon, lat);
+    return std::string(text);
+  };
+  for (int k = 0; k < 20; ++k) {
+    feature(1 + k, line({point(-34.860, -8.030 + 0.002 * k), point(-34.850, -8.030 + 0.002 * k)}));
+  }
+  for (int k = 0; k < 500; ++k) {
+    const std::string p = point(-34.870 + 0.00005 * k, -8.010);
+    feature(1000 + k, line({p, p}));
+  }
+  for (int k = 0; k < 7; ++k) {
+    std::vector<std::string> points{point(-34.860, -8.000), point(-34.855, -8.001), point(-34.850, -8.000)};
+    points[static_cast<std::size_t>(k % 3)] = "[-34.855, 1e999]";
+    feature(2000 + k, line(points));
+  }
+  for (int k = 0; k < 3; ++k) feature(3000 + k, "null");
+  for (int k = 0; k < 4; ++k) feature(4000 + k, line({point(-30.0, -8.0 - 0.01 * k), point(-30.01, -8.0 - 0.01 * k)}));
+  std::ofstream(dir / "rivers.geojson")
+      << R"({"type": "FeatureCollection", "name": "rivers", "crs": {"type": "name", "properties": {"name": )"
+      << R"("urn:ogc:def:crs:OGC:1.3:CRS84"}}, "features": [)"
+      << "\n"
+      << features.str() << "\n]}\n";
+  const json scene = {{"terrain", {{"dem", kSamples + "/olinda/olinda_dem_utm25s.tif"}}},
+                      {"layers",
+                       {{{"name", "rivers"},
+                         {"kind", "line"},
+                         {"source", (dir / "rivers.geojson").string()},
+                         {"style", {{"width_m", 8.0}}}}}}};
+  std::ofstream(dir / "scene.json") << scene.dump(1);
+  const int status =
+      runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                           " --height " + std::to_string(kHeight) + " --out " + (dir / "out").string(),
+                       dir / "log.txt");
+  const std::string log = readText(dir / "log.txt");
+  ASSERT_EQ(status, 0) << log;
+  const json stats = json::parse(readText(dir / "out" / "stats.json"));
+  ASSERT_EQ(stats["layers"].size(), 1u);
+  EXPECT_EQ(stats["layers"][0]["features"].get<int>(), 534);
+  EXPECT_EQ(stats["layers"][0]["drawn_features"].get<int>(), 20);
+
+  const std::vector<LoggedKind> kinds = loggedKinds(log);
+  std::size_t logged = 0;
+  for (const LoggedKind& k : kinds) logged += k.count;
+  EXPECT_EQ(logged, stats["diagnostics"].size()) << "every message of stats.json is counted in the log once\n" << log;
+  EXPECT_LT(kinds.size(), 12u) << log;
+  // Per kind: one line of the log, whose count is how many of stats.json's messages are of it.
+  const struct {
+    const char* text;
+    std::size_t expected;
+    const char* firstFeatures;
+  } expected[] = {{"line has 1 distinct point(s)", 500, "(features 1000, 1001, 1002, 1003, 1004, …)"},
+                  {"non-finite coordinate at vertex", 7, "(features 2000, 2001, 2002, 2003, 2004, …)"},
+                  {"has no geometry", 3, "(features 3000, 3001, 3002)"},
+                  {"lies outside the terrain", 4, "(features 4000, 4001, 4002, 4003)"}};
+  for (const auto& e : expected) {
+    SCOPED_TRACE(e.text);
+    std::size_t inStats = 0;
+    for (const json& d : stats["diagnostics"])
+      inStats += d.get<std::string>().find(e.text) != std::string::npos ? 1u : 0u;
+    EXPECT_EQ(inStats, e.expected) << stats["diagnostics"].dump(1);
+    std::vector<const LoggedKind*> lines;
+    for (const LoggedKind& k : kinds) {
+      if (k.line.find(e.text) != std::string::npos) lines.push_back(&k);
+    }
+    ASSERT_EQ(lines.size(), 1u) << log;
+    EXPECT_EQ(lines[0]->count, inStats) << lines[0]->line;
+    EXPECT_NE(lines[0]->line.find("rivers.geojson: layer 'rivers': " + countText(inStats) + " features: "),
+              std::string::npos)
+        << lines[0]->line;
+    EXPECT_NE(lines[0]->line.find(e.firstFeatures), std::string::npos) << lines[0]->line;
+  }
+  // The vertex differs from line to line: said as N.
+  EXPECT_NE(log.find("line: non-finite coordinate at vertex N (features"), std::string::npos) << log;
 }
 
 TEST(OverlayRenderCli, MsaaAndCameraFileRoundTrip) {

@@ -1174,6 +1174,45 @@ TEST_F(ViewerScriptTest, MapToolsByImageAndState) {
 // First contact (issue 20): a DEM in longitude/latitude, a folder of tiles and a vector file
 // opened alone each show something; a file that cannot be opened leaves the window open with
 // the error inside it, and a DEM dropped on it then shows.
+TEST_F(ViewerScriptTest, RepeatedMessagesAreOneMessageWithTheCountAndTheFirstFeatures) {
+  // A vector file alone with 300 one-point lines among 20 good ones: the Messages list says the
+  // kind once (groupDiagnostics, as the log), with its count and first features.
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  const fs::path dir = outputDir("grouped_messages");
+  std::string features;
+  auto add = [&](int id, const std::string& a, const std::string& b) {
+    features += std::string(features.empty() ? "" : ",\n") + R"({"type": "Feature", "id": )" + std::to_string(id) +
+                R"(, "properties": {}, "geometry": {"type": "LineString", "coordinates": [)" + a + ", " + b + "]}}";
+  };
+  for (int k = 0; k < 20; ++k) {
+    const std::string lat = std::to_string(-8.03 + 0.002 * k);
+    add(1 + k, "[-34.86, " + lat + "]", "[-34.85, " + lat + "]");
+  }
+  for (int k = 0; k < 300; ++k) {
+    const std::string p = "[" + std::to_string(-34.87 + 0.00005 * k) + ", -8.01]";
+    add(1000 + k, p, p);
+  }
+  const fs::path file = dir / "rivers.geojson";
+  std::ofstream(file) << R"({"type": "FeatureCollection", "name": "rivers", "features": [)" << features << "]}\n";
+  ASSERT_TRUE(runViewer(
+      dir, {{"window", {kWidth, kHeight}}, {"steps", {{{"wait", 2}}, {{"action", "save_state"}, {"path", "s.json"}}}}},
+      file.string()));
+  const json state = json::parse(readText(dir / "s.json"));
+  ASSERT_EQ(state["layers"].size(), 1u);
+  EXPECT_EQ(state["layers"][0]["drawn_features"].get<int>(), 20);
+  std::vector<std::string> onePoint;
+  for (const json& m : state["messages"]) {
+    const std::string text = m.get<std::string>();
+    if (text.find("distinct point") != std::string::npos) onePoint.push_back(text);
+  }
+  ASSERT_EQ(onePoint.size(), 1u) << state["messages"].dump(1);
+  EXPECT_EQ(onePoint[0].rfind("error: ", 0), 0u) << onePoint[0];
+  EXPECT_NE(onePoint[0].find("rivers.geojson: layer 'rivers': 300 features: line: line has 1 distinct point(s)"),
+            std::string::npos)
+      << onePoint[0];
+  EXPECT_NE(onePoint[0].find("(features 1000, 1001, 1002, 1003, 1004, …)"), std::string::npos) << onePoint[0];
+}
+
 TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
   ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
   const fs::path dir = outputDir("viewer_first_contact");
