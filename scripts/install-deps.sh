@@ -20,6 +20,8 @@ packages=(
   # maths, geodesy, geometry, geodata, images, json
   libglm-dev libgeographiclib-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgdal-dev gdal-bin libopenimageio-dev openimageio-tools nlohmann-json3-dev
+  # the caches' checksums (XXH3, header-only use: XXH_INLINE_ALL)
+  libxxhash-dev
   # the national-border scene of scripts/border_scene.sh: GMT and the Digital Chart of the World
   gmt gmt-dcw
   # its --coast layer: GMT's full-resolution GSHHG shorelines

@@ -52,7 +52,7 @@ constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
     "                      [--lasso L.json] [--overlap A,B [--overlap-op OP]] [--open-volumes]\n"
     "                      [--lod-tolerance PX] [--exaggeration X] [--method M [--drape-size N]]\n"
-    "                      [--overlays on|off] --out DIR\n"
+    "                      [--overlays on|off] [--cache-dir DIR | --no-cache] --out DIR\n"
     "Draws the scene headless (OpenGL 4.5 core via EGL) and writes into DIR:\n"
     "  color.png   the frame, top row first\n"
     "  depth.tiff  float32 depth as stored (reversed-Z: 1 at the near plane, 0 = background)\n"
@@ -67,6 +67,9 @@ constexpr const char* kUsage =
     "--exaggeration: vertical exaggeration (default: the scene's)\n"
     "--overlays off: the terrain alone, the vector layers neither read nor built nor drawn (the\n"
     "  terrain's share of the start time and memory; default on)\n"
+    "--cache-dir DIR: the scene's cache there (default: the scene's cache_dir, else .stencil-gis-cache\n"
+    "  beside the scene file; the user's cache folder when that cannot be written)\n"
+    "--no-cache: no cache on disk: every layer read from its source, every tile built\n"
     "--method M: how the vector layers are drawn (default: the first):\n";
 
 /// The usage, with one line per overlay technique of the registry.
@@ -95,6 +98,14 @@ struct Options {
   const overlay::TechniqueInfo* technique = &overlay::defaultTechnique();
   int drapeSize = 2048;
   bool overlays = true;
+  std::string cacheDir;  ///< overrides the scene's
+  bool noCache = false;
+
+  /// The scene file's description with the cache options applied.
+  void applyCache(scene::SceneDescription& d) const {
+    if (!cacheDir.empty()) d.cacheDir = std::filesystem::absolute(cacheDir).string();
+    d.cacheDisabled = noCache;
+  }
 };
 
 /// Returns an error message, or an empty string when the options are good.
@@ -124,9 +135,12 @@ std::string parseArgs(int argc, char** argv, Options& o) {
   parser.option("--drape-size", o.drapeSize, 1, 65536);
   parser.option("--exaggeration", o.exaggeration, 0.001, 1000.0);
   parser.choice<bool>("--overlays", o.overlays, {{"on", true}, {"off", false}});
+  parser.option("--cache-dir", o.cacheDir);
+  parser.flag("--no-cache", o.noCache);
   if (std::string error = parser.parse(argc, argv); !error.empty()) return error;
   if (o.scene.empty()) return "--scene is required";
   if (o.out.empty()) return "--out is required";
+  if (o.noCache && !o.cacheDir.empty()) return "--cache-dir and --no-cache exclude each other";
   if (!o.overlap.empty() && std::count(o.overlap.begin(), o.overlap.end(), ',') != 1) {
     return "--overlap needs two layer names separated by a comma";
   }
@@ -290,6 +304,7 @@ std::optional<Setup> load(const Options& o, Diagnostics& all) {
   report(description.diagnostics);
   all.append(description.diagnostics);
   if (!description) return std::nullopt;
+  o.applyCache(*description);
   // Left out before loading, so that nothing of them counts in the time or the memory.
   if (!o.overlays) description->layers.clear();
 
@@ -626,6 +641,7 @@ int run(const Options& o) {
   }
   // A scene drawn on the globe (docs/globe.md) takes its own path.
   if (Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene); description.ok()) {
+    o.applyCache(*description);
     Result<std::string> globe = scene::globeReason(*description);
     if (globe.ok() && !globe->empty()) {
       if (o.msaa > 1) {

@@ -42,16 +42,17 @@ FeatureFileEntry FeatureFileEntry::of(const Feature& feature, std::uint64_t offs
   return e;
 }
 
-std::shared_ptr<const FeatureFile> FeatureFile::open(const std::string& path, std::vector<FeatureFileEntry> entries,
-                                                     std::uint64_t end, std::uint64_t content, std::string* error) {
+std::shared_ptr<const FeatureFile> FeatureFile::open(const std::string& path, int fd,
+                                                     std::vector<FeatureFileEntry> entries, std::uint64_t end,
+                                                     std::uint64_t content, std::string* error) {
   const auto fail = [&](const std::string& why) {
     if (error != nullptr) *error = path + ": " + why;
     return std::shared_ptr<const FeatureFile>();
   };
   std::shared_ptr<FeatureFile> file(new FeatureFile());
   file->path_ = path;
-  file->fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (file->fd_ < 0) return fail(std::strerror(errno));
+  file->fd_ = fd;
+  if (file->fd_ < 0) return fail("cannot be opened");
   struct stat st {};
   if (::fstat(file->fd_, &st) != 0 || st.st_size < 0 || static_cast<std::uint64_t>(st.st_size) < end)
     return fail("shorter than its index says");

@@ -77,7 +77,12 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   gridOptions.paging = description.paging == TerrainPaging::Always  ? globe::GridPaging::Always
                        : description.paging == TerrainPaging::Never ? globe::GridPaging::Never
                                                                     : globe::GridPaging::Auto;
-  gridOptions.cacheDir = [&description] { return cacheDirectoryFor(description); };
+  // The cache: the scene's, else the user's, else none (said once). A paged grid needs a file
+  // even without a cache: a scratch folder then.
+  std::string cacheWarning;
+  const std::string cacheDirectory = cacheDirectoryFor(description, &cacheWarning);
+  if (!cacheWarning.empty()) out.diagnostics.add({Severity::Warning, {}, {}, {}, cacheWarning});
+  gridOptions.cacheDir = [cacheDirectory] { return cacheDirectory.empty() ? scratchDirectory() : cacheDirectory; };
   gridOptions.sceneFile = description.path;
   Result<globe::GeoGrid> grid = globe::GeoGrid::fromDem(description.demSpec(), gridOptions);
   out.diagnostics.append(grid.diagnostics);
@@ -94,7 +99,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   // Large imagery without overviews gets them built once into the scene's cache.
   if (description.imagery) {
     globe::ImageryOptions imageryOptions;
-    imageryOptions.cacheDir = [&description] { return cacheDirectoryFor(description); };
+    if (!cacheDirectory.empty()) imageryOptions.cacheDir = [cacheDirectory] { return cacheDirectory; };
     Result<std::shared_ptr<globe::GlobeImagery>> imagery =
         globe::GlobeImagery::open(*description.imagery, description.imageryBands, imageryOptions);
     out.diagnostics.append(imagery.diagnostics);

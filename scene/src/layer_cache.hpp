@@ -18,6 +18,7 @@
 #include <string>
 
 #include "core/diagnostics.hpp"
+#include "geo/checked_file.hpp"
 #include "geo/feature_file.hpp"
 #include "geo/frame.hpp"
 #include "geo/vector.hpp"
@@ -38,16 +39,32 @@ struct CachedLayer {
   std::shared_ptr<const geo::FeatureFile> features;
 };
 
-/// The layer and its diagnostics as stored, or none (no file, another key, damaged). Reads the
-/// header and the features' index only (about 80 bytes a feature): the features stay on disk.
-std::optional<CachedLayer> readLayerCache(const std::string& file, std::uint64_t key);
+/// What reading a layer's file gave: the layer, or why not (no file: Missing, quietly built;
+/// any file that is not whole and this layer's: Damaged, rebuilt with a warning).
+struct LayerCacheRead {
+  std::optional<CachedLayer> layer;
+  geo::io::CheckedStatus status = geo::io::CheckedStatus::Missing;
+  std::string why;
+};
+
+/// The layer and its diagnostics as stored. Verifies every section's checksum (the features'
+/// bodies included, read through once) and reads the header and the features' index (about 80
+/// bytes a feature): the features stay on disk.
+LayerCacheRead readLayerCache(const std::string& file, std::uint64_t key);
+
+/// What writing a layer's file gave: what `read` returned (none if it never ran), and whether
+/// the file was written (else why not).
+struct LayerCacheWrite {
+  std::optional<Result<geo::VectorLayer>> result;
+  geo::io::WriteOutcome outcome;
+};
 
 /// Reads a layer into the cache: `read` reads it, handing each good feature to the sink it is
 /// given (geo::VectorReadOptions::sink), which writes it to the file at once; what it returns
 /// (its diagnostics, a failure too, and the layer without its features) is stored after them.
-/// The layer is read in the memory of one feature, whatever its size. Returns what `read`
-/// returned, or none when the file cannot be written (then the features are lost: read again).
-std::optional<Result<geo::VectorLayer>> writeLayerCache(
+/// The layer is read in the memory of one feature, whatever its size. When the file cannot be
+/// written (outcome false) the features handed to the sink are lost: read again.
+LayerCacheWrite writeLayerCache(
     const std::string& file, std::uint64_t key,
     const std::function<Result<geo::VectorLayer>(const std::function<void(geo::Feature&&)>&)>& read);
 

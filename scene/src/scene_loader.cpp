@@ -3,15 +3,18 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <set>
 
 #include "core/hash.hpp"
 #include "core/log.hpp"
+#include "geo/checked_file.hpp"
 #include "geo/raster.hpp"
 #include "layer_cache.hpp"
 #include "terrain/terrain_grid.hpp"
@@ -24,10 +27,19 @@ namespace {
 /// A stable short name for a path.
 std::string pathHash(const std::string& text) { return stableHashHex(text).substr(0, 8); }
 
-bool usableDirectory(const std::filesystem::path& dir) {
+/// Whether `dir` is (or can be made) a folder we can write in; else why not.
+bool usableDirectory(const std::filesystem::path& dir, std::string& why) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  return std::filesystem::is_directory(dir, ec) && ::access(dir.c_str(), W_OK) == 0;
+  if (!std::filesystem::is_directory(dir, ec)) {
+    why = ec ? ec.message() : "not a folder";
+    return false;
+  }
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    why = std::strerror(errno);
+    return false;
+  }
+  return true;
 }
 
 /// The paged terrain: the pyramid (built when missing or stale), its pager and tree.
@@ -166,23 +178,69 @@ std::string pyramidPathFor(const SceneDescription& description) {
   for (const std::string& p : description.demSpec().paths) all += fs::absolute(p).lexically_normal().string() + "\n";
   const std::string name =
       dem.stem().string() + "-b" + std::to_string(description.demBand) + "-" + pathHash(all) + ".sgpyr";
-  return (fs::path(cacheDirectoryFor(description)) / name).string();
+  const std::string cache = cacheDirectoryFor(description);
+  return (fs::path(cache.empty() ? scratchDirectory() : cache) / name).string();
 }
 
-std::string cacheDirectoryFor(const SceneDescription& description) {
+std::string cacheDirectoryFor(const SceneDescription& description, std::string* warning) {
   namespace fs = std::filesystem;
-  fs::path dir = description.cacheDir.empty() ? fs::absolute(description.path).parent_path() / ".stencil-gis-cache"
-                                              : fs::path(description.cacheDir);
-  if (!usableDirectory(dir)) {
-    const char* xdg = std::getenv("XDG_CACHE_HOME");
-    const char* home = std::getenv("HOME");
-    const fs::path fallback = xdg != nullptr && *xdg != '\0' ? fs::path(xdg) / "stencil-gis"
-                              : home != nullptr              ? fs::path(home) / ".cache" / "stencil-gis"
-                                                             : fs::temp_directory_path() / "stencil-gis";
-    logWarning("cannot write the cache directory " + dir.string() + "; using " + fallback.string());
-    dir = fallback;
-    usableDirectory(dir);
+  if (description.cacheDisabled) return {};
+  const fs::path dir = description.cacheDir.empty()
+                           ? fs::absolute(description.path).parent_path() / ".stencil-gis-cache"
+                           : fs::path(description.cacheDir);
+  std::string why;
+  if (usableDirectory(dir, why)) return dir.string();
+  const char* xdg = std::getenv("XDG_CACHE_HOME");
+  const char* home = std::getenv("HOME");
+  const fs::path fallback = xdg != nullptr && *xdg != '\0'     ? fs::path(xdg) / "stencil-gis"
+                            : home != nullptr && *home != '\0' ? fs::path(home) / ".cache" / "stencil-gis"
+                                                               : fs::path();
+  std::string fallbackWhy = "no user cache folder ($XDG_CACHE_HOME and $HOME unset)";
+  const bool usable = !fallback.empty() && usableDirectory(fallback, fallbackWhy);
+  if (warning != nullptr) {
+    *warning = "cache " + dir.string() + ": cannot be written (" + why + "); " +
+               (usable ? "using " + fallback.string()
+                       : "nor " + (fallback.empty() ? std::string("a user cache folder") : fallback.string()) + " (" +
+                             fallbackWhy + "): running without a cache, every layer read from its source");
   }
+  return usable ? fallback.string() : std::string();
+}
+
+CacheUsage cacheUsage(const std::string& directory) {
+  namespace fs = std::filesystem;
+  CacheUsage usage;
+  std::error_code ec;
+  if (directory.empty()) return usage;
+  for (fs::recursive_directory_iterator it(directory, fs::directory_options::skip_permission_denied, ec), end;
+       !ec && it != end; it.increment(ec)) {
+    std::error_code fileError;
+    if (!it->is_regular_file(fileError)) continue;
+    const std::uintmax_t size = it->file_size(fileError);
+    if (fileError) continue;
+    usage.bytes += size;
+    ++usage.files;
+  }
+  return usage;
+}
+
+CacheUsage clearCache(const std::string& directory) {
+  namespace fs = std::filesystem;
+  const CacheUsage before = cacheUsage(directory);
+  std::error_code ec;
+  if (directory.empty() || !fs::is_directory(directory, ec)) return {};
+  for (const fs::directory_entry& e : fs::directory_iterator(directory, ec)) {
+    std::error_code removeError;
+    fs::remove_all(e.path(), removeError);
+  }
+  const CacheUsage after = cacheUsage(directory);
+  return {before.bytes - std::min(before.bytes, after.bytes), before.files - std::min(before.files, after.files)};
+}
+
+std::string scratchDirectory() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path dir = fs::temp_directory_path(ec) / ("stencil-gis-scratch-" + std::to_string(::getuid()));
+  fs::create_directories(dir, ec);
   return dir.string();
 }
 
@@ -314,27 +372,61 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
       (*bar)(fraction);
     };
   };
+  // The cache: the scene's, else the user's, else none (said once); temporary files of writers
+  // that were killed or ran out of disk are cleared.
+  std::string cacheWarning;
+  const std::string cacheDirectory = cacheDirectoryFor(description, &cacheWarning);
+  if (!cacheWarning.empty()) diagnostics.add({Severity::Warning, {}, {}, {}, cacheWarning});
+  if (!cacheDirectory.empty()) (void)geo::io::removeStaleTemporaries(cacheDirectory, std::chrono::hours(1));
   for (const LayerDescription& layer : description.layers) {
     geo::VectorReadOptions readOptions;
     readOptions.layer = layer.sourceLayer;
     // As read last time, when nothing it depends on has changed (layer_cache.hpp).
-    const std::optional<std::uint64_t> key =
-        options.layerCache ? detail::layerCacheKey(layer.source, scene.frame, readOptions) : std::nullopt;
-    const std::string cacheFile = key ? detail::layerCacheFile(cacheDirectoryFor(description), *key) : std::string();
-    std::optional<detail::CachedLayer> cached = key ? detail::readLayerCache(cacheFile, *key) : std::nullopt;
+    const std::optional<std::uint64_t> key = options.layerCache && !cacheDirectory.empty()
+                                                 ? detail::layerCacheKey(layer.source, scene.frame, readOptions)
+                                                 : std::nullopt;
+    const std::string cacheFile = key ? detail::layerCacheFile(cacheDirectory, *key) : std::string();
+    std::optional<detail::CachedLayer> cached;
+    if (key) {
+      detail::LayerCacheRead read = detail::readLayerCache(cacheFile, *key);
+      cached = std::move(read.layer);
+      // A damaged file costs a read of the source, never a feature: said, and written again.
+      if (read.status == geo::io::CheckedStatus::Damaged)
+        diagnostics.add({Severity::Warning,
+                         cacheFile,
+                         layer.name,
+                         {},
+                         "cache file damaged (" + read.why + "); rebuilt from " + layer.source});
+    }
     if (cached) {
       ++scene.layersFromCache;
     } else {
       // Streamed into the cache as read, and opened from there: the features stay in the file.
       if (key) {
-        const std::optional<Result<geo::VectorLayer>> written =
+        const detail::LayerCacheWrite written =
             detail::writeLayerCache(cacheFile, *key, [&](const std::function<void(geo::Feature &&)>& sink) {
               geo::VectorReadOptions streamed = readOptions;
               streamed.sink = sink;
               streamed.progress = readProgress(layer.name);
               return geo::readVectorLayer(layer.source, scene.frame, streamed);
             });
-        if (written) cached = detail::readLayerCache(cacheFile, *key);
+        if (written.outcome) {
+          detail::LayerCacheRead read = detail::readLayerCache(cacheFile, *key);
+          cached = std::move(read.layer);
+          if (!cached)
+            diagnostics.add({Severity::Warning,
+                             cacheFile,
+                             layer.name,
+                             {},
+                             "cache file cannot be read back (" + read.why + "); the layer is read into memory"});
+        } else {
+          diagnostics.add(
+              {Severity::Warning,
+               cacheFile,
+               layer.name,
+               {},
+               "cache file cannot be written (" + written.outcome.error + "); the layer is read into memory"});
+        }
       }
       // No cache, or it could not be written: read into memory.
       if (!cached) cached = detail::CachedLayer{geo::readVectorLayer(layer.source, scene.frame, readOptions), nullptr};

@@ -79,18 +79,17 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   techniqueOptions.build = options;
   techniqueOptions.tiling.gpuBudgetBytes =
       static_cast<std::size_t>(std::max(1.0, scene.description.gpuBudgetMb) * 1024.0 * 1024.0);
-  if (settings.tileCache) {
-    techniqueOptions.tiling.cacheDirectory =
-        (std::filesystem::path(cacheDirectoryFor(scene.description)) / "vector-tiles").string();
+  const std::string cacheDirectory = settings.tileCache ? cacheDirectoryFor(scene.description) : std::string();
+  if (!cacheDirectory.empty()) {
+    techniqueOptions.tiling.cacheDirectory = (std::filesystem::path(cacheDirectory) / "vector-tiles").string();
     techniqueOptions.tiling.cacheKey = terrainCacheKey(scene);
     techniqueOptions.tiling.cacheRevision = scene.bounds->revision();
   }
   // A tiled technique builds the pieces per tile, the deferred one none: the layers keep their
   // features only, checked at load (or as checked last time, with the cache).
   options.deferPieces = noPieces;
-  if (noPieces && settings.tileCache)
-    options.checkCacheDirectory =
-        (std::filesystem::path(cacheDirectoryFor(scene.description)) / "vector-checks").string();
+  if (noPieces && !cacheDirectory.empty())
+    options.checkCacheDirectory = (std::filesystem::path(cacheDirectory) / "vector-checks").string();
   // It also draws lines at least LayerStyle::minWidthPixels wide (each tile at the widths its
   // view needs); the whole-load techniques draw the widths in metres.
   options.minWidthInPixels = tiled;

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -300,6 +301,16 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   const Result<scene::LoadedScene> repaired = load();
   ASSERT_TRUE(repaired.ok());
   EXPECT_EQ(repaired->layersFromCache, 0u);
+  // Said once per damaged file, naming it and the source it is rebuilt from; a warning, not an error.
+  std::size_t said = 0;
+  for (const Diagnostic& d : repaired.diagnostics.items()) {
+    if (d.message.find("cache file damaged") == std::string::npos) continue;
+    ++said;
+    EXPECT_EQ(d.severity, Severity::Warning);
+    EXPECT_EQ(std::filesystem::path(d.file).extension(), ".layer");
+    EXPECT_NE(d.message.find("rebuilt from " + source), std::string::npos) << d.toString();
+  }
+  EXPECT_EQ(said, 1u) << "the layer's file (the other is the source's older version, never read)";
   EXPECT_EQ(repaired->layers[0].features.all().at(1).lines, changed->layers[0].features.all().at(1).lines);
   EXPECT_EQ(load()->layersFromCache, 1u);
   // Without the cache (LoadOptions::layerCache), always from the source.
@@ -398,6 +409,66 @@ TEST(TerrainGrid, ImplausibleHeightsToNodataCountsWhatItChanges) {
   for (std::size_t i = 0; i < 5; ++i) EXPECT_FALSE(std::isnan(h[i])) << i;
   for (std::size_t i = 5; i < h.size(); ++i) EXPECT_TRUE(std::isnan(h[i])) << i;
   EXPECT_EQ(terrain::implausibleHeightsToNodata(h), 0u);
+}
+
+}  // namespace
+}  // namespace gis::test
+
+namespace gis::test {
+namespace {
+
+TEST(SceneCache, AFolderThatCannotBeWrittenFallsBackToTheUserCacheThenToNone) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::path(outputDir()) / "cache_fallback";
+  fs::remove_all(root);
+  fs::create_directories(root);
+  scene::SceneDescription d;
+  d.path = (root / "scene.json").string();
+  // A cache path that is a file: the user's cache folder, said once.
+  std::ofstream(root / "a-file") << "x";
+  d.cacheDir = (root / "a-file").string();
+  const char* oldXdg = std::getenv("XDG_CACHE_HOME");
+  const std::string keepXdg = oldXdg != nullptr ? oldXdg : "";
+  ::setenv("XDG_CACHE_HOME", (root / "user").c_str(), 1);
+  std::string warning;
+  EXPECT_EQ(scene::cacheDirectoryFor(d, &warning), (root / "user" / "stencil-gis").string());
+  EXPECT_NE(warning.find("cannot be written"), std::string::npos) << warning;
+  EXPECT_NE(warning.find(d.cacheDir), std::string::npos) << warning;
+  // Neither: no cache.
+  ::setenv("XDG_CACHE_HOME", (root / "a-file").c_str(), 1);
+  warning.clear();
+  EXPECT_EQ(scene::cacheDirectoryFor(d, &warning), "");
+  EXPECT_NE(warning.find("running without a cache"), std::string::npos) << warning;
+  // A usable folder: no warning. Disabled: none.
+  d.cacheDir = (root / "fine").string();
+  warning.clear();
+  EXPECT_EQ(scene::cacheDirectoryFor(d, &warning), d.cacheDir);
+  EXPECT_TRUE(warning.empty()) << warning;
+  d.cacheDisabled = true;
+  EXPECT_EQ(scene::cacheDirectoryFor(d, &warning), "");
+  if (oldXdg != nullptr) {
+    ::setenv("XDG_CACHE_HOME", keepXdg.c_str(), 1);
+  } else {
+    ::unsetenv("XDG_CACHE_HOME");
+  }
+}
+
+TEST(SceneCache, UsageCountsAndClearEmptiesTheFolder) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::path(outputDir()) / "cache_usage";
+  fs::remove_all(root);
+  fs::create_directories(root / "vector-tiles" / "0123");
+  std::ofstream(root / "vector-tiles" / "0123" / "0-0-0.tile") << std::string(1000, 'a');
+  std::ofstream(root / "x.layer") << std::string(234, 'b');
+  const scene::CacheUsage usage = scene::cacheUsage(root.string());
+  EXPECT_EQ(usage.files, 2u);
+  EXPECT_EQ(usage.bytes, 1234u);
+  const scene::CacheUsage removed = scene::clearCache(root.string());
+  EXPECT_EQ(removed.files, 2u);
+  EXPECT_EQ(removed.bytes, 1234u);
+  EXPECT_TRUE(fs::is_directory(root));
+  EXPECT_TRUE(fs::is_empty(root));
+  EXPECT_EQ(scene::cacheUsage("").files, 0u);
 }
 
 }  // namespace

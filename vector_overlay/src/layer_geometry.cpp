@@ -26,6 +26,7 @@
 #include "core/hash.hpp"
 #include "footprint_geometry.hpp"
 #include "geo/binary_io.hpp"
+#include "geo/checked_file.hpp"
 #include "vector_overlay/pieces_fingerprint.hpp"
 #include "vector_overlay/validation.hpp"
 
@@ -450,31 +451,46 @@ namespace {
 constexpr std::uint32_t kChecksMagic = 0x4B484353;  // "SCHK"
 
 /// The checks of a deferred layer's features as written by writeChecks, if `file` holds as
-/// many as `outcomes` has and is whole.
+/// many as `outcomes` has and is whole (its checksum verified first). `damage` says why a file
+/// that is there was not used (its name says what it holds: any that fails is damaged).
 bool readChecks(const std::filesystem::path& file, std::vector<FeatureOutcome>& outcomes,
-                std::vector<Diagnostics>& found) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return false;
+                std::vector<Diagnostics>& found, std::string& damage) {
+  geo::io::CheckedStatus status = geo::io::CheckedStatus::Missing;
+  std::string why;
+  const std::shared_ptr<const geo::io::CheckedFile> checked = geo::io::CheckedFile::open(file, status, why);
+  if (!checked) {
+    if (status == geo::io::CheckedStatus::Damaged) damage = why;
+    return false;
+  }
+  const std::optional<std::string> bytes = checked->sections() == 1 ? checked->read(0) : std::nullopt;
+  const auto damaged = [&](const std::string& what) {
+    damage = what;
+    return false;
+  };
+  if (!bytes) return damaged("its checks do not match their checksum");
+  std::istringstream in(*bytes);
   geo::io::Reader r(in);
   std::uint32_t magic = 0;
   std::vector<FeatureOutcome> read;
-  if (!r.value(magic) || magic != kChecksMagic || !r.array(read) || read.size() != outcomes.size()) return false;
+  if (!r.value(magic) || magic != kChecksMagic || !r.array(read) || read.size() != outcomes.size())
+    return damaged("its checks are not this layer's");
   std::vector<Diagnostics> messages(read.size());
   for (std::size_t i = 0; i < read.size(); ++i) {
-    if (static_cast<std::uint8_t>(read[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden)) return false;
+    if (static_cast<std::uint8_t>(read[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden))
+      return damaged("its checks cannot be read");
     std::size_t n = 0;
-    if (!r.count(n, 33)) return false;  // severity and four texts' lengths
+    if (!r.count(n, 33)) return damaged("its checks cannot be read");  // severity and four texts' lengths
     for (std::size_t k = 0; k < n; ++k) {
       Diagnostic d;
       std::uint8_t severity = 0;
       if (!r.value(severity) || severity > static_cast<std::uint8_t>(Severity::Error) || !r.text(d.file) ||
           !r.text(d.layer) || !r.text(d.feature) || !r.text(d.message))
-        return false;
+        return damaged("its checks cannot be read");
       d.severity = static_cast<Severity>(severity);
       messages[i].add(std::move(d));
     }
   }
-  if (!r.value(magic) || magic != kChecksMagic) return false;
+  if (!r.value(magic) || magic != kChecksMagic) return damaged("its checks cannot be read");
   outcomes = std::move(read);
   found = std::move(messages);
   return true;
@@ -483,22 +499,25 @@ bool readChecks(const std::filesystem::path& file, std::vector<FeatureOutcome>& 
 /// Writes the checks (to a temporary file renamed into place); false when it cannot.
 bool writeChecks(const std::filesystem::path& file, const std::vector<FeatureOutcome>& outcomes,
                  const std::vector<Diagnostics>& found) {
-  return geo::io::writeFileAtomically(file, [&](std::ostream& out) {
-    geo::io::Writer w(out);
-    w.value(kChecksMagic);
-    w.array(outcomes);
-    for (const Diagnostics& d : found) {
-      w.value(static_cast<std::uint64_t>(d.items().size()));
-      for (const Diagnostic& m : d.items()) {
-        w.value(static_cast<std::uint8_t>(m.severity));
-        w.text(m.file);
-        w.text(m.layer);
-        w.text(m.feature);
-        w.text(m.message);
-      }
-    }
-    w.value(kChecksMagic);
-  });
+  return geo::io::writeCheckedFile(file,
+                                   [&](std::ostream& out, geo::io::SectionMarks& marks) {
+                                     geo::io::Writer w(out);
+                                     marks.begin();
+                                     w.value(kChecksMagic);
+                                     w.array(outcomes);
+                                     for (const Diagnostics& d : found) {
+                                       w.value(static_cast<std::uint64_t>(d.items().size()));
+                                       for (const Diagnostic& m : d.items()) {
+                                         w.value(static_cast<std::uint8_t>(m.severity));
+                                         w.text(m.file);
+                                         w.text(m.layer);
+                                         w.text(m.feature);
+                                         w.text(m.message);
+                                       }
+                                     }
+                                     w.value(kChecksMagic);
+                                   })
+      .written;
 }
 
 /// A piece as a lean layer keeps it: all but the footprint's arrays.
@@ -822,7 +841,15 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
       std::snprintf(file, sizeof(file), "%016llx.checks", static_cast<unsigned long long>(h.value()));
       checksFile = std::filesystem::path(options.checkCacheDirectory) / file;
     }
-    layer.stats_.checksFromCache = !checksFile.empty() && readChecks(checksFile, outcomes, found);
+    std::string damage;
+    layer.stats_.checksFromCache = !checksFile.empty() && readChecks(checksFile, outcomes, found, damage);
+    // A damaged file costs the checks, never a feature: said, and written again.
+    if (!layer.stats_.checksFromCache && !damage.empty())
+      r.diagnostics.add({Severity::Warning,
+                         checksFile.string(),
+                         layer.name_,
+                         {},
+                         "cache file damaged (" + damage + "); the features are checked again"});
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
       for (std::size_t i = next.fetch_add(1); i < layer.features_.size(); i = next.fetch_add(1)) {

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <system_error>
 #include <thread>
 #include <type_traits>
@@ -15,12 +16,13 @@
 #include <unistd.h>
 
 #include "geo/binary_io.hpp"
+#include "geo/checked_file.hpp"
 
 namespace gis::overlay::detail {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
-constexpr std::uint32_t kVersion = 3;
+constexpr std::uint32_t kVersion = 4;         // 4: checked sections (geo/checked_file.hpp)
 using geo::io::Reader;
 using geo::io::Writer;
 
@@ -65,68 +67,80 @@ bool readPiece(Reader& r, Polyhedron& p) {
 }  // namespace
 
 bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile) {
-  // Two programs (or two renderers' workers) may write the same tile at once.
-  return geo::io::writeFileAtomically(file, [&](std::ostream& out) {
-    Writer w(out);
-    w.value(kMagic);
-    w.value(kVersion);
-    w.value(fingerprint);
-    w.value(tile.key.level);
-    w.value(tile.key.x);
-    w.value(tile.key.y);
-    w.value(tile.key.width);
-    w.value(tile.groundError);
-    const LayerGeometry& g = tile.geometry;
-    // The lean section first (its length before it, so that a full read skips it): the tile as
-    // a far view draws it, read with a few large reads.
-    const std::streampos lengthAt = out.tellp();
-    w.value(std::uint64_t{0});
-    w.array(tile.featureIndex);
-    g.writeLean(w);
-    w.value(kMagic);
-    const std::streampos leanEnd = out.tellp();
-    out.seekp(lengthAt);
-    w.value(static_cast<std::uint64_t>(leanEnd - lengthAt) - sizeof(std::uint64_t));
-    out.seekp(leanEnd);
-    // The full section: features and pieces with their footprints.
-    w.value(static_cast<std::uint64_t>(g.features().size()));
-    // Per feature: its index in the layer, its geometry, its live pieces.
-    std::vector<std::vector<std::size_t>> slotsOf(g.features().size());
-    for (std::size_t s = 0; s < g.slots().size(); ++s)
-      if (g.slots()[s].live) slotsOf[g.slots()[s].feature].push_back(s);
-    for (std::size_t i = 0; i < g.features().size(); ++i) {
-      w.value(tile.featureIndex.at(i));
-      geo::io::writeGeometry(w, g.features()[i]);
-      w.value(static_cast<std::uint64_t>(slotsOf[i].size()));
-      for (const std::size_t s : slotsOf[i]) writePiece(w, g.polyhedra()[s]);
-    }
-    w.value(kMagic);  // the end: a file cut short fails here
-  });
+  // Two programs (or two renderers' workers) may write the same tile at once: each its own
+  // temporary file, renamed into place. Three checked sections: the header, the lean tile, the
+  // whole tile.
+  return geo::io::writeCheckedFile(file,
+                                   [&](std::ostream& out, geo::io::SectionMarks& marks) {
+                                     Writer w(out);
+                                     marks.begin();
+                                     w.value(kMagic);
+                                     w.value(kVersion);
+                                     w.value(fingerprint);
+                                     w.value(tile.key.level);
+                                     w.value(tile.key.x);
+                                     w.value(tile.key.y);
+                                     w.value(tile.key.width);
+                                     w.value(tile.groundError);
+                                     const LayerGeometry& g = tile.geometry;
+                                     // The lean section: the tile as a far view draws it, read with a few large reads.
+                                     marks.begin();
+                                     w.array(tile.featureIndex);
+                                     g.writeLean(w);
+                                     // The whole section: features and pieces with their footprints.
+                                     marks.begin();
+                                     w.value(static_cast<std::uint64_t>(g.features().size()));
+                                     // Per feature: its index in the layer, its geometry, its live pieces.
+                                     std::vector<std::vector<std::size_t>> slotsOf(g.features().size());
+                                     for (std::size_t s = 0; s < g.slots().size(); ++s)
+                                       if (g.slots()[s].live) slotsOf[g.slots()[s].feature].push_back(s);
+                                     for (std::size_t i = 0; i < g.features().size(); ++i) {
+                                       w.value(tile.featureIndex.at(i));
+                                       geo::io::writeGeometry(w, g.features()[i]);
+                                       w.value(static_cast<std::uint64_t>(slotsOf[i].size()));
+                                       for (const std::size_t s : slotsOf[i]) writePiece(w, g.polyhedra()[s]);
+                                     }
+                                   })
+      .written;
 }
 
 namespace {
 
-/// Reads a tile file's header: whether it holds this format, fingerprint and key; its ground
-/// error and the length of its lean section.
-bool readHeader(Reader& r, std::uint64_t fingerprint, const TileKey& key, double& error, std::uint64_t& leanLength) {
+/// Opens a tile file and checks its header section: whether it holds this format, fingerprint
+/// and key (its ground error). Null when missing; `damage` says why a file that is there was not
+/// used (any file under the tile's name that fails is damaged: its name says what it holds).
+std::shared_ptr<const geo::io::CheckedFile> openTile(const std::filesystem::path& file, std::uint64_t fingerprint,
+                                                     const TileKey& key, double& error, std::string* damage) {
+  geo::io::CheckedStatus status = geo::io::CheckedStatus::Missing;
+  std::string why;
+  std::shared_ptr<const geo::io::CheckedFile> checked = geo::io::CheckedFile::open(file, status, why);
+  const auto damaged = [&](const std::string& what) {
+    if (damage != nullptr) *damage = what;
+    return nullptr;
+  };
+  if (!checked) return status == geo::io::CheckedStatus::Damaged ? damaged(why) : nullptr;
+  if (checked->sections() != 3) return damaged("not a tile file");
+  const std::optional<std::string> header = checked->read(0);
+  if (!header) return damaged("its header does not match its checksum");
+  std::istringstream in(*header);
+  Reader r(in);
   std::uint32_t magic = 0, version = 0;
   std::uint64_t stored = 0;
   TileKey k;
-  return r.value(magic) && magic == kMagic && r.value(version) && version == kVersion && r.value(stored) &&
-         stored == fingerprint && r.value(k.level) && r.value(k.x) && r.value(k.y) && r.value(k.width) && k == key &&
-         r.value(error) && r.value(leanLength);
+  if (!(r.value(magic) && magic == kMagic && r.value(version) && version == kVersion && r.value(stored) &&
+        stored == fingerprint && r.value(k.level) && r.value(k.x) && r.value(k.y) && r.value(k.width) && k == key &&
+        r.value(error)))
+    return damaged("its header is not this tile's");
+  return checked;
 }
 
 }  // namespace
 
 std::optional<std::size_t> tileBytes(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return std::nullopt;
-  Reader r(in);
   double error = 0.0;
-  std::uint64_t leanLength = 0;
-  if (!readHeader(r, fingerprint, key, error, leanLength)) return std::nullopt;
-  return static_cast<std::size_t>(leanLength);
+  const std::shared_ptr<const geo::io::CheckedFile> checked = openTile(file, fingerprint, key, error, nullptr);
+  if (!checked) return std::nullopt;
+  return static_cast<std::size_t>(checked->section(1).length);
 }
 
 std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::filesystem::path& folder,
@@ -168,46 +182,42 @@ std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
-                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean) {
-  // A lean read leaves the GPU arrays in the file for the upload (ArraysInFile), read through
-  // a descriptor opened first: if the file was replaced meanwhile (a writer renames a new one
-  // into place), the two would differ, and the arrays are read now instead.
-  std::shared_ptr<ArraysInFile> arrays;
-  if (lean) {
-    const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd >= 0) arrays = std::make_shared<ArraysInFile>(fd);
-  }
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return std::nullopt;
-  if (arrays) {
-    struct stat a {
-    }, b{};
-    if (::fstat(arrays->descriptor(), &a) != 0 || ::stat(file.c_str(), &b) != 0 || a.st_ino != b.st_ino ||
-        a.st_dev != b.st_dev)
-      arrays.reset();
-  }
-  Reader r(in);
+                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean,
+                                  std::string* damage) {
   double error = 0.0;
-  std::uint64_t leanLength = 0;
-  if (!readHeader(r, fingerprint, key, error, leanLength)) return std::nullopt;
-  std::uint32_t magic = 0;
+  const std::shared_ptr<const geo::io::CheckedFile> checked = openTile(file, fingerprint, key, error, damage);
+  if (!checked) return std::nullopt;
+  const auto damaged = [&](const std::string& what) {
+    if (damage != nullptr) *damage = what;
+    return std::nullopt;
+  };
+  // Every byte used is verified first; all of them are read through the one descriptor opened
+  // and checked (a writer renaming a new file into place meanwhile changes nothing here).
+  const std::size_t section = lean ? 1 : 2;
+  if (!checked->verify(section))
+    return damaged(lean ? "its lean tile does not match its checksum" : "its pieces do not match their checksum");
+  geo::io::SectionStream in(*checked, section);
+  Reader r(in);
   if (lean) {
+    // The GPU arrays stay in the file for the upload (ArraysInFile), read through a copy of the
+    // descriptor that was verified.
+    const int fd = ::dup(checked->descriptor());
+    std::shared_ptr<ArraysInFile> arrays = fd >= 0 ? std::make_shared<ArraysInFile>(fd) : nullptr;
     std::vector<std::uint32_t> index;
-    if (!r.array(index)) return std::nullopt;
+    if (!r.array(index)) return damaged("its lean tile cannot be read");
     std::vector<FeatureStyle> styles(index.size());
     for (std::size_t i = 0; i < index.size(); ++i) {
-      if (index[i] >= source.sharedFeatures().size()) return std::nullopt;
+      if (index[i] >= source.sharedFeatures().size()) return damaged("it names features the layer does not have");
       styles[i] = styleOf(index[i]);
     }
     std::optional<LayerGeometry> g = LayerGeometry::readLean(r, source.name(), source.kind(), source.style(),
                                                              std::move(styles), bounds, options, std::move(arrays));
-    if (!g || !r.value(magic) || magic != kMagic) return std::nullopt;
+    if (!g) return damaged("its lean tile cannot be read");
     return LayerTile{key, std::move(*g), std::move(index), error, true};
   }
-  if (!r.skip(leanLength)) return std::nullopt;
   std::size_t count = 0;
   // A feature takes at least its index, fid, three counts; a piece over 100 bytes.
-  if (!r.count(count, 36)) return std::nullopt;
+  if (!r.count(count, 36)) return damaged("its pieces cannot be read");
   std::vector<geo::Feature> features(count);
   std::vector<FeatureStyle> styles(count);
   std::vector<std::vector<Polyhedron>> pieces(count);
@@ -216,15 +226,14 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
     std::size_t n = 0;
     if (!r.value(index[i]) || index[i] >= source.sharedFeatures().size() || !geo::io::readGeometry(r, features[i]) ||
         !r.count(n, 100))
-      return std::nullopt;
+      return damaged("its pieces cannot be read");
     styles[i] = styleOf(index[i]);
     pieces[i].resize(n);
     for (Polyhedron& p : pieces[i]) {
-      if (!readPiece(r, p)) return std::nullopt;
+      if (!readPiece(r, p)) return damaged("its pieces cannot be read");
       p.footprint.feature = static_cast<std::uint32_t>(i);
     }
   }
-  if (!r.value(magic) || magic != kMagic) return std::nullopt;
   LayerTile tile{key,
                  LayerGeometry::assemble(source.name(), source.kind(), source.style(), std::move(features),
                                          std::move(styles), std::move(pieces), bounds, options),

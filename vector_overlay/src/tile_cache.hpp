@@ -5,12 +5,14 @@
 // holds the tile twice: lean (its GPU arrays and its pieces' boxes, which a far view draws,
 // LayerGeometry::writeLean) and whole (features and footprints, for views near it and edits). A file names
 // the fingerprint of everything its pieces depend on (the layer's features and styles, the
-// build and tiling options, the terrain); a file with another fingerprint, another format or
-// cut short is not used (and is written again).
+// build and tiling options, the terrain). Files are checked (geo/checked_file.hpp): a section is
+// verified against its checksum before any byte of it is used; a file under a tile's name that
+// is not that tile whole is damaged, named, and written again.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <string>
 
 #include "vector_overlay/tiled_layer.hpp"
 
@@ -37,6 +39,7 @@ std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
-                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean = false);
+                                  const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean = false,
+                                  std::string* damage = nullptr);
 
 }  // namespace gis::overlay::detail

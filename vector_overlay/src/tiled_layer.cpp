@@ -354,10 +354,11 @@ Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>
   // From the disk cache, while it holds what the tile would be built from.
   const bool cached = cacheUsable_ && bounds_->revision() == cacheRevision_;
   const std::filesystem::path file = cached ? tileFile(key) : std::filesystem::path();
+  std::string damage;
   if (cached) {
     if (std::optional<LayerTile> tile = detail::readTile(
             file, fingerprint_, key, *source_, *bounds_, tileOptions(key),
-            [&](std::uint32_t i) { return tileStyle(key, i); }, lean && key.level < finestLevel_)) {
+            [&](std::uint32_t i) { return tileStyle(key, i); }, lean && key.level < finestLevel_, &damage)) {
       ++tilesRead_;
       tile->fromDisk = true;
       Result<LayerTile> r;
@@ -366,6 +367,15 @@ Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>
     }
   }
   Result<LayerTile> built = buildNew(key, cancel);
+  // A damaged file costs this build, never a piece: said, and written again.
+  if (!damage.empty()) {
+    ++tilesDamaged_;
+    built.diagnostics.add({Severity::Warning,
+                           file.string(),
+                           source_->name(),
+                           {},
+                           "cache file damaged (" + damage + "); tile rebuilt from the layer's features"});
+  }
   if (cached && built && detail::writeTile(file, fingerprint_, *built)) {
     ++tilesWritten_;
     // A coarse tile for a view far from it: read back lean, so that its arrays go from the

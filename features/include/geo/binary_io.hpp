@@ -1,9 +1,9 @@
 #pragma once
 // Binary streams for the caches on disk (the overlay's tiles, the scene's layers as read): plain
 // values, arrays of them, text, and features' geometry and attributes. Host byte order: a cache
-// is read by the machine that wrote it, and a file of another format fails its magic or
-// fingerprint first. Counts are checked against kMaxCount, so a damaged file fails to read
-// instead of allocating without bound.
+// is read by the machine that wrote it. The files are checked sections (checked_file.hpp), verified
+// before they are read; counts are still checked against what is left, so that no bytes, whatever
+// they are, make a reader allocate without bound.
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -12,13 +12,9 @@
 #include <optional>
 #include <ostream>
 #include <string>
-#include <system_error>
-#include <thread>
 #include <type_traits>
 #include <variant>
 #include <vector>
-
-#include <unistd.h>
 
 #include "geo/feature.hpp"
 
@@ -124,30 +120,6 @@ class Reader {
   std::istream& in_;
   std::optional<std::uint64_t> left_;  ///< bytes left in the stream, where its end is known
 };
-
-/// Writes `file` whole or not at all: `write` fills a temporary file (unique per process and
-/// thread, so that two writers never share one) that is then renamed into place, so readers
-/// never see half a file. False when it cannot be written (the stream failed, or the rename).
-inline bool writeFileAtomically(const std::filesystem::path& file, const std::function<void(std::ostream&)>& write) {
-  std::error_code ec;
-  std::filesystem::create_directories(file.parent_path(), ec);
-  const std::filesystem::path temporary = file.string() + ".tmp" + std::to_string(::getpid()) + "-" +
-                                          std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) return false;
-    write(out);
-    out.flush();
-    if (!out) {
-      out.close();
-      std::filesystem::remove(temporary, ec);
-      return false;
-    }
-  }
-  std::filesystem::rename(temporary, file, ec);
-  if (ec) std::filesystem::remove(temporary, ec);
-  return !ec;
-}
 
 /// A feature's fid, polygons and lines (not its attributes).
 inline void writeGeometry(Writer& w, const Feature& f) {

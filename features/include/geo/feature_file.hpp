@@ -32,10 +32,13 @@ struct FeatureFileEntry {
 
 class FeatureFile {
  public:
-  /// The features of `path` as `entries` index them (in file order; the last ends at `end`).
-  /// `content`: the writer's hash of the features, for whoever keys things on them. Null with
-  /// `error` set when the file cannot be opened or the index does not fit it.
-  static std::shared_ptr<const FeatureFile> open(const std::string& path, std::vector<FeatureFileEntry> entries,
+  /// The features of `path`, read through `fd` (taken: closed with this, or on failure), as
+  /// `entries` index them (in file order; the last ends at `end`). The caller has verified the
+  /// bytes (a checked file's section, geo/checked_file.hpp); the descriptor keeps the file read
+  /// the one verified, whatever is renamed over its path later. `content`: the writer's hash of
+  /// the features, for whoever keys things on them. Null with `error` set when the index does
+  /// not fit the file.
+  static std::shared_ptr<const FeatureFile> open(const std::string& path, int fd, std::vector<FeatureFileEntry> entries,
                                                  std::uint64_t end, std::uint64_t content, std::string* error);
   FeatureFile(const FeatureFile&) = delete;
   FeatureFile& operator=(const FeatureFile&) = delete;

@@ -56,7 +56,10 @@ struct SceneDescription {
   int chunkCells = 64;  ///< cells a side of a quadtree chunk (a power of two, 8 … 256)
   double memoryBudgetMb = 1024.0;
   double gpuBudgetMb = 512.0;
-  std::string cacheDir;                ///< where tile pyramids go; empty = ".stencil-gis-cache" beside the scene
+  std::string cacheDir;  ///< where the scene's cache goes; empty = ".stencil-gis-cache" beside the scene
+  /// No cache on disk (overlay_render --no-cache): every layer read from its source, every tile
+  /// built; a paged DEM's pyramid goes to a scratch folder.
+  bool cacheDisabled = false;
   std::optional<std::string> imagery;  ///< absolute path
   std::vector<int> imageryBands{1, 2, 3};
   std::vector<LayerDescription> layers;

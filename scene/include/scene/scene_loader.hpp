@@ -78,9 +78,28 @@ Result<std::vector<LayerDescription>> layersForVectorFile(const std::string& pat
 /// else the user's cache directory).
 std::string pyramidPathFor(const SceneDescription& description);
 
-/// The scene's cache directory (its `cache_dir`, else ".stencil-gis-cache" beside the scene file;
-/// the user's cache directory when that cannot be written), made if needed.
-std::string cacheDirectoryFor(const SceneDescription& description);
+/// The scene's cache directory (its `cache_dir`, else ".stencil-gis-cache" beside the scene file),
+/// made if needed. When that cannot be written (a read-only folder, a path that is a file) the
+/// user's cache folder ($XDG_CACHE_HOME/stencil-gis, else ~/.cache/stencil-gis); when neither
+/// can, or the cache is disabled, empty: no cache. `warning` (if given) says which fallback was
+/// taken and why, empty when none was.
+std::string cacheDirectoryFor(const SceneDescription& description, std::string* warning = nullptr);
+
+/// What a cache directory holds.
+struct CacheUsage {
+  std::uintmax_t bytes = 0;
+  std::size_t files = 0;
+};
+CacheUsage cacheUsage(const std::string& directory);
+
+/// Empties a cache directory (the viewer's "clear cache"): everything in it is ours and
+/// disposable. Files open in this process stay readable until closed (their folders' entries
+/// go); what a later load or tile needs is built again. Returns what was removed.
+CacheUsage clearCache(const std::string& directory);
+
+/// A scratch folder for files that must exist on disk even without a cache (a paged DEM's
+/// pyramid): the system's temporary folder, per user.
+std::string scratchDirectory();
 
 /// What overlay pieces built on the scene's terrain depend on, as text for a cache's fingerprint:
 /// the DEM files (path, size, date), band, chunk size, grid, paging and vertical exaggeration.

@@ -173,6 +173,8 @@ class LayerTiling {
   [[nodiscard]] const std::string& cacheFolder() const { return cacheFolder_; }
   [[nodiscard]] std::size_t tilesRead() const { return tilesRead_; }
   [[nodiscard]] std::size_t tilesWritten() const { return tilesWritten_; }
+  /// Tiles whose cache file was damaged (rebuilt, and said in the build's diagnostics).
+  [[nodiscard]] std::size_t tilesDamaged() const { return tilesDamaged_; }
 
  private:
   const LayerGeometry* source_;
@@ -196,7 +198,7 @@ class LayerTiling {
   std::uint64_t fingerprint_ = 0;    ///< of what the pieces depend on
   std::uint64_t cacheRevision_ = 0;  ///< the bounds' revision the fingerprint holds
   bool cacheUsable_ = false;         ///< off after an edit (the fingerprint no longer holds)
-  mutable std::atomic<std::size_t> tilesRead_{0}, tilesWritten_{0};
+  mutable std::atomic<std::size_t> tilesRead_{0}, tilesWritten_{0}, tilesDamaged_{0};
   [[nodiscard]] std::uint64_t fingerprint() const;
   [[nodiscard]] std::filesystem::path tileFile(const TileKey& key) const;
   /// How tile `key` is built: its cells, chords, bounds slack and line shapes for its level.
