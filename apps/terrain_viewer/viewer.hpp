@@ -315,6 +315,8 @@ class Viewer {
   /// projected scene and on the globe.
   void drawExportControls();
   void drawMessagesSection();
+  /// The scene's cache: where, its size (counted when shown, every few seconds), "Clear cache".
+  void drawCacheSection();
   /// The window without a scene: what went wrong, and what to open.
   void drawNoScene();
   void drawHud();
@@ -583,7 +585,13 @@ class Viewer {
     bool error = false;
   };
   std::optional<Notice> notice_;
-  std::vector<std::string> messages_;                  ///< each said once, in order
+  std::vector<std::string> messages_;  ///< each said once, in order
+  struct CacheShown {
+    std::string directory;  ///< empty: no cache
+    scene::CacheUsage usage;
+    std::chrono::steady_clock::time_point counted;
+  };
+  std::optional<CacheShown> cacheShown_;
   std::unordered_map<std::string, std::size_t> said_;  ///< how often each message was said
 
   // Input.

@@ -78,6 +78,7 @@ void Viewer::drawPanel() {
   drawLayersSection();
   drawSelectionSection();
   drawMeasureSection();
+  drawCacheSection();
   drawMessagesSection();
   ImGui::PopItemWidth();
   ImGui::End();
@@ -387,6 +388,29 @@ void Viewer::drawSelectedFeatures() {
     }
     if (shown < l.features.size()) ImGui::TextDisabled("… and %zu more", l.features.size() - shown);
     ImGui::TreePop();
+  }
+}
+
+void Viewer::drawCacheSection() {
+  if (!description_ || !ImGui::CollapsingHeader("Cache")) return;
+  // Counted when the section is open, at most every 3 s (a large cache is a walk of its folders).
+  const auto now = std::chrono::steady_clock::now();
+  if (!cacheShown_ || now - cacheShown_->counted > std::chrono::seconds(3)) {
+    const std::string directory = scene::cacheDirectoryFor(*description_);
+    cacheShown_ = CacheShown{directory, scene::cacheUsage(directory), now};
+  }
+  if (cacheShown_->directory.empty()) {
+    ImGui::TextWrapped("no cache: the scene's folder and the user's cache folder cannot be written");
+    return;
+  }
+  ImGui::TextWrapped("%s", cacheShown_->directory.c_str());
+  ImGui::Text("%zu files, %.1f MB", cacheShown_->usage.files, static_cast<double>(cacheShown_->usage.bytes) / 1e6);
+  if (ImGui::Button("Clear cache")) {
+    const scene::CacheUsage removed = scene::clearCache(cacheShown_->directory);
+    notify("Cache cleared: " + std::to_string(removed.files) + " files, " +
+           std::to_string(static_cast<long long>(static_cast<double>(removed.bytes) / 1e6 + 0.5)) +
+           " MB (built again as needed)");
+    cacheShown_.reset();
   }
 }
 
