@@ -57,9 +57,19 @@ glm::dmat4 Camera::projection(double aspect) const {
   return gfx::reversedInfinitePerspective(fovYDeg * std::numbers::pi / 180.0, aspect, nearPlane);
 }
 
-Result<CameraSpec> parseCameraSpec(const json& j, const std::string& file) {
+Result<CameraSpec> parseCameraSpec(const json& j, const std::string& file, const std::string& where) {
   Result<CameraSpec> result;
   if (!j.is_object()) return Result<CameraSpec>::failure({Severity::Error, file, "", "", "camera: expected an object"});
+  warnUnknownKeys(
+      j,
+      {"eye", "target", "eye_xyz", "target_xyz", "fov_y_deg", "near",
+       // What camera.json holds besides, for people and scripts (read back as --camera).
+       "width", "height", "view", "proj", "depth", "crs", "crs_wkt", "origin", "frame", "view_proj_ecef", "eye_ecef"},
+      file, where, result.diagnostics);
+  for (const char* point : {"eye", "target"}) {
+    if (j.contains(point))
+      warnUnknownKeys(j[point], {"lon", "lat", "h"}, file, where + point + ".", result.diagnostics);
+  }
   CameraSpec spec;
   spec.eyeLonLatH = readLonLatH(j, "eye", file, result.diagnostics);
   spec.targetLonLatH = readLonLatH(j, "target", file, result.diagnostics);

@@ -91,9 +91,9 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
         {Severity::Error, file, "", "", "expected an object with an array 'lassos'"});
   }
   SelectionRequest request;
-  for (const auto& [key, value] : j.items()) {
-    if (key != "lassos" && key != "highlight" && key != "show_volumes" && key != "scheme" && key != "sample_spacing_m")
-      d.add({Severity::Warning, file, "", "", "unknown key '" + key + "' ignored"});
+  warnUnknownKeys(j, {"lassos", "highlight", "show_volumes", "scheme", "sample_spacing_m"}, file, "", d);
+  for (const char* colour : {"highlight", "show_volumes"}) {
+    if (j.contains(colour)) warnUnknownKeys(j[colour], {"color", "opacity"}, file, std::string(colour) + ".", d);
   }
   readColour(j, "highlight", file, request.highlight.color, request.highlight.opacity, d);
   if (j.contains("show_volumes") && !(j["show_volumes"].is_boolean() && !j["show_volumes"].get<bool>())) {
@@ -131,6 +131,8 @@ Result<SelectionRequest> parseLassoFile(const json& j, const std::string& file, 
       bad("expected an object");
       continue;
     }
+    warnUnknownKeys(entry, {"op", "camera", "width", "height", "distance", "points"}, file,
+                    "lassos[" + std::to_string(index - 1) + "].", d);
     const std::optional<overlay::SelectionOp> op =
         entry.contains("op") && entry["op"].is_string()
             ? overlay::parseSelectionOp(entry["op"].get<std::string>())

@@ -2,8 +2,9 @@
 
 #include <filesystem>
 #include <fstream>
-#include <set>
+#include <initializer_list>
 #include <sstream>
+#include <string_view>
 #include <type_traits>
 #include <vector>
 
@@ -25,9 +26,6 @@ class SceneParser {
   void error(const std::string& key, const std::string& message) {
     diag_.add({Severity::Error, path_, "", "", "'" + key + "': " + message});
   }
-  void warning(const std::string& key, const std::string& message) {
-    diag_.add({Severity::Warning, path_, "", "", "'" + key + "': " + message});
-  }
 
   std::string resolve(const std::string& relative) const {
     const fs::path p(relative);
@@ -43,10 +41,9 @@ class SceneParser {
     return connection ? source : resolve(source);
   }
 
-  void warnUnknownKeys(const json& object, const std::set<std::string>& known, const std::string& where) {
-    for (const auto& [key, value] : object.items()) {
-      if (known.count(key) == 0) warning(where + key, "unknown key (ignored)");
-    }
+  /// Every object of the file is checked against the keys its reader understands, at every level.
+  void warnUnknownKeys(const json& object, std::initializer_list<std::string_view> known, const std::string& where) {
+    scene::warnUnknownKeys(object, known, path_, where, diag_);
   }
 
   template <typename T>
@@ -92,6 +89,10 @@ class SceneParser {
   LayerDescription layer(const json& j, std::size_t index) {
     const std::string where = "layers[" + std::to_string(index) + "].";
     LayerDescription layer;
+    if (!j.is_object()) {
+      error(where.substr(0, where.size() - 1), "expected an object (a layer), got " + j.dump());
+      return layer;
+    }
     warnUnknownKeys(j, {"name", "kind", "source", "layer", "style", "visible"}, where);
     read(j, "name", where, layer.name);
     if (layer.name.empty()) layer.name = "layer " + std::to_string(index);
@@ -302,7 +303,9 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
     std::string cacheDir;
     if (p.read(t, "cache_dir", "terrain.", cacheDir) && !cacheDir.empty()) scene.cacheDir = p.resolve(cacheDir);
   }
-  if (root.contains("imagery")) {
+  if (root.contains("imagery") && !root["imagery"].is_object()) {
+    p.error("imagery", "expected an object with \"path\" (and \"bands\")");
+  } else if (root.contains("imagery")) {
     const json& im = root["imagery"];
     p.warnUnknownKeys(im, {"path", "bands"}, "imagery.");
     std::string imagery;
@@ -326,7 +329,7 @@ Result<SceneDescription> parseScene(const std::string& text, const std::string& 
     }
   }
   if (root.contains("camera")) {
-    Result<CameraSpec> camera = parseCameraSpec(root["camera"], path);
+    Result<CameraSpec> camera = parseCameraSpec(root["camera"], path, "camera.");
     result.diagnostics.append(camera.diagnostics);
     if (camera) scene.camera = *camera;
   }

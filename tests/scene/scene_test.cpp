@@ -2,7 +2,9 @@
 // name the file and the key, and a broken layer entry does not take the scene down.
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -10,6 +12,7 @@
 
 #include "scene/camera.hpp"
 #include "scene/globe_selection.hpp"
+#include "scene/json_file.hpp"
 #include "scene/scene.hpp"
 
 namespace gis::test {
@@ -124,6 +127,111 @@ TEST(SceneFile, UnknownKeysAreWarnings) {
   EXPECT_TRUE(mentions(scene.diagnostics, "terrain.colour"));
 }
 
+/// The warnings of `d` as the log says them.
+std::vector<std::string> warningsOf(const Diagnostics& d) {
+  std::vector<std::string> out;
+  for (const Diagnostic& item : d.items()) {
+    if (item.severity == Severity::Warning) out.push_back(item.toString());
+  }
+  return out;
+}
+
+TEST(SceneFile, MisspeltKeysAtEveryLevelAreNamedWithTheirPath) {
+  // Top, terrain, imagery, a layer, its style, the camera and its eye; a close key suggested.
+  // "meshes" is no key of a scene file yet. The categories' keys are attribute values: any goes.
+  Result<scene::SceneDescription> scene = scene::parseScene(R"({
+    "name": "keys",
+    "meshes": [{"source": "m.glb"}],
+    "terrain": {"dem": "d.tif", "vertical_exageration": 2},
+    "imagery": {"path": "i.tif", "band": [1]},
+    "layers": [
+      {"name": "a", "kind": "polygon", "source": "a.shp",
+       "style": {"colour": "#ff0000", "categories": {"widht_m": "#00ff00", "x": "#0000ff"}}},
+      {"name": "b", "kind": "line", "source": "b.shp", "visable": false},
+      {"name": "c", "kind": "line", "source": "c.shp", "style": {"widht_m": 4, "width_px": 2}}
+    ],
+    "camera": {"eye": {"lon": 1, "lat": 2, "height": 3}, "target": {"lon": 1, "lat": 2.1}, "fov": 40}
+  })",
+                                                            "keys.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_EQ(scene.diagnostics.count(Severity::Error), 0u) << scene.diagnostics.items().front().toString();
+  EXPECT_EQ(
+      warningsOf(scene.diagnostics),
+      (std::vector<std::string>{
+          R"(warning: keys.json: unknown key "meshes" (ignored))",
+          R"(warning: keys.json: unknown key "terrain.vertical_exageration" (ignored); did you mean "vertical_exaggeration"?)",
+          R"(warning: keys.json: unknown key "imagery.band" (ignored); did you mean "bands"?)",
+          R"(warning: keys.json: unknown key "layers[0].style.colour" (ignored); did you mean "color"?)",
+          R"(warning: keys.json: unknown key "layers[1].visable" (ignored); did you mean "visible"?)",
+          R"(warning: keys.json: unknown key "layers[2].style.widht_m" (ignored); did you mean "width_m"?)",
+          R"(warning: keys.json: unknown key "camera.fov" (ignored))",
+          R"(warning: keys.json: unknown key "camera.eye.height" (ignored))",
+      }));
+  // What was understood is read as usual.
+  ASSERT_EQ(scene->layers.size(), 3u);
+  EXPECT_TRUE(scene->layers[1].visible);
+  EXPECT_DOUBLE_EQ(scene->layers[2].style.widthPixels, 2.0);
+  ASSERT_TRUE(scene->camera.has_value());
+  EXPECT_DOUBLE_EQ(scene->camera->eyeLonLatH->z, 0.0);
+}
+
+TEST(SceneFile, EntriesOfTheWrongTypeAreErrorsNamingThem) {
+  Result<scene::SceneDescription> scene =
+      scene::parseScene(R"({"terrain": {"dem": "d.tif"}, "imagery": "i.tif", "layers": [7]})", "s.json");
+  ASSERT_TRUE(scene.ok());
+  EXPECT_TRUE(warningsOf(scene.diagnostics).empty());
+  EXPECT_TRUE(mentions(scene.diagnostics, "error: s.json: 'imagery': expected an object"));
+  EXPECT_TRUE(mentions(scene.diagnostics, "error: s.json: 'layers[0]': expected an object (a layer), got 7"));
+  EXPECT_TRUE(scene->layers.empty());
+}
+
+TEST(SceneFile, EverySceneFileOfTheSamplesAndTestDataHasNoUnknownKey) {
+  // Every JSON file under samples/ and tests/data that is a scene file (it has a "terrain").
+  std::size_t scenes = 0;
+  for (const std::string& root : {kSamples, std::string(STENCIL_GIS_SAMPLES_DIR "/../tests/data")}) {
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(root)) {
+      if (entry.path().extension() != ".json") continue;
+      std::ifstream in(entry.path());
+      const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+      if (!j.is_object() || !j.contains("terrain")) continue;
+      ++scenes;
+      Result<scene::SceneDescription> scene = scene::loadSceneFile(entry.path().string());
+      SCOPED_TRACE(entry.path().string());
+      EXPECT_TRUE(scene.ok());
+      EXPECT_FALSE(scene.diagnostics.hasErrors());
+      EXPECT_TRUE(warningsOf(scene.diagnostics).empty()) << warningsOf(scene.diagnostics).front();
+    }
+  }
+  EXPECT_GE(scenes, 1u) << "samples/olinda/scene.json at least";
+  // The scene terrain_synth writes, with its layers (samples/synth/terrain_synth.cpp).
+  Result<scene::SceneDescription> synth = scene::parseScene(R"({
+    "name": "synthetic terrain",
+    "terrain": {"dem": "dem.tif", "band": 1, "vertical_exaggeration": 1.0},
+    "layers": [
+      {"name": "habitation", "kind": "polygon", "source": "areas.gpkg", "layer": "areas",
+       "style": {"color": "#ffd400", "opacity": 0.5}},
+      {"name": "roads", "kind": "line", "source": "roads.gpkg", "layer": "roads",
+       "style": {"color": "#d62728", "opacity": 0.9, "width_m": 10, "width_attribute": "width_m", "join": "round",
+                 "cap": "round"}}]})",
+                                                            "synth.json");
+  EXPECT_TRUE(synth.diagnostics.empty()) << synth.diagnostics.items().front().toString();
+  // Every key docs/command-line.md lists, at once.
+  Result<scene::SceneDescription> every = scene::parseScene(R"({
+    "name": "n", "frame": "auto",
+    "terrain": {"dem": "d.tif", "band": 1, "crs": "EPSG:32725", "height_unit": "m", "vertical_datum": "auto",
+                "resolution_m": 30, "vertical_exaggeration": 1, "chunk_cells": 64, "paging": "auto",
+                "memory_budget_mb": 1024, "gpu_budget_mb": 512, "cache_dir": "cache"},
+    "imagery": {"path": "i.tif", "bands": [3, 2, 1]},
+    "layers": [{"name": "l", "kind": "line", "source": "l.shp", "layer": "l", "visible": true,
+                "style": {"color": "#ffffff", "opacity": 1, "outline_width_m": 1, "outline_color": "#000000",
+                          "width_m": 5, "min_width_px": 1, "max_width_m": 50, "width_attribute": "w",
+                          "join": "round", "cap": "round", "miter_limit": 4, "color_attribute": "c",
+                          "categories": {"a": "#ff0000"}, "order": 1}}],
+    "camera": {"eye": {"lon": 1, "lat": 2, "h": 3}, "target_xyz": [0, 0, 0], "fov_y_deg": 45, "near": 1}})",
+                                                            "every.json");
+  EXPECT_TRUE(every.diagnostics.empty()) << every.diagnostics.items().front().toString();
+}
+
 TEST(SceneFile, WidthsInPixels) {
   Result<scene::SceneDescription> scene = scene::parseScene(R"({
     "terrain": {"dem": "dem.tif"},
@@ -202,6 +310,47 @@ TEST(CameraFile, LonLatAndFrameFormsParse) {
   EXPECT_DOUBLE_EQ(spec->eyeLonLatH->z, 500.0);
   ASSERT_TRUE(spec->targetXyz.has_value());
   EXPECT_DOUBLE_EQ(spec->fovYDeg, 30.0);
+}
+
+TEST(CameraFile, WhatCameraJsonHoldsIsReadWithoutAWordAndAMisspeltKeyIsNamed) {
+  // camera.json as overlay_render writes it (projected and globe) is a camera file.
+  const nlohmann::json written = {{"width", 256},
+                                  {"height", 192},
+                                  {"view", nlohmann::json::array()},
+                                  {"proj", nlohmann::json::array()},
+                                  {"depth", {{"convention", "reversed-z"}}},
+                                  {"crs", "EPSG:32725"},
+                                  {"crs_wkt", "…"},
+                                  {"origin", {0, 0, 0}},
+                                  {"eye_xyz", {0, 0, 100}},
+                                  {"target_xyz", {0, 10, 0}},
+                                  {"eye", {{"lon", -34.9}, {"lat", -8.0}, {"h", 100.0}}},
+                                  {"target", {{"lon", -34.9}, {"lat", -7.99}, {"h", 0.0}}},
+                                  {"fov_y_deg", 45.0},
+                                  {"near", 1.0},
+                                  {"frame", "globe"},
+                                  {"view_proj_ecef", nlohmann::json::array()},
+                                  {"eye_ecef", {1, 2, 3}}};
+  Result<scene::CameraSpec> spec = scene::parseCameraSpec(written, "camera.json");
+  ASSERT_TRUE(spec.ok());
+  EXPECT_TRUE(spec.diagnostics.empty()) << spec.diagnostics.items().front().toString();
+  nlohmann::json misspelt = written;
+  misspelt["fov_y_dg"] = 30.0;
+  misspelt["target"]["latt"] = 1.0;
+  Result<scene::CameraSpec> warned = scene::parseCameraSpec(misspelt, "camera.json");
+  ASSERT_TRUE(warned.ok());
+  EXPECT_EQ(
+      warningsOf(warned.diagnostics),
+      (std::vector<std::string>{R"(warning: camera.json: unknown key "fov_y_dg" (ignored); did you mean "fov_y_deg"?)",
+                                R"(warning: camera.json: unknown key "target.latt" (ignored); did you mean "lat"?)"}));
+}
+
+TEST(SceneKeys, AClosePairIsASlipAndAFarOneIsNot) {
+  EXPECT_EQ(scene::closestKey("widht_m", {"width_m", "width_px"}), "width_m");
+  EXPECT_EQ(scene::closestKey("colour", {"color", "opacity"}), "color");
+  EXPECT_EQ(scene::closestKey("meshes", {"name", "frame", "terrain", "imagery", "layers", "camera"}), std::nullopt);
+  EXPECT_EQ(scene::closestKey("h", {"lon", "lat"}), std::nullopt);  // one letter: no slip to guess
+  EXPECT_EQ(scene::closestKey(std::string(1000, 'x'), {"x"}), std::nullopt);
 }
 
 TEST(CameraFile, AFolderOrAMissingFileIsAnErrorNamingIt) {

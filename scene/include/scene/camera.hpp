@@ -37,7 +37,11 @@ struct Camera {
   [[nodiscard]] glm::dmat4 projection(double aspect) const;
 };
 
-Result<CameraSpec> parseCameraSpec(const nlohmann::json& j, const std::string& file);
+/// A camera object of a camera file, a scene file (`where` = "camera."), a lasso or a script.
+/// Keys it does not understand are warnings naming their path (`where` + key); the keys
+/// camera.json holds besides (width, height, view, proj, depth, crs, crs_wkt, origin, frame,
+/// view_proj_ecef, eye_ecef: what overlay_render and the viewer write) are read as a camera too.
+Result<CameraSpec> parseCameraSpec(const nlohmann::json& j, const std::string& file, const std::string& where = {});
 Result<CameraSpec> loadCameraFile(const std::string& path);
 
 /// Places a spec in the frame (lon/lat/h converted through the frame). Fails if neither

@@ -2,9 +2,11 @@
 // Reading the programs' JSON files (scripts, lasso files, camera files) with errors that name
 // the file.
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 #include <nlohmann/json.hpp>
@@ -21,6 +23,17 @@ inline std::string jsonText(const nlohmann::json& j, int indent = 2) {
 
 /// The file's JSON; nothing, with an error naming the file, if it cannot be opened or is not JSON.
 std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics& d);
+
+/// The key of `known` a misspelt `key` most likely meant: the nearest by edits (a letter added,
+/// dropped or changed, two neighbours swapped), if at most 2 edits and fewer than half of `key`'s
+/// letters away ("widht_m" → "width_m", "colour" → "color"; "meshes" → none of a scene's keys).
+std::optional<std::string> closestKey(std::string_view key, std::initializer_list<std::string_view> known);
+
+/// A warning for each key of `object` not in `known`, naming the file and the key's JSON path
+/// (`where` ends with "." or is empty): `unknown key "layers[2].style.widht_m" (ignored); did you
+/// mean "width_m"?`. Nothing when `object` is not an object (its reader says what it expected).
+void warnUnknownKeys(const nlohmann::json& object, std::initializer_list<std::string_view> known,
+                     const std::string& file, const std::string& where, Diagnostics& d);
 
 /// `v` as an arithmetic T when it is a JSON number that T can hold: finite, within T's range and,
 /// for integral T, whole; else nothing. (nlohmann's get<int>() of 1e10 or get<float>() of 1e300
