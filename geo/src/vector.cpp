@@ -7,6 +7,7 @@
 #include <optional>
 #include <sstream>
 
+#include <ogr_api.h>
 #include <ogrsf_frmts.h>
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
@@ -186,18 +187,20 @@ class GeometryConverter {
         tolerance_(tolerance) {}
 
   /// A multi-part geometry keeps its good parts: each bad one goes into `leftOut` ("part 2 of 3:
-  /// …"); only when no part is good is the feature broken (the returned message).
-  std::string convert(const OGRGeometry& geometry, Feature& out, std::vector<std::string>& leftOut) const {
+  /// …"), and its index (from 0) into `leftOutParts` when given; only when no part is good is the
+  /// feature broken (the returned message).
+  std::string convert(const OGRGeometry& geometry, Feature& out, std::vector<std::string>& leftOut,
+                      std::vector<int>* leftOutParts = nullptr) const {
     switch (wkbFlatten(geometry.getGeometryType())) {
       case wkbPolygon:
         return addPolygon(*geometry.toPolygon(), out);
       case wkbMultiPolygon:
-        return convertParts(*geometry.toMultiPolygon(), out, leftOut,
+        return convertParts(*geometry.toMultiPolygon(), out, leftOut, leftOutParts,
                             [this](const OGRPolygon& p, Feature& f) { return addPolygon(p, f); });
       case wkbLineString:
         return addLine(*geometry.toLineString(), out);
       case wkbMultiLineString:
-        return convertParts(*geometry.toMultiLineString(), out, leftOut,
+        return convertParts(*geometry.toMultiLineString(), out, leftOut, leftOutParts,
                             [this](const OGRLineString& l, Feature& f) { return addLine(l, f); });
       default:
         return std::string("unsupported geometry type ") + OGRGeometryTypeToName(geometry.getGeometryType());
@@ -206,13 +209,15 @@ class GeometryConverter {
 
  private:
   template <typename Collection, typename Add>
-  static std::string convertParts(const Collection& parts, Feature& out, std::vector<std::string>& leftOut, Add add) {
+  static std::string convertParts(const Collection& parts, Feature& out, std::vector<std::string>& leftOut,
+                                  std::vector<int>* leftOutParts, Add add) {
     const int n = parts.getNumGeometries();
     std::vector<std::string> problems;
     int good = 0;
     for (int i = 0; i < n; ++i) {
       if (std::string e = add(*parts.getGeometryRef(i), out); !e.empty()) {
         problems.push_back("part " + std::to_string(i + 1) + " of " + std::to_string(n) + ": " + e);
+        if (leftOutParts != nullptr) leftOutParts->push_back(i);
       } else {
         ++good;
       }
@@ -452,6 +457,208 @@ OGRPolygon polygonOf(const OGRLinearRing& exterior, const std::vector<const OGRL
   return p;
 }
 
+/// A GEOS prepared geometry of an OGR geometry (its edges and its area indexed), or none where
+/// GDAL has no GEOS.
+class Prepared {
+ public:
+  explicit Prepared(const OGRGeometry& g)
+      : handle_(OGRHasPreparedGeometrySupport() != 0
+                    ? OGRCreatePreparedGeometry(OGRGeometry::ToHandle(const_cast<OGRGeometry*>(&g)))
+                    : nullptr) {}
+  Prepared(const Prepared&) = delete;
+  Prepared& operator=(const Prepared&) = delete;
+  ~Prepared() {
+    if (handle_ != nullptr) OGRDestroyPreparedGeometry(handle_);
+  }
+  [[nodiscard]] bool ok() const { return handle_ != nullptr; }
+  [[nodiscard]] bool intersects(const OGRGeometry& g) const {
+    return OGRPreparedGeometryIntersects(handle_, OGRGeometry::ToHandle(const_cast<OGRGeometry*>(&g))) != 0;
+  }
+  /// For a point: whether it lies in the interior of the area (GEOS's indexed point-in-area
+  /// locator, the same crossings as its point-in-ring test).
+  [[nodiscard]] bool contains(const OGRGeometry& g) const {
+    return OGRPreparedGeometryContains(handle_, OGRGeometry::ToHandle(const_cast<OGRGeometry*>(&g))) != 0;
+  }
+
+ private:
+  OGRPreparedGeometryH handle_;
+};
+
+/// Whether the area of a ring meets a polygon's shell (OGC Intersects, as
+/// OGRGeometry::Intersects answers it: boundaries that touch count), asked of many rings: the
+/// shell is prepared once when there are several to ask. An envelope that misses the shell's
+/// answers at once, as OGR's does.
+class ShellTest {
+ public:
+  ShellTest(const OGRLinearRing& exterior, int rings) : shell_(polygonOf(exterior)) {
+    shell_.getEnvelope(&envelope_);
+    if (rings > 1) prepared_.emplace(shell_);
+  }
+
+  [[nodiscard]] bool intersects(const OGRLinearRing& ring) const {
+    OGREnvelope e;
+    ring.getEnvelope(&e);
+    if (!envelope_.Intersects(e)) return false;
+    const OGRPolygon area = polygonOf(ring);
+    if (!prepared_ || !prepared_->ok()) return shell_.Intersects(&area);
+    return prepared_->intersects(area);
+  }
+
+ private:
+  OGRPolygon shell_;
+  OGREnvelope envelope_;
+  std::optional<Prepared> prepared_;
+};
+
+std::vector<const OGRPolygon*> partsOf(const OGRGeometry& geometry) {
+  std::vector<const OGRPolygon*> parts;
+  if (wkbFlatten(geometry.getGeometryType()) == wkbPolygon) {
+    parts.push_back(geometry.toPolygon());
+  } else {
+    for (const OGRPolygon* p : *geometry.toMultiPolygon()) parts.push_back(p);
+  }
+  return parts;
+}
+
+/// GEOS's Envelope::covers.
+bool covers(const OGREnvelope& outer, const OGREnvelope& inner) {
+  return inner.MinX >= outer.MinX && inner.MaxX <= outer.MaxX && inner.MinY >= outer.MinY && inner.MaxY <= outer.MaxY;
+}
+
+/// Whether every ring passes GEOS's first checks, or fails them (the caller then asks GEOS,
+/// which stops there): not empty, finite, closed, of at least 4 points not repeated in a row.
+bool ringsWellFormed(const std::vector<const OGRPolygon*>& parts) {
+  auto wellFormed = [](const OGRLinearRing* ring) {
+    if (ring == nullptr || ring->IsEmpty()) return false;
+    const int n = ring->getNumPoints();
+    int distinct = 0;
+    for (int i = 0; i < n; ++i) {
+      const double x = ring->getX(i), y = ring->getY(i);
+      if (!std::isfinite(x) || !std::isfinite(y)) return false;
+      if (i == 0 || x != ring->getX(i - 1) || y != ring->getY(i - 1)) ++distinct;
+    }
+    return distinct >= 4 && ring->getX(0) == ring->getX(n - 1) && ring->getY(0) == ring->getY(n - 1);
+  };
+  for (const OGRPolygon* p : parts) {
+    if (!wellFormed(p->getExteriorRing())) return false;
+    for (int i = 0; i < p->getNumInteriorRings(); ++i)
+      if (!wellFormed(p->getInteriorRing(i))) return false;
+  }
+  return true;
+}
+
+/// Whether some part's shell lies inside another part (its first point inside that polygon, holes
+/// excepted): GEOS's "Nested shells", for parts whose rings share no point. Candidates are found
+/// through a grid of the parts' envelopes: a part can hold another only if its envelope covers the
+/// other's.
+bool anyPartNested(const std::vector<const OGRPolygon*>& parts) {
+  const std::size_t n = parts.size();
+  std::vector<OGREnvelope> envelopes(n);
+  OGREnvelope all;
+  for (std::size_t i = 0; i < n; ++i) {
+    parts[i]->getEnvelope(&envelopes[i]);
+    all.Merge(envelopes[i]);
+  }
+  const int side = std::clamp(static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n)))), 1, 256);
+  const double w = std::max(all.MaxX - all.MinX, 1e-300), h = std::max(all.MaxY - all.MinY, 1e-300);
+  auto cell = [&](double v, double lo, double extent) {
+    return std::clamp(static_cast<int>((v - lo) / extent * side), 0, side - 1);
+  };
+  std::vector<std::vector<std::uint32_t>> grid(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
+  for (std::size_t j = 0; j < n; ++j) {
+    const OGREnvelope& e = envelopes[j];
+    for (int y = cell(e.MinY, all.MinY, h); y <= cell(e.MaxY, all.MinY, h); ++y)
+      for (int x = cell(e.MinX, all.MinX, w); x <= cell(e.MaxX, all.MinX, w); ++x)
+        grid[static_cast<std::size_t>(y * side + x)].push_back(static_cast<std::uint32_t>(j));
+  }
+  std::vector<std::unique_ptr<Prepared>> prepared(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const OGREnvelope& e = envelopes[i];
+    const OGRLinearRing* shell = parts[i]->getExteriorRing();
+    const OGRPoint first(shell->getX(0), shell->getY(0));
+    for (const std::uint32_t j :
+         grid[static_cast<std::size_t>(cell(e.MinY, all.MinY, h) * side + cell(e.MinX, all.MinX, w))]) {
+      if (j == i || !covers(envelopes[j], e)) continue;
+      if (!prepared[j]) prepared[j] = std::make_unique<Prepared>(*parts[j]);
+      if (!prepared[j]->ok() || prepared[j]->contains(first)) return true;
+    }
+  }
+  return false;
+}
+
+/// OGRGeometry::IsValid() of a polygon or multi-polygon — the same answer, and when it is not
+/// valid the same GEOS reason among GDAL's messages — in about the time of noding its rings.
+/// GEOS 3.11's IsValid tests each hole against its shell with a point-in-ring test over the
+/// whole shell: 10^4 lakes in a border of 10^5 vertices cost it seconds, once per call.
+///
+/// GEOS checks, in order: the rings' points, the rings crossing or touching, each hole inside
+/// its shell, no hole inside another, no part inside another, the interior connected. When no
+/// two rings share a point and none crosses itself (IsSimple of the rings as lines: its noding
+/// is GEOS's, the same exact predicates) and the rings are well formed, the first two pass and
+/// so does the last (only touches disconnect an interior); the others are asked here as GEOS
+/// asks them, the shell's point-in-ring test prepared once (its crossings counted as GEOS
+/// counts them). Where one fails, GEOS itself is asked of a small polygon failing the same way
+/// first (the shell and that hole; a rectangle and the part's holes), for its reason. Anything
+/// else — rings that touch or cross, malformed rings, nested parts, no holes to test — is
+/// GEOS's IsValid on the geometry itself (fast where it fails early, or has no holes).
+bool isValid(const OGRGeometry& geometry) {
+  const std::vector<const OGRPolygon*> parts = partsOf(geometry);
+  std::size_t holes = 0;
+  for (const OGRPolygon* p : parts) holes += static_cast<std::size_t>(std::max(0, p->getNumInteriorRings()));
+  if (holes == 0 || OGRHasPreparedGeometrySupport() == 0 || !ringsWellFormed(parts)) return geometry.IsValid();
+  {
+    OGRMultiLineString rings;
+    for (const OGRPolygon* p : parts) {
+      rings.addGeometryDirectly(new OGRLineString(*p->getExteriorRing()));
+      for (int i = 0; i < p->getNumInteriorRings(); ++i)
+        rings.addGeometryDirectly(new OGRLineString(*p->getInteriorRing(i)));
+    }
+    if (!rings.IsSimple()) return geometry.IsValid();
+  }
+  // Each hole inside its shell: every part's holes, in order (GEOS's order: the first that is not
+  // gives the reason, at its first point).
+  for (const OGRPolygon* p : parts) {
+    if (p->getNumInteriorRings() == 0) continue;
+    const OGRLinearRing& shell = *p->getExteriorRing();
+    OGREnvelope shellEnvelope;
+    shell.getEnvelope(&shellEnvelope);
+    const OGRPolygon shellArea = polygonOf(shell);
+    const Prepared area(shellArea);
+    if (!area.ok()) return geometry.IsValid();
+    for (int i = 0; i < p->getNumInteriorRings(); ++i) {
+      const OGRLinearRing* hole = p->getInteriorRing(i);
+      OGREnvelope holeEnvelope;
+      hole->getEnvelope(&holeEnvelope);
+      if (covers(shellEnvelope, holeEnvelope) && area.contains(OGRPoint(hole->getX(0), hole->getY(0)))) continue;
+      if (!polygonOf(shell, {hole}).IsValid()) return false;  // "Hole lies outside shell" at that point
+      return geometry.IsValid();                              // not expected
+    }
+  }
+  // No hole inside another: GEOS tests the holes alone (an index of their envelopes), so a
+  // rectangle around them as the shell gives its answer and reason, at the cost of the holes.
+  for (const OGRPolygon* p : parts) {
+    if (p->getNumInteriorRings() < 2) continue;
+    OGREnvelope e;
+    p->getExteriorRing()->getEnvelope(&e);
+    const double margin = std::max({e.MaxX - e.MinX, e.MaxY - e.MinY, 1.0});
+    OGRLinearRing rectangle;
+    rectangle.addPoint(e.MinX - margin, e.MinY - margin);
+    rectangle.addPoint(e.MaxX + margin, e.MinY - margin);
+    rectangle.addPoint(e.MaxX + margin, e.MaxY + margin);
+    rectangle.addPoint(e.MinX - margin, e.MaxY + margin);
+    rectangle.closeRings();
+    std::vector<const OGRLinearRing*> partHoles;
+    for (int i = 0; i < p->getNumInteriorRings(); ++i) partHoles.push_back(p->getInteriorRing(i));
+    if (!polygonOf(rectangle, partHoles).IsValid()) return false;  // "Holes are nested"
+  }
+  if (parts.size() > 1 && anyPartNested(parts)) return geometry.IsValid();
+  return true;
+}
+
+/// What checkPolygons keeps of a feature's polygons: per part of the source geometry, null when
+/// it is left out (by the converter or the checks), else the indices of its holes that stay.
+using KeptPolygons = std::vector<std::optional<std::vector<int>>>;
+
 /// OGC validity (GEOS, through OGR) of a polygon or multi-polygon in its source coordinates, with
 /// the repairs whose intent is clear, each said in `notes`:
 /// - a polygon whose exterior ring has no area (its points on one line: in longitude/latitude it
@@ -459,76 +666,124 @@ OGRPolygon polygonOf(const OGRLinearRing& exterior, const std::vector<const OGRL
 /// - a hole lying wholly outside its shell excludes nothing and is left out;
 /// - anything else invalid (a ring that crosses itself, a bow-tie) is drawn by the even-odd
 ///   rule, and parts that overlap as their union, as every polygon is (docs/overlay.md).
-/// Returns the geometry to draw (`changed` when a hole or a polygon was left out); null, with
-/// `refused` saying why, when no polygon is left.
-std::unique_ptr<OGRGeometry> checkPolygons(const OGRGeometry& geometry, detail::GdalMessages& gdal,
-                                           std::vector<std::string>& notes, std::string& refused, bool& changed) {
+/// Parts the converter left out (`leftOutParts`, by index: a NaN, a ring of two points) were
+/// named there and are neither checked nor named again. Fills `kept` (`changed` when a hole or
+/// a polygon was left out here); false, with `refused` saying why, when no polygon is left.
+///
+/// Each step costs about the size of what it checks (issue 40: a border of 10^5 vertices with
+/// 10^4 lakes took 20 minutes here): validity (isValid, GEOS's answer without its cost per hole)
+/// on the whole, then, when it is not valid, on each part and on the parts kept, and each hole
+/// against its shell prepared once (ShellTest).
+bool checkPolygons(const OGRGeometry& geometry, const std::vector<int>& leftOutParts, detail::GdalMessages& gdal,
+                   std::vector<std::string>& notes, std::string& refused, bool& changed, KeptPolygons& kept) {
   changed = false;
-  std::vector<const OGRPolygon*> parts;
-  if (wkbFlatten(geometry.getGeometryType()) == wkbPolygon) {
-    parts.push_back(geometry.toPolygon());
-  } else {
-    for (const OGRPolygon* p : *geometry.toMultiPolygon()) parts.push_back(p);
+  const std::vector<const OGRPolygon*> parts = partsOf(geometry);
+  std::vector<bool> checked(parts.size(), true);
+  for (const int k : leftOutParts) {
+    if (k >= 0 && static_cast<std::size_t>(k) < parts.size()) checked[static_cast<std::size_t>(k)] = false;
   }
+  kept.assign(parts.size(), std::nullopt);
+  auto allHoles = [](const OGRPolygon& p) {
+    std::vector<int> all(static_cast<std::size_t>(std::max(0, p.getNumInteriorRings())));
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+    return all;
+  };
+  // The geometry as the converter kept it: without the parts it left out.
+  std::unique_ptr<OGRMultiPolygon> convertible;
+  if (std::find(checked.begin(), checked.end(), false) != checked.end()) {
+    convertible = std::make_unique<OGRMultiPolygon>();
+    for (std::size_t k = 0; k < parts.size(); ++k)
+      if (checked[k]) convertible->addGeometry(parts[k]);
+  }
+  const OGRGeometry& whole = convertible ? *convertible : geometry;
   // Valid, and no sliver: a ring whose points are on one line up to rounding is valid by OGC
   // rules (it has an area of 1e-17) but has no area to draw.
-  const bool sliver = std::any_of(parts.begin(), parts.end(), [](const OGRPolygon* p) {
-    return p->getExteriorRing() != nullptr && !p->getExteriorRing()->IsEmpty() && onOneLine(*p->getExteriorRing());
-  });
-  if (!sliver && geometry.IsValid()) {
+  bool sliver = false;
+  for (std::size_t k = 0; k < parts.size() && !sliver; ++k) {
+    const OGRLinearRing* exterior = parts[k]->getExteriorRing();
+    sliver = checked[k] && exterior != nullptr && !exterior->IsEmpty() && onOneLine(*exterior);
+  }
+  if (!sliver && isValid(whole)) {
     gdal.take();
-    return std::unique_ptr<OGRGeometry>(geometry.clone());
+    for (std::size_t k = 0; k < parts.size(); ++k)
+      if (checked[k]) kept[k] = allHoles(*parts[k]);
+    return true;
   }
   const std::string wholeReason = validityReason(gdal);
   const bool multi = parts.size() > 1 || wkbFlatten(geometry.getGeometryType()) == wkbMultiPolygon;
-  auto out = std::make_unique<OGRMultiPolygon>();
+  OGRMultiPolygon out;
   std::vector<std::string> dropped;
   bool partsInvalid = false;
   for (std::size_t k = 0; k < parts.size(); ++k) {
+    if (!checked[k]) continue;
     const std::string label =
         multi ? "polygon " + std::to_string(k + 1) + " of " + std::to_string(parts.size()) : std::string("the polygon");
     const OGRLinearRing* exterior = parts[k]->getExteriorRing();
     if (exterior == nullptr || exterior->IsEmpty()) continue;  // the converter names it
-    const OGRPolygon shell = polygonOf(*exterior);
     if (onOneLine(*exterior)) {
       changed = true;
       dropped.push_back(label + ": its exterior ring has no area (its points lie on one line)");
       continue;
     }
     std::vector<const OGRLinearRing*> holes;
+    std::vector<int> holeIndices;
+    // Whether a hole meets its shell (OGC Intersects: touching counts): the shell prepared once
+    // (GEOS indexes its edges and its area), so that each hole costs about its own size, not the
+    // shell's. Asked one by one against the shell unprepared, a border's 10^4 lakes in a shell of
+    // 10^5 vertices took minutes (issue 40).
+    const ShellTest shell(*exterior, parts[k]->getNumInteriorRings());
     for (int i = 0; i < parts[k]->getNumInteriorRings(); ++i) {
       const OGRLinearRing* hole = parts[k]->getInteriorRing(i);
-      const OGRPolygon holeArea = hole != nullptr ? polygonOf(*hole) : OGRPolygon();
-      if (hole != nullptr && !hole->IsEmpty() && !shell.Intersects(&holeArea)) {
+      if (hole != nullptr && !hole->IsEmpty() && !shell.intersects(*hole)) {
         changed = true;
         notes.push_back(label + ": hole " + std::to_string(i + 1) +
                         " lies wholly outside its shell and excludes nothing: left out");
         continue;
       }
       holes.push_back(hole);
+      holeIndices.push_back(i);
     }
-    OGRPolygon kept = polygonOf(*exterior, holes);
-    if (!kept.IsValid()) {
+    OGRPolygon part = polygonOf(*exterior, holes);
+    if (!isValid(part)) {
       partsInvalid = true;
       notes.push_back(label + " is not valid by OGC rules (GEOS: " + validityReason(gdal) +
                       "): drawn by the even-odd rule");
     }
     gdal.take();
-    out->addGeometry(&kept);
+    kept[k] = std::move(holeIndices);
+    out.addGeometry(&part);
   }
-  if (out->IsEmpty()) {
+  if (out.IsEmpty()) {
     for (const std::string& d : dropped) refused += (refused.empty() ? "" : "; ") + d;
     if (refused.empty()) refused = "no polygon with an area (GEOS: " + wholeReason + ")";
-    return nullptr;
+    return false;
   }
   for (const std::string& d : dropped) notes.push_back(d + ": left out");
-  if (!partsInvalid && out->getNumGeometries() > 1 && !out->IsValid()) {
+  if (!partsInvalid && out.getNumGeometries() > 1 && !isValid(out)) {
     notes.push_back("its polygons overlap or touch along a line (GEOS: " + validityReason(gdal) +
                     "): drawn as their union");
   }
   gdal.take();
-  if (!multi) return std::unique_ptr<OGRGeometry>(out->getGeometryRef(0)->clone());
-  return out;
+  return true;
+}
+
+/// Keeps of a converted feature's polygons (one per part the converter kept, in order) what
+/// checkPolygons kept: the same as converting the kept geometry again, without converting it.
+void keepPolygons(const KeptPolygons& kept, const std::vector<int>& leftOutParts, Feature& f) {
+  std::vector<Polygon> polygons;
+  std::size_t converted = 0;
+  for (std::size_t k = 0; k < kept.size() && converted < f.polygons.size(); ++k) {
+    if (std::find(leftOutParts.begin(), leftOutParts.end(), static_cast<int>(k)) != leftOutParts.end()) continue;
+    Polygon& p = f.polygons[converted++];
+    if (!kept[k]) continue;
+    if (kept[k]->size() != p.holes.size()) {
+      std::vector<Ring> holes;
+      for (const int i : *kept[k]) holes.push_back(std::move(p.holes[static_cast<std::size_t>(i)]));
+      p.holes = std::move(holes);
+    }
+    polygons.push_back(std::move(p));
+  }
+  f.polygons = std::move(polygons);
 }
 
 std::string layerNames(GDALDataset& ds) {
@@ -739,29 +994,24 @@ Result<VectorLayer> readVectorLayer(const std::string& path, const SceneFrame& f
       geometry = linear.get();
     }
     std::vector<std::string> leftOut;
-    if (const std::string e = converter.convert(*geometry, f, leftOut); !e.empty()) {
+    std::vector<int> leftOutParts;
+    if (const std::string e = converter.convert(*geometry, f, leftOut, &leftOutParts); !e.empty()) {
       reject(e);
       continue;
     }
     // Polygons that convert (finite, in range, rings of 3 points) are checked by OGC rules and
-    // repaired where the intent is clear, each repair said; converted again when it changed them.
+    // repaired where the intent is clear, each repair said; what a repair leaves out is taken out
+    // of the converted polygons.
     if (const auto type = wkbFlatten(geometry->getGeometryType());
         !f.polygons.empty() && (type == wkbPolygon || type == wkbMultiPolygon)) {
       std::string refused;
       bool changed = false;
-      const std::unique_ptr<OGRGeometry> checked = checkPolygons(*geometry, gdal, leftOut, refused, changed);
-      if (!checked) {
+      KeptPolygons keptPolygons;
+      if (!checkPolygons(*geometry, leftOutParts, gdal, leftOut, refused, changed, keptPolygons)) {
         reject(refused);
         continue;
       }
-      if (changed) {
-        f.polygons.clear();
-        std::vector<std::string> again;
-        if (const std::string e = converter.convert(*checked, f, again); !e.empty()) {
-          reject(e);
-          continue;
-        }
-      }
+      if (changed) keepPolygons(keptPolygons, leftOutParts, f);
     }
     // The feature draws its good parts; each bad one is named.
     for (const std::string& note : leftOut) {
