@@ -846,8 +846,11 @@ TEST_F(ViewerScriptTest, RealInputIsNeverLost) {
   // The open-file dialog with the keyboard alone: Ctrl+O, a path, Enter.
   const std::string dem = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/olinda_dem_utm25s.tif";
   if (ok) {
+    // Until the window's title names the DEM (the scene in use), at most 60 s: a loaded machine
+    // reads it slower than any fixed wait.
     viewer.gesture("sleep 0.5 && xdotool key ctrl+o && sleep 1 && xdotool key ctrl+a && xdotool type \"" + dem +
-                   "\" && xdotool key Return && sleep 5");
+                   "\" && xdotool key Return && for i in $(seq 600); do xdotool getwindowname $W | grep -q "
+                   "olinda_dem && break; sleep 0.1; done; sleep 1");
   }
   viewer.release("opened");
   ASSERT_EQ(viewer.finish(), 0) << readText(dir / "log.txt");
