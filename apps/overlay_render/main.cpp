@@ -22,6 +22,7 @@
 #include "app/cli.hpp"
 #include "app/option_parser.hpp"
 #include "core/log.hpp"
+#include "geo/checked_file.hpp"
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
@@ -542,6 +543,11 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
       {"method", d.o.technique->name},
       {"passes",
        {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
+      // The cache: where, and what checking its files cost this run (geo/checked_file.hpp).
+      {"cache",
+       {{"directory", scene::cacheDirectoryFor(d.setup.description)},
+        {"verified_bytes", geo::io::verifiedSoFar().bytes},
+        {"verify_seconds", geo::io::verifiedSoFar().seconds}}},
       {"errors", all.count(Severity::Error)},
       {"warnings", all.count(Severity::Warning)},
       {"diagnostics", diagnosticsJson(all)},

@@ -83,6 +83,26 @@ std::optional<std::uint64_t> digestOf(int fd, std::uint64_t at, std::uint64_t by
   return d;
 }
 
+std::atomic<std::uint64_t> verifiedBytes{0};
+std::atomic<std::uint64_t> verifiedNanoseconds{0};
+
+/// Counts a verification into verifiedSoFar.
+class VerifyClock {
+ public:
+  explicit VerifyClock(std::uint64_t bytes) : bytes_(bytes), start_(std::chrono::steady_clock::now()) {}
+  VerifyClock(const VerifyClock&) = delete;
+  VerifyClock& operator=(const VerifyClock&) = delete;
+  ~VerifyClock() {
+    verifiedBytes += bytes_;
+    verifiedNanoseconds += static_cast<std::uint64_t>(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count());
+  }
+
+ private:
+  std::uint64_t bytes_;
+  std::chrono::steady_clock::time_point start_;
+};
+
 std::string temporaryName(const fs::path& file) {
   static std::atomic<std::uint64_t> counter{0};
   return file.string() + ".tmp-" + std::to_string(::getpid()) + "-" +
@@ -215,14 +235,18 @@ CheckedFile::~CheckedFile() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+VerifiedSoFar verifiedSoFar() { return {verifiedBytes.load(), static_cast<double>(verifiedNanoseconds.load()) * 1e-9}; }
+
 bool CheckedFile::verify(std::size_t i) const {
   const Section& s = section(i);
+  const VerifyClock clock(s.length);
   const std::optional<std::uint64_t> d = digestOf(fd_, s.offset, s.length);
   return d && *d == s.digest;
 }
 
 std::optional<std::string> CheckedFile::read(std::size_t i) const {
   const Section& s = section(i);
+  const VerifyClock clock(s.length);
   std::string bytes(static_cast<std::size_t>(s.length), '\0');
   if (!preadAll(fd_, bytes.data(), bytes.size(), s.offset) || digest(bytes.data(), bytes.size()) != s.digest)
     return std::nullopt;

@@ -128,6 +128,14 @@ class SectionStream : public std::istream {
   DescriptorBuf buf_;
 };
 
+/// What this process has verified so far (every CheckedFile's verify and read): bytes and the
+/// seconds spent reading and hashing them — what the checks cost a start.
+struct VerifiedSoFar {
+  std::uint64_t bytes = 0;
+  double seconds = 0.0;
+};
+VerifiedSoFar verifiedSoFar();
+
 /// Removes temporary files of writers that ended without renaming them (killed, or out of disk)
 /// from `directory` and its sub-folders: those older than `age`. Returns how many.
 std::size_t removeStaleTemporaries(const std::filesystem::path& directory, std::chrono::seconds age);
