@@ -55,6 +55,14 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
       terrain::TilePyramidFile::open(scene.pyramidPath, source);
   if (!file) {
     const std::string why = file.diagnostics.empty() ? "" : file.diagnostics.items().front().message;
+    // A damaged pyramid is said (a warning, in the load's messages); a missing or stale one is
+    // simply built.
+    if (why.find("damaged") != std::string::npos)
+      r.diagnostics.add({Severity::Warning,
+                         scene.pyramidPath,
+                         {},
+                         {},
+                         "cache file damaged (" + why + "); rebuilt from " + dem.label()});
     logInfo("building the tile pyramid of " + dem.label() + " into " + scene.pyramidPath + " (" + why + ")");
     Result<terrain::PyramidBuildStats> built =
         terrain::buildTilePyramid(inFrame, source, frame, scene.pyramidPath,
@@ -74,6 +82,9 @@ Result<std::shared_ptr<const terrain::TerrainQuadtree>> pagedTerrain(const Scene
       return r;
     }
   }
+  // A tile found damaged while paging rebuilds the pyramid from the DEM (TilePyramidFile::readTile).
+  (*file)->setRebuild(
+      [source, frame, path = scene.pyramidPath] { return terrain::buildTilePyramid(source, frame, path).ok(); });
   const auto tileBudget = static_cast<std::size_t>(description.memoryBudgetMb / 3.0 * 1024.0 * 1024.0);
   auto pager = std::make_shared<terrain::TilePager>(*file, tileBudget);
   scene.nodataPosts = (*file)->nodataPosts();

@@ -6,6 +6,21 @@
 
 namespace gis::terrain {
 
+namespace {
+
+/// The log, at each message's severity.
+void say(const Diagnostics& diagnostics) {
+  for (const Diagnostic& d : diagnostics.items()) {
+    if (d.severity == Severity::Error) {
+      logError(d.toString());
+    } else {
+      logWarning(d.toString());
+    }
+  }
+}
+
+}  // namespace
+
 TilePager::TilePager(std::shared_ptr<const TilePyramidFile> file, std::size_t budgetBytes)
     : file_(std::move(file)), budget_(budgetBytes) {
   const TilePyramidFile& f = *file_;
@@ -17,8 +32,9 @@ TilePager::TilePager(std::shared_ptr<const TilePyramidFile> file, std::size_t bu
         if (!f.hasTile(id)) continue;
         std::vector<float> data(f.tilePosts());
         Diagnostics diagnostics;
-        if (!f.readTile(id, data, diagnostics)) {
-          for (const Diagnostic& d : diagnostics.items()) logError(d.toString());
+        const bool read = f.readTile(id, data, diagnostics);
+        say(diagnostics);
+        if (!read) {
           ++readErrors_;
           std::fill(data.begin(), data.end(), std::numeric_limits<float>::quiet_NaN());
         }
@@ -81,9 +97,10 @@ TileData TilePager::load(const NodeId& n) {
 TileData TilePager::read(const NodeId& n) {
   auto data = std::make_shared<std::vector<float>>(file_->tilePosts());
   Diagnostics diagnostics;
-  if (!file_->readTile(n, *data, diagnostics)) {
+  const bool read = file_->readTile(n, *data, diagnostics);
+  say(diagnostics);  // a damaged tile rebuilt (a warning), or one that cannot be read
+  if (!read) {
     // Drawn as a hole rather than retried every frame; the log names the file and the tile.
-    for (const Diagnostic& d : diagnostics.items()) logError(d.toString());
     std::fill(data->begin(), data->end(), std::numeric_limits<float>::quiet_NaN());
     std::lock_guard lock(mutex_);
     ++readErrors_;

@@ -16,6 +16,9 @@
 
 #include <glm/common.hpp>
 
+#define XXH_INLINE_ALL
+#include <xxhash.h>
+
 #include "core/hash.hpp"
 #include "geo/raster.hpp"
 #include "terrain/geometric_error.hpp"
@@ -24,7 +27,9 @@ namespace gis::terrain {
 namespace {
 
 constexpr char kMagic[8] = {'S', 'G', 'I', 'S', 'P', 'Y', 'R', '\0'};
-constexpr std::uint32_t kVersion = 3;  // 2: implausiblePosts; 3: DEMs in any CRS, mosaics
+// 2: implausiblePosts; 3: DEMs in any CRS, mosaics; 4: checksums (header, node table and cell
+// ranges, each tile)
+constexpr std::uint32_t kVersion = 4;
 constexpr std::size_t kHeaderBytes = 4096;
 
 struct FileHeader {
@@ -41,6 +46,8 @@ struct FileHeader {
   std::uint32_t pathLength;
   char path[2048];
   std::uint64_t implausiblePosts;  ///< samples made nodata by implausibleHeightsToNodata
+  std::uint64_t tableDigest;       ///< XXH3-64 of the node table, then the cell ranges (lo, hi)
+  std::uint64_t headerDigest;      ///< XXH3-64 of this header with this field 0
 };
 static_assert(std::is_trivially_copyable_v<FileHeader> && sizeof(FileHeader) <= kHeaderBytes);
 
@@ -48,8 +55,26 @@ struct NodeRecord {
   float minHeight, maxHeight, geometricError;
   std::uint32_t hasData;
   std::uint64_t tileOffset;
+  std::uint64_t tileDigest;  ///< XXH3-64 of the tile's heights, verified at every read
 };
-static_assert(sizeof(NodeRecord) == 24);
+static_assert(sizeof(NodeRecord) == 32);
+
+std::uint64_t headerDigestOf(FileHeader h) {
+  h.headerDigest = 0;
+  return XXH3_64bits(&h, sizeof(h));
+}
+
+std::uint64_t tableDigestOf(const std::vector<NodeRecord>& records, const std::vector<float>& lo,
+                            const std::vector<float>& hi) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_64bits_reset(state);
+  XXH3_64bits_update(state, records.data(), records.size() * sizeof(NodeRecord));
+  XXH3_64bits_update(state, lo.data(), lo.size() * sizeof(float));
+  XXH3_64bits_update(state, hi.data(), hi.size() * sizeof(float));
+  const std::uint64_t d = XXH3_64bits_digest(state);
+  XXH3_freeState(state);
+  return d;
+}
 
 std::string systemError(const std::string& what) { return what + ": " + std::strerror(errno); }
 
@@ -130,6 +155,7 @@ class PyramidBuilder {
       : grid_(geometry), n_(chunkCells), root_(rootLevel), writer_(writer), index_(rootLevel) {
     nodes_.resize(index_.count());
     offsets_.assign(index_.count(), 0);
+    digests_.assign(index_.count(), 0);
     for (int k = 0; k <= root_; ++k) {
       Level level;
       level.tiles = 1 << (root_ - k);
@@ -162,6 +188,7 @@ class PyramidBuilder {
 
   const std::vector<NodeInfo>& nodes() const { return nodes_; }
   const std::vector<std::uint64_t>& offsets() const { return offsets_; }
+  const std::vector<std::uint64_t>& digests() const { return digests_; }
   [[nodiscard]] std::size_t tiles() const { return tileCount_; }
   [[nodiscard]] std::uint64_t nodataPosts() const { return nodata_; }
   [[nodiscard]] int cellWidth() const { return cellWidth_; }
@@ -245,6 +272,7 @@ class PyramidBuilder {
           info.maxHeight = hi;
           if (k > 0) info.geometricError = level.pendingError[static_cast<std::size_t>(t)][static_cast<std::size_t>(x)];
           offsets_[index_(id)] = writer_.offset();
+          digests_[index_(id)] = XXH3_64bits(tile_.data(), tile_.size() * sizeof(float));
           if (!writer_.write(tile_.data(), tile_.size() * sizeof(float))) return false;
           ++tileCount_;
         }
@@ -301,6 +329,7 @@ class PyramidBuilder {
   std::vector<Level> levels_;
   std::vector<NodeInfo> nodes_;
   std::vector<std::uint64_t> offsets_;
+  std::vector<std::uint64_t> digests_;
   std::size_t tileCount_ = 0;
   std::uint64_t nodata_ = 0;
   int cellSize_ = 1, cellWidth_ = 1, cellHeight_ = 1;
@@ -447,7 +476,8 @@ Result<PyramidBuildStats> buildTilePyramid(geo::FrameDem& reader, const PyramidS
   std::vector<NodeRecord> records(builder.nodes().size());
   for (std::size_t i = 0; i < records.size(); ++i) {
     const NodeInfo& info = builder.nodes()[i];
-    records[i] = {info.minHeight, info.maxHeight, info.geometricError, info.hasData ? 1u : 0u, builder.offsets()[i]};
+    records[i] = {info.minHeight,         info.maxHeight,       info.geometricError,
+                  info.hasData ? 1u : 0u, builder.offsets()[i], builder.digests()[i]};
   }
   FileHeader header{};
   std::memcpy(header.magic, kMagic, sizeof(kMagic));
@@ -478,9 +508,11 @@ Result<PyramidBuildStats> buildTilePyramid(geo::FrameDem& reader, const PyramidS
     return fail(systemError("cannot write " + partial));
   }
   header.fileBytes = writer.offset();
+  header.tableDigest = tableDigestOf(records, builder.cellLo(), builder.cellHi());
   if (source.demPath.size() > sizeof(header.path)) return fail("DEM path too long for the pyramid header");
   header.pathLength = static_cast<std::uint32_t>(source.demPath.size());
   std::memcpy(header.path, source.demPath.data(), source.demPath.size());
+  header.headerDigest = headerDigestOf(header);
   std::vector<char> headerBytes(kHeaderBytes, 0);
   std::memcpy(headerBytes.data(), &header, sizeof(header));
   if (!writeAll(fd, headerBytes.data(), headerBytes.size(), 0)) return fail(systemError("cannot write " + partial));
@@ -510,6 +542,7 @@ Result<std::shared_ptr<const TilePyramidFile>> TilePyramidFile::open(const std::
   }
   if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0) return fail("not a tile pyramid");
   if (h.version != kVersion) return fail("tile pyramid of format " + std::to_string(h.version));
+  if (h.headerDigest != headerDigestOf(h)) return fail("tile pyramid damaged: its header does not match its checksum");
   if (h.fileBytes != static_cast<std::uint64_t>(st.st_size)) return fail("tile pyramid is truncated");
   if (const std::string why = sourceMismatch(h, expected); !why.empty()) return fail("tile pyramid is stale: " + why);
   if (h.chunkCells < 2 || h.rootLevel < 0 || h.rootLevel > 24 || h.width < 2 || h.height < 2 ||
@@ -537,11 +570,13 @@ Result<std::shared_ptr<const TilePyramidFile>> TilePyramidFile::open(const std::
   }
   file->nodes_.resize(records.size());
   file->tileOffsets_.resize(records.size());
+  file->tileDigests_.resize(records.size());
   const std::uint64_t tileBytes = file->tilePosts() * sizeof(float);
   for (std::size_t i = 0; i < records.size(); ++i) {
     const NodeRecord& rec = records[i];
     file->nodes_[i] = {rec.minHeight, rec.maxHeight, rec.geometricError, rec.hasData != 0};
     file->tileOffsets_[i] = rec.tileOffset;
+    file->tileDigests_[i] = rec.tileDigest;
     if ((rec.hasData != 0) != (rec.tileOffset != 0) ||
         (rec.tileOffset != 0 && (rec.tileOffset < kHeaderBytes || rec.tileOffset + tileBytes > h.nodeTableOffset))) {
       return fail("tile pyramid node table is corrupt");
@@ -558,6 +593,9 @@ Result<std::shared_ptr<const TilePyramidFile>> TilePyramidFile::open(const std::
       !readAll(file->fd_, file->cellHi_.data(), cells * sizeof(float), h.cellRangeOffset + cells * sizeof(float))) {
     return fail("cannot read the tile pyramid's cell ranges");
   }
+  if (h.tableDigest != tableDigestOf(records, file->cellLo_, file->cellHi_))
+    return fail("tile pyramid damaged: its node table does not match its checksum");
+  file->source_ = expected;
   R r;
   r.value = std::move(file);
   return r;
@@ -574,18 +612,53 @@ std::size_t TilePyramidFile::nodeIndex(const NodeId& n) const {
 }
 
 bool TilePyramidFile::readTile(const NodeId& n, std::span<float> out, Diagnostics& diagnostics) const {
-  const std::uint64_t offset = tileOffsets_[nodeIndex(n)];
+  const std::size_t i = nodeIndex(n);
+  const std::uint64_t offset = tileOffsets_[i];
   if (offset == 0 || out.size() != tilePosts()) {
     std::fill(out.begin(), out.end(), std::numeric_limits<float>::quiet_NaN());
     return offset == 0;
   }
-  if (!readAll(fd_, out.data(), out.size() * sizeof(float), offset)) {
-    diagnostics.add({Severity::Error, path_, "", "",
-                     systemError("cannot read tile " + std::to_string(n.level) + "/" + std::to_string(n.x) + "/" +
-                                 std::to_string(n.y))});
-    return false;
+  const std::string name = std::to_string(n.level) + "/" + std::to_string(n.x) + "/" + std::to_string(n.y);
+  const auto read = [&] {
+    return readAll(fd_, out.data(), out.size() * sizeof(float), offset) &&
+           XXH3_64bits(out.data(), out.size() * sizeof(float)) == tileDigests_[i];
+  };
+  if (read()) return true;
+  // A tile that cannot be read or does not match its checksum: the pyramid is built again from
+  // the DEM (once, whoever finds it first) and the tile read from the new file, which the same
+  // descriptor then holds (dup2): the builder is deterministic, so every offset and checksum is
+  // the one this file's table has.
+  {
+    std::lock_guard lock(rebuildMutex_);
+    if (rebuilds_ == 0 && rebuild_) {
+      diagnostics.add({Severity::Warning, path_, "", "",
+                       "tile pyramid damaged: tile " + name + " does not match its checksum; rebuilt from the DEM"});
+      ++rebuilds_;
+      if (rebuild_()) {
+        Result<std::shared_ptr<const TilePyramidFile>> fresh = open(path_, source_);
+        if (fresh && (*fresh)->tileOffsets_ == tileOffsets_ && (*fresh)->tileDigests_ == tileDigests_) {
+          const int fd = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
+          if (fd >= 0) {
+            ::dup2(fd, fd_);
+            ::close(fd);
+          }
+        }
+      }
+    }
   }
-  return true;
+  if (read()) return true;
+  diagnostics.add(
+      {Severity::Error, path_, "", "",
+       "tile " + name + " cannot be read (" +
+           (readAll(fd_, out.data(), out.size() * sizeof(float), offset) ? std::string("damaged")
+                                                                         : std::string(std::strerror(errno))) +
+           ")"});
+  return false;
+}
+
+void TilePyramidFile::setRebuild(std::function<bool()> rebuild) const {
+  std::lock_guard lock(rebuildMutex_);
+  rebuild_ = std::move(rebuild);
 }
 
 }  // namespace gis::terrain

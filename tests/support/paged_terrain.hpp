@@ -4,6 +4,7 @@
 // the two. Needs GDAL (link GDAL::GDAL).
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <unistd.h>
@@ -58,6 +59,7 @@ struct PagedTerrain {
   std::string demPath;
   std::string pyramidPath;
   terrain::PyramidSource source;
+  std::optional<geo::SceneFrame> frame;  ///< the pyramid was built in
   std::shared_ptr<const terrain::TilePyramidFile> file;
   std::shared_ptr<terrain::TerrainQuadtree> memory;  ///< the DEM in memory
   std::shared_ptr<terrain::TerrainQuadtree> paged;   ///< the same DEM paged from the pyramid
@@ -93,6 +95,7 @@ inline PagedTerrain makePagedTerrain(const terrain::TerrainGrid& grid, const std
   if (!source) return t;
   source->pinnedTilesPerSide = pinnedTilesPerSide;
   t.source = *source;
+  t.frame = *frame;
   Result<terrain::PyramidBuildStats> built = terrain::buildTilePyramid(t.source, *frame, t.pyramidPath);
   EXPECT_TRUE(built.ok()) << (built.diagnostics.empty() ? "" : built.diagnostics.items()[0].toString());
   if (!built) return t;

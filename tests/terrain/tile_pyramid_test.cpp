@@ -155,6 +155,68 @@ TEST_F(TilePyramidTest, ReusedOnlyForTheSameIntactSource) {
   std::filesystem::remove_all(dir);
 }
 
+TEST_F(TilePyramidTest, ADamagedPyramidIsFoundAndRebuiltFromTheDem) {
+  namespace fs = std::filesystem;
+  const std::string dir = outputDir("damaged-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string copy = dir + "/copy.sgpyr";
+  const auto restore = [&] { fs::copy_file(terrain_.pyramidPath, copy, fs::copy_options::overwrite_existing); };
+  const auto flip = [&](std::uint64_t at) {
+    std::fstream f(copy, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(static_cast<std::streamoff>(at));
+    const char c = static_cast<char>(f.get() ^ 0x04);
+    f.seekp(static_cast<std::streamoff>(at));
+    f.put(c);
+  };
+  auto reason = [](const Result<std::shared_ptr<const terrain::TilePyramidFile>>& r) {
+    return r.diagnostics.empty() ? std::string() : r.diagnostics.items().front().message;
+  };
+  // The header and the node table with the cell ranges: refused when opened (the loader rebuilds).
+  restore();
+  flip(100);
+  EXPECT_NE(reason(terrain::TilePyramidFile::open(copy, terrain_.source)).find("damaged"), std::string::npos);
+  restore();
+  flip(fs::file_size(copy) - 6);
+  EXPECT_NE(reason(terrain::TilePyramidFile::open(copy, terrain_.source)).find("damaged"), std::string::npos);
+
+  // Tiles (written one after another behind the 4 KB header): found when read.
+  restore();
+  const std::uint64_t tileBytes = terrain_.file->tilePosts() * sizeof(float);
+  for (std::uint64_t k = 0; k < 6; ++k) flip(4096 + k * 7 * tileBytes + 13 * k + 5);
+  Result<std::shared_ptr<const terrain::TilePyramidFile>> opened =
+      terrain::TilePyramidFile::open(copy, terrain_.source);
+  ASSERT_TRUE(opened.ok()) << reason(opened);
+  const terrain::TilePyramidFile& damaged = **opened;
+  const terrain::TerrainQuadtree& mem = *terrain_.memory;
+  std::size_t refused = 0;
+  for (const NodeId& n : allNodes(mem)) {
+    if (!damaged.hasTile(n)) continue;
+    std::vector<float> tile(damaged.tilePosts());
+    Diagnostics d;
+    if (!damaged.readTile(n, tile, d)) ++refused;
+  }
+  EXPECT_EQ(refused, 6u) << "without a way to rebuild, each damaged tile is refused";
+  // With one (the loader's), the first damaged tile read rebuilds the file; every tile then
+  // reads as the clean pyramid's.
+  damaged.setRebuild([&] { return terrain::buildTilePyramid(terrain_.source, *terrain_.frame, copy).ok(); });
+  std::size_t warnings = 0;
+  for (const NodeId& n : allNodes(mem)) {
+    if (!damaged.hasTile(n)) continue;
+    std::vector<float> tile(damaged.tilePosts()), clean(damaged.tilePosts());
+    Diagnostics d, none;
+    ASSERT_TRUE(damaged.readTile(n, tile, d)) << n.level << "/" << n.x << "/" << n.y;
+    ASSERT_TRUE(terrain_.file->readTile(n, clean, none));
+    for (const Diagnostic& m : d.items()) {
+      EXPECT_EQ(m.severity, Severity::Warning) << m.toString();
+      warnings += m.message.find("rebuilt from the DEM") != std::string::npos ? 1U : 0U;
+    }
+    for (std::size_t k = 0; k < tile.size(); ++k)
+      ASSERT_TRUE(std::isnan(clean[k]) ? std::isnan(tile[k]) : tile[k] == clean[k]) << n.level << "/" << n.x;
+  }
+  EXPECT_EQ(warnings, 1u);
+  fs::remove_all(dir);
+}
+
 TEST_F(TilePyramidTest, PagerLoadsAsynchronouslyUnderItsBudget) {
   const std::size_t tileBytes = terrain_.file->tilePosts() * sizeof(float);
   terrain::TilePager pager(terrain_.file, 40 * tileBytes);

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -83,8 +84,14 @@ class TilePyramidFile {
   [[nodiscard]] std::size_t tilePosts() const {
     return static_cast<std::size_t>(chunkCells_ + 1) * static_cast<std::size_t>(chunkCells_ + 1);
   }
-  /// Reads a node's tile (row-major (N + 1)² heights, NaN at nodata). Thread-safe.
+  /// Reads a node's tile (row-major (N + 1)² heights, NaN at nodata), verified against its
+  /// checksum. Thread-safe. A tile that is damaged makes the pyramid rebuild itself (setRebuild)
+  /// once, with a warning, and is read from the new file; without a rebuild, or if that fails,
+  /// an error and false.
   bool readTile(const NodeId& n, std::span<float> out, Diagnostics& diagnostics) const;
+  /// How to build this pyramid's file again from its DEM (the loader's buildTilePyramid), for a
+  /// damaged tile found while reading.
+  void setRebuild(std::function<bool()> rebuild) const;
 
   /// Height ranges of the cells of the pinned level (2^pinnedLevel posts a side, closed: a
   /// cell includes the posts on its border), row-major; lo > hi for cells without data.
@@ -112,6 +119,11 @@ class TilePyramidFile {
   std::vector<std::size_t> levelOffset_;
   std::vector<NodeInfo> nodes_;
   std::vector<std::uint64_t> tileOffsets_;  ///< 0 = no tile (no data)
+  std::vector<std::uint64_t> tileDigests_;
+  PyramidSource source_;
+  mutable std::mutex rebuildMutex_;
+  mutable std::function<bool()> rebuild_;
+  mutable int rebuilds_ = 0;
   int cellRangeWidth_ = 0, cellRangeHeight_ = 0;
   std::vector<float> cellLo_, cellHi_;
 };
