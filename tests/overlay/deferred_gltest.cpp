@@ -385,3 +385,83 @@ TEST_F(DeferredGlTest, AutoMeasuresBothAndEveryFrameIsExact) {
 
 }  // namespace
 }  // namespace gis::test
+
+namespace gis::test {
+namespace {
+
+TEST_F(DeferredGlTest, ALineAsWideAsTheWidestAcceptedStaysExactInABoundedIndex) {
+  // A road whose width_m is 1e15 (the widest footprints.hpp accepts): before, the index split
+  // every node it met down to 1 km leaves and the run ended in std::bad_alloc at 23 GB. With the
+  // terrain's cell grid (as the scene renderer makes the technique) the index covers the terrain
+  // and no more; the mask equals the reference. Two layers: the wide road last behind ordinary
+  // ones with flat caps (its flat end crosses the terrain: a real edge in view), and first ahead
+  // of them with round caps (it covers the terrain: nothing behind it counts).
+  Terrain t = makeTerrain(129, 7);
+  ASSERT_TRUE(t.engine);
+  std::mt19937 rng(40);
+  const glm::dvec2 centre = 0.5 * (t.lo + t.hi);
+  geo::Feature wide;
+  wide.fid = 1000;
+  wide.attributes["width_m"] = 1e15;
+  wide.lines.push_back({centre, centre + glm::dvec2(700.0, 250.0)});
+  std::vector<geo::Feature> behind = randomLines(rng, t.lo, t.hi, 8);
+  behind.push_back(wide);
+  std::vector<geo::Feature> ahead{wide};
+  for (geo::Feature& f : randomLines(rng, t.lo, t.hi, 8)) ahead.push_back(std::move(f));
+  overlay::LayerStyle flat, round;
+  flat.widthMetres = round.widthMetres = 8.0;
+  flat.widthAttribute = round.widthAttribute = "width_m";
+  flat.cap = overlay::LineCap::Flat;
+  flat.join = overlay::LineJoin::Miter;
+  overlay::LayerBuildOptions options;
+  options.deferPieces = true;
+  Result<overlay::OverlayLayer> a =
+      overlay::OverlayLayer::build("wide last", overlay::LayerKind::Line, flat, behind, *t.bounds, options);
+  Result<overlay::OverlayLayer> b =
+      overlay::OverlayLayer::build("wide first", overlay::LayerKind::Line, round, ahead, *t.bounds, options);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->stats().skippedFeatures + b->stats().skippedFeatures, 0u);
+  const std::vector<const overlay::OverlayLayer*> layers{&*a, &*b};
+
+  overlay::TechniqueOptions techniqueOptions;
+  techniqueOptions.bounds = t.bounds.get();
+  overlay::CellGrid cells;
+  cells.origin = t.lo;
+  cells.cellSize = 320.0;
+  cells.columns = cells.rows = 8;
+  techniqueOptions.build.footprints.cells = cells;
+  Result<std::unique_ptr<overlay::OverlayTechnique>> made =
+      overlay::findTechnique("deferred")->create(techniqueOptions);
+  ASSERT_TRUE(made.ok());
+  overlay::OverlayTechnique& technique = **made;
+  gfx::RenderTarget target(kWidth, kHeight, 0, true);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Comparison total;
+  for (int trial = 0; trial < 8; ++trial) {
+    glm::dvec3 eye, at;
+    if (trial == 0) {  // straight down on the flat end
+      eye = glm::dvec3(centre + glm::dvec2(0.0, -1.0), 1800.0);
+      at = glm::dvec3(centre, 0.0);
+    } else if (trial == 1) {  // 1.5 m above the ground by the flat end, looking across it
+      const glm::dvec2 p = centre + glm::dvec2(-30.0, 0.0);
+      eye = glm::dvec3(p, t.bounds->fullResolutionHeightAt(p) + 1.5);
+      at = glm::dvec3(centre + glm::dvec2(200.0, 60.0), t.bounds->fullResolutionHeightAt(centre));
+    } else {  // oblique and grazing
+      const double angle = 6.283 * unit(rng), d = 600.0 + 2000.0 * unit(rng);
+      eye = glm::dvec3(centre + d * glm::dvec2(std::cos(angle), std::sin(angle)), 50.0 + 1500.0 * unit(rng));
+      at = glm::dvec3(centre + 300.0 * glm::dvec2(unit(rng) - 0.5, unit(rng) - 0.5), 0.0);
+    }
+    add(total, drawAndCompare(cache_, target, t, technique, layers, eye, at, "wide #" + std::to_string(trial)));
+  }
+  const std::size_t bytes = technique.gpuBytes();
+  std::printf("deferred, a line 1e15 m wide: %zu covered pixels, %zu wrong away from edges, %zu on edges; %.2f MB\n",
+              total.covered, total.wrong, total.edgeWrong, static_cast<double>(bytes) / 1e6);
+  EXPECT_EQ(total.wrong, 0u);
+  EXPECT_LE(total.edgeWrong, total.covered / 200);
+  EXPECT_GT(total.covered, 100000u);
+  // The indices and the depth copy: a few hundred kilobytes for 16 roads and the wide one.
+  EXPECT_LT(bytes, std::size_t{8} << 20);
+}
+
+}  // namespace
+}  // namespace gis::test

@@ -3,6 +3,7 @@
 // reference's first covering feature at every point whose neighbourhood the reference covers
 // uniformly. Random polygons with holes and random lines with every join and cap, lines in
 // metres and in pixels, the robustness case matrix, near the frame origin and 9,900 km from it.
+#include <array>
 #include <cstdio>
 #include <random>
 
@@ -34,9 +35,11 @@ struct Tally {
 /// reference must get it from the index too. The eye is above the point's region at `eyeHeight`.
 Tally compareAtRandomPoints(const ReferenceLayer& layer, const glm::dvec2& lo, const glm::dvec2& hi, int count,
                             double radius, std::uint32_t seed, const overlay::PixelScale& scale = {},
-                            double eyeHeight = 500.0) {
+                            double eyeHeight = 500.0, const overlay::deferred::BuildOptions& options = {},
+                            std::size_t* nodes = nullptr) {
   std::vector<glm::vec4> colors(layer.features->size(), glm::vec4(1.0F));
-  const overlay::deferred::Index index = overlay::deferred::build(layer, colors);
+  const overlay::deferred::Index index = overlay::deferred::build(layer, colors, options);
+  if (nodes != nullptr) *nodes = index.nodes.size();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y);
   Tally t;
@@ -159,6 +162,94 @@ void robustnessCases(const glm::dvec2& offset) {
   EXPECT_EQ(a.wrong + l.wrong, 0u);
   EXPECT_GT(a.covered, 1000u);
   EXPECT_GT(l.covered, 100u);
+}
+
+// ---- what one feature may cost (issue 40, 7) --------------------------------------------------
+
+/// A line of two points 1e15 m wide (the widest footprints.hpp accepts) from the middle of
+/// [lo, hi], after `before` ordinary roads.
+std::vector<geo::Feature> roadsAndAWideLine(const glm::dvec2& lo, const glm::dvec2& hi, int before) {
+  std::mt19937 rng(17);
+  std::vector<geo::Feature> features = randomLines(rng, lo, hi, before);
+  geo::Feature wide;
+  wide.fid = 1000;
+  const glm::dvec2 middle = 0.5 * (lo + hi);
+  wide.lines.push_back({middle, middle + glm::dvec2(700.0, 250.0)});
+  features.push_back(std::move(wide));
+  return features;
+}
+
+TEST(DeferredIndexTest, ALineAsWideAsTheWidestAcceptedCostsAFewLeavesAndStaysExact) {
+  // Before, every node it met split down to 1 km leaves: 23 GB and std::bad_alloc. Within the
+  // terrain's extent (the region, as the technique gives it) it costs what a line covering the
+  // terrain does and matches the reference; with no region (a client without a cell grid) the
+  // index stays bounded.
+  const glm::dvec2 lo(-1280.0), hi(1280.0);
+  const std::vector<geo::Feature> features = roadsAndAWideLine(lo, hi, 12);
+  for (const overlay::LineCap cap : {overlay::LineCap::Flat, overlay::LineCap::Round, overlay::LineCap::Square}) {
+    const char* capName = cap == overlay::LineCap::Flat ? "flat" : cap == overlay::LineCap::Round ? "round" : "square";
+    SCOPED_TRACE(capName);
+    ReferenceLayer layer = layerOf("roads", LayerKind::Line, features);
+    for (overlay::LineShape& shape : layer.shapes) {
+      shape.width = 12.0;
+      shape.cap = cap;
+      shape.join = overlay::LineJoin::Miter;
+    }
+    layer.shapes.back().width = 1e15;
+    overlay::deferred::BuildOptions options;
+    options.region = std::array<glm::dvec2, 2>{lo, hi};
+    std::size_t nodes = 0;
+    const Tally t = compareAtRandomPoints(layer, lo, hi, 20000, 0.01, 9, {}, 500.0, options, &nodes);
+    std::printf("%s caps, region: %zu nodes, %zu points checked (%zu covered), %zu wrong\n", capName, nodes, t.checked,
+                t.covered, t.wrong);
+    EXPECT_EQ(t.wrong, 0u);
+    EXPECT_LT(nodes, 5000u);  // the 12 roads alone take about 2,000
+    if (cap == overlay::LineCap::Flat) {
+      // The flat end crosses the region: a real edge there, on either side of it.
+      EXPECT_GT(t.covered, t.checked / 4);
+      EXPECT_LT(t.covered, t.checked * 3 / 4);
+    } else {
+      EXPECT_EQ(t.covered, t.checked);
+    }
+
+    std::vector<glm::vec4> colors(features.size(), glm::vec4(1.0F));
+    const overlay::deferred::Index unbounded = overlay::deferred::build(layer, colors);
+    std::printf("%s caps, no region: %zu nodes, %zu items, %.1f MB\n", capName, unbounded.nodes.size(),
+                unbounded.items.size(), static_cast<double>(unbounded.bytes()) / 1e6);
+    // At most maxSizeSplitsPerFeature (and 4 per primitive) splits of 4 nodes for the wide line,
+    // and the roads' own.
+    EXPECT_LT(unbounded.nodes.size(), 4u * (1U << 16) + 20000u);
+    EXPECT_LT(unbounded.bytes(), std::size_t{200} << 20);
+  }
+}
+
+TEST(DeferredIndexTest, APolygonReachingFarBeyondTheTerrainCostsABoundedIndex) {
+  // A square 2e15 m across with the terrain in a hole, and ordinary polygons: within the region
+  // exact and small; with no region its edges stop forcing splits after maxSizeSplitsPerFeature.
+  const glm::dvec2 lo(-1280.0), hi(1280.0);
+  std::mt19937 rng(3);
+  std::vector<geo::Feature> features = randomPolygons(rng, lo, hi, 10);
+  geo::Feature huge;
+  huge.fid = 99;
+  huge.polygons.push_back(
+      {{glm::dvec2(-1e15, -1e15), glm::dvec2(1e15, -1e15), glm::dvec2(1e15, 1e15), glm::dvec2(-1e15, 1e15)},
+       {{glm::dvec2(-300.0, -200.0), glm::dvec2(400.0, -250.0), glm::dvec2(100.0, 500.0)}}});
+  features.push_back(std::move(huge));
+  const ReferenceLayer layer = layerOf("areas", LayerKind::Polygon, features);
+  overlay::deferred::BuildOptions options;
+  options.region = std::array<glm::dvec2, 2>{lo, hi};
+  std::size_t nodes = 0;
+  const Tally t = compareAtRandomPoints(layer, lo, hi, 20000, 0.01, 10, {}, 500.0, options, &nodes);
+  std::printf("region: %zu nodes, %zu points checked (%zu covered), %zu wrong\n", nodes, t.checked, t.covered, t.wrong);
+  EXPECT_EQ(t.wrong, 0u);
+  EXPECT_GT(t.covered, t.checked / 2);
+  EXPECT_LT(nodes, 5000u);
+  std::vector<glm::vec4> colors(features.size(), glm::vec4(1.0F));
+  const overlay::deferred::Index unbounded = overlay::deferred::build(layer, colors);
+  std::printf("no region: %zu nodes, %zu edges, %.1f MB\n", unbounded.nodes.size(), unbounded.edges.size(),
+              static_cast<double>(unbounded.bytes()) / 1e6);
+  EXPECT_LT(unbounded.nodes.size(), 4u * (1U << 16) + 20000u);
+  EXPECT_LT(unbounded.bytes(), std::size_t{200} << 20);
 }
 
 }  // namespace

@@ -85,6 +85,9 @@ struct LeafContent {
   };
   std::vector<PolygonEntry> polygons;
   std::vector<std::uint32_t> primitives;
+  /// Line layers: the primitive (of a line in metres) that covers the whole leaf, when no earlier
+  /// feature meets it: the leaf then holds a square of that feature (Builder::squareItem).
+  std::optional<std::uint32_t> coveredBy;
   std::uint32_t node = 0;
 };
 
@@ -117,11 +120,30 @@ class Builder {
     }
     out_.polygons = polygons_.size();
     out_.primitives = primitives_.size();
+    sizeSplits_.assign(n, 0);
+    seen_.assign(n, 0);
+    // What each feature may force: maxSizeSplitsPerFeature, and 4 more per entry of it.
+    sizeSplitBudget_.assign(n, options_.maxSizeSplitsPerFeature);
+    for (std::uint32_t i = 0; i < boxes_.size(); ++i) {
+      std::uint32_t& budget = sizeSplitBudget_[featureOf(i)];
+      budget = budget > std::numeric_limits<std::uint32_t>::max() - 4 ? budget : budget + 4;
+    }
   }
 
   void run() {
     Box all;
     for (const Box& b : boxes_) all.add(b);
+    if (options_.region) {
+      // Ground points lie in the region, up to the depth buffer's rounding: a margin of a
+      // thousandth of its size (1 m at least) keeps every one of them inside the root.
+      Box region;
+      region.add((*options_.region)[0]);
+      region.add((*options_.region)[1]);
+      if (!region.empty() && reference::finite(region.lo) && reference::finite(region.hi)) {
+        const double margin = std::max(1.0, 1e-3 * std::max(region.hi.x - region.lo.x, region.hi.y - region.lo.y));
+        all = all.intersection(grown(region, margin));
+      }
+    }
     if (all.empty() || !reference::finite(all.lo) || !reference::finite(all.hi)) return;
     const double side = std::max({all.hi.x - all.lo.x, all.hi.y - all.lo.y, 1e-3}) * (1.0 + 1e-6);
     out_.origin = all.lo - glm::dvec2(side * 1e-7);
@@ -221,22 +243,54 @@ class Builder {
     return std::all_of(corners.begin(), corners.end(), [&p](const glm::dvec2& c) { return p.prim.contains(c); });
   }
 
+  [[nodiscard]] std::uint32_t featureOf(std::uint32_t item) const {
+    return out_.kind == LayerKind::Polygon ? polygons_[edges_[item].polygon].feature : primitives_[item].feature;
+  }
+
+  /// Whether the node must split for its size (leaves holding anything are at most
+  /// maxLeafSize): some feature of its items may still force a split (maxSizeSplitsPerFeature),
+  /// and each feature there is counted.
+  bool splitForSize(const std::vector<std::uint32_t>& items, double side) {
+    if (!(side > options_.maxLeafSize)) return false;
+    ++generation_;
+    std::vector<std::uint32_t> features;
+    for (const std::uint32_t i : items) {
+      const std::uint32_t f = featureOf(i);
+      if (seen_[f] == generation_) continue;
+      seen_[f] = generation_;
+      features.push_back(f);
+    }
+    const bool any = std::any_of(features.begin(), features.end(),
+                                 [&](std::uint32_t f) { return sizeSplits_[f] < sizeSplitBudget_[f]; });
+    if (any)
+      for (const std::uint32_t f : features) ++sizeSplits_[f];
+    return any;
+  }
+
   void node(std::uint32_t index, int level, std::uint32_t ix, std::uint32_t iy, std::vector<std::uint32_t> items) {
     const Box box = nodeBox(level, ix, iy);
     std::erase_if(items, [&](std::uint32_t i) { return !meets(i, box); });
+    std::optional<std::uint32_t> coveredBy;
     if (out_.kind == LayerKind::Line) {
       // Items are in feature order: behind one that covers the whole node, later features never
       // show.
       const auto covering =
           std::find_if(items.begin(), items.end(), [&](std::uint32_t i) { return coversBox(i, box); });
       if (covering != items.end()) {
-        const std::uint32_t feature = primitives_[*covering].feature;
+        const std::uint32_t cover = *covering;
+        const std::uint32_t feature = primitives_[cover].feature;
         std::erase_if(items, [&](std::uint32_t i) { return primitives_[i].feature > feature; });
+        // Nothing of an earlier feature here: the node is that feature's at every point, a leaf
+        // holding one square of it, however large (a line 1e15 m wide covers the terrain so).
+        if (std::all_of(items.begin(), items.end(), [&](std::uint32_t i) { return primitives_[i].feature == feature; }))
+          coveredBy = cover;
       }
     }
     const double side = box.hi.x - box.lo.x;
-    bool split = level < options_.maxDepth && !items.empty() && out_.nodes.size() + 4 <= kGridNodeMask &&
-                 (items.size() > options_.maxEntriesPerLeaf || side > options_.maxLeafSize);
+    const bool canSplit =
+        !coveredBy && level < options_.maxDepth && !items.empty() && out_.nodes.size() + 4 <= kGridNodeMask;
+    const bool forSize = canSplit && splitForSize(items, side);
+    bool split = canSplit && (items.size() > options_.maxEntriesPerLeaf || forSize);
     std::array<std::vector<std::uint32_t>, 4> children;
     if (split) {
       std::size_t sum = 0;
@@ -254,13 +308,13 @@ class Builder {
       // Split where it pays: a point then tests fewer entries on average (a junction's leaf
       // shrinks around it), down to a sixteenth of the smallest item's extent (entries that all
       // meet every small cell, such as lines on top of each other, stop there).
-      split = side > options_.maxLeafSize ||
+      split = forSize ||
               (static_cast<double>(sum) < 0.8 * 4.0 * static_cast<double>(items.size()) && side > smallest / 16.0);
     }
     if (level == options_.coverLevel || (!split && level < options_.coverLevel)) coverAt_.push_back({index, box});
     if (!split) {
       out_.depth = std::max(out_.depth, level);
-      leaf(index, box, items);
+      leaf(index, box, items, coveredBy);
       return;
     }
     const auto first = static_cast<std::uint32_t>(out_.nodes.size());
@@ -289,14 +343,16 @@ class Builder {
     return out;
   }
 
-  void leaf(std::uint32_t index, const Box& box, const std::vector<std::uint32_t>& items) {
+  void leaf(std::uint32_t index, const Box& box, const std::vector<std::uint32_t>& items,
+            std::optional<std::uint32_t> coveredBy = std::nullopt) {
     LeafContent content;
     content.box = box;
     content.node = index;
     const double side = box.hi.x - box.lo.x;
     content.reference = 0.5 * (box.lo + box.hi);
     if (out_.kind == LayerKind::Line) {
-      content.primitives = items;
+      content.coveredBy = coveredBy;
+      if (!coveredBy) content.primitives = items;
       leaves_.push_back(std::move(content));
       return;
     }
@@ -403,6 +459,10 @@ class Builder {
       } else {
         n.first = static_cast<std::uint32_t>(out_.items.size());
         n.count = 0;
+        if (leaf.coveredBy) {
+          out_.items.push_back(squareItem(primitives_[*leaf.coveredBy].feature, leaf.box));
+          ++n.count;
+        }
         for (const std::uint32_t i : leaf.primitives) {
           if (const std::optional<Item> item = itemOf(primitives_[i], leaf.box)) {
             out_.items.push_back(*item);
@@ -443,6 +503,25 @@ class Builder {
     for (std::uint32_t c = 0; c < 4; ++c)
       if (subtreeHasContent(n.first + c)) return true;
     return false;
+  }
+
+  /// A convex item of `feature` covering the leaf with a margin of an eighth of its side, far
+  /// above the rounding of the float test: for a leaf its feature covers wholly (coversBox).
+  /// Its coordinates are the leaf's own, however far the feature's primitive reaches.
+  [[nodiscard]] static Item squareItem(std::uint32_t feature, const Box& leaf) {
+    Item item;
+    auto& v = item.v;
+    const double half = 0.5 * (leaf.hi.x - leaf.lo.x), reach = 1.25 * half;
+    v[0] = v[1] = static_cast<float>(half);  // the anchor: the leaf's centre
+    const std::array<glm::dvec2, 4> corners{glm::dvec2(-reach, -reach), glm::dvec2(reach, -reach),
+                                            glm::dvec2(reach, reach), glm::dvec2(-reach, reach)};
+    for (std::size_t k = 0; k < 4; ++k) {
+      const std::size_t at = k < 2 ? 4 + 2 * k : 12 + 2 * (k - 2);
+      v[at] = static_cast<float>(corners[k].x);
+      v[at + 1] = static_cast<float>(corners[k].y);
+    }
+    v[3] = floatOf(static_cast<std::uint32_t>(ItemKind::Convex) | (4U << 2U) | (feature << kFeatureShift));
+    return item;
   }
 
   [[nodiscard]] std::optional<Item> itemOf(const SourcePrimitive& s, const Box& leaf) const {
@@ -509,6 +588,10 @@ class Builder {
   std::vector<Box> boxes_;  ///< per edge (polygon layers) or primitive (line layers)
   std::vector<LeafContent> leaves_;
   std::vector<std::pair<std::uint32_t, Box>> coverAt_;
+  std::vector<std::uint32_t> sizeSplits_;       ///< per feature: the splits it forced for size
+  std::vector<std::uint32_t> sizeSplitBudget_;  ///< per feature: how many it may force
+  std::vector<std::uint32_t> seen_;             ///< per feature: the generation it was last counted in
+  std::uint32_t generation_ = 0;
 };
 
 // ---------------------------------------------------------------------------------------------

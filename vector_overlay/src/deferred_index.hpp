@@ -21,6 +21,14 @@
 // crossing height, so the legs never disagree. Polygons that cover a leaf without an edge in it
 // are listed with parity 1 and no edges.
 //
+// What one feature may cost is bounded: the root covers at most the region where ground points
+// can be (BuildOptions::region, the terrain's extent), a node that one primitive of a line in
+// metres covers wholly (and no earlier feature meets) is a leaf holding a square for it, and the
+// splits a feature forces for size are counted against a budget (maxSizeSplitsPerFeature, and 4
+// per entry of it). A line 1e15 m wide (the widest accepted) then costs a handful of leaves within
+// the terrain, and at most the budget without a region, not the whole quadtree down to
+// maxLeafSize.
+//
 // Lines: the reference's primitives (bands, discs, convex joins), anchored at their vertices.
 // Lines in pixels are stored at unit half width and scaled per frame by their anchors' widths
 // (halfWidthAt), so the index holds for every view; they are binned at their largest width.
@@ -28,6 +36,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -107,6 +116,17 @@ struct BuildOptions {
   int gridLevel = 9;   ///< the finest level of the lookup grid (Index::grid)
   /// Lines in pixels: the largest half width binned (metres); wider ones are clamped to it.
   double maxReach = std::numeric_limits<double>::infinity();
+  /// Where ground points can be (frame coordinates, [min, max]): the terrain's extent, as the
+  /// stencil technique clips its pieces to it (CellGrid). The index then covers what the layer
+  /// covers there and no more, so that a line 1e15 m wide costs what one covering the terrain
+  /// does. None: wherever the layer reaches.
+  std::optional<std::array<glm::dvec2, 2>> region;
+  /// Splits a feature may force because a node holding it is larger than maxLeafSize: this many,
+  /// plus 4 per edge or line primitive of it. Beyond, its entries stay in larger leaves (their
+  /// float coordinates less precise), so that one feature reaching far beyond the rest — 1e15 m
+  /// wide, with no region — costs memory by its vertices, not by its extent. Far above what a
+  /// feature within a frame takes (a polygon edge of 20,000 km takes about 30,000).
+  std::uint32_t maxSizeSplitsPerFeature = 1U << 16;
 };
 
 struct Index {

@@ -13,6 +13,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <span>
 #include <unordered_map>
 
@@ -182,8 +183,10 @@ gfx::BufferHandle bufferOf(std::vector<std::uint8_t> bytes) {
 
 class DeferredTechnique final : public DeferredLookup {
  public:
-  DeferredTechnique(gfx::Program single, gfx::Program multi, const HeightBoundsProvider* bounds, double maxReach)
+  DeferredTechnique(gfx::Program single, gfx::Program multi, const HeightBoundsProvider* bounds, double maxReach,
+                    std::optional<std::array<glm::dvec2, 2>> region)
       : maxReach_(maxReach),
+        region_(region),
         single_(std::move(single)),
         multi_(std::move(multi)),
         bounds_(bounds),
@@ -456,6 +459,7 @@ class DeferredTechnique final : public DeferredLookup {
     for (const FeatureStyle& s : layer.featureStyles()) colors.push_back(s.color);
     deferred::BuildOptions options;
     options.maxReach = maxReach;
+    options.region = region_;
     li.index = deferred::build(referenceLayerOf(layer), colors, options);
     for (const auto& box : li.index.cover) {
       HeightBounds h{-1e5, 1e5};
@@ -471,6 +475,9 @@ class DeferredTechnique final : public DeferredLookup {
   }
 
   double maxReach_;
+  /// The terrain's extent (the build's cell grid): ground points lie there, so the indices cover
+  /// no more (deferred::BuildOptions::region).
+  std::optional<std::array<glm::dvec2, 2>> region_;
   gfx::Program single_, multi_;
   const HeightBoundsProvider* bounds_;
   gfx::VertexArrayHandle vao_;
@@ -494,7 +501,16 @@ Result<std::unique_ptr<DeferredTechnique>> make(const TechniqueOptions& options,
   result.diagnostics.append(single.diagnostics);
   result.diagnostics.append(multi.diagnostics);
   if (!single || !multi) return result;
-  result.value = std::make_unique<DeferredTechnique>(std::move(*single), std::move(*multi), options.bounds, maxReach);
+  // Ground points lie on the terrain, within the cell grid the stencil technique clips its pieces
+  // to: an index covers no more, so that one feature reaching far beyond (a line 1e15 m wide)
+  // costs what one covering the terrain does.
+  std::optional<std::array<glm::dvec2, 2>> region;
+  if (const std::optional<CellGrid>& cells = options.build.footprints.cells) {
+    region = std::array<glm::dvec2, 2>{cells->origin,
+                                       cells->origin + cells->cellSize * glm::dvec2(cells->columns, cells->rows)};
+  }
+  result.value =
+      std::make_unique<DeferredTechnique>(std::move(*single), std::move(*multi), options.bounds, maxReach, region);
   return result;
 }
 
