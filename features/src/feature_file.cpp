@@ -28,6 +28,17 @@ void grow(glm::dvec2& lo, glm::dvec2& hi, const std::vector<glm::dvec2>& points)
   }
 }
 
+/// A box as FeatureFileEntry::of leaves it: empty (no finite point), or finite and ordered.
+bool wellFormed(const glm::dvec2& lo, const glm::dvec2& hi) {
+  if (lo == glm::dvec2(1.0) && hi == glm::dvec2(-1.0)) return true;
+  return std::isfinite(lo.x) && std::isfinite(lo.y) && std::isfinite(hi.x) && std::isfinite(hi.y) && lo.x <= hi.x &&
+         lo.y <= hi.y;
+}
+
+bool sameBoxes(const FeatureFileEntry& a, const FeatureFileEntry& b) {
+  return a.ringLo == b.ringLo && a.ringHi == b.ringHi && a.lineLo == b.lineLo && a.lineHi == b.lineHi;
+}
+
 }  // namespace
 
 FeatureFileEntry FeatureFileEntry::of(const Feature& feature, std::uint64_t offset) {
@@ -58,7 +69,11 @@ std::shared_ptr<const FeatureFile> FeatureFile::open(const std::string& path, in
     return fail("shorter than its index says");
   std::uint64_t previous = 0;
   for (std::size_t i = 0; i < entries.size(); ++i) {
-    if ((i > 0 && entries[i].offset <= previous) || entries[i].offset >= end) return fail("its index is damaged");
+    // Where each feature starts, in order; the boxes a tiling buckets it by, as
+    // FeatureFileEntry::of makes them (an infinite one would reach its integer bucket indices).
+    if ((i > 0 && entries[i].offset <= previous) || entries[i].offset >= end ||
+        !wellFormed(entries[i].ringLo, entries[i].ringHi) || !wellFormed(entries[i].lineLo, entries[i].lineHi))
+      return fail("its index is damaged");
     previous = entries[i].offset;
     file->vertices_ += entries[i].vertices;
   }
@@ -91,7 +106,10 @@ Feature FeatureFile::read(std::size_t i) const {
   io::Reader r(in);
   Feature f;
   if (!io::readGeometry(r, f) || !io::readAttributes(r, f)) fail("damaged");
-  if (f.vertexCount() != entries_[i].vertices) fail("changed since it was indexed");
+  // The feature is what its entry says: as many vertices, in the same boxes (a tiling chose
+  // the tiles it reaches by them; fuzzing found an index whose boxes were not its features').
+  if (f.vertexCount() != entries_[i].vertices || !sameBoxes(FeatureFileEntry::of(f, begin), entries_[i]))
+    fail("changed since it was indexed");
   return f;
 }
 

@@ -520,6 +520,12 @@ bool writeChecks(const std::filesystem::path& file, const std::vector<FeatureOut
       .written;
 }
 
+/// The seed paper's construction draws each piece's box with this many indices (addPieces).
+constexpr std::uint64_t kBoxIndices = 36;
+
+/// A coordinate or height as validation accepts it (ValidationOptions::maxCoordinate).
+bool bounded(double v) { return std::isfinite(v) && std::abs(v) <= 1e15; }
+
 /// A piece as a lean layer keeps it: all but the footprint's arrays.
 struct LeanPiece {
   std::uint32_t feature = 0;
@@ -686,7 +692,9 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
   const std::size_t vertices = arrays ? arrays->vertexCount : layer.vertices_.size();
   const std::size_t indexCount = arrays ? arrays->indexCount : layer.indices_.size();
   const std::size_t scalingCount = arrays ? arrays->scalingCount : layer.scaling_.size();
-  if (pieces.size() != slots || (scalingCount != 0 && scalingCount != vertices)) return std::nullopt;
+  // Lines in pixels draw a scaling per vertex; other layers none (the upload copies what this
+  // says into a buffer the shader reads per vertex).
+  if (pieces.size() != slots || scalingCount != (layer.widthPixels() > 0.0 ? vertices : 0)) return std::nullopt;
   for (std::size_t i = 0; i < fids.size(); ++i) {
     if (static_cast<std::uint8_t>(layer.outcomes_[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden))
       return std::nullopt;
@@ -706,11 +714,25 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
     const PieceSlot& s = layer.slots_[k];
     const LeanPiece& q = pieces[k];
     if (s.feature >= fids.size() || s.origin >= layer.origins_.size() || q.kind > 4) return std::nullopt;
+    // The bounds and box a draw culls and pads by, as validation asks them (validation.hpp:
+    // finite, within ±1e15 m, ordered; fuzzing found a lo of -3e305 read as it was).
+    if (!bounded(q.lo) || !bounded(q.hi) || q.lo > q.hi || !bounded(q.boxMin.x) || !bounded(q.boxMin.y) ||
+        !bounded(q.boxMax.x) || !bounded(q.boxMax.y) || q.boxMin.x > q.boxMax.x || q.boxMin.y > q.boxMax.y)
+      return std::nullopt;
     const std::uint64_t first = s.firstIndex, end = first + s.indexCount;
     if (end > indexCount || s.bottomCount > s.indexCount) return std::nullopt;
+    // The seed paper's construction also draws the piece's box, 36 indices of its own (fuzzing
+    // found a lean tile whose box indices were never checked).
+    if (options.paperVariant && std::uint64_t{s.boxFirstIndex} + kBoxIndices > indexCount) return std::nullopt;
     if (!arrays) {
-      for (std::uint64_t i = first; i < end; ++i)
-        if (std::uint64_t{s.baseVertex} + layer.indices_[i] >= vertices) return std::nullopt;
+      const auto within = [&](std::uint64_t from, std::uint64_t to) {
+        for (std::uint64_t i = from; i < to; ++i)
+          if (std::uint64_t{s.baseVertex} + layer.indices_[i] >= vertices) return false;
+        return true;
+      };
+      if (!within(first, end) ||
+          (options.paperVariant && !within(s.boxFirstIndex, std::uint64_t{s.boxFirstIndex} + kBoxIndices)))
+        return std::nullopt;
     }
     Polyhedron& p = layer.polyhedra_[k];
     p.footprint.feature = q.feature;
@@ -724,35 +746,45 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
     p.boxMax = q.boxMax;
   }
   for (std::size_t o = 0; o < layer.origins_.size(); ++o) {
+    // Origins lie on the grid within ±1e15 m (originFor), so their cells fit 64 bits (fuzzing
+    // found an origin of 6e76 converted to an integer).
+    if (!bounded(layer.origins_[o].x) || !bounded(layer.origins_[o].y)) return std::nullopt;
     const glm::dvec2 cell = glm::floor(layer.origins_[o] / kOriginGrid);
     layer.originIndex_.emplace(std::pair{static_cast<std::int64_t>(cell.x), static_cast<std::int64_t>(cell.y)},
                                static_cast<std::uint32_t>(o));
   }
   if (arrays) {
     // The indices in the file, a slice at a time, each against the vertices its slot may use:
-    // the largest vertex an index may name, per index, is kept for one slice only.
-    std::vector<std::uint64_t> limit;  // per index of the slice: vertices − baseVertex (0: no slot)
+    // the largest vertex an index may name, per index, is kept for one slice only. A slot draws
+    // its piece's indices, and in the seed paper's construction its box's too.
+    struct Range {
+      std::uint64_t first = 0, end = 0;
+      std::uint64_t room = 0;  ///< vertices − baseVertex
+    };
+    std::vector<Range> ranges;
+    ranges.reserve(options.paperVariant ? 2 * slots : slots);
+    for (const PieceSlot& q : layer.slots_) {
+      const std::uint64_t room = vertices > q.baseVertex ? vertices - q.baseVertex : 0;
+      ranges.push_back({q.firstIndex, std::uint64_t{q.firstIndex} + q.indexCount, room});
+      if (options.paperVariant) ranges.push_back({q.boxFirstIndex, std::uint64_t{q.boxFirstIndex} + kBoxIndices, room});
+    }
+    std::sort(ranges.begin(), ranges.end(), [](const Range& a, const Range& b) { return a.first < b.first; });
+    std::vector<std::uint64_t> limit;  // per index of the slice: room + 1 (0: no slot)
     constexpr std::size_t kSlice = std::size_t{1} << 20U;
-    std::vector<std::size_t> order(slots);
-    for (std::size_t k = 0; k < slots; ++k) order[k] = k;
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t a, std::size_t b) { return layer.slots_[a].firstIndex < layer.slots_[b].firstIndex; });
-    std::size_t next = 0;  // in order: the first slot that may still reach this slice
+    std::size_t next = 0;  // in ranges: the first that may still reach this slice
     bool fine = true;
     const bool read = arrays->read(
         arrays->indicesAt, std::uint64_t{indexCount} * sizeof(std::uint32_t),
         [&](const void* data, std::uint64_t offset, std::uint64_t bytes) {
           const std::uint64_t i0 = offset / sizeof(std::uint32_t), n = bytes / sizeof(std::uint32_t);
           limit.assign(static_cast<std::size_t>(n), 0);
-          while (next < order.size() &&
-                 std::uint64_t{layer.slots_[order[next]].firstIndex} + layer.slots_[order[next]].indexCount <= i0)
-            ++next;
-          for (std::size_t k = next; k < order.size(); ++k) {
-            const PieceSlot& q = layer.slots_[order[k]];
-            if (q.firstIndex >= i0 + n) break;
-            const std::uint64_t from = std::max<std::uint64_t>(q.firstIndex, i0);
-            const std::uint64_t to = std::min<std::uint64_t>(std::uint64_t{q.firstIndex} + q.indexCount, i0 + n);
-            const std::uint64_t room = vertices > q.baseVertex ? vertices - q.baseVertex : 0;
+          while (next < ranges.size() && ranges[next].end <= i0) ++next;
+          for (std::size_t k = next; k < ranges.size(); ++k) {
+            const Range& q = ranges[k];
+            if (q.first >= i0 + n) break;
+            const std::uint64_t from = std::max<std::uint64_t>(q.first, i0);
+            const std::uint64_t to = std::min<std::uint64_t>(q.end, i0 + n);
+            const std::uint64_t room = q.room;
             for (std::uint64_t i = from; i < to; ++i) {
               std::uint64_t& l = limit[static_cast<std::size_t>(i - i0)];
               l = l == 0 ? room + 1 : std::min(l, room + 1);  // +1: 0 means "no slot"

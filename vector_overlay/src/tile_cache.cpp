@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -23,6 +24,8 @@ namespace {
 
 constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
 constexpr std::uint32_t kVersion = 4;         // 4: checked sections (geo/checked_file.hpp)
+/// No coordinate or height of a piece lies beyond this (ValidationOptions::maxCoordinate).
+constexpr double kMaxCoordinate = 1e15;
 using geo::io::Reader;
 using geo::io::Writer;
 
@@ -54,6 +57,18 @@ bool readPiece(Reader& r, Polyhedron& p) {
     return false;
   if (!r.value(p.lo) || !r.value(p.hi) || !r.value(over) || !r.value(p.boxMin) || !r.value(p.boxMax)) return false;
   p.overSurface = over != 0;
+  // What validation asks of a piece's numbers (validation.hpp): finite, within ±1e15 m, lo ≤ hi,
+  // and a box that is one (fuzzing found a piece with hi = -5e300 below lo read as it was).
+  const auto bounded = [](double v) { return std::isfinite(v) && std::abs(v) <= kMaxCoordinate; };
+  const auto boundedPoint = [&](const glm::dvec2& v) { return bounded(v.x) && bounded(v.y); };
+  if (!bounded(p.lo) || !bounded(p.hi) || p.lo > p.hi || !boundedPoint(p.boxMin) || !boundedPoint(p.boxMax) ||
+      p.boxMin.x > p.boxMax.x || p.boxMin.y > p.boxMax.y)
+    return false;
+  if (!std::all_of(f.vertices.begin(), f.vertices.end(), boundedPoint)) return false;
+  for (const glm::dvec3& c : f.centres)
+    if (!boundedPoint(glm::dvec2(c)) || !bounded(c.z)) return false;
+  for (const glm::dvec2& d : f.directions)
+    if (!std::isfinite(d.x) || !std::isfinite(d.y)) return false;
   // Indices within the piece's vertices (a damaged file must not index out of bounds).
   for (const auto& t : f.triangles)
     for (const std::uint32_t k : t)
