@@ -14,7 +14,7 @@
 // The input: byte 0 is the flags, the rest the parts (split at kSeparator).
 //   bits 0–1  which reader: 0 layer file, 1 tile file (tileBytes, readTile lean and whole),
 //             2 checks file, 3 raw: the rest of the input is the file, given to all three
-//   bits 2–3  the layer the tile and checks readers read for (fixtures(): areas, roads in
+//   bits 2–3  the layer the tile and checks readers read for (makeFixture: areas, roads in
 //             metres, roads in pixels, areas built the seed paper's way)
 //   bits 4–5  both set: the first part is the header section as given (no header made)
 //   bit 6     the last part is a list of table edits (a 16-bit place, a byte to xor), applied
