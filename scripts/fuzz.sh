@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-600}
 dir=${FUZZ_BUILD_DIR:-build-fuzz}
 jobs=${FUZZ_JOBS:-$(nproc)}
-harnesses=(app_files vector_reader polyhedra)
+harnesses=(app_files vector_reader polyhedra cache_readers)
 
 cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DSTENCIL_GIS_SANITIZE=ON -DSTENCIL_GIS_FUZZ=ON -DSTENCIL_GIS_BUILD_TESTS=OFF -DSTENCIL_GIS_BUILD_GL_TESTS=OFF \
