@@ -1,6 +1,7 @@
 #include "globe/geo_grid.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <list>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -23,6 +25,8 @@
 #include <ogr_spatialref.h>
 
 #include "core/hash.hpp"
+#include "core/log.hpp"
+#include "geo/checked_file.hpp"
 #include "geo/gdal_support.hpp"
 #include "geo/raster.hpp"
 
@@ -167,14 +171,93 @@ HeightConversion heightConversion(GDALRasterBand& band, const OGRSpatialReferenc
   return c;
 }
 
+/// Windows of the grid read from the DEM: warped (bilinear, exact transformation, nodata kept out
+/// of the heights), holes at height 0 of the DEM's datum, converted to the ellipsoid. Each post
+/// depends on its own position, so windows give the posts the whole grid gives; except beside
+/// nodata, where GDAL's bilinear kernel at a source cell's centre may or may not reach the nodata
+/// neighbour by the rounding of the window's offset, and keeps or drops the post with it. The
+/// same window always gives the same posts, so a paged grid's damaged block is read again from
+/// here (GeoGrid::Paged::repair) and is the block that was written.
+struct GridWindows {
+  std::vector<DatasetPtr> files, bands;
+  std::vector<GDALDatasetH> handles;
+  GDALDriver* mem = nullptr;
+  OGRSpatialReference wgs84;
+  TransformPtr toEllipsoid;  ///< null: heights above the ellipsoid already
+  double west = 0.0, north = 0.0, step = 1.0;
+  std::size_t holes = 0, failed = 0;  ///< posts left at 0 (nodata) and posts not converted
+
+  /// Posts [x0, x0 + w) × [y0, y0 + h), row-major, into `posts`; "" or what went wrong.
+  std::string read(int x0, int y0, int w, int h, std::vector<float>& posts) {
+    DatasetPtr grid(mem->Create("", w, h, 1, GDT_Float32, nullptr));
+    if (!grid) return "cannot allocate the DEM grid: " + QuietGdal::lastMessage("no message");
+    double gt[6] = {west + x0 * step, step, 0.0, north - y0 * step, 0.0, -step};
+    grid->SetGeoTransform(gt);
+    grid->SetSpatialRef(&wgs84);
+    grid->GetRasterBand(1)->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
+    grid->GetRasterBand(1)->Fill(std::numeric_limits<double>::quiet_NaN());
+    // The grid starts as nodata (above); no INIT_DEST, which would wipe one tile's posts with the
+    // next's pass.
+    WarpOptions warp({"-r", "bilinear", "-et", "0", "-dstnodata", "nan"});
+    int usageError = 0;
+    if (GDALWarp(nullptr, GDALDataset::ToHandle(grid.get()), static_cast<int>(handles.size()), handles.data(),
+                 warp.options, &usageError) == nullptr) {
+      return "cannot resample the DEM into longitude/latitude: " + QuietGdal::lastMessage("GDALWarp failed");
+    }
+    posts.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0.0F);
+    if (grid->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, w, h, posts.data(), w, h, GDT_Float32, 0, 0, nullptr) !=
+        CE_None) {
+      return "cannot read the resampled DEM: " + QuietGdal::lastMessage("RasterIO failed");
+    }
+    for (float& v : posts) {
+      if (!std::isfinite(v) || std::abs(v) > 1e5F) {
+        v = 0.0F;
+        ++holes;
+      }
+    }
+    if (toEllipsoid) {
+      std::vector<double> x(static_cast<std::size_t>(w)), y(x.size()), z(x.size());
+      std::vector<int> ok(x.size());
+      for (int r = 0; r < h; ++r) {
+        const double lat = north - (y0 + r + 0.5) * step;
+        float* row = posts.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(w);
+        for (int c = 0; c < w; ++c) {
+          const auto k = static_cast<std::size_t>(c);
+          x[k] = west + (x0 + c + 0.5) * step;
+          y[k] = lat;
+          z[k] = row[c];
+        }
+        toEllipsoid->Transform(w, x.data(), y.data(), z.data(), nullptr, ok.data());
+        for (int c = 0; c < w; ++c) {
+          const auto k = static_cast<std::size_t>(c);
+          if (ok[k] != 0 && std::isfinite(z[k])) {
+            row[c] = static_cast<float>(z[k]);
+          } else {
+            ++failed;
+          }
+        }
+      }
+    }
+    return {};
+  }
+};
+
 }  // namespace
 
 /// A paged grid (GeoGrid::fromDem): its file, the blocks read from it (least recently used first
 /// out beyond the budget), the min/max pyramid over its blocks and its poles.
 ///
-/// The file: a header (kHeaderBytes: magic, sizes, the holes and failed conversions counted when
-/// it was written, the poles' heights), then each block's (min, max), then the blocks, each
-/// block × block floats row-major (posts beyond the grid's east and south edges are 0).
+/// The file (format 2, docs/cache.md) checks itself:
+/// - a header (kHeaderBytes: magic, sizes, the holes and failed conversions counted when it was
+///   written, the poles' heights, the table's digest and its own);
+/// - the table: each block's (min, max), then each block's digest (of its rows' digests);
+/// - each block's rows' digests (block of them, XXH3-64 of a row of block floats);
+/// - the blocks, each block × block floats row-major (posts beyond the grid's east and south
+///   edges are 0).
+/// The header and the table are verified at open (a file that fails is written again, with a
+/// warning); a block's rows are verified before any of its posts is used, a post read alone with
+/// its row. A damaged block is read again from the DEM (the same window gives the same posts),
+/// written back into the file where it can be, and said once.
 struct GeoGrid::Paged {
   struct Block {
     int w = 0, h = 0;  ///< its posts inside the grid
@@ -182,25 +265,28 @@ struct GeoGrid::Paged {
     /// Level k = 1 … log2(block): cells of 2^k × 2^k posts, (min, max) over its posts in the grid.
     std::vector<std::vector<std::pair<float, float>>> levels;
   };
-  static constexpr char kMagic[8] = {'S', 'G', 'G', 'L', 'O', 'B', 'E', '1'};
+  static constexpr char kMagic[8] = {'S', 'G', 'G', 'L', 'O', 'B', 'E', '2'};
   static constexpr std::size_t kHeaderBytes = 128;
 
-  std::string path;
+  std::string path, sourceLabel;
   int fd = -1;
   int width = 0, height = 0, block = 256, levels = 8, blocksX = 0, blocksY = 0;
   std::size_t budget = 0;
-  std::size_t holes = 0, failed = 0;
   std::array<double, 2> poles{0.0, 0.0};
   bool made = false;
   /// Level j: cells of 2^j × 2^j blocks, (min, max) each, row-major.
   std::vector<std::vector<std::pair<float, float>>> pyramid;
   std::vector<std::pair<int, int>> pyramidSize;
+  /// Per block: the digest of its rows' digests (verified with the table at open).
+  std::vector<std::uint64_t> blockDigests;
+  /// The DEM's windows, to read a damaged block again.
+  std::shared_ptr<GridWindows> windows;
 
   mutable std::mutex mutex;
   mutable std::list<std::size_t> lru;  ///< block indices, most recently used first
   mutable std::unordered_map<std::size_t, std::pair<std::shared_ptr<const Block>, std::list<std::size_t>::iterator>>
       cache;
-  mutable std::size_t cachedBytes = 0, reads = 0;
+  mutable std::size_t cachedBytes = 0, reads = 0, repaired = 0;
   /// Posts read one by one, and per block how many times a post of it was asked for while it
   /// was not cached: a block is read whole only from its kDenseTouches-th (a far view's tiles ask
   /// a few posts of each block, a near view's many of a few).
@@ -215,16 +301,98 @@ struct GeoGrid::Paged {
     if (fd >= 0) ::close(fd);
   }
 
+  [[nodiscard]] std::size_t blockCount() const {
+    return static_cast<std::size_t>(blocksX) * static_cast<std::size_t>(blocksY);
+  }
+  [[nodiscard]] std::size_t rowBytes() const { return static_cast<std::size_t>(block) * sizeof(float); }
+  [[nodiscard]] std::uint64_t rowDigestsOffset(std::size_t index) const {
+    return kHeaderBytes + blockCount() * 16U +
+           static_cast<std::uint64_t>(index) * static_cast<std::uint64_t>(block) * 8U;
+  }
   [[nodiscard]] std::uint64_t blockOffset(std::size_t index) const {
-    return kHeaderBytes + static_cast<std::uint64_t>(blocksX) * static_cast<std::uint64_t>(blocksY) * 8U +
-           static_cast<std::uint64_t>(index) * static_cast<std::uint64_t>(block) * static_cast<std::uint64_t>(block) *
-               4U;
+    return rowDigestsOffset(blockCount()) + static_cast<std::uint64_t>(index) * static_cast<std::uint64_t>(block) *
+                                                static_cast<std::uint64_t>(block) * 4U;
   }
   [[nodiscard]] std::size_t blockBytes() const {
     return static_cast<std::size_t>(block) * static_cast<std::size_t>(block) * (4U + 8U * 4U / 3U);
   }
 
-  /// Block (bx, by), read if it is not cached (nothing if the file cannot be read: heights 0).
+  /// Digests of a padded block's rows.
+  [[nodiscard]] std::vector<std::uint64_t> rowDigestsOf(const std::vector<float>& heights) const {
+    std::vector<std::uint64_t> rows(static_cast<std::size_t>(block));
+    for (std::size_t r = 0; r < rows.size(); ++r)
+      rows[r] = geo::io::digest(heights.data() + r * static_cast<std::size_t>(block), rowBytes());
+    return rows;
+  }
+
+  /// Block `index`'s rows' digests from the file, if they match its digest in the table.
+  [[nodiscard]] std::optional<std::vector<std::uint64_t>> readRowDigests(std::size_t index) const {
+    std::vector<std::uint64_t> rows(static_cast<std::size_t>(block));
+    const std::size_t bytes = rows.size() * sizeof(std::uint64_t);
+    if (::pread(fd, rows.data(), bytes, static_cast<off_t>(rowDigestsOffset(index))) != static_cast<ssize_t>(bytes) ||
+        geo::io::digest(rows.data(), bytes) != blockDigests[index])
+      return std::nullopt;
+    return rows;
+  }
+
+  /// Block `index`'s padded posts from the file, verified row by row; false if any row is not
+  /// whole.
+  bool readBlock(std::size_t index, std::vector<float>& heights) const {
+    const std::optional<std::vector<std::uint64_t>> rows = readRowDigests(index);
+    if (!rows) return false;
+    const std::size_t bytes = heights.size() * sizeof(float);
+    if (::pread(fd, heights.data(), bytes, static_cast<off_t>(blockOffset(index))) != static_cast<ssize_t>(bytes))
+      return false;
+    return rowDigestsOf(heights) == *rows;
+  }
+
+  /// Block `index` read again from the DEM (its padded posts), written back into the file where
+  /// the file can be written; said once per grid. Called with the mutex held.
+  void repair(std::size_t index, std::vector<float>& heights) const {
+    const int bx = static_cast<int>(index % static_cast<std::size_t>(blocksX));
+    const int by = static_cast<int>(index / static_cast<std::size_t>(blocksX));
+    const int x0 = bx * block, y0 = by * block;
+    const int w = std::min(block, width - x0), h = std::min(block, height - y0);
+    std::fill(heights.begin(), heights.end(), 0.0F);
+    std::vector<float> posts;
+    QuietGdal quiet;
+    const std::string problem = windows ? windows->read(x0, y0, w, h, posts) : std::string("no DEM to read it from");
+    const std::string where = path + ": block " + std::to_string(bx) + "," + std::to_string(by);
+    if (!problem.empty()) {
+      logError(where + " is damaged and cannot be read again from " + sourceLabel + " (" + problem +
+               "): its heights are 0");
+      return;
+    }
+    for (int r = 0; r < h; ++r)
+      std::copy_n(posts.begin() + static_cast<std::ptrdiff_t>(r) * w, w,
+                  heights.begin() + static_cast<std::ptrdiff_t>(r) * block);
+    const std::vector<std::uint64_t> rows = rowDigestsOf(heights);
+    const std::uint64_t blockDigest = geo::io::digest(rows.data(), rows.size() * sizeof(std::uint64_t));
+    if (++repaired == 1) {
+      logWarning(path + ": cache file damaged (block " + std::to_string(bx) + "," + std::to_string(by) +
+                 " does not match its checksum); its damaged blocks are read again from " + sourceLabel);
+    }
+    if (blockDigest != blockDigests[index]) {
+      // The DEM no longer gives what was written (its fingerprint matched): the heights read now
+      // are used, the file is left alone.
+      logWarning(where + ": the DEM gives other heights than the cache holds; the DEM's are used");
+      return;
+    }
+    // Written back at its own offsets: the same bytes a whole file has, so a reader of this file
+    // meanwhile reads either the damaged bytes (and finds them so) or these.
+    const int out = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (out < 0) return;
+    const std::size_t rowDigestBytes = rows.size() * sizeof(std::uint64_t);
+    const std::size_t bytes = heights.size() * sizeof(float);
+    const bool written =
+        ::pwrite(out, rows.data(), rowDigestBytes, static_cast<off_t>(rowDigestsOffset(index))) ==
+            static_cast<ssize_t>(rowDigestBytes) &&
+        ::pwrite(out, heights.data(), bytes, static_cast<off_t>(blockOffset(index))) == static_cast<ssize_t>(bytes);
+    ::close(out);
+    if (!written) logWarning(where + ": the repaired block could not be written back (kept in memory)");
+  }
+
+  /// Block (bx, by), read if it is not cached.
   std::shared_ptr<const Block> load(int bx, int by) const {
     const std::size_t index =
         static_cast<std::size_t>(by) * static_cast<std::size_t>(blocksX) + static_cast<std::size_t>(bx);
@@ -237,9 +405,7 @@ struct GeoGrid::Paged {
     b->w = std::min(block, width - bx * block);
     b->h = std::min(block, height - by * block);
     b->heights.assign(static_cast<std::size_t>(block) * static_cast<std::size_t>(block), 0.0F);
-    const std::size_t bytes = b->heights.size() * sizeof(float);
-    const ssize_t got = ::pread(fd, b->heights.data(), bytes, static_cast<off_t>(blockOffset(index)));
-    if (got != static_cast<ssize_t>(bytes)) std::fill(b->heights.begin(), b->heights.end(), 0.0F);
+    if (!readBlock(index, b->heights)) repair(index, b->heights);
     ++reads;
     // Its own min/max levels, over its posts inside the grid.
     for (int k = 1, n = block / 2; n >= 1; ++k, n /= 2) {
@@ -270,38 +436,60 @@ struct GeoGrid::Paged {
   }
 
   [[nodiscard]] float post(int c, int r) const {
-    const std::size_t inBlock =
-        static_cast<std::size_t>(r % block) * static_cast<std::size_t>(block) + static_cast<std::size_t>(c % block);
+    const std::size_t inRow = static_cast<std::size_t>(c % block);
+    const std::size_t row = static_cast<std::size_t>(r % block);
     {
       const std::size_t index =
           static_cast<std::size_t>(r / block) * static_cast<std::size_t>(blocksX) + static_cast<std::size_t>(c / block);
       const std::lock_guard<std::mutex> lock(mutex);
       if (cache.count(index) == 0 && ++touches[index] < kDenseTouches) {
-        // The one post, from the file (the same float the block holds).
-        float v = 0.0F;
-        if (::pread(fd, &v, sizeof v, static_cast<off_t>(blockOffset(index) + inBlock * sizeof(float))) !=
-            static_cast<ssize_t>(sizeof v))
-          v = 0.0F;
-        ++postReads;
-        return v;
+        // The one post, from its row verified against the block's rows' digests (a damaged row
+        // falls through to the block, which is repaired).
+        const std::optional<std::vector<std::uint64_t>> rows = readRowDigests(index);
+        std::vector<float> posts(static_cast<std::size_t>(block));
+        if (rows &&
+            ::pread(fd, posts.data(), rowBytes(), static_cast<off_t>(blockOffset(index) + row * rowBytes())) ==
+                static_cast<ssize_t>(rowBytes()) &&
+            geo::io::digest(posts.data(), rowBytes()) == (*rows)[row]) {
+          ++postReads;
+          return posts[inRow];
+        }
       }
     }
-    return load(c / block, r / block)->heights[inBlock];
+    return load(c / block, r / block)->heights[row * static_cast<std::size_t>(block) + inRow];
   }
 };
 
 namespace {
 
-/// The paged grid of `file`: opened if it is there and whole, else written block by block with
-/// `read` (which counts the holes and failed conversions it leaves: kept in the file).
-Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(
-    const std::string& file, int width, int height, int block, std::size_t budget, double postNorth, double step,
-    std::size_t& holes, std::size_t& failed,
-    const std::function<std::string(int, int, int, int, std::vector<float>&)>& read) {
+/// The header of a paged grid's file (no padding: every byte is a field).
+struct PagedHeader {
+  char magic[8];
+  std::int32_t width, height, block, blocksX, blocksY, reserved;
+  std::uint64_t holes, failed;
+  double poles[2];
+  std::uint64_t tableDigest, headerDigest;
+};
+static_assert(sizeof(PagedHeader) == 80 && sizeof(PagedHeader) <= GeoGrid::Paged::kHeaderBytes);
+
+std::uint64_t headerDigestOf(PagedHeader h) {
+  h.headerDigest = 0;
+  return geo::io::digest(&h, sizeof h);
+}
+
+/// The paged grid of `file`: opened if it is there and whole, else written block by block from
+/// `windows` (which counts the holes and failed conversions it leaves: kept in the file). A file
+/// that is there but not whole is written again, with a warning.
+Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(const std::string& file, const std::string& sourceLabel,
+                                                        int width, int height, int block, std::size_t budget,
+                                                        double postNorth, double step,
+                                                        const std::shared_ptr<GridWindows>& windows) {
   using Paged = GeoGrid::Paged;
   Result<std::shared_ptr<const Paged>> out;
   auto p = std::make_shared<Paged>();
   p->path = file;
+  p->sourceLabel = sourceLabel;
+  p->windows = windows;
   p->width = width;
   p->height = height;
   p->block = block;
@@ -309,37 +497,56 @@ Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(
   p->blocksX = (width + block - 1) / block;
   p->blocksY = (height + block - 1) / block;
   p->budget = budget;
-  const std::size_t blocks = static_cast<std::size_t>(p->blocksX) * static_cast<std::size_t>(p->blocksY);
+  const std::size_t blocks = p->blockCount();
   const std::uint64_t size = p->blockOffset(blocks);
+  // The table: each block's (min, max), then each block's digest.
   std::vector<std::pair<float, float>> ranges(blocks);
+  p->blockDigests.assign(blocks, 0);
+  const auto tableDigest = [&] {
+    const std::uint64_t parts[2] = {geo::io::digest(ranges.data(), blocks * 8U),
+                                    geo::io::digest(p->blockDigests.data(), blocks * 8U)};
+    return geo::io::digest(parts, sizeof parts);
+  };
   // The rows heightAt takes each pole's height from (the GeoGrid constructor's rowMean).
   std::array<int, 2> poleRow{-1, -1};
   for (std::size_t k = 0; k < 2; ++k) {
     const double fr = (postNorth - (k == 0 ? 90.0 : -90.0)) / step;
     if (fr >= -0.5 && fr <= height - 0.5) poleRow[k] = std::clamp(static_cast<int>(std::lround(fr)), 0, height - 1);
   }
-  struct Header {
-    char magic[8];
-    std::int32_t width, height, block, blocksX, blocksY;
-    std::uint64_t holes, failed;
-    double poles[2];
-  };
-  static_assert(sizeof(Header) <= Paged::kHeaderBytes);
   std::error_code ec;
-  if (std::filesystem::file_size(file, ec) == size && !ec) {
+  const std::uintmax_t found = std::filesystem::file_size(file, ec);
+  if (!ec) {
+    // There: used if it is whole.
+    std::string damage;
     const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
-    Header h{};
-    if (fd >= 0 && ::pread(fd, &h, sizeof h, 0) == static_cast<ssize_t>(sizeof h) &&
-        std::equal(std::begin(h.magic), std::end(h.magic), std::begin(Paged::kMagic)) && h.width == width &&
-        h.height == height && h.block == block &&
-        ::pread(fd, ranges.data(), blocks * 8U, static_cast<off_t>(Paged::kHeaderBytes)) ==
-            static_cast<ssize_t>(blocks * 8U)) {
+    PagedHeader h{};
+    if (fd < 0) {
+      damage = "it cannot be read";
+    } else if (found != size) {
+      damage = "it is " + std::to_string(found) + " bytes, not " + std::to_string(size);
+    } else if (::pread(fd, &h, sizeof h, 0) != static_cast<ssize_t>(sizeof h) ||
+               !std::equal(std::begin(h.magic), std::end(h.magic), std::begin(Paged::kMagic)) ||
+               h.headerDigest != headerDigestOf(h)) {
+      damage = "its header does not match its checksum";
+    } else if (h.width != width || h.height != height || h.block != block || h.blocksX != p->blocksX ||
+               h.blocksY != p->blocksY) {
+      damage = "its header is of another grid";
+    } else if (::pread(fd, ranges.data(), blocks * 8U, static_cast<off_t>(Paged::kHeaderBytes)) !=
+                   static_cast<ssize_t>(blocks * 8U) ||
+               ::pread(fd, p->blockDigests.data(), blocks * 8U,
+                       static_cast<off_t>(Paged::kHeaderBytes + blocks * 8U)) != static_cast<ssize_t>(blocks * 8U) ||
+               tableDigest() != h.tableDigest) {
+      damage = "its table does not match its checksum";
+    }
+    if (damage.empty()) {
       p->fd = fd;
-      holes = h.holes;
-      failed = h.failed;
+      windows->holes = h.holes;
+      windows->failed = h.failed;
       p->poles = {h.poles[0], h.poles[1]};
-    } else if (fd >= 0) {
-      ::close(fd);
+    } else {
+      if (fd >= 0) ::close(fd);
+      out.diagnostics.add(
+          {Severity::Warning, file, {}, {}, "cache file damaged (" + damage + "); rebuilt from " + sourceLabel});
     }
   }
   if (p->fd < 0) {
@@ -363,10 +570,11 @@ Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(
       for (int bx = 0; bx < p->blocksX; ++bx) {
         const int x0 = bx * block, y0 = by * block;
         const int w = std::min(block, width - x0), h = std::min(block, height - y0);
-        if (const std::string problem = read(x0, y0, w, h, posts); !problem.empty()) return abandon(problem);
+        if (const std::string problem = windows->read(x0, y0, w, h, posts); !problem.empty()) return abandon(problem);
         std::fill(padded.begin(), padded.end(), 0.0F);
-        auto& range =
-            ranges[static_cast<std::size_t>(by) * static_cast<std::size_t>(p->blocksX) + static_cast<std::size_t>(bx)];
+        const std::size_t index =
+            static_cast<std::size_t>(by) * static_cast<std::size_t>(p->blocksX) + static_cast<std::size_t>(bx);
+        auto& range = ranges[index];
         range = {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
         for (int r = 0; r < h; ++r) {
           for (int c = 0; c < w; ++c) {
@@ -383,33 +591,41 @@ Result<std::shared_ptr<const GeoGrid::Paged>> openPaged(
                   posts[static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c)];
           }
         }
+        const std::vector<std::uint64_t> rows = p->rowDigestsOf(padded);
+        const std::size_t rowDigestBytes = rows.size() * sizeof(std::uint64_t);
+        p->blockDigests[index] = geo::io::digest(rows.data(), rowDigestBytes);
         const std::size_t bytes = padded.size() * sizeof(float);
-        const std::size_t index =
-            static_cast<std::size_t>(by) * static_cast<std::size_t>(p->blocksX) + static_cast<std::size_t>(bx);
-        if (::pwrite(fd, padded.data(), bytes, static_cast<off_t>(p->blockOffset(index))) !=
-            static_cast<ssize_t>(bytes))
-          return abandon("cannot write the paged DEM " + temporary);
+        if (::pwrite(fd, rows.data(), rowDigestBytes, static_cast<off_t>(p->rowDigestsOffset(index))) !=
+                static_cast<ssize_t>(rowDigestBytes) ||
+            ::pwrite(fd, padded.data(), bytes, static_cast<off_t>(p->blockOffset(index))) !=
+                static_cast<ssize_t>(bytes))
+          return abandon("cannot write the paged DEM " + temporary + ": " + std::strerror(errno));
       }
     }
     for (std::size_t k = 0; k < 2; ++k) p->poles[k] = poleRow[k] >= 0 && width > 0 ? poleSum[k] / width : 0.0;
-    Header h{};
+    PagedHeader h;
+    std::memset(&h, 0, sizeof h);
     std::copy(std::begin(Paged::kMagic), std::end(Paged::kMagic), std::begin(h.magic));
     h.width = width;
     h.height = height;
     h.block = block;
     h.blocksX = p->blocksX;
     h.blocksY = p->blocksY;
-    h.holes = holes;
-    h.failed = failed;
+    h.holes = windows->holes;
+    h.failed = windows->failed;
     h.poles[0] = p->poles[0];
     h.poles[1] = p->poles[1];
+    h.tableDigest = tableDigest();
+    h.headerDigest = headerDigestOf(h);
     std::vector<char> header(Paged::kHeaderBytes, 0);
     std::memcpy(header.data(), &h, sizeof h);
     if (::pwrite(fd, header.data(), header.size(), 0) != static_cast<ssize_t>(header.size()) ||
         ::pwrite(fd, ranges.data(), blocks * 8U, static_cast<off_t>(Paged::kHeaderBytes)) !=
             static_cast<ssize_t>(blocks * 8U) ||
+        ::pwrite(fd, p->blockDigests.data(), blocks * 8U, static_cast<off_t>(Paged::kHeaderBytes + blocks * 8U)) !=
+            static_cast<ssize_t>(blocks * 8U) ||
         ::fsync(fd) != 0)
-      return abandon("cannot write the paged DEM " + temporary);
+      return abandon("cannot write the paged DEM " + temporary + ": " + std::strerror(errno));
     std::filesystem::rename(temporary, file, ec);
     if (ec) return abandon("cannot place the paged DEM at " + file + ": " + ec.message());
     p->fd = fd;
@@ -581,67 +797,22 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
     verticalSource = what;
   }
 
-  // A window of the grid: warped (bilinear, exact transformation, nodata kept out of the
-  // heights), holes at height 0 of the DEM's datum, converted to the ellipsoid. Each post depends
-  // on its own position, so windows give the posts the whole grid gives; except beside nodata,
-  // where GDAL's bilinear kernel at a source cell's centre may or may not reach the nodata
-  // neighbour by the rounding of the window's offset, and keeps or drops the post with it.
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  if (mem == nullptr) return fail("GDAL has no MEM driver");
-  std::vector<GDALDatasetH> handles;
-  for (const DatasetPtr& b : bands) handles.push_back(GDALDataset::ToHandle(b.get()));
-  std::size_t holes = 0, failed = 0;
-  const auto readWindow = [&](int x0, int y0, int w, int h, std::vector<float>& posts) -> std::string {
-    DatasetPtr grid(mem->Create("", w, h, 1, GDT_Float32, nullptr));
-    if (!grid) return "cannot allocate the DEM grid: " + QuietGdal::lastMessage("no message");
-    double gt[6] = {west + x0 * step, step, 0.0, north - y0 * step, 0.0, -step};
-    grid->SetGeoTransform(gt);
-    grid->SetSpatialRef(&wgs84);
-    grid->GetRasterBand(1)->SetNoDataValue(std::numeric_limits<double>::quiet_NaN());
-    grid->GetRasterBand(1)->Fill(std::numeric_limits<double>::quiet_NaN());
-    // The grid starts as nodata (above); no INIT_DEST, which would wipe one tile's posts with the
-    // next's pass.
-    WarpOptions warp({"-r", "bilinear", "-et", "0", "-dstnodata", "nan"});
-    int usageError = 0;
-    if (GDALWarp(nullptr, GDALDataset::ToHandle(grid.get()), static_cast<int>(handles.size()), handles.data(),
-                 warp.options, &usageError) == nullptr) {
-      return "cannot resample the DEM into longitude/latitude: " + QuietGdal::lastMessage("GDALWarp failed");
-    }
-    posts.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0.0F);
-    if (grid->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, w, h, posts.data(), w, h, GDT_Float32, 0, 0, nullptr) !=
-        CE_None) {
-      return "cannot read the resampled DEM: " + QuietGdal::lastMessage("RasterIO failed");
-    }
-    for (float& v : posts) {
-      if (!std::isfinite(v) || std::abs(v) > 1e5F) {
-        v = 0.0F;
-        ++holes;
-      }
-    }
-    if (toEllipsoid) {
-      std::vector<double> x(static_cast<std::size_t>(w)), y(x.size()), z(x.size());
-      std::vector<int> ok(x.size());
-      for (int r = 0; r < h; ++r) {
-        const double lat = north - (y0 + r + 0.5) * step;
-        float* row = posts.data() + static_cast<std::size_t>(r) * static_cast<std::size_t>(w);
-        for (int c = 0; c < w; ++c) {
-          const auto k = static_cast<std::size_t>(c);
-          x[k] = west + (x0 + c + 0.5) * step;
-          y[k] = lat;
-          z[k] = row[c];
-        }
-        toEllipsoid->Transform(w, x.data(), y.data(), z.data(), nullptr, ok.data());
-        for (int c = 0; c < w; ++c) {
-          const auto k = static_cast<std::size_t>(c);
-          if (ok[k] != 0 && std::isfinite(z[k])) {
-            row[c] = static_cast<float>(z[k]);
-          } else {
-            ++failed;
-          }
-        }
-      }
-    }
-    return {};
+  // Windows of the grid (GridWindows), kept by a paged grid to repair a damaged block.
+  auto windows = std::make_shared<GridWindows>();
+  windows->mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  if (windows->mem == nullptr) return fail("GDAL has no MEM driver");
+  for (const DatasetPtr& b : bands) windows->handles.push_back(GDALDataset::ToHandle(b.get()));
+  windows->files = std::move(files);
+  windows->bands = std::move(bands);
+  windows->wgs84 = wgs84;
+  windows->toEllipsoid = std::move(toEllipsoid);
+  windows->west = west;
+  windows->north = north;
+  windows->step = step;
+  const std::size_t& holes = windows->holes;
+  const std::size_t& failed = windows->failed;
+  const auto readWindow = [&windows](int x0, int y0, int w, int h, std::vector<float>& posts) {
+    return windows->read(x0, y0, w, h, posts);
   };
   const auto report = [&] {
     if (holes > 0)
@@ -674,18 +845,18 @@ Result<GeoGrid> GeoGrid::fromDem(const geo::DemSpec& spec, const GeoGridReadOpti
   const int block = std::clamp(options.blockPosts, 16, 4096);
   if ((block & (block - 1)) != 0) return fail("the page block size must be a power of two");
   std::ostringstream key;
-  key << "globe-dem v1|" << source->fingerprint() << "|band " << spec.band << "|crs " << spec.crs << "|unit "
+  key << "globe-dem v2|" << source->fingerprint() << "|band " << spec.band << "|crs " << spec.crs << "|unit "
       << spec.heightUnit << "|" << verticalSource << "|" << format(west, 17) << " " << format(north, 17) << " "
       << format(step, 17) << " " << width << "x" << height << "|block " << block;
   const std::string dir = options.cacheDir ? options.cacheDir() : std::string(".");
   const std::string file = dir + "/globe-dem-" + stableHashHex(key.str()) + ".grid";
   const double budgetMb =
       options.pageBudgetMb > 0.0 ? options.pageBudgetMb : std::max(16.0, options.memoryBudgetMb / 3.0);
-  Result<std::shared_ptr<const Paged>> paged = openPaged(
-      file, width, height, block, static_cast<std::size_t>(budgetMb * 1024.0 * 1024.0), north - 0.5 * step, step, holes,
-      failed, [&](int x0, int y0, int w, int h, std::vector<float>& posts) { return readWindow(x0, y0, w, h, posts); });
+  Result<std::shared_ptr<const Paged>> paged =
+      openPaged(file, label, width, height, block, static_cast<std::size_t>(budgetMb * 1024.0 * 1024.0),
+                north - 0.5 * step, step, windows);
   for (Diagnostic d : paged.diagnostics.items()) {
-    d.file = label;
+    if (d.file.empty()) d.file = label;
     out.diagnostics.add(std::move(d));
   }
   if (!paged.ok()) return out;
@@ -747,6 +918,12 @@ std::size_t GeoGrid::postsRead() const {
   if (!paged_) return 0;
   const std::lock_guard<std::mutex> lock(paged_->mutex);
   return paged_->postReads;
+}
+
+std::size_t GeoGrid::blocksRepaired() const {
+  if (!paged_) return 0;
+  const std::lock_guard<std::mutex> lock(paged_->mutex);
+  return paged_->repaired;
 }
 
 bool GeoGrid::pageFileMade() const { return paged_ && paged_->made; }

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <limits>
 #include <random>
 #include <string>
@@ -357,6 +359,107 @@ TEST(GlobeDem, APagedGridIsWrittenOnceAndFoundInTheCache) {
   const Result<GeoGrid> third = readPaged(cache, 1.0, 128, VerticalDatum::Ellipsoid);
   ASSERT_TRUE(third.ok());
   EXPECT_TRUE(third->pageFileMade());
+}
+
+/// The one .grid file in `cache`.
+fs::path gridFile(const fs::path& cache) {
+  for (const auto& entry : fs::directory_iterator(cache))
+    if (entry.path().extension() == ".grid") return entry.path();
+  return {};
+}
+
+/// Overwrites `bytes` bytes of `file` at `offset` with what `damage` makes of them.
+void damageFile(const fs::path& file, std::uintmax_t offset, std::size_t bytes,
+                const std::function<void(std::vector<char>&)>& damage) {
+  std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+  std::vector<char> data(bytes);
+  f.seekg(static_cast<std::streamoff>(offset));
+  f.read(data.data(), static_cast<std::streamsize>(bytes));
+  damage(data);
+  f.seekp(static_cast<std::streamoff>(offset));
+  f.write(data.data(), static_cast<std::streamsize>(bytes));
+}
+
+TEST(GlobeDem, ADamagedPagedGridIsRepairedAndDrawsTheSameHeights) {
+  // The grid's file damaged as a disk or a crash damages files: a bit flipped in a block's posts,
+  // a zeroed 4 KB run across rows' digests and posts, a bit in the header, in the table, a file
+  // cut short. Each time every height read (posts alone for a far view, whole blocks near) is the
+  // undamaged grid's, the damage is said once, and the next open finds a whole file.
+  const fs::path cache = dir() / "cache_damage";
+  fs::remove_all(cache);
+  const Result<GeoGrid> clean = readPaged(cache, 16.0, 64, VerticalDatum::Ellipsoid);
+  ASSERT_TRUE(clean.ok());
+  const fs::path file = gridFile(cache);
+  ASSERT_FALSE(file.empty());
+  const std::uintmax_t size = fs::file_size(file);
+  std::vector<std::pair<double, double>> samples;
+  std::mt19937 rng(40);
+  std::uniform_real_distribution<double> lon(-10.0, 10.0), lat(85.0, 90.0);
+  for (int i = 0; i < 3000; ++i) samples.emplace_back(lon(rng), lat(rng));
+  std::vector<double> truth;
+  for (const auto& [x, y] : samples) truth.push_back(clean->heightAt(x, y));
+  const auto boundsOf = [](const GeoGrid& g) {
+    std::vector<std::pair<double, double>> out;
+    for (double w = -10.0; w < 10.0; w += 1.3)
+      for (double s = 85.0; s < 90.0; s += 0.35) out.push_back(g.bounds({w, s, w + 0.9, s + 0.5}));
+    return out;
+  };
+  const auto cleanBounds = boundsOf(*clean);
+  // Every post, at its centre (where heightAt is the post's own height).
+  const auto everyPost = [](const GeoGrid& g) {
+    std::vector<double> out;
+    out.reserve(2000U * 500U);
+    for (int r = 0; r < 500; ++r)
+      for (int c = 0; c < 2000; ++c) out.push_back(g.heightAt(-10.0 + (c + 0.5) * 0.01, 90.0 - (r + 0.5) * 0.01));
+    return out;
+  };
+  const std::vector<double> cleanPosts = everyPost(*clean);
+  // 1000 × 1000 posts in blocks of 64: header 128 B, table 16 · 256 B, rows' digests 256 · 512 B.
+  const std::uintmax_t rowDigests = 128 + 256 * 16, blocks = rowDigests + 256 * 64 * 8;
+  struct Case {
+    const char* what;
+    std::function<void()> damage;
+    bool rebuilt;  ///< found at open (header, table, size): the file is written again
+  };
+  const auto flip = [](std::vector<char>& d) { d[d.size() / 2] = static_cast<char>(d[d.size() / 2] ^ 0x10); };
+  const auto zero = [](std::vector<char>& d) { std::fill(d.begin(), d.end(), 0); };
+  const std::vector<Case> cases = {
+      {"a bit in block 37's posts", [&] { damageFile(file, blocks + 37 * 64 * 64 * 4 + 1000, 8, flip); }, false},
+      {"a bit in block 0's posts", [&] { damageFile(file, blocks + 4 * 64 * 3, 4, flip); }, false},
+      {"4 KB zeroed in rows' digests", [&] { damageFile(file, rowDigests + 5 * 4096, 4096, zero); }, false},
+      {"4 KB zeroed in the posts", [&] { damageFile(file, blocks + 100 * 4096 + 512, 4096, zero); }, false},
+      {"a bit in the header", [&] { damageFile(file, 20, 1, flip); }, true},
+      {"a bit in the table", [&] { damageFile(file, 128 + 16 * 100, 8, flip); }, true},
+      {"cut short", [&] { fs::resize_file(file, size - 1000); }, true},
+      {"empty", [&] { fs::resize_file(file, 0); }, true},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    c.damage();
+    const Result<GeoGrid> damaged = readPaged(cache, 16.0, 64, VerticalDatum::Ellipsoid);
+    ASSERT_TRUE(damaged.ok());
+    EXPECT_EQ(countWith(damaged.diagnostics, "cache file damaged"), c.rebuilt ? 1U : 0U);
+    EXPECT_EQ(damaged->pageFileMade(), c.rebuilt);
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      wrong += damaged->heightAt(samples[i].first, samples[i].second) != truth[i] ? 1U : 0U;
+    EXPECT_EQ(wrong, 0U) << "heights read post by post";
+    EXPECT_EQ(boundsOf(*damaged), cleanBounds) << "bounds and heights of whole blocks";
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      wrong += damaged->heightAt(samples[i].first, samples[i].second) != truth[i] ? 1U : 0U;
+    EXPECT_EQ(wrong, 0U) << "heights from whole blocks";
+    EXPECT_TRUE(everyPost(*damaged) == cleanPosts) << "every post";
+    if (!c.rebuilt) {
+      EXPECT_GE(damaged->blocksRepaired(), 1U);
+    }
+    EXPECT_EQ(fs::file_size(file), size);
+    // Repaired in place, or written again: the next open reads every block without repair.
+    const Result<GeoGrid> again = readPaged(cache, 16.0, 64, VerticalDatum::Ellipsoid);
+    ASSERT_TRUE(again.ok());
+    EXPECT_FALSE(again->pageFileMade());
+    EXPECT_EQ(boundsOf(*again), cleanBounds);
+    EXPECT_EQ(again->blocksRepaired(), 0U);
+  }
 }
 
 TEST(GlobeDem, BeyondTheMemoryBudgetADemIsPaged) {

@@ -91,6 +91,9 @@ class GeoGrid {
   /// about its tiles' posts, not the DEM; a near view reads the few blocks it needs.
   [[nodiscard]] std::size_t postsRead() const;
   [[nodiscard]] bool pageFileMade() const;
+  /// A paged grid: blocks found damaged in its file and read again from the DEM (each verified
+  /// against its checksum before any of its posts is used; docs/cache.md).
+  [[nodiscard]] std::size_t blocksRepaired() const;
 
   /// Bilinear height at (lon, lat), degrees. A pure function of its arguments: the same post
   /// coordinates give the same height in every tile.
