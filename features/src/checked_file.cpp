@@ -114,6 +114,20 @@ std::string temporaryName(const fs::path& file) {
 
 std::uint64_t digest(const void* data, std::size_t bytes) { return XXH3_64bits(data, bytes); }
 
+std::optional<FileDigest> digestOfFile(const fs::path& file) {
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  struct stat st {};
+  std::optional<FileDigest> out;
+  if (::fstat(fd, &st) == 0) {
+    const auto bytes = static_cast<std::uint64_t>(st.st_size);
+    const VerifyClock clock(bytes);
+    if (const std::optional<std::uint64_t> d = digestOf(fd, 0, bytes)) out = FileDigest{bytes, *d};
+  }
+  ::close(fd);
+  return out;
+}
+
 WriteOutcome writeCheckedFile(const fs::path& file, const std::function<void(std::ostream&, SectionMarks&)>& write,
                               bool durable) {
   WriteOutcome outcome;

@@ -6,8 +6,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <system_error>
 
@@ -18,6 +20,7 @@
 #include <unistd.h>
 
 #include "core/hash.hpp"
+#include "geo/checked_file.hpp"
 #include "geo/gdal_support.hpp"
 
 namespace gis::globe {
@@ -25,6 +28,7 @@ namespace gis::globe {
 namespace {
 
 namespace fs = std::filesystem;
+namespace io = geo::io;
 using geo::detail::DatasetPtr;
 using geo::detail::QuietGdal;
 using geo::detail::TranslateOptions;
@@ -158,7 +162,7 @@ std::string overviewCacheFile(const std::string& path, const std::vector<int>& b
   const auto time = fs::last_write_time(file, ec);
   if (ec) return {};
   std::ostringstream key;
-  key << "globe-imagery-overviews v1|" << file.string() << "|" << size << "|" << time.time_since_epoch().count()
+  key << "globe-imagery-overviews v2|" << file.string() << "|" << size << "|" << time.time_since_epoch().count()
       << "|bands";
   for (const int b : bands) key << " " << b;
   return (fs::path(dir) / ("globe-imagery-" + stableHashHex(key.str()) + ".vrt")).string();
@@ -208,10 +212,42 @@ std::string buildOverviewCache(const std::string& path, const std::vector<int>& 
       return abandon("cannot build its overviews: " + QuietGdal::lastMessage("BuildOverviews failed"));
   }
   vrt.reset();  // both files whole on disk
+  // Their digests, for the next open to check them by (checkOverviewCache).
+  const std::optional<io::FileDigest> vrtDigest = io::digestOfFile(temporary);
+  const std::optional<io::FileDigest> ovrDigest = io::digestOfFile(temporary + ".ovr");
+  if (!vrtDigest || !ovrDigest) return abandon("cannot read " + temporary + " back");
+  fs::remove(file + ".sum", ec);  // the old pair's digests go first: a pair is never checked by another's
   fs::rename(temporary + ".ovr", file + ".ovr", ec);
   if (ec) return abandon("cannot place " + file + ".ovr: " + ec.message());
   fs::rename(temporary, file, ec);
   if (ec) return abandon("cannot place " + file + ": " + ec.message());
+  const io::WriteOutcome sums = io::writeCheckedFile(file + ".sum", [&](std::ostream& out, io::SectionMarks& marks) {
+    marks.begin();
+    for (const io::FileDigest& d : {*vrtDigest, *ovrDigest}) {
+      out.write(reinterpret_cast<const char*>(&d.bytes), sizeof d.bytes);
+      out.write(reinterpret_cast<const char*>(&d.digest), sizeof d.digest);
+    }
+  });
+  if (!sums) return "cannot write " + file + ".sum: " + sums.error;
+  return {};
+}
+
+/// Whether the overviews in the cache at `file` (its VRT, .ovr and .sum) are whole: "" when they
+/// are, "missing" when any is not there, else the damage found.
+std::string checkOverviewCache(const std::string& file) {
+  std::error_code ec;
+  if (!fs::exists(file, ec) || !fs::exists(file + ".ovr", ec)) return "missing";
+  io::CheckedStatus status = io::CheckedStatus::Ok;
+  std::string why;
+  const std::shared_ptr<const io::CheckedFile> sums = io::CheckedFile::open(file + ".sum", status, why);
+  if (status == io::CheckedStatus::Missing) return "missing";  // a build killed before its digests
+  if (!sums) return file + ".sum: " + why;
+  const std::optional<std::string> bytes = sums->sections() == 1 ? sums->read(0) : std::nullopt;
+  if (!bytes || bytes->size() != 2 * sizeof(io::FileDigest)) return file + ".sum: its digests cannot be read";
+  std::array<io::FileDigest, 2> expected{};
+  std::memcpy(expected.data(), bytes->data(), bytes->size());
+  if (io::digestOfFile(file) != expected[0]) return file + " does not match its checksum";
+  if (io::digestOfFile(file + ".ovr") != expected[1]) return file + ".ovr does not match its checksum";
   return {};
 }
 
@@ -312,8 +348,6 @@ Result<std::shared_ptr<GlobeImagery>> GlobeImagery::open(const std::string& path
     const std::string size = std::to_string(sw) + " x " + std::to_string(sh);
     const std::string file = options.cacheDir ? overviewCacheFile(path, bands, options.cacheDir()) : std::string();
     const auto openCached = [&]() -> DatasetPtr {
-      std::error_code ec;
-      if (!fs::exists(file, ec) || !fs::exists(file + ".ovr", ec)) return nullptr;
       DatasetPtr vrt(GDALDataset::Open(file.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
       if (!vrt || vrt->GetRasterXSize() != sw || vrt->GetRasterYSize() != sh ||
           vrt->GetRasterCount() != state->channels)
@@ -330,9 +364,17 @@ Result<std::shared_ptr<GlobeImagery>> GlobeImagery::open(const std::string& path
                            "the imagery (" + size + ") has no overviews and none are built (" +
                                (options.cacheDir ? "not a file on disk" : "no cache directory") +
                                "): far views read it at full resolution"});
-    } else if ((state->overviewSource = openCached())) {
+    } else if (const std::string damage = checkOverviewCache(file);
+               damage.empty() && (state->overviewSource = openCached())) {
       state->overviews = ImageryOverviews::Cached;
     } else {
+      if (damage != "missing")
+        out.diagnostics.add({Severity::Warning,
+                             file,
+                             {},
+                             {},
+                             "cache file damaged (" + (damage.empty() ? std::string("it does not open") : damage) +
+                                 "); rebuilt from " + path});
       const auto start = std::chrono::steady_clock::now();
       const std::string problem = buildOverviewCache(path, bands, file);
       state->overviewSource = problem.empty() ? openCached() : nullptr;

@@ -12,6 +12,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <memory>
 #include <string>
 #include <system_error>
@@ -167,10 +169,11 @@ TEST_F(GlobeImageryOverviews, BuiltOnceIntoTheCacheAndReused) {
   const auto written = fs::last_write_time(file + ".ovr");
   std::printf("cache: %s (%.1f MB of overviews)\n", file.c_str(),
               static_cast<double>(fs::file_size(file + ".ovr")) / (1024.0 * 1024.0));
-  // Nothing but the two files is left in the cache (no temporary).
+  // Nothing but the two files and their digests is left in the cache (no temporary).
   std::size_t entries = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir_ / "cache")) ++entries;
-  EXPECT_EQ(entries, 2u);
+  EXPECT_EQ(entries, 3u);
+  ASSERT_TRUE(fs::exists(file + ".sum"));
 
   const std::shared_ptr<GlobeImagery> second = open(large_, options());
   ASSERT_TRUE(second);
@@ -193,6 +196,53 @@ TEST_F(GlobeImageryOverviews, BuiltOnceIntoTheCacheAndReused) {
   EXPECT_EQ((*uncached)->overviews(), ImageryOverviews::None);
   EXPECT_EQ((*uncached)->overviewLevels(), 0);
   EXPECT_FALSE(uncached.diagnostics.items().empty());
+}
+
+TEST_F(GlobeImageryOverviews, DamagedOverviewsAreRebuiltWithAWarning) {
+  // The cached VRT, its overviews and their digests damaged as a disk or a crash damages files:
+  // each time the next open says so once, builds them again, and a far tile (read from the
+  // coarsest overview) is the undamaged one's byte for byte.
+  const std::shared_ptr<GlobeImagery> clean = open(large_, options());
+  ASSERT_TRUE(clean);
+  const std::string file = clean->overviewFile();
+  const TileKey far = tileAt(6, 15.0, 46.3);
+  const std::optional<TileImage> truth = clean->tileImage(far);
+  ASSERT_TRUE(truth);
+  const auto flipAt = [](const fs::path& path, std::uintmax_t offset) {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(static_cast<std::streamoff>(offset));
+    char c = 0;
+    f.get(c);
+    f.seekp(static_cast<std::streamoff>(offset));
+    f.put(static_cast<char>(c ^ 0x04));
+  };
+  const std::vector<std::pair<const char*, std::function<void()>>> damages = {
+      {"a bit in the overviews", [&] { flipAt(file + ".ovr", fs::file_size(file + ".ovr") - 5000); }},
+      {"the overviews cut short", [&] { fs::resize_file(file + ".ovr", fs::file_size(file + ".ovr") / 2); }},
+      {"a bit in the VRT", [&] { flipAt(file, 40); }},
+      {"a bit in the digests", [&] { flipAt(file + ".sum", 3); }},
+  };
+  for (const auto& [what, damage] : damages) {
+    SCOPED_TRACE(what);
+    damage();
+    Result<std::shared_ptr<GlobeImagery>> again = GlobeImagery::open(large_, {1, 2, 3}, options());
+    ASSERT_TRUE(again.ok());
+    std::size_t warnings = 0;
+    for (const Diagnostic& d : again.diagnostics.items())
+      warnings += d.severity == Severity::Warning && d.toString().find("cache file damaged") != std::string::npos &&
+                          d.toString().find(file) != std::string::npos
+                      ? 1U
+                      : 0U;
+    EXPECT_EQ(warnings, 1U);
+    EXPECT_EQ((*again)->overviews(), ImageryOverviews::Built);
+    const std::optional<TileImage> image = (*again)->tileImage(far);
+    ASSERT_TRUE(image);
+    EXPECT_TRUE(image->rgba == truth->rgba) << "the far tile as before the damage";
+  }
+  // Whole again: found in the cache.
+  const std::shared_ptr<GlobeImagery> last = open(large_, options());
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->overviews(), ImageryOverviews::Cached);
 }
 
 TEST_F(GlobeImageryOverviews, FarTileReadsAboutItsTexels) {

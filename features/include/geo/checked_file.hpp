@@ -26,6 +26,16 @@ namespace gis::geo::io {
 /// XXH3-64 of a byte range.
 std::uint64_t digest(const void* data, std::size_t bytes);
 
+/// A whole file's length and XXH3-64 digest, for cache files another library writes and reads by
+/// path (GDAL's VRT and overviews): kept in a checked file beside them and compared before use.
+struct FileDigest {
+  std::uint64_t bytes = 0, digest = 0;
+  bool operator==(const FileDigest&) const = default;
+};
+/// The digest of `file`, read through in slices (counted in verifiedSoFar); none when it cannot
+/// be read.
+std::optional<FileDigest> digestOfFile(const std::filesystem::path& file);
+
 /// Marks where a writer's sections start: call begin() at the start of each section (the first
 /// at the stream's start, or wherever the first byte to check is); a section ends where the next
 /// begins, the last at the end of what was written.
