@@ -96,7 +96,7 @@ int runOverlay(const Options& o);
 /// Mode "methods": every method on the same frames, with frame time, memory, build time and the
 /// error against the CPU reference (methods_mode.cpp).
 int runMethods(const Options& o);
-/// Mode "ablation": ours with each saving of DESIGN §9 switched off alone, on the same frames
+/// Mode "ablation": ours with each saving of docs/design.md §9 switched off alone, on the same frames
 /// (methods_mode.cpp).
 int runAblation(const Options& o);
 /// Mode "scaling": terrain only, ours and the paper's on each of o.scenes (oblique segment unless

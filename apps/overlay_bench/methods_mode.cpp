@@ -3,7 +3,7 @@
 // draping at each size — with the error against the CPU reference (variants.cpp). Writes
 // methods.json, methods.csv, methods.md (the table), methods_error_vs_time.svg and
 // methods_error_away_vs_time.svg, and prints the table. overlay_bench --mode ablation: ours with
-// each saving of DESIGN §9 switched off alone, the same figures; ablation.json.
+// each saving of docs/design.md §9 switched off alone, the same figures; ablation.json.
 #include <algorithm>
 #include <functional>
 #include <string>
@@ -32,7 +32,7 @@ int runMethods(const Options& o) {
 }
 
 int runAblation(const Options& o) {
-  // Each saving of DESIGN §9 switched off alone.
+  // Each saving of docs/design.md §9 switched off alone.
   std::vector<Method> methods;
   const overlay::TechniqueInfo& ours = overlay::defaultTechnique();
   methods.emplace_back("terrain only", ours, 0, false);

@@ -1,5 +1,5 @@
 // overlay_render: draws a scene headless and writes what tests, scripts and people need
-// (DESIGN §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png,
+// (docs/design.md §8): color.png, depth.tiff, mask.png, camera.json, stats.json (+ selection.png,
 // overlap.png, open_volumes.png).
 #include <sys/resource.h>
 

@@ -1,5 +1,5 @@
 // terrain_viewer: the desktop viewer (GLFW + Dear ImGui; docs/viewer.md). `?` in the window
-// lists the keys. With no display it says so and points at overlay_render (DESIGN §8).
+// lists the keys. With no display it says so and points at overlay_render (docs/design.md §8).
 #include <cstdio>
 #include <string>
 #include <string_view>

@@ -1,5 +1,5 @@
 #pragma once
-// The desktop viewer (DESIGN §8, issue 6): a scene in a GLFW window, flown with the camera
+// The desktop viewer (docs/design.md §8, issue 6): a scene in a GLFW window, flown with the camera
 // controller, the vector layers drawn exactly with stencil polyhedra, a Dear ImGui panel, the
 // lasso tool, identify, HUD, screenshots, and a scripted mode that drives all of it for tests
 // under Xvfb. The scene is drawn into an offscreen target (float depth with stencil: reversed-Z

@@ -1,4 +1,4 @@
-// The overlay core against the CPU reference on the same depth buffer (DESIGN §7): the GPU mask
+// The overlay core against the CPU reference on the same depth buffer (docs/design.md §7): the GPU mask
 // (bit per layer, from the real mark and cover passes) must equal the reference's coverage at
 // every pixel that does not straddle a feature edge, and differ on at most 0.5 % of covered
 // pixels on edges. Olinda (real tracts and streets, with outlines) from top-down, oblique and

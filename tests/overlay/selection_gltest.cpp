@@ -1,4 +1,4 @@
-// Lasso selection on the GPU against its CPU twin on the same depth buffer (DESIGN §6–§7): random
+// Lasso selection on the GPU against its CPU twin on the same depth buffer (docs/design.md §6–§7): random
 // lassos (concave, self-intersecting) drawn from random cameras over stiff terrain, chained with
 // random operators (2–50, Invert included), evaluated from the camera they were drawn with and
 // from others — eye inside a volume, volumes reaching past the far end of the terrain, dark caps

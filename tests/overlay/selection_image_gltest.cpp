@@ -1,4 +1,4 @@
-// Image tests of lasso selection (DESIGN §6–§7): the colour the GPU writes for highlight, Invert
+// Image tests of lasso selection (docs/design.md §6–§7): the colour the GPU writes for highlight, Invert
 // and "show volumes", pixel by pixel against the CPU twin evaluated on the same depth buffer.
 // - Highlight: selected pixels take the style's colour blended over the terrain, every other
 //   pixel (background included) keeps its colour bit for bit, the stencil ends at 0.

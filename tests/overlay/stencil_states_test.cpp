@@ -2,7 +2,7 @@
 // creation (Dai 2008 §3.2: z-pass increments front faces and decrements back faces where the
 // depth test passes; z-fail increments back faces and decrements front faces where it fails)
 // and cover (§3.3: stencil NOTEQUAL 0; front faces in z-pass, back faces in z-fail), with
-// DESIGN §4's changes: wrapping ops in one two-sided draw, depth clamp, zeroing cover ops and
+// docs/design.md §4's changes: wrapping ops in one two-sided draw, depth clamp, zeroing cover ops and
 // premultiplied-alpha blending. Each row of the table is written out here and compared with
 // the named state the renderer uses.
 #include <algorithm>

@@ -1,5 +1,5 @@
 #pragma once
-// GL tests of the overlay against the CPU reference on the same depth buffer (DESIGN §7): draw
+// GL tests of the overlay against the CPU reference on the same depth buffer (docs/design.md §7): draw
 // the terrain and the layers into a target with a layer mask, read it back and count the pixels
 // where the GPU mask differs from the reference, away from feature edges and on them.
 #include <cstdio>

@@ -1,4 +1,4 @@
-// The bounds contract (DESIGN §5) as a property test: thousands of random footprints over stiff
+// The bounds contract (docs/design.md §5) as a property test: thousands of random footprints over stiff
 // terrain (cliffs of 400 m between neighbouring posts, a 900 m spike, a flat lake, nodata holes),
 // each against the surface as drawn by a random LOD — random cameras and tolerances, forced coarse
 // and fine levels, tiles still loading — sampled densely inside the footprint: it never leaves

@@ -1,4 +1,4 @@
-// The CPU reference (DESIGN §7): coverage of layers at the terrain points of a depth image.
+// The CPU reference (docs/design.md §7): coverage of layers at the terrain points of a depth image.
 // Independent of the GPU code and of the footprint construction: the coverage rules are
 // evaluated as point predicates (reference_geometry.hpp). A uniform grid over the part of the
 // data the image sees selects the candidate polygons and line primitives per point.

@@ -1,5 +1,5 @@
 // Layer analysis on the overlay stencil core: where two layers overlap, and where a layer's
-// volumes are not closed (after the stencil-volume-intersections article; DESIGN §4 and §6).
+// volumes are not closed (after the stencil-volume-intersections article; docs/design.md §4 and §6).
 #include <algorithm>
 
 #include "vector_overlay/overlay_renderer.hpp"

@@ -1,5 +1,5 @@
 #pragma once
-// The contract between a terrain and the overlay (DESIGN §5): for a 2D footprint in the scene
+// The contract between a terrain and the overlay (docs/design.md §5): for a 2D footprint in the scene
 // frame, heights [lo, hi] that contain the surface *as drawn* over it — at whatever level of
 // detail can be on screen there, with vertical exaggeration applied. Our terrain implements it;
 // a GIS client with its own terrain implements it for theirs. It lives in core so that the

@@ -1,5 +1,5 @@
 #pragma once
-// The scene frame (DESIGN §3): a projected CRS in metres with z up and an origin near the scene
+// The scene frame (docs/design.md §3): a projected CRS in metres with z up and an origin near the scene
 // centre. All georeferenced arithmetic is double; GPU code narrows only relative coordinates.
 #include <memory>
 #include <optional>

@@ -34,7 +34,7 @@ struct DepthState {
   bool test = true;
   bool write = true;
   CompareFunc func = CompareFunc::Greater;
-  bool clamp = false;  ///< GL_DEPTH_CLAMP: on for every volume pass (DESIGN §3)
+  bool clamp = false;  ///< GL_DEPTH_CLAMP: on for every volume pass (docs/design.md §3)
   bool operator==(const DepthState&) const = default;
 };
 

@@ -1,5 +1,5 @@
 #pragma once
-// Cameras in the scene frame and camera files (DESIGN §8):
+// Cameras in the scene frame and camera files (docs/design.md §8):
 //   {"eye": {"lon","lat","h"}, "target": {"lon","lat","h"}, "fov_y_deg"}  — heights in the DEM's
 //   vertical units — or frame coordinates "eye_xyz", "target_xyz" (preferred when both exist).
 #include <optional>

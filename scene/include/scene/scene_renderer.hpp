@@ -1,5 +1,5 @@
 #pragma once
-// Draws a loaded scene into any framebuffer, headless or windowed, pass by pass (DESIGN §4):
+// Draws a loaded scene into any framebuffer, headless or windowed, pass by pass (docs/design.md §4):
 // the terrain, then the vector layers as stencil polyhedra (the selection passes join later).
 #include <cstdint>
 #include <functional>

@@ -1,5 +1,5 @@
 #pragma once
-// Height bounds under the bounds contract (DESIGN §5): for a footprint, [lo, hi] contains the
+// Height bounds under the bounds contract (docs/design.md §5): for a footprint, [lo, hi] contains the
 // surface as drawn at *any* level of detail that can be on screen there — any level of the
 // quadtree, stitched or not, including a coarse parent drawn while a tile loads — with
 // vertical exaggeration applied.

@@ -1,5 +1,5 @@
 #pragma once
-// The CPU reference (DESIGN §7): from a depth buffer and the camera that made it, which layers
+// The CPU reference (docs/design.md §7): from a depth buffer and the camera that made it, which layers
 // cover each pixel's terrain point, following the coverage rules of footprints.hpp exactly
 // (point in polygon with the even-odd rule; distance to segments with the same joins and caps,
 // arcs exact). It is the ground truth of the GL tests, the error metric of the benchmark and

@@ -1,5 +1,5 @@
 #pragma once
-// Footprints: the 2D shapes of the pieces that become stencil polyhedra (DESIGN §5).
+// Footprints: the 2D shapes of the pieces that become stencil polyhedra (docs/design.md §5).
 //
 // Coverage semantics (what a layer covers on the ground; the CPU reference implements the
 // same rules independently, see cpu_reference.hpp):

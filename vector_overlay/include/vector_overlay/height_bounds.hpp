@@ -1,5 +1,5 @@
 #pragma once
-// The bounds contract between a terrain and the overlay (DESIGN §5) is core/height_bounds.hpp;
+// The bounds contract between a terrain and the overlay (docs/design.md §5) is core/height_bounds.hpp;
 // these names keep clients that spell it overlay::HeightBoundsProvider compiling.
 #include "core/height_bounds.hpp"
 

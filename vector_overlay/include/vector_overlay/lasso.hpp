@@ -1,5 +1,5 @@
 #pragma once
-// Lasso selection (DESIGN §6, after Rainer 2016): a screen polygon drawn with some camera casts
+// Lasso selection (docs/design.md §6, after Rainer 2016): a screen polygon drawn with some camera casts
 // a volume into the scene; volumes combine in order with Single / Or / And / Xor / Subtract,
 // and Invert flips the selection where there is geometry. This header holds the volumes and
 // their CPU twin: which points, pixels, DEM posts and features are selected. The GPU side is

@@ -1,5 +1,5 @@
 #pragma once
-// One vector layer's stencil polyhedra on the CPU (DESIGN §5): each feature's footprints
+// One vector layer's stencil polyhedra on the CPU (docs/design.md §5): each feature's footprints
 // (footprints.hpp) extruded between the height bounds of their cells into closed, outward-wound
 // polyhedra, and the vertex and index arrays the GPU draws, with one slot per piece so that
 // editing a feature rewrites only its pieces. No GL: a LayerGeometry can be built on any thread

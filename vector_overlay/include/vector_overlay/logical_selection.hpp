@@ -1,5 +1,5 @@
 #pragma once
-// The logical side of lasso selection (DESIGN §6–§7): given the steps of a selection (lasso.hpp),
+// The logical side of lasso selection (docs/design.md §6–§7): given the steps of a selection (lasso.hpp),
 // which vector features and which DEM posts are selected — in the world, not only where they
 // are seen: a feature hidden behind a hill but inside the volumes is selected, as points of a
 // point cloud are in the seed report.

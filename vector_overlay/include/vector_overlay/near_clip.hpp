@@ -1,5 +1,5 @@
 #pragma once
-// Near-plane clipping of z-fail pieces on the CPU (DESIGN §4). GL clips each triangle on its
+// Near-plane clipping of z-fail pieces on the CPU (docs/design.md §4). GL clips each triangle on its
 // own, and at the eye plane independent clipping of neighbouring faces leaves one-pixel cracks;
 // so the pieces that may hold the eye or reach it through the near plane are clipped here, at
 // half the near distance, with shared edges cut bit-identically, and (for counting open faces)

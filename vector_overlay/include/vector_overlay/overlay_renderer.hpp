@@ -1,6 +1,6 @@
 #pragma once
 // Draws overlay layers onto a framebuffer whose depth buffer holds the terrain (ours or a GIS
-// client's), pass by pass (DESIGN §4): per layer, mark (z-pass pieces, then z-fail pieces — those
+// client's), pass by pass (docs/design.md §4): per layer, mark (z-pass pieces, then z-fail pieces — those
 // that may hold the eye or reach it through the near plane) and cover (their front, resp. back,
 // faces with stencil NOTEQUAL 0, zeroing the count: one blend per pixel per layer, no stencil
 // clear before the next layer). The stencil must be 0 when called and is 0 afterwards.
@@ -53,7 +53,7 @@ struct OverlaySettings {
   /// With rectangleCover: cover only the screen tiles the visible pieces' boxes touch (off: one
   /// rectangle around all of them). Sparse layers (roads from afar) cover a fraction of the screen.
   bool tiledCover = true;
-  /// Savings that the benchmark switches off one at a time (DESIGN §9; overlay_bench --mode
+  /// Savings that the benchmark switches off one at a time (docs/design.md §9; overlay_bench --mode
   /// ablation). Off, the image is the same and the work larger.
   bool cullPieces = true;          ///< off: every piece is drawn, in view or not
   bool bottomCapsInZPass = false;  ///< on: z-pass pieces over drawn terrain keep their hidden bottom caps

@@ -1,5 +1,5 @@
 #pragma once
-// Lasso selection on the GPU (DESIGN §6): the volumes of a list of steps (lasso.hpp) marked into
+// Lasso selection on the GPU (docs/design.md §6): the volumes of a list of steps (lasso.hpp) marked into
 // the stencil z-fail with depth clamp, combined by operator (selection_states.hpp), then
 // highlighted. Works on any framebuffer whose depth buffer holds the scene (reversed-Z, clip
 // control on) and whose stencil is 0 — after the overlays, which leave it 0.

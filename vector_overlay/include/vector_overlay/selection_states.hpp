@@ -1,5 +1,5 @@
 #pragma once
-// Render states of lasso selection (DESIGN §6) as named values; a test compares them with the
+// Render states of lasso selection (docs/design.md §6) as named values; a test compares them with the
 // seed report's tables (Rainer 2016, Tables 1–3) and with the truth table they must produce.
 //
 // Our scheme keeps the selection in the stencil's top bit (0x80) and counts the volumes being

@@ -1,5 +1,5 @@
 #pragma once
-// A layer's features, held once however many hold them (DESIGN §5, issue 23 point 4): in
+// A layer's features, held once however many hold them (docs/design.md §5, issue 23 point 4): in
 // memory, shared with whoever else holds them (the scene that read them, the layer's outline, a
 // rebuild for another style) and copied only when edited while shared; or kept in a file
 // (geo::FeatureFile) and read one at a time, so that what is resident follows the tiles being

@@ -1,6 +1,6 @@
 #pragma once
-// The render states of the overlay passes (DESIGN §4) as named values. A test compares them with
-// the tables of the seed papers (Dai 2008 §3.2–3.3 and DESIGN §4); the renderer uses nothing
+// The render states of the overlay passes (docs/design.md §4) as named values. A test compares them with
+// the tables of the seed papers (Dai 2008 §3.2–3.3 and docs/design.md §4); the renderer uses nothing
 // else. Reversed-Z: a fragment "passes the depth test" when it is nearer than the terrain
 // (GREATER).
 #include <cstddef>
@@ -155,7 +155,7 @@ inline constexpr gfx::PipelineState kCoverFlaggedRect = flaggedCover(gfx::CullMo
 
 namespace gis::overlay {
 
-// Layer overlap analysis (after the stencil-volume-intersections article; DESIGN §4 states
+// Layer overlap analysis (after the stencil-volume-intersections article; docs/design.md §4 states
 // reused): layer A is marked into bit 0x80 and layer B into bit 0x40, each in groups of at most
 // 63 pieces counted in the low six bits (wrapping mod 64) and collected into its flag after
 // every group, so neither the depth of overlap nor the other layer's flag disturbs a count. A

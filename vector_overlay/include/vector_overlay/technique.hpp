@@ -117,7 +117,7 @@ struct TechniqueFrameStats {
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).
 enum class PieceConstruction {
-  Ours,   ///< split at cells where that pays, tight bounds per piece (DESIGN §5)
+  Ours,   ///< split at cells where that pays, tight bounds per piece (docs/design.md §5)
   Paper,  ///< the seed paper's: one bound pair per feature, covered by bounding boxes
   Tiled,  ///< none at load (LayerBuildOptions::deferPieces): the technique builds them per tile
   /// None at all (LayerBuildOptions::deferPieces): the technique reads the features (the

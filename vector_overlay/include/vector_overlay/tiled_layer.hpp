@@ -1,5 +1,5 @@
 #pragma once
-// View-dependent detail for one vector layer (DESIGN §5, "cost follows the view"): the layer cut
+// View-dependent detail for one vector layer (docs/design.md §5, "cost follows the view"): the layer cut
 // into the tiles of a quadtree over the terrain, each tile's pieces built on demand from the
 // features that reach it, generalised so that the ground error of level L is known:
 //

@@ -1,4 +1,4 @@
-// Stencil polyhedra (DESIGN §4-5): the layers' closed pieces marked z-pass or z-fail into the
+// Stencil polyhedra (docs/design.md §4-5): the layers' closed pieces marked z-pass or z-fail into the
 // stencil, then covered where the count is not zero. Two entries of the registry use it: ours,
 // and the seed paper's construction (the layers are then built one bound pair per feature and
 // covered by the pieces' bounding boxes: OverlayLayer does that by its build options).
