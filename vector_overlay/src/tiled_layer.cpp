@@ -136,8 +136,10 @@ bool LayerTiling::bucketRange(const std::pair<glm::dvec2, glm::dvec2>& box, int&
   if (hi.x < origin_.x || hi.y < origin_.y || lo.x > origin_.x + rootSize_ || lo.y > origin_.y + rootSize_)
     return false;
   const double bucketSize = rootSize_ / buckets_;
+  // Clamped as a double first: a box reaching far beyond the terrain (a width of 1e15 m) must not
+  // convert an out-of-range double to int.
   const auto index = [&](double v, double o) {
-    return std::clamp(static_cast<int>(std::floor((v - o) / bucketSize)), 0, buckets_ - 1);
+    return static_cast<int>(std::clamp(std::floor((v - o) / bucketSize), 0.0, static_cast<double>(buckets_ - 1)));
   };
   x0 = index(lo.x, origin_.x);
   x1 = index(hi.x, origin_.x);
