@@ -564,6 +564,187 @@ TEST(GeneraliseGeometry, SimplifiesEveryRingAndLineAndDropsAttributes) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// generaliseCoverage
+
+/// Even-odd over all of the polygon's rings.
+bool inPolygon(const Polygon& p, const dvec2& q) {
+  bool in = false;
+  const auto ring = [&](const Ring& r) {
+    for (std::size_t i = 0, j = r.size() - 1; i < r.size(); j = i++) {
+      if ((r[i].y > q.y) != (r[j].y > q.y) && q.x < (r[j].x - r[i].x) * (q.y - r[i].y) / (r[j].y - r[i].y) + r[i].x)
+        in = !in;
+    }
+  };
+  ring(p.outer);
+  for (const Ring& h : p.holes) ring(h);
+  return in;
+}
+
+/// A coverage: a 4 × 3 grid of cells 100 m a side whose shared borders are wiggly lines (the same
+/// points in both neighbours, the other way round), and in cell (1, 1) a hole holding an island
+/// feature of its own (its ring the hole's, reversed).
+std::vector<Feature> wigglyCoverage(std::mt19937& rng) {
+  constexpr int kColumns = 4, kRows = 3;
+  constexpr double kSize = 100.0;
+  std::uniform_real_distribution<double> wiggle(-3.0, 3.0);
+  // Border between corners (i, j) → (i + 1, j) (horizontal) and (i, j) → (i, j + 1) (vertical):
+  // 40 points each, inner points wiggled across the border (grid edges straight).
+  const auto corner = [&](int i, int j) { return dvec2(i * kSize, j * kSize); };
+  std::vector<std::vector<dvec2>> horizontal((kColumns) * (kRows + 1)), vertical((kColumns + 1) * kRows);
+  for (int j = 0; j <= kRows; ++j) {
+    for (int i = 0; i < kColumns; ++i) {
+      auto& b = horizontal[static_cast<std::size_t>(j * kColumns + i)];
+      for (int k = 0; k <= 40; ++k)
+        b.push_back(corner(i, j) +
+                    dvec2(kSize * k / 40.0, (j > 0 && j < kRows && k > 0 && k < 40) ? wiggle(rng) : 0.0));
+    }
+  }
+  for (int j = 0; j < kRows; ++j) {
+    for (int i = 0; i <= kColumns; ++i) {
+      auto& b = vertical[static_cast<std::size_t>(j * (kColumns + 1) + i)];
+      for (int k = 0; k <= 40; ++k)
+        b.push_back(corner(i, j) +
+                    dvec2((i > 0 && i < kColumns && k > 0 && k < 40) ? wiggle(rng) : 0.0, kSize * k / 40.0));
+    }
+  }
+  std::vector<Feature> out;
+  for (int j = 0; j < kRows; ++j) {
+    for (int i = 0; i < kColumns; ++i) {
+      Ring r;
+      const auto& south = horizontal[static_cast<std::size_t>(j * kColumns + i)];
+      const auto& north = horizontal[static_cast<std::size_t>((j + 1) * kColumns + i)];
+      const auto& west = vertical[static_cast<std::size_t>(j * (kColumns + 1) + i)];
+      const auto& east = vertical[static_cast<std::size_t>(j * (kColumns + 1) + i + 1)];
+      r.insert(r.end(), south.begin(), south.end() - 1);    // west → east
+      r.insert(r.end(), east.begin(), east.end() - 1);      // south → north
+      r.insert(r.end(), north.rbegin(), north.rend() - 1);  // east → west
+      r.insert(r.end(), west.rbegin(), west.rend() - 1);    // north → south
+      Feature f;
+      f.fid = j * kColumns + i;
+      f.polygons.push_back(Polygon{r, {}});
+      out.push_back(std::move(f));
+    }
+  }
+  // The island: a wiggly circle in cell (1, 1).
+  Ring island;
+  for (int k = 0; k < 60; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / 60.0;
+    island.push_back(dvec2(150.0, 150.0) + (25.0 + wiggle(rng)) * dvec2(std::cos(a), std::sin(a)));
+  }
+  out[static_cast<std::size_t>(1 * kColumns + 1)].polygons[0].holes.push_back(Ring(island.rbegin(), island.rend()));
+  Feature i;
+  i.fid = 100;
+  i.polygons.push_back(Polygon{island, {}});
+  out.push_back(std::move(i));
+  return out;
+}
+
+/// Ground points of the coverage's extent farther than `margin` from its outside, covered by a
+/// number of features other than one.
+std::size_t crackedOrDoubled(const std::vector<Feature>& features, double margin, std::mt19937& rng) {
+  std::uniform_real_distribution<double> x(margin, 400.0 - margin), y(margin, 300.0 - margin);
+  std::size_t bad = 0;
+  for (int k = 0; k < 200000; ++k) {
+    const dvec2 q(x(rng), y(rng));
+    int covered = 0;
+    for (const Feature& f : features)
+      for (const Polygon& p : f.polygons) covered += inPolygon(p, q) ? 1 : 0;
+    bad += covered != 1 ? 1U : 0U;
+  }
+  return bad;
+}
+
+TEST(GeneraliseCoverage, NeighboursStillMeetExactly) {
+  // The wiggly coverage generalised by 4 m (more than its wiggles): generalised one feature at a
+  // time, cracks and overlaps open along the shared borders; generalised together, every point
+  // of the extent (away from its outside by epsilon) is covered by exactly one feature. Each ring
+  // stays within epsilon of its own and loses points.
+  std::mt19937 rng(41);
+  const std::vector<Feature> coverage = wigglyCoverage(rng);
+  std::vector<const Feature*> pointers;
+  for (const Feature& f : coverage) pointers.push_back(&f);
+  const double epsilon = 4.0;
+  ASSERT_EQ(crackedOrDoubled(coverage, epsilon, rng), 0U) << "the coverage itself";
+
+  std::vector<Feature> alone;
+  for (const Feature& f : coverage) alone.push_back(overlay::generaliseGeometry(f, epsilon));
+  const std::size_t aloneBad = crackedOrDoubled(alone, epsilon, rng);
+  std::printf("one feature at a time: %zu of 200,000 points cracked or doubled\n", aloneBad);
+  EXPECT_GT(aloneBad, 100U) << "the test's coverage shows the cracks it is about";
+
+  const std::vector<Feature> together = overlay::generaliseCoverage(pointers, epsilon);
+  ASSERT_EQ(together.size(), coverage.size());
+  EXPECT_EQ(crackedOrDoubled(together, epsilon, rng), 0U);
+  std::size_t before = 0, after = 0;
+  for (std::size_t i = 0; i < coverage.size(); ++i) {
+    EXPECT_EQ(together[i].fid, coverage[i].fid);
+    ASSERT_EQ(together[i].polygons.size(), coverage[i].polygons.size());
+    const Polygon& p = coverage[i].polygons[0];
+    const Polygon& q = together[i].polygons[0];
+    ASSERT_EQ(q.holes.size(), p.holes.size());
+    // Its points are the ring's, and every point of the ring lies within epsilon of it.
+    Ring closedQ = q.outer;
+    closedQ.push_back(q.outer.front());
+    for (const dvec2& v : q.outer)
+      EXPECT_NE(std::find(p.outer.begin(), p.outer.end(), v), p.outer.end()) << "feature " << i;
+    double farthest = 0.0;
+    for (const dvec2& v : p.outer) farthest = std::max(farthest, distanceToPolyline(v, closedQ));
+    EXPECT_LE(farthest, epsilon * (1.0 + kSlack)) << "feature " << i;
+    before += coverage[i].vertexCount();
+    after += together[i].vertexCount();
+  }
+  std::printf("vertices: %zu -> %zu\n", before, after);
+  EXPECT_LT(after, before / 3);
+
+  // A lone ring is simplified as simplifyRing does; epsilon 0 copies.
+  const Feature& lone = coverage.back();
+  const std::vector<const Feature*> one{&lone};
+  EXPECT_EQ(overlay::generaliseCoverage(one, epsilon)[0].polygons[0].outer,
+            overlay::simplifyRing(lone.polygons[0].outer, epsilon));
+  EXPECT_EQ(overlay::generaliseCoverage(pointers, 0.0)[3].polygons[0].outer, coverage[3].polygons[0].outer);
+}
+
+TEST(GeneraliseCoverage, RingsThatWouldLoseTheirAreaKeepTheirPointsAndTheirNeighboursToo) {
+  // A thin lens (0.5 m wide, its two borders meeting at both ends) between wide neighbours,
+  // generalised by 2 m: both borders would become the same segment and the lens lose its area, so
+  // it keeps every point, and its neighbours keep theirs along it: still exactly one feature at
+  // every point.
+  Feature a, lens, b;
+  Ring left, middle, right;
+  std::vector<dvec2> border1, border2;
+  for (int k = 0; k <= 20; ++k) {
+    const double y = k * 5.0, wiggle = (k % 2 == 0 ? 0.3 : -0.3) * (k > 0 && k < 20 ? 1.0 : 0.0);
+    border1.push_back(dvec2(50.0 + wiggle, y));
+    border2.push_back(dvec2(k > 0 && k < 20 ? 50.5 + wiggle : 50.0, y));  // a lens: the same ends
+  }
+  left = {dvec2(0.0, 0.0)};
+  left.insert(left.end(), border1.begin(), border1.end());
+  left.push_back(dvec2(0.0, 100.0));
+  std::reverse(left.begin(), left.end());  // counter-clockwise: (0,100) … border north → south … (0,0)
+  middle.insert(middle.end(), border1.begin(), border1.end());
+  middle.insert(middle.end(), border2.rbegin() + 1, border2.rend() - 1);  // the ends once
+  right.insert(right.end(), border2.begin(), border2.end());
+  right.push_back(dvec2(100.0, 100.0));
+  right.push_back(dvec2(100.0, 0.0));
+  a.polygons.push_back(Polygon{left, {}});
+  lens.polygons.push_back(Polygon{middle, {}});
+  b.polygons.push_back(Polygon{right, {}});
+  const std::vector<const Feature*> all{&a, &lens, &b};
+  const std::vector<Feature> g = overlay::generaliseCoverage(all, 2.0);
+  EXPECT_EQ(g[1].polygons[0].outer, middle) << "the lens keeps its points";
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> x(0.5, 99.5), y(0.5, 99.5);
+  std::size_t bad = 0;
+  for (int k = 0; k < 100000; ++k) {
+    const dvec2 q(x(rng), y(rng));
+    int covered = 0;
+    for (const Feature& f : g) covered += inPolygon(f.polygons[0], q) ? 1 : 0;
+    bad += covered != 1 ? 1U : 0U;
+  }
+  EXPECT_EQ(bad, 0U);
+}
+
+// ---------------------------------------------------------------------------------------------
 // appendRunsNear
 
 LineShape shapeOf(double width, LineJoin join, LineCap cap, double miterLimit) {

@@ -1,8 +1,12 @@
 #include "vector_overlay/generalise.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <unordered_map>
+#include <unordered_set>
 
 #include <glm/geometric.hpp>
 
@@ -140,6 +144,164 @@ geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon) {
   }
   out.lines.reserve(feature.lines.size());
   for (const geo::LineString& l : feature.lines) out.lines.push_back(simplifyPolyline(l, epsilon));
+  return out;
+}
+
+namespace {
+
+/// Points matched exactly (−0 as +0).
+struct PointHash {
+  std::size_t operator()(const glm::dvec2& p) const noexcept {
+    const std::uint64_t x = std::bit_cast<std::uint64_t>(p.x + 0.0), y = std::bit_cast<std::uint64_t>(p.y + 0.0);
+    return static_cast<std::size_t>((x * 0x9E3779B97F4A7C15ULL) ^ (y + 0x7F4A7C159E3779B9ULL + (x << 6U) + (x >> 2U)));
+  }
+};
+
+bool lexLess(const glm::dvec2& a, const glm::dvec2& b) { return a.x < b.x || (a.x == b.x && a.y < b.y); }
+
+/// An undirected edge, its ends in lexicographic order.
+struct Edge {
+  glm::dvec2 a, b;
+  bool operator==(const Edge& o) const { return a == o.a && b == o.b; }
+};
+struct EdgeHash {
+  std::size_t operator()(const Edge& e) const noexcept {
+    const PointHash h;
+    return h(e.a) * 31U + h(e.b);
+  }
+};
+Edge edgeOf(const glm::dvec2& p, const glm::dvec2& q) { return lexLess(p, q) ? Edge{p, q} : Edge{q, p}; }
+
+bool finiteRing(const geo::Ring& ring) {
+  return std::all_of(ring.begin(), ring.end(),
+                     [](const glm::dvec2& p) { return std::isfinite(p.x) && std::isfinite(p.y); });
+}
+
+/// The ring without repeated consecutive points (nor a last point repeating the first).
+geo::Ring withoutRepeats(const geo::Ring& ring) {
+  geo::Ring out;
+  out.reserve(ring.size());
+  for (const glm::dvec2& p : ring)
+    if (out.empty() || p != out.back()) out.push_back(p);
+  while (out.size() > 1 && out.back() == out.front()) out.pop_back();
+  return out;
+}
+
+}  // namespace
+
+std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const> features, double epsilon) {
+  std::vector<geo::Feature> out;
+  out.reserve(features.size());
+  for (const geo::Feature* f : features) {
+    geo::Feature g;
+    g.fid = f->fid;
+    g.polygons = f->polygons;
+    g.lines.reserve(f->lines.size());
+    for (const geo::LineString& l : f->lines) g.lines.push_back(simplifyPolyline(l, epsilon));
+    out.push_back(std::move(g));
+  }
+  if (!(epsilon > 0.0)) return out;
+
+  // The rings taking part (finite, at least 3 distinct points), without repeated points.
+  std::vector<geo::Ring*> targets;
+  std::vector<geo::Ring> rings;
+  for (geo::Feature& f : out) {
+    for (geo::Polygon& p : f.polygons) {
+      const auto take = [&](geo::Ring& r) {
+        geo::Ring clean = withoutRepeats(r);
+        if (clean.size() >= 3 && finiteRing(clean)) {
+          targets.push_back(&r);
+          rings.push_back(std::move(clean));
+        }
+      };
+      take(p.outer);
+      for (geo::Ring& h : p.holes) take(h);
+    }
+  }
+  // Which rings hold each edge, and how many rings each point.
+  std::unordered_map<Edge, std::vector<std::uint32_t>, EdgeHash> edgeRings;
+  struct PointUse {
+    std::uint32_t rings = 0, last = 0;
+  };
+  std::unordered_map<glm::dvec2, PointUse, PointHash> pointRings;
+  for (std::uint32_t r = 0; r < rings.size(); ++r) {
+    const geo::Ring& ring = rings[r];
+    for (std::size_t k = 0; k < ring.size(); ++k) {
+      std::vector<std::uint32_t>& holders = edgeRings[edgeOf(ring[k], ring[(k + 1) % ring.size()])];
+      if (holders.empty() || holders.back() != r) holders.push_back(r);
+      PointUse& use = pointRings[ring[k]];
+      if (use.rings == 0 || use.last != r) {
+        ++use.rings;
+        use.last = r;
+      }
+    }
+  }
+  const auto holdersOf = [&](const geo::Ring& ring, std::size_t k) -> const std::vector<std::uint32_t>& {
+    return edgeRings.find(edgeOf(ring[k], ring[(k + 1) % ring.size()]))->second;
+  };
+
+  // Each ring from its chains between nodes; rings that would lose their area make all their
+  // points nodes (kept, in their neighbours too), and the rings are made again.
+  std::unordered_set<glm::dvec2, PointHash> kept;
+  std::vector<geo::Ring> result(rings.size());
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    bool again = false;
+    for (std::size_t r = 0; r < rings.size(); ++r) {
+      const geo::Ring& ring = rings[r];
+      const std::size_t n = ring.size();
+      std::vector<std::size_t> nodes;
+      bool shared = false;
+      for (std::size_t k = 0; k < n; ++k) {
+        const std::vector<std::uint32_t>& before = holdersOf(ring, (k + n - 1) % n);
+        const std::vector<std::uint32_t>& after = holdersOf(ring, k);
+        shared = shared || after.size() > 1;
+        if (pointRings[ring[k]].rings >= 3 || before != after || kept.count(ring[k]) != 0) nodes.push_back(k);
+      }
+      if (nodes.empty() && !shared) {
+        result[r] = simplifyRing(ring, epsilon);  // a ring of its own: as generaliseGeometry
+        continue;
+      }
+      if (nodes.empty()) {
+        // Shared whole (an island in a hole): cut where its least point is, in both rings.
+        std::size_t least = 0;
+        for (std::size_t k = 1; k < n; ++k)
+          if (lexLess(ring[k], ring[least])) least = k;
+        for (std::size_t k = 0; k < n; ++k)
+          if (ring[k] == ring[least]) nodes.push_back(k);
+      }
+      geo::Ring made;
+      std::vector<glm::dvec2> chain;
+      for (std::size_t j = 0; j < nodes.size(); ++j) {
+        const std::size_t a = nodes[j];
+        const std::size_t b = nodes[(j + 1) % nodes.size()];
+        chain.clear();
+        for (std::size_t k = a;; k = (k + 1) % n) {
+          chain.push_back(ring[k]);
+          if (chain.size() > 1 && k == b) break;
+        }
+        // A canonical direction: the same chain in a neighbour (usually reversed) gives the same
+        // points.
+        const bool reverse =
+            lexLess(chain.back(), chain.front()) ||
+            (chain.back() == chain.front() && chain.size() > 2 && lexLess(chain[chain.size() - 2], chain[1]));
+        if (reverse) std::reverse(chain.begin(), chain.end());
+        std::vector<glm::dvec2> simple = simplifyPolyline(chain, epsilon);
+        if (reverse) std::reverse(simple.begin(), simple.end());
+        made.insert(made.end(), simple.begin(), simple.end() - 1);
+      }
+      const double area = twiceArea(made);
+      if (made.size() >= 3 && area != 0.0 && std::isfinite(area)) {
+        result[r] = std::move(made);
+      } else if (attempt < 3) {
+        for (const glm::dvec2& p : ring) again = kept.insert(p).second || again;
+        result[r] = ring;
+      } else {
+        result[r] = ring;
+      }
+    }
+    if (!again) break;
+  }
+  for (std::size_t r = 0; r < rings.size(); ++r) *targets[r] = std::move(result[r]);
   return out;
 }
 

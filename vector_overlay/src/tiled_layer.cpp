@@ -304,15 +304,27 @@ FeatureStyle LayerTiling::tileStyle(const TileKey& key, std::uint32_t i) const {
   return s;
 }
 
+double LayerTiling::generalisation(const TileKey& key) const {
+  // Three quarters of the level's error to simplification (build() gives the arcs the rest).
+  return key.level < finestLevel_ ? 0.75 * tileSize(key.level) / std::max(1, tiling_.tileResolution) : 0.0;
+}
+
 std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uint32_t i) const {
+  if (source_->kind() == LayerKind::Polygon && generalisation(key) > 0.0) {
+    // Generalised with its neighbours (their shared borders once): as the tile's build does.
+    const std::vector<std::uint32_t> near = featuresNear(key);
+    if (std::find(near.begin(), near.end(), i) == near.end()) return std::nullopt;
+    std::vector<std::pair<std::uint32_t, geo::Feature>> all = featuresFor(key, near, nullptr);
+    for (auto& [index, feature] : all)
+      if (index == i) return std::move(feature);
+    return std::nullopt;
+  }
   const auto [lo, hi] = extent(key);
   // Lines drawn wider than in metres: their centres cut to the tile grown by the half width.
   const bool scalable = scalableIn(i, key.width);
   const double grow = scalable ? 0.5 * tileStyle(key, i).shape.width : 0.0;
   if (i >= boxes_.size() || !meets(boxes_[i], lo - 2.0 * grow, hi + 2.0 * grow)) return std::nullopt;
-  // Three quarters of the level's error to simplification (build() gives the arcs the rest).
-  const double epsilon =
-      key.level < finestLevel_ ? 0.75 * tileSize(key.level) / std::max(1, tiling_.tileResolution) : 0.0;
+  const double epsilon = generalisation(key);
   const std::shared_ptr<const geo::Feature> read = source_->sharedFeatures().get(i);  // on disk: read now
   const geo::Feature& feature = *read;
   geo::Feature g;
@@ -339,6 +351,42 @@ std::optional<geo::Feature> LayerTiling::featureFor(const TileKey& key, std::uin
     g.lines.clear();
   }
   return g;
+}
+
+std::vector<std::pair<std::uint32_t, geo::Feature>> LayerTiling::featuresFor(const TileKey& key,
+                                                                             const std::vector<std::uint32_t>& indices,
+                                                                             const std::atomic<bool>* cancel) const {
+  std::vector<std::pair<std::uint32_t, geo::Feature>> out;
+  const auto cancelled = [&] { return cancel != nullptr && cancel->load(std::memory_order_relaxed); };
+  const double epsilon = generalisation(key);
+  if (source_->kind() != LayerKind::Polygon || !(epsilon > 0.0)) {
+    for (const std::uint32_t i : indices) {
+      if (cancelled()) return {};
+      if (std::optional<geo::Feature> g = featureFor(key, i)) out.emplace_back(i, std::move(*g));
+    }
+    return out;
+  }
+  // Polygons: generalised together, so that neighbours' shared borders stay shared (no cracks
+  // between them: generaliseCoverage).
+  const auto [lo, hi] = extent(key);
+  std::vector<std::shared_ptr<const geo::Feature>> read;
+  std::vector<std::uint32_t> kept;
+  for (const std::uint32_t i : indices) {
+    if (cancelled()) return {};
+    if (i >= boxes_.size() || !meets(boxes_[i], lo, hi)) continue;
+    read.push_back(source_->sharedFeatures().get(i));  // on disk: read now
+    kept.push_back(i);
+  }
+  std::vector<const geo::Feature*> features;
+  features.reserve(read.size());
+  for (const auto& f : read) features.push_back(f.get());
+  std::vector<geo::Feature> generalised = generaliseCoverage(features, epsilon);
+  out.reserve(kept.size());
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    generalised[k].lines.clear();
+    out.emplace_back(kept[k], std::move(generalised[k]));
+  }
+  return out;
 }
 
 std::filesystem::path LayerTiling::tileFile(const TileKey& key) const {
@@ -428,12 +476,10 @@ Result<LayerTile> LayerTiling::buildNew(const TileKey& key, const std::atomic<bo
   std::vector<geo::Feature> local;
   std::vector<FeatureStyle> localStyles;
   std::vector<std::uint32_t> index;
-  const auto cancelled = [&] { return cancel != nullptr && cancel->load(std::memory_order_relaxed); };
-  for (const std::uint32_t i : featuresNear(key)) {
-    if (cancelled()) return {std::nullopt, Diagnostics{}};
-    std::optional<geo::Feature> g = featureFor(key, i);
-    if (!g) continue;
-    local.push_back(std::move(*g));
+  std::vector<std::pair<std::uint32_t, geo::Feature>> near = featuresFor(key, featuresNear(key), cancel);
+  if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) return {std::nullopt, Diagnostics{}};
+  for (auto& [i, g] : near) {
+    local.push_back(std::move(g));
     localStyles.push_back(tileStyle(key, i));
     index.push_back(i);
   }

@@ -45,6 +45,18 @@ double lineShapeSlack(LineJoin join, LineCap cap, double miterLimit, double widt
 /// attributes are dropped (the caller keeps its style). epsilon <= 0 copies the geometry.
 geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon);
 
+/// The features' geometry simplified by epsilon as one coverage (their fids kept, attributes
+/// dropped): the rings' borders shared by several rings (a layer's neighbouring polygons, a hole
+/// and the island in it) are simplified once, so that neighbours still meet exactly and no crack
+/// or overlap opens between them. A ring is cut at its nodes — a point where the rings sharing its
+/// edges change, or a point of three rings or more — and each chain between two nodes is
+/// simplified as simplifyPolyline does, from a canonical direction, so every ring holding the
+/// chain gets the same points. A ring that would lose its area keeps all its points, and so do
+/// its neighbours along it. Points are matched exactly (a shared border is the same coordinates
+/// in both rings, as a GIS coverage stores it). Lines are simplified as generaliseGeometry does.
+/// Each ring stays within epsilon of its own, so the error bound above holds per feature.
+std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const> features, double epsilon);
+
 /// Appends to `out` the runs of `line` that can reach the box [lo, hi] once widened by `reach`
 /// (how far any of its shapes reaches from the line: half the width, more for miters and square
 /// caps): the maximal runs of segments whose box widened by reach meets the box. A run's cut end

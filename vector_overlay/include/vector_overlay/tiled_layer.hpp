@@ -156,6 +156,14 @@ class LayerTiling {
   /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the
   /// runs that reach the tile), or none when it does not reach the tile.
   [[nodiscard]] std::optional<geo::Feature> featureFor(const TileKey& key, std::uint32_t i) const;
+  /// Features `indices` as tile `key` draws them, those that reach it, in order: a polygon layer's
+  /// generalised together (generaliseCoverage: shared borders stay shared), so one feature's
+  /// pieces in a tile are the same whether built with the tile or alone (featureFor). Empty once
+  /// `cancel` is set.
+  [[nodiscard]] std::vector<std::pair<std::uint32_t, geo::Feature>> featuresFor(
+      const TileKey& key, const std::vector<std::uint32_t>& indices, const std::atomic<bool>* cancel) const;
+  /// How far tile `key`'s features may be simplified (metres; 0 at the finest level).
+  [[nodiscard]] double generalisation(const TileKey& key) const;
   /// After feature i of the source changed (geometry or style): index it again. Not while tiles
   /// build.
   void update(std::uint32_t i);
