@@ -398,6 +398,9 @@ std::optional<Frame> drawFrame(const Options& o, const Setup& s, scene::SceneRen
   }
   if (o.openVolumes) frame.open = scene::drawOpenVolumes(cache, target, renderer, frame.view);
   frame.images = scene::readFrame(cache, s.scene, renderer, target);
+  // What the technique said while drawing (a tile's problems, a damaged tile file): logged as it
+  // came, kept in stats.json with the load's messages.
+  all.append(renderer.techniqueDiagnostics());
   return frame;
 }
 

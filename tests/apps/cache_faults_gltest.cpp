@@ -154,6 +154,7 @@ const char* nameOf(Damage d) {
 }
 
 TEST_F(CacheFaults, DamagedFilesAreRebuiltWithAWarningAndNeverChangeAPixel) {
+  std::size_t damagedTilesFound = 0;
   for (unsigned seed = 1; seed <= 12; ++seed) {
     const std::string name = "seed-" + std::to_string(seed);
     const fs::path scene = sceneWithCache();
@@ -201,10 +202,20 @@ TEST_F(CacheFaults, DamagedFilesAreRebuiltWithAWarningAndNeverChangeAPixel) {
       EXPECT_TRUE(lineWith(log, f.filename().string(), "cache file damaged (")) << f << "\n" << log;
     }
     EXPECT_EQ(log.find("internal error"), std::string::npos) << log;
+    // Every damaged tile file the run found is in stats.json too (said while drawing).
+    const std::string stats = readText(root_ / (name + "-out") / "stats.json");
+    for (const fs::path& f : damaged) {
+      if (f.extension() == ".tile" && lineWith(log, f.filename().string(), "cache file damaged (")) {
+        EXPECT_NE(stats.find(f.filename().string()), std::string::npos) << f << " is not in stats.json";
+        ++damagedTilesFound;
+      }
+    }
     // The next run finds every file it reads whole: nothing damaged, the same picture.
     const std::string again = renderSame(scene, name + "-again");
     EXPECT_EQ(again.find("damaged"), std::string::npos) << again;
   }
+  std::printf("%zu damaged tile files found while drawing, each in its run's stats.json\n", damagedTilesFound);
+  EXPECT_GT(damagedTilesFound, 0U) << "no seed damaged a tile the run read";
 }
 
 TEST_F(CacheFaults, DamagedChecksOfTheDeferredLookupAreRebuilt) {

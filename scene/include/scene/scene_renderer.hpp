@@ -160,6 +160,10 @@ class SceneRenderer {
   }
   /// GPU bytes the technique holds beyond the layers (textures, tiles).
   [[nodiscard]] std::size_t techniqueGpuBytes() const { return technique_ ? technique_->gpuBytes() : 0; }
+  /// What the technique said while drawing so far, each message once (OverlayTechnique::drawDiagnostics).
+  [[nodiscard]] Diagnostics techniqueDiagnostics() const {
+    return technique_ ? technique_->drawDiagnostics() : Diagnostics{};
+  }
   /// What became of scene layer `sceneLayer`'s features as last built.
   [[nodiscard]] LayerSummary layerSummary(const LoadedScene& scene, std::size_t sceneLayer) const;
   /// Which scene layer each overlay layer draws, and whether it is that layer's outline.

@@ -165,6 +165,10 @@ class OverlayTechnique {
   }
   /// GPU bytes the technique holds beyond the layers' own buffers (textures, tiles).
   [[nodiscard]] virtual std::size_t gpuBytes() const { return 0; }
+  /// What the technique said while drawing so far, each message once (a tiled technique: its
+  /// tiles' problems and the cache files it found damaged). They are logged as they come; this
+  /// keeps them for whoever reports the run (stats.json).
+  [[nodiscard]] virtual Diagnostics drawDiagnostics() const { return {}; }
   /// A technique that drapes one texture over the whole terrain: that texture, as last built.
   [[nodiscard]] virtual const TextureDrape* textureDrape() const { return nullptr; }
 

@@ -117,6 +117,7 @@ class AutoTechnique final : public OverlayTechnique {
     deferred_->featureChanged(layer, feature, lo, hi);
   }
   [[nodiscard]] std::size_t gpuBytes() const override { return stencil_->gpuBytes() + deferred_->gpuBytes(); }
+  [[nodiscard]] Diagnostics drawDiagnostics() const override { return stencil_->drawDiagnostics(); }
 
  private:
   struct Timing {

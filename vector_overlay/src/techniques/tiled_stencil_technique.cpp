@@ -340,6 +340,7 @@ class TiledStencil final : public OverlayTechnique {
       for (const auto& [key, t] : l.tiles) bytes += t.layer ? t.layer->stats().gpuBytes : 0;
     return bytes;
   }
+  [[nodiscard]] Diagnostics drawDiagnostics() const override { return said_; }
 
  private:
   struct Resident {
@@ -354,7 +355,12 @@ class TiledStencil final : public OverlayTechnique {
   /// Logs each problem once (a feature's problem is said once, not once per tile).
   void reportOnce(const Diagnostics& diagnostics) {
     for (const Diagnostic& m : diagnostics.items()) {
-      if (reported_.insert(m.toString()).second) logWarning(m.toString());
+      if (reported_.insert(m.toString()).second) {
+        logWarning(m.toString());
+        // A feature's problems were said by the load's checks already (checkFeature); the
+        // tiles' own (a damaged tile file, a tile that cannot be read) are kept.
+        if (m.feature.empty()) said_.add(m);
+      }
     }
   }
   struct LayerState {
@@ -623,6 +629,7 @@ class TiledStencil final : public OverlayTechnique {
   std::vector<std::vector<const OverlayLayer*>> lastChunks_;  ///< per layer, as last drawn
   std::uint64_t frameNumber_ = 0;
   std::size_t fromDisk_ = 0;  ///< of the tiles the last collect() took, those read from disk
+  Diagnostics said_;          ///< what reportOnce said of the tiles, each once (drawDiagnostics)
   double errorScale_ = 1.0;   ///< on TilingOptions::errorPixels, where the budget needs it
   std::set<std::pair<std::size_t, std::uint64_t>> frameTiles_;  ///< (layer, place) drawn in this frame
   std::set<std::pair<std::size_t, std::uint64_t>> wanted_;      ///< (layer, place) the last gather() wanted
