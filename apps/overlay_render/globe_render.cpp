@@ -131,6 +131,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   for (const Diagnostic& m : loaded.diagnostics.items()) diagnostics.push_back(m.toString());
   for (const Diagnostic& m : analysisDiagnostics.items()) diagnostics.push_back(m.toString());
   json s = {{"frame", "globe"},
+            {"method", "stencil-tiles"},
             {"globe_reason", reason},
             {"width", o.width},
             {"height", o.height},

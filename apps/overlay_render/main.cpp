@@ -657,6 +657,14 @@ int run(const Options& o) {
         logError("the scene is drawn on the globe (" + *globe + "): --msaa is not available there yet");
         return 2;
       }
+      // The globe draws its layers with stencil polyhedra per view-dependent tile, its own way:
+      // another method asked for is refused, never silently replaced.
+      if (o.technique != &overlay::defaultTechnique()) {
+        logError("the scene is drawn on the globe (" + *globe + "): --method " + std::string(o.technique->name) +
+                 " is not available there yet; the globe draws its layers with " +
+                 std::string(overlay::defaultTechnique().name));
+        return 2;
+      }
       report(description.diagnostics);
       return app::runGlobeRender(
           *description, *globe,

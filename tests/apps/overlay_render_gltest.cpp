@@ -999,6 +999,7 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
       << readText(dir / "log.txt");
   const json stats = json::parse(readText(out / "stats.json"));
   ASSERT_EQ(stats["frame"], "globe") << stats.dump(1);
+  EXPECT_EQ(stats["method"], "stencil-tiles");
   const json& selection = stats["selection"];
   EXPECT_EQ(selection["steps"].get<int>(), 2);
   EXPECT_EQ(selection["differing_away_from_edges"].get<std::size_t>(), 0u) << selection.dump(1);
@@ -1063,6 +1064,28 @@ TEST(OverlayRenderGlobe, AFailedExportIsInStatsAndTheExitStatus) {
     named += d.get<std::string>().find("selected_features.json") != std::string::npos ? 1u : 0u;
   }
   EXPECT_GE(named, 1u) << stats["diagnostics"].dump(1);
+}
+
+TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
+  // --method deferred (or drape, auto, ...) on a globe scene: refused with exit status 2 and a
+  // message naming the method and what the globe draws, never silently drawn another way.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_method_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json description = olindaScene();
+  description["frame"] = "globe";
+  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  for (const char* method : {"deferred", "auto", "drape", "stencil"}) {
+    const fs::path log = dir / (std::string(method) + ".txt");
+    EXPECT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 64 --height 48 --method " +
+                                   method + " --out " + (dir / method).string(),
+                               log),
+              2)
+        << readText(log);
+    const std::string text = readText(log);
+    EXPECT_NE(text.find(std::string("--method ") + method + " is not available"), std::string::npos) << text;
+    EXPECT_FALSE(fs::exists(dir / method / "color.png"));
+  }
 }
 
 TEST(OverlayRenderGlobe, APagedDemDrawsTheSameFrame) {
