@@ -51,9 +51,10 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   renderer.overlay().coverOverlap(cache, request.overlapOp, scene::kOverlapColour);
   gfx::enableMaskWrites(target.framebuffer(), true);
 
-  const std::vector<std::uint32_t> expected = globe::referenceMask(depth, view, {&scene.layers[*a], &scene.layers[*b]});
-  const std::vector<std::uint8_t> edges =
-      globe::edgePixels(expected, depth, view, {&scene.layers[*a], &scene.layers[*b]});
+  const overlay::DepthImage image = globe::depthImageOf(view, depth);
+  const std::vector<const globe::GlobeLayer*> pair{&scene.layers[*a], &scene.layers[*b]};
+  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(pair));
+  const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, pair);
   const OverlapCounts counts = countOverlap(flags, expected, edges, request.overlapOp);
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), view.width, view.height, 1, counts.pixels);
   report(png.diagnostics);
@@ -110,10 +111,11 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
   report(drawn.diagnostics);
   diagnostics.append(drawn.diagnostics);
   if (!drawn) return 1;
-  const std::vector<std::uint8_t> twin = globe::selectionMask(depth, view, lassos->steps);
+  const overlay::DepthImage image = globe::depthImageOf(view, depth);
+  const std::vector<std::uint8_t> twin = overlay::selectionMask(image, lassos->steps);
   // The twin's edge band: where its answer changes within a pixel's neighbours.
   const std::vector<std::uint32_t> twinBits(twin.begin(), twin.end());
-  const std::vector<std::uint8_t> edges = globe::edgePixels(twinBits, depth, view.width, view.height);
+  const std::vector<std::uint8_t> edges = overlay::maskEdges(twinBits, image);
   std::size_t selected = 0, differing = 0, differingAwayFromEdges = 0;
   for (std::size_t i = 0; i < twin.size() && i < drawn->pixels.size(); ++i) {
     const bool gpu = drawn->pixels[i] != 0, cpu = twin[i] != 0;

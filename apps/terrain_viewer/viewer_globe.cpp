@@ -217,9 +217,7 @@ std::optional<glm::dvec3> Viewer::globePointAt(const glm::dvec2& pixel) const {
   const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
   const std::optional<float> depth = depthAt(x, y);
   if (!depth || !globe_) return std::nullopt;
-  glm::dvec3 out(0.0);
-  if (!globe::unprojectPixel(globe_->view, x, y, *depth, out)) return std::nullopt;
-  return out;
+  return overlay::unprojectDepth(globe::depthImageOf(globe_->view, {}), x, y, *depth);
 }
 
 std::optional<double> Viewer::globeMetresPerPixelAtCentre() const {

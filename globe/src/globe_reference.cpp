@@ -13,47 +13,19 @@
 
 namespace gis::globe {
 
-namespace {
-
-/// The ECEF point of pixel (col, row) at `depth`, through `inverse` (of view.eyeViewProj()).
-glm::dvec3 unprojectWith(const glm::dmat4& inverse, const GlobeView& view, int col, int row, float depth) {
-  const double x = (col + 0.5) / view.width * 2.0 - 1.0;
-  const double y = 1.0 - (row + 0.5) / view.height * 2.0;
-  const glm::dvec4 p = inverse * glm::dvec4(x, y, static_cast<double>(depth), 1.0);
-  return view.eye + glm::dvec3(p) / p.w;
+overlay::DepthImage depthImageOf(const GlobeView& view, std::span<const float> depth) {
+  overlay::DepthImage image;
+  image.width = view.width;
+  image.height = view.height;
+  image.depth = depth;
+  image.viewProj = view.eyeViewProj();
+  image.origin = view.eye;
+  return image;
 }
 
-/// Calls visit(i, point) for every pixel i (row 0 = top) whose depth shows terrain, with its ECEF point.
-template <typename Visit>
-void forEachGroundPixel(const std::vector<float>& depth, const GlobeView& view, Visit&& visit) {
-  const glm::dmat4 inverse = glm::inverse(view.eyeViewProj());
-  for (int row = 0; row < view.height; ++row) {
-    for (int col = 0; col < view.width; ++col) {
-      const std::size_t i =
-          static_cast<std::size_t>(row) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(col);
-      if (i < depth.size() && depth[i] > 0.0F) visit(i, unprojectWith(inverse, view, col, row, depth[i]));
-    }
-  }
-}
-
-}  // namespace
-
-bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out) {
-  if (!(depth > 0.0F)) return false;  // reversed-Z: 0 is infinitely far (background)
-  out = unprojectWith(glm::inverse(view.eyeViewProj()), view, col, row, depth);
-  return true;
-}
-
-std::vector<std::uint32_t> referenceMask(const std::vector<float>& depth, const GlobeView& view,
-                                         const std::vector<const GlobeLayer*>& layers) {
-  std::vector<std::uint32_t> mask(depth.size(), 0);
-  forEachGroundPixel(depth, view, [&](std::size_t i, const glm::dvec3& point) {
-    const Geodetic g = toGeodetic(point);
-    for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
-      if (layers[l]->contains(point, g.lon, g.lat)) mask[i] |= 1U << l;
-    }
-  });
-  return mask;
+bool GlobeLayer::covers(const glm::dvec3& world) const {
+  const Geodetic g = toGeodetic(world);
+  return contains(world, g.lon, g.lat);
 }
 
 overlay::OverlayView overlayViewOf(const GlobeView& view) {
@@ -80,41 +52,6 @@ overlay::Lasso lassoIn(const GlobeView& view, std::vector<glm::dvec2> points, do
   lasso.width = view.width;
   lasso.height = view.height;
   return lasso;
-}
-
-std::vector<std::uint8_t> selectionMask(const std::vector<float>& depth, const GlobeView& view,
-                                        std::span<const overlay::SelectionStep> steps) {
-  std::vector<std::uint8_t> mask(depth.size(), 0);
-  forEachGroundPixel(depth, view, [&](std::size_t i, const glm::dvec3& point) {
-    if (overlay::selectedAt(steps, point)) mask[i] = 1;
-  });
-  return mask;
-}
-
-std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth, int width,
-                                     int height) {
-  std::vector<std::uint8_t> edges(mask.size(), 0);
-  const auto at = [&](int c, int r) {
-    return static_cast<std::size_t>(r) * static_cast<std::size_t>(width) + static_cast<std::size_t>(c);
-  };
-  for (int r = 0; r < height; ++r) {
-    for (int c = 0; c < width; ++c) {
-      const std::size_t i = at(c, r);
-      const bool terrain = depth[i] > 0.0F;
-      for (int dr = -1; dr <= 1 && edges[i] == 0; ++dr) {
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int cc = c + dc, rr = r + dr;
-          if (cc < 0 || rr < 0 || cc >= width || rr >= height) continue;
-          const std::size_t j = at(cc, rr);
-          if (mask[j] != mask[i] || (depth[j] > 0.0F) != terrain) {
-            edges[i] = 1;
-            break;
-          }
-        }
-      }
-    }
-  }
-  return edges;
 }
 
 namespace {
@@ -256,9 +193,10 @@ BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWid
 
 }  // namespace
 
-std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth,
-                                     const GlobeView& view, const std::vector<const GlobeLayer*>& layers) {
-  std::vector<std::uint8_t> edges = edgePixels(mask, depth, view.width, view.height);
+std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const overlay::DepthImage& image,
+                                     const std::vector<const GlobeLayer*>& layers) {
+  std::vector<std::uint8_t> edges = overlay::maskEdges(mask, image);
+  if (edges.empty()) return edges;
   std::vector<BorderPiece> pieces;
   for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
     const auto layer = static_cast<std::uint32_t>(l);
@@ -279,13 +217,13 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
   if (pieces.empty()) return edges;
   const BorderIndex index(std::move(pieces));
 
-  std::vector<glm::dvec3> points(depth.size());
-  std::vector<char> ground(depth.size(), 0);
-  forEachGroundPixel(depth, view, [&](std::size_t i, const glm::dvec3& point) {
+  std::vector<glm::dvec3> points(image.depth.size());
+  std::vector<char> ground(image.depth.size(), 0);
+  overlay::forEachGroundPixel(image, [&](std::size_t i, const glm::dvec3& point) {
     points[i] = point;
     ground[i] = 1;
   });
-  const int w = view.width, h = view.height;
+  const int w = image.width, h = image.height;
   std::vector<char> outer(layers.size()), inner(layers.size());
   for (int row = 0; row < h; ++row) {
     for (int col = 0; col < w; ++col) {

@@ -109,8 +109,9 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     gfx::RenderTarget target(v.width, v.height, 0, true);
     const std::vector<DrawnTile> tiles = drawTerrain(terrain, target, v);
     const std::vector<float> depth = gfx::readDepth(target);
-    const std::vector<std::uint32_t> expected = referenceMask(depth, v, {&layers.a, &layers.b});
-    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, v, {&layers.a, &layers.b});
+    const std::vector<std::uint32_t> expected =
+        overlay::referenceMask(depthImageOf(v, depth), coverageOf({&layers.a, &layers.b}));
+    const std::vector<std::uint8_t> edges = edgePixels(expected, depthImageOf(v, depth), {&layers.a, &layers.b});
     std::size_t both = 0;
     for (const std::uint32_t e : expected) both += e == 3U ? 1U : 0U;
     // One operator per view (each in more than one view), marked anew each time: the cover zeroes.
@@ -210,9 +211,9 @@ TEST_F(GlobeAnalysisGl, LassoSelectionMatchesItsTwinForEveryOperator) {
       const overlay::SelectionFrameStats s = selection.select(cache_, overlayViewOf(v));
       const std::vector<std::uint8_t> stencil = gfx::readStencil(target);
       selection.clear(cache_);
-      const std::vector<std::uint8_t> twin = selectionMask(depth, v, steps);
+      const std::vector<std::uint8_t> twin = overlay::selectionMask(depthImageOf(v, depth), steps);
       const std::vector<std::uint32_t> bits(twin.begin(), twin.end());
-      const std::vector<std::uint8_t> edges = edgePixels(bits, depth, v.width, v.height);
+      const std::vector<std::uint8_t> edges = overlay::maskEdges(bits, depthImageOf(v, depth));
       std::size_t selected = 0, wrong = 0, edgeWrong = 0;
       for (std::size_t i = 0; i < twin.size(); ++i) {
         const bool gpu = (stencil[i] & overlay::kSelectedBit) != 0;

@@ -123,7 +123,9 @@ class GlobeImageryGl : public test::GlTest {
     const auto groundAt = [&](int col, int row, glm::dvec3& p) {
       if (col >= kSize || row >= kSize) return false;
       const float d = depth[static_cast<std::size_t>(row * kSize + col)];
-      return d > 0.0F && unprojectPixel(view, col, row, d, p);
+      const std::optional<glm::dvec3> seen = overlay::unprojectDepth(depthImageOf(view, {}), col, row, d);
+      if (seen) p = *seen;
+      return seen.has_value();
     };
     std::size_t checked = 0, wrong = 0, outside = 0, outsideWrong = 0;
     int worst = 0;

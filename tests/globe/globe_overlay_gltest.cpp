@@ -57,8 +57,8 @@ class GlobeOverlayGl : public test::GlTest {
     const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
     (void)gfx::writeImage8(std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/" + file + ".png", view.width, view.height, 4,
                            rgba);
-    const std::vector<std::uint32_t> expected = referenceMask(depth, view, layers);
-    const std::vector<std::uint8_t> edges = edgePixels(expected, depth, view, layers);
+    const std::vector<std::uint32_t> expected = overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers));
+    const std::vector<std::uint8_t> edges = edgePixels(expected, depthImageOf(view, depth), layers);
     Outcome o;
     o.tiles = tiles.size();
     o.pieces = overlay.stats().pieces;
@@ -193,7 +193,9 @@ TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {
           static_cast<std::size_t>(row) * static_cast<std::size_t>(v.width) + static_cast<std::size_t>(col);
       if (o.edges[i] != 0 || o.expected[i] == 0) continue;
       glm::dvec3 p;
-      ASSERT_TRUE(unprojectPixel(v, col, row, o.depth[i], p));
+      const std::optional<glm::dvec3> ground = overlay::unprojectDepth(depthImageOf(v, {}), col, row, o.depth[i]);
+      ASSERT_TRUE(ground);
+      p = *ground;
       const Geodetic g = toGeodetic(p);
       if ((o.expected[i] & 2U) != 0) {
         const std::vector<std::uint32_t> road = featuresAt(*roads, p, g.lon, g.lat);

@@ -448,9 +448,9 @@ TEST(GlobeEdgeBand, HoldsLinesNarrowerThanAPixelAndNothingFarFromEdges) {
   const std::vector<float> depth = ellipsoidDepth(view);
   const double pixel = view.pixelSizeAt(2000.0);
   for (const GlobeLayer* layer : {&*road, &*fields}) {
-    const std::vector<std::uint32_t> mask = referenceMask(depth, view, {layer});
-    const std::vector<std::uint8_t> byMask = edgePixels(mask, depth, view.width, view.height);
-    const std::vector<std::uint8_t> band = edgePixels(mask, depth, view, {layer});
+    const std::vector<std::uint32_t> mask = overlay::referenceMask(depthImageOf(view, depth), coverageOf({layer}));
+    const std::vector<std::uint8_t> byMask = overlay::maskEdges(mask, depthImageOf(view, depth));
+    const std::vector<std::uint8_t> band = edgePixels(mask, depthImageOf(view, depth), {layer});
     std::size_t near = 0, far = 0, bandCount = 0, maskCount = 0;
     for (int row = 1; row + 1 < view.height; ++row) {
       for (int col = 1; col + 1 < view.width; ++col) {
@@ -458,7 +458,9 @@ TEST(GlobeEdgeBand, HoldsLinesNarrowerThanAPixelAndNothingFarFromEdges) {
             static_cast<std::size_t>(row) * static_cast<std::size_t>(view.width) + static_cast<std::size_t>(col);
         ASSERT_GT(depth[i], 0.0F);
         glm::dvec3 p;
-        ASSERT_TRUE(unprojectPixel(view, col, row, depth[i], p));
+        const std::optional<glm::dvec3> seen = overlay::unprojectDepth(depthImageOf(view, {}), col, row, depth[i]);
+        ASSERT_TRUE(seen);
+        p = *seen;
         // The distance to the layer's border, by sampling a disc around the point.
         const glm::dmat3 enu = enuBasis(at.x, at.y);
         const auto inside = [&](const glm::dvec3& q) {

@@ -69,14 +69,16 @@ TEST_F(GlobeProjectedGl, OlindaTractsAgreeWithTheProjectedFrame) {
       for (int col = 0; col < 256; ++col) {
         const std::size_t i = static_cast<std::size_t>(row) * 256 + static_cast<std::size_t>(col);
         glm::dvec3 point;
-        if (!unprojectPixel(view, col, row, depth[i], point)) continue;
+        const std::optional<glm::dvec3> seen = overlay::unprojectDepth(depthImageOf(view, {}), col, row, depth[i]);
+        if (!seen) continue;
+        point = *seen;
         const Geodetic g = toGeodetic(point);
         const std::optional<glm::dvec3> f = projected->frame.fromLonLat(g.lon, g.lat, g.h);
         ASSERT_TRUE(f.has_value());
         inFrame[i] = overlay::coveringFeature(reference, glm::dvec2(*f)).has_value() ? 1U : 0U;
       }
     }
-    const std::vector<std::uint8_t> edges = edgePixels(inFrame, depth, 256, 256);
+    const std::vector<std::uint8_t> edges = overlay::maskEdges(inFrame, depthImageOf(view, depth));
     std::size_t covered = 0, away = 0, wrong = 0, edgeWrong = 0;
     for (std::size_t i = 0; i < gpu.size(); ++i) {
       covered += inFrame[i];

@@ -772,7 +772,7 @@ TEST(ReferenceMask, IndexAgreesWithUnindexedCoverage) {
 TEST(ReferenceMask, EmptyAndDegenerateInputs) {
   const Camera camera = makeCamera({0, 0, 50}, {0, 0, 0}, radians(60.0), 16, 16);
   const Rendered r = render(camera, planeScene({0, 0, 1}, 0.0));
-  const std::vector<std::uint32_t> none = ov::referenceMask(r.image(), {});
+  const std::vector<std::uint32_t> none = ov::referenceMask(r.image(), std::span<const ReferenceLayer>{});
   EXPECT_EQ(none, std::vector<std::uint32_t>(256, 0U));
   const std::vector<float> background(256, 0.0F);
   const std::vector<Feature> features{polygonFeature({Polygon{rect(-60, -60, 60, 60), {}}})};

@@ -51,20 +51,21 @@ LineShape featureShape(const ReferenceLayer& layer, std::size_t i) {
 class Unprojector {
  public:
   explicit Unprojector(const DepthImage& image)
-      : inverse_(glm::inverse(image.viewProj)), width_(image.width), height_(image.height) {}
+      : inverse_(glm::inverse(image.viewProj)), origin_(image.origin), width_(image.width), height_(image.height) {}
 
   [[nodiscard]] std::optional<glm::dvec3> at(double px, double py, double depth) const {
     const glm::dvec4 ndc(2.0 * px / static_cast<double>(width_) - 1.0, 1.0 - 2.0 * py / static_cast<double>(height_),
                          depth, 1.0);
     const glm::dvec4 h = inverse_ * ndc;
     if (!(std::abs(h.w) > 0.0)) return std::nullopt;
-    const glm::dvec3 p = glm::dvec3(h) / h.w;
+    const glm::dvec3 p = origin_ + glm::dvec3(h) / h.w;
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return std::nullopt;
     return p;
   }
 
  private:
   glm::dmat4 inverse_;
+  glm::dvec3 origin_;
   int width_;
   int height_;
 };
@@ -480,6 +481,62 @@ std::optional<glm::dvec3> unprojectPixel(const DepthImage& image, int x, int y) 
   const std::optional<double> d = pixelDepth(image, x, y);
   if (!d) return std::nullopt;
   return Unprojector(image).at(x + 0.5, y + 0.5, *d);
+}
+
+std::optional<glm::dvec3> unprojectDepth(const DepthImage& camera, int x, int y, float depth) {
+  if (camera.width <= 0 || camera.height <= 0 || !(depth > 0.0F)) return std::nullopt;
+  return Unprojector(camera).at(x + 0.5, y + 0.5, static_cast<double>(depth));
+}
+
+void forEachGroundPixel(const DepthImage& image, const std::function<void(std::size_t, const glm::dvec3&)>& visit) {
+  if (!validImage(image)) return;
+  const Unprojector unprojector(image);
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      const std::optional<double> d = pixelDepth(image, x, y);
+      if (!d) continue;
+      if (const std::optional<glm::dvec3> p = unprojector.at(x + 0.5, y + 0.5, *d))
+        visit(static_cast<std::size_t>(y) * static_cast<std::size_t>(image.width) + static_cast<std::size_t>(x), *p);
+    }
+  }
+}
+
+std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const WorldCoverage* const> layers) {
+  std::vector<std::uint32_t> mask(image.depth.size(), 0);
+  forEachGroundPixel(image, [&](std::size_t i, const glm::dvec3& point) {
+    for (std::size_t l = 0; l < layers.size() && l < 32; ++l)
+      if (layers[l]->covers(point)) mask[i] |= 1U << l;
+  });
+  return mask;
+}
+
+std::vector<std::uint8_t> maskEdges(std::span<const std::uint32_t> mask, const DepthImage& image) {
+  const int width = image.width, height = image.height;
+  if (width <= 0 || height <= 0 || mask.size() != static_cast<std::size_t>(width) * static_cast<std::size_t>(height) ||
+      image.depth.size() != mask.size())
+    return {};
+  std::vector<std::uint8_t> edges(mask.size(), 0);
+  const auto at = [&](int c, int r) {
+    return static_cast<std::size_t>(r) * static_cast<std::size_t>(width) + static_cast<std::size_t>(c);
+  };
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) {
+      const std::size_t i = at(c, r);
+      const bool ground = image.depth[i] > 0.0F;
+      for (int dr = -1; dr <= 1 && edges[i] == 0; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int cc = c + dc, rr = r + dr;
+          if (cc < 0 || rr < 0 || cc >= width || rr >= height) continue;
+          const std::size_t j = at(cc, rr);
+          if (mask[j] != mask[i] || (image.depth[j] > 0.0F) != ground) {
+            edges[i] = 1;
+            break;
+          }
+        }
+      }
+    }
+  }
+  return edges;
 }
 
 bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2& p, const PixelScale& scale) {

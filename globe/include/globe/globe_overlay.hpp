@@ -17,6 +17,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -116,7 +117,7 @@ struct GlobeLine {
   std::vector<std::vector<std::uint32_t>> buckets;
 };
 
-class GlobeLayer {
+class GlobeLayer final : public overlay::WorldCoverage {
  public:
   /// Features with polygons in (lon, lat) degrees on WGS 84. A broken polygon (fewer than 3
   /// points, a latitude beyond ±90, a coordinate that is not finite) is left out with an Error
@@ -150,6 +151,8 @@ class GlobeLayer {
   /// was built from), or within half the width of one of its lines (exactly; the drawn discs
   /// lie within the chord tolerance inside).
   [[nodiscard]] bool contains(const glm::dvec3& point, double lonDeg, double latDeg) const;
+  /// The same for an ECEF point alone (overlay::referenceMask asks so).
+  [[nodiscard]] bool covers(const glm::dvec3& world) const override;
 
  private:
   std::string name_;
@@ -267,24 +270,25 @@ class GlobeOverlayRenderer {
   GlobeOverlayStats stats_;
 };
 
-/// The CPU reference: per pixel (row 0 = top) bit i set when layers[i] holds the terrain point
-/// the depth buffer (reversed-Z, as gfx::readDepth returns it) shows there; 0 on background.
-std::vector<std::uint32_t> referenceMask(const std::vector<float>& depth, const GlobeView& view,
-                                         const std::vector<const GlobeLayer*>& layers);
-/// Per pixel, 1 where the reference changes within the pixel's 3 × 3 neighbourhood (mask bits, or
-/// terrain against background): the edge band, where GPU and reference may differ.
-std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth, int width,
-                                     int height);
-/// The edge band of the layers' reference: edgePixels(mask, ...) above, and by geometry every
+/// The globe's depth buffer as the CPU reference reads it (overlay::DepthImage): eye-relative
+/// (origin the eye, viewProj view.eyeViewProj()), so every reference function of
+/// vector_overlay/cpu_reference.hpp works on it: unprojectPixel, referenceMask (GlobeLayer is an
+/// overlay::WorldCoverage), maskEdges, and the lasso's selectionMask.
+overlay::DepthImage depthImageOf(const GlobeView& view, std::span<const float> depth);
+
+/// The layers as overlay::referenceMask takes them.
+inline std::vector<const overlay::WorldCoverage*> coverageOf(const std::vector<const GlobeLayer*>& layers) {
+  return {layers.begin(), layers.end()};
+}
+
+/// The edge band of the layers' reference: overlay::maskEdges of `mask`, and by geometry every
 /// pixel whose ground point lies within its footprint's reach (the distance to the farthest of its
 /// 8 neighbours' ground points) of a layer's border: an area's ring, or the border of a line's
 /// union of capsules (|distance to the line − half width| ≤ reach, so a line narrower than a pixel,
 /// which the mask may not show at all, has its band too). Drawn shapes generalised by a fraction of
 /// a pixel (simplifyTolerance, lineShapesAt) stay inside it.
-std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const std::vector<float>& depth,
-                                     const GlobeView& view, const std::vector<const GlobeLayer*>& layers);
-/// The ECEF point a pixel's depth shows (row 0 = top), or nothing on background.
-bool unprojectPixel(const GlobeView& view, int col, int row, float depth, glm::dvec3& out);
+std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const overlay::DepthImage& image,
+                                     const std::vector<const GlobeLayer*>& layers);
 
 }  // namespace gis::globe
 

@@ -27,9 +27,7 @@ double horizonReach(const glm::dvec3& eye, double maxGroundHeight = 9000.0);
 /// A lasso of screen points (pixels, origin top-left) drawn in `view`, reaching horizonReach.
 overlay::Lasso lassoIn(const GlobeView& view, std::vector<glm::dvec2> points, double maxGroundHeight = 9000.0);
 
-/// The CPU twin of SelectionRenderer::select on a globe frame: per pixel (row 0 = top) 1 where the
-/// terrain point the depth buffer shows is selected by the steps, 0 elsewhere and on background.
-std::vector<std::uint8_t> selectionMask(const std::vector<float>& depth, const GlobeView& view,
-                                        std::span<const overlay::SelectionStep> steps);
+// The CPU twin of SelectionRenderer::select on a globe frame is overlay::selectionMask on
+// depthImageOf(view, depth) (globe_overlay.hpp).
 
 }  // namespace gis::globe

@@ -23,6 +23,7 @@
 //   the depth image (pixelScaleOf with the image's height): segments become trapezoids, joins
 //   and caps take their vertex's half width.
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -46,8 +47,12 @@ struct DepthImage {
   /// value that is not a positive number). A span of another size is a caller error (asserted;
   /// empty results in release builds).
   std::span<const float> depth;
-  /// Frame coordinates → clip space, exactly the matrix the image was drawn with (double).
+  /// World coordinates minus `origin` → clip space, exactly the matrix the image was drawn with
+  /// (double).
   glm::dmat4 viewProj{1.0};
+  /// Subtracted from world points before viewProj: 0 in a projected frame (frame coordinates);
+  /// the eye on the globe, which draws relative to it (ECEF; viewProj is then eye-relative).
+  glm::dvec3 origin{0.0};
 };
 
 /// Frame coordinates of the terrain point seen through the centre of pixel (x, y) (x from the
@@ -56,6 +61,38 @@ struct DepthImage {
 /// the inverse of viewProj in double. Float depth limits the precision to about 2^-24 of the
 /// distance from the eye.
 std::optional<glm::dvec3> unprojectPixel(const DepthImage& image, int x, int y);
+
+/// The world point a depth sample (reversed-Z, as stored) shows through the centre of pixel
+/// (x, y) of the image's camera (its size, viewProj and origin; its depth values are not read):
+/// what unprojectPixel does with a depth read elsewhere (the viewer's cursor). Nothing for
+/// background (a depth that is not positive) or a point at infinity.
+std::optional<glm::dvec3> unprojectDepth(const DepthImage& camera, int x, int y, float depth);
+
+/// Calls visit(i, point) for every pixel i (row 0 = top, i = row · width + column) that shows
+/// ground, with its world point (unprojectPixel).
+void forEachGroundPixel(const DepthImage& image, const std::function<void(std::size_t, const glm::dvec3&)>& visit);
+
+/// What the reference asks of a layer in any frame: whether it covers a world point (a pixel's
+/// ground point). The projected frame's layers answer through ReferenceLayer below; the globe's
+/// (globe::GlobeLayer) with their rules on the ellipsoid.
+class WorldCoverage {
+ public:
+  virtual ~WorldCoverage() = default;
+  WorldCoverage() = default;
+  WorldCoverage(const WorldCoverage&) = default;
+  WorldCoverage& operator=(const WorldCoverage&) = default;
+  WorldCoverage(WorldCoverage&&) = default;
+  WorldCoverage& operator=(WorldCoverage&&) = default;
+  [[nodiscard]] virtual bool covers(const glm::dvec3& world) const = 0;
+};
+
+/// Per pixel (row 0 = top), bit i set when layers[i] (i < 32) covers the pixel's ground point;
+/// 0 on background.
+std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const WorldCoverage* const> layers);
+
+/// Per pixel, 1 where the mask differs within its 3 × 3 neighbourhood or ground meets background
+/// there: the edge band a mask alone shows (a selection's, or the start of a layer's).
+std::vector<std::uint8_t> maskEdges(std::span<const std::uint32_t> mask, const DepthImage& image);
 
 /// A layer as the reference sees it: its features and how they are drawn.
 struct ReferenceLayer {
