@@ -769,6 +769,73 @@ TEST(ReferenceMask, IndexAgreesWithUnindexedCoverage) {
   EXPECT_GT(picks, 50);  // overlaps were picked
 }
 
+TEST(ReferenceMask, AnImageRelativeToAnOriginIsTheSameImage) {
+  // The globe's depth images are eye-relative (DepthImage::origin): the same camera made relative
+  // to a far origin (1,000 km away) unprojects every pixel to the same point within 1 µm of the
+  // distance, gives the same mask through WorldCoverage layers as through ReferenceLayer, and
+  // maskEdges marks exactly where the mask or ground changes within a pixel's neighbours.
+  const Camera camera = makeCamera({30, -40, 60}, {0, 0, 0}, radians(60.0), 48, 32);
+  const Rendered r = render(camera, planeScene({0.1, 0.05, 1}, 2.0));
+  const ov::DepthImage plain = r.image();
+  ov::DepthImage far = plain;
+  far.origin = dvec3(1.0e6, -2.0e6, 300.0);
+  glm::dmat4 translate(1.0);
+  translate[3] = glm::dvec4(far.origin, 1.0);
+  far.viewProj = plain.viewProj * translate;
+  std::size_t ground = 0;
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      const std::optional<dvec3> a = ov::unprojectPixel(plain, x, y), b = ov::unprojectPixel(far, x, y);
+      ASSERT_EQ(a.has_value(), b.has_value());
+      if (!a) continue;
+      ++ground;
+      EXPECT_LT(glm::length(*a - *b), 1e-6 * glm::length(*a - dvec3(30, -40, 60)) + 1e-6);
+      const std::optional<dvec3> c = ov::unprojectDepth(far, x, y, r.depth[r.index(x, y)]);
+      ASSERT_TRUE(c);
+      EXPECT_EQ(*c, *b);
+    }
+  }
+  EXPECT_GT(ground, 1000U);
+  EXPECT_FALSE(ov::unprojectDepth(far, 0, 0, 0.0F).has_value()) << "background";
+
+  const std::vector<Feature> features{polygonFeature({Polygon{rect(-20, -15, 10, 25), {}}})};
+  const std::vector<ReferenceLayer> layers{polygonLayer(features)};
+  struct ThroughTheLayer final : ov::WorldCoverage {
+    const ReferenceLayer* layer = nullptr;
+    [[nodiscard]] bool covers(const dvec3& world) const override {
+      return ov::coveringFeature(*layer, glm::dvec2(world)).has_value();
+    }
+  } coverage;
+  coverage.layer = &layers[0];
+  const std::vector<const ov::WorldCoverage*> tests{&coverage};
+  const std::vector<std::uint32_t> byLayer = ov::referenceMask(plain, layers);
+  const std::vector<std::uint32_t> byCoverage = ov::referenceMask(far, tests);
+  std::size_t differing = 0, covered = 0;
+  for (std::size_t i = 0; i < byLayer.size(); ++i) {
+    differing += byLayer[i] != byCoverage[i] ? 1U : 0U;
+    covered += byLayer[i] != 0 ? 1U : 0U;
+  }
+  EXPECT_GT(covered, 100U);
+  EXPECT_LE(differing, 2U) << "only where a point lies within rounding of the border";
+
+  const std::vector<std::uint8_t> edges = ov::maskEdges(byLayer, plain);
+  ASSERT_EQ(edges.size(), byLayer.size());
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
+      bool changes = false;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= camera.width || yy >= camera.height) continue;
+          changes = changes || byLayer[r.index(xx, yy)] != byLayer[r.index(x, y)] ||
+                    (r.depth[r.index(xx, yy)] > 0.0F) != (r.depth[r.index(x, y)] > 0.0F);
+        }
+      EXPECT_EQ(edges[r.index(x, y)] != 0, changes) << x << ", " << y;
+    }
+  }
+  EXPECT_TRUE(ov::maskEdges(std::vector<std::uint32_t>(3, 0U), plain).empty()) << "a mask of another size";
+}
+
 TEST(ReferenceMask, EmptyAndDegenerateInputs) {
   const Camera camera = makeCamera({0, 0, 50}, {0, 0, 0}, radians(60.0), 16, 16);
   const Rendered r = render(camera, planeScene({0, 0, 1}, 0.0));
