@@ -4,6 +4,10 @@
 // attribute (baseInstance), already relative to the eye, so every float stays small near the
 // eye. Caps move out by a pad that grows with the distance from the eye (depth resolution).
 //
+// Both frames draw with it (docs/frames.md): in a projected frame z is up and caps move along it;
+// on the globe (u_alongNormals) a_position holds ECEF metres relative to the tile's origin, and
+// caps move along the surface normal a_up.
+//
 // Lines in pixels: (x, y) is the centre the vertex belongs to, a_scaling its direction, the
 // centre's anchor height and the least half width; the vertex lies at centre + direction · h
 // with the half width h = max(min(u_halfWidthPerMetre · distance from the eye to the anchored
@@ -13,6 +17,7 @@ layout(location = 0) in vec4 a_position;
 layout(location = 1) in vec4 a_color;
 layout(location = 2) in vec3 a_origin;
 layout(location = 3) in vec4 a_scaling;
+layout(location = 4) in vec3 a_up;  // u_alongNormals: the surface normal there
 
 uniform mat4 u_modelViewProj;  // frame → clip, translated to the eye
 uniform float u_padBase;
@@ -21,6 +26,7 @@ uniform float u_padPerMetreSquared;  // fixed-point depth buffers: their steps g
 uniform float u_halfWidthPerMetre;
 uniform float u_maxHalfWidth;
 uniform vec4 u_debugColor;  // alpha > 0: every vertex takes this colour (the debug view of pieces)
+uniform bool u_alongNormals;  // caps padded along a_up (the globe), else along z
 
 out vec4 v_color;
 
@@ -29,7 +35,12 @@ void main() {
   const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
   p.xy += a_scaling.xy * max(min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth), a_scaling.w);
   const float distance = length(p);
-  p.z += a_position.w * (u_padBase + (u_padPerMetre + u_padPerMetreSquared * distance) * distance);
+  const float pad = a_position.w * (u_padBase + (u_padPerMetre + u_padPerMetreSquared * distance) * distance);
+  if (u_alongNormals) {
+    p += a_up * pad;
+  } else {
+    p.z += pad;
+  }
   v_color = u_debugColor.a > 0.0 ? u_debugColor : a_color;
   gl_Position = u_modelViewProj * vec4(p, 1.0);
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <list>
 #include <unordered_map>
@@ -20,6 +21,8 @@ namespace detail {
 struct TileGpu {
   gfx::BufferHandle vertices, indices;
   gfx::VertexArrayHandle vao;
+  glm::dvec3 origin{0.0};  ///< ECEF: its vertices are relative to it (TilePieces::origin)
+  GLuint originSlot = 0;   ///< in this frame's origins (relative to the eye): the draws' base instance
   std::vector<TilePieces::Piece> pieces;
   std::size_t indexCount = 0;
   std::list<std::pair<const GlobeLayer*, std::uint64_t>>::iterator lru;
@@ -40,9 +43,14 @@ struct PairHash {
 }  // namespace
 
 struct GlobeOverlayRenderer::Gpu {
-  gfx::Program program;
-  gfx::Program rect;  ///< the screen pass of the overlap's cover (overlay_cover.vert)
+  gfx::Program program;  ///< the volume shader of both frames (overlay_volume.vert)
+  gfx::Program rect;     ///< the screen pass of the overlap's cover (overlay_cover.vert)
   gfx::VertexArrayHandle emptyVao;
+  /// The drawn tiles' origins relative to the eye, this frame (the shader's a_origin, one per
+  /// instance), and the buffer holding them.
+  std::vector<glm::vec3> frameOrigins;
+  gfx::BufferHandle origins;
+  std::size_t originsCapacity = 0;
   std::unordered_map<std::pair<const GlobeLayer*, std::uint64_t>, TileGpu, PairHash> tiles;
   std::list<std::pair<const GlobeLayer*, std::uint64_t>> lru;  ///< most recently drawn first
 };
@@ -82,22 +90,24 @@ void drawPieces(gfx::StateCache& cache, const std::vector<DrawnPieces>& drawn, b
       if (from == to) continue;
     }
     cache.bindVertexArray(d.tile->vao.id());
+    const GLuint origin = d.tile->originSlot;
+    const auto drawIndices = [origin](std::uint32_t firstIndex, std::uint32_t count) {
+      glDrawElementsInstancedBaseInstance(
+          GL_TRIANGLES, static_cast<GLsizei>(count), GL_UNSIGNED_INT,
+          reinterpret_cast<const void*>(static_cast<std::uintptr_t>(firstIndex) * sizeof(std::uint32_t)), 1, origin);
+    };
     const bool whole = first <= begin && end <= last;
     const bool allZPass =
         d.allZPass || std::none_of(d.zFail.begin() + static_cast<std::ptrdiff_t>(from),
                                    d.zFail.begin() + static_cast<std::ptrdiff_t>(to), [](char z) { return z != 0; });
     if (whole && !wantZFail && allZPass) {  // the tile's (group's) pieces in one draw
       const std::uint32_t firstIndex = pieces[from].firstIndex;
-      const std::uint32_t count = pieces[to - 1].firstIndex + pieces[to - 1].indexCount - firstIndex;
-      glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(count), GL_UNSIGNED_INT,
-                     reinterpret_cast<const void*>(static_cast<std::uintptr_t>(firstIndex) * sizeof(std::uint32_t)));
+      drawIndices(firstIndex, pieces[to - 1].firstIndex + pieces[to - 1].indexCount - firstIndex);
       continue;
     }
     for (std::size_t k = from; k < to; ++k) {
       if (begin + k < first || begin + k >= last || (d.zFail[k] != 0) != wantZFail) continue;
-      glDrawElements(
-          GL_TRIANGLES, static_cast<GLsizei>(pieces[k].indexCount), GL_UNSIGNED_INT,
-          reinterpret_cast<const void*>(static_cast<std::uintptr_t>(pieces[k].firstIndex) * sizeof(std::uint32_t)));
+      drawIndices(pieces[k].firstIndex, pieces[k].indexCount);
     }
   }
 }
@@ -106,18 +116,41 @@ void drawPieces(gfx::StateCache& cache, const std::vector<DrawnPieces>& drawn, b
 
 bool GlobeOverlayRenderer::begin(const GlobeView& view, const GlobeOverlaySettings& settings) {
   if (!gpu_->program.id()) {
-    Result<gfx::Program> built = gfx::Program::build({{"globe_volume.vert", {}}, {"overlay_volume.frag", {}}});
+    Result<gfx::Program> built = gfx::Program::build({{"overlay_volume.vert", {}}, {"overlay_volume.frag", {}}});
     if (!built.ok()) return false;  // a broken build of the shaders: the GL tests report it
     gpu_->program = std::move(*built);
   }
   gfx::Program& program = gpu_->program;
-  program.set("u_eyeViewProj", glm::mat4(view.eyeViewProj()));
-  const SplitPosition eye = view.eyeSplit();
-  program.set("u_eyeHigh", eye.high);
-  program.set("u_eyeLow", eye.low);
+  // Positions relative to the tile's origin, the origin relative to the eye: the matrix is the
+  // eye-relative one, and caps move along the normals.
+  program.set("u_modelViewProj", glm::mat4(view.eyeViewProj()));
+  program.set("u_alongNormals", 1);
   program.set("u_padBase", static_cast<float>(settings.padBase));
   program.set("u_padPerMetre", static_cast<float>(settings.padPerMetre));
+  program.set("u_padPerMetreSquared", 0.0F);
+  program.set("u_halfWidthPerMetre", 0.0F);
+  program.set("u_maxHalfWidth", 0.0F);
+  program.set("u_debugColor", glm::vec4(0.0F));
+  gpu_->frameOrigins.clear();
   return true;
+}
+
+void GlobeOverlayRenderer::uploadOrigins(const std::vector<detail::DrawnPieces>& drawn) {
+  const std::size_t bytes = gpu_->frameOrigins.size() * sizeof(glm::vec3);
+  if (bytes == 0) return;
+  if (!gpu_->origins || gpu_->originsCapacity < bytes) {
+    gpu_->originsCapacity = std::max(bytes, 2 * gpu_->originsCapacity);
+    gpu_->origins = gfx::createBuffer();
+    glNamedBufferData(gpu_->origins.id(), static_cast<GLsizeiptr>(gpu_->originsCapacity), nullptr, GL_STREAM_DRAW);
+  }
+  glNamedBufferSubData(gpu_->origins.id(), 0, static_cast<GLsizeiptr>(bytes), gpu_->frameOrigins.data());
+  for (const detail::DrawnPieces& d : drawn)
+    glVertexArrayVertexBuffer(d.tile->vao.id(), 1, gpu_->origins.id(), 0, sizeof(glm::vec3));
+}
+
+void GlobeOverlayRenderer::setColour(const glm::vec4& colour) {
+  // The volume shader's a_color, left disabled: its current value is the colour of every vertex.
+  glVertexAttrib4f(1, colour.x, colour.y, colour.z, colour.w);
 }
 
 std::vector<detail::DrawnPieces> GlobeOverlayRenderer::prepare(const GlobeView& view,
@@ -146,14 +179,21 @@ std::vector<detail::DrawnPieces> GlobeOverlayRenderer::prepare(const GlobeView& 
         const GLuint vao = gpu.vao.id();
         glVertexArrayVertexBuffer(vao, 0, gpu.vertices.id(), 0, sizeof(PieceVertex));
         glVertexArrayElementBuffer(vao, gpu.indices.id());
-        const GLuint offsets[4] = {0, 12, 24, 36};
-        const GLint sizes[4] = {3, 3, 3, 1};
-        for (GLuint a = 0; a < 4; ++a) {
+        // a_position (x, y, z, side) and a_up (the normal) per vertex; a_origin per instance
+        // (binding 1: this frame's origins, uploadOrigins); a_color and a_scaling disabled.
+        const std::array<std::pair<GLuint, std::pair<GLint, GLuint>>, 2> attributes{
+            {{0, {4, 0}}, {4, {3, static_cast<GLuint>(offsetof(PieceVertex, normal))}}}};
+        for (const auto& [a, format] : attributes) {
           glEnableVertexArrayAttrib(vao, a);
-          glVertexArrayAttribFormat(vao, a, sizes[a], GL_FLOAT, GL_FALSE, offsets[a]);
+          glVertexArrayAttribFormat(vao, a, format.first, GL_FLOAT, GL_FALSE, format.second);
           glVertexArrayAttribBinding(vao, a, 0);
         }
+        glEnableVertexArrayAttrib(vao, 2);
+        glVertexArrayAttribFormat(vao, 2, 3, GL_FLOAT, GL_FALSE, 0);
+        glVertexArrayAttribBinding(vao, 2, 1);
+        glVertexArrayBindingDivisor(vao, 1, 1);
       }
+      gpu.origin = pieces.origin;
       gpu_->lru.push_front(key);
       gpu.lru = gpu_->lru.begin();
       found = gpu_->tiles.emplace(key, std::move(gpu)).first;
@@ -161,6 +201,9 @@ std::vector<detail::DrawnPieces> GlobeOverlayRenderer::prepare(const GlobeView& 
       gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
     }
     if (found->second.indexCount == 0) continue;
+    // Its origin relative to the eye, in double and then rounded once.
+    found->second.originSlot = static_cast<GLuint>(gpu_->frameOrigins.size());
+    gpu_->frameOrigins.push_back(glm::vec3(found->second.origin - view.eye));
     // z-pass or z-fail, per piece.
     DrawnPieces d;
     d.tile = &found->second;
@@ -198,13 +241,14 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
     const GlobeLayer* layer = layers[l];
     const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, *layer, settings, stats_);
+    uploadOrigins(drawn);
     cache.useProgram(program);
     program.set("u_maskBit", static_cast<float>(1U << l));
     // One mark and cover a colour (one for a layer of one colour).
     const std::size_t groups = std::max<std::size_t>(layer->colors().size(), 1);
     for (std::size_t g = 0; g < groups; ++g) {
       const auto group = groups == 1 ? kAllGroups : static_cast<std::uint32_t>(g);
-      program.set("u_color", layer->colors().empty() ? layer->color() : layer->colors()[g]);
+      setColour(layer->colors().empty() ? layer->color() : layer->colors()[g]);
       // z-pass keeps the bottom caps: a ray that misses the ground (the sky past the limb) must
       // leave every polyhedron it entered.
       cache.apply(overlay::kMarkZPass);
@@ -220,6 +264,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
       drawPieces(cache, drawn, true, 0, SIZE_MAX, group);
     }
   }
+  setColour(glm::vec4(0.0F, 0.0F, 0.0F, 1.0F));  // the attribute's default again
   trim(layers.size(), settings);
 }
 
@@ -231,13 +276,13 @@ GlobeAnalysisStats GlobeOverlayRenderer::markOverlap(gfx::StateCache& cache, con
   if (!begin(view, settings)) return out;
   gfx::Program& program = gpu_->program;
   cache.useProgram(program);
-  program.set("u_color", glm::vec4(0.0F));
   program.set("u_maskBit", 0.0F);
   const std::array<std::pair<const GlobeLayer*, const overlay::FlagMarkStates*>, 2> marked{
       {{&a, &overlay::kOverlapMarkA}, {&b, &overlay::kOverlapMarkB}}};
   for (std::size_t m = 0; m < marked.size(); ++m) {
     GlobeOverlayStats& stats = m == 0 ? out.a : out.b;
     const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, *marked[m].first, settings, stats);
+    uploadOrigins(drawn);
     const overlay::FlagMarkStates& states = *marked[m].second;
     // Groups of at most countMask pieces: each counts in the low bits (every piece holds a pixel
     // once at most, so the count of a group never wraps to 0 where a piece holds it), and its
@@ -300,8 +345,8 @@ GlobeOverlayStats GlobeOverlayRenderer::countOpenFaces(gfx::StateCache& cache, c
   GlobeOverlayStats stats;
   if (!begin(view, settings)) return stats;
   const std::vector<DrawnPieces> drawn = prepare(view, tiles, heights, layer, settings, stats);
+  uploadOrigins(drawn);
   cache.useProgram(gpu_->program);
-  gpu_->program.set("u_color", glm::vec4(0.0F));
   gpu_->program.set("u_maskBit", 0.0F);
   cache.apply(overlay::kCountFaces);
   drawPieces(cache, drawn, false);

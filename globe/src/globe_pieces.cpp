@@ -489,7 +489,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
         const glm::dvec3 p = toEcef(lon, lat, h);
         piece.boxLo = glm::min(piece.boxLo, p);
         piece.boxHi = glm::max(piece.boxHi, p);
-        out.vertices.push_back(PieceVertex{splitPosition(p), n, h == lo ? -1.0F : 1.0F});
+        out.vertices.push_back(PieceVertex{glm::vec4(glm::vec3(p - out.origin), h == lo ? -1.0F : 1.0F), n});
       }
     }
     return base + 2 * static_cast<std::uint32_t>(v->info().index);
@@ -521,6 +521,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
 TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights) {
   TilePieces out;
   const LonLatRect rect = key.rect();
+  out.origin = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
   const double postStep = key.postStep();
   // Neighbouring pieces overlap by a little more than float rounding at the distances this
   // level is drawn from (meridians), and than a parallel's chords stray (parallels).

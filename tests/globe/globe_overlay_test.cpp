@@ -135,10 +135,7 @@ TEST(GlobePolygons, EdgesFollowGeodesics) {
 /// Whether a point lies inside any of the pieces (closed triangle meshes): parity of the
 /// crossings of a ray with each.
 bool insideMesh(const TilePieces& t, const glm::dvec3& point, const glm::dvec3& dir) {
-  const auto at = [&](std::uint32_t i) {
-    const SplitPosition& s = t.vertices[i].position;
-    return glm::dvec3(s.high) + glm::dvec3(s.low);
-  };
+  const auto at = [&](std::uint32_t i) { return t.origin + glm::dvec3(glm::vec3(t.vertices[i].position)); };
   for (const TilePieces::Piece& p : t.pieces) {
     int crossings = 0;
     for (std::uint32_t k = p.firstIndex; k + 2 < p.firstIndex + p.indexCount; k += 3) {

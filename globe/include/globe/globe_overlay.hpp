@@ -166,13 +166,15 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesAt's, made as asked for
 };
 
-/// A vertex of a piece as the GPU reads it.
+/// A vertex of a piece as the GPU reads it (the volume shader of both frames,
+/// shaders/overlay_volume.vert): its position relative to its tile's origin (TilePieces::origin,
+/// which the renderer makes relative to the eye per frame) and its side, and the surface normal
+/// the caps are padded along.
 struct PieceVertex {
-  SplitPosition position;
-  glm::vec3 normal{0.0F};  ///< the surface normal: caps are padded along it
-  float side = 0.0F;       ///< −1 bottom, +1 top (padded outward), 0 none
+  glm::vec4 position{0.0F};  ///< x, y, z − TilePieces::origin (ECEF metres); w: −1 bottom, +1 top, 0 none
+  glm::vec3 normal{0.0F};
 };
-static_assert(sizeof(PieceVertex) == 40);
+static_assert(sizeof(PieceVertex) == 28);
 
 /// The pieces of one layer over one tile.
 struct TilePieces {
@@ -184,6 +186,7 @@ struct TilePieces {
     double lo = 0.0, hi = 0.0;          ///< heights of its caps
     std::uint32_t group = 0;            ///< its polygon's colour (pieces are in order of it)
   };
+  glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)
   std::vector<PieceVertex> vertices;
   std::vector<std::uint32_t> indices;
   std::vector<Piece> pieces;
@@ -262,6 +265,10 @@ class GlobeOverlayRenderer {
   std::vector<detail::DrawnPieces> prepare(const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                            const GeoGrid& heights, const GlobeLayer& layer,
                                            const GlobeOverlaySettings& settings, GlobeOverlayStats& stats);
+  /// Uploads this frame's tile origins (relative to the eye) and points the drawn tiles at them.
+  void uploadOrigins(const std::vector<detail::DrawnPieces>& drawn);
+  /// The colour the volume shader gives every vertex (its disabled a_color's current value).
+  static void setColour(const glm::vec4& colour);
   /// One screen-filling pass in the current state, with `colour` and `maskValue`.
   void drawScreen(gfx::StateCache& cache, const glm::vec4& colour, float maskValue);
   /// Drops the least recently drawn tiles' pieces beyond the budget.
