@@ -297,25 +297,8 @@ void Viewer::notify(const std::string& text, bool error) {
   notice_ = Notice{text, glfwGetTime() + 4.0, error};
 }
 
-void Viewer::drawNotice() {
-  if (!notice_) return;
-  if (glfwGetTime() > notice_->until) {
-    notice_.reset();
-    return;
-  }
-  const ImGuiViewport* viewport = ImGui::GetMainViewport();
-  ImGui::SetNextWindowPos(ImVec2(viewport->GetCenter().x, viewport->WorkPos.y + 12.0F), ImGuiCond_Always,
-                          ImVec2(0.5F, 0.0F));
-  ImGui::SetNextWindowBgAlpha(0.85F);
-  ImGui::Begin("notice", nullptr,
-               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs |
-                   ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoSavedSettings);
-  ImGui::PushTextWrapPos(0.6F * viewport->WorkSize.x);
-  if (notice_->error) ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.0F, 0.45F, 0.4F, 1.0F));
-  ImGui::TextUnformatted(notice_->text.c_str());
-  if (notice_->error) ImGui::PopStyleColor();
-  ImGui::PopTextWrapPos();
-  ImGui::End();
+void Viewer::expireNotice() {
+  if (notice_ && glfwGetTime() > notice_->until) notice_.reset();
 }
 
 void Viewer::drawLoading() {
@@ -462,7 +445,7 @@ void Viewer::frame(double seconds) {
   feedImGuiMouse();
   ImGui::NewFrame();
   drawLoading();
-  drawNotice();
+  expireNotice();
   drawFileBrowser();
   if (globe_) {
     drawGlobeUi();

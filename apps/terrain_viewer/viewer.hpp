@@ -400,6 +400,8 @@ class Viewer {
   void drawLabels();
   /// The current ImGui window's rectangle, which labels keep clear of in the next frame.
   void rememberWindow(const std::string& name);
+  /// The windows as last drawn (rememberWindow): name → [x0, y0, x1, y1] in window points.
+  [[nodiscard]] nlohmann::json windowsJson() const;
 
   // Map tools (viewer_map_tools.cpp).
   /// Coordinates under the cursor: lon/lat, the scene CRS's easting and northing, true height.
@@ -499,7 +501,8 @@ class Viewer {
   void message(const Diagnostics& diagnostics, const std::string& where = {}, bool errors = false);
   /// A message that also shows for a few seconds at the top of the window (export, screenshot).
   void notify(const std::string& text, bool error = false);
-  void drawNotice();
+  /// Drops the notice once its time is up (it is shown in the status bar, drawStatusBar).
+  void expireNotice();
 
   [[nodiscard]] glm::ivec2 framebufferSize() const;
   /// Window (screen) coordinates → framebuffer pixels (high-DPI).

@@ -526,6 +526,7 @@ json Viewer::globeState() const {
   nlohmann::json rects = nlohmann::json::object();
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
   return {{"scene", description_->path},
+          {"windows", windowsJson()},
           {"mode", "globe"},
           {"frame", "globe"},
           {"globe_reason", g.scene.reason},

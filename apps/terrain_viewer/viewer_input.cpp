@@ -238,6 +238,9 @@ overlay::SelectionOp lassoOpOf(const app::Modifiers& m) {
 }
 
 void Viewer::handleInput(double seconds, const InputFrame& in) {
+  // A notice lasts until the next click or key (or its few seconds), in both frames.
+  if ((in.left && !leftDown_) || (in.right && !rightDown_) || (in.middle && !middleDown_) || !in.pressed.empty())
+    notice_.reset();
   if (globe_) {
     handleGlobeInput(in);
     return;

@@ -129,7 +129,28 @@ void Viewer::drawStatusBar() {
   ImGui::Begin("status", nullptr,
                ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoInputs | ImGuiWindowFlags_NoFocusOnAppearing |
                    ImGuiWindowFlags_NoNav | ImGuiWindowFlags_NoSavedSettings);
-  if (globe_ && globe_->cursor) {
+  rememberWindow("status");
+  if (notice_) {
+    // A notice (a screenshot or an export saved, an action that failed) takes the status bar's
+    // line for a few seconds: it covers neither the scene nor the legend and the HUD. A text
+    // longer than the line keeps its end (a path's file name), the whole of it is in the log.
+    const float room = ImGui::GetContentRegionAvail().x;
+    std::string text = notice_->text;
+    if (ImGui::CalcTextSize(text.c_str()).x > room) {
+      std::size_t from = 0;
+      const auto next = [&] {  // the next character's first byte (UTF-8)
+        ++from;
+        while (from < text.size() && (static_cast<unsigned char>(text[from]) & 0xC0U) == 0x80U) ++from;
+      };
+      while (from < text.size() && ImGui::CalcTextSize(("..." + text.substr(from)).c_str()).x > room) next();
+      text = "..." + text.substr(from);
+    }
+    if (notice_->error) {
+      ImGui::TextColored(ImVec4(1.0F, 0.45F, 0.4F, 1.0F), "%s", text.c_str());
+    } else {
+      ImGui::TextUnformatted(text.c_str());
+    }
+  } else if (globe_ && globe_->cursor) {
     const globe::Geodetic& g = *globe_->cursor;
     ImGui::Text("%s   height %.2f m (WGS 84 ellipsoid)", formatLonLat(glm::dvec3(g.lon, g.lat, g.h)).c_str(), g.h);
   } else if (globe_) {

@@ -10,6 +10,7 @@
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
+#include <nlohmann/json.hpp>
 
 #include "viewer.hpp"
 
@@ -430,6 +431,12 @@ std::uint64_t Viewer::overlayFragments() const {
   std::uint64_t fragments = 0;
   for (const overlay::LayerFrameStats& l : stats_.layers) fragments += l.markFragments + l.coverFragments;
   return fragments;
+}
+
+nlohmann::json Viewer::windowsJson() const {
+  nlohmann::json windows = nlohmann::json::object();
+  for (const auto& [name, r] : windowRects_) windows[name] = {r.x, r.y, r.z, r.w};
+  return windows;
 }
 
 void Viewer::beginHud() {

@@ -189,6 +189,7 @@ nlohmann::json Viewer::state() const {
       {"free_region", {free.x, free.y, free.z, free.w}},
       {"exaggeration", scene_->bounds->exaggeration()},
       {"ui_rects", rects},
+      {"windows", windowsJson()},
       {"notice", notice_ ? nlohmann::json(notice_->text) : nlohmann::json()},
       {"keys_down", keysDownJson()},
       {"undo_steps", undo_.size()},

@@ -172,6 +172,69 @@ class ViewerScriptTest : public GlTest {
   }
 };
 
+TEST_F(ViewerScriptTest, TheScreenshotNoticeIsInTheStatusBar) {
+  // "Screenshot saved to …" (a long path) with the panel, the legend and the HUD shown, in a
+  // small window: the notice takes the status bar's line (its end, the file name, kept), so the
+  // window drawn with it differs from the window drawn before it only in the status bar (and in
+  // the HUD, whose frame time changes, and the panel, whose message list gains the line): it
+  // covers neither the legend, nor the HUD, nor the scene.
+  // A click or a key ends it.
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  const fs::path dir = outputDir("viewer_notice");
+  const json script = {
+      {"window", {kWidth, kHeight}},
+      {"steps", json::array({{{"wait", 1}},
+                             {{"action", "view"}, {"panel", true}, {"hud", true}, {"legend", true}},
+                             {{"wait", 2}},
+                             {{"action", "screenshot"}, {"path", "before.png"}, {"ui", true}},
+                             {{"wait", 2}},
+                             {{"action", "screenshot"}, {"path", "a-long-name-for-the-shot.png"}, {"ui", true}},
+                             {{"wait", 2}},
+                             {{"action", "save_state"}, {"path", "state.json"}},
+                             {{"action", "key"}, {"key", "l"}},
+                             {{"wait", 1}},
+                             {{"action", "save_state"}, {"path", "after_key.json"}},
+                             {{"action", "quit"}}})}};
+  ASSERT_TRUE(runViewer(dir, script));
+  const json state = json::parse(readText(dir / "state.json"));
+  ASSERT_NE(state["notice"].get<std::string>().find("a-long-name-for-the-shot.png"), std::string::npos)
+      << state["notice"];
+  EXPECT_TRUE(json::parse(readText(dir / "after_key.json"))["notice"].is_null()) << "a key ends the notice";
+  const json& windows = state["windows"];
+  ASSERT_TRUE(windows.contains("status") && windows.contains("hud") && windows.contains("panel") &&
+              windows.contains("legend"))
+      << windows.dump();
+  // The second shot was drawn while the first one's notice showed; the third while its own did.
+  const gfx::Image8 before = *gfx::readImage8((dir / "before.png").string());
+  const gfx::Image8 with = *gfx::readImage8((dir / "a-long-name-for-the-shot.png").string());
+  ASSERT_EQ(before.pixels.size(), with.pixels.size());
+  const auto inside = [](const json& r, int x, int y) {
+    return x >= r[0].get<double>() - 1.0 && x < r[2].get<double>() + 1.0 && y >= r[1].get<double>() - 1.0 &&
+           y < r[3].get<double>() + 1.0;
+  };
+  std::size_t inStatus = 0, elsewhere = 0;
+  int x0 = kWidth, y0 = kHeight, x1 = -1, y1 = -1;  // where "elsewhere" is
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x);
+      if (maxDifference(rgbAt(before, i), rgbAt(with, i)) == 0.0) continue;
+      if (inside(windows["status"], x, y)) {
+        ++inStatus;
+      } else if (!inside(windows["hud"], x, y) && !inside(windows["panel"], x, y)) {
+        ++elsewhere;
+        x0 = std::min(x0, x);
+        y0 = std::min(y0, y);
+        x1 = std::max(x1, x);
+        y1 = std::max(y1, y);
+      }
+    }
+  }
+  std::printf("notice: %zu pixels changed in the status bar, %zu elsewhere\n", inStatus, elsewhere);
+  EXPECT_GT(inStatus, 100U) << "the notice is not in the status bar";
+  EXPECT_EQ(elsewhere, 0U) << "the notice covers something in [" << x0 << ", " << y0 << "] - [" << x1 << ", " << y1
+                           << "]; windows " << windows.dump();
+}
+
 TEST_F(ViewerScriptTest, ScreenshotsShowTerrainOverlaysPanelAndSelection) {
   ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
   const fs::path dir = outputDir("viewer");
