@@ -165,7 +165,8 @@ void Viewer::globeHome() {
     return;
   }
   const std::array<double, 4>& e = g.scene.extent;
-  g.controller->home(e[0], e[1], e[2], e[3], glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)));
+  // Framed in the part of the window the panel leaves free, as in a projected frame.
+  g.controller->home(e[0], e[1], e[2], e[3], glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
 }
 
 void Viewer::notOnGlobe(const std::string& tool) {

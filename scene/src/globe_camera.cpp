@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -418,7 +421,8 @@ void GlobeCameraController::grab(const glm::dvec2& fromPixel, const glm::dvec2& 
   accept(limited(p));
 }
 
-void GlobeCameraController::home(double west, double south, double east, double north, const glm::ivec2& viewport) {
+void GlobeCameraController::home(double west, double south, double east, double north, const glm::ivec2& viewport,
+                                 const std::optional<glm::dvec4>& region) {
   if (!std::isfinite(west) || !std::isfinite(south) || !std::isfinite(east) || !std::isfinite(north)) return;
   south = std::clamp(south, -90.0, 90.0);
   north = std::clamp(north, -90.0, 90.0);
@@ -432,6 +436,7 @@ void GlobeCameraController::home(double west, double south, double east, double 
   p.target.h = groundHeight(p.target.lon, p.target.lat);
   p.heading = 0.0;
   p.pitch = kPi / 2.0;
+  const globe::Geodetic middle = p.target;
 
   // The box's outline (its parallels bulge: sampled) and middle, on the ground.
   constexpr int kSamples = 16;
@@ -452,31 +457,83 @@ void GlobeCameraController::home(double west, double south, double east, double 
   add(p.target.lon, p.target.lat);
 
   const double aspect = aspectOf(viewport), tanHalf = tanHalfFov(settings_.fovYDeg);
-  constexpr double kMargin = 0.9;  // of the viewport the box may fill
-  const auto fits = [&](double distance) {
-    GlobePose q = p;
-    q.distance = distance;
-    const Frame f = frameOf(q);
-    for (const glm::dvec3& x : points) {
-      if (globe::hiddenByEllipsoid(f.eye, x, lowest - 1.0)) return false;
-      const std::optional<glm::dvec2> at = ndcOf(f, x, tanHalf, aspect);
-      if (!at || std::abs(at->x) > kMargin || std::abs(at->y) > kMargin) return false;
-    }
-    return true;
+  // The region (pixels) and the part of it the box may fill.
+  const glm::dvec4 r =
+      region && region->z > region->x && region->w > region->y ? *region : glm::dvec4(0.0, 0.0, viewport.x, viewport.y);
+  constexpr double kMargin = 0.05;  // of the region, on each side
+  const glm::dvec2 regionMiddle(0.5 * (r.x + r.z), 0.5 * (r.y + r.w));
+  const glm::dvec2 room = (1.0 - 2.0 * kMargin) * glm::dvec2(r.z - r.x, r.w - r.y);
+  const auto pixelOf = [&](const glm::dvec2& ndc) {
+    return glm::dvec2((0.5 * ndc.x + 0.5) * viewport.x, (0.5 - 0.5 * ndc.y) * viewport.y);
   };
-  // The whole globe fits when its outline (seen under asin(a / r) from r) is within the narrower half
-  // field of view.
+  // The box's extent in pixels from pose q, if all of it is in view.
+  const auto extentFrom = [&](const GlobePose& q) -> std::optional<std::pair<glm::dvec2, glm::dvec2>> {
+    const Frame f = frameOf(q);
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const glm::dvec3& x : points) {
+      if (globe::hiddenByEllipsoid(f.eye, x, lowest - 1.0)) return std::nullopt;
+      const std::optional<glm::dvec2> at = ndcOf(f, x, tanHalf, aspect);
+      if (!at) return std::nullopt;
+      lo = glm::min(lo, pixelOf(*at));
+      hi = glm::max(hi, pixelOf(*at));
+    }
+    return std::make_pair(lo, hi);
+  };
+  // At `distance`: the target slid (east and north: the view looks straight down, north up) so that
+  // the box's middle is in the region's middle; the pose, and whether the box then fits the room.
+  const auto placed = [&](double distance) {
+    GlobePose q = p;
+    q.target = middle;
+    q.distance = distance;
+    const double metresPerPixel = 2.0 * distance * tanHalf / std::max(viewport.y, 1);
+    // Secant steps per axis: a move of the target shifts the box on screen less than the ground
+    // scale at the target says where the globe curves away; the gain learns by how much.
+    glm::dvec2 gain(1.0), lastOff(0.0), lastStep(0.0);
+    GlobePose good = q;
+    for (int step = 0; step < 40; ++step) {
+      const std::optional<std::pair<glm::dvec2, glm::dvec2>> e = extentFrom(q);
+      if (!e) {
+        q = good;  // a step too far: the box left the view
+        break;
+      }
+      good = q;
+      const glm::dvec2 off = 0.5 * (e->first + e->second) - regionMiddle;  // pixels, y down
+      if (glm::length(off) < 0.1) break;
+      if (step > 0) {
+        for (int a = 0; a < 2; ++a) {
+          const double moved = lastOff[a] - off[a];
+          if (std::abs(lastStep[a]) > 1.0 && std::abs(moved) > 0.5 && moved * lastStep[a] > 0.0)
+            gain[a] = std::clamp(gain[a] * lastStep[a] / moved, 0.5, 4.0);
+        }
+      }
+      const glm::dvec2 stepPx = off * gain;
+      const double lat = q.target.lat * kPi / 180.0;
+      q.target.lon = wrapLon(q.target.lon + stepPx.x * metresPerPixel /
+                                                (globe::kSemiMajor * std::max(std::cos(lat), 1e-6)) * 180.0 / kPi);
+      q.target.lat =
+          std::clamp(q.target.lat - stepPx.y * metresPerPixel / globe::kSemiMajor * 180.0 / kPi, -89.9, 89.9);
+      q.target.h = groundHeight(q.target.lon, q.target.lat);
+      lastOff = off;
+      lastStep = stepPx;
+    }
+    const std::optional<std::pair<glm::dvec2, glm::dvec2>> e = extentFrom(q);
+    const bool fits = e && e->second.x - e->first.x <= room.x && e->second.y - e->first.y <= room.y;
+    return std::make_pair(q, fits);
+  };
+  // The whole globe fits the viewport when its outline (seen under asin(a / r) from r) is within
+  // the narrower half field of view. A box that does not fit there shows the whole globe, centred
+  // in the viewport (looking straight down, the globe is always in the middle of the view).
   const double halfFov = std::atan(tanHalf * std::min(aspect, 1.0));
-  const double globeDistance = globe::kSemiMajor / std::sin(kMargin * halfFov) - glm::length(globe::toEcef(p.target));
-  if (!fits(globeDistance)) {
+  const double globeDistance = globe::kSemiMajor / std::sin(0.9 * halfFov) - glm::length(globe::toEcef(p.target));
+  if (!placed(globeDistance).second) {
     p.distance = globeDistance;
   } else {
     double lo = std::log(settings_.minHeight), hi = std::log(globeDistance);
     for (int i = 0; i < 60; ++i) {
       const double mid = 0.5 * (lo + hi);
-      (fits(std::exp(mid)) ? hi : lo) = mid;
+      (placed(std::exp(mid)).second ? hi : lo) = mid;
     }
-    p.distance = std::exp(hi);
+    p = placed(std::exp(hi)).first;
   }
   accept(limited(p));
 }

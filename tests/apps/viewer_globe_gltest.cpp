@@ -116,9 +116,13 @@ class ViewerGlobeTest : public ::testing::Test {
 
   /// Runs the viewer on the scene with `script` (written into `dir_` as `name`.json).
   /// `before`: shell commands started first (in the background, with `&`).
+  /// The runs hide the panel and go home first (the home view then frames the data in the whole
+  /// window: the pixels the tests pick stay on it); `withPanel` keeps the panel as it opens.
   static ::testing::AssertionResult runViewer(const std::string& name, const json& steps,
-                                              const std::string& before = "") {
-    const json script = {{"window", {kWidth, kHeight}}, {"steps", steps}};
+                                              const std::string& before = "", bool withPanel = false) {
+    json all = withPanel ? json::array() : json::array({{{"action", "view"}, {"panel", false}}, {{"action", "home"}}});
+    for (const json& step : steps) all.push_back(step);
+    const json script = {{"window", {kWidth, kHeight}}, {"steps", all}};
     { std::ofstream(dir_ / (name + ".json")) << script.dump(1); }
     const std::string command = before + std::string(TERRAIN_VIEWER_EXE) + " '" + (dir_ / "scene.json").string() +
                                 "' --script " + (dir_ / (name + ".json")).string() + " > " +
@@ -137,6 +141,39 @@ fs::path ViewerGlobeTest::dir_;
 
 TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
   ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+
+  // The home view as the viewer opens, panel shown: the data framed in the part of the window the
+  // panel leaves free (its box's outline inside the free region, its middle in the region's middle,
+  // filling a good part of it), as in a projected frame.
+  ASSERT_TRUE(
+      runViewer("home_panel", json::array({{{"wait", 2}}, {{"action", "save_state"}, {"path", "hp.json"}}}), "", true));
+  {
+    const json hp = readJson("hp.json");
+    const std::vector<double> free = hp["free_region"].get<std::vector<double>>();
+    ASSERT_EQ(free.size(), 4U);
+    EXPECT_GT(free[0], 50.0) << "the panel is shown";
+    const glm::dmat4 viewProj = matrix(hp["globe"]["camera"]["view_proj_ecef"]);
+    glm::dvec2 lo(1e9), hi(-1e9);
+    for (int i = 0; i <= 8; ++i) {
+      for (int j = 0; j <= 8; ++j) {
+        if (i != 0 && i != 8 && j != 0 && j != 8) continue;
+        const double lon = kWest + i / 8.0 * (kEast - kWest), lat = kSouth + j / 8.0 * (kNorth - kSouth);
+        const glm::dvec2 q = project(viewProj, globe::toEcef(lon, lat, 0.0));
+        lo = glm::min(lo, q);
+        hi = glm::max(hi, q);
+      }
+    }
+    std::printf(
+        "home with the panel: the data at [%.0f, %.0f] - [%.0f, %.0f], the free region [%.0f, %.0f] - [%.0f, %.0f]\n",
+        lo.x, lo.y, hi.x, hi.y, free[0], free[1], free[2], free[3]);
+    EXPECT_GE(lo.x, free[0] - 2.0);
+    EXPECT_LE(hi.x, free[2] + 2.0);
+    EXPECT_GE(lo.y, free[1] - 2.0);
+    EXPECT_LE(hi.y, free[3] + 2.0);
+    EXPECT_NEAR(0.5 * (lo.x + hi.x), 0.5 * (free[0] + free[2]), 3.0);
+    EXPECT_NEAR(0.5 * (lo.y + hi.y), 0.5 * (free[1] + free[3]), 3.0);
+    EXPECT_GT(std::max((hi.x - lo.x) / (free[2] - free[0]), (hi.y - lo.y) / (free[3] - free[1])), 0.8);
+  }
 
   // First run: home, the scene with and without overlays.
   ASSERT_TRUE(runViewer("home", json::array({{{"wait", 2}},
@@ -265,6 +302,10 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
            {{"action", "screenshot"}, {"path", "low.png"}, {"ui", false}},
            {{"action", "key"}, {"key", "h"}},
            {{"action", "save_state"}, {"path", "s7.json"}},
+           // The identify window closed (Esc) and the HUD hidden, so that they hide none of the
+           // measured path.
+           {{"action", "key"}, {"key", "escape"}},
+           {{"action", "view"}, {"hud", false}},
            {{"action", "screenshot"}, {"path", "window_after.png"}, {"ui", true}},
            // The measure tool: a scripted ring, then M and a click add a point, Esc clears them.
            {{"action", "measure"}, {"points", {at(in), at(out), at(zoomAt)}}, {"closed", true}},

@@ -220,6 +220,60 @@ TEST(GlobeCamera, HomeFramesTheBox) {
   std::printf("home (whole globe): eye %.4g m up\n", c.heightAboveGround());
 }
 
+TEST(GlobeCamera, HomeFramesTheBoxInTheRegionAPanelLeavesFree) {
+  // A panel over the left 400 pixels and a status bar at the bottom: home frames each box in the
+  // rest, its middle in the region's middle (the box's extent on screen centred there within a
+  // pixel), just far enough (it reaches near the margin), heading 0 and straight down as before;
+  // a box wider than a hemisphere shows the whole globe.
+  const glm::dvec4 region(400.0, 0.0, 1024.0, 740.0);
+  const glm::dvec2 middle(0.5 * (region.x + region.z), 0.5 * (region.y + region.w));
+  struct Box {
+    double west, south, east, north;
+  };
+  const Box boxes[] = {{-10.0, 35.0, 30.0, 60.0},
+                       {-80.0, -56.0, -34.0, 13.0},
+                       {170.0, -25.0, -170.0, -10.0},
+                       {5.0, 45.0, 5.2, 45.1},
+                       {-60.0, 70.0, 60.0, 85.0}};
+  for (const bool terrain : {false, true}) {
+    GlobeCameraController c(terrain ? &hills() : nullptr);
+    for (const Box& b : boxes) {
+      c.home(b.west, b.south, b.east, b.north, kViewport, region);
+      expectSane(c, "home in a region");
+      EXPECT_DOUBLE_EQ(c.heading(), 0.0);
+      EXPECT_DOUBLE_EQ(c.pitch(), kPi / 2.0);
+      const globe::GlobeView v = viewOf(c);
+      double east = b.east;
+      while (east < b.west) east += 360.0;
+      glm::dvec2 lo(1e9), hi(-1e9);
+      for (int i = 0; i <= 16; ++i) {
+        for (int j = 0; j <= 16; ++j) {
+          if (i != 0 && i != 16 && j != 0 && j != 16) continue;  // the outline
+          const double lon = b.west + i / 16.0 * (east - b.west), lat = b.south + j / 16.0 * (b.north - b.south);
+          const std::optional<glm::dvec2> at = pixelOf(v, globe::toEcef(lon, lat, c.groundHeight(lon, lat)));
+          ASSERT_TRUE(at.has_value()) << lon << " " << lat;
+          lo = glm::min(lo, *at);
+          hi = glm::max(hi, *at);
+        }
+      }
+      EXPECT_GE(lo.x, region.x) << b.west << " " << b.south;
+      EXPECT_LE(hi.x, region.z) << b.west << " " << b.south;
+      EXPECT_GE(lo.y, region.y) << b.west << " " << b.south;
+      EXPECT_LE(hi.y, region.w) << b.west << " " << b.south;
+      EXPECT_LT(glm::length(0.5 * (lo + hi) - middle), 1.0) << b.west << " " << b.south;
+      const double fill = std::max((hi.x - lo.x) / (region.z - region.x), (hi.y - lo.y) / (region.w - region.y));
+      EXPECT_GT(fill, 0.8) << b.west << " " << b.south;
+    }
+  }
+  // Wider than a hemisphere: the whole globe, as without a region (looking straight down, the
+  // globe is in the middle of the view).
+  GlobeCameraController c;
+  c.home(-170.0, -80.0, 170.0, 80.0, kViewport, region);
+  expectSane(c, "world in a region");
+  EXPECT_TRUE(c.groundPointAt(glm::dvec2(512.0, 384.0), kViewport).has_value());
+  EXPECT_FALSE(c.groundPointAt(glm::dvec2(0.0, 384.0), kViewport).has_value());
+}
+
 TEST(GlobeCamera, OrbitKeepsTheTarget) {
   GlobeCameraController c(&hills());
   c.setPose(poseAt(20.0, 40.0, 5000.0, 0.3, 0.8));

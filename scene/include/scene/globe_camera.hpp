@@ -8,6 +8,7 @@
 
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
 
 #include "globe/ellipsoid.hpp"
 #include "globe/geo_grid.hpp"
@@ -53,10 +54,14 @@ class GlobeCameraController {
   /// enforced). Ignored if it holds non-finite numbers.
   void setPose(const GlobePose& pose);
 
-  /// Looks straight down (heading 0) at the middle of the box (degrees; `east` may exceed 180, or be
-  /// less than `west`, for a box across ±180°) from just far enough that the whole box fits the
-  /// viewport. A box that cannot fit (wider than the hemisphere in view) gives the whole globe.
-  void home(double west, double south, double east, double north, const glm::ivec2& viewport);
+  /// Looks straight down (heading 0) at the box (degrees; `east` may exceed 180, or be less than
+  /// `west`, for a box across ±180°) from just far enough that the whole box fits `region` of the
+  /// viewport (pixels, x0, y0, x1, y1 from the top left; none: the whole viewport), its middle in
+  /// the region's middle: the part of the window a panel leaves free, as in a projected frame
+  /// (scene::frameBoxInRegion). A box that cannot fit (wider than the hemisphere in view) gives the
+  /// whole globe, its middle in the region's.
+  void home(double west, double south, double east, double north, const glm::ivec2& viewport,
+            const std::optional<glm::dvec4>& region = std::nullopt);
   /// Turns around the target: heading += dHeading (clockwise seen from above), pitch += dPitch
   /// (positive looks more steeply down), pitch within [minPitch, π/2]. The target stays where it is on
   /// screen (the middle).
