@@ -112,6 +112,9 @@ std::string formatLonLat(const glm::dvec3& lonLatH);
 std::string formatMetres(double metres);
 /// An area for a person: "850 m²", "12.5 ha", "3.20 km²".
 std::string formatArea(double squareMetres);
+/// The width (pixels) of a highlighted feature's outline that spans `acrossPixels` on screen (the
+/// diagonal of its extent there): 2.5 from 30 px, thinner below (at least 1), none under 3 px.
+float outlineWidthFor(double acrossPixels);
 /// The largest 1, 2 or 5 × 10^k not above `most` (a scale bar's length); 0 for none.
 double niceLength(double most);
 /// A window listing keys and what they do (the help, ?), centred when it appears.

@@ -49,6 +49,11 @@ std::string formatArea(double squareMetres) {
   return text;
 }
 
+float outlineWidthFor(double acrossPixels) {
+  if (!(acrossPixels >= 3.0)) return 0.0F;
+  return static_cast<float>(std::clamp(acrossPixels / 12.0, 1.0, 2.5));
+}
+
 double niceLength(double most) {
   // The largest 1, 2 or 5 × 10^k not above `most`.
   if (!(most > 0.0) || !std::isfinite(most)) return 0.0;
