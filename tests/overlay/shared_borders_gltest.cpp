@@ -12,7 +12,6 @@
 #include <string>
 #include <vector>
 
-#include <gdal_utils.h>
 #include <gtest/gtest.h>
 
 #include "gl_test.hpp"
@@ -20,6 +19,7 @@
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
+#include "vector_files.hpp"
 #include "vector_overlay/technique.hpp"
 
 namespace gis::test {
@@ -32,21 +32,7 @@ std::string firstFortyTracts() {
   const std::filesystem::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
   std::filesystem::create_directories(dir);
   const std::string out = (dir / "tracts_40.geojson").string();
-  std::filesystem::remove(out);
-  std::vector<std::string> args = {"-f", "GeoJSON", "-sql", "SELECT * FROM olinda1 WHERE FID < 40"};
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  GDALAllRegister();
-  GDALVectorTranslateOptions* options = GDALVectorTranslateOptionsNew(argv.data(), nullptr);
-  GDALDatasetH in = GDALOpenEx((kSamples + "olinda1.shp").c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
-  EXPECT_NE(in, nullptr);
-  int error = 0;
-  GDALDatasetH written = GDALVectorTranslate(out.c_str(), nullptr, 1, &in, options, &error);
-  EXPECT_NE(written, nullptr);
-  GDALClose(written);
-  GDALClose(in);
-  GDALVectorTranslateOptionsFree(options);
+  translateVector(kSamples + "olinda1.shp", out, {"-f", "GeoJSON", "-sql", "SELECT * FROM olinda1 WHERE FID < 40"});
   return out;
 }
 
