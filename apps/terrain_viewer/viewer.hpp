@@ -423,6 +423,8 @@ class Viewer {
   /// Whether any overlay layer of a scene layer (fill or outline) is shown; none if the scene
   /// layer has no overlay layer (not built).
   [[nodiscard]] std::optional<bool> layerShown(std::size_t sceneLayer) const;
+  /// Whether the scene file's layer `sceneLayer` is drawn now, in either frame (the legend's).
+  [[nodiscard]] bool sceneLayerShown(std::size_t sceneLayer) const;
   void rebuildOverlays();
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
   /// Before a change of the selection's steps: the steps as they were, for undo.

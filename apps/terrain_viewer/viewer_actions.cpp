@@ -29,6 +29,17 @@ std::optional<bool> Viewer::layerShown(std::size_t sceneLayer) const {
   return shown;
 }
 
+bool Viewer::sceneLayerShown(std::size_t sceneLayer) const {
+  if (globe_) {
+    // On the globe a scene layer may be drawn as an area and an outline: shown if either is.
+    const GlobeMode& g = *globe_;
+    for (std::size_t j = 0; j < g.scene.layerFileIndex.size() && j < g.shown.size(); ++j)
+      if (g.scene.layerFileIndex[j] == sceneLayer && g.shown[j] != 0) return true;
+    return false;
+  }
+  return scene_ && layerShown(sceneLayer).value_or(false);
+}
+
 void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (renderer_->overlaySources()[j].first == sceneLayer) renderer_->setShown(j, shown);

@@ -406,8 +406,8 @@ void Viewer::drawLegend() {
     ImGui::SameLine();
   };
   std::size_t shown = 0;
-  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-    if (!layerShown(i).value_or(false)) continue;
+  for (std::size_t i = 0; i < description_->layers.size(); ++i) {
+    if (!sceneLayerShown(i)) continue;
     ++shown;
     const scene::LayerDescription& layer = description_->layers[i];
     const overlay::LayerStyle& s = layer.style;

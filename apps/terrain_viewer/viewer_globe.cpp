@@ -380,6 +380,7 @@ void Viewer::drawGlobeUi() {
   drawScaleBar();
   drawCompass();
   drawStatusBar();
+  drawLegend();
   if (settings_.showPanel) drawGlobePanel();
   if (settings_.showHud) drawGlobeHud();
   if (showHelp_) drawGlobeHelp(&showHelp_);
@@ -417,6 +418,8 @@ void Viewer::drawGlobePanel() {
   }
   if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("vector layers (O)", &render_.overlays);
+    ImGui::SameLine();
+    ImGui::Checkbox("legend", &showLegend_);
     if (!labelSets_.empty()) {
       ImGui::SameLine();
       ImGui::Checkbox("labels", &showLabels_);
@@ -528,6 +531,7 @@ json Viewer::globeState() const {
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
   return {{"scene", description_->path},
           {"windows", windowsJson()},
+          {"legend", showLegend_},
           {"mode", "globe"},
           {"frame", "globe"},
           {"globe_reason", g.scene.reason},

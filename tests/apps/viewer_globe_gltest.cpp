@@ -152,6 +152,10 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
     const std::vector<double> free = hp["free_region"].get<std::vector<double>>();
     ASSERT_EQ(free.size(), 4U);
     EXPECT_GT(free[0], 50.0) << "the panel is shown";
+    // The legend, as in a projected frame: shown, in the free region.
+    EXPECT_TRUE(hp["legend"].get<bool>());
+    ASSERT_TRUE(hp["windows"].contains("legend")) << hp["windows"].dump();
+    EXPECT_GE(hp["windows"]["legend"][0].get<double>(), free[0]);
     const glm::dmat4 viewProj = matrix(hp["globe"]["camera"]["view_proj_ecef"]);
     glm::dvec2 lo(1e9), hi(-1e9);
     for (int i = 0; i <= 8; ++i) {
