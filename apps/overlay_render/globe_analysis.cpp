@@ -40,15 +40,19 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
              "' (layers: " + names + ")");
     return 2;
   }
+  overlay::OverlayRenderer* overlays = renderer.overlay().renderer();
+  if (overlays == nullptr) return 1;
   cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
-  gfx::GpuTimer timer;
-  timer.begin();
-  const globe::GlobeAnalysisStats marks = renderer.overlay().markOverlap(
-      cache, view, renderer.tiles(), renderer.heights(), scene.layers[*a], scene.layers[*b]);
-  timer.end();
+  // The stencil core's analysis on the tiles' chunks, as in a projected frame (scene::drawOverlap).
+  overlay::OverlaySettings settings = globe::overlaySettingsOf({});
+  settings.measure = true;
+  const auto chunksA = renderer.overlay().chunks(renderer.tiles(), renderer.heights(), scene.layers[*a]);
+  const auto chunksB = renderer.overlay().chunks(renderer.tiles(), renderer.heights(), scene.layers[*b]);
+  const overlay::AnalysisMarks marks =
+      overlays->markOverlap(cache, globe::overlayViewOf(view), chunksA, chunksB, settings);
   const std::vector<std::uint8_t> flags = gfx::readStencil(target);
-  renderer.overlay().coverOverlap(cache, request.overlapOp, scene::kOverlapColour);
+  overlays->coverOverlap(cache, marks, request.overlapOp, scene::kOverlapColour);
   gfx::enableMaskWrites(target.framebuffer(), true);
 
   const overlay::DepthImage image = globe::depthImageOf(view, depth);
@@ -61,9 +65,9 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   json block = overlapJson(counts);
   block["layers"] = {nameA, nameB};
   block["op"] = overlapOpName(request.overlapOp);
-  block["groups"] = marks.groups;
-  block["pieces"] = marks.a.pieces + marks.b.pieces;
-  block["gpu_ms"] = static_cast<double>(timer.nanoseconds().value_or(0)) * 1e-6;
+  block["groups"] = marks.a.groups + marks.b.groups;
+  block["pieces"] = marks.a.zPassPieces + marks.a.zFailPieces + marks.b.zPassPieces + marks.b.zFailPieces;
+  block["gpu_ms"] = marks.gpuMilliseconds;
   stats["overlap"] = std::move(block);
   return png.ok() ? 0 : 1;
 }
@@ -71,16 +75,20 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
 int drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, globe::GlobeRenderer& renderer,
                     const scene::LoadedGlobeScene& scene, const globe::GlobeView& view,
                     const std::filesystem::path& out, json& stats) {
+  overlay::OverlayRenderer* overlays = renderer.overlay().renderer();
+  if (overlays == nullptr) return 1;
   cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);
   std::vector<std::uint8_t> pixels(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height), 0);
   json layers = json::array();
   std::size_t open = 0;
   for (const globe::GlobeLayer& layer : scene.layers) {
-    const globe::GlobeOverlayStats counted =
-        renderer.overlay().countOpenFaces(cache, view, renderer.tiles(), renderer.heights(), layer);
+    const overlay::AnalysisMarks marks = overlays->countOpenFaces(
+        cache, globe::overlayViewOf(view), renderer.overlay().chunks(renderer.tiles(), renderer.heights(), layer),
+        globe::overlaySettingsOf({}));
     const std::vector<std::uint8_t> counts = gfx::readStencil(target);
-    renderer.overlay().coverOpenFaces(cache, scene::kOpenVolumeColour);
+    overlays->coverOpenFaces(cache, marks, scene::kOpenVolumeColour);
+    const overlay::LayerFrameStats& counted = marks.a;
     std::size_t layerOpen = 0;
     for (std::size_t i = 0; i < counts.size() && i < pixels.size(); ++i) {
       if (counts[i] == 0) continue;
@@ -89,7 +97,7 @@ int drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, glo
     }
     layers.push_back({{"name", layer.name()},
                       {"open_pixels", layerOpen},
-                      {"pieces_counted", counted.pieces - counted.zFailPieces},
+                      {"pieces_counted", counted.zPassPieces},
                       {"pieces_left_out_near_the_eye", counted.zFailPieces}});
   }
   gfx::enableMaskWrites(target.framebuffer(), true);

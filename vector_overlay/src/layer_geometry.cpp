@@ -1010,6 +1010,49 @@ LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const La
   return layer;
 }
 
+LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, const glm::dvec3& origin,
+                                           std::vector<Vertex> vertices, std::vector<glm::vec3> normals,
+                                           std::vector<std::uint32_t> indices, const std::vector<WorldPiece>& pieces,
+                                           std::optional<glm::vec4> uniformColour) {
+  LayerGeometry layer;
+  layer.name_ = std::move(name);
+  layer.kind_ = kind;
+  layer.worldOrigins_.push_back(origin);
+  layer.slots_.reserve(pieces.size());
+  layer.polyhedra_.reserve(pieces.size());
+  for (const WorldPiece& piece : pieces) {
+    PieceSlot s;
+    s.firstIndex = piece.firstIndex;
+    s.bottomCount = piece.bottomCount;
+    s.indexCount = piece.indexCount;
+    s.live = true;
+    layer.slots_.push_back(s);
+    // The world box as a footprint's box and its bounds (box3() gives it back).
+    Polyhedron p;
+    p.boxMin = glm::dvec2(piece.boxLo);
+    p.boxMax = glm::dvec2(piece.boxHi);
+    p.lo = piece.boxLo.z;
+    p.hi = piece.boxHi.z;
+    layer.polyhedra_.push_back(std::move(p));
+    layer.stats_.triangles += piece.indexCount / 3;
+  }
+  layer.stats_.pieces = pieces.size();
+  layer.vertices_ = std::move(vertices);
+  layer.normals_ = std::move(normals);
+  layer.normals_.resize(layer.vertices_.size(), glm::vec3(0.0F));
+  layer.indices_ = std::move(indices);
+  if (uniformColour) {
+    const std::array<std::uint8_t, 4> rgba{unorm8(uniformColour->x), unorm8(uniformColour->y), unorm8(uniformColour->z),
+                                           unorm8(uniformColour->w)};
+    layer.uniformColor_ = glm::vec4(rgba[0], rgba[1], rgba[2], rgba[3]) / 255.0F;
+  } else {
+    layer.uniformColor_ = std::optional<glm::vec4>();
+  }
+  layer.footprintsReleased_ = true;  // none to clip at the near plane: z-fail pieces are drawn whole
+  layer.changes_ = GeometryChange{};
+  return layer;
+}
+
 std::uint32_t LayerGeometry::originFor(const Polyhedron& p) {
   const glm::dvec2 centre = 0.5 * (p.boxMin + p.boxMax);
   const glm::dvec2 origin = (glm::floor(centre / kOriginGrid) + 0.5) * kOriginGrid;
@@ -1087,6 +1130,10 @@ void LayerGeometry::addPieces(std::uint32_t feature, std::vector<Polyhedron> pie
 
 LayerValidation LayerGeometry::validate() const {
   LayerValidation v;
+  if (alongNormals()) {  // world pieces have no footprints to check them against (their frame's tests do)
+    for (const PieceSlot& s : slots_) v.pieces += s.live ? 1U : 0U;
+    return v;
+  }
   ValidationOptions options;
   if (!options_.paperVariant) options.grid = options_.footprints.cells;
   // Lines in pixels are neither split at the cells nor clipped to the grid (footprints.hpp).

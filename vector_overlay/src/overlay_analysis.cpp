@@ -95,7 +95,10 @@ AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const Over
     const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kCountFaces);
     multiDraw(cache, pieces.zPass);
-    drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
+    // Pieces near the eye are closed on the clip plane; a layer with no footprints to clip (world
+    // pieces) leaves them out of the count (marks.a.zFailPieces says how many).
+    if (!layer.geometry().footprintsReleased())
+      drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
     endLayer(inPixels);
   }
   endMeasure(settings, marks.gpuMilliseconds, marks.fragments);
@@ -130,7 +133,9 @@ LayerFrameStats OverlayRenderer::drawPieces(gfx::StateCache& cache, const Overla
     program_.set("u_debugColor", zPassColour);
     multiDraw(cache, pieces.zPass);
     program_.set("u_debugColor", zFailColour);
-    drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale), inPixels);
+    std::vector<std::size_t> entries(pieces.zFailSlots.size());
+    for (std::size_t k = 0; k < entries.size(); ++k) entries[k] = k;
+    drawZFail(cache, view, layer, pieces, entries, kDebugPieces, settings, scale, inPixels);
     program_.set("u_debugColor", glm::vec4(0.0F));
     endLayer(inPixels);
   }

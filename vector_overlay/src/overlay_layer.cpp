@@ -62,6 +62,15 @@ void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapac
                            geometry_.scaling().data());
     }
   }
+  if (geometry_.alongNormals()) {  // world pieces: the directions their caps are padded along
+    normals_ = gfx::createBuffer();
+    glNamedBufferData(normals_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(glm::vec3)), nullptr,
+                      GL_DYNAMIC_DRAW);
+    if (!geometry_.normals().empty()) {
+      glNamedBufferSubData(normals_.id(), 0, static_cast<GLsizeiptr>(geometry_.normals().size() * sizeof(glm::vec3)),
+                           geometry_.normals().data());
+    }
+  }
   glNamedBufferData(indices_.id(), static_cast<GLsizeiptr>(indexCapacity_ * sizeof(std::uint32_t)), nullptr,
                     GL_DYNAMIC_DRAW);
   if (!vertices.empty()) {
@@ -72,7 +81,8 @@ void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapac
                          indices.data());
   }
   gpuBytes_ =
-      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec4) : 0)) + indexCapacity_ * sizeof(std::uint32_t);
+      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec4) : 0) + (normals_ ? sizeof(glm::vec3) : 0)) +
+      indexCapacity_ * sizeof(std::uint32_t);
 }
 
 void OverlayLayer::sync() {

@@ -39,6 +39,13 @@ std::size_t chunkOverlap(std::span<const OverlayLayer* const> chunks) {
   return worst;
 }
 
+/// 0, 1, ..., n − 1: every z-fail piece of a classified layer (OverlayRenderer::drawZFail).
+std::vector<std::size_t> firstIndices(std::size_t n) {
+  std::vector<std::size_t> all(n);
+  for (std::size_t k = 0; k < n; ++k) all[k] = k;
+  return all;
+}
+
 /// Shader-storage binding of the cover rectangles (overlay_cover.vert).
 constexpr GLuint kCoverRectsBinding = 3;
 
@@ -93,6 +100,9 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   // Lines in pixels only (enabled per layer); disabled it reads (0, 0, 0): no offset.
   glVertexArrayAttribFormat(vao, 3, 4, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribBinding(vao, 3, 2);
+  // World pieces only (enabled per layer, with u_alongNormals): the direction caps are padded along.
+  glVertexArrayAttribFormat(vao, 4, 3, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribBinding(vao, 4, 3);
   renderer.timer_.emplace();
   renderer.coverTimer_.emplace();
   renderer.markStats_.emplace();
@@ -149,6 +159,26 @@ void OverlayRenderer::multiDraw(gfx::StateCache& cache, const std::vector<Comman
   cache.bindVertexArray(vao_.id());
   cache.bindIndirectBuffer(commands_.id());
   glMultiDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr, static_cast<GLsizei>(commands.size()), 0);
+}
+
+void OverlayRenderer::drawZFail(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer,
+                                const Pieces& pieces, std::span<const std::size_t> entries,
+                                const gfx::PipelineState& state, const OverlaySettings& settings,
+                                const PixelScale& scale, bool inPixels) {
+  if (layer.geometry().footprintsReleased()) {
+    std::vector<Command> whole;
+    whole.reserve(entries.size());
+    for (const std::size_t e : entries) whole.push_back(pieces.zFail[e]);
+    cache.apply(state);
+    multiDraw(cache, whole);
+    return;
+  }
+  std::vector<std::size_t> slots;
+  slots.reserve(entries.size());
+  for (const std::size_t e : entries) slots.push_back(pieces.zFailSlots[e]);
+  const GLsizei clipped = uploadClippedPieces(view, layer, slots, settings, scale);
+  cache.apply(state);
+  drawClipped(cache, layer, clipped, inPixels);
 }
 
 GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer,
@@ -249,20 +279,23 @@ OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const
   // eye: it is drawn z-fail (exact for any eye position, with depth clamp and closed caps).
   const double t = std::tan(view.fovYRadians / 2.0);
   const double margin = view.nearPlane * std::sqrt(1.0 + t * t * (1.0 + view.aspect * view.aspect)) + 0.01;
+  // World pieces' caps move along their normals: their boxes grow by the pad every way.
+  const bool world = layer.alongNormals();
   for (const OverlayLayer::PieceSlot& s : slots) {
     if (!s.live) continue;
     const Polyhedron& p = polyhedra[static_cast<std::size_t>(&s - slots.data())];
     const double diagonal = glm::length(p.boxMax - p.boxMin) + (p.hi - p.lo);
     const glm::dvec3 lo0(p.boxMin, p.lo), hi0(p.boxMax, p.hi);
     const double pad = padAt(settings, distanceToBox(view.eye, lo0, hi0) + diagonal);
-    const glm::dvec3 lo(p.boxMin, p.lo - pad), hi(p.boxMax, p.hi + pad);
+    const glm::dvec3 grow = world ? glm::dvec3(pad) : glm::dvec3(0.0, 0.0, pad);
+    const glm::dvec3 lo = lo0 - grow, hi = hi0 + grow;
     if (settings.cullPieces && !gfx::boxInFrustum(planes, lo, hi, false)) {
       ++stats.culledPieces;
       continue;
     }
     out.boxes.push_back({lo, hi});
-    const bool fail = settings.forceZFail || (layer.paperVariant() ? distanceToBox(view.eye, lo, hi) <= margin
-                                                                   : mayContain(p, view.eye, pad, margin));
+    const bool fail = settings.forceZFail || (layer.paperVariant() || world ? distanceToBox(view.eye, lo, hi) <= margin
+                                                                            : mayContain(p, view.eye, pad, margin));
     const Command whole{s.indexCount, 1, s.firstIndex, static_cast<GLint>(s.baseVertex), s.origin};
     if (fail) {
       ++stats.zFailPieces;
@@ -300,11 +333,16 @@ bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& lay
   // Origins relative to the eye, in the order of the layer's origin table, then a zero origin
   // for geometry already relative to the eye (the clipped pieces).
   const auto& origins = layer.origins();
+  const auto& worldOrigins = layer.geometry().worldOrigins();
   std::vector<float> offsets;
-  offsets.reserve(3 * origins.size() + 3);
+  offsets.reserve(3 * (origins.size() + worldOrigins.size()) + 3);
   for (const glm::dvec2& o : origins) {
     offsets.insert(offsets.end(), {static_cast<float>(o.x - view.eye.x), static_cast<float>(o.y - view.eye.y),
                                    static_cast<float>(-view.eye.z)});
+  }
+  for (const glm::dvec3& o : worldOrigins) {
+    const glm::dvec3 d = o - view.eye;
+    offsets.insert(offsets.end(), {static_cast<float>(d.x), static_cast<float>(d.y), static_cast<float>(d.z)});
   }
   offsets.insert(offsets.end(), {0.0F, 0.0F, 0.0F});
   const std::size_t bytes = offsets.size() * sizeof(float);
@@ -318,6 +356,12 @@ bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& lay
   glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
   glVertexArrayVertexBuffer(vao, 1, origins_.id(), 0, 3 * sizeof(float));
   glVertexArrayElementBuffer(vao, layer.indexBuffer());
+  boundAlongNormals_ = layer.alongNormals() && layer.normalBuffer() != 0;
+  if (boundAlongNormals_) {
+    glVertexArrayVertexBuffer(vao, 3, layer.normalBuffer(), 0, 3 * sizeof(float));
+    glEnableVertexArrayAttrib(vao, 4);
+    program_.set("u_alongNormals", 1);
+  }
   const bool inPixels = layer.widthPixels() > 0.0 && layer.scalingBuffer() != 0;
   if (inPixels) {
     glVertexArrayVertexBuffer(vao, 2, layer.scalingBuffer(), 0, 4 * sizeof(float));
@@ -330,6 +374,11 @@ bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& lay
 
 void OverlayRenderer::endLayer(bool inPixels) {
   if (inPixels) glDisableVertexArrayAttrib(vao_.id(), 3);
+  if (boundAlongNormals_) {
+    glDisableVertexArrayAttrib(vao_.id(), 4);
+    program_.set("u_alongNormals", 0);
+    boundAlongNormals_ = false;
+  }
 }
 
 void OverlayRenderer::drawClipped(gfx::StateCache& cache, const OverlayLayer& layer, GLsizei vertices, bool inPixels) {
@@ -339,7 +388,7 @@ void OverlayRenderer::drawClipped(gfx::StateCache& cache, const OverlayLayer& la
   cache.bindVertexArray(vao);
   glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
   if (inPixels) glDisableVertexArrayAttrib(vao, 3);  // already at this frame's width
-  const auto zeroOrigin = static_cast<GLuint>(layer.origins().size());
+  const auto zeroOrigin = static_cast<GLuint>(layer.origins().size() + layer.geometry().worldOrigins().size());
   glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, vertices, 1, zeroOrigin);
   if (inPixels) glEnableVertexArrayAttrib(vao, 3);
   glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
@@ -377,16 +426,14 @@ void OverlayRenderer::markIntoFlag(gfx::StateCache& cache, const OverlayView& vi
     std::vector<std::size_t> groupFail;
     for (std::size_t k = first; k < last; ++k) {
       if (pieces.order[k].first) {
-        groupFail.push_back(pieces.zFailSlots[pieces.order[k].second]);
+        groupFail.push_back(pieces.order[k].second);
       } else {
         groupPass.push_back(pieces.zPass[pieces.order[k].second]);
       }
     }
-    const GLsizei clipped = uploadClippedPieces(view, layer, groupFail, settings, scale);
     cache.apply(states.markZPass);
     multiDraw(cache, groupPass);
-    cache.apply(states.markZFail);
-    drawClipped(cache, layer, clipped, inPixels);
+    drawZFail(cache, view, layer, pieces, groupFail, states.markZFail, settings, scale, inPixels);
     cache.apply(states.collect);
     drawRect(cache, rectOf(view, pieces, first, last), glm::vec4(0.0F), 0.0F);
     ++stats.groups;
@@ -476,9 +523,8 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
       } else {
         cache.apply(kMarkZPass);
         multiDraw(cache, pieces[c].zPass);
-        const GLsizei clipped = uploadClippedPieces(view, *chunks[c], pieces[c].zFailSlots, settings, scale);
-        cache.apply(kMarkZFail);
-        drawClipped(cache, *chunks[c], clipped, inPixels);
+        drawZFail(cache, view, *chunks[c], pieces[c], firstIndices(pieces[c].zFailSlots.size()), kMarkZFail, settings,
+                  scale, inPixels);
       }
       endLayer(inPixels);
     }
@@ -493,9 +539,8 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
         const bool inPixels = bindLayer(view, *chunks[c], scale);
         cache.apply(grouped ? kCoverFlaggedZPass : kCoverZPass);
         multiDraw(cache, pieces[c].zPass);
-        const GLsizei clipped = uploadClippedPieces(view, *chunks[c], pieces[c].zFailSlots, settings, scale);
-        cache.apply(grouped ? kCoverFlaggedZFail : kCoverZFail);
-        drawClipped(cache, *chunks[c], clipped, inPixels);
+        drawZFail(cache, view, *chunks[c], pieces[c], firstIndices(pieces[c].zFailSlots.size()),
+                  grouped ? kCoverFlaggedZFail : kCoverZFail, settings, scale, inPixels);
         endLayer(inPixels);
       }
     }

@@ -40,7 +40,6 @@ namespace gis::globe {
 
 namespace detail {
 struct PolygonIndex;
-struct DrawnPieces;
 struct LineLevels;
 }  // namespace detail
 
@@ -202,23 +201,24 @@ struct GlobeOverlaySettings {
   std::size_t cacheTiles = 4096;  ///< tiles' pieces kept on the GPU per layer
 };
 
+/// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
+overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings);
+
 struct GlobeOverlayStats {
-  std::size_t pieces = 0;
+  std::size_t pieces = 0;  ///< drawn (in view)
   std::size_t zFailPieces = 0;
-  std::size_t triangles = 0;
-  std::size_t builtTiles = 0;  ///< this frame
+  std::size_t culledPieces = 0;  ///< of the drawn tiles, outside the view
+  std::size_t triangles = 0;     ///< of the drawn tiles' pieces
+  std::size_t builtTiles = 0;    ///< this frame
 };
 
-/// What GlobeOverlayRenderer::markOverlap drew.
-struct GlobeAnalysisStats {
-  GlobeOverlayStats a, b;
-  std::size_t groups = 0;  ///< mark-and-collect groups, both layers
-};
-
-/// Draws layers over the drawn tiles: per layer, marks its pieces into the stencil (z-pass, or
-/// z-fail where the near plane may cut one), then covers the marked pixels with its colour and
-/// its bit in the mask attachment (bit i for layers[i]). Needs the terrain's depth in the bound
-/// target and a zero stencil.
+/// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames
+/// (overlay::OverlayRenderer, docs/frames.md): each layer's pieces over each drawn tile
+/// (buildTilePieces) are one chunk of the layer, an overlay::OverlayLayer of world pieces
+/// (LayerGeometry::ofWorldPieces: ECEF relative to the tile's middle, caps padded along the
+/// surface normals), kept on the GPU for the tiles drawn last. So the stencil core's passes, its
+/// analyses (markOverlap, countOpenFaces, drawPieces) and its statistics are the projected
+/// frame's, run on chunks().
 class GlobeOverlayRenderer {
  public:
   GlobeOverlayRenderer();
@@ -226,51 +226,22 @@ class GlobeOverlayRenderer {
   GlobeOverlayRenderer(const GlobeOverlayRenderer&) = delete;
   GlobeOverlayRenderer& operator=(const GlobeOverlayRenderer&) = delete;
 
+  /// Draws the layers in order (layer i → mask bit i) over the tiles. Needs the terrain's depth
+  /// in the bound target and a zero stencil.
   void draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
             const std::vector<const GlobeLayer*>& layers, const GlobeOverlaySettings& settings = {});
   [[nodiscard]] const GlobeOverlayStats& stats() const { return stats_; }
 
-  // Layer analysis with the same stencil core (as OverlayRenderer::markOverlap in a projected
-  // frame): mark, then cover, which colours and returns the stencil to 0. The stencil must be 0
-  // and the depth buffer hold the terrain.
-
-  /// Where layer a, and where layer b, covers the terrain: bit overlay::kOverlapFlagA /
-  /// kOverlapFlagB of the stencil. Each layer's pieces are counted in groups of at most 63 in the
-  /// low six bits and collected into its flag after every group (a ground point may lie in
-  /// several pieces: neighbouring tiles' pieces overlap, and so may features), so any depth of
-  /// overlap is exact.
-  GlobeAnalysisStats markOverlap(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
-                                 const GeoGrid& heights, const GlobeLayer& a, const GlobeLayer& b,
-                                 const GlobeOverlaySettings& settings = {});
-  /// Colours (straight alpha, blended over) the pixels where `op` of the two flags holds, adds
-  /// `maskValue` to the mask attachment there, and zeroes the stencil everywhere.
-  void coverOverlap(gfx::StateCache& cache, overlay::OverlapOp op, const glm::vec4& colour, float maskValue = 0.0F);
-
-  /// Where the layer's volumes are not closed (a defect): every face of its pieces counted with
-  /// no depth test, front faces +1 and back faces −1 (mod 256), as a projected frame does it. A
-  /// closed piece sums to 0 on every pixel when the eye is outside it; pieces that may hold the
-  /// eye or meet the near plane (drawn z-fail) are left out of the count (their number is in the
-  /// stats' zFailPieces). The count is left in the stencil.
-  GlobeOverlayStats countOpenFaces(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
-                                   const GeoGrid& heights, const GlobeLayer& layer,
-                                   const GlobeOverlaySettings& settings = {});
-  /// Colours the pixels with a non-zero count and zeroes the stencil.
-  void coverOpenFaces(gfx::StateCache& cache, const glm::vec4& colour, float maskValue = 0.0F);
+  /// The layer's pieces over the tiles, one chunk per tile that has any (built and uploaded where
+  /// missing): what overlay::OverlayRenderer's draw and analyses take for a layer drawn in chunks.
+  /// Valid until the next draw. Needs a current GL context.
+  std::vector<const overlay::OverlayLayer*> chunks(const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
+                                                   const GlobeLayer& layer);
+  /// The overlay renderer (made on first use; null if its shaders do not build).
+  overlay::OverlayRenderer* renderer();
 
  private:
   struct Gpu;
-  /// The volume program's per-frame uniforms; false if its shaders do not build.
-  bool begin(const GlobeView& view, const GlobeOverlaySettings& settings);
-  /// The layer's pieces over the tiles (built and uploaded where missing), z-pass or z-fail each.
-  std::vector<detail::DrawnPieces> prepare(const GlobeView& view, const std::vector<DrawnTile>& tiles,
-                                           const GeoGrid& heights, const GlobeLayer& layer,
-                                           const GlobeOverlaySettings& settings, GlobeOverlayStats& stats);
-  /// Uploads this frame's tile origins (relative to the eye) and points the drawn tiles at them.
-  void uploadOrigins(const std::vector<detail::DrawnPieces>& drawn);
-  /// The colour the volume shader gives every vertex (its disabled a_color's current value).
-  static void setColour(const glm::vec4& colour);
-  /// One screen-filling pass in the current state, with `colour` and `maskValue`.
-  void drawScreen(gfx::StateCache& cache, const glm::vec4& colour, float maskValue);
   /// Drops the least recently drawn tiles' pieces beyond the budget.
   void trim(std::size_t layers, const GlobeOverlaySettings& settings);
   std::unique_ptr<Gpu> gpu_;

@@ -331,6 +331,25 @@ class LayerGeometry {
     std::uint8_t rgba[4];
   };
   static_assert(sizeof(Vertex) == 20);
+  /// Pieces built in world coordinates by a frame of their own (the globe's tiles: ECEF
+  /// metres), drawn by the same renderer (docs/frames.md). `vertices` are relative to `origin`,
+  /// their height the world z and their side as build() makes them; `normals` (one per vertex)
+  /// is the direction each cap is padded along. Such a piece's Polyhedron has no footprint: its
+  /// boxMin/boxMax are the x and y of its world box, lo and hi its z (box3() is the world box),
+  /// and it is never over drawn surface (z-pass keeps its bottom cap). With no footprint to cut,
+  /// the renderer draws its z-fail pieces whole. `uniformColour`: the colour every vertex has,
+  /// if one (the renderer may then cover with rectangles).
+  struct WorldPiece {
+    std::uint32_t firstIndex = 0;
+    std::uint32_t bottomCount = 0;
+    std::uint32_t indexCount = 0;
+    glm::dvec3 boxLo{0.0}, boxHi{0.0};
+  };
+  static LayerGeometry ofWorldPieces(std::string name, LayerKind kind, const glm::dvec3& origin,
+                                     std::vector<Vertex> vertices, std::vector<glm::vec3> normals,
+                                     std::vector<std::uint32_t> indices, const std::vector<WorldPiece>& pieces,
+                                     std::optional<glm::vec4> uniformColour);
+
   [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
   [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
   [[nodiscard]] const std::vector<glm::dvec2>& origins() const { return origins_; }
@@ -339,6 +358,11 @@ class LayerGeometry {
   /// Lines in pixels: per vertex (direction x, y, anchor height) (Footprint::directions);
   /// vertices() then holds the centres. Empty for every other layer.
   [[nodiscard]] const std::vector<glm::vec4>& scaling() const { return scaling_; }
+  /// A layer of world pieces (ofWorldPieces): its caps are padded along normals() (one per
+  /// vertex), and its pieces' origins are worldOrigins() (PieceSlot::origin indexes them).
+  [[nodiscard]] bool alongNormals() const { return !worldOrigins_.empty(); }
+  [[nodiscard]] const std::vector<glm::vec3>& normals() const { return normals_; }
+  [[nodiscard]] const std::vector<glm::dvec3>& worldOrigins() const { return worldOrigins_; }
 
  private:
   LayerGeometry() = default;
@@ -370,6 +394,8 @@ class LayerGeometry {
   std::vector<Vertex> vertices_;
   std::vector<std::uint32_t> indices_;
   std::vector<glm::vec4> scaling_;                    ///< lines in pixels only, per vertex
+  std::vector<glm::vec3> normals_;                    ///< world pieces only, per vertex
+  std::vector<glm::dvec3> worldOrigins_;              ///< world pieces only
   std::shared_ptr<const ArraysInFile> arraysInFile_;  ///< the arrays, while still in their file
   std::size_t wastedIndices_ = 0;
   bool arraysReleased_ = false;

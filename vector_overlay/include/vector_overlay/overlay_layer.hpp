@@ -78,6 +78,10 @@ class OverlayLayer {
   /// > 0 when the layer's lines are drawn in pixels (LayerStyle::widthPixels).
   [[nodiscard]] double widthPixels() const { return geometry_.widthPixels(); }
   [[nodiscard]] GLuint indexBuffer() const { return indices_.id(); }
+  /// World pieces (LayerGeometry::ofWorldPieces): per vertex, the direction its cap is padded
+  /// along; 0 for a layer in frame coordinates.
+  [[nodiscard]] GLuint normalBuffer() const { return normals_.id(); }
+  [[nodiscard]] bool alongNormals() const { return geometry_.alongNormals(); }
   /// Uploaded from arrays left in a file (LayerGeometry::arraysInFile) that could not be read
   /// at upload: its buffers hold nothing to draw.
   [[nodiscard]] bool broken() const { return broken_; }
@@ -91,7 +95,7 @@ class OverlayLayer {
   void reallocate(std::size_t vertexCapacity, std::size_t indexCapacity);
 
   LayerGeometry geometry_;
-  gfx::BufferHandle vertices_, indices_, scaling_;
+  gfx::BufferHandle vertices_, indices_, scaling_, normals_;
   std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
   std::size_t gpuBytes_ = 0;
   bool broken_ = false;

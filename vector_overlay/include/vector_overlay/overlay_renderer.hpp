@@ -240,6 +240,12 @@ class OverlayRenderer {
   /// count in clipped_.
   GLsizei uploadClippedPieces(const OverlayView& view, const OverlayLayer& layer, const std::vector<std::size_t>& slots,
                               const OverlaySettings& settings, const PixelScale& scale, bool capped = false);
+  /// Draws the bound layer's z-fail pieces `entries` (indices into pieces.zFail and
+  /// pieces.zFailSlots) in `state`: clipped at the near plane (uploadClippedPieces), or whole for
+  /// a layer with no footprints to clip (world pieces: LayerGeometry::ofWorldPieces).
+  void drawZFail(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, const Pieces& pieces,
+                 std::span<const std::size_t> entries, const gfx::PipelineState& state, const OverlaySettings& settings,
+                 const PixelScale& scale, bool inPixels);
   void beginMeasure(const OverlaySettings& settings);
   void endMeasure(const OverlaySettings& settings, double& milliseconds, std::uint64_t& fragments);
   /// Ends the mark pass's queries and starts the cover's (when measuring).
@@ -263,6 +269,7 @@ class OverlayRenderer {
   gfx::BufferHandle origins_;
   std::size_t originsCapacity_ = 0;
   gfx::BufferHandle clipped_;
+  bool boundAlongNormals_ = false;   ///< the bound layer's caps are padded along its normals (bindLayer)
   double padPerMetreSquared_ = 0.0;  ///< this frame's quadratic padding (OverlaySettings::padPerMetreSquared)
   int fixedDepthBitsLogged_ = 0;     ///< a fixed-point depth buffer of this many bits was reported
   std::size_t clippedCapacity_ = 0;
