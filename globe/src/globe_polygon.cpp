@@ -16,6 +16,7 @@
 #include "globe/globe_overlay.hpp"
 #include "globe/tile.hpp"
 #include "globe_detail.hpp"
+#include "vector_overlay/generalise.hpp"
 
 namespace gis::globe {
 
@@ -172,46 +173,25 @@ std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double
   return clean;
 }
 
-/// Douglas–Peucker on ring[first .. last] (indices, last may wrap), keeping points whose distance
-/// from the chord, in degrees of arc with longitude scaled by the cosine of their latitude and
-/// divided by it again, exceeds `tolerance`: a tolerance in arc at the equator that shrinks with
-/// the cosine of the latitude. Points at a pole are always kept (the ring runs along it there).
+/// Douglas–Peucker (overlay::markDouglasPeucker) on ring[first .. last] (indices, last may
+/// wrap), keeping points whose distance from the chord, in degrees of arc with longitude scaled
+/// by the cosine of their latitude and divided by it again, exceeds `tolerance`: a tolerance in
+/// arc at the equator that shrinks with the cosine of the latitude. Points at a pole are always
+/// kept (the ring runs along it there).
 void simplifySpan(const std::vector<glm::dvec2>& ring, std::size_t first, std::size_t last, double tolerance,
                   std::vector<char>& keep) {
   const std::size_t n = ring.size();
-  std::vector<std::pair<std::size_t, std::size_t>> stack{{first, last}};
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
-  while (!stack.empty()) {
-    const auto [a, b] = stack.back();
-    stack.pop_back();
-    if (b <= a + 1) continue;
-    const glm::dvec2 pa = ring[a % n], pb = ring[b % n];
-    double worst = -1.0;
-    std::size_t at = a;
-    for (std::size_t k = a + 1; k < b; ++k) {
-      const glm::dvec2 p = ring[k % n];
-      if (isPole(p.y)) {
-        worst = std::numeric_limits<double>::infinity();
-        at = k;
-        break;
-      }
-      const double c = std::cos(p.y * kDegree);
-      const glm::dvec2 u((pa.x - p.x) * c, pa.y - p.y), v((pb.x - p.x) * c, pb.y - p.y);
-      const glm::dvec2 d = v - u;
-      const double len2 = glm::dot(d, d);
-      const double t = len2 > 0.0 ? std::clamp(-glm::dot(u, d) / len2, 0.0, 1.0) : 0.0;
-      const double dist = glm::length(u + d * t) / std::max(c, 1e-12);
-      if (dist > worst) {
-        worst = dist;
-        at = k;
-      }
-    }
-    if (worst > tolerance) {
-      keep[at % n] = 1;
-      stack.emplace_back(a, at);
-      stack.emplace_back(at, b);
-    }
-  }
+  overlay::markDouglasPeucker(first, last, tolerance, keep, [&ring, n](std::size_t k, std::size_t a, std::size_t b) {
+    const glm::dvec2 pa = ring[a % n], pb = ring[b % n], p = ring[k % n];
+    if (isPole(p.y)) return std::numeric_limits<double>::infinity();
+    const double c = std::cos(p.y * kDegree);
+    const glm::dvec2 u((pa.x - p.x) * c, pa.y - p.y), v((pb.x - p.x) * c, pb.y - p.y);
+    const glm::dvec2 d = v - u;
+    const double len2 = glm::dot(d, d);
+    const double t = len2 > 0.0 ? std::clamp(-glm::dot(u, d) / len2, 0.0, 1.0) : 0.0;
+    return glm::length(u + d * t) / std::max(c, 1e-12);
+  });
 }
 
 /// A point's key for finding the points rings share: its longitude in [−180, 180) and latitude.
@@ -222,9 +202,9 @@ std::pair<double, double> pointKey(const glm::dvec2& p) {
 }
 
 /// The ring simplified to `tolerance` (simplifySpan), split at its first point and the point
-/// farthest from it; points in `shared` and at a pole are kept.
-std::vector<glm::dvec2> simplifyRing(const std::vector<glm::dvec2>& ring, double tolerance,
-                                     const std::set<std::pair<double, double>>& shared) {
+/// farthest from it; points in `shared` (borders rings share) and at a pole are kept.
+std::vector<glm::dvec2> simplifyKeepingShared(const std::vector<glm::dvec2>& ring, double tolerance,
+                                              const std::set<std::pair<double, double>>& shared) {
   const std::size_t n = ring.size();
   std::vector<char> keep(n, 0);
   std::size_t far = 0;
@@ -271,7 +251,7 @@ void simplifyLevels(GlobePolygon& polygon, const std::set<std::pair<double, doub
     std::size_t before = 0, after = 0;
     std::vector<std::vector<glm::dvec2>> rings;
     for (const auto& ring : polygon.rings) {
-      std::vector<glm::dvec2> kept = simplifyRing(ring, simplifyTolerance(level), shared);
+      std::vector<glm::dvec2> kept = simplifyKeepingShared(ring, simplifyTolerance(level), shared);
       before += ring.size();
       after += kept.size();
       if (kept.size() >= 3) rings.push_back(std::move(kept));
@@ -746,35 +726,19 @@ std::vector<glm::dvec2> generalisedCentreline(const GlobeLine& line, double tole
   std::vector<char> keep(n, 0);
   keep[0] = keep[n - 1] = 1;
   for (std::size_t k = 0; k < n; ++k) keep[k] = static_cast<char>(keep[k] != 0 || isPole(line.points[k].y));
-  std::vector<std::pair<std::size_t, std::size_t>> stack;
+  // Each run between points kept already (ends, poles) on its own; the chord in ECEF.
+  const auto distance = [&line](std::size_t k, std::size_t a, std::size_t b) {
+    const glm::dvec3 pa = line.surface[a], along = line.surface[b] - pa;
+    const double length2 = glm::dot(along, along);
+    const glm::dvec3 d = line.surface[k] - pa;
+    const double t = length2 > 0.0 ? std::clamp(glm::dot(d, along) / length2, 0.0, 1.0) : 0.0;
+    return glm::length(d - along * t);
+  };
   std::size_t from = 0;
   for (std::size_t k = 1; k < n; ++k) {
     if (keep[k] == 0) continue;
-    stack.emplace_back(from, k);
+    overlay::markDouglasPeucker(from, k, tolerance, keep, distance);
     from = k;
-  }
-  while (!stack.empty()) {
-    const auto [a, b] = stack.back();
-    stack.pop_back();
-    if (b <= a + 1) continue;
-    const glm::dvec3 pa = line.surface[a], along = line.surface[b] - pa;
-    const double length2 = glm::dot(along, along);
-    double worst = -1.0;
-    std::size_t at = a;
-    for (std::size_t k = a + 1; k < b; ++k) {
-      const glm::dvec3 d = line.surface[k] - pa;
-      const double t = length2 > 0.0 ? std::clamp(glm::dot(d, along) / length2, 0.0, 1.0) : 0.0;
-      const double dist = glm::length(d - along * t);
-      if (dist > worst) {
-        worst = dist;
-        at = k;
-      }
-    }
-    if (worst > tolerance) {
-      keep[at] = 1;
-      stack.emplace_back(a, at);
-      stack.emplace_back(at, b);
-    }
   }
   std::vector<glm::dvec2> kept;
   for (std::size_t k = 0; k < n; ++k) {
@@ -838,7 +802,7 @@ const GlobeLayer::LineShapes* GlobeLayer::lineShapesAt(int level) const {
     const std::set<std::pair<double, double>> shared = sharedPoints(rings);
     for (GlobePolygon& p : made) {
       std::vector<glm::dvec2> ring =
-          simplifyRing(p.rings.front(), 0.5 * kLineGeneralisation * simplifyTolerance(level), shared);
+          simplifyKeepingShared(p.rings.front(), 0.5 * kLineGeneralisation * simplifyTolerance(level), shared);
       if (ring.size() >= 3) p.rings.front() = std::move(ring);
       points += pointCount(p);
     }

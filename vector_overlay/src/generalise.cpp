@@ -20,35 +20,14 @@ double distanceToSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dv
   return glm::length(p - (a + t * ab));
 }
 
-/// Marks the points of [first, last] that Douglas–Peucker keeps (first and last are kept by the
-/// caller). An explicit stack: lines of millions of points do not recurse that deep.
+/// Marks the points of [first, last] that Douglas–Peucker keeps in the plane (first and last
+/// are kept by the caller). A NaN distance keeps the point: the footprint builder reports the
+/// feature.
 void markKept(std::span<const glm::dvec2> points, std::size_t first, std::size_t last, double epsilon,
               std::vector<char>& keep) {
-  std::vector<std::pair<std::size_t, std::size_t>> stack{{first, last}};
-  while (!stack.empty()) {
-    const auto [a, b] = stack.back();
-    stack.pop_back();
-    if (b <= a + 1) continue;
-    double worst = -1.0;
-    std::size_t at = a;
-    for (std::size_t k = a + 1; k < b; ++k) {
-      const double d = distanceToSegment(points[k], points[a], points[b]);
-      if (std::isnan(d)) {  // kept: the footprint builder reports the feature
-        worst = d;
-        at = k;
-        break;
-      }
-      if (d > worst) {
-        worst = d;
-        at = k;
-      }
-    }
-    if (!(worst <= epsilon)) {  // NaN keeps the point (the footprint builder reports it)
-      keep[at] = 1;
-      stack.emplace_back(a, at);
-      stack.emplace_back(at, b);
-    }
-  }
+  markDouglasPeucker(first, last, epsilon, keep, [points](std::size_t k, std::size_t a, std::size_t b) {
+    return distanceToSegment(points[k], points[a], points[b]);
+  });
 }
 
 double twiceArea(const geo::Ring& ring) {

@@ -14,7 +14,10 @@
 //   centre line) moves by at most epsilon (Hausdorff distance). Miter and bevel joins and flat
 //   or square caps depend on the directions of the segments, which simplification changes:
 //   their footprint moves by at most epsilon + lineShapeSlack(shape) (see there).
+#include <cmath>
+#include <cstddef>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -25,6 +28,44 @@
 namespace gis::overlay {
 
 struct LineShape;
+
+/// The Douglas–Peucker core of every generalisation in both frames (this file's, the globe's
+/// rings in longitude and latitude and its lines on the ellipsoid): marks in `keep` the points
+/// of (first, last) that the span keeps, the ends being kept by the caller. `distance(k, a, b)`
+/// is how far point k lies from the chord between points a and b as the frame measures it: a
+/// point farther than `epsilon` is kept and splits the span; infinity keeps a point whatever
+/// the tolerance (a pole), NaN keeps the first such point at once. Indices are the caller's (a
+/// ring's last span may end at its size, standing for point 0). An explicit stack: lines of
+/// millions of points do not recurse that deep.
+template <typename Distance>
+void markDouglasPeucker(std::size_t first, std::size_t last, double epsilon, std::vector<char>& keep,
+                        Distance&& distance) {
+  std::vector<std::pair<std::size_t, std::size_t>> stack{{first, last}};
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    if (b <= a + 1) continue;
+    double worst = -1.0;
+    std::size_t at = a;
+    for (std::size_t k = a + 1; k < b; ++k) {
+      const double d = distance(k, a, b);
+      if (std::isnan(d)) {
+        worst = d;
+        at = k;
+        break;
+      }
+      if (d > worst) {
+        worst = d;
+        at = k;
+      }
+    }
+    if (!(worst <= epsilon)) {
+      keep[at] = 1;
+      stack.emplace_back(a, at);
+      stack.emplace_back(at, b);
+    }
+  }
+}
 
 /// Douglas–Peucker with the distance to the segment: the kept points, ends included. Fewer than
 /// 3 points are returned unchanged; epsilon <= 0 returns the points unchanged.
