@@ -3,10 +3,12 @@
 // globe: globe_analysis.cpp): the GPU's flags against the CPU reference's bits on the same depth.
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "scene/frame_readback.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/stencil_states.hpp"
 
@@ -40,14 +42,38 @@ inline OverlapCounts countOverlap(const std::vector<std::uint8_t>& flags, const 
   return c;
 }
 
-/// The counts as stats.json's "overlap" block has them.
-inline nlohmann::json overlapJson(const OverlapCounts& c) {
+/// stats.json's "overlap" block: the counts, the layers' names, the operator and the marking.
+inline nlohmann::json overlapJson(const OverlapCounts& c, const std::string& nameA, const std::string& nameB,
+                                  overlay::OverlapOp op, const overlay::AnalysisMarks& marks) {
+  const overlay::LayerFrameStats &a = marks.a, &b = marks.b;
   return {{"pixels", c.selected},
           {"a_pixels", c.inA},
           {"b_pixels", c.inB},
           {"both_pixels", c.both},
           {"pixels_differing_from_cpu_reference", c.differing},
-          {"differing_away_from_edges", c.differingAwayFromEdges}};
+          {"differing_away_from_edges", c.differingAwayFromEdges},
+          {"layers", {nameA, nameB}},
+          {"op", overlapOpName(op)},
+          {"groups", a.groups + b.groups},
+          {"pieces", a.zPassPieces + a.zFailPieces + b.zPassPieces + b.zFailPieces},
+          {"gpu_ms", marks.gpuMilliseconds},
+          {"fragments", marks.fragments}};
+}
+
+/// stats.json's "open_volumes" block.
+inline nlohmann::json openVolumesJson(const scene::OpenVolumePixels& open) {
+  nlohmann::json layers = nlohmann::json::array();
+  for (const scene::OpenVolumeLayer& layer : open.layers) {
+    const overlay::LayerFrameStats& s = layer.marks.a;
+    layers.push_back({{"name", layer.name},
+                      {"open_pixels", layer.openPixels},
+                      {"pieces_counted", s.zPassPieces + s.zFailPieces - layer.marks.uncountedPieces},
+                      {"pieces_clipped_and_capped", s.zFailPieces - layer.marks.uncountedPieces},
+                      {"pieces_left_out_near_the_eye", layer.marks.uncountedPieces},
+                      {"gpu_ms", layer.marks.gpuMilliseconds},
+                      {"fragments", layer.marks.fragments}});
+  }
+  return {{"open_pixels", open.openPixels}, {"layers", layers}};
 }
 
 }  // namespace gis::app

@@ -42,33 +42,20 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   }
   overlay::OverlayRenderer* overlays = renderer.overlay().renderer();
   if (overlays == nullptr) return 1;
-  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
-  gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
-  // The stencil core's analysis on the tiles' chunks, as in a projected frame (scene::drawOverlap).
-  overlay::OverlaySettings settings = globe::overlaySettingsOf({});
-  settings.measure = true;
+  // The stencil core's analysis on the tiles' chunks, as in a projected frame.
   const auto chunksA = renderer.overlay().chunks(renderer.tiles(), renderer.heights(), scene.layers[*a]);
   const auto chunksB = renderer.overlay().chunks(renderer.tiles(), renderer.heights(), scene.layers[*b]);
-  const overlay::AnalysisMarks marks =
-      overlays->markOverlap(cache, globe::overlayViewOf(view), chunksA, chunksB, settings);
-  const std::vector<std::uint8_t> flags = gfx::readStencil(target);
-  overlays->coverOverlap(cache, marks, request.overlapOp, scene::kOverlapColour);
-  gfx::enableMaskWrites(target.framebuffer(), true);
+  const scene::OverlapPixels overlap =
+      scene::drawOverlap(cache, target, *overlays, chunksA, chunksB, request.overlapOp, globe::overlayViewOf(view));
 
   const overlay::DepthImage image = globe::depthImageOf(view, depth);
   const std::vector<const globe::GlobeLayer*> pair{&scene.layers[*a], &scene.layers[*b]};
   const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(pair));
   const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, pair);
-  const OverlapCounts counts = countOverlap(flags, expected, edges, request.overlapOp);
+  const OverlapCounts counts = countOverlap(overlap.flags, expected, edges, request.overlapOp);
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), view.width, view.height, 1, counts.pixels);
   report(png.diagnostics);
-  json block = overlapJson(counts);
-  block["layers"] = {nameA, nameB};
-  block["op"] = overlapOpName(request.overlapOp);
-  block["groups"] = marks.a.groups + marks.b.groups;
-  block["pieces"] = marks.a.zPassPieces + marks.a.zFailPieces + marks.b.zPassPieces + marks.b.zFailPieces;
-  block["gpu_ms"] = marks.gpuMilliseconds;
-  stats["overlap"] = std::move(block);
+  stats["overlap"] = overlapJson(counts, nameA, nameB, request.overlapOp, overlap.marks);
   return png.ok() ? 0 : 1;
 }
 
@@ -77,34 +64,15 @@ int drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, glo
                     const std::filesystem::path& out, json& stats) {
   overlay::OverlayRenderer* overlays = renderer.overlay().renderer();
   if (overlays == nullptr) return 1;
-  cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
-  gfx::enableMaskWrites(target.framebuffer(), false);
-  std::vector<std::uint8_t> pixels(static_cast<std::size_t>(view.width) * static_cast<std::size_t>(view.height), 0);
-  json layers = json::array();
-  std::size_t open = 0;
-  for (const globe::GlobeLayer& layer : scene.layers) {
-    const overlay::AnalysisMarks marks = overlays->countOpenFaces(
-        cache, globe::overlayViewOf(view), renderer.overlay().chunks(renderer.tiles(), renderer.heights(), layer),
-        globe::overlaySettingsOf({}));
-    const std::vector<std::uint8_t> counts = gfx::readStencil(target);
-    overlays->coverOpenFaces(cache, marks, scene::kOpenVolumeColour);
-    const overlay::LayerFrameStats& counted = marks.a;
-    std::size_t layerOpen = 0;
-    for (std::size_t i = 0; i < counts.size() && i < pixels.size(); ++i) {
-      if (counts[i] == 0) continue;
-      ++layerOpen;
-      pixels[i] = 255;
-    }
-    layers.push_back({{"name", layer.name()},
-                      {"open_pixels", layerOpen},
-                      {"pieces_counted", counted.zPassPieces},
-                      {"pieces_left_out_near_the_eye", counted.zFailPieces}});
-  }
-  gfx::enableMaskWrites(target.framebuffer(), true);
-  for (const std::uint8_t p : pixels) open += p != 0 ? 1U : 0U;
-  const Result<bool> png = gfx::writeImage8((out / "open_volumes.png").string(), view.width, view.height, 1, pixels);
+  std::vector<scene::ChunkedLayer> layers;
+  for (const globe::GlobeLayer& layer : scene.layers)
+    layers.push_back({layer.name(), renderer.overlay().chunks(renderer.tiles(), renderer.heights(), layer)});
+  const scene::OpenVolumePixels open =
+      scene::drawOpenVolumes(cache, target, *overlays, layers, globe::overlayViewOf(view));
+  const Result<bool> png =
+      gfx::writeImage8((out / "open_volumes.png").string(), view.width, view.height, 1, open.pixels);
   report(png.diagnostics);
-  stats["open_volumes"] = {{"open_pixels", open}, {"layers", layers}};
+  stats["open_volumes"] = openVolumesJson(open);
   return png.ok() ? 0 : 1;
 }
 

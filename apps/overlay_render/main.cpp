@@ -288,13 +288,7 @@ bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats)
   const auto nameOf = [&](std::size_t j) {
     return d.setup.scene.layers[renderer.overlaySources()[j].first].description.name;
   };
-  json block = app::overlapJson(counts);
-  block["layers"] = {nameOf(overlap.a), nameOf(overlap.b)};
-  block["op"] = overlay::overlapOpName(op);
-  block["groups"] = overlap.marks.a.groups + overlap.marks.b.groups;
-  block["gpu_ms"] = overlap.marks.gpuMilliseconds;
-  block["fragments"] = overlap.marks.fragments;
-  stats["overlap"] = std::move(block);
+  stats["overlap"] = app::overlapJson(counts, nameOf(overlap.a), nameOf(overlap.b), op, overlap.marks);
   return png.ok();
 }
 
@@ -600,16 +594,7 @@ bool writeAnalyses(const std::filesystem::path& out, const Drawn& d, Diagnostics
         gfx::writeImage8((out / "open_volumes.png").string(), d.o.width, d.o.height, 1, open->pixels);
     report(png.diagnostics);
     ok = ok && png.ok();
-    json layers = json::array();
-    for (const scene::OpenVolumeLayer& layer : open->layers) {
-      layers.push_back({{"name", layer.name},
-                        {"open_pixels", layer.openPixels},
-                        {"pieces_counted", layer.marks.a.zPassPieces + layer.marks.a.zFailPieces},
-                        {"pieces_clipped_and_capped", layer.marks.a.zFailPieces},
-                        {"gpu_ms", layer.marks.gpuMilliseconds},
-                        {"fragments", layer.marks.fragments}});
-    }
-    stats["open_volumes"] = {{"open_pixels", open->openPixels}, {"layers", layers}};
+    stats["open_volumes"] = app::openVolumesJson(*open);
   }
   return ok;
 }

@@ -53,20 +53,41 @@ std::optional<std::size_t> fillLayerNamed(const LoadedScene& scene, const SceneR
 
 OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
                           std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view) {
-  OverlapPixels out{a, b, {}, {}};
+  OverlapPixels out = drawOverlap(cache, target, renderer.overlayRenderer(), renderer.drawnChunks(a),
+                                  renderer.drawnChunks(b), op, view);
+  out.a = a;
+  out.b = b;
+  return out;
+}
+
+OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, overlay::OverlayRenderer& renderer,
+                          std::span<const overlay::OverlayLayer* const> a,
+                          std::span<const overlay::OverlayLayer* const> b, overlay::OverlapOp op,
+                          const overlay::OverlayView& view) {
+  OverlapPixels out{0, 1, {}, {}};
   cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
   gfx::enableMaskWrites(target.framebuffer(), false);  // the overlay mask stays as the layers left it
   overlay::OverlaySettings settings;
   settings.measure = true;
-  out.marks =
-      renderer.overlayRenderer().markOverlap(cache, view, renderer.drawnChunks(a), renderer.drawnChunks(b), settings);
+  out.marks = renderer.markOverlap(cache, view, a, b, settings);
   out.flags = gfx::readStencil(target);
-  renderer.overlayRenderer().coverOverlap(cache, out.marks, op, kOverlapColour);
+  renderer.coverOverlap(cache, out.marks, op, kOverlapColour);
   gfx::enableMaskWrites(target.framebuffer(), true);
   return out;
 }
 
 OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
+                                 const overlay::OverlayView& view) {
+  std::vector<ChunkedLayer> layers;
+  for (std::size_t j = 0; j < renderer.overlayLayers().size(); ++j) {
+    const auto chunks = renderer.drawnChunks(j);
+    layers.push_back({renderer.overlayLayers()[j].name(), {chunks.begin(), chunks.end()}});
+  }
+  return drawOpenVolumes(cache, target, renderer.overlayRenderer(), layers, view);
+}
+
+OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                 overlay::OverlayRenderer& renderer, std::span<const ChunkedLayer> layers,
                                  const overlay::OverlayView& view) {
   OpenVolumePixels out;
   cache.bindDrawTarget(target.framebuffer(), target.width(), target.height());
@@ -74,11 +95,10 @@ OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget
   overlay::OverlaySettings settings;
   settings.measure = true;
   out.pixels.assign(static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height()), 0);
-  for (std::size_t j = 0; j < renderer.overlayLayers().size(); ++j) {
-    OpenVolumeLayer counted{renderer.overlayLayers()[j].name(), 0,
-                            renderer.overlayRenderer().countOpenFaces(cache, view, renderer.drawnChunks(j), settings)};
+  for (const ChunkedLayer& layer : layers) {
+    OpenVolumeLayer counted{layer.name, 0, renderer.countOpenFaces(cache, view, layer.chunks, settings)};
     const std::vector<std::uint8_t> counts = gfx::readStencil(target);
-    renderer.overlayRenderer().coverOpenFaces(cache, counted.marks, kOpenVolumeColour);
+    renderer.coverOpenFaces(cache, counted.marks, kOpenVolumeColour);
     for (std::size_t i = 0; i < counts.size() && i < out.pixels.size(); ++i) {
       if (counts[i] == 0) continue;
       ++counted.openPixels;

@@ -97,8 +97,11 @@ AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const Over
     multiDraw(cache, pieces.zPass);
     // Pieces near the eye are closed on the clip plane; a layer with no footprints to clip (world
     // pieces) leaves them out of the count (marks.a.zFailPieces says how many).
-    if (!layer.geometry().footprintsReleased())
+    if (!layer.geometry().footprintsReleased()) {
       drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
+    } else {
+      marks.uncountedPieces += pieces.zFailSlots.size();
+    }
     endLayer(inPixels);
   }
   endMeasure(settings, marks.gpuMilliseconds, marks.fragments);

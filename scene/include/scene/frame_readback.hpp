@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -57,6 +58,13 @@ struct OverlapPixels {
 /// `op` holds.
 OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
                           std::size_t a, std::size_t b, overlay::OverlapOp op, const overlay::OverlayView& view);
+/// The same in either frame: two layers given as the chunks the overlay renderer draws (a whole
+/// layer, a projected layer's tiles, the globe's tile chunks: globe::GlobeOverlayRenderer::chunks).
+/// `a` and `b` of the result are 0 and 1.
+OverlapPixels drawOverlap(gfx::StateCache& cache, const gfx::RenderTarget& target, overlay::OverlayRenderer& renderer,
+                          std::span<const overlay::OverlayLayer* const> a,
+                          std::span<const overlay::OverlayLayer* const> b, overlay::OverlapOp op,
+                          const overlay::OverlayView& view);
 
 struct OpenVolumeLayer {
   std::string name;  ///< the overlay layer's
@@ -73,6 +81,16 @@ struct OpenVolumePixels {
 
 /// Counts each overlay layer's open faces over the frame in `target` and colours them.
 OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, SceneRenderer& renderer,
+                                 const overlay::OverlayView& view);
+
+/// A layer as the overlay renderer draws it, in either frame: its name and its chunks.
+struct ChunkedLayer {
+  std::string name;
+  std::vector<const overlay::OverlayLayer*> chunks;
+};
+/// The same for layers given as chunks.
+OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                                 overlay::OverlayRenderer& renderer, std::span<const ChunkedLayer> layers,
                                  const overlay::OverlayView& view);
 
 /// The frame as files hold it.

@@ -120,6 +120,9 @@ struct AnalysisMarks {
   LayerFrameStats a, b;          ///< the layers' pieces as drawn (b unused by countOpenFaces)
   double gpuMilliseconds = 0.0;  ///< marking, when measured
   std::uint64_t fragments = 0;
+  /// countOpenFaces: pieces near the eye that have no footprints to clip and cap (world pieces,
+  /// lean tiles), left out of the count; the rest of a.zFailPieces were clipped and capped.
+  std::size_t uncountedPieces = 0;
 };
 
 class OverlayRenderer {
