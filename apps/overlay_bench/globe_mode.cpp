@@ -172,6 +172,7 @@ int runGlobe(const Options& o) {
   gfx::RenderTarget target(o.width, o.height, 0, true);
   const globe::GlobeFrameTarget frameTarget{target.framebuffer(), o.width, o.height, true};
   globe::GlobeRenderer renderer(loaded->heights);
+  const globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
   renderer.setImagery(loaded->imagery);
   const std::vector<GlobeFrame> path = globePath(*loaded, o.frames);
 
@@ -190,12 +191,12 @@ int runGlobe(const Options& o) {
     // Untimed: builds the tiles and pieces this view needs.
     const auto buildStart = std::chrono::steady_clock::now();
     for (int n = 0; n < 4096; ++n) {  // every tile's imagery built before timing
-      if (renderer.render(cache, frameTarget, view, layers, false).terrain.imageryPending == 0) break;
+      if (renderer.render(cache, frameTarget, view, layers, false, overlaySettings).terrain.imageryPending == 0) break;
     }
     glFinish();
     const double buildMs = msSince(buildStart);
     const globe::GlobeFrameStats bare = renderer.render(cache, frameTarget, view, {}, true);
-    const globe::GlobeFrameStats full = renderer.render(cache, frameTarget, view, layers, true);
+    const globe::GlobeFrameStats full = renderer.render(cache, frameTarget, view, layers, true, overlaySettings);
     const double ratio = (full.terrainGpuMilliseconds + full.overlayGpuMilliseconds) / bare.terrainGpuMilliseconds;
     csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
         << full.overlayGpuMilliseconds << ',' << ratio << ',' << full.terrain.tiles << ',' << full.terrain.triangles

@@ -70,8 +70,8 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
     if (renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, {}).terrain.imageryPending == 0)
       break;
   }
-  const globe::GlobeFrameStats stats =
-      renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true);
+  const globe::GlobeFrameStats stats = renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view,
+                                                       layers, true, scene::globeOverlaySettings(loaded->description));
   const double firstFrame = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const std::filesystem::path out(o.out);
   std::filesystem::create_directories(out);
@@ -157,11 +157,20 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
             {"overlay",
              {{"pieces", stats.overlay.pieces},
               {"z_fail_pieces", stats.overlay.zFailPieces},
+              {"culled_pieces", stats.overlay.culledPieces},
               {"triangles", stats.overlay.triangles},
               {"tiles_built", stats.overlay.builtTiles},
               {"gpu_ms", stats.overlayGpuMilliseconds},
               {"fragments", stats.overlayFragments},
               {"primitives", stats.overlayPrimitives}}},
+            // The layers' tiles (the terrain's drawn tiles), as a projected scene's "tiles" block.
+            {"tiles",
+             {{"drawn", stats.overlay.drawnTiles},
+              {"built", stats.overlay.builtTiles},
+              {"resident", stats.overlay.residentTiles},
+              {"evicted", stats.overlay.evictedTiles},
+              {"gpu_bytes", stats.overlay.residentBytes},
+              {"gpu_budget_bytes", scene::globeOverlaySettings(loaded->description).gpuBudgetBytes}}},
             {"layers", layersJson},
             {"diagnostics", diagnostics}};
   s.update(analyses);

@@ -190,8 +190,8 @@ void Viewer::drawGlobe() {
   }
   // GPU timer queries wait for the GPU: sample them (every frame in a script).
   const bool timed = frameIndex_ % 30 == 1 || script_.has_value();
-  const globe::GlobeFrameStats s =
-      g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed);
+  const globe::GlobeFrameStats s = g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view,
+                                                      layers, timed, scene::globeOverlaySettings(g.scene.description));
   if (timed) {
     g.stats = s;
   } else {

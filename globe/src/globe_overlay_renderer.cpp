@@ -72,10 +72,14 @@ struct GlobeOverlayRenderer::Gpu {
   struct Tile {
     std::optional<overlay::OverlayLayer> layer;  ///< none: no pieces over the tile
     std::list<Key>::iterator lru;
+    std::size_t bytes = 0;
+    std::uint64_t frame = 0;  ///< the draw that last took it
   };
   std::unordered_map<Key, Tile, KeyHash> tiles;
   std::list<Key> lru;  ///< most recently drawn first
   std::size_t built = 0;
+  std::size_t bytes = 0;    ///< of every resident tile
+  std::uint64_t frame = 0;  ///< draws so far
 };
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
@@ -104,39 +108,52 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const std
       TilePieces pieces = buildTilePieces(layer, tile.key, heights);
       ++gpu_->built;
       Gpu::Tile entry;
-      if (!pieces.pieces.empty()) entry.layer = overlay::OverlayLayer::upload(worldPiecesOf(layer, std::move(pieces)));
+      if (!pieces.pieces.empty()) {
+        entry.layer = overlay::OverlayLayer::upload(worldPiecesOf(layer, std::move(pieces)));
+        entry.bytes = entry.layer->stats().gpuBytes;
+        gpu_->bytes += entry.bytes;
+      }
       gpu_->lru.push_front(key);
       entry.lru = gpu_->lru.begin();
       found = gpu_->tiles.emplace(key, std::move(entry)).first;
     } else {
       gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
     }
+    found->second.frame = gpu_->frame;
     if (found->second.layer) out.push_back(&*found->second.layer);
   }
   return out;
 }
 
-void GlobeOverlayRenderer::trim(std::size_t layers, const GlobeOverlaySettings& settings) {
-  // Least recently drawn tiles go beyond the budget.
-  const std::size_t budget = settings.cacheTiles * std::max<std::size_t>(layers, 1);
-  while (gpu_->tiles.size() > budget) {
-    gpu_->tiles.erase(gpu_->lru.back());
+std::size_t GlobeOverlayRenderer::trim(const GlobeOverlaySettings& settings) {
+  // Tiles with no pieces hold no GPU bytes; a bound on their number keeps the table small too.
+  constexpr std::size_t kMostTiles = std::size_t{1} << 16U;
+  std::size_t evicted = 0;
+  while ((gpu_->bytes > settings.gpuBudgetBytes || gpu_->tiles.size() > kMostTiles) && !gpu_->lru.empty()) {
+    const auto found = gpu_->tiles.find(gpu_->lru.back());
+    if (found->second.frame == gpu_->frame) break;  // the least recent is this frame's: so are the rest
+    gpu_->bytes -= found->second.bytes;
+    gpu_->tiles.erase(found);
     gpu_->lru.pop_back();
+    ++evicted;
   }
+  return evicted;
 }
 
 void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                 const GeoGrid& heights, const std::vector<const GlobeLayer*>& layers,
                                 const GlobeOverlaySettings& settings) {
   stats_ = {};
-  trim(layers.size(), settings);  // before this frame's chunks are taken: they stay until the next draw
   overlay::OverlayRenderer* overlays = renderer();
   if (overlays == nullptr) return;
   gpu_->built = 0;
+  ++gpu_->frame;
   std::vector<std::vector<const overlay::OverlayLayer*>> chunked;
   for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
     chunked.push_back(chunks(tiles, heights, *layers[l]));
     for (const overlay::OverlayLayer* chunk : chunked.back()) stats_.triangles += chunk->stats().triangles;
+    stats_.drawnTiles += chunked.back().size();
+    for (const overlay::OverlayLayer* chunk : chunked.back()) stats_.drawnBytes += chunk->stats().gpuBytes;
   }
   const std::vector<overlay::LayerFrameStats> drawn =
       overlays->draw(cache, overlayViewOf(view), chunked, overlaySettingsOf(settings));
@@ -146,6 +163,10 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     stats_.culledPieces += s.culledPieces;
   }
   stats_.builtTiles = gpu_->built;
+  // Over the budget: the tiles drawn longest ago leave (this frame's chunks stay until the next draw).
+  stats_.evictedTiles = trim(settings);
+  stats_.residentTiles = gpu_->tiles.size();
+  stats_.residentBytes = gpu_->bytes;
 }
 
 }  // namespace gis::globe

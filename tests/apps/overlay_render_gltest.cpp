@@ -1000,6 +1000,12 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
   const json stats = json::parse(readText(out / "stats.json"));
   ASSERT_EQ(stats["frame"], "globe") << stats.dump(1);
   EXPECT_EQ(stats["method"], "stencil-tiles");
+  // The layers' tiles under the scene's GPU budget (terrain.gpu_budget_mb, 512 MiB by default).
+  const json& tiles = stats["tiles"];
+  EXPECT_GT(tiles["drawn"].get<std::size_t>(), 0u) << tiles.dump(1);
+  EXPECT_GT(tiles["gpu_bytes"].get<std::size_t>(), 0u) << tiles.dump(1);
+  EXPECT_EQ(tiles["gpu_budget_bytes"].get<std::size_t>(), std::size_t{512} << 20U) << tiles.dump(1);
+  EXPECT_LE(tiles["gpu_bytes"].get<std::size_t>(), tiles["gpu_budget_bytes"].get<std::size_t>()) << tiles.dump(1);
   const json& selection = stats["selection"];
   EXPECT_EQ(selection["steps"].get<int>(), 2);
   EXPECT_EQ(selection["differing_away_from_edges"].get<std::size_t>(), 0u) << selection.dump(1);

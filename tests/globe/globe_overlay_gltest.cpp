@@ -1,6 +1,7 @@
 // The globe overlay on the GPU against the CPU reference on the same depth buffer (docs/globe.md):
 // 0 wrong pixels away from edges from space, oblique and grazing, across the antimeridian, over
 // both poles and from 1 m above the ground.
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <string>
@@ -38,17 +39,20 @@ class GlobeOverlayGl : public test::GlTest {
   };
 
   /// Draws the terrain and the layers for the view and compares the mask with the reference.
-  Outcome drawAndCompare(const GlobeView& view, const std::vector<const GlobeLayer*>& layers,
-                         const std::string& label) {
+  /// With `kept`, the layers are drawn by that renderer (its tiles kept from earlier frames, under
+  /// `settings`' budget); else by a new one.
+  Outcome drawAndCompare(const GlobeView& view, const std::vector<const GlobeLayer*>& layers, const std::string& label,
+                         GlobeOverlayRenderer* kept = nullptr, const GlobeOverlaySettings& settings = {}) {
     GlobeTerrain terrain(grid());
-    GlobeOverlayRenderer overlay;
+    GlobeOverlayRenderer own;
+    GlobeOverlayRenderer& overlay = kept != nullptr ? *kept : own;
     gfx::RenderTarget target(view.width, view.height, 0, true);
     const std::vector<DrawnTile> tiles = terrain.select(view);
     gfx::beginRenderPass(cache_, target, {glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), gfx::kReversedZFar, 0});
     gfx::enableMaskWrites(target.framebuffer(), false);
     terrain.draw(cache_, view, tiles);
     gfx::enableMaskWrites(target.framebuffer(), true);
-    overlay.draw(cache_, view, tiles, *grid(), layers);
+    overlay.draw(cache_, view, tiles, *grid(), layers, settings);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> gpu = gfx::readMask(target);
     std::filesystem::create_directories(STENCIL_GIS_TEST_OUTPUT_DIR);
@@ -160,6 +164,37 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), all, c.label);
     EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the features";
   }
+}
+
+TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {
+  // One renderer over a flight (space, the continent, the antimeridian, a pole, back to the
+  // start) with a budget of 1 MiB: after each frame the resident tiles hold at most the budget or,
+  // when this frame's own tiles need more, just those; tiles leave and are built again, and every
+  // frame is exact.
+  const Layers layers = makeLayers();
+  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &layers.lines, &layers.outlines};
+  GlobeOverlaySettings settings;
+  settings.gpuBudgetBytes = std::size_t{1} << 20U;
+  GlobeOverlayRenderer overlay;
+  const std::vector<std::pair<Geodetic, Geodetic>> flight{{{-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}},
+                                                          {{-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}},
+                                                          {{165.0, -40.0, 6e5}, {-178.0, -21.0, 0.0}},
+                                                          {{30.0, 70.0, 4e5}, {120.0, 89.0, 0.0}},
+                                                          {{-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}}};
+  std::size_t evicted = 0, rebuilt = 0;
+  for (std::size_t k = 0; k < flight.size(); ++k) {
+    drawAndCompare(view(flight[k].first, flight[k].second), all, "budget frame " + std::to_string(k), &overlay,
+                   settings);
+    const GlobeOverlayStats& s = overlay.stats();
+    std::printf("budget frame %zu: drawn %zu tiles (%zu bytes), built %zu, resident %zu (%zu bytes), evicted %zu\n", k,
+                s.drawnTiles, s.drawnBytes, s.builtTiles, s.residentTiles, s.residentBytes, s.evictedTiles);
+    EXPECT_LE(s.residentBytes, std::max(settings.gpuBudgetBytes, s.drawnBytes)) << k;
+    EXPECT_GT(s.drawnTiles, 0U) << k;
+    evicted += s.evictedTiles;
+    if (k + 1 == flight.size()) rebuilt = s.builtTiles;
+  }
+  EXPECT_GT(evicted, 0U) << "the flight must need more than the budget";
+  EXPECT_GT(rebuilt, 0U) << "the first view's tiles left and came back";
 }
 
 TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {

@@ -198,7 +198,10 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
 struct GlobeOverlaySettings {
   double padBase = 0.05;  ///< caps move out by padBase + padPerMetre · distance (depth precision)
   double padPerMetre = 2e-6;
-  std::size_t cacheTiles = 4096;  ///< tiles' pieces kept on the GPU per layer
+  /// GPU bytes the tiles' pieces may hold, all layers (the scene's terrain.gpu_budget_mb, as the
+  /// projected frame's tiles): the least recently drawn tiles leave first; the tiles of the
+  /// frame being drawn always stay.
+  std::size_t gpuBudgetBytes = std::size_t{512} << 20U;
 };
 
 /// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
@@ -207,9 +210,14 @@ overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings)
 struct GlobeOverlayStats {
   std::size_t pieces = 0;  ///< drawn (in view)
   std::size_t zFailPieces = 0;
-  std::size_t culledPieces = 0;  ///< of the drawn tiles, outside the view
-  std::size_t triangles = 0;     ///< of the drawn tiles' pieces
-  std::size_t builtTiles = 0;    ///< this frame
+  std::size_t culledPieces = 0;   ///< of the drawn tiles, outside the view
+  std::size_t triangles = 0;      ///< of the drawn tiles' pieces
+  std::size_t builtTiles = 0;     ///< this frame
+  std::size_t drawnTiles = 0;     ///< this frame, with pieces (the layers' chunks)
+  std::size_t drawnBytes = 0;     ///< their GPU bytes
+  std::size_t residentTiles = 0;  ///< after the frame: tiles whose pieces the GPU holds
+  std::size_t residentBytes = 0;  ///< and their bytes
+  std::size_t evictedTiles = 0;   ///< this frame, for the budget
 };
 
 /// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames
@@ -242,8 +250,9 @@ class GlobeOverlayRenderer {
 
  private:
   struct Gpu;
-  /// Drops the least recently drawn tiles' pieces beyond the budget.
-  void trim(std::size_t layers, const GlobeOverlaySettings& settings);
+  /// Drops the least recently drawn tiles' pieces while they hold more than the budget (never
+  /// this frame's); returns how many.
+  std::size_t trim(const GlobeOverlaySettings& settings);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
 };

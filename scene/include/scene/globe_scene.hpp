@@ -2,6 +2,7 @@
 // A scene drawn on the WGS 84 globe (docs/globe.md): its DEM as heights in longitude/latitude
 // (globe::GeoGrid), its polygon layers read in longitude/latitude (globe::GlobeLayer), and the
 // choice between the globe and a projected frame.
+#include <algorithm>
 #include <array>
 #include <memory>
 #include <optional>
@@ -51,6 +52,14 @@ struct LoadedGlobeScene {
 /// joins (what else a style asks for is said in a warning, and drawn so). A layer that cannot be read is reported and
 /// left out; only a DEM that cannot be read fails the scene.
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
+
+/// How the scene's layers are drawn on the globe: the overlay's GPU budget is the scene's
+/// terrain.gpu_budget_mb, as the projected frame's tiles have it.
+inline globe::GlobeOverlaySettings globeOverlaySettings(const SceneDescription& description) {
+  globe::GlobeOverlaySettings settings;
+  settings.gpuBudgetBytes = static_cast<std::size_t>(std::max(16.0, description.gpuBudgetMb) * 1024.0 * 1024.0);
+  return settings;
+}
 
 /// The view of a camera stated in lon/lat/h (eye and target; a scene's "camera", a camera file,
 /// overlay_render's globe camera.json), its near plane the camera's "near" or a fraction of the
