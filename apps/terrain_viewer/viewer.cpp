@@ -513,8 +513,8 @@ void Viewer::drawScene() {
   if (debugPieces_ && render_.overlays) {
     for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
       if (!renderer_->shown(j)) continue;
-      renderer_->overlayRenderer().drawPieces(cache_, view, renderer_->drawnChunks(j),
-                                              glm::vec4(0.1F, 0.8F, 0.2F, 0.35F), glm::vec4(0.9F, 0.1F, 0.1F, 0.5F));
+      renderer_->overlayRenderer().drawPieces(cache_, view, renderer_->drawnChunks(j), kZPassPieceColour,
+                                              kZFailPieceColour);
     }
   }
   // Into the window: the panel is drawn over this copy.

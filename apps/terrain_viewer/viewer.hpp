@@ -558,6 +558,9 @@ class Viewer {
   /// Where controls were drawn (window units: x0, y0, x1, y1), in save_state for tests.
   std::map<std::string, glm::vec4> uiRects_;
   bool debugPieces_ = false;
+  /// The debug view of pieces (both frames): z-pass pieces green, z-fail red, translucent.
+  static constexpr glm::vec4 kZPassPieceColour{0.1F, 0.8F, 0.2F, 0.35F};
+  static constexpr glm::vec4 kZFailPieceColour{0.9F, 0.1F, 0.1F, 0.5F};
   std::optional<Identified> identified_;
   std::optional<AttributeTable> table_;
   FileBrowser browser_;

@@ -200,6 +200,16 @@ void Viewer::drawGlobe() {
     g.stats.terrainGpuMilliseconds = terrainMs;
     g.stats.overlayGpuMilliseconds = overlayMs;
   }
+  if (debugPieces_ && render_.overlays) {
+    // The same debug view of pieces as in a projected frame, on the tiles' chunks.
+    if (overlay::OverlayRenderer* overlays = g.renderer->overlay().renderer()) {
+      for (const globe::GlobeLayer* layer : layers) {
+        overlays->drawPieces(cache_, globe::overlayViewOf(g.view),
+                             g.renderer->overlay().chunks(g.renderer->tiles(), g.renderer->heights(), *layer),
+                             kZPassPieceColour, kZFailPieceColour);
+      }
+    }
+  }
   if (!steps_.empty()) drawGlobeSelection();
   // The globe builds the meshes and pieces a frame needs in that frame; imagery comes a few tiles
   // a frame: draw again until it is all there.
@@ -420,6 +430,7 @@ void Viewer::drawGlobePanel() {
     ImGui::Checkbox("vector layers (O)", &render_.overlays);
     ImGui::SameLine();
     ImGui::Checkbox("legend", &showLegend_);
+    ImGui::Checkbox("debug: pieces", &debugPieces_);
     if (!labelSets_.empty()) {
       ImGui::SameLine();
       ImGui::Checkbox("labels", &showLabels_);

@@ -183,6 +183,9 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
   ASSERT_TRUE(runViewer("home", json::array({{{"wait", 2}},
                                              {{"action", "save_state"}, {"path", "home_state.json"}},
                                              {{"action", "screenshot"}, {"path", "with.png"}, {"ui", false}},
+                                             {{"action", "view"}, {"debug_pieces", true}},
+                                             {{"action", "screenshot"}, {"path", "pieces.png"}, {"ui", false}},
+                                             {{"action", "view"}, {"debug_pieces", false}},
                                              {{"action", "overlays"}, {"on", false}},
                                              {{"action", "screenshot"}, {"path", "without.png"}, {"ui", false}},
                                              {{"action", "overlays"}, {"on", true}},
@@ -219,6 +222,24 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
   // outside unchanged.
   const gfx::Image8 with = *gfx::readImage8((dir_ / "with.png").string());
   const gfx::Image8 without = *gfx::readImage8((dir_ / "without.png").string());
+  {
+    // The debug view of pieces, as in a projected frame: the pieces in view tinted (z-pass green
+    // from this height) over the frame, nothing else changed.
+    const gfx::Image8 pieces = *gfx::readImage8((dir_ / "pieces.png").string());
+    ASSERT_EQ(pieces.pixels.size(), with.pixels.size());
+    std::size_t tinted = 0, greener = 0;
+    for (std::size_t i = 0; i + 2 < with.pixels.size(); i += 3) {
+      if (std::equal(with.pixels.begin() + static_cast<std::ptrdiff_t>(i),
+                     with.pixels.begin() + static_cast<std::ptrdiff_t>(i + 3),
+                     pieces.pixels.begin() + static_cast<std::ptrdiff_t>(i)))
+        continue;
+      ++tinted;
+      greener += pieces.pixels[i + 1] > with.pixels[i + 1] ? 1U : 0U;
+    }
+    std::printf("debug pieces: %zu pixels tinted, %zu of them greener\n", tinted, greener);
+    EXPECT_GT(tinted, 1000U);
+    EXPECT_GT(greener, tinted * 9 / 10);
+  }
   const gfx::ImageFloat depth = *gfx::readImageFloat((dir_ / "with_depth.tiff").string());
   ASSERT_EQ(with.width, kWidth);
   ASSERT_EQ(with.height, kHeight);
