@@ -586,14 +586,8 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
     }
   };
   const std::vector<GlobePolygon>& polygons = layer.polygons();
-  const GlobeLayer::LineShapes* lines = layer.lineShapesAt(key.level);
   for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], false);
-  if (lines != nullptr) {
-    for (const std::uint32_t k : lines->full) addPolygon(polygons[k], true);
-    for (const GlobePolygon& polygon : lines->generalised) addPolygon(polygon, true);
-  } else {
-    for (std::size_t k = layer.areaCount(); k < polygons.size(); ++k) addPolygon(polygons[k], true);
-  }
+  for (const GlobePolygon& polygon : layer.lineShapesIn(key)) addPolygon(polygon, true);
   for (const auto& [groupCell, rings] : lineCells) {
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
     addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union, groupCell.first);

@@ -478,9 +478,8 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
     groupOf[f] = static_cast<std::uint32_t>(found - layer.colors_.begin());
     if (found == layer.colors_.end()) layer.colors_.push_back(options.featureColors[f]);
   }
-  // Lines (line strings, or the rings of an outline layer) first become polygons of their own.
-  std::vector<geo::Feature> shapes;
-  std::vector<std::uint32_t> shapeFeature;  ///< per shape, its feature
+  // Lines (line strings, or the rings of an outline layer): their points, for the reference and
+  // for the shapes each tile draws of them (lineShapesIn: made per tile, never for the whole layer).
   const bool drawLines = options.outlines || std::any_of(features.begin(), features.end(),
                                                          [](const geo::Feature& f) { return !f.lines.empty(); });
   const double halfWidth = 0.5 * options.lineWidthMetres;
@@ -555,52 +554,35 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
             g.buckets[b].push_back(static_cast<std::uint32_t>(i));
         }
       }
-      geo::Feature drawn;
-      drawn.fid = features[f].fid;
-      for (std::vector<glm::dvec2>& shape : lineShapes(line, given, g.halfWidth, options.chordTolerance))
-        drawn.polygons.push_back({std::move(shape), {}});
       g.points = std::move(line);
       g.given = std::move(given);
       layer.lines_.push_back(std::move(g));
-      shapes.push_back(std::move(drawn));
-      shapeFeature.push_back(static_cast<std::uint32_t>(f));
     }
   }
-  std::vector<std::pair<const geo::Feature*, std::uint32_t>> sources;
   if (!options.outlines) {
-    for (std::size_t f = 0; f < features.size(); ++f) sources.emplace_back(&features[f], static_cast<std::uint32_t>(f));
-  }
-  const std::size_t areaSources = sources.size();
-  for (std::size_t k = 0; k < shapes.size(); ++k) sources.emplace_back(&shapes[k], shapeFeature[k]);
-  for (std::size_t src = 0; src < sources.size(); ++src) {
-    const std::size_t f = sources[src].second;
-    const geo::Feature& feature = *sources[src].first;
-    if (src == areaSources) {
-      layer.areaPolygons_ = layer.polygons_.size();
-      layer.lineShapes_.push_back(layer.areaPolygons_);
-    }
-    for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
-      GlobePolygon prepared;
-      prepared.feature = static_cast<std::uint32_t>(f);
-      prepared.group = groupOf[f];
-      std::string problem;
-      if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
-        out.diagnostics.add({Severity::Error,
-                             {},
-                             layer.name_,
-                             std::to_string(feature.fid),
-                             "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
-        continue;
+    for (std::size_t f = 0; f < features.size(); ++f) {
+      const geo::Feature& feature = features[f];
+      for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
+        GlobePolygon prepared;
+        prepared.feature = static_cast<std::uint32_t>(f);
+        prepared.group = groupOf[f];
+        std::string problem;
+        if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
+          out.diagnostics.add({Severity::Error,
+                               {},
+                               layer.name_,
+                               std::to_string(feature.fid),
+                               "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
+          continue;
+        }
+        prepared.index = detail::buildIndex(prepared);
+        layer.polygons_.push_back(std::move(prepared));
       }
-      prepared.index = detail::buildIndex(prepared);
-      layer.polygons_.push_back(std::move(prepared));
     }
-    if (src >= areaSources) layer.lineShapes_.push_back(layer.polygons_.size());
   }
-  if (sources.size() == areaSources) layer.areaPolygons_ = layer.polygons_.size();
+  layer.areaPolygons_ = layer.polygons_.size();
   // Generalised rings for the areas' coarse tiles, keeping the points rings share. (Lines get
-  // theirs per level as tiles ask: lineShapesAt. A line drawn from its own shapes at a coarse
-  // level, whose generalised shapes would have as many points, draws its full rings.)
+  // theirs per tile: lineShapesIn.)
   std::vector<const std::vector<glm::dvec2>*> rings;
   for (std::size_t k = 0; k < layer.areaPolygons_; ++k) {
     for (const auto& ring : layer.polygons_[k].rings) rings.push_back(&ring);
@@ -709,7 +691,9 @@ namespace detail {
 
 struct LineLevels {
   std::mutex mutex;
-  std::array<std::unique_ptr<GlobeLayer::LineShapes>, kMaxLevel + 1> levels;
+  /// Per level, per line: its centreline generalised for the level, or empty where it is drawn
+  /// from its own points there (GlobeLayer::lineShapesIn).
+  std::array<std::vector<std::vector<glm::dvec2>>, kMaxLevel + 1> centres;
   std::array<bool, kMaxLevel + 1> made{};
 };
 
@@ -747,75 +731,104 @@ std::vector<glm::dvec2> generalisedCentreline(const GlobeLine& line, double tole
   return kept;
 }
 
-std::size_t pointCount(const GlobePolygon& polygon) {
-  std::size_t n = 0;
-  for (const auto& ring : polygon.rings) n += ring.size();
-  return n;
-}
-
 }  // namespace
 
-const GlobeLayer::LineShapes* GlobeLayer::lineShapesAt(int level) const {
-  if (lines_.empty() || !levels_ || level < 0 || level > kMaxLevel) return nullptr;
+double GlobeLayer::lineTolerance(const GlobeLine& line, int level) {
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
+  return kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
+}
+
+const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) const {
   const std::lock_guard<std::mutex> lock(levels_->mutex);
   const auto at = static_cast<std::size_t>(level);
-  if (levels_->made[at]) return levels_->levels[at].get();
-  levels_->made[at] = true;
+  if (!levels_->made[at]) {
+    levels_->made[at] = true;
+    std::vector<std::vector<glm::dvec2>>& centres = levels_->centres[at];
+    centres.resize(lines_.size());
+    for (std::size_t j = 0; j < lines_.size(); ++j) {
+      const double tolerance = lineTolerance(lines_[j], level);
+      // A quarter of the tolerance for the centreline (a quarter for the arcs, half for the rings).
+      if (tolerance > 4.0 * chordTolerance_) centres[j] = generalisedCentreline(lines_[j], 0.25 * tolerance);
+    }
+  }
+  return levels_->centres[at];
+}
+
+std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key) const {
+  std::vector<GlobePolygon> out;
+  if (lines_.empty() || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
-  auto shapes = std::make_unique<LineShapes>();
-  bool generalised = false;
+  const std::vector<std::vector<glm::dvec2>>& centres = centresAt(key.level);
+  const LonLatRect rect = key.rect();
   for (std::size_t j = 0; j < lines_.size(); ++j) {
     const GlobeLine& line = lines_[j];
-    const auto own = [&] {
-      for (std::size_t i = lineShapes_[j]; i < lineShapes_[j + 1]; ++i)
-        shapes->full.push_back(static_cast<std::uint32_t>(i));
-    };
-    const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
-    const double tolerance =
-        kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
-    if (tolerance <= 4.0 * chordTolerance_) {
-      own();
-      continue;
-    }
-    // A quarter of the tolerance for the centreline, a quarter for the arcs, and half for the
-    // shapes' rings (densified along geodesics, which far tiles need not follow point by point).
-    const std::vector<glm::dvec2> centre = generalisedCentreline(line, 0.25 * tolerance);
-    std::vector<GlobePolygon> made;
-    std::size_t points = 0, ownPoints = 0;
-    bool ok = centre.size() >= 2;
-    for (std::vector<glm::dvec2>& shape : ok ? lineShapes(centre, std::vector<char>(centre.size(), 1), line.halfWidth,
-                                                          std::max(chordTolerance_, 0.25 * tolerance))
-                                             : std::vector<std::vector<glm::dvec2>>{}) {
-      GlobePolygon p;
-      p.feature = line.feature;
-      p.group = line.group;
-      std::string problem;
-      if (!preparePolygon({std::move(shape), {}}, maxSegment_, p, problem)) {
-        ok = false;  // a shape too small to prepare: the line keeps its own shapes
-        break;
+    // The tile widened by the line's half width and a post (the pieces' clip margins are less).
+    const double dLat = (line.halfWidth + 1.0) / 110000.0 + key.postStep();
+    const double high = std::max(std::abs(rect.south), std::abs(rect.north)) + dLat;
+    const bool polar = high >= 89.9;
+    const double dLon = polar ? 360.0 : dLat / std::cos(high * kDegree);
+    const LonLatRect window = rect.expanded(dLon, dLat);
+    const auto meets = [&](double west, double south, double east, double north) {
+      for (int turn = -1; turn <= 1; ++turn) {
+        if (west <= window.east + 360.0 * turn && east >= window.west + 360.0 * turn && south <= window.north &&
+            north >= window.south)
+          return true;
       }
-      made.push_back(std::move(p));
+      return false;
+    };
+    if (!meets(line.box.west, line.box.south, line.box.east, line.box.north)) continue;
+    const double tolerance = lineTolerance(line, key.level);
+    const bool generalised = !centres[j].empty();
+    const std::vector<glm::dvec2>& points = generalised ? centres[j] : line.points;
+    // The runs of pieces that meet the window: a run's ends outside it (or the line's own ends).
+    std::vector<std::pair<std::size_t, std::size_t>> runs;
+    for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+      const glm::dvec2 p = points[i], q = points[i + 1];
+      if (!meets(std::min(p.x, q.x), std::min(p.y, q.y), std::max(p.x, q.x), std::max(p.y, q.y))) continue;
+      if (!runs.empty() && runs.back().second == i) {
+        runs.back().second = i + 1;
+      } else {
+        runs.emplace_back(i, i + 1);
+      }
     }
-    // The rings simplified, keeping the points the shapes share (where bands and sectors meet).
-    std::vector<const std::vector<glm::dvec2>*> rings;
-    for (const GlobePolygon& p : made) rings.push_back(&p.rings.front());
-    const std::set<std::pair<double, double>> shared = sharedPoints(rings);
-    for (GlobePolygon& p : made) {
-      std::vector<glm::dvec2> ring =
-          simplifyKeepingShared(p.rings.front(), 0.5 * kLineGeneralisation * simplifyTolerance(level), shared);
-      if (ring.size() >= 3) p.rings.front() = std::move(ring);
-      points += pointCount(p);
+    for (const auto& [first, last] : runs) {
+      const std::vector<glm::dvec2> run(points.begin() + static_cast<std::ptrdiff_t>(first),
+                                        points.begin() + static_cast<std::ptrdiff_t>(last + 1));
+      // Points the source gave get joins and caps, and so do a run's ends where the window cuts
+      // it (outside the window: a cap there lies within the line's width, beyond the tile).
+      std::vector<char> given(run.size(), 1);
+      if (!generalised) {
+        given.assign(line.given.begin() + static_cast<std::ptrdiff_t>(first),
+                     line.given.begin() + static_cast<std::ptrdiff_t>(last + 1));
+        given.front() = given.back() = 1;
+      }
+      std::vector<GlobePolygon> made;
+      for (std::vector<glm::dvec2>& shape :
+           lineShapes(run, given, line.halfWidth,
+                      generalised ? std::max(chordTolerance_, 0.25 * tolerance) : chordTolerance_)) {
+        GlobePolygon p;
+        p.feature = line.feature;
+        p.group = line.group;
+        std::string problem;
+        if (preparePolygon({std::move(shape), {}}, maxSegment_, p, problem)) made.push_back(std::move(p));
+      }
+      if (generalised) {
+        // The rings simplified within the other half, keeping the points the shapes share (where
+        // bands and sectors meet).
+        std::vector<const std::vector<glm::dvec2>*> rings;
+        for (const GlobePolygon& p : made) rings.push_back(&p.rings.front());
+        const std::set<std::pair<double, double>> shared = sharedPoints(rings);
+        for (GlobePolygon& p : made) {
+          std::vector<glm::dvec2> ring =
+              simplifyKeepingShared(p.rings.front(), 0.5 * kLineGeneralisation * simplifyTolerance(key.level), shared);
+          if (ring.size() >= 3) p.rings.front() = std::move(ring);
+        }
+      }
+      for (GlobePolygon& p : made) out.push_back(std::move(p));
     }
-    for (std::size_t i = lineShapes_[j]; i < lineShapes_[j + 1]; ++i) ownPoints += pointCount(polygons_[i]);
-    if (!ok || points >= ownPoints) {
-      own();
-      continue;
-    }
-    generalised = true;
-    for (GlobePolygon& p : made) shapes->generalised.push_back(std::move(p));
   }
-  if (generalised) levels_->levels[at] = std::move(shapes);
-  return levels_->levels[at].get();
+  return out;
 }
 
 bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg) const {

@@ -344,13 +344,13 @@ TEST(GlobePieces, ADenseNetworkIsUnitedPerCellAndHoldsItsGround) {
   options.featureColors = colours;
   Result<GlobeLayer> layer = GlobeLayer::build("network", features, glm::vec4(1.0F), options);
   ASSERT_TRUE(layer.ok());
-  const std::size_t shapes = layer->polygons().size() - layer->areaCount();
+  const std::size_t shapes = layer->lines().size();
   for (const int level : {9, 12, 15, 18}) {
     const double tile = 180.0 / (1 << level);
     const TileKey key{level, static_cast<int>(std::floor((places[0].first + 180.0) / tile)),
                       static_cast<int>(std::floor((places[0].second + 90.0) / tile))};
     const TilePieces pieces = buildTilePieces(*layer, key, *grid);
-    std::printf("level %d: %zu pieces for %zu shapes, %zu triangles\n", level, pieces.pieces.size(), shapes,
+    std::printf("level %d: %zu pieces for %zu lines, %zu triangles\n", level, pieces.pieces.size(), shapes,
                 pieces.indices.size() / 3);
     EXPECT_GT(pieces.pieces.size(), 0u);
     EXPECT_LE(pieces.pieces.size(), 2u * 4u) << "a piece per colour and cell";
@@ -362,6 +362,12 @@ TEST(GlobePieces, ADenseNetworkIsUnitedPerCellAndHoldsItsGround) {
   EXPECT_GT(insideCount, checked / 20);
 }
 
+/// The tile of `level` that holds (lon, lat).
+TileKey tileAt(double lon, double lat, int level) {
+  const double size = 180.0 / static_cast<double>(1 << level);
+  return {level, static_cast<int>(std::floor((lon + 180.0) / size)), static_cast<int>(std::floor((lat + 90.0) / size))};
+}
+
 TEST(GlobeLines, GeneralisedFromAfarAndWholeUpClose) {
   // A 7 m street of 2,000 points zigzagging a metre either side of its way (8 km at 8° S, like
   // Olinda's): from afar its centreline needs two points, up close every one.
@@ -371,28 +377,25 @@ TEST(GlobeLines, GeneralisedFromAfarAndWholeUpClose) {
   options.lineWidthMetres = 7.0;
   Result<GlobeLayer> layer = GlobeLayer::build("street", {lineFeature(street)}, glm::vec4(1.0F), options);
   ASSERT_TRUE(layer.ok());
-  std::size_t own = 0;
-  for (std::size_t k = layer->areaCount(); k < layer->polygons().size(); ++k) {
-    for (const auto& ring : layer->polygons()[k].rings) own += ring.size();
-  }
+  // The points of the shapes the tiles of a level along the street draw (lineShapesIn: each
+  // tile the runs near it).
   const auto pointsAt = [&](int level) {
-    const GlobeLayer::LineShapes* shapes = layer->lineShapesAt(level);
-    if (shapes == nullptr) return own;
-    std::size_t n = 0;
-    for (const std::uint32_t k : shapes->full) {
-      for (const auto& ring : layer->polygons()[k].rings) n += ring.size();
+    const TileKey first = tileAt(-34.9, -8.0, level), last = tileAt(-34.9 + 2000 * 4e-5, -8.0, level);
+    std::size_t n = 0, tiles = 0;
+    for (int x = first.x; x <= last.x; ++x) {
+      for (const GlobePolygon& p : layer->lineShapesIn({level, x, first.y})) {
+        for (const auto& ring : p.rings) n += ring.size();
+      }
+      ++tiles;
     }
-    for (const GlobePolygon& p : shapes->generalised) {
-      for (const auto& ring : p.rings) n += ring.size();
-    }
+    std::printf("level %d: %zu tiles along the street draw %zu points\n", level, tiles, n);
     return n;
   };
-  std::printf("a 2,000-point street: %zu points drawn up close, %zu at level 12, %zu at level 8\n", own, pointsAt(12),
-              pointsAt(8));
-  EXPECT_LT(pointsAt(8) * 50, own);
-  EXPECT_LT(pointsAt(12) * 2, own);
-  EXPECT_EQ(pointsAt(22), own) << "up close, the line's own shapes";
-  EXPECT_EQ(layer->lineShapesAt(8), layer->lineShapesAt(8)) << "made once";
+  const std::size_t close = pointsAt(17), middle = pointsAt(12), far = pointsAt(8);
+  EXPECT_LT(far * 50, close);
+  EXPECT_LT(middle * 2, close);
+  // A tile away from the street draws nothing of it.
+  EXPECT_TRUE(layer->lineShapesIn(tileAt(-34.8, -8.2, 12)).empty());
   // What the coarse tiles draw still holds the ground within the width, but for the level's
   // tolerance (expectPiecesHoldTheGround nudges by it).
   const auto grid = test::globe_scene::syntheticGrid(1.0);
@@ -514,8 +517,7 @@ TEST(GlobeLines, ALongGeodesicFromAfarStaysClosedAndHoldsItsGround) {
   Result<GlobeLayer> road =
       GlobeLayer::build("road", {lineFeature({{-72.0, -33.0}, {-38.0, -34.0}})}, glm::vec4(1.0F), options);
   ASSERT_TRUE(road.ok());
-  ASSERT_NE(road->lineShapesAt(2), nullptr);
-  EXPECT_FALSE(road->lineShapesAt(2)->generalised.empty());
+  EXPECT_FALSE(road->lineShapesIn(tileAt(-55.0, -34.5, 2)).empty());
   const auto grid = test::globe_scene::syntheticGrid(1.0);
   std::size_t checked = 0, insideCount = 0;
   expectPiecesHoldTheGround(*road, *grid, {{-60.0, -34.5}, {-55.0, -34.7}, {-50.0, -34.75}}, {2, 3, 4, 5, 6, 7}, 100.0,

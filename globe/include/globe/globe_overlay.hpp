@@ -67,7 +67,7 @@ struct GlobePolygon {
 /// apart along their parallels (TerrainOptions::maxPostPixels), so the drawn edges are within
 /// 1/8 of a pixel of the true ones: the reference's edge band holds the difference.
 double simplifyTolerance(int level);
-/// Lines from afar (GlobeLayer::lineShapesAt) may stray this many times simplifyTolerance from
+/// Lines from afar (GlobeLayer::lineShapesIn) may stray this many times simplifyTolerance from
 /// the true ones: within half a pixel, as lines do in a projected frame's tiles. (Areas keep 1/8.)
 inline constexpr double kLineGeneralisation = 4.0;
 
@@ -128,23 +128,21 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] const glm::vec4& color() const { return color_; }
   /// The colours its features are drawn in (GlobePolygon::group), the layer's colour first.
   [[nodiscard]] const std::vector<glm::vec4>& colors() const { return colors_; }
-  /// What is drawn: the areas, and for lines their bands and discs.
+  /// What is drawn: the areas, and the lines (lineShapesIn).
   [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
   [[nodiscard]] const std::vector<GlobeLine>& lines() const { return lines_; }
-  /// polygons()[0, areaCount()) are the areas; the rest draw the lines.
+  /// The areas: every polygon (lines are drawn from lineShapesIn).
   [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
-  /// What tiles of a level draw of the lines (docs/globe.md, "Lines"): where a level's tolerance
-  /// (kLineGeneralisation × simplifyTolerance, in metres at the line's highest latitude) is more
-  /// than four times the chord tolerance, a line is drawn from its centreline generalised to a quarter of that
-  /// tolerance (Douglas–Peucker on its points on the ellipsoid), arcs within another quarter,
-  /// and the shapes' rings simplified within the other half; elsewhere from its own shapes
-  /// (`full`: indices into polygons()). Made on first use and kept; null when every line is
-  /// drawn from its own shapes at that level. Thread-safe.
-  struct LineShapes {
-    std::vector<std::uint32_t> full;
-    std::vector<GlobePolygon> generalised;
-  };
-  [[nodiscard]] const LineShapes* lineShapesAt(int level) const;
+  /// What tile `key` draws of the lines (docs/globe.md, "Lines"): the shapes (bands, joins,
+  /// caps) of each line's runs that reach the tile widened by its half width, made for this tile
+  /// only, so that nothing resident grows with lines no drawn tile reaches. A run cut at the
+  /// tile's window gets a cap there, outside the window. Where the level's tolerance (kLineGeneralisation ×
+  /// simplifyTolerance, in metres at the line's highest latitude) is more than four times the
+  /// chord tolerance, the shapes are those of the centreline generalised to a quarter of that
+  /// tolerance (Douglas–Peucker on its points on the ellipsoid; made once per level and kept),
+  /// arcs within another quarter, rings simplified within the other half; elsewhere of the line's
+  /// own points. Thread-safe.
+  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key) const;
 
   /// Whether a point is in the layer (the CPU reference): in one of its areas (the polygons it
   /// was built from), or within half the width of one of its lines (exactly; the drawn discs
@@ -158,11 +156,14 @@ class GlobeLayer final : public overlay::WorldCoverage {
   glm::vec4 color_{1.0F};
   std::vector<glm::vec4> colors_;
   std::vector<GlobePolygon> polygons_;
-  std::size_t areaPolygons_ = 0;  ///< polygons_[0, areaPolygons_) are areas; the rest draw lines
+  std::size_t areaPolygons_ = 0;  ///< polygons_.size()
   std::vector<GlobeLine> lines_;
-  std::vector<std::size_t> lineShapes_;  ///< line j's own shapes: polygons_[lineShapes_[j], lineShapes_[j + 1])
   double chordTolerance_ = 0.02, maxSegment_ = 1000.0;
-  std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesAt's, made as asked for
+  std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
+  /// The tolerance of line `line` at `level` (metres): lineShapesIn.
+  static double lineTolerance(const GlobeLine& line, int level);
+  /// Per line, its centreline generalised for the level (empty: its own points): made once.
+  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
 };
 
 /// A vertex of a piece as the GPU reads it (the volume shader of both frames,
@@ -273,7 +274,7 @@ inline std::vector<const overlay::WorldCoverage*> coverageOf(const std::vector<c
 /// 8 neighbours' ground points) of a layer's border: an area's ring, or the border of a line's
 /// union of capsules (|distance to the line − half width| ≤ reach, so a line narrower than a pixel,
 /// which the mask may not show at all, has its band too). Drawn shapes generalised by a fraction of
-/// a pixel (simplifyTolerance, lineShapesAt) stay inside it.
+/// a pixel (simplifyTolerance, lineShapesIn) stay inside it.
 std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const overlay::DepthImage& image,
                                      const std::vector<const GlobeLayer*>& layers);
 
