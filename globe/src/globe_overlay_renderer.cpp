@@ -2,10 +2,12 @@
 // world pieces that the overlay renderer of both frames draws, marks and counts.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <list>
 #include <optional>
+#include <thread>
 #include <unordered_map>
 #include <utility>
 
@@ -100,25 +102,49 @@ overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() {
 std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const std::vector<DrawnTile>& tiles,
                                                                        const GeoGrid& heights,
                                                                        const GlobeLayer& layer) {
+  // The missing tiles' pieces are built on every core at once (pure: the layer, the grid and the
+  // pieces' builder may be read from any thread), then uploaded here, in the tiles' order.
+  std::vector<std::size_t> missing;
+  for (std::size_t t = 0; t < tiles.size(); ++t) {
+    const Key key{&layer, tiles[t].key.id()};
+    if (gpu_->tiles.find(key) == gpu_->tiles.end() &&
+        std::none_of(missing.begin(), missing.end(), [&](std::size_t m) { return tiles[m].key == tiles[t].key; }))
+      missing.push_back(t);
+  }
+  std::vector<std::optional<overlay::LayerGeometry>> built(missing.size());
+  {
+    std::atomic<std::size_t> next{0};
+    const auto work = [&] {
+      for (std::size_t k = next++; k < missing.size(); k = next++) {
+        TilePieces pieces = buildTilePieces(layer, tiles[missing[k]].key, heights);
+        if (!pieces.pieces.empty()) built[k] = worldPiecesOf(layer, std::move(pieces));
+      }
+    };
+    const std::size_t helpers =
+        std::min<std::size_t>(missing.size(), std::max(1U, std::thread::hardware_concurrency())) -
+        (missing.empty() ? 0 : 1);
+    std::vector<std::thread> threads;
+    for (std::size_t h = 0; h < helpers; ++h) threads.emplace_back(work);
+    work();
+    for (std::thread& t : threads) t.join();
+  }
+  for (std::size_t k = 0; k < missing.size(); ++k) {
+    Gpu::Tile entry;
+    if (built[k]) {
+      entry.layer = overlay::OverlayLayer::upload(std::move(*built[k]));
+      entry.bytes = entry.layer->stats().gpuBytes;
+      gpu_->bytes += entry.bytes;
+    }
+    const Key key{&layer, tiles[missing[k]].key.id()};
+    gpu_->lru.push_front(key);
+    entry.lru = gpu_->lru.begin();
+    gpu_->tiles.emplace(key, std::move(entry));
+    ++gpu_->built;
+  }
   std::vector<const overlay::OverlayLayer*> out;
   for (const DrawnTile& tile : tiles) {
-    const Key key{&layer, tile.key.id()};
-    auto found = gpu_->tiles.find(key);
-    if (found == gpu_->tiles.end()) {
-      TilePieces pieces = buildTilePieces(layer, tile.key, heights);
-      ++gpu_->built;
-      Gpu::Tile entry;
-      if (!pieces.pieces.empty()) {
-        entry.layer = overlay::OverlayLayer::upload(worldPiecesOf(layer, std::move(pieces)));
-        entry.bytes = entry.layer->stats().gpuBytes;
-        gpu_->bytes += entry.bytes;
-      }
-      gpu_->lru.push_front(key);
-      entry.lru = gpu_->lru.begin();
-      found = gpu_->tiles.emplace(key, std::move(entry)).first;
-    } else {
-      gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
-    }
+    const auto found = gpu_->tiles.find(Key{&layer, tile.key.id()});
+    gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
     found->second.frame = gpu_->frame;
     if (found->second.layer) out.push_back(&*found->second.layer);
   }
