@@ -25,7 +25,9 @@ here=$(cd "$(dirname "$0")" && pwd)
 # GMT writes each river as a segment after a '>' header; a segment of one point is left out (GMT
 # cuts rivers at its bins, and some pieces keep a single point; pieces of one point given twice
 # are named by the loader and left out). Lon/lat on WGS 84.
-gmt coast -Rd -Df -Ia -M |
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+(cd "$tmp" && gmt coast -Rd -Df -Ia -M) |  # in a temporary folder: GMT leaves gmt.history there
   awk 'function flush() { if (n > 1) print "{\"type\":\"Feature\",\"properties\":{},\"geometry\":" \
                                       "{\"type\":\"LineString\",\"coordinates\":[" s "]}}"; s = ""; n = 0 }
        /^>/ { flush(); next }
