@@ -27,8 +27,6 @@ struct KeyHash {
   }
 };
 
-std::uint8_t unorm8(float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0F, 1.0F) * 255.0F)); }
-
 /// A tile's pieces as world pieces of the overlay pipeline: each vertex coloured with its piece's
 /// group colour.
 overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces) {
@@ -47,7 +45,7 @@ overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces)
   for (const TilePieces::Piece& p : pieces.pieces) {
     const glm::vec4 c = p.group < colours.size() ? colours[p.group] : layer.color();
     uniform = uniform && c == (colours.empty() ? layer.color() : colours.front());
-    const std::array<std::uint8_t, 4> rgba{unorm8(c.x), unorm8(c.y), unorm8(c.z), unorm8(c.w)};
+    const std::array<std::uint8_t, 4> rgba = overlay::rgba8(c);
     for (std::uint32_t k = p.firstIndex; k < p.firstIndex + p.indexCount; ++k)
       std::copy(rgba.begin(), rgba.end(), vertices[pieces.indices[k]].rgba);
     world.push_back({p.firstIndex, p.bottomCount, p.indexCount, p.boxLo, p.boxHi});
@@ -107,9 +105,7 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const std
   std::vector<std::size_t> missing;
   for (std::size_t t = 0; t < tiles.size(); ++t) {
     const Key key{&layer, tiles[t].key.id()};
-    if (gpu_->tiles.find(key) == gpu_->tiles.end() &&
-        std::none_of(missing.begin(), missing.end(), [&](std::size_t m) { return tiles[m].key == tiles[t].key; }))
-      missing.push_back(t);
+    if (gpu_->tiles.find(key) == gpu_->tiles.end()) missing.push_back(t);
   }
   std::vector<std::optional<overlay::LayerGeometry>> built(missing.size());
   {

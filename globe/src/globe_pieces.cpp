@@ -592,20 +592,6 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
     addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union, groupCell.first);
   }
-  // Each colour's pieces together, and their indices too (one draw a colour).
-  if (std::any_of(out.pieces.begin(), out.pieces.end(), [](const TilePieces::Piece& p) { return p.group != 0; })) {
-    std::stable_sort(out.pieces.begin(), out.pieces.end(),
-                     [](const TilePieces::Piece& a, const TilePieces::Piece& b) { return a.group < b.group; });
-    std::vector<std::uint32_t> indices;
-    indices.reserve(out.indices.size());
-    for (TilePieces::Piece& p : out.pieces) {
-      const auto first = static_cast<std::uint32_t>(indices.size());
-      indices.insert(indices.end(), out.indices.begin() + p.firstIndex,
-                     out.indices.begin() + p.firstIndex + p.indexCount);
-      p.firstIndex = first;
-    }
-    out.indices = std::move(indices);
-  }
   return out;
 }
 

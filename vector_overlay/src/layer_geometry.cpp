@@ -1042,8 +1042,7 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, con
   layer.normals_.resize(layer.vertices_.size(), glm::vec3(0.0F));
   layer.indices_ = std::move(indices);
   if (uniformColour) {
-    const std::array<std::uint8_t, 4> rgba{unorm8(uniformColour->x), unorm8(uniformColour->y), unorm8(uniformColour->z),
-                                           unorm8(uniformColour->w)};
+    const std::array<std::uint8_t, 4> rgba = rgba8(*uniformColour);
     layer.uniformColor_ = glm::vec4(rgba[0], rgba[1], rgba[2], rgba[3]) / 255.0F;
   } else {
     layer.uniformColor_ = std::optional<glm::vec4>();
@@ -1051,6 +1050,10 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, con
   layer.footprintsReleased_ = true;  // none to clip at the near plane: z-fail pieces are drawn whole
   layer.changes_ = GeometryChange{};
   return layer;
+}
+
+std::array<std::uint8_t, 4> rgba8(const glm::vec4& colour) {
+  return {unorm8(colour.x), unorm8(colour.y), unorm8(colour.z), unorm8(colour.w)};
 }
 
 std::uint32_t LayerGeometry::originFor(const Polyhedron& p) {

@@ -184,7 +184,7 @@ struct TilePieces {
     std::uint32_t indexCount = 0;       ///< all: bottom cap, walls, top cap
     glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
     double lo = 0.0, hi = 0.0;          ///< heights of its caps
-    std::uint32_t group = 0;            ///< its polygon's colour (pieces are in order of it)
+    std::uint32_t group = 0;            ///< its polygon's colour (its vertices' colour when drawn)
   };
   glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)
   std::vector<PieceVertex> vertices;

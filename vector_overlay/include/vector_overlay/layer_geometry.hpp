@@ -101,6 +101,9 @@ struct LayerBuildOptions {
   std::string checkCacheDirectory;
 };
 
+/// A colour (straight alpha) as a vertex holds it: 8 bits a channel, rounded.
+std::array<std::uint8_t, 4> rgba8(const glm::vec4& colour);
+
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
 /// each vertex of the feature. Other styles are left alone.
 void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds);
