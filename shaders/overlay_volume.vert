@@ -6,18 +6,20 @@
 //
 // Both frames draw with it (docs/frames.md): in a projected frame z is up and caps move along it;
 // on the globe (u_alongNormals) a_position holds ECEF metres relative to the tile's origin, and
-// caps move along the surface normal a_up.
+// caps move along the surface normal a_up.xyz.
 //
 // Lines in pixels: (x, y) is the centre the vertex belongs to, a_scaling its direction, the
 // centre's anchor height and the least half width; the vertex lies at centre + direction · h
 // with the half width h = max(min(u_halfWidthPerMetre · distance from the eye to the anchored
 // centre, u_maxHalfWidth), least half width) (footprints.hpp, LineShape). Other layers leave
-// the attribute disabled: (0, 0, 0, 1), no offset.
+// the attribute disabled: (0, 0, 0, 1), no offset. On the globe a_position is the centre at the
+// cap's height, a_scaling.xyz its direction (ECEF, in the tangent plane there), a_scaling.w the
+// least half width, and the anchored centre lies a_up.w along the normal from it.
 layout(location = 0) in vec4 a_position;
 layout(location = 1) in vec4 a_color;
 layout(location = 2) in vec3 a_origin;
 layout(location = 3) in vec4 a_scaling;
-layout(location = 4) in vec3 a_up;  // u_alongNormals: the surface normal there
+layout(location = 4) in vec4 a_up;  // u_alongNormals: the surface normal there; w: to the anchor
 
 uniform mat4 u_modelViewProj;  // frame → clip, translated to the eye
 uniform float u_padBase;
@@ -32,12 +34,17 @@ out vec4 v_color;
 
 void main() {
   vec3 p = vec3(a_position.xy + a_origin.xy, a_position.z + a_origin.z);
-  const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
-  p.xy += a_scaling.xy * max(min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth), a_scaling.w);
+  if (u_alongNormals) {
+    const vec3 centre = p + a_up.xyz * a_up.w;
+    p += a_scaling.xyz * max(min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth), a_scaling.w);
+  } else {
+    const vec3 centre = vec3(p.xy, a_scaling.z + a_origin.z);
+    p.xy += a_scaling.xy * max(min(u_halfWidthPerMetre * length(centre), u_maxHalfWidth), a_scaling.w);
+  }
   const float distance = length(p);
   const float pad = a_position.w * (u_padBase + (u_padPerMetre + u_padPerMetreSquared * distance) * distance);
   if (u_alongNormals) {
-    p += a_up * pad;
+    p += a_up.xyz * pad;
   } else {
     p.z += pad;
   }

@@ -43,14 +43,14 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   overlay::OverlayRenderer* overlays = renderer.overlay().renderer();
   if (overlays == nullptr) return 1;
   // The stencil core's analysis on the tiles' chunks, as in a projected frame.
-  const auto chunksA = renderer.overlay().chunks(renderer.tiles(), renderer.heights(), scene.layers[*a]);
-  const auto chunksB = renderer.overlay().chunks(renderer.tiles(), renderer.heights(), scene.layers[*b]);
+  const auto chunksA = renderer.overlay().chunks(view, renderer.tiles(), renderer.heights(), scene.layers[*a]);
+  const auto chunksB = renderer.overlay().chunks(view, renderer.tiles(), renderer.heights(), scene.layers[*b]);
   const scene::OverlapPixels overlap =
       scene::drawOverlap(cache, target, *overlays, chunksA, chunksB, request.overlapOp, globe::overlayViewOf(view));
 
   const overlay::DepthImage image = globe::depthImageOf(view, depth);
   const std::vector<const globe::GlobeLayer*> pair{&scene.layers[*a], &scene.layers[*b]};
-  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(pair));
+  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(pair, image));
   const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, pair);
   const OverlapCounts counts = countOverlap(overlap.flags, expected, edges, request.overlapOp);
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), view.width, view.height, 1, counts.pixels);
@@ -66,7 +66,7 @@ int drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget& target, glo
   if (overlays == nullptr) return 1;
   std::vector<scene::ChunkedLayer> layers;
   for (const globe::GlobeLayer& layer : scene.layers)
-    layers.push_back({layer.name(), renderer.overlay().chunks(renderer.tiles(), renderer.heights(), layer)});
+    layers.push_back({layer.name(), renderer.overlay().chunks(view, renderer.tiles(), renderer.heights(), layer)});
   const scene::OpenVolumePixels open =
       scene::drawOpenVolumes(cache, target, *overlays, layers, globe::overlayViewOf(view));
   const Result<bool> png =

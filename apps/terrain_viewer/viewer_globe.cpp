@@ -205,7 +205,7 @@ void Viewer::drawGlobe() {
     if (overlay::OverlayRenderer* overlays = g.renderer->overlay().renderer()) {
       for (const globe::GlobeLayer* layer : layers) {
         overlays->drawPieces(cache_, globe::overlayViewOf(g.view),
-                             g.renderer->overlay().chunks(g.renderer->tiles(), g.renderer->heights(), *layer),
+                             g.renderer->overlay().chunks(g.view, g.renderer->tiles(), g.renderer->heights(), *layer),
                              kZPassPieceColour, kZFailPieceColour);
       }
     }
@@ -256,7 +256,8 @@ std::optional<GlobeIdentified> Viewer::identifyOnGlobe(const glm::dvec2& pixel) 
     for (const scene::LayerDescription& l : g.scene.description.layers) {
       if (l.fileIndex == fileIndex) name = l.name;
     }
-    for (const std::uint32_t f : globe::featuresAt(g.scene.layers[i], id.ecef, id.point.lon, id.point.lat)) {
+    for (const std::uint32_t f :
+         globe::featuresAt(g.scene.layers[i], id.ecef, id.point.lon, id.point.lat, globe::pixelScaleOf(g.view))) {
       if (!seen.insert({fileIndex, f}).second) continue;
       Identified::Hit hit;
       hit.layer = name;

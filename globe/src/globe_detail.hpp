@@ -45,7 +45,15 @@ struct PolygonIndex {
 };
 std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon);
 
-/// Whether a point (ECEF, and its lon/lat) is within the line's half width of it (GlobeLayer::contains).
-bool nearLine(const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg);
+/// Whether a point (ECEF, and its lon/lat) is within the line's half width of it (GlobeLayer::contains),
+/// a line in pixels seen with `scale`.
+bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg,
+              const overlay::PixelScale& scale);
+/// Appends to `out` the pieces of the layer's lines that width class `widthClass` draws in
+/// pixels over tile `key` (globe_pixel_lines.cpp).
+void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                      int widthClass);
+/// How much further than its least half width a line in pixels may reach a point seen with `scale`.
+double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, const glm::dvec3& point);
 
 }  // namespace gis::globe::detail

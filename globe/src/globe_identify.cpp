@@ -6,7 +6,8 @@
 
 namespace gis::globe {
 
-std::vector<std::uint32_t> featuresAt(const GlobeLayer& layer, const glm::dvec3& point, double lonDeg, double latDeg) {
+std::vector<std::uint32_t> featuresAt(const GlobeLayer& layer, const glm::dvec3& point, double lonDeg, double latDeg,
+                                      const overlay::PixelScale& scale) {
   std::vector<std::uint32_t> out;
   const auto add = [&out](std::uint32_t feature) {
     if (std::find(out.begin(), out.end(), feature) == out.end()) out.push_back(feature);
@@ -17,7 +18,7 @@ std::vector<std::uint32_t> featuresAt(const GlobeLayer& layer, const glm::dvec3&
   }
   // The lines exactly: within half their width.
   for (const GlobeLine& l : layer.lines()) {
-    if (detail::nearLine(l, point, lonDeg, latDeg)) add(l.feature);
+    if (detail::nearLine(layer, l, point, lonDeg, latDeg, scale)) add(l.feature);
   }
   std::sort(out.begin(), out.end());
   return out;

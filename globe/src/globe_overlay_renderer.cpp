@@ -19,11 +19,20 @@ namespace gis::globe {
 
 namespace {
 
-using Key = std::pair<const GlobeLayer*, std::uint64_t>;
+/// A layer's pieces over a tile, for a width class (lines in pixels: lineWidthClass).
+struct Key {
+  const GlobeLayer* layer = nullptr;
+  std::uint64_t tile = 0;
+  int widthClass = 0;
+  bool operator==(const Key&) const = default;
+};
 
 struct KeyHash {
   std::size_t operator()(const Key& k) const {
-    return std::hash<const void*>()(k.first) ^ static_cast<std::size_t>(k.second * 0x9E3779B97F4A7C15ULL);
+    return std::hash<const void*>()(k.layer) ^
+           static_cast<std::size_t>((k.tile + static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.widthClass)) *
+                                                  std::uint64_t{0x100000001B3}) *
+                                    0x9E3779B97F4A7C15ULL);
   }
 };
 
@@ -32,7 +41,7 @@ struct KeyHash {
 overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces) {
   using Vertex = overlay::LayerGeometry::Vertex;
   std::vector<Vertex> vertices(pieces.vertices.size());
-  std::vector<glm::vec3> normals(pieces.vertices.size());
+  std::vector<glm::vec4> normals(pieces.vertices.size());
   for (std::size_t i = 0; i < pieces.vertices.size(); ++i) {
     const glm::vec4& p = pieces.vertices[i].position;
     vertices[i] = Vertex{p.x, p.y, p.z, p.w, {0, 0, 0, 255}};
@@ -52,9 +61,15 @@ overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces)
   }
   const std::optional<glm::vec4> uniformColour =
       uniform ? std::optional<glm::vec4>(colours.empty() ? layer.color() : colours.front()) : std::nullopt;
+  overlay::LayerGeometry::WorldLines lines;
+  if (!pieces.scaling.empty()) {
+    lines.scaling = std::move(pieces.scaling);
+    lines.widthPixels = layer.lineWidthPixels();
+    lines.maxWidth = 2.0 * pieces.maxHalfWidth;
+  }
   return overlay::LayerGeometry::ofWorldPieces(layer.name(), overlay::LayerKind::Polygon, pieces.origin,
                                                std::move(vertices), std::move(normals), std::move(pieces.indices),
-                                               world, uniformColour);
+                                               world, uniformColour, std::move(lines));
 }
 
 }  // namespace
@@ -97,22 +112,29 @@ overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() {
   return gpu_->renderer ? &*gpu_->renderer : nullptr;
 }
 
-std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const std::vector<DrawnTile>& tiles,
+std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const GlobeView& view,
+                                                                       const std::vector<DrawnTile>& tiles,
                                                                        const GeoGrid& heights,
                                                                        const GlobeLayer& layer) {
+  // Lines in pixels: each tile's width class from this view (0 for every other layer).
+  overlay::PixelScale scale;
+  if (layer.lineWidthPixels() > 0.0) scale = pixelScaleOf(view);
+  std::vector<Key> keys;
+  keys.reserve(tiles.size());
+  for (const DrawnTile& tile : tiles)
+    keys.push_back({&layer, tile.key.id(), lineWidthClass(layer, tile.key, heights, scale)});
   // The missing tiles' pieces are built on every core at once (pure: the layer, the grid and the
   // pieces' builder may be read from any thread), then uploaded here, in the tiles' order.
   std::vector<std::size_t> missing;
   for (std::size_t t = 0; t < tiles.size(); ++t) {
-    const Key key{&layer, tiles[t].key.id()};
-    if (gpu_->tiles.find(key) == gpu_->tiles.end()) missing.push_back(t);
+    if (gpu_->tiles.find(keys[t]) == gpu_->tiles.end()) missing.push_back(t);
   }
   std::vector<std::optional<overlay::LayerGeometry>> built(missing.size());
   {
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
       for (std::size_t k = next++; k < missing.size(); k = next++) {
-        TilePieces pieces = buildTilePieces(layer, tiles[missing[k]].key, heights);
+        TilePieces pieces = buildTilePieces(layer, tiles[missing[k]].key, heights, keys[missing[k]].widthClass);
         if (!pieces.pieces.empty()) built[k] = worldPiecesOf(layer, std::move(pieces));
       }
     };
@@ -131,15 +153,15 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const std
       entry.bytes = entry.layer->stats().gpuBytes;
       gpu_->bytes += entry.bytes;
     }
-    const Key key{&layer, tiles[missing[k]].key.id()};
+    const Key& key = keys[missing[k]];
     gpu_->lru.push_front(key);
     entry.lru = gpu_->lru.begin();
     gpu_->tiles.emplace(key, std::move(entry));
     ++gpu_->built;
   }
   std::vector<const overlay::OverlayLayer*> out;
-  for (const DrawnTile& tile : tiles) {
-    const auto found = gpu_->tiles.find(Key{&layer, tile.key.id()});
+  for (const Key& key : keys) {
+    const auto found = gpu_->tiles.find(key);
     gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
     found->second.frame = gpu_->frame;
     if (found->second.layer) out.push_back(&*found->second.layer);
@@ -172,7 +194,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   ++gpu_->frame;
   std::vector<std::vector<const overlay::OverlayLayer*>> chunked;
   for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
-    chunked.push_back(chunks(tiles, heights, *layers[l]));
+    chunked.push_back(chunks(view, tiles, heights, *layers[l]));
     for (const overlay::OverlayLayer* chunk : chunked.back()) stats_.triangles += chunk->stats().triangles;
     stats_.drawnTiles += chunked.back().size();
     for (const overlay::OverlayLayer* chunk : chunked.back()) stats_.drawnBytes += chunk->stats().gpuBytes;

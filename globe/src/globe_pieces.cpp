@@ -489,7 +489,8 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
         const glm::dvec3 p = toEcef(lon, lat, h);
         piece.boxLo = glm::min(piece.boxLo, p);
         piece.boxHi = glm::max(piece.boxHi, p);
-        out.vertices.push_back(PieceVertex{glm::vec4(glm::vec3(p - out.origin), h == lo ? -1.0F : 1.0F), n});
+        out.vertices.push_back(
+            PieceVertex{glm::vec4(glm::vec3(p - out.origin), h == lo ? -1.0F : 1.0F), glm::vec4(n, 0.0F)});
       }
     }
     return base + 2 * static_cast<std::uint32_t>(v->info().index);
@@ -518,7 +519,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
 
 }  // namespace
 
-TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights) {
+TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass) {
   TilePieces out;
   const LonLatRect rect = key.rect();
   out.origin = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
@@ -587,11 +588,13 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   };
   const std::vector<GlobePolygon>& polygons = layer.polygons();
   for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], false);
-  for (const GlobePolygon& polygon : layer.lineShapesIn(key)) addPolygon(polygon, true);
+  for (const GlobePolygon& polygon : layer.lineShapesIn(key, widthClass)) addPolygon(polygon, true);
   for (const auto& [groupCell, rings] : lineCells) {
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
     addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union, groupCell.first);
   }
+  detail::addScalableLines(out, layer, key, heights, widthClass);
+  if (!out.scaling.empty()) out.scaling.resize(out.vertices.size(), glm::vec4(0.0F));
   return out;
 }
 

@@ -470,6 +470,11 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
   layer.chordTolerance_ = options.chordTolerance;
   layer.maxSegment_ = options.maxSegmentMetres;
   layer.levels_ = std::make_shared<detail::LineLevels>();
+  const bool inPixels = options.lineWidthPixels > 0.0 && std::isfinite(options.lineWidthPixels);
+  if (inPixels) {
+    layer.widthPixels_ = options.lineWidthPixels;
+    layer.anchorGround_ = options.anchorGround;
+  }
   // Each feature's colour group.
   layer.colors_.assign(1, color);
   std::vector<std::uint32_t> groupOf(features.size(), 0);
@@ -483,7 +488,19 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
   const bool drawLines = options.outlines || std::any_of(features.begin(), features.end(),
                                                          [](const geo::Feature& f) { return !f.lines.empty(); });
   const double halfWidth = 0.5 * options.lineWidthMetres;
-  if (drawLines && !(halfWidth > 0.0 && std::isfinite(halfWidth))) {
+  const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
+  if (drawLines && inPixels && !(maxHalfWidth > 0.0 && std::isfinite(maxHalfWidth))) {
+    out.diagnostics.add(
+        {Severity::Error,
+         {},
+         layer.name_,
+         {},
+         "largest line width " + std::to_string(options.lineMaxWidthMetres) + " m is not a positive width"});
+    return out;
+  }
+  // A line in pixels needs no width in metres (0: none); one in metres a positive one.
+  if (drawLines &&
+      !(inPixels ? halfWidth >= 0.0 && std::isfinite(halfWidth) : halfWidth > 0.0 && std::isfinite(halfWidth))) {
     out.diagnostics.add({Severity::Error,
                          {},
                          layer.name_,
@@ -524,6 +541,12 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       if (f < options.featureWidthMetres.size() && options.featureWidthMetres[f] > 0.0 &&
           std::isfinite(options.featureWidthMetres[f]))
         g.halfWidth = 0.5 * options.featureWidthMetres[f];
+      if (inPixels) {
+        g.widthPixels = options.lineWidthPixels;
+        g.maxHalfWidth = std::max(maxHalfWidth, g.halfWidth);
+        layer.leastHalfWidth_ = layer.lines_.empty() ? g.halfWidth : std::min(layer.leastHalfWidth_, g.halfWidth);
+        layer.widestHalfWidth_ = std::max(layer.widestHalfWidth_, g.maxHalfWidth);
+      }
       const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
       for (glm::dvec2& p : line) p.x += shift;
       g.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
@@ -625,12 +648,32 @@ std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon) {
   return index;
 }
 
-bool nearLine(const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg) {
-  if (latDeg < line.box.south || latDeg > line.box.north || line.buckets.empty()) return false;
-  const double r = line.halfWidth;
+double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, const glm::dvec3& point) {
+  if (!(line.widthPixels > 0.0 && scale.metresPerPixel > 0.0)) return 0.0;
+  // A point within r of an anchor at most 20 km above or below it: r ≤ c · (D + r + 20 km) with
+  // c the half width per metre of distance and D the point's distance to the eye.
+  const double c = 0.5 * line.widthPixels * scale.metresPerPixel;
+  const double far = c < 0.5 ? c * (glm::length(point - scale.eye) + 2e4) / (1.0 - c) : line.maxHalfWidth;
+  return std::max(0.0, std::min(line.maxHalfWidth, far) - line.halfWidth);
+}
+
+bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg,
+              const overlay::PixelScale& scale) {
+  if (line.buckets.empty()) return false;
+  // The box and buckets hold the line's least half width; a line in pixels may reach further.
+  const double extra = reachBeyond(line, scale, point);
+  const double dLat = extra / 110000.0;
+  if (latDeg < line.box.south - dLat || latDeg > line.box.north + dLat) return false;
+  const double high = std::max(std::abs(line.box.south), std::abs(line.box.north)) + dLat;
+  const double dLon = extra <= 0.0   ? 0.0
+                      : high >= 89.9 ? 360.0
+                                     : dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+  const bool fixed = !(line.widthPixels > 0.0 && scale.metresPerPixel > 0.0);
+  const auto radius = [&](std::size_t k) { return fixed ? line.halfWidth : layer.halfWidthAt(line, k, scale); };
   // The walls are vertical (they hold the normals): a disc is a cylinder around the normal at its
-  // point, a band the slab between two planes parallel to its piece's plane.
-  const auto nearPoint = [&](std::size_t k) {
+  // point, a band the slab between two planes parallel to its piece's plane (a line in pixels:
+  // its half width goes linearly from one end's to the other's, as in a projected frame).
+  const auto nearPoint = [&](std::size_t k, double r) {
     const glm::dvec2& p = line.points[k];
     if (isPole(p.y)) return false;
     const glm::dvec3 n = surfaceNormal(p.x, p.y);
@@ -638,7 +681,8 @@ bool nearLine(const GlobeLine& line, const glm::dvec3& point, double lonDeg, dou
     return glm::length(d - n * glm::dot(d, n)) <= r;
   };
   const auto nearPiece = [&](std::size_t k) {
-    if (nearPoint(k) || nearPoint(k + 1)) return true;
+    const double ra = radius(k), rb = radius(k + 1);
+    if (nearPoint(k, ra) || nearPoint(k + 1, rb)) return true;
     const glm::dvec3 a = line.surface[k], b = line.surface[k + 1];
     const glm::dvec3 along = b - a;
     const double length = glm::length(along);
@@ -648,15 +692,21 @@ bool nearLine(const GlobeLine& line, const glm::dvec3& point, double lonDeg, dou
     const glm::dvec2 p = line.points[k], q = line.points[k + 1];
     const glm::dvec3 n = glm::normalize(surfaceNormal(p.x, p.y) + surfaceNormal(q.x, q.y));
     const glm::dvec3 m = glm::normalize(glm::cross(n, along));
-    return std::abs(glm::dot(point - a, m)) <= r;
+    return std::abs(glm::dot(point - a, m)) <= ra + (rb - ra) * (s / length);
   };
   const std::size_t n = line.buckets.size();
-  for (double lon = lonDeg - 360.0 * std::ceil((lonDeg - line.box.west) / 360.0); lon <= line.box.east; lon += 360.0) {
-    if (lon < line.box.west) continue;
-    const auto b = static_cast<std::size_t>(
-        std::clamp(std::floor((lon - line.box.west) / line.bucketWidth), 0.0, static_cast<double>(n - 1)));
-    for (const std::uint32_t k : line.buckets[b]) {
-      if (nearPiece(k)) return true;
+  const double west = line.box.west - dLon, east = line.box.east + dLon;
+  for (double lon = lonDeg - 360.0 * std::ceil((lonDeg - west) / 360.0); lon <= east; lon += 360.0) {
+    if (lon < west) continue;
+    const auto bucket = [&](double x) {
+      return static_cast<std::size_t>(
+          std::clamp(std::floor((x - line.box.west) / line.bucketWidth), 0.0, static_cast<double>(n - 1)));
+    };
+    const std::size_t b0 = bucket(lon - dLon), b1 = bucket(lon + dLon);
+    for (std::size_t b = b0; b <= b1; ++b) {
+      for (const std::uint32_t k : line.buckets[b]) {  // a piece in several buckets is tried again
+        if (nearPiece(k)) return true;
+      }
     }
   }
   return false;
@@ -755,44 +805,65 @@ const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) con
   return levels_->centres[at];
 }
 
-std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key) const {
+std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::size_t j, const TileKey& key,
+                                                                        double reach) const {
+  std::vector<std::pair<std::size_t, std::size_t>> runs;
+  if (j >= lines_.size() || !levels_ || key.level < 0 || key.level > kMaxLevel) return runs;
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  const GlobeLine& line = lines_[j];
+  const LonLatRect rect = key.rect();
+  // The tile widened by the reach and a post.
+  const double dLat = (reach + 1.0) / 110000.0 + key.postStep();
+  const double high = std::max(std::abs(rect.south), std::abs(rect.north)) + dLat;
+  const bool polar = high >= 89.9;
+  const double dLon = polar ? 360.0 : dLat / std::cos(high * kDegree);
+  const LonLatRect window = rect.expanded(dLon, dLat);
+  const auto meets = [&](double west, double south, double east, double north) {
+    for (int turn = -1; turn <= 1; ++turn) {
+      if (west <= window.east + 360.0 * turn && east >= window.west + 360.0 * turn && south <= window.north &&
+          north >= window.south)
+        return true;
+    }
+    return false;
+  };
+  if (!meets(line.box.west, line.box.south - reach / 110000.0, line.box.east, line.box.north + reach / 110000.0))
+    return runs;
+  const std::vector<glm::dvec2>& points = linePointsAt(j, key.level);
+  for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+    const glm::dvec2 p = points[i], q = points[i + 1];
+    if (!meets(std::min(p.x, q.x), std::min(p.y, q.y), std::max(p.x, q.x), std::max(p.y, q.y))) continue;
+    if (!runs.empty() && runs.back().second == i) {
+      runs.back().second = i + 1;
+    } else {
+      runs.emplace_back(i, i + 1);
+    }
+  }
+  return runs;
+}
+
+const std::vector<glm::dvec2>& GlobeLayer::linePointsAt(std::size_t j, int level) const {
+  const std::vector<std::vector<glm::dvec2>>& centres = centresAt(std::clamp(level, 0, kMaxLevel));
+  return centres[j].empty() ? lines_[j].points : centres[j];
+}
+
+bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
+  return widthClass > 0 && line.widthPixels > 0.0 && 0.5 * lineClassWidth(widthClass) > line.halfWidth;
+}
+
+std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass) const {
   std::vector<GlobePolygon> out;
   if (lines_.empty() || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
-  constexpr double kDegree = 3.14159265358979323846 / 180.0;
   const std::vector<std::vector<glm::dvec2>>& centres = centresAt(key.level);
-  const LonLatRect rect = key.rect();
   for (std::size_t j = 0; j < lines_.size(); ++j) {
     const GlobeLine& line = lines_[j];
-    // The tile widened by the line's half width and a post (the pieces' clip margins are less).
-    const double dLat = (line.halfWidth + 1.0) / 110000.0 + key.postStep();
-    const double high = std::max(std::abs(rect.south), std::abs(rect.north)) + dLat;
-    const bool polar = high >= 89.9;
-    const double dLon = polar ? 360.0 : dLat / std::cos(high * kDegree);
-    const LonLatRect window = rect.expanded(dLon, dLat);
-    const auto meets = [&](double west, double south, double east, double north) {
-      for (int turn = -1; turn <= 1; ++turn) {
-        if (west <= window.east + 360.0 * turn && east >= window.west + 360.0 * turn && south <= window.north &&
-            north >= window.south)
-          return true;
-      }
-      return false;
-    };
-    if (!meets(line.box.west, line.box.south, line.box.east, line.box.north)) continue;
+    // Lines the class scales are drawn by their own pieces (buildTilePieces); none is thinner.
+    if (scalesLine(line, widthClass) || !(line.halfWidth > 0.0)) continue;
     const double tolerance = lineTolerance(line, key.level);
     const bool generalised = !centres[j].empty();
     const std::vector<glm::dvec2>& points = generalised ? centres[j] : line.points;
-    // The runs of pieces that meet the window: a run's ends outside it (or the line's own ends).
-    std::vector<std::pair<std::size_t, std::size_t>> runs;
-    for (std::size_t i = 0; i + 1 < points.size(); ++i) {
-      const glm::dvec2 p = points[i], q = points[i + 1];
-      if (!meets(std::min(p.x, q.x), std::min(p.y, q.y), std::max(p.x, q.x), std::max(p.y, q.y))) continue;
-      if (!runs.empty() && runs.back().second == i) {
-        runs.back().second = i + 1;
-      } else {
-        runs.emplace_back(i, i + 1);
-      }
-    }
-    for (const auto& [first, last] : runs) {
+    // The runs of pieces that meet the tile widened by the half width (the pieces' clip margins
+    // are less): a run's ends outside it (or the line's own ends).
+    for (const auto& [first, last] : lineRunsIn(j, key, line.halfWidth)) {
       const std::vector<glm::dvec2> run(points.begin() + static_cast<std::ptrdiff_t>(first),
                                         points.begin() + static_cast<std::ptrdiff_t>(last + 1));
       // Points the source gave get joins and caps, and so do a run's ends where the window cuts
@@ -831,12 +902,24 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key) const {
   return out;
 }
 
-bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg) const {
+bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
+                          const overlay::PixelScale& scale) const {
   for (std::size_t k = 0; k < areaPolygons_; ++k) {
     if (globe::contains(polygons_[k], point, lonDeg, latDeg)) return true;
   }
   return std::any_of(lines_.begin(), lines_.end(),
-                     [&](const GlobeLine& l) { return detail::nearLine(l, point, lonDeg, latDeg); });
+                     [&](const GlobeLine& l) { return detail::nearLine(*this, l, point, lonDeg, latDeg, scale); });
+}
+
+double GlobeLayer::halfWidthAt(const GlobeLine& line, std::size_t k, const overlay::PixelScale& scale) const {
+  if (!(line.widthPixels > 0.0) || k >= line.points.size()) return line.halfWidth;
+  const glm::dvec2 p = line.points[k];
+  const double height = anchorGround_ ? anchorGround_->heightAt(p.x, p.y) : 0.0;
+  overlay::LineShape shape;
+  shape.width = 2.0 * line.maxHalfWidth;
+  shape.widthPixels = line.widthPixels;
+  shape.minWidth = 2.0 * line.halfWidth;
+  return overlay::halfWidthAt(shape, scale, line.surface[k] + surfaceNormal(p.x, p.y) * height);
 }
 
 }  // namespace gis::globe

@@ -28,6 +28,30 @@ bool GlobeLayer::covers(const glm::dvec3& world) const {
   return contains(world, g.lon, g.lat);
 }
 
+bool GlobeCoverage::covers(const glm::dvec3& world) const {
+  const Geodetic g = toGeodetic(world);
+  return layer_->contains(world, g.lon, g.lat, scale_);
+}
+
+overlay::PixelScale pixelScaleOf(const overlay::DepthImage& image) {
+  overlay::PixelScale scale = overlay::pixelScaleOf(image.viewProj, image.height);
+  scale.eye += image.origin;  // the matrix is relative to it
+  return scale;
+}
+
+overlay::PixelScale pixelScaleOf(const GlobeView& view) {
+  overlay::PixelScale scale = overlay::pixelScaleOf(view.eyeViewProj(), view.height);
+  scale.eye += view.eye;
+  return scale;
+}
+
+LayerCoverage::LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
+  const overlay::PixelScale scale = pixelScaleOf(image);
+  held_.reserve(layers.size());
+  for (const GlobeLayer* layer : layers) held_.emplace_back(*layer, scale);
+  for (const GlobeCoverage& c : held_) pointers_.push_back(&c);
+}
+
 overlay::OverlayView overlayViewOf(const GlobeView& view) {
   overlay::OverlayView v;
   v.viewProj = view.viewProj();
@@ -62,7 +86,8 @@ struct BorderPiece {
   glm::dvec3 a{0.0}, b{0.0};      ///< ends on the ellipsoid (ECEF)
   glm::dvec3 na{0.0}, nb{0.0};    ///< their normals
   bool endA = true, endB = true;  ///< whether an end counts as a point (not at a pole)
-  double halfWidth = 0.0;
+  double halfWidth = 0.0;         ///< at a (a line in pixels: at b, halfWidthB)
+  double halfWidthB = 0.0;
   std::uint32_t layer = 0;
   glm::dvec3 lo{0.0}, hi{0.0};  ///< box of the ends, widened by the half width and the chord's sag
 };
@@ -174,7 +199,8 @@ class BorderIndex {
   std::vector<Node> nodes_;
 };
 
-BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWidth, std::uint32_t layer) {
+BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWidth, std::uint32_t layer,
+                        double halfWidthB = -1.0) {
   BorderPiece piece;
   piece.a = toEcef(p.x, p.y, 0.0);
   piece.b = toEcef(q.x, q.y, 0.0);
@@ -183,9 +209,11 @@ BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWid
   piece.endA = !detail::isPole(p.y);
   piece.endB = !detail::isPole(q.y);
   piece.halfWidth = halfWidth;
+  piece.halfWidthB = halfWidthB < 0.0 ? halfWidth : halfWidthB;
   piece.layer = layer;
   const double length = glm::length(piece.b - piece.a);
-  const double pad = halfWidth + length * length / (8.0 * kSemiMinor) + 1.0;  // the chord's sag, and a metre
+  const double pad = std::max(halfWidth, piece.halfWidthB) + length * length / (8.0 * kSemiMinor) +
+                     1.0;  // the chord's sag, and a metre
   piece.lo = glm::min(piece.a, piece.b) - glm::dvec3(pad);
   piece.hi = glm::max(piece.a, piece.b) + glm::dvec3(pad);
   return piece;
@@ -197,6 +225,7 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
                                      const std::vector<const GlobeLayer*>& layers) {
   std::vector<std::uint8_t> edges = overlay::maskEdges(mask, image);
   if (edges.empty()) return edges;
+  const overlay::PixelScale scale = pixelScaleOf(image);
   std::vector<BorderPiece> pieces;
   for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
     const auto layer = static_cast<std::uint32_t>(l);
@@ -210,8 +239,13 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
       }
     }
     for (const GlobeLine& line : layers[l]->lines()) {
+      // A line in pixels: its half widths in this view (the band between them is the edge's).
+      std::vector<double> widths(line.points.size(), line.halfWidth);
+      if (line.widthPixels > 0.0) {
+        for (std::size_t i = 0; i < widths.size(); ++i) widths[i] = layers[l]->halfWidthAt(line, i, scale);
+      }
       for (std::size_t i = 0; i + 1 < line.points.size(); ++i)
-        pieces.push_back(borderPiece(line.points[i], line.points[i + 1], line.halfWidth, layer));
+        pieces.push_back(borderPiece(line.points[i], line.points[i + 1], widths[i], layer, widths[i + 1]));
     }
   }
   if (pieces.empty()) return edges;
@@ -247,11 +281,11 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
       index.near(points[i], reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
         if (edge) return;
         const double d = acrossDistance(piece, points[i]);
-        if (piece.halfWidth == 0.0) {
+        if (piece.halfWidth == 0.0 && piece.halfWidthB == 0.0) {
           edge = d <= reach;  // an area's border
         } else {
-          outer[piece.layer] |= static_cast<char>(d <= piece.halfWidth + reach);
-          inner[piece.layer] |= static_cast<char>(d <= piece.halfWidth - reach);
+          outer[piece.layer] |= static_cast<char>(d <= std::max(piece.halfWidth, piece.halfWidthB) + reach);
+          inner[piece.layer] |= static_cast<char>(d <= std::min(piece.halfWidth, piece.halfWidthB) - reach);
         }
       });
       for (std::size_t l = 0; l < layers.size() && !edge; ++l) edge = outer[l] != 0 && inner[l] == 0;

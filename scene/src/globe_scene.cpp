@@ -27,6 +27,23 @@ std::optional<std::array<double, 4>> geographicBox(const geo::RasterInfo& info) 
   return std::array<double, 4>{std::min(a.x, b.x), std::min(a.y, b.y), std::max(a.x, b.x), std::max(a.y, b.y)};
 }
 
+/// A line's widths on the globe as in a projected frame (LineShape): `pixels` > 0 keeps that
+/// width on screen, up to max_width_m (unbounded when not given: the globe builds its tiles per
+/// width class, so a river stays 1.5 px wide from space; a projected frame's whole-load
+/// techniques cap width_px at 50 m); otherwise `metres`, at least min_width_px wide on screen.
+void setLineWidths(globe::GlobeLayerOptions& build, double pixels, double metres, const overlay::LayerStyle& style,
+                   const std::shared_ptr<const globe::GeoGrid>& ground) {
+  build.anchorGround = ground;
+  build.lineMaxWidthMetres = style.maxWidthMetres > 0.0 ? style.maxWidthMetres : 1e7;
+  if (pixels > 0.0) {
+    build.lineWidthPixels = pixels;
+    build.lineWidthMetres = 0.0;
+  } else {
+    build.lineWidthMetres = metres;
+    build.lineWidthPixels = style.minWidthPixels > 0.0 ? style.minWidthPixels : 0.0;
+  }
+}
+
 }  // namespace
 
 Result<std::string> globeReason(const SceneDescription& description) {
@@ -116,9 +133,9 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     if (!read.ok()) continue;
     const overlay::LayerStyle& style = layer.style;
     // What the globe draws of the style so far: colour and opacity, lines and outlines in metres
-    // with round joins and caps. The rest is said once per layer.
+    // and in pixels (width_px, min_width_px) with round joins and caps. The rest is said once per
+    // layer.
     std::vector<std::string> unsupported;
-    if (style.widthPixels > 0.0 || style.outlineWidthPixels > 0.0F) unsupported.push_back("widths in pixels");
     if (layer.kind == overlay::LayerKind::Line &&
         (style.join != overlay::LineJoin::Round || style.cap != overlay::LineCap::Round))
       unsupported.push_back("joins and caps other than round");
@@ -130,11 +147,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
            layer.source,
            layer.name,
            {},
-           "on the globe " + list + " are not drawn yet: the layer is drawn in its colour, " +
-               (layer.kind == overlay::LayerKind::Line
-                    ? std::to_string(style.widthPixels > 0.0 ? style.widthCap() : style.widthMetres) + " m wide"
-                    : std::string("its outline in metres")) +
-               " with round joins"});
+           "on the globe " + list + " are not drawn yet: the layer is drawn in its colour with round joins"});
     }
     // Identify's attributes: the features without their geometry.
     auto attributes = std::make_shared<std::vector<geo::Feature>>();
@@ -148,7 +161,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     glm::vec4 color = style.color;
     color.w *= style.opacity;
     globe::GlobeLayerOptions build;
-    build.lineWidthMetres = style.widthPixels > 0.0 ? style.widthCap() : style.widthMetres;
+    setLineWidths(build, style.widthPixels, style.widthMetres, style, scene.heights);
     // Colours by category and widths from an attribute, per feature (the projected frame's
     // resolution: a width that is not a positive number gets the layer's, with a warning).
     if (!style.colorAttribute.empty() || (!style.widthAttribute.empty() && style.widthPixels <= 0.0)) {
@@ -168,10 +181,11 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
       scene.layerFeatures.push_back(attributes);
     }
     // A polygon layer's outline: a layer of its own, with the same bit in mask.png.
-    if (layer.kind == overlay::LayerKind::Polygon && style.outlineWidthMetres > 0.0F) {
+    if (layer.kind == overlay::LayerKind::Polygon &&
+        (style.outlineWidthMetres > 0.0F || style.outlineWidthPixels > 0.0F)) {
       globe::GlobeLayerOptions outline;
       outline.outlines = true;
-      outline.lineWidthMetres = style.outlineWidthMetres;
+      setLineWidths(outline, style.outlineWidthPixels, style.outlineWidthMetres, style, scene.heights);
       glm::vec4 outlineColor = style.outlineColor;
       outlineColor.w *= style.opacity;
       Result<globe::GlobeLayer> lines =

@@ -110,7 +110,7 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     const std::vector<DrawnTile> tiles = drawTerrain(terrain, target, v);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> expected =
-        overlay::referenceMask(depthImageOf(v, depth), coverageOf({&layers.a, &layers.b}));
+        overlay::referenceMask(depthImageOf(v, depth), coverageOf({&layers.a, &layers.b}, depthImageOf(v, depth)));
     const std::vector<std::uint8_t> edges = edgePixels(expected, depthImageOf(v, depth), {&layers.a, &layers.b});
     std::size_t both = 0;
     for (const std::uint32_t e : expected) both += e == 3U ? 1U : 0U;
@@ -124,8 +124,8 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     overlay::OverlaySettings settings = overlaySettingsOf({});
     settings.forceGroups = (&c - cases.data()) % 2 == 0;
     const overlay::AnalysisMarks marks =
-        overlays.markOverlap(cache_, overlayViewOf(v), overlay.chunks(tiles, *grid(), layers.a),
-                             overlay.chunks(tiles, *grid(), layers.b), settings);
+        overlays.markOverlap(cache_, overlayViewOf(v), overlay.chunks(v, tiles, *grid(), layers.a),
+                             overlay.chunks(v, tiles, *grid(), layers.b), settings);
     const std::vector<std::uint8_t> flags = gfx::readStencil(target);
     overlays.coverOverlap(cache_, marks, op, glm::vec4(1.0F, 0.0F, 1.0F, 0.6F), 1.0F);
     const std::vector<std::uint32_t> shown = gfx::readMask(target);
@@ -162,7 +162,7 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     // may hold the eye, are left out of the count).
     for (const GlobeLayer* layer : {&layers.a, &layers.b}) {
       const overlay::AnalysisMarks counted =
-          overlays.countOpenFaces(cache_, overlayViewOf(v), overlay.chunks(tiles, *grid(), *layer), settings);
+          overlays.countOpenFaces(cache_, overlayViewOf(v), overlay.chunks(v, tiles, *grid(), *layer), settings);
       const std::vector<std::uint8_t> counts = gfx::readStencil(target);
       overlays.coverOpenFaces(cache_, counted, glm::vec4(0.0F, 1.0F, 0.0F, 1.0F));
       std::size_t open = 0;

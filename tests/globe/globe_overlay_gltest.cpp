@@ -3,7 +3,9 @@
 // both poles and from 1 m above the ground.
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
+#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -61,7 +63,8 @@ class GlobeOverlayGl : public test::GlTest {
     const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
     (void)gfx::writeImage8(std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/" + file + ".png", view.width, view.height, 4,
                            rgba);
-    const std::vector<std::uint32_t> expected = overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers));
+    const std::vector<std::uint32_t> expected =
+        overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers, depthImageOf(view, depth)));
     const std::vector<std::uint8_t> edges = edgePixels(expected, depthImageOf(view, depth), layers);
     Outcome o;
     o.tiles = tiles.size();
@@ -195,6 +198,68 @@ TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {
   }
   EXPECT_GT(evicted, 0U) << "the flight must need more than the budget";
   EXPECT_GT(rebuilt, 0U) << "the first view's tiles left and came back";
+}
+
+TEST_F(GlobeOverlayGl, LinesInPixelsKeepTheirWidthOnScreenFromSpaceToTheGround) {
+  // Lines 3 px wide (a style's width_px) and a 10 m road at least 2 px wide (min_width_px): from
+  // space the routes stay 3 px wide instead of vanishing; near the ground the road is its width
+  // in metres. Each frame against the reference with the view's widths, 0 wrong pixels away from
+  // edges; the pieces of the far tiles take their width in the shader (a width class above 0).
+  GlobeLayerOptions pixels;
+  pixels.lineWidthPixels = 3.0;
+  pixels.lineWidthMetres = 0.0;
+  pixels.anchorGround = grid();
+  Result<GlobeLayer> routes =
+      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), pixels);
+  GlobeLayerOptions least;
+  least.lineWidthMetres = 10.0;
+  least.lineWidthPixels = 2.0;
+  least.anchorGround = grid();
+  Result<GlobeLayer> road = GlobeLayer::build(
+      "road 10 m, 2 px at least",
+      {test::globe_scene::lineFeature({{8.5 - 0.002, 47.3 + 0.004}, {8.5 + 0.01, 47.3 + 0.0041}, {8.6, 47.5}})},
+      glm::vec4(0.2F, 0.2F, 0.2F, 0.9F), least);
+  ASSERT_TRUE(routes.ok() && road.ok());
+  const std::vector<const GlobeLayer*> layers{&*routes, &*road};
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+    double fov = 45.0;
+    std::size_t minCovered = 0;  ///< about the lines' length in pixels times their width, less a margin
+  };
+  const double field = grid()->heightAt(8.5, 47.3);
+  const std::vector<Case> cases{
+      {"px space 10,000 km", {-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}, 45.0, 200},
+      {"px space 20,000 km", {150.0, 10.0, 2e7}, {150.0, 10.0, -6e6}, 45.0, 40},
+      {"px oblique 800 km", {-62.0, -38.0, 8e5}, {-55.0, -22.0, 0.0}, 45.0, 150},
+      {"px antimeridian oblique", {165.0, -40.0, 6e5}, {-178.0, -21.0, 0.0}, 45.0, 200},
+      {"px north pole oblique", {30.0, 70.0, 4e5}, {120.0, 89.0, 0.0}, 45.0, 10},
+      {"px road from 30 km", {8.55, 47.2, 30000.0}, {8.55, 47.4, field}, 45.0, 100},
+      {"px road from 50 m", {8.5, 47.3035, field + 50.0}, {8.503, 47.30405, field}, 60.0, 300},
+  };
+  GlobeOverlayRenderer overlay;
+  for (const Case& c : cases) {
+    const GlobeView v = view(c.eye, c.target, c.fov);
+    const Outcome o = drawAndCompare(v, layers, c.label, &overlay);
+    EXPECT_GE(o.covered, c.minCovered) << c.label << ": the lines must show, as wide as asked";
+  }
+  // Random views over the first route, from 20 km to 5,000 km, looking down or obliquely.
+  std::mt19937 random(41);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < 8; ++k) {
+    const double t = unit(random);
+    const Geodetic target{-75.0 + 20.0 * t, -5.0 - 20.0 * t, 0.0};
+    const double height = 2e4 * std::pow(250.0, unit(random));
+    const double away = height / 111000.0 * unit(random);  // up to 45° off the vertical
+    const double bearing = 6.283185307179586 * unit(random);
+    const Geodetic eye{target.lon + away * std::cos(bearing), target.lat + away * std::sin(bearing), height};
+    drawAndCompare(view(eye, target), layers, "px random " + std::to_string(k), &overlay);
+  }
+  // From space the routes are built for a width class that scales them, and nearly 3 px wide:
+  // the reference's covered pixels over the route's length (about 4,000 km at 10,000 km: 130 px).
+  const GlobeView far = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
+  EXPECT_GT(lineWidthClass(*routes, TileKey{3, 4, 4}, *grid(), pixelScaleOf(far)), 0);
+  EXPECT_EQ(lineWidthClass(*routes, TileKey{3, 4, 4}, *grid(), overlay::PixelScale{}), 0);
 }
 
 TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {

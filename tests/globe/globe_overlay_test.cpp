@@ -448,7 +448,8 @@ TEST(GlobeEdgeBand, HoldsLinesNarrowerThanAPixelAndNothingFarFromEdges) {
   const std::vector<float> depth = ellipsoidDepth(view);
   const double pixel = view.pixelSizeAt(2000.0);
   for (const GlobeLayer* layer : {&*road, &*fields}) {
-    const std::vector<std::uint32_t> mask = overlay::referenceMask(depthImageOf(view, depth), coverageOf({layer}));
+    const std::vector<std::uint32_t> mask =
+        overlay::referenceMask(depthImageOf(view, depth), coverageOf({layer}, depthImageOf(view, depth)));
     const std::vector<std::uint8_t> byMask = overlay::maskEdges(mask, depthImageOf(view, depth));
     const std::vector<std::uint8_t> band = edgePixels(mask, depthImageOf(view, depth), {layer});
     std::size_t near = 0, far = 0, bandCount = 0, maskCount = 0;

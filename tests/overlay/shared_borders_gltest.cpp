@@ -175,7 +175,7 @@ TEST_F(SharedBordersGlTest, OnTheGlobeTheSameTractsAndViewsLeaveNoCracks) {
     const std::vector<float> depth = gfx::readDepth(frame);
     const std::vector<std::uint32_t> gpu = gfx::readMask(frame);
     const overlay::DepthImage image = globe::depthImageOf(view, depth);
-    const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers));
+    const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
     const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
     std::size_t viewWrong = 0;
     for (std::size_t i = 0; i < gpu.size(); ++i) {

@@ -1011,9 +1011,9 @@ LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const La
 }
 
 LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, const glm::dvec3& origin,
-                                           std::vector<Vertex> vertices, std::vector<glm::vec3> normals,
+                                           std::vector<Vertex> vertices, std::vector<glm::vec4> normals,
                                            std::vector<std::uint32_t> indices, const std::vector<WorldPiece>& pieces,
-                                           std::optional<glm::vec4> uniformColour) {
+                                           std::optional<glm::vec4> uniformColour, WorldLines lines) {
   LayerGeometry layer;
   layer.name_ = std::move(name);
   layer.kind_ = kind;
@@ -1039,7 +1039,15 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, con
   layer.stats_.pieces = pieces.size();
   layer.vertices_ = std::move(vertices);
   layer.normals_ = std::move(normals);
-  layer.normals_.resize(layer.vertices_.size(), glm::vec3(0.0F));
+  layer.normals_.resize(layer.vertices_.size(), glm::vec4(0.0F));
+  if (!lines.scaling.empty() && lines.widthPixels > 0.0) {
+    // Read by OverlayLayer and the renderer as a line layer's widths in pixels.
+    layer.kind_ = LayerKind::Line;
+    layer.style_.widthPixels = lines.widthPixels;
+    layer.style_.maxWidthMetres = lines.maxWidth;
+    layer.scaling_ = std::move(lines.scaling);
+    layer.scaling_.resize(layer.vertices_.size(), glm::vec4(0.0F));
+  }
   layer.indices_ = std::move(indices);
   if (uniformColour) {
     const std::array<std::uint8_t, 4> rgba = rgba8(*uniformColour);

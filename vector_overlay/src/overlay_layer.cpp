@@ -64,10 +64,10 @@ void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapac
   }
   if (geometry_.alongNormals()) {  // world pieces: the directions their caps are padded along
     normals_ = gfx::createBuffer();
-    glNamedBufferData(normals_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(glm::vec3)), nullptr,
+    glNamedBufferData(normals_.id(), static_cast<GLsizeiptr>(vertexCapacity_ * sizeof(glm::vec4)), nullptr,
                       GL_DYNAMIC_DRAW);
     if (!geometry_.normals().empty()) {
-      glNamedBufferSubData(normals_.id(), 0, static_cast<GLsizeiptr>(geometry_.normals().size() * sizeof(glm::vec3)),
+      glNamedBufferSubData(normals_.id(), 0, static_cast<GLsizeiptr>(geometry_.normals().size() * sizeof(glm::vec4)),
                            geometry_.normals().data());
     }
   }
@@ -81,7 +81,7 @@ void OverlayLayer::reallocate(std::size_t vertexCapacity, std::size_t indexCapac
                          indices.data());
   }
   gpuBytes_ =
-      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec4) : 0) + (normals_ ? sizeof(glm::vec3) : 0)) +
+      vertexCapacity_ * (sizeof(Vertex) + (scaling_ ? sizeof(glm::vec4) : 0) + (normals_ ? sizeof(glm::vec4) : 0)) +
       indexCapacity_ * sizeof(std::uint32_t);
 }
 

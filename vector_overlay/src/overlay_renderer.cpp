@@ -101,7 +101,7 @@ Result<OverlayRenderer> OverlayRenderer::create() {
   glVertexArrayAttribFormat(vao, 3, 4, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribBinding(vao, 3, 2);
   // World pieces only (enabled per layer, with u_alongNormals): the direction caps are padded along.
-  glVertexArrayAttribFormat(vao, 4, 3, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribFormat(vao, 4, 4, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribBinding(vao, 4, 3);
   renderer.timer_.emplace();
   renderer.coverTimer_.emplace();
@@ -358,7 +358,7 @@ bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& lay
   glVertexArrayElementBuffer(vao, layer.indexBuffer());
   boundAlongNormals_ = layer.alongNormals() && layer.normalBuffer() != 0;
   if (boundAlongNormals_) {
-    glVertexArrayVertexBuffer(vao, 3, layer.normalBuffer(), 0, 3 * sizeof(float));
+    glVertexArrayVertexBuffer(vao, 3, layer.normalBuffer(), 0, 4 * sizeof(float));
     glEnableVertexArrayAttrib(vao, 4);
     program_.set("u_alongNormals", 1);
   }

@@ -15,11 +15,13 @@
 //   it every few posts (so no cap triangle cuts the ground for the ellipsoid's curvature), extruded
 //   along the normals between the ground's bounds there (the terrain's bounds contract).
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -34,6 +36,8 @@
 #include "globe/globe_terrain.hpp"
 #include "globe/globe_view.hpp"
 #include "globe/tile.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/footprints.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 
 namespace gis::globe {
@@ -99,13 +103,27 @@ struct GlobeLayerOptions {
   /// together, one mark and cover per colour.
   std::vector<glm::vec4> featureColors;
   std::vector<double> featureWidthMetres;
+  /// Lines in pixels (LineShape, footprints.hpp, on the globe; docs/globe.md, "Lines in
+  /// pixels"): > 0, every line is this many pixels wide on screen, at least its width in metres
+  /// (lineWidthMetres or featureWidthMetres; 0 for a style's `width_px`) and at most
+  /// lineMaxWidthMetres. A style's `width_px` gives widthPixels with no width in metres; its
+  /// `min_width_px` a width in metres and widthPixels = min_width_px.
+  double lineWidthPixels = 0.0;
+  double lineMaxWidthMetres = 1e7;
+  /// The ground a line in pixels measures its distance to the eye from: each point raised to
+  /// heightAt there (the anchor). None: the ellipsoid.
+  std::shared_ptr<const GeoGrid> anchorGround;
 };
 
 /// A line of a layer, for the CPU reference: within halfWidth of its geodesic pieces.
 struct GlobeLine {
   std::uint32_t feature = 0;
   std::uint32_t group = 0;  ///< its colour: GlobeLayer::colors()[group]
-  double halfWidth = 0.0;
+  double halfWidth = 0.0;   ///< in metres (a line in pixels: the least)
+  /// A line in pixels (GlobeLayerOptions::lineWidthPixels): its half width at a point is
+  /// max(min(widthPixels / 2 · pixel size at its anchor, maxHalfWidth), halfWidth); 0: halfWidth.
+  double widthPixels = 0.0;
+  double maxHalfWidth = 0.0;
   std::vector<glm::dvec2> points;   ///< unwrapped (lon, lat), densified
   std::vector<char> given;          ///< per point, 1 where the source gave it (0: added along a geodesic)
   std::vector<glm::dvec3> surface;  ///< the points on the ellipsoid (ECEF)
@@ -142,14 +160,36 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// tolerance (Douglas–Peucker on its points on the ellipsoid; made once per level and kept),
   /// arcs within another quarter, rings simplified within the other half; elsewhere of the line's
   /// own points. Thread-safe.
-  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key) const;
+  /// Lines in pixels: the lines width class `widthClass` scales are left out (buildTilePieces).
+  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key, int widthClass = 0) const;
+  /// The points line j is drawn from in tiles of `level`: its centreline generalised for the
+  /// level (lineShapesIn), or its own points.
+  [[nodiscard]] const std::vector<glm::dvec2>& linePointsAt(std::size_t j, int level) const;
+  /// The runs [first, last] of linePointsAt(j, key.level) whose pieces meet tile `key` grown by
+  /// `reach` metres and a post. Thread-safe.
+  [[nodiscard]] std::vector<std::pair<std::size_t, std::size_t>> lineRunsIn(std::size_t j, const TileKey& key,
+                                                                            double reach) const;
+  /// Whether width class `widthClass` draws the line in pixels (else in metres: lineShapesIn).
+  static bool scalesLine(const GlobeLine& line, int widthClass);
+  /// Of the lines in pixels: the least of their widths in metres and the greatest largest width.
+  [[nodiscard]] double leastLineHalfWidth() const { return leastHalfWidth_; }
+  [[nodiscard]] double widestLineHalfWidth() const { return widestHalfWidth_; }
 
   /// Whether a point is in the layer (the CPU reference): in one of its areas (the polygons it
   /// was built from), or within half the width of one of its lines (exactly; the drawn discs
-  /// lie within the chord tolerance inside).
-  [[nodiscard]] bool contains(const glm::dvec3& point, double lonDeg, double latDeg) const;
-  /// The same for an ECEF point alone (overlay::referenceMask asks so).
+  /// lie within the chord tolerance inside). Lines in pixels take their widths from `scale`
+  /// (the view's; with none, their least widths).
+  [[nodiscard]] bool contains(const glm::dvec3& point, double lonDeg, double latDeg,
+                              const overlay::PixelScale& scale = {}) const;
+  /// The same for an ECEF point alone (overlay::referenceMask asks so), lines in pixels at their
+  /// least widths: coverageOf gives the layer as a view sees it.
   [[nodiscard]] bool covers(const glm::dvec3& world) const override;
+  /// Lines in pixels: > 0 (GlobeLayerOptions::lineWidthPixels).
+  [[nodiscard]] double lineWidthPixels() const { return widthPixels_; }
+  /// The ground lines in pixels are anchored on (null: the ellipsoid).
+  [[nodiscard]] const GeoGrid* anchorGround() const { return anchorGround_.get(); }
+  /// The half width of line `line` at its point k as seen with `scale`.
+  [[nodiscard]] double halfWidthAt(const GlobeLine& line, std::size_t k, const overlay::PixelScale& scale) const;
 
  private:
   std::string name_;
@@ -159,6 +199,9 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::size_t areaPolygons_ = 0;  ///< polygons_.size()
   std::vector<GlobeLine> lines_;
   double chordTolerance_ = 0.02, maxSegment_ = 1000.0;
+  double widthPixels_ = 0.0;
+  double leastHalfWidth_ = 0.0, widestHalfWidth_ = 0.0;
+  std::shared_ptr<const GeoGrid> anchorGround_;
   std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
   /// The tolerance of line `line` at `level` (metres): lineShapesIn.
   static double lineTolerance(const GlobeLine& line, int level);
@@ -172,9 +215,9 @@ class GlobeLayer final : public overlay::WorldCoverage {
 /// the caps are padded along.
 struct PieceVertex {
   glm::vec4 position{0.0F};  ///< x, y, z − TilePieces::origin (ECEF metres); w: −1 bottom, +1 top, 0 none
-  glm::vec3 normal{0.0F};
+  glm::vec4 normal{0.0F};    ///< w: a line in pixels' anchor lies this far along it
 };
-static_assert(sizeof(PieceVertex) == 28);
+static_assert(sizeof(PieceVertex) == 32);
 
 /// The pieces of one layer over one tile.
 struct TilePieces {
@@ -188,13 +231,28 @@ struct TilePieces {
   };
   glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)
   std::vector<PieceVertex> vertices;
+  /// Lines in pixels, per vertex when any piece is one: direction (ECEF) and least half width
+  /// (LayerGeometry::WorldLines); the pieces are built at maxHalfWidth.
+  std::vector<glm::vec4> scaling;
+  double maxHalfWidth = 0.0;
   std::vector<std::uint32_t> indices;
   std::vector<Piece> pieces;
 };
 
 /// The pieces of `layer` over tile `key`, bounded by the ground of `heights` (heights contract:
-/// globe_terrain.hpp).
-TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights);
+/// globe_terrain.hpp). `widthClass` (lines in pixels, lineWidthClass): the lines the class
+/// scales are built as pieces that take their width in the shader, at most the class's width;
+/// the others (and every line in class 0) in metres.
+TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass = 0);
+
+/// Lines in pixels: the width class a tile is drawn with from a view (the tiled technique's
+/// rule, tiled_layer.hpp): 0 where every line of the layer is at least as wide in metres as
+/// widthPixels at the tile's farthest point; else c > 0, whose pieces are at most
+/// lineClassWidth(c) metres wide and hold the width in pixels everywhere in the tile (the
+/// tile grown by half that width).
+int lineWidthClass(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                   const overlay::PixelScale& scale);
+inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass - 8); }
 
 struct GlobeOverlaySettings {
   double padBase = 0.05;  ///< caps move out by padBase + padPerMetre · distance (depth precision)
@@ -244,8 +302,8 @@ class GlobeOverlayRenderer {
   /// The layer's pieces over the tiles, one chunk per tile that has any (built and uploaded where
   /// missing): what overlay::OverlayRenderer's draw and analyses take for a layer drawn in chunks.
   /// Valid until the next draw. Needs a current GL context.
-  std::vector<const overlay::OverlayLayer*> chunks(const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
-                                                   const GlobeLayer& layer);
+  std::vector<const overlay::OverlayLayer*> chunks(const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                                                   const GeoGrid& heights, const GlobeLayer& layer);
   /// The overlay renderer (made on first use; null if its shaders do not build).
   overlay::OverlayRenderer* renderer();
 
@@ -264,10 +322,36 @@ class GlobeOverlayRenderer {
 /// overlay::WorldCoverage), maskEdges, and the lasso's selectionMask.
 overlay::DepthImage depthImageOf(const GlobeView& view, std::span<const float> depth);
 
-/// The layers as overlay::referenceMask takes them.
-inline std::vector<const overlay::WorldCoverage*> coverageOf(const std::vector<const GlobeLayer*>& layers) {
-  return {layers.begin(), layers.end()};
+/// A layer as a view sees it (lines in pixels take their widths from its pixel scale).
+class GlobeCoverage final : public overlay::WorldCoverage {
+ public:
+  GlobeCoverage(const GlobeLayer& layer, const overlay::PixelScale& scale) : layer_(&layer), scale_(scale) {}
+  [[nodiscard]] bool covers(const glm::dvec3& world) const override;
+
+ private:
+  const GlobeLayer* layer_;
+  overlay::PixelScale scale_;
+};
+
+/// The layers as overlay::referenceMask takes them for `image` (its camera's pixel scale).
+class LayerCoverage {
+ public:
+  LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image);
+  LayerCoverage(const LayerCoverage&) = delete;
+  LayerCoverage& operator=(const LayerCoverage&) = delete;
+  // NOLINTNEXTLINE(google-explicit-constructor): passed where a span of coverages is asked for
+  operator std::span<const overlay::WorldCoverage* const>() const { return pointers_; }
+
+ private:
+  std::vector<GlobeCoverage> held_;
+  std::vector<const overlay::WorldCoverage*> pointers_;
+};
+inline LayerCoverage coverageOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
+  return {layers, image};
 }
+/// The pixel scale of the camera that drew `image`, or of a view (lines in pixels), ECEF.
+overlay::PixelScale pixelScaleOf(const overlay::DepthImage& image);
+overlay::PixelScale pixelScaleOf(const GlobeView& view);
 
 /// The edge band of the layers' reference: overlay::maskEdges of `mask`, and by geometry every
 /// pixel whose ground point lies within its footprint's reach (the distance to the farthest of its
@@ -286,6 +370,7 @@ namespace gis::globe {
 /// the layer was built from) whose area holds the point (ECEF, and its longitude and latitude),
 /// or whose line passes within half its width of it; each once, in increasing order
 /// (globe_identify.cpp).
-std::vector<std::uint32_t> featuresAt(const GlobeLayer& layer, const glm::dvec3& point, double lonDeg, double latDeg);
+std::vector<std::uint32_t> featuresAt(const GlobeLayer& layer, const glm::dvec3& point, double lonDeg, double latDeg,
+                                      const overlay::PixelScale& scale = {});
 
 }  // namespace gis::globe

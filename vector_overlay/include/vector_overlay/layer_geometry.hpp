@@ -348,10 +348,20 @@ class LayerGeometry {
     std::uint32_t indexCount = 0;
     glm::dvec3 boxLo{0.0}, boxHi{0.0};
   };
+  /// Lines in pixels among world pieces (LineShape's rule on the globe): `scaling` per vertex
+  /// holds its direction (x, y, z: ECEF, in the tangent plane at its centre) and its least half
+  /// width, the normal's w how far along the normal the centre's anchor lies from the vertex;
+  /// the vertex lies at centre + direction · h, h = max(min(widthPixels / 2 · pixel size at the
+  /// anchor, maxWidth / 2), least).
+  struct WorldLines {
+    std::vector<glm::vec4> scaling;
+    double widthPixels = 0.0;
+    double maxWidth = 0.0;
+  };
   static LayerGeometry ofWorldPieces(std::string name, LayerKind kind, const glm::dvec3& origin,
-                                     std::vector<Vertex> vertices, std::vector<glm::vec3> normals,
+                                     std::vector<Vertex> vertices, std::vector<glm::vec4> normals,
                                      std::vector<std::uint32_t> indices, const std::vector<WorldPiece>& pieces,
-                                     std::optional<glm::vec4> uniformColour);
+                                     std::optional<glm::vec4> uniformColour, WorldLines lines);
 
   [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
   [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
@@ -362,9 +372,10 @@ class LayerGeometry {
   /// vertices() then holds the centres. Empty for every other layer.
   [[nodiscard]] const std::vector<glm::vec4>& scaling() const { return scaling_; }
   /// A layer of world pieces (ofWorldPieces): its caps are padded along normals() (one per
-  /// vertex), and its pieces' origins are worldOrigins() (PieceSlot::origin indexes them).
+  /// vertex: x, y, z; w the distance along it to the anchor of a line in pixels), and its pieces'
+  /// origins are worldOrigins() (PieceSlot::origin indexes them).
   [[nodiscard]] bool alongNormals() const { return !worldOrigins_.empty(); }
-  [[nodiscard]] const std::vector<glm::vec3>& normals() const { return normals_; }
+  [[nodiscard]] const std::vector<glm::vec4>& normals() const { return normals_; }
   [[nodiscard]] const std::vector<glm::dvec3>& worldOrigins() const { return worldOrigins_; }
 
  private:
@@ -397,7 +408,7 @@ class LayerGeometry {
   std::vector<Vertex> vertices_;
   std::vector<std::uint32_t> indices_;
   std::vector<glm::vec4> scaling_;                    ///< lines in pixels only, per vertex
-  std::vector<glm::vec3> normals_;                    ///< world pieces only, per vertex
+  std::vector<glm::vec4> normals_;                    ///< world pieces only, per vertex
   std::vector<glm::dvec3> worldOrigins_;              ///< world pieces only
   std::shared_ptr<const ArraysInFile> arraysInFile_;  ///< the arrays, while still in their file
   std::size_t wastedIndices_ = 0;

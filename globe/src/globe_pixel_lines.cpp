@@ -1,0 +1,253 @@
+// Lines in pixels on the globe (globe_overlay.hpp, docs/globe.md "Lines in pixels"): pieces whose
+// width the volume shader sets per frame, as a projected frame's (footprints.hpp, LineShape).
+//
+// Each vertex of such a piece belongs to a centre, a point of the line at the cap's height; the
+// shader moves it by direction · h, h the half width at the centre's anchor (the point raised to
+// the anchor ground). Directions lie in the tangent plane at the centre:
+// - a band (a piece of the line between points k and k + 1) has its four corners at the ends ±
+//   m, m the normal of the plane that holds the chord and the mean normal of its ends: the slab
+//   the reference tests (nearLine), its half width going linearly from one end's to the other's;
+// - a disc (a point the source gave, or a run's end) is a polygon inscribed in the circle around
+//   the normal there;
+// - at a point added along a geodesic the bands' corners on the outside of the turn are joined
+//   by a triangle from the centre (a bevel: within r·θ²/8 of the disc the reference has there).
+// The pieces are built at the class's largest half width H: the bottom lowered by H² / 2R (a
+// corner in the tangent plane rises above the ground by that much), the top raised by the sag of
+// the longest chord, the ground's bounds taken over the piece's box grown by H at a level coarse
+// enough for every tile the piece reaches (the terrain's bounds contract: globe_terrain.hpp).
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include <glm/geometric.hpp>
+
+#include "globe/ellipsoid.hpp"
+#include "globe/globe_overlay.hpp"
+#include "globe_detail.hpp"
+
+namespace gis::globe {
+
+namespace {
+
+constexpr double kDegree = 3.14159265358979323846 / 180.0;
+
+/// Degrees of latitude and longitude (at the box's highest latitude) that `metres` at least spans.
+std::pair<double, double> degreesFor(double metres, const LonLatRect& box) {
+  const double dLat = metres / 110000.0;
+  const double high = std::max(std::abs(box.south), std::abs(box.north)) + dLat;
+  return {high >= 89.9 ? 360.0 : dLat / std::cos(high * kDegree), dLat};
+}
+
+/// A vertex of a piece of a line in pixels: its centre (lon/lat), direction and which cap.
+struct Corner {
+  std::size_t centre = 0;  ///< index into the run's centres
+  glm::dvec3 direction{0.0};
+};
+
+/// One closed volume: its footprint's corners (counter-clockwise seen from above), fanned.
+using Shape = std::vector<Corner>;
+
+class PieceWriter {
+ public:
+  PieceWriter(TilePieces& out, const GlobeLine& line, const TileKey& key, const GeoGrid& heights, double capHalf)
+      : out_(out), line_(line), key_(key), heights_(heights), capHalf_(capHalf) {}
+
+  /// Writes one piece from `shapes` over the run's centres `points` (lon/lat), `normals` and
+  /// `anchors` (the anchor heights).
+  void write(const std::vector<Shape>& shapes, const std::vector<glm::dvec2>& points,
+             const std::vector<glm::dvec3>& normals, const std::vector<double>& anchors, double chord) {
+    out_.scaling.resize(out_.vertices.size(), glm::vec4(0.0F));  // the pieces in metres before
+    // The box of the centres used, grown by the half width.
+    LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+    for (const Shape& s : shapes) {
+      for (const Corner& c : s) {
+        const glm::dvec2 p = points[c.centre];
+        box.west = std::min(box.west, p.x);
+        box.east = std::max(box.east, p.x);
+        box.south = std::min(box.south, p.y);
+        box.north = std::max(box.north, p.y);
+      }
+    }
+    const auto [dLon, dLat] = degreesFor(capHalf_ + 1.0, box);
+    box = box.expanded(dLon, dLat);
+    box.south = std::max(box.south, -90.0);
+    box.north = std::min(box.north, 90.0);
+    // Coarse enough for every tile the box reaches: the drawn tiles' levels fall by at most one
+    // from a tile to its neighbour, so by log2(d / size) + 1 over d beyond the tile.
+    const LonLatRect rect = key_.rect();
+    const double beyond =
+        std::max({rect.west - box.west, box.east - rect.east, rect.south - box.south, box.north - rect.north, 0.0});
+    const int drop = beyond > 0.0 ? static_cast<int>(std::ceil(std::log2(beyond / key_.size() + 1.0))) + 1 : 0;
+    const auto [ground0, ground1] = groundBounds(heights_, box, std::max(0, key_.level - drop));
+    const double lo = ground0 - 1.01 * capHalf_ * capHalf_ / (2.0 * kMinCurvatureRadius) - 1.0;
+    const double hi = ground1 + triangleSag(1.01 * std::max(chord, 2.0 * capHalf_));
+
+    TilePieces::Piece piece;
+    piece.group = line_.group;
+    piece.lo = lo;
+    piece.hi = hi;
+    piece.boxLo = glm::dvec3(std::numeric_limits<double>::max());
+    piece.boxHi = glm::dvec3(-std::numeric_limits<double>::max());
+    // Vertices: per corner, bottom then top; the indices as buildTilePieces writes a piece.
+    std::vector<std::array<std::uint32_t, 3>> triangles;  // of corners, counter-clockwise
+    std::vector<std::array<std::uint32_t, 2>> boundary;
+    const auto first = static_cast<std::uint32_t>(out_.vertices.size());
+    std::uint32_t corner = 0;
+    for (const Shape& s : shapes) {
+      const auto n = static_cast<std::uint32_t>(s.size());
+      for (std::uint32_t i = 1; i + 1 < n; ++i) triangles.push_back({corner, corner + i, corner + i + 1});
+      for (std::uint32_t i = 0; i < n; ++i) boundary.push_back({corner + i, corner + (i + 1) % n});
+      for (const Corner& c : s) {
+        const glm::dvec2 p = points[c.centre];
+        const glm::dvec3& normal = normals[c.centre];
+        for (const double h : {lo, hi}) {
+          const glm::dvec3 at = toEcef(p.x, p.y, h);
+          for (const double reach : {0.0, capHalf_}) {
+            piece.boxLo = glm::min(piece.boxLo, at + c.direction * reach);
+            piece.boxHi = glm::max(piece.boxHi, at + c.direction * reach);
+          }
+          out_.vertices.push_back(PieceVertex{glm::vec4(glm::vec3(at - out_.origin), h == lo ? -1.0F : 1.0F),
+                                              glm::vec4(glm::vec3(normal), static_cast<float>(anchors[c.centre] - h))});
+          out_.scaling.push_back(glm::vec4(glm::vec3(c.direction), static_cast<float>(line_.halfWidth)));
+        }
+      }
+      corner += n;
+    }
+    piece.firstIndex = static_cast<std::uint32_t>(out_.indices.size());
+    const auto bottom = [&](std::uint32_t c) { return first + 2 * c; };
+    for (const auto& t : triangles) out_.indices.insert(out_.indices.end(), {bottom(t[0]), bottom(t[2]), bottom(t[1])});
+    piece.bottomCount = static_cast<std::uint32_t>(out_.indices.size()) - piece.firstIndex;
+    for (const auto& [i, j] : boundary) {
+      const std::uint32_t a = bottom(i), b = bottom(j);
+      out_.indices.insert(out_.indices.end(), {a, b, b + 1, a, b + 1, a + 1});
+    }
+    for (const auto& t : triangles)
+      out_.indices.insert(out_.indices.end(), {bottom(t[0]) + 1, bottom(t[1]) + 1, bottom(t[2]) + 1});
+    piece.indexCount = static_cast<std::uint32_t>(out_.indices.size()) - piece.firstIndex;
+    out_.pieces.push_back(piece);
+  }
+
+ private:
+  TilePieces& out_;
+  const GlobeLine& line_;
+  TileKey key_;
+  const GeoGrid& heights_;
+  double capHalf_;
+};
+
+/// The number of sides of a disc of the line seen as small as widthPixels and as large as its
+/// width in metres: chords within chordTolerancePixels (0.05 px) and 2 cm of the circle.
+int discSides(const GlobeLine& line) {
+  const auto sides = [](double tolerance, double radius) {
+    if (!(radius > 0.0)) return 8;
+    const double t = std::min(tolerance, 0.5 * radius);
+    return static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - t / radius)));
+  };
+  return std::clamp(std::max(sides(0.05, 0.5 * line.widthPixels), sides(0.02, line.halfWidth)), 8, 256);
+}
+
+}  // namespace
+
+int lineWidthClass(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                   const overlay::PixelScale& scale) {
+  if (!(layer.lineWidthPixels() > 0.0) || !(scale.metresPerPixel > 0.0) || layer.lines().empty()) return 0;
+  const LonLatRect rect = key.rect();
+  const auto [ground0, ground1] = heights.bounds(rect);
+  // The farthest point of the tile grown by m from the eye: within the chord from its middle to
+  // any point of it (an angle of at most half its sides, plus m), and the heights.
+  const glm::dvec3 middle = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
+  const double top = kSemiMajor + std::max({std::abs(ground0), std::abs(ground1), 0.0});
+  const auto farthest = [&](double m) {
+    const double angle = std::min(0.5 * (rect.east - rect.west + rect.north - rect.south) * kDegree + m / kSemiMinor,
+                                  3.14159265358979323846);
+    return glm::length(scale.eye - middle) + 2.0 * top * std::sin(0.5 * angle) + top - kSemiMinor + 1.0;
+  };
+  const double need = layer.lineWidthPixels() * scale.metresPerPixel * farthest(0.0);
+  if (!(need > 2.0 * layer.leastLineHalfWidth())) return 0;  // every line is as wide in metres
+  int c = std::clamp(static_cast<int>(std::ceil(std::log2(need))) + 8, 1, 60);
+  while (c < 60 && lineClassWidth(c) < 2.0 * layer.widestLineHalfWidth() &&
+         layer.lineWidthPixels() * scale.metresPerPixel * farthest(0.5 * lineClassWidth(c)) > lineClassWidth(c))
+    ++c;
+  return c;
+}
+
+namespace detail {
+
+void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                      int widthClass) {
+  if (widthClass <= 0) return;
+  const GeoGrid* anchor = layer.anchorGround();
+  for (std::size_t j = 0; j < layer.lines().size(); ++j) {
+    const GlobeLine& line = layer.lines()[j];
+    if (!GlobeLayer::scalesLine(line, widthClass)) continue;
+    const double capHalf = std::min(0.5 * lineClassWidth(widthClass), line.maxHalfWidth);
+    out.maxHalfWidth = std::max(out.maxHalfWidth, capHalf);
+    const std::vector<glm::dvec2>& all = layer.linePointsAt(j, key.level);
+    const bool generalised = &all != &line.points;
+    const int sides = discSides(line);
+    PieceWriter writer(out, line, key, heights, capHalf);
+    for (const auto& [first, last] : layer.lineRunsIn(j, key, capHalf)) {
+      const std::vector<glm::dvec2> points(all.begin() + static_cast<std::ptrdiff_t>(first),
+                                           all.begin() + static_cast<std::ptrdiff_t>(last + 1));
+      std::vector<glm::dvec3> surface, normals;
+      std::vector<double> anchors;
+      for (const glm::dvec2& p : points) {
+        surface.push_back(toEcef(p.x, p.y, 0.0));
+        normals.push_back(surfaceNormal(p.x, p.y));
+        anchors.push_back(anchor != nullptr ? anchor->heightAt(p.x, p.y) : 0.0);
+      }
+      const std::size_t n = points.size();
+      // Per piece of the run: m, the band's side direction (zero for a piece with no length).
+      std::vector<glm::dvec3> sides3(n - 1, glm::dvec3(0.0));
+      std::vector<double> lengths(n - 1, 0.0);
+      for (std::size_t k = 0; k + 1 < n; ++k) {
+        const glm::dvec3 along = surface[k + 1] - surface[k];
+        lengths[k] = glm::length(along);
+        if (lengths[k] > 0.0)
+          sides3[k] = glm::normalize(glm::cross(glm::normalize(normals[k] + normals[k + 1]), along));
+      }
+      const auto disc = [&](std::size_t k) {
+        Shape s;
+        const glm::dvec3 n3 = normals[k];
+        const glm::dvec3 e1 =
+            glm::normalize(glm::cross(n3, std::abs(n3.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
+        const glm::dvec3 e2 = glm::cross(n3, e1);
+        for (int i = 0; i < sides; ++i) {
+          const double a = 2.0 * 3.14159265358979323846 * i / sides;
+          s.push_back({k, std::cos(a) * e1 + std::sin(a) * e2});
+        }
+        return s;
+      };
+      for (std::size_t k = 0; k + 1 < n; ++k) {
+        std::vector<Shape> shapes;
+        if (lengths[k] > 0.0) {
+          const glm::dvec3 m = sides3[k];
+          shapes.push_back({{k, -m}, {k + 1, -m}, {k + 1, m}, {k, m}});
+        }
+        // The join at point k (the run's first point: its cap).
+        const bool given = generalised || k == 0 || line.given.size() <= first + k || line.given[first + k] != 0;
+        if (!detail::isPole(points[k].y)) {
+          if (given) {
+            shapes.push_back(disc(k));
+          } else if (lengths[k] > 0.0 && lengths[k - 1] > 0.0) {
+            // A bevel on the outside of the turn: from the centre to both bands' corners there.
+            const glm::dvec3 in = sides3[k - 1], outDir = sides3[k];
+            const double turn = glm::dot(glm::cross(in, outDir), normals[k]);
+            if (turn > 0.0) {
+              shapes.push_back({{k, glm::dvec3(0.0)}, {k, -in}, {k, -outDir}});
+            } else if (turn < 0.0) {
+              shapes.push_back({{k, glm::dvec3(0.0)}, {k, outDir}, {k, in}});
+            }
+          }
+        }
+        if (k + 2 == n && !detail::isPole(points[k + 1].y)) shapes.push_back(disc(k + 1));  // the last point's cap
+        if (!shapes.empty()) writer.write(shapes, points, normals, anchors, lengths[k]);
+      }
+    }
+  }
+}
+
+}  // namespace detail
+
+}  // namespace gis::globe
