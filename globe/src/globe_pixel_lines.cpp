@@ -138,14 +138,31 @@ class PieceWriter {
 
 /// The number of sides of a disc of the line seen as small as widthPixels and as large as its
 /// width in metres: chords within chordTolerancePixels (0.05 px) and 2 cm of the circle.
-int discSides(const GlobeLine& line) {
-  const auto sides = [](double tolerance, double radius) {
-    if (!(radius > 0.0)) return 8;
-    const double t = std::min(tolerance, 0.5 * radius);
-    return static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - t / radius)));
-  };
-  return std::clamp(std::max(sides(0.05, 0.5 * line.widthPixels), sides(0.02, line.halfWidth)), 8, 256);
-}
+/// How closely arcs follow the circle: 0.05 px where the width in pixels holds
+/// (chordTolerancePixels), and in metres (where the least width holds) the chord tolerance, or at
+/// coarse levels a quarter of the level's, as the lines in metres (lineShapesIn).
+struct ArcTolerance {
+  double pixels = 0.05;
+  double metres = 0.02;
+  /// Sides of a disc within both.
+  [[nodiscard]] int sides(const GlobeLine& line) const {
+    const auto count = [](double tolerance, double radius) {
+      if (!(radius > 0.0)) return 8;
+      const double t = std::min(tolerance, 0.5 * radius);
+      return static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - t / radius)));
+    };
+    return std::clamp(std::max(count(pixels, 0.5 * line.widthPixels), count(metres, line.halfWidth)), 8, 256);
+  }
+  /// Whether a join that turns by `angle` (radians) may be a bevel instead of a disc: the bevel
+  /// leaves out a segment of the disc r (1 − cos(angle / 2)) deep, within both tolerances.
+  [[nodiscard]] bool bevel(const GlobeLine& line, double angle) const {
+    const double depth = 1.0 - std::cos(0.5 * std::min(angle, 3.14159265358979323846));
+    return 0.5 * line.widthPixels * depth <= pixels && line.halfWidth * depth <= metres;
+  }
+};
+
+/// Consecutive pieces of a run drawn as one (their bounds together): fewer draws, little looser.
+constexpr std::size_t kBandsPerPiece = 4;
 
 }  // namespace
 
@@ -185,7 +202,9 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
     out.maxHalfWidth = std::max(out.maxHalfWidth, capHalf);
     const std::vector<glm::dvec2>& all = layer.linePointsAt(j, key.level);
     const bool generalised = &all != &line.points;
-    const int sides = discSides(line);
+    ArcTolerance tolerance;
+    if (generalised) tolerance.metres = std::max(tolerance.metres, 0.25 * GlobeLayer::lineTolerance(line, key.level));
+    const int sides = tolerance.sides(line);
     PieceWriter writer(out, line, key, heights, capHalf);
     for (const auto& [first, last] : layer.lineRunsIn(j, key, capHalf)) {
       const std::vector<glm::dvec2> points(all.begin() + static_cast<std::ptrdiff_t>(first),
@@ -219,20 +238,26 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
         }
         return s;
       };
+      std::vector<Shape> shapes;
+      double longest = 0.0;
       for (std::size_t k = 0; k + 1 < n; ++k) {
-        std::vector<Shape> shapes;
         if (lengths[k] > 0.0) {
           const glm::dvec3 m = sides3[k];
           shapes.push_back({{k, -m}, {k + 1, -m}, {k + 1, m}, {k, m}});
+          longest = std::max(longest, lengths[k]);
         }
-        // The join at point k (the run's first point: its cap).
-        const bool given = generalised || k == 0 || line.given.size() <= first + k || line.given[first + k] != 0;
+        // The join at point k: a disc at the run's ends (caps, or where the tile's window cuts
+        // the run: the line goes on with a round join there) and at points the source gave that
+        // turn more than a bevel may; else a bevel on the outside of the turn, from the centre
+        // to both bands' corners there (a point added along a geodesic, or a slight turn).
         if (!detail::isPole(points[k].y)) {
-          if (given) {
+          const bool given = generalised || line.given.size() <= first + k || line.given[first + k] != 0;
+          const bool joined = k > 0 && lengths[k] > 0.0 && lengths[k - 1] > 0.0;
+          const glm::dvec3 in = k > 0 ? sides3[k - 1] : glm::dvec3(0.0), outDir = sides3[k];
+          const double angle = joined ? std::acos(std::clamp(glm::dot(in, outDir), -1.0, 1.0)) : 0.0;
+          if (!joined || (given && !tolerance.bevel(line, angle))) {
             shapes.push_back(disc(k));
-          } else if (lengths[k] > 0.0 && lengths[k - 1] > 0.0) {
-            // A bevel on the outside of the turn: from the centre to both bands' corners there.
-            const glm::dvec3 in = sides3[k - 1], outDir = sides3[k];
+          } else {
             const double turn = glm::dot(glm::cross(in, outDir), normals[k]);
             if (turn > 0.0) {
               shapes.push_back({{k, glm::dvec3(0.0)}, {k, -in}, {k, -outDir}});
@@ -242,7 +267,11 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
           }
         }
         if (k + 2 == n && !detail::isPole(points[k + 1].y)) shapes.push_back(disc(k + 1));  // the last point's cap
-        if (!shapes.empty()) writer.write(shapes, points, normals, anchors, lengths[k]);
+        if (!shapes.empty() && ((k + 1) % kBandsPerPiece == 0 || k + 2 == n)) {
+          writer.write(shapes, points, normals, anchors, longest);
+          shapes.clear();
+          longest = 0.0;
+        }
       }
     }
   }

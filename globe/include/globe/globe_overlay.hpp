@@ -169,6 +169,8 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// `reach` metres and a post. Thread-safe.
   [[nodiscard]] std::vector<std::pair<std::size_t, std::size_t>> lineRunsIn(std::size_t j, const TileKey& key,
                                                                             double reach) const;
+  /// The tolerance of line `line` at `level` (metres): lineShapesIn.
+  static double lineTolerance(const GlobeLine& line, int level);
   /// Whether width class `widthClass` draws the line in pixels (else in metres: lineShapesIn).
   static bool scalesLine(const GlobeLine& line, int widthClass);
   /// Of the lines in pixels: the least of their widths in metres and the greatest largest width.
@@ -203,8 +205,6 @@ class GlobeLayer final : public overlay::WorldCoverage {
   double leastHalfWidth_ = 0.0, widestHalfWidth_ = 0.0;
   std::shared_ptr<const GeoGrid> anchorGround_;
   std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
-  /// The tolerance of line `line` at `level` (metres): lineShapesIn.
-  static double lineTolerance(const GlobeLine& line, int level);
   /// Per line, its centreline generalised for the level (empty: its own points): made once.
   [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
 };
