@@ -49,6 +49,28 @@ std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon);
 /// a line in pixels seen with `scale`.
 bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg,
               const overlay::PixelScale& scale);
+/// What a line adds at its point k (of `points`, unwrapped lon/lat) besides its bands:
+/// footprints.hpp's join (at a point the source gave, `given`; a bevel at a point added along a
+/// geodesic) or cap (at an end), in the tangent plane there. Nothing, a disc of the half width,
+/// or a convex polygon whose corners are the point plus the half width times `directions`
+/// (counter-clockwise about the normal; a zero direction is the point itself); `border` marks
+/// the polygon's edges i → i + 1 that bound the line (not the band's end it rests on). A flat
+/// cap is None with the band's end as its one border.
+struct PointShape {
+  enum class Kind { None, Disc, Polygon } kind = Kind::None;
+  std::vector<glm::dvec3> directions;
+  std::vector<char> border;
+};
+PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given);
+/// A line's shapes at its points (GlobeLine::joins).
+struct LineJoins {
+  std::vector<PointShape> at;
+};
+/// Whether a point (ECEF) is in the shape around `centre` (on the ellipsoid, with its normal),
+/// measured across the normal (the walls are vertical).
+bool inPointShape(const PointShape& shape, const glm::dvec3& centre, const glm::dvec3& normal, double halfWidth,
+                  const glm::dvec3& point);
+
 /// Appends to `out` the pieces of the layer's lines that width class `widthClass` draws in
 /// pixels over tile `key` (globe_pixel_lines.cpp).
 void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,

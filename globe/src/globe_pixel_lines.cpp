@@ -69,7 +69,8 @@ class PieceWriter {
         box.north = std::max(box.north, p.y);
       }
     }
-    const auto [dLon, dLat] = degreesFor(capHalf_ + 1.0, box);
+    const double reach = capHalf_ * line_.shapeReach();
+    const auto [dLon, dLat] = degreesFor(reach + 1.0, box);
     box = box.expanded(dLon, dLat);
     box.south = std::max(box.south, -90.0);
     box.north = std::min(box.north, 90.0);
@@ -80,8 +81,8 @@ class PieceWriter {
         std::max({rect.west - box.west, box.east - rect.east, rect.south - box.south, box.north - rect.north, 0.0});
     const int drop = beyond > 0.0 ? static_cast<int>(std::ceil(std::log2(beyond / key_.size() + 1.0))) + 1 : 0;
     const auto [ground0, ground1] = groundBounds(heights_, box, std::max(0, key_.level - drop));
-    const double lo = ground0 - 1.01 * capHalf_ * capHalf_ / (2.0 * kMinCurvatureRadius) - 1.0;
-    const double hi = ground1 + triangleSag(1.01 * std::max(chord, 2.0 * capHalf_));
+    const double lo = ground0 - 1.01 * reach * reach / (2.0 * kMinCurvatureRadius) - 1.0;
+    const double hi = ground1 + triangleSag(1.01 * std::max(chord, 2.0 * reach));
 
     TilePieces::Piece piece;
     piece.group = line_.group;
@@ -103,9 +104,9 @@ class PieceWriter {
         const glm::dvec3& normal = normals[c.centre];
         for (const double h : {lo, hi}) {
           const glm::dvec3 at = toEcef(p.x, p.y, h);
-          for (const double reach : {0.0, capHalf_}) {
-            piece.boxLo = glm::min(piece.boxLo, at + c.direction * reach);
-            piece.boxHi = glm::max(piece.boxHi, at + c.direction * reach);
+          for (const double scale : {0.0, capHalf_}) {
+            piece.boxLo = glm::min(piece.boxLo, at + c.direction * scale);
+            piece.boxHi = glm::max(piece.boxHi, at + c.direction * scale);
           }
           out_.vertices.push_back(PieceVertex{glm::vec4(glm::vec3(at - out_.origin), h == lo ? -1.0F : 1.0F),
                                               glm::vec4(glm::vec3(normal), static_cast<float>(anchors[c.centre] - h))});
@@ -206,7 +207,7 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
     if (generalised) tolerance.metres = std::max(tolerance.metres, 0.25 * GlobeLayer::lineTolerance(line, key.level));
     const int sides = tolerance.sides(line);
     PieceWriter writer(out, line, key, heights, capHalf);
-    for (const auto& [first, last] : layer.lineRunsIn(j, key, capHalf)) {
+    for (const auto& [first, last] : layer.lineRunsIn(j, key, capHalf * line.shapeReach())) {
       const std::vector<glm::dvec2> points(all.begin() + static_cast<std::ptrdiff_t>(first),
                                            all.begin() + static_cast<std::ptrdiff_t>(last + 1));
       std::vector<glm::dvec3> surface, normals;
@@ -214,7 +215,9 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
       for (const glm::dvec2& p : points) {
         surface.push_back(toEcef(p.x, p.y, 0.0));
         normals.push_back(surfaceNormal(p.x, p.y));
-        anchors.push_back(anchor != nullptr ? anchor->heightAt(p.x, p.y) : 0.0);
+        // As the reference keeps them (GlobeLine::anchors).
+        anchors.push_back(anchor != nullptr ? static_cast<double>(static_cast<float>(anchor->heightAt(p.x, p.y)))
+                                            : 0.0);
       }
       const std::size_t n = points.size();
       // Per piece of the run: m, the band's side direction (zero for a piece with no length).
@@ -250,8 +253,30 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
         // the run: the line goes on with a round join there) and at points the source gave that
         // turn more than a bevel may; else a bevel on the outside of the turn, from the centre
         // to both bands' corners there (a point added along a geodesic, or a slight turn).
-        if (!detail::isPole(points[k].y)) {
-          const bool given = generalised || line.given.size() <= first + k || line.given[first + k] != 0;
+        const bool given = generalised || line.given.size() <= first + k || line.given[first + k] != 0;
+        if (!line.round()) {
+          // Joins and caps as the reference has them (at the run's cut ends: the line's join).
+          if (const detail::PointShape s = detail::pointShape(line, all, first + k, given);
+              s.kind == detail::PointShape::Kind::Disc) {
+            shapes.push_back(disc(k));
+          } else if (s.kind == detail::PointShape::Kind::Polygon) {
+            Shape polygon;
+            for (const glm::dvec3& d : s.directions) polygon.push_back({k, d});
+            shapes.push_back(std::move(polygon));
+          }
+          if (k + 2 == n) {
+            const detail::PointShape e =
+                detail::pointShape(line, all, first + k + 1,
+                                   generalised || line.given.size() <= first + k + 1 || line.given[first + k + 1] != 0);
+            if (e.kind == detail::PointShape::Kind::Disc) {
+              shapes.push_back(disc(k + 1));
+            } else if (e.kind == detail::PointShape::Kind::Polygon) {
+              Shape polygon;
+              for (const glm::dvec3& d : e.directions) polygon.push_back({k + 1, d});
+              shapes.push_back(std::move(polygon));
+            }
+          }
+        } else if (!detail::isPole(points[k].y)) {
           const bool joined = k > 0 && lengths[k] > 0.0 && lengths[k - 1] > 0.0;
           const glm::dvec3 in = k > 0 ? sides3[k - 1] : glm::dvec3(0.0), outDir = sides3[k];
           const double angle = joined ? std::acos(std::clamp(glm::dot(in, outDir), -1.0, 1.0)) : 0.0;
@@ -266,7 +291,8 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
             }
           }
         }
-        if (k + 2 == n && !detail::isPole(points[k + 1].y)) shapes.push_back(disc(k + 1));  // the last point's cap
+        if (line.round() && k + 2 == n && !detail::isPole(points[k + 1].y))
+          shapes.push_back(disc(k + 1));  // the last point's cap
         if (!shapes.empty() && ((k + 1) % kBandsPerPiece == 0 || k + 2 == n)) {
           writer.write(shapes, points, normals, anchors, longest);
           shapes.clear();

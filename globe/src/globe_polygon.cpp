@@ -308,9 +308,10 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
 ///   than the chord tolerance gets none;
 /// - a whole disc at a given point next to a shorter band.
 /// Arcs are polygons inscribed in the circle, their chords within `chordTolerance` of it (at most
-/// 256 sides a turn). Shapes may overlap; the stencil count (≠ 0) unites them.
+/// 256 sides a turn). Shapes may overlap; the stencil count (≠ 0) unites them. With `bandsOnly`,
+/// the bands alone (joins and caps other than round are shapes of their own: pointShape).
 std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& line, const std::vector<char>& given,
-                                                double halfWidth, double chordTolerance) {
+                                                double halfWidth, double chordTolerance, bool bandsOnly = false) {
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
   const auto offset = [&](const glm::dvec2& p, double azimuth) {
     double lat = 0.0, lon = 0.0;
@@ -369,6 +370,14 @@ std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& l
   // Given points that get a whole disc: next to a short band, or where runs do not meet (a
   // repeated point between them); none at a pole, where the bands meet in the pole already.
   std::vector<char> whole(line.size(), 0);
+  if (bandsOnly) {
+    for (const Run& b : runs) {
+      std::vector<glm::dvec2> ring = b.right;
+      ring.insert(ring.end(), b.left.rbegin(), b.left.rend());
+      out.push_back(std::move(ring));
+    }
+    return out;
+  }
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const bool shortRun = runs[r].length < least;
     if (shortRun || r == 0 || runs[r - 1].last != runs[r].first) whole[runs[r].first] = 1;
@@ -410,6 +419,37 @@ std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& l
     if (given[k] != 0 && whole[k] != 0 && !isPole(line[k].y)) disc(line[k]);
   }
   return out;
+}
+
+/// The join or cap of a line in metres at point k of `points` (pointShape) as a ring in unwrapped
+/// lon/lat near the point's longitude: a polygon's corners, or a disc within `chordTolerance`.
+std::vector<std::vector<glm::dvec2>> pointShapeRing(const GlobeLine& line, const std::vector<glm::dvec2>& points,
+                                                    std::size_t k, double chordTolerance) {
+  const detail::PointShape shape = detail::pointShape(line, points, k, true);
+  const glm::dvec2 p = points[k];
+  const glm::dvec3 c = toEcef(p.x, p.y, 0.0), n = surfaceNormal(p.x, p.y);
+  std::vector<glm::dvec3> corners;
+  if (shape.kind == detail::PointShape::Kind::Polygon) {
+    for (const glm::dvec3& d : shape.directions) corners.push_back(c + line.halfWidth * d);
+  } else if (shape.kind == detail::PointShape::Kind::Disc) {
+    const double tol = std::min(chordTolerance, 0.5 * line.halfWidth);
+    const int sides =
+        std::clamp(static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / line.halfWidth))), 8, 256);
+    const glm::dvec3 e1 =
+        glm::normalize(glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
+    const glm::dvec3 e2 = glm::cross(n, e1);
+    for (int i = 0; i < sides; ++i) {
+      const double a = 2.0 * 3.14159265358979323846 * i / sides;
+      corners.push_back(c + line.halfWidth * (std::cos(a) * e1 + std::sin(a) * e2));
+    }
+  }
+  if (corners.size() < 3) return {};
+  std::vector<glm::dvec2> ring;
+  for (const glm::dvec3& corner : corners) {
+    const Geodetic g = toGeodetic(corner);
+    ring.emplace_back(p.x + wrap180(g.lon - p.x), g.lat);
+  }
+  return {std::move(ring)};
 }
 
 /// A polygon's rings prepared (prepareRing), the outer one's west end in [−180, 180) and the
@@ -541,6 +581,9 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       if (f < options.featureWidthMetres.size() && options.featureWidthMetres[f] > 0.0 &&
           std::isfinite(options.featureWidthMetres[f]))
         g.halfWidth = 0.5 * options.featureWidthMetres[f];
+      g.join = options.join;
+      g.cap = options.cap;
+      g.miterLimit = options.miterLimit;
       if (inPixels) {
         g.widthPixels = options.lineWidthPixels;
         g.maxHalfWidth = std::max(maxHalfWidth, g.halfWidth);
@@ -557,8 +600,23 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
         g.box.south = std::min(g.box.south, p.y);
         g.box.north = std::max(g.box.north, p.y);
       }
+      if (inPixels && options.anchorGround) {
+        g.anchors.reserve(line.size());
+        for (const glm::dvec2& p : line)
+          g.anchors.push_back(static_cast<float>(options.anchorGround->heightAt(p.x, p.y)));
+      }
+      if (!g.round()) {
+        // Joins and caps, once: the reference tests them at every point it looks at.
+        auto joins = std::make_shared<detail::LineJoins>();
+        joins->at.reserve(line.size());
+        for (std::size_t i = 0; i < line.size(); ++i) {
+          joins->at.push_back(detail::pointShape(g, line, i, given[i] != 0));
+          for (const glm::dvec3& d : joins->at.back().directions) g.reach = std::max(g.reach, glm::length(d));
+        }
+        g.joins = std::move(joins);
+      }
       // Widened by the half width (in degrees of latitude; longitude at the box's highest latitude).
-      const double dLat = g.halfWidth / 110000.0;
+      const double dLat = g.halfWidth * g.reach / 110000.0;
       const double high = std::min(89.9, std::max(std::abs(g.box.south), std::abs(g.box.north)) + dLat);
       const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
       g.box = g.box.expanded(g.box.north + dLat >= 90.0 || g.box.south - dLat <= -90.0 ? 360.0 : dLon, dLat);
@@ -654,7 +712,7 @@ double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, cons
   // c the half width per metre of distance and D the point's distance to the eye.
   const double c = 0.5 * line.widthPixels * scale.metresPerPixel;
   const double far = c < 0.5 ? c * (glm::length(point - scale.eye) + 2e4) / (1.0 - c) : line.maxHalfWidth;
-  return std::max(0.0, std::min(line.maxHalfWidth, far) - line.halfWidth);
+  return line.reach * std::max(0.0, std::min(line.maxHalfWidth, far) - line.halfWidth);
 }
 
 bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg,
@@ -673,14 +731,28 @@ bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& 
   // The walls are vertical (they hold the normals): a disc is a cylinder around the normal at its
   // point, a band the slab between two planes parallel to its piece's plane (a line in pixels:
   // its half width goes linearly from one end's to the other's, as in a projected frame).
+  // Joins and caps other than round: their shapes in the tangent plane at the point.
   const auto nearPoint = [&](std::size_t k, double r) {
     const glm::dvec2& p = line.points[k];
     if (isPole(p.y)) return false;
-    const glm::dvec3 n = surfaceNormal(p.x, p.y);
+    const glm::dvec3 n = surfaceNormalAt(line.surface[k]);
     const glm::dvec3 d = point - line.surface[k];
-    return glm::length(d - n * glm::dot(d, n)) <= r;
+    if (!line.joins || k >= line.joins->at.size()) return glm::length(d - n * glm::dot(d, n)) <= r;
+    if (glm::length(d - n * glm::dot(d, n)) > r * line.reach) return false;
+    return inPointShape(line.joins->at[k], line.surface[k], n, r, point);
   };
+  // No shape of a piece reaches further than this across the normals (in 3D also the chord's sag
+  // and the point's height).
+  const double farthest = (line.halfWidth + extra) * line.reach + 1.0;
   const auto nearPiece = [&](std::size_t k) {
+    {
+      const glm::dvec3 a = line.surface[k], ab = line.surface[k + 1] - a;
+      const double l2 = glm::dot(ab, ab);
+      const double t = l2 > 0.0 ? std::clamp(glm::dot(point - a, ab) / l2, 0.0, 1.0) : 0.0;
+      const glm::dvec3 off = point - a - ab * t;
+      const double slack = farthest + l2 / (8.0 * kMinCurvatureRadius) + 2e4;  // heights within ±20 km
+      if (glm::dot(off, off) > slack * slack) return false;
+    }
     const double ra = radius(k), rb = radius(k + 1);
     if (nearPoint(k, ra) || nearPoint(k + 1, rb)) return true;
     const glm::dvec3 a = line.surface[k], b = line.surface[k + 1];
@@ -689,8 +761,7 @@ bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& 
     if (!(length > 0.0)) return false;
     const double s = glm::dot(point - a, along / length);
     if (s < 0.0 || s > length) return false;
-    const glm::dvec2 p = line.points[k], q = line.points[k + 1];
-    const glm::dvec3 n = glm::normalize(surfaceNormal(p.x, p.y) + surfaceNormal(q.x, q.y));
+    const glm::dvec3 n = glm::normalize(surfaceNormalAt(a) + surfaceNormalAt(b));
     const glm::dvec3 m = glm::normalize(glm::cross(n, along));
     return std::abs(glm::dot(point - a, m)) <= ra + (rb - ra) * (s / length);
   };
@@ -875,9 +946,18 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
         given.front() = given.back() = 1;
       }
       std::vector<GlobePolygon> made;
-      for (std::vector<glm::dvec2>& shape :
-           lineShapes(run, given, line.halfWidth,
-                      generalised ? std::max(chordTolerance_, 0.25 * tolerance) : chordTolerance_)) {
+      const double arcTolerance = generalised ? std::max(chordTolerance_, 0.25 * tolerance) : chordTolerance_;
+      std::vector<std::vector<glm::dvec2>> shapes = lineShapes(run, given, line.halfWidth, arcTolerance, !line.round());
+      if (!line.round()) {
+        // Joins and caps at the points the source gave, and at the line's ends (pointShape).
+        for (std::size_t k = first; k <= last; ++k) {
+          const bool isGiven = generalised || (k < line.given.size() && line.given[k] != 0);
+          if (!isGiven) continue;
+          for (std::vector<glm::dvec2>& s : pointShapeRing(line, points, k, arcTolerance))
+            shapes.push_back(std::move(s));
+        }
+      }
+      for (std::vector<glm::dvec2>& shape : shapes) {
         GlobePolygon p;
         p.feature = line.feature;
         p.group = line.group;
@@ -913,13 +993,12 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 
 double GlobeLayer::halfWidthAt(const GlobeLine& line, std::size_t k, const overlay::PixelScale& scale) const {
   if (!(line.widthPixels > 0.0) || k >= line.points.size()) return line.halfWidth;
-  const glm::dvec2 p = line.points[k];
-  const double height = anchorGround_ ? anchorGround_->heightAt(p.x, p.y) : 0.0;
+  const double height = k < line.anchors.size() ? static_cast<double>(line.anchors[k]) : 0.0;
   overlay::LineShape shape;
   shape.width = 2.0 * line.maxHalfWidth;
   shape.widthPixels = line.widthPixels;
   shape.minWidth = 2.0 * line.halfWidth;
-  return overlay::halfWidthAt(shape, scale, line.surface[k] + surfaceNormal(p.x, p.y) * height);
+  return overlay::halfWidthAt(shape, scale, line.surface[k] + surfaceNormalAt(line.surface[k]) * height);
 }
 
 }  // namespace gis::globe

@@ -199,6 +199,19 @@ class BorderIndex {
   std::vector<Node> nodes_;
 };
 
+/// A border between two points off the ellipsoid (a join's or cap's edge), its walls along `normal`.
+BorderPiece borderPiece(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& normal, std::uint32_t layer) {
+  BorderPiece piece;
+  piece.a = a;
+  piece.b = b;
+  piece.na = piece.nb = normal;
+  piece.layer = layer;
+  const double pad = glm::length(b - a) * glm::length(b - a) / (8.0 * kSemiMinor) + 1.0;
+  piece.lo = glm::min(a, b) - glm::dvec3(pad);
+  piece.hi = glm::max(a, b) + glm::dvec3(pad);
+  return piece;
+}
+
 BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWidth, std::uint32_t layer,
                         double halfWidthB = -1.0) {
   BorderPiece piece;
@@ -246,6 +259,19 @@ std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, con
       }
       for (std::size_t i = 0; i + 1 < line.points.size(); ++i)
         pieces.push_back(borderPiece(line.points[i], line.points[i + 1], widths[i], layer, widths[i + 1]));
+      if (line.round()) continue;
+      // Joins and caps other than round: their edges that bound the line.
+      for (std::size_t k = 0; k < line.points.size(); ++k) {
+        if (!line.joins || k >= line.joins->at.size()) break;
+        const detail::PointShape& shape = line.joins->at[k];
+        const glm::dvec3 n = surfaceNormal(line.points[k].x, line.points[k].y);
+        const std::size_t count = shape.directions.size();
+        for (std::size_t e = 0; e < shape.border.size(); ++e) {
+          if (shape.border[e] == 0) continue;
+          pieces.push_back(borderPiece(line.surface[k] + widths[k] * shape.directions[e],
+                                       line.surface[k] + widths[k] * shape.directions[(e + 1) % count], n, layer));
+        }
+      }
     }
   }
   if (pieces.empty()) return edges;

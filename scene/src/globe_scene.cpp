@@ -132,23 +132,6 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     out.diagnostics.append(read.diagnostics);
     if (!read.ok()) continue;
     const overlay::LayerStyle& style = layer.style;
-    // What the globe draws of the style so far: colour and opacity, lines and outlines in metres
-    // and in pixels (width_px, min_width_px) with round joins and caps. The rest is said once per
-    // layer.
-    std::vector<std::string> unsupported;
-    if (layer.kind == overlay::LayerKind::Line &&
-        (style.join != overlay::LineJoin::Round || style.cap != overlay::LineCap::Round))
-      unsupported.push_back("joins and caps other than round");
-    if (!unsupported.empty()) {
-      std::string list;
-      for (const std::string& u : unsupported) list += (list.empty() ? "" : ", ") + u;
-      out.diagnostics.add(
-          {Severity::Warning,
-           layer.source,
-           layer.name,
-           {},
-           "on the globe " + list + " are not drawn yet: the layer is drawn in its colour with round joins"});
-    }
     // Identify's attributes: the features without their geometry.
     auto attributes = std::make_shared<std::vector<geo::Feature>>();
     attributes->reserve(read->features.size());
@@ -162,6 +145,9 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     color.w *= style.opacity;
     globe::GlobeLayerOptions build;
     setLineWidths(build, style.widthPixels, style.widthMetres, style, scene.heights);
+    build.join = style.join;  // outlines keep round joins, as in a projected frame
+    build.cap = style.cap;
+    build.miterLimit = style.miterLimit;
     // Colours by category and widths from an attribute, per feature (the projected frame's
     // resolution: a width that is not a positive number gets the layer's, with a warning).
     if (!style.colorAttribute.empty() || (!style.widthAttribute.empty() && style.widthPixels <= 0.0)) {

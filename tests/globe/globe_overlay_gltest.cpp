@@ -262,6 +262,61 @@ TEST_F(GlobeOverlayGl, LinesInPixelsKeepTheirWidthOnScreenFromSpaceToTheGround) 
   EXPECT_EQ(lineWidthClass(*routes, TileKey{3, 4, 4}, *grid(), overlay::PixelScale{}), 0);
 }
 
+TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
+  // A zigzag with sharp and slight turns, 40 km wide in metres and 8 px wide in pixels, with each
+  // join and cap: every view against the reference (the joins and caps in the tangent plane at
+  // their point), 0 wrong pixels away from edges. Square caps cover more than flat ones and
+  // miters more than bevels, in the reference and so on the GPU.
+  const std::vector<geo::Feature> zigzag{test::globe_scene::lineFeature(
+      {{-72.0, -12.0}, {-64.0, -22.0}, {-63.0, -8.0}, {-55.0, -16.0}, {-50.0, -15.5}, {-47.0, -24.0}})};
+  const auto make = [&](const std::string& name, overlay::LineJoin join, overlay::LineCap cap, bool pixels) {
+    GlobeLayerOptions o;
+    o.join = join;
+    o.cap = cap;
+    o.miterLimit = 6.0;
+    if (pixels) {
+      o.lineWidthPixels = 8.0;
+      o.lineWidthMetres = 0.0;
+      o.anchorGround = grid();
+    } else {
+      o.lineWidthMetres = 40000.0;
+    }
+    Result<GlobeLayer> l = GlobeLayer::build(name, zigzag, glm::vec4(0.9F, 0.2F, 0.1F, 0.8F), o);
+    EXPECT_TRUE(l.ok()) << name;
+    return std::move(*l);
+  };
+  using overlay::LineCap;
+  using overlay::LineJoin;
+  const GlobeLayer miterSquare = make("miter square 40 km", LineJoin::Miter, LineCap::Square, false);
+  const GlobeLayer bevelFlat = make("bevel flat 40 km", LineJoin::Bevel, LineCap::Flat, false);
+  const GlobeLayer miterFlatPx = make("miter flat 8 px", LineJoin::Miter, LineCap::Flat, true);
+  const GlobeLayer bevelSquarePx = make("bevel square 8 px", LineJoin::Bevel, LineCap::Square, true);
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+  };
+  const std::vector<Case> cases{{"joins from 4,000 km", {-60.0, -16.0, 4e6}, {-60.0, -16.0, 0.0}},
+                                {"joins oblique", {-75.0, -35.0, 1.2e6}, {-62.0, -15.0, 0.0}},
+                                {"a miter close up", {-64.0, -24.5, 4e5}, {-64.0, -22.0, 0.0}},
+                                {"an end close up", {-47.0, -27.0, 3e5}, {-47.0, -24.0, 0.0}}};
+  GlobeOverlayRenderer overlay;
+  for (const std::vector<const GlobeLayer*>& pair :
+       std::vector<std::vector<const GlobeLayer*>>{{&miterSquare, &bevelFlat}, {&miterFlatPx, &bevelSquarePx}}) {
+    for (const Case& c : cases) {
+      const Outcome o = drawAndCompare(view(c.eye, c.target), pair, c.label + " " + pair[0]->name(), &overlay);
+      std::size_t first = 0, second = 0;
+      for (const std::uint32_t m : o.expected) {
+        first += (m & 1U) != 0 ? 1U : 0U;
+        second += (m & 2U) != 0 ? 1U : 0U;
+      }
+      EXPECT_GT(first, 100U) << c.label;
+      if (pair[0] == &miterSquare) {
+        EXPECT_GT(first, second) << c.label << ": miters and square caps cover more";
+      }
+    }
+  }
+}
+
 TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {
   // Three fields in colours of their own (the third in the layer's), opaque so each pixel shows
   // its feature's colour exactly; and two roads, 25 km and 80 km wide, across them.

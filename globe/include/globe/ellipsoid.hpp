@@ -3,6 +3,7 @@
 // globe frame's arithmetic, all in double. Longitudes and latitudes are degrees, heights metres
 // above the ellipsoid along its normal.
 #include <array>
+#include <cmath>
 
 #include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
@@ -31,6 +32,12 @@ Geodetic toGeodetic(const glm::dvec3& ecef);
 
 /// The outward unit normal of the ellipsoid at (lon, lat): the direction heights are measured in.
 glm::dvec3 surfaceNormal(double lonDeg, double latDeg);
+/// The same at a point on the ellipsoid given in ECEF (no trigonometry: the gradient there).
+inline glm::dvec3 surfaceNormalAt(const glm::dvec3& onEllipsoid) {
+  const glm::dvec3 g(onEllipsoid.x / (kSemiMajor * kSemiMajor), onEllipsoid.y / (kSemiMajor * kSemiMajor),
+                     onEllipsoid.z / (kSemiMinor * kSemiMinor));
+  return g / std::sqrt(g.x * g.x + g.y * g.y + g.z * g.z);
+}
 /// Columns: east, north, up (the surface normal) at (lon, lat).
 glm::dmat3 enuBasis(double lonDeg, double latDeg);
 

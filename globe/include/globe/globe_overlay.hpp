@@ -14,6 +14,7 @@
 //   pieces overlap, which the stencil count (≠ 0) allows — its cap triangulated with points inside
 //   it every few posts (so no cap triangle cuts the ground for the ellipsoid's curvature), extruded
 //   along the normals between the ground's bounds there (the terrain's bounds contract).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -39,12 +40,14 @@
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/style.hpp"
 
 namespace gis::globe {
 
 namespace detail {
 struct PolygonIndex;
 struct LineLevels;
+struct LineJoins;
 }  // namespace detail
 
 /// One polygon of a feature, prepared: its rings (the first the outer one) unwrapped, densified,
@@ -110,6 +113,11 @@ struct GlobeLayerOptions {
   /// `min_width_px` a width in metres and widthPixels = min_width_px.
   double lineWidthPixels = 0.0;
   double lineMaxWidthMetres = 1e7;
+  /// Joins at the points the source gave, and caps at the lines' ends (footprints.hpp's rules, in
+  /// the tangent plane at the point); points added along a geodesic join with a bevel.
+  overlay::LineJoin join = overlay::LineJoin::Round;
+  overlay::LineCap cap = overlay::LineCap::Round;
+  double miterLimit = 4.0;
   /// The ground a line in pixels measures its distance to the eye from: each point raised to
   /// heightAt there (the anchor). None: the ellipsoid.
   std::shared_ptr<const GeoGrid> anchorGround;
@@ -124,6 +132,20 @@ struct GlobeLine {
   /// max(min(widthPixels / 2 · pixel size at its anchor, maxHalfWidth), halfWidth); 0: halfWidth.
   double widthPixels = 0.0;
   double maxHalfWidth = 0.0;
+  overlay::LineJoin join = overlay::LineJoin::Round;
+  overlay::LineCap cap = overlay::LineCap::Round;
+  double miterLimit = 4.0;
+  /// Round joins and caps: every point is a disc.
+  [[nodiscard]] bool round() const { return join == overlay::LineJoin::Round && cap == overlay::LineCap::Round; }
+  /// How far its joins and caps may reach from their point, in half widths (a miter's limit, a
+  /// square's corner): what a tile's pieces, cut from generalised points, are bounded by.
+  [[nodiscard]] double shapeReach() const { return round() ? 1.0 : std::max(miterLimit, 1.5); }
+  /// Joins and caps other than round: each point's shape (made once, for the reference), and how
+  /// far the farthest reaches, in half widths.
+  std::shared_ptr<const detail::LineJoins> joins;
+  double reach = 1.0;
+  /// A line in pixels: per point, the anchor ground's height there (GlobeLayerOptions::anchorGround).
+  std::vector<float> anchors;
   std::vector<glm::dvec2> points;   ///< unwrapped (lon, lat), densified
   std::vector<char> given;          ///< per point, 1 where the source gave it (0: added along a geodesic)
   std::vector<glm::dvec3> surface;  ///< the points on the ellipsoid (ECEF)
