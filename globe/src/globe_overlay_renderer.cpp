@@ -150,6 +150,7 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
     Gpu::Tile entry;
     if (built[k]) {
       entry.layer = overlay::OverlayLayer::upload(std::move(*built[k]));
+      entry.layer->releaseCpuArrays();  // drawn from the GPU's copy only (never edited; z-fail drawn whole)
       entry.bytes = entry.layer->stats().gpuBytes;
       gpu_->bytes += entry.bytes;
     }

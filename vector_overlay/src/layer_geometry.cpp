@@ -424,6 +424,7 @@ void LayerGeometry::releaseArrays() {
   vertices_ = {};
   indices_ = {};
   scaling_ = {};
+  normals_ = {};
   changes_ = GeometryChange{};
   arraysReleased_ = true;
 }
