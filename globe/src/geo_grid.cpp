@@ -890,6 +890,14 @@ GeoGrid::GeoGrid(int width, int height, double west, double north, double step, 
   buildPyramid();
 }
 
+std::optional<std::uint64_t> GeoGrid::contentDigest() const {
+  if (paged_) return std::nullopt;
+  const std::array<double, 5> place{static_cast<double>(width_), static_cast<double>(height_), west_, north_, step_};
+  const std::array<std::uint64_t, 2> parts{geo::io::digest(place.data(), sizeof(place)),
+                                           geo::io::digest(heights_.data(), heights_.size() * sizeof(float))};
+  return geo::io::digest(parts.data(), sizeof(parts));
+}
+
 GeoGrid::GeoGrid(int width, int height, double west, double north, double step, std::shared_ptr<const Paged> paged)
     : width_(width), height_(height), west_(west), north_(north), step_(step), paged_(std::move(paged)) {
   wraps_ = width_ * step_ >= 360.0 - 1e-9;

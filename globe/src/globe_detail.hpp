@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -70,6 +73,13 @@ struct LineJoins {
 /// measured across the normal (the walls are vertical).
 bool inPointShape(const PointShape& shape, const glm::dvec3& centre, const glm::dvec3& normal, double halfWidth,
                   const glm::dvec3& point);
+
+/// The tile cache on disk (GlobeOverlaySettings::cacheDir, globe_tile_cache.cpp): a tile's file
+/// under `dir`, for the layer and grid `key`; writing it whole or not at all; reading it back,
+/// none when it is missing or (`damaged`) not whole and sound.
+std::filesystem::path tileCachePath(const std::string& dir, std::uint64_t key, const TileKey& tile, int widthClass);
+bool writeTilePieces(const std::filesystem::path& file, const TilePieces& pieces);
+std::optional<TilePieces> readTilePieces(const std::filesystem::path& file, bool& damaged);
 
 /// Appends to `out` the pieces of the layer's lines that width class `widthClass` draws in
 /// pixels over tile `key` (globe_pixel_lines.cpp).

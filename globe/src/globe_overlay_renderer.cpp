@@ -13,6 +13,7 @@
 
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_selection.hpp"
+#include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 
 namespace gis::globe {
@@ -93,7 +94,9 @@ struct GlobeOverlayRenderer::Gpu {
   std::unordered_map<Key, Tile, KeyHash> tiles;
   std::list<Key> lru;  ///< most recently drawn first
   std::size_t built = 0;
-  std::size_t bytes = 0;    ///< of every resident tile
+  std::size_t bytes = 0;                  ///< of every resident tile
+  const GeoGrid* gridDigestOf = nullptr;  ///< the grid gridDigest is of
+  std::optional<std::uint64_t> gridDigest;
   std::uint64_t frame = 0;  ///< draws so far
 };
 
@@ -130,12 +133,36 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
     if (gpu_->tiles.find(keys[t]) == gpu_->tiles.end()) missing.push_back(t);
   }
   std::vector<std::optional<overlay::LayerGeometry>> built(missing.size());
+  // The cache on disk, for a grid whose digest is known (made once per grid).
+  std::optional<std::uint64_t> cacheKey;
+  if (!cacheDir_.empty() && !missing.empty()) {
+    if (gpu_->gridDigestOf != &heights) {
+      gpu_->gridDigestOf = &heights;
+      gpu_->gridDigest = heights.contentDigest();
+    }
+    if (gpu_->gridDigest) cacheKey = layer.fingerprint() ^ (*gpu_->gridDigest * 0x9E3779B97F4A7C15ULL);
+  }
+  std::atomic<std::size_t> read{0}, written{0}, repaired{0};
   {
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
       for (std::size_t k = next++; k < missing.size(); k = next++) {
-        TilePieces pieces = buildTilePieces(layer, tiles[missing[k]].key, heights, keys[missing[k]].widthClass);
-        if (!pieces.pieces.empty()) built[k] = worldPiecesOf(layer, std::move(pieces));
+        const TileKey& tile = tiles[missing[k]].key;
+        const int widthClass = keys[missing[k]].widthClass;
+        std::optional<TilePieces> pieces;
+        std::filesystem::path file;
+        if (cacheKey) {
+          file = detail::tileCachePath(cacheDir_, *cacheKey, tile, widthClass);
+          bool damaged = false;
+          pieces = detail::readTilePieces(file, damaged);
+          if (pieces) ++read;
+          if (damaged) ++repaired;
+        }
+        if (!pieces) {
+          pieces = buildTilePieces(layer, tile, heights, widthClass);
+          if (cacheKey && detail::writeTilePieces(file, *pieces)) ++written;
+        }
+        if (!pieces->pieces.empty()) built[k] = worldPiecesOf(layer, std::move(*pieces));
       }
     };
     const std::size_t helpers =
@@ -146,6 +173,9 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
     work();
     for (std::thread& t : threads) t.join();
   }
+  stats_.readTiles += read;
+  stats_.writtenTiles += written;
+  stats_.repairedTiles += repaired;
   for (std::size_t k = 0; k < missing.size(); ++k) {
     Gpu::Tile entry;
     if (built[k]) {
@@ -160,6 +190,7 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
     gpu_->tiles.emplace(key, std::move(entry));
     ++gpu_->built;
   }
+  gpu_->built -= read;  // counted with the rest above: those read from disk were not built
   std::vector<const overlay::OverlayLayer*> out;
   for (const Key& key : keys) {
     const auto found = gpu_->tiles.find(key);
@@ -189,6 +220,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
                                 const GeoGrid& heights, const std::vector<const GlobeLayer*>& layers,
                                 const GlobeOverlaySettings& settings) {
   stats_ = {};
+  cacheDir_ = settings.cacheDir;
   overlay::OverlayRenderer* overlays = renderer();
   if (overlays == nullptr) return;
   gpu_->built = 0;

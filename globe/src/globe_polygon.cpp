@@ -13,6 +13,7 @@
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
 
+#include "geo/checked_file.hpp"
 #include "globe/globe_overlay.hpp"
 #include "globe/tile.hpp"
 #include "globe_detail.hpp"
@@ -670,6 +671,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
   }
   const std::set<std::pair<double, double>> shared = sharedPoints(rings);
   for (std::size_t k = 0; k < layer.areaPolygons_; ++k) simplifyLevels(layer.polygons_[k], shared);
+  layer.fingerprint_ = layer.digestForCache();
   out.value = std::move(layer);
   return out;
 }
@@ -989,6 +991,32 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
   }
   return std::any_of(lines_.begin(), lines_.end(),
                      [&](const GlobeLine& l) { return detail::nearLine(*this, l, point, lonDeg, latDeg, scale); });
+}
+
+std::uint64_t GlobeLayer::digestForCache() const {
+  // The builders' version: raise it whenever what a tile's pieces are changes.
+  constexpr std::uint64_t kBuilderVersion = 1;
+  std::vector<std::uint64_t> parts{kBuilderVersion};
+  const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
+  const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};
+  add(numbers.data(), sizeof(numbers));
+  for (const GlobePolygon& p : polygons_) {
+    add(&p.group, sizeof(p.group));
+    for (const auto& ring : p.rings) add(ring.data(), ring.size() * sizeof(glm::dvec2));
+  }
+  for (const GlobeLine& l : lines_) {
+    const std::array<double, 6> shape{l.halfWidth,
+                                      l.widthPixels,
+                                      l.maxHalfWidth,
+                                      l.miterLimit,
+                                      static_cast<double>(l.join),
+                                      static_cast<double>(l.cap) + 8.0 * static_cast<double>(l.group)};
+    add(shape.data(), sizeof(shape));
+    add(l.points.data(), l.points.size() * sizeof(glm::dvec2));
+    add(l.given.data(), l.given.size());
+    add(l.anchors.data(), l.anchors.size() * sizeof(float));
+  }
+  return geo::io::digest(parts.data(), parts.size() * sizeof(std::uint64_t));
 }
 
 double GlobeLayer::halfWidthAt(const GlobeLine& line, std::size_t k, const overlay::PixelScale& scale) const {

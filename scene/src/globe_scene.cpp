@@ -83,6 +83,13 @@ Result<std::string> globeReason(const SceneDescription& description) {
   return out;
 }
 
+globe::GlobeOverlaySettings globeOverlaySettings(const SceneDescription& description) {
+  globe::GlobeOverlaySettings settings;
+  settings.gpuBudgetBytes = static_cast<std::size_t>(std::max(16.0, description.gpuBudgetMb) * 1024.0 * 1024.0);
+  settings.cacheDir = cacheDirectoryFor(description);
+  return settings;
+}
+
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   const auto start = std::chrono::steady_clock::now();
   Result<LoadedGlobeScene> out;

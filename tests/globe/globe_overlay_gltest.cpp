@@ -5,10 +5,12 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <random>
 #include <string>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 
@@ -315,6 +317,78 @@ TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
       }
     }
   }
+}
+
+TEST_F(GlobeOverlayGl, TilesAreKeptOnDiskAndADamagedOneIsBuiltAgain) {
+  // A first renderer builds the tiles and writes them; a second reads every one back and draws
+  // the same image; a tile whose file is damaged is built again (and rewritten); a layer that
+  // changes (another width) reads none of the old ones.
+  const std::filesystem::path dir =
+      std::filesystem::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("tile_cache_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const Layers layers = makeLayers();
+  GlobeLayerOptions pixels;
+  pixels.lineWidthPixels = 3.0;
+  pixels.lineWidthMetres = 0.0;
+  pixels.anchorGround = grid();
+  pixels.join = overlay::LineJoin::Miter;
+  Result<GlobeLayer> routes =
+      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), pixels);
+  ASSERT_TRUE(routes.ok());
+  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &*routes, &layers.outlines};
+  GlobeOverlaySettings settings;
+  settings.cacheDir = dir.string();
+  const GlobeView v = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
+  const auto draw = [&](const std::string& label) {
+    GlobeOverlayRenderer overlay;
+    Outcome o = drawAndCompare(v, all, label, &overlay, settings);
+    const GlobeOverlayStats& s = overlay.stats();
+    std::printf("%s: built %zu, read %zu, written %zu, repaired %zu\n", label.c_str(), s.builtTiles, s.readTiles,
+                s.writtenTiles, s.repairedTiles);
+    return std::make_pair(std::move(o.rgba), s);
+  };
+  const auto [first, built] = draw("cache cold");
+  EXPECT_GT(built.writtenTiles, 0U);
+  EXPECT_EQ(built.readTiles, 0U);
+  const auto [second, warm] = draw("cache warm");
+  EXPECT_EQ(warm.readTiles, built.writtenTiles);
+  EXPECT_EQ(warm.builtTiles, 0U);
+  EXPECT_EQ(warm.repairedTiles, 0U);
+  EXPECT_TRUE(first == second) << "the tiles read back draw the same image";
+  // Damage one file: a byte in its middle.
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir)) {
+    if (e.is_regular_file() && e.file_size() > 1000) files.push_back(e.path());
+  }
+  ASSERT_FALSE(files.empty());
+  {
+    std::fstream f(files.front(), std::ios::in | std::ios::out | std::ios::binary);
+    const auto middle = static_cast<std::streamoff>(std::filesystem::file_size(files.front()) / 2);
+    f.seekg(middle);
+    char c = 0;
+    f.read(&c, 1);
+    c = static_cast<char>(c ^ 0x5A);
+    f.seekp(middle);
+    f.write(&c, 1);
+  }
+  const auto [third, repaired] = draw("cache one damaged");
+  EXPECT_EQ(repaired.repairedTiles, 1U);
+  EXPECT_EQ(repaired.builtTiles, 1U);
+  EXPECT_EQ(repaired.readTiles, built.writtenTiles - 1);
+  EXPECT_TRUE(first == third) << "the damaged tile built again draws the same image";
+  const auto [fourth, again] = draw("cache rewritten");
+  EXPECT_EQ(again.repairedTiles, 0U);
+  EXPECT_EQ(again.readTiles, built.writtenTiles);
+  // Another width: another fingerprint, nothing read.
+  pixels.lineWidthPixels = 4.0;
+  Result<GlobeLayer> wider =
+      GlobeLayer::build("routes 4 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), pixels);
+  ASSERT_TRUE(wider.ok());
+  EXPECT_NE(wider->fingerprint(), routes->fingerprint());
+  GlobeOverlayRenderer overlay;
+  drawAndCompare(v, {&*wider}, "cache another layer", &overlay, settings);
+  EXPECT_EQ(overlay.stats().readTiles, 0U);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {

@@ -98,6 +98,9 @@ class GeoGrid {
   /// Bilinear height at (lon, lat), degrees. A pure function of its arguments: the same post
   /// coordinates give the same height in every tile.
   [[nodiscard]] double heightAt(double lonDeg, double latDeg) const;
+  /// A digest of what the grid holds (its posts, size and place), for caches of what is built
+  /// from it; none for a paged grid (its posts are not all at hand).
+  [[nodiscard]] std::optional<std::uint64_t> contentDigest() const;
   /// The least and greatest height heightAt can return anywhere in the box (any longitudes,
   /// unwrapped ones too): from a min/max pyramid over the posts it may read. Conservative.
   [[nodiscard]] std::pair<double, double> bounds(const LonLatRect& box) const;

@@ -208,6 +208,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The same for an ECEF point alone (overlay::referenceMask asks so), lines in pixels at their
   /// least widths: coverageOf gives the layer as a view sees it.
   [[nodiscard]] bool covers(const glm::dvec3& world) const override;
+  /// A digest of everything its tiles' pieces are made from (areas, lines, widths, joins,
+  /// anchors, colour groups, tolerances, and the builder's version): what the tile cache on disk
+  /// is keyed by. Colours are not in it (they are applied when a tile is uploaded).
+  [[nodiscard]] std::uint64_t fingerprint() const { return fingerprint_; }
   /// Lines in pixels: > 0 (GlobeLayerOptions::lineWidthPixels).
   [[nodiscard]] double lineWidthPixels() const { return widthPixels_; }
   /// The ground lines in pixels are anchored on (null: the ellipsoid).
@@ -225,8 +229,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   double chordTolerance_ = 0.02, maxSegment_ = 1000.0;
   double widthPixels_ = 0.0;
   double leastHalfWidth_ = 0.0, widestHalfWidth_ = 0.0;
+  std::uint64_t fingerprint_ = 0;
   std::shared_ptr<const GeoGrid> anchorGround_;
   std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
+  [[nodiscard]] std::uint64_t digestForCache() const;
   /// Per line, its centreline generalised for the level (empty: its own points): made once.
   [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
 };
@@ -283,6 +289,11 @@ struct GlobeOverlaySettings {
   /// projected frame's tiles): the least recently drawn tiles leave first; the tiles of the
   /// frame being drawn always stay.
   std::size_t gpuBudgetBytes = std::size_t{512} << 20U;
+  /// The scene's cache directory (empty: none): each tile's pieces are kept there once built,
+  /// under globe-tiles/, keyed by the layer's fingerprint, the grid's digest, the tile and its
+  /// width class, as checked files (a damaged one is built again and rewritten). Not with a
+  /// paged grid (its digest would need every post).
+  std::string cacheDir;
 };
 
 /// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
@@ -299,6 +310,9 @@ struct GlobeOverlayStats {
   std::size_t residentTiles = 0;  ///< after the frame: tiles whose pieces the GPU holds
   std::size_t residentBytes = 0;  ///< and their bytes
   std::size_t evictedTiles = 0;   ///< this frame, for the budget
+  std::size_t readTiles = 0;      ///< this frame, from the cache on disk (instead of built)
+  std::size_t writtenTiles = 0;   ///< this frame, to the cache on disk
+  std::size_t repairedTiles = 0;  ///< this frame, found damaged on disk and built again
 };
 
 /// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames
@@ -336,6 +350,7 @@ class GlobeOverlayRenderer {
   std::size_t trim(const GlobeOverlaySettings& settings);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
+  std::string cacheDir_;  ///< the last draw's settings.cacheDir: chunks() reads and writes tiles there
 };
 
 /// The globe's depth buffer as the CPU reference reads it (overlay::DepthImage): eye-relative

@@ -48,18 +48,15 @@ struct LoadedGlobeScene {
 
 /// Reads the DEM (globe::GeoGrid::fromDem: one file, several, folders of tiles or a VRT, any CRS,
 /// warped to lon/lat, heights converted to the ellipsoid as terrain.vertical_datum says, refused
-/// beyond terrain.memory_budget_mb), the imagery, and the layers: polygons, lines and outlines in metres with round
-/// joins (what else a style asks for is said in a warning, and drawn so). A layer that cannot be read is reported and
+/// beyond terrain.memory_budget_mb), the imagery, and the layers: polygons, lines and outlines in metres or in
+/// pixels, with the style's joins and caps (outlines round). A layer that cannot be read is reported and
 /// left out; only a DEM that cannot be read fails the scene.
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
 
 /// How the scene's layers are drawn on the globe: the overlay's GPU budget is the scene's
-/// terrain.gpu_budget_mb, as the projected frame's tiles have it.
-inline globe::GlobeOverlaySettings globeOverlaySettings(const SceneDescription& description) {
-  globe::GlobeOverlaySettings settings;
-  settings.gpuBudgetBytes = static_cast<std::size_t>(std::max(16.0, description.gpuBudgetMb) * 1024.0 * 1024.0);
-  return settings;
-}
+/// terrain.gpu_budget_mb, as the projected frame's tiles have it, and its tiles are kept in the
+/// scene's cache directory (cacheDirectoryFor: none when the cache is disabled).
+globe::GlobeOverlaySettings globeOverlaySettings(const SceneDescription& description);
 
 /// The view of a camera stated in lon/lat/h (eye and target; a scene's "camera", a camera file,
 /// overlay_render's globe camera.json), its near plane the camera's "near" or a fraction of the
