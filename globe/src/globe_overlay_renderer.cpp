@@ -13,6 +13,7 @@
 
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_selection.hpp"
+#include "core/log.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 
@@ -156,7 +157,11 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
           bool damaged = false;
           pieces = detail::readTilePieces(file, damaged);
           if (pieces) ++read;
-          if (damaged) ++repaired;
+          if (damaged) {
+            ++repaired;
+            logWarning(file.string() + ": layer '" + layer.name() +
+                       "': cache file damaged (not whole, or not a tile); built again");
+          }
         }
         if (!pieces) {
           pieces = buildTilePieces(layer, tile, heights, widthClass);
