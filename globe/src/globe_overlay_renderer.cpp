@@ -11,9 +11,9 @@
 #include <unordered_map>
 #include <utility>
 
+#include "core/log.hpp"
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_selection.hpp"
-#include "core/log.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 
