@@ -4,7 +4,9 @@
 // (smaller than 200 km) along a path of its own: above it, obliquely, low over an edge, 100 m up. Each frame is drawn
 // once to build what it needs, then timed with the terrain alone and with the overlays, one after
 // the other (GPU timer queries): the ratio of the two is taken frame by frame, as the machine is
-// shared. Writes bench.json and frames.csv.
+// shared. Each frame's mask is compared with the CPU reference of the same depth buffer
+// (globe::coverageOf, edgePixels): wrong pixels away from edges are counted, and the run's exit
+// status is 3 when there are any. Writes bench.json and frames.csv.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -179,10 +181,11 @@ int runGlobe(const Options& o) {
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
   csv << "frame,segment,terrain_only_ms,terrain_ms,overlay_ms,ratio,tiles,terrain_triangles,pieces,z_fail_pieces,"
-         "overlay_triangles,terrain_fragments,overlay_fragments,build_ms\n";
+         "overlay_triangles,terrain_fragments,overlay_fragments,build_ms,covered_px,wrong_px,edge_px\n";
   std::vector<double> ratios, terrainOnly, withOverlay;
   std::map<std::string, std::vector<double>> segmentRatios, segmentTerrain, segmentOverlay;
-  std::map<std::string, double> segmentPieces, segmentTiles, segmentTriangles;
+  std::map<std::string, double> segmentPieces, segmentTiles, segmentTriangles, segmentWrong;
+  std::size_t wrongTotal = 0;
   for (std::size_t k = 0; k < path.size(); ++k) {
     const GlobeFrame& f = path[k];
     const double ground = loaded->heights->heightAt(f.eye.lon, f.eye.lat);
@@ -198,10 +201,28 @@ int runGlobe(const Options& o) {
     const globe::GlobeFrameStats bare = renderer.render(cache, frameTarget, view, {}, true);
     const globe::GlobeFrameStats full = renderer.render(cache, frameTarget, view, layers, true, overlaySettings);
     const double ratio = (full.terrainGpuMilliseconds + full.overlayGpuMilliseconds) / bare.terrainGpuMilliseconds;
+    // The error (every --error-every frames): the frame's mask against the reference of its own
+    // depth buffer.
+    std::size_t covered = 0, wrong = 0, edgeWrong = 0;
+    if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) {
+      const std::vector<float> depth = gfx::readDepth(target);
+      const std::vector<std::uint32_t> mask = gfx::readMask(target);
+      const overlay::DepthImage image = globe::depthImageOf(view, depth);
+      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
+      const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
+      for (std::size_t i = 0; i < mask.size() && i < expected.size(); ++i) {
+        covered += expected[i] != 0 ? 1U : 0U;
+        if (mask[i] == expected[i]) continue;
+        ++(edges[i] != 0 ? edgeWrong : wrong);
+      }
+    }
+    wrongTotal += wrong;
+    segmentWrong[f.segment] += static_cast<double>(wrong);
     csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
         << full.overlayGpuMilliseconds << ',' << ratio << ',' << full.terrain.tiles << ',' << full.terrain.triangles
         << ',' << full.overlay.pieces << ',' << full.overlay.zFailPieces << ',' << full.overlay.triangles << ','
-        << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << '\n';
+        << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << ',' << covered << ',' << wrong
+        << ',' << edgeWrong << '\n';
     ratios.push_back(ratio);
     terrainOnly.push_back(bare.terrainGpuMilliseconds);
     withOverlay.push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
@@ -219,7 +240,8 @@ int runGlobe(const Options& o) {
                       {"with_overlay_ms_median", percentile(segmentOverlay[name], 50.0)},
                       {"tiles_mean", segmentTiles[name] / static_cast<double>(r.size())},
                       {"pieces_mean", segmentPieces[name] / static_cast<double>(r.size())},
-                      {"overlay_triangles_mean", segmentTriangles[name] / static_cast<double>(r.size())}};
+                      {"overlay_triangles_mean", segmentTriangles[name] / static_cast<double>(r.size())},
+                      {"wrong_pixels", segmentWrong[name]}};
   }
   const json result = {
       {"mode", "globe"},
@@ -236,8 +258,15 @@ int runGlobe(const Options& o) {
       {"with_overlay_fps_median", 1000.0 / std::max(percentile(withOverlay, 50.0), 1e-9)},
       {"segments", segments},
       {"memory_peak_bytes", processMemory("VmHWM")},
+      {"wrong_pixels_away_from_edges", wrongTotal},
   };
-  return finish(o, result, **context);
+  const int status = finish(o, result, **context);
+  if (status == 0 && wrongTotal > 0) {
+    logError("overlay_bench --mode globe: " + std::to_string(wrongTotal) +
+             " wrong pixels away from edges against the CPU reference (frames.csv)");
+    return 3;
+  }
+  return status;
 }
 
 }  // namespace gis::bench
