@@ -259,6 +259,7 @@ int runGlobe(const Options& o) {
       {"segments", segments},
       {"memory_peak_bytes", processMemory("VmHWM")},
       {"wrong_pixels_away_from_edges", wrongTotal},
+      {"gl_errors", (**context).debug().errorCount()},
   };
   const int status = finish(o, result, **context);
   if (status == 0 && wrongTotal > 0) {
