@@ -252,9 +252,21 @@ inline glm::dvec2 intersect(const EdgeSupport& s, int axis, double value) {
     r[other] = s.axis >= 0 ? s.a[other] : 0.5 * (s.a[other] + s.b[other]);
     return r;
   }
-  const double t = std::clamp((value - s.a[ax]) / denominator, 0.0, 1.0);
   const double lo = std::min(s.a[other], s.b[other]);
   const double hi = std::max(s.a[other], s.b[other]);
+  // A support far larger than where it meets the line (a line 1e15 m wide crossing a 10 m cell)
+  // loses the crossing to cancellation in double (an error of ulp(1e15) = 0.125 m, outside the
+  // cell): such a crossing is computed in quadruple precision (113 bits) and rounded once.
+  const double reach = std::max({std::abs(s.a.x), std::abs(s.a.y), std::abs(s.b.x), std::abs(s.b.y)});
+  if (reach > 1e6 * (1.0 + std::abs(value))) {
+    __extension__ using Quad = __float128;
+    const Quad a0 = static_cast<Quad>(s.a[ax]), a1 = static_cast<Quad>(s.a[other]);
+    const Quad t = (static_cast<Quad>(value) - a0) / (static_cast<Quad>(s.b[ax]) - a0);
+    const Quad clamped = t < 0 ? Quad(0) : (t > 1 ? Quad(1) : t);
+    r[other] = std::clamp(static_cast<double>(a1 + clamped * (static_cast<Quad>(s.b[other]) - a1)), lo, hi);
+    return r;
+  }
+  const double t = std::clamp((value - s.a[ax]) / denominator, 0.0, 1.0);
   r[other] = std::clamp(s.a[other] + t * (s.b[other] - s.a[other]), lo, hi);
   return r;
 }
