@@ -70,8 +70,9 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
     if (renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, {}).terrain.imageryPending == 0)
       break;
   }
-  const globe::GlobeFrameStats stats = renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view,
-                                                       layers, true, scene::globeOverlaySettings(loaded->description));
+  const globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
+  const globe::GlobeFrameStats stats =
+      renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true, overlaySettings);
   const double firstFrame = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const std::filesystem::path out(o.out);
   std::filesystem::create_directories(out);
@@ -173,7 +174,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
               {"resident", stats.overlay.residentTiles},
               {"evicted", stats.overlay.evictedTiles},
               {"gpu_bytes", stats.overlay.residentBytes},
-              {"gpu_budget_bytes", scene::globeOverlaySettings(loaded->description).gpuBudgetBytes}}},
+              {"gpu_budget_bytes", overlaySettings.gpuBudgetBytes}}},
             {"layers", layersJson},
             {"diagnostics", diagnostics}};
   s.update(analyses);

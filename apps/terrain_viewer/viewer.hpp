@@ -191,7 +191,8 @@ struct GlobeIdentified {
 /// members (Viewer::scene_ and the rest) are empty while it is shown.
 struct GlobeMode {
   scene::LoadedGlobeScene scene;
-  std::unique_ptr<globe::GlobeRenderer> renderer;            ///< GL objects: made and dropped on the GL thread
+  std::unique_ptr<globe::GlobeRenderer> renderer;  ///< GL objects: made and dropped on the GL thread
+  globe::GlobeOverlaySettings overlaySettings;     ///< the scene's (budget, cache directory), found once at load
   std::unique_ptr<scene::GlobeCameraController> controller;  ///< reads scene.heights
   std::vector<char> shown;                                   ///< per layer of `scene`
   globe::GlobeView view;                                     ///< the last frame's

@@ -122,6 +122,7 @@ void Viewer::useGlobeScene(Result<scene::LoadedGlobeScene> loaded, const scene::
   auto g = std::make_unique<GlobeMode>();
   g->scene = std::move(*loaded);
   g->renderer = std::make_unique<globe::GlobeRenderer>(g->scene.heights);
+  g->overlaySettings = scene::globeOverlaySettings(g->scene.description);
   scene::GlobeCameraSettings camera;
   camera.fovYDeg = settings_.fovYDeg;
   g->controller = std::make_unique<scene::GlobeCameraController>(g->scene.heights.get(), camera);
@@ -190,8 +191,8 @@ void Viewer::drawGlobe() {
   }
   // GPU timer queries wait for the GPU: sample them (every frame in a script).
   const bool timed = frameIndex_ % 30 == 1 || script_.has_value();
-  const globe::GlobeFrameStats s = g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view,
-                                                      layers, timed, scene::globeOverlaySettings(g.scene.description));
+  const globe::GlobeFrameStats s =
+      g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed, g.overlaySettings);
   if (timed) {
     g.stats = s;
   } else {
