@@ -17,6 +17,7 @@
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
+#include <unistd.h>
 
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
@@ -72,7 +73,8 @@ class GlobeImageryGl : public test::GlTest {
     north_ = std::floor(centre.y / 1000.0) * 1000.0 + 6000.0;
     const fs::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
     fs::create_directories(dir);
-    path_ = (dir / "utm_squares.tif").string();
+    // One file a process: ctest runs this suite's tests in parallel, each writing the image.
+    path_ = (dir / ("utm_squares_" + std::to_string(::getpid()) + ".tif")).string();
     GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(path_.c_str(), kImageryCells,
                                                                                kImageryCells, 3, GDT_Byte, nullptr);
     double gt[6] = {west_, kCell, 0.0, north_, 0.0, -kCell};

@@ -34,11 +34,14 @@ namespace {
 
 const std::string kSamples = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/";
 
-/// The first 40 tracts of olinda1.shp, as GeoJSON in the test's output folder.
+/// The first 40 tracts of olinda1.shp, as GeoJSON in the test's output folder. The file is named
+/// after the running test: ctest runs this file's tests in parallel, and two tests writing one
+/// file while the other reads it read an empty layer.
 std::string firstFortyTracts() {
   const std::filesystem::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
   std::filesystem::create_directories(dir);
-  const std::string out = (dir / "tracts_40.geojson").string();
+  const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  const std::string out = (dir / ("tracts_40_" + test + ".geojson")).string();
   translateVector(kSamples + "olinda1.shp", out, {"-f", "GeoJSON", "-sql", "SELECT * FROM olinda1 WHERE FID < 40"});
   return out;
 }
