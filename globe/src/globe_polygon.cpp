@@ -284,8 +284,20 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
   std::vector<glm::dvec2> out{line[0]};
   given.assign(1, 1);
+  glm::dvec3 from = toEcef(line[0].x, line[0].y, 0.0);
   for (std::size_t i = 0; i + 1 < line.size(); ++i) {
     const glm::dvec2 p = line[i], q = line[i + 1];
+    const glm::dvec3 to = toEcef(q.x, q.y, 0.0);
+    // Most segments of real data are far shorter than maxSegment: their chord says so without a
+    // geodesic (the geodesic is longer than the chord by less than c³ / (24 R²), R ≥ 6,335 km the
+    // least radius of curvature; bounded with room to spare below 100 km). The point is the same.
+    const double chord = glm::length(to - from);
+    from = to;
+    if (chord < 1e5 && chord + chord * chord * chord / (20.0 * 6.3e6 * 6.3e6) < maxSegment) {
+      out.emplace_back(out.back().x + wrap180(q.x - out.back().x), q.y);
+      given.push_back(1);
+      continue;
+    }
     const GeographicLib::GeodesicLine g = geod.InverseLine(p.y, p.x, q.y, q.x);
     const auto pieces = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(g.Distance() / maxSegment)));
     for (std::size_t k = 1; k <= pieces; ++k) {
