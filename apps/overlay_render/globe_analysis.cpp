@@ -108,10 +108,11 @@ int drawSelection(const GlobeAnalysisRequest& request, gfx::StateCache& cache, c
   const double logicalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - logicalStart).count();
   json layers = json::array();
   for (const scene::GlobeLayerSelection& l : chosen.layers) {
-    const auto& features = l.layer < scene.layerFeatures.size() ? scene.layerFeatures[l.layer] : nullptr;
+    const overlay::SharedFeatures* features =
+        l.layer < scene.layerFeatures.size() ? &scene.layerFeatures[l.layer] : nullptr;
     json list = json::array();
     for (const overlay::FeatureSelection& f : l.features) {
-      const std::int64_t fid = features && f.feature < features->size() ? (*features)[f.feature].fid : -1;
+      const std::int64_t fid = features && f.feature < features->size() ? features->get(f.feature)->fid : -1;
       list.push_back({{"fid", fid},
                       {"fully_inside", f.fullyInside},
                       {"samples", f.samples},

@@ -263,10 +263,10 @@ std::optional<GlobeIdentified> Viewer::identifyOnGlobe(const glm::dvec2& pixel) 
       Identified::Hit hit;
       hit.layer = name;
       hit.feature = f;
-      if (i < g.scene.layerFeatures.size() && g.scene.layerFeatures[i] && f < g.scene.layerFeatures[i]->size()) {
-        const geo::Feature& feature = (*g.scene.layerFeatures[i])[f];
-        hit.fid = feature.fid;
-        for (const auto& [k, v] : feature.attributes) hit.attributes.emplace_back(k, attributeText(v));
+      if (i < g.scene.layerFeatures.size() && f < g.scene.layerFeatures[i].size()) {
+        const std::shared_ptr<const geo::Feature> feature = g.scene.layerFeatures[i].get(f);
+        hit.fid = feature->fid;
+        for (const auto& [k, v] : feature->attributes) hit.attributes.emplace_back(k, attributeText(v));
       }
       id.hits.push_back(std::move(hit));
     }
@@ -527,18 +527,16 @@ json Viewer::globeState() const {
   for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
     const globe::GlobeLayer& l = g.scene.layers[i];
     const glm::vec4& c = l.color();
-    layers.push_back(
-        {{"name", l.name()},
-         {"shown", g.shown[i] != 0},
-         {"color", {c.x, c.y, c.z, c.w}},
-         {"mask_bit", g.scene.layerFileIndex[i]},
-         {"labels", labelSets_.contains(g.scene.layerFileIndex[i])
-                        ? json(labelSets_.at(g.scene.layerFileIndex[i]).attribute)
-                        : json()},
-         {"polygons", l.polygons().size()},
-         {"lines", l.lines().size()},
-         {"features",
-          i < g.scene.layerFeatures.size() && g.scene.layerFeatures[i] ? g.scene.layerFeatures[i]->size() : 0U}});
+    layers.push_back({{"name", l.name()},
+                      {"shown", g.shown[i] != 0},
+                      {"color", {c.x, c.y, c.z, c.w}},
+                      {"mask_bit", g.scene.layerFileIndex[i]},
+                      {"labels", labelSets_.contains(g.scene.layerFileIndex[i])
+                                     ? json(labelSets_.at(g.scene.layerFileIndex[i]).attribute)
+                                     : json()},
+                      {"polygons", l.polygons().size()},
+                      {"lines", l.lines().size()},
+                      {"features", i < g.scene.layerFeatures.size() ? g.scene.layerFeatures[i].size() : 0U}});
   }
   nlohmann::json rects = nlohmann::json::object();
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
@@ -600,10 +598,11 @@ json Viewer::globeSelectionJson() const {
   std::size_t count = 0;
   json layers = json::array();
   for (const scene::GlobeLayerSelection& l : g.selected->layers) {
-    const auto& features = l.layer < g.scene.layerFeatures.size() ? g.scene.layerFeatures[l.layer] : nullptr;
+    const overlay::SharedFeatures* features =
+        l.layer < g.scene.layerFeatures.size() ? &g.scene.layerFeatures[l.layer] : nullptr;
     json list = json::array();
     for (const overlay::FeatureSelection& f : l.features) {
-      const std::int64_t fid = features && f.feature < features->size() ? (*features)[f.feature].fid : -1;
+      const std::int64_t fid = features && f.feature < features->size() ? features->get(f.feature)->fid : -1;
       list.push_back({{"fid", fid},
                       {"feature", f.feature},
                       {"fully_inside", f.fullyInside},
@@ -665,11 +664,13 @@ void Viewer::drawGlobeSelectionSection() {
                          l.fullyInside)) {
       continue;
     }
-    const auto& features = l.layer < g.scene.layerFeatures.size() ? g.scene.layerFeatures[l.layer] : nullptr;
+    const overlay::SharedFeatures* features =
+        l.layer < g.scene.layerFeatures.size() ? &g.scene.layerFeatures[l.layer] : nullptr;
     const std::size_t shown = std::min<std::size_t>(l.features.size(), 200);
     for (std::size_t k = 0; k < shown; ++k) {
       const overlay::FeatureSelection& f = l.features[k];
-      const geo::Feature* feature = features && f.feature < features->size() ? &(*features)[f.feature] : nullptr;
+      const std::shared_ptr<const geo::Feature> feature =
+          features && f.feature < features->size() ? features->get(f.feature) : nullptr;
       if (ImGui::TreeNode(&f, "fid %lld%s", static_cast<long long>(feature ? feature->fid : -1),
                           f.fullyInside ? " (inside)" : "")) {
         if (feature) {

@@ -42,9 +42,9 @@ LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute
   LabelSet set;
   set.attribute = attribute;
   for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-    if (g.scene.layerFileIndex[i] != fileIndex || !g.scene.layerFeatures[i]) continue;
+    if (g.scene.layerFileIndex[i] != fileIndex || i >= g.scene.layerFeatures.size()) continue;
     const globe::GlobeLayer& layer = g.scene.layers[i];
-    const std::vector<geo::Feature>& features = *g.scene.layerFeatures[i];
+    const std::vector<geo::Feature>& features = g.scene.layerFeatures[i].all();
     // Each feature's geometry as drawn: its areas (the fill layer, holes included), else its lines.
     std::vector<std::vector<const std::vector<std::vector<glm::dvec2>>*>> areas(features.size());
     std::vector<std::vector<const std::vector<glm::dvec2>*>> lines(features.size());

@@ -514,7 +514,7 @@ bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon
 
 }  // namespace
 
-Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
+Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeatures& features, glm::vec4 color,
                                      const GlobeLayerOptions& options) {
   Result<GlobeLayer> out;
   GlobeLayer layer;
@@ -538,8 +538,11 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
   }
   // Lines (line strings, or the rings of an outline layer): their points, for the reference and
   // for the shapes each tile draws of them (lineShapesIn: made per tile, never for the whole layer).
-  const bool drawLines = options.outlines || std::any_of(features.begin(), features.end(),
-                                                         [](const geo::Feature& f) { return !f.lines.empty(); });
+  bool drawLines = options.outlines;
+  for (std::size_t f = 0; f < features.size() && !drawLines; ++f) {
+    const auto [lo, hi] = features.box(f, true);  // from the index on disk: nothing is read
+    drawLines = lo.x <= hi.x;
+  }
   const double halfWidth = 0.5 * options.lineWidthMetres;
   const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
   if (drawLines && inPixels && !(maxHalfWidth > 0.0 && std::isfinite(maxHalfWidth))) {
@@ -561,11 +564,14 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
                          "line width " + std::to_string(options.lineWidthMetres) + " m is not a positive width"});
     return out;
   }
+  // One feature at a time (features on disk are read once, and only one is resident).
   for (std::size_t f = 0; f < features.size(); ++f) {
+    const std::shared_ptr<const geo::Feature> read = features.get(f);
+    const geo::Feature& feature = *read;
     std::vector<std::vector<glm::dvec2>> lines;
-    for (const geo::LineString& l : features[f].lines) lines.push_back(l);
+    for (const geo::LineString& l : feature.lines) lines.push_back(l);
     if (options.outlines) {
-      for (const geo::Polygon& polygon : features[f].polygons) {
+      for (const geo::Polygon& polygon : feature.polygons) {
         std::vector<const geo::Ring*> rings{&polygon.outer};
         for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
         for (const geo::Ring* ring : rings) {
@@ -583,7 +589,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
         out.diagnostics.add({Severity::Error,
                              {},
                              layer.name_,
-                             std::to_string(features[f].fid),
+                             std::to_string(feature.fid),
                              "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
         continue;
       }
@@ -652,10 +658,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const std::vector<geo::Fe
       g.given = std::move(given);
       layer.lines_.push_back(std::move(g));
     }
-  }
-  if (!options.outlines) {
-    for (std::size_t f = 0; f < features.size(); ++f) {
-      const geo::Feature& feature = features[f];
+    if (!options.outlines) {
       for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
         GlobePolygon prepared;
         prepared.feature = static_cast<std::uint32_t>(f);

@@ -130,24 +130,12 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     if (imagery.ok()) scene.imagery = std::move(*imagery);
   }
 
-  const geo::SceneFrame lonLat = geo::SceneFrame::wgs84LonLat();
-  for (const LayerDescription& layer : description.layers) {
-    geo::VectorReadOptions options;
-    options.layer = layer.sourceLayer;
-    options.geodesicToleranceMetres = std::numeric_limits<double>::infinity();  // the globe densifies
-    Result<geo::VectorLayer> read = geo::readVectorLayer(layer.source, lonLat, options);
-    out.diagnostics.append(read.diagnostics);
-    if (!read.ok()) continue;
+  // The layers, read as a projected scene reads them (in longitude and latitude): one loader.
+  scene.sourceLayers = loadLayers(description, geo::SceneFrame::wgs84LonLat(), cacheDirectory, {}, out.diagnostics,
+                                  &scene.layersFromCache);
+  for (const LoadedLayer& source : scene.sourceLayers) {
+    const LayerDescription& layer = source.description;
     const overlay::LayerStyle& style = layer.style;
-    // Identify's attributes: the features without their geometry.
-    auto attributes = std::make_shared<std::vector<geo::Feature>>();
-    attributes->reserve(read->features.size());
-    for (const geo::Feature& f : read->features) {
-      geo::Feature kept;
-      kept.fid = f.fid;
-      kept.attributes = f.attributes;
-      attributes->push_back(std::move(kept));
-    }
     glm::vec4 color = style.color;
     color.w *= style.opacity;
     globe::GlobeLayerOptions build;
@@ -159,19 +147,19 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
     // resolution: a width that is not a positive number gets the layer's, with a warning).
     if (!style.colorAttribute.empty() || (!style.widthAttribute.empty() && style.widthPixels <= 0.0)) {
       const std::vector<overlay::FeatureStyle> styles =
-          overlay::resolveFeatureStyles(style, layer.kind, read->features, &out.diagnostics, layer.name);
+          overlay::resolveFeatureStyles(style, layer.kind, source.features, &out.diagnostics, layer.name);
       for (const overlay::FeatureStyle& f : styles) {
         if (!style.colorAttribute.empty()) build.featureColors.push_back(f.color);
         if (!style.widthAttribute.empty() && style.widthPixels <= 0.0)
           build.featureWidthMetres.push_back(f.shape.width);
       }
     }
-    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, read->features, color, build);
+    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, source.features, color, build);
     out.diagnostics.append(built.diagnostics);
     if (built.ok()) {
       scene.layers.push_back(std::move(*built));
       scene.layerFileIndex.push_back(layer.fileIndex);
-      scene.layerFeatures.push_back(attributes);
+      scene.layerFeatures.push_back(source.features);
     }
     // A polygon layer's outline: a layer of its own, with the same bit in mask.png.
     if (layer.kind == overlay::LayerKind::Polygon &&
@@ -182,12 +170,12 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
       glm::vec4 outlineColor = style.outlineColor;
       outlineColor.w *= style.opacity;
       Result<globe::GlobeLayer> lines =
-          globe::GlobeLayer::build(layer.name + " (outline)", read->features, outlineColor, outline);
+          globe::GlobeLayer::build(layer.name + " (outline)", source.features, outlineColor, outline);
       out.diagnostics.append(lines.diagnostics);
       if (lines.ok()) {
         scene.layers.push_back(std::move(*lines));
         scene.layerFileIndex.push_back(layer.fileIndex);
-        scene.layerFeatures.push_back(attributes);
+        scene.layerFeatures.push_back(source.features);
       }
     }
   }

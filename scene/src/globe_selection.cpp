@@ -155,16 +155,14 @@ std::vector<SelectedLayerFeatures> selectedSourceFeatures(const LoadedGlobeScene
     const auto found = united.find(d.fileIndex);
     if (found == united.end()) continue;
     // The features' fids: any of this file layer's globe layers holds them (they share one list).
-    const std::vector<geo::Feature>* features = nullptr;
+    const overlay::SharedFeatures* features = nullptr;
     for (std::size_t l = 0; l < scene.layerFileIndex.size() && features == nullptr; ++l) {
-      if (scene.layerFileIndex[l] == d.fileIndex && l < scene.layerFeatures.size()) {
-        features = scene.layerFeatures[l].get();
-      }
+      if (scene.layerFileIndex[l] == d.fileIndex && l < scene.layerFeatures.size()) features = &scene.layerFeatures[l];
     }
     SelectedLayerFeatures layer{d.name, d.source, d.sourceLayer, {}};
     for (const auto& [feature, fullyInside] : found->second) {
       if (features == nullptr || feature >= features->size()) continue;
-      layer.features.push_back({(*features)[feature].fid, fullyInside});
+      layer.features.push_back({features->get(feature)->fid, fullyInside});
     }
     out.push_back(std::move(layer));
   }

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "core/hash.hpp"
@@ -298,6 +299,101 @@ terrain::PyramidProgress consoleProgress(std::string label) {
   };
 }
 
+std::vector<LoadedLayer> loadLayers(const SceneDescription& description, const geo::SceneFrame& frame,
+                                    const std::string& cacheDirectory, const LoadOptions& options,
+                                    Diagnostics& diagnostics, std::size_t* fromCache) {
+  // A layer read from its source shows its progress where it is large (a bar per small layer
+  // would say nothing).
+  const auto readProgress = [&options](const std::string& name) -> std::function<void(double)> {
+    if (options.progress) return options.progress;
+    auto bar = std::make_shared<terrain::PyramidProgress>();
+    const auto began = std::chrono::steady_clock::now();
+    return [bar, began, name](double fraction) {
+      if (!*bar && std::chrono::steady_clock::now() - began < std::chrono::seconds(2)) return;
+      if (!*bar) *bar = consoleProgress("vector layer " + name);
+      (*bar)(fraction);
+    };
+  };
+  // Temporary files of writers that were killed or ran out of disk are cleared.
+  if (!cacheDirectory.empty()) (void)geo::io::removeStaleTemporaries(cacheDirectory, std::chrono::hours(1));
+  std::vector<LoadedLayer> layers;
+  for (const LayerDescription& layer : description.layers) {
+    geo::VectorReadOptions readOptions;
+    readOptions.layer = layer.sourceLayer;
+    // On the globe the layers keep their points as given: the globe densifies along geodesics.
+    if (frame.geographic()) readOptions.geodesicToleranceMetres = std::numeric_limits<double>::infinity();
+    // As read last time, when nothing it depends on has changed (layer_cache.hpp).
+    const std::optional<std::uint64_t> key = options.layerCache && !cacheDirectory.empty()
+                                                 ? detail::layerCacheKey(layer.source, frame, readOptions)
+                                                 : std::nullopt;
+    const std::string cacheFile = key ? detail::layerCacheFile(cacheDirectory, *key) : std::string();
+    std::optional<detail::CachedLayer> cached;
+    if (key) {
+      detail::LayerCacheRead read = detail::readLayerCache(cacheFile, *key);
+      cached = std::move(read.layer);
+      // A damaged file costs a read of the source, never a feature: said, and written again.
+      if (read.status == geo::io::CheckedStatus::Damaged)
+        diagnostics.add({Severity::Warning,
+                         cacheFile,
+                         layer.name,
+                         {},
+                         "cache file damaged (" + read.why + "); rebuilt from " + layer.source});
+    }
+    if (cached) {
+      if (fromCache != nullptr) ++*fromCache;
+    } else {
+      // Streamed into the cache as read, and opened from there: the features stay in the file.
+      if (key) {
+        const detail::LayerCacheWrite written =
+            detail::writeLayerCache(cacheFile, *key, [&](const std::function<void(geo::Feature &&)>& sink) {
+              geo::VectorReadOptions streamed = readOptions;
+              streamed.sink = sink;
+              streamed.progress = readProgress(layer.name);
+              return geo::readVectorLayer(layer.source, frame, streamed);
+            });
+        if (written.outcome) {
+          detail::LayerCacheRead read = detail::readLayerCache(cacheFile, *key);
+          cached = std::move(read.layer);
+          if (!cached)
+            diagnostics.add({Severity::Warning,
+                             cacheFile,
+                             layer.name,
+                             {},
+                             "cache file cannot be read back (" + read.why + "); the layer is read into memory"});
+        } else {
+          diagnostics.add(
+              {Severity::Warning,
+               cacheFile,
+               layer.name,
+               {},
+               "cache file cannot be written (" + written.outcome.error + "); the layer is read into memory"});
+        }
+      }
+      // No cache, or it could not be written: read into memory.
+      if (!cached) cached = detail::CachedLayer{geo::readVectorLayer(layer.source, frame, readOptions), nullptr};
+    }
+    Result<geo::VectorLayer> data = std::move(cached->read);
+    // Name our layer in every message about it, beside the file's own layer name.
+    for (const Diagnostic& d : data.diagnostics.items()) {
+      Diagnostic named = d;
+      named.layer = layer.name + (d.layer.empty() || d.layer == layer.name ? "" : " (" + d.layer + ")");
+      diagnostics.add(std::move(named));
+    }
+    if (!data) continue;
+    // Features left out when read: one per feature named in an Error (however many it has).
+    std::set<std::string> skipped;
+    for (const Diagnostic& d : data.diagnostics.items()) {
+      if (d.severity == Severity::Error && !d.feature.empty()) skipped.insert(d.feature);
+    }
+    overlay::SharedFeatures features = cached->features ? overlay::SharedFeatures(cached->features)
+                                                        : overlay::SharedFeatures(std::move(data->features));
+    data->features = {};
+    LoadedLayer loaded{layer, std::move(*data), skipped.size(), std::move(features)};
+    layers.push_back(std::move(loaded));
+  }
+  return layers;
+}
+
 Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   Diagnostics diagnostics;
@@ -371,96 +467,11 @@ Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOpt
     }
   }
 
-  // A layer read from its source shows its progress where it is large (a bar per small layer
-  // would say nothing).
-  const auto readProgress = [&options](const std::string& name) -> std::function<void(double)> {
-    if (options.progress) return options.progress;
-    auto bar = std::make_shared<terrain::PyramidProgress>();
-    const auto began = std::chrono::steady_clock::now();
-    return [bar, began, name](double fraction) {
-      if (!*bar && std::chrono::steady_clock::now() - began < std::chrono::seconds(2)) return;
-      if (!*bar) *bar = consoleProgress("vector layer " + name);
-      (*bar)(fraction);
-    };
-  };
-  // The cache: the scene's, else the user's, else none (said once); temporary files of writers
-  // that were killed or ran out of disk are cleared.
+  // The cache: the scene's, else the user's, else none (said once).
   std::string cacheWarning;
   const std::string cacheDirectory = cacheDirectoryFor(description, &cacheWarning);
   if (!cacheWarning.empty()) diagnostics.add({Severity::Warning, {}, {}, {}, cacheWarning});
-  if (!cacheDirectory.empty()) (void)geo::io::removeStaleTemporaries(cacheDirectory, std::chrono::hours(1));
-  for (const LayerDescription& layer : description.layers) {
-    geo::VectorReadOptions readOptions;
-    readOptions.layer = layer.sourceLayer;
-    // As read last time, when nothing it depends on has changed (layer_cache.hpp).
-    const std::optional<std::uint64_t> key = options.layerCache && !cacheDirectory.empty()
-                                                 ? detail::layerCacheKey(layer.source, scene.frame, readOptions)
-                                                 : std::nullopt;
-    const std::string cacheFile = key ? detail::layerCacheFile(cacheDirectory, *key) : std::string();
-    std::optional<detail::CachedLayer> cached;
-    if (key) {
-      detail::LayerCacheRead read = detail::readLayerCache(cacheFile, *key);
-      cached = std::move(read.layer);
-      // A damaged file costs a read of the source, never a feature: said, and written again.
-      if (read.status == geo::io::CheckedStatus::Damaged)
-        diagnostics.add({Severity::Warning,
-                         cacheFile,
-                         layer.name,
-                         {},
-                         "cache file damaged (" + read.why + "); rebuilt from " + layer.source});
-    }
-    if (cached) {
-      ++scene.layersFromCache;
-    } else {
-      // Streamed into the cache as read, and opened from there: the features stay in the file.
-      if (key) {
-        const detail::LayerCacheWrite written =
-            detail::writeLayerCache(cacheFile, *key, [&](const std::function<void(geo::Feature &&)>& sink) {
-              geo::VectorReadOptions streamed = readOptions;
-              streamed.sink = sink;
-              streamed.progress = readProgress(layer.name);
-              return geo::readVectorLayer(layer.source, scene.frame, streamed);
-            });
-        if (written.outcome) {
-          detail::LayerCacheRead read = detail::readLayerCache(cacheFile, *key);
-          cached = std::move(read.layer);
-          if (!cached)
-            diagnostics.add({Severity::Warning,
-                             cacheFile,
-                             layer.name,
-                             {},
-                             "cache file cannot be read back (" + read.why + "); the layer is read into memory"});
-        } else {
-          diagnostics.add(
-              {Severity::Warning,
-               cacheFile,
-               layer.name,
-               {},
-               "cache file cannot be written (" + written.outcome.error + "); the layer is read into memory"});
-        }
-      }
-      // No cache, or it could not be written: read into memory.
-      if (!cached) cached = detail::CachedLayer{geo::readVectorLayer(layer.source, scene.frame, readOptions), nullptr};
-    }
-    Result<geo::VectorLayer> data = std::move(cached->read);
-    // Name our layer in every message about it, beside the file's own layer name.
-    for (const Diagnostic& d : data.diagnostics.items()) {
-      Diagnostic named = d;
-      named.layer = layer.name + (d.layer.empty() || d.layer == layer.name ? "" : " (" + d.layer + ")");
-      diagnostics.add(std::move(named));
-    }
-    if (!data) continue;
-    // Features left out when read: one per feature named in an Error (however many it has).
-    std::set<std::string> skipped;
-    for (const Diagnostic& d : data.diagnostics.items()) {
-      if (d.severity == Severity::Error && !d.feature.empty()) skipped.insert(d.feature);
-    }
-    overlay::SharedFeatures features = cached->features ? overlay::SharedFeatures(cached->features)
-                                                        : overlay::SharedFeatures(std::move(data->features));
-    data->features = {};
-    LoadedLayer loaded{layer, std::move(*data), skipped.size(), std::move(features)};
-    scene.layers.push_back(std::move(loaded));
-  }
+  scene.layers = loadLayers(description, scene.frame, cacheDirectory, options, diagnostics, &scene.layersFromCache);
   scene.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   Result<LoadedScene> result;

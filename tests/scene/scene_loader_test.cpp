@@ -20,6 +20,7 @@
 #include <ogr_spatialref.h>
 
 #include "dem_files.hpp"
+#include "scene/globe_scene.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "terrain/terrain_grid.hpp"
@@ -316,6 +317,49 @@ TEST(SceneLoader, ALayerIsReadFromTheCacheUntilItsFileChanges) {
   // Without the cache (LoadOptions::layerCache), always from the source.
   options.layerCache = false;
   EXPECT_EQ(load()->layersFromCache, 0u);
+}
+
+TEST(SceneLoader, OnTheGlobeLayersAreReadByTheSameLoaderAndCache) {
+  // One loader for both frames (issue 41): a globe scene reads its layers through loadLayers,
+  // in longitude and latitude, through the layer cache; the second load keeps the features on
+  // disk and builds the same globe layers (fill and outline), attributes and all.
+  const std::string dem = writeDem("globe_cached_dem.tif", [](int c, int r) { return static_cast<float>(c + r); });
+  const std::string source = outputDir() + "/globe_cached.geojson";
+  std::ofstream(source) << R"({"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {"name": "a", "n": 3},
+     "geometry": {"type": "Polygon", "coordinates": [[[-34.862, -8.050], [-34.858, -8.050], [-34.858, -8.046],
+                                                      [-34.862, -8.046], [-34.862, -8.050]]]}},
+    {"type": "Feature", "properties": {"name": "b"},
+     "geometry": {"type": "Polygon", "coordinates": [[[-34.857, -8.050], [-34.855, -8.050], [-34.855, -8.048],
+                                                      [-34.857, -8.050]]]}}]})";
+  scene::SceneDescription description = sceneWithCachedLayer(dem, source, "things", "globe_cached_cache");
+  description.frame = scene::FrameKind::Globe;
+  description.layers[0].style.outlineWidthMetres = 3.0F;
+  const Result<scene::LoadedGlobeScene> first = scene::loadGlobeScene(description);
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(first->layersFromCache, 0u);
+  ASSERT_EQ(first->sourceLayers.size(), 1u);
+  ASSERT_EQ(first->layers.size(), 2u) << "the fill and its outline";
+  const std::vector<geo::Feature>& read = first->sourceLayers[0].features.all();
+  ASSERT_EQ(read.size(), 2u);
+  // In longitude and latitude, as given (the globe densifies along geodesics itself).
+  ASSERT_EQ(read[0].polygons.size(), 1u);
+  EXPECT_NEAR(read[0].polygons[0].outer.front().x, -34.862, 1e-12);
+  EXPECT_NEAR(read[0].polygons[0].outer.front().y, -8.050, 1e-12);
+
+  const Result<scene::LoadedGlobeScene> second = scene::loadGlobeScene(description);
+  ASSERT_TRUE(second.ok());
+  EXPECT_EQ(second->layersFromCache, 1u);
+  EXPECT_TRUE(second->sourceLayers[0].features.onDisk()) << "read one at a time, never all at once";
+  ASSERT_EQ(second->layers.size(), first->layers.size());
+  for (std::size_t l = 0; l < first->layers.size(); ++l) {
+    EXPECT_EQ(second->layers[l].fingerprint(), first->layers[l].fingerprint()) << l;
+    EXPECT_EQ(second->layers[l].polygons().size(), first->layers[l].polygons().size()) << l;
+    EXPECT_EQ(second->layers[l].lines().size(), first->layers[l].lines().size()) << l;
+    ASSERT_EQ(second->layerFeatures[l].size(), 2u);
+    EXPECT_EQ(second->layerFeatures[l].get(1)->attributes, read[1].attributes) << "identify's attributes";
+  }
+  EXPECT_TRUE(second->sourceLayers[0].features.onDisk()) << "the globe layers were built reading one feature at a time";
 }
 
 TEST(SceneLoader, CachedFeaturesStayOnDiskAndReadAsTheSourceGivesThem) {

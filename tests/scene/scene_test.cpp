@@ -392,13 +392,13 @@ TEST(GlobeSelectionExport, EachFileLayerOnceWithItsFillAndOutlineUnited) {
   scene.description.layers = {tracts, streets};
   scene.layerFileIndex = {0, 0, 2};
   const auto featuresWithFids = [](std::vector<std::int64_t> fids) {
-    auto list = std::make_shared<std::vector<geo::Feature>>();
+    std::vector<geo::Feature> list;
     for (const std::int64_t fid : fids) {
       geo::Feature f;
       f.fid = fid;
-      list->push_back(f);
+      list.push_back(f);
     }
-    return std::shared_ptr<const std::vector<geo::Feature>>(list);
+    return overlay::SharedFeatures(std::move(list));
   };
   const auto tractFeatures = featuresWithFids({10, 11, 12, 13});
   scene.layerFeatures = {tractFeatures, tractFeatures, featuresWithFids({100, 101})};

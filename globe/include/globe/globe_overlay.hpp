@@ -40,6 +40,7 @@
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/shared_features.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::globe {
@@ -158,10 +159,11 @@ struct GlobeLine {
 
 class GlobeLayer final : public overlay::WorldCoverage {
  public:
-  /// Features with polygons in (lon, lat) degrees on WGS 84. A broken polygon (fewer than 3
-  /// points, a latitude beyond ±90, a coordinate that is not finite) is left out with an Error
-  /// naming the layer, feature and polygon; the rest is kept.
-  static Result<GlobeLayer> build(std::string name, const std::vector<geo::Feature>& features, glm::vec4 color,
+  /// Features with polygons or lines in (lon, lat) degrees on WGS 84, in memory or on disk (read
+  /// one at a time: the scene's layers as loadLayers read them, shared with both frames). A
+  /// broken polygon (fewer than 3 points, a latitude beyond ±90, a coordinate that is not finite)
+  /// is left out with an Error naming the layer, feature and polygon; the rest is kept.
+  static Result<GlobeLayer> build(std::string name, const overlay::SharedFeatures& features, glm::vec4 color,
                                   const GlobeLayerOptions& options = {});
 
   [[nodiscard]] const std::string& name() const { return name_; }

@@ -15,6 +15,8 @@
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_view.hpp"
 #include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "vector_overlay/shared_features.hpp"
 
 namespace gis::scene {
 
@@ -34,12 +36,16 @@ struct LoadedGlobeScene {
   /// The scene's imagery (bands imageryBands), for GlobeRenderer::setImagery; null without one or
   /// when it cannot be read (said in the diagnostics).
   std::shared_ptr<const globe::GlobeImagery> imagery;
-  std::vector<globe::GlobeLayer> layers;    ///< the scene's polygon layers, in order
+  /// The scene's vector layers as read (loadLayers: the projected frame's loader, in longitude and
+  /// latitude), through the layer cache as a projected scene's: features on disk, read one at a
+  /// time, when the scene has a cache.
+  std::vector<LoadedLayer> sourceLayers;
+  std::size_t layersFromCache = 0;          ///< source layers read from the cache
+  std::vector<globe::GlobeLayer> layers;    ///< what is drawn: a fill and its outline are two, in order
   std::vector<std::size_t> layerFileIndex;  ///< per layer: its place in the scene file (its mask bit)
-  /// Per layer: the features it was built from, with their fid and attributes but no geometry
-  /// (GlobePolygon::feature and GlobeLine::feature index them; a fill and its outline share them):
-  /// what identify shows.
-  std::vector<std::shared_ptr<const std::vector<geo::Feature>>> layerFeatures;
+  /// Per layer: the features it was built from (its source layer's, shared: GlobePolygon::feature
+  /// and GlobeLine::feature index them; a fill and its outline share them): what identify shows.
+  std::vector<overlay::SharedFeatures> layerFeatures;
   /// The data's box in longitude/latitude (west, south, east, north): the layers', else the
   /// DEM's. West may be below −180 and east above 180 for data across the antimeridian.
   std::array<double, 4> extent{-180.0, -90.0, 180.0, 90.0};

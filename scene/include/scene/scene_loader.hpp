@@ -61,6 +61,17 @@ struct LoadOptions {
 
 Result<LoadedScene> loadScene(const SceneDescription& description, const LoadOptions& options = {});
 
+/// The scene's vector layers read into `frame` (a projected scene's, or geo::SceneFrame::wgs84LonLat
+/// for the globe, whose layers keep their points as given: the globe densifies along geodesics),
+/// each through the layer cache in `cacheDirectory` (cacheDirectoryFor's; empty: none, all in
+/// memory) unless options.layerCache is off; from the cache the features stay on disk. Every
+/// message is named after our layer and added to `diagnostics`. A layer that cannot be read is
+/// reported and left out. `fromCache` (if given) counts the layers read from the cache. Both
+/// frames' scenes read their layers here.
+std::vector<LoadedLayer> loadLayers(const SceneDescription& description, const geo::SceneFrame& frame,
+                                    const std::string& cacheDirectory, const LoadOptions& options,
+                                    Diagnostics& diagnostics, std::size_t* fromCache = nullptr);
+
 /// A scene for a DEM opened alone: a file in any CRS, a folder of tiles or a VRT.
 SceneDescription sceneForDem(const std::string& path);
 
