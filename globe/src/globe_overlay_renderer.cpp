@@ -23,7 +23,7 @@ namespace {
 
 /// A layer's pieces over a tile, for a width class (lines in pixels: lineWidthClass).
 struct Key {
-  const GlobeLayer* layer = nullptr;
+  std::uint64_t layer = 0;  ///< GlobeLayer::serial
   std::uint64_t tile = 0;
   int widthClass = 0;
   bool operator==(const Key&) const = default;
@@ -31,7 +31,7 @@ struct Key {
 
 struct KeyHash {
   std::size_t operator()(const Key& k) const {
-    return std::hash<const void*>()(k.layer) ^
+    return std::hash<std::uint64_t>()(k.layer) ^
            static_cast<std::size_t>((k.tile + static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.widthClass)) *
                                                   std::uint64_t{0x100000001B3}) *
                                     0x9E3779B97F4A7C15ULL);
@@ -126,7 +126,7 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
   std::vector<Key> keys;
   keys.reserve(tiles.size());
   for (const DrawnTile& tile : tiles)
-    keys.push_back({&layer, tile.key.id(), lineWidthClass(layer, tile.key, heights, scale)});
+    keys.push_back({layer.serial(), tile.key.id(), lineWidthClass(layer, tile.key, heights, scale)});
   // The missing tiles' pieces are built on every core at once (pure: the layer, the grid and the
   // pieces' builder may be read from any thread), then uploaded here, in the tiles' order.
   std::vector<std::size_t> missing;

@@ -2,6 +2,7 @@
 // closed along a pole; the edges' planes and the reference's point-in-polygon test.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -687,6 +688,8 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   const std::set<std::pair<double, double>> shared = sharedPoints(rings);
   for (std::size_t k = 0; k < layer.areaPolygons_; ++k) simplifyLevels(layer.polygons_[k], shared);
   layer.fingerprint_ = layer.digestForCache();
+  static std::atomic<std::uint64_t> builds{0};
+  layer.serial_ = ++builds;
   out.value = std::move(layer);
   return out;
 }

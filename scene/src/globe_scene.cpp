@@ -90,6 +90,65 @@ globe::GlobeOverlaySettings globeOverlaySettings(const SceneDescription& descrip
   return settings;
 }
 
+void buildGlobeLayers(LoadedGlobeScene& scene, Diagnostics& diagnostics) {
+  scene.layers.clear();
+  scene.layerFileIndex.clear();
+  scene.layerFeatures.clear();
+  // In draw order (earlier layers below), as a projected scene's renderer orders them.
+  std::vector<std::size_t> order(scene.sourceLayers.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return scene.sourceLayers[a].description.style.drawOrder < scene.sourceLayers[b].description.style.drawOrder;
+  });
+  for (const std::size_t i : order) {
+    const LoadedLayer& source = scene.sourceLayers[i];
+    const LayerDescription& layer = source.description;
+    const overlay::LayerStyle& style = layer.style;
+    glm::vec4 color = style.color;
+    color.w *= style.opacity;
+    globe::GlobeLayerOptions build;
+    setLineWidths(build, style.widthPixels, style.widthMetres, style, scene.heights);
+    build.join = style.join;  // outlines keep round joins, as in a projected frame
+    build.cap = style.cap;
+    build.miterLimit = style.miterLimit;
+    // Colours by category and widths from an attribute, per feature (the projected frame's
+    // resolution: a width that is not a positive number gets the layer's, with a warning).
+    if (!style.colorAttribute.empty() || (!style.widthAttribute.empty() && style.widthPixels <= 0.0)) {
+      const std::vector<overlay::FeatureStyle> styles =
+          overlay::resolveFeatureStyles(style, layer.kind, source.features, &diagnostics, layer.name);
+      for (const overlay::FeatureStyle& f : styles) {
+        if (!style.colorAttribute.empty()) build.featureColors.push_back(f.color);
+        if (!style.widthAttribute.empty() && style.widthPixels <= 0.0)
+          build.featureWidthMetres.push_back(f.shape.width);
+      }
+    }
+    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, source.features, color, build);
+    diagnostics.append(built.diagnostics);
+    if (built.ok()) {
+      scene.layers.push_back(std::move(*built));
+      scene.layerFileIndex.push_back(layer.fileIndex);
+      scene.layerFeatures.push_back(source.features);
+    }
+    // A polygon layer's outline: a layer of its own, with the same bit in mask.png.
+    if (layer.kind == overlay::LayerKind::Polygon &&
+        (style.outlineWidthMetres > 0.0F || style.outlineWidthPixels > 0.0F)) {
+      globe::GlobeLayerOptions outline;
+      outline.outlines = true;
+      setLineWidths(outline, style.outlineWidthPixels, style.outlineWidthMetres, style, scene.heights);
+      glm::vec4 outlineColor = style.outlineColor;
+      outlineColor.w *= style.opacity;
+      Result<globe::GlobeLayer> lines =
+          globe::GlobeLayer::build(layer.name + " (outline)", source.features, outlineColor, outline);
+      diagnostics.append(lines.diagnostics);
+      if (lines.ok()) {
+        scene.layers.push_back(std::move(*lines));
+        scene.layerFileIndex.push_back(layer.fileIndex);
+        scene.layerFeatures.push_back(source.features);
+      }
+    }
+  }
+}
+
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   const auto start = std::chrono::steady_clock::now();
   Result<LoadedGlobeScene> out;
@@ -133,52 +192,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   // The layers, read as a projected scene reads them (in longitude and latitude): one loader.
   scene.sourceLayers = loadLayers(description, geo::SceneFrame::wgs84LonLat(), cacheDirectory, {}, out.diagnostics,
                                   &scene.layersFromCache);
-  for (const LoadedLayer& source : scene.sourceLayers) {
-    const LayerDescription& layer = source.description;
-    const overlay::LayerStyle& style = layer.style;
-    glm::vec4 color = style.color;
-    color.w *= style.opacity;
-    globe::GlobeLayerOptions build;
-    setLineWidths(build, style.widthPixels, style.widthMetres, style, scene.heights);
-    build.join = style.join;  // outlines keep round joins, as in a projected frame
-    build.cap = style.cap;
-    build.miterLimit = style.miterLimit;
-    // Colours by category and widths from an attribute, per feature (the projected frame's
-    // resolution: a width that is not a positive number gets the layer's, with a warning).
-    if (!style.colorAttribute.empty() || (!style.widthAttribute.empty() && style.widthPixels <= 0.0)) {
-      const std::vector<overlay::FeatureStyle> styles =
-          overlay::resolveFeatureStyles(style, layer.kind, source.features, &out.diagnostics, layer.name);
-      for (const overlay::FeatureStyle& f : styles) {
-        if (!style.colorAttribute.empty()) build.featureColors.push_back(f.color);
-        if (!style.widthAttribute.empty() && style.widthPixels <= 0.0)
-          build.featureWidthMetres.push_back(f.shape.width);
-      }
-    }
-    Result<globe::GlobeLayer> built = globe::GlobeLayer::build(layer.name, source.features, color, build);
-    out.diagnostics.append(built.diagnostics);
-    if (built.ok()) {
-      scene.layers.push_back(std::move(*built));
-      scene.layerFileIndex.push_back(layer.fileIndex);
-      scene.layerFeatures.push_back(source.features);
-    }
-    // A polygon layer's outline: a layer of its own, with the same bit in mask.png.
-    if (layer.kind == overlay::LayerKind::Polygon &&
-        (style.outlineWidthMetres > 0.0F || style.outlineWidthPixels > 0.0F)) {
-      globe::GlobeLayerOptions outline;
-      outline.outlines = true;
-      setLineWidths(outline, style.outlineWidthPixels, style.outlineWidthMetres, style, scene.heights);
-      glm::vec4 outlineColor = style.outlineColor;
-      outlineColor.w *= style.opacity;
-      Result<globe::GlobeLayer> lines =
-          globe::GlobeLayer::build(layer.name + " (outline)", source.features, outlineColor, outline);
-      out.diagnostics.append(lines.diagnostics);
-      if (lines.ok()) {
-        scene.layers.push_back(std::move(*lines));
-        scene.layerFileIndex.push_back(layer.fileIndex);
-        scene.layerFeatures.push_back(source.features);
-      }
-    }
-  }
+  buildGlobeLayers(scene, out.diagnostics);
   // The layers' box, when there are layers: what a first view should show.
   globe::LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
   for (const globe::GlobeLayer& layer : scene.layers) {

@@ -214,6 +214,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// anchors, colour groups, tolerances, and the builder's version): what the tile cache on disk
   /// is keyed by. Colours are not in it (they are applied when a tile is uploaded).
   [[nodiscard]] std::uint64_t fingerprint() const { return fingerprint_; }
+  /// Which build this is: a number no other build of this process had (copies keep it). The
+  /// renderer keeps its GPU tiles per build, so a layer built again (another style, another
+  /// scene at the same address) never draws the old one's tiles.
+  [[nodiscard]] std::uint64_t serial() const { return serial_; }
   /// Lines in pixels: > 0 (GlobeLayerOptions::lineWidthPixels).
   [[nodiscard]] double lineWidthPixels() const { return widthPixels_; }
   /// The ground lines in pixels are anchored on (null: the ellipsoid).
@@ -232,6 +236,7 @@ class GlobeLayer final : public overlay::WorldCoverage {
   double widthPixels_ = 0.0;
   double leastHalfWidth_ = 0.0, widestHalfWidth_ = 0.0;
   std::uint64_t fingerprint_ = 0;
+  std::uint64_t serial_ = 0;
   std::shared_ptr<const GeoGrid> anchorGround_;
   std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
   [[nodiscard]] std::uint64_t digestForCache() const;

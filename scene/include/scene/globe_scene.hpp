@@ -59,6 +59,13 @@ struct LoadedGlobeScene {
 /// left out; only a DEM that cannot be read fails the scene.
 Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
 
+/// Builds the scene's globe layers (layers, layerFileIndex, layerFeatures) from its source layers,
+/// each with its description's style (sourceLayers[i].description), in draw order: a polygon
+/// layer's fill and, with an outline, its outline; lines in metres or in pixels, with the style's
+/// joins and caps. What loadGlobeScene does after reading, and what an edit of a style does
+/// again (the viewer). The features are shared, not read again.
+void buildGlobeLayers(LoadedGlobeScene& scene, Diagnostics& diagnostics);
+
 /// How the scene's layers are drawn on the globe: the overlay's GPU budget is the scene's
 /// terrain.gpu_budget_mb, as the projected frame's tiles have it, and its tiles are kept in the
 /// scene's cache directory (cacheDirectoryFor: none when the cache is disabled).
