@@ -294,7 +294,9 @@ class Viewer {
   /// The GLFW keys held down as the queue has them (a stuck key shows here).
   [[nodiscard]] nlohmann::json keysDownJson() const;
   [[nodiscard]] nlohmann::json measureJson() const;
-  [[nodiscard]] nlohmann::json firstRows(const AttributeTable& table) const;
+  /// The attribute table as the state tells it (layer, rows, the first rows' fids, selected
+  /// rows), in either frame; null when it is closed.
+  [[nodiscard]] nlohmann::json tableJson() const;
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
   void drawScene();
@@ -333,10 +335,16 @@ class Viewer {
   // Attributes, legend, highlights (viewer_attributes.cpp).
   /// The overlay layer holding a scene layer's features (its fill); none if it is not built.
   [[nodiscard]] std::optional<std::size_t> fillLayerOf(std::size_t sceneLayer) const;
-  [[nodiscard]] std::vector<std::string> attributeNames(std::size_t overlayLayer) const;
+  /// A scene layer's features as drawn, in either frame: a projected scene's fill layer's, the
+  /// globe's source layer's (scene::LoadedLayer in both); none when the layer is not built.
+  [[nodiscard]] const std::vector<geo::Feature>* featuresOf(std::size_t sceneLayer) const;
+  /// On the globe: the globe layers (fill, outline) drawing scene layer `sceneLayer`.
+  [[nodiscard]] std::vector<std::size_t> globeLayersOf(std::size_t sceneLayer) const;
+  [[nodiscard]] std::vector<std::string> attributeNames(std::size_t sceneLayer) const;
   /// Moves the camera (animated) to frame a box in the free part of the window, keeping the heading.
   void zoomToBox(glm::dvec3 lo, glm::dvec3 hi);
-  void zoomToFeatures(std::size_t overlayLayer, const std::vector<std::size_t>& features);
+  /// Frames features of a scene layer (their box), in either frame.
+  void zoomToFeatures(std::size_t sceneLayer, const std::vector<std::size_t>& features);
   void zoomToLayer(std::size_t sceneLayer);
   void openTable(std::size_t sceneLayer);
   /// Colours a layer by category of an attribute (a palette over its values); false when it has
@@ -348,8 +356,8 @@ class Viewer {
   /// The layer's label control: none, or an attribute.
   void drawLabelChoice(std::size_t sceneLayer);
   void refreshTableRows();
-  /// The features of an overlay layer the lasso selected.
-  [[nodiscard]] std::set<std::size_t> selectedFeatureSet(std::size_t overlayLayer) const;
+  /// The features of a scene layer the lasso selected, in either frame.
+  [[nodiscard]] std::set<std::size_t> selectedFeatureSet(std::size_t sceneLayer) const;
   void drawAttributeTable();
   void drawLegend();
   /// The DEM's colour ramp in the legend, when the terrain is tinted by height.
@@ -399,8 +407,6 @@ class Viewer {
   /// On the globe: each feature of the scene file's layer `fileIndex` that has the attribute,
   /// anchored as in a projected scene, in a plane about the feature's middle.
   [[nodiscard]] LabelSet globeLabels(std::size_t fileIndex, const std::string& attribute) const;
-  /// Whether a label set's layer is shown (projected or globe).
-  [[nodiscard]] bool labelLayerShown(std::size_t sceneLayer) const;
   void drawLabels();
   /// The current ImGui window's rectangle, which labels keep clear of in the next frame.
   void rememberWindow(const std::string& name);
@@ -427,6 +433,8 @@ class Viewer {
   /// Whether the scene file's layer `sceneLayer` is drawn now, in either frame (the legend's).
   [[nodiscard]] bool sceneLayerShown(std::size_t sceneLayer) const;
   void rebuildOverlays();
+  /// On the globe: the layers built again with the description's styles (rebuildOverlays).
+  void rebuildGlobeLayers();
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
   /// Before a change of the selection's steps: the steps as they were, for undo.
   void rememberSelection();

@@ -23,6 +23,10 @@ namespace gis::viewer {
 
 std::optional<bool> Viewer::layerShown(std::size_t sceneLayer) const {
   std::optional<bool> shown;
+  if (globe_) {
+    for (const std::size_t j : globeLayersOf(sceneLayer)) shown = shown.value_or(false) || globe_->shown[j] != 0;
+    return shown;
+  }
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (renderer_->overlaySources()[j].first == sceneLayer) shown = shown.value_or(false) || renderer_->shown(j);
   }
@@ -32,15 +36,18 @@ std::optional<bool> Viewer::layerShown(std::size_t sceneLayer) const {
 bool Viewer::sceneLayerShown(std::size_t sceneLayer) const {
   if (globe_) {
     // On the globe a scene layer may be drawn as an area and an outline: shown if either is.
-    const GlobeMode& g = *globe_;
-    for (std::size_t j = 0; j < g.scene.layerFileIndex.size() && j < g.shown.size(); ++j)
-      if (g.scene.layerFileIndex[j] == sceneLayer && g.shown[j] != 0) return true;
+    for (const std::size_t j : globeLayersOf(sceneLayer))
+      if (j < globe_->shown.size() && globe_->shown[j] != 0) return true;
     return false;
   }
   return scene_ && layerShown(sceneLayer).value_or(false);
 }
 
 void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
+  if (globe_) {
+    for (const std::size_t j : globeLayersOf(sceneLayer)) globe_->shown[j] = static_cast<char>(shown);
+    return;
+  }
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (renderer_->overlaySources()[j].first == sceneLayer) renderer_->setShown(j, shown);
   }
@@ -58,6 +65,10 @@ void Viewer::rebuildOverlays() {
   // Styles, order and the method are baked into the pieces: rebuild (Olinda: a fraction of a
   // second), keeping which layers are hidden.
   finishSelection();  // the selection job reads the layers
+  if (globe_) {
+    rebuildGlobeLayers();
+    return;
+  }
   std::vector<bool> hidden(scene_->layers.size(), false);
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (!renderer_->shown(j)) hidden[renderer_->overlaySources()[j].first] = true;
@@ -73,6 +84,30 @@ void Viewer::rebuildOverlays() {
     if (hidden[i]) setLayerShown(i, false);
   }
   outlines_.clear();
+  if (table_) table_->dirty = true;
+  selectionChanged();
+}
+
+void Viewer::rebuildGlobeLayers() {
+  // The globe layers again from the features as read (shared, not read again), each source layer
+  // with its style as edited; which scene layers are hidden stays. Each build is new to the
+  // renderer (GlobeLayer::serial): its tiles are built again, in the new colours and widths.
+  GlobeMode& g = *globe_;
+  std::set<std::size_t> hidden;
+  for (std::size_t j = 0; j < g.scene.layers.size(); ++j)
+    if (g.shown[j] == 0) hidden.insert(g.scene.layerFileIndex[j]);
+  for (scene::LoadedLayer& source : g.scene.sourceLayers) {
+    for (const scene::LayerDescription& d : description_->layers)
+      if (d.fileIndex == source.description.fileIndex) source.description = d;
+  }
+  g.scene.description.layers = description_->layers;
+  Diagnostics diagnostics;
+  scene::buildGlobeLayers(g.scene, diagnostics);
+  message(diagnostics);
+  g.shown.assign(g.scene.layers.size(), static_cast<char>(1));
+  for (std::size_t j = 0; j < g.scene.layers.size(); ++j)
+    if (hidden.contains(g.scene.layerFileIndex[j])) g.shown[j] = 0;
+  g.identified.reset();  // its hits index the old layers
   if (table_) table_->dirty = true;
   selectionChanged();
 }

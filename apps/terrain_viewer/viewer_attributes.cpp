@@ -74,10 +74,32 @@ std::optional<std::size_t> Viewer::fillLayerOf(std::size_t sceneLayer) const {
   return std::nullopt;
 }
 
-std::vector<std::string> Viewer::attributeNames(std::size_t overlayLayer) const {
+const std::vector<geo::Feature>* Viewer::featuresOf(std::size_t sceneLayer) const {
+  if (globe_) {
+    // The features every globe layer of this scene layer was built from (one list, shared).
+    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
+    if (drawn.empty()) return nullptr;
+    return &globe_->scene.layerFeatures[drawn.front()].all();
+  }
+  const std::optional<std::size_t> fill = fillLayerOf(sceneLayer);
+  return fill ? &renderer_->overlayLayers()[*fill].features() : nullptr;
+}
+
+std::vector<std::size_t> Viewer::globeLayersOf(std::size_t sceneLayer) const {
+  std::vector<std::size_t> out;
+  if (!globe_ || !description_ || sceneLayer >= description_->layers.size()) return out;
+  const std::size_t fileIndex = description_->layers[sceneLayer].fileIndex;
+  for (std::size_t j = 0; j < globe_->scene.layerFileIndex.size(); ++j)
+    if (globe_->scene.layerFileIndex[j] == fileIndex) out.push_back(j);
+  return out;
+}
+
+std::vector<std::string> Viewer::attributeNames(std::size_t sceneLayer) const {
   std::set<std::string> names;
-  for (const geo::Feature& f : renderer_->overlayLayers()[overlayLayer].features()) {
-    for (const auto& [key, value] : f.attributes) names.insert(key);
+  if (const std::vector<geo::Feature>* features = featuresOf(sceneLayer)) {
+    for (const geo::Feature& f : *features) {
+      for (const auto& [key, value] : f.attributes) names.insert(key);
+    }
   }
   return {names.begin(), names.end()};
 }
@@ -120,47 +142,61 @@ void Viewer::zoomToBox(glm::dvec3 lo, glm::dvec3 hi) {
   controller_->animateTo(framed, 1.0);
 }
 
-void Viewer::zoomToFeatures(std::size_t overlayLayer, const std::vector<std::size_t>& features) {
+void Viewer::zoomToFeatures(std::size_t sceneLayer, const std::vector<std::size_t>& features) {
   glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-  const std::vector<geo::Feature>& all = renderer_->overlayLayers()[overlayLayer].features();
+  const std::vector<geo::Feature>* drawn = featuresOf(sceneLayer);
+  if (drawn == nullptr) return;
+  const std::vector<geo::Feature>& all = *drawn;
+  // On the globe each point's longitude is unwrapped next to the previous point's, so data
+  // across ±180° gets its narrow box, not one around the world.
+  std::optional<double> previous;
+  const auto add = [&](glm::dvec2 v) {
+    if (globe_ && previous) v.x += 360.0 * std::round((*previous - v.x) / 360.0);
+    previous = v.x;
+    lo = glm::min(lo, v);
+    hi = glm::max(hi, v);
+  };
   for (const std::size_t f : features) {
     if (f >= all.size()) continue;
     for (const geo::Polygon& p : all[f].polygons) {
-      for (const glm::dvec2& v : p.outer) {
-        lo = glm::min(lo, v);
-        hi = glm::max(hi, v);
-      }
+      for (const glm::dvec2& v : p.outer) add(v);
     }
     for (const geo::LineString& l : all[f].lines) {
-      for (const glm::dvec2& v : l) {
-        lo = glm::min(lo, v);
-        hi = glm::max(hi, v);
-      }
+      for (const glm::dvec2& v : l) add(v);
     }
   }
   if (!(lo.x <= hi.x)) return;
+  if (globe_) {
+    // Longitude and latitude: framed from above in the free part of the window (a small
+    // feature with some ground around it, as in a projected frame).
+    const double grow = std::max({hi.x - lo.x, hi.y - lo.y, 50.0 / kMetresPerDegree}) * 0.1;
+    const glm::ivec2 fb = framebufferSize();
+    globe_->controller->home(lo.x - grow, std::max(lo.y - grow, -90.0), hi.x + grow, std::min(hi.y + grow, 90.0),
+                             glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
+    return;
+  }
   zoomToBox(glm::dvec3(lo, 0.0), glm::dvec3(hi, 0.0));
 }
 
 void Viewer::zoomToLayer(std::size_t sceneLayer) {
-  const std::optional<std::size_t> j = fillLayerOf(sceneLayer);
-  if (!j) return;
-  std::vector<std::size_t> every(renderer_->overlayLayers()[*j].features().size());
+  const std::vector<geo::Feature>* features = featuresOf(sceneLayer);
+  if (features == nullptr) return;
+  std::vector<std::size_t> every(features->size());
   for (std::size_t f = 0; f < every.size(); ++f) every[f] = f;
-  zoomToFeatures(*j, every);
+  zoomToFeatures(sceneLayer, every);
 }
 
 bool Viewer::setCategories(std::size_t sceneLayer, const std::string& attribute) {
-  const std::optional<std::size_t> fill = fillLayerOf(sceneLayer);
-  if (!fill) return false;
+  const std::vector<geo::Feature>* features = featuresOf(sceneLayer);
+  if (features == nullptr) return false;
   std::set<std::string> values;
-  for (const geo::Feature& f : renderer_->overlayLayers()[*fill].features()) {
+  for (const geo::Feature& f : *features) {
     const auto v = f.attributes.find(attribute);
     values.insert(v == f.attributes.end() ? std::string() : attributeText(v->second));
     if (values.size() > kMaxCategories) break;
   }
   if (values.size() > kMaxCategories) {
-    message(scene_->layers[sceneLayer].description.name + ": " + attribute + " has more than " +
+    message(description_->layers[sceneLayer].name + ": " + attribute + " has more than " +
                 std::to_string(kMaxCategories) + " values: too many to colour by category",
             true);
     return false;
@@ -189,23 +225,22 @@ bool Viewer::setCategories(std::size_t sceneLayer, const std::string& attribute)
 }
 
 void Viewer::openTable(std::size_t sceneLayer) {
-  const std::optional<std::size_t> j = fillLayerOf(sceneLayer);
-  if (!j) {
-    message("the layer '" + scene_->layers[sceneLayer].description.name + "' is not built: no table", true);
+  if (featuresOf(sceneLayer) == nullptr) {
+    message("the layer '" + description_->layers[sceneLayer].name + "' is not built: no table", true);
     return;
   }
   table_ = AttributeTable{};
   table_->sceneLayer = sceneLayer;
-  table_->overlayLayer = *j;
-  table_->columns = attributeNames(*j);
+  table_->overlayLayer = globe_ ? 0 : *fillLayerOf(sceneLayer);
+  table_->columns = attributeNames(sceneLayer);
   table_->dirty = true;
 }
 
 void Viewer::refreshTableRows() {
   AttributeTable& t = *table_;
-  const std::vector<geo::Feature>& features = renderer_->overlayLayers()[t.overlayLayer].features();
+  const std::vector<geo::Feature>& features = *featuresOf(t.sceneLayer);
   const std::string needle = lowerCase(t.search.data());
-  const std::set<std::size_t> lassoed = selectedFeatureSet(t.overlayLayer);
+  const std::set<std::size_t> lassoed = selectedFeatureSet(t.sceneLayer);
   t.rows.clear();
   for (std::size_t f = 0; f < features.size(); ++f) {
     if (t.onlySelected && !lassoed.contains(f) && !t.selectedRows.contains(f)) continue;
@@ -237,11 +272,22 @@ void Viewer::refreshTableRows() {
   t.dirty = false;
 }
 
-std::set<std::size_t> Viewer::selectedFeatureSet(std::size_t overlayLayer) const {
+std::set<std::size_t> Viewer::selectedFeatureSet(std::size_t sceneLayer) const {
   std::set<std::size_t> out;
-  if (!selected_) return out;
+  if (globe_) {
+    // Its fill's and its outline's selections, united (they index the same features).
+    if (!globe_->selected) return out;
+    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
+    for (const scene::GlobeLayerSelection& l : globe_->selected->layers) {
+      if (std::find(drawn.begin(), drawn.end(), l.layer) == drawn.end()) continue;
+      for (const overlay::FeatureSelection& f : l.features) out.insert(f.feature);
+    }
+    return out;
+  }
+  const std::optional<std::size_t> overlayLayer = fillLayerOf(sceneLayer);
+  if (!selected_ || !overlayLayer) return out;
   for (const scene::LayerSelection& l : selected_->layers) {
-    if (l.overlayLayer != overlayLayer) continue;
+    if (l.overlayLayer != *overlayLayer) continue;
     for (const overlay::FeatureSelection& f : l.features) out.insert(f.feature);
   }
   return out;
@@ -250,11 +296,11 @@ std::set<std::size_t> Viewer::selectedFeatureSet(std::size_t overlayLayer) const
 void Viewer::drawAttributeTable() {
   if (!table_) return;
   AttributeTable& t = *table_;
-  if (t.overlayLayer >= renderer_->overlayLayers().size()) {
+  if (featuresOf(t.sceneLayer) == nullptr) {
     table_.reset();
     return;
   }
-  const std::vector<geo::Feature>& features = renderer_->overlayLayers()[t.overlayLayer].features();
+  const std::vector<geo::Feature>& features = *featuresOf(t.sceneLayer);
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   const glm::dvec4 free = freeRegion();
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
@@ -266,7 +312,7 @@ void Viewer::drawAttributeTable() {
              viewport->WorkSize.y * 0.4F - ImGui::GetFrameHeight()),
       ImGuiCond_FirstUseEver);
   bool open = true;
-  const std::string title = "Attributes: " + scene_->layers[t.sceneLayer].description.name + "###attributes";
+  const std::string title = "Attributes: " + description_->layers[t.sceneLayer].name + "###attributes";
   if (!ImGui::Begin(title.c_str(), &open)) {
     ImGui::End();
     if (!open) table_.reset();
@@ -298,7 +344,7 @@ void Viewer::drawAttributeTable() {
   ImGui::SameLine();
   ImGui::BeginDisabled(t.selectedRows.empty());
   if (ImGui::Button("zoom to rows")) {
-    zoomToFeatures(t.overlayLayer, std::vector<std::size_t>(t.selectedRows.begin(), t.selectedRows.end()));
+    zoomToFeatures(t.sceneLayer, std::vector<std::size_t>(t.selectedRows.begin(), t.selectedRows.end()));
   }
   ImGui::SameLine();
   if (ImGui::Button("clear rows")) t.selectedRows.clear();
@@ -309,7 +355,7 @@ void Viewer::drawAttributeTable() {
   ImGui::TextDisabled("%zu of %zu features; click a row to select it (Ctrl: add), double-click to zoom", t.rows.size(),
                       features.size());
 
-  const std::set<std::size_t> lassoed = selectedFeatureSet(t.overlayLayer);
+  const std::set<std::size_t> lassoed = selectedFeatureSet(t.sceneLayer);
   const int columns = static_cast<int>(t.columns.size()) + 1;
   const ImGuiTableFlags flags = ImGuiTableFlags_Sortable | ImGuiTableFlags_Resizable | ImGuiTableFlags_ScrollX |
                                 ImGuiTableFlags_ScrollY | ImGuiTableFlags_RowBg | ImGuiTableFlags_BordersV |
@@ -355,7 +401,7 @@ void Viewer::drawAttributeTable() {
           } else {
             t.selectedRows = {f};
           }
-          if (ImGui::IsMouseDoubleClicked(ImGuiMouseButton_Left)) zoomToFeatures(t.overlayLayer, {f});
+          if (ImGui::IsMouseDoubleClicked(ImGuiMouseButton_Left)) zoomToFeatures(t.sceneLayer, {f});
         }
         ImGui::PopID();
         for (const std::string& c : t.columns) {
@@ -450,7 +496,7 @@ std::set<std::pair<std::size_t, std::size_t>> Viewer::highlightedFeatures() cons
       for (const overlay::FeatureSelection& f : l.features) out.emplace(l.overlayLayer, f.feature);
     }
   }
-  if (table_) {
+  if (table_ && !globe_) {
     for (const std::size_t f : table_->selectedRows) out.emplace(table_->overlayLayer, f);
   }
   return out;

@@ -393,6 +393,7 @@ void Viewer::drawGlobeUi() {
   drawCompass();
   drawStatusBar();
   drawLegend();
+  drawAttributeTable();
   if (settings_.showPanel) drawGlobePanel();
   if (settings_.showHud) drawGlobeHud();
   if (showHelp_) drawGlobeHelp(&showHelp_);
@@ -437,23 +438,16 @@ void Viewer::drawGlobePanel() {
       ImGui::SameLine();
       ImGui::Checkbox("labels", &showLabels_);
     }
-    for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-      ImGui::PushID(static_cast<int>(i));
-      const glm::vec4& c = g.scene.layers[i].color();
-      ImGui::ColorButton("##colour", ImVec4(c.x, c.y, c.z, 1.0F), ImGuiColorEditFlags_NoTooltip, ImVec2(font, font));
-      ImGui::SameLine();
-      bool on = g.shown[i] != 0;
-      if (ImGui::Checkbox(g.scene.layers[i].name().c_str(), &on)) g.shown[i] = static_cast<char>(on);
-      ImGui::PopID();
-    }
+    // Each scene layer as in a projected scene: shown, style, categories, labels, its table.
+    bool rebuild = false;
+    for (std::size_t i = 0; i < description_->layers.size(); ++i) rebuild = drawLayer(i) || rebuild;
+    if (rebuild) rebuildOverlays();
   }
   drawGlobeSelectionSection();
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped(
-      "Not on the globe yet: the attribute table, choosing colours by category or labels here, draping, fly "
-      "mode and exaggeration.");
+  ImGui::TextWrapped("Not on the globe yet: draping, the deferred lookup, fly mode and exaggeration.");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -527,13 +521,18 @@ json Viewer::globeState() const {
   for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
     const globe::GlobeLayer& l = g.scene.layers[i];
     const glm::vec4& c = l.color();
+    // Labels are kept per scene layer (the description's).
+    std::optional<std::string> labels;
+    for (std::size_t d = 0; d < description_->layers.size(); ++d) {
+      const auto set = labelSets_.find(d);
+      if (description_->layers[d].fileIndex == g.scene.layerFileIndex[i] && set != labelSets_.end())
+        labels = set->second.attribute;
+    }
     layers.push_back({{"name", l.name()},
                       {"shown", g.shown[i] != 0},
                       {"color", {c.x, c.y, c.z, c.w}},
                       {"mask_bit", g.scene.layerFileIndex[i]},
-                      {"labels", labelSets_.contains(g.scene.layerFileIndex[i])
-                                     ? json(labelSets_.at(g.scene.layerFileIndex[i]).attribute)
-                                     : json()},
+                      {"labels", labels ? json(*labels) : json()},
                       {"polygons", l.polygons().size()},
                       {"lines", l.lines().size()},
                       {"features", i < g.scene.layerFeatures.size() ? g.scene.layerFeatures[i].size() : 0U}});
@@ -543,6 +542,7 @@ json Viewer::globeState() const {
   return {{"scene", description_->path},
           {"windows", windowsJson()},
           {"legend", showLegend_},
+          {"table", tableJson()},
           {"mode", "globe"},
           {"frame", "globe"},
           {"globe_reason", g.scene.reason},
@@ -714,42 +714,6 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
           out << scene::jsonText(globe_->identified ? globe_->identified->toJson() : json(nullptr)) << "\n";
           if (!out) message(where + ": cannot write " + step.out, true);
           return static_cast<bool>(out);
-        } else if constexpr (std::is_same_v<Step, app::ToggleLayerStep> || std::is_same_v<Step, app::SetLayerStep>) {
-          // A scene layer: its fill and its outline.
-          GlobeMode& g = *globe_;
-          bool found = false;
-          for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-            const std::string& name = g.scene.layers[i].name();
-            if (name != step.layer && name != step.layer + " (outline)") continue;
-            found = true;
-            if constexpr (std::is_same_v<Step, app::ToggleLayerStep>) {
-              g.shown[i] = static_cast<char>(g.shown[i] == 0);
-            } else if (step.visible) {
-              g.shown[i] = static_cast<char>(*step.visible);
-            }
-          }
-          if (!found) {
-            message(where + ": no layer named '" + step.layer + "'", true);
-            return false;
-          }
-          if constexpr (std::is_same_v<Step, app::SetLayerStep>) {
-            if (step.color || step.opacity || step.width || step.outlineColor || step.outlineWidth)
-              notOnGlobe("Changing a layer's style");
-            if (step.colorAttribute) notOnGlobe("Colours by category");
-            if (step.labelAttribute) {
-              for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-                const std::string& name = g.scene.layers[i].name();
-                if (name == step.layer || name == step.layer + " (outline)") {
-                  setLabels(g.scene.layerFileIndex[i], *step.labelAttribute);
-                  break;
-                }
-              }
-            }
-          }
-          return true;
-        } else if constexpr (std::is_same_v<Step, app::TableStep>) {
-          notOnGlobe("The attribute table");
-          return true;
         } else if constexpr (std::is_same_v<Step, app::MethodStep>) {
           notOnGlobe("Overlay methods other than the stencil polyhedra (draping)");
           return true;

@@ -96,21 +96,12 @@ LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute
   return set;
 }
 
-bool Viewer::labelLayerShown(std::size_t sceneLayer) const {
-  if (!globe_) return layerShown(sceneLayer).value_or(false);
-  const GlobeMode& g = *globe_;
-  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-    if (g.scene.layerFileIndex[i] == sceneLayer && g.shown[i] != 0) return true;
-  }
-  return false;
-}
-
 void Viewer::setLabels(std::size_t sceneLayer, const std::string& attribute) {
   labelSets_.erase(sceneLayer);
   labelPlacer_.forget();
   if (attribute.empty()) return;
   if (globe_) {
-    labelSets_[sceneLayer] = globeLabels(sceneLayer, attribute);
+    labelSets_[sceneLayer] = globeLabels(description_->layers[sceneLayer].fileIndex, attribute);
     showLabels_ = true;
     return;
   }
@@ -138,7 +129,7 @@ void Viewer::drawLabels() {
   std::vector<app::LabelCandidate> candidates;
   std::vector<const std::string*> texts;
   for (auto& [sceneLayer, set] : labelSets_) {
-    if (!labelLayerShown(sceneLayer)) continue;
+    if (!layerShown(sceneLayer).value_or(false)) continue;
     if (!globe_ && set.exaggeration != exaggeration) {
       // The anchors' heights as drawn, once per exaggeration.
       set.heights.resize(set.labels.size());

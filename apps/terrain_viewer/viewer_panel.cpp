@@ -196,7 +196,17 @@ bool Viewer::drawLayer(std::size_t i) {
   if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
   if (!built) ImGui::EndDisabled();
   ImGui::SameLine();
-  const scene::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+  scene::LayerSummary summary;
+  if (globe_) {
+    // On the globe: what was read (the same LoadedLayer as a projected scene's).
+    for (const scene::LoadedLayer& source : globe_->scene.sourceLayers) {
+      if (source.description.fileIndex != layer.fileIndex) continue;
+      summary.features = source.features.size() + source.skippedFeatures;
+      summary.skippedReading = source.skippedFeatures;
+    }
+  } else {
+    summary = renderer_->layerSummary(*scene_, i);
+  }
   const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
   if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
     // Nothing is lost silently: the counts here, each feature named under Messages.
@@ -249,7 +259,7 @@ bool Viewer::drawLayer(std::size_t i) {
       rebuild = true;
     }
     ImGui::SameLine();
-    if (ImGui::ArrowButton("up", ImGuiDir_Down) && i + 1 < scene_->layers.size()) {
+    if (ImGui::ArrowButton("up", ImGuiDir_Down) && i + 1 < description_->layers.size()) {
       std::swap(layer.style.drawOrder, description_->layers[i + 1].style.drawOrder);
       if (layer.style.drawOrder == description_->layers[i + 1].style.drawOrder) ++layer.style.drawOrder;
       rebuild = true;
@@ -266,8 +276,7 @@ bool Viewer::drawCategories(std::size_t i) {
   // Colours by category: an attribute's values, each its colour (features with another value
   // keep the layer's colour).
   scene::LayerDescription& layer = description_->layers[i];
-  const std::optional<std::size_t> fill = fillLayerOf(i);
-  if (!fill) return false;
+  if (featuresOf(i) == nullptr) return false;
   bool rebuild = false;
   const std::string current = layer.style.colorAttribute.empty() ? "one colour" : "by " + layer.style.colorAttribute;
   ImGui::SetNextItemWidth(12.0F * ImGui::GetFontSize());
@@ -277,7 +286,7 @@ bool Viewer::drawCategories(std::size_t i) {
       layer.style.categories.clear();
       rebuild = true;
     }
-    for (const std::string& name : attributeNames(*fill)) {
+    for (const std::string& name : attributeNames(i)) {
       if (ImGui::Selectable(name.c_str(), name == layer.style.colorAttribute) && name != layer.style.colorAttribute) {
         rebuild = setCategories(i, name) || rebuild;
       }
@@ -296,14 +305,13 @@ bool Viewer::drawCategories(std::size_t i) {
 }
 
 void Viewer::drawLabelChoice(std::size_t i) {
-  const std::optional<std::size_t> fill = fillLayerOf(i);
-  if (!fill) return;
+  if (featuresOf(i) == nullptr) return;
   const auto current = labelSets_.find(i);
   const std::string shown = current == labelSets_.end() ? "no labels" : "labels: " + current->second.attribute;
   ImGui::SetNextItemWidth(12.0F * ImGui::GetFontSize());
   if (ImGui::BeginCombo("##labels", shown.c_str())) {
     if (ImGui::Selectable("no labels", current == labelSets_.end())) setLabels(i, "");
-    for (const std::string& name : attributeNames(*fill)) {
+    for (const std::string& name : attributeNames(i)) {
       if (ImGui::Selectable(name.c_str(), current != labelSets_.end() && current->second.attribute == name)) {
         setLabels(i, name);
       }

@@ -76,8 +76,8 @@ struct StepRunner {
   const std::string& where;  ///< the script and the step, for messages
 
   std::optional<std::size_t> sceneLayer(const std::string& name) const {
-    for (std::size_t i = 0; i < v.scene_->layers.size(); ++i) {
-      if (v.scene_->layers[i].description.name == name) return i;
+    for (std::size_t i = 0; v.description_ && i < v.description_->layers.size(); ++i) {
+      if (v.description_->layers[i].name == name) return i;
     }
     v.message(where + ": no layer named '" + name + "'", true);
     return std::nullopt;
@@ -225,7 +225,7 @@ struct StepRunner {
     v.refreshTableRows();
     if (step.select) {
       t.selectedRows.clear();
-      const std::vector<geo::Feature>& features = v.renderer_->overlayLayers()[t.overlayLayer].features();
+      const std::vector<geo::Feature>& features = *v.featuresOf(t.sceneLayer);
       for (const std::int64_t fid : *step.select) {
         const auto f =
             std::find_if(features.begin(), features.end(), [&](const geo::Feature& x) { return x.fid == fid; });
@@ -240,7 +240,7 @@ struct StepRunner {
       v.zoomToLayer(*i);
       v.animating_ = true;
     } else if (step.zoomTo == "rows") {
-      v.zoomToFeatures(t.overlayLayer, std::vector<std::size_t>(t.selectedRows.begin(), t.selectedRows.end()));
+      v.zoomToFeatures(t.sceneLayer, std::vector<std::size_t>(t.selectedRows.begin(), t.selectedRows.end()));
       v.animating_ = true;
     }
     return true;

@@ -102,12 +102,17 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   return id;
 }
 
-nlohmann::json Viewer::firstRows(const AttributeTable& table) const {
+nlohmann::json Viewer::tableJson() const {
+  if (!table_) return nullptr;
   // The fids of the first rows as shown (sorted, searched): what a test of the table checks.
   nlohmann::json fids = nlohmann::json::array();
-  const std::vector<geo::Feature>& features = renderer_->overlayLayers()[table.overlayLayer].features();
-  for (std::size_t r = 0; r < table.rows.size() && r < 20; ++r) fids.push_back(features[table.rows[r]].fid);
-  return fids;
+  if (const std::vector<geo::Feature>* features = featuresOf(table_->sceneLayer)) {
+    for (std::size_t r = 0; r < table_->rows.size() && r < 20; ++r) fids.push_back((*features)[table_->rows[r]].fid);
+  }
+  return {{"layer", description_->layers[table_->sceneLayer].name},
+          {"rows", table_->rows.size()},
+          {"first_rows", fids},
+          {"selected_rows", table_->selectedRows.size()}};
 }
 
 nlohmann::json Viewer::measureJson() const {
@@ -207,11 +212,7 @@ nlohmann::json Viewer::state() const {
       {"labels_placed", labelsPlaced_},
       {"measure", measureJson()},
       {"legend", showLegend_},
-      {"table", table_ ? nlohmann::json({{"layer", scene_->layers[table_->sceneLayer].description.name},
-                                         {"rows", table_->rows.size()},
-                                         {"first_rows", firstRows(*table_)},
-                                         {"selected_rows", table_->selectedRows.size()}})
-                       : nlohmann::json()},
+      {"table", tableJson()},
       {"redo_steps", redo_.size()},
       {"compass_angle", compassAngle_},
       {"scale_bar_m", scaleBarMetres_},

@@ -692,5 +692,91 @@ TEST_F(ViewerGlobeTest, LassoSelectsOnTheGlobe) {
   }
 }
 
+TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  // The panel's layer tools on the globe, through the projected scene's code (issue 41): a new
+  // colour and opacity, colours by category, the attribute table (search, a row selected, zoom to
+  // it from elsewhere), and hiding the layer. Each drawn exactly: the layer's new colour over the
+  // ground inside the box, nothing changed outside it.
+  ASSERT_TRUE(runViewer(
+      "styles",
+      json::array({{{"wait", 2}},
+                   {{"action", "overlays"}, {"on", false}},
+                   {{"action", "screenshot"}, {"path", "plain.png"}, {"ui", false}},
+                   {{"action", "overlays"}, {"on", true}},
+                   {{"action", "set_layer"}, {"layer", "fiji"}, {"color", "#0000ff"}, {"opacity", 0.75}},
+                   {{"wait", 2}},
+                   {{"action", "save_state"}, {"path", "blue.json"}},
+                   {{"action", "screenshot"}, {"path", "blue.png"}, {"ui", false}},
+                   {{"action", "set_layer"}, {"layer", "fiji"}, {"color_attribute", "name"}},
+                   {{"wait", 2}},
+                   {{"action", "screenshot"}, {"path", "category.png"}, {"ui", false}},
+                   {{"action", "save_state"}, {"path", "category.json"}},
+                   {{"action", "set_layer"}, {"layer", "fiji"}, {"visible", false}},
+                   {{"wait", 2}},
+                   {{"action", "screenshot"}, {"path", "hidden.png"}, {"ui", false}},
+                   {{"action", "set_layer"}, {"layer", "fiji"}, {"visible", true}},
+                   {{"globe_camera", {{"lon", 10.0}, {"lat", 45.0}, {"distance", 2e6}, {"heading", 0}, {"pitch", 90}}}},
+                   {{"wait", 2}},
+                   {{"action", "table"}, {"layer", "fiji"}, {"search", "fiji"}, {"select", {0}}, {"zoom_to", "rows"}},
+                   {{"wait", 2}},
+                   {{"action", "save_state"}, {"path", "table.json"}},
+                   {{"action", "table"}, {"layer", "fiji"}, {"search", "no such name"}},
+                   {{"action", "save_state"}, {"path", "table_empty.json"}}})));
+  const gfx::Image8 plain = *gfx::readImage8((dir_ / "plain.png").string());
+  const gfx::ImageFloat depth = *gfx::readImageFloat((dir_ / "plain_depth.tiff").string());
+  const glm::dmat4 inverse = glm::inverse(matrix(readJson("plain_camera.json")["view_proj_ecef"]));
+  // Each shot against the plain frame: inside the box `colour` at `opacity` over it, outside equal.
+  const auto check = [&](const std::string& name, const glm::dvec3& colour, double opacity) {
+    const gfx::Image8 shot = *gfx::readImage8((dir_ / (name + ".png")).string());
+    ASSERT_EQ(shot.pixels.size(), plain.pixels.size());
+    std::size_t inside = 0, outside = 0, wrongInside = 0, wrongOutside = 0;
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x);
+        if (!(depth.pixels[i] > 0.0F)) continue;
+        const globe::Geodetic g = globe::toGeodetic(unproject(inverse, x, y, depth.pixels[i]));
+        const int c = classify(g.lon, g.lat);
+        if (c == 0) continue;
+        double worst = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          const double under = plain.pixels[3 * i + static_cast<std::size_t>(k)];
+          const double expected = c > 0 ? opacity * 255.0 * colour[k] + (1.0 - opacity) * under : under;
+          worst = std::max(worst, std::abs(shot.pixels[3 * i + static_cast<std::size_t>(k)] - expected));
+        }
+        (c > 0 ? inside : outside) += 1;
+        (c > 0 ? wrongInside : wrongOutside) += worst > (c > 0 ? 2.5 : 1.0) ? 1U : 0U;
+      }
+    }
+    std::printf("%s: %zu pixels inside (%zu wrong), %zu outside (%zu wrong)\n", name.c_str(), inside, wrongInside,
+                outside, wrongOutside);
+    EXPECT_GT(inside, 20000U) << name;
+    EXPECT_GT(outside, 5000U) << name;
+    EXPECT_EQ(wrongInside, 0U) << name;
+    EXPECT_EQ(wrongOutside, 0U) << name;
+  };
+  check("blue", {0.0, 0.0, 1.0}, 0.75);
+  // One value ("Fiji box"): the first colour of the categories' palette.
+  const json category = readJson("category.json");
+  check("category", {0.12, 0.47, 0.71}, 0.75);
+  check("hidden", {0.0, 0.0, 0.0}, 0.0);
+  EXPECT_NEAR(readJson("blue.json")["layers"][0]["color"][2].get<double>(), 1.0, 1e-6);
+  EXPECT_EQ(category["layers"].size(), 1U);
+
+  // The table: searched, the row selected, and the camera framing it from Europe.
+  const json table = readJson("table.json");
+  ASSERT_TRUE(table["table"].is_object()) << table.dump(1);
+  EXPECT_EQ(table["table"]["layer"], "fiji");
+  EXPECT_EQ(table["table"]["rows"], 1);
+  EXPECT_EQ(table["table"]["first_rows"], json::array({0}));
+  EXPECT_EQ(table["table"]["selected_rows"], 1);
+  EXPECT_NEAR(unwrap(table["globe"]["target"]["lon"].get<double>()), 180.0, 1.0);
+  EXPECT_NEAR(table["globe"]["target"]["lat"].get<double>(), -15.0, 1.0);
+  EXPECT_EQ(readJson("table_empty.json")["table"]["rows"], 0);
+  // None of these tools says it is not on the globe.
+  for (const json& m : table["messages"])
+    EXPECT_EQ(m.get<std::string>().find("not available on the globe"), std::string::npos) << m;
+}
+
 }  // namespace
 }  // namespace gis::test
