@@ -903,16 +903,17 @@ std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::siz
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
   const GlobeLine& line = lines_[j];
   const LonLatRect rect = key.rect();
-  // The tile widened by the reach and a post.
+  // A box of points widened by the reach and a post, in longitude by the parallel's length at the
+  // highest latitude a point within reach can have: the box's own, not the tile's. (Widened by the
+  // tile's, every tile touching a pole reached every longitude: the eight tiles around a pole each
+  // drew every line of their latitudes.)
   const double dLat = (reach + 1.0) / 110000.0 + key.postStep();
-  const double high = std::max(std::abs(rect.south), std::abs(rect.north)) + dLat;
-  const bool polar = high >= 89.9;
-  const double dLon = polar ? 360.0 : dLat / std::cos(high * kDegree);
-  const LonLatRect window = rect.expanded(dLon, dLat);
   const auto meets = [&](double west, double south, double east, double north) {
+    const double high = std::max(std::abs(south), std::abs(north)) + dLat;
+    const double dLon = high >= 89.9 ? 360.0 : dLat / std::cos(high * kDegree);
     for (int turn = -1; turn <= 1; ++turn) {
-      if (west <= window.east + 360.0 * turn && east >= window.west + 360.0 * turn && south <= window.north &&
-          north >= window.south)
+      if (west - dLon <= rect.east + 360.0 * turn && east + dLon >= rect.west + 360.0 * turn &&
+          south - dLat <= rect.north && north + dLat >= rect.south)
         return true;
     }
     return false;
@@ -1013,7 +1014,7 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 
 std::uint64_t GlobeLayer::digestForCache() const {
   // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 1;
+  constexpr std::uint64_t kBuilderVersion = 2;
   std::vector<std::uint64_t> parts{kBuilderVersion};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};

@@ -405,6 +405,37 @@ TEST(GlobeLines, GeneralisedFromAfarAndWholeUpClose) {
   EXPECT_GT(insideCount, 0u);
 }
 
+TEST(GlobeLines, TilesAroundAPoleDrawOnlyTheLinesNearThem) {
+  // Rivers of Siberia (60° N, 100° E) and of Alaska (64° N, 150° W), 10 km wide, and one across
+  // the pole's cap (89.95° N). The eight level-2 tiles around the north pole (45° × 45°, up to
+  // 90° N) each drew every line of their latitudes: the window was widened by the tile's highest
+  // latitude, the pole's. Now a tile draws a line only where it passes within reach; the line
+  // across the cap is near every one of them.
+  GlobeLayerOptions options;
+  options.lineWidthMetres = 10000.0;
+  Result<GlobeLayer> layer =
+      GlobeLayer::build("rivers",
+                        {lineFeature({{100.0, 60.0}, {100.5, 60.3}, {101.0, 60.5}}),
+                         lineFeature({{-150.0, 64.0}, {-149.5, 64.2}}), lineFeature({{-20.0, 89.95}, {160.0, 89.95}})},
+                        glm::vec4(1.0F), options);
+  ASSERT_TRUE(layer.ok());
+  ASSERT_EQ(layer->lines().size(), 3u);
+  std::array<int, 3> tiles{};
+  for (int x = 0; x < 8; ++x) {
+    const TileKey key{2, x, 3};
+    for (std::size_t j = 0; j < 3; ++j) {
+      if (!layer->lineRunsIn(j, key, 5000.0).empty()) ++tiles[j];
+    }
+    // Siberia lies in the tile of 90°–135° E only, Alaska in that of 180°–135° W.
+    const LonLatRect r = key.rect();
+    EXPECT_EQ(!layer->lineRunsIn(0, key, 5000.0).empty(), r.west <= 100.0 && 101.0 <= r.east) << x;
+    EXPECT_EQ(!layer->lineRunsIn(1, key, 5000.0).empty(), r.west <= -150.0 && -149.5 <= r.east) << x;
+  }
+  EXPECT_EQ(tiles[0], 1);
+  EXPECT_EQ(tiles[1], 1);
+  EXPECT_EQ(tiles[2], 8) << "a line across the pole's cap is within reach of every tile around it";
+}
+
 /// The depth buffer of the bare ellipsoid for a view, as the GPU would leave it (reversed-Z).
 std::vector<float> ellipsoidDepth(const GlobeView& view) {
   const glm::dmat4 toClip = view.eyeViewProj(), inverse = glm::inverse(toClip);
