@@ -232,6 +232,47 @@ GlobePose GlobeCameraController::moved(const GlobePose& base, double x, double y
   return q;
 }
 
+void GlobeCameraController::fly(const glm::dvec3& move, double seconds) {
+  if (!finite(move) || !(seconds > 0.0) || !std::isfinite(seconds)) return;
+  const double speed =
+      std::max(settings_.minFlySpeed, settings_.flySpeedPerSecond * std::max(heightAboveGround(), 0.0));
+  const double step = speed * seconds;
+  // Over the ground: along the heading (forward) and across it (right), in the target's tangent plane.
+  const double forward = std::clamp(move.y, -1.0, 1.0) * step, right = std::clamp(move.x, -1.0, 1.0) * step;
+  const double east = forward * std::sin(pose_.heading) + right * std::cos(pose_.heading);
+  const double north = forward * std::cos(pose_.heading) - right * std::sin(pose_.heading);
+  GlobePose p = moved(pose_, east, north, pose_.distance, true);
+  if (move.z != 0.0) {
+    const double height = globe::toGeodetic(frameOf(p).eye).h;
+    p = withEyeHeight(p, height + std::clamp(move.z, -1.0, 1.0) * step);
+  }
+  accept(limited(p));
+}
+
+void GlobeCameraController::look(double dHeading, double dPitch) {
+  if (!std::isfinite(dHeading) || !std::isfinite(dPitch)) return;
+  const glm::dvec3 eye = frameOf(pose_).eye;
+  GlobePose p = pose_;
+  p.heading = std::remainder(p.heading + dHeading, 2.0 * std::numbers::pi);
+  p.pitch = std::clamp(p.pitch + dPitch, settings_.minPitch, std::numbers::pi / 2.0);
+  // The target that puts the eye back where it was: along the new direction, taken in the frame
+  // of the target found so far (a few rounds: the frame turns little over the distance); then the
+  // ground point that direction meets, when it meets the ground, at its distance.
+  for (int round = 0; round < 6; ++round) {
+    const Frame f = frameOf(p);
+    const globe::Geodetic t = globe::toGeodetic(eye + p.distance * f.forward);
+    p.target = {wrapLon(t.lon), t.lat, t.h};
+    if (round < 3) continue;
+    const std::optional<glm::dvec3> hit = groundPointAtNdc(p, glm::dvec2(0.0), 1.0);
+    if (!hit) break;
+    const globe::Geodetic g = globe::toGeodetic(*hit);
+    p.target = {wrapLon(g.lon), g.lat, groundHeight(g.lon, g.lat)};
+    p.distance = glm::length(*hit - eye);
+  }
+  p.target.h = groundHeight(p.target.lon, p.target.lat);
+  accept(limited(p));
+}
+
 std::optional<GlobePose> GlobeCameraController::place(const GlobePose& base, const glm::dvec3& point,
                                                       const glm::dvec2& ndc, double aspect, const Hold& hold,
                                                       bool carry) const {

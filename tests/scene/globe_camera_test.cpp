@@ -304,6 +304,51 @@ TEST(GlobeCamera, OrbitKeepsTheTarget) {
   std::printf("orbit: target off the centre by at most %.2e px\n", maxError);
 }
 
+TEST(GlobeCamera, FlyMovesTheEyeAlongTheHeadingAndLookTurnsAboutIt) {
+  // Over the ellipsoid (no ground), about 1,000 m up at 45° N, heading 60°.
+  GlobeCameraController c(nullptr);
+  c.setPose(poseAt(10.0, 45.0, 2000.0, 60.0 * kDeg, 30.0 * kDeg));
+  const double height = c.heightAboveGround();
+  ASSERT_NEAR(height, 1000.0, 1.0);  // the ellipsoid curves away under the eye 1.7 km off the target
+  // Forward for a second: the eye goes about its height (flySpeedPerSecond 1) along the heading,
+  // level; heading, pitch and distance stay.
+  const glm::dvec3 eye0 = c.eye();
+  const glm::dmat3 enu = globe::enuBasis(c.target().lon, c.target().lat);
+  c.fly({0.0, 1.0, 0.0}, 1.0);
+  expectSane(c, "fly");
+  const glm::dvec3 step = c.eye() - eye0;
+  const glm::dvec3 along = std::sin(60.0 * kDeg) * enu[0] + std::cos(60.0 * kDeg) * enu[1];
+  EXPECT_NEAR(glm::length(step), height, 0.01 * height);
+  EXPECT_GT(glm::dot(step, along), 0.999 * glm::length(step));
+  EXPECT_NEAR(c.heightAboveGround(), height, 0.5);
+  EXPECT_NEAR(c.pitch(), 30.0 * kDeg, 1e-9);
+  EXPECT_NEAR(c.distance(), 2000.0, 1e-6);
+  // Right: across the heading; up: higher by the speed (the height's) times the seconds.
+  const glm::dvec3 eye1 = c.eye();
+  c.fly({1.0, 0.0, 0.0}, 0.5);
+  const glm::dvec3 across = std::cos(60.0 * kDeg) * enu[0] - std::sin(60.0 * kDeg) * enu[1];
+  EXPECT_GT(glm::dot(glm::normalize(c.eye() - eye1), across), 0.999);
+  const double before = c.heightAboveGround();
+  c.fly({0.0, 0.0, 1.0}, 0.25);
+  EXPECT_NEAR(c.heightAboveGround(), 1.25 * before, 1e-3 * before);
+  // Down as far as it goes: the eye stops at minHeight.
+  for (int i = 0; i < 200; ++i) c.fly({0.0, 0.0, -1.0}, 1.0);
+  EXPECT_NEAR(c.heightAboveGround(), c.settings().minHeight, 1e-6);
+  // Look: the view turns about the eye, which stays; the target is on the ground ahead.
+  c.setPose(poseAt(-170.0, -30.0, 3000.0, 0.0, 40.0 * kDeg));
+  const glm::dvec3 eye2 = c.eye();
+  c.look(0.5, -0.2);
+  expectSane(c, "look");
+  EXPECT_LT(glm::length(c.eye() - eye2), 1e-3);
+  EXPECT_NEAR(c.heading(), 0.5, 1e-9);
+  EXPECT_NEAR(c.pitch(), 40.0 * kDeg - 0.2, 1e-9);
+  EXPECT_NEAR(globe::toGeodetic(globe::toEcef(c.target())).h, 0.0, 1e-6);
+  // Turning all the way round comes back to the same view.
+  for (int i = 0; i < 8; ++i) c.look(kPi / 4.0, 0.0);
+  EXPECT_LT(glm::length(c.eye() - eye2), 1e-3);
+  EXPECT_NEAR(std::remainder(c.heading() - 0.5, 2.0 * kPi), 0.0, 1e-9);
+}
+
 TEST(GlobeCamera, NorthUpPointsNorthUp) {
   for (const double pitch : {kPi / 2.0, 0.9, 0.2}) {
     GlobeCameraController c(&hills());

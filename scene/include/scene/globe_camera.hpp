@@ -23,6 +23,8 @@ struct GlobeCameraSettings {
   double maxHeight = 5e7;                            ///< metres: the eye never goes higher above the ellipsoid
   double zoomPerStep = 0.8;                          ///< factor on the eye's height above the ground per zoom step
   double minPitch = 5.0 * std::numbers::pi / 180.0;  ///< radians below the horizontal: orbit stops above the horizon
+  double flySpeedPerSecond = 1.0;                    ///< fly: fraction of the eye's height above the ground per second
+  double minFlySpeed = 5.0;  ///< fly: m/s near the ground, where the height-based speed vanishes
 };
 
 /// Where the camera is: it looks at `target` (on the ground) from `distance` metres away, along the
@@ -84,6 +86,16 @@ class GlobeCameraController {
   void setHeading(double heading);
   /// Heading 0: north up on screen (at a pole: along the frame GlobePose describes).
   void northUp() { setHeading(0.0); }
+  /// Fly (the viewer's WASD, QE): moves the eye by `move` = (right, forward, up), each in [−1, 1],
+  /// for `seconds`, at flySpeedPerSecond × its height above the ground per second (at least
+  /// minFlySpeed), as a projected frame's fly does. Forward and right move the eye and the target
+  /// together over the ground (along the heading and across it; heading, pitch and distance
+  /// kept); up raises the eye (down lowers it, to minHeight above the ground at most).
+  void fly(const glm::dvec3& move, double seconds);
+  /// Fly: turns the view about the eye (heading += dHeading clockwise, pitch += dPitch looking
+  /// more steeply down, within [minPitch, π/2]); the eye stays where it is and the target is the
+  /// ground point the eye then looks at from the same distance.
+  void look(double dHeading, double dPitch);
 
   /// The view to draw with: near plane from the eye's height above the ground under it, up vector
   /// keeping the horizon level (the target's local up projected on the screen; the heading's
