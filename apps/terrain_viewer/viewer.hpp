@@ -200,6 +200,7 @@ struct GlobeMode {
   std::optional<GlobeIdentified> identified;
   std::optional<globe::Geodetic> cursor;   ///< under the cursor in the last frame
   std::set<std::string> saidNotAvailable;  ///< projected-only tools asked for (said once each)
+  bool fly = false;                        ///< fly mode (F): WASD/QE move the eye, drags turn the view about it
   /// The DEM's highest height above the ellipsoid: how far a lasso's volume reaches
   /// (globe::lassoIn).
   double maxGroundHeight = 9000.0;
@@ -473,7 +474,7 @@ class Viewer {
   /// Home on the globe: the scene's camera, else its data's extent framed.
   void globeHome();
   void drawGlobe();
-  void handleGlobeInput(const InputFrame& in);
+  void handleGlobeInput(double seconds, const InputFrame& in);
   void globeKeyPressed(int key, const app::Modifiers& modifiers);
   /// Says once that a projected-only tool is not on the globe yet; nothing else happens.
   void notOnGlobe(const std::string& tool);

@@ -37,6 +37,7 @@ using nlohmann::json;
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
 /// Orbit (right drag, Ctrl+left drag): radians of heading and pitch per pixel.
 constexpr double kOrbitPerPixel = 0.005;
+constexpr double kLookPerPixel = 0.003;  ///< fly: radians the view turns per pixel dragged (a projected frame's)
 /// Arrow keys: heading and pitch steps, radians.
 constexpr double kArrowHeading = 10.0 * kRadiansPerDegree;
 constexpr double kArrowPitch = 5.0 * kRadiansPerDegree;
@@ -83,6 +84,7 @@ void drawGlobeHelp(bool* open) {
       {"H / Home", "home view"},
       {"N", "north up (or click the compass)"},
       {"arrows", "turn (left, right) and tilt (up, down)"},
+      {"F", "fly on/off: W A S D move, Q E down / up, Shift faster, drag to look"},
       {"Page Up / Page Down", "zoom in / out at the centre"},
       {"O", "all vector layers on/off"},
       {"P / U", "panel / HUD on/off"},
@@ -274,7 +276,7 @@ std::optional<GlobeIdentified> Viewer::identifyOnGlobe(const glm::dvec2& pixel) 
   return id;
 }
 
-void Viewer::handleGlobeInput(const InputFrame& in) {
+void Viewer::handleGlobeInput(double seconds, const InputFrame& in) {
   GlobeMode& g = *globe_;
   scene::GlobeCameraController& c = *g.controller;
   const glm::ivec2 fb = framebufferSize();
@@ -301,7 +303,11 @@ void Viewer::handleGlobeInput(const InputFrame& in) {
     if (dragStarts) dragged_ = true;
     const bool orbit =
         (in.right && rightDown_) || (in.middle && middleDown_) || (leftDrags && dragged_ && in.modifiers.ctrl);
-    if (orbit) {
+    if (g.fly && (orbit || (leftDrags && dragged_))) {
+      // Fly: every drag turns the view about the eye (as a projected frame's fly does).
+      const glm::dvec2 move = dragStarts ? pixel - pressCursor_ : pixel - last;
+      if (move != glm::dvec2(0.0)) c.look(move.x * kLookPerPixel, move.y * kLookPerPixel);
+    } else if (orbit) {
       const glm::dvec2 move = dragStarts ? pixel - pressCursor_ : pixel - last;
       if (move != glm::dvec2(0.0)) c.orbit(move.x * kOrbitPerPixel, move.y * kOrbitPerPixel);
     } else if (leftDrags && dragged_) {
@@ -326,6 +332,13 @@ void Viewer::handleGlobeInput(const InputFrame& in) {
   rightDown_ = in.right;
   middleDown_ = in.middle;
   lastPixel_ = in.cursor;
+  if (!in.uiKeyboard && g.fly) {
+    // The keys of a projected frame's fly: WASD over the ground, Q and E down and up, Shift faster.
+    auto key = [&](int k) { return std::find(in.held.begin(), in.held.end(), k) != in.held.end() ? 1.0 : 0.0; };
+    const glm::dvec3 move(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_W) - key(GLFW_KEY_S),
+                          key(GLFW_KEY_E) - key(GLFW_KEY_Q));
+    if (move != glm::dvec3(0.0)) c.fly(move * (in.modifiers.shift ? 4.0 : 1.0), seconds);
+  }
   if (!in.uiKeyboard) {
     for (const InputFrame::KeyPress& k : in.pressed) globeKeyPressed(k.key, k.modifiers);
   }
@@ -378,7 +391,8 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
       c.zoomToCursor(-1.0, glm::dvec2(fb) * 0.5, fb);
       break;
     case GLFW_KEY_F:
-      notOnGlobe("Fly mode (F)");
+      g.fly = !g.fly;
+      message(g.fly ? "fly: W A S D move, Q E down and up, Shift faster, drag to look" : "orbit");
       break;
     default:
       sharedKeyPressed(key, modifiers);
@@ -447,7 +461,7 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: draping, the deferred lookup, fly mode and exaggeration.");
+  ImGui::TextWrapped("Not on the globe yet: draping, the deferred lookup and exaggeration.");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -544,6 +558,7 @@ json Viewer::globeState() const {
           {"legend", showLegend_},
           {"table", tableJson()},
           {"mode", "globe"},
+          {"camera_mode", g.fly ? "fly" : "orbit"},
           {"frame", "globe"},
           {"globe_reason", g.scene.reason},
           {"globe",

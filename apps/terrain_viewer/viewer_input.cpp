@@ -221,8 +221,9 @@ bool Viewer::needsFrame() const {
       moving_ || busy_ || animating_) {
     return true;
   }
-  // Fly keys held move the camera every frame.
-  if (!controller_ || controller_->mode() != scene::CameraController::Mode::Fly) return false;
+  // Fly keys held move the camera every frame (in either frame).
+  const bool flying = globe_ ? globe_->fly : controller_ && controller_->mode() == scene::CameraController::Mode::Fly;
+  if (!flying) return false;
   for (const int k : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E}) {
     if (keyDown(k)) return true;
   }
@@ -242,7 +243,7 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
   if ((in.left && !leftDown_) || (in.right && !rightDown_) || (in.middle && !middleDown_) || !in.pressed.empty())
     notice_.reset();
   if (globe_) {
-    handleGlobeInput(in);
+    handleGlobeInput(seconds, in);
     return;
   }
   const bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
