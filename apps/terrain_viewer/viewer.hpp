@@ -369,6 +369,9 @@ class Viewer {
   const std::vector<std::vector<glm::dvec3>>& outlineOf(std::size_t overlayLayer, std::size_t feature);
   /// The highlighted features' own outlines over the scene, hidden parts left out.
   void drawHighlights();
+  /// On the globe: the identified, lasso-selected and table-selected features' outlines
+  /// (outlines_ is then kept per scene layer and feature).
+  void drawGlobeHighlights();
   /// The last frame's depth (top row first), read once per frame.
   const std::vector<float>& frameDepth();
   /// Frame (or, on the globe, ECEF) coordinates → clip coordinates of the frame drawn.

@@ -582,6 +582,15 @@ void Viewer::drawLifted(const std::vector<glm::dvec3>& path, ImU32 colour, float
 }
 
 std::vector<glm::dvec3> Viewer::liftPath(const std::vector<glm::dvec2>& points, bool closed) const {
+  if (globe_) {
+    // Longitude and latitude: along geodesics, at half the DEM's post spacing (at least 10 m),
+    // on the ground.
+    const double step =
+        std::max(10.0, 0.5 * (globe_->scene.heights ? globe_->scene.heights->step() : 0.01) * kMetresPerDegree);
+    std::vector<glm::dvec3> path;
+    for (const glm::dvec2& p : scene::geodesicPath(points, closed, step)) path.push_back(measurePointPosition(p));
+    return path;
+  }
   // Densified to half the DEM's post spacing, so the path follows the relief as drawn.
   const terrain::TerrainGrid& grid = scene_->quadtree->grid();
   const double step = grid.width > 0 ? 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y)) : 15.0;
@@ -605,7 +614,81 @@ void Viewer::drawGroundPath(const std::vector<glm::dvec2>& points, ImU32 colour,
   drawLifted(liftPath(points, false), colour, width);
 }
 
+void Viewer::drawGlobeHighlights() {
+  // As in a projected scene (drawHighlights): the identified features in cyan, the lasso's and
+  // the table's in the highlight colour, each outline as wide as the feature is large on screen,
+  // its rings along geodesics on the ground (kept per scene layer and feature).
+  const GlobeMode& g = *globe_;
+  std::set<std::pair<std::size_t, std::size_t>> features, identified;
+  const auto sceneLayerOfFile = [&](std::size_t fileIndex) -> std::optional<std::size_t> {
+    for (std::size_t i = 0; i < description_->layers.size(); ++i)
+      if (description_->layers[i].fileIndex == fileIndex) return i;
+    return std::nullopt;
+  };
+  if (g.identified) {
+    for (const Identified::Hit& hit : g.identified->hits) {
+      for (std::size_t i = 0; i < description_->layers.size(); ++i) {
+        if (description_->layers[i].name != hit.layer) continue;
+        features.emplace(i, hit.feature);
+        identified.emplace(i, hit.feature);
+      }
+    }
+  }
+  if (g.selected) {
+    for (const scene::GlobeLayerSelection& l : g.selected->layers) {
+      const std::optional<std::size_t> i =
+          l.layer < g.scene.layerFileIndex.size() ? sceneLayerOfFile(g.scene.layerFileIndex[l.layer]) : std::nullopt;
+      if (!i) continue;
+      for (const overlay::FeatureSelection& f : l.features) features.emplace(*i, f.feature);
+    }
+  }
+  if (table_) {
+    for (const std::size_t f : table_->selectedRows) features.emplace(table_->sceneLayer, f);
+  }
+  highlightedCount_ = features.size();
+  if (features.empty() || !target_) return;
+  const ImU32 identifiedColour = IM_COL32(40, 230, 255, 255);
+  const ImU32 selectedColour =
+      ImGui::ColorConvertFloat4ToU32(ImVec4(highlight_.color.x, highlight_.color.y, highlight_.color.z, 1.0F));
+  const glm::dmat4 viewProj = screenViewProj();
+  const glm::dvec2 size(target_->width(), target_->height());
+  for (const auto& f : features) {
+    auto cached = outlines_.find(f);
+    if (cached == outlines_.end()) {
+      std::vector<std::vector<glm::dvec3>> paths;
+      const std::vector<geo::Feature>* all = featuresOf(f.first);
+      if (all != nullptr && f.second < all->size()) {
+        const geo::Feature& feature = (*all)[f.second];
+        for (const geo::Polygon& p : feature.polygons) {
+          paths.push_back(liftPath(p.outer, true));
+          for (const geo::Ring& h : p.holes) paths.push_back(liftPath(h, true));
+        }
+        for (const geo::LineString& l : feature.lines) paths.push_back(liftPath(l, false));
+      }
+      cached = outlines_.emplace(f, std::move(paths)).first;
+    }
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const std::vector<glm::dvec3>& path : cached->second) {
+      for (const glm::dvec3& p : path) {
+        const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
+        if (!(clip.w > 0.0)) continue;
+        const glm::dvec2 pixel((clip.x / clip.w * 0.5 + 0.5) * size.x, (0.5 - clip.y / clip.w * 0.5) * size.y);
+        lo = glm::min(lo, pixel);
+        hi = glm::max(hi, pixel);
+      }
+    }
+    const float width = outlineWidthFor(hi.x >= lo.x ? glm::length(hi - lo) : 0.0);
+    if (width <= 0.0F) continue;
+    for (const std::vector<glm::dvec3>& path : cached->second)
+      drawLifted(path, identified.contains(f) ? identifiedColour : selectedColour, width);
+  }
+}
+
 void Viewer::drawHighlights() {
+  if (globe_) {
+    drawGlobeHighlights();
+    return;
+  }
   const std::set<std::pair<std::size_t, std::size_t>> features = highlightedFeatures();
   highlightedCount_ = features.size();
   if (features.empty() || !target_) return;

@@ -401,6 +401,7 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
 }
 
 void Viewer::drawGlobeUi() {
+  drawHighlights();
   if (showLabels_) drawLabels();  // clear of the windows as last drawn
   windowRects_.clear();
   drawScaleBar();
@@ -557,6 +558,7 @@ json Viewer::globeState() const {
           {"windows", windowsJson()},
           {"legend", showLegend_},
           {"table", tableJson()},
+          {"highlighted_features", highlightedCount_},
           {"mode", "globe"},
           {"camera_mode", g.fly ? "fly" : "orbit"},
           {"frame", "globe"},

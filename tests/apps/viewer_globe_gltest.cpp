@@ -753,6 +753,12 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
                    {{"action", "table"}, {"layer", "fiji"}, {"search", "fiji"}, {"select", {0}}, {"zoom_to", "rows"}},
                    {{"wait", 2}},
                    {{"action", "save_state"}, {"path", "table.json"}},
+                   {{"action", "view"}, {"panel", false}, {"hud", false}},
+                   {{"action", "screenshot"}, {"path", "row.png"}, {"ui", true}},
+                   {{"action", "table"}, {"layer", "fiji"}, {"select", json::array()}},
+                   {{"wait", 1}},
+                   {{"action", "screenshot"}, {"path", "no_row.png"}, {"ui", true}},
+                   {{"action", "save_state"}, {"path", "no_row.json"}},
                    {{"action", "table"}, {"layer", "fiji"}, {"search", "no such name"}},
                    {{"action", "save_state"}, {"path", "table_empty.json"}}})));
   const gfx::Image8 plain = *gfx::readImage8((dir_ / "plain.png").string());
@@ -805,6 +811,24 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
   EXPECT_NEAR(unwrap(table["globe"]["target"]["lon"].get<double>()), 180.0, 1.0);
   EXPECT_NEAR(table["globe"]["target"]["lat"].get<double>(), -15.0, 1.0);
   EXPECT_EQ(readJson("table_empty.json")["table"]["rows"], 0);
+  // The selected row's outline is drawn on the globe in the highlight colour (as in a projected
+  // scene), and gone once the row is not selected.
+  EXPECT_EQ(table["highlighted_features"], 1);
+  EXPECT_EQ(readJson("no_row.json")["highlighted_features"], 0);
+  const auto highlightPixels = [&](const std::string& file) {
+    const gfx::Image8 image = *gfx::readImage8((dir_ / file).string());
+    std::size_t n = 0;
+    for (std::size_t i = 0; i + 2 < image.pixels.size(); i += static_cast<std::size_t>(image.channels)) {
+      n += std::abs(image.pixels[i] - 255) < 12 && std::abs(image.pixels[i + 1] - 51) < 12 &&
+                   std::abs(image.pixels[i + 2] - 25) < 12
+               ? 1U
+               : 0U;
+    }
+    return n;
+  };
+  const std::size_t withRow = highlightPixels("row.png"), withoutRow = highlightPixels("no_row.png");
+  std::printf("the selected row's outline: %zu highlight-coloured pixels (%zu without it)\n", withRow, withoutRow);
+  EXPECT_GT(withRow, withoutRow + 300);
   // None of these tools says it is not on the globe.
   for (const json& m : table["messages"])
     EXPECT_EQ(m.get<std::string>().find("not available on the globe"), std::string::npos) << m;
