@@ -10,6 +10,7 @@
 #include <mutex>
 #include <set>
 #include <string>
+#include <thread>
 
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
@@ -565,8 +566,18 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
                          "line width " + std::to_string(options.lineWidthMetres) + " m is not a positive width"});
     return out;
   }
-  // One feature at a time (features on disk are read once, and only one is resident).
-  for (std::size_t f = 0; f < features.size(); ++f) {
+  // The features in runs, on every core (features on disk are read one at a time, and only those
+  // being prepared are resident); the runs' lines, areas and messages are joined in the features'
+  // order, so the layer is the same on any number of cores.
+  struct Part {
+    std::vector<GlobeLine> lines;
+    std::vector<GlobePolygon> polygons;
+    Diagnostics diagnostics;
+  };
+  const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
+  const std::size_t runs = std::max<std::size_t>(1, std::min(features.size(), 8 * cores));
+  std::vector<Part> parts(runs);
+  const auto prepare = [&](std::size_t f, Part& part) {
     const std::shared_ptr<const geo::Feature> read = features.get(f);
     const geo::Feature& feature = *read;
     std::vector<std::vector<glm::dvec2>> lines;
@@ -587,11 +598,11 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
       std::vector<char> given;
       std::vector<glm::dvec2> line = prepareLine(lines[k], options.maxSegmentMetres, problem, given);
       if (line.empty()) {
-        out.diagnostics.add({Severity::Error,
-                             {},
-                             layer.name_,
-                             std::to_string(feature.fid),
-                             "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
+        part.diagnostics.add({Severity::Error,
+                              {},
+                              layer.name_,
+                              std::to_string(feature.fid),
+                              "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
         continue;
       }
       GlobeLine g;
@@ -607,8 +618,6 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
       if (inPixels) {
         g.widthPixels = options.lineWidthPixels;
         g.maxHalfWidth = std::max(maxHalfWidth, g.halfWidth);
-        layer.leastHalfWidth_ = layer.lines_.empty() ? g.halfWidth : std::min(layer.leastHalfWidth_, g.halfWidth);
-        layer.widestHalfWidth_ = std::max(layer.widestHalfWidth_, g.maxHalfWidth);
       }
       const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
       for (glm::dvec2& p : line) p.x += shift;
@@ -657,7 +666,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
       }
       g.points = std::move(line);
       g.given = std::move(given);
-      layer.lines_.push_back(std::move(g));
+      part.lines.push_back(std::move(g));
     }
     if (!options.outlines) {
       for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
@@ -666,17 +675,41 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
         prepared.group = groupOf[f];
         std::string problem;
         if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
-          out.diagnostics.add({Severity::Error,
-                               {},
-                               layer.name_,
-                               std::to_string(feature.fid),
-                               "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
+          part.diagnostics.add({Severity::Error,
+                                {},
+                                layer.name_,
+                                std::to_string(feature.fid),
+                                "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
           continue;
         }
         prepared.index = detail::buildIndex(prepared);
-        layer.polygons_.push_back(std::move(prepared));
+        part.polygons.push_back(std::move(prepared));
       }
     }
+  };
+  {
+    std::atomic<std::size_t> next{0};
+    const auto work = [&] {
+      for (std::size_t r = next++; r < runs; r = next++) {
+        for (std::size_t f = r * features.size() / runs; f < (r + 1) * features.size() / runs; ++f)
+          prepare(f, parts[r]);
+      }
+    };
+    std::vector<std::thread> helpers;
+    for (std::size_t h = 1; h < std::min(cores, runs); ++h) helpers.emplace_back(work);
+    work();
+    for (std::thread& t : helpers) t.join();
+  }
+  for (Part& part : parts) {
+    for (GlobeLine& g : part.lines) {
+      if (inPixels) {
+        layer.leastHalfWidth_ = layer.lines_.empty() ? g.halfWidth : std::min(layer.leastHalfWidth_, g.halfWidth);
+        layer.widestHalfWidth_ = std::max(layer.widestHalfWidth_, g.maxHalfWidth);
+      }
+      layer.lines_.push_back(std::move(g));
+    }
+    for (GlobePolygon& p : part.polygons) layer.polygons_.push_back(std::move(p));
+    out.diagnostics.append(part.diagnostics);
   }
   layer.areaPolygons_ = layer.polygons_.size();
   // Generalised rings for the areas' coarse tiles, keeping the points rings share. (Lines get
