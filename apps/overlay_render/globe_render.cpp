@@ -1,14 +1,11 @@
 #include "globe_render.hpp"
 
-#include <sys/resource.h>
-
-#include <chrono>
 #include <filesystem>
-#include <fstream>
 
 #include <nlohmann/json.hpp>
 
 #include "app/cli.hpp"
+#include "frame_output.hpp"
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
@@ -30,16 +27,9 @@ json matrixJson(const glm::dmat4& m) {
   return out;
 }
 
-bool writeJson(const std::filesystem::path& path, const json& j) {
-  std::ofstream f(path);
-  f << j.dump(2) << '\n';
-  return static_cast<bool>(f);
-}
-
 }  // namespace
 
 int runGlobeRender(const scene::SceneDescription& description, const std::string& reason, const GlobeRenderOptions& o) {
-  const auto start = std::chrono::steady_clock::now();
   scene::SceneDescription d = description;
   if (!o.overlays) d.layers.clear();
   Result<scene::LoadedGlobeScene> loaded = scene::loadGlobeScene(d);
@@ -73,7 +63,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   const globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
   const globe::GlobeFrameStats stats =
       renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true, overlaySettings);
-  const double firstFrame = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  runClock().firstFrameDone();
   const std::filesystem::path out(o.out);
   std::filesystem::create_directories(out);
   // An analysis that fails (its lasso file, a file it writes) still leaves the frame's files and
@@ -97,14 +87,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   std::vector<std::uint8_t> rgb;
   rgb.reserve(rgba.size() / 4 * 3);
   for (std::size_t i = 0; i < rgba.size(); i += 4) rgb.insert(rgb.end(), {rgba[i], rgba[i + 1], rgba[i + 2]});
-  bool ok = true;
-  for (const auto& written :
-       {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, rgb),
-        gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, gfx::readDepth(target)),
-        gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, mask)}) {
-    report(written.diagnostics);
-    ok = ok && written.ok();
-  }
+  bool ok = writeFrameImages(out, o.width, o.height, rgb, gfx::readDepth(target), mask);
   const globe::Geodetic eye = globe::toGeodetic(view.eye), at = globe::toGeodetic(view.target);
   json camera = {{"width", o.width},
                  {"height", o.height},
@@ -126,8 +109,6 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
                           {"mask_bit", loaded->layerFileIndex[l]},
                           {"covered_pixels", pixels}});
   }
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
   json diagnostics = json::array();
   for (const Diagnostic& m : loaded.diagnostics.items()) diagnostics.push_back(m.toString());
   for (const Diagnostic& m : analysisDiagnostics.items()) diagnostics.push_back(m.toString());
@@ -137,8 +118,8 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
             {"width", o.width},
             {"height", o.height},
             {"load_seconds", loaded->loadSeconds},
-            {"first_frame_seconds", firstFrame},
-            {"cpu_peak_bytes", static_cast<std::size_t>(usage.ru_maxrss) * 1024},
+            {"first_frame_seconds", runClock().firstFrameSeconds},
+            {"cpu_peak_bytes", peakResidentBytes()},
             {"dem",
              {{"width", loaded->heights->width()},
               {"height", loaded->heights->height()},

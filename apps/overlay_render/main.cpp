@@ -22,6 +22,7 @@
 #include "app/cli.hpp"
 #include "app/option_parser.hpp"
 #include "core/log.hpp"
+#include "frame_output.hpp"
 #include "geo/checked_file.hpp"
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
@@ -47,7 +48,10 @@ namespace {
 
 using nlohmann::json;
 using namespace gis;
+using app::peakResidentBytes;
 using app::report;
+using app::runClock;
+using app::writeJson;
 
 constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
@@ -162,12 +166,6 @@ json countsJson(const gfx::PipelineCounts& c) {
           {"clipping_output_primitives", c.clippingOutputPrimitives},
           {"fragment_shader_invocations", c.fragmentShaderInvocations},
           {"samples_passed", c.samplesPassed}};
-}
-
-bool writeJson(const std::filesystem::path& path, const json& j) {
-  std::ofstream out(path);
-  out << scene::jsonText(j) << "\n";
-  return static_cast<bool>(out);
 }
 
 /// The scene and the camera it is drawn from (no GL yet).
@@ -400,15 +398,7 @@ std::optional<Frame> drawFrame(const Options& o, const Setup& s, scene::SceneRen
 
 /// color.png, depth.tiff and mask.png.
 bool writeImages(const std::filesystem::path& out, const Options& o, const Frame& frame) {
-  bool ok = true;
-  for (const auto& written :
-       {gfx::writeImage8((out / "color.png").string(), o.width, o.height, 3, frame.images.rgb),
-        gfx::writeImageFloat((out / "depth.tiff").string(), o.width, o.height, frame.images.depth),
-        gfx::writeImage8((out / "mask.png").string(), o.width, o.height, 1, frame.images.mask)}) {
-    report(written.diagnostics);
-    ok = ok && written.ok();
-  }
-  return ok;
+  return app::writeFrameImages(out, o.width, o.height, frame.images.rgb, frame.images.depth, frame.images.mask);
 }
 
 /// stats.json's "passes" of scene layer `i`: each overlay layer built from it, with this frame's
@@ -501,23 +491,6 @@ json terrainJson(const Drawn& d) {
           {"max_height", rootInfo.maxHeight},
           {"imagery", scene.orthophoto.has_value()},
           {"pixels", terrainPixels}};
-}
-
-/// When the run started, and how long it took to the first frame read back (stats.json).
-struct RunClock {
-  std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
-  double firstFrameSeconds = 0.0;
-};
-RunClock& runClock() {
-  static RunClock clock;
-  return clock;
-}
-
-/// The process's peak resident memory so far (bytes; 0 when it cannot be read).
-std::size_t peakResidentBytes() {
-  rusage usage{};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // kilobytes on Linux
 }
 
 /// stats.json without the analyses' blocks (they add theirs as they are written).
@@ -664,8 +637,7 @@ int run(const Options& o) {
   if (!findOverlapLayers(o, *setup, *gpu->renderer, overlapLayers)) return 2;
   const std::optional<Frame> frame = drawFrame(o, *setup, *gpu->renderer, overlapLayers, all);
   if (!frame) return 1;
-  runClock().firstFrameSeconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - runClock().start).count();
+  runClock().firstFrameDone();
   if (!writeOutputs(Drawn{o, *setup, *gpu->renderer, *frame}, *gpu->context, all)) return 1;
   return gpu->context->debug().errorCount() == 0 ? 0 : 1;
 }
