@@ -372,6 +372,11 @@ class Viewer {
   /// On the globe: the identified, lasso-selected and table-selected features' outlines
   /// (outlines_ is then kept per scene layer and feature).
   void drawGlobeHighlights();
+  /// A feature's boundary (rings, or its lines) lifted onto the ground as drawn, in either frame.
+  [[nodiscard]] std::vector<std::vector<glm::dvec3>> liftedBoundary(const geo::Feature& feature) const;
+  /// Lifted paths drawn over the scene, as wide as the feature is large on screen (none under
+  /// 3 px), hidden behind the terrain.
+  void drawOutline(const std::vector<std::vector<glm::dvec3>>& paths, ImU32 colour);
   /// The last frame's depth (top row first), read once per frame.
   const std::vector<float>& frameDepth();
   /// Frame (or, on the globe, ECEF) coordinates → clip coordinates of the frame drawn.

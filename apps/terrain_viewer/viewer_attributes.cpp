@@ -507,16 +507,11 @@ const std::vector<std::vector<glm::dvec3>>& Viewer::outlineOf(std::size_t overla
   const auto cached = outlines_.find(key);
   if (cached != outlines_.end()) return cached->second;
   // The feature's boundary (rings, or the centre line) lifted onto the full-resolution terrain.
-  std::vector<std::vector<glm::dvec3>> paths;
   const std::vector<geo::Feature>& features = renderer_->overlayLayers()[overlayLayer].features();
-  if (feature < features.size()) {
-    for (const geo::Polygon& p : features[feature].polygons) {
-      paths.push_back(liftPath(p.outer, true));
-      for (const geo::Ring& h : p.holes) paths.push_back(liftPath(h, true));
-    }
-    for (const geo::LineString& l : features[feature].lines) paths.push_back(liftPath(l, false));
-  }
-  return outlines_.emplace(key, std::move(paths)).first->second;
+  return outlines_
+      .emplace(key,
+               feature < features.size() ? liftedBoundary(features[feature]) : std::vector<std::vector<glm::dvec3>>())
+      .first->second;
 }
 
 const std::vector<float>& Viewer::frameDepth() {
@@ -650,38 +645,48 @@ void Viewer::drawGlobeHighlights() {
   const ImU32 identifiedColour = IM_COL32(40, 230, 255, 255);
   const ImU32 selectedColour =
       ImGui::ColorConvertFloat4ToU32(ImVec4(highlight_.color.x, highlight_.color.y, highlight_.color.z, 1.0F));
-  const glm::dmat4 viewProj = screenViewProj();
-  const glm::dvec2 size(target_->width(), target_->height());
   for (const auto& f : features) {
     auto cached = outlines_.find(f);
     if (cached == outlines_.end()) {
-      std::vector<std::vector<glm::dvec3>> paths;
       const std::vector<geo::Feature>* all = featuresOf(f.first);
-      if (all != nullptr && f.second < all->size()) {
-        const geo::Feature& feature = (*all)[f.second];
-        for (const geo::Polygon& p : feature.polygons) {
-          paths.push_back(liftPath(p.outer, true));
-          for (const geo::Ring& h : p.holes) paths.push_back(liftPath(h, true));
-        }
-        for (const geo::LineString& l : feature.lines) paths.push_back(liftPath(l, false));
-      }
-      cached = outlines_.emplace(f, std::move(paths)).first;
+      cached = outlines_
+                   .emplace(f, all != nullptr && f.second < all->size() ? liftedBoundary((*all)[f.second])
+                                                                        : std::vector<std::vector<glm::dvec3>>())
+                   .first;
     }
-    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    for (const std::vector<glm::dvec3>& path : cached->second) {
-      for (const glm::dvec3& p : path) {
-        const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
-        if (!(clip.w > 0.0)) continue;
-        const glm::dvec2 pixel((clip.x / clip.w * 0.5 + 0.5) * size.x, (0.5 - clip.y / clip.w * 0.5) * size.y);
-        lo = glm::min(lo, pixel);
-        hi = glm::max(hi, pixel);
-      }
-    }
-    const float width = outlineWidthFor(hi.x >= lo.x ? glm::length(hi - lo) : 0.0);
-    if (width <= 0.0F) continue;
-    for (const std::vector<glm::dvec3>& path : cached->second)
-      drawLifted(path, identified.contains(f) ? identifiedColour : selectedColour, width);
+    drawOutline(cached->second, identified.contains(f) ? identifiedColour : selectedColour);
   }
+}
+
+std::vector<std::vector<glm::dvec3>> Viewer::liftedBoundary(const geo::Feature& feature) const {
+  std::vector<std::vector<glm::dvec3>> paths;
+  for (const geo::Polygon& p : feature.polygons) {
+    paths.push_back(liftPath(p.outer, true));
+    for (const geo::Ring& h : p.holes) paths.push_back(liftPath(h, true));
+  }
+  for (const geo::LineString& l : feature.lines) paths.push_back(liftPath(l, false));
+  return paths;
+}
+
+void Viewer::drawOutline(const std::vector<std::vector<glm::dvec3>>& paths, ImU32 colour) {
+  // As wide as the feature is large on screen allows: 2.5 px for a feature some 30 px across,
+  // thinner below, none under 3 px (the selection's highlight shows it). From afar, the outlines
+  // of many small selected features then stay apart instead of merging into one blob.
+  const glm::dmat4 viewProj = screenViewProj();
+  const glm::dvec2 size(target_->width(), target_->height());
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (const std::vector<glm::dvec3>& path : paths) {
+    for (const glm::dvec3& p : path) {
+      const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
+      if (!(clip.w > 0.0)) continue;
+      const glm::dvec2 pixel((clip.x / clip.w * 0.5 + 0.5) * size.x, (0.5 - clip.y / clip.w * 0.5) * size.y);
+      lo = glm::min(lo, pixel);
+      hi = glm::max(hi, pixel);
+    }
+  }
+  const float width = outlineWidthFor(hi.x >= lo.x ? glm::length(hi - lo) : 0.0);
+  if (width <= 0.0F) return;
+  for (const std::vector<glm::dvec3>& path : paths) drawLifted(path, colour, width);
 }
 
 void Viewer::drawHighlights() {
@@ -710,29 +715,8 @@ void Viewer::drawHighlights() {
       }
     }
   }
-  // A feature's outline is as wide as it is large on screen allows: 2.5 px for a feature some
-  // 30 px across, thinner below, none under 3 px (the selection's highlight shows it). From afar,
-  // the outlines of many small selected features then stay apart instead of merging into one blob.
-  const glm::dmat4 viewProj = screenViewProj();
-  const glm::dvec2 size(target_->width(), target_->height());
-  for (const auto& f : features) {
-    const ImU32 colour = identified.contains(f) ? identifiedColour : selectedColour;
-    const std::vector<std::vector<glm::dvec3>>& paths = outlineOf(f.first, f.second);
-    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    for (const std::vector<glm::dvec3>& path : paths) {
-      for (const glm::dvec3& p : path) {
-        const glm::dvec4 clip = viewProj * glm::dvec4(p, 1.0);
-        if (!(clip.w > 0.0)) continue;
-        const glm::dvec2 pixel((clip.x / clip.w * 0.5 + 0.5) * size.x, (0.5 - clip.y / clip.w * 0.5) * size.y);
-        lo = glm::min(lo, pixel);
-        hi = glm::max(hi, pixel);
-      }
-    }
-    const double across = hi.x >= lo.x ? glm::length(hi - lo) : 0.0;
-    const float width = outlineWidthFor(across);
-    if (width <= 0.0F) continue;
-    for (const std::vector<glm::dvec3>& path : paths) drawLifted(path, colour, width);
-  }
+  for (const auto& f : features)
+    drawOutline(outlineOf(f.first, f.second), identified.contains(f) ? identifiedColour : selectedColour);
 }
 
 }  // namespace gis::viewer
