@@ -94,13 +94,7 @@ void buildGlobeLayers(LoadedGlobeScene& scene, Diagnostics& diagnostics) {
   scene.layers.clear();
   scene.layerFileIndex.clear();
   scene.layerFeatures.clear();
-  // In draw order (earlier layers below), as a projected scene's renderer orders them.
-  std::vector<std::size_t> order(scene.sourceLayers.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return scene.sourceLayers[a].description.style.drawOrder < scene.sourceLayers[b].description.style.drawOrder;
-  });
-  for (const std::size_t i : order) {
+  for (const std::size_t i : drawOrderOf(scene.sourceLayers)) {
     const LoadedLayer& source = scene.sourceLayers[i];
     const LayerDescription& layer = source.description;
     const overlay::LayerStyle& style = layer.style;

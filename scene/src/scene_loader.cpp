@@ -299,6 +299,15 @@ terrain::PyramidProgress consoleProgress(std::string label) {
   };
 }
 
+std::vector<std::size_t> drawOrderOf(const std::vector<LoadedLayer>& layers) {
+  std::vector<std::size_t> order(layers.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return layers[a].description.style.drawOrder < layers[b].description.style.drawOrder;
+  });
+  return order;
+}
+
 std::vector<LoadedLayer> loadLayers(const SceneDescription& description, const geo::SceneFrame& frame,
                                     const std::string& cacheDirectory, const LoadOptions& options,
                                     Diagnostics& diagnostics, std::size_t* fromCache) {

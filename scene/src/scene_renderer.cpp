@@ -96,12 +96,7 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   Result<std::unique_ptr<overlay::OverlayTechnique>> technique = techniqueInfo_->create(techniqueOptions);
   diagnostics.append(technique.diagnostics);
   if (technique) technique_ = std::move(*technique);
-  std::vector<std::size_t> order(scene.layers.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) {
-    return scene.layers[l].description.style.drawOrder < scene.layers[r].description.style.drawOrder;
-  });
-  for (const std::size_t i : order) {
+  for (const std::size_t i : drawOrderOf(scene.layers)) {
     const LoadedLayer& source = scene.layers[i];
     if (!source.description.visible) continue;
     const overlay::LayerStyle& style = source.description.style;

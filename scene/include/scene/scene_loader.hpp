@@ -72,6 +72,10 @@ std::vector<LoadedLayer> loadLayers(const SceneDescription& description, const g
                                     const std::string& cacheDirectory, const LoadOptions& options,
                                     Diagnostics& diagnostics, std::size_t* fromCache = nullptr);
 
+/// The layers' indices in draw order (LayerStyle::drawOrder, earlier layers below; ties in the
+/// scene file's order): how both frames order what they draw.
+std::vector<std::size_t> drawOrderOf(const std::vector<LoadedLayer>& layers);
+
 /// A scene for a DEM opened alone: a file in any CRS, a folder of tiles or a VRT.
 SceneDescription sceneForDem(const std::string& path);
 
