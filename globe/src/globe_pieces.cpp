@@ -1,15 +1,17 @@
 // The pieces of a globe layer over one tile (globe_overlay.hpp): its polygons clipped to the
-// tile's cells, capped with a constrained Delaunay triangulation and extruded along the normals.
+// tile's cells in longitude and latitude, each cell's part made a footprint by the shared builder
+// in the cell's gnomonic plane, and extruded along the normals in the shared piece layout.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
-#include <set>
 #include <utility>
 
-#include "cgal_globe.hpp"
 #include "globe/globe_overlay.hpp"
 #include "globe_detail.hpp"
+#include "vector_overlay/footprints.hpp"
+#include "vector_overlay/validation.hpp"
 
 namespace gis::globe {
 
@@ -102,25 +104,12 @@ double parallelStray(double lat, double postStep) {
   return std::abs(mid.y - lat);
 }
 
-struct VertexInfo {
-  int index = -1;
-  bool placed = false;  ///< lonLat set (a point we inserted; else one the triangulation made)
-  glm::dvec2 lonLat{0.0};
-};
-struct FaceInfo {
-  int parity = -1;  ///< −1 unvisited, 0 outside, 1 inside
-};
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Vb = CGAL::Triangulation_vertex_base_with_info_2<VertexInfo, Kernel>;
-using Fbi = CGAL::Triangulation_face_base_with_info_2<FaceInfo, Kernel>;
-using Fb = CGAL::Constrained_triangulation_face_base_2<Kernel, Fbi>;
-using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
-using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_predicates_tag>;
-
 /// The segments of rings with even-odd multiplicity: segments on one of the cell's four lines
 /// (runs along the clip boundary, which Sutherland–Hodgman may lay over each other) are cut at
 /// every end on that line and kept where an odd number covers them; others are kept unless they
-/// come in pairs.
+/// come in pairs. Done in longitude and latitude, where such runs are exactly on one line: in
+/// the gnomonic plane their points are collinear only up to rounding, so the shared builder
+/// would see them cross.
 std::vector<std::pair<Pt, Pt>> oddSegments(const std::vector<Ring>& rings, const LonLatRect& cell) {
   std::vector<std::pair<Pt, Pt>> out;
   // lines: 0 west, 1 east (constant lon), 2 south, 3 north (constant lat)
@@ -222,88 +211,11 @@ Ring withParallelPosts(const Ring& ring, const LonLatRect& cell, double postStep
   return out;
 }
 
-/// Every segment of the rings once (a segment two rings share, or one ring runs twice, once):
-/// the constraints of a union.
-std::vector<std::pair<Pt, Pt>> allSegments(const std::vector<Ring>& rings) {
-  std::set<std::pair<std::pair<double, double>, std::pair<double, double>>> seen;
-  std::vector<std::pair<Pt, Pt>> out;
-  for (const Ring& ring : rings) {
-    for (std::size_t i = 0; i < ring.size(); ++i) {
-      Pt a = ring[i], b = ring[(i + 1) % ring.size()];
-      if (a == b) continue;
-      if (std::make_pair(b.x, b.y) < std::make_pair(a.x, a.y)) std::swap(a, b);
-      if (seen.insert({{a.x, a.y}, {b.x, b.y}}).second) out.emplace_back(a, b);
-    }
-  }
-  return out;
-}
-
-/// Whether a point lies in any of a set of simple rings (plane coordinates): the union's
-/// inside, through a grid of buckets over the rings' boxes.
-class RingUnion {
- public:
-  explicit RingUnion(std::vector<std::vector<glm::dvec2>> rings) : rings_(std::move(rings)) {
-    lo_ = glm::dvec2(std::numeric_limits<double>::max());
-    hi_ = glm::dvec2(-std::numeric_limits<double>::max());
-    for (const auto& r : rings_) {
-      glm::dvec2 a(std::numeric_limits<double>::max()), b(-std::numeric_limits<double>::max());
-      for (const glm::dvec2& p : r) {
-        a = glm::min(a, p);
-        b = glm::max(b, p);
-      }
-      boxes_.emplace_back(a, b);
-      lo_ = glm::min(lo_, a);
-      hi_ = glm::max(hi_, b);
-    }
-    side_ = std::clamp(static_cast<int>(std::sqrt(static_cast<double>(rings_.size())) * 2.0), 1, 64);
-    buckets_.assign(static_cast<std::size_t>(side_) * static_cast<std::size_t>(side_), {});
-    for (std::size_t k = 0; k < rings_.size(); ++k) {
-      const glm::ivec2 a = cellOf(boxes_[k].first), b = cellOf(boxes_[k].second);
-      for (int y = a.y; y <= b.y; ++y) {
-        for (int x = a.x; x <= b.x; ++x) buckets_[static_cast<std::size_t>(y * side_ + x)].push_back(k);
-      }
-    }
-  }
-
-  [[nodiscard]] bool contains(const glm::dvec2& p) const {
-    if (rings_.empty() || p.x < lo_.x || p.y < lo_.y || p.x > hi_.x || p.y > hi_.y) return false;
-    const glm::ivec2 c = cellOf(p);
-    for (const std::size_t k : buckets_[static_cast<std::size_t>(c.y * side_ + c.x)]) {
-      const auto& [a, b] = boxes_[k];
-      if (p.x < a.x || p.y < a.y || p.x > b.x || p.y > b.y) continue;
-      const std::vector<glm::dvec2>& r = rings_[k];
-      bool in = false;
-      for (std::size_t i = 0, j = r.size() - 1; i < r.size(); j = i++) {
-        if ((r[i].y > p.y) != (r[j].y > p.y) && p.x < r[j].x + (r[i].x - r[j].x) * (p.y - r[j].y) / (r[i].y - r[j].y)) {
-          in = !in;
-        }
-      }
-      if (in) return true;
-    }
-    return false;
-  }
-
- private:
-  [[nodiscard]] glm::ivec2 cellOf(const glm::dvec2& p) const {
-    const glm::dvec2 size = glm::max(hi_ - lo_, glm::dvec2(1e-300));
-    const glm::dvec2 t = (p - lo_) / size * static_cast<double>(side_);
-    return {std::clamp(static_cast<int>(t.x), 0, side_ - 1), std::clamp(static_cast<int>(t.y), 0, side_ - 1)};
-  }
-  std::vector<std::vector<glm::dvec2>> rings_;
-  std::vector<std::pair<glm::dvec2, glm::dvec2>> boxes_;
-  glm::dvec2 lo_{0.0}, hi_{0.0};
-  int side_ = 1;
-  std::vector<std::vector<std::size_t>> buckets_;
-};
-
-/// How a piece's rings make its inside: even-odd (an area, its holes included), or the union of
-/// simple rings (a line's shapes, which overlap: bands, discs and sectors).
-enum class Fill { EvenOdd, Union };
-
 /// A cell's gnomonic projection (the central one from the earth's centre onto the plane at the
-/// cell's middle): there a straight line is the image of every chord, so a cap's flat triangles,
-/// seen from the centre, tile the cell without folding (in longitude and latitude, long thin
-/// triangles would fold over each other).
+/// cell's middle): the plane the shared builder triangulates the cell's caps in
+/// (overlay::evenOddFootprint, docs/frames.md). There a straight line is the image of every
+/// chord, so a cap's flat triangles, seen from the centre, tile the cell without folding (in
+/// longitude and latitude, long thin triangles would fold over each other).
 class Gnomonic {
  public:
   explicit Gnomonic(const LonLatRect& cell)
@@ -313,13 +225,13 @@ class Gnomonic {
     e1_ = glm::normalize(enu[0] - glm::dot(enu[0], axis_) * axis_);
     e2_ = glm::cross(axis_, e1_);
   }
-  [[nodiscard]] Cdt::Point project(const Pt& lonLat) const {
+  [[nodiscard]] glm::dvec2 project(const Pt& lonLat) const {
     const glm::dvec3 p = toEcef(lonLat.x, lonLat.y, 0.0);
     const glm::dvec3 d = p / glm::dot(p, axis_);
     return {glm::dot(d, e1_), glm::dot(d, e2_)};
   }
-  [[nodiscard]] Pt unproject(const Cdt::Point& q) const {
-    const glm::dvec3 d = axis_ + e1_ * q.x() + e2_ * q.y();
+  [[nodiscard]] Pt unproject(const glm::dvec2& q) const {
+    const glm::dvec3 d = axis_ + e1_ * q.x + e2_ * q.y;
     const double t =
         1.0 / std::sqrt((d.x * d.x + d.y * d.y) / (kSemiMajor * kSemiMajor) + d.z * d.z / (kSemiMinor * kSemiMinor));
     const Geodetic g = toGeodetic(d * t);
@@ -331,113 +243,66 @@ class Gnomonic {
   glm::dvec3 axis_, e1_{0.0}, e2_{0.0};
 };
 
-/// A point of a triangulation: where it is in the projection, and its longitude and latitude.
-struct Node {
-  Cdt::Point at;
-  Pt lonLat;
+/// The longitude and latitude of the points a cell's footprint is made from, by their place in
+/// the gnomonic plane: a point we gave keeps its own (projecting it back could move it by a
+/// rounding), a point the triangulation made (a crossing of a line's shapes) is projected back.
+class PlanePoints {
+ public:
+  explicit PlanePoints(const Gnomonic& g) : g_(&g) {}
+  glm::dvec2 add(const Pt& lonLat) {
+    const glm::dvec2 q = g_->project(lonLat);
+    given_.try_emplace(key(q), lonLat);
+    return q;
+  }
+  [[nodiscard]] Pt lonLat(const glm::dvec2& q) const {
+    const auto it = given_.find(key(q));
+    return it != given_.end() ? it->second : g_->unproject(q);
+  }
+
+ private:
+  static std::pair<double, double> key(const glm::dvec2& q) { return {q.x + 0.0, q.y + 0.0}; }
+  const Gnomonic* g_;
+  std::map<std::pair<double, double>, Pt> given_;
 };
 
-/// The constrained triangulation of `segments` and `points` in the projection, every vertex
-/// with its longitude and latitude (those given, or the projection's of a crossing).
-void triangulate(Cdt& cdt, const Gnomonic& g, const std::vector<std::pair<Node, Node>>& segments,
-                 const std::vector<Pt>& points) {
-  const auto insert = [&](const Node& n) {
-    const Cdt::Vertex_handle v = cdt.insert(n.at);
-    if (!v->info().placed) {
-      v->info().placed = true;
-      v->info().lonLat = n.lonLat;
-    }
-    return v;
-  };
-  for (const auto& [a, b] : segments) {
-    if (a.at == b.at) continue;
-    const Cdt::Vertex_handle va = insert(a), vb = insert(b);
-    if (va != vb) cdt.insert_constraint(va, vb);
-  }
-  for (const Pt& p : points) insert({g.project(p), p});
-  for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
-    if (!v->info().placed) {
-      v->info().placed = true;
-      v->info().lonLat = g.unproject(v->point());
-    }
-  }
-}
-
-/// The boundary of the union of simple rings, as segments (`segments`: theirs, split at the
-/// posts on the cell's lines). The rings' segments are triangulated, and a face is inside when
-/// its centroid is in one of the rings (taken with the same points on the cell's lines): the
-/// constraints part every ring's inside from its outside, so a whole face is in or out of each.
-/// The edges between inside and outside faces are the boundary; overlaps inside leave none.
-/// Its points are the triangulation's own (a crossing projected back from lon/lat could land on
-/// a point beside it and close the boundary there).
-std::vector<std::pair<Node, Node>> unionBoundary(const std::vector<std::pair<Node, Node>>& segments,
-                                                 const std::vector<Ring>& rings, const LonLatRect& widened,
-                                                 double postStep, const Gnomonic& g) {
-  Cdt cdt;
-  triangulate(cdt, g, segments, {});
-  std::vector<std::vector<glm::dvec2>> plane;
-  for (const Ring& ring : rings) {
-    std::vector<glm::dvec2> r;
-    for (const Pt& p : withParallelPosts(ring, widened, postStep)) {
-      const Cdt::Point q = g.project(p);
-      r.emplace_back(q.x(), q.y());
-    }
-    if (r.size() >= 3) plane.push_back(std::move(r));
-  }
-  const RingUnion inUnion(std::move(plane));
-  for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) {
-    glm::dvec2 c(0.0);
-    if (!cdt.is_infinite(f)) {
-      for (int i = 0; i < 3; ++i) c += glm::dvec2(f->vertex(i)->point().x(), f->vertex(i)->point().y()) / 3.0;
-    }
-    f->info().parity = !cdt.is_infinite(f) && inUnion.contains(c) ? 1 : 0;
-  }
-  std::vector<std::pair<Node, Node>> boundary;
-  const auto node = [](const Cdt::Vertex_handle& v) { return Node{v->point(), v->info().lonLat}; };
-  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
-    if (f->info().parity != 1) continue;
-    for (int i = 0; i < 3; ++i) {
-      if (f->neighbor(i)->info().parity == 1) continue;
-      boundary.emplace_back(node(f->vertex((i + 1) % 3)), node(f->vertex((i + 2) % 3)));
-    }
-  }
-  return boundary;
-}
-
-/// Appends the piece of `rings` (clipped to `cell`, widened) to `out`, in colour `group`.
+/// Appends the piece of `rings` (clipped to `cell`, widened) to `out`, in colour `group`: an
+/// area's rings by the even-odd rule, a line's shapes (`united`) as their union, which leaves
+/// out the walls and caps inside it. The cap is the shared builder's footprint in the cell's
+/// gnomonic plane (overlay::evenOddFootprint, unionFootprint), with points every few posts
+/// inside it so that no cap triangle is longer than a few posts; each of its vertices is lifted
+/// to the bounds' heights along the ellipsoid's normal there, in the shared piece layout
+/// (overlay::appendPieceIndices).
 void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
-              const GeoGrid& heights, double postStep, int level, Fill fill, std::uint32_t group) {
+              const GeoGrid& heights, double postStep, int level, bool united, std::uint32_t group) {
   const Gnomonic gnomonic(cell);
-  std::vector<std::pair<Node, Node>> segments;
-  for (const auto& [a, b] :
-       splitParallels(fill == Fill::Union ? allSegments(rings) : oddSegments(rings, widened), widened, postStep)) {
-    segments.push_back({{gnomonic.project(a), a}, {gnomonic.project(b), b}});
-  }
-  // A union is capped as the area its boundary encloses: no triangle for the overlaps inside.
-  if (fill == Fill::Union && !segments.empty()) segments = unionBoundary(segments, rings, widened, postStep, gnomonic);
-  if (segments.empty()) return;
-  // Points inside the cap every few posts: no cap triangle is longer than a few posts.
-  std::vector<Pt> capPoints;
+  PlanePoints plane(gnomonic);
+  std::vector<glm::dvec2> capPoints;
   const double step = postStep * (level < 4 ? 1 : kCapPointStep);
   for (double y = cell.south + step; y < cell.north - 0.5 * step; y += step) {
-    for (double x = cell.west + step; x < cell.east - 0.5 * step; x += step) capPoints.emplace_back(x, y);
+    for (double x = cell.west + step; x < cell.east - 0.5 * step; x += step) capPoints.push_back(plane.add({x, y}));
   }
-  Cdt cdt;
-  triangulate(cdt, gnomonic, segments, capPoints);
-  // Even-odd: a face is inside when an odd number of constraints part it from the outside.
-  for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info().parity = -1;
-  std::vector<Cdt::Face_handle> queue{cdt.infinite_face()};
-  cdt.infinite_face()->info().parity = 0;
-  while (!queue.empty()) {
-    const Cdt::Face_handle f = queue.back();
-    queue.pop_back();
-    for (int i = 0; i < 3; ++i) {
-      const Cdt::Face_handle g = f->neighbor(i);
-      if (g->info().parity >= 0) continue;
-      g->info().parity = cdt.is_constrained(Cdt::Edge(f, i)) ? 1 - f->info().parity : f->info().parity;
-      queue.push_back(g);
+  overlay::Footprint f;
+  if (united) {
+    std::vector<std::vector<glm::dvec2>> parts;
+    for (const Ring& ring : rings) {
+      std::vector<glm::dvec2> part;
+      for (const Pt& p : withParallelPosts(ring, widened, postStep)) part.push_back(plane.add(p));
+      if (part.size() >= 3) parts.push_back(std::move(part));
     }
+    if (parts.empty()) return;
+    f = overlay::unionFootprint(parts, capPoints);
+  } else {
+    std::vector<std::array<glm::dvec2, 2>> edges;
+    for (const auto& [a, b] : splitParallels(oddSegments(rings, widened), widened, postStep)) {
+      edges.push_back({plane.add(a), plane.add(b)});
+    }
+    if (edges.empty()) return;
+    f = overlay::evenOddFootprint(edges, capPoints);
   }
+  if (f.triangles.empty()) return;
+  std::vector<Pt> lonLat;
+  lonLat.reserve(f.vertices.size());
+  for (const glm::dvec2& q : f.vertices) lonLat.push_back(plane.lonLat(q));
 
   // Bounds: the ground drawn under the piece (the terrain's contract holds over any box within a
   // drawn tile: here the box of the piece's own points, within the widened cell), the top raised
@@ -445,34 +310,27 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   // of the ground it covers, not of the whole cell.
   LonLatRect box{std::numeric_limits<double>::max(), std::numeric_limits<double>::max(),
                  -std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
-  for (const auto& [a, b] : segments) {
-    for (const Pt& p : {a.lonLat, b.lonLat}) {
-      box.west = std::min(box.west, p.x);
-      box.east = std::max(box.east, p.x);
-      box.south = std::min(box.south, p.y);
-      box.north = std::max(box.north, p.y);
-    }
+  for (const Pt& p : lonLat) {
+    box.west = std::min(box.west, p.x);
+    box.east = std::max(box.east, p.x);
+    box.south = std::min(box.south, p.y);
+    box.north = std::max(box.north, p.y);
   }
   box = {std::max(box.west, widened.west), std::max(box.south, widened.south), std::min(box.east, widened.east),
          std::min(box.north, widened.north)};
   const std::pair<double, double> bounds = groundBounds(heights, box, level);
   const double lo = bounds.first, ground1 = bounds.second;
   double longest = 0.0;
-  std::vector<Cdt::Face_handle> inside;
-  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
-    if (f->info().parity != 1) continue;
-    inside.push_back(f);
-    for (int i = 0; i < 3; ++i) {
-      const Pt& p = f->vertex(i)->info().lonLat;
-      const Pt& q = f->vertex((i + 1) % 3)->info().lonLat;
+  for (const auto& t : f.triangles) {
+    for (std::size_t i = 0; i < 3; ++i) {
+      const Pt& p = lonLat[t[i]];
+      const Pt& q = lonLat[t[(i + 1) % 3]];
       longest = std::max(longest, glm::length(toEcef(p.x, p.y, ground1) - toEcef(q.x, q.y, ground1)));
     }
   }
-  if (inside.empty()) return;
   const double hi = ground1 + triangleSag(longest * 1.01);
 
-  // Vertices: two per triangulation vertex (bottom, top).
-  for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) v->info().index = -1;
+  // Vertices: footprint vertex k is 2k (bottom) and 2k + 1 (top).
   const auto base = static_cast<std::uint32_t>(out.vertices.size());
   TilePieces::Piece piece;
   piece.group = group;
@@ -480,39 +338,19 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   piece.hi = hi;
   piece.boxLo = glm::dvec3(std::numeric_limits<double>::max());
   piece.boxHi = glm::dvec3(-std::numeric_limits<double>::max());
-  const auto vertexOf = [&](const Cdt::Vertex_handle& v) {
-    if (v->info().index < 0) {
-      v->info().index = static_cast<int>(out.vertices.size() - base) / 2;
-      const double lon = v->info().lonLat.x, lat = v->info().lonLat.y;
-      const glm::vec3 n(surfaceNormal(lon, lat));
-      for (const double h : {lo, hi}) {
-        const glm::dvec3 p = toEcef(lon, lat, h);
-        piece.boxLo = glm::min(piece.boxLo, p);
-        piece.boxHi = glm::max(piece.boxHi, p);
-        out.vertices.push_back(
-            PieceVertex{glm::vec4(glm::vec3(p - out.origin), h == lo ? -1.0F : 1.0F), glm::vec4(n, 0.0F)});
-      }
+  for (const Pt& p : lonLat) {
+    const glm::vec3 n(surfaceNormal(p.x, p.y));
+    for (const double h : {lo, hi}) {
+      const glm::dvec3 at = toEcef(p.x, p.y, h);
+      piece.boxLo = glm::min(piece.boxLo, at);
+      piece.boxHi = glm::max(piece.boxHi, at);
+      out.vertices.push_back(
+          PieceVertex{glm::vec4(glm::vec3(at - out.origin), h == lo ? -1.0F : 1.0F), glm::vec4(n, 0.0F)});
     }
-    return base + 2 * static_cast<std::uint32_t>(v->info().index);
-  };
+  }
   piece.firstIndex = static_cast<std::uint32_t>(out.indices.size());
-  for (const auto& f : inside) {
-    const std::uint32_t a = vertexOf(f->vertex(0)), b = vertexOf(f->vertex(1)), c = vertexOf(f->vertex(2));
-    out.indices.insert(out.indices.end(), {a, c, b});  // bottom: facing down
-  }
-  piece.bottomCount = static_cast<std::uint32_t>(out.indices.size()) - piece.firstIndex;
-  for (const auto& f : inside) {
-    for (int i = 0; i < 3; ++i) {
-      if (f->neighbor(i)->info().parity == 1 && !cdt.is_infinite(f->neighbor(i))) continue;
-      // Edge i runs from vertex i+1 to vertex i+2 with the face on its left: the wall faces right.
-      const std::uint32_t a = vertexOf(f->vertex((i + 1) % 3)), b = vertexOf(f->vertex((i + 2) % 3));
-      out.indices.insert(out.indices.end(), {a, b, b + 1, a, b + 1, a + 1});
-    }
-  }
-  for (const auto& f : inside) {
-    const std::uint32_t a = vertexOf(f->vertex(0)), b = vertexOf(f->vertex(1)), c = vertexOf(f->vertex(2));
-    out.indices.insert(out.indices.end(), {a + 1, b + 1, c + 1});
-  }
+  piece.bottomCount = overlay::appendPieceIndices(f, out.indices);
+  for (std::size_t k = piece.firstIndex; k < out.indices.size(); ++k) out.indices[k] += base;
   piece.indexCount = static_cast<std::uint32_t>(out.indices.size()) - piece.firstIndex;
   out.pieces.push_back(piece);
 }
@@ -581,7 +419,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
             for (Ring& r : inCell) united.push_back(std::move(r));
             continue;
           }
-          addPiece(out, inCell, cell, widened, heights, postStep, key.level, Fill::EvenOdd, polygon.group);
+          addPiece(out, inCell, cell, widened, heights, postStep, key.level, false, polygon.group);
         }
       }
     }
@@ -591,7 +429,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   for (const GlobePolygon& polygon : layer.lineShapesIn(key, widthClass)) addPolygon(polygon, true);
   for (const auto& [groupCell, rings] : lineCells) {
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
-    addPiece(out, rings, cell, widened, heights, postStep, key.level, Fill::Union, groupCell.first);
+    addPiece(out, rings, cell, widened, heights, postStep, key.level, true, groupCell.first);
   }
   detail::addScalableLines(out, layer, key, heights, widthClass);
   if (!out.scaling.empty()) out.scaling.resize(out.vertices.size(), glm::vec4(0.0F));

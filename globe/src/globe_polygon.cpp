@@ -1047,7 +1047,7 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 
 std::uint64_t GlobeLayer::digestForCache() const {
   // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 2;
+  constexpr std::uint64_t kBuilderVersion = 3;
   std::vector<std::uint64_t> parts{kBuilderVersion};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};

@@ -393,6 +393,43 @@ TEST(PolygonFootprints, BowTieCoversItsTwoTriangles) {
   EXPECT_EQ(hits(out[0], {1.0, 1.5}).inclusive, 0);
 }
 
+// A frame that cuts its own cells (the globe) hands the builder a cell's part as loose edges or
+// as a line's overlapping shapes, with points to add inside (docs/frames.md).
+TEST(RegionFootprints, LooseEdgesByEvenOddWithRunsLaidOverEachOtherCancelling) {
+  // A 10 × 10 square with a 2 × 2 hole, as loose edges in no order, and a run along x = 10 given
+  // twice over part of it (as clipping at a cell border lays runs over each other): cancelled.
+  std::vector<std::array<Vec, 2>> edges = {
+      {Vec(10, 0), Vec(10, 10)}, {Vec(0, 0), Vec(10, 0)}, {Vec(10, 10), Vec(0, 10)}, {Vec(0, 10), Vec(0, 0)},
+      {Vec(4, 4), Vec(6, 4)},    {Vec(6, 4), Vec(6, 6)},  {Vec(6, 6), Vec(4, 6)},    {Vec(4, 6), Vec(4, 4)},
+      {Vec(10, 2), Vec(10, 5)},  {Vec(10, 5), Vec(10, 2)}};
+  const std::vector<Vec> points = {{2, 2}, {8, 8}, {5, 5}, {12, 5}};  // inside, inside, in the hole, outside
+  const Footprint f = evenOddFootprint(edges, points);
+  EXPECT_TRUE(validFootprint(f, 0, FootprintOptions{}));
+  EXPECT_NEAR(footprintArea(f), 96.0, 1e-12);
+  EXPECT_EQ(f.boundary.size(), 10U) << "4 for the hole, 6 for the square (its east side cut where the run ends)";
+  const auto hasVertex = [&](const Vec& p) {
+    return std::find(f.vertices.begin(), f.vertices.end(), p) != f.vertices.end();
+  };
+  EXPECT_TRUE(hasVertex({2, 2}) && hasVertex({8, 8})) << "points inside become vertices";
+  EXPECT_FALSE(hasVertex({5, 5}) || hasVertex({12, 5})) << "points outside are left out";
+  EXPECT_EQ(hits(f, {5, 5}).inclusive, 0);
+  EXPECT_EQ(hits(f, {9.5, 3}).strict, 1);
+  // Nothing with area: no triangles.
+  EXPECT_TRUE(evenOddFootprint({{Vec(0, 0), Vec(1, 0)}, {Vec(1, 0), Vec(0, 0)}}, {{0.5, 0.5}}).triangles.empty());
+}
+
+TEST(RegionFootprints, UnionOfOverlappingPartsOfEitherOrientationHasNoWallsInside) {
+  // Two overlapping squares, one clockwise, and a point in the overlap added as a vertex.
+  const std::vector<std::vector<Vec>> parts = {rect(0, 0, 10, 10), {{5, 5}, {5, 15}, {15, 15}, {15, 5}}};
+  const Footprint f = unionFootprint(parts, {{7, 7}, {20, 20}});
+  EXPECT_TRUE(validFootprint(f, 0, FootprintOptions{}));
+  EXPECT_NEAR(footprintArea(f), 175.0, 1e-9);
+  EXPECT_EQ(f.boundary.size(), 8U) << "only the union's outline has walls";
+  EXPECT_NE(std::find(f.vertices.begin(), f.vertices.end(), Vec(7, 7)), f.vertices.end());
+  EXPECT_EQ(hits(f, {7.5, 2.5}).strict, 1);
+  EXPECT_EQ(hits(f, {12.5, 2.5}).inclusive, 0);
+}
+
 TEST(PolygonFootprints, DuplicateCollinearAndClosingPointsAreRepaired) {
   const geo::Ring ring = {{0, 0}, {0, 0}, {5, 0}, {10, 0}, {10, 0}, {10, 5}, {10, 10}, {5, 10}, {0, 10}, {0, 0}};
   const auto out = polygons(polygonFeature({{ring, {}}}));

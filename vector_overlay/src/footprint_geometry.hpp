@@ -156,11 +156,14 @@ using Triangle = std::array<glm::dvec2, 3>;
 /// The triangles inside an odd number of the rings (closed implicitly), vertices in double,
 /// when CGAL's fast triangulation keeps every constraint exactly on its ring edge (always so
 /// without crossings); nothing otherwise (polygon_footprints.cpp). Throws what CGAL throws.
-std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<std::vector<glm::dvec2>>& rings);
+std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<std::vector<glm::dvec2>>& rings,
+                                                             const std::vector<glm::dvec2>& points = {});
 
 /// The union of convex counter-clockwise polygons as triangles (line_union.cpp): its boundary's
-/// vertices are the polygons' vertices and their edges' crossings, rounded to double.
-std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>& parts);
+/// vertices are the polygons' vertices and their edges' crossings, rounded to double, and those
+/// of `points` that fall inside it (when the union's boundary triangulates cleanly).
+std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>& parts,
+                                     const std::vector<glm::dvec2>& points = {});
 
 // ---------------------------------------------------------------------------------------------
 // Convex triangulation

@@ -72,17 +72,18 @@ void markWinding(UnionTriangulation& cdt) {
 
 }  // namespace
 
-std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>& parts) {
+std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>& parts,
+                                     const std::vector<glm::dvec2>& points) {
   UnionTriangulation cdt;
-  std::vector<UnionKernel::Point_2> points;
+  std::vector<UnionKernel::Point_2> corners;
   for (const auto& part : parts) {
-    for (const auto& p : part) points.emplace_back(p.x, p.y);
+    for (const auto& p : part) corners.emplace_back(p.x, p.y);
   }
-  cdt.insert(points.begin(), points.end());
+  cdt.insert(corners.begin(), corners.end());
   // Each input point's vertex, found by its coordinates (input points are exact doubles):
   // inserting the point again would locate it through exact comparisons of equal coordinates.
   std::unordered_map<std::pair<double, double>, UnionTriangulation::Vertex_handle, PairHash> vertexAt;
-  vertexAt.reserve(points.size());
+  vertexAt.reserve(corners.size());
   for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) {
     const glm::dvec2 q = rounded(v->point());
     vertexAt.emplace(std::pair{q.x + 0.0, q.y + 0.0}, v);  // + 0.0: −0 and 0 are one key
@@ -138,7 +139,7 @@ std::vector<Triangle> unionTriangles(const std::vector<std::vector<glm::dvec2>>&
   }
   // The boundary triangulated alone: fewer triangles. Rounding could make two boundary edges
   // cross (they touched exactly); then the union's own triangles are kept.
-  std::optional<std::vector<Triangle>> clean = evenOddTrianglesIfExact(rings);
+  std::optional<std::vector<Triangle>> clean = evenOddTrianglesIfExact(rings, points);
   return clean ? std::move(*clean) : inside;
 }
 

@@ -13,6 +13,7 @@
 // constructions (Epeck, Exact_intersections_tag: each crossing computed once from the original
 // ring edges) and the crossing points are rounded to double at the end.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <map>
@@ -142,34 +143,10 @@ inline glm::dvec2 toDouble(const CGAL::Epeck::Point_2& p) {
   return {CGAL::to_double(CGAL::exact(p.x())), CGAL::to_double(CGAL::exact(p.y()))};
 }
 
-/// Triangulates the rings and returns the triangles inside an odd number of them, with their
-/// vertices rounded to double; nullopt when `requireExact` and a constraint had to bend.
+/// The triangles of `cdt` inside an odd number of its constraints, with their vertices rounded
+/// to double; nullopt when `requireExact` and a constraint had to bend.
 template <typename Tr>
-std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring>& rings, bool requireExact) {
-  using Point = typename Tr::Point;
-  Tr cdt;
-  // All points first, spatially sorted by CGAL: inserting them along the rings would make every
-  // new point of a convex ring conflict with a long fan of triangles (quadratic time).
-  std::vector<Point> points;
-  for (const auto& ring : rings) {
-    for (const auto& p : ring) points.emplace_back(p.x, p.y);
-  }
-  cdt.insert(points.begin(), points.end());
-  std::vector<typename Tr::Vertex_handle> handles;
-  for (const auto& ring : rings) {
-    handles.clear();
-    typename Tr::Face_handle hint;  // per ring: inserting constraints may destroy faces
-    for (const auto& p : ring) {
-      const auto v = cdt.insert(Point(p.x, p.y), hint);  // finds the vertex already there
-      hint = v->face();
-      handles.push_back(v);
-    }
-    for (std::size_t i = 0; i < handles.size(); ++i) {
-      const auto va = handles[i];
-      const auto vb = handles[(i + 1) % handles.size()];
-      if (va != vb) cdt.insert_constraint(va, vb);
-    }
-  }
+std::optional<std::vector<Triangle>> oddFaces(Tr& cdt, bool requireExact) {
   if constexpr (std::is_same_v<Tr, FastTriangulation>) {
     if (requireExact && !constraintsExact(cdt)) return std::nullopt;
   }
@@ -188,15 +165,101 @@ std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring
   return inside;
 }
 
+/// Triangulates the rings (with `extra` points added) and returns the triangles inside an odd
+/// number of them, with their vertices rounded to double; nullopt when `requireExact` and a
+/// constraint had to bend.
+template <typename Tr>
+std::optional<std::vector<Triangle>> insideTriangles(const std::vector<geo::Ring>& rings, bool requireExact,
+                                                     const std::vector<glm::dvec2>& extra = {}) {
+  using Point = typename Tr::Point;
+  Tr cdt;
+  // All points first, spatially sorted by CGAL: inserting them along the rings would make every
+  // new point of a convex ring conflict with a long fan of triangles (quadratic time).
+  std::vector<Point> points;
+  for (const auto& ring : rings) {
+    for (const auto& p : ring) points.emplace_back(p.x, p.y);
+  }
+  for (const auto& p : extra) points.emplace_back(p.x, p.y);
+  cdt.insert(points.begin(), points.end());
+  std::vector<typename Tr::Vertex_handle> handles;
+  for (const auto& ring : rings) {
+    handles.clear();
+    typename Tr::Face_handle hint;  // per ring: inserting constraints may destroy faces
+    for (const auto& p : ring) {
+      const auto v = cdt.insert(Point(p.x, p.y), hint);  // finds the vertex already there
+      hint = v->face();
+      handles.push_back(v);
+    }
+    for (std::size_t i = 0; i < handles.size(); ++i) {
+      const auto va = handles[i];
+      const auto vb = handles[(i + 1) % handles.size()];
+      if (va != vb) cdt.insert_constraint(va, vb);
+    }
+  }
+  return oddFaces(cdt, requireExact);
+}
+
+/// The same for loose edges (each a constraint of its own: an edge given twice cancels).
+template <typename Tr>
+std::optional<std::vector<Triangle>> insideTriangles(const std::vector<std::array<glm::dvec2, 2>>& edges,
+                                                     bool requireExact, const std::vector<glm::dvec2>& extra) {
+  using Point = typename Tr::Point;
+  Tr cdt;
+  std::vector<Point> points;
+  for (const auto& e : edges) {
+    points.emplace_back(e[0].x, e[0].y);
+    points.emplace_back(e[1].x, e[1].y);
+  }
+  for (const auto& p : extra) points.emplace_back(p.x, p.y);
+  cdt.insert(points.begin(), points.end());
+  typename Tr::Vertex_handle last;  // a vertex's face stays valid as constraints go in; a face may not
+  for (const auto& e : edges) {
+    if (e[0] == e[1]) continue;
+    const auto va = cdt.insert(Point(e[0].x, e[0].y), last != nullptr ? last->face() : typename Tr::Face_handle());
+    const auto vb = cdt.insert(Point(e[1].x, e[1].y), va->face());  // both find the vertices already there
+    if (va != vb) cdt.insert_constraint(va, vb);
+    last = vb;
+  }
+  return oddFaces(cdt, requireExact);
+}
+
+/// A region's triangles as one footprint (emitRegion without a grid).
+Footprint footprintOf(const std::vector<Triangle>& inside) {
+  std::vector<Footprint> out;
+  detail::emitRegion(inside, std::nullopt, 0, PieceKind::PolygonPart, 0, out);
+  return out.empty() ? Footprint{} : std::move(out.front());
+}
+
 }  // namespace
 
 namespace detail {
 
-std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<std::vector<glm::dvec2>>& rings) {
-  return insideTriangles<FastTriangulation>(rings, true);
+std::optional<std::vector<Triangle>> evenOddTrianglesIfExact(const std::vector<std::vector<glm::dvec2>>& rings,
+                                                             const std::vector<glm::dvec2>& points) {
+  return insideTriangles<FastTriangulation>(rings, true, points);
 }
 
 }  // namespace detail
+
+Footprint evenOddFootprint(const std::vector<std::array<glm::dvec2, 2>>& edges, const std::vector<glm::dvec2>& points) {
+  auto fast = insideTriangles<FastTriangulation>(edges, true, points);
+  return footprintOf(fast ? *fast : *insideTriangles<ExactTriangulation>(edges, false, points));
+}
+
+Footprint unionFootprint(const std::vector<std::vector<glm::dvec2>>& parts, const std::vector<glm::dvec2>& points) {
+  std::vector<std::vector<glm::dvec2>> ccw;
+  ccw.reserve(parts.size());
+  for (const auto& part : parts) {
+    double area = 0.0;
+    for (std::size_t i = 0, j = part.size() - 1; i < part.size(); j = i++) {
+      area += part[j].x * part[i].y - part[i].x * part[j].y;
+    }
+    if (area == 0.0 || part.size() < 3) continue;
+    ccw.push_back(part);
+    if (area < 0.0) std::reverse(ccw.back().begin(), ccw.back().end());
+  }
+  return footprintOf(detail::unionTriangles(ccw, points));
+}
 
 std::vector<std::vector<geo::Ring>> usablePolygons(const geo::Feature& feature, const std::string& layerName,
                                                    Diagnostics& diagnostics) {

@@ -169,6 +169,20 @@ struct LineShape {
   }
 };
 
+/// A region in a map plane as one footprint (feature 0, no cell), for a frame that cuts its
+/// features into cells itself and triangulates each cell's part in a plane of its own (the globe:
+/// gnomonic about the cell, docs/frames.md): the points inside an odd number of `edges` (each a
+/// constraint of its own; an edge given twice, or runs laid over each other along a cell's
+/// border, cancel), triangulated as polygonFootprints triangulates a polygon, with those of
+/// `points` that fall inside added as vertices (to keep the cap's triangles short where the plane
+/// curves away from the surface). No triangles when the region has no area. Throws what CGAL
+/// throws.
+Footprint evenOddFootprint(const std::vector<std::array<glm::dvec2, 2>>& edges, const std::vector<glm::dvec2>& points);
+/// The same for the union of simple closed `parts` (a line's shapes: bands, joins and caps,
+/// which overlap; either orientation), as a line's united pieces are made (FootprintOptions::
+/// uniteLines): no walls or caps inside the union.
+Footprint unionFootprint(const std::vector<std::vector<glm::dvec2>>& parts, const std::vector<glm::dvec2>& points);
+
 /// How big a pixel is in the frame: its size in metres at 1 m from the eye (2 tan(fovY / 2) /
 /// viewport height for a perspective camera).
 struct PixelScale {
