@@ -8,7 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <set>
+#include <span>
 #include <string>
 #include <thread>
 
@@ -94,13 +94,17 @@ std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double
     const glm::dvec2 p = ring[i], q = ring[(i + 1) % n];
     dense.push_back(p);
     if (isPole(p.y) && isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole: no length
-    double s12 = 0.0;
-    const GeographicLib::GeodesicLine line = geod.InverseLine(p.y, p.x, q.y, q.x);
-    s12 = line.Distance();
+    // From the lesser end (longitude, then latitude): a border two rings share, run one way in
+    // each, gets the same points in both, so the coverage's generalisation sees it shared.
+    const bool forward = p.x < q.x || (p.x == q.x && p.y < q.y);
+    const glm::dvec2 from = forward ? p : q, to = forward ? q : p;
+    const GeographicLib::GeodesicLine line = geod.InverseLine(from.y, from.x, to.y, to.x);
+    const double s12 = line.Distance();
     const auto pieces = static_cast<std::size_t>(std::ceil(s12 / maxSegment));
     for (std::size_t k = 1; k < pieces; ++k) {
       double lat = 0.0, lon = 0.0;
-      line.Position(s12 * static_cast<double>(k) / static_cast<double>(pieces), lat, lon);
+      const std::size_t at = forward ? k : pieces - k;
+      line.Position(s12 * static_cast<double>(at) / static_cast<double>(pieces), lat, lon);
       dense.emplace_back(lon, lat);
     }
   }
@@ -176,91 +180,74 @@ std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double
   return clean;
 }
 
-/// Douglas–Peucker (overlay::markDouglasPeucker) on ring[first .. last] (indices, last may
-/// wrap), keeping points whose distance from the chord, in degrees of arc with longitude scaled
-/// by the cosine of their latitude and divided by it again, exceeds `tolerance`: a tolerance in
-/// arc at the equator that shrinks with the cosine of the latitude. Points at a pole are always
-/// kept (the ring runs along it there).
-void simplifySpan(const std::vector<glm::dvec2>& ring, std::size_t first, std::size_t last, double tolerance,
-                  std::vector<char>& keep) {
-  const std::size_t n = ring.size();
-  constexpr double kDegree = 3.14159265358979323846 / 180.0;
-  overlay::markDouglasPeucker(first, last, tolerance, keep, [&ring, n](std::size_t k, std::size_t a, std::size_t b) {
-    const glm::dvec2 pa = ring[a % n], pb = ring[b % n], p = ring[k % n];
-    if (isPole(p.y)) return std::numeric_limits<double>::infinity();
-    const double c = std::cos(p.y * kDegree);
-    const glm::dvec2 u((pa.x - p.x) * c, pa.y - p.y), v((pb.x - p.x) * c, pb.y - p.y);
-    const glm::dvec2 d = v - u;
-    const double len2 = glm::dot(d, d);
-    const double t = len2 > 0.0 ? std::clamp(-glm::dot(u, d) / len2, 0.0, 1.0) : 0.0;
-    return glm::length(u + d * t) / std::max(c, 1e-12);
-  });
+/// How far a point lies from the chord a–b of a ring, as the globe's generalisation measures it
+/// (overlay::SegmentDistance): in degrees of arc, longitude scaled by the cosine of the point's
+/// latitude, divided by that cosine again: a tolerance in arc at the equator that shrinks with
+/// the cosine of the latitude, as the posts of the geographic grid do. Points at a pole are
+/// always kept (the ring runs along it there).
+double ringDistance(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b) {
+  if (isPole(p.y)) return std::numeric_limits<double>::infinity();
+  // The cosine from a table every 1/64° (linear between: within 1e-8 of it, far below any
+  // tolerance's meaning): generalisation asks it at every point of every span it looks at.
+  constexpr int kPerDegree = 64;
+  static const std::vector<double> table = [] {
+    constexpr double kDegree = 3.14159265358979323846 / 180.0;
+    std::vector<double> t(90 * kPerDegree + 2);
+    for (std::size_t k = 0; k < t.size(); ++k) t[k] = std::cos(static_cast<double>(k) / kPerDegree * kDegree);
+    return t;
+  }();
+  const double at = std::abs(p.y) * kPerDegree;
+  const auto k = static_cast<std::size_t>(at);
+  const double c = table[k] + (table[k + 1] - table[k]) * (at - static_cast<double>(k));
+  const glm::dvec2 u((a.x - p.x) * c, a.y - p.y), v((b.x - p.x) * c, b.y - p.y);
+  const glm::dvec2 d = v - u;
+  const double len2 = glm::dot(d, d);
+  const double t = len2 > 0.0 ? std::clamp(-glm::dot(u, d) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(u + d * t) / std::max(c, 1e-12);
 }
 
-/// A point's key for finding the points rings share: its longitude in [−180, 180) and latitude.
-std::pair<double, double> pointKey(const glm::dvec2& p) {
-  double lon = std::fmod(p.x + 180.0, 360.0);
-  if (lon < 0.0) lon += 360.0;
-  return {lon - 180.0, p.y};
-}
-
-/// The ring simplified to `tolerance` (simplifySpan), split at its first point and the point
-/// farthest from it; points in `shared` (borders rings share) and at a pole are kept.
-std::vector<glm::dvec2> simplifyKeepingShared(const std::vector<glm::dvec2>& ring, double tolerance,
-                                              const std::set<std::pair<double, double>>& shared) {
-  const std::size_t n = ring.size();
-  std::vector<char> keep(n, 0);
-  std::size_t far = 0;
-  double farthest = -1.0;
-  for (std::size_t k = 0; k < n; ++k) {
-    const double d = glm::length(ring[k] - ring[0]);
-    if (d > farthest) {
-      farthest = d;
-      far = k;
+/// GlobePolygon::simplified of the layer's areas: per level, every ring generalised within
+/// simplifyTolerance as one coverage (overlay::generaliseCoverage, as a projected tile's polygons
+/// are): a border two rings share (the same points in both: prepareRing densifies it from the
+/// same end) is simplified once, so neighbours still meet exactly at every level and no crack
+/// opens between them. A polygon takes levels until one keeps nearly all its points (then its
+/// own rings serve the finer ones); the layer stops when every polygon has.
+void simplifyLevels(std::span<GlobePolygon> polygons) {
+  std::vector<geo::Feature> coverage(polygons.size());
+  std::vector<const geo::Feature*> pointers;
+  std::vector<std::size_t> points(polygons.size(), 0);
+  for (std::size_t k = 0; k < polygons.size(); ++k) {
+    geo::Polygon polygon;
+    for (std::size_t r = 0; r < polygons[k].rings.size(); ++r) {
+      (r == 0 ? polygon.outer : polygon.holes.emplace_back()) = polygons[k].rings[r];
+      points[k] += polygons[k].rings[r].size();
     }
-    if (isPole(ring[k].y) || (!shared.empty() && shared.count(pointKey(ring[k])) != 0)) keep[k] = 1;
+    coverage[k].polygons.push_back(std::move(polygon));
+    pointers.push_back(&coverage[k]);
   }
-  keep[0] = keep[far] = 1;
-  simplifySpan(ring, 0, far, tolerance, keep);
-  simplifySpan(ring, far, n, tolerance, keep);
-  std::vector<glm::dvec2> kept;
-  for (std::size_t k = 0; k < n; ++k) {
-    if (keep[k] != 0) kept.push_back(ring[k]);
-  }
-  return kept;
-}
-
-/// The points on more than one of the rings (a boundary two rings share).
-std::set<std::pair<double, double>> sharedPoints(const std::vector<const std::vector<glm::dvec2>*>& rings) {
-  std::map<std::pair<double, double>, int> uses;
-  for (const std::vector<glm::dvec2>* ring : rings) {
-    std::set<std::pair<double, double>> own;
-    for (const glm::dvec2& q : *ring) {
-      if (own.insert(pointKey(q)).second) ++uses[pointKey(q)];
-    }
-  }
-  std::set<std::pair<double, double>> shared;
-  for (const auto& [key, n] : uses) {
-    if (n > 1) shared.insert(key);
-  }
-  return shared;
-}
-
-/// GlobePolygon::simplified: each level's rings, until a level keeps nearly every point. Points in
-/// `shared` (on more than one ring of the layer: a boundary two features share) are kept, so that
-/// neighbouring features keep meeting exactly and no sliver opens between them.
-void simplifyLevels(GlobePolygon& polygon, const std::set<std::pair<double, double>>& shared) {
+  const overlay::CoverageGeneraliser coverageOf(pointers, ringDistance);
+  std::vector<char> open(polygons.size(), 1);
   for (int level = 0; level < kMaxLevel; ++level) {
-    std::size_t before = 0, after = 0;
-    std::vector<std::vector<glm::dvec2>> rings;
-    for (const auto& ring : polygon.rings) {
-      std::vector<glm::dvec2> kept = simplifyKeepingShared(ring, simplifyTolerance(level), shared);
-      before += ring.size();
-      after += kept.size();
-      if (kept.size() >= 3) rings.push_back(std::move(kept));
+    const std::vector<geo::Feature> generalised = coverageOf.at(simplifyTolerance(level), &open, true);
+    bool any = false;
+    for (std::size_t k = 0; k < polygons.size(); ++k) {
+      if (open[k] == 0) continue;
+      const geo::Polygon& g = generalised[k].polygons.front();
+      std::size_t kept = 0;
+      std::vector<std::vector<glm::dvec2>> rings;
+      for (std::size_t r = 0; r <= g.holes.size(); ++r) {
+        const geo::Ring& ring = r == 0 ? g.outer : g.holes[r - 1];
+        kept += ring.size();
+        if (ring.size() >= 3) rings.push_back(ring);
+      }
+      if (kept * 10 >= points[k] * 9) {
+        open[k] = 0;  // nearly nothing left to leave out: the full rings from here on
+        continue;
+      }
+      polygons[k].simplified.push_back(std::move(rings));
+      any = true;
     }
-    if (after * 10 >= before * 9) break;  // nearly nothing left to leave out: the full rings
-    polygon.simplified.push_back(std::move(rings));
+    if (!any) break;
   }
 }
 
@@ -712,14 +699,9 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     out.diagnostics.append(part.diagnostics);
   }
   layer.areaPolygons_ = layer.polygons_.size();
-  // Generalised rings for the areas' coarse tiles, keeping the points rings share. (Lines get
-  // theirs per tile: lineShapesIn.)
-  std::vector<const std::vector<glm::dvec2>*> rings;
-  for (std::size_t k = 0; k < layer.areaPolygons_; ++k) {
-    for (const auto& ring : layer.polygons_[k].rings) rings.push_back(&ring);
-  }
-  const std::set<std::pair<double, double>> shared = sharedPoints(rings);
-  for (std::size_t k = 0; k < layer.areaPolygons_; ++k) simplifyLevels(layer.polygons_[k], shared);
+  // Generalised rings for the areas' coarse tiles, as one coverage. (Lines get theirs per tile:
+  // lineShapesIn.)
+  simplifyLevels(std::span<GlobePolygon>(layer.polygons_.data(), layer.areaPolygons_));
   layer.fingerprint_ = layer.digestForCache();
   static std::atomic<std::uint64_t> builds{0};
   layer.serial_ = ++builds;
@@ -1019,15 +1001,19 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
         if (preparePolygon({std::move(shape), {}}, maxSegment_, p, problem)) made.push_back(std::move(p));
       }
       if (generalised) {
-        // The rings simplified within the other half, keeping the points the shapes share (where
-        // bands and sectors meet).
-        std::vector<const std::vector<glm::dvec2>*> rings;
-        for (const GlobePolygon& p : made) rings.push_back(&p.rings.front());
-        const std::set<std::pair<double, double>> shared = sharedPoints(rings);
-        for (GlobePolygon& p : made) {
-          std::vector<glm::dvec2> ring =
-              simplifyKeepingShared(p.rings.front(), 0.5 * kLineGeneralisation * simplifyTolerance(key.level), shared);
-          if (ring.size() >= 3) p.rings.front() = std::move(ring);
+        // The rings simplified within the other half as one coverage, so the borders the shapes
+        // share (where bands and sectors meet) stay shared and no crack opens inside the line.
+        std::vector<geo::Feature> coverage(made.size());
+        std::vector<const geo::Feature*> pointers;
+        for (std::size_t k = 0; k < made.size(); ++k) {
+          coverage[k].polygons.push_back({made[k].rings.front(), {}});
+          pointers.push_back(&coverage[k]);
+        }
+        const std::vector<geo::Feature> simplified = overlay::generaliseCoverage(
+            pointers, 0.5 * kLineGeneralisation * simplifyTolerance(key.level), ringDistance);
+        for (std::size_t k = 0; k < made.size(); ++k) {
+          const geo::Ring& ring = simplified[k].polygons.front().outer;
+          if (ring.size() >= 3) made[k].rings.front() = ring;
         }
       }
       for (GlobePolygon& p : made) out.push_back(std::move(p));
@@ -1047,7 +1033,7 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 
 std::uint64_t GlobeLayer::digestForCache() const {
   // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 3;
+  constexpr std::uint64_t kBuilderVersion = 4;
   std::vector<std::uint64_t> parts{kBuilderVersion};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};

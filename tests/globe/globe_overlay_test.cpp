@@ -81,6 +81,48 @@ TEST(GlobePolygons, AcrossTheAntimeridian) {
   EXPECT_FALSE(inside(*layer, 0.0, -12.0));
 }
 
+// The areas' coarse levels are the layer generalised as one coverage (overlay::CoverageGeneraliser,
+// as a projected tile's polygons): a border two features share, run the other way in each and
+// densified along its geodesic, is simplified once, so both keep the very same points.
+TEST(GlobePolygons, NeighboursShareTheirBorderAtEveryLevel) {
+  // A wiggly border from (0, 0) to (0, 10) between a western and an eastern square.
+  std::vector<glm::dvec2> border;
+  for (int k = 0; k <= 40; ++k) border.emplace_back(0.01 * ((k % 3) - 1), 0.25 * k);
+  geo::Polygon west, east;
+  west.outer = {{-10.0, 10.0}, {-10.0, 0.0}};
+  west.outer.insert(west.outer.end(), border.begin(), border.end());  // south to north
+  east.outer = {{10.0, 0.0}, {10.0, 10.0}};
+  east.outer.insert(east.outer.end(), border.rbegin(), border.rend());  // north to south
+  std::vector<geo::Feature> features(2);
+  features[0].fid = 1;
+  features[0].polygons.push_back(west);
+  features[1].fid = 2;
+  features[1].polygons.push_back(east);
+  Result<GlobeLayer> layer = GlobeLayer::build("neighbours", overlay::SharedFeatures(features), glm::vec4(1.0F));
+  ASSERT_TRUE(layer.ok());
+  ASSERT_EQ(layer->polygons().size(), 2u);
+  const auto onBorder = [](const std::vector<std::vector<glm::dvec2>>& rings) {
+    std::vector<glm::dvec2> out;
+    for (const glm::dvec2& p : rings.front())
+      if (std::abs(p.x) < 0.02 && p.y > 0.0 && p.y < 10.0) out.push_back(p);
+    std::sort(out.begin(), out.end(), [](const glm::dvec2& a, const glm::dvec2& b) { return a.y < b.y; });
+    return out;
+  };
+  const std::vector<glm::dvec2> full = onBorder(layer->polygons()[0].rings);
+  EXPECT_EQ(full, onBorder(layer->polygons()[1].rings)) << "densified from the same end in both rings";
+  EXPECT_GT(full.size(), 1000u);
+  int simplifiedLevels = 0;
+  for (int level = 0; level < 8; ++level) {
+    const std::vector<glm::dvec2> a = onBorder(layer->polygons()[0].ringsAt(level));
+    EXPECT_EQ(a, onBorder(layer->polygons()[1].ringsAt(level))) << "level " << level;
+    simplifiedLevels += a.size() < full.size() ? 1 : 0;
+  }
+  EXPECT_GT(simplifiedLevels, 3) << "the shared border is simplified at the coarse levels, not kept whole";
+  // Within the level's tolerance: every kept border point is one of the full border's.
+  for (const glm::dvec2& p : onBorder(layer->polygons()[0].ringsAt(0)))
+    EXPECT_NE(std::find(full.begin(), full.end(), p), full.end());
+}
+
 TEST(GlobePolygons, AroundThePoles) {
   const auto features = test::globe_scene::features();
   Result<GlobeLayer> arctic = GlobeLayer::build("arctic", {features[2]}, glm::vec4(1.0F));

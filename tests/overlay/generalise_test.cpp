@@ -704,6 +704,54 @@ TEST(GeneraliseCoverage, NeighboursStillMeetExactly) {
   EXPECT_EQ(overlay::generaliseCoverage(pointers, 0.0)[3].polygons[0].outer, coverage[3].polygons[0].outer);
 }
 
+TEST(GeneraliseCoverage, OneGeneraliserServesEveryToleranceAndItsOptions) {
+  // The globe's levels of detail: the shared borders found once, then one tolerance after the
+  // other, each what generaliseCoverage gives; features not wanted cost nothing; islands within
+  // epsilon of one chord may be let go; a frame's own distance is used throughout.
+  std::mt19937 rng(43);
+  std::vector<Feature> coverage = wigglyCoverage(rng);
+  Feature island;
+  island.fid = 99;
+  island.polygons.push_back(Polygon{{dvec2(500.0, 500.0), dvec2(503.0, 500.0), dvec2(503.0, 501.0)}, {}});
+  coverage.push_back(island);
+  std::vector<const Feature*> pointers;
+  for (const Feature& f : coverage) pointers.push_back(&f);
+  const overlay::CoverageGeneraliser generaliser(pointers);
+  for (const double epsilon : {0.5, 2.0, 4.0, 8.0}) {
+    const std::vector<Feature> once = generaliser.at(epsilon);
+    const std::vector<Feature> each = overlay::generaliseCoverage(pointers, epsilon);
+    ASSERT_EQ(once.size(), each.size());
+    for (std::size_t i = 0; i < once.size(); ++i) {
+      ASSERT_EQ(once[i].polygons.size(), each[i].polygons.size());
+      for (std::size_t k = 0; k < once[i].polygons.size(); ++k) {
+        EXPECT_EQ(once[i].polygons[k].outer, each[i].polygons[k].outer) << epsilon << " " << i;
+        EXPECT_EQ(once[i].polygons[k].holes, each[i].polygons[k].holes) << epsilon << " " << i;
+      }
+    }
+  }
+  std::vector<char> wanted(coverage.size(), 0);
+  wanted[2] = 1;
+  const std::vector<Feature> some = generaliser.at(4.0, &wanted);
+  EXPECT_EQ(some[2].polygons[0].outer, overlay::generaliseCoverage(pointers, 4.0)[2].polygons[0].outer);
+  EXPECT_TRUE(some[1].polygons.empty() && some[3].polygons.empty());
+  EXPECT_EQ(some[1].fid, coverage[1].fid);
+  // The island (1 m across) within 2 m of one chord: a triangle by default, nothing when let go;
+  // within 0.5 m it stays either way.
+  EXPECT_EQ(generaliser.at(2.0).back().polygons[0].outer.size(), 3U);
+  EXPECT_TRUE(generaliser.at(2.0, nullptr, true).back().polygons[0].outer.empty());
+  EXPECT_EQ(generaliser.at(0.5, nullptr, true).back().polygons[0].outer.size(), 3U);
+  // A frame's distance: here twice another, so epsilon means half as much.
+  const overlay::CoverageGeneraliser plain(
+      pointers, [](const dvec2& p, const dvec2& a, const dvec2& b) { return distanceToSegment(p, a, b); });
+  const overlay::CoverageGeneraliser doubled(
+      pointers, [](const dvec2& p, const dvec2& a, const dvec2& b) { return 2.0 * distanceToSegment(p, a, b); });
+  const std::vector<Feature> half = plain.at(2.0);
+  const std::vector<Feature> viaDistance = doubled.at(4.0);
+  EXPECT_LT(half[0].polygons[0].outer.size(), coverage[0].polygons[0].outer.size());
+  for (std::size_t i = 0; i + 1 < coverage.size(); ++i)
+    EXPECT_EQ(viaDistance[i].polygons[0].outer, half[i].polygons[0].outer) << i;
+}
+
 TEST(GeneraliseCoverage, RingsThatWouldLoseTheirAreaKeepTheirPointsAndTheirNeighboursToo) {
   // A thin lens (0.5 m wide, its two borders meeting at both ends) between wide neighbours,
   // generalised by 2 m: both borders would become the same segment and the lens lose its area, so

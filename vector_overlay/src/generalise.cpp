@@ -24,7 +24,13 @@ double distanceToSegment(const glm::dvec2& p, const glm::dvec2& a, const glm::dv
 /// are kept by the caller). A NaN distance keeps the point: the footprint builder reports the
 /// feature.
 void markKept(std::span<const glm::dvec2> points, std::size_t first, std::size_t last, double epsilon,
-              std::vector<char>& keep) {
+              std::vector<char>& keep, const SegmentDistance& distance) {
+  if (distance) {
+    markDouglasPeucker(first, last, epsilon, keep, [points, &distance](std::size_t k, std::size_t a, std::size_t b) {
+      return distance(points[k], points[a], points[b]);
+    });
+    return;
+  }
   markDouglasPeucker(first, last, epsilon, keep, [points](std::size_t k, std::size_t a, std::size_t b) {
     return distanceToSegment(points[k], points[a], points[b]);
   });
@@ -42,18 +48,19 @@ double twiceArea(const geo::Ring& ring) {
 
 }  // namespace
 
-std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, double epsilon) {
+std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, double epsilon,
+                                         const SegmentDistance& distance) {
   if (points.size() < 3 || !(epsilon > 0.0)) return {points.begin(), points.end()};
   std::vector<char> keep(points.size(), 0);
   keep.front() = keep.back() = 1;
-  markKept(points, 0, points.size() - 1, epsilon, keep);
+  markKept(points, 0, points.size() - 1, epsilon, keep, distance);
   std::vector<glm::dvec2> out;
   for (std::size_t k = 0; k < points.size(); ++k)
     if (keep[k] != 0) out.push_back(points[k]);
   return out;
 }
 
-geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
+geo::Ring simplifyRing(const geo::Ring& ring, double epsilon, const SegmentDistance& distance) {
   if (ring.size() <= 3 || !(epsilon > 0.0)) return ring;
   // Cut at point 0 and the point farthest from it; each half is a polyline with fixed ends.
   std::size_t far = 1;
@@ -69,8 +76,8 @@ geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
   closed.push_back(ring.front());
   std::vector<char> keep(closed.size(), 0);
   keep[0] = keep[far] = keep.back() = 1;
-  markKept(closed, 0, far, epsilon, keep);
-  markKept(closed, far, closed.size() - 1, epsilon, keep);
+  markKept(closed, 0, far, epsilon, keep, distance);
+  markKept(closed, far, closed.size() - 1, epsilon, keep, distance);
   if (std::count(keep.begin(), keep.end() - 1, 1) < 3) {
     // A third point: the one farthest from the chord (0, far); then the chains between the
     // three simplified again, so that every point stays within epsilon of the triangle's edges.
@@ -78,7 +85,8 @@ geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
     double d = -1.0;
     for (std::size_t k = 1; k < ring.size(); ++k) {
       if (k == far) continue;
-      const double e = distanceToSegment(ring[k], ring[0], ring[far]);
+      const double e =
+          distance ? distance(ring[k], ring[0], ring[far]) : distanceToSegment(ring[k], ring[0], ring[far]);
       if (e > d) {
         d = e;
         best = k;
@@ -89,7 +97,7 @@ geo::Ring simplifyRing(const geo::Ring& ring, double epsilon) {
       std::size_t previous = 0;
       for (std::size_t k = 1; k < closed.size(); ++k) {
         if (keep[k] == 0) continue;
-        markKept(closed, previous, k, epsilon, keep);
+        markKept(closed, previous, k, epsilon, keep, distance);
         previous = k;
       }
     }
@@ -168,76 +176,148 @@ geo::Ring withoutRepeats(const geo::Ring& ring) {
 
 }  // namespace
 
-std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const> features, double epsilon) {
-  std::vector<geo::Feature> out;
-  out.reserve(features.size());
-  for (const geo::Feature* f : features) {
-    geo::Feature g;
-    g.fid = f->fid;
-    g.polygons = f->polygons;
-    g.lines.reserve(f->lines.size());
-    for (const geo::LineString& l : f->lines) g.lines.push_back(simplifyPolyline(l, epsilon));
-    out.push_back(std::move(g));
-  }
-  if (!(epsilon > 0.0)) return out;
-
-  // The rings taking part (finite, at least 3 distinct points), without repeated points.
-  std::vector<geo::Ring*> targets;
-  std::vector<geo::Ring> rings;
-  for (geo::Feature& f : out) {
-    for (geo::Polygon& p : f.polygons) {
-      const auto take = [&](geo::Ring& r) {
-        geo::Ring clean = withoutRepeats(r);
-        if (clean.size() >= 3 && finiteRing(clean)) {
-          targets.push_back(&r);
-          rings.push_back(std::move(clean));
-        }
-      };
-      take(p.outer);
-      for (geo::Ring& h : p.holes) take(h);
-    }
-  }
-  // Which rings hold each edge, and how many rings each point.
+/// What generaliseCoverage finds once for a set of features: the rings taking part, which rings
+/// hold each edge, how many rings each point, and each ring's nodes (before any ring is kept
+/// whole).
+struct CoverageGeneraliser::Topology {
+  std::span<const geo::Feature* const> features;
+  SegmentDistance distance;
+  struct Place {
+    std::uint32_t feature = 0, polygon = 0, ring = 0;  ///< ring 0: the outer one, h + 1: hole h
+  };
+  std::vector<Place> places;     ///< per ring
+  std::vector<geo::Ring> rings;  ///< finite, at least 3 points, no repeated points
   std::unordered_map<Edge, std::vector<std::uint32_t>, EdgeHash> edgeRings;
   struct PointUse {
     std::uint32_t rings = 0, last = 0;
   };
   std::unordered_map<glm::dvec2, PointUse, PointHash> pointRings;
-  for (std::uint32_t r = 0; r < rings.size(); ++r) {
+  std::vector<std::vector<std::size_t>> nodes;  ///< per ring
+  std::vector<char> shared;                     ///< per ring: some edge held by another ring too
+
+  [[nodiscard]] const std::vector<std::uint32_t>& holdersOf(const geo::Ring& ring, std::size_t k) const {
+    return edgeRings.find(edgeOf(ring[k], ring[(k + 1) % ring.size()]))->second;
+  }
+  /// Ring r's nodes: points where the rings holding its edges change, points of three rings or
+  /// more, and points in `kept`.
+  void findNodes(std::size_t r, const std::unordered_set<glm::dvec2, PointHash>& kept, std::vector<std::size_t>& out,
+                 char& isShared) const {
     const geo::Ring& ring = rings[r];
+    const std::size_t n = ring.size();
+    out.clear();
+    bool any = false;
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::vector<std::uint32_t>& before = holdersOf(ring, (k + n - 1) % n);
+      const std::vector<std::uint32_t>& after = holdersOf(ring, k);
+      any = any || after.size() > 1;
+      if (pointRings.find(ring[k])->second.rings >= 3 || before != after || kept.count(ring[k]) != 0) out.push_back(k);
+    }
+    isShared = any ? 1 : 0;
+  }
+};
+
+CoverageGeneraliser::CoverageGeneraliser(std::span<const geo::Feature* const> features, SegmentDistance distance)
+    : t_(std::make_unique<Topology>()) {
+  Topology& t = *t_;
+  t.features = features;
+  t.distance = std::move(distance);
+  // The rings taking part (finite, at least 3 distinct points), without repeated points.
+  for (std::uint32_t f = 0; f < features.size(); ++f) {
+    for (std::uint32_t p = 0; p < features[f]->polygons.size(); ++p) {
+      const geo::Polygon& polygon = features[f]->polygons[p];
+      for (std::uint32_t r = 0; r <= polygon.holes.size(); ++r) {
+        geo::Ring clean = withoutRepeats(r == 0 ? polygon.outer : polygon.holes[r - 1]);
+        if (clean.size() >= 3 && finiteRing(clean)) {
+          t.places.push_back({f, p, r});
+          t.rings.push_back(std::move(clean));
+        }
+      }
+    }
+  }
+  // Which rings hold each edge, and how many rings each point.
+  for (std::uint32_t r = 0; r < t.rings.size(); ++r) {
+    const geo::Ring& ring = t.rings[r];
     for (std::size_t k = 0; k < ring.size(); ++k) {
-      std::vector<std::uint32_t>& holders = edgeRings[edgeOf(ring[k], ring[(k + 1) % ring.size()])];
+      std::vector<std::uint32_t>& holders = t.edgeRings[edgeOf(ring[k], ring[(k + 1) % ring.size()])];
       if (holders.empty() || holders.back() != r) holders.push_back(r);
-      PointUse& use = pointRings[ring[k]];
+      Topology::PointUse& use = t.pointRings[ring[k]];
       if (use.rings == 0 || use.last != r) {
         ++use.rings;
         use.last = r;
       }
     }
   }
-  const auto holdersOf = [&](const geo::Ring& ring, std::size_t k) -> const std::vector<std::uint32_t>& {
-    return edgeRings.find(edgeOf(ring[k], ring[(k + 1) % ring.size()]))->second;
-  };
+  t.nodes.resize(t.rings.size());
+  t.shared.assign(t.rings.size(), 0);
+  const std::unordered_set<glm::dvec2, PointHash> none;
+  for (std::size_t r = 0; r < t.rings.size(); ++r) t.findNodes(r, none, t.nodes[r], t.shared[r]);
+}
+
+CoverageGeneraliser::~CoverageGeneraliser() = default;
+
+namespace {
+
+/// Whether every point of the ring lies within epsilon of the chord from its first point to the
+/// point farthest from it (simplifyRing's first cut): all that two points would keep of it.
+bool withinOneChord(const geo::Ring& ring, double epsilon, const SegmentDistance& distance) {
+  std::size_t far = 0;
+  double farthest = -1.0;
+  for (std::size_t k = 1; k < ring.size(); ++k) {
+    const double d = glm::length(ring[k] - ring[0]);
+    if (d > farthest) {
+      farthest = d;
+      far = k;
+    }
+  }
+  for (std::size_t k = 1; k < ring.size(); ++k) {
+    if (k == far) continue;
+    const double d = distance ? distance(ring[k], ring[0], ring[far]) : distanceToSegment(ring[k], ring[0], ring[far]);
+    if (!(d <= epsilon)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+std::vector<geo::Feature> CoverageGeneraliser::at(double epsilon, const std::vector<char>* wanted,
+                                                  bool dropWithinEpsilon) const {
+  const Topology& t = *t_;
+  const auto isWanted = [&](std::size_t f) { return wanted == nullptr || (f < wanted->size() && (*wanted)[f] != 0); };
+  std::vector<geo::Feature> out;
+  out.reserve(t.features.size());
+  for (std::size_t k = 0; k < t.features.size(); ++k) {
+    const geo::Feature* f = t.features[k];
+    geo::Feature g;
+    g.fid = f->fid;
+    if (isWanted(k)) {
+      g.polygons = f->polygons;
+      g.lines.reserve(f->lines.size());
+      for (const geo::LineString& l : f->lines) g.lines.push_back(simplifyPolyline(l, epsilon, t.distance));
+    }
+    out.push_back(std::move(g));
+  }
+  if (!(epsilon > 0.0)) return out;
 
   // Each ring from its chains between nodes; rings that would lose their area make all their
   // points nodes (kept, in their neighbours too), and the rings are made again.
   std::unordered_set<glm::dvec2, PointHash> kept;
-  std::vector<geo::Ring> result(rings.size());
+  std::vector<geo::Ring> result(t.rings.size());
+  std::vector<std::size_t> found;
   for (int attempt = 0; attempt < 4; ++attempt) {
     bool again = false;
-    for (std::size_t r = 0; r < rings.size(); ++r) {
-      const geo::Ring& ring = rings[r];
+    for (std::size_t r = 0; r < t.rings.size(); ++r) {
+      if (!isWanted(t.places[r].feature)) continue;
+      const geo::Ring& ring = t.rings[r];
       const std::size_t n = ring.size();
-      std::vector<std::size_t> nodes;
-      bool shared = false;
-      for (std::size_t k = 0; k < n; ++k) {
-        const std::vector<std::uint32_t>& before = holdersOf(ring, (k + n - 1) % n);
-        const std::vector<std::uint32_t>& after = holdersOf(ring, k);
-        shared = shared || after.size() > 1;
-        if (pointRings[ring[k]].rings >= 3 || before != after || kept.count(ring[k]) != 0) nodes.push_back(k);
-      }
-      if (nodes.empty() && !shared) {
-        result[r] = simplifyRing(ring, epsilon);  // a ring of its own: as generaliseGeometry
+      char shared = t.shared[r];
+      if (!kept.empty()) t.findNodes(r, kept, found, shared);
+      std::vector<std::size_t> nodes = kept.empty() ? t.nodes[r] : found;
+      if (nodes.empty() && shared == 0) {
+        // A ring of its own: as generaliseGeometry, or nothing when it all lies within epsilon
+        // of one chord and the caller lets such rings go.
+        result[r] = dropWithinEpsilon && withinOneChord(ring, epsilon, t.distance)
+                        ? geo::Ring{}
+                        : simplifyRing(ring, epsilon, t.distance);
         continue;
       }
       if (nodes.empty()) {
@@ -264,7 +344,7 @@ std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const
             lexLess(chain.back(), chain.front()) ||
             (chain.back() == chain.front() && chain.size() > 2 && lexLess(chain[chain.size() - 2], chain[1]));
         if (reverse) std::reverse(chain.begin(), chain.end());
-        std::vector<glm::dvec2> simple = simplifyPolyline(chain, epsilon);
+        std::vector<glm::dvec2> simple = simplifyPolyline(chain, epsilon, t.distance);
         if (reverse) std::reverse(simple.begin(), simple.end());
         made.insert(made.end(), simple.begin(), simple.end() - 1);
       }
@@ -280,8 +360,30 @@ std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const
     }
     if (!again) break;
   }
-  for (std::size_t r = 0; r < rings.size(); ++r) *targets[r] = std::move(result[r]);
+  for (std::size_t r = 0; r < t.rings.size(); ++r) {
+    const Topology::Place& at = t.places[r];
+    if (!isWanted(at.feature)) continue;
+    geo::Polygon& polygon = out[at.feature].polygons[at.polygon];
+    (at.ring == 0 ? polygon.outer : polygon.holes[at.ring - 1]) = std::move(result[r]);
+  }
   return out;
+}
+
+std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const> features, double epsilon,
+                                             const SegmentDistance& distance) {
+  if (!(epsilon > 0.0)) {  // nothing to simplify: no need to find the shared borders
+    std::vector<geo::Feature> out;
+    out.reserve(features.size());
+    for (const geo::Feature* f : features) {
+      geo::Feature g;
+      g.fid = f->fid;
+      g.polygons = f->polygons;
+      g.lines = f->lines;
+      out.push_back(std::move(g));
+    }
+    return out;
+  }
+  return CoverageGeneraliser(features, distance).at(epsilon);
 }
 
 void appendRunsNear(std::span<const glm::dvec2> line, const glm::dvec2& lo, const glm::dvec2& hi, double reach,

@@ -16,6 +16,8 @@
 //   their footprint moves by at most epsilon + lineShapeSlack(shape) (see there).
 #include <cmath>
 #include <cstddef>
+#include <functional>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -67,14 +69,20 @@ void markDouglasPeucker(std::size_t first, std::size_t last, double epsilon, std
   }
 }
 
+/// How far point p lies from the segment a–b as a frame measures it, in epsilon's unit; empty:
+/// the plane's distance to the segment (a projected frame). The globe measures its rings in
+/// longitude and latitude along the ellipsoid (globe_polygon.cpp).
+using SegmentDistance = std::function<double(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& b)>;
+
 /// Douglas–Peucker with the distance to the segment: the kept points, ends included. Fewer than
 /// 3 points are returned unchanged; epsilon <= 0 returns the points unchanged.
-std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, double epsilon);
+std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, double epsilon,
+                                         const SegmentDistance& distance = {});
 
 /// A closed ring (not repeating its first point) simplified as above, cut at its first point
 /// and at the point farthest from it. Keeps at least 3 points and returns the ring unchanged
 /// when the simplified one would have no area (so a usable ring stays usable).
-geo::Ring simplifyRing(const geo::Ring& ring, double epsilon);
+geo::Ring simplifyRing(const geo::Ring& ring, double epsilon, const SegmentDistance& distance = {});
 
 /// How far beyond epsilon a line's footprint can move when its centre line is simplified by
 /// epsilon: 0 for round joins and caps; otherwise the reach of a miter (miterLimit · w/2), a
@@ -96,7 +104,32 @@ geo::Feature generaliseGeometry(const geo::Feature& feature, double epsilon);
 /// its neighbours along it. Points are matched exactly (a shared border is the same coordinates
 /// in both rings, as a GIS coverage stores it). Lines are simplified as generaliseGeometry does.
 /// Each ring stays within epsilon of its own, so the error bound above holds per feature.
-std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const> features, double epsilon);
+/// `distance`: the frame's measure (SegmentDistance), the same for every ring.
+std::vector<geo::Feature> generaliseCoverage(std::span<const geo::Feature* const> features, double epsilon,
+                                             const SegmentDistance& distance = {});
+
+/// generaliseCoverage at several tolerances over the same features: the shared borders are found
+/// once (the costly part: every edge and point hashed), and each tolerance then simplifies the
+/// chains between the nodes (the globe's levels of detail). The features must outlive it.
+class CoverageGeneraliser {
+ public:
+  explicit CoverageGeneraliser(std::span<const geo::Feature* const> features, SegmentDistance distance = {});
+  CoverageGeneraliser(const CoverageGeneraliser&) = delete;
+  CoverageGeneraliser& operator=(const CoverageGeneraliser&) = delete;
+  ~CoverageGeneraliser();
+  /// What generaliseCoverage(features, epsilon, distance) gives. `wanted` (per feature, optional):
+  /// a feature whose entry is 0 comes back with its fid only, and costs nothing.
+  /// `dropWithinEpsilon`: a ring sharing no border that lies wholly within epsilon of one chord
+  /// (an island smaller than the error) comes back empty instead of simplified to a triangle:
+  /// what it covers lies within epsilon of its boundary, which the error bound allows. Off by
+  /// default, so that a usable ring stays usable (a projected tile reports its features).
+  [[nodiscard]] std::vector<geo::Feature> at(double epsilon, const std::vector<char>* wanted = nullptr,
+                                             bool dropWithinEpsilon = false) const;
+
+ private:
+  struct Topology;
+  std::unique_ptr<Topology> t_;
+};
 
 /// Appends to `out` the runs of `line` that can reach the box [lo, hi] once widened by `reach`
 /// (how far any of its shapes reaches from the line: half the width, more for miters and square
