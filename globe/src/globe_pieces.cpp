@@ -382,14 +382,14 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   // A line's shapes (bands, discs, sectors) overlap: per cell, those of one colour are united
   // into one piece, which leaves out the walls and caps inside the union.
   std::map<std::pair<std::uint32_t, int>, std::vector<Ring>> lineCells;  // (colour, cell) → rings
-  const auto addPolygon = [&](const GlobePolygon& polygon, bool line) {
+  const auto addPolygon = [&](const GlobePolygon& polygon, const std::vector<Ring>& rings, bool line) {
     for (int turn = -1; turn <= 1; ++turn) {
       const double shift = 360.0 * turn;
       const LonLatRect tileRect{rect.west + shift - lonMargin, rect.south - latMargin, rect.east + shift + lonMargin,
                                 rect.north + latMargin};
       if (!overlaps(tileRect, polygon.box)) continue;
       std::vector<Ring> inTile;
-      for (const Ring& ring : polygon.ringsAt(key.level)) {
+      for (const Ring& ring : rings) {
         Ring clipped = clipRect(ring, tileRect);
         if (clipped.size() >= 3) inTile.push_back(std::move(clipped));
       }
@@ -425,8 +425,8 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
     }
   };
   const std::vector<GlobePolygon>& polygons = layer.polygons();
-  for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], false);
-  for (const GlobePolygon& polygon : layer.lineShapesIn(key, widthClass)) addPolygon(polygon, true);
+  for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], layer.areaRingsAt(k, key.level), false);
+  for (const GlobePolygon& polygon : layer.lineShapesIn(key, widthClass)) addPolygon(polygon, polygon.rings, true);
   for (const auto& [groupCell, rings] : lineCells) {
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
     addPiece(out, rings, cell, widened, heights, postStep, key.level, true, groupCell.first);

@@ -206,51 +206,6 @@ double ringDistance(const glm::dvec2& p, const glm::dvec2& a, const glm::dvec2& 
   return glm::length(u + d * t) / std::max(c, 1e-12);
 }
 
-/// GlobePolygon::simplified of the layer's areas: per level, every ring generalised within
-/// simplifyTolerance as one coverage (overlay::generaliseCoverage, as a projected tile's polygons
-/// are): a border two rings share (the same points in both: prepareRing densifies it from the
-/// same end) is simplified once, so neighbours still meet exactly at every level and no crack
-/// opens between them. A polygon takes levels until one keeps nearly all its points (then its
-/// own rings serve the finer ones); the layer stops when every polygon has.
-void simplifyLevels(std::span<GlobePolygon> polygons) {
-  std::vector<geo::Feature> coverage(polygons.size());
-  std::vector<const geo::Feature*> pointers;
-  std::vector<std::size_t> points(polygons.size(), 0);
-  for (std::size_t k = 0; k < polygons.size(); ++k) {
-    geo::Polygon polygon;
-    for (std::size_t r = 0; r < polygons[k].rings.size(); ++r) {
-      (r == 0 ? polygon.outer : polygon.holes.emplace_back()) = polygons[k].rings[r];
-      points[k] += polygons[k].rings[r].size();
-    }
-    coverage[k].polygons.push_back(std::move(polygon));
-    pointers.push_back(&coverage[k]);
-  }
-  const overlay::CoverageGeneraliser coverageOf(pointers, ringDistance);
-  std::vector<char> open(polygons.size(), 1);
-  for (int level = 0; level < kMaxLevel; ++level) {
-    const std::vector<geo::Feature> generalised = coverageOf.at(simplifyTolerance(level), &open, true);
-    bool any = false;
-    for (std::size_t k = 0; k < polygons.size(); ++k) {
-      if (open[k] == 0) continue;
-      const geo::Polygon& g = generalised[k].polygons.front();
-      std::size_t kept = 0;
-      std::vector<std::vector<glm::dvec2>> rings;
-      for (std::size_t r = 0; r <= g.holes.size(); ++r) {
-        const geo::Ring& ring = r == 0 ? g.outer : g.holes[r - 1];
-        kept += ring.size();
-        if (ring.size() >= 3) rings.push_back(ring);
-      }
-      if (kept * 10 >= points[k] * 9) {
-        open[k] = 0;  // nearly nothing left to leave out: the full rings from here on
-        continue;
-      }
-      polygons[k].simplified.push_back(std::move(rings));
-      any = true;
-    }
-    if (!any) break;
-  }
-}
-
 }  // namespace
 
 double simplifyTolerance(int level) { return TileKey{level, 0, 0}.postStep() / 64.0; }
@@ -512,6 +467,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   layer.chordTolerance_ = options.chordTolerance;
   layer.maxSegment_ = options.maxSegmentMetres;
   layer.levels_ = std::make_shared<detail::LineLevels>();
+  layer.areaLevels_ = std::make_shared<detail::AreaLevels>();
   const bool inPixels = options.lineWidthPixels > 0.0 && std::isfinite(options.lineWidthPixels);
   if (inPixels) {
     layer.widthPixels_ = options.lineWidthPixels;
@@ -699,9 +655,6 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     out.diagnostics.append(part.diagnostics);
   }
   layer.areaPolygons_ = layer.polygons_.size();
-  // Generalised rings for the areas' coarse tiles, as one coverage. (Lines get theirs per tile:
-  // lineShapesIn.)
-  simplifyLevels(std::span<GlobePolygon>(layer.polygons_.data(), layer.areaPolygons_));
   layer.fingerprint_ = layer.digestForCache();
   static std::atomic<std::uint64_t> builds{0};
   layer.serial_ = ++builds;
@@ -853,6 +806,20 @@ struct LineLevels {
   std::array<bool, kMaxLevel + 1> made{};
 };
 
+/// The areas' generalised rings (GlobeLayer::areaRingsAt), made a level at a time as tiles ask.
+struct AreaLevels {
+  std::mutex mutex;
+  /// The areas as the generaliser reads them (one feature per area), and the shared borders it
+  /// found in them: made at the first level asked for.
+  std::vector<geo::Feature> coverage;
+  std::vector<const geo::Feature*> pointers;
+  std::unique_ptr<overlay::CoverageGeneraliser> generaliser;
+  /// Per level, per area: its rings there, unless `own` says it is drawn from its own rings.
+  std::array<std::vector<std::vector<std::vector<glm::dvec2>>>, kMaxLevel + 1> rings;
+  std::array<std::vector<char>, kMaxLevel + 1> own;
+  std::array<bool, kMaxLevel + 1> made{};
+};
+
 }  // namespace detail
 
 namespace {
@@ -893,6 +860,49 @@ double GlobeLayer::lineTolerance(const GlobeLine& line, int level) {
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
   const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
   return kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
+}
+
+const std::vector<std::vector<glm::dvec2>>& GlobeLayer::areaRingsAt(std::size_t k, int level) const {
+  if (k >= areaPolygons_ || !areaLevels_ || level < 0 || level >= kMaxLevel) return polygons_.at(k).rings;
+  detail::AreaLevels& levels = *areaLevels_;
+  const auto at = static_cast<std::size_t>(level);
+  const std::lock_guard<std::mutex> lock(levels.mutex);
+  if (!levels.made[at]) {
+    levels.made[at] = true;
+    if (!levels.generaliser) {
+      // The shared borders, found once: a border two areas share has the same points in both
+      // (prepareRing densifies it from the same end).
+      levels.coverage.resize(areaPolygons_);
+      for (std::size_t a = 0; a < areaPolygons_; ++a) {
+        geo::Polygon polygon;
+        for (std::size_t r = 0; r < polygons_[a].rings.size(); ++r)
+          (r == 0 ? polygon.outer : polygon.holes.emplace_back()) = polygons_[a].rings[r];
+        levels.coverage[a].polygons.push_back(std::move(polygon));
+        levels.pointers.push_back(&levels.coverage[a]);
+      }
+      levels.generaliser = std::make_unique<overlay::CoverageGeneraliser>(levels.pointers, ringDistance);
+    }
+    // Islands within the tolerance of one chord are left out of the level.
+    const std::vector<geo::Feature> generalised = levels.generaliser->at(simplifyTolerance(level), nullptr, true);
+    levels.rings[at].resize(areaPolygons_);
+    levels.own[at].assign(areaPolygons_, 0);
+    for (std::size_t a = 0; a < areaPolygons_; ++a) {
+      const geo::Polygon& g = generalised[a].polygons.front();
+      std::size_t kept = 0, points = 0;
+      for (const auto& ring : polygons_[a].rings) points += ring.size();
+      std::vector<std::vector<glm::dvec2>>& rings = levels.rings[at][a];
+      for (std::size_t r = 0; r <= g.holes.size(); ++r) {
+        const geo::Ring& ring = r == 0 ? g.outer : g.holes[r - 1];
+        kept += ring.size();
+        if (ring.size() >= 3) rings.push_back(ring);
+      }
+      if (kept * 10 >= points * 9) {
+        levels.own[at][a] = 1;  // nearly nothing left out: drawn from its own rings
+        std::vector<std::vector<glm::dvec2>>().swap(rings);
+      }
+    }
+  }
+  return levels.own[at][k] != 0 ? polygons_[k].rings : levels.rings[at][k];
 }
 
 const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) const {

@@ -113,13 +113,13 @@ TEST(GlobePolygons, NeighboursShareTheirBorderAtEveryLevel) {
   EXPECT_GT(full.size(), 1000u);
   int simplifiedLevels = 0;
   for (int level = 0; level < 8; ++level) {
-    const std::vector<glm::dvec2> a = onBorder(layer->polygons()[0].ringsAt(level));
-    EXPECT_EQ(a, onBorder(layer->polygons()[1].ringsAt(level))) << "level " << level;
+    const std::vector<glm::dvec2> a = onBorder(layer->areaRingsAt(0, level));
+    EXPECT_EQ(a, onBorder(layer->areaRingsAt(1, level))) << "level " << level;
     simplifiedLevels += a.size() < full.size() ? 1 : 0;
   }
   EXPECT_GT(simplifiedLevels, 3) << "the shared border is simplified at the coarse levels, not kept whole";
   // Within the level's tolerance: every kept border point is one of the full border's.
-  for (const glm::dvec2& p : onBorder(layer->polygons()[0].ringsAt(0)))
+  for (const glm::dvec2& p : onBorder(layer->areaRingsAt(0, 0)))
     EXPECT_NE(std::find(full.begin(), full.end(), p), full.end());
 }
 

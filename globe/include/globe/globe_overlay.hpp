@@ -48,6 +48,7 @@ namespace gis::globe {
 namespace detail {
 struct PolygonIndex;
 struct LineLevels;
+struct AreaLevels;
 struct LineJoins;
 }  // namespace detail
 
@@ -59,15 +60,6 @@ struct GlobePolygon {
   std::vector<std::vector<glm::dvec2>> rings;
   LonLatRect box;                                     ///< of the rings, in their unwrapped longitudes
   std::shared_ptr<const detail::PolygonIndex> index;  ///< for contains()
-  /// The rings generalised for tiles of level L = 0, 1, ... (simplifyTolerance): what that level's
-  /// pieces are cut from. Levels past the end use `rings`.
-  std::vector<std::vector<std::vector<glm::dvec2>>> simplified;
-
-  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& ringsAt(int level) const {
-    return level >= 0 && static_cast<std::size_t>(level) < simplified.size()
-               ? simplified[static_cast<std::size_t>(level)]
-               : rings;
-  }
 };
 
 /// How far (degrees of arc, times the cosine of the latitude) the rings a tile of `level` is cut
@@ -175,6 +167,14 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] const std::vector<GlobeLine>& lines() const { return lines_; }
   /// The areas: every polygon (lines are drawn from lineShapesIn).
   [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
+  /// The rings area k is drawn from in tiles of `level`: the layer's areas generalised within
+  /// simplifyTolerance(level) as one coverage (overlay::CoverageGeneraliser, as a projected tile's
+  /// polygons are: a border two areas share is simplified once, so they meet exactly at every
+  /// level), an island within the tolerance of one chord left out; its own rings where the
+  /// level would leave out less than a tenth of its points. A level is made the first time a tile
+  /// of it asks (the shared borders are found then, once), and kept: the levels no view draws
+  /// cost nothing. Thread-safe.
+  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& areaRingsAt(std::size_t k, int level) const;
   /// What tile `key` draws of the lines (docs/globe.md, "Lines"): the shapes (bands, joins,
   /// caps) of each line's runs that reach the tile widened by its half width, made for this tile
   /// only, so that nothing resident grows with lines no drawn tile reaches. A run cut at the
@@ -238,7 +238,8 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::uint64_t fingerprint_ = 0;
   std::uint64_t serial_ = 0;
   std::shared_ptr<const GeoGrid> anchorGround_;
-  std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
+  std::shared_ptr<detail::LineLevels> levels_;      ///< lineShapesIn's generalised centrelines, made as asked for
+  std::shared_ptr<detail::AreaLevels> areaLevels_;  ///< areaRingsAt's levels, made as asked for
   [[nodiscard]] std::uint64_t digestForCache() const;
   /// Per line, its centreline generalised for the level (empty: its own points): made once.
   [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
