@@ -125,6 +125,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
               {"height", loaded->heights->height()},
               {"step_deg", loaded->heights->step()},
               {"vertical_datum", loaded->heights->verticalSource()},
+              {"vertical_exaggeration", loaded->heights->exaggeration()},
               {"paged", loaded->heights->paged()},
               {"resident_bytes", loaded->heights->residentBytes()},
               {"blocks_read", loaded->heights->blocksRead()},

@@ -624,6 +624,7 @@ int run(const Options& o) {
         return 2;
       }
       report(description.diagnostics);
+      if (o.exaggeration) description->verticalExaggeration = *o.exaggeration;
       return app::runGlobeRender(
           *description, *globe,
           {o.out, o.width, o.height, o.overlays, {o.lasso, o.overlap, o.overlapOp, o.openVolumes}, o.camera});

@@ -452,7 +452,12 @@ class Viewer {
   void redoSelection();
   void invertSelection();
   void clearSelection();
+  /// The vertical exaggeration, in either frame: the projected scene's height bounds own it, the
+  /// globe's heights (GeoGrid::exaggerated).
   void setExaggeration(double exaggeration);
+  [[nodiscard]] double exaggeration() const;
+  /// The panel's exaggeration slider (both frames): applied at release.
+  void drawExaggerationSlider();
   void selectionChanged();
   void startSelection();
   /// Takes the logical selection when its job is done (`wait`: waits for it).

@@ -55,10 +55,31 @@ void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
 
 void Viewer::setExaggeration(double exaggeration) {
   finishSelection();  // the selection job reads the heights
+  if (globe_) {
+    // The globe's heights own it: its terrain, the layers' tiles (their bounds, and the anchors of
+    // lines in pixels) and the camera's ground are made again from the exaggerated heights.
+    GlobeMode& g = *globe_;
+    if (exaggeration == g.scene.heights->exaggeration()) return;
+    g.scene.heights = globe::GeoGrid::exaggerated(g.scene.heights, exaggeration);
+    g.renderer = std::make_unique<globe::GlobeRenderer>(g.scene.heights);
+    if (g.scene.imagery) g.renderer->setImagery(g.scene.imagery);
+    const scene::GlobePose pose = g.controller->pose();
+    g.controller->setGround(g.scene.heights.get());
+    g.controller->setPose(pose);
+    g.maxGroundHeight = std::max(g.scene.heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
+    rebuildGlobeLayers();
+    selectionChanged();
+    return;
+  }
   // The bounds own it; the renderer refreshes the pieces' heights at the next frame (no
   // rebuild of the footprints).
   scene_->bounds->setExaggeration(exaggeration);
   selectionChanged();
+}
+
+double Viewer::exaggeration() const {
+  if (globe_) return globe_->scene.heights->exaggeration();
+  return scene_ ? scene_->bounds->exaggeration() : 1.0;
 }
 
 void Viewer::rebuildOverlays() {

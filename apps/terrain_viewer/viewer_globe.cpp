@@ -223,7 +223,10 @@ void Viewer::drawGlobe() {
   // The coordinates under the cursor, unless the panel has it.
   g.cursor.reset();
   if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) {
-    if (const std::optional<glm::dvec3> p = globePointAt(lastPixel_)) g.cursor = globe::toGeodetic(*p);
+    if (const std::optional<glm::dvec3> p = globePointAt(lastPixel_)) {
+      g.cursor = globe::toGeodetic(*p);
+      g.cursor->h /= g.scene.heights->exaggeration();  // the true height
+    }
   }
 }
 
@@ -250,7 +253,9 @@ std::optional<GlobeIdentified> Viewer::identifyOnGlobe(const glm::dvec2& pixel) 
   GlobeIdentified id;
   id.ecef = *p;
   id.point = globe::toGeodetic(*p);
-  id.terrainHeight = g.controller->groundHeight(id.point.lon, id.point.lat);
+  // Heights as a person reads them: true ones, not exaggerated.
+  id.point.h /= g.scene.heights->exaggeration();
+  id.terrainHeight = g.scene.heights->unexaggerated().heightAt(id.point.lon, id.point.lat);
   std::set<std::pair<std::size_t, std::uint32_t>> seen;  // a fill and its outline name a feature once
   for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
     if (g.shown[i] == 0) continue;
@@ -443,6 +448,7 @@ void Viewer::drawGlobePanel() {
     const scene::GlobePose& pose = g.controller->pose();
     ImGui::Text("heading %.1f°, pitch %.1f°", pose.heading / kRadiansPerDegree, pose.pitch / kRadiansPerDegree);
     ImGui::Text("%s to the target", formatMetres(pose.distance).c_str());
+    drawExaggerationSlider();
   }
   if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
     ImGui::Checkbox("vector layers (O)", &render_.overlays);
@@ -462,7 +468,7 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: draping, the deferred lookup and exaggeration.");
+  ImGui::TextWrapped("Not on the globe yet: draping and the deferred lookup.");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -572,6 +578,7 @@ json Viewer::globeState() const {
             {"pitch_deg", pose.pitch / kRadiansPerDegree},
             {"eye", geodeticJson(eye)},
             {"eye_height_above_ground", g.controller->heightAboveGround()},
+            {"exaggeration", g.scene.heights->exaggeration()},
             {"extent", {g.scene.extent[0], g.scene.extent[1], g.scene.extent[2], g.scene.extent[3]}},
             {"camera", globeCameraJson()}}},
           {"framebuffer", {fb.x, fb.y}},
@@ -735,7 +742,7 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
           notOnGlobe("Overlay methods other than the stencil polyhedra (draping)");
           return true;
         } else if constexpr (std::is_same_v<Step, app::ExaggerationStep>) {
-          notOnGlobe("Vertical exaggeration");
+          setExaggeration(step.value);
           return true;
         } else if constexpr (std::is_same_v<Step, app::ExportStep>) {
           return exportSelection(step.path);

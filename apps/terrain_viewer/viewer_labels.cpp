@@ -92,7 +92,7 @@ LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute
     }
     break;  // the fill (or the line layer) labels the scene layer
   }
-  set.exaggeration = 1.0;
+  set.exaggeration = g.scene.heights ? g.scene.heights->exaggeration() : 1.0;
   return set;
 }
 
@@ -121,7 +121,7 @@ void Viewer::rememberWindow(const std::string& name) {
 
 void Viewer::drawLabels() {
   if (labelSets_.empty() || !target_) return;
-  const double exaggeration = globe_ ? 1.0 : scene_->bounds->exaggeration();
+  const double exaggeration = this->exaggeration();
   const glm::dmat4 viewProj = screenViewProj();
   const int w = target_->width(), h = target_->height();
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
@@ -130,11 +130,12 @@ void Viewer::drawLabels() {
   std::vector<const std::string*> texts;
   for (auto& [sceneLayer, set] : labelSets_) {
     if (!layerShown(sceneLayer).value_or(false)) continue;
-    if (!globe_ && set.exaggeration != exaggeration) {
+    if (set.exaggeration != exaggeration) {
       // The anchors' heights as drawn, once per exaggeration.
       set.heights.resize(set.labels.size());
       for (std::size_t k = 0; k < set.labels.size(); ++k) {
-        set.heights[k] = scene_->bounds->fullResolutionHeightAt(set.labels[k].anchor.point);
+        const glm::dvec2& p = set.labels[k].anchor.point;
+        set.heights[k] = globe_ ? globe_->scene.heights->heightAt(p.x, p.y) : scene_->bounds->fullResolutionHeightAt(p);
       }
       set.exaggeration = exaggeration;
     }

@@ -36,7 +36,9 @@ void Viewer::remeasure() {
     const std::shared_ptr<const globe::GeoGrid> heights = globe_->scene.heights;
     scene::MeasureOptions options;
     if (heights && heights->width() > 0) options.sampleStepMetres = 0.5 * heights->step() * kMetresPerDegree;
-    const auto height = [heights](double lon, double lat) { return heights ? heights->heightAt(lon, lat) : 0.0; };
+    const auto height = [heights](double lon, double lat) {  // true heights, not exaggerated
+      return heights ? heights->unexaggerated().heightAt(lon, lat) : 0.0;
+    };
     Result<scene::Measurement> m =
         scene::measureOnGlobe(measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
     message(m.diagnostics);

@@ -99,19 +99,7 @@ void Viewer::drawViewSection() {
   if (valueSlider("px LOD tolerance", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic).changed) {
     settings_.lodTolerancePixels = tolerance;
   }
-  // The pieces' heights follow the exaggeration at release; until then the slider keeps the
-  // value being dragged (it must not snap back to the applied one).
-  float exaggeration = exaggerationEdit_.value_or(static_cast<float>(scene_->bounds->exaggeration()));
-  const SliderEdit edit =
-      valueSlider("exaggeration", &exaggeration, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
-  uiRects_["exaggeration"] = {edit.min.x, edit.min.y, edit.max.x, edit.max.y};
-  if (edit.changed) exaggerationEdit_ = exaggeration;
-  if (edit.done) {
-    setExaggeration(exaggeration);
-    exaggerationEdit_.reset();
-  } else if (!edit.active) {
-    exaggerationEdit_.reset();
-  }
+  drawExaggerationSlider();
   ImGui::Checkbox("legend", &showLegend_);
   ImGui::SameLine();
   ImGui::Checkbox("labels", &showLabels_);
@@ -588,6 +576,21 @@ void Viewer::drawLassoOutline() {
   }
   ImGui::GetForegroundDrawList()->AddPolyline(points.data(), static_cast<int>(points.size()),
                                               IM_COL32(255, 230, 40, 255), ImDrawFlags_Closed, 2.0F);
+}
+
+void Viewer::drawExaggerationSlider() {
+  // The pieces' heights follow the exaggeration at release; until then the slider keeps the
+  // value being dragged (it must not snap back to the applied one).
+  float value = exaggerationEdit_.value_or(static_cast<float>(exaggeration()));
+  const SliderEdit edit = valueSlider("exaggeration", &value, 0.1F, 20.0F, "%.1f×", ImGuiSliderFlags_Logarithmic);
+  uiRects_["exaggeration"] = {edit.min.x, edit.min.y, edit.max.x, edit.max.y};
+  if (edit.changed) exaggerationEdit_ = value;
+  if (edit.done) {
+    setExaggeration(value);
+    exaggerationEdit_.reset();
+  } else if (!edit.active) {
+    exaggerationEdit_.reset();
+  }
 }
 
 }  // namespace gis::viewer

@@ -890,7 +890,31 @@ GeoGrid::GeoGrid(int width, int height, double west, double north, double step, 
   buildPyramid();
 }
 
+std::shared_ptr<const GeoGrid> GeoGrid::exaggerated(std::shared_ptr<const GeoGrid> grid, double factor) {
+  if (!grid) return grid;
+  std::shared_ptr<const GeoGrid> base = grid->base_ ? grid->base_ : grid;
+  if (!(factor > 0.0) || !std::isfinite(factor) || factor == 1.0) return base;
+  return std::shared_ptr<const GeoGrid>(new GeoGrid(std::move(base), factor));
+}
+
+GeoGrid::GeoGrid(std::shared_ptr<const GeoGrid> base, double factor)
+    : width_(base->width_),
+      height_(base->height_),
+      west_(base->west_),
+      north_(base->north_),
+      step_(base->step_),
+      wraps_(base->wraps_),
+      poleHeight_{factor * base->poleHeight_[0], factor * base->poleHeight_[1]},
+      base_(std::move(base)),
+      exaggeration_(factor) {}
+
 std::optional<std::uint64_t> GeoGrid::contentDigest() const {
+  if (base_) {
+    const std::optional<std::uint64_t> inner = base_->contentDigest();
+    if (!inner) return std::nullopt;
+    const std::array<std::uint64_t, 2> parts{*inner, geo::io::digest(&exaggeration_, sizeof(exaggeration_))};
+    return geo::io::digest(parts.data(), sizeof(parts));
+  }
   if (paged_) return std::nullopt;
   const std::array<double, 5> place{static_cast<double>(width_), static_cast<double>(height_), west_, north_, step_};
   const std::array<std::uint64_t, 2> parts{geo::io::digest(place.data(), sizeof(place)),
@@ -905,6 +929,7 @@ GeoGrid::GeoGrid(int width, int height, double west, double north, double step, 
 }
 
 std::size_t GeoGrid::residentBytes() const {
+  if (base_) return base_->residentBytes();
   if (!paged_) {
     std::size_t bytes = heights_.size() * sizeof(float);
     for (const auto& level : pyramid_) bytes += level.size() * sizeof(level[0]);
@@ -917,24 +942,27 @@ std::size_t GeoGrid::residentBytes() const {
 }
 
 std::size_t GeoGrid::blocksRead() const {
+  if (base_) return base_->blocksRead();
   if (!paged_) return 0;
   const std::lock_guard<std::mutex> lock(paged_->mutex);
   return paged_->reads;
 }
 
 std::size_t GeoGrid::postsRead() const {
+  if (base_) return base_->postsRead();
   if (!paged_) return 0;
   const std::lock_guard<std::mutex> lock(paged_->mutex);
   return paged_->postReads;
 }
 
 std::size_t GeoGrid::blocksRepaired() const {
+  if (base_) return base_->blocksRepaired();
   if (!paged_) return 0;
   const std::lock_guard<std::mutex> lock(paged_->mutex);
   return paged_->repaired;
 }
 
-bool GeoGrid::pageFileMade() const { return paged_ && paged_->made; }
+bool GeoGrid::pageFileMade() const { return base_ ? base_->pageFileMade() : paged_ && paged_->made; }
 
 double GeoGrid::post(int c, int r) const {
   if (r < 0 || r >= height_) return 0.0;
@@ -949,6 +977,7 @@ double GeoGrid::post(int c, int r) const {
 }
 
 double GeoGrid::heightAt(double lonDeg, double latDeg) const {
+  if (base_) return exaggeration_ * base_->heightAt(lonDeg, latDeg);
   // Every post at a pole is the same point: one height there (the nearest row's mean).
   if (latDeg >= 90.0) return poleHeight_[0];
   if (latDeg <= -90.0) return poleHeight_[1];
@@ -1049,6 +1078,10 @@ std::pair<double, double> GeoGrid::postRange(long c0, long c1, long r0, long r1)
 }
 
 std::pair<double, double> GeoGrid::bounds(const LonLatRect& box) const {
+  if (base_) {
+    const auto [lo, hi] = base_->bounds(box);
+    return {exaggeration_ * lo, exaggeration_ * hi};  // a factor > 0 keeps the order
+  }
   // Posts heightAt may read for points in the box: one beyond each side.
   const long c0 = static_cast<long>(std::floor((box.west - west_) / step_)) - 1;
   const long c1 = static_cast<long>(std::floor((box.east - west_) / step_)) + 2;

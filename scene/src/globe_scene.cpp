@@ -167,7 +167,10 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   LoadedGlobeScene scene;
   scene.description = description;
   scene.reason = reason.ok() ? *reason : std::string();
-  scene.heights = std::make_shared<const globe::GeoGrid>(std::move(*grid));
+  // The scene's vertical exaggeration lives in the heights the globe reads (GeoGrid::exaggerated),
+  // as a projected scene's lives in its height bounds.
+  scene.heights = globe::GeoGrid::exaggerated(std::make_shared<const globe::GeoGrid>(std::move(*grid)),
+                                              description.verticalExaggeration);
   const globe::GeoGrid& g = *scene.heights;
   scene.extent = {g.west(), g.north() - (g.height() - 1) * g.step(), g.west() + (g.width() - 1) * g.step(), g.north()};
   if (scene.extent[2] - scene.extent[0] > 360.0) scene.extent[2] = scene.extent[0] + 360.0;

@@ -46,8 +46,10 @@ class GlobeOverlayGl : public test::GlTest {
   /// With `kept`, the layers are drawn by that renderer (its tiles kept from earlier frames, under
   /// `settings`' budget); else by a new one.
   Outcome drawAndCompare(const GlobeView& view, const std::vector<const GlobeLayer*>& layers, const std::string& label,
-                         GlobeOverlayRenderer* kept = nullptr, const GlobeOverlaySettings& settings = {}) {
-    GlobeTerrain terrain(grid());
+                         GlobeOverlayRenderer* kept = nullptr, const GlobeOverlaySettings& settings = {},
+                         const std::shared_ptr<const GeoGrid>& heights = nullptr) {
+    const std::shared_ptr<const GeoGrid> ground = heights ? heights : grid();
+    GlobeTerrain terrain(ground);
     GlobeOverlayRenderer own;
     GlobeOverlayRenderer& overlay = kept != nullptr ? *kept : own;
     gfx::RenderTarget target(view.width, view.height, 0, true);
@@ -56,7 +58,7 @@ class GlobeOverlayGl : public test::GlTest {
     gfx::enableMaskWrites(target.framebuffer(), false);
     terrain.draw(cache_, view, tiles);
     gfx::enableMaskWrites(target.framebuffer(), true);
-    overlay.draw(cache_, view, tiles, *grid(), layers, settings);
+    overlay.draw(cache_, view, tiles, *ground, layers, settings);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> gpu = gfx::readMask(target);
     std::filesystem::create_directories(STENCIL_GIS_TEST_OUTPUT_DIR);
@@ -262,6 +264,64 @@ TEST_F(GlobeOverlayGl, LinesInPixelsKeepTheirWidthOnScreenFromSpaceToTheGround) 
   const GlobeView far = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
   EXPECT_GT(lineWidthClass(*routes, TileKey{3, 4, 4}, *grid(), pixelScaleOf(far)), 0);
   EXPECT_EQ(lineWidthClass(*routes, TileKey{3, 4, 4}, *grid(), overlay::PixelScale{}), 0);
+}
+
+TEST_F(GlobeOverlayGl, VerticalExaggerationRaisesTheGroundAndEveryFrameStaysExact) {
+  // The globe's exaggeration lives in its heights (GeoGrid::exaggerated): the terrain, the pieces'
+  // bounds and the anchors of lines in pixels read the exaggerated ground, each point moved along
+  // its normal, so what a layer covers is where it was. 4×: 0 wrong pixels away from edges from
+  // space, obliquely over the relief, grazing it and a metre above it; the terrain is drawn
+  // higher than at 1× (the depth differs), and heights are 4 times those read.
+  const std::shared_ptr<const GeoGrid> high = GeoGrid::exaggerated(grid(), 4.0);
+  ASSERT_NE(high.get(), grid().get());
+  EXPECT_EQ(high->exaggeration(), 4.0);
+  EXPECT_EQ(&high->unexaggerated(), grid().get());
+  EXPECT_EQ(GeoGrid::exaggerated(high, 1.0).get(), grid().get()) << "1× is the grid as read";
+  EXPECT_EQ(GeoGrid::exaggerated(high, 2.0)->heightAt(-37.0, -7.0), 2.0 * grid()->heightAt(-37.0, -7.0))
+      << "an exaggeration replaces the last, it does not multiply it";
+  EXPECT_EQ(high->heightAt(-37.0, -7.0), 4.0 * grid()->heightAt(-37.0, -7.0));
+  const LonLatRect box{-40.0, -10.0, -30.0, 0.0};
+  EXPECT_EQ(high->bounds(box).second, 4.0 * grid()->bounds(box).second);
+  EXPECT_NE(high->contentDigest(), grid()->contentDigest()) << "tiles kept on disk are the exaggeration's own";
+  const Layers layers = makeLayers();
+  GlobeLayerOptions pixels;
+  pixels.lineWidthPixels = 3.0;
+  pixels.lineWidthMetres = 0.0;
+  pixels.anchorGround = high;
+  Result<GlobeLayer> routes =
+      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), pixels);
+  ASSERT_TRUE(routes.ok());
+  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &layers.field, &*routes, &layers.road};
+  const auto at = [&](const Geodetic& eye, const Geodetic& target, double fov) {
+    return GlobeView::looking(toEcef(eye), toEcef(target), fov, 256, 256, high->heightAt(eye.lon, eye.lat));
+  };
+  const double field = high->heightAt(8.5, 47.3);
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+    double fov = 45.0;
+  };
+  const std::vector<Case> cases{
+      {"4x space 10,000 km", {-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}},
+      {"4x oblique 800 km", {-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}},
+      {"4x grazing 20 km", {-37.5, -8.0, high->heightAt(-37.5, -8.0) + 20000.0}, {-33.0, -6.0, 0.0}},
+      {"4x south pole low", {45.0, -86.0, high->heightAt(45.0, -86.0) + 20000.0}, {-135.0, -89.0, 0.0}},
+      {"4x 1 m above the ground", {8.5, 47.30407, high->heightAt(8.5, 47.30407) + 1.0}, {8.5005, 47.304, field}, 60.0},
+  };
+  GlobeOverlayRenderer overlay;
+  std::size_t covered = 0;
+  for (const Case& c : cases) {
+    const Outcome o = drawAndCompare(at(c.eye, c.target, c.fov), all, c.label, &overlay, {}, high);
+    covered += o.covered;
+  }
+  EXPECT_GT(covered, 5000U) << "the views must show the layers";
+  // The same oblique view over the relief at 1× and at 4×: the ground is drawn elsewhere.
+  const GlobeView oblique = at({-37.5, -8.0, high->heightAt(-37.5, -8.0) + 20000.0}, {-33.0, -6.0, 0.0}, 45.0);
+  const Outcome flat = drawAndCompare(oblique, {&layers.all}, "1x grazing 20 km");
+  const Outcome raised = drawAndCompare(oblique, {&layers.all}, "4x grazing 20 km again", nullptr, {}, high);
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < flat.depth.size(); ++i) moved += flat.depth[i] != raised.depth[i] ? 1U : 0U;
+  EXPECT_GT(moved, flat.depth.size() / 4) << "the exaggerated relief is drawn";
 }
 
 TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {

@@ -36,6 +36,20 @@ void markKept(std::span<const glm::dvec2> points, std::size_t first, std::size_t
   });
 }
 
+/// The ring's point farthest from its first (the first of them; 1 for a ring of fewer than 2).
+std::size_t farthestFromFirst(const geo::Ring& ring) {
+  std::size_t far = 1;
+  double farthest = -1.0;
+  for (std::size_t k = 1; k < ring.size(); ++k) {
+    const double d = glm::length(ring[k] - ring[0]);
+    if (d > farthest) {
+      farthest = d;
+      far = k;
+    }
+  }
+  return far;
+}
+
 double twiceArea(const geo::Ring& ring) {
   double a = 0.0;
   for (std::size_t k = 0; k < ring.size(); ++k) {
@@ -63,15 +77,7 @@ std::vector<glm::dvec2> simplifyPolyline(std::span<const glm::dvec2> points, dou
 geo::Ring simplifyRing(const geo::Ring& ring, double epsilon, const SegmentDistance& distance) {
   if (ring.size() <= 3 || !(epsilon > 0.0)) return ring;
   // Cut at point 0 and the point farthest from it; each half is a polyline with fixed ends.
-  std::size_t far = 1;
-  double farthest = -1.0;
-  for (std::size_t k = 1; k < ring.size(); ++k) {
-    const double d = glm::length(ring[k] - ring[0]);
-    if (d > farthest) {
-      farthest = d;
-      far = k;
-    }
-  }
+  const std::size_t far = farthestFromFirst(ring);
   std::vector<glm::dvec2> closed(ring.begin(), ring.end());
   closed.push_back(ring.front());
   std::vector<char> keep(closed.size(), 0);
@@ -260,15 +266,7 @@ namespace {
 /// Whether every point of the ring lies within epsilon of the chord from its first point to the
 /// point farthest from it (simplifyRing's first cut): all that two points would keep of it.
 bool withinOneChord(const geo::Ring& ring, double epsilon, const SegmentDistance& distance) {
-  std::size_t far = 0;
-  double farthest = -1.0;
-  for (std::size_t k = 1; k < ring.size(); ++k) {
-    const double d = glm::length(ring[k] - ring[0]);
-    if (d > farthest) {
-      farthest = d;
-      far = k;
-    }
-  }
+  const std::size_t far = farthestFromFirst(ring);
   for (std::size_t k = 1; k < ring.size(); ++k) {
     if (k == far) continue;
     const double d = distance ? distance(ring[k], ring[0], ring[far]) : distanceToSegment(ring[k], ring[0], ring[far]);

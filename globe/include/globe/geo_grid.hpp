@@ -68,7 +68,7 @@ class GeoGrid {
   static Result<GeoGrid> fromDem(const geo::DemSpec& spec, const GeoGridReadOptions& options = {});
 
   /// What the heights were converted from, for messages and stats ("ellipsoid", "EGM96 ...").
-  [[nodiscard]] const std::string& verticalSource() const { return verticalSource_; }
+  [[nodiscard]] const std::string& verticalSource() const { return base_ ? base_->verticalSource() : verticalSource_; }
 
   [[nodiscard]] int width() const { return width_; }
   [[nodiscard]] int height() const { return height_; }
@@ -76,9 +76,9 @@ class GeoGrid {
   [[nodiscard]] double north() const { return north_; }
   [[nodiscard]] double step() const { return step_; }
   [[nodiscard]] bool wraps() const { return wraps_; }
-  /// The posts, row-major (empty for a paged grid).
-  [[nodiscard]] const std::vector<float>& heights() const { return heights_; }
-  [[nodiscard]] bool paged() const { return paged_ != nullptr; }
+  /// The posts, row-major, as read (not exaggerated; empty for a paged grid).
+  [[nodiscard]] const std::vector<float>& heights() const { return base_ ? base_->heights() : heights_; }
+  [[nodiscard]] bool paged() const { return base_ ? base_->paged() : paged_ != nullptr; }
   /// Bytes of heights and bounds held in memory now (a paged grid: its cached blocks and the
   /// pyramid over them).
   [[nodiscard]] std::size_t residentBytes() const;
@@ -105,10 +105,23 @@ class GeoGrid {
   /// unwrapped ones too): from a min/max pyramid over the posts it may read. Conservative.
   [[nodiscard]] std::pair<double, double> bounds(const LonLatRect& box) const;
 
+  /// The vertical exaggeration of the globe (docs/globe.md, "Vertical exaggeration"): `grid`'s
+  /// heights times `factor` (> 0 and finite; else, or 1, `grid` itself), sharing its posts.
+  /// Everything the globe reads heights from (its terrain, the overlay's height bounds, the
+  /// anchors of lines in pixels, the camera's ground) then sees the exaggerated surface, each
+  /// point s + h·n of the ellipsoid moved to s + factor·h·n along its normal, so longitude and
+  /// latitude, and with them what a layer covers, stay as they are.
+  static std::shared_ptr<const GeoGrid> exaggerated(std::shared_ptr<const GeoGrid> grid, double factor);
+  /// The factor heights are multiplied by (1: as read), and the grid as read.
+  [[nodiscard]] double exaggeration() const { return base_ ? exaggeration_ : 1.0; }
+  [[nodiscard]] const GeoGrid& unexaggerated() const { return base_ ? *base_ : *this; }
+
   /// A paged grid's storage (geo_grid.cpp).
   struct Paged;
 
  private:
+  /// `base` exaggerated by `factor` (exaggerated()): its place, none of its posts.
+  GeoGrid(std::shared_ptr<const GeoGrid> base, double factor);
   /// A paged grid over `paged` (its poles and block pyramid read with it).
   GeoGrid(int width, int height, double west, double north, double step, std::shared_ptr<const Paged> paged);
   void buildPyramid();
@@ -126,6 +139,9 @@ class GeoGrid {
   std::vector<std::vector<std::pair<float, float>>> pyramid_;
   std::vector<std::pair<int, int>> pyramidSize_;
   std::shared_ptr<const Paged> paged_;  ///< null: heights_ and pyramid_ hold everything
+  /// An exaggerated grid: the grid it reads (its heights times exaggeration_); null otherwise.
+  std::shared_ptr<const GeoGrid> base_;
+  double exaggeration_ = 1.0;
 };
 
 }  // namespace gis::globe
