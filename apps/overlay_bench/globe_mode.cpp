@@ -233,6 +233,48 @@ int runGlobe(const Options& o) {
     segmentTiles[f.segment] += static_cast<double>(full.terrain.tiles);
     segmentTriangles[f.segment] += static_cast<double>(full.overlay.triangles);
   }
+  // A one-feature edit, as the projected overlay mode times it: the first feature of the first
+  // layer with its first point moved 10 m east; the time to prepare it again and drop the tiles it
+  // reaches, and the next frame from the path's last view (checked against the reference too).
+  json edit;
+  if (!loaded->layers.empty() && !loaded->layerFeatures.empty() && loaded->layerFeatures[0].size() > 0 &&
+      !path.empty()) {
+    globe::GlobeLayer& layer = loaded->layers[0];
+    geo::Feature feature = *loaded->layerFeatures[0].get(0);
+    glm::dvec2* first = !feature.polygons.empty() && !feature.polygons[0].outer.empty() ? &feature.polygons[0].outer[0]
+                        : !feature.lines.empty() && !feature.lines[0].empty()           ? &feature.lines[0][0]
+                                                                                        : nullptr;
+    if (first != nullptr) {
+      first->x += 10.0 / (111320.0 * std::max(std::cos(first->y * 3.14159265358979323846 / 180.0), 1e-6));
+      const auto editStart = std::chrono::steady_clock::now();
+      const Result<std::vector<globe::LonLatRect>> boxes = layer.replaceFeature(0, feature);
+      app::report(boxes.diagnostics);
+      const std::size_t dropped = boxes ? renderer.overlay().featureChanged(layer, *boxes) : 0;
+      const double editMs = msSince(editStart);
+      const GlobeFrame& f = path.back();
+      const globe::GlobeView view =
+          globe::GlobeView::looking(globe::toEcef(f.eye), globe::toEcef(f.target), 45.0, o.width, o.height,
+                                    loaded->heights->heightAt(f.eye.lon, f.eye.lat));
+      const auto frameStart = std::chrono::steady_clock::now();
+      const globe::GlobeFrameStats next = renderer.render(cache, frameTarget, view, layers, true, overlaySettings);
+      const double frameMs = msSince(frameStart);
+      const std::vector<float> depth = gfx::readDepth(target);
+      const std::vector<std::uint32_t> mask = gfx::readMask(target);
+      const overlay::DepthImage image = globe::depthImageOf(view, depth);
+      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
+      const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
+      std::size_t wrong = 0;
+      for (std::size_t i = 0; i < mask.size() && i < expected.size(); ++i)
+        wrong += mask[i] != expected[i] && edges[i] == 0 ? 1U : 0U;
+      wrongTotal += wrong;
+      edit = {{"layer", layer.name()},
+              {"rebuild_ms", editMs},
+              {"tiles_dropped", dropped},
+              {"next_frame_ms", frameMs},
+              {"next_frame_tiles_built", next.overlay.builtTiles},
+              {"wrong_pixels", wrong}};
+    }
+  }
   json segments = json::object();
   for (const auto& [name, r] : segmentRatios) {
     segments[name] = {{"ratio_median", percentile(r, 50.0)},
@@ -257,6 +299,7 @@ int runGlobe(const Options& o) {
       {"terrain_only_fps_median", 1000.0 / std::max(percentile(terrainOnly, 50.0), 1e-9)},
       {"with_overlay_fps_median", 1000.0 / std::max(percentile(withOverlay, 50.0), 1e-9)},
       {"segments", segments},
+      {"edit", edit},
       {"memory_peak_bytes", processMemory("VmHWM")},
       {"wrong_pixels_away_from_edges", wrongTotal},
       {"gl_errors", (**context).debug().errorCount()},

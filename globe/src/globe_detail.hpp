@@ -1,6 +1,7 @@
 #pragma once
 // Internals shared by the globe overlay's sources.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -47,6 +48,8 @@ struct PolygonIndex {
   }
 };
 std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon);
+/// Layers built so far in this process (GlobeLayer::serial).
+extern std::atomic<std::uint64_t> layerBuilds;
 
 /// Whether a point (ECEF, and its lon/lat) is within the line's half width of it (GlobeLayer::contains),
 /// a line in pixels seen with `scale`.

@@ -116,6 +116,34 @@ overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() {
   return gpu_->renderer ? &*gpu_->renderer : nullptr;
 }
 
+std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes) {
+  // A tile's pieces reach a little beyond it (the cells' margins): grown by a hundredth of it.
+  const auto reaches = [&](const TileKey& key) {
+    const LonLatRect r = key.rect().expanded(0.01 * key.size(), 0.01 * key.size());
+    for (const LonLatRect& b : boxes) {
+      for (int turn = -1; turn <= 1; ++turn) {
+        const double shift = 360.0 * turn;
+        if (b.west + shift <= r.east && r.west <= b.east + shift && b.south <= r.north && r.south <= b.north)
+          return true;
+      }
+    }
+    return false;
+  };
+  std::size_t dropped = 0;
+  for (auto it = gpu_->tiles.begin(); it != gpu_->tiles.end();) {
+    const Key& key = it->first;
+    if (key.layer != layer.serial() || !reaches(TileKey::fromId(key.tile))) {
+      ++it;
+      continue;
+    }
+    gpu_->bytes -= it->second.bytes;
+    gpu_->lru.erase(it->second.lru);
+    it = gpu_->tiles.erase(it);
+    ++dropped;
+  }
+  return dropped;
+}
+
 std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const GlobeView& view,
                                                                        const std::vector<DrawnTile>& tiles,
                                                                        const GeoGrid& heights,

@@ -458,6 +458,120 @@ bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon
 
 }  // namespace
 
+void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group,
+                                FeatureParts& part) const {
+  const GlobeLayerOptions& options = options_;
+  const bool inPixels = widthPixels_ > 0.0;
+  const double halfWidth = 0.5 * options.lineWidthMetres;
+  const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
+  std::vector<std::vector<glm::dvec2>> lines;
+  for (const geo::LineString& l : feature.lines) lines.push_back(l);
+  if (options.outlines) {
+    for (const geo::Polygon& polygon : feature.polygons) {
+      std::vector<const geo::Ring*> rings{&polygon.outer};
+      for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
+      for (const geo::Ring* ring : rings) {
+        std::vector<glm::dvec2> closed = *ring;
+        if (!closed.empty()) closed.push_back(closed.front());
+        lines.push_back(std::move(closed));
+      }
+    }
+  }
+  for (std::size_t k = 0; k < lines.size(); ++k) {
+    std::string problem;
+    std::vector<char> given;
+    std::vector<glm::dvec2> line = prepareLine(lines[k], options.maxSegmentMetres, problem, given);
+    if (line.empty()) {
+      part.diagnostics.add({Severity::Error,
+                            {},
+                            name_,
+                            std::to_string(feature.fid),
+                            "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
+      continue;
+    }
+    GlobeLine g;
+    g.feature = static_cast<std::uint32_t>(f);
+    g.group = group;
+    g.halfWidth = halfWidth;
+    if (f < options.featureWidthMetres.size() && options.featureWidthMetres[f] > 0.0 &&
+        std::isfinite(options.featureWidthMetres[f]))
+      g.halfWidth = 0.5 * options.featureWidthMetres[f];
+    g.join = options.join;
+    g.cap = options.cap;
+    g.miterLimit = options.miterLimit;
+    if (inPixels) {
+      g.widthPixels = options.lineWidthPixels;
+      g.maxHalfWidth = std::max(maxHalfWidth, g.halfWidth);
+    }
+    const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
+    for (glm::dvec2& p : line) p.x += shift;
+    g.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+    for (const glm::dvec2& p : line) {
+      g.surface.push_back(toEcef(p.x, p.y, 0.0));
+      g.box.west = std::min(g.box.west, p.x);
+      g.box.east = std::max(g.box.east, p.x);
+      g.box.south = std::min(g.box.south, p.y);
+      g.box.north = std::max(g.box.north, p.y);
+    }
+    if (inPixels && options.anchorGround) {
+      g.anchors.reserve(line.size());
+      for (const glm::dvec2& p : line)
+        g.anchors.push_back(static_cast<float>(options.anchorGround->heightAt(p.x, p.y)));
+    }
+    if (!g.round()) {
+      // Joins and caps, once: the reference tests them at every point it looks at.
+      auto joins = std::make_shared<detail::LineJoins>();
+      joins->at.reserve(line.size());
+      for (std::size_t i = 0; i < line.size(); ++i) {
+        joins->at.push_back(detail::pointShape(g, line, i, given[i] != 0));
+        for (const glm::dvec3& d : joins->at.back().directions) g.reach = std::max(g.reach, glm::length(d));
+      }
+      g.joins = std::move(joins);
+    }
+    // Widened by the half width (in degrees of latitude; longitude at the box's highest latitude).
+    const double dLat = g.halfWidth * g.reach / 110000.0;
+    const double high = std::min(89.9, std::max(std::abs(g.box.south), std::abs(g.box.north)) + dLat);
+    const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+    g.box = g.box.expanded(g.box.north + dLat >= 90.0 || g.box.south - dLat <= -90.0 ? 360.0 : dLon, dLat);
+    {
+      // Pieces by longitude for the reference.
+      const std::size_t n = std::clamp<std::size_t>(line.size() / 4, 1, 4096);
+      g.bucketWidth = std::max(g.box.east - g.box.west, 1e-9) / static_cast<double>(n);
+      g.buckets.assign(n, {});
+      const auto bucketOf = [&](double lon) {
+        return static_cast<std::size_t>(
+            std::clamp(std::floor((lon - g.box.west) / g.bucketWidth), 0.0, static_cast<double>(n - 1)));
+      };
+      for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+        const double lo = std::min(line[i].x, line[i + 1].x) - dLon, hi = std::max(line[i].x, line[i + 1].x) + dLon;
+        for (std::size_t b = bucketOf(lo); b <= bucketOf(hi); ++b)
+          g.buckets[b].push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+    g.points = std::move(line);
+    g.given = std::move(given);
+    part.lines.push_back(std::move(g));
+  }
+  if (!options.outlines) {
+    for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
+      GlobePolygon prepared;
+      prepared.feature = static_cast<std::uint32_t>(f);
+      prepared.group = group;
+      std::string problem;
+      if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
+        part.diagnostics.add({Severity::Error,
+                              {},
+                              name_,
+                              std::to_string(feature.fid),
+                              "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
+        continue;
+      }
+      prepared.index = detail::buildIndex(prepared);
+      part.polygons.push_back(std::move(prepared));
+    }
+  }
+}
+
 Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeatures& features, glm::vec4 color,
                                      const GlobeLayerOptions& options) {
   Result<GlobeLayer> out;
@@ -466,6 +580,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   layer.color_ = color;
   layer.chordTolerance_ = options.chordTolerance;
   layer.maxSegment_ = options.maxSegmentMetres;
+  layer.options_ = options;
   layer.levels_ = std::make_shared<detail::LineLevels>();
   layer.areaLevels_ = std::make_shared<detail::AreaLevels>();
   const bool inPixels = options.lineWidthPixels > 0.0 && std::isfinite(options.lineWidthPixels);
@@ -512,123 +627,11 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   // The features in runs, on every core (features on disk are read one at a time, and only those
   // being prepared are resident); the runs' lines, areas and messages are joined in the features'
   // order, so the layer is the same on any number of cores.
-  struct Part {
-    std::vector<GlobeLine> lines;
-    std::vector<GlobePolygon> polygons;
-    Diagnostics diagnostics;
-  };
   const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
   const std::size_t runs = std::max<std::size_t>(1, std::min(features.size(), 8 * cores));
-  std::vector<Part> parts(runs);
-  const auto prepare = [&](std::size_t f, Part& part) {
-    const std::shared_ptr<const geo::Feature> read = features.get(f);
-    const geo::Feature& feature = *read;
-    std::vector<std::vector<glm::dvec2>> lines;
-    for (const geo::LineString& l : feature.lines) lines.push_back(l);
-    if (options.outlines) {
-      for (const geo::Polygon& polygon : feature.polygons) {
-        std::vector<const geo::Ring*> rings{&polygon.outer};
-        for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
-        for (const geo::Ring* ring : rings) {
-          std::vector<glm::dvec2> closed = *ring;
-          if (!closed.empty()) closed.push_back(closed.front());
-          lines.push_back(std::move(closed));
-        }
-      }
-    }
-    for (std::size_t k = 0; k < lines.size(); ++k) {
-      std::string problem;
-      std::vector<char> given;
-      std::vector<glm::dvec2> line = prepareLine(lines[k], options.maxSegmentMetres, problem, given);
-      if (line.empty()) {
-        part.diagnostics.add({Severity::Error,
-                              {},
-                              layer.name_,
-                              std::to_string(feature.fid),
-                              "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
-        continue;
-      }
-      GlobeLine g;
-      g.feature = static_cast<std::uint32_t>(f);
-      g.group = groupOf[f];
-      g.halfWidth = halfWidth;
-      if (f < options.featureWidthMetres.size() && options.featureWidthMetres[f] > 0.0 &&
-          std::isfinite(options.featureWidthMetres[f]))
-        g.halfWidth = 0.5 * options.featureWidthMetres[f];
-      g.join = options.join;
-      g.cap = options.cap;
-      g.miterLimit = options.miterLimit;
-      if (inPixels) {
-        g.widthPixels = options.lineWidthPixels;
-        g.maxHalfWidth = std::max(maxHalfWidth, g.halfWidth);
-      }
-      const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
-      for (glm::dvec2& p : line) p.x += shift;
-      g.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
-      for (const glm::dvec2& p : line) {
-        g.surface.push_back(toEcef(p.x, p.y, 0.0));
-        g.box.west = std::min(g.box.west, p.x);
-        g.box.east = std::max(g.box.east, p.x);
-        g.box.south = std::min(g.box.south, p.y);
-        g.box.north = std::max(g.box.north, p.y);
-      }
-      if (inPixels && options.anchorGround) {
-        g.anchors.reserve(line.size());
-        for (const glm::dvec2& p : line)
-          g.anchors.push_back(static_cast<float>(options.anchorGround->heightAt(p.x, p.y)));
-      }
-      if (!g.round()) {
-        // Joins and caps, once: the reference tests them at every point it looks at.
-        auto joins = std::make_shared<detail::LineJoins>();
-        joins->at.reserve(line.size());
-        for (std::size_t i = 0; i < line.size(); ++i) {
-          joins->at.push_back(detail::pointShape(g, line, i, given[i] != 0));
-          for (const glm::dvec3& d : joins->at.back().directions) g.reach = std::max(g.reach, glm::length(d));
-        }
-        g.joins = std::move(joins);
-      }
-      // Widened by the half width (in degrees of latitude; longitude at the box's highest latitude).
-      const double dLat = g.halfWidth * g.reach / 110000.0;
-      const double high = std::min(89.9, std::max(std::abs(g.box.south), std::abs(g.box.north)) + dLat);
-      const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
-      g.box = g.box.expanded(g.box.north + dLat >= 90.0 || g.box.south - dLat <= -90.0 ? 360.0 : dLon, dLat);
-      {
-        // Pieces by longitude for the reference.
-        const std::size_t n = std::clamp<std::size_t>(line.size() / 4, 1, 4096);
-        g.bucketWidth = std::max(g.box.east - g.box.west, 1e-9) / static_cast<double>(n);
-        g.buckets.assign(n, {});
-        const auto bucketOf = [&](double lon) {
-          return static_cast<std::size_t>(
-              std::clamp(std::floor((lon - g.box.west) / g.bucketWidth), 0.0, static_cast<double>(n - 1)));
-        };
-        for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-          const double lo = std::min(line[i].x, line[i + 1].x) - dLon, hi = std::max(line[i].x, line[i + 1].x) + dLon;
-          for (std::size_t b = bucketOf(lo); b <= bucketOf(hi); ++b)
-            g.buckets[b].push_back(static_cast<std::uint32_t>(i));
-        }
-      }
-      g.points = std::move(line);
-      g.given = std::move(given);
-      part.lines.push_back(std::move(g));
-    }
-    if (!options.outlines) {
-      for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
-        GlobePolygon prepared;
-        prepared.feature = static_cast<std::uint32_t>(f);
-        prepared.group = groupOf[f];
-        std::string problem;
-        if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
-          part.diagnostics.add({Severity::Error,
-                                {},
-                                layer.name_,
-                                std::to_string(feature.fid),
-                                "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
-          continue;
-        }
-        prepared.index = detail::buildIndex(prepared);
-        part.polygons.push_back(std::move(prepared));
-      }
-    }
+  std::vector<FeatureParts> parts(runs);
+  const auto prepare = [&](std::size_t f, FeatureParts& part) {
+    layer.prepareFeature(static_cast<std::uint32_t>(f), *features.get(f), groupOf[f], part);
   };
   {
     std::atomic<std::size_t> next{0};
@@ -643,7 +646,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     work();
     for (std::thread& t : helpers) t.join();
   }
-  for (Part& part : parts) {
+  for (FeatureParts& part : parts) {
     for (GlobeLine& g : part.lines) {
       if (inPixels) {
         layer.leastHalfWidth_ = layer.lines_.empty() ? g.halfWidth : std::min(layer.leastHalfWidth_, g.halfWidth);
@@ -655,14 +658,81 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     out.diagnostics.append(part.diagnostics);
   }
   layer.areaPolygons_ = layer.polygons_.size();
+  layer.featureGroups_ = std::move(groupOf);
   layer.fingerprint_ = layer.digestForCache();
-  static std::atomic<std::uint64_t> builds{0};
-  layer.serial_ = ++builds;
+  layer.serial_ = ++detail::layerBuilds;
   out.value = std::move(layer);
   return out;
 }
 
+std::vector<LonLatRect> GlobeLayer::featureBoxes(std::uint32_t f) const {
+  std::vector<LonLatRect> boxes;
+  for (std::size_t k = 0; k < areaPolygons_; ++k) {
+    if (polygons_[k].feature == f) boxes.push_back(polygons_[k].box);
+  }
+  for (const GlobeLine& line : lines_) {
+    if (line.feature != f) continue;
+    // The box holds the line grown by its least half width; its pieces in a width class reach
+    // as far as the widest it is drawn, its joins and caps shapeReach half widths.
+    const double reach = std::max(line.halfWidth * line.shapeReach(), line.maxHalfWidth) * 1.01 + 1.0;
+    const double dLat = reach / 110000.0;
+    const double high = std::min(89.9, std::max(std::abs(line.box.south), std::abs(line.box.north)) + dLat);
+    const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+    boxes.push_back(
+        line.box.north + dLat >= 90.0 || line.box.south - dLat <= -90.0
+            ? LonLatRect{line.box.west - 360.0, line.box.south - dLat, line.box.east + 360.0, line.box.north + dLat}
+            : line.box.expanded(dLon, dLat));
+  }
+  return boxes;
+}
+
+Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const geo::Feature& feature) {
+  Result<std::vector<LonLatRect>> out;
+  if (f > featureGroups_.size()) {
+    out.diagnostics.add({Severity::Error,
+                         {},
+                         name_,
+                         std::to_string(feature.fid),
+                         "feature " + std::to_string(f) + " is not in the layer (it has " +
+                             std::to_string(featureGroups_.size()) + "); nothing changed"});
+    return out;
+  }
+  const auto index = static_cast<std::uint32_t>(f);
+  if (f == featureGroups_.size()) featureGroups_.push_back(0);  // appended: the layer's colour
+  std::vector<LonLatRect> boxes = featureBoxes(index);
+  FeatureParts part;
+  prepareFeature(index, feature, featureGroups_[f], part);
+  out.diagnostics.append(part.diagnostics);
+  // In the features' order, as build joins them: the layer is the one built from the edited features.
+  const auto replace = [index](auto& items, auto& fresh) {
+    items.erase(std::remove_if(items.begin(), items.end(), [&](const auto& item) { return item.feature == index; }),
+                items.end());
+    const auto at = std::find_if(items.begin(), items.end(), [&](const auto& item) { return item.feature > index; });
+    items.insert(at, std::make_move_iterator(fresh.begin()), std::make_move_iterator(fresh.end()));
+  };
+  replace(polygons_, part.polygons);
+  replace(lines_, part.lines);
+  areaPolygons_ = polygons_.size();
+  if (widthPixels_ > 0.0) {
+    leastHalfWidth_ = widestHalfWidth_ = 0.0;
+    for (std::size_t j = 0; j < lines_.size(); ++j) {
+      leastHalfWidth_ = j == 0 ? lines_[j].halfWidth : std::min(leastHalfWidth_, lines_[j].halfWidth);
+      widestHalfWidth_ = std::max(widestHalfWidth_, lines_[j].maxHalfWidth);
+    }
+  }
+  // What was made from the old geometry is made again as tiles ask.
+  levels_ = std::make_shared<detail::LineLevels>();
+  areaLevels_ = std::make_shared<detail::AreaLevels>();
+  fingerprint_ = digestForCache();
+  const std::vector<LonLatRect> now = featureBoxes(index);
+  boxes.insert(boxes.end(), now.begin(), now.end());
+  out.value = std::move(boxes);
+  return out;
+}
+
 namespace detail {
+
+std::atomic<std::uint64_t> layerBuilds{0};
 
 std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon) {
   auto index = std::make_shared<PolygonIndex>();

@@ -324,6 +324,82 @@ TEST_F(GlobeOverlayGl, VerticalExaggerationRaisesTheGroundAndEveryFrameStaysExac
   EXPECT_GT(moved, flat.depth.size() / 4) << "the exaggerated relief is drawn";
 }
 
+TEST_F(GlobeOverlayGl, OneFeatureEditedRebuildsOnlyTheTilesItReaches) {
+  // Editing one feature (GlobeLayer::replaceFeature, GlobeOverlayRenderer::featureChanged): the
+  // tiles the feature reached before and reaches now are built again, the others stay on the GPU;
+  // every frame after the edit is exact against the reference of the edited layer; the edited layer
+  // is the one built from the edited features (same fingerprint). An edit that breaks the feature
+  // is named, and leaves it out.
+  std::vector<geo::Feature> areas = test::globe_scene::features();
+  areas.pop_back();  // the field
+  GlobeLayerOptions wide;
+  wide.lineWidthMetres = 30000.0;
+  std::vector<geo::Feature> routes = test::globe_scene::wideLines();
+  Result<GlobeLayer> area = GlobeLayer::build("areas", areas, glm::vec4(0.2F, 0.5F, 0.9F, 0.6F));
+  Result<GlobeLayer> line = GlobeLayer::build("routes", routes, glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), wide);
+  ASSERT_TRUE(area.ok() && line.ok());
+  const std::vector<const GlobeLayer*> layers{&*area, &*line};
+  const GlobeView europe = view({15.0, 48.0, 3e6}, {15.0, 48.0, 0.0});
+  const GlobeView america = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
+  GlobeOverlayRenderer overlay;
+  drawAndCompare(europe, layers, "edit: Europe before", &overlay);
+  drawAndCompare(america, layers, "edit: South America before", &overlay);
+  const std::size_t resident = overlay.stats().residentTiles;
+
+  // Europe's box moved 4° east and its hole closed; the first route bent through Europe.
+  geo::Feature moved = areas[4];
+  moved.polygons = {test::globe_scene::box(4.0, 40.0, 34.0, 60.0)};
+  Result<std::vector<LonLatRect>> areaBoxes = area->replaceFeature(4, moved);
+  ASSERT_TRUE(areaBoxes.ok() && !areaBoxes.diagnostics.hasErrors());
+  geo::Feature bent = routes[0];
+  bent.lines = {{{-75.0, -5.0}, {-55.0, -25.0}, {5.0, 45.0}, {25.0, 50.0}}};
+  Result<std::vector<LonLatRect>> lineBoxes = line->replaceFeature(0, bent);
+  ASSERT_TRUE(lineBoxes.ok() && !lineBoxes.diagnostics.hasErrors());
+  const std::size_t dropped = overlay.featureChanged(*area, *areaBoxes) + overlay.featureChanged(*line, *lineBoxes);
+  EXPECT_GT(dropped, 0U);
+  EXPECT_LT(dropped, resident) << "tiles the edits do not reach stay";
+  const Outcome after = drawAndCompare(europe, layers, "edit: Europe after", &overlay);
+  EXPECT_GT(overlay.stats().builtTiles, 0U);
+  EXPECT_GT(after.covered, 1000U);
+  // Where the moved box now reaches and the closed hole was, the edited layer covers.
+  const double eastEdge = 33.0, holeLat = 48.0;
+  EXPECT_TRUE(area->contains(toEcef(eastEdge, holeLat, 0.0), eastEdge, holeLat));
+  EXPECT_TRUE(area->contains(toEcef(15.0, holeLat, 0.0), 15.0, holeLat));
+  EXPECT_FALSE(area->contains(toEcef(2.0, holeLat, 0.0), 2.0, holeLat));
+
+  // The edited layers are the ones built from the edited features: the same pieces, on disk too.
+  areas[4] = moved;
+  routes[0] = bent;
+  Result<GlobeLayer> freshArea = GlobeLayer::build("areas", areas, glm::vec4(0.2F, 0.5F, 0.9F, 0.6F));
+  Result<GlobeLayer> freshLine = GlobeLayer::build("routes", routes, glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), wide);
+  ASSERT_TRUE(freshArea.ok() && freshLine.ok());
+  EXPECT_EQ(area->fingerprint(), freshArea->fingerprint());
+  EXPECT_EQ(line->fingerprint(), freshLine->fingerprint());
+  const TileKey europeTile{4, 17, 8};
+  const TilePieces edited = buildTilePieces(*area, europeTile, *grid()),
+                   fresh = buildTilePieces(*freshArea, europeTile, *grid());
+  EXPECT_EQ(edited.indices, fresh.indices);
+  EXPECT_EQ(edited.vertices.size(), fresh.vertices.size());
+
+  // Over South America only the tiles the bent route reaches are built again.
+  const Outcome far = drawAndCompare(america, layers, "edit: South America after", &overlay);
+  std::printf("South America after the edits: %zu of %zu tiles built again\n", overlay.stats().builtTiles, far.tiles);
+  EXPECT_LT(overlay.stats().builtTiles, far.tiles);
+
+  // A broken edit is named; the feature is left out, the rest still drawn exactly.
+  geo::Feature broken = areas[4];
+  broken.polygons[0].outer[1].y = std::numeric_limits<double>::quiet_NaN();
+  Result<std::vector<LonLatRect>> refused = area->replaceFeature(4, broken);
+  EXPECT_TRUE(refused.diagnostics.hasErrors());
+  ASSERT_EQ(refused.diagnostics.items().size(), 1U);
+  EXPECT_EQ(refused.diagnostics.items()[0].feature, std::to_string(broken.fid));
+  EXPECT_EQ(refused.diagnostics.items()[0].layer, "areas");
+  ASSERT_TRUE(refused.ok());
+  overlay.featureChanged(*area, *refused);
+  EXPECT_FALSE(area->contains(toEcef(15.0, holeLat, 0.0), 15.0, holeLat));
+  drawAndCompare(europe, layers, "edit: Europe, broken feature left out", &overlay);
+}
+
 TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
   // A zigzag with sharp and slight turns, 40 km wide in metres and 8 px wide in pixels, with each
   // join and cap: every view against the reference (the joins and caps in the tangent plane at

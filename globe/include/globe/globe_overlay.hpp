@@ -225,7 +225,31 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The half width of line `line` at its point k as seen with `scale`.
   [[nodiscard]] double halfWidthAt(const GlobeLine& line, std::size_t k, const overlay::PixelScale& scale) const;
 
+  /// Editing one feature (docs/globe.md, "Edits"): feature f (an index into the features the layer
+  /// was built from; f == the count appends one) becomes `feature`, prepared as build prepares
+  /// it, in its colour group; the other features' areas and lines are kept. The layer is then the
+  /// one build makes from the edited features (the same fingerprint: tiles kept on disk for it
+  /// serve it), its serial stays (the GPU's tiles elsewhere stay), and the areas' levels and the
+  /// lines' generalised centrelines are made again as tiles ask. Returns the boxes (longitude and
+  /// latitude, unwrapped) the feature reached before and reaches now, grown by its lines' reach:
+  /// the tiles over them must be built again (GlobeOverlayRenderer::featureChanged). A feature
+  /// that cannot be used is left out with an Error naming it, as build does.
+  Result<std::vector<LonLatRect>> replaceFeature(std::size_t f, const geo::Feature& feature);
+  /// The number of features the layer was built from (edits may append one).
+  [[nodiscard]] std::size_t featureCount() const { return featureGroups_.size(); }
+
  private:
+  /// One feature's areas and lines as prepared, and its messages.
+  struct FeatureParts {
+    std::vector<GlobeLine> lines;
+    std::vector<GlobePolygon> polygons;
+    Diagnostics diagnostics;
+  };
+  void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part) const;
+  /// The boxes feature f's areas and lines reach (lines grown by their reach at their widest).
+  [[nodiscard]] std::vector<LonLatRect> featureBoxes(std::uint32_t f) const;
+  GlobeLayerOptions options_;
+  std::vector<std::uint32_t> featureGroups_;  ///< per feature: its colour group
   std::string name_;
   glm::vec4 color_{1.0F};
   std::vector<glm::vec4> colors_;
@@ -350,6 +374,9 @@ class GlobeOverlayRenderer {
                                                    const GeoGrid& heights, const GlobeLayer& layer);
   /// The overlay renderer (made on first use; null if its shaders do not build).
   overlay::OverlayRenderer* renderer();
+  /// After GlobeLayer::replaceFeature: the layer's tiles over `boxes` (what it returned) leave the
+  /// GPU, to be built again when next drawn; its other tiles stay. Returns how many left.
+  std::size_t featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes);
 
  private:
   struct Gpu;

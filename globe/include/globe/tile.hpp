@@ -58,6 +58,11 @@ struct TileKey {
     return (static_cast<std::uint64_t>(level) << 58) | (static_cast<std::uint64_t>(x) << 29) |
            static_cast<std::uint64_t>(y);
   }
+  /// The tile whose id() this is.
+  [[nodiscard]] static TileKey fromId(std::uint64_t id) {
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 29) - 1;
+    return {static_cast<int>(id >> 58), static_cast<int>((id >> 29) & kMask), static_cast<int>(id & kMask)};
+  }
 };
 
 struct TileKeyHash {
