@@ -191,15 +191,12 @@ bool Viewer::loadPath(const std::string& path) {
       message(alone.diagnostics);
       return alone && useScene(std::move(*alone));
     }
-    if (globe_) {
-      notOnGlobe("Adding a vector file to a scene on the globe");
-      return false;
-    }
-    // A new layer of the current scene: its kind from what the file holds.
+    // A new layer of the current scene, in either frame: its kind from what the file holds.
     // After every layer of the scene, those its file left out included.
     std::size_t next = description_->layers.size();
     for (const scene::LayerDescription& l : description_->layers) next = std::max(next, l.fileIndex + 1);
-    Result<std::vector<scene::LayerDescription>> layers = scene::layersForVectorFile(path, scene_->frame, next);
+    const geo::SceneFrame frame = globe_ ? geo::SceneFrame::wgs84LonLat() : scene_->frame;
+    Result<std::vector<scene::LayerDescription>> layers = scene::layersForVectorFile(path, frame, next);
     message(layers.diagnostics);
     if (!layers) return false;
     scene::SceneDescription grown = *description_;

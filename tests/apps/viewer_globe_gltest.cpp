@@ -725,6 +725,63 @@ TEST_F(ViewerGlobeTest, LassoSelectsOnTheGlobe) {
   }
 }
 
+TEST_F(ViewerGlobeTest, AVectorFileDroppedOnTheGlobeBecomesALayer) {
+  ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
+  // A GeoJSON file dropped on a scene drawn on the globe joins it as a layer, as in a projected
+  // scene (read in longitude and latitude): drawn over the ground it covers, nothing elsewhere.
+  std::ofstream(dir_ / "dropped.geojson") << R"({"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {"name": "west half"},
+     "geometry": {"type": "Polygon", "coordinates": [[[175, -20], [180, -20], [180, -10], [175, -10], [175, -20]]]}}
+  ]})";
+  ASSERT_TRUE(runViewer("drop", json::array({{{"wait", 2}},
+                                             {{"action", "save_state"}, {"path", "before_drop.json"}},
+                                             {{"action", "screenshot"}, {"path", "before_drop.png"}, {"ui", false}},
+                                             {{"action", "drop"}, {"paths", {(dir_ / "dropped.geojson").string()}}},
+                                             {{"wait", 3}},
+                                             {{"action", "home"}},
+                                             {{"wait", 1}},
+                                             {{"action", "save_state"}, {"path", "after_drop.json"}},
+                                             {{"action", "screenshot"}, {"path", "after_drop.png"}, {"ui", false}}})));
+  const json before = readJson("before_drop.json"), after = readJson("after_drop.json");
+  ASSERT_EQ(before["layers"].size(), 1U);
+  ASSERT_EQ(after["layers"].size(), 2U) << after["messages"].dump(1);
+  EXPECT_EQ(after["mode"], "globe");
+  EXPECT_NE(after["layers"][1]["name"].get<std::string>().find("dropped"), std::string::npos) << after["layers"];
+  EXPECT_TRUE(after["layers"][1]["shown"].get<bool>());
+  for (const json& m : after["messages"])
+    EXPECT_EQ(m.get<std::string>().find("not available on the globe"), std::string::npos) << m;
+  // The same home view before and after: the new layer changes the pixels over its half of the
+  // box (west of 180°) and none over the other half or outside the box.
+  const gfx::Image8 a = *gfx::readImage8((dir_ / "before_drop.png").string());
+  const gfx::Image8 b = *gfx::readImage8((dir_ / "after_drop.png").string());
+  const gfx::ImageFloat depth = *gfx::readImageFloat((dir_ / "after_drop_depth.tiff").string());
+  const glm::dmat4 inverse = glm::inverse(matrix(readJson("after_drop_camera.json")["view_proj_ecef"]));
+  ASSERT_EQ(a.pixels.size(), b.pixels.size());
+  std::size_t westChanged = 0, west = 0, elsewhereChanged = 0;
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * kWidth + static_cast<std::size_t>(x);
+      if (!(depth.pixels[i] > 0.0F)) continue;
+      const globe::Geodetic g = globe::toGeodetic(unproject(inverse, x, y, depth.pixels[i]));
+      const double lon = unwrap(g.lon);
+      const bool changed = a.pixels[3 * i] != b.pixels[3 * i] || a.pixels[3 * i + 1] != b.pixels[3 * i + 1] ||
+                           a.pixels[3 * i + 2] != b.pixels[3 * i + 2];
+      const bool inWest =
+          lon > kWest + kMargin && lon < 180.0 - kMargin && g.lat > kSouth + kMargin && g.lat < kNorth - kMargin;
+      const bool clearOfIt =
+          lon > 180.0 + kMargin || lon < kWest - kMargin || g.lat < kSouth - kMargin || g.lat > kNorth + kMargin;
+      west += inWest ? 1U : 0U;
+      westChanged += inWest && changed ? 1U : 0U;
+      elsewhereChanged += clearOfIt && changed ? 1U : 0U;
+    }
+  }
+  std::printf("dropped layer: %zu of %zu pixels over its half changed, %zu elsewhere\n", westChanged, west,
+              elsewhereChanged);
+  EXPECT_GT(west, 5000U);
+  EXPECT_EQ(westChanged, west);
+  EXPECT_EQ(elsewhereChanged, 0U);
+}
+
 TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene) {
   ASSERT_NE(std::getenv("DISPLAY"), nullptr) << "run under xvfb-run";
   // The panel's layer tools on the globe, through the projected scene's code (issue 41): a new
