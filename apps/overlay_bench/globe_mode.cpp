@@ -147,6 +147,26 @@ std::vector<GlobeFrame> globePath(const scene::LoadedGlobeScene& s, int frames) 
   return out;
 }
 
+/// The frame in `target` (drawn from `view`) against the CPU reference of its own depth buffer.
+struct FrameError {
+  std::size_t covered = 0, wrong = 0, edgeWrong = 0;  ///< wrong: away from edges
+};
+FrameError frameError(const gfx::RenderTarget& target, const globe::GlobeView& view,
+                      const std::vector<const globe::GlobeLayer*>& layers) {
+  const std::vector<float> depth = gfx::readDepth(target);
+  const std::vector<std::uint32_t> mask = gfx::readMask(target);
+  const overlay::DepthImage image = globe::depthImageOf(view, depth);
+  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
+  const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
+  FrameError e;
+  for (std::size_t i = 0; i < mask.size() && i < expected.size(); ++i) {
+    e.covered += expected[i] != 0 ? 1U : 0U;
+    if (mask[i] == expected[i]) continue;
+    ++(edges[i] != 0 ? e.edgeWrong : e.wrong);
+  }
+  return e;
+}
+
 }  // namespace
 
 int runGlobe(const Options& o) {
@@ -203,19 +223,9 @@ int runGlobe(const Options& o) {
     const double ratio = (full.terrainGpuMilliseconds + full.overlayGpuMilliseconds) / bare.terrainGpuMilliseconds;
     // The error (every --error-every frames): the frame's mask against the reference of its own
     // depth buffer.
-    std::size_t covered = 0, wrong = 0, edgeWrong = 0;
-    if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) {
-      const std::vector<float> depth = gfx::readDepth(target);
-      const std::vector<std::uint32_t> mask = gfx::readMask(target);
-      const overlay::DepthImage image = globe::depthImageOf(view, depth);
-      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
-      const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
-      for (std::size_t i = 0; i < mask.size() && i < expected.size(); ++i) {
-        covered += expected[i] != 0 ? 1U : 0U;
-        if (mask[i] == expected[i]) continue;
-        ++(edges[i] != 0 ? edgeWrong : wrong);
-      }
-    }
+    FrameError error;
+    if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) error = frameError(target, view, layers);
+    const std::size_t covered = error.covered, wrong = error.wrong, edgeWrong = error.edgeWrong;
     wrongTotal += wrong;
     segmentWrong[f.segment] += static_cast<double>(wrong);
     csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
@@ -258,14 +268,7 @@ int runGlobe(const Options& o) {
       const auto frameStart = std::chrono::steady_clock::now();
       const globe::GlobeFrameStats next = renderer.render(cache, frameTarget, view, layers, true, overlaySettings);
       const double frameMs = msSince(frameStart);
-      const std::vector<float> depth = gfx::readDepth(target);
-      const std::vector<std::uint32_t> mask = gfx::readMask(target);
-      const overlay::DepthImage image = globe::depthImageOf(view, depth);
-      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
-      const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
-      std::size_t wrong = 0;
-      for (std::size_t i = 0; i < mask.size() && i < expected.size(); ++i)
-        wrong += mask[i] != expected[i] && edges[i] == 0 ? 1U : 0U;
+      const std::size_t wrong = frameError(target, view, layers).wrong;
       wrongTotal += wrong;
       edit = {{"layer", layer.name()},
               {"rebuild_ms", editMs},
