@@ -9,6 +9,7 @@
 #include <optional>
 #include <thread>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 #include "core/log.hpp"
@@ -16,6 +17,7 @@
 #include "globe/globe_selection.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/tiled_layer.hpp"
 
 namespace gis::globe {
 
@@ -95,8 +97,9 @@ struct GlobeOverlayRenderer::Gpu {
   std::unordered_map<Key, Tile, KeyHash> tiles;
   std::list<Key> lru;  ///< most recently drawn first
   std::size_t built = 0;
-  std::size_t bytes = 0;                  ///< of every resident tile
-  const GeoGrid* gridDigestOf = nullptr;  ///< the grid gridDigest is of
+  std::size_t bytes = 0;                            ///< of every resident tile
+  const GeoGrid* gridDigestOf = nullptr;            ///< the grid gridDigest is of
+  std::unordered_set<std::uint64_t> openedFolders;  ///< cache folders (keys) used by this renderer
   std::optional<std::uint64_t> gridDigest;
   std::uint64_t frame = 0;  ///< draws so far
 };
@@ -170,6 +173,12 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
       gpu_->gridDigest = heights.contentDigest();
     }
     if (gpu_->gridDigest) cacheKey = layer.fingerprint() ^ (*gpu_->gridDigest * 0x9E3779B97F4A7C15ULL);
+    // The first use of a layer's folder: marked as opened, and the folders no layer opened lately
+    // removed beyond the budget (other builds, grids and code: never read again).
+    if (cacheKey && gpu_->openedFolders.insert(*cacheKey).second) {
+      const std::filesystem::path folder = detail::tileCachePath(cacheDir_, *cacheKey, TileKey{}, 0).parent_path();
+      stats_.prunedFolders += overlay::pruneTileFolders(folder.parent_path(), folder, cacheBudget_);
+    }
   }
   std::atomic<std::size_t> read{0}, written{0}, repaired{0};
   {
@@ -254,6 +263,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
                                 const GlobeOverlaySettings& settings) {
   stats_ = {};
   cacheDir_ = settings.cacheDir;
+  cacheBudget_ = settings.cacheBudgetBytes;
   overlay::OverlayRenderer* overlays = renderer();
   if (overlays == nullptr) return;
   gpu_->built = 0;

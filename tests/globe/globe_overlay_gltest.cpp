@@ -3,6 +3,7 @@
 // both poles and from 1 m above the ground.
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -524,6 +525,21 @@ TEST_F(GlobeOverlayGl, TilesAreKeptOnDiskAndADamagedOneIsBuiltAgain) {
   GlobeOverlayRenderer overlay;
   drawAndCompare(v, {&*wider}, "cache another layer", &overlay, settings);
   EXPECT_EQ(overlay.stats().readTiles, 0U);
+  // The cache's housekeeping, as a projected scene's (overlay::pruneTileFolders): a folder no layer
+  // opened for 30 days (another build, grid or code) goes; those opened lately stay.
+  const std::filesystem::path stale = dir / "globe-tiles" / "00000000deadbeef";
+  std::filesystem::create_directories(stale);
+  std::ofstream(stale / "0-0-0-0.bin") << "an old tile";
+  std::filesystem::last_write_time(stale, std::filesystem::file_time_type::clock::now() - std::chrono::hours(24 * 31));
+  std::size_t folders = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir / "globe-tiles")) folders += e.is_directory() ? 1U : 0U;
+  GlobeOverlayRenderer later;
+  drawAndCompare(v, {&*wider}, "cache pruned", &later, settings);
+  EXPECT_EQ(later.stats().prunedFolders, 1U);
+  EXPECT_FALSE(std::filesystem::exists(stale));
+  std::size_t left = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir / "globe-tiles")) left += e.is_directory() ? 1U : 0U;
+  EXPECT_EQ(left, folders - 1);
   std::filesystem::remove_all(dir);
 }
 

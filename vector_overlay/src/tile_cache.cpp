@@ -158,42 +158,6 @@ std::optional<std::size_t> tileBytes(const std::filesystem::path& file, std::uin
   return static_cast<std::size_t>(checked->section(1).length);
 }
 
-std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::filesystem::path& folder,
-                             std::uintmax_t budget) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(folder, ec);
-  const fs::file_time_type now = fs::file_time_type::clock::now();
-  fs::last_write_time(folder, now, ec);  // opened now
-  struct Entry {
-    fs::path path;
-    fs::file_time_type used;
-    std::uintmax_t bytes = 0;
-  };
-  std::vector<Entry> others;
-  std::uintmax_t total = 0;
-  for (const fs::directory_entry& e : fs::directory_iterator(directory, ec)) {
-    if (!e.is_directory(ec)) continue;
-    Entry entry{e.path(), e.last_write_time(ec), 0};
-    for (const fs::directory_entry& f : fs::recursive_directory_iterator(e.path(), ec))
-      if (f.is_regular_file(ec)) entry.bytes += f.file_size(ec);
-    total += entry.bytes;
-    if (!fs::equivalent(e.path(), folder, ec)) others.push_back(std::move(entry));
-  }
-  std::sort(others.begin(), others.end(), [](const Entry& a, const Entry& b) { return a.used < b.used; });
-  std::size_t removed = 0;
-  for (const Entry& e : others) {
-    const auto idle = now - e.used;
-    if (idle < std::chrono::minutes(10)) continue;
-    if (total <= budget && idle < std::chrono::hours(24 * 30)) continue;
-    if (fs::remove_all(e.path, ec) > 0 && !ec) {
-      total -= std::min(total, e.bytes);
-      ++removed;
-    }
-  }
-  return removed;
-}
-
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,
@@ -257,3 +221,43 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
 }
 
 }  // namespace gis::overlay::detail
+
+namespace gis::overlay {
+
+std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::filesystem::path& folder,
+                             std::uintmax_t budget) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  const fs::file_time_type now = fs::file_time_type::clock::now();
+  fs::last_write_time(folder, now, ec);  // opened now
+  struct Entry {
+    fs::path path;
+    fs::file_time_type used;
+    std::uintmax_t bytes = 0;
+  };
+  std::vector<Entry> others;
+  std::uintmax_t total = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(directory, ec)) {
+    if (!e.is_directory(ec)) continue;
+    Entry entry{e.path(), e.last_write_time(ec), 0};
+    for (const fs::directory_entry& f : fs::recursive_directory_iterator(e.path(), ec))
+      if (f.is_regular_file(ec)) entry.bytes += f.file_size(ec);
+    total += entry.bytes;
+    if (!fs::equivalent(e.path(), folder, ec)) others.push_back(std::move(entry));
+  }
+  std::sort(others.begin(), others.end(), [](const Entry& a, const Entry& b) { return a.used < b.used; });
+  std::size_t removed = 0;
+  for (const Entry& e : others) {
+    const auto idle = now - e.used;
+    if (idle < std::chrono::minutes(10)) continue;
+    if (total <= budget && idle < std::chrono::hours(24 * 30)) continue;
+    if (fs::remove_all(e.path, ec) > 0 && !ec) {
+      total -= std::min(total, e.bytes);
+      ++removed;
+    }
+  }
+  return removed;
+}
+
+}  // namespace gis::overlay

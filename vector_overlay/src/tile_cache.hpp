@@ -31,11 +31,6 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
 /// holds this fingerprint and key; reads the header only.
 std::optional<std::size_t> tileBytes(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key);
 
-/// Marks `folder` (in `directory`) as opened now, then removes other folders of `directory` as
-/// TilingOptions::cacheBudgetBytes says. Returns how many it removed.
-std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::filesystem::path& folder,
-                             std::uintmax_t budget);
-
 std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
                                   const LayerGeometry& source, const HeightBoundsProvider& bounds,
                                   const LayerBuildOptions& options,

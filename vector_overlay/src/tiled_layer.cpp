@@ -80,7 +80,7 @@ LayerTiling::LayerTiling(const LayerGeometry& source, const HeightBoundsProvider
     std::snprintf(name, sizeof(name), "%016llx", static_cast<unsigned long long>(fingerprint_));
     cacheFolder_ = (std::filesystem::path(tiling_.cacheDirectory) / name).string();
     // Folders no layer opens any more (older features, terrain or code) leave, oldest first.
-    (void)detail::pruneTileFolders(tiling_.cacheDirectory, cacheFolder_, tiling_.cacheBudgetBytes);
+    (void)pruneTileFolders(tiling_.cacheDirectory, cacheFolder_, tiling_.cacheBudgetBytes);
     cacheRevision_ = tiling_.cacheRevision;
     cacheUsable_ = bounds.revision() == cacheRevision_;
   }

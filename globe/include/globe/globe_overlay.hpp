@@ -326,6 +326,10 @@ struct GlobeOverlaySettings {
   /// width class, as checked files (a damaged one is built again and rewritten). Not with a
   /// paged grid (its digest would need every post).
   std::string cacheDir;
+  /// The folders of cacheDir/globe-tiles (one per layer and grid) no layer opened lately are
+  /// removed beyond this many bytes, and any unused for 30 days (overlay::pruneTileFolders, as a
+  /// projected scene's tiles).
+  std::uintmax_t cacheBudgetBytes = std::uintmax_t{4} << 30U;
 };
 
 /// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
@@ -345,6 +349,7 @@ struct GlobeOverlayStats {
   std::size_t readTiles = 0;      ///< this frame, from the cache on disk (instead of built)
   std::size_t writtenTiles = 0;   ///< this frame, to the cache on disk
   std::size_t repairedTiles = 0;  ///< this frame, found damaged on disk and built again
+  std::size_t prunedFolders = 0;  ///< this frame, old folders removed from the cache on disk
 };
 
 /// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames
@@ -386,6 +391,7 @@ class GlobeOverlayRenderer {
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
   std::string cacheDir_;  ///< the last draw's settings.cacheDir: chunks() reads and writes tiles there
+  std::uintmax_t cacheBudget_ = std::uintmax_t{4} << 30U;  ///< the last draw's settings.cacheBudgetBytes
 };
 
 /// The globe's depth buffer as the CPU reference reads it (overlay::DepthImage): eye-relative

@@ -93,6 +93,14 @@ struct TilingOptions {
   std::uint64_t cacheRevision = 0;
 };
 
+/// The disk cache's housekeeping, for both frames' tiles: marks `folder` (a layer's, in
+/// `directory`) as opened now, then removes the other folders of `directory` that no layer opened
+/// in the last 10 minutes, least recently opened first, while the folders hold more than `budget`
+/// bytes, and any unused for 30 days (TilingOptions::cacheBudgetBytes). Returns how many it
+/// removed.
+std::size_t pruneTileFolders(const std::filesystem::path& directory, const std::filesystem::path& folder,
+                             std::uintmax_t budget);
+
 struct TileKey {
   int level = 0;
   int x = 0;
