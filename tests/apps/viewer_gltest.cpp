@@ -909,10 +909,11 @@ TEST_F(ViewerScriptTest, RealInputIsNeverLost) {
   // The open-file dialog with the keyboard alone: Ctrl+O, a path, Enter.
   const std::string dem = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/olinda_dem_utm25s.tif";
   if (ok) {
-    // Until the window's title names the DEM (the scene in use), at most 60 s: a loaded machine
-    // reads it slower than any fixed wait.
-    viewer.gesture("sleep 0.5 && xdotool key ctrl+o && sleep 1 && xdotool key ctrl+a && xdotool type \"" + dem +
-                   "\" && xdotool key Return && for i in $(seq 600); do xdotool getwindowname $W | grep -q "
+    // Until the window's title names the DEM (the scene in use), at most 120 s: a loaded machine
+    // reads it slower than any fixed wait. The dialog gets 3 s to open first: under a sanitizer,
+    // with other tests drawing beside it, Ctrl+O's press and release take a slow frame each.
+    viewer.gesture("sleep 0.5 && xdotool key ctrl+o && sleep 3 && xdotool key ctrl+a && xdotool type \"" + dem +
+                   "\" && xdotool key Return && for i in $(seq 1200); do xdotool getwindowname $W | grep -q "
                    "olinda_dem && break; sleep 0.1; done; sleep 1");
   }
   viewer.release("opened");
