@@ -309,8 +309,9 @@ std::vector<geo::Feature> CoverageGeneraliser::at(double epsilon, const std::vec
       const std::size_t n = ring.size();
       char shared = t.shared[r];
       if (!kept.empty()) t.findNodes(r, kept, found, shared);
-      std::vector<std::size_t> nodes = kept.empty() ? t.nodes[r] : found;
-      if (nodes.empty() && shared == 0) {
+      // The nodes found without kept points (made once), else those just found (not copied).
+      const std::vector<std::size_t>* nodes = kept.empty() ? &t.nodes[r] : &found;
+      if (nodes->empty() && shared == 0) {
         // A ring of its own: as generaliseGeometry, or nothing when it all lies within epsilon
         // of one chord and the caller lets such rings go.
         result[r] = dropWithinEpsilon && withinOneChord(ring, epsilon, t.distance)
@@ -318,19 +319,21 @@ std::vector<geo::Feature> CoverageGeneraliser::at(double epsilon, const std::vec
                         : simplifyRing(ring, epsilon, t.distance);
         continue;
       }
-      if (nodes.empty()) {
+      if (nodes->empty()) {
         // Shared whole (an island in a hole): cut where its least point is, in both rings.
         std::size_t least = 0;
         for (std::size_t k = 1; k < n; ++k)
           if (lexLess(ring[k], ring[least])) least = k;
+        found.clear();
         for (std::size_t k = 0; k < n; ++k)
-          if (ring[k] == ring[least]) nodes.push_back(k);
+          if (ring[k] == ring[least]) found.push_back(k);
+        nodes = &found;
       }
       geo::Ring made;
       std::vector<glm::dvec2> chain;
-      for (std::size_t j = 0; j < nodes.size(); ++j) {
-        const std::size_t a = nodes[j];
-        const std::size_t b = nodes[(j + 1) % nodes.size()];
+      for (std::size_t j = 0; j < nodes->size(); ++j) {
+        const std::size_t a = (*nodes)[j];
+        const std::size_t b = (*nodes)[(j + 1) % nodes->size()];
         chain.clear();
         for (std::size_t k = a;; k = (k + 1) % n) {
           chain.push_back(ring[k]);
