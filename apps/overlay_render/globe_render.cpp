@@ -149,6 +149,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
             // The layers' tiles (the terrain's drawn tiles), as a projected scene's "tiles" block.
             {"tiles",
              {{"drawn", stats.overlay.drawnTiles},
+              {"missing", stats.overlay.missingTiles},
               {"built", stats.overlay.builtTiles},
               {"read_from_disk", stats.overlay.readTiles},
               {"written_to_disk", stats.overlay.writtenTiles},

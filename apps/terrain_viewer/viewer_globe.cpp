@@ -193,6 +193,9 @@ void Viewer::drawGlobe() {
   }
   // GPU timer queries wait for the GPU: sample them (every frame in a script).
   const bool timed = frameIndex_ % 30 == 1 || script_.has_value();
+  // Tiles still building are drawn by their nearest ancestor meanwhile, as in a projected frame;
+  // scripted screenshots show the finished view.
+  g.overlaySettings.waitForTiles = script_.has_value();
   const globe::GlobeFrameStats s =
       g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed, g.overlaySettings);
   if (timed) {
@@ -214,9 +217,9 @@ void Viewer::drawGlobe() {
     }
   }
   if (!steps_.empty()) drawGlobeSelection();
-  // The globe builds the meshes and pieces a frame needs in that frame; imagery comes a few tiles
-  // a frame: draw again until it is all there.
-  busy_ = s.terrain.imageryPending > 0;
+  // The globe builds the meshes a frame needs in that frame; the layers' tiles come from the
+  // workers and imagery a few tiles a frame: draw again until it is all there.
+  busy_ = s.terrain.imageryPending > 0 || s.overlay.missingTiles > 0;
   glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
                          GL_NEAREST);
   cache_.bindDrawTarget(0, fb.x, fb.y);

@@ -1,11 +1,12 @@
-// Drawing the globe's layers (globe_overlay.hpp): each drawn tile's pieces become a chunk of
+// Drawing the globe's layers (globe_overlay.hpp): each layer's tiles over the drawn terrain tiles
+// (GlobeTiling), held on the GPU by the tile residency of both frames (tile_residency.hpp: worker
+// builds, the GPU budget, coarser detail where it would not fit), each tile's pieces a chunk of
 // world pieces that the overlay renderer of both frames draws, marks and counts.
 #include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
-#include <list>
 #include <optional>
 #include <thread>
 #include <unordered_map>
@@ -17,28 +18,12 @@
 #include "globe/globe_selection.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/tile_residency.hpp"
 #include "vector_overlay/tiled_layer.hpp"
 
 namespace gis::globe {
 
 namespace {
-
-/// A layer's pieces over a tile, for a width class (lines in pixels: lineWidthClass).
-struct Key {
-  std::uint64_t layer = 0;  ///< GlobeLayer::serial
-  std::uint64_t tile = 0;
-  int widthClass = 0;
-  bool operator==(const Key&) const = default;
-};
-
-struct KeyHash {
-  std::size_t operator()(const Key& k) const {
-    return std::hash<std::uint64_t>()(k.layer) ^
-           static_cast<std::size_t>((k.tile + static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.widthClass)) *
-                                                  std::uint64_t{0x100000001B3}) *
-                                    0x9E3779B97F4A7C15ULL);
-  }
-};
 
 /// A tile's pieces as world pieces of the overlay pipeline: each vertex coloured with its piece's
 /// group colour.
@@ -76,6 +61,109 @@ overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces)
                                                world, uniformColour, std::move(lines));
 }
 
+/// A globe layer's tiles as the residency asks for them: the drawn terrain tiles of the frame
+/// (setFrame), each at the width class its lines in pixels need from the view, or their
+/// ancestors where the GPU budget asks for coarser detail; built by buildTilePieces, or read
+/// from (and written to) the disk cache.
+class GlobeTiling final : public overlay::TileSource {
+ public:
+  GlobeTiling(const GlobeLayer& layer, const GeoGrid& heights, std::string cacheDir,
+              std::optional<std::uint64_t> cacheKey)
+      : layer_(&layer), heights_(&heights), cacheDir_(std::move(cacheDir)), cacheKey_(cacheKey) {
+    if (cacheKey_) folder_ = detail::tileCachePath(cacheDir_, *cacheKey_, TileKey{}, 0).parent_path().string();
+  }
+  /// Whether it was made for this layer object, grid and cache.
+  [[nodiscard]] bool madeFor(const GlobeLayer& layer, const GeoGrid& heights, const std::string& cacheDir,
+                             std::optional<std::uint64_t> cacheKey) const {
+    return layer_ == &layer && heights_ == &heights && cacheDir_ == cacheDir && cacheKey_ == cacheKey;
+  }
+
+  /// The frame's drawn terrain tiles, and the view their lines in pixels are seen from.
+  void setFrame(const GlobeView& view, const std::vector<DrawnTile>& tiles) {
+    scale_ = layer_->lineWidthPixels() > 0.0 ? pixelScaleOf(view) : overlay::PixelScale{};
+    keys_.clear();
+    for (const DrawnTile& tile : tiles) keys_.push_back(keyOf(tile.key));
+  }
+
+  [[nodiscard]] const std::string& name() const override { return layer_->name(); }
+  [[nodiscard]] std::vector<overlay::TileKey> select(const overlay::OverlayView& view, int viewportHeight,
+                                                     std::size_t* culled, double errorScale) const override {
+    (void)view;
+    (void)viewportHeight;
+    (void)culled;  // the terrain culled its tiles
+    // Coarser detail for the budget: a level up for each doubling of the error.
+    const int up = errorScale > 1.0 ? static_cast<int>(std::floor(std::log2(errorScale))) : 0;
+    if (up == 0) return keys_;
+    std::vector<overlay::TileKey> out;
+    std::unordered_set<std::uint64_t> seen;
+    for (const overlay::TileKey& k : keys_) {
+      TileKey t{k.level, k.x, k.y};
+      for (int u = 0; u < up && t.level > 0; ++u) t = t.parent();
+      if (seen.insert(t.id()).second) out.push_back(keyOf(t));
+    }
+    std::stable_sort(out.begin(), out.end(),
+                     [](const overlay::TileKey& a, const overlay::TileKey& b) { return a.level < b.level; });
+    return out;
+  }
+  /// The layers' generalisation (simplifyTolerance: areas within an eighth of a pixel, lines
+  /// within half of one) follows the terrain's posts.
+  [[nodiscard]] double errorPixels() const override { return 0.5; }
+  [[nodiscard]] int finestLevel() const override { return kMaxLevel; }
+  [[nodiscard]] Result<overlay::LayerTile> build(const overlay::TileKey& key, const std::atomic<bool>* cancel,
+                                                 bool lean) const override {
+    (void)cancel;
+    (void)lean;
+    const TileKey tile{key.level, key.x, key.y};
+    Result<overlay::LayerTile> out;
+    std::optional<TilePieces> pieces;
+    std::filesystem::path file;
+    if (cacheKey_) {
+      file = detail::tileCachePath(cacheDir_, *cacheKey_, tile, key.width);
+      bool damaged = false;
+      pieces = detail::readTilePieces(file, damaged);
+      if (damaged) {
+        ++repaired_;
+        out.diagnostics.add({Severity::Warning, file.string(), layer_->name(), "",
+                             "cache file damaged (not whole, or not a tile); built again"});
+      }
+    }
+    const bool fromDisk = pieces.has_value();
+    if (!pieces) {
+      pieces = buildTilePieces(*layer_, tile, *heights_, key.width);
+      if (cacheKey_ && detail::writeTilePieces(file, *pieces)) ++written_;
+    }
+    out.value = overlay::LayerTile{key, worldPiecesOf(*layer_, std::move(*pieces)), {}, 0.0, fromDisk};
+    return out;
+  }
+  [[nodiscard]] std::optional<std::size_t> cachedBytes(const overlay::TileKey& key) const override {
+    (void)key;
+    return std::nullopt;
+  }
+  [[nodiscard]] const std::string& cacheFolder() const override { return folder_; }
+  [[nodiscard]] std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const overlay::TileKey& key) const override {
+    (void)key;
+    return std::nullopt;
+  }
+  [[nodiscard]] bool worldPieces() const override { return true; }
+
+  /// Tiles written to the disk cache, and found damaged there, so far.
+  [[nodiscard]] std::size_t written() const { return written_; }
+  [[nodiscard]] std::size_t repaired() const { return repaired_; }
+
+ private:
+  [[nodiscard]] overlay::TileKey keyOf(const TileKey& t) const {
+    return {t.level, t.x, t.y, lineWidthClass(*layer_, t, *heights_, scale_)};
+  }
+  const GlobeLayer* layer_;
+  const GeoGrid* heights_;
+  std::string cacheDir_;
+  std::optional<std::uint64_t> cacheKey_;
+  std::string folder_;
+  overlay::PixelScale scale_;
+  std::vector<overlay::TileKey> keys_;
+  mutable std::atomic<std::size_t> written_{0}, repaired_{0};
+};
+
 }  // namespace
 
 overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings) {
@@ -88,24 +176,25 @@ overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings)
 struct GlobeOverlayRenderer::Gpu {
   std::optional<overlay::OverlayRenderer> renderer;
   bool failed = false;  ///< the renderer's shaders do not build
-  struct Tile {
-    std::optional<overlay::OverlayLayer> layer;  ///< none: no pieces over the tile
-    std::list<Key>::iterator lru;
-    std::size_t bytes = 0;
-    std::uint64_t frame = 0;  ///< the draw that last took it
-  };
-  std::unordered_map<Key, Tile, KeyHash> tiles;
-  std::list<Key> lru;  ///< most recently drawn first
-  std::size_t built = 0;
-  std::size_t bytes = 0;                            ///< of every resident tile
-  const GeoGrid* gridDigestOf = nullptr;            ///< the grid gridDigest is of
-  std::unordered_set<std::uint64_t> openedFolders;  ///< cache folders (keys) used by this renderer
+  std::unique_ptr<overlay::TileResidency> residency;
+  /// Per layer (its serial): its tiling, for the layer object and grid it was made for.
+  std::unordered_map<std::uint64_t, std::unique_ptr<GlobeTiling>> tilings;
+  const GeoGrid* gridDigestOf = nullptr;  ///< the grid gridDigest is of
   std::optional<std::uint64_t> gridDigest;
-  std::uint64_t frame = 0;  ///< draws so far
+  std::unordered_set<std::uint64_t> openedFolders;  ///< cache folders (keys) used by this renderer
+  // The last frame: its layers (in order), their chunks, and what it was drawn for.
+  std::vector<const GlobeLayer*> layers;
+  std::vector<std::vector<const overlay::OverlayLayer*>> chunks;
+  std::vector<std::uint64_t> tileIds;
+  glm::dmat4 viewProj{0.0};
+  const GeoGrid* heights = nullptr;
+  GlobeOverlaySettings settings;
 };
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
-GlobeOverlayRenderer::~GlobeOverlayRenderer() = default;
+GlobeOverlayRenderer::~GlobeOverlayRenderer() {
+  if (gpu_->residency) gpu_->residency->cancel();
+}
 
 overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() {
   if (!gpu_->renderer && !gpu_->failed) {
@@ -120,6 +209,7 @@ overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() {
 }
 
 std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes) {
+  if (!gpu_->residency) return 0;
   // A tile's pieces reach a little beyond it (the cells' margins): grown by a hundredth of it.
   const auto reaches = [&](const TileKey& key) {
     const LonLatRect r = key.rect().expanded(0.01 * key.size(), 0.01 * key.size());
@@ -132,161 +222,135 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     }
     return false;
   };
+  const auto made = gpu_->tilings.find(layer.serial());
+  if (made == gpu_->tilings.end()) return 0;
+  gpu_->residency->cancel();
   std::size_t dropped = 0;
-  for (auto it = gpu_->tiles.begin(); it != gpu_->tiles.end();) {
-    const Key& key = it->first;
-    if (key.layer != layer.serial() || !reaches(TileKey::fromId(key.tile))) {
-      ++it;
-      continue;
+  for (std::size_t i = 0; i < gpu_->residency->layerCount(); ++i) {
+    if (gpu_->residency->source(i) != made->second.get()) continue;
+    auto* tiles = gpu_->residency->tiles(i);
+    for (auto it = tiles->begin(); it != tiles->end();) {
+      const bool meets = reaches(TileKey{it->second.key.level, it->second.key.x, it->second.key.y});
+      dropped += meets ? 1U : 0U;
+      it = meets ? tiles->erase(it) : std::next(it);
     }
-    gpu_->bytes -= it->second.bytes;
-    gpu_->lru.erase(it->second.lru);
-    it = gpu_->tiles.erase(it);
-    ++dropped;
   }
+  gpu_->chunks.clear();  // the last frame's chunks may be gone
   return dropped;
+}
+
+std::vector<std::vector<const overlay::OverlayLayer*>> GlobeOverlayRenderer::tilesFor(
+    const GlobeView& view, const std::vector<DrawnTile>& tiles, const GeoGrid& heights,
+    const std::vector<const GlobeLayer*>& layers, const GlobeOverlaySettings& settings) {
+  overlay::OverlayRenderer* overlays = renderer();
+  if (overlays == nullptr) return std::vector<std::vector<const overlay::OverlayLayer*>>(layers.size());
+  overlay::TilingOptions tiling;
+  tiling.gpuBudgetBytes = settings.gpuBudgetBytes;
+  if (!gpu_->residency) gpu_->residency = std::make_unique<overlay::TileResidency>(*overlays, tiling);
+  overlay::TileResidency& residency = *gpu_->residency;
+  residency.setGpuBudget(settings.gpuBudgetBytes);
+  // The cache on disk, for a grid whose digest is known (made once per grid).
+  if (!settings.cacheDir.empty() && gpu_->gridDigestOf != &heights) {
+    gpu_->gridDigestOf = &heights;
+    gpu_->gridDigest = heights.contentDigest();
+  }
+  // Each layer's tiling, made again for another layer object, grid or cache.
+  std::vector<const overlay::TileSource*> sources;
+  for (const GlobeLayer* layer : layers) {
+    std::optional<std::uint64_t> cacheKey;
+    if (!settings.cacheDir.empty() && gpu_->gridDigest)
+      cacheKey = layer->fingerprint() ^ (*gpu_->gridDigest * 0x9E3779B97F4A7C15ULL);
+    std::unique_ptr<GlobeTiling>& made = gpu_->tilings[layer->serial()];
+    if (made && !made->madeFor(*layer, heights, settings.cacheDir, cacheKey)) {
+      residency.forget(made.get());
+      made.reset();
+    }
+    if (!made) {
+      made = std::make_unique<GlobeTiling>(*layer, heights, settings.cacheDir, cacheKey);
+      // The first use of a layer's folder: marked as opened, and the folders no layer opened
+      // lately removed beyond the budget (other builds, grids and code: never read again).
+      if (cacheKey && gpu_->openedFolders.insert(*cacheKey).second) {
+        const std::filesystem::path folder(made->cacheFolder());
+        stats_.prunedFolders += overlay::pruneTileFolders(folder.parent_path(), folder, settings.cacheBudgetBytes);
+      }
+    }
+    made->setFrame(view, tiles);
+    sources.push_back(made.get());
+  }
+  std::vector<std::pair<std::size_t, std::size_t>> counts;  // written, repaired before
+  for (const overlay::TileSource* s : sources)
+    counts.emplace_back(static_cast<const GlobeTiling*>(s)->written(), static_cast<const GlobeTiling*>(s)->repaired());
+  overlay::TechniqueFrame frame;
+  frame.target = {0, view.width, view.height};
+  frame.view = overlayViewOf(view);
+  frame.settings = overlaySettingsOf(settings);
+  frame.waitForTiles = settings.waitForTiles;
+  overlay::TechniqueFrameStats tileStats;
+  std::vector<std::vector<const overlay::OverlayLayer*>> chunks = residency.frame(frame, sources, tileStats);
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const auto* g = static_cast<const GlobeTiling*>(sources[i]);
+    stats_.writtenTiles += g->written() - counts[i].first;
+    stats_.repairedTiles += g->repaired() - counts[i].second;
+  }
+  stats_.builtTiles += tileStats.tilesBuilt - std::min(tileStats.tilesBuilt, tileStats.tilesFromDisk);
+  stats_.readTiles += tileStats.tilesFromDisk;
+  stats_.evictedTiles += tileStats.tilesEvicted;
+  stats_.residentTiles = tileStats.tilesResident;
+  stats_.residentBytes = residency.gpuBytes();
+  stats_.missingTiles = tileStats.tilesMissing;
+  // The last frame, for analyses on it (chunks()).
+  gpu_->layers = layers;
+  gpu_->chunks = chunks;
+  gpu_->tileIds.clear();
+  for (const DrawnTile& t : tiles) gpu_->tileIds.push_back(t.key.id());
+  gpu_->viewProj = view.viewProj();
+  gpu_->heights = &heights;
+  gpu_->settings = settings;
+  return chunks;
 }
 
 std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const GlobeView& view,
                                                                        const std::vector<DrawnTile>& tiles,
                                                                        const GeoGrid& heights,
                                                                        const GlobeLayer& layer) {
-  // Lines in pixels: each tile's width class from this view (0 for every other layer).
-  overlay::PixelScale scale;
-  if (layer.lineWidthPixels() > 0.0) scale = pixelScaleOf(view);
-  std::vector<Key> keys;
-  keys.reserve(tiles.size());
-  for (const DrawnTile& tile : tiles)
-    keys.push_back({layer.serial(), tile.key.id(), lineWidthClass(layer, tile.key, heights, scale)});
-  // The missing tiles' pieces are built on every core at once (pure: the layer, the grid and the
-  // pieces' builder may be read from any thread), then uploaded here, in the tiles' order.
-  std::vector<std::size_t> missing;
-  for (std::size_t t = 0; t < tiles.size(); ++t) {
-    if (gpu_->tiles.find(keys[t]) == gpu_->tiles.end()) missing.push_back(t);
-  }
-  std::vector<std::optional<overlay::LayerGeometry>> built(missing.size());
-  // The cache on disk, for a grid whose digest is known (made once per grid).
-  std::optional<std::uint64_t> cacheKey;
-  if (!cacheDir_.empty() && !missing.empty()) {
-    if (gpu_->gridDigestOf != &heights) {
-      gpu_->gridDigestOf = &heights;
-      gpu_->gridDigest = heights.contentDigest();
-    }
-    if (gpu_->gridDigest) cacheKey = layer.fingerprint() ^ (*gpu_->gridDigest * 0x9E3779B97F4A7C15ULL);
-    // The first use of a layer's folder: marked as opened, and the folders no layer opened lately
-    // removed beyond the budget (other builds, grids and code: never read again).
-    if (cacheKey && gpu_->openedFolders.insert(*cacheKey).second) {
-      const std::filesystem::path folder = detail::tileCachePath(cacheDir_, *cacheKey, TileKey{}, 0).parent_path();
-      stats_.prunedFolders += overlay::pruneTileFolders(folder.parent_path(), folder, cacheBudget_);
-    }
-  }
-  std::atomic<std::size_t> read{0}, written{0}, repaired{0};
-  {
-    std::atomic<std::size_t> next{0};
-    const auto work = [&] {
-      for (std::size_t k = next++; k < missing.size(); k = next++) {
-        const TileKey& tile = tiles[missing[k]].key;
-        const int widthClass = keys[missing[k]].widthClass;
-        std::optional<TilePieces> pieces;
-        std::filesystem::path file;
-        if (cacheKey) {
-          file = detail::tileCachePath(cacheDir_, *cacheKey, tile, widthClass);
-          bool damaged = false;
-          pieces = detail::readTilePieces(file, damaged);
-          if (pieces) ++read;
-          if (damaged) {
-            ++repaired;
-            logWarning(file.string() + ": layer '" + layer.name() +
-                       "': cache file damaged (not whole, or not a tile); built again");
-          }
-        }
-        if (!pieces) {
-          pieces = buildTilePieces(layer, tile, heights, widthClass);
-          if (cacheKey && detail::writeTilePieces(file, *pieces)) ++written;
-        }
-        if (!pieces->pieces.empty()) built[k] = worldPiecesOf(layer, std::move(*pieces));
-      }
-    };
-    const std::size_t helpers =
-        std::min<std::size_t>(missing.size(), std::max(1U, std::thread::hardware_concurrency())) -
-        (missing.empty() ? 0 : 1);
-    std::vector<std::thread> threads;
-    for (std::size_t h = 0; h < helpers; ++h) threads.emplace_back(work);
-    work();
-    for (std::thread& t : threads) t.join();
-  }
-  stats_.readTiles += read;
-  stats_.writtenTiles += written;
-  stats_.repairedTiles += repaired;
-  for (std::size_t k = 0; k < missing.size(); ++k) {
-    Gpu::Tile entry;
-    if (built[k]) {
-      entry.layer = overlay::OverlayLayer::upload(std::move(*built[k]));
-      entry.layer->releaseCpuArrays();  // drawn from the GPU's copy only (never edited; z-fail drawn whole)
-      entry.bytes = entry.layer->stats().gpuBytes;
-      gpu_->bytes += entry.bytes;
-    }
-    const Key& key = keys[missing[k]];
-    gpu_->lru.push_front(key);
-    entry.lru = gpu_->lru.begin();
-    gpu_->tiles.emplace(key, std::move(entry));
-    ++gpu_->built;
-  }
-  gpu_->built -= read;  // counted with the rest above: those read from disk were not built
-  std::vector<const overlay::OverlayLayer*> out;
-  for (const Key& key : keys) {
-    const auto found = gpu_->tiles.find(key);
-    gpu_->lru.splice(gpu_->lru.begin(), gpu_->lru, found->second.lru);
-    found->second.frame = gpu_->frame;
-    if (found->second.layer) out.push_back(&*found->second.layer);
-  }
-  return out;
-}
-
-std::size_t GlobeOverlayRenderer::trim(const GlobeOverlaySettings& settings) {
-  // Tiles with no pieces hold no GPU bytes; a bound on their number keeps the table small too.
-  constexpr std::size_t kMostTiles = std::size_t{1} << 16U;
-  std::size_t evicted = 0;
-  while ((gpu_->bytes > settings.gpuBudgetBytes || gpu_->tiles.size() > kMostTiles) && !gpu_->lru.empty()) {
-    const auto found = gpu_->tiles.find(gpu_->lru.back());
-    if (found->second.frame == gpu_->frame) break;  // the least recent is this frame's: so are the rest
-    gpu_->bytes -= found->second.bytes;
-    gpu_->tiles.erase(found);
-    gpu_->lru.pop_back();
-    ++evicted;
-  }
-  return evicted;
+  bool same = gpu_->heights == &heights && gpu_->viewProj == view.viewProj() && gpu_->tileIds.size() == tiles.size();
+  for (std::size_t t = 0; same && t < tiles.size(); ++t) same = gpu_->tileIds[t] == tiles[t].key.id();
+  std::vector<const GlobeLayer*> layers = same ? gpu_->layers : std::vector<const GlobeLayer*>{};
+  auto at = std::find(layers.begin(), layers.end(), &layer);
+  if (at != layers.end() && static_cast<std::size_t>(at - layers.begin()) < gpu_->chunks.size())
+    return gpu_->chunks[static_cast<std::size_t>(at - layers.begin())];
+  // Not drawn in this frame: its tiles join the frame's (the others stay as they are).
+  if (at == layers.end()) layers.push_back(&layer);
+  const GlobeOverlaySettings settings = gpu_->settings;
+  std::vector<std::vector<const overlay::OverlayLayer*>> all = tilesFor(view, tiles, heights, layers, settings);
+  at = std::find(layers.begin(), layers.end(), &layer);
+  return all[static_cast<std::size_t>(at - layers.begin())];
 }
 
 void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                 const GeoGrid& heights, const std::vector<const GlobeLayer*>& layers,
                                 const GlobeOverlaySettings& settings) {
   stats_ = {};
-  cacheDir_ = settings.cacheDir;
-  cacheBudget_ = settings.cacheBudgetBytes;
   overlay::OverlayRenderer* overlays = renderer();
   if (overlays == nullptr) return;
-  gpu_->built = 0;
-  ++gpu_->frame;
-  std::vector<std::vector<const overlay::OverlayLayer*>> chunked;
-  for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
-    chunked.push_back(chunks(view, tiles, heights, *layers[l]));
-    for (const overlay::OverlayLayer* chunk : chunked.back()) stats_.triangles += chunk->stats().triangles;
-    stats_.drawnTiles += chunked.back().size();
-    for (const overlay::OverlayLayer* chunk : chunked.back()) stats_.drawnBytes += chunk->stats().gpuBytes;
+  std::vector<const GlobeLayer*> drawn(
+      layers.begin(), layers.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(layers.size(), 32)));
+  const std::vector<std::vector<const overlay::OverlayLayer*>> chunked =
+      tilesFor(view, tiles, heights, drawn, settings);
+  for (const auto& layer : chunked) {
+    for (const overlay::OverlayLayer* chunk : layer) {
+      stats_.triangles += chunk->stats().triangles;
+      stats_.drawnBytes += chunk->stats().gpuBytes;
+    }
+    stats_.drawnTiles += layer.size();
   }
-  const std::vector<overlay::LayerFrameStats> drawn =
+  const std::vector<overlay::LayerFrameStats> drawnStats =
       overlays->draw(cache, overlayViewOf(view), chunked, overlaySettingsOf(settings));
-  for (const overlay::LayerFrameStats& s : drawn) {
+  for (const overlay::LayerFrameStats& s : drawnStats) {
     stats_.pieces += s.zPassPieces + s.zFailPieces;
     stats_.zFailPieces += s.zFailPieces;
     stats_.culledPieces += s.culledPieces;
   }
-  stats_.builtTiles = gpu_->built;
-  // Over the budget: the tiles drawn longest ago leave (this frame's chunks stay until the next draw).
-  stats_.evictedTiles = trim(settings);
-  stats_.residentTiles = gpu_->tiles.size();
-  stats_.residentBytes = gpu_->bytes;
 }
 
 }  // namespace gis::globe

@@ -184,6 +184,15 @@ std::pair<glm::dvec2, glm::dvec2> LayerTiling::extent(const TileKey& key) const 
   return {lo, lo + glm::dvec2(size)};
 }
 
+std::optional<std::pair<glm::dvec3, glm::dvec3>> LayerTiling::leanBox(const TileKey& key) const {
+  if (key.level >= finestLevel_) return std::nullopt;
+  const auto [tileLo, tileHi] = extent(key);
+  const double grow = widestReach() + (key.width > 0 ? widthClassCap(key.width) : 0.0);
+  const HeightBounds z = bounds_->globalBounds();
+  const double slack = groundError(key.level);
+  return std::pair{glm::dvec3(tileLo - grow, z.lo - slack), glm::dvec3(tileHi + grow, z.hi + slack)};
+}
+
 double LayerTiling::groundError(int level) const {
   if (level >= finestLevel_) return 0.0;
   return tileSize(level) / std::max(1, tiling_.tileResolution) + slack_;

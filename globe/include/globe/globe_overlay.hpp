@@ -330,6 +330,10 @@ struct GlobeOverlaySettings {
   /// removed beyond this many bytes, and any unused for 30 days (overlay::pruneTileFolders, as a
   /// projected scene's tiles).
   std::uintmax_t cacheBudgetBytes = std::uintmax_t{4} << 30U;
+  /// A still image: wait for every drawn tile's pieces (built on worker threads). Otherwise a
+  /// tile that is still building is drawn by its nearest resident ancestor meanwhile (a flight),
+  /// as the projected frame's tiles are.
+  bool waitForTiles = true;
 };
 
 /// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
@@ -350,15 +354,18 @@ struct GlobeOverlayStats {
   std::size_t writtenTiles = 0;   ///< this frame, to the cache on disk
   std::size_t repairedTiles = 0;  ///< this frame, found damaged on disk and built again
   std::size_t prunedFolders = 0;  ///< this frame, old folders removed from the cache on disk
+  std::size_t missingTiles = 0;   ///< this frame, still building (an ancestor drawn instead)
 };
 
 /// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames
 /// (overlay::OverlayRenderer, docs/frames.md): each layer's pieces over each drawn tile
 /// (buildTilePieces) are one chunk of the layer, an overlay::OverlayLayer of world pieces
 /// (LayerGeometry::ofWorldPieces: ECEF relative to the tile's middle, caps padded along the
-/// surface normals), kept on the GPU for the tiles drawn last. So the stencil core's passes, its
-/// analyses (markOverlap, countOpenFaces, drawPieces) and its statistics are the projected
-/// frame's, run on chunks().
+/// surface normals). The tiles are held by the projected frame's tile residency
+/// (overlay::TileResidency: built on worker threads, kept on the GPU under the budget, coarser
+/// detail where a frame's tiles would not fit it, ancestors drawn while tiles build unless
+/// waitForTiles). So the stencil core's passes, its analyses (markOverlap, countOpenFaces,
+/// drawPieces) and its statistics are the projected frame's, run on chunks().
 class GlobeOverlayRenderer {
  public:
   GlobeOverlayRenderer();
@@ -372,9 +379,11 @@ class GlobeOverlayRenderer {
             const std::vector<const GlobeLayer*>& layers, const GlobeOverlaySettings& settings = {});
   [[nodiscard]] const GlobeOverlayStats& stats() const { return stats_; }
 
-  /// The layer's pieces over the tiles, one chunk per tile that has any (built and uploaded where
-  /// missing): what overlay::OverlayRenderer's draw and analyses take for a layer drawn in chunks.
-  /// Valid until the next draw. Needs a current GL context.
+  /// The layer's pieces over the tiles, one chunk per tile that has any: those the last draw drew
+  /// for it when it was drawn for this view and these tiles, else built (or read) and uploaded
+  /// beside the last draw's (with its settings): what overlay::OverlayRenderer's draw and analyses
+  /// take for a layer drawn in chunks. Valid until the next draw or chunks(). Needs a current GL
+  /// context.
   std::vector<const overlay::OverlayLayer*> chunks(const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                                    const GeoGrid& heights, const GlobeLayer& layer);
   /// The overlay renderer (made on first use; null if its shaders do not build).
@@ -385,13 +394,14 @@ class GlobeOverlayRenderer {
 
  private:
   struct Gpu;
-  /// Drops the least recently drawn tiles' pieces while they hold more than the budget (never
-  /// this frame's); returns how many.
-  std::size_t trim(const GlobeOverlaySettings& settings);
+  /// The layers' chunks for the view (the residency's frame); counts into stats_.
+  std::vector<std::vector<const overlay::OverlayLayer*>> tilesFor(const GlobeView& view,
+                                                                  const std::vector<DrawnTile>& tiles,
+                                                                  const GeoGrid& heights,
+                                                                  const std::vector<const GlobeLayer*>& layers,
+                                                                  const GlobeOverlaySettings& settings);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
-  std::string cacheDir_;  ///< the last draw's settings.cacheDir: chunks() reads and writes tiles there
-  std::uintmax_t cacheBudget_ = std::uintmax_t{4} << 30U;  ///< the last draw's settings.cacheBudgetBytes
 };
 
 /// The globe's depth buffer as the CPU reference reads it (overlay::DepthImage): eye-relative

@@ -47,6 +47,7 @@
 #include <vector>
 
 #include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
 
 #include "core/diagnostics.hpp"
 #include "core/height_bounds.hpp"
@@ -132,7 +133,43 @@ struct LayerTile {
   bool fromDisk = false;                    ///< read from the disk cache, not built
 };
 
-class LayerTiling {
+/// A layer's tiles as the tiled technique's residency asks for them (tile_residency.hpp), in
+/// either frame: the projected frame's LayerTiling below, the globe's tiles over its terrain's
+/// (globe_overlay.hpp). The const methods but select may run on any thread while tiles build.
+class TileSource {
+ public:
+  virtual ~TileSource() = default;
+  TileSource() = default;
+  TileSource(const TileSource&) = delete;
+  TileSource& operator=(const TileSource&) = delete;
+  /// The layer's name, for messages.
+  [[nodiscard]] virtual const std::string& name() const = 0;
+  /// The tiles to draw for this view, coarse to fine: at a screen-space error of at most
+  /// errorPixels() · errorScale (a larger scale where the GPU budget needs coarser detail).
+  /// `culled` counts the tiles left out for lying outside the view.
+  [[nodiscard]] virtual std::vector<TileKey> select(const OverlayView& view, int viewportHeight, std::size_t* culled,
+                                                    double errorScale) const = 0;
+  [[nodiscard]] virtual double errorPixels() const = 0;
+  /// The level whose tiles hold the source geometry (coarser ones may go lean, below).
+  [[nodiscard]] virtual int finestLevel() const = 0;
+  /// Builds one tile (any thread), or reads it from the disk cache; problems in the result's
+  /// diagnostics. Once `cancel` is set the build may stop early and fail. `lean`: it may come
+  /// without footprints (LayerGeometry::releaseFootprints).
+  [[nodiscard]] virtual Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel,
+                                                bool lean) const = 0;
+  /// The GPU bytes of tile `key` as the disk cache holds it, or none (not cached, or not known).
+  [[nodiscard]] virtual std::optional<std::size_t> cachedBytes(const TileKey& key) const = 0;
+  /// The folder of the layer's tiles on disk (empty: none), for messages.
+  [[nodiscard]] virtual const std::string& cacheFolder() const = 0;
+  /// A box (the view's world coordinates) holding every piece tile `key` can have, where the tile
+  /// may come lean when the eye is far from it; none where it may not.
+  [[nodiscard]] virtual std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const TileKey& key) const = 0;
+  /// Tiles of world pieces (LayerGeometry::ofWorldPieces: drawn whole, never edited): their host
+  /// arrays go once uploaded.
+  [[nodiscard]] virtual bool worldPieces() const { return false; }
+};
+
+class LayerTiling final : public TileSource {
  public:
   /// `source`: the layer's features and styles (its pieces are not used; a layer built with
   /// LayerBuildOptions::deferPieces has none). `cells`: the layer's grid (the terrain's cells).
@@ -140,7 +177,8 @@ class LayerTiling {
   LayerTiling(const LayerGeometry& source, const HeightBoundsProvider& bounds, const LayerBuildOptions& options,
               const TilingOptions& tiling);
 
-  [[nodiscard]] int finestLevel() const { return finestLevel_; }
+  [[nodiscard]] const std::string& name() const override { return source_->name(); }
+  [[nodiscard]] int finestLevel() const override { return finestLevel_; }
   [[nodiscard]] double tileSize(int level) const { return rootSize_ / static_cast<double>(1 << level); }
   [[nodiscard]] std::pair<glm::dvec2, glm::dvec2> extent(const TileKey& key) const;
   /// Metres between a level's drawn footprints and the source's, at most.
@@ -148,19 +186,22 @@ class LayerTiling {
   /// The tiles to draw for this view (screen-space error at most errorPixels · errorScale, and
   /// frustum), coarse to fine. `culled` counts the tiles left out for lying outside the view.
   [[nodiscard]] std::vector<TileKey> select(const OverlayView& view, int viewportHeight, std::size_t* culled = nullptr,
-                                            double errorScale = 1.0) const;
-  [[nodiscard]] double errorPixels() const { return tiling_.errorPixels; }
+                                            double errorScale = 1.0) const override;
+  [[nodiscard]] double errorPixels() const override { return tiling_.errorPixels; }
   /// Builds one tile (any thread). Errors of features are reported in the result's diagnostics.
   /// Once `cancel` is set the build stops early and fails (nothing is written to disk). `lean`:
   /// a tile read from the disk cache may come lean (LayerGeometry::releaseFootprints), for a
   /// view far from it; a built one too once written there (read back lean, so that the built
   /// copy is freed before the upload); otherwise a built one is whole.
   [[nodiscard]] Result<LayerTile> build(const TileKey& key, const std::atomic<bool>* cancel = nullptr,
-                                        bool lean = false) const;
+                                        bool lean = false) const override;
   /// The GPU bytes of tile `key` as the disk cache holds it (its lean section: the arrays and
   /// the pieces' boxes, a little more than the GPU takes), or none when the cache has no usable
   /// file for it. Reads the file's header only.
-  [[nodiscard]] std::optional<std::size_t> cachedBytes(const TileKey& key) const;
+  [[nodiscard]] std::optional<std::size_t> cachedBytes(const TileKey& key) const override;
+  /// Coarser than the finest level: the tile grown by the layer's reach and its class's width,
+  /// between the terrain's global bounds widened by the level's error.
+  [[nodiscard]] std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const TileKey& key) const override;
   /// Feature i of the layer as tile `key` draws it (generalised for the level, a line cut to the
   /// runs that reach the tile), or none when it does not reach the tile.
   [[nodiscard]] std::optional<geo::Feature> featureFor(const TileKey& key, std::uint32_t i) const;
@@ -186,7 +227,7 @@ class LayerTiling {
   [[nodiscard]] const LayerGeometry& source() const { return *source_; }
   /// The folder of this layer's tiles on disk (empty without a cache), and how many tiles were
   /// read from it and written to it so far.
-  [[nodiscard]] const std::string& cacheFolder() const { return cacheFolder_; }
+  [[nodiscard]] const std::string& cacheFolder() const override { return cacheFolder_; }
   [[nodiscard]] std::size_t tilesRead() const { return tilesRead_; }
   [[nodiscard]] std::size_t tilesWritten() const { return tilesWritten_; }
   /// Tiles whose cache file was damaged (rebuilt, and said in the build's diagnostics).

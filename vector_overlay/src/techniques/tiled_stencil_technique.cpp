@@ -1,176 +1,18 @@
-// Our stencil polyhedra in view-dependent tiles (tiled_layer.hpp): per layer the tiles the view
-// wants at its detail, built on worker threads, kept on the GPU under a budget (least recently
-// drawn leave first), a tile's nearest built ancestor drawn while it builds (flights), all of
-// them waited for when a still image asks (TechniqueFrame::waitForTiles) or when nothing would
-// stand in. Nothing is built for the whole dataset: the layers come with their features only
+// Our stencil polyhedra in view-dependent tiles (tiled_layer.hpp): per layer a LayerTiling, whose
+// tiles the residency of both frames (tile_residency.hpp) builds on worker threads and keeps on
+// the GPU under a budget, with flights and stills; edits update one feature in the resident
+// tiles. Nothing is built for the whole dataset: the layers come with their features only
 // (PieceConstruction::Tiled).
 #include <algorithm>
-#include <chrono>
-#include <condition_variable>
-#include <deque>
-#include <map>
-#include <mutex>
-#include <set>
-#include <thread>
-#include <unordered_map>
-#include <unordered_set>
+#include <memory>
+#include <optional>
+#include <vector>
 
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
-
-#include "core/log.hpp"
 #include "techniques/techniques.hpp"
+#include "vector_overlay/tile_residency.hpp"
 
 namespace gis::overlay {
 namespace {
-
-/// Worker threads building tiles. request() replaces the jobs not yet started; take() hands
-/// over what is done.
-class TileWorkers {
- public:
-  struct Job {
-    std::size_t layer = 0;
-    const LayerTiling* tiling = nullptr;
-    TileKey key;
-    bool lean = false;  ///< may come lean from the disk cache (LayerTiling::build)
-  };
-  struct Done {
-    std::size_t layer = 0;
-    TileKey key;
-    Result<LayerTile> tile;
-    std::size_t hostBytes = 0;  ///< held against the host limit until release()
-  };
-
-  /// `hostLimit`: the host bytes that tiles read from the disk cache may hold at once, from their
-  /// read until their upload (release()); one tile is read whatever its size. Tiles built anew
-  /// are not counted (their size is not known before).
-  TileWorkers(unsigned count, std::size_t hostLimit) : hostLimit_(hostLimit) {
-    for (unsigned k = 0; k < std::max(1U, count); ++k) threads_.emplace_back([this] { run(); });
-  }
-  ~TileWorkers() {
-    {
-      std::lock_guard lock(mutex_);
-      stop_ = true;
-      queue_.clear();
-    }
-    wake_.notify_all();
-    room_.notify_all();
-    threads_.clear();  // joins
-  }
-  TileWorkers(const TileWorkers&) = delete;
-  TileWorkers& operator=(const TileWorkers&) = delete;
-
-  /// The jobs wanted now, most urgent first; those running or done are not repeated.
-  void request(const std::vector<Job>& jobs) {
-    {
-      std::lock_guard lock(mutex_);
-      queue_.clear();
-      for (const Job& j : jobs) {
-        if (busy_.count({j.layer, j.key.packed()}) == 0) queue_.push_back(j);
-      }
-    }
-    wake_.notify_all();
-  }
-  /// Whether a tile is queued, being built, or built and not yet taken.
-  [[nodiscard]] bool pending(std::size_t layer, const TileKey& key) {
-    std::lock_guard lock(mutex_);
-    if (busy_.count({layer, key.packed()}) != 0) return true;
-    return std::any_of(queue_.begin(), queue_.end(), [&](const Job& j) { return j.layer == layer && j.key == key; });
-  }
-  std::vector<Done> take() {
-    std::lock_guard lock(mutex_);
-    std::vector<Done> out = std::move(done_);
-    done_.clear();
-    for (const Done& d : out) busy_.erase({d.layer, d.key.packed()});
-    return out;
-  }
-  /// Until nothing is queued or running, or a tile is done and not taken, or `timeout` passed:
-  /// whether nothing is queued or running.
-  bool waitIdleOrDoneFor(std::chrono::milliseconds timeout) {
-    std::unique_lock lock(mutex_);
-    idle_.wait_for(lock, timeout, [&] { return (queue_.empty() && running_ == 0) || !done_.empty(); });
-    return queue_.empty() && running_ == 0;
-  }
-  /// Jobs queued or running.
-  [[nodiscard]] std::size_t remaining() {
-    std::lock_guard lock(mutex_);
-    return queue_.size() + static_cast<std::size_t>(running_);
-  }
-  /// The most host bytes tiles read from disk held at once, and the largest of them, so far.
-  [[nodiscard]] std::pair<std::size_t, std::size_t> hostPeak() {
-    std::lock_guard lock(mutex_);
-    return {peakInFlight_, largestRead_};
-  }
-  /// A taken tile's host bytes are no longer held (uploaded, or dropped).
-  void release(std::size_t bytes) {
-    {
-      std::lock_guard lock(mutex_);
-      inFlight_ -= std::min(inFlight_, bytes);
-    }
-    room_.notify_all();
-  }
-  /// Drops the queue and stops the running jobs (their results are dropped too).
-  void cancel() {
-    std::unique_lock lock(mutex_);
-    queue_.clear();
-    cancelled_ = true;
-    room_.notify_all();
-    idle_.wait(lock, [&] { return running_ == 0; });
-    cancelled_ = false;
-    for (const Done& d : done_) inFlight_ -= std::min(inFlight_, d.hostBytes);
-    done_.clear();
-    busy_.clear();
-    room_.notify_all();
-  }
-
- private:
-  void run() {
-    std::unique_lock lock(mutex_);
-    for (;;) {
-      wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
-      if (stop_) return;
-      const Job job = queue_.front();
-      queue_.pop_front();
-      busy_.insert({job.layer, job.key.packed()});
-      ++running_;
-      lock.unlock();
-      // A tile on disk is read once the host holds room for it (its file says how much).
-      const std::size_t bytes = job.tiling->cachedBytes(job.key).value_or(0);
-      lock.lock();
-      room_.wait(lock, [&] { return stop_ || cancelled_ || inFlight_ == 0 || inFlight_ + bytes <= hostLimit_; });
-      const bool skip = stop_ || cancelled_;
-      inFlight_ += bytes;
-      peakInFlight_ = std::max(peakInFlight_, inFlight_);
-      largestRead_ = std::max(largestRead_, bytes);
-      lock.unlock();
-      Result<LayerTile> tile;
-      try {
-        if (!skip) tile = job.tiling->build(job.key, &cancelled_, job.lean);
-      } catch (const std::exception& e) {  // on a worker thread it would end the program
-        tile.diagnostics.add({Severity::Error, "", job.tiling->source().name(), "",
-                              std::string("a tile cannot be built (") + e.what() + ")"});
-      }
-      lock.lock();
-      --running_;
-      done_.push_back({job.layer, job.key, std::move(tile), bytes});
-      idle_.notify_all();
-    }
-  }
-
-  std::mutex mutex_;
-  std::condition_variable wake_, idle_, room_;
-  std::size_t hostLimit_ = 0;
-  std::size_t inFlight_ = 0;  ///< host bytes of tiles read and not yet released
-  std::size_t peakInFlight_ = 0, largestRead_ = 0;
-  std::deque<Job> queue_;
-  std::set<std::pair<std::size_t, std::uint64_t>> busy_;  ///< running, or done and not taken
-  std::vector<Done> done_;
-  std::atomic<bool> cancelled_{false};  ///< set while cancel() waits: running builds stop early
-  int running_ = 0;
-  bool stop_ = false;
-  std::vector<std::jthread> threads_;  // last: joined first
-};
 
 class TiledStencil final : public OverlayTechnique {
  public:
@@ -179,135 +21,77 @@ class TiledStencil final : public OverlayTechnique {
         bounds_(options.bounds),
         build_(options.build),
         tiling_(options.tiling),
-        workers_(
-            options.tiling.workers > 0 ? options.tiling.workers : std::max(1U, std::thread::hardware_concurrency()),
-            options.tiling.hostBytesInFlight) {}
-  ~TiledStencil() override { workers_.cancel(); }
+        residency_(renderer_, options.tiling) {}
+  ~TiledStencil() override { residency_.cancel(); }
 
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
-    ++frameNumber_;
-    if (layers_.size() != frame.layers.size()) layers_.resize(frame.layers.size());
+    if (layers_.size() != frame.layers.size()) {
+      residency_.cancel();  // a job of a layer that leaves would read its tiling
+      layers_.resize(frame.layers.size());
+    }
     for (std::size_t i = 0; i < frame.layers.size(); ++i) {
       const OverlayLayer* layer = frame.layers[i];
       if (layer == nullptr || layers_[i].source == layer) continue;
       // Another layer in this place: its tiles are stale.
-      workers_.cancel();
+      residency_.clear();
       lastChunks_.clear();
-      for (auto& l : layers_) l.tiles.clear(), l.source = nullptr, l.tiling.reset();
+      for (auto& l : layers_) l.source = nullptr, l.tiling.reset();
       break;
     }
+    std::vector<const TileSource*> sources(frame.layers.size(), nullptr);
     for (std::size_t i = 0; i < frame.layers.size(); ++i) {
       const OverlayLayer* layer = frame.layers[i];
-      if (layer == nullptr || layers_[i].tiling) continue;
-      layers_[i].source = layer;
-      const HeightBoundsProvider* bounds = bounds_ != nullptr ? bounds_ : nullptr;
-      if (bounds == nullptr) continue;
-      layers_[i].tiling = std::make_unique<LayerTiling>(layer->geometry(), *bounds, build_, tiling_);
-    }
-    stats.tilesBuilt += collect(frame);
-    stats.tilesFromDisk += fromDisk_;
-    stats.tilePeakBytes = gpuBytes();
-    // A still starts from the finest detail the budget allowed lately.
-    if (frame.waitForTiles) errorScale_ = std::max(1.0, 0.5 * errorScale_);
-    std::vector<std::vector<const OverlayLayer*>> chunks;
-    std::vector<TileWorkers::Job> jobs;
-    bool overBudget = false;  // the wanted tiles passed the budget while they built
-    bool squeezed = false;    // a detail was given up for the budget in this frame
-    const auto choose = [&] {
-      for (;;) {
-        const std::size_t built = stats.tilesBuilt, read = stats.tilesFromDisk, evicted = stats.tilesEvicted,
-                          peak = stats.tilePeakBytes;
-        stats = TechniqueFrameStats{};
-        stats.tilesBuilt = built;
-        stats.tilesFromDisk = read;
-        stats.tilesEvicted = evicted;
-        stats.tilePeakBytes = peak;
-        chunks.clear();
-        jobs.clear();
-        const bool standIn = gather(frame, chunks, jobs, stats);
-        // A still whose tiles the disk cache says will not fit: coarser at once, nothing read.
-        if (frame.waitForTiles && canCoarsen() && knownBytes(jobs) > tiling_.gpuBudgetBytes) {
-          overBudget = true;
-          return;
-        }
-        if (!jobs.empty()) workers_.request(jobs);
-        if (stats.tilesMissing == 0 || !(frame.waitForTiles || !standIn)) return;
-        // A still image, or a tile with no ancestor to stand in: wait for them (then every
-        // wanted tile is there), the budget made room for first (a finer detail that did not
-        // fit leaves before the coarser one builds). Where the wanted tiles pass the budget
-        // before all are there, the rest are not built: a coarser detail is chosen.
-        // Once a detail was given up for the budget, nothing but this frame's tiles stays: the
-        // given-up tiles would otherwise sit beside the coarser ones being built.
-        stats.tilesEvicted += evict(squeezed ? 0 : tiling_.gpuBudgetBytes);
-        if (!waitForBuilds(frame, stats, canCoarsen())) {
-          overBudget = true;
-          return;
-        }
+      if (layer == nullptr) continue;
+      if (!layers_[i].tiling) {
+        layers_[i].source = layer;
+        if (bounds_ == nullptr) continue;
+        layers_[i].tiling = std::make_unique<LayerTiling>(layer->geometry(), *bounds_, build_, tiling_);
       }
-    };
-    choose();
-    // The budget is kept: where the frame's tiles do not fit it, coarser detail (a flight draws
-    // what is resident of it meanwhile); finer again from the next frame once they take under an
-    // eighth of it (a level finer takes about four times as much).
-    // (Not beyond the root tiles: then the budget cannot be kept, and the frame says so in
-    // tileBytes.)
-    while ((overBudget || chunkBytes(chunks) > tiling_.gpuBudgetBytes) && canCoarsen()) {
-      overBudget = false;
-      squeezed = true;
-      errorScale_ *= 2.0;
-      choose();
+      sources[i] = layers_[i].tiling.get();
     }
-    if (!frame.waitForTiles && chunkBytes(chunks) < tiling_.gpuBudgetBytes / 8 && errorScale_ > 1.0)
-      errorScale_ = std::max(1.0, 0.5 * errorScale_);
-    stats.tileBytes = chunkBytes(chunks);
+    std::vector<std::vector<const OverlayLayer*>> chunks = residency_.frame(frame, sources, stats);
     stats.layers = renderer_.draw(cache, frame.view, chunks, frame.settings);
     lastChunks_ = std::move(chunks);
-    stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
-    for (const LayerState& l : layers_) {
-      stats.tilesResident += l.tiles.size();
-      for (const auto& [key, t] : l.tiles)
-        stats.tilesLean += t.layer && t.layer->geometry().footprintsReleased() ? 1U : 0U;
-    }
-    std::tie(stats.tileHostPeakBytes, stats.tileLargestReadBytes) = workers_.hostPeak();
   }
 
   [[nodiscard]] std::vector<const OverlayLayer*> drawnChunks(std::size_t layer) const override {
     return layer < lastChunks_.size() ? lastChunks_[layer] : std::vector<const OverlayLayer*>{};
   }
   void invalidate() override {
-    workers_.cancel();
+    residency_.clear();
     lastChunks_.clear();
-    for (LayerState& l : layers_) l.tiles.clear();
   }
   void invalidate(const glm::dvec2& lo, const glm::dvec2& hi) override {
-    workers_.cancel();
+    residency_.cancel();
     lastChunks_.clear();
-    for (LayerState& l : layers_) {
-      if (!l.tiling) continue;
-      for (auto it = l.tiles.begin(); it != l.tiles.end();) {
-        auto [tileLo, tileHi] = l.tiling->extent(it->second.key);
+    for (std::size_t i = 0; i < layers_.size(); ++i) {
+      auto* tiles = residency_.tiles(i);
+      if (!layers_[i].tiling || tiles == nullptr) continue;
+      for (auto it = tiles->begin(); it != tiles->end();) {
+        auto [tileLo, tileHi] = layers_[i].tiling->extent(it->second.key);
         // Lines drawn wider than in metres reach beyond the tile by up to their class's width.
         const double grow = it->second.key.width > 0 ? widthClassCap(it->second.key.width) : 0.0;
         tileLo -= grow;
         tileHi += grow;
         const bool meets = !(hi.x < tileLo.x || hi.y < tileLo.y || lo.x > tileHi.x || lo.y > tileHi.y);
-        it = meets ? l.tiles.erase(it) : std::next(it);
+        it = meets ? tiles->erase(it) : std::next(it);
       }
     }
   }
-  void stopReading() override { workers_.cancel(); }
+  void stopReading() override { residency_.cancel(); }
   void featureChanged(std::size_t layer, std::size_t feature, const glm::dvec2& lo, const glm::dvec2& hi) override {
     // Only the feature, in each resident tile that has it or that it reaches now: one feature's
     // pieces rebuilt per tile, not the tiles.
-    workers_.cancel();
-    if (layer >= layers_.size() || !layers_[layer].tiling) return invalidate(lo, hi);
-    LayerState& l = layers_[layer];
+    residency_.cancel();
+    auto* tiles = residency_.tiles(layer);
+    if (layer >= layers_.size() || !layers_[layer].tiling || tiles == nullptr) return invalidate(lo, hi);
+    LayerTiling& tiling = *layers_[layer].tiling;
     const auto index = static_cast<std::uint32_t>(feature);
-    l.tiling->update(index);
-    for (auto it = l.tiles.begin(); it != l.tiles.end();) {
-      Resident& t = it->second;
-      const FeatureStyle style = l.tiling->tileStyle(t.key, index);
-      std::optional<geo::Feature> g = l.tiling->featureFor(t.key, index);
+    tiling.update(index);
+    for (auto it = tiles->begin(); it != tiles->end();) {
+      TileResidency::Resident& t = it->second;
+      const FeatureStyle style = tiling.tileStyle(t.key, index);
+      std::optional<geo::Feature> g = tiling.featureFor(t.key, index);
       const auto local = std::find(t.featureIndex.begin(), t.featureIndex.end(), index);
       // A tile with nothing yet, or one whose thin lines are drawn as rectangles only, is built
       // again when the feature reaches it (a wide line would need its joins).
@@ -315,311 +99,33 @@ class TiledStencil final : public OverlayTechnique {
       const bool rebuild =
           (g || holds) &&
           (!t.layer || t.layer->geometry().arraysReleased() ||
-           (g && t.layer->geometry().options().footprints.segmentsOnly && l.tiling->widestReach() > 0.25 * t.error));
+           (g && t.layer->geometry().options().footprints.segmentsOnly && tiling.widestReach() > 0.25 * t.error));
       if (rebuild) {
-        it = l.tiles.erase(it);
+        it = tiles->erase(it);
         continue;
       }
       if (local != t.featureIndex.end()) {
         const auto at = static_cast<std::size_t>(local - t.featureIndex.begin());
         if (g) {
-          reportOnce(t.layer->setFeature(at, std::move(*g), style));
+          residency_.reportOnce(t.layer->setFeature(at, std::move(*g), style));
         } else {
           t.layer->removeFeature(at);
         }
       } else if (g) {
-        reportOnce(t.layer->setFeature(t.layer->sharedFeatures().size(), std::move(*g), style));
+        residency_.reportOnce(t.layer->setFeature(t.layer->sharedFeatures().size(), std::move(*g), style));
         t.featureIndex.push_back(index);
       }
       ++it;
     }
   }
-  [[nodiscard]] std::size_t gpuBytes() const override {
-    std::size_t bytes = 0;
-    for (const LayerState& l : layers_)
-      for (const auto& [key, t] : l.tiles) bytes += t.layer ? t.layer->stats().gpuBytes : 0;
-    return bytes;
-  }
-  [[nodiscard]] Diagnostics drawDiagnostics() const override { return said_; }
+  [[nodiscard]] std::size_t gpuBytes() const override { return residency_.gpuBytes(); }
+  [[nodiscard]] Diagnostics drawDiagnostics() const override { return residency_.said(); }
 
  private:
-  struct Resident {
-    TileKey key;
-    std::optional<OverlayLayer> layer;        ///< none: the tile has nothing to draw
-    std::vector<std::uint32_t> featureIndex;  ///< per feature of layer, its index in the source layer
-    double error = 0.0;                       ///< the tile's ground error (LayerTile::groundError)
-    std::uint64_t lastUsed = 0;
-    std::pair<glm::dvec3, glm::dvec3> box;  ///< of its pieces (LayerGeometry::box3)
-  };
-
-  /// Logs each problem once (a feature's problem is said once, not once per tile).
-  void reportOnce(const Diagnostics& diagnostics) {
-    for (const Diagnostic& m : diagnostics.items()) {
-      if (reported_.insert(m.toString()).second) {
-        logWarning(m.toString());
-        // A feature's problems were said by the load's checks already (checkFeature); the
-        // tiles' own (a damaged tile file, a tile that cannot be read) are kept.
-        if (m.feature.empty()) said_.add(m);
-      }
-    }
-  }
   struct LayerState {
     const OverlayLayer* source = nullptr;
     std::unique_ptr<LayerTiling> tiling;
-    std::unordered_map<std::uint64_t, Resident> tiles;
   };
-
-  /// The largest factor on TilingOptions::errorPixels the budget may force (the root tiles are
-  /// drawn long before).
-  static constexpr double kMaxErrorScale = 4096.0;
-
-  /// GPU bytes of the chunks to draw.
-  static std::size_t chunkBytes(const std::vector<std::vector<const OverlayLayer*>>& chunks) {
-    std::size_t bytes = 0;
-    for (const auto& layer : chunks)
-      for (const OverlayLayer* c : layer) bytes += c->stats().gpuBytes;
-    return bytes;
-  }
-
-  /// Until the workers are idle, uploading each tile as it comes (its host arrays go once it is
-  /// on the GPU, so that the host holds at most the tiles being built) and telling
-  /// frame.tileProgress after the first second. With `mayGiveUp`, once the wanted tiles that
-  /// are there take more than the budget, or are expected to take more than twice the budget
-  /// (expectedBytes: an estimate from the tiles there, hence the margin; at once it misjudges
-  /// a budget that fits one frame), the rest are dropped and the running builds stopped, and false is
-  /// returned: the caller coarsens instead of building a detail that cannot be kept.
-  bool waitForBuilds(const TechniqueFrame& frame, TechniqueFrameStats& stats, bool mayGiveUp) {
-    const auto start = std::chrono::steady_clock::now();
-    const double total = static_cast<double>(std::max<std::size_t>(workers_.remaining(), 1));
-    bool told = false;
-    for (;;) {
-      const bool idle = workers_.waitIdleOrDoneFor(std::chrono::milliseconds(250));
-      stats.tilesBuilt += collect(frame);
-      stats.tilesFromDisk += fromDisk_;
-      stats.tilePeakBytes = std::max(stats.tilePeakBytes, gpuBytes());
-      if (mayGiveUp && (wantedBytes() > tiling_.gpuBudgetBytes || expectedBytes() > 2 * tiling_.gpuBudgetBytes)) {
-        workers_.cancel();
-        if (told) frame.tileProgress(1.0);
-        return false;
-      }
-      if (idle) break;
-      if (!frame.tileProgress || std::chrono::steady_clock::now() - start < std::chrono::seconds(1)) continue;
-      frame.tileProgress(std::clamp(1.0 - static_cast<double>(workers_.remaining()) / total, 0.0, 1.0));
-      told = true;
-    }
-    if (told) frame.tileProgress(1.0);
-    return true;
-  }
-
-  /// GPU bytes of the resident tiles the last gather() wanted.
-  [[nodiscard]] std::size_t wantedBytes() const {
-    std::size_t bytes = 0;
-    for (const auto& [layer, key] : wanted_) {
-      const auto it = layers_[layer].tiles.find(key);
-      if (it != layers_[layer].tiles.end() && it->second.layer) bytes += it->second.layer->stats().gpuBytes;
-    }
-    return bytes;
-  }
-
-  /// GPU bytes the tiles the last gather() wanted are expected to take: per layer, those there,
-  /// and each missing one as much as those there on average.
-  [[nodiscard]] std::size_t expectedBytes() const {
-    std::vector<std::size_t> bytes(layers_.size(), 0), there(layers_.size(), 0), missing(layers_.size(), 0);
-    for (const auto& [layer, key] : wanted_) {
-      const auto it = layers_[layer].tiles.find(key);
-      if (it == layers_[layer].tiles.end()) {
-        ++missing[layer];
-        continue;
-      }
-      ++there[layer];
-      if (it->second.layer) bytes[layer] += it->second.layer->stats().gpuBytes;
-    }
-    std::size_t total = 0;
-    for (std::size_t i = 0; i < layers_.size(); ++i)
-      total += bytes[i] + (there[i] > 0 ? bytes[i] / there[i] * missing[i] : 0);
-    return total;
-  }
-
-  /// GPU bytes of the wanted tiles that are resident and of those the jobs would read from the
-  /// disk cache (as its files say; tiles to be built count nothing).
-  [[nodiscard]] std::size_t knownBytes(const std::vector<TileWorkers::Job>& jobs) const {
-    std::size_t bytes = wantedBytes();
-    for (const TileWorkers::Job& j : jobs) {
-      if (layers_[j.layer].tiles.count(j.key.packed()) != 0) continue;  // counted, or a wider class
-      bytes += j.tiling->cachedBytes(j.key).value_or(0);
-    }
-    return bytes;
-  }
-
-  /// Whether a coarser detail than the last gather() wanted exists.
-  [[nodiscard]] bool canCoarsen() const { return errorScale_ < kMaxErrorScale && wantedFinestLevel_ > 0; }
-
-  /// Whether the eye is farther than its size from any piece of tile `key` that could be drawn
-  /// z-fail (as collect() decides to release a tile's footprints), by a box that holds every
-  /// piece the tile can have: then it may come lean from the disk cache.
-  [[nodiscard]] bool farFrom(const LayerTiling& tiling, const TileKey& key, const TechniqueFrame& frame) const {
-    if (key.level >= tiling.finestLevel() || bounds_ == nullptr) return false;
-    const auto [tileLo, tileHi] = tiling.extent(key);
-    const double grow = tiling.widestReach() + (key.width > 0 ? widthClassCap(key.width) : 0.0);
-    const HeightBounds z = bounds_->globalBounds();
-    const double slack = tiling.groundError(key.level);
-    const glm::dvec3 lo(tileLo - grow, z.lo - slack), hi(tileHi + grow, z.hi + slack);
-    const glm::dvec3 size = hi - lo;
-    return !renderer_.mayDrawZFail(frame.view, frame.settings, lo - size, hi + size);
-  }
-
-  /// Whether a resident tile can be drawn in this frame: one whose footprints were released
-  /// only where none of its pieces could be drawn z-fail.
-  [[nodiscard]] bool drawable(const Resident& r, const TechniqueFrame& frame) const {
-    return !r.layer || !r.layer->geometry().footprintsReleased() ||
-           !renderer_.mayDrawZFail(frame.view, frame.settings, r.box.first, r.box.second);
-  }
-
-  /// Uploads the tiles the workers finished; returns how many.
-  std::size_t collect(const TechniqueFrame& frame) {
-    std::size_t count = 0;
-    bool released = false;
-    fromDisk_ = 0;
-    for (TileWorkers::Done& d : workers_.take()) {
-      // Its host arrays are uploaded (and freed) below, or dropped.
-      struct Release {
-        TileWorkers& workers;
-        std::size_t bytes;
-        ~Release() { workers.release(bytes); }
-      } const release{workers_, d.hostBytes};
-      if (d.layer >= layers_.size() || !layers_[d.layer].tiling) continue;
-      reportOnce(d.tile.diagnostics);
-      Resident r;
-      r.key = d.key;
-      r.lastUsed = frameNumber_;
-      if (d.tile && d.tile.value->fromDisk) ++fromDisk_;
-      if (d.tile && d.tile.value->geometry.stats().pieces > 0) {
-        r.featureIndex = std::move(d.tile.value->featureIndex);
-        r.error = d.tile.value->groundError;
-        r.layer = OverlayLayer::upload(std::move(d.tile.value->geometry));
-        if (r.layer->broken()) {
-          Diagnostics lost;
-          lost.add({Severity::Error, layers_[d.layer].tiling->cacheFolder(), layers_[d.layer].tiling->source().name(),
-                    "",
-                    "tile " + std::to_string(d.key.level) + "-" + std::to_string(d.key.x) + "-" +
-                        std::to_string(d.key.y) + " could not be read from the disk cache; it is left out"});
-          reportOnce(lost);
-          r.layer.reset();
-          layers_[d.layer].tiles[d.key.packed()] = std::move(r);
-          ++count;
-          continue;
-        }
-        r.box = r.layer->geometry().box3();
-        // Coarse tiles are built again after an edit (rarely drawn while editing close up):
-        // the GPU holds their arrays, the CPU need not. Their footprints go too while the eye
-        // is farther than their size from any piece that could be drawn z-fail (a tile drawn
-        // where one could is built again with them, drawable).
-        if (d.key.level < layers_[d.layer].tiling->finestLevel()) {
-          const glm::dvec3 size = r.box.second - r.box.first;
-          if (!renderer_.mayDrawZFail(frame.view, frame.settings, r.box.first - size, r.box.second + size)) {
-            r.layer->releaseFootprints();
-            released = true;
-          } else {
-            r.layer->releaseCpuArrays();
-          }
-        }
-      }
-      layers_[d.layer].tiles[d.key.packed()] = std::move(r);
-      ++count;
-    }
-    if (released) giveBackFreedMemory();
-    return count;
-  }
-
-  /// The chunks to draw per layer: each wanted tile if resident (at its width class or a wider
-  /// one), else the tile at a narrower class or its nearest resident ancestor (once), and the
-  /// jobs for the missing ones (and for tiles resident at a class more than 4× too wide). False
-  /// when a missing tile has nothing to stand in for it.
-  bool gather(const TechniqueFrame& frame, std::vector<std::vector<const OverlayLayer*>>& chunks,
-              std::vector<TileWorkers::Job>& jobs, TechniqueFrameStats& stats) {
-    bool standIn = true;
-    chunks.assign(frame.layers.size(), {});
-    frameTiles_.clear();
-    wanted_.clear();
-    wantedFinestLevel_ = 0;
-    for (std::size_t i = 0; i < frame.layers.size(); ++i) {
-      LayerState& l = layers_[i];
-      if (frame.layers[i] == nullptr || !l.tiling) continue;
-      const std::vector<TileKey> wanted =
-          l.tiling->select(frame.view, frame.target.height, &stats.tilesCulled, errorScale_);
-      stats.tileErrorPixels = l.tiling->errorPixels() * errorScale_;
-      stats.tilesWanted += wanted.size();
-      std::unordered_set<std::uint64_t> used;
-      const auto use = [&](Resident& r) {
-        r.lastUsed = frameNumber_;
-        if (!used.insert(r.key.packed()).second) return;
-        frameTiles_.insert({i, r.key.packed()});
-        ++stats.tilesDrawn;
-        stats.finestTileLevel = std::max(stats.finestTileLevel, r.key.level);
-        if (r.layer) chunks[i].push_back(&*r.layer);
-      };
-      for (const TileKey& key : wanted) {
-        wanted_.insert({i, key.packed()});
-        wantedFinestLevel_ = std::max(wantedFinestLevel_, key.level);
-        auto here = l.tiles.find(key.packed());
-        if (here != l.tiles.end() && !drawable(here->second, frame)) {
-          l.tiles.erase(here);  // built again with its footprints (near the eye now)
-          here = l.tiles.end();
-        }
-        if (here != l.tiles.end() && here->second.key.width >= key.width) {
-          // A wider class is exact too (its pieces shrink in the shader), only looser.
-          if (here->second.key.width > key.width + 2)
-            jobs.push_back({i, l.tiling.get(), key, farFrom(*l.tiling, key, frame)});
-          use(here->second);
-          continue;
-        }
-        ++stats.tilesMissing;
-        jobs.push_back({i, l.tiling.get(), key, farFrom(*l.tiling, key, frame)});
-        bool found = here != l.tiles.end();  // too narrow for a still, fine in a flight
-        if (found) use(here->second);
-        for (TileKey a = key; a.level > 0 && !found;) {
-          a = a.parent();
-          if (auto it = l.tiles.find(a.packed()); it != l.tiles.end() && drawable(it->second, frame)) {
-            use(it->second);
-            found = true;
-          }
-        }
-        standIn = standIn && found;
-      }
-    }
-    return standIn;
-  }
-
-  /// Drops the least recently drawn tiles while over `budget` bytes (never those chosen for
-  /// this frame; those chosen and dropped for a coarser detail in it may go).
-  std::size_t evict(std::size_t budget) {
-    std::size_t bytes = gpuBytes();
-    if (bytes <= budget) return 0;
-    std::vector<std::tuple<std::uint64_t, std::size_t, std::uint64_t>> order;  // (last used, layer, key)
-    for (std::size_t i = 0; i < layers_.size(); ++i)
-      for (const auto& [key, t] : layers_[i].tiles)
-        if (frameTiles_.count({i, key}) == 0) order.emplace_back(t.lastUsed, i, key);
-    std::sort(order.begin(), order.end());
-    std::size_t evicted = 0;
-    for (const auto& [used, layer, key] : order) {
-      if (bytes <= budget) break;
-      auto it = layers_[layer].tiles.find(key);
-      bytes -= it->second.layer ? it->second.layer->stats().gpuBytes : 0;
-      layers_[layer].tiles.erase(it);
-      ++evicted;
-    }
-    if (evicted > 0) giveBackFreedMemory();
-    return evicted;
-  }
-
-  /// Returns the heap's free pages to the system: a tile's many small arrays, freed, would
-  /// otherwise stay in the process (glibc keeps them for reuse), and the host would hold the
-  /// most any detail ever took instead of what is resident.
-  static void giveBackFreedMemory() {
-#if defined(__GLIBC__)
-    malloc_trim(0);
-#endif
-  }
 
   OverlayRenderer renderer_;
   const HeightBoundsProvider* bounds_;
@@ -627,15 +133,7 @@ class TiledStencil final : public OverlayTechnique {
   TilingOptions tiling_;
   std::vector<LayerState> layers_;
   std::vector<std::vector<const OverlayLayer*>> lastChunks_;  ///< per layer, as last drawn
-  std::uint64_t frameNumber_ = 0;
-  std::size_t fromDisk_ = 0;  ///< of the tiles the last collect() took, those read from disk
-  Diagnostics said_;          ///< what reportOnce said of the tiles, each once (drawDiagnostics)
-  double errorScale_ = 1.0;   ///< on TilingOptions::errorPixels, where the budget needs it
-  std::set<std::pair<std::size_t, std::uint64_t>> frameTiles_;  ///< (layer, place) drawn in this frame
-  std::set<std::pair<std::size_t, std::uint64_t>> wanted_;      ///< (layer, place) the last gather() wanted
-  int wantedFinestLevel_ = 0;                                   ///< the finest level it wanted
-  std::set<std::string> reported_;
-  TileWorkers workers_;  // last: stopped first
+  TileResidency residency_;                                   // last: stopped first
 };
 
 Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
