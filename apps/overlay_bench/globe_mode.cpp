@@ -157,7 +157,7 @@ FrameError frameError(const gfx::RenderTarget& target, const globe::GlobeView& v
   const std::vector<std::uint32_t> mask = gfx::readMask(target);
   const overlay::DepthImage image = globe::depthImageOf(view, depth);
   const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
-  const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
+  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, globe::edgeLayersOf(layers, image));
   FrameError e;
   for (std::size_t i = 0; i < mask.size() && i < expected.size(); ++i) {
     e.covered += expected[i] != 0 ? 1U : 0U;

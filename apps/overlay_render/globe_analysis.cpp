@@ -51,7 +51,7 @@ int drawOverlap(const GlobeAnalysisRequest& request, gfx::StateCache& cache, con
   const overlay::DepthImage image = globe::depthImageOf(view, depth);
   const std::vector<const globe::GlobeLayer*> pair{&scene.layers[*a], &scene.layers[*b]};
   const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(pair, image));
-  const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, pair);
+  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, globe::edgeLayersOf(pair, image));
   const OverlapCounts counts = countOverlap(overlap.flags, expected, edges, request.overlapOp);
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), view.width, view.height, 1, counts.pixels);
   report(png.diagnostics);

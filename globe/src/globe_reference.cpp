@@ -234,91 +234,106 @@ BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWid
 
 }  // namespace
 
-std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const overlay::DepthImage& image,
-                                     const std::vector<const GlobeLayer*>& layers) {
-  std::vector<std::uint8_t> edges = overlay::maskEdges(mask, image);
-  if (edges.empty()) return edges;
-  const overlay::PixelScale scale = pixelScaleOf(image);
-  std::vector<BorderPiece> pieces;
-  for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
-    const auto layer = static_cast<std::uint32_t>(l);
-    for (std::size_t k = 0; k < layers[l]->areaCount(); ++k) {
-      for (const auto& ring : layers[l]->polygons()[k].rings) {
-        for (std::size_t i = 0; i < ring.size(); ++i) {
-          const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
-          if (detail::isPole(p.y) && detail::isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole
-          pieces.push_back(borderPiece(p, q, 0.0, layer));
-        }
-      }
-    }
-    for (const GlobeLine& line : layers[l]->lines()) {
-      // A line in pixels: its half widths in this view (the band between them is the edge's).
-      std::vector<double> widths(line.points.size(), line.halfWidth);
-      if (line.widthPixels > 0.0) {
-        for (std::size_t i = 0; i < widths.size(); ++i) widths[i] = layers[l]->halfWidthAt(line, i, scale);
-      }
-      for (std::size_t i = 0; i + 1 < line.points.size(); ++i)
-        pieces.push_back(borderPiece(line.points[i], line.points[i + 1], widths[i], layer, widths[i + 1]));
-      if (line.round()) continue;
-      // Joins and caps other than round: their edges that bound the line.
-      for (std::size_t k = 0; k < line.points.size(); ++k) {
-        if (!line.joins || k >= line.joins->at.size()) break;
-        const detail::PointShape& shape = line.joins->at[k];
-        const glm::dvec3 n = surfaceNormal(line.points[k].x, line.points[k].y);
-        const std::size_t count = shape.directions.size();
-        for (std::size_t e = 0; e < shape.border.size(); ++e) {
-          if (shape.border[e] == 0) continue;
-          pieces.push_back(borderPiece(line.surface[k] + widths[k] * shape.directions[e],
-                                       line.surface[k] + widths[k] * shape.directions[(e + 1) % count], n, layer));
-        }
-      }
-    }
-  }
-  if (pieces.empty()) return edges;
-  const BorderIndex index(std::move(pieces));
+namespace {
 
-  std::vector<glm::dvec3> points(image.depth.size());
-  std::vector<char> ground(image.depth.size(), 0);
-  overlay::forEachGroundPixel(image, [&](std::size_t i, const glm::dvec3& point) {
-    points[i] = point;
-    ground[i] = 1;
-  });
-  const int w = image.width, h = image.height;
-  std::vector<char> outer(layers.size()), inner(layers.size());
-  for (int row = 0; row < h; ++row) {
-    for (int col = 0; col < w; ++col) {
-      const std::size_t i = static_cast<std::size_t>(row) * static_cast<std::size_t>(w) + static_cast<std::size_t>(col);
-      if (ground[i] == 0 || edges[i] != 0) continue;
-      double reach = 0.0;
-      for (int dr = -1; dr <= 1; ++dr) {
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int c = col + dc, r = row + dr;
-          if (c < 0 || r < 0 || c >= w || r >= h) continue;
-          const std::size_t j = static_cast<std::size_t>(r) * static_cast<std::size_t>(w) + static_cast<std::size_t>(c);
-          if (ground[j] != 0) reach = std::max(reach, glm::length(points[j] - points[i]));
+/// The globe's layers for the edge band of both frames (overlay::edgePixels): their coverage as
+/// the view sees it, and their borders on the ellipsoid, indexed once. A footprint straddles a
+/// layer where an area's border passes within its reach (the farthest of its corners from its
+/// middle) or a line's border does (|distance to the line − half width| ≤ reach, so a line
+/// narrower than a pixel, which the probes may not see, has its band too).
+class GlobeEdgeLayers final : public overlay::EdgeLayers {
+ public:
+  GlobeEdgeLayers(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale)
+      : index_(bordersOf(layers, scale)), layerCount_(std::min<std::size_t>(layers.size(), 32)) {
+    for (std::size_t l = 0; l < layerCount_; ++l) coverage_.emplace_back(*layers[l], scale);
+  }
+  [[nodiscard]] std::uint32_t bits(const glm::dvec3& world) const override {
+    std::uint32_t out = 0;
+    for (std::size_t l = 0; l < coverage_.size(); ++l)
+      if (coverage_[l].covers(world)) out |= 1U << l;
+    return out;
+  }
+  [[nodiscard]] bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const override {
+    (void)centreBits;
+    const glm::dvec3 middle = 0.25 * (footprint[0] + footprint[1] + footprint[2] + footprint[3]);
+    double reach = 0.0;
+    for (const glm::dvec3& corner : footprint) reach = std::max(reach, glm::length(corner - middle));
+    // The pieces are on the ellipsoid and the point above it: a piece whose walls pass within
+    // d of it (across the normals) is within d + |height| of it.
+    const Geodetic g = toGeodetic(middle);
+    std::vector<char> outer(layerCount_, 0), inner(layerCount_, 0);
+    bool edge = false;
+    index_.near(middle, reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
+      if (edge) return;
+      const double d = acrossDistance(piece, middle);
+      if (piece.halfWidth == 0.0 && piece.halfWidthB == 0.0) {
+        edge = d <= reach;  // an area's border
+      } else {
+        outer[piece.layer] |= static_cast<char>(d <= std::max(piece.halfWidth, piece.halfWidthB) + reach);
+        inner[piece.layer] |= static_cast<char>(d <= std::min(piece.halfWidth, piece.halfWidthB) - reach);
+      }
+    });
+    for (std::size_t l = 0; l < layerCount_ && !edge; ++l) edge = outer[l] != 0 && inner[l] == 0;
+    return edge;
+  }
+
+ private:
+  /// Every border of the layers: areas' rings, lines' sides and the edges of joins and caps
+  /// other than round, with the lines' half widths in this view.
+  static std::vector<BorderPiece> bordersOf(const std::vector<const GlobeLayer*>& layers,
+                                            const overlay::PixelScale& scale) {
+    std::vector<BorderPiece> pieces;
+    for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
+      const auto layer = static_cast<std::uint32_t>(l);
+      for (std::size_t k = 0; k < layers[l]->areaCount(); ++k) {
+        for (const auto& ring : layers[l]->polygons()[k].rings) {
+          for (std::size_t i = 0; i < ring.size(); ++i) {
+            const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
+            if (detail::isPole(p.y) && detail::isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole
+            pieces.push_back(borderPiece(p, q, 0.0, layer));
+          }
         }
       }
-      // The pieces are on the ellipsoid and the point above it: a piece whose walls pass within
-      // d of it (across the normals) is within d + |height| of it.
-      const Geodetic g = toGeodetic(points[i]);
-      std::fill(outer.begin(), outer.end(), 0);
-      std::fill(inner.begin(), inner.end(), 0);
-      bool edge = false;
-      index.near(points[i], reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
-        if (edge) return;
-        const double d = acrossDistance(piece, points[i]);
-        if (piece.halfWidth == 0.0 && piece.halfWidthB == 0.0) {
-          edge = d <= reach;  // an area's border
-        } else {
-          outer[piece.layer] |= static_cast<char>(d <= std::max(piece.halfWidth, piece.halfWidthB) + reach);
-          inner[piece.layer] |= static_cast<char>(d <= std::min(piece.halfWidth, piece.halfWidthB) - reach);
+      for (const GlobeLine& line : layers[l]->lines()) {
+        // A line in pixels: its half widths in this view (the band between them is the edge's).
+        std::vector<double> widths(line.points.size(), line.halfWidth);
+        if (line.widthPixels > 0.0) {
+          for (std::size_t i = 0; i < widths.size(); ++i) widths[i] = layers[l]->halfWidthAt(line, i, scale);
         }
-      });
-      for (std::size_t l = 0; l < layers.size() && !edge; ++l) edge = outer[l] != 0 && inner[l] == 0;
-      edges[i] = edge ? 1 : 0;
+        for (std::size_t i = 0; i + 1 < line.points.size(); ++i)
+          pieces.push_back(borderPiece(line.points[i], line.points[i + 1], widths[i], layer, widths[i + 1]));
+        if (line.round()) continue;
+        // Joins and caps other than round: their edges that bound the line.
+        for (std::size_t k = 0; k < line.points.size(); ++k) {
+          if (!line.joins || k >= line.joins->at.size()) break;
+          const detail::PointShape& shape = line.joins->at[k];
+          const glm::dvec3 n = surfaceNormal(line.points[k].x, line.points[k].y);
+          const std::size_t count = shape.directions.size();
+          for (std::size_t e = 0; e < shape.border.size(); ++e) {
+            if (shape.border[e] == 0) continue;
+            pieces.push_back(borderPiece(line.surface[k] + widths[k] * shape.directions[e],
+                                         line.surface[k] + widths[k] * shape.directions[(e + 1) % count], n, layer));
+          }
+        }
+      }
     }
+    return pieces;
   }
-  return edges;
+
+  BorderIndex index_;
+  std::size_t layerCount_;
+  std::vector<GlobeCoverage> coverage_;
+};
+
+}  // namespace
+
+overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
+  const overlay::PixelScale scale = pixelScaleOf(image);
+  return [layers, scale](const glm::dvec3& lo, const glm::dvec3& hi) -> std::unique_ptr<overlay::EdgeLayers> {
+    (void)lo;  // the borders are few beside the pixels: indexed whole
+    (void)hi;
+    return std::make_unique<GlobeEdgeLayers>(layers, scale);
+  };
 }
 
 }  // namespace gis::globe

@@ -70,7 +70,8 @@ class GlobeOverlayGl : public test::GlTest {
                            rgba);
     const std::vector<std::uint32_t> expected =
         overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers, depthImageOf(view, depth)));
-    const std::vector<std::uint8_t> edges = edgePixels(expected, depthImageOf(view, depth), layers);
+    const std::vector<std::uint8_t> edges =
+        overlay::edgePixels(depthImageOf(view, depth), edgeLayersOf(layers, depthImageOf(view, depth)));
     Outcome o;
     o.tiles = tiles.size();
     o.pieces = overlay.stats().pieces;

@@ -179,7 +179,7 @@ TEST_F(SharedBordersGlTest, OnTheGlobeTheSameTractsAndViewsLeaveNoCracks) {
     const std::vector<std::uint32_t> gpu = gfx::readMask(frame);
     const overlay::DepthImage image = globe::depthImageOf(view, depth);
     const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
-    const std::vector<std::uint8_t> edges = globe::edgePixels(expected, image, layers);
+    const std::vector<std::uint8_t> edges = overlay::edgePixels(image, globe::edgeLayersOf(layers, image));
     std::size_t viewWrong = 0;
     for (std::size_t i = 0; i < gpu.size(); ++i) {
       covered += expected[i] != 0 ? 1U : 0U;

@@ -11,10 +11,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <glm/mat4x4.hpp>
 #include <glm/matrix.hpp>
@@ -401,7 +403,7 @@ class Discontinuities {
 /// horizontal plane when they give none).
 class PixelSquares {
  public:
-  using Probes = std::array<glm::dvec2, 8>;
+  using Probes = std::array<glm::dvec3, 8>;
   /// Offsets in the pixel (x right, y down): top row, middle row without the centre, bottom row.
   static constexpr std::array<std::array<double, 2>, 8> kOffsets{
       {{0.0, 0.0}, {0.5, 0.0}, {1.0, 0.0}, {0.0, 0.5}, {1.0, 0.5}, {0.0, 1.0}, {0.5, 1.0}, {1.0, 1.0}}};
@@ -433,14 +435,14 @@ class PixelSquares {
       if (!a || !b) return std::nullopt;
       const double t = glm::dot(centre - *a, normal) / glm::dot(*b - *a, normal);
       if (!std::isfinite(t) || t <= -1.0 + 1e-9) return std::nullopt;
-      out[k] = glm::dvec2(*a + (*b - *a) * t);
-      if (!reference::finite(out[k])) return std::nullopt;
+      out[k] = *a + (*b - *a) * t;
+      if (!reference::finite(glm::dvec2(out[k]))) return std::nullopt;
     }
     return out;
   }
 
   /// The corner probes in order round the square.
-  static reference::Quad footprint(const Probes& p) { return {p[0], p[2], p[7], p[5]}; }
+  static std::array<glm::dvec3, 4> footprint(const Probes& p) { return {p[0], p[2], p[7], p[5]}; }
 
  private:
   [[nodiscard]] std::size_t index(int x, int y) const {
@@ -577,7 +579,37 @@ std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<cons
   return mask;
 }
 
+namespace {
+
+/// The projected frame's layers for the edge band: their index over the region, in the plane.
+class PlaneEdgeLayers final : public EdgeLayers {
+ public:
+  PlaneEdgeLayers(std::span<const ReferenceLayer> layers, const Box& region, const PixelScale& scale)
+      : index_(layers, region, scale) {}
+  [[nodiscard]] std::uint32_t bits(const glm::dvec3& world) const override { return index_.bits(glm::dvec2(world)); }
+  [[nodiscard]] bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const override {
+    return index_.straddles(
+        {glm::dvec2(footprint[0]), glm::dvec2(footprint[1]), glm::dvec2(footprint[2]), glm::dvec2(footprint[3])},
+        centreBits);
+  }
+
+ private:
+  MaskIndex index_;
+};
+
+}  // namespace
+
 std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const ReferenceLayer> layers) {
+  const PixelScale scale = pixelScaleOf(image.viewProj, image.height);
+  return edgePixels(image, [&](const glm::dvec3& lo, const glm::dvec3& hi) {
+    Box region;
+    region.add(glm::dvec2(lo));
+    region.add(glm::dvec2(hi));
+    return std::make_unique<PlaneEdgeLayers>(layers, region, scale);
+  });
+}
+
+std::vector<std::uint8_t> edgePixels(const DepthImage& image, const EdgeLayersMaker& make) {
   if (!validImage(image)) return {};
   const Unprojector unprojector(image);
   const PixelPoints points = unprojectAll(image, unprojector);
@@ -589,7 +621,7 @@ std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const Re
   // Silhouettes, and pixels whose square reaches beyond the local surface plane's horizon, are
   // edges outright; the footprints of the others bound the region to index.
   std::vector<std::uint8_t> probed(points.point.size(), 0);
-  Box region;
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * width + static_cast<std::size_t>(x);
@@ -603,25 +635,26 @@ std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const Re
         edge[i] = 1;
         continue;
       }
-      for (const glm::dvec2& p : *probes) region.add(p);
-      region.add(glm::dvec2(points.point[i]));
+      for (const glm::dvec3& p : *probes) lo = glm::min(lo, p), hi = glm::max(hi, p);
+      lo = glm::min(lo, points.point[i]);
+      hi = glm::max(hi, points.point[i]);
       probed[i] = 1;
     }
   }
-  if (region.empty()) return edge;
+  if (!(lo.x <= hi.x && lo.y <= hi.y)) return edge;
 
-  const MaskIndex index(layers, region, pixelScaleOf(image.viewProj, image.height));
+  const std::unique_ptr<EdgeLayers> index = make(lo, hi);
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * width + static_cast<std::size_t>(x);
       if (probed[i] == 0) continue;
       const PixelSquares::Probes probes = *squares.probes(x, y);  // as in the first pass
-      const std::uint32_t bits = index.bits(glm::dvec2(points.point[i]));
+      const std::uint32_t bits = index->bits(points.point[i]);
       bool differs = false;
-      for (std::size_t k = 0; k < probes.size() && !differs; ++k) differs = index.bits(probes[k]) != bits;
+      for (std::size_t k = 0; k < probes.size() && !differs; ++k) differs = index->bits(probes[k]) != bits;
       // Features narrower than the probe spacing (thin lines, sharp corners, small holes): the
       // whole footprint (the quadrilateral of the corner probes) against the layers' pieces.
-      differs = differs || index.straddles(PixelSquares::footprint(probes), bits);
+      differs = differs || index->straddles(PixelSquares::footprint(probes), bits);
       edge[i] = differs ? 1 : 0;
     }
   }

@@ -441,14 +441,13 @@ inline LayerCoverage coverageOf(const std::vector<const GlobeLayer*>& layers, co
 overlay::PixelScale pixelScaleOf(const overlay::DepthImage& image);
 overlay::PixelScale pixelScaleOf(const GlobeView& view);
 
-/// The edge band of the layers' reference: overlay::maskEdges of `mask`, and by geometry every
-/// pixel whose ground point lies within its footprint's reach (the distance to the farthest of its
-/// 8 neighbours' ground points) of a layer's border: an area's ring, or the border of a line's
-/// union of capsules (|distance to the line − half width| ≤ reach, so a line narrower than a pixel,
-/// which the mask may not show at all, has its band too). Drawn shapes generalised by a fraction of
-/// a pixel (simplifyTolerance, lineShapesIn) stay inside it.
-std::vector<std::uint8_t> edgePixels(const std::vector<std::uint32_t>& mask, const overlay::DepthImage& image,
-                                     const std::vector<const GlobeLayer*>& layers);
+/// The layers as the edge band of both frames asks for them (overlay::edgePixels(image,
+/// edgeLayersOf(layers, image))): their coverage as the image's camera sees it (lines in pixels
+/// at its widths), and a footprint straddles a layer where one of its borders passes within the
+/// footprint's reach: an area's ring, or the border of a line's union of capsules (so a line
+/// narrower than a pixel has its band too). Drawn shapes generalised by a fraction of a pixel
+/// (simplifyTolerance, lineShapesIn) stay inside it.
+overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image);
 
 }  // namespace gis::globe
 

@@ -22,8 +22,10 @@
 // - lines in pixels (LineShape::widthPixels) get each vertex's half width from the camera of
 //   the depth image (pixelScaleOf with the image's height): segments become trapezoids, joins
 //   and caps take their vertex's half width.
+#include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -130,6 +132,29 @@ std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<cons
 /// Not included: the chord tolerance of drawn arcs (footprints.hpp): pixels must be much larger
 /// than it for the GPU to agree exactly elsewhere.
 std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const ReferenceLayer> layers);
+
+/// What the edge band asks of a frame's layers (edgePixels below): the projected frame's answer
+/// in its plane (ReferenceLayer), the globe's on the ellipsoid (globe::edgeLayersOf).
+class EdgeLayers {
+ public:
+  virtual ~EdgeLayers() = default;
+  EdgeLayers() = default;
+  EdgeLayers(const EdgeLayers&) = delete;
+  EdgeLayers& operator=(const EdgeLayers&) = delete;
+  /// The layers' mask bits at a world point (bit i: layer i covers it).
+  [[nodiscard]] virtual std::uint32_t bits(const glm::dvec3& world) const = 0;
+  /// Whether the bits may not be the same all over a pixel's footprint (its corner probes on the
+  /// ground, in order round it) whose centre has `centreBits` (true where unsure).
+  [[nodiscard]] virtual bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const = 0;
+};
+/// Makes a frame's EdgeLayers for the world box [lo, hi] that the probes of an image span.
+using EdgeLayersMaker = std::function<std::unique_ptr<EdgeLayers>(const glm::dvec3& lo, const glm::dvec3& hi)>;
+
+/// The edge band of the layers `make` gives, in any frame: the rules of edgePixels above (depth
+/// discontinuities, probes beyond the local plane's horizon, probes whose bits differ from the
+/// centre's, footprints the layers straddle). The edgePixels above is this with the
+/// ReferenceLayers' answers.
+std::vector<std::uint8_t> edgePixels(const DepthImage& image, const EdgeLayersMaker& make);
 
 struct PickedFeature {
   std::size_t layer = 0;
