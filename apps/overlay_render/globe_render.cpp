@@ -146,20 +146,19 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
               {"gpu_ms", stats.overlayGpuMilliseconds},
               {"fragments", stats.overlayFragments},
               {"primitives", stats.overlayPrimitives}}},
-            // The layers' tiles (the terrain's drawn tiles), as a projected scene's "tiles" block.
-            {"tiles",
-             {{"drawn", stats.overlay.drawnTiles},
-              {"missing", stats.overlay.missingTiles},
-              {"built", stats.overlay.builtTiles},
-              {"read_from_disk", stats.overlay.readTiles},
-              {"written_to_disk", stats.overlay.writtenTiles},
-              {"repaired", stats.overlay.repairedTiles},
-              {"resident", stats.overlay.residentTiles},
-              {"evicted", stats.overlay.evictedTiles},
-              {"gpu_bytes", stats.overlay.residentBytes},
-              {"gpu_budget_bytes", overlaySettings.gpuBudgetBytes}}},
+
             {"layers", layersJson},
             {"diagnostics", diagnostics}};
+  // The layers' tiles (over the terrain's drawn tiles), as a projected scene's "tiles" block, and
+  // what the globe's disk cache did.
+  json tiles = tilesJson(stats.overlay.tiles, stats.overlay.residentBytes);
+  tiles.update({{"missing", stats.overlay.missingTiles},
+                {"built_anew", stats.overlay.builtTiles},
+                {"written_to_disk", stats.overlay.writtenTiles},
+                {"repaired", stats.overlay.repairedTiles},
+                {"evicted", stats.overlay.evictedTiles},
+                {"gpu_budget_bytes", overlaySettings.gpuBudgetBytes}});
+  s["tiles"] = tiles;
   s.update(analyses);
   ok = writeJson(out / "camera.json", camera) && ok;
   ok = writeJson(out / "stats.json", s) && ok;

@@ -530,19 +530,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                       {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
   } else if (d.o.technique->construction == overlay::PieceConstruction::Tiled) {
     const overlay::TechniqueFrameStats& t = frame.overlayTiles;
-    stats["tiles"] = {{"drawn", t.tilesDrawn},
-                      {"wanted", t.tilesWanted},
-                      {"culled", t.tilesCulled},
-                      {"built", t.tilesBuilt},
-                      {"read_from_disk", t.tilesFromDisk},
-                      {"resident", t.tilesResident},
-                      {"lean", t.tilesLean},
-                      {"finest_level", t.finestTileLevel},
-                      {"error_px", t.tileErrorPixels},
-                      {"drawn_bytes", t.tileBytes},
-                      {"peak_bytes", t.tilePeakBytes},
-                      {"host_peak_bytes", t.tileHostPeakBytes},
-                      {"gpu_bytes", d.renderer.techniqueGpuBytes()}};
+    stats["tiles"] = app::tilesJson(t, d.renderer.techniqueGpuBytes());
   } else if (d.o.technique->usesTextures()) {
     stats["drape"] = {{"tile_size", d.o.drapeSize},
                       {"tiles_built", frame.texturesBuilt},

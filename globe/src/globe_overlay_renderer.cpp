@@ -298,6 +298,7 @@ std::vector<std::vector<const overlay::OverlayLayer*>> GlobeOverlayRenderer::til
   stats_.residentTiles = tileStats.tilesResident;
   stats_.residentBytes = residency.gpuBytes();
   stats_.missingTiles = tileStats.tilesMissing;
+  stats_.tiles = tileStats;
   // The last frame, for analyses on it (chunks()).
   gpu_->layers = layers;
   gpu_->chunks = chunks;

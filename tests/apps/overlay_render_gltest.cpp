@@ -1006,6 +1006,11 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
   EXPECT_GT(tiles["gpu_bytes"].get<std::size_t>(), 0u) << tiles.dump(1);
   EXPECT_EQ(tiles["gpu_budget_bytes"].get<std::size_t>(), std::size_t{512} << 20U) << tiles.dump(1);
   EXPECT_LE(tiles["gpu_bytes"].get<std::size_t>(), tiles["gpu_budget_bytes"].get<std::size_t>()) << tiles.dump(1);
+  // The projected frame's block (overlay::TileResidency): at the terrain's detail, nothing missing.
+  EXPECT_EQ(tiles["error_px"].get<double>(), 0.5) << tiles.dump(1);
+  EXPECT_GE(tiles["finest_level"].get<int>(), 0) << tiles.dump(1);
+  EXPECT_EQ(tiles["missing"].get<std::size_t>(), 0u) << tiles.dump(1);
+  EXPECT_GE(tiles["wanted"].get<std::size_t>(), tiles["drawn"].get<std::size_t>()) << tiles.dump(1);
   const json& selection = stats["selection"];
   EXPECT_EQ(selection["steps"].get<int>(), 2);
   EXPECT_EQ(selection["differing_away_from_edges"].get<std::size_t>(), 0u) << selection.dump(1);

@@ -70,8 +70,22 @@ class GlobeOverlayGl : public test::GlTest {
                            rgba);
     const std::vector<std::uint32_t> expected =
         overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers, depthImageOf(view, depth)));
-    const std::vector<std::uint8_t> edges =
+    std::vector<std::uint8_t> edges =
         overlay::edgePixels(depthImageOf(view, depth), edgeLayersOf(layers, depthImageOf(view, depth)));
+    // A frame drawn coarser for the budget is exact only farther than its stated error from edges:
+    // the band grown by the error beyond the half pixel the terrain's detail keeps.
+    const int grow = static_cast<int>(std::ceil(overlay.stats().tiles.tileErrorPixels - 0.5));
+    for (int g = 0; g < grow; ++g) {
+      const std::vector<std::uint8_t> band = edges;
+      for (int y = 0; y < view.height; ++y)
+        for (int x = 0; x < view.width; ++x)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int nx = std::clamp(x + dx, 0, view.width - 1), ny = std::clamp(y + dy, 0, view.height - 1);
+              if (band[static_cast<std::size_t>(ny * view.width + nx)] != 0)
+                edges[static_cast<std::size_t>(y * view.width + x)] = 1;
+            }
+    }
     Outcome o;
     o.tiles = tiles.size();
     o.pieces = overlay.stats().pieces;
@@ -204,6 +218,40 @@ TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {
   }
   EXPECT_GT(evicted, 0U) << "the flight must need more than the budget";
   EXPECT_GT(rebuilt, 0U) << "the first view's tiles left and came back";
+}
+
+TEST_F(GlobeOverlayGl, AFrameWhoseTilesExceedTheBudgetIsDrawnCoarserWithinIt) {
+  // The tile residency of both frames keeps the GPU budget for one frame too: a view whose tiles
+  // take more than the budget at the terrain's detail is drawn from their ancestors (levels up
+  // until they fit, the error doubling per level), within the budget, exact farther than that
+  // error from edges, and says so (tiles.tileErrorPixels); with room, the same view is drawn at
+  // the terrain's detail again.
+  const Layers layers = makeLayers();
+  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &layers.lines, &layers.outlines};
+  const GlobeView v = view({-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0});
+  GlobeOverlayRenderer roomy;
+  const Outcome full = drawAndCompare(v, all, "budget: room", &roomy);
+  const GlobeOverlayStats room = roomy.stats();
+  EXPECT_EQ(room.tiles.tileErrorPixels, 0.5);
+  EXPECT_GT(room.drawnBytes, 0U);
+  GlobeOverlaySettings tight;
+  tight.gpuBudgetBytes = room.drawnBytes / 3;
+  GlobeOverlayRenderer squeezed;
+  drawAndCompare(v, all, "budget: a third of the frame", &squeezed, tight);
+  const GlobeOverlayStats& s = squeezed.stats();
+  std::printf("budget %zu of %zu bytes: drawn %zu bytes, finest level %d (%d with room), error %.1f px\n",
+              tight.gpuBudgetBytes, room.drawnBytes, s.drawnBytes, s.tiles.finestTileLevel, room.tiles.finestTileLevel,
+              s.tiles.tileErrorPixels);
+  EXPECT_LE(s.drawnBytes, tight.gpuBudgetBytes);
+  EXPECT_LE(s.residentBytes, tight.gpuBudgetBytes);
+  EXPECT_LT(s.tiles.finestTileLevel, room.tiles.finestTileLevel);
+  EXPECT_GT(s.tiles.tileErrorPixels, 0.5);
+  EXPECT_GT(s.drawnTiles, 0U);
+  // Room again: the terrain's detail, the same pixels as the first renderer's.
+  GlobeOverlaySettings roomAgain;
+  const Outcome back = drawAndCompare(v, all, "budget: room again", &squeezed, roomAgain);
+  EXPECT_EQ(squeezed.stats().tiles.tileErrorPixels, 0.5);
+  EXPECT_EQ(back.covered, full.covered);
 }
 
 TEST_F(GlobeOverlayGl, LinesInPixelsKeepTheirWidthOnScreenFromSpaceToTheGround) {

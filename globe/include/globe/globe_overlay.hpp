@@ -42,6 +42,7 @@
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/shared_features.hpp"
 #include "vector_overlay/style.hpp"
+#include "vector_overlay/technique.hpp"
 
 namespace gis::globe {
 
@@ -355,6 +356,12 @@ struct GlobeOverlayStats {
   std::size_t repairedTiles = 0;  ///< this frame, found damaged on disk and built again
   std::size_t prunedFolders = 0;  ///< this frame, old folders removed from the cache on disk
   std::size_t missingTiles = 0;   ///< this frame, still building (an ancestor drawn instead)
+  /// The tile residency's counts for the frame (the projected frame's: stats.json's "tiles" block
+  /// in both frames). Its tileErrorPixels is 0.5 (the layers' generalisation follows the drawn
+  /// terrain tiles), larger where the frame's tiles would not fit the GPU budget and coarser ones
+  /// were drawn (a level up per doubling; such a frame is exact only farther than that from
+  /// edges); finestTileLevel the finest level drawn.
+  overlay::TechniqueFrameStats tiles;
 };
 
 /// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames

@@ -67,7 +67,11 @@ class TileResidency {
   /// Before a source is destroyed: cancels, and the layers that had it lose it and their tiles.
   void forget(const TileSource* source);
   /// The GPU bytes the resident tiles may hold from the next frame on (TilingOptions::gpuBudgetBytes).
-  void setGpuBudget(std::size_t bytes) { tiling_.gpuBudgetBytes = bytes; }
+  /// A larger budget starts again from the finest detail (a smaller one coarsens as frames need).
+  void setGpuBudget(std::size_t bytes) {
+    if (bytes > tiling_.gpuBudgetBytes) errorScale_ = 1.0;
+    tiling_.gpuBudgetBytes = bytes;
+  }
   /// Layer i's resident tiles by TileKey::packed() (null: no such layer yet), to edit or drop
   /// some of them (after cancel()).
   [[nodiscard]] std::unordered_map<std::uint64_t, Resident>* tiles(std::size_t layer);
