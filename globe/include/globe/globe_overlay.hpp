@@ -389,7 +389,8 @@ class GlobeOverlayRenderer {
   /// The layer's pieces over the tiles, one chunk per tile that has any: those the last draw drew
   /// for it when it was drawn for this view and these tiles, else built (or read) and uploaded
   /// beside the last draw's (with its settings): what overlay::OverlayRenderer's draw and analyses
-  /// take for a layer drawn in chunks. Valid until the next draw or chunks(). Needs a current GL
+  /// take for a layer drawn in chunks. Valid until the next draw or chunks(). The last draw's
+  /// layers must still live (their tiles are kept beside the new one's). Needs a current GL
   /// context.
   std::vector<const overlay::OverlayLayer*> chunks(const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                                    const GeoGrid& heights, const GlobeLayer& layer);
