@@ -3,6 +3,7 @@
 #include <glm/gtc/matrix_inverse.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -261,7 +262,7 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
     // The pieces are on the ellipsoid and the point above it: a piece whose walls pass within
     // d of it (across the normals) is within d + |height| of it.
     const Geodetic g = toGeodetic(middle);
-    std::vector<char> outer(layerCount_, 0), inner(layerCount_, 0);
+    std::array<char, 32> outer{}, inner{};  // per layer (at most the mask's 32): no allocation per pixel
     bool edge = false;
     index_.near(middle, reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
       if (edge) return;
