@@ -18,6 +18,7 @@
 
 #include "footprint_geometry.hpp"
 #include "vector_overlay/footprints.hpp"
+#include "vector_overlay/line_shapes.hpp"
 
 namespace gis::overlay {
 namespace {
@@ -29,8 +30,6 @@ constexpr double kMaxCoordinate = 1e15;
 bool inRange(const glm::dvec2& p) {
   return detail::finite(p) && std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate;
 }
-
-glm::dvec2 perp(const glm::dvec2& d) { return {-d.y, d.x}; }
 
 glm::dvec2 unit(const glm::dvec2& d) {
   // hypot avoids overflow and underflow for extreme lengths
@@ -46,14 +45,6 @@ struct Pt {
   double anchor = 0.0;
   bool operator==(const Pt&) const = default;
 };
-
-/// The points of a polygon around one centre: centre + directions[k] · h.
-std::vector<Pt> around(const glm::dvec2& centre, double anchor, const std::vector<glm::dvec2>& directions) {
-  std::vector<Pt> pts;
-  pts.reserve(directions.size());
-  for (const glm::dvec2& d : directions) pts.push_back({centre, d, anchor});
-  return pts;
-}
 
 class PieceSink {
  public:
@@ -182,113 +173,6 @@ class PieceSink {
 /// Lines in pixels at most this wide get wedges at joins and half discs at caps (lineFootprints).
 constexpr double kWedgeWidthPixels = 2.0;
 
-/// Unit directions to points on a circle from angle a0 to a1 (radians, a1 > a0:
-/// counter-clockwise), both ends included, `full` chords per full circle.
-std::vector<glm::dvec2> arc(double a0, double a1, int full) {
-  const int m = std::max(1, static_cast<int>(std::ceil((a1 - a0) / (2.0 * std::numbers::pi) * full)));
-  std::vector<glm::dvec2> directions;
-  directions.reserve(static_cast<std::size_t>(m + 1));
-  for (int k = 0; k <= m; ++k) {
-    const double a = a0 + (a1 - a0) * k / m;
-    directions.emplace_back(std::cos(a), std::sin(a));
-  }
-  return directions;
-}
-
-/// Unit directions of the regular polygon of `full` vertices whose first vertex lies in the
-/// unit direction `direction`.
-std::vector<glm::dvec2> disc(const glm::dvec2& direction, int full) {
-  // discPolygon's points are centre + r · (unit vector): with centre 0 and r = 1 exactly those.
-  return detail::discPolygon(glm::dvec2(0.0), 1.0, direction, full);
-}
-
-/// Geometry of one line: its vertices (repeated points dropped) with their anchor heights.
-struct Builder {
-  PieceSink& sink;
-  const LineShape& shape;
-  double h;  ///< half width in metres (the largest, for lines in pixels)
-  int full;  ///< chords per full circle of radius h
-  /// Lines in pixels: whole discs for round joins and caps. The half widths of a segment's ends
-  /// differ, so its trapezoid need not hold the inner part of the disc at either end.
-  bool wholeDiscs;
-
-  /// The cap at `end`, the line leaving it in the unit direction `outward`. A round cap whose
-  /// end segment is at least w/2 long needs only the outer half disc: the rectangle holds the
-  /// other half (same union, half the triangles).
-  void cap(const glm::dvec2& end, double anchor, const glm::dvec2& outward, double segmentLength) const {
-    const glm::dvec2 n = perp(outward);
-    switch (shape.cap) {
-      case LineCap::Round:
-        if (segmentLength >= h && !wholeDiscs) {
-          const double a = std::atan2(outward.y, outward.x);
-          sink.add(PieceKind::Cap,
-                   around(end, anchor, arc(a - 0.5 * std::numbers::pi, a + 0.5 * std::numbers::pi, full)));
-        } else {
-          sink.add(PieceKind::Cap, around(end, anchor, disc(n, full)));
-        }
-        break;
-      case LineCap::Square:
-        sink.add(PieceKind::Cap, around(end, anchor, {-n, outward - n, outward + n, n}));
-        break;
-      case LineCap::Flat:
-        break;
-    }
-  }
-
-  /// The join at vertex v between the segments prev → v and v → next.
-  void join(const glm::dvec2& prev, const glm::dvec2& v, double anchor, const glm::dvec2& next) const {
-    const glm::dvec2 d0 = unit(v - prev);
-    const glm::dvec2 d1 = unit(next - v);
-    const int turn = detail::orientation(prev, v, next);
-    if (turn == 0 && d0.x * d1.x + d0.y * d1.y > 0.0) return;  // straight continuation
-    if (shape.join == LineJoin::Round) {
-      // With both segments at least w/2 long, the two rectangles hold all of the disc but the
-      // outer wedge between their end edges: draw that wedge only (same union, far fewer
-      // triangles). Otherwise, and for hairpins, the whole disc.
-      const double l0 = glm::length(v - prev), l1 = glm::length(next - v);
-      if (turn != 0 && l0 >= h && l1 >= h && !wholeDiscs) {
-        const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
-        const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
-        double a0 = std::atan2(out0.y, out0.x), a1 = std::atan2(out1.y, out1.x);
-        if (turn < 0) std::swap(a0, a1);  // counter-clockwise from a0 to a1
-        if (a1 < a0) a1 += 2.0 * std::numbers::pi;
-        std::vector<glm::dvec2> directions{glm::dvec2(0.0)};
-        const std::vector<glm::dvec2> rim = arc(a0, a1, full);
-        directions.insert(directions.end(), rim.begin(), rim.end());
-        sink.add(PieceKind::Join, around(v, anchor, directions));
-      } else {
-        sink.add(PieceKind::Join, around(v, anchor, disc(perp(d0), full)));
-      }
-      return;
-    }
-    // A hairpin (180°) has a flat bevel and an infinite miter: nothing besides the rectangles.
-    if (turn == 0) return;
-    // Outer normals: on the right of a left turn, on the left of a right turn.
-    const glm::dvec2 out0 = turn > 0 ? -perp(d0) : perp(d0);
-    const glm::dvec2 out1 = turn > 0 ? -perp(d1) : perp(d1);
-    // θ the angle between the segments at v. With s = d0 + d1: |s| = 2 sin(θ/2), accurate also
-    // for nearly reversed directions (where 1 + cos(turn) would cancel to zero).
-    // Miter length h / sin(θ/2) ≤ miterLimit · h  ⇔  miterLimit · sin(θ/2) ≥ 1.
-    const glm::dvec2 s = d0 + d1;
-    const double sinHalfTheta = 0.5 * std::hypot(s.x, s.y);
-    // Built by push_back: assigning an initializer list here trips GCC 12's -Warray-bounds at -O3
-    // (a false positive in vector::operator=).
-    std::vector<glm::dvec2> directions;
-    directions.reserve(4);
-    directions.push_back(glm::dvec2(0.0));
-    directions.push_back(out0);
-    if (shape.join == LineJoin::Miter && shape.miterLimit * sinHalfTheta >= 1.0) {
-      // The intersection of the two outer offset lines lies on the outer bisector (out0 + out1,
-      // of length |s|) at distance h / sin(θ/2) = 2h / |s| from v.
-      const glm::dvec2 miter = (2.0 / (s.x * s.x + s.y * s.y)) * (out0 + out1);
-      if (detail::finite(miter) && detail::finite(v + h * miter)) directions.push_back(miter);
-    }
-    directions.push_back(out1);
-    if (turn < 0) std::reverse(directions.begin() + 1, directions.end());
-    sink.add(PieceKind::Join, around(v, anchor, directions));
-  }
-};
-
 }  // namespace
 
 PixelScale pixelScaleOf(const glm::dmat4& viewProj, int viewportHeight) {
@@ -346,7 +230,16 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
   // 2 px, far inside the pixels the reference calls edges. Such lines take the wedges and half
   // discs of lines in metres (a quarter of the triangles on dense lines).
   const bool wholeDiscs = scalable && shape.widthPixels > kWedgeWidthPixels;
-  const Builder build{sink, shape, h, full, wholeDiscs};
+  LineShapeRules rules;
+  rules.join = shape.join;
+  rules.cap = shape.cap;
+  rules.miterLimit = shape.miterLimit;
+  rules.wedgeLength = h;
+  rules.halfWidth = h;
+  rules.chords = full;
+  rules.wholeDiscs = wholeDiscs;
+  rules.ends = !options.segmentsOnly;
+  std::vector<LineStation> stations;
 
   for (std::size_t k = 0; k < feature.lines.size(); ++k) {
     const geo::LineString& raw = feature.lines[k];
@@ -386,29 +279,23 @@ std::vector<Footprint> lineFootprints(const geo::Feature& feature, std::uint32_t
                                "line " + std::to_string(k) + " reaches beyond ±1e15 m once widened; line skipped"));
     };
     if (line.size() == 1 && options.segmentsOnly) continue;
-    if (line.size() == 1) {
-      if (shape.cap == LineCap::Round) {
-        sink.add(PieceKind::Cap, around(line[0], anchor[0], disc(glm::dvec2(1.0, 0.0), full)));
-      } else if (shape.cap == LineCap::Square) {
-        sink.add(PieceKind::Cap, around(line[0], anchor[0], {{-1.0, -1.0}, {1.0, -1.0}, {1.0, 1.0}, {-1.0, 1.0}}));
-      }
-      dropIfBeyond();
-      continue;
+    // The stations in the plane: each piece's direction at both its ends, the turns exact.
+    stations.assign(line.size(), LineStation{});
+    for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+      const glm::dvec2 d = unit(line[i + 1] - line[i]);
+      const double length = glm::length(line[i + 1] - line[i]);
+      stations[i].out = d;
+      stations[i].outLength = length;
+      stations[i + 1].in = d;
+      stations[i + 1].inLength = length;
+      if (i > 0) stations[i].turn = detail::orientation(line[i - 1], line[i], line[i + 1]);
     }
-    const std::size_t last = line.size() - 1;
-    const bool ends = !options.segmentsOnly;
-    if (ends) build.cap(line[0], anchor[0], unit(line[0] - line[1]), glm::length(line[1] - line[0]));
-    for (std::size_t i = 0; i < last; ++i) {
-      const glm::dvec2 a = line[i];
-      const glm::dvec2 b = line[i + 1];
-      const glm::dvec2 n = perp(unit(b - a));
-      sink.add(PieceKind::Segment,
-               {{a, -n, anchor[i]}, {b, -n, anchor[i + 1]}, {b, n, anchor[i + 1]}, {a, n, anchor[i]}});
-      if (ends && i + 2 < line.size()) build.join(a, b, anchor[i + 1], line[i + 2]);
-    }
-    if (ends) {
-      build.cap(line[last], anchor[last], unit(line[last] - line[last - 1]), glm::length(line[last] - line[last - 1]));
-    }
+    lineShapes(stations, rules, [&](PieceKind kind, std::vector<ShapeCorner> corners) {
+      std::vector<Pt> pts;
+      pts.reserve(corners.size());
+      for (const ShapeCorner& c : corners) pts.push_back({line[c.station], c.direction, anchor[c.station]});
+      sink.add(kind, std::move(pts));
+    });
     dropIfBeyond();
   }
   try {
