@@ -16,6 +16,7 @@
 
 #include "globe/ellipsoid.hpp"
 #include "globe/globe_overlay.hpp"
+#include "vector_overlay/line_shapes.hpp"
 
 namespace gis::globe::detail {
 
@@ -55,6 +56,40 @@ extern std::atomic<std::uint64_t> layerBuilds;
 /// a line in pixels seen with `scale`.
 bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& point, double lonDeg, double latDeg,
               const overlay::PixelScale& scale);
+/// A run of a line as the shared shape rules see it (overlay::lineShapes, docs/frames.md): each
+/// station a point of the run, its plane the tangent plane there (basis e1, e2 with e1 × e2 the
+/// normal), its pieces' directions those of the slabs the reference tests (nearLine: the plane
+/// through the chord and the ends' mean normal). Points at the same place count once.
+struct GlobeStations {
+  std::vector<overlay::LineStation> stations;
+  std::vector<std::size_t> point;  ///< per station: its point's index in the run
+  std::vector<glm::dvec3> centre;  ///< per station: the point on the ellipsoid (ECEF)
+  std::vector<glm::dvec3> normal;  ///< per station: the ellipsoid's normal there
+  std::vector<glm::dvec3> e1, e2;  ///< per station: its plane's basis
+  std::vector<char> pole;          ///< per station: at a pole (no join or cap: the pieces meet there)
+  /// A corner's direction (ECEF, in the tangent plane at its station, in half widths).
+  [[nodiscard]] glm::dvec3 direction(const overlay::ShapeCorner& c) const {
+    return e1[c.station] * c.direction.x + e2[c.station] * c.direction.y;
+  }
+};
+/// The stations of points[first..last] of a line whose points are `points` (unwrapped lon/lat):
+/// a point is given where `given` says (all of them when it is empty; stations not given meet
+/// smoothly: overlay::LineStation::given); the points just outside the run, when the line has
+/// them, give its end stations their joins (the run is cut out of the line there).
+GlobeStations globeStations(const std::vector<glm::dvec2>& points, std::size_t first, std::size_t last,
+                            const std::vector<char>& given);
+/// The shape rules of a line on the globe: its join, cap and miter limit, arcs of `chords` per
+/// circle (rounded up to a multiple of 4), and round joins and caps as outer wedges and half discs
+/// whatever the pieces' lengths (wedgeLength 0): a point within the half width of the line is
+/// within it of its nearest point on the line, inside a piece (in that piece's band) or at a point
+/// (in the outer wedge there, or behind an end in the half disc), so bands, wedges and half discs
+/// cover what the discs do, though a band alone need not hold its join's inner half. A run's
+/// pieces all reach its tile (lineRunsIn), so the nearest point of a point in the tile is in the
+/// run. Lines in pixels change width along a band by far less than a pixel per pixel, which moves
+/// this by a thousandth of a pixel (footprints.hpp). The projected frame keeps its rule (wedges
+/// only next to pieces at least a half width long), whose frames are pinned bit for bit.
+overlay::LineShapeRules globeShapeRules(const GlobeLine& line, double halfWidth, int chords, bool wholeDiscs);
+
 /// What a line adds at its point k (of `points`, unwrapped lon/lat) besides its bands:
 /// footprints.hpp's join (at a point the source gave, `given`; a bevel at a point added along a
 /// geodesic) or cap (at an end), in the tangent plane there. Nothing, a disc of the half width,

@@ -1,5 +1,7 @@
-// Joins and caps of lines on the globe (globe_detail.hpp, pointShape): footprints.hpp's rules in
-// the tangent plane at the point, for the reference, its edge band and both line builders.
+// Lines on the globe (globe_detail.hpp): the stations both line builders hand the shared shape
+// rules (overlay::lineShapes), and the reference's joins and caps (pointShape: footprints.hpp's
+// rules in the tangent plane at the point, written apart from the builders' for the reference and
+// its edge band).
 #include <algorithm>
 #include <cmath>
 
@@ -21,6 +23,87 @@ glm::dvec3 bandSide(const glm::dvec3& a, const glm::dvec3& na, const glm::dvec3&
 }
 
 }  // namespace
+
+GlobeStations globeStations(const std::vector<glm::dvec2>& points, std::size_t first, std::size_t last,
+                            const std::vector<char>& given) {
+  GlobeStations out;
+  if (first > last || last >= points.size()) return out;
+  const auto ecef = [&points](std::size_t k) { return toEcef(points[k].x, points[k].y, 0.0); };
+  for (std::size_t k = first; k <= last; ++k) {
+    const glm::dvec3 c = ecef(k);
+    if (!out.centre.empty() && c == out.centre.back()) continue;
+    out.centre.push_back(c);
+    out.point.push_back(k - first);
+  }
+  const std::size_t n = out.centre.size();
+  out.stations.assign(n, overlay::LineStation{});
+  out.normal.resize(n);
+  out.e1.resize(n);
+  out.e2.resize(n);
+  out.pole.resize(n);
+  for (std::size_t s = 0; s < n; ++s) {
+    const glm::dvec2& p = points[first + out.point[s]];
+    const glm::dvec3 nrm = surfaceNormal(p.x, p.y);
+    out.normal[s] = nrm;
+    out.e1[s] = glm::normalize(glm::cross(nrm, std::abs(nrm.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
+    out.e2[s] = glm::cross(nrm, out.e1[s]);
+    out.pole[s] = static_cast<char>(isPole(p.y));
+    out.stations[s].given = given.empty() || given[first + out.point[s]] != 0;
+  }
+  // A piece's side: the normal of the plane through its chord and its ends' mean normal (left of
+  // the piece); its direction at a station: along the tangent plane there, square to that side.
+  const auto side = [](const glm::dvec3& a, const glm::dvec3& na, const glm::dvec3& b, const glm::dvec3& nb) {
+    return glm::normalize(glm::cross(glm::normalize(na + nb), b - a));
+  };
+  const auto planar = [&out](std::size_t s, const glm::dvec3& m) {
+    const glm::dvec3 d = glm::normalize(glm::cross(m, out.normal[s]));
+    return glm::dvec2(glm::dot(d, out.e1[s]), glm::dot(d, out.e2[s]));
+  };
+  for (std::size_t s = 0; s + 1 < n; ++s) {
+    const glm::dvec3 m = side(out.centre[s], out.normal[s], out.centre[s + 1], out.normal[s + 1]);
+    const double length = glm::length(out.centre[s + 1] - out.centre[s]);
+    out.stations[s].out = planar(s, m);
+    out.stations[s].outLength = length;
+    out.stations[s + 1].in = planar(s + 1, m);
+    out.stations[s + 1].inLength = length;
+  }
+  // The points just outside the run (past points at the same place).
+  if (n > 0) {
+    for (std::size_t k = first; k-- > 0;) {
+      const glm::dvec3 c = ecef(k);
+      if (c == out.centre.front()) continue;
+      const glm::dvec3 m = side(c, surfaceNormal(points[k].x, points[k].y), out.centre.front(), out.normal.front());
+      out.stations.front().in = planar(0, m);
+      out.stations.front().inLength = glm::length(out.centre.front() - c);
+      break;
+    }
+    for (std::size_t k = last + 1; k < points.size(); ++k) {
+      const glm::dvec3 c = ecef(k);
+      if (c == out.centre.back()) continue;
+      const glm::dvec3 m = side(out.centre.back(), out.normal.back(), c, surfaceNormal(points[k].x, points[k].y));
+      out.stations.back().out = planar(n - 1, m);
+      out.stations.back().outLength = glm::length(c - out.centre.back());
+      break;
+    }
+  }
+  for (overlay::LineStation& st : out.stations) {
+    const double cross = st.in.x * st.out.y - st.in.y * st.out.x;
+    st.turn = cross > 0.0 ? 1 : (cross < 0.0 ? -1 : 0);
+  }
+  return out;
+}
+
+overlay::LineShapeRules globeShapeRules(const GlobeLine& line, double halfWidth, int chords, bool wholeDiscs) {
+  overlay::LineShapeRules rules;
+  rules.join = line.join;
+  rules.cap = line.cap;
+  rules.miterLimit = line.miterLimit;
+  rules.halfWidth = halfWidth;
+  rules.wedgeLength = 0.0;
+  rules.chords = (std::max(chords, 8) + 3) / 4 * 4;
+  rules.wholeDiscs = wholeDiscs;
+  return rules;
+}
 
 PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given) {
   PointShape shape;

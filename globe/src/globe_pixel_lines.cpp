@@ -3,14 +3,13 @@
 //
 // Each vertex of such a piece belongs to a centre, a point of the line at the cap's height; the
 // shader moves it by direction · h, h the half width at the centre's anchor (the point raised to
-// the anchor ground). Directions lie in the tangent plane at the centre:
-// - a band (a piece of the line between points k and k + 1) has its four corners at the ends ±
-//   m, m the normal of the plane that holds the chord and the mean normal of its ends: the slab
-//   the reference tests (nearLine), its half width going linearly from one end's to the other's;
-// - a disc (a point the source gave, or a run's end) is a polygon inscribed in the circle around
-//   the normal there;
-// - at a point added along a geodesic the bands' corners on the outside of the turn are joined
-//   by a triangle from the centre (a bevel: within r·θ²/8 of the disc the reference has there).
+// the anchor ground). The shapes are the shared ones (overlay::lineShapes, as a projected frame's
+// lines in pixels) in the tangent plane at each point (globeStations): a band's corners at its
+// ends ± the side of the slab the reference tests (nearLine), its half width going linearly from
+// one end's to the other's; joins and caps by the line's style (round ones as wedges and half
+// discs up to 2 px, as whole discs beyond); at a point added along a geodesic the bands meet on
+// the bisector of their sides.
+//
 // The pieces are built at the class's largest half width H: the bottom lowered by H² / 2R (a
 // corner in the tangent plane rises above the ground by that much), the top raised by the sag of
 // the longest chord, the ground's bounds taken over the piece's box grown by H at a level coarse
@@ -154,13 +153,11 @@ struct ArcTolerance {
     };
     return std::clamp(std::max(count(pixels, 0.5 * line.widthPixels), count(metres, line.halfWidth)), 8, 256);
   }
-  /// Whether a join that turns by `angle` (radians) may be a bevel instead of a disc: the bevel
-  /// leaves out a segment of the disc r (1 − cos(angle / 2)) deep, within both tolerances.
-  [[nodiscard]] bool bevel(const GlobeLine& line, double angle) const {
-    const double depth = 1.0 - std::cos(0.5 * std::min(angle, 3.14159265358979323846));
-    return 0.5 * line.widthPixels * depth <= pixels && line.halfWidth * depth <= metres;
-  }
 };
+
+/// Lines in pixels at most this wide get wedges at joins and half discs at caps (footprints.hpp:
+/// the width changes too slowly along a piece for the disc's inner part to stick out).
+constexpr double kWedgeWidthPixels = 2.0;
 
 /// Consecutive pieces of a run drawn as one (their bounds together): fewer draws, little looser.
 constexpr std::size_t kBandsPerPiece = 4;
@@ -205,100 +202,43 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
     const bool generalised = &all != &line.points;
     ArcTolerance tolerance;
     if (generalised) tolerance.metres = std::max(tolerance.metres, 0.25 * GlobeLayer::lineTolerance(line, key.level));
-    const int sides = tolerance.sides(line);
+    const overlay::LineShapeRules rules =
+        globeShapeRules(line, capHalf, tolerance.sides(line), line.widthPixels > kWedgeWidthPixels);
     PieceWriter writer(out, line, key, heights, capHalf);
     for (const auto& [first, last] : layer.lineRunsIn(j, key, capHalf * line.shapeReach())) {
-      const std::vector<glm::dvec2> points(all.begin() + static_cast<std::ptrdiff_t>(first),
-                                           all.begin() + static_cast<std::ptrdiff_t>(last + 1));
-      std::vector<glm::dvec3> surface, normals;
-      std::vector<double> anchors;
-      for (const glm::dvec2& p : points) {
-        surface.push_back(toEcef(p.x, p.y, 0.0));
-        normals.push_back(surfaceNormal(p.x, p.y));
+      const GlobeStations st = globeStations(all, first, last, generalised ? std::vector<char>{} : line.given);
+      const std::size_t n = st.stations.size();
+      std::vector<glm::dvec2> points(n);
+      std::vector<double> anchors(n);
+      for (std::size_t s = 0; s < n; ++s) {
+        points[s] = all[first + st.point[s]];
         // As the reference keeps them (GlobeLine::anchors).
-        anchors.push_back(anchor != nullptr ? static_cast<double>(static_cast<float>(anchor->heightAt(p.x, p.y)))
-                                            : 0.0);
+        anchors[s] = anchor != nullptr
+                         ? static_cast<double>(static_cast<float>(anchor->heightAt(points[s].x, points[s].y)))
+                         : 0.0;
       }
-      const std::size_t n = points.size();
-      // Per piece of the run: m, the band's side direction (zero for a piece with no length).
-      std::vector<glm::dvec3> sides3(n - 1, glm::dvec3(0.0));
-      std::vector<double> lengths(n - 1, 0.0);
-      for (std::size_t k = 0; k + 1 < n; ++k) {
-        const glm::dvec3 along = surface[k + 1] - surface[k];
-        lengths[k] = glm::length(along);
-        if (lengths[k] > 0.0)
-          sides3[k] = glm::normalize(glm::cross(glm::normalize(normals[k] + normals[k + 1]), along));
-      }
-      const auto disc = [&](std::size_t k) {
-        Shape s;
-        const glm::dvec3 n3 = normals[k];
-        const glm::dvec3 e1 =
-            glm::normalize(glm::cross(n3, std::abs(n3.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
-        const glm::dvec3 e2 = glm::cross(n3, e1);
-        for (int i = 0; i < sides; ++i) {
-          const double a = 2.0 * 3.14159265358979323846 * i / sides;
-          s.push_back({k, std::cos(a) * e1 + std::sin(a) * e2});
-        }
-        return s;
-      };
       std::vector<Shape> shapes;
+      std::size_t bands = 0;
       double longest = 0.0;
-      for (std::size_t k = 0; k + 1 < n; ++k) {
-        if (lengths[k] > 0.0) {
-          const glm::dvec3 m = sides3[k];
-          shapes.push_back({{k, -m}, {k + 1, -m}, {k + 1, m}, {k, m}});
-          longest = std::max(longest, lengths[k]);
-        }
-        // The join at point k: a disc at the run's ends (caps, or where the tile's window cuts
-        // the run: the line goes on with a round join there) and at points the source gave that
-        // turn more than a bevel may; else a bevel on the outside of the turn, from the centre
-        // to both bands' corners there (a point added along a geodesic, or a slight turn).
-        const bool given = generalised || line.given.size() <= first + k || line.given[first + k] != 0;
-        if (!line.round()) {
-          // Joins and caps as the reference has them (at the run's cut ends: the line's join).
-          if (const detail::PointShape s = detail::pointShape(line, all, first + k, given);
-              s.kind == detail::PointShape::Kind::Disc) {
-            shapes.push_back(disc(k));
-          } else if (s.kind == detail::PointShape::Kind::Polygon) {
-            Shape polygon;
-            for (const glm::dvec3& d : s.directions) polygon.push_back({k, d});
-            shapes.push_back(std::move(polygon));
+      overlay::lineShapes(st.stations, rules, [&](overlay::PieceKind kind, std::vector<overlay::ShapeCorner> corners) {
+        if (corners.empty()) return;
+        if (kind != overlay::PieceKind::Segment && st.pole[corners[0].station] != 0) return;
+        if (kind == overlay::PieceKind::Segment) {
+          if (bands == kBandsPerPiece) {
+            writer.write(shapes, points, st.normal, anchors, longest);
+            shapes.clear();
+            bands = 0;
+            longest = 0.0;
           }
-          if (k + 2 == n) {
-            const detail::PointShape e =
-                detail::pointShape(line, all, first + k + 1,
-                                   generalised || line.given.size() <= first + k + 1 || line.given[first + k + 1] != 0);
-            if (e.kind == detail::PointShape::Kind::Disc) {
-              shapes.push_back(disc(k + 1));
-            } else if (e.kind == detail::PointShape::Kind::Polygon) {
-              Shape polygon;
-              for (const glm::dvec3& d : e.directions) polygon.push_back({k + 1, d});
-              shapes.push_back(std::move(polygon));
-            }
-          }
-        } else if (!detail::isPole(points[k].y)) {
-          const bool joined = k > 0 && lengths[k] > 0.0 && lengths[k - 1] > 0.0;
-          const glm::dvec3 in = k > 0 ? sides3[k - 1] : glm::dvec3(0.0), outDir = sides3[k];
-          const double angle = joined ? std::acos(std::clamp(glm::dot(in, outDir), -1.0, 1.0)) : 0.0;
-          if (!joined || (given && !tolerance.bevel(line, angle))) {
-            shapes.push_back(disc(k));
-          } else {
-            const double turn = glm::dot(glm::cross(in, outDir), normals[k]);
-            if (turn > 0.0) {
-              shapes.push_back({{k, glm::dvec3(0.0)}, {k, -in}, {k, -outDir}});
-            } else if (turn < 0.0) {
-              shapes.push_back({{k, glm::dvec3(0.0)}, {k, outDir}, {k, in}});
-            }
-          }
+          ++bands;
+          longest = std::max(longest, st.stations[corners[0].station].outLength);
         }
-        if (line.round() && k + 2 == n && !detail::isPole(points[k + 1].y))
-          shapes.push_back(disc(k + 1));  // the last point's cap
-        if (!shapes.empty() && ((k + 1) % kBandsPerPiece == 0 || k + 2 == n)) {
-          writer.write(shapes, points, normals, anchors, longest);
-          shapes.clear();
-          longest = 0.0;
-        }
-      }
+        Shape shape;
+        shape.reserve(corners.size());
+        for (const overlay::ShapeCorner& c : corners) shape.push_back({c.station, st.direction(c)});
+        shapes.push_back(std::move(shape));
+      });
+      if (!shapes.empty()) writer.write(shapes, points, st.normal, anchors, longest);
     }
   }
 }

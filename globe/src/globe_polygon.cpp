@@ -254,159 +254,120 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
   return out;
 }
 
-/// The polygons a line is drawn with, in metres with round joins and caps (the points within the
-/// half width of the line; the reference is GlobeLayer::contains):
-/// - a band along each run between given points (its points' offsets by the half width across
-///   the geodesic: consecutive pieces of a run share their offsets);
-/// - at a join, the sector between the two bands' ends on the outside of the turn, and at an
-///   end, the half disc beyond the band: glued to the band ending there (it attaches along half
-///   of the band's end edge, so the ring stays simple). The rest of the disc around the point lies
-///   in the bands, when each is at least 1.5 half widths long. A turn whose sector is thinner
-///   than the chord tolerance gets none;
-/// - a whole disc at a given point next to a shorter band.
-/// Arcs are polygons inscribed in the circle, their chords within `chordTolerance` of it (at most
-/// 256 sides a turn). Shapes may overlap; the stencil count (≠ 0) unites them. With `bandsOnly`,
-/// the bands alone (joins and caps other than round are shapes of their own: pointShape).
-std::vector<std::vector<glm::dvec2>> lineShapes(const std::vector<glm::dvec2>& line, const std::vector<char>& given,
-                                                double halfWidth, double chordTolerance, bool bandsOnly = false) {
-  const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
-  const auto offset = [&](const glm::dvec2& p, double azimuth) {
-    double lat = 0.0, lon = 0.0;
-    geod.Direct(p.y, p.x, azimuth, halfWidth, lat, lon);
-    return glm::dvec2(p.x + wrap180(lon - p.x), lat);
+/// The rings a run of a line in metres is drawn with (buildTilePieces unites them per cell): the
+/// shared shapes (overlay::lineShapes) in the tangent planes of its stations (globeStations), each
+/// corner put on the ellipsoid (the foot of centre + half width · direction) in unwrapped lon/lat
+/// near its point. As fewer rings unite faster, and the generaliser keeps borders that rings share
+/// but may open a crack where they only nearly meet: the segments through stations the source did
+/// not give make one band, and a join from its point (a wedge, bevel or miter) or a half-disc cap
+/// is glued to the band ending there (on the band's end edge: the ring stays simple). A join that
+/// turns so little that it lies within the chord tolerance of the bands is left out (its corners
+/// would nearly repeat the bands' and leave slivers for the caps' triangulation). No join or cap
+/// at a pole.
+std::vector<std::vector<glm::dvec2>> runRings(const GlobeLine& line, const std::vector<glm::dvec2>& points,
+                                              std::size_t first, std::size_t last, const std::vector<char>& given,
+                                              double chordTolerance) {
+  const double h = line.halfWidth;
+  const detail::GlobeStations st = detail::globeStations(points, first, last, given);
+  const double tol = std::min(chordTolerance, 0.5 * h);
+  const int chords = static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / h)));
+  const overlay::LineShapeRules rules = detail::globeShapeRules(line, h, std::clamp(chords, 8, 256), false);
+  using Corners = std::vector<overlay::ShapeCorner>;
+  std::vector<Corners> rings;
+  struct Band {
+    Corners right, left;  ///< left from the band's start
+    Corners startCap;     ///< a half disc glued to its start: its corners between the band's
+    std::uint32_t last = 0;
+    bool open = false;
+  } band;
+  Corners startCap;  ///< the line's first cap, until the band it rests on opens
+  const auto same = [](const overlay::ShapeCorner& a, const overlay::ShapeCorner& b) {
+    return a.station == b.station && glm::length(a.direction - b.direction) <= 1e-9;
   };
-  const double tol = std::min(chordTolerance, 0.5 * halfWidth);
-  const int sides =
-      std::clamp(static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / halfWidth))), 8, 256);
-  const double stepDeg = 360.0 / sides;
-  /// The points of the arc around p from azimuth `from` by `sweep` degrees, ends left out.
-  const auto arc = [&](std::vector<glm::dvec2>& out, const glm::dvec2& p, double from, double sweep) {
-    const int n = std::max(1, static_cast<int>(std::ceil(std::abs(sweep) / stepDeg - 1e-9)));
-    for (int i = 1; i < n; ++i) out.push_back(offset(p, from + sweep * i / n));
+  const auto flush = [&] {
+    if (!band.open) return;
+    Corners ring = std::move(band.right);
+    ring.insert(ring.end(), band.left.rbegin(), band.left.rend());
+    ring.insert(ring.end(), band.startCap.begin(), band.startCap.end());
+    rings.push_back(std::move(ring));
+    band = Band{};
   };
-
-  // The runs between given points.
-  struct Run {
-    std::vector<glm::dvec2> right, left;  ///< offsets at azimuth + 90° and − 90°, in order
-    double length = 0.0;
-    double start = 0.0, end = 0.0;  ///< azimuths leaving its first point and reaching its last
-    std::size_t first = 0, last = 0;
-  };
-  std::vector<Run> runs;
-  Run run;
-  for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-    const glm::dvec2 p = line[i], q = line[i + 1];
-    double s12 = 0.0, azi1 = 0.0, azi2 = 0.0;
-    geod.Inverse(p.y, p.x, q.y, q.x, s12, azi1, azi2);
-    if (s12 > 0.0) {
-      if (run.right.empty()) {
-        run.right.push_back(offset(p, azi1 + 90.0));
-        run.left.push_back(offset(p, azi1 - 90.0));
-        run.start = azi1;
+  const auto fromCentre = [](const Corners& c) { return c.size() >= 3 && c[0].direction == glm::dvec2(0.0); };
+  overlay::lineShapes(st.stations, rules, [&](overlay::PieceKind kind, Corners corners) {
+    if (corners.empty()) return;
+    if (kind == overlay::PieceKind::Segment) {
+      const std::uint32_t a = corners[0].station, b = corners[1].station;
+      if (band.open && band.last == a && !st.stations[a].given) {
+        band.right.push_back(corners[1]);
+        band.left.push_back(corners[2]);
+        band.last = b;
+        return;
       }
-      run.right.push_back(offset(q, azi2 + 90.0));
-      run.left.push_back(offset(q, azi2 - 90.0));
-      run.end = azi2;
-      run.length += s12;
+      flush();
+      band.right = {corners[0], corners[1]};
+      band.left = {corners[3], corners[2]};
+      band.last = b;
+      band.open = true;
+      if (!startCap.empty()) {
+        if (same(startCap.front(), band.left.front()) && same(startCap.back(), band.right.front())) {
+          band.startCap.assign(startCap.begin() + 1, startCap.end() - 1);
+        } else {
+          rings.push_back(std::move(startCap));
+        }
+        startCap.clear();
+      }
+      return;
     }
-    if (given[i + 1] != 0) {
-      run.last = i + 1;
-      if (run.right.size() >= 2) runs.push_back(std::move(run));
-      run = Run{};
-      run.first = i + 1;
+    const std::uint32_t s = corners[0].station;
+    if (st.pole[s] != 0) return;
+    if (kind == overlay::PieceKind::Join && fromCentre(corners)) {
+      const overlay::LineStation& at = st.stations[s];
+      const double turn = std::abs(at.in.x * at.out.y - at.in.y * at.out.x);
+      if (at.in.x * at.out.x + at.in.y * at.out.y > 0.0 && h * std::asin(std::min(turn, 1.0)) <= 2.0 * tol) return;
     }
-  }
-
+    const bool atBandEnd = band.open && band.last == s;
+    if (kind == overlay::PieceKind::Join && atBandEnd && fromCentre(corners)) {
+      if (same(corners[1], band.right.back())) {
+        // Outside on the right: on from the band's right end corner, back to the point.
+        band.right.insert(band.right.end(), corners.begin() + 2, corners.end());
+        band.right.push_back(corners[0]);
+        flush();
+        return;
+      }
+      if (same(corners.back(), band.left.back())) {
+        // Outside on the left: from the point out to the band's left end corner.
+        band.right.insert(band.right.end(), corners.begin(), corners.end() - 1);
+        flush();
+        return;
+      }
+    }
+    if (kind == overlay::PieceKind::Cap && !band.open && rings.empty() && startCap.empty() && s == 0) {
+      startCap = std::move(corners);  // glued once its band opens
+      return;
+    }
+    if (kind == overlay::PieceKind::Cap && atBandEnd && corners.size() >= 3 &&
+        same(corners.front(), band.right.back()) && same(corners.back(), band.left.back())) {
+      band.right.insert(band.right.end(), corners.begin() + 1, corners.end() - 1);
+      flush();
+      return;
+    }
+    rings.push_back(std::move(corners));
+  });
+  flush();
+  if (!startCap.empty()) rings.push_back(std::move(startCap));
   std::vector<std::vector<glm::dvec2>> out;
-  const double least = 1.5 * halfWidth;
-  const auto disc = [&](const glm::dvec2& p) {
-    std::vector<glm::dvec2> d;
-    for (int side = 0; side < sides; ++side) d.push_back(offset(p, 360.0 * side / sides));
-    out.push_back(std::move(d));
-  };
-  // Given points that get a whole disc: next to a short band, or where runs do not meet (a
-  // repeated point between them); none at a pole, where the bands meet in the pole already.
-  std::vector<char> whole(line.size(), 0);
-  if (bandsOnly) {
-    for (const Run& b : runs) {
-      std::vector<glm::dvec2> ring = b.right;
-      ring.insert(ring.end(), b.left.rbegin(), b.left.rend());
-      out.push_back(std::move(ring));
+  out.reserve(rings.size());
+  for (const auto& ring : rings) {
+    std::vector<glm::dvec2> lonLat;
+    lonLat.reserve(ring.size());
+    for (const overlay::ShapeCorner& c : ring) {
+      const glm::dvec2& p = points[first + st.point[c.station]];
+      const Geodetic g = toGeodetic(st.centre[c.station] + h * st.direction(c));
+      lonLat.emplace_back(p.x + wrap180(g.lon - p.x), g.lat);
     }
-    return out;
-  }
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const bool shortRun = runs[r].length < least;
-    if (shortRun || r == 0 || runs[r - 1].last != runs[r].first) whole[runs[r].first] = 1;
-    if (shortRun || r + 1 == runs.size() || runs[r + 1].first != runs[r].last) whole[runs[r].last] = 1;
-  }
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const Run& b = runs[r];
-    const glm::dvec2 p = line[b.first], q = line[b.last];
-    std::vector<glm::dvec2> ring = b.right;
-    // Its end: a cap, or the join's outer sector (the next run's start azimuth).
-    if (!isPole(q.y) && !whole[b.last]) {
-      double turn = r + 1 < runs.size() ? wrap180(runs[r + 1].start - b.end) : 0.0;
-      // A turn so slight that the sector is thinner than the arcs' tolerance (its points lie
-      // within half width · sin(turn / 2) of the bands) gets none: its corners would nearly
-      // repeat the bands' and leave slivers for the caps' triangulation.
-      if (halfWidth * std::abs(turn) * 3.14159265358979323846 / 360.0 <= tol) turn = 0.0;
-      if (r + 1 == runs.size() || runs[r + 1].first != b.last) {
-        arc(ring, q, b.end + 90.0, -180.0);  // a cap: through the direction ahead
-      } else if (turn < 0.0) {
-        // Turning left: outside on the right, from this band's right corner to the next one's.
-        arc(ring, q, b.end + 90.0, turn);
-        ring.push_back(offset(q, runs[r + 1].start + 90.0));
-        ring.push_back(q);
-      } else if (turn > 0.0) {
-        // Turning right: outside on the left, from the next band's left corner back to this one's.
-        ring.push_back(q);
-        ring.push_back(offset(q, runs[r + 1].start - 90.0));
-        arc(ring, q, runs[r + 1].start - 90.0, -turn);
-      }
-    }
-    ring.insert(ring.end(), b.left.rbegin(), b.left.rend());
-    // Its start: a cap when it is the line's first run (joins are glued to the run before).
-    if (!isPole(p.y) && !whole[b.first] && (r == 0 || runs[r - 1].last != b.first)) {
-      arc(ring, p, b.start - 90.0, -180.0);  // through the direction behind
-    }
-    out.push_back(std::move(ring));
-  }
-  for (std::size_t k = 0; k < line.size(); ++k) {
-    if (given[k] != 0 && whole[k] != 0 && !isPole(line[k].y)) disc(line[k]);
+    out.push_back(std::move(lonLat));
   }
   return out;
-}
-
-/// The join or cap of a line in metres at point k of `points` (pointShape) as a ring in unwrapped
-/// lon/lat near the point's longitude: a polygon's corners, or a disc within `chordTolerance`.
-std::vector<std::vector<glm::dvec2>> pointShapeRing(const GlobeLine& line, const std::vector<glm::dvec2>& points,
-                                                    std::size_t k, double chordTolerance) {
-  const detail::PointShape shape = detail::pointShape(line, points, k, true);
-  const glm::dvec2 p = points[k];
-  const glm::dvec3 c = toEcef(p.x, p.y, 0.0), n = surfaceNormal(p.x, p.y);
-  std::vector<glm::dvec3> corners;
-  if (shape.kind == detail::PointShape::Kind::Polygon) {
-    for (const glm::dvec3& d : shape.directions) corners.push_back(c + line.halfWidth * d);
-  } else if (shape.kind == detail::PointShape::Kind::Disc) {
-    const double tol = std::min(chordTolerance, 0.5 * line.halfWidth);
-    const int sides =
-        std::clamp(static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / line.halfWidth))), 8, 256);
-    const glm::dvec3 e1 =
-        glm::normalize(glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
-    const glm::dvec3 e2 = glm::cross(n, e1);
-    for (int i = 0; i < sides; ++i) {
-      const double a = 2.0 * 3.14159265358979323846 * i / sides;
-      corners.push_back(c + line.halfWidth * (std::cos(a) * e1 + std::sin(a) * e2));
-    }
-  }
-  if (corners.size() < 3) return {};
-  std::vector<glm::dvec2> ring;
-  for (const glm::dvec3& corner : corners) {
-    const Geodetic g = toGeodetic(corner);
-    ring.emplace_back(p.x + wrap180(g.lon - p.x), g.lat);
-  }
-  return {std::move(ring)};
 }
 
 /// A polygon's rings prepared (prepareRing), the outer one's west end in [−180, 180) and the
@@ -1048,31 +1009,15 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
     const double tolerance = lineTolerance(line, key.level);
     const bool generalised = !centres[j].empty();
     const std::vector<glm::dvec2>& points = generalised ? centres[j] : line.points;
-    // The runs of pieces that meet the tile widened by the half width (the pieces' clip margins
-    // are less): a run's ends outside it (or the line's own ends).
-    for (const auto& [first, last] : lineRunsIn(j, key, line.halfWidth)) {
-      const std::vector<glm::dvec2> run(points.begin() + static_cast<std::ptrdiff_t>(first),
-                                        points.begin() + static_cast<std::ptrdiff_t>(last + 1));
-      // Points the source gave get joins and caps, and so do a run's ends where the window cuts
-      // it (outside the window: a cap there lies within the line's width, beyond the tile).
-      std::vector<char> given(run.size(), 1);
-      if (!generalised) {
-        given.assign(line.given.begin() + static_cast<std::ptrdiff_t>(first),
-                     line.given.begin() + static_cast<std::ptrdiff_t>(last + 1));
-        given.front() = given.back() = 1;
-      }
+    // The runs of pieces that meet the tile widened by the shapes' reach (the pieces' clip
+    // margins are less): a run's ends outside it (or the line's own ends).
+    for (const auto& [first, last] : lineRunsIn(j, key, line.halfWidth * line.shapeReach())) {
+      // Points the source gave get joins, and the line's ends caps; a run's ends where the window
+      // cuts it get their joins (they lie beyond the tile's window by the line's reach).
       std::vector<GlobePolygon> made;
       const double arcTolerance = generalised ? std::max(chordTolerance_, 0.25 * tolerance) : chordTolerance_;
-      std::vector<std::vector<glm::dvec2>> shapes = lineShapes(run, given, line.halfWidth, arcTolerance, !line.round());
-      if (!line.round()) {
-        // Joins and caps at the points the source gave, and at the line's ends (pointShape).
-        for (std::size_t k = first; k <= last; ++k) {
-          const bool isGiven = generalised || (k < line.given.size() && line.given[k] != 0);
-          if (!isGiven) continue;
-          for (std::vector<glm::dvec2>& s : pointShapeRing(line, points, k, arcTolerance))
-            shapes.push_back(std::move(s));
-        }
-      }
+      std::vector<std::vector<glm::dvec2>> shapes =
+          runRings(line, points, first, last, generalised ? std::vector<char>{} : line.given, arcTolerance);
       for (std::vector<glm::dvec2>& shape : shapes) {
         GlobePolygon p;
         p.feature = line.feature;
@@ -1113,7 +1058,7 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 
 std::uint64_t GlobeLayer::digestForCache() const {
   // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 4;
+  constexpr std::uint64_t kBuilderVersion = 5;
   std::vector<std::uint64_t> parts{kBuilderVersion};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};
