@@ -945,8 +945,12 @@ const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) con
     centres.resize(lines_.size());
     for (std::size_t j = 0; j < lines_.size(); ++j) {
       const double tolerance = lineTolerance(lines_[j], level);
-      // A quarter of the tolerance for the centreline (a quarter for the arcs, half for the rings).
-      if (tolerance > 4.0 * chordTolerance_) centres[j] = generalisedCentreline(lines_[j], 0.25 * tolerance);
+      // Lines in metres: a quarter of the tolerance for the centreline (a quarter for the arcs,
+      // half for the rings). Lines in pixels: three quarters (a quarter for the arcs; their rings,
+      // where a tile draws them in metres, are not simplified again), as a projected tile's lines
+      // (tiled_layer.hpp): within half a pixel in all.
+      const double share = lines_[j].widthPixels > 0.0 ? 0.75 : 0.25;
+      if (tolerance > 4.0 * chordTolerance_) centres[j] = generalisedCentreline(lines_[j], share * tolerance);
     }
   }
   return levels_->centres[at];
@@ -1025,7 +1029,7 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
         std::string problem;
         if (preparePolygon({std::move(shape), {}}, maxSegment_, p, problem)) made.push_back(std::move(p));
       }
-      if (generalised) {
+      if (generalised && !(line.widthPixels > 0.0)) {
         // The rings simplified within the other half as one coverage, so the borders the shapes
         // share (where bands and sectors meet) stay shared and no crack opens inside the line.
         std::vector<geo::Feature> coverage(made.size());
@@ -1058,7 +1062,7 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 
 std::uint64_t GlobeLayer::digestForCache() const {
   // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 5;
+  constexpr std::uint64_t kBuilderVersion = 6;
   std::vector<std::uint64_t> parts{kBuilderVersion};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};
