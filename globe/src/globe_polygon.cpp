@@ -213,9 +213,9 @@ double simplifyTolerance(int level) { return TileKey{level, 0, 0}.postStep() / 6
 namespace {
 
 /// A line's points densified along geodesics and unwrapped (empty with `problem` set when it
-/// cannot be used).
+/// cannot be used), and each of them on the ellipsoid (ECEF) in `surface`.
 std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem,
-                                    std::vector<char>& given) {
+                                    std::vector<char>& given, std::vector<glm::dvec3>& surface) {
   std::vector<glm::dvec2> line;
   for (const glm::dvec2& p : input) {
     if (!usablePoint(p, problem)) return {};
@@ -229,6 +229,7 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
   std::vector<glm::dvec2> out{line[0]};
   given.assign(1, 1);
   glm::dvec3 from = toEcef(line[0].x, line[0].y, 0.0);
+  surface.assign(1, from);
   for (std::size_t i = 0; i + 1 < line.size(); ++i) {
     const glm::dvec2 p = line[i], q = line[i + 1];
     const glm::dvec3 to = toEcef(q.x, q.y, 0.0);
@@ -240,6 +241,7 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
     if (chord < 1e5 && chord + chord * chord * chord / (20.0 * 6.3e6 * 6.3e6) < maxSegment) {
       out.emplace_back(out.back().x + wrap180(q.x - out.back().x), q.y);
       given.push_back(1);
+      surface.push_back(to);
       continue;
     }
     const GeographicLib::GeodesicLine g = geod.InverseLine(p.y, p.x, q.y, q.x);
@@ -249,6 +251,7 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
       if (k < pieces) g.Position(g.Distance() * static_cast<double>(k) / static_cast<double>(pieces), lat, lon);
       out.emplace_back(out.back().x + wrap180(lon - out.back().x), lat);
       given.push_back(k == pieces ? 1 : 0);
+      surface.push_back(k == pieces ? to : toEcef(out.back().x, out.back().y, 0.0));
     }
   }
   return out;
@@ -441,7 +444,8 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
   for (std::size_t k = 0; k < lines.size(); ++k) {
     std::string problem;
     std::vector<char> given;
-    std::vector<glm::dvec2> line = prepareLine(lines[k], options.maxSegmentMetres, problem, given);
+    std::vector<glm::dvec3> surface;
+    std::vector<glm::dvec2> line = prepareLine(lines[k], options.maxSegmentMetres, problem, given, surface);
     if (line.empty()) {
       part.diagnostics.add({Severity::Error,
                             {},
@@ -467,8 +471,8 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
     const double shift = -360.0 * std::floor((line.front().x + 180.0) / 360.0);
     for (glm::dvec2& p : line) p.x += shift;
     g.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+    g.surface = std::move(surface);
     for (const glm::dvec2& p : line) {
-      g.surface.push_back(toEcef(p.x, p.y, 0.0));
       g.box.west = std::min(g.box.west, p.x);
       g.box.east = std::max(g.box.east, p.x);
       g.box.south = std::min(g.box.south, p.y);
