@@ -166,7 +166,7 @@ constexpr std::size_t kBandsPerPiece = 4;
 
 int lineWidthClass(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
                    const overlay::PixelScale& scale) {
-  if (!(layer.lineWidthPixels() > 0.0) || !(scale.metresPerPixel > 0.0) || layer.lines().empty()) return 0;
+  if (!(layer.lineWidthPixels() > 0.0) || !(scale.metresPerPixel > 0.0) || !layer.hasLines()) return 0;
   const LonLatRect rect = key.rect();
   const auto [ground0, ground1] = heights.bounds(rect);
   // The farthest point of the tile grown by m from the eye: within the chord from its middle to
@@ -193,8 +193,10 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
                       int widthClass) {
   if (widthClass <= 0) return;
   const GeoGrid* anchor = layer.anchorGround();
-  for (std::size_t j = 0; j < layer.lines().size(); ++j) {
-    const GlobeLine& line = layer.lines()[j];
+  if (!layer.hasLines()) return;
+  const std::vector<GlobeLine>& lines = layer.lines();
+  for (std::size_t j = 0; j < lines.size(); ++j) {
+    const GlobeLine& line = lines[j];
     if (!GlobeLayer::scalesLine(line, widthClass)) continue;
     const double capHalf = std::min(0.5 * lineClassWidth(widthClass), line.maxHalfWidth);
     out.maxHalfWidth = std::max(out.maxHalfWidth, capHalf);

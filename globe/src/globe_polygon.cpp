@@ -422,15 +422,14 @@ bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon
 
 }  // namespace
 
-void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group,
-                                FeatureParts& part) const {
-  const GlobeLayerOptions& options = options_;
-  const bool inPixels = widthPixels_ > 0.0;
-  const double halfWidth = 0.5 * options.lineWidthMetres;
-  const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
+namespace {
+
+/// The lines a feature is drawn with: its line strings, and with `outlines` its polygons' rings,
+/// each closed.
+std::vector<std::vector<glm::dvec2>> featureLines(const geo::Feature& feature, bool outlines) {
   std::vector<std::vector<glm::dvec2>> lines;
   for (const geo::LineString& l : feature.lines) lines.push_back(l);
-  if (options.outlines) {
+  if (outlines) {
     for (const geo::Polygon& polygon : feature.polygons) {
       std::vector<const geo::Ring*> rings{&polygon.outer};
       for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
@@ -441,6 +440,94 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
       }
     }
   }
+  return lines;
+}
+
+/// What prepareLine finds wrong with a line before densifying it (empty: nothing).
+std::string lineProblem(const std::vector<glm::dvec2>& input) {
+  std::string problem;
+  std::size_t distinct = 0;
+  const glm::dvec2* last = nullptr;
+  for (const glm::dvec2& p : input) {
+    if (!usablePoint(p, problem)) return problem;
+    if (last == nullptr || *last != p) ++distinct;
+    last = &p;
+  }
+  return distinct < 2 ? "fewer than 2 distinct points" : "";
+}
+
+}  // namespace
+
+double GlobeLayer::featureHalfWidth(std::uint32_t f) const {
+  double halfWidth = 0.5 * options_.lineWidthMetres;
+  if (f < options_.featureWidthMetres.size() && options_.featureWidthMetres[f] > 0.0 &&
+      std::isfinite(options_.featureWidthMetres[f]))
+    halfWidth = 0.5 * options_.featureWidthMetres[f];
+  return halfWidth;
+}
+
+std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& feature, std::uint32_t group,
+                                     FeatureParts& part, LonLatRect& box, bool& any) const {
+  const std::vector<std::vector<glm::dvec2>> lines = featureLines(feature, options_.outlines);
+  const double halfWidth = featureHalfWidth(f);
+  const bool inPixels = widthPixels_ > 0.0;
+  const double maxHalfWidth = inPixels ? std::max(0.5 * options_.lineMaxWidthMetres, halfWidth) : 0.0;
+  std::vector<std::uint64_t> parts;
+  for (std::size_t k = 0; k < lines.size(); ++k) {
+    const std::string problem = lineProblem(lines[k]);
+    if (!problem.empty()) {
+      part.diagnostics.add({Severity::Error,
+                            {},
+                            name_,
+                            std::to_string(feature.fid),
+                            "line " + std::to_string(k) + ": " + problem + "; the line is left out"});
+      continue;
+    }
+    any = true;
+    parts.push_back(geo::io::digest(lines[k].data(), lines[k].size() * sizeof(glm::dvec2)));
+    // The given points' box, unwrapped as prepareFeature unwraps them, widened by the reach.
+    LonLatRect b{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+    double x = lines[k].front().x;
+    const double shift = -360.0 * std::floor((x + 180.0) / 360.0);
+    for (const glm::dvec2& p : lines[k]) {
+      x += wrap180(p.x - x);
+      b.west = std::min(b.west, x + shift);
+      b.east = std::max(b.east, x + shift);
+      b.south = std::min(b.south, p.y);
+      b.north = std::max(b.north, p.y);
+    }
+    GlobeLine shape;
+    shape.join = options_.join;
+    shape.cap = options_.cap;
+    shape.miterLimit = options_.miterLimit;
+    const double dLat = halfWidth * shape.shapeReach() / 110000.0;
+    const double high = std::min(89.9, std::max(std::abs(b.south), std::abs(b.north)) + dLat);
+    b = b.expanded(b.north + dLat >= 90.0 || b.south - dLat <= -90.0
+                       ? 360.0
+                       : dLat / std::cos(high * 3.14159265358979323846 / 180.0),
+                   dLat);
+    box = {std::min(box.west, b.west), std::min(box.south, b.south), std::max(box.east, b.east),
+           std::max(box.north, b.north)};
+  }
+  if (parts.empty()) return 0;
+  const std::array<double, 7> shape{halfWidth,
+                                    widthPixels_,
+                                    maxHalfWidth,
+                                    options_.miterLimit,
+                                    static_cast<double>(options_.join),
+                                    static_cast<double>(options_.cap),
+                                    static_cast<double>(group)};
+  parts.push_back(geo::io::digest(shape.data(), sizeof(shape)));
+  return geo::io::digest(parts.data(), parts.size() * sizeof(std::uint64_t));
+}
+
+void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
+                                bool areas) const {
+  const GlobeLayerOptions& options = options_;
+  const bool inPixels = widthPixels_ > 0.0;
+  const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
+  const std::vector<std::vector<glm::dvec2>> lines =
+      areas ? std::vector<std::vector<glm::dvec2>>{} : featureLines(feature, options.outlines);
   for (std::size_t k = 0; k < lines.size(); ++k) {
     std::string problem;
     std::vector<char> given;
@@ -457,10 +544,7 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
     GlobeLine g;
     g.feature = static_cast<std::uint32_t>(f);
     g.group = group;
-    g.halfWidth = halfWidth;
-    if (f < options.featureWidthMetres.size() && options.featureWidthMetres[f] > 0.0 &&
-        std::isfinite(options.featureWidthMetres[f]))
-      g.halfWidth = 0.5 * options.featureWidthMetres[f];
+    g.halfWidth = featureHalfWidth(f);
     g.join = options.join;
     g.cap = options.cap;
     g.miterLimit = options.miterLimit;
@@ -517,7 +601,7 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
     g.given = std::move(given);
     part.lines.push_back(std::move(g));
   }
-  if (!options.outlines) {
+  if (areas && !options.outlines) {
     for (std::size_t k = 0; k < feature.polygons.size(); ++k) {
       GlobePolygon prepared;
       prepared.feature = static_cast<std::uint32_t>(f);
@@ -590,13 +674,23 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     return out;
   }
   // The features in runs, on every core (features on disk are read one at a time, and only those
-  // being prepared are resident); the runs' lines, areas and messages are joined in the features'
-  // order, so the layer is the same on any number of cores.
+  // being checked are resident): the areas prepared, the lines checked (prepared when first
+  // asked for: lines()); the runs' areas, boxes and messages are joined in the features' order,
+  // so the layer is the same on any number of cores.
   const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
   const std::size_t runs = std::max<std::size_t>(1, std::min(features.size(), 8 * cores));
-  std::vector<FeatureParts> parts(runs);
-  const auto prepare = [&](std::size_t f, FeatureParts& part) {
-    layer.prepareFeature(static_cast<std::uint32_t>(f), *features.get(f), groupOf[f], part);
+  struct Run {
+    FeatureParts part;
+    LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+    bool any = false;
+  };
+  std::vector<Run> parts(runs);
+  layer.lineDigests_.assign(features.size(), 0);
+  const auto prepare = [&](std::size_t f, Run& run) {
+    const std::shared_ptr<const geo::Feature> feature = features.get(f);
+    const auto index = static_cast<std::uint32_t>(f);
+    if (drawLines) layer.lineDigests_[f] = layer.checkLines(index, *feature, groupOf[f], run.part, run.box, run.any);
+    layer.prepareFeature(index, *feature, groupOf[f], run.part, true);
   };
   {
     std::atomic<std::size_t> next{0};
@@ -611,17 +705,37 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     work();
     for (std::thread& t : helpers) t.join();
   }
-  for (FeatureParts& part : parts) {
-    for (GlobeLine& g : part.lines) {
-      if (inPixels) {
-        layer.leastHalfWidth_ = layer.lines_.empty() ? g.halfWidth : std::min(layer.leastHalfWidth_, g.halfWidth);
-        layer.widestHalfWidth_ = std::max(layer.widestHalfWidth_, g.maxHalfWidth);
-      }
-      layer.lines_.push_back(std::move(g));
+  LonLatRect extent{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+  const auto widen = [&extent](const LonLatRect& r) {
+    extent = {std::min(extent.west, r.west), std::min(extent.south, r.south), std::max(extent.east, r.east),
+              std::max(extent.north, r.north)};
+  };
+  for (Run& run : parts) {
+    for (GlobePolygon& p : run.part.polygons) {
+      widen(p.box);
+      layer.polygons_.push_back(std::move(p));
     }
-    for (GlobePolygon& p : part.polygons) layer.polygons_.push_back(std::move(p));
-    out.diagnostics.append(part.diagnostics);
+    if (run.any) {
+      layer.hasLines_ = true;
+      widen(run.box);
+    }
+    out.diagnostics.append(run.part.diagnostics);
   }
+  if (extent.west <= extent.east) layer.extent_ = extent;
+  // Of the lines in pixels, the least width in metres and the greatest largest one (what a frame's
+  // width classes are chosen by), from the options: each line's widths are its feature's.
+  if (inPixels && layer.hasLines_) {
+    bool first = true;
+    for (std::size_t f = 0; f < features.size(); ++f) {
+      if (layer.lineDigests_[f] == 0) continue;
+      const double h = layer.featureHalfWidth(static_cast<std::uint32_t>(f));
+      layer.leastHalfWidth_ = first ? h : std::min(layer.leastHalfWidth_, h);
+      layer.widestHalfWidth_ = std::max(layer.widestHalfWidth_, std::max(maxHalfWidth, h));
+      first = false;
+    }
+    if (options.anchorGround) layer.anchorDigest_ = options.anchorGround->contentDigest().value_or(1);
+  }
+  layer.features_ = features;
   layer.areaPolygons_ = layer.polygons_.size();
   layer.featureGroups_ = std::move(groupOf);
   layer.fingerprint_ = layer.digestForCache();
@@ -630,12 +744,46 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   return out;
 }
 
+const std::vector<GlobeLine>& GlobeLayer::lines() const {
+  const std::lock_guard<std::mutex> lock(lines_->mutex);
+  if (!lines_->lines) lines_->lines = std::make_shared<const std::vector<GlobeLine>>(prepareLines());
+  return *lines_->lines;
+}
+
+std::vector<GlobeLine> GlobeLayer::prepareLines() const {
+  std::vector<GlobeLine> out;
+  if (!hasLines_) return out;
+  // As build runs its features: in runs on every core, joined in order (their messages were said
+  // at build).
+  const std::size_t count = std::min(features_.size(), lineDigests_.size());
+  const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
+  const std::size_t runs = std::max<std::size_t>(1, std::min(count, 8 * cores));
+  std::vector<FeatureParts> parts(runs);
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t r = next++; r < runs; r = next++) {
+      for (std::size_t f = r * count / runs; f < (r + 1) * count / runs; ++f) {
+        if (lineDigests_[f] == 0) continue;  // no usable line
+        prepareFeature(static_cast<std::uint32_t>(f), *features_.get(f), featureGroups_[f], parts[r], false);
+      }
+    }
+  };
+  std::vector<std::thread> helpers;
+  for (std::size_t h = 1; h < std::min(cores, runs); ++h) helpers.emplace_back(work);
+  work();
+  for (std::thread& t : helpers) t.join();
+  for (FeatureParts& part : parts) {
+    for (GlobeLine& g : part.lines) out.push_back(std::move(g));
+  }
+  return out;
+}
+
 std::vector<LonLatRect> GlobeLayer::featureBoxes(std::uint32_t f) const {
   std::vector<LonLatRect> boxes;
   for (std::size_t k = 0; k < areaPolygons_; ++k) {
     if (polygons_[k].feature == f) boxes.push_back(polygons_[k].box);
   }
-  for (const GlobeLine& line : lines_) {
+  for (const GlobeLine& line : lines()) {
     if (line.feature != f) continue;
     // The box holds the line grown by its least half width; its pieces in a width class reach
     // as far as the widest it is drawn, its joins and caps shapeReach half widths.
@@ -664,10 +812,19 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   }
   const auto index = static_cast<std::uint32_t>(f);
   if (f == featureGroups_.size()) featureGroups_.push_back(0);  // appended: the layer's colour
-  std::vector<LonLatRect> boxes = featureBoxes(index);
+  std::vector<LonLatRect> boxes = featureBoxes(index);          // the lines prepared, from the features as built
   FeatureParts part;
-  prepareFeature(index, feature, featureGroups_[f], part);
+  prepareFeature(index, feature, featureGroups_[f], part, false);
+  prepareFeature(index, feature, featureGroups_[f], part, true);
   out.diagnostics.append(part.diagnostics);
+  {
+    FeatureParts unused;
+    LonLatRect box{};
+    bool any = false;
+    if (f >= lineDigests_.size()) lineDigests_.resize(f + 1, 0);
+    lineDigests_[f] = checkLines(index, feature, featureGroups_[f], unused, box, any);
+    hasLines_ = hasLines_ || any;
+  }
   // In the features' order, as build joins them: the layer is the one built from the edited features.
   const auto replace = [index](auto& items, auto& fresh) {
     items.erase(std::remove_if(items.begin(), items.end(), [&](const auto& item) { return item.feature == index; }),
@@ -676,21 +833,26 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
     items.insert(at, std::make_move_iterator(fresh.begin()), std::make_move_iterator(fresh.end()));
   };
   replace(polygons_, part.polygons);
-  replace(lines_, part.lines);
+  // The edited lines are a new list (copies of the layer keep theirs).
+  std::vector<GlobeLine> edited = lines();
+  replace(edited, part.lines);
+  lines_ = std::make_shared<LazyLines>();
+  lines_->lines = std::make_shared<const std::vector<GlobeLine>>(std::move(edited));
+  const std::vector<GlobeLine>& now = *lines_->lines;
   areaPolygons_ = polygons_.size();
   if (widthPixels_ > 0.0) {
     leastHalfWidth_ = widestHalfWidth_ = 0.0;
-    for (std::size_t j = 0; j < lines_.size(); ++j) {
-      leastHalfWidth_ = j == 0 ? lines_[j].halfWidth : std::min(leastHalfWidth_, lines_[j].halfWidth);
-      widestHalfWidth_ = std::max(widestHalfWidth_, lines_[j].maxHalfWidth);
+    for (std::size_t j = 0; j < now.size(); ++j) {
+      leastHalfWidth_ = j == 0 ? now[j].halfWidth : std::min(leastHalfWidth_, now[j].halfWidth);
+      widestHalfWidth_ = std::max(widestHalfWidth_, now[j].maxHalfWidth);
     }
   }
   // What was made from the old geometry is made again as tiles ask.
   levels_ = std::make_shared<detail::LineLevels>();
   areaLevels_ = std::make_shared<detail::AreaLevels>();
   fingerprint_ = digestForCache();
-  const std::vector<LonLatRect> now = featureBoxes(index);
-  boxes.insert(boxes.end(), now.begin(), now.end());
+  const std::vector<LonLatRect> reached = featureBoxes(index);
+  boxes.insert(boxes.end(), reached.begin(), reached.end());
   out.value = std::move(boxes);
   return out;
 }
@@ -946,15 +1108,16 @@ const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) con
   if (!levels_->made[at]) {
     levels_->made[at] = true;
     std::vector<std::vector<glm::dvec2>>& centres = levels_->centres[at];
-    centres.resize(lines_.size());
-    for (std::size_t j = 0; j < lines_.size(); ++j) {
-      const double tolerance = lineTolerance(lines_[j], level);
+    const std::vector<GlobeLine>& all = lines();
+    centres.resize(all.size());
+    for (std::size_t j = 0; j < all.size(); ++j) {
+      const double tolerance = lineTolerance(all[j], level);
       // Lines in metres: a quarter of the tolerance for the centreline (a quarter for the arcs,
       // half for the rings). Lines in pixels: three quarters (a quarter for the arcs; their rings,
       // where a tile draws them in metres, are not simplified again), as a projected tile's lines
       // (tiled_layer.hpp): within half a pixel in all.
-      const double share = lines_[j].widthPixels > 0.0 ? 0.75 : 0.25;
-      if (tolerance > 4.0 * chordTolerance_) centres[j] = generalisedCentreline(lines_[j], share * tolerance);
+      const double share = all[j].widthPixels > 0.0 ? 0.75 : 0.25;
+      if (tolerance > 4.0 * chordTolerance_) centres[j] = generalisedCentreline(all[j], share * tolerance);
     }
   }
   return levels_->centres[at];
@@ -963,9 +1126,10 @@ const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) con
 std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::size_t j, const TileKey& key,
                                                                         double reach) const {
   std::vector<std::pair<std::size_t, std::size_t>> runs;
-  if (j >= lines_.size() || !levels_ || key.level < 0 || key.level > kMaxLevel) return runs;
+  const std::vector<GlobeLine>& all = lines();
+  if (j >= all.size() || !levels_ || key.level < 0 || key.level > kMaxLevel) return runs;
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
-  const GlobeLine& line = lines_[j];
+  const GlobeLine& line = all[j];
   const LonLatRect rect = key.rect();
   // A box of points widened by the reach and a post, in longitude by the parallel's length at the
   // highest latitude a point within reach can have: the box's own, not the tile's. (Widened by the
@@ -999,7 +1163,7 @@ std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::siz
 
 const std::vector<glm::dvec2>& GlobeLayer::linePointsAt(std::size_t j, int level) const {
   const std::vector<std::vector<glm::dvec2>>& centres = centresAt(std::clamp(level, 0, kMaxLevel));
-  return centres[j].empty() ? lines_[j].points : centres[j];
+  return centres[j].empty() ? lines()[j].points : centres[j];
 }
 
 bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
@@ -1008,10 +1172,11 @@ bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
 
 std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass) const {
   std::vector<GlobePolygon> out;
-  if (lines_.empty() || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
+  if (!hasLines_ || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
+  const std::vector<GlobeLine>& all = lines();
   const std::vector<std::vector<glm::dvec2>>& centres = centresAt(key.level);
-  for (std::size_t j = 0; j < lines_.size(); ++j) {
-    const GlobeLine& line = lines_[j];
+  for (std::size_t j = 0; j < all.size(); ++j) {
+    const GlobeLine& line = all[j];
     // Lines the class scales are drawn by their own pieces (buildTilePieces); none is thinner.
     if (scalesLine(line, widthClass) || !(line.halfWidth > 0.0)) continue;
     const double tolerance = lineTolerance(line, key.level);
@@ -1060,13 +1225,15 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
   for (std::size_t k = 0; k < areaPolygons_; ++k) {
     if (globe::contains(polygons_[k], point, lonDeg, latDeg)) return true;
   }
-  return std::any_of(lines_.begin(), lines_.end(),
+  if (!hasLines_) return false;
+  const std::vector<GlobeLine>& all = lines();
+  return std::any_of(all.begin(), all.end(),
                      [&](const GlobeLine& l) { return detail::nearLine(*this, l, point, lonDeg, latDeg, scale); });
 }
 
 std::uint64_t GlobeLayer::digestForCache() const {
   // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 6;
+  constexpr std::uint64_t kBuilderVersion = 7;
   std::vector<std::uint64_t> parts{kBuilderVersion};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};
@@ -1075,18 +1242,13 @@ std::uint64_t GlobeLayer::digestForCache() const {
     add(&p.group, sizeof(p.group));
     for (const auto& ring : p.rings) add(ring.data(), ring.size() * sizeof(glm::dvec2));
   }
-  for (const GlobeLine& l : lines_) {
-    const std::array<double, 6> shape{l.halfWidth,
-                                      l.widthPixels,
-                                      l.maxHalfWidth,
-                                      l.miterLimit,
-                                      static_cast<double>(l.join),
-                                      static_cast<double>(l.cap) + 8.0 * static_cast<double>(l.group)};
-    add(shape.data(), sizeof(shape));
-    add(l.points.data(), l.points.size() * sizeof(glm::dvec2));
-    add(l.given.data(), l.given.size());
-    add(l.anchors.data(), l.anchors.size() * sizeof(float));
-  }
+  // The lines as their features give them (checkLines: points, widths, joins, caps, colour
+  // group; the densified points, anchors and buckets follow from these, the options and the anchor
+  // ground), so the lines need not be prepared to know it.
+  parts.insert(parts.end(), lineDigests_.begin(), lineDigests_.end());
+  parts.push_back(anchorDigest_);
+  const std::array<double, 2> outlines{options_.outlines ? 1.0 : 0.0, options_.maxSegmentMetres};
+  add(outlines.data(), sizeof(outlines));
   return geo::io::digest(parts.data(), parts.size() * sizeof(std::uint64_t));
 }
 

@@ -190,17 +190,16 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description) {
   scene.sourceLayers = loadLayers(description, geo::SceneFrame::wgs84LonLat(), cacheDirectory, {}, out.diagnostics,
                                   &scene.layersFromCache);
   buildGlobeLayers(scene, out.diagnostics);
-  // The layers' box, when there are layers: what a first view should show.
+  // The layers' box, when there are layers: what a first view should show (known without
+  // preparing the lines).
   globe::LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
   for (const globe::GlobeLayer& layer : scene.layers) {
-    const auto add = [&box](const globe::LonLatRect& r) {
-      box.west = std::min(box.west, r.west);
-      box.east = std::max(box.east, r.east);
-      box.south = std::min(box.south, r.south);
-      box.north = std::max(box.north, r.north);
-    };
-    for (const globe::GlobePolygon& p : layer.polygons()) add(p.box);
-    for (const globe::GlobeLine& l : layer.lines()) add(l.box);
+    const globe::LonLatRect r = layer.extent();
+    if (r.west > r.east) continue;
+    box.west = std::min(box.west, r.west);
+    box.east = std::max(box.east, r.east);
+    box.south = std::min(box.south, r.south);
+    box.north = std::max(box.north, r.north);
   }
   if (box.west <= box.east) scene.extent = {box.west, box.south, std::min(box.east, box.west + 360.0), box.north};
   scene.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -165,7 +166,16 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] const std::vector<glm::vec4>& colors() const { return colors_; }
   /// What is drawn: the areas, and the lines (lineShapesIn).
   [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
-  [[nodiscard]] const std::vector<GlobeLine>& lines() const { return lines_; }
+  /// The lines as prepared (densified along geodesics, put on the ellipsoid, anchored, bucketed
+  /// for the reference). Prepared the first time anything asks (a tile to build, the reference,
+  /// an edit; thread-safe), not at build: a warm start whose tiles come from disk never needs
+  /// them. Their problems were named at build.
+  [[nodiscard]] const std::vector<GlobeLine>& lines() const;
+  /// Whether the layer has a line to draw (known at build, without preparing them).
+  [[nodiscard]] bool hasLines() const { return hasLines_; }
+  /// The box (unwrapped lon/lat) of its areas and of its lines' given points widened by their
+  /// reach; empty (west > east) without either. Known at build.
+  [[nodiscard]] LonLatRect extent() const { return extent_; }
   /// The areas: every polygon (lines are drawn from lineShapesIn).
   [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
   /// The rings area k is drawn from in tiles of `level`: the layer's areas generalised within
@@ -211,9 +221,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The same for an ECEF point alone (overlay::referenceMask asks so), lines in pixels at their
   /// least widths: coverageOf gives the layer as a view sees it.
   [[nodiscard]] bool covers(const glm::dvec3& world) const override;
-  /// A digest of everything its tiles' pieces are made from (areas, lines, widths, joins,
-  /// anchors, colour groups, tolerances, and the builder's version): what the tile cache on disk
-  /// is keyed by. Colours are not in it (they are applied when a tile is uploaded).
+  /// A digest of everything its tiles' pieces are made from (areas as prepared; lines as their
+  /// features give them, with their widths, joins, caps and colour groups; the anchor ground's
+  /// posts, tolerances, and the builder's version): what the tile cache on disk is keyed by, known
+  /// without preparing the lines. Colours are not in it (they are applied when a tile is uploaded).
   [[nodiscard]] std::uint64_t fingerprint() const { return fingerprint_; }
   /// Which build this is: a number no other build of this process had (copies keep it). The
   /// renderer keeps its GPU tiles per build, so a layer built again (another style, another
@@ -246,7 +257,18 @@ class GlobeLayer final : public overlay::WorldCoverage {
     std::vector<GlobePolygon> polygons;
     Diagnostics diagnostics;
   };
-  void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part) const;
+  /// Prepares feature f's areas (`areas`) or lines (`!areas`) into `part`.
+  void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
+                      bool areas) const;
+  /// Checks feature f's lines as prepareFeature would use them (problems into `part`), and returns
+  /// a digest of them and of what their pieces take from the options; widens `box` by them and
+  /// sets `any` when one is usable.
+  std::uint64_t checkLines(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
+                           LonLatRect& box, bool& any) const;
+  /// Feature f's half width in metres (its own, else the layer's).
+  [[nodiscard]] double featureHalfWidth(std::uint32_t f) const;
+  /// Every feature's lines, prepared (lines()).
+  [[nodiscard]] std::vector<GlobeLine> prepareLines() const;
   /// The boxes feature f's areas and lines reach (lines grown by their reach at their widest).
   [[nodiscard]] std::vector<LonLatRect> featureBoxes(std::uint32_t f) const;
   GlobeLayerOptions options_;
@@ -256,7 +278,17 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::vector<glm::vec4> colors_;
   std::vector<GlobePolygon> polygons_;
   std::size_t areaPolygons_ = 0;  ///< polygons_.size()
-  std::vector<GlobeLine> lines_;
+  /// The lines once prepared (lines()): shared by copies, replaced (never changed) by an edit.
+  struct LazyLines {
+    std::mutex mutex;
+    std::shared_ptr<const std::vector<GlobeLine>> lines;
+  };
+  std::shared_ptr<LazyLines> lines_ = std::make_shared<LazyLines>();
+  overlay::SharedFeatures features_;        ///< what the lines are prepared from
+  std::vector<std::uint64_t> lineDigests_;  ///< per feature: checkLines' digest
+  std::uint64_t anchorDigest_ = 0;          ///< of the anchor ground's posts
+  bool hasLines_ = false;
+  LonLatRect extent_{0.0, 0.0, -1.0, -1.0};
   double chordTolerance_ = 0.02, maxSegment_ = 1000.0;
   double widthPixels_ = 0.0;
   double leastHalfWidth_ = 0.0, widestHalfWidth_ = 0.0;
