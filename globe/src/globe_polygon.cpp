@@ -212,18 +212,28 @@ double simplifyTolerance(int level) { return TileKey{level, 0, 0}.postStep() / 6
 
 namespace {
 
+/// What prepareLine finds wrong with a line before densifying it (empty: nothing).
+std::string lineProblem(const std::vector<glm::dvec2>& input) {
+  std::string problem;
+  std::size_t distinct = 0;
+  const glm::dvec2* last = nullptr;
+  for (const glm::dvec2& p : input) {
+    if (!usablePoint(p, problem)) return problem;
+    if (last == nullptr || *last != p) ++distinct;
+    last = &p;
+  }
+  return distinct < 2 ? "fewer than 2 distinct points" : "";
+}
+
 /// A line's points densified along geodesics and unwrapped (empty with `problem` set when it
-/// cannot be used), and each of them on the ellipsoid (ECEF) in `surface`.
+/// cannot be used: lineProblem), and each of them on the ellipsoid (ECEF) in `surface`.
 std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem,
                                     std::vector<char>& given, std::vector<glm::dvec3>& surface) {
+  problem = lineProblem(input);
+  if (!problem.empty()) return {};
   std::vector<glm::dvec2> line;
   for (const glm::dvec2& p : input) {
-    if (!usablePoint(p, problem)) return {};
     if (line.empty() || line.back() != p) line.push_back(p);
-  }
-  if (line.size() < 2) {
-    problem = "fewer than 2 distinct points";
-    return {};
   }
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
   std::vector<glm::dvec2> out{line[0]};
@@ -279,7 +289,7 @@ std::vector<std::vector<glm::dvec2>> runRings(const GlobeLine& line, const std::
   std::vector<Corners> rings;
   struct Band {
     Corners right, left;  ///< left from the band's start
-    Corners startCap;     ///< a half disc glued to its start: its corners between the band's
+    Corners startCap;     ///< a cap glued to its start: its corners between the band's start corners
     std::uint32_t last = 0;
     bool open = false;
   } band;
@@ -441,19 +451,6 @@ std::vector<std::vector<glm::dvec2>> featureLines(const geo::Feature& feature, b
     }
   }
   return lines;
-}
-
-/// What prepareLine finds wrong with a line before densifying it (empty: nothing).
-std::string lineProblem(const std::vector<glm::dvec2>& input) {
-  std::string problem;
-  std::size_t distinct = 0;
-  const glm::dvec2* last = nullptr;
-  for (const glm::dvec2& p : input) {
-    if (!usablePoint(p, problem)) return problem;
-    if (last == nullptr || *last != p) ++distinct;
-    last = &p;
-  }
-  return distinct < 2 ? "fewer than 2 distinct points" : "";
 }
 
 }  // namespace
