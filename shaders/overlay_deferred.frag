@@ -6,14 +6,26 @@
 // lines by the CPU reference's primitives. The layers' colours are composited here in order
 // (premultiplied), as blending each over the last would; the mask gets each covering layer's
 // bit. deferred_index.cpp's coveringFeature is this test on the CPU.
-const int kMaxLayers = 256;
+//
+// A layer has an index per chart (vector_overlay/deferred_lookup.hpp): its frame's plane, or on
+// the globe a face of the cube, each a header here; a pixel is looked up in the one header of
+// each layer whose chart holds its ground point.
+const int kMaxLayers = 112;  // headers (deferred_pass.cpp's kMaxHeaders)
 struct Layer {
   uvec4 bases;  // nodes, entries (groups or items), edges, features: where the layer's arrays start
   uvec2 kind;   // 1: polygons (0: lines); the finest level
   vec2 scale;   // mask bit, cell size at the finest level (metres)
   ivec2 eyeCell;  // the eye in cells of the finest level ...
   vec2 eyeRemainder;  // ... plus this (metres)
-  uvec4 grid;  // where the layer's grid starts, its level, 1: widths in pixels
+  uvec4 grid;  // where the layer's grid starts, its level, 1: widths in pixels, chart (0: plane, f + 1: face f)
+  // A face: its middle direction, its x and y directions (the chart's), the eye relative to the
+  // anchor (eyeCell and eyeRemainder are then the anchor's), the anchor's coordinates along the
+  // three directions and the chart's scale.
+  vec4 axis;
+  vec4 east;
+  vec4 north;
+  vec4 fromAnchor;
+  vec4 anchorDots;
 };
 // A uniform block: the same for every pixel, read once per group of pixels, not per pixel.
 layout(std140, binding = 1) uniform Layers {
@@ -46,6 +58,8 @@ uniform sampler2D u_depth;
 uniform mat4 u_inverse;  // normalised device coordinates → frame coordinates relative to the eye
 uniform vec2 u_viewport;
 uniform float u_eyeZ;
+uniform vec3 u_eyeWorld;  // the eye, frame coordinates (the faces: which one a point lies in)
+uniform vec3 u_radii;     // the faces' ellipsoid (a, a, b)
 uniform float u_metresPerPixel;
 uniform int u_layerCount;
 
@@ -162,6 +176,28 @@ int coveringFeature(Layer l, vec2 rel) {
   return -1;
 }
 
+/// The cube face (0–5: +x, −x, +y, −y, +z, −z) a point lies in (DeferredChart::faceOf).
+int faceOf(vec3 p) {
+  vec3 a = abs(p);
+  int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+  return 2 * axis + (p[axis] < 0.0 ? 1 : 0);
+}
+
+/// A ground point's offset in face l's chart from the anchor's place there (DeferredChart::
+/// ofGround): moved along the ellipsoid's normal by its height onto the ellipsoid, projected from
+/// the centre. Written from the anchor, with small numbers only near the eye: f is the foot
+/// relative to the anchor Q, and g(P) − g(Q) = s ((e·f)(a·Q) − (e·Q)(a·f)) / ((a·Q)(a·Q + a·f)).
+vec2 faceOffset(Layer l, vec3 rel, vec3 world) {
+  vec3 g = world / u_radii;
+  float h = length(world) * (1.0 - inversesqrt(dot(g, g)));
+  vec3 n = normalize(world / (u_radii * u_radii));
+  vec3 f = l.fromAnchor.xyz + rel - h * n;
+  float aq = l.anchorDots.x;
+  float af = dot(l.axis.xyz, f);
+  vec2 num = vec2(dot(l.east.xyz, f), dot(l.north.xyz, f)) * aq - l.anchorDots.yz * af;
+  return l.anchorDots.w * num / (aq * (aq + af));
+}
+
 void main() {
   ivec2 texel = ivec2(gl_FragCoord.xy);
 #ifdef MULTISAMPLE
@@ -173,13 +209,20 @@ void main() {
 #endif
   if (!(depth > 0.0)) discard;  // background
   vec4 h = u_inverse * vec4(2.0 * pixel / u_viewport - 1.0, depth, 1.0);
-  vec2 rel = h.xy / h.w;
+  vec3 rel = h.xyz / h.w;
+  vec3 world = u_eyeWorld + rel;
+  int face = faceOf(world);
 
   vec4 color = vec4(0.0);  // premultiplied, the layers composited in order
   float mask = 0.0;
   for (int i = 0; i < u_layerCount; ++i) {
     Layer l = layers[i];
-    int feature = coveringFeature(l, rel);
+    vec2 at = rel.xy;
+    if (l.grid.w != 0u) {
+      if (l.grid.w != uint(face + 1)) continue;
+      at = faceOffset(l, rel, world);
+    }
+    int feature = coveringFeature(l, at);
     if (feature < 0) continue;
     vec4 c = features[2u * (l.bases.w + uint(feature))];
     color = vec4(c.rgb * c.a, c.a) + (1.0 - c.a) * color;

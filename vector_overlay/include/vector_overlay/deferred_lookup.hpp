@@ -1,0 +1,142 @@
+#pragma once
+// The deferred per-pixel lookup in any frame (the technique `deferred`, docs/frames.md): a
+// layer's index (vector_overlay/src/deferred_index.hpp) built in one or more *charts*, and the
+// pass that reads the terrain's depth and colours the pixels whose ground point a feature
+// covers. What a frame gives is its charts:
+//
+// - A projected frame has one chart, its own plane: a ground point's chart coordinates are its
+//   (x, y).
+// - The globe has six, the faces of a cube about the earth's centre. A ground point is moved
+//   along the ellipsoid's normal onto the ellipsoid, then projected from the centre onto the
+//   plane touching the middle of the face it lies in (gnomonic), in metres at that middle. A
+//   chord of the ellipsoid is a straight line there, and the globe's edges (the planes through a
+//   chord that hold the ends' mean normal, globe_overlay.hpp) stray from their chord's line by
+//   less than 10⁻⁴ m for a 1 km edge, so the index's straight edges are the reference's.
+//
+// Precision, in every chart: the pass finds a pixel's place as integer cells of the index plus a
+// float remainder, from an *anchor* near the view. In the frame's plane the anchor is the eye
+// (the ground point relative to the eye, as reconstructed from depth, is small near the eye).
+// On a face it is the point of the face nearest below the eye, and the ground point's offset
+// from it is found from quantities that are all small near the eye (the gnomonic map written
+// relative to the anchor), so its error grows with the distance from the eye, as the depth's.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "core/diagnostics.hpp"
+#include "geo/feature.hpp"
+#include "gfx/state_cache.hpp"
+#include "vector_overlay/near_clip.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
+#include "vector_overlay/technique.hpp"
+
+namespace gis::overlay {
+
+/// Where a deferred index is built (the frame seam of the per-pixel lookup): above.
+struct DeferredChart {
+  /// -1: the frame's plane. 0–5: the cube face about +x, −x, +y, −y, +z, −z.
+  int face = -1;
+  glm::dvec3 axis{0.0, 0.0, 1.0};   ///< the face's middle direction
+  glm::dvec3 east{1.0, 0.0, 0.0};   ///< the chart's x direction
+  glm::dvec3 north{0.0, 1.0, 0.0};  ///< the chart's y direction
+  double scale = 1.0;               ///< chart units per unit of the gnomonic plane
+  glm::dvec3 radii{1.0};            ///< the ellipsoid the ground is moved onto along its normal
+
+  /// The frame's own plane.
+  static DeferredChart plane() { return {}; }
+  /// Face `face` (0–5) of the cube about an ellipsoid with these semi-axes (a, a, b), in metres at
+  /// the face's middle (scale a).
+  static DeferredChart cubeFace(int face, const glm::dvec3& radii);
+  /// The face (0–5) a point lies in: its largest coordinate's axis and sign (ties: the first).
+  static int faceOf(const glm::dvec3& point);
+  /// How far (in gnomonic units, 1 being the face's edge) a face's index reaches beyond the face:
+  /// a ground point found in the face next door by float rounding is still inside.
+  static constexpr double kFaceMargin = 0.05;
+
+  /// A point's chart coordinates by central projection (a face), or its (x, y) (the plane). A
+  /// point of the ellipsoid, or a point along a chord between two of its points (on the chord's
+  /// line in the chart).
+  [[nodiscard]] glm::dvec2 project(const glm::dvec3& point) const;
+  /// A ground point's chart coordinates: on a face, its foot on the ellipsoid (along the normal)
+  /// projected as the pass does it; in the plane, its (x, y).
+  [[nodiscard]] glm::dvec2 ofGround(const glm::dvec3& world) const;
+  /// The chart's point as a point of the ellipsoid (a face) or of the plane at height 0.
+  [[nodiscard]] glm::dvec3 unproject(const glm::dvec2& chart) const;
+};
+
+/// A layer's per-pixel lookup: its index in each chart it is drawn in, with the boxes (frame
+/// coordinates, 3D) holding every ground point the index can colour.
+class DeferredLayer {
+ public:
+  /// What a frame gives of a layer in one chart.
+  struct Part {
+    DeferredChart chart;
+    /// One per feature of the layer (its index in the layer: what the colours are per): its
+    /// polygons in chart coordinates (even-odd over each polygon's rings, a union over the
+    /// feature's polygons, as the CPU reference draws them), or none.
+    std::vector<geo::Feature> features;
+    /// Where ground points can be, in chart coordinates (min, max): the index covers no more.
+    std::array<glm::dvec2, 2> region{glm::dvec2(0.0), glm::dvec2(0.0)};
+    /// The ground's heights there (the cover boxes' bottom and top).
+    double lowest = -1e4, highest = 1e4;
+  };
+
+  DeferredLayer();
+  ~DeferredLayer();
+  DeferredLayer(DeferredLayer&&) noexcept;
+  DeferredLayer& operator=(DeferredLayer&&) noexcept;
+
+  /// A polygon layer's index in each part's chart (colours per feature, straight alpha). Lines:
+  /// the projected frame's technique builds its own (deferred_technique.cpp).
+  static DeferredLayer build(std::span<const Part> parts, std::span<const glm::vec4> colors);
+
+  [[nodiscard]] bool empty() const;
+  /// Bytes of its indices (what the pass uploads).
+  [[nodiscard]] std::size_t bytes() const;
+  /// Which build this is: no other layer of the process has it (the pass's arena is keyed by it).
+  [[nodiscard]] std::uint64_t serial() const;
+
+  struct Impl;
+  [[nodiscard]] const Impl& impl() const { return *impl_; }
+  explicit DeferredLayer(std::unique_ptr<Impl> impl);
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The lookup's pass (overlay_deferred.frag): every layer in one pass over the screen rectangles
+/// its cover boxes project to, each pixel (each sample with MSAA) reading the depth of the bound
+/// target's terrain, finding its ground point in each layer's index of the chart it lies in, and
+/// taking the first covering feature's colour, the layers composited in order; the mask gets each
+/// covering layer's bit.
+class DeferredPass {
+ public:
+  /// Needs a current GL 4.5 context.
+  static Result<DeferredPass> create();
+  DeferredPass(DeferredPass&&) noexcept;
+  DeferredPass& operator=(DeferredPass&&) noexcept;
+  ~DeferredPass();
+
+  /// Draws layers[i] with mask bit i (a null entry is hidden); `stats[i]` gets what it did (the
+  /// first drawn layer holds the pass's counts and times when `measure`).
+  void draw(gfx::StateCache& cache, const DrawTarget& target, const OverlayView& view,
+            std::span<const DeferredLayer* const> layers, bool measure, std::vector<LayerFrameStats>& stats);
+  /// GPU bytes: the layers' arena and the depth copy.
+  [[nodiscard]] std::size_t gpuBytes() const;
+
+  struct State;
+
+ private:
+  explicit DeferredPass(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace gis::overlay
