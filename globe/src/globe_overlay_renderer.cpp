@@ -189,6 +189,10 @@ struct GlobeOverlayRenderer::Gpu {
   glm::dmat4 viewProj{0.0};
   const GeoGrid* heights = nullptr;
   GlobeOverlaySettings settings;
+  // The deferred lookup: its pass (made on first use), and per layer (its serial) its indices.
+  std::optional<overlay::DeferredPass> pass;
+  bool passFailed = false;
+  std::unordered_map<std::uint64_t, overlay::DeferredLayer> deferred;
 };
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
@@ -222,6 +226,7 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     }
     return false;
   };
+  gpu_->deferred.erase(layer.serial());  // made again from the edited layer when next drawn
   const auto made = gpu_->tilings.find(layer.serial());
   if (made == gpu_->tilings.end()) return 0;
   gpu_->residency->cancel();
@@ -336,8 +341,13 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   if (overlays == nullptr) return;
   std::vector<const GlobeLayer*> drawn(
       layers.begin(), layers.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(layers.size(), 32)));
-  const std::vector<std::vector<const overlay::OverlayLayer*>> chunked =
-      tilesFor(view, tiles, heights, drawn, settings);
+  // The deferred lookup draws the last layers that are areas only; the others keep their pieces.
+  std::size_t lookedUp = drawn.size();
+  if (settings.technique == GlobeTechnique::Deferred && deferredPass() != nullptr) {
+    while (lookedUp > 0 && !drawn[lookedUp - 1]->hasLines()) --lookedUp;
+  }
+  std::vector<const GlobeLayer*> pieced(drawn.begin(), drawn.begin() + static_cast<std::ptrdiff_t>(lookedUp));
+  std::vector<std::vector<const overlay::OverlayLayer*>> chunked = tilesFor(view, tiles, heights, pieced, settings);
   for (const auto& layer : chunked) {
     for (const overlay::OverlayLayer* chunk : layer) {
       stats_.triangles += chunk->stats().triangles;
@@ -345,6 +355,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     }
     stats_.drawnTiles += layer.size();
   }
+  chunked.resize(drawn.size());  // the looked-up layers have no pieces (their bits stay theirs)
   const std::vector<overlay::LayerFrameStats> drawnStats =
       overlays->draw(cache, overlayViewOf(view), chunked, overlaySettingsOf(settings));
   for (const overlay::LayerFrameStats& s : drawnStats) {
@@ -352,6 +363,45 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     stats_.zFailPieces += s.zFailPieces;
     stats_.culledPieces += s.culledPieces;
   }
+  if (lookedUp == drawn.size()) return;
+  std::vector<const overlay::DeferredLayer*> indexed(drawn.size(), nullptr);
+  for (std::size_t i = lookedUp; i < drawn.size(); ++i) {
+    indexed[i] = &deferredOf(*drawn[i], heights);
+    stats_.deferredBytes += indexed[i]->bytes();
+  }
+  stats_.deferredLayers = drawn.size() - lookedUp;
+  std::vector<overlay::LayerFrameStats> lookupStats;
+  deferredPass()->draw(cache, {settings.targetFramebuffer, view.width, view.height}, overlayViewOf(view), indexed,
+                       false, lookupStats);
+}
+
+overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() {
+  if (!gpu_->pass && !gpu_->passFailed) {
+    Result<overlay::DeferredPass> made = overlay::DeferredPass::create();
+    if (made) {
+      gpu_->pass = std::move(*made);
+    } else {
+      gpu_->passFailed = true;  // a broken build of the shaders: the GL tests report it
+    }
+  }
+  return gpu_->pass ? &*gpu_->pass : nullptr;
+}
+
+const overlay::DeferredLayer& GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights) {
+  auto found = gpu_->deferred.find(layer.serial());
+  if (found != gpu_->deferred.end()) return found->second;
+  // The cover boxes hold the drawn ground: the grid's heights, the lowest less the sag of the
+  // coarsest tiles (the terrain's bounds contract at level 0).
+  const double lowest = groundBounds(heights, LonLatRect{-180.0, -90.0, 180.0, 90.0}, 0).first;
+  const double highest = heights.bounds(LonLatRect{-180.0, -90.0, 180.0, 90.0}).second;
+  std::vector<glm::vec4> colors(layer.featureCount(), layer.color());
+  const std::vector<glm::vec4>& groups = layer.colors();
+  for (std::size_t k = 0; k < layer.areaCount(); ++k) {
+    const GlobePolygon& p = layer.polygons()[k];
+    if (p.feature < colors.size() && p.group < groups.size()) colors[p.feature] = groups[p.group];
+  }
+  const std::vector<overlay::DeferredLayer::Part> parts = deferredParts(layer, lowest, highest);
+  return gpu_->deferred.emplace(layer.serial(), overlay::DeferredLayer::build(parts, colors)).first->second;
 }
 
 }  // namespace gis::globe

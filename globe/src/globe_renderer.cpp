@@ -53,7 +53,9 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
       counts.emplace();
       counts->begin();
     }
-    overlay_.draw(cache, view, tiles, *heights_, layers, settings);
+    GlobeOverlaySettings drawn = settings;
+    drawn.targetFramebuffer = target.framebuffer;
+    overlay_.draw(cache, view, tiles, *heights_, layers, drawn);
     if (overlayTimer) {
       counts->end();
       overlayTimer->end();

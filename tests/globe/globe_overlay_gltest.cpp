@@ -59,7 +59,9 @@ class GlobeOverlayGl : public test::GlTest {
     gfx::enableMaskWrites(target.framebuffer(), false);
     terrain.draw(cache_, view, tiles);
     gfx::enableMaskWrites(target.framebuffer(), true);
-    overlay.draw(cache_, view, tiles, *ground, layers, settings);
+    GlobeOverlaySettings drawn = settings;
+    drawn.targetFramebuffer = target.framebuffer();
+    overlay.draw(cache_, view, tiles, *ground, layers, drawn);
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> gpu = gfx::readMask(target);
     std::filesystem::create_directories(STENCIL_GIS_TEST_OUTPUT_DIR);
@@ -187,6 +189,70 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), all, c.label);
     EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the features";
   }
+}
+
+TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
+  const Layers layers = makeLayers();
+  // The world north of a coast near 72° S, with a hole: a ring around the south pole closed along
+  // the north one, whose inside the plane of a face sees the other way round (deferredParts).
+  geo::Feature north;
+  {
+    geo::Polygon p;
+    for (int k = 0; k <= 36; ++k) p.outer.emplace_back(-180.0 + k * 10.0, -72.0 + 4.0 * std::cos(k * 0.9));
+    p.outer.emplace_back(180.0, 90.0);
+    p.outer.emplace_back(-180.0, 90.0);
+    p.holes.push_back(test::globe_scene::box(-20.0, 10.0, 15.0, 35.0).outer);
+    north.polygons.push_back(std::move(p));
+  }
+  Result<GlobeLayer> world = GlobeLayer::build("north of the coast", {north}, glm::vec4(0.1F, 0.8F, 0.3F, 0.4F));
+  ASSERT_TRUE(world.ok());
+  // Lines first (their pieces), then the areas (the lookup): every layer keeps its bit and order.
+  const std::vector<const GlobeLayer*> drawn{&layers.lines, &*world, &layers.all, &layers.boxes, &layers.field};
+  GlobeOverlaySettings settings;
+  settings.technique = GlobeTechnique::Deferred;
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+    double fov = 45.0;
+  };
+  const double field = grid()->heightAt(8.5, 47.3);
+  std::vector<Case> cases{
+      {"lookup space 10,000 km", {-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}},
+      {"lookup space 20,000 km", {150.0, 10.0, 2e7}, {150.0, 10.0, -6e6}},
+      {"lookup face corner", {45.0, 35.26, 4e6}, {45.0, 35.26, 0.0}},
+      {"lookup oblique 800 km", {-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}},
+      {"lookup grazing 3 km", {-37.5, -8.0, 3000.0}, {-33.0, -6.0, 1500.0}},
+      {"lookup antimeridian", {165.0, -40.0, 6e5}, {-178.0, -21.0, 0.0}},
+      {"lookup north pole", {0.0, 90.0, 3e6}, {0.0, 90.0, 0.0}},
+      {"lookup south pole low", {45.0, -86.0, 20000.0}, {-135.0, -89.0, 0.0}},
+      {"lookup 1 m above", {8.5, 47.30407, grid()->heightAt(8.5, 47.30407) + 1.0}, {8.5005, 47.304, field}, 60.0},
+  };
+  // And cameras at random: anywhere, from 1 km to 20,000 km, looking down at a point up to twice
+  // their height away.
+  std::mt19937 random(20261129);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < 8; ++k) {
+    const double lon = -180.0 + 360.0 * unit(random), lat = -88.0 + 176.0 * unit(random);
+    const double height = std::pow(10.0, 3.0 + 4.3 * unit(random));
+    const double reach = 2.0 * height * unit(random) / 111000.0, bearing = 6.283185307 * unit(random);
+    const double tlat = std::clamp(lat + reach * std::cos(bearing), -89.0, 89.0);
+    const double tlon = lon + reach * std::sin(bearing) / std::max(0.05, std::cos(tlat * 0.0174533));
+    cases.push_back({"lookup random " + std::to_string(k),
+                     {lon, lat, grid()->heightAt(lon, lat) + height},
+                     {tlon, tlat, grid()->heightAt(tlon, tlat)}});
+  }
+  std::size_t covered = 0;
+  for (const Case& c : cases) {
+    GlobeOverlayRenderer renderer;
+    const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), drawn, c.label, &renderer, settings);
+    EXPECT_EQ(renderer.stats().deferredLayers, 4U) << c.label << ": the four area layers are looked up";
+    EXPECT_GT(renderer.stats().deferredBytes, 0U) << c.label;
+    if (c.label.rfind("lookup random", 0) != 0) {
+      EXPECT_GE(o.covered, 200U) << c.label << ": the view must show them";
+    }
+    covered += o.covered;
+  }
+  EXPECT_GE(covered, 100000U);
 }
 
 TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {

@@ -39,6 +39,7 @@
 #include "globe/globe_view.hpp"
 #include "globe/tile.hpp"
 #include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/deferred_lookup.hpp"
 #include "vector_overlay/footprints.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/shared_features.hpp"
@@ -347,7 +348,27 @@ int lineWidthClass(const GlobeLayer& layer, const TileKey& key, const GeoGrid& h
                    const overlay::PixelScale& scale);
 inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass - 8); }
 
+/// How the globe's layers reach the pixels (overlay_render --method; the registry's names):
+/// - StencilTiles (`stencil-tiles`): stencil polyhedra per drawn terrain tile.
+/// - Deferred (`deferred`): the deferred lookup of both frames (vector_overlay/deferred_lookup.hpp)
+///   in the six faces of the cube (deferredParts), for the last layers that are areas only; the
+///   layers before them (those with lines, and any below them) keep their stencil polyhedra.
+enum class GlobeTechnique { StencilTiles, Deferred };
+
+/// The layer's areas in each face of the cube about the earth's centre
+/// (overlay::DeferredChart::cubeFace on WGS 84): what the deferred lookup indexes on the globe.
+/// Each polygon's rings are taken as chords of the ellipsoid between their prepared points,
+/// clipped to the face's pyramid grown by its margin (exactly: a chord crosses a plane through the
+/// centre at one point) and projected from the centre. The plane's even-odd then differs from the
+/// reference's (a ring around a pole closed along it, a ring around the whole world) by a
+/// constant over the face, checked at one point of it and made good by the face's square. The
+/// cover boxes lie between `lowest` and `highest` (heights above the ellipsoid). Lines: not here.
+std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest);
+
 struct GlobeOverlaySettings {
+  GlobeTechnique technique = GlobeTechnique::StencilTiles;
+  /// The framebuffer being drawn into (bound; the deferred lookup reads its depth).
+  GLuint targetFramebuffer = 0;
   double padBase = 0.05;  ///< caps move out by padBase + padPerMetre · distance (depth precision)
   double padPerMetre = 2e-6;
   /// GPU bytes the tiles' pieces may hold, all layers (the scene's terrain.gpu_budget_mb, as the
@@ -388,6 +409,10 @@ struct GlobeOverlayStats {
   std::size_t repairedTiles = 0;  ///< this frame, found damaged on disk and built again
   std::size_t prunedFolders = 0;  ///< this frame, old folders removed from the cache on disk
   std::size_t missingTiles = 0;   ///< this frame, still building (an ancestor drawn instead)
+  /// GlobeTechnique::Deferred: the layers the deferred lookup drew (the last ones), and the bytes
+  /// of their indices.
+  std::size_t deferredLayers = 0;
+  std::size_t deferredBytes = 0;
   /// The tile residency's counts for the frame (the projected frame's: stats.json's "tiles" block
   /// in both frames). Its tileErrorPixels is 0.5 (the layers' generalisation follows the drawn
   /// terrain tiles), larger where the frame's tiles would not fit the GPU budget and coarser ones
@@ -440,6 +465,10 @@ class GlobeOverlayRenderer {
                                                                   const GeoGrid& heights,
                                                                   const std::vector<const GlobeLayer*>& layers,
                                                                   const GlobeOverlaySettings& settings);
+  /// The deferred lookup's pass (made on first use; null if its shaders do not build).
+  overlay::DeferredPass* deferredPass();
+  /// The layer's deferred indices (made on first use, kept per layer until an edit).
+  const overlay::DeferredLayer& deferredOf(const GlobeLayer& layer, const GeoGrid& heights);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
 };
