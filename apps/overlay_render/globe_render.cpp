@@ -60,7 +60,8 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
     if (renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, {}).terrain.imageryPending == 0)
       break;
   }
-  const globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
+  globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
+  overlaySettings.technique = o.technique;
   const globe::GlobeFrameStats stats =
       renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true, overlaySettings);
   runClock().firstFrameDone();
@@ -113,7 +114,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   for (const Diagnostic& m : loaded.diagnostics.items()) diagnostics.push_back(m.toString());
   for (const Diagnostic& m : analysisDiagnostics.items()) diagnostics.push_back(m.toString());
   json s = {{"frame", "globe"},
-            {"method", "stencil-tiles"},
+            {"method", o.method},
             {"globe_reason", reason},
             {"width", o.width},
             {"height", o.height},
@@ -143,6 +144,8 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
               {"culled_pieces", stats.overlay.culledPieces},
               {"triangles", stats.overlay.triangles},
               {"tiles_built", stats.overlay.builtTiles},
+              {"deferred_layers", stats.overlay.deferredLayers},
+              {"deferred_index_bytes", stats.overlay.deferredBytes},
               {"gpu_ms", stats.overlayGpuMilliseconds},
               {"fragments", stats.overlayFragments},
               {"primitives", stats.overlayPrimitives}}},

@@ -3,6 +3,7 @@
 // camera.json (ECEF) and stats.json.
 #include <string>
 
+#include "globe/globe_overlay.hpp"
 #include "globe_analysis.hpp"
 #include "scene/scene.hpp"
 
@@ -14,6 +15,8 @@ struct GlobeRenderOptions {
   bool overlays = true;
   GlobeAnalysisRequest analyses;  ///< --lasso, --overlap
   std::string camera;             ///< --camera: a camera file (eye and target in lon/lat/h); empty: the scene's
+  globe::GlobeTechnique technique = globe::GlobeTechnique::StencilTiles;  ///< --method
+  std::string method = "stencil-tiles";                                   ///< its name
 };
 
 /// Loads and draws the scene on the globe (`reason` says why it is drawn there); the process's

@@ -603,19 +603,25 @@ int run(const Options& o) {
         logError("the scene is drawn on the globe (" + *globe + "): --msaa is not available there yet");
         return 2;
       }
-      // The globe draws its layers with stencil polyhedra per view-dependent tile, its own way:
-      // another method asked for is refused, never silently replaced.
-      if (o.technique != &overlay::defaultTechnique()) {
+      // The globe draws with stencil-tiles or the deferred lookup: another method asked for is
+      // refused, never silently replaced.
+      const std::optional<globe::GlobeTechnique> technique = scene::globeTechniqueNamed(o.technique->name);
+      if (!technique) {
         logError("the scene is drawn on the globe (" + *globe + "): --method " + std::string(o.technique->name) +
-                 " is not available there yet; the globe draws its layers with " +
-                 std::string(overlay::defaultTechnique().name));
+                 " is not available there yet; the globe draws its layers with stencil-tiles or deferred");
         return 2;
       }
       report(description.diagnostics);
       if (o.exaggeration) description->verticalExaggeration = *o.exaggeration;
-      return app::runGlobeRender(
-          *description, *globe,
-          {o.out, o.width, o.height, o.overlays, {o.lasso, o.overlap, o.overlapOp, o.openVolumes}, o.camera});
+      return app::runGlobeRender(*description, *globe,
+                                 {o.out,
+                                  o.width,
+                                  o.height,
+                                  o.overlays,
+                                  {o.lasso, o.overlap, o.overlapOp, o.openVolumes},
+                                  o.camera,
+                                  *technique,
+                                  std::string(o.technique->name)});
     }
   }
   const std::optional<Setup> setup = load(o, all);

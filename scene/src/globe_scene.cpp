@@ -83,6 +83,12 @@ Result<std::string> globeReason(const SceneDescription& description) {
   return out;
 }
 
+std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name) {
+  if (name == "stencil-tiles") return globe::GlobeTechnique::StencilTiles;
+  if (name == "deferred") return globe::GlobeTechnique::Deferred;
+  return std::nullopt;
+}
+
 globe::GlobeOverlaySettings globeOverlaySettings(const SceneDescription& description) {
   globe::GlobeOverlaySettings settings;
   settings.gpuBudgetBytes = static_cast<std::size_t>(std::max(16.0, description.gpuBudgetMb) * 1024.0 * 1024.0);

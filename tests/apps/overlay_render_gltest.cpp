@@ -3,6 +3,7 @@
 // finite and 0 only on background; and every terrain pixel unprojected through camera.json
 // lands on the DEM surface as drawn (same triangulation), within a stated tolerance.
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -1078,7 +1079,7 @@ TEST(OverlayRenderGlobe, AFailedExportIsInStatsAndTheExitStatus) {
 }
 
 TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
-  // --method deferred (or drape, auto, ...) on a globe scene: refused with exit status 2 and a
+  // --method auto (or drape, stencil, ...) on a globe scene: refused with exit status 2 and a
   // message naming the method and what the globe draws, never silently drawn another way.
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_method_" + std::to_string(getpid()));
   fs::remove_all(dir);
@@ -1086,7 +1087,7 @@ TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
   json description = olindaScene();
   description["frame"] = "globe";
   { std::ofstream(dir / "scene.json") << description.dump(1); }
-  for (const char* method : {"deferred", "auto", "drape", "stencil"}) {
+  for (const char* method : {"auto", "drape", "stencil"}) {
     const fs::path log = dir / (std::string(method) + ".txt");
     EXPECT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 64 --height 48 --method " +
                                    method + " --out " + (dir / method).string(),
@@ -1097,6 +1098,45 @@ TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
     EXPECT_NE(text.find(std::string("--method ") + method + " is not available"), std::string::npos) << text;
     EXPECT_FALSE(fs::exists(dir / method / "color.png"));
   }
+}
+
+TEST(OverlayRenderGlobe, TheDeferredLookupDrawsTheGlobesAreasAsItsPiecesDo) {
+  // --method deferred on Olinda's tracts on the globe (areas only): drawn by the lookup in the
+  // cube's faces, stats.json says so, and its mask is the stencil pieces' but at edges.
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_deferred_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json description = olindaScene();
+  description["frame"] = "globe";
+  json tracts = description["layers"][0];
+  tracts["style"].erase("outline_width_m");
+  description["layers"] = json::array({tracts});
+  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  std::array<gfx::Image8, 2> masks;
+  for (const std::string method : {"deferred", "stencil-tiles"}) {
+    const fs::path out = dir / method;
+    ASSERT_EQ(
+        runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                             " --height " + std::to_string(kHeight) + " --method " + method + " --out " + out.string(),
+                         dir / (method + ".txt")),
+        0)
+        << readText(dir / (method + ".txt"));
+    const json stats = json::parse(readText(out / "stats.json"));
+    EXPECT_EQ(stats["method"], method) << stats.dump(1);
+    const bool deferred = method == "deferred";
+    EXPECT_EQ(stats["overlay"]["deferred_layers"].get<std::size_t>(), deferred ? 1U : 0U) << stats.dump(1);
+    EXPECT_EQ(stats["overlay"]["deferred_index_bytes"].get<std::size_t>() > 0, deferred) << stats.dump(1);
+    masks[deferred ? 0 : 1] = *gfx::readImage8((out / "mask.png").string());
+  }
+  ASSERT_EQ(masks[0].pixels.size(), masks[1].pixels.size());
+  std::size_t covered = 0, differing = 0;
+  for (std::size_t i = 0; i < masks[0].pixels.size(); ++i) {
+    covered += masks[1].pixels[i] != 0 ? 1U : 0U;
+    differing += masks[0].pixels[i] != masks[1].pixels[i] ? 1U : 0U;
+  }
+  EXPECT_GT(covered, 2000U);
+  // Two exact ways of drawing differ at most on the tracts' borders (a pixel wide, either way).
+  EXPECT_LT(differing, covered / 200) << differing << " of " << covered;
 }
 
 TEST(OverlayRenderGlobe, APagedDemDrawsTheSameFrame) {

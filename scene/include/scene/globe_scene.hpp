@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/diagnostics.hpp"
@@ -65,6 +66,11 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
 /// joins and caps. What loadGlobeScene does after reading, and what an edit of a style does
 /// again (the viewer). The features are shared, not read again.
 void buildGlobeLayers(LoadedGlobeScene& scene, Diagnostics& diagnostics);
+
+/// The globe's way of drawing for a technique of the registry (overlay_render --method, the
+/// viewer's methods): `stencil-tiles` and `deferred` (globe_overlay.hpp, GlobeTechnique); none for
+/// the others, not drawn on the globe yet.
+std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name);
 
 /// How the scene's layers are drawn on the globe: the overlay's GPU budget is the scene's
 /// terrain.gpu_budget_mb, as the projected frame's tiles have it, and its tiles are kept in the
