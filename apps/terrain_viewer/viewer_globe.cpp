@@ -196,6 +196,8 @@ void Viewer::drawGlobe() {
   // Tiles still building are drawn by their nearest ancestor meanwhile, as in a projected frame;
   // scripted screenshots show the finished view.
   g.overlaySettings.waitForTiles = script_.has_value();
+  g.overlaySettings.technique =
+      scene::globeTechniqueNamed(technique_->name).value_or(globe::GlobeTechnique::StencilTiles);
   const globe::GlobeFrameStats s =
       g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed, g.overlaySettings);
   if (timed) {
@@ -453,11 +455,9 @@ void Viewer::drawGlobePanel() {
     ImGui::Text("%s to the target", formatMetres(pose.distance).c_str());
     drawExaggerationSlider();
   }
+  drawOverlaySection();
   if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
-    ImGui::Checkbox("vector layers (O)", &render_.overlays);
-    ImGui::SameLine();
     ImGui::Checkbox("legend", &showLegend_);
-    ImGui::Checkbox("debug: pieces", &debugPieces_);
     if (!labelSets_.empty()) {
       ImGui::SameLine();
       ImGui::Checkbox("labels", &showLabels_);
@@ -471,7 +471,7 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: draping and the deferred lookup.");
+  ImGui::TextWrapped("Not on the globe yet: draping, auto, and the polyhedra of the whole layer (stencil, paper).");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -487,6 +487,11 @@ void Viewer::drawGlobeHud() {
   } else {
     ImGui::Text("overlays: GPU %.2f ms, %zu pieces, %zu z-fail", g.stats.overlayGpuMilliseconds, g.stats.overlay.pieces,
                 g.stats.overlay.zFailPieces);
+    if (g.stats.overlay.deferredLayers > 0) {
+      ImGui::Text("deferred lookup: %zu layer%s, %.0f MB of indices", g.stats.overlay.deferredLayers,
+                  g.stats.overlay.deferredLayers == 1 ? "" : "s",
+                  static_cast<double>(g.stats.overlay.deferredBytes) / 1048576.0);
+    }
   }
   const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
   ImGui::Text("eye: lon %.6f°, lat %.6f°, height %s above ground, %s above the ellipsoid", eye.lon, eye.lat,
@@ -594,7 +599,11 @@ json Viewer::globeState() const {
           {"compass_angle", compassAngle_},
           {"scale_bar_m", scaleBarMetres_},
           {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
-          {"overlay", {{"pieces", g.stats.overlay.pieces}, {"z_fail_pieces", g.stats.overlay.zFailPieces}}},
+          {"method", technique_->name},
+          {"overlay",
+           {{"pieces", g.stats.overlay.pieces},
+            {"z_fail_pieces", g.stats.overlay.zFailPieces},
+            {"deferred_layers", g.stats.overlay.deferredLayers}}},
           {"view", {{"panel", settings_.showPanel}, {"hud", settings_.showHud}, {"fov", settings_.fovYDeg}}},
           {"ui_rects", rects},
           {"notice", notice_ ? json(notice_->text) : json()},
@@ -742,7 +751,11 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
           if (!out) message(where + ": cannot write " + step.out, true);
           return static_cast<bool>(out);
         } else if constexpr (std::is_same_v<Step, app::MethodStep>) {
-          notOnGlobe("Overlay methods other than the stencil polyhedra (draping)");
+          if (!scene::globeTechniqueNamed(step.name)) {
+            notOnGlobe("The overlay method " + step.name);
+            return true;
+          }
+          technique_ = overlay::findTechnique(step.name);
           return true;
         } else if constexpr (std::is_same_v<Step, app::ExaggerationStep>) {
           setExaggeration(step.value);

@@ -14,6 +14,8 @@
 
 #include "viewer.hpp"
 
+#include "scene/globe_scene.hpp"
+
 namespace gis::viewer {
 namespace {
 
@@ -114,15 +116,22 @@ void Viewer::drawViewSection() {
 void Viewer::drawOverlaySection() {
   if (!ImGui::CollapsingHeader("Overlay", ImGuiTreeNodeFlags_DefaultOpen)) return;
   ImGui::Checkbox("vector layers (O)", &render_.overlays);
-  // One button per technique of the registry, two to a line.
+  // One button per technique of the registry, two to a line; on the globe, those it does not
+  // draw yet are shown disabled.
   const overlay::TechniqueInfo* chosen = technique_;
   const std::span<const overlay::TechniqueInfo> all = overlay::techniques();
   for (std::size_t i = 0; i < all.size(); ++i) {
     if (i % 2 == 1) ImGui::SameLine();
+    const bool drawn = !globe_ || scene::globeTechniqueNamed(all[i].name).has_value();
+    ImGui::BeginDisabled(!drawn);
     if (ImGui::RadioButton(std::string(all[i].label).c_str(), technique_ == &all[i])) chosen = &all[i];
+    ImGui::EndDisabled();
+    if (!drawn && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("not on the globe yet");
   }
   if (technique_->usesTextures()) drawDrapeSize();
-  if (chosen != technique_) {
+  if (chosen != technique_ && globe_) {
+    technique_ = chosen;  // the globe's renderer takes it at the next frame: nothing to rebuild
+  } else if (chosen != technique_) {
     technique_ = chosen;
     // Keep the size where the new technique offers it, else its default (a single drape's size
     // would be far too much per tile).

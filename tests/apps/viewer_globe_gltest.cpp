@@ -798,6 +798,12 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
                    {{"wait", 2}},
                    {{"action", "save_state"}, {"path", "blue.json"}},
                    {{"action", "screenshot"}, {"path", "blue.png"}, {"ui", false}},
+                   // The deferred lookup draws the same (the panel's methods on the globe).
+                   {{"action", "method"}, {"value", "deferred"}},
+                   {{"wait", 2}},
+                   {{"action", "save_state"}, {"path", "blue_deferred.json"}},
+                   {{"action", "screenshot"}, {"path", "blue_deferred.png"}, {"ui", false}},
+                   {{"action", "method"}, {"value", "stencil-tiles"}},
                    {{"action", "set_layer"}, {"layer", "fiji"}, {"color_attribute", "name"}},
                    {{"wait", 2}},
                    {{"action", "screenshot"}, {"path", "category.png"}, {"ui", false}},
@@ -852,6 +858,9 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
     EXPECT_EQ(wrongOutside, 0U) << name;
   };
   check("blue", {0.0, 0.0, 1.0}, 0.75);
+  check("blue_deferred", {0.0, 0.0, 1.0}, 0.75);
+  EXPECT_EQ(readJson("blue_deferred.json")["method"], "deferred");
+  EXPECT_EQ(readJson("blue_deferred.json")["overlay"]["deferred_layers"], 1);
   // One value ("Fiji box"): the first colour of the categories' palette.
   const json category = readJson("category.json");
   check("category", {0.12, 0.47, 0.71}, 0.75);
