@@ -9,25 +9,18 @@
 //   index fits a quarter of the GPU budget, and lines in pixels keep within one of its reach
 //   classes in this view: 8 m × 2^c up to 32 km, an index per class made when a view needs it).
 //   With no such k below n, there is nothing to choose.
-// - Each candidate's cost is its GPU time (a timer query around its passes, read a few frames
-//   later without waiting; with OverlaySettings::measure, the passes' own timers), averaged over
-//   its last measurements (each new one weighs half).
-// - The stencil polyhedra draw first; the deferred candidate draws the next frame to be measured;
-//   then the cheaper one draws and the other is measured again every kProbeEvery frames. (Probing
-//   sooner after the camera moves, every 6 frames, made the flights on Olinda 1.2× slower on
-//   llvmpipe: each probe of the dearer candidate costs a whole frame.)
+// - Which of the two draws a frame: the plan chooser both frames share (plan_chooser.hpp: their
+//   measured GPU times, the dearer measured again one frame in 24).
 #include <algorithm>
 #include <array>
-#include <deque>
 #include <optional>
 
-#include "gfx/queries.hpp"
 #include "techniques/techniques.hpp"
+#include "vector_overlay/plan_chooser.hpp"
 
 namespace gis::overlay {
 namespace {
 
-constexpr int kProbeEvery = 24;
 constexpr double kBaseReach = 8.0;  ///< metres: the narrowest reach class of lines in pixels
 
 class AutoTechnique final : public OverlayTechnique {
@@ -37,7 +30,6 @@ class AutoTechnique final : public OverlayTechnique {
       : stencil_(std::move(stencil)), deferred_(std::move(deferred)), indexBudget_(gpuBudget / 4) {}
 
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
-    harvest();
     const std::size_t n = frame.layers.size();
     // The smallest k from which the deferred technique can draw every visible layer.
     std::size_t split = n;
@@ -49,20 +41,8 @@ class AutoTechnique final : public OverlayTechnique {
     const bool anyDeferred = std::any_of(frame.layers.begin() + static_cast<std::ptrdiff_t>(split), frame.layers.end(),
                                          [](const OverlayLayer* l) { return l != nullptr; });
     if (!anyDeferred) split = n;
-    ++frameNumber_;
     // 0: all stencil; 1: deferred from `split` on.
-    int plan = 0;
-    if (split < n) {
-      if (!cost_[0] || !cost_[1]) {
-        plan = cost_[0] && !probedAt_[1] ? 1 : 0;
-      } else {
-        const int cheaper = *cost_[1] < *cost_[0] ? 1 : 0;
-        const int other = 1 - cheaper;
-        const std::uint64_t last = probedAt_[static_cast<std::size_t>(other)].value_or(0);
-        plan = frameNumber_ - last >= static_cast<std::uint64_t>(kProbeEvery) ? other : cheaper;
-      }
-      probedAt_[static_cast<std::size_t>(plan)] = frameNumber_;
-    }
+    const int plan = chooser_.choose(split < n);
     lastSplit_ = plan == 1 ? split : n;
 
     std::vector<const OverlayLayer*> first(frame.layers.begin(), frame.layers.end());
@@ -71,9 +51,7 @@ class AutoTechnique final : public OverlayTechnique {
     TechniqueFrame part = frame;
     // Measured passes time themselves (one timer query may run at a time).
     const bool ownTimer = !frame.settings.measure;
-    Timing timing;
-    timing.plan = plan;
-    if (ownTimer) timing.timer.begin();
+    if (ownTimer) chooser_.begin(plan);
     part.layers = first;
     stencil_->draw(cache, part, stats);
     if (plan == 1) {
@@ -87,12 +65,11 @@ class AutoTechnique final : public OverlayTechnique {
       }
     }
     if (ownTimer) {
-      timing.timer.end();
-      timings_.push_back(std::move(timing));
+      chooser_.end();
     } else {
       double ms = 0.0;
       for (const LayerFrameStats& s : stats.layers) ms += s.gpuMilliseconds;
-      record(plan, ms);
+      chooser_.record(plan, ms);
     }
   }
 
@@ -120,34 +97,10 @@ class AutoTechnique final : public OverlayTechnique {
   [[nodiscard]] Diagnostics drawDiagnostics() const override { return stencil_->drawDiagnostics(); }
 
  private:
-  struct Timing {
-    gfx::GpuTimer timer;
-    int plan = 0;
-  };
-
-  /// Averages the measurements that have arrived.
-  void harvest() {
-    while (!timings_.empty()) {
-      const std::optional<std::uint64_t> ns = timings_.front().timer.nanoseconds(false);
-      if (!ns && timings_.size() < 8) break;
-      const std::uint64_t value = ns ? *ns : timings_.front().timer.nanoseconds(true).value_or(0);
-      record(timings_.front().plan, static_cast<double>(value) * 1e-6);
-      timings_.pop_front();
-    }
-  }
-
-  void record(int plan, double ms) {
-    std::optional<double>& c = cost_[static_cast<std::size_t>(plan)];
-    c = c ? 0.5 * *c + 0.5 * ms : ms;
-  }
-
   std::unique_ptr<OverlayTechnique> stencil_;
   std::unique_ptr<DeferredLookup> deferred_;
   std::size_t indexBudget_;
-  std::deque<Timing> timings_;
-  std::array<std::optional<double>, 2> cost_;
-  std::uint64_t frameNumber_ = 0;
-  std::array<std::optional<std::uint64_t>, 2> probedAt_;  ///< the last frame each candidate drew
+  PlanChooser chooser_;
   std::size_t lastSplit_ = 0;
 };
 
