@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <functional>
+#include <future>
 #include <limits>
 #include <utility>
 
@@ -125,17 +127,26 @@ std::uint64_t DeferredLayer::serial() const { return impl_->serial; }
 DeferredLayer DeferredLayer::build(std::span<const Part> parts, std::span<const glm::vec4> colors) {
   auto impl = std::make_unique<Impl>();
   impl->serial = nextSerial();
-  for (const Part& part : parts) {
+  // The charts' indices are independent: built side by side.
+  const auto buildPart = [&colors](const Part& part) {
     ReferenceLayer reference;
     reference.kind = LayerKind::Polygon;
     reference.features = &part.features;
     deferred::BuildOptions options;
     options.region = part.region;
     Impl::Chart chart{part.chart, deferred::build(reference, colors, options), {}};
-    if (chart.index.empty()) continue;
     for (const auto& box : chart.index.cover)
       chart.cover.push_back(coverBox(part.chart, box[0], box[1], part.lowest, part.highest));
-    impl->charts.push_back(std::move(chart));
+    return chart;
+  };
+  std::vector<std::future<Impl::Chart>> built;
+  for (std::size_t k = 1; k < parts.size(); ++k)
+    built.push_back(std::async(std::launch::async, buildPart, std::cref(parts[k])));
+  std::vector<Impl::Chart> charts;
+  if (!parts.empty()) charts.push_back(buildPart(parts[0]));
+  for (std::future<Impl::Chart>& f : built) charts.push_back(f.get());
+  for (Impl::Chart& chart : charts) {
+    if (!chart.index.empty()) impl->charts.push_back(std::move(chart));
   }
   return DeferredLayer(std::move(impl));
 }
