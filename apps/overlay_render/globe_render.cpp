@@ -146,6 +146,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
               {"tiles_built", stats.overlay.builtTiles},
               {"deferred_layers", stats.overlay.deferredLayers},
               {"deferred_index_bytes", stats.overlay.deferredBytes},
+              {"deferred_pending", stats.overlay.deferredPending},
               {"gpu_ms", stats.overlayGpuMilliseconds},
               {"fragments", stats.overlayFragments},
               {"primitives", stats.overlayPrimitives}}},

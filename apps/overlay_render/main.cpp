@@ -603,12 +603,12 @@ int run(const Options& o) {
         logError("the scene is drawn on the globe (" + *globe + "): --msaa is not available there yet");
         return 2;
       }
-      // The globe draws with stencil-tiles or the deferred lookup: another method asked for is
-      // refused, never silently replaced.
+      // The globe draws with stencil-tiles, the deferred lookup or auto: another method asked for
+      // is refused, never silently replaced.
       const std::optional<globe::GlobeTechnique> technique = scene::globeTechniqueNamed(o.technique->name);
       if (!technique) {
         logError("the scene is drawn on the globe (" + *globe + "): --method " + std::string(o.technique->name) +
-                 " is not available there yet; the globe draws its layers with stencil-tiles or deferred");
+                 " is not available there yet; the globe draws its layers with stencil-tiles, deferred or auto");
         return 2;
       }
       report(description.diagnostics);

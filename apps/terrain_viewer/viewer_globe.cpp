@@ -471,7 +471,7 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: draping, auto, and the polyhedra of the whole layer (stencil, paper).");
+  ImGui::TextWrapped("Not on the globe yet: draping, and the polyhedra of the whole layer (stencil, paper).");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -487,6 +487,10 @@ void Viewer::drawGlobeHud() {
   } else {
     ImGui::Text("overlays: GPU %.2f ms, %zu pieces, %zu z-fail", g.stats.overlayGpuMilliseconds, g.stats.overlay.pieces,
                 g.stats.overlay.zFailPieces);
+    if (g.stats.overlay.deferredPending > 0) {
+      ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "deferred lookup: %zu index%s building (drawn as pieces)",
+                         g.stats.overlay.deferredPending, g.stats.overlay.deferredPending == 1 ? "" : "es");
+    }
     if (g.stats.overlay.deferredLayers > 0) {
       ImGui::Text("deferred lookup: %zu layer%s, %.0f MB of indices", g.stats.overlay.deferredLayers,
                   g.stats.overlay.deferredLayers == 1 ? "" : "s",
@@ -603,7 +607,8 @@ json Viewer::globeState() const {
           {"overlay",
            {{"pieces", g.stats.overlay.pieces},
             {"z_fail_pieces", g.stats.overlay.zFailPieces},
-            {"deferred_layers", g.stats.overlay.deferredLayers}}},
+            {"deferred_layers", g.stats.overlay.deferredLayers},
+            {"deferred_pending", g.stats.overlay.deferredPending}}},
           {"view", {{"panel", settings_.showPanel}, {"hud", settings_.showHud}, {"fov", settings_.fovYDeg}}},
           {"ui_rects", rects},
           {"notice", notice_ ? json(notice_->text) : json()},

@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <future>
 #include <optional>
 #include <thread>
 #include <unordered_map>
@@ -18,6 +20,7 @@
 #include "globe/globe_selection.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
+#include "vector_overlay/plan_chooser.hpp"
 #include "vector_overlay/tile_residency.hpp"
 #include "vector_overlay/tiled_layer.hpp"
 
@@ -189,10 +192,16 @@ struct GlobeOverlayRenderer::Gpu {
   glm::dmat4 viewProj{0.0};
   const GeoGrid* heights = nullptr;
   GlobeOverlaySettings settings;
-  // The deferred lookup: its pass (made on first use), and per layer (its serial) its indices.
+  // The deferred lookup: its pass (made on first use), per layer (its serial) its indices, those
+  // being built, and builds for layers since edited (left to finish: a future from std::async
+  // waits for its thread when destroyed); `auto`'s chooser and the plan it last took.
   std::optional<overlay::DeferredPass> pass;
   bool passFailed = false;
   std::unordered_map<std::uint64_t, overlay::DeferredLayer> deferred;
+  std::unordered_map<std::uint64_t, std::future<overlay::DeferredLayer>> building;
+  std::vector<std::future<overlay::DeferredLayer>> retired;
+  overlay::PlanChooser chooser;
+  int plan = 0;
 };
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
@@ -226,7 +235,12 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     }
     return false;
   };
-  gpu_->deferred.erase(layer.serial());  // made again from the edited layer when next drawn
+  // The lookup's indices are made again from the edited layer when next drawn.
+  gpu_->deferred.erase(layer.serial());
+  if (const auto building = gpu_->building.find(layer.serial()); building != gpu_->building.end()) {
+    gpu_->retired.push_back(std::move(building->second));
+    gpu_->building.erase(building);
+  }
   const auto made = gpu_->tilings.find(layer.serial());
   if (made == gpu_->tilings.end()) return 0;
   gpu_->residency->cancel();
@@ -341,10 +355,33 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   if (overlays == nullptr) return;
   std::vector<const GlobeLayer*> drawn(
       layers.begin(), layers.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(layers.size(), 32)));
-  // The deferred lookup draws the last layers that are areas only; the others keep their pieces.
-  std::size_t lookedUp = drawn.size();
-  if (settings.technique == GlobeTechnique::Deferred && deferredPass() != nullptr) {
-    while (lookedUp > 0 && !drawn[lookedUp - 1]->hasLines()) --lookedUp;
+  const std::size_t n = drawn.size();
+  // The deferred lookup may draw the last layers that are areas only, from `lookedUp` on: those
+  // whose indices are built (on a thread of their own; a still waits for them with `deferred`)
+  // and, with `auto`, fit a quarter of the GPU budget when the chooser takes the lookup.
+  std::vector<const overlay::DeferredLayer*> indexed(n, nullptr);
+  std::size_t lookedUp = n;
+  int plan = 0;
+  if (settings.technique != GlobeTechnique::StencilTiles && deferredPass() != nullptr) {
+    std::erase_if(gpu_->retired, [](std::future<overlay::DeferredLayer>& f) {
+      return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+    });
+    std::size_t areas = n;
+    while (areas > 0 && !drawn[areas - 1]->hasLines()) --areas;
+    const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;
+    for (std::size_t i = areas; i < n; ++i) indexed[i] = deferredOf(*drawn[i], heights, wait);
+    std::size_t bytes = 0;
+    while (lookedUp > areas && indexed[lookedUp - 1] != nullptr) bytes += indexed[--lookedUp]->bytes();
+    for (std::size_t i = areas; i < n; ++i) stats_.deferredPending += indexed[i] == nullptr ? 1U : 0U;
+    if (settings.technique == GlobeTechnique::Auto) {
+      const bool fits = bytes <= settings.gpuBudgetBytes / 4;
+      plan = gpu_->chooser.choose(lookedUp < n && fits);
+      if (plan == 0) lookedUp = n;
+      gpu_->plan = plan;
+      if (!settings.measure) gpu_->chooser.begin(plan);
+    } else {
+      plan = lookedUp < n ? 1 : 0;
+    }
   }
   std::vector<const GlobeLayer*> pieced(drawn.begin(), drawn.begin() + static_cast<std::ptrdiff_t>(lookedUp));
   std::vector<std::vector<const overlay::OverlayLayer*>> chunked = tilesFor(view, tiles, heights, pieced, settings);
@@ -355,7 +392,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     }
     stats_.drawnTiles += layer.size();
   }
-  chunked.resize(drawn.size());  // the looked-up layers have no pieces (their bits stay theirs)
+  chunked.resize(n);  // the looked-up layers have no pieces (their bits stay theirs)
   const std::vector<overlay::LayerFrameStats> drawnStats =
       overlays->draw(cache, overlayViewOf(view), chunked, overlaySettingsOf(settings));
   for (const overlay::LayerFrameStats& s : drawnStats) {
@@ -363,17 +400,18 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     stats_.zFailPieces += s.zFailPieces;
     stats_.culledPieces += s.culledPieces;
   }
-  if (lookedUp == drawn.size()) return;
-  std::vector<const overlay::DeferredLayer*> indexed(drawn.size(), nullptr);
-  for (std::size_t i = lookedUp; i < drawn.size(); ++i) {
-    indexed[i] = &deferredOf(*drawn[i], heights);
-    stats_.deferredBytes += indexed[i]->bytes();
+  if (lookedUp < n) {
+    for (std::size_t i = 0; i < lookedUp; ++i) indexed[i] = nullptr;
+    for (std::size_t i = lookedUp; i < n; ++i) stats_.deferredBytes += indexed[i]->bytes();
+    stats_.deferredLayers = n - lookedUp;
+    std::vector<overlay::LayerFrameStats> lookupStats;
+    deferredPass()->draw(cache, {settings.targetFramebuffer, view.width, view.height}, overlayViewOf(view), indexed,
+                         false, lookupStats);
   }
-  stats_.deferredLayers = drawn.size() - lookedUp;
-  std::vector<overlay::LayerFrameStats> lookupStats;
-  deferredPass()->draw(cache, {settings.targetFramebuffer, view.width, view.height}, overlayViewOf(view), indexed,
-                       false, lookupStats);
+  if (settings.technique == GlobeTechnique::Auto && !settings.measure && deferredPass() != nullptr) gpu_->chooser.end();
 }
+
+void GlobeOverlayRenderer::measured(double milliseconds) { gpu_->chooser.record(gpu_->plan, milliseconds); }
 
 overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() {
   if (!gpu_->pass && !gpu_->passFailed) {
@@ -387,21 +425,37 @@ overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() {
   return gpu_->pass ? &*gpu_->pass : nullptr;
 }
 
-const overlay::DeferredLayer& GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights) {
-  auto found = gpu_->deferred.find(layer.serial());
-  if (found != gpu_->deferred.end()) return found->second;
-  // The cover boxes hold the drawn ground: the grid's heights, the lowest less the sag of the
-  // coarsest tiles (the terrain's bounds contract at level 0).
-  const double lowest = groundBounds(heights, LonLatRect{-180.0, -90.0, 180.0, 90.0}, 0).first;
-  const double highest = heights.bounds(LonLatRect{-180.0, -90.0, 180.0, 90.0}).second;
-  std::vector<glm::vec4> colors(layer.featureCount(), layer.color());
-  const std::vector<glm::vec4>& groups = layer.colors();
-  for (std::size_t k = 0; k < layer.areaCount(); ++k) {
-    const GlobePolygon& p = layer.polygons()[k];
-    if (p.feature < colors.size() && p.group < groups.size()) colors[p.feature] = groups[p.group];
+const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights,
+                                                               bool wait) {
+  const auto found = gpu_->deferred.find(layer.serial());
+  if (found != gpu_->deferred.end()) return &found->second;
+  auto building = gpu_->building.find(layer.serial());
+  if (building == gpu_->building.end()) {
+    // The parts are made here (a fraction of a second: the rings clipped and projected, the
+    // layer read while it is certain to live); the indices on a thread of their own (the
+    // countries: 12 s), which owns what it reads.
+    // The cover boxes hold the drawn ground: the grid's heights, the lowest less the sag of the
+    // coarsest tiles (the terrain's bounds contract at level 0).
+    const double lowest = groundBounds(heights, LonLatRect{-180.0, -90.0, 180.0, 90.0}, 0).first;
+    const double highest = heights.bounds(LonLatRect{-180.0, -90.0, 180.0, 90.0}).second;
+    std::vector<glm::vec4> colors(layer.featureCount(), layer.color());
+    const std::vector<glm::vec4>& groups = layer.colors();
+    for (std::size_t k = 0; k < layer.areaCount(); ++k) {
+      const GlobePolygon& p = layer.polygons()[k];
+      if (p.feature < colors.size() && p.group < groups.size()) colors[p.feature] = groups[p.group];
+    }
+    std::vector<overlay::DeferredLayer::Part> parts = deferredParts(layer, lowest, highest);
+    building = gpu_->building
+                   .emplace(layer.serial(), std::async(std::launch::async,
+                                                       [parts = std::move(parts), colors = std::move(colors)] {
+                                                         return overlay::DeferredLayer::build(parts, colors);
+                                                       }))
+                   .first;
   }
-  const std::vector<overlay::DeferredLayer::Part> parts = deferredParts(layer, lowest, highest);
-  return gpu_->deferred.emplace(layer.serial(), overlay::DeferredLayer::build(parts, colors)).first->second;
+  if (!wait && building->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return nullptr;
+  overlay::DeferredLayer& made = gpu_->deferred.emplace(layer.serial(), building->second.get()).first->second;
+  gpu_->building.erase(building);
+  return &made;
 }
 
 }  // namespace gis::globe

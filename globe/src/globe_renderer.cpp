@@ -55,6 +55,7 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
     }
     GlobeOverlaySettings drawn = settings;
     drawn.targetFramebuffer = target.framebuffer;
+    drawn.measure = overlayTimer.has_value();
     overlay_.draw(cache, view, tiles, *heights_, layers, drawn);
     if (overlayTimer) {
       counts->end();
@@ -66,8 +67,10 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
     stats.overlay = overlay_.stats();
   }
   if (terrainTimer) stats.terrainGpuMilliseconds = static_cast<double>(terrainTimer->nanoseconds().value_or(0)) * 1e-6;
-  if (overlayTimer && !layers.empty())
+  if (overlayTimer && !layers.empty()) {
     stats.overlayGpuMilliseconds = static_cast<double>(overlayTimer->nanoseconds().value_or(0)) * 1e-6;
+    overlay_.measured(stats.overlayGpuMilliseconds);
+  }
   return stats;
 }
 

@@ -86,6 +86,7 @@ Result<std::string> globeReason(const SceneDescription& description) {
 std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name) {
   if (name == "stencil-tiles") return globe::GlobeTechnique::StencilTiles;
   if (name == "deferred") return globe::GlobeTechnique::Deferred;
+  if (name == "auto") return globe::GlobeTechnique::Auto;
   return std::nullopt;
 }
 

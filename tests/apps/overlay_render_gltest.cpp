@@ -1079,7 +1079,7 @@ TEST(OverlayRenderGlobe, AFailedExportIsInStatsAndTheExitStatus) {
 }
 
 TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
-  // --method auto (or drape, stencil, ...) on a globe scene: refused with exit status 2 and a
+  // --method paper (or drape, stencil, ...) on a globe scene: refused with exit status 2 and a
   // message naming the method and what the globe draws, never silently drawn another way.
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_method_" + std::to_string(getpid()));
   fs::remove_all(dir);
@@ -1087,7 +1087,7 @@ TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
   json description = olindaScene();
   description["frame"] = "globe";
   { std::ofstream(dir / "scene.json") << description.dump(1); }
-  for (const char* method : {"auto", "drape", "stencil"}) {
+  for (const char* method : {"paper", "drape", "stencil"}) {
     const fs::path log = dir / (std::string(method) + ".txt");
     EXPECT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 64 --height 48 --method " +
                                    method + " --out " + (dir / method).string(),

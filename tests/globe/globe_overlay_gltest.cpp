@@ -9,6 +9,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -253,6 +254,48 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
     covered += o.covered;
   }
   EXPECT_GE(covered, 100000U);
+}
+
+TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
+  // In a flight (no wait), a layer whose indices are still building is drawn by its pieces; once
+  // built, the lookup draws it. `auto` draws the pieces first, then the lookup once the pieces
+  // are measured; every frame exact either way.
+  const Layers layers = makeLayers();
+  const std::vector<const GlobeLayer*> drawn{&layers.lines, &layers.all, &layers.boxes};
+  const GlobeView v = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
+  GlobeTerrain terrain(grid());
+  gfx::RenderTarget target(v.width, v.height, 0, true);
+  const std::vector<DrawnTile> tiles = terrain.select(v);
+  // Draws a frame without comparing it: the renderer's stats.
+  const auto frame = [&](GlobeOverlayRenderer& renderer, GlobeOverlaySettings settings) {
+    gfx::beginRenderPass(cache_, target, {glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), gfx::kReversedZFar, 0});
+    terrain.draw(cache_, v, tiles);
+    settings.targetFramebuffer = target.framebuffer();
+    renderer.draw(cache_, v, tiles, *grid(), drawn, settings);
+    return renderer.stats();
+  };
+  for (const GlobeTechnique technique : {GlobeTechnique::Deferred, GlobeTechnique::Auto}) {
+    const std::string name = technique == GlobeTechnique::Deferred ? "deferred flight" : "auto";
+    GlobeOverlaySettings settings;
+    settings.technique = technique;
+    settings.waitForTiles = false;
+    GlobeOverlayRenderer renderer;
+    const GlobeOverlayStats first = frame(renderer, settings);
+    EXPECT_EQ(first.deferredLayers, 0U) << name << ": the first frame draws the pieces";
+    if (technique == GlobeTechnique::Deferred) {
+      EXPECT_EQ(first.deferredPending, 2U) << name;
+      drawAndCompare(v, drawn, name + " while building", &renderer, settings);
+    }
+    bool lookedUp = false;
+    const auto start = std::chrono::steady_clock::now();
+    while (!lookedUp && std::chrono::steady_clock::now() - start < std::chrono::seconds(60)) {
+      lookedUp = frame(renderer, settings).deferredLayers == 2;
+      if (!lookedUp) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_TRUE(lookedUp) << name << ": the lookup draws the two area layers once their indices are built";
+    const Outcome o = drawAndCompare(v, drawn, name + " built", &renderer, settings);
+    EXPECT_GE(o.covered, 2000U) << name;
+  }
 }
 
 TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {

@@ -352,8 +352,13 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 /// - StencilTiles (`stencil-tiles`): stencil polyhedra per drawn terrain tile.
 /// - Deferred (`deferred`): the deferred lookup of both frames (vector_overlay/deferred_lookup.hpp)
 ///   in the six faces of the cube (deferredParts), for the last layers that are areas only; the
-///   layers before them (those with lines, and any below them) keep their stencil polyhedra.
-enum class GlobeTechnique { StencilTiles, Deferred };
+///   layers before them (those with lines, and any below them) keep their stencil polyhedra. A
+///   layer's indices are built on a thread of their own: meanwhile (but in a still, which waits)
+///   it is drawn by its pieces.
+/// - Auto (`auto`): per frame the cheaper of the two by their measured GPU times (the plan
+///   chooser of both frames, vector_overlay/plan_chooser.hpp), the lookup only for layers whose
+///   indices are built and fit a quarter of the GPU budget; the first frame draws the pieces.
+enum class GlobeTechnique { StencilTiles, Deferred, Auto };
 
 /// The layer's areas in each face of the cube about the earth's centre
 /// (overlay::DeferredChart::cubeFace on WGS 84): what the deferred lookup indexes on the globe.
@@ -369,6 +374,9 @@ struct GlobeOverlaySettings {
   GlobeTechnique technique = GlobeTechnique::StencilTiles;
   /// The framebuffer being drawn into (bound; the deferred lookup reads its depth).
   GLuint targetFramebuffer = 0;
+  /// The caller times the draw and reports it (GlobeOverlayRenderer::measured), for `auto`;
+  /// otherwise `auto` times it itself.
+  bool measure = false;
   double padBase = 0.05;  ///< caps move out by padBase + padPerMetre · distance (depth precision)
   double padPerMetre = 2e-6;
   /// GPU bytes the tiles' pieces may hold, all layers (the scene's terrain.gpu_budget_mb, as the
@@ -413,6 +421,8 @@ struct GlobeOverlayStats {
   /// of their indices.
   std::size_t deferredLayers = 0;
   std::size_t deferredBytes = 0;
+  /// Of the layers the lookup could draw, those whose indices are still being built.
+  std::size_t deferredPending = 0;
   /// The tile residency's counts for the frame (the projected frame's: stats.json's "tiles" block
   /// in both frames). Its tileErrorPixels is 0.5 (the layers' generalisation follows the drawn
   /// terrain tiles), larger where the frame's tiles would not fit the GPU budget and coarser ones
@@ -453,6 +463,8 @@ class GlobeOverlayRenderer {
                                                    const GeoGrid& heights, const GlobeLayer& layer);
   /// The overlay renderer (made on first use; null if its shaders do not build).
   overlay::OverlayRenderer* renderer();
+  /// The GPU time of the last draw, as its caller measured it (GlobeOverlaySettings::measure).
+  void measured(double milliseconds);
   /// After GlobeLayer::replaceFeature: the layer's tiles over `boxes` (what it returned) leave the
   /// GPU, to be built again when next drawn; its other tiles stay. Returns how many left.
   std::size_t featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes);
@@ -467,8 +479,9 @@ class GlobeOverlayRenderer {
                                                                   const GlobeOverlaySettings& settings);
   /// The deferred lookup's pass (made on first use; null if its shaders do not build).
   overlay::DeferredPass* deferredPass();
-  /// The layer's deferred indices (made on first use, kept per layer until an edit).
-  const overlay::DeferredLayer& deferredOf(const GlobeLayer& layer, const GeoGrid& heights);
+  /// The layer's deferred indices, kept per layer until an edit; null while they are being built
+  /// (started by the first ask) unless `wait`.
+  const overlay::DeferredLayer* deferredOf(const GlobeLayer& layer, const GeoGrid& heights, bool wait);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
 };

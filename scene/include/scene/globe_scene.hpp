@@ -68,7 +68,7 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
 void buildGlobeLayers(LoadedGlobeScene& scene, Diagnostics& diagnostics);
 
 /// The globe's way of drawing for a technique of the registry (overlay_render --method, the
-/// viewer's methods): `stencil-tiles` and `deferred` (globe_overlay.hpp, GlobeTechnique); none for
+/// viewer's methods): `stencil-tiles`, `deferred` and `auto` (globe_overlay.hpp, GlobeTechnique); none for
 /// the others, not drawn on the globe yet.
 std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name);
 
