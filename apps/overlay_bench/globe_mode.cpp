@@ -195,14 +195,22 @@ int runGlobe(const Options& o) {
   const globe::GlobeFrameTarget frameTarget{target.framebuffer(), o.width, o.height, true};
   globe::GlobeRenderer renderer(loaded->heights);
   const globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
+  // The deferred lookup on the same frames, where it has layers to draw (the last area layers).
+  globe::GlobeOverlaySettings lookupSettings = overlaySettings;
+  lookupSettings.technique = globe::GlobeTechnique::Deferred;
+  const bool lookup = !layers.empty() && !layers.back()->hasLines();
+  double indexSeconds = 0.0;
+  std::size_t indexBytes = 0;
   renderer.setImagery(loaded->imagery);
   const std::vector<GlobeFrame> path = globePath(*loaded, o.frames);
 
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
   csv << "frame,segment,terrain_only_ms,terrain_ms,overlay_ms,ratio,tiles,terrain_triangles,pieces,z_fail_pieces,"
-         "overlay_triangles,terrain_fragments,overlay_fragments,build_ms,covered_px,wrong_px,edge_px\n";
-  std::vector<double> ratios, terrainOnly, withOverlay;
+         "overlay_triangles,terrain_fragments,overlay_fragments,build_ms,covered_px,wrong_px,edge_px,"
+         "deferred_overlay_ms,deferred_ratio,deferred_fragments,deferred_wrong_px\n";
+  std::vector<double> ratios, terrainOnly, withOverlay, lookupRatios;
+  std::map<std::string, std::vector<double>> segmentLookupRatios;
   std::map<std::string, std::vector<double>> segmentRatios, segmentTerrain, segmentOverlay;
   std::map<std::string, double> segmentPieces, segmentTiles, segmentTriangles, segmentWrong;
   std::size_t wrongTotal = 0;
@@ -227,12 +235,32 @@ int runGlobe(const Options& o) {
     if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) error = frameError(target, view, layers);
     const std::size_t covered = error.covered, wrong = error.wrong, edgeWrong = error.edgeWrong;
     wrongTotal += wrong;
+    // The same frame by the deferred lookup (its indices built at the first, untimed).
+    globe::GlobeFrameStats looked;
+    double lookupRatio = 0.0;
+    FrameError lookupError;
+    if (lookup) {
+      if (k == 0) {
+        const auto indexStart = std::chrono::steady_clock::now();
+        (void)renderer.render(cache, frameTarget, view, layers, false, lookupSettings);
+        glFinish();
+        indexSeconds = msSince(indexStart) * 1e-3;
+      }
+      looked = renderer.render(cache, frameTarget, view, layers, true, lookupSettings);
+      indexBytes = looked.overlay.deferredBytes;
+      lookupRatio = (looked.terrainGpuMilliseconds + looked.overlayGpuMilliseconds) / bare.terrainGpuMilliseconds;
+      lookupRatios.push_back(lookupRatio);
+      segmentLookupRatios[f.segment].push_back(lookupRatio);
+      if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) lookupError = frameError(target, view, layers);
+      wrongTotal += lookupError.wrong;
+    }
     segmentWrong[f.segment] += static_cast<double>(wrong);
     csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
         << full.overlayGpuMilliseconds << ',' << ratio << ',' << full.terrain.tiles << ',' << full.terrain.triangles
         << ',' << full.overlay.pieces << ',' << full.overlay.zFailPieces << ',' << full.overlay.triangles << ','
         << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << ',' << covered << ',' << wrong
-        << ',' << edgeWrong << '\n';
+        << ',' << edgeWrong << ',' << looked.overlayGpuMilliseconds << ',' << lookupRatio << ','
+        << looked.overlayFragments << ',' << lookupError.wrong << '\n';
     ratios.push_back(ratio);
     terrainOnly.push_back(bare.terrainGpuMilliseconds);
     withOverlay.push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
@@ -287,6 +315,7 @@ int runGlobe(const Options& o) {
                       {"pieces_mean", segmentPieces[name] / static_cast<double>(r.size())},
                       {"overlay_triangles_mean", segmentTriangles[name] / static_cast<double>(r.size())},
                       {"wrong_pixels", segmentWrong[name]}};
+    if (lookup) segments[name]["deferred_ratio_median"] = percentile(segmentLookupRatios[name], 50.0);
   }
   const json result = {
       {"mode", "globe"},
@@ -302,6 +331,10 @@ int runGlobe(const Options& o) {
       {"terrain_only_fps_median", 1000.0 / std::max(percentile(terrainOnly, 50.0), 1e-9)},
       {"with_overlay_fps_median", 1000.0 / std::max(percentile(withOverlay, 50.0), 1e-9)},
       {"segments", segments},
+      {"deferred", lookup ? json{{"ratio_median", percentile(lookupRatios, 50.0)},
+                                 {"index_bytes", indexBytes},
+                                 {"index_first_frame_seconds", indexSeconds}}
+                          : json()},
       {"edit", edit},
       {"memory_peak_bytes", processMemory("VmHWM")},
       {"wrong_pixels_away_from_edges", wrongTotal},
