@@ -167,6 +167,21 @@ class GlobeTiling final : public overlay::TileSource {
   mutable std::atomic<std::size_t> written_{0}, repaired_{0};
 };
 
+/// A GL object made on first use (T::create); null, and not tried again, if it cannot be made (its
+/// shaders do not build: the GL tests report it).
+template <typename T>
+T* madeOnFirstUse(std::optional<T>& held, bool& failed) {
+  if (!held && !failed) {
+    Result<T> made = T::create();
+    if (made) {
+      held = std::move(*made);
+    } else {
+      failed = true;
+    }
+  }
+  return held ? &*held : nullptr;
+}
+
 }  // namespace
 
 overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings) {
@@ -209,17 +224,7 @@ GlobeOverlayRenderer::~GlobeOverlayRenderer() {
   if (gpu_->residency) gpu_->residency->cancel();
 }
 
-overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() {
-  if (!gpu_->renderer && !gpu_->failed) {
-    Result<overlay::OverlayRenderer> made = overlay::OverlayRenderer::create();
-    if (made) {
-      gpu_->renderer = std::move(*made);
-    } else {
-      gpu_->failed = true;  // a broken build of the shaders: the GL tests report it
-    }
-  }
-  return gpu_->renderer ? &*gpu_->renderer : nullptr;
-}
+overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() { return madeOnFirstUse(gpu_->renderer, gpu_->failed); }
 
 std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes) {
   if (!gpu_->residency) return 0;
@@ -413,17 +418,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
 
 void GlobeOverlayRenderer::measured(double milliseconds) { gpu_->chooser.record(gpu_->plan, milliseconds); }
 
-overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() {
-  if (!gpu_->pass && !gpu_->passFailed) {
-    Result<overlay::DeferredPass> made = overlay::DeferredPass::create();
-    if (made) {
-      gpu_->pass = std::move(*made);
-    } else {
-      gpu_->passFailed = true;  // a broken build of the shaders: the GL tests report it
-    }
-  }
-  return gpu_->pass ? &*gpu_->pass : nullptr;
-}
+overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() { return madeOnFirstUse(gpu_->pass, gpu_->passFailed); }
 
 const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights,
                                                                bool wait) {
