@@ -371,6 +371,17 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     std::erase_if(gpu_->retired, [](std::future<overlay::DeferredLayer>& f) {
       return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
     });
+    // Indices of layers this frame does not draw (a layer built again for another style has a
+    // new serial: the old one's are never drawn again) leave once all of them pass a quarter of
+    // the GPU budget; those of a layer merely hidden stay below it.
+    std::size_t held = 0;
+    for (const auto& [serial, index] : gpu_->deferred) held += index.bytes();
+    if (held > settings.gpuBudgetBytes / 4) {
+      std::erase_if(gpu_->deferred, [&drawn](const auto& entry) {
+        return std::none_of(drawn.begin(), drawn.end(),
+                            [&entry](const GlobeLayer* l) { return l->serial() == entry.first; });
+      });
+    }
     std::size_t areas = n;
     while (areas > 0 && !drawn[areas - 1]->hasLines()) --areas;
     const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;
@@ -405,6 +416,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     stats_.zFailPieces += s.zFailPieces;
     stats_.culledPieces += s.culledPieces;
   }
+  for (const auto& [serial, index] : gpu_->deferred) stats_.deferredHeldBytes += index.bytes();
   if (lookedUp < n) {
     for (std::size_t i = 0; i < lookedUp; ++i) indexed[i] = nullptr;
     for (std::size_t i = lookedUp; i < n; ++i) stats_.deferredBytes += indexed[i]->bytes();

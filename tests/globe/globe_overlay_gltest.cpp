@@ -261,7 +261,7 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
   // built, the lookup draws it. `auto` draws the pieces first, then the lookup once the pieces
   // are measured; every frame exact either way.
   const Layers layers = makeLayers();
-  const std::vector<const GlobeLayer*> drawn{&layers.lines, &layers.all, &layers.boxes};
+  std::vector<const GlobeLayer*> drawn{&layers.lines, &layers.all, &layers.boxes};
   const GlobeView v = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
   GlobeTerrain terrain(grid());
   gfx::RenderTarget target(v.width, v.height, 0, true);
@@ -296,6 +296,19 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
     const Outcome o = drawAndCompare(v, drawn, name + " built", &renderer, settings);
     EXPECT_GE(o.covered, 2000U) << name;
   }
+  // A layer no longer drawn (another style builds another layer) leaves its indices once they
+  // pass a quarter of the budget (none here): only the boxes' stay.
+  GlobeOverlaySettings none;
+  none.technique = GlobeTechnique::Deferred;
+  none.gpuBudgetBytes = 0;
+  GlobeOverlayRenderer renderer;
+  const GlobeOverlayStats both = frame(renderer, none);
+  EXPECT_EQ(both.deferredHeldBytes, both.deferredBytes);
+  drawn.pop_back();
+  drawn.push_back(&layers.field);
+  const GlobeOverlayStats other = frame(renderer, none);
+  EXPECT_EQ(other.deferredLayers, 2U);
+  EXPECT_EQ(other.deferredHeldBytes, other.deferredBytes) << "the boxes' indices left";
 }
 
 TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {

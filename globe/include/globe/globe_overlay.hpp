@@ -423,6 +423,9 @@ struct GlobeOverlayStats {
   std::size_t deferredBytes = 0;
   /// Of the layers the lookup could draw, those whose indices are still being built.
   std::size_t deferredPending = 0;
+  /// The bytes of every layer's indices held after the frame (those of layers no longer drawn
+  /// leave once all pass a quarter of the GPU budget).
+  std::size_t deferredHeldBytes = 0;
   /// The tile residency's counts for the frame (the projected frame's: stats.json's "tiles" block
   /// in both frames). Its tileErrorPixels is 0.5 (the layers' generalisation follows the drawn
   /// terrain tiles), larger where the frame's tiles would not fit the GPU budget and coarser ones
