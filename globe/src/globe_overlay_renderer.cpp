@@ -216,7 +216,7 @@ struct GlobeOverlayRenderer::Gpu {
   std::unordered_map<std::uint64_t, std::future<overlay::DeferredLayer>> building;
   std::vector<std::future<overlay::DeferredLayer>> retired;
   overlay::PlanChooser chooser;
-  int plan = 0;
+  int plan = -1;  ///< -1: the last draw was not `auto`'s
 };
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
@@ -366,7 +366,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   // and, with `auto`, fit a quarter of the GPU budget when the chooser takes the lookup.
   std::vector<const overlay::DeferredLayer*> indexed(n, nullptr);
   std::size_t lookedUp = n;
-  int plan = 0;
+  gpu_->plan = -1;  // not `auto`: its chooser takes no measurement of this frame
   if (settings.technique != GlobeTechnique::StencilTiles && deferredPass() != nullptr) {
     std::erase_if(gpu_->retired, [](std::future<overlay::DeferredLayer>& f) {
       return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
@@ -391,12 +391,10 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     for (std::size_t i = areas; i < n; ++i) stats_.deferredPending += indexed[i] == nullptr ? 1U : 0U;
     if (settings.technique == GlobeTechnique::Auto) {
       const bool fits = bytes <= settings.gpuBudgetBytes / 4;
-      plan = gpu_->chooser.choose(lookedUp < n && fits);
+      const int plan = gpu_->chooser.choose(lookedUp < n && fits);
       if (plan == 0) lookedUp = n;
       gpu_->plan = plan;
       if (!settings.measure) gpu_->chooser.begin(plan);
-    } else {
-      plan = lookedUp < n ? 1 : 0;
     }
   }
   std::vector<const GlobeLayer*> pieced(drawn.begin(), drawn.begin() + static_cast<std::ptrdiff_t>(lookedUp));
@@ -428,7 +426,9 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   if (settings.technique == GlobeTechnique::Auto && !settings.measure && deferredPass() != nullptr) gpu_->chooser.end();
 }
 
-void GlobeOverlayRenderer::measured(double milliseconds) { gpu_->chooser.record(gpu_->plan, milliseconds); }
+void GlobeOverlayRenderer::measured(double milliseconds) {
+  if (gpu_->plan >= 0) gpu_->chooser.record(gpu_->plan, milliseconds);
+}
 
 overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() { return madeOnFirstUse(gpu_->pass, gpu_->passFailed); }
 
