@@ -1,7 +1,8 @@
 // Fuzzes the readers of the vector caches (docs/cache.md): a layer as read
 // (scene::detail::readLayerCache, then geo::FeatureFile::read of every feature), a built tile
 // (overlay::detail::tileBytes and readTile, lean and whole, and the lean section alone through
-// LayerGeometry::readLean in memory) and a deferred layer's checks
+// LayerGeometry::readLean in memory; the same file as a tile of world pieces, readWorldTile, as
+// the globe reads its tiles) and a deferred layer's checks
 // (readChecks, reached through LayerGeometry::build with deferPieces and a checkCacheDirectory).
 //
 // Random bytes almost never match a section's XXH3 digest, so most inputs are WRAPPED: the input
@@ -96,7 +97,7 @@ constexpr std::string_view kSeparator = "|SECT|";
 constexpr std::uint32_t kLayerMagic = 0x4c564753;  // scene/src/layer_cache.cpp
 constexpr std::uint32_t kLayerVersion = 4;
 constexpr std::uint32_t kTileMagic = 0x54564753;  // vector_overlay/src/tile_cache.cpp
-constexpr std::uint32_t kTileVersion = 4;
+constexpr std::uint32_t kTileVersion = 5;
 constexpr std::uint32_t kChecksMagic = 0x4B484353;  // vector_overlay/src/layer_geometry.cpp
 constexpr std::uint64_t kLayerKey = 0x5eed1a7e5eed1a7eULL;
 constexpr std::uint64_t kFingerprint = 0x7115eed7115eedULL;
@@ -558,6 +559,56 @@ bool checkTile(const Fixture& fx, const fs::path& file, bool lean, bool strict) 
   return true;
 }
 
+/// The colour groups a tile of world pieces is read with (the seed's: two).
+const std::vector<glm::vec4>& worldGroupColours() {
+  static const std::vector<glm::vec4> colours{{1.0F, 0.0F, 0.0F, 1.0F}, {0.0F, 0.5F, 1.0F, 0.5F}};
+  return colours;
+}
+
+/// The file read as a tile of world pieces (the globe's, overlay::detail::readWorldTile): refused
+/// and named damaged, or read with its arrays left in the file, every index checked there within
+/// its slot's vertices, a normal per vertex (a scaling per vertex for lines in pixels, none
+/// else), its slots' origins and groups its own, its boxes ordered. Whether it was read.
+bool checkWorldTile(const fs::path& file) {
+  std::string damage;
+  const std::optional<LayerTile> tile =
+      gis::overlay::detail::readWorldTile(file, kFingerprint, kTileKey, "world", worldGroupColours(), &damage);
+  if (!tile) {
+    say("world tile refused: " + damage);
+    require(!damage.empty() || !fs::exists(file), "a world tile file that is there and refused is named damaged");
+    return false;
+  }
+  const LayerGeometry& g = tile->geometry;
+  require(g.alongNormals() && g.arraysInFile() != nullptr, "world tile: world pieces, arrays left in the file");
+  const gis::overlay::ArraysInFile& arrays = *g.arraysInFile();
+  require(arrays.normalsCount == arrays.vertexCount, "world tile: a normal per vertex");
+  require(arrays.scalingCount == (g.widthPixels() > 0.0 ? arrays.vertexCount : 0U),
+          "world tile: a scaling per vertex for lines in pixels, none else");
+  std::vector<std::uint32_t> indices(arrays.indexCount);
+  require(arrays.read(arrays.indicesAt, indices.size() * sizeof(std::uint32_t),
+                      [&](const void* data, std::uint64_t offset, std::uint64_t n) {
+                        std::memcpy(reinterpret_cast<char*>(indices.data()) + offset, data,
+                                    static_cast<std::size_t>(n));
+                      }),
+          "world tile: its indices can be read");
+  for (std::size_t k = 0; k < g.slots().size(); ++k) {
+    const LayerGeometry::PieceSlot& s = g.slots()[k];
+    require(s.origin < g.worldOrigins().size() && s.feature < worldGroupColours().size(),
+            "world tile: a slot's origin and group are its own");
+    require(std::uint64_t{s.firstIndex} + s.indexCount <= indices.size() && s.bottomCount <= s.indexCount,
+            "world tile: a slot's indices are in the array");
+    for (std::uint32_t i = s.firstIndex; i < s.firstIndex + s.indexCount; ++i)
+      require(std::uint64_t{s.baseVertex} + indices[i] < arrays.vertexCount, "world tile: an index names a vertex");
+    const gis::overlay::Polyhedron& p = g.polyhedra()[k];
+    require(p.lo <= p.hi && p.boxMin.x <= p.boxMax.x && p.boxMin.y <= p.boxMax.y, "world tile: boxes ordered");
+  }
+  (void)g.box3();
+  (void)g.maxOverlap();
+  (void)g.uniformColor();
+  say("world tile read: " + std::to_string(g.slots().size()) + " pieces");
+  return true;
+}
+
 /// A lean section read as a layer in memory (LayerGeometry::readLean without a file: its arrays
 /// read and checked whole), as readTile reads its feature index first.
 /// Whether it was read.
@@ -620,6 +671,8 @@ void runTile(const Fixture& fx, const Input& in, bool givenHeader) {
   (void)gis::overlay::detail::tileBytes(file, kFingerprint, kTileKey);
   const bool lean = checkTile(fx, file, true, w.strictPieces);
   (void)checkTile(fx, file, false, w.strictPieces);
+  const bool asWorld = checkWorldTile(file);
+  require(!(lean && asWorld), "a tile is a plane's or world pieces, never both");
   // The same lean section read in memory: the same answer (the arrays checked whole there,
   // slice by slice from the file). A wrapped file as made, with its header, is read as a lean
   // tile exactly when its section is read alone.
@@ -646,6 +699,7 @@ void runRaw(const Fixture& fx, const Input& in) {
   writeRaw(tile, in.rest);
   checkTile(fx, tile, true, w.strictPieces);
   checkTile(fx, tile, false, w.strictPieces);
+  checkWorldTile(tile);
   writeRaw(fx.checksFile, in.rest);
   checkChecks(fx);
 }
@@ -742,6 +796,42 @@ void writeSeeds(const fs::path& folder) {
     const std::vector<std::string> checks = sectionsOf(fx.checksFile);
     writeSeed(folder, std::string("checks_") + names[k], static_cast<std::uint8_t>(2U | (k << 2U)),
               {checks[0].substr(checksHeader(fx).size())});
+  }
+  // A tile of world pieces (the globe's): two pieces in two colour groups, lines in pixels.
+  {
+    using Vertex = LayerGeometry::Vertex;
+    std::vector<Vertex> vertices;
+    std::vector<glm::vec4> normals, scaling;
+    std::vector<std::uint32_t> indices;
+    std::vector<LayerGeometry::WorldPiece> pieces;
+    for (std::uint32_t p = 0; p < 2; ++p) {
+      const auto base = static_cast<std::uint32_t>(vertices.size());
+      for (std::uint32_t k = 0; k < 6; ++k) {
+        const float side = (k % 2U) == 0 ? -1.0F : 1.0F;
+        vertices.push_back(Vertex{static_cast<float>(100U * p + 10U * (k / 2U)),
+                                  static_cast<float>(k),
+                                  5.0F * side,
+                                  side,
+                                  {0U, 0U, 0U, 255U}});
+        normals.emplace_back(0.0F, 0.0F, 1.0F, 0.0F);
+        scaling.emplace_back(1.0F, 0.0F, 0.0F, 2.0F);
+      }
+      const auto first = static_cast<std::uint32_t>(indices.size());
+      for (const std::uint32_t i : {0U, 2U, 4U, 1U, 5U, 3U, 0U, 1U, 2U}) indices.push_back(base + i);
+      pieces.push_back({first, 3, 9, glm::dvec3(100.0 * p, 0.0, -5.0), glm::dvec3(100.0 * p + 20.0, 5.0, 5.0), p});
+    }
+    LayerGeometry::WorldLines lines{scaling, 3.0, 64.0};
+    const LayerTile tile{kTileKey,
+                         LayerGeometry::ofWorldPieces("world", glm::dvec3(6378137.0, 0.0, 0.0), vertices, normals,
+                                                      indices, pieces, worldGroupColours(), lines),
+                         {},
+                         kGroundError,
+                         false};
+    const fs::path file = scratch / "world.tile";
+    require(gis::overlay::detail::writeTile(file, kFingerprint, tile), "a seed world tile is written");
+    require(checkWorldTile(file), "the seed world tile reads back");
+    s = sectionsOf(file);
+    writeSeed(folder, "tile_world", 1U, {s[1], s[2]});
   }
 }
 

@@ -112,12 +112,34 @@ struct LineJoins {
 bool inPointShape(const PointShape& shape, const glm::dvec3& centre, const glm::dvec3& normal, double halfWidth,
                   const glm::dvec3& point);
 
-/// The tile cache on disk (GlobeOverlaySettings::cacheDir, globe_tile_cache.cpp): a tile's file
-/// under `dir`, for the layer and grid `key`; writing it whole or not at all; reading it back,
-/// none when it is missing or (`damaged`) not whole and sound.
-std::filesystem::path tileCachePath(const std::string& dir, std::uint64_t key, const TileKey& tile, int widthClass);
-bool writeTilePieces(const std::filesystem::path& file, const TilePieces& pieces);
-std::optional<TilePieces> readTilePieces(const std::filesystem::path& file, bool& damaged);
+/// A vertex of a piece as the builder makes it: its position relative to its tile's origin
+/// (TilePieces::origin) and its side, and the surface normal the caps are padded along.
+struct PieceVertex {
+  glm::vec4 position{0.0F};  ///< x, y, z − TilePieces::origin (ECEF metres); w: −1 bottom, +1 top, 0 none
+  glm::vec4 normal{0.0F};    ///< w: a line in pixels' anchor lies this far along it
+};
+static_assert(sizeof(PieceVertex) == 32);
+
+/// The pieces of one layer over one tile as the builder makes them (buildTilePieces makes them a
+/// LayerGeometry of world pieces).
+struct TilePieces {
+  struct Piece {
+    std::uint32_t firstIndex = 0;
+    std::uint32_t bottomCount = 0;      ///< bottom cap's indices, first
+    std::uint32_t indexCount = 0;       ///< all: bottom cap, walls, top cap
+    glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
+    double lo = 0.0, hi = 0.0;          ///< heights of its caps
+    std::uint32_t group = 0;            ///< its polygon's colour (its vertices' colour when drawn)
+  };
+  glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)
+  std::vector<PieceVertex> vertices;
+  /// Lines in pixels, per vertex when any piece is one: direction (ECEF) and least half width
+  /// (LayerGeometry::WorldLines); the pieces are built at maxHalfWidth.
+  std::vector<glm::vec4> scaling;
+  double maxHalfWidth = 0.0;
+  std::vector<std::uint32_t> indices;
+  std::vector<Piece> pieces;
+};
 
 /// Appends to `out` the pieces of the layer's lines that width class `widthClass` draws in
 /// pixels over tile `key` (globe_pixel_lines.cpp).

@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <filesystem>
 #include <future>
 #include <optional>
 #include <thread>
@@ -28,57 +30,29 @@ namespace gis::globe {
 
 namespace {
 
-/// A tile's pieces as world pieces of the overlay pipeline: each vertex coloured with its piece's
-/// group colour.
-overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces) {
-  using Vertex = overlay::LayerGeometry::Vertex;
-  std::vector<Vertex> vertices(pieces.vertices.size());
-  std::vector<glm::vec4> normals(pieces.vertices.size());
-  for (std::size_t i = 0; i < pieces.vertices.size(); ++i) {
-    const glm::vec4& p = pieces.vertices[i].position;
-    vertices[i] = Vertex{p.x, p.y, p.z, p.w, {0, 0, 0, 255}};
-    normals[i] = pieces.vertices[i].normal;
-  }
-  const std::vector<glm::vec4>& colours = layer.colors();
-  std::vector<overlay::LayerGeometry::WorldPiece> world;
-  world.reserve(pieces.pieces.size());
-  bool uniform = true;
-  for (const TilePieces::Piece& p : pieces.pieces) {
-    const glm::vec4 c = p.group < colours.size() ? colours[p.group] : layer.color();
-    uniform = uniform && c == (colours.empty() ? layer.color() : colours.front());
-    const std::array<std::uint8_t, 4> rgba = overlay::rgba8(c);
-    for (std::uint32_t k = p.firstIndex; k < p.firstIndex + p.indexCount; ++k)
-      std::copy(rgba.begin(), rgba.end(), vertices[pieces.indices[k]].rgba);
-    world.push_back({p.firstIndex, p.bottomCount, p.indexCount, p.boxLo, p.boxHi});
-  }
-  const std::optional<glm::vec4> uniformColour =
-      uniform ? std::optional<glm::vec4>(colours.empty() ? layer.color() : colours.front()) : std::nullopt;
-  overlay::LayerGeometry::WorldLines lines;
-  if (!pieces.scaling.empty()) {
-    lines.scaling = std::move(pieces.scaling);
-    lines.widthPixels = layer.lineWidthPixels();
-    lines.maxWidth = 2.0 * pieces.maxHalfWidth;
-  }
-  return overlay::LayerGeometry::ofWorldPieces(layer.name(), overlay::LayerKind::Polygon, pieces.origin,
-                                               std::move(vertices), std::move(normals), std::move(pieces.indices),
-                                               world, uniformColour, std::move(lines));
-}
-
 /// A globe layer's tiles as the residency asks for them: the drawn terrain tiles of the frame
 /// (setFrame), each at the width class its lines in pixels need from the view, or their
 /// ancestors where the GPU budget asks for coarser detail; built by buildTilePieces, or read
 /// from (and written to) the disk cache.
 class GlobeTiling final : public overlay::TileSource {
  public:
-  GlobeTiling(const GlobeLayer& layer, const GeoGrid& heights, std::string cacheDir,
+  GlobeTiling(const GlobeLayer& layer, const GeoGrid& heights, const std::string& cacheDir,
               std::optional<std::uint64_t> cacheKey)
-      : layer_(&layer), heights_(&heights), cacheDir_(std::move(cacheDir)), cacheKey_(cacheKey) {
-    if (cacheKey_) folder_ = detail::tileCachePath(cacheDir_, *cacheKey_, TileKey{}, 0).parent_path().string();
-  }
+      : layer_(&layer),
+        heights_(&heights),
+        cacheDir_(cacheDir),
+        cacheKey_(cacheKey),
+        cache_(cacheKey ? folderOf(cacheDir, *cacheKey) : std::string(), cacheKey.value_or(0)) {}
   /// Whether it was made for this layer object, grid and cache.
   [[nodiscard]] bool madeFor(const GlobeLayer& layer, const GeoGrid& heights, const std::string& cacheDir,
                              std::optional<std::uint64_t> cacheKey) const {
     return layer_ == &layer && heights_ == &heights && cacheDir_ == cacheDir && cacheKey_ == cacheKey;
+  }
+  /// The folder of a layer's tiles (by its cache key) in the scene's cache.
+  static std::string folderOf(const std::string& cacheDir, std::uint64_t cacheKey) {
+    char folder[17];
+    std::snprintf(folder, sizeof(folder), "%016llx", static_cast<unsigned long long>(cacheKey));
+    return (std::filesystem::path(cacheDir) / "globe-tiles" / folder).string();
   }
 
   /// The frame's drawn terrain tiles, and the view their lines in pixels are seen from.
@@ -112,37 +86,20 @@ class GlobeTiling final : public overlay::TileSource {
   /// within half of one) follows the terrain's posts.
   [[nodiscard]] double errorPixels() const override { return 0.5; }
   [[nodiscard]] int finestLevel() const override { return kMaxLevel; }
+  /// Tile `key` from the disk cache of both frames (overlay::WorldTileCache), else built.
   [[nodiscard]] Result<overlay::LayerTile> build(const overlay::TileKey& key, const std::atomic<bool>* cancel,
                                                  bool lean) const override {
     (void)cancel;
-    (void)lean;
+    (void)lean;  // world pieces are lean as built
     const TileKey tile{key.level, key.x, key.y};
-    Result<overlay::LayerTile> out;
-    std::optional<TilePieces> pieces;
-    std::filesystem::path file;
-    if (cacheKey_) {
-      file = detail::tileCachePath(cacheDir_, *cacheKey_, tile, key.width);
-      bool damaged = false;
-      pieces = detail::readTilePieces(file, damaged);
-      if (damaged) {
-        ++repaired_;
-        out.diagnostics.add({Severity::Warning, file.string(), layer_->name(), "",
-                             "cache file damaged (not whole, or not a tile); built again"});
-      }
-    }
-    const bool fromDisk = pieces.has_value();
-    if (!pieces) {
-      pieces = buildTilePieces(*layer_, tile, *heights_, key.width);
-      if (cacheKey_ && detail::writeTilePieces(file, *pieces)) ++written_;
-    }
-    out.value = overlay::LayerTile{key, worldPiecesOf(*layer_, std::move(*pieces)), {}, 0.0, fromDisk};
-    return out;
+    const std::vector<glm::vec4> fallback{layer_->color()};
+    return cache_.fetch(key, layer_->name(), layer_->colors().empty() ? fallback : layer_->colors(),
+                        [&] { return buildTilePieces(*layer_, tile, *heights_, key.width); });
   }
   [[nodiscard]] std::optional<std::size_t> cachedBytes(const overlay::TileKey& key) const override {
-    (void)key;
-    return std::nullopt;
+    return cache_.cachedBytes(key);
   }
-  [[nodiscard]] const std::string& cacheFolder() const override { return folder_; }
+  [[nodiscard]] const std::string& cacheFolder() const override { return cache_.folder(); }
   [[nodiscard]] std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const overlay::TileKey& key) const override {
     (void)key;
     return std::nullopt;
@@ -150,8 +107,8 @@ class GlobeTiling final : public overlay::TileSource {
   [[nodiscard]] bool worldPieces() const override { return true; }
 
   /// Tiles written to the disk cache, and found damaged there, so far.
-  [[nodiscard]] std::size_t written() const { return written_; }
-  [[nodiscard]] std::size_t repaired() const { return repaired_; }
+  [[nodiscard]] std::size_t written() const { return cache_.written(); }
+  [[nodiscard]] std::size_t repaired() const { return cache_.damaged(); }
 
  private:
   [[nodiscard]] overlay::TileKey keyOf(const TileKey& t) const {
@@ -161,10 +118,9 @@ class GlobeTiling final : public overlay::TileSource {
   const GeoGrid* heights_;
   std::string cacheDir_;
   std::optional<std::uint64_t> cacheKey_;
-  std::string folder_;
+  overlay::WorldTileCache cache_;
   overlay::PixelScale scale_;
   std::vector<overlay::TileKey> keys_;
-  mutable std::atomic<std::size_t> written_{0}, repaired_{0};
 };
 
 /// A GL object made on first use (T::create); null, and not tried again, if it cannot be made (its
@@ -283,7 +239,8 @@ std::vector<std::vector<const overlay::OverlayLayer*>> GlobeOverlayRenderer::til
   for (const GlobeLayer* layer : layers) {
     std::optional<std::uint64_t> cacheKey;
     if (!settings.cacheDir.empty() && gpu_->gridDigest)
-      cacheKey = layer->fingerprint() ^ (*gpu_->gridDigest * 0x9E3779B97F4A7C15ULL);
+      cacheKey = layer->fingerprint() ^ (*gpu_->gridDigest * 0x9E3779B97F4A7C15ULL) ^
+                 (overlay::coloursFingerprint(layer->colors()) * 0xC2B2AE3D27D4EB4FULL);
     std::unique_ptr<GlobeTiling>& made = gpu_->tilings[layer->serial()];
     if (made && !made->madeFor(*layer, heights, settings.cacheDir, cacheKey)) {
       residency.forget(made.get());

@@ -19,6 +19,8 @@ namespace {
 
 using Pt = glm::dvec2;
 using Ring = std::vector<Pt>;
+using detail::PieceVertex;
+using detail::TilePieces;
 
 /// Cells a side a tile's pieces are cut into, and the spacing (in posts) of the points added
 /// inside caps (every post on levels 0–3, whose posts are far apart).
@@ -355,9 +357,36 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   out.pieces.push_back(piece);
 }
 
+/// A tile's pieces as world pieces of the overlay pipeline, in its layer's colour groups.
+overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces) {
+  using Vertex = overlay::LayerGeometry::Vertex;
+  std::vector<Vertex> vertices(pieces.vertices.size());
+  std::vector<glm::vec4> normals(pieces.vertices.size());
+  for (std::size_t i = 0; i < pieces.vertices.size(); ++i) {
+    const glm::vec4& p = pieces.vertices[i].position;
+    vertices[i] = Vertex{p.x, p.y, p.z, p.w, {0, 0, 0, 255}};
+    normals[i] = pieces.vertices[i].normal;
+  }
+  std::vector<overlay::LayerGeometry::WorldPiece> world;
+  world.reserve(pieces.pieces.size());
+  for (const TilePieces::Piece& p : pieces.pieces)
+    world.push_back({p.firstIndex, p.bottomCount, p.indexCount, p.boxLo, p.boxHi, p.group});
+  overlay::LayerGeometry::WorldLines lines;
+  if (!pieces.scaling.empty()) {
+    lines.scaling = std::move(pieces.scaling);
+    lines.widthPixels = layer.lineWidthPixels();
+    lines.maxWidth = 2.0 * pieces.maxHalfWidth;
+  }
+  const std::vector<glm::vec4> fallback{layer.color()};
+  return overlay::LayerGeometry::ofWorldPieces(layer.name(), pieces.origin, std::move(vertices), std::move(normals),
+                                               std::move(pieces.indices), world,
+                                               layer.colors().empty() ? fallback : layer.colors(), std::move(lines));
+}
+
 }  // namespace
 
-TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass) {
+overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                                       int widthClass) {
   TilePieces out;
   const LonLatRect rect = key.rect();
   out.origin = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
@@ -433,7 +462,7 @@ TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const Ge
   }
   detail::addScalableLines(out, layer, key, heights, widthClass);
   if (!out.scaling.empty()) out.scaling.resize(out.vertices.size(), glm::vec4(0.0F));
-  return out;
+  return worldPiecesOf(layer, std::move(out));
 }
 
 }  // namespace gis::globe

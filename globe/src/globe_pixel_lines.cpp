@@ -29,6 +29,9 @@ namespace gis::globe {
 
 namespace {
 
+using detail::PieceVertex;
+using detail::TilePieces;
+
 constexpr double kDegree = 3.14159265358979323846 / 180.0;
 
 /// Degrees of latitude and longitude (at the box's highest latitude) that `metres` at least spans.

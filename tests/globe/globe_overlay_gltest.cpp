@@ -548,10 +548,10 @@ TEST_F(GlobeOverlayGl, OneFeatureEditedRebuildsOnlyTheTilesItReaches) {
   EXPECT_EQ(area->fingerprint(), freshArea->fingerprint());
   EXPECT_EQ(line->fingerprint(), freshLine->fingerprint());
   const TileKey europeTile{4, 17, 8};
-  const TilePieces edited = buildTilePieces(*area, europeTile, *grid()),
-                   fresh = buildTilePieces(*freshArea, europeTile, *grid());
-  EXPECT_EQ(edited.indices, fresh.indices);
-  EXPECT_EQ(edited.vertices.size(), fresh.vertices.size());
+  const overlay::LayerGeometry edited = buildTilePieces(*area, europeTile, *grid()),
+                               fresh = buildTilePieces(*freshArea, europeTile, *grid());
+  EXPECT_EQ(edited.indices(), fresh.indices());
+  EXPECT_EQ(edited.vertices().size(), fresh.vertices().size());
 
   // Over South America only the tiles the bent route reaches are built again.
   const Outcome far = drawAndCompare(america, layers, "edit: South America after", &overlay);

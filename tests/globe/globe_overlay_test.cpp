@@ -176,12 +176,16 @@ TEST(GlobePolygons, EdgesFollowGeodesics) {
 
 /// Whether a point lies inside any of the pieces (closed triangle meshes): parity of the
 /// crossings of a ray with each.
-bool insideMesh(const TilePieces& t, const glm::dvec3& point, const glm::dvec3& dir) {
-  const auto at = [&](std::uint32_t i) { return t.origin + glm::dvec3(glm::vec3(t.vertices[i].position)); };
-  for (const TilePieces::Piece& p : t.pieces) {
+bool insideMesh(const overlay::LayerGeometry& t, const glm::dvec3& point, const glm::dvec3& dir) {
+  const auto at = [&](std::uint32_t i) {
+    const overlay::LayerGeometry::Vertex& v = t.vertices()[i];
+    return t.worldOrigins().at(0) + glm::dvec3(glm::vec3(v.x, v.y, v.height));
+  };
+  for (const overlay::LayerGeometry::PieceSlot& p : t.slots()) {
     int crossings = 0;
     for (std::uint32_t k = p.firstIndex; k + 2 < p.firstIndex + p.indexCount; k += 3) {
-      const glm::dvec3 a = at(t.indices[k]), b = at(t.indices[k + 1]), c = at(t.indices[k + 2]);
+      const glm::dvec3 a = at(p.baseVertex + t.indices()[k]), b = at(p.baseVertex + t.indices()[k + 1]),
+                       c = at(p.baseVertex + t.indices()[k + 2]);
       // Möller–Trumbore.
       const glm::dvec3 e1 = b - a, e2 = c - a, pv = glm::cross(dir, e2);
       const double det = glm::dot(e1, pv);
@@ -203,13 +207,15 @@ bool insideMesh(const TilePieces& t, const glm::dvec3& point, const glm::dvec3& 
 /// surface, so every ray crosses it in and out alike (what the stencil count needs). A united
 /// line's piece may touch itself at a vertex (two shapes meeting at a corner), where its
 /// boundary passes twice: such an edge along the vertex's column is used twice each way.
-void expectClosed(const TilePieces& t, const std::string& label) {
-  for (const TilePieces::Piece& p : t.pieces) {
+void expectClosed(const overlay::LayerGeometry& t, const std::string& label) {
+  ASSERT_TRUE(t.alongNormals()) << label << ": world pieces";
+  ASSERT_EQ(t.normals().size(), t.vertices().size()) << label;
+  for (const overlay::LayerGeometry::PieceSlot& p : t.slots()) {
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
     for (std::uint32_t k = p.firstIndex; k < p.firstIndex + p.indexCount; k += 3) {
       for (int e = 0; e < 3; ++e) {
-        const std::uint32_t a = t.indices[k + static_cast<std::uint32_t>(e)];
-        const std::uint32_t b = t.indices[k + static_cast<std::uint32_t>((e + 1) % 3)];
+        const std::uint32_t a = t.indices()[k + static_cast<std::uint32_t>(e)];
+        const std::uint32_t b = t.indices()[k + static_cast<std::uint32_t>((e + 1) % 3)];
         ++edges[{a, b}];
       }
     }
@@ -234,7 +240,7 @@ void expectPiecesHoldTheGround(const GlobeLayer& layer, const GeoGrid& grid,
       const double size = 180.0 / (1 << level);
       TileKey key{level, static_cast<int>(std::floor((lon + 180.0) / size)),
                   static_cast<int>(std::floor((lat + 90.0) / size))};
-      const TilePieces pieces = buildTilePieces(layer, key, grid);
+      const overlay::LayerGeometry pieces = buildTilePieces(layer, key, grid);
       const std::string label =
           layer.name() + " tile " + std::to_string(level) + "/" + std::to_string(key.x) + "/" + std::to_string(key.y);
       expectClosed(pieces, label);
@@ -391,11 +397,11 @@ TEST(GlobePieces, ADenseNetworkIsUnitedPerCellAndHoldsItsGround) {
     const double tile = 180.0 / (1 << level);
     const TileKey key{level, static_cast<int>(std::floor((places[0].first + 180.0) / tile)),
                       static_cast<int>(std::floor((places[0].second + 90.0) / tile))};
-    const TilePieces pieces = buildTilePieces(*layer, key, *grid);
-    std::printf("level %d: %zu pieces for %zu lines, %zu triangles\n", level, pieces.pieces.size(), shapes,
-                pieces.indices.size() / 3);
-    EXPECT_GT(pieces.pieces.size(), 0u);
-    EXPECT_LE(pieces.pieces.size(), 2u * 4u) << "a piece per colour and cell";
+    const overlay::LayerGeometry pieces = buildTilePieces(*layer, key, *grid);
+    std::printf("level %d: %zu pieces for %zu lines, %zu triangles\n", level, pieces.slots().size(), shapes,
+                pieces.indices().size() / 3);
+    EXPECT_GT(pieces.slots().size(), 0u);
+    EXPECT_LE(pieces.slots().size(), 2u * 4u) << "a piece per colour and cell";
   }
   places.resize(24);
   std::size_t checked = 0, insideCount = 0;

@@ -355,6 +355,105 @@ TEST(LayerGeometry, ALeanCopyReadsBackAsReleasedAndDamagedOnesAreRefused) {
   std::filesystem::remove(file);
 }
 
+TEST(LayerGeometry, WorldPiecesReadBackLeanWithTheirNormalsGroupsAndWidths) {
+  // Two pieces of world pieces (another frame's: ECEF about an origin), in two colour groups,
+  // as lines in pixels: a normal and a scaling per vertex.
+  using Vertex = LayerGeometry::Vertex;
+  std::vector<Vertex> vertices;
+  std::vector<glm::vec4> normals, scaling;
+  std::vector<std::uint32_t> indices;
+  std::vector<LayerGeometry::WorldPiece> pieces;
+  for (std::uint32_t p = 0; p < 2; ++p) {
+    const auto base = static_cast<std::uint32_t>(vertices.size());
+    for (int k = 0; k < 6; ++k) {
+      const auto x = static_cast<float>(100U * p + 10U * static_cast<std::uint32_t>(k / 2)),
+                 side = (k % 2) == 0 ? -1.0F : 1.0F;
+      vertices.push_back(Vertex{x, static_cast<float>(k), side * 5.0F, side, {0, 0, 0, 255}});
+      normals.emplace_back(0.0F, 0.0F, 1.0F, 0.0F);
+      scaling.emplace_back(1.0F, 0.0F, 0.0F, 2.0F);
+    }
+    const auto first = static_cast<std::uint32_t>(indices.size());
+    for (const std::uint32_t i : {0U, 2U, 4U, 1U, 5U, 3U, 0U, 1U, 2U}) indices.push_back(base + i);
+    pieces.push_back({first, 3, 9, glm::dvec3(100.0 * p, 0.0, -5.0), glm::dvec3(100.0 * p + 20.0, 5.0, 5.0), p});
+  }
+  const std::vector<glm::vec4> colours{{1.0F, 0.0F, 0.0F, 1.0F}, {0.0F, 0.0F, 1.0F, 0.5F}};
+  LayerGeometry::WorldLines lines;
+  lines.scaling = scaling;
+  lines.widthPixels = 3.0;
+  lines.maxWidth = 64.0;
+  const glm::dvec3 origin(6378137.0, 10.0, -20.0);
+  const LayerGeometry built =
+      LayerGeometry::ofWorldPieces("routes", origin, vertices, normals, indices, pieces, colours, lines);
+  EXPECT_EQ(built.kind(), LayerKind::Line);
+  EXPECT_FALSE(built.uniformColor().has_value()) << "two colours";
+  // What a frame keys such tiles by: nothing for one colour, the colours where they differ.
+  EXPECT_EQ(coloursFingerprint(std::vector<glm::vec4>{colours[0], colours[0]}), 0U);
+  EXPECT_NE(coloursFingerprint(colours), 0U);
+  EXPECT_NE(coloursFingerprint(colours), coloursFingerprint(std::vector<glm::vec4>{colours[1], colours[0]}));
+  EXPECT_EQ(built.vertices()[0].rgba[0], 255);
+  EXPECT_EQ(built.vertices()[6].rgba[2], 255);
+  EXPECT_EQ(built.vertices()[6].rgba[3], 128);
+  std::ostringstream out;
+  {
+    geo::io::Writer w(out);
+    built.writeLean(w);
+  }
+  const std::string bytes = out.str();
+  std::vector<FeatureStyle> styles(2);
+  styles[0].color = colours[0];
+  styles[1].color = colours[1];
+  const auto read = [&](const std::string& data, std::vector<FeatureStyle> as) {
+    std::istringstream in(data);
+    geo::io::Reader r(in);
+    return LayerGeometry::readWorldLean(r, "routes", std::move(as));
+  };
+  const std::optional<LayerGeometry> lean = read(bytes, styles);
+  ASSERT_TRUE(lean.has_value());
+  EXPECT_TRUE(lean->alongNormals());
+  EXPECT_EQ(lean->worldOrigins(), built.worldOrigins());
+  EXPECT_EQ(lean->kind(), LayerKind::Line);
+  EXPECT_EQ(lean->widthPixels(), 3.0);
+  EXPECT_EQ(lean->style().maxWidthMetres, 64.0);
+  EXPECT_TRUE(sameArrays(*lean, built));
+  EXPECT_EQ(lean->normals(), built.normals());
+  EXPECT_EQ(lean->scaling(), built.scaling());
+  EXPECT_EQ(lean->box3(), built.box3());
+  EXPECT_EQ(lean->featureOutcomes(), built.featureOutcomes());
+  // One colour for both groups: drawn with it as a uniform (the colour is the reader's).
+  const std::optional<LayerGeometry> oneColour = read(bytes, {styles[1], styles[1]});
+  ASSERT_TRUE(oneColour.has_value());
+  ASSERT_TRUE(oneColour->uniformColor().has_value());
+  EXPECT_NEAR(oneColour->uniformColor()->w, 0.5F, 1.0F / 255.0F);
+  // Not a plane's layer, nor the other way round; another number of groups; cut short: refused.
+  {
+    std::istringstream in(bytes);
+    geo::io::Reader r(in);
+    const WavyBounds bounds;
+    EXPECT_FALSE(LayerGeometry::readLean(r, "routes", LayerKind::Line, {}, styles, bounds, {}).has_value());
+  }
+  EXPECT_FALSE(read(bytes, {styles[0]}).has_value());
+  for (std::size_t n = 0; n < bytes.size(); n += 1 + bytes.size() / 301)
+    EXPECT_FALSE(read(bytes.substr(0, n), styles).has_value()) << "cut at " << n;
+  // Bytes changed at random: refused, or every index and origin within its arrays.
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<std::size_t> at(0, bytes.size() - 1);
+  std::uniform_int_distribution<int> value(0, 255);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::string damaged = bytes;
+    for (int k = 0; k < 1 + trial % 4; ++k) damaged[at(rng)] = static_cast<char>(value(rng));
+    const std::optional<LayerGeometry> g = read(damaged, styles);
+    if (!g) continue;
+    ASSERT_EQ(g->normals().size(), g->vertices().size());
+    for (const LayerGeometry::PieceSlot& s : g->slots()) {
+      ASSERT_LE(std::uint64_t{s.firstIndex} + s.indexCount, g->indices().size());
+      for (std::uint32_t i = s.firstIndex; i < s.firstIndex + s.indexCount; ++i)
+        ASSERT_LT(std::uint64_t{s.baseVertex} + g->indices()[i], g->vertices().size());
+      ASSERT_LT(s.origin, g->worldOrigins().size());
+      ASSERT_LT(s.feature, 2U);
+    }
+  }
+}
+
 TEST(LayerGeometry, TileFoldersNoLayerOpensAnyMoreLeaveOldestFirst) {
   // A cache folder with the tiles of three older versions of a layer (other features, terrain
   // or code) beside this one's: opened an hour, a day and 40 days ago, and one opened a moment

@@ -559,6 +559,16 @@ void addFeatureColours(StableHasher& h, const std::vector<FeatureStyle>& styles)
 
 }  // namespace
 
+std::uint64_t coloursFingerprint(std::span<const glm::vec4> colours) {
+  std::vector<FeatureStyle> styles(colours.size());
+  for (std::size_t i = 0; i < colours.size(); ++i) styles[i].color = colours[i];
+  if (styles.empty()) return 0;
+  StableHasher h;
+  addFeatureColours(h, styles);
+  StableHasher none;
+  return h.value() == none.value() ? 0 : h.value();
+}
+
 std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind) {
   if (!features.onDisk()) return featuresFingerprint(features.all(), styles, kind);
@@ -631,9 +641,14 @@ void LayerGeometry::writeLean(geo::io::Writer& w) const {
   }
   w.array(pieces);
   w.array(origins_);
+  // World pieces (ofWorldPieces): their origins and their lines' widths in pixels; none else.
+  w.array(worldOrigins_);
+  w.value(alongNormals() ? style_.widthPixels : 0.0);
+  w.value(alongNormals() ? style_.maxWidthMetres : 0.0);
   w.array(vertices_);
   w.array(indices_);
   w.array(scaling_);
+  w.array(normals_);
   w.value(static_cast<std::uint64_t>(wastedIndices_));
   w.value(stats_);
 }
@@ -671,36 +686,80 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
   if (!r.array(fids) || fids.size() != styles.size()) return std::nullopt;
   std::vector<geo::Feature> bare(fids.size());
   for (std::size_t i = 0; i < fids.size(); ++i) bare[i].fid = fids[i];
-  LayerGeometry layer = empty(std::move(name), kind, style, std::move(bare), std::move(styles), bounds, options);
+  LayerGeometry layer = empty(std::move(name), kind, style, std::move(bare), std::move(styles), &bounds, options);
+  if (!readLeanInto(r, layer, false, std::move(arrays))) return std::nullopt;
+  return layer;
+}
+
+std::optional<LayerGeometry> LayerGeometry::readWorldLean(geo::io::Reader& r, std::string name,
+                                                          std::vector<FeatureStyle> groupStyles,
+                                                          std::shared_ptr<ArraysInFile> arrays) {
+  std::vector<std::int64_t> fids;
+  if (!r.array(fids) || fids.size() != groupStyles.size()) return std::nullopt;
+  std::vector<geo::Feature> bare(fids.size());
+  for (std::size_t i = 0; i < fids.size(); ++i) bare[i].fid = fids[i];
+  LayerGeometry layer =
+      empty(std::move(name), LayerKind::Polygon, {}, std::move(bare), std::move(groupStyles), nullptr, {});
+  if (!readLeanInto(r, layer, true, std::move(arrays))) return std::nullopt;
+  return layer;
+}
+
+bool LayerGeometry::readLeanInto(geo::io::Reader& r, LayerGeometry& layer, bool world,
+                                 std::shared_ptr<ArraysInFile> arrays) {
+  const std::size_t featureCount = layer.features_.size();
+  const LayerBuildOptions& options = layer.options_;
   std::vector<LeanPiece> pieces;
   std::uint64_t wasted = 0;
-  if (!r.array(layer.outcomes_) || layer.outcomes_.size() != fids.size()) return std::nullopt;
-  layer.featureSlots_.resize(fids.size());
+  if (!r.array(layer.outcomes_) || layer.outcomes_.size() != featureCount) return false;
+  layer.featureSlots_.resize(featureCount);
   for (std::vector<std::uint32_t>& f : layer.featureSlots_)
-    if (!r.array(f)) return std::nullopt;
-  if (!r.array(layer.slots_) || !r.array(pieces) || !r.array(layer.origins_)) return std::nullopt;
+    if (!r.array(f)) return false;
+  double worldWidthPixels = 0.0, worldMaxWidth = 0.0;
+  if (!r.array(layer.slots_) || !r.array(pieces) || !r.array(layer.origins_) || !r.array(layer.worldOrigins_) ||
+      !r.value(worldWidthPixels) || !r.value(worldMaxWidth))
+    return false;
+  // World pieces where the caller expects them, and only there: their origins, none of a plane's,
+  // and their lines' widths numbers a builder writes.
+  if (world != !layer.worldOrigins_.empty()) return false;
+  if (world) {
+    if (!layer.origins_.empty() || !std::isfinite(worldWidthPixels) || worldWidthPixels < 0.0 ||
+        !bounded(worldMaxWidth) || worldMaxWidth < 0.0)
+      return false;
+    for (const glm::dvec3& o : layer.worldOrigins_)
+      if (!bounded(o.x) || !bounded(o.y) || !bounded(o.z)) return false;
+    if (worldWidthPixels > 0.0) {
+      layer.kind_ = LayerKind::Line;
+      layer.style_.widthPixels = worldWidthPixels;
+      layer.style_.maxWidthMetres = worldMaxWidth;
+    }
+  }
   if (arrays) {
     if (!r.skipArray(arrays->vertexCount, sizeof(Vertex), arrays->verticesAt) ||
         !r.skipArray(arrays->indexCount, sizeof(std::uint32_t), arrays->indicesAt) ||
-        !r.skipArray(arrays->scalingCount, sizeof(glm::vec4), arrays->scalingAt))
-      return std::nullopt;
-  } else if (!r.array(layer.vertices_) || !r.array(layer.indices_) || !r.array(layer.scaling_)) {
-    return std::nullopt;
+        !r.skipArray(arrays->scalingCount, sizeof(glm::vec4), arrays->scalingAt) ||
+        !r.skipArray(arrays->normalsCount, sizeof(glm::vec4), arrays->normalsAt))
+      return false;
+  } else if (!r.array(layer.vertices_) || !r.array(layer.indices_) || !r.array(layer.scaling_) ||
+             !r.array(layer.normals_)) {
+    return false;
   }
-  if (!r.value(wasted) || !r.value(layer.stats_)) return std::nullopt;
+  if (!r.value(wasted) || !r.value(layer.stats_)) return false;
   // Nothing a damaged file holds may index out of bounds.
   const std::size_t slots = layer.slots_.size();
   const std::size_t vertices = arrays ? arrays->vertexCount : layer.vertices_.size();
   const std::size_t indexCount = arrays ? arrays->indexCount : layer.indices_.size();
   const std::size_t scalingCount = arrays ? arrays->scalingCount : layer.scaling_.size();
-  // Lines in pixels draw a scaling per vertex; other layers none (the upload copies what this
-  // says into a buffer the shader reads per vertex).
-  if (pieces.size() != slots || scalingCount != (layer.widthPixels() > 0.0 ? vertices : 0)) return std::nullopt;
-  for (std::size_t i = 0; i < fids.size(); ++i) {
-    if (static_cast<std::uint8_t>(layer.outcomes_[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden))
-      return std::nullopt;
+  const std::size_t normalsCount = arrays ? arrays->normalsCount : layer.normals_.size();
+  // Lines in pixels draw a scaling per vertex, world pieces a normal; other layers none (the
+  // upload copies what this says into buffers the shader reads per vertex).
+  if (pieces.size() != slots || scalingCount != (layer.widthPixels() > 0.0 ? vertices : 0) ||
+      normalsCount != (world ? vertices : 0))
+    return false;
+  const std::size_t originCount = world ? layer.worldOrigins_.size() : layer.origins_.size();
+  for (std::size_t i = 0; i < featureCount; ++i) {
+    if (static_cast<std::uint8_t>(layer.outcomes_[i]) > static_cast<std::uint8_t>(FeatureOutcome::Hidden)) return false;
     for (const std::uint32_t k : layer.featureSlots_[i])
-      if (k >= slots) return std::nullopt;
+      if (k >= slots) return false;
   }
   // A flag read as bytes is a bool only if it is 0 or 1 (looked at as a byte, never as a bool).
   layer.stats_.checksFromCache = false;
@@ -708,23 +767,23 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
     std::uint8_t live = 0;
     static_assert(sizeof(s.live) == 1);
     std::memcpy(&live, &s.live, 1);
-    if (live > 1) return std::nullopt;
+    if (live > 1) return false;
   }
   layer.polyhedra_.resize(slots);
   for (std::size_t k = 0; k < slots; ++k) {
     const PieceSlot& s = layer.slots_[k];
     const LeanPiece& q = pieces[k];
-    if (s.feature >= fids.size() || s.origin >= layer.origins_.size() || q.kind > 4) return std::nullopt;
+    if (s.feature >= featureCount || s.origin >= originCount || q.kind > 4) return false;
     // The bounds and box a draw culls and pads by, as validation asks them (validation.hpp:
     // finite, within ±1e15 m, ordered; fuzzing found a lo of -3e305 read as it was).
     if (!bounded(q.lo) || !bounded(q.hi) || q.lo > q.hi || !bounded(q.boxMin.x) || !bounded(q.boxMin.y) ||
         !bounded(q.boxMax.x) || !bounded(q.boxMax.y) || q.boxMin.x > q.boxMax.x || q.boxMin.y > q.boxMax.y)
-      return std::nullopt;
+      return false;
     const std::uint64_t first = s.firstIndex, end = first + s.indexCount;
-    if (end > indexCount || s.bottomCount > s.indexCount) return std::nullopt;
+    if (end > indexCount || s.bottomCount > s.indexCount) return false;
     // The seed paper's construction also draws the piece's box, 36 indices of its own (fuzzing
     // found a lean tile whose box indices were never checked).
-    if (options.paperVariant && std::uint64_t{s.boxFirstIndex} + kBoxIndices > indexCount) return std::nullopt;
+    if (options.paperVariant && std::uint64_t{s.boxFirstIndex} + kBoxIndices > indexCount) return false;
     if (!arrays) {
       const auto within = [&](std::uint64_t from, std::uint64_t to) {
         for (std::uint64_t i = from; i < to; ++i)
@@ -733,7 +792,7 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
       };
       if (!within(first, end) ||
           (options.paperVariant && !within(s.boxFirstIndex, std::uint64_t{s.boxFirstIndex} + kBoxIndices)))
-        return std::nullopt;
+        return false;
     }
     Polyhedron& p = layer.polyhedra_[k];
     p.footprint.feature = q.feature;
@@ -749,7 +808,7 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
   for (std::size_t o = 0; o < layer.origins_.size(); ++o) {
     // Origins lie on the grid within ±1e15 m (originFor), so their cells fit 64 bits (fuzzing
     // found an origin of 6e76 converted to an integer).
-    if (!bounded(layer.origins_[o].x) || !bounded(layer.origins_[o].y)) return std::nullopt;
+    if (!bounded(layer.origins_[o].x) || !bounded(layer.origins_[o].y)) return false;
     const glm::dvec2 cell = glm::floor(layer.origins_[o] / kOriginGrid);
     layer.originIndex_.emplace(std::pair{static_cast<std::int64_t>(cell.x), static_cast<std::int64_t>(cell.y)},
                                static_cast<std::uint32_t>(o));
@@ -797,13 +856,13 @@ std::optional<LayerGeometry> LayerGeometry::readLean(geo::io::Reader& r, std::st
             if (limit[i] != 0 && std::uint64_t{values[i]} + 1 >= limit[i]) fine = false;
         },
         kSlice * sizeof(std::uint32_t));
-    if (!read || !fine) return std::nullopt;
+    if (!read || !fine) return false;
     layer.arraysInFile_ = std::move(arrays);
   }
   layer.wastedIndices_ = static_cast<std::size_t>(wasted);
   layer.changes_ = GeometryChange{};  // everything is new: the first upload takes it all
   layer.footprintsReleased_ = true;
-  return layer;
+  return true;
 }
 
 std::pair<glm::dvec3, glm::dvec3> LayerGeometry::box3() const {
@@ -840,7 +899,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
                                            SharedFeatures features, std::vector<FeatureStyle> styles,
                                            const HeightBoundsProvider& bounds, const LayerBuildOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
+  LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), &bounds, options);
   Result<LayerGeometry> r;
   if (!options.deferPieces) {
     for (std::size_t i = 0; i < layer.features_.size(); ++i)
@@ -976,7 +1035,7 @@ Result<LayerGeometry> LayerGeometry::build(std::string name, LayerKind kind, con
 }
 
 LayerGeometry LayerGeometry::empty(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
-                                   std::vector<FeatureStyle> styles, const HeightBoundsProvider& bounds,
+                                   std::vector<FeatureStyle> styles, const HeightBoundsProvider* bounds,
                                    const LayerBuildOptions& options) {
   LayerGeometry layer;
   layer.name_ = std::move(name);
@@ -984,8 +1043,8 @@ LayerGeometry LayerGeometry::empty(std::string name, LayerKind kind, const Layer
   layer.style_ = style;
   layer.options_ = options;
   layer.features_ = std::move(features);
-  layer.bounds_ = &bounds;
-  layer.boundsRevision_ = bounds.revision();
+  layer.bounds_ = bounds;
+  layer.boundsRevision_ = bounds != nullptr ? bounds->revision() : 0;
   layer.styles_ = std::move(styles);
   layer.styles_.resize(layer.features_.size());
   return layer;
@@ -995,7 +1054,7 @@ LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const La
                                       std::vector<geo::Feature> features, std::vector<FeatureStyle> styles,
                                       std::vector<std::vector<Polyhedron>> pieces, const HeightBoundsProvider& bounds,
                                       const LayerBuildOptions& options) {
-  LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), bounds, options);
+  LayerGeometry layer = empty(std::move(name), kind, style, std::move(features), std::move(styles), &bounds, options);
   for (std::size_t i = 0; i < layer.features_.size(); ++i)
     assignAnchorHeights(layer.styles_[i], layer.features_[i], bounds);
   layer.featureSlots_.resize(layer.features_.size());
@@ -1011,22 +1070,38 @@ LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const La
   return layer;
 }
 
-LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, const glm::dvec3& origin,
-                                           std::vector<Vertex> vertices, std::vector<glm::vec4> normals,
-                                           std::vector<std::uint32_t> indices, const std::vector<WorldPiece>& pieces,
-                                           std::optional<glm::vec4> uniformColour, WorldLines lines) {
-  LayerGeometry layer;
-  layer.name_ = std::move(name);
-  layer.kind_ = kind;
+LayerGeometry LayerGeometry::ofWorldPieces(std::string name, const glm::dvec3& origin, std::vector<Vertex> vertices,
+                                           std::vector<glm::vec4> normals, std::vector<std::uint32_t> indices,
+                                           const std::vector<WorldPiece>& pieces,
+                                           std::span<const glm::vec4> groupColours, WorldLines lines) {
+  // The colour groups as the layer's features: no geometry, their colours as their styles.
+  std::vector<geo::Feature> groups(groupColours.size());
+  std::vector<FeatureStyle> styles(groupColours.size());
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    groups[g].fid = static_cast<std::int64_t>(g);
+    styles[g].color = groupColours[g];
+  }
+  LayerGeometry layer =
+      empty(std::move(name), LayerKind::Polygon, {}, std::move(groups), std::move(styles), nullptr, {});
   layer.worldOrigins_.push_back(origin);
+  layer.featureSlots_.resize(groupColours.size());
   layer.slots_.reserve(pieces.size());
   layer.polyhedra_.reserve(pieces.size());
   for (const WorldPiece& piece : pieces) {
+    const std::uint32_t group = std::min<std::uint32_t>(
+        piece.group, static_cast<std::uint32_t>(std::max<std::size_t>(groupColours.size(), 1) - 1));
     PieceSlot s;
+    s.feature = group;
     s.firstIndex = piece.firstIndex;
     s.bottomCount = piece.bottomCount;
     s.indexCount = piece.indexCount;
     s.live = true;
+    if (group < layer.featureSlots_.size()) {
+      layer.featureSlots_[group].push_back(static_cast<std::uint32_t>(layer.slots_.size()));
+      const std::array<std::uint8_t, 4> rgba = rgba8(groupColours[group]);
+      for (std::uint32_t k = piece.firstIndex; k < piece.firstIndex + piece.indexCount; ++k)
+        std::copy(rgba.begin(), rgba.end(), vertices[indices[k]].rgba);
+    }
     layer.slots_.push_back(s);
     // The world box as a footprint's box and its bounds (box3() gives it back).
     Polyhedron p;
@@ -1037,6 +1112,10 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, con
     layer.polyhedra_.push_back(std::move(p));
     layer.stats_.triangles += piece.indexCount / 3;
   }
+  layer.outcomes_.resize(groupColours.size());
+  for (std::size_t g = 0; g < groupColours.size(); ++g)
+    layer.outcomes_[g] = layer.featureSlots_[g].empty() ? FeatureOutcome::NothingToDraw : FeatureOutcome::Drawn;
+  layer.stats_.features = groupColours.size();
   layer.stats_.pieces = pieces.size();
   layer.vertices_ = std::move(vertices);
   layer.normals_ = std::move(normals);
@@ -1050,12 +1129,6 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, LayerKind kind, con
     layer.scaling_.resize(layer.vertices_.size(), glm::vec4(0.0F));
   }
   layer.indices_ = std::move(indices);
-  if (uniformColour) {
-    const std::array<std::uint8_t, 4> rgba = rgba8(*uniformColour);
-    layer.uniformColor_ = glm::vec4(rgba[0], rgba[1], rgba[2], rgba[3]) / 255.0F;
-  } else {
-    layer.uniformColor_ = std::optional<glm::vec4>();
-  }
   layer.footprintsReleased_ = true;  // none to clip at the near plane: z-fail pieces are drawn whole
   layer.changes_ = GeometryChange{};
   return layer;

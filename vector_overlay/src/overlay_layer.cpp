@@ -34,7 +34,8 @@ OverlayLayer OverlayLayer::upload(LayerGeometry geometry) {
     const bool copied =
         copy(layer.vertices_.id(), arrays->verticesAt, arrays->vertexCount * sizeof(LayerGeometry::Vertex)) &&
         copy(layer.indices_.id(), arrays->indicesAt, arrays->indexCount * sizeof(std::uint32_t)) &&
-        (!layer.scaling_ || copy(layer.scaling_.id(), arrays->scalingAt, arrays->scalingCount * sizeof(glm::vec4)));
+        (!layer.scaling_ || copy(layer.scaling_.id(), arrays->scalingAt, arrays->scalingCount * sizeof(glm::vec4))) &&
+        (!layer.normals_ || copy(layer.normals_.id(), arrays->normalsAt, arrays->normalsCount * sizeof(glm::vec4)));
     // A file that cannot be read now (it was read a moment ago to check it): draw nothing of it.
     if (!copied) layer.broken_ = true;
     layer.geometry_.releaseArrays();

@@ -23,7 +23,7 @@ namespace gis::overlay::detail {
 namespace {
 
 constexpr std::uint32_t kMagic = 0x54564753;  // "SGVT"
-constexpr std::uint32_t kVersion = 4;         // 4: checked sections (geo/checked_file.hpp)
+constexpr std::uint32_t kVersion = 5;         // 4: checked sections (geo/checked_file.hpp); 5: world pieces
 /// No coordinate or height of a piece lies beyond this (ValidationOptions::maxCoordinate).
 constexpr double kMaxCoordinate = 1e15;
 using geo::io::Reader;
@@ -81,6 +81,11 @@ bool readPiece(Reader& r, Polyhedron& p) {
 
 }  // namespace
 
+std::filesystem::path tileFileIn(const std::filesystem::path& folder, const TileKey& key) {
+  return folder / (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) +
+                   (key.width > 0 ? "-w" + std::to_string(key.width) : std::string()) + ".tile");
+}
+
 bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile) {
   // Two programs (or two renderers' workers) may write the same tile at once: each its own
   // temporary file, renamed into place. Three checked sections: the header, the lean tile, the
@@ -102,8 +107,13 @@ bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, con
                                      marks.begin();
                                      w.array(tile.featureIndex);
                                      g.writeLean(w);
-                                     // The whole section: features and pieces with their footprints.
+                                     // The whole section: features and pieces with their footprints
+                                     // (world pieces have neither: lean is whole for them).
                                      marks.begin();
+                                     if (g.alongNormals()) {
+                                       w.value(std::uint64_t{0});
+                                       return;
+                                     }
                                      w.value(static_cast<std::uint64_t>(g.features().size()));
                                      // Per feature: its index in the layer, its geometry, its live pieces.
                                      std::vector<std::vector<std::size_t>> slotsOf(g.features().size());
@@ -218,6 +228,30 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
                                          std::move(styles), std::move(pieces), bounds, options),
                  std::move(index), error, true};
   return tile;
+}
+
+std::optional<LayerTile> readWorldTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
+                                       const std::string& name, std::span<const glm::vec4> groupColours,
+                                       std::string* damage) {
+  double error = 0.0;
+  const std::shared_ptr<const geo::io::CheckedFile> checked = openTile(file, fingerprint, key, error, damage);
+  if (!checked) return std::nullopt;
+  const auto damaged = [&](const std::string& what) {
+    if (damage != nullptr) *damage = what;
+    return std::nullopt;
+  };
+  if (!checked->verify(1)) return damaged("its lean tile does not match its checksum");
+  geo::io::SectionStream in(*checked, 1);
+  Reader r(in);
+  const int fd = ::dup(checked->descriptor());
+  std::shared_ptr<ArraysInFile> arrays = fd >= 0 ? std::make_shared<ArraysInFile>(fd) : nullptr;
+  std::vector<std::uint32_t> index;
+  if (!r.array(index) || !index.empty()) return damaged("its lean tile cannot be read");
+  std::vector<FeatureStyle> styles(groupColours.size());
+  for (std::size_t g = 0; g < styles.size(); ++g) styles[g].color = groupColours[g];
+  std::optional<LayerGeometry> g = LayerGeometry::readWorldLean(r, name, std::move(styles), std::move(arrays));
+  if (!g) return damaged("its lean tile cannot be read");
+  return LayerTile{key, std::move(*g), {}, error, true};
 }
 
 }  // namespace gis::overlay::detail

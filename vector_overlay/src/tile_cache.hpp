@@ -12,14 +12,19 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "vector_overlay/tiled_layer.hpp"
 
 namespace gis::overlay::detail {
 
+/// The file of tile `key` in a layer's folder of the cache (both frames name them so).
+std::filesystem::path tileFileIn(const std::filesystem::path& folder, const TileKey& key);
+
 /// Writes the tile (to a temporary file renamed into place: readers never see half a file).
-/// False when it cannot be written (the cache is then simply not used).
+/// False when it cannot be written (the cache is then simply not used). A tile of world pieces
+/// (LayerGeometry::ofWorldPieces) is lean as built: its whole section holds no features.
 bool writeTile(const std::filesystem::path& file, std::uint64_t fingerprint, const LayerTile& tile);
 
 /// The tile in `file` if it holds this fingerprint and key, its layer made with the source's
@@ -36,5 +41,12 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
                                   const LayerBuildOptions& options,
                                   const std::function<FeatureStyle(std::uint32_t)>& styleOf, bool lean = false,
                                   std::string* damage = nullptr);
+
+/// A tile of world pieces (another frame's tiles: the globe's) in `file`, if it holds this
+/// fingerprint and key: read lean (LayerGeometry::readWorldLean), its GPU arrays left in the file
+/// for the upload, named `name`, its colour groups drawn in `groupColours`. `damage` as readTile.
+std::optional<LayerTile> readWorldTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
+                                       const std::string& name, std::span<const glm::vec4> groupColours,
+                                       std::string* damage = nullptr);
 
 }  // namespace gis::overlay::detail

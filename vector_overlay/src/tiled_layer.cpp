@@ -398,11 +398,7 @@ std::vector<std::pair<std::uint32_t, geo::Feature>> LayerTiling::featuresFor(con
   return out;
 }
 
-std::filesystem::path LayerTiling::tileFile(const TileKey& key) const {
-  return std::filesystem::path(cacheFolder_) /
-         (std::to_string(key.level) + "-" + std::to_string(key.x) + "-" + std::to_string(key.y) +
-          (key.width > 0 ? "-w" + std::to_string(key.width) : std::string()) + ".tile");
-}
+std::filesystem::path LayerTiling::tileFile(const TileKey& key) const { return detail::tileFileIn(cacheFolder_, key); }
 
 std::optional<std::size_t> LayerTiling::cachedBytes(const TileKey& key) const {
   if (!cacheUsable_ || bounds_->revision() != cacheRevision_) return std::nullopt;
@@ -450,6 +446,49 @@ Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>
     }
   }
   return built;
+}
+
+Result<LayerTile> WorldTileCache::fetch(const TileKey& key, const std::string& layerName,
+                                        std::span<const glm::vec4> groupColours,
+                                        const std::function<LayerGeometry()>& build) const {
+  Result<LayerTile> out;
+  if (folder_.empty()) {
+    out.value = LayerTile{key, build(), {}, 0.0, false};
+    return out;
+  }
+  const std::filesystem::path file = detail::tileFileIn(folder_, key);
+  std::string damage;
+  if (std::optional<LayerTile> tile =
+          detail::readWorldTile(file, fingerprint_, key, layerName, groupColours, &damage)) {
+    ++read_;
+    out.value = std::move(*tile);
+    return out;
+  }
+  if (!damage.empty()) {
+    ++damaged_;
+    out.diagnostics.add({Severity::Warning,
+                         file.string(),
+                         layerName,
+                         {},
+                         "cache file damaged (" + damage + "); tile rebuilt from the layer's features"});
+  }
+  out.value = LayerTile{key, build(), {}, 0.0, false};
+  std::error_code error;
+  std::filesystem::create_directories(folder_, error);
+  if (!error && detail::writeTile(file, fingerprint_, *out.value)) {
+    ++written_;
+    // Read back lean: the built arrays go now, and the upload takes them from the file.
+    if (std::optional<LayerTile> tile = detail::readWorldTile(file, fingerprint_, key, layerName, groupColours)) {
+      tile->fromDisk = false;  // built here
+      out.value = std::move(*tile);
+    }
+  }
+  return out;
+}
+
+std::optional<std::size_t> WorldTileCache::cachedBytes(const TileKey& key) const {
+  if (folder_.empty()) return std::nullopt;
+  return detail::tileBytes(detail::tileFileIn(folder_, key), fingerprint_, key);
 }
 
 LayerBuildOptions LayerTiling::tileOptions(const TileKey& key) const {

@@ -41,6 +41,7 @@
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/deferred_lookup.hpp"
 #include "vector_overlay/footprints.hpp"
+#include "vector_overlay/layer_geometry.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/shared_features.hpp"
 #include "vector_overlay/style.hpp"
@@ -303,41 +304,15 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
 };
 
-/// A vertex of a piece as the GPU reads it (the volume shader of both frames,
-/// shaders/overlay_volume.vert): its position relative to its tile's origin (TilePieces::origin,
-/// which the renderer makes relative to the eye per frame) and its side, and the surface normal
-/// the caps are padded along.
-struct PieceVertex {
-  glm::vec4 position{0.0F};  ///< x, y, z − TilePieces::origin (ECEF metres); w: −1 bottom, +1 top, 0 none
-  glm::vec4 normal{0.0F};    ///< w: a line in pixels' anchor lies this far along it
-};
-static_assert(sizeof(PieceVertex) == 32);
-
-/// The pieces of one layer over one tile.
-struct TilePieces {
-  struct Piece {
-    std::uint32_t firstIndex = 0;
-    std::uint32_t bottomCount = 0;      ///< bottom cap's indices, first
-    std::uint32_t indexCount = 0;       ///< all: bottom cap, walls, top cap
-    glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
-    double lo = 0.0, hi = 0.0;          ///< heights of its caps
-    std::uint32_t group = 0;            ///< its polygon's colour (its vertices' colour when drawn)
-  };
-  glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)
-  std::vector<PieceVertex> vertices;
-  /// Lines in pixels, per vertex when any piece is one: direction (ECEF) and least half width
-  /// (LayerGeometry::WorldLines); the pieces are built at maxHalfWidth.
-  std::vector<glm::vec4> scaling;
-  double maxHalfWidth = 0.0;
-  std::vector<std::uint32_t> indices;
-  std::vector<Piece> pieces;
-};
-
 /// The pieces of `layer` over tile `key`, bounded by the ground of `heights` (heights contract:
-/// globe_terrain.hpp). `widthClass` (lines in pixels, lineWidthClass): the lines the class
-/// scales are built as pieces that take their width in the shader, at most the class's width;
-/// the others (and every line in class 0) in metres.
-TilePieces buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass = 0);
+/// globe_terrain.hpp), as a layer of world pieces of the overlay pipeline
+/// (overlay::LayerGeometry::ofWorldPieces: ECEF relative to the tile's middle, caps padded along
+/// the surface normals; its features the layer's colour groups, GlobeLayer::colors()).
+/// `widthClass` (lines in pixels, lineWidthClass): the lines the class scales are built as
+/// pieces that take their width in the shader, at most the class's width; the others (and every
+/// line in class 0) in metres.
+overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                                       int widthClass = 0);
 
 /// Lines in pixels: the width class a tile is drawn with from a view (the tiled technique's
 /// rule, tiled_layer.hpp): 0 where every line of the layer is at least as wide in metres as

@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -191,6 +192,11 @@ std::uint64_t featuresFingerprint(const std::vector<geo::Feature>& features, con
 std::uint64_t featuresFingerprint(const SharedFeatures& features, const std::vector<FeatureStyle>& styles,
                                   LayerKind kind);
 
+/// What cached pieces take from their features' colours (their vertices hold them): 0 when all
+/// are one colour (drawn with it as a uniform, so a new colour needs no new pieces), else a hash
+/// of them. featuresFingerprint holds the same; a frame that keys its tiles otherwise adds this.
+std::uint64_t coloursFingerprint(std::span<const glm::vec4> colours);
+
 /// A lean layer's GPU arrays left in its file (a coarse tile read from the disk cache,
 /// LayerGeometry::readLean): the uploader copies them into its buffers a slice at a time, so the
 /// host never holds them whole beside the GPU's copy (on llvmpipe both are host memory).
@@ -201,8 +207,8 @@ class ArraysInFile {
   ArraysInFile(const ArraysInFile&) = delete;
   ArraysInFile& operator=(const ArraysInFile&) = delete;
   ~ArraysInFile();
-  std::uint64_t verticesAt = 0, indicesAt = 0, scalingAt = 0;  ///< file offsets
-  std::size_t vertexCount = 0, indexCount = 0, scalingCount = 0;
+  std::uint64_t verticesAt = 0, indicesAt = 0, scalingAt = 0, normalsAt = 0;  ///< file offsets
+  std::size_t vertexCount = 0, indexCount = 0, scalingCount = 0, normalsCount = 0;
   [[nodiscard]] int descriptor() const { return fd_; }
   /// Calls `slice(data, offset, bytes)` for the file's [at, at + bytes) a slice of at most
   /// `sliceBytes` at a time (offset from `at`); false when the file cannot be read.
@@ -294,12 +300,19 @@ class LayerGeometry {
   /// A layer written by writeLean, with footprints released (it is uploaded as built; its
   /// colours are those written), or none when the data is damaged or does not fit `styles`.
   /// With `arrays` (the same file open for positioned reads): the GPU arrays are left in the
-  /// file (arraysInFile()), their indices checked against the slots slice by slice.
+  /// file (arraysInFile()), their indices checked against the slots slice by slice. A layer of
+  /// world pieces is not read here (readWorldLean).
   [[nodiscard]] static std::optional<LayerGeometry> readLean(geo::io::Reader& r, std::string name, LayerKind kind,
                                                              const LayerStyle& style, std::vector<FeatureStyle> styles,
                                                              const HeightBoundsProvider& bounds,
                                                              const LayerBuildOptions& options,
                                                              std::shared_ptr<ArraysInFile> arrays = nullptr);
+  /// A layer of world pieces (ofWorldPieces) written by writeLean, its groups' colours from
+  /// `groupStyles` (one per group, as written), or none when the data is damaged, is not world
+  /// pieces or does not fit them. `arrays` as for readLean.
+  [[nodiscard]] static std::optional<LayerGeometry> readWorldLean(geo::io::Reader& r, std::string name,
+                                                                  std::vector<FeatureStyle> groupStyles,
+                                                                  std::shared_ptr<ArraysInFile> arrays = nullptr);
   /// The GPU arrays still in their file (a lean read), or null: then vertices(), indices() and
   /// scaling() are empty, and vertexCount() and indexCount() say how many there are.
   [[nodiscard]] const ArraysInFile* arraysInFile() const { return arraysInFile_.get(); }
@@ -336,17 +349,19 @@ class LayerGeometry {
   static_assert(sizeof(Vertex) == 20);
   /// Pieces built in world coordinates by a frame of their own (the globe's tiles: ECEF
   /// metres), drawn by the same renderer (docs/frames.md). `vertices` are relative to `origin`,
-  /// their height the world z and their side as build() makes them; `normals` (one per vertex)
-  /// is the direction each cap is padded along. Such a piece's Polyhedron has no footprint: its
-  /// boxMin/boxMax are the x and y of its world box, lo and hi its z (box3() is the world box),
-  /// and it is never over drawn surface (z-pass keeps its bottom cap). With no footprint to cut,
-  /// the renderer draws its z-fail pieces whole. `uniformColour`: the colour every vertex has,
-  /// if one (the renderer may then cover with rectangles).
+  /// their height the world z and their side as build() makes them (their colours are written
+  /// here); `normals` (one per vertex) is the direction each cap is padded along. Such a piece's
+  /// Polyhedron has no footprint: its boxMin/boxMax are the x and y of its world box, lo and hi
+  /// its z (box3() is the world box), and it is never over drawn surface (z-pass keeps its
+  /// bottom cap). With no footprint to cut, the renderer draws its z-fail pieces whole. The
+  /// layer's features are its colour groups (no geometry; fid: the group's number), group g
+  /// drawn in `groupColours[g]`: one colour for all, and the renderer covers with rectangles.
   struct WorldPiece {
     std::uint32_t firstIndex = 0;
     std::uint32_t bottomCount = 0;
     std::uint32_t indexCount = 0;
     glm::dvec3 boxLo{0.0}, boxHi{0.0};
+    std::uint32_t group = 0;  ///< its colour group (< groupColours.size())
   };
   /// Lines in pixels among world pieces (LineShape's rule on the globe): `scaling` per vertex
   /// holds its direction (x, y, z: ECEF, in the tangent plane at its centre) and its least half
@@ -358,10 +373,10 @@ class LayerGeometry {
     double widthPixels = 0.0;
     double maxWidth = 0.0;
   };
-  static LayerGeometry ofWorldPieces(std::string name, LayerKind kind, const glm::dvec3& origin,
-                                     std::vector<Vertex> vertices, std::vector<glm::vec4> normals,
-                                     std::vector<std::uint32_t> indices, const std::vector<WorldPiece>& pieces,
-                                     std::optional<glm::vec4> uniformColour, WorldLines lines);
+  static LayerGeometry ofWorldPieces(std::string name, const glm::dvec3& origin, std::vector<Vertex> vertices,
+                                     std::vector<glm::vec4> normals, std::vector<std::uint32_t> indices,
+                                     const std::vector<WorldPiece>& pieces, std::span<const glm::vec4> groupColours,
+                                     WorldLines lines);
 
   [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
   [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
@@ -382,8 +397,12 @@ class LayerGeometry {
   LayerGeometry() = default;
   /// The layer's features and styles, with no pieces yet (build and assemble start here).
   static LayerGeometry empty(std::string name, LayerKind kind, const LayerStyle& style, SharedFeatures features,
-                             std::vector<FeatureStyle> styles, const HeightBoundsProvider& bounds,
+                             std::vector<FeatureStyle> styles, const HeightBoundsProvider* bounds,
                              const LayerBuildOptions& options);
+  /// What readLean and readWorldLean share: reads what writeLean wrote after the fids into
+  /// `layer` (made by empty() with its features and styles); false when it is damaged, or world
+  /// pieces where `world` is not (or the other way round).
+  static bool readLeanInto(geo::io::Reader& r, LayerGeometry& layer, bool world, std::shared_ptr<ArraysInFile> arrays);
   void addPieces(std::uint32_t feature, std::vector<Polyhedron> pieces);
   void freePieces(std::uint32_t feature);
   Diagnostics rebuildFeature(std::size_t index);

@@ -41,7 +41,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -167,6 +169,37 @@ class TileSource {
   /// Tiles of world pieces (LayerGeometry::ofWorldPieces: drawn whole, never edited): their host
   /// arrays go once uploaded.
   [[nodiscard]] virtual bool worldPieces() const { return false; }
+};
+
+/// The disk cache for a frame whose tiles are world pieces built by a builder of its own (the
+/// globe's, LayerGeometry::ofWorldPieces): the same files, checks and lean reads as a
+/// LayerTiling's (one checked file per tile in the layer's folder, named by a fingerprint of what
+/// its pieces depend on; a damaged file is said and written again).
+class WorldTileCache {
+ public:
+  /// `folder`: the layer's (empty: no cache); `fingerprint`: of everything its pieces depend on.
+  WorldTileCache(std::string folder, std::uint64_t fingerprint)
+      : folder_(std::move(folder)), fingerprint_(fingerprint) {}
+  /// Tile `key` from the cache, else built by `build` and written there. A tile read comes with
+  /// its GPU arrays left in its file (the upload copies them from there a slice at a time), and
+  /// so does one built and written, read back (its built arrays freed before the upload). Its
+  /// colour groups are drawn in `groupColours` (the fingerprint holds them where they differ:
+  /// coloursFingerprint).
+  [[nodiscard]] Result<LayerTile> fetch(const TileKey& key, const std::string& layerName,
+                                        std::span<const glm::vec4> groupColours,
+                                        const std::function<LayerGeometry()>& build) const;
+  /// The GPU bytes of tile `key` as the cache holds it (LayerTiling::cachedBytes), or none.
+  [[nodiscard]] std::optional<std::size_t> cachedBytes(const TileKey& key) const;
+  [[nodiscard]] const std::string& folder() const { return folder_; }
+  /// Tiles read, written and found damaged so far.
+  [[nodiscard]] std::size_t read() const { return read_; }
+  [[nodiscard]] std::size_t written() const { return written_; }
+  [[nodiscard]] std::size_t damaged() const { return damaged_; }
+
+ private:
+  std::string folder_;
+  std::uint64_t fingerprint_ = 0;
+  mutable std::atomic<std::size_t> read_{0}, written_{0}, damaged_{0};
 };
 
 class LayerTiling final : public TileSource {
