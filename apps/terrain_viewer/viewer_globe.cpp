@@ -53,8 +53,9 @@ scene::GlobePose poseLooking(const glm::dvec3& eye, const glm::dvec3& target) {
   const glm::dmat3 enu = globe::enuBasis(p.target.lon, p.target.lat);
   const glm::dvec3 local(glm::dot(d, enu[0]), glm::dot(d, enu[1]), glm::dot(d, enu[2]));
   p.pitch = std::asin(std::clamp(local.z / p.distance, -1.0, 1.0));
-  // The view looks along −d: its heading is that of (−east, −north).
-  p.heading = (local.x == 0.0 && local.y == 0.0) ? 0.0 : std::atan2(-local.x, -local.y);
+  // The view looks along −d: its heading is that of (−east, −north). Looking straight down (within
+  // the rounding of the ECEF points) it has none: north up.
+  p.heading = std::hypot(local.x, local.y) <= 1e-9 * p.distance ? 0.0 : std::atan2(-local.x, -local.y);
   return p;
 }
 
@@ -162,9 +163,11 @@ void Viewer::globeHome() {
   const glm::ivec2 fb = framebufferSize();
   const std::optional<scene::CameraSpec>& spec = g.scene.description.camera;
   if (spec && spec->eyeLonLatH && spec->targetLonLatH) {
-    // The scene's own camera, as its author placed it.
+    // The scene's own camera, as its author placed it, seen in the part of the window the panel
+    // leaves free.
     const globe::GlobeView v = scene::globeStillView(g.scene, std::max(fb.x, 1), std::max(fb.y, 1));
     g.controller->setPose(poseLooking(v.eye, v.target));
+    g.controller->centreIn(glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
     return;
   }
   const std::array<double, 4>& e = g.scene.extent;

@@ -462,6 +462,53 @@ void GlobeCameraController::grab(const glm::dvec2& fromPixel, const glm::dvec2& 
   accept(limited(p));
 }
 
+void GlobeCameraController::centreIn(const glm::ivec2& viewport, const glm::dvec4& region) {
+  if (!(region.z > region.x && region.w > region.y) || viewport.x <= 0 || viewport.y <= 0) return;
+  const glm::dvec2 regionMiddle(0.5 * (region.x + region.z), 0.5 * (region.y + region.w));
+  const glm::dvec3 point = globe::toEcef(pose_.target.lon, pose_.target.lat, pose_.target.h);
+  const double aspect = aspectOf(viewport), tanHalf = tanHalfFov(settings_.fovYDeg);
+  const double metresPerPixel = 2.0 * pose_.distance * tanHalf / viewport.y;
+  const auto offset = [&](const GlobePose& q) -> std::optional<glm::dvec2> {
+    const std::optional<glm::dvec2> at = ndcOf(frameOf(q), point, tanHalf, aspect);
+    if (!at || globe::hiddenByEllipsoid(frameOf(q).eye, point, pose_.target.h - 1.0)) return std::nullopt;
+    return glm::dvec2((0.5 * at->x + 0.5) * viewport.x, (0.5 - 0.5 * at->y) * viewport.y) - regionMiddle;
+  };
+  // Newton steps: the target moves over the ground (east and north, metres), and how the point
+  // moves on screen for a small move each way (the view's Jacobian there) says how far.
+  const auto moved = [&](GlobePose q, double east, double north) {
+    const double lat = q.target.lat * kDegree;
+    q.target.lon = wrapLon(q.target.lon + east / (globe::kSemiMajor * std::max(std::cos(lat), 1e-6)) / kDegree);
+    q.target.lat = std::clamp(q.target.lat + north / globe::kSemiMajor / kDegree, -89.9, 89.9);
+    q.target.h = groundHeight(q.target.lon, q.target.lat);
+    return q;
+  };
+  GlobePose q = pose_, good = pose_;
+  for (int step = 0; step < 20; ++step) {
+    const std::optional<glm::dvec2> off = offset(q);
+    if (!off) break;
+    good = q;
+    if (glm::length(*off) < 0.25) break;
+    const double h = metresPerPixel;  // a pixel's move each way
+    const std::optional<glm::dvec2> e = offset(moved(q, h, 0.0)), n = offset(moved(q, 0.0, h));
+    if (!e || !n) break;
+    const glm::dvec2 de = (*e - *off) / h, dn = (*n - *off) / h;  // pixels per metre
+    const double det = de.x * dn.y - de.y * dn.x;
+    if (!(std::abs(det) > 1e-30)) break;
+    // Solve [de dn] (east, north) = −off.
+    const double east = (-off->x * dn.y + off->y * dn.x) / det, north = (-de.x * off->y + de.y * off->x) / det;
+    // A step that would lose the point (behind the eye, past the horizon) or bring it no nearer
+    // is halved.
+    double scale = 1.0;
+    for (; scale > 1e-3; scale *= 0.5) {
+      const std::optional<glm::dvec2> next = offset(moved(q, scale * east, scale * north));
+      if (next && glm::length(*next) < glm::length(*off)) break;
+    }
+    if (scale <= 1e-3) break;
+    q = moved(q, scale * east, scale * north);
+  }
+  accept(limited(good));
+}
+
 void GlobeCameraController::home(double west, double south, double east, double north, const glm::ivec2& viewport,
                                  const std::optional<glm::dvec4>& region) {
   if (!std::isfinite(west) || !std::isfinite(south) || !std::isfinite(east) || !std::isfinite(north)) return;

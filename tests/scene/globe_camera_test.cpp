@@ -274,6 +274,47 @@ TEST(GlobeCamera, HomeFramesTheBoxInTheRegionAPanelLeavesFree) {
   EXPECT_FALSE(c.groundPointAt(glm::dvec2(0.0, 384.0), kViewport).has_value());
 }
 
+TEST(GlobeCamera, AnAuthoredCameraIsCentredInTheRegionAPanelLeavesFree) {
+  // A camera as a scene's author placed it (straight down from 9,000 km, or oblique, at any
+  // heading, near a pole or across ±180°): slid over the ground so that its target is seen in the
+  // middle of the region a panel leaves free, within a pixel; distance, heading and pitch kept.
+  const glm::dvec4 region(400.0, 0.0, 1024.0, 740.0);
+  const glm::dvec2 middle(0.5 * (region.x + region.z), 0.5 * (region.y + region.w));
+  struct Case {
+    double lon, lat, distance, heading, pitch;
+  };
+  const Case cases[] = {{-62.0, -28.0, 9e6, 0.0, kPi / 2.0},
+                        {10.0, 45.0, 2e5, 30.0 * kDeg, 40.0 * kDeg},
+                        {179.9, -16.0, 5e4, -120.0 * kDeg, 60.0 * kDeg},
+                        {0.0, 84.0, 1e6, 200.0 * kDeg, 70.0 * kDeg}};
+  for (const bool terrain : {false, true}) {
+    for (const Case& k : cases) {
+      GlobeCameraController c(terrain ? &hills() : nullptr);
+      GlobePose pose;
+      pose.target = {k.lon, k.lat, 0.0};
+      pose.distance = k.distance;
+      pose.heading = k.heading;
+      pose.pitch = k.pitch;
+      c.setPose(pose);
+      const GlobePose before{c.target(), c.distance(), c.heading(), c.pitch()};
+      const glm::dvec3 target = globe::toEcef(before.target.lon, before.target.lat, before.target.h);
+      c.centreIn(kViewport, region);
+      expectSane(c, "centred in a region");
+      const std::optional<glm::dvec2> at = pixelOf(viewOf(c), target);
+      ASSERT_TRUE(at.has_value()) << k.lon << " " << k.lat;
+      EXPECT_LT(glm::length(*at + 0.5 - middle), 1.0) << k.lon << " " << k.lat << " at " << at->x << " " << at->y;
+      EXPECT_NEAR(c.distance(), before.distance, 1e-6 * before.distance);
+      EXPECT_NEAR(std::remainder(c.heading() - before.heading, 2.0 * kPi), 0.0, 0.02) << k.lon << " " << k.lat;
+      EXPECT_DOUBLE_EQ(c.pitch(), before.pitch);
+      // The whole viewport as the region: nothing moves.
+      const GlobePose placed{c.target(), c.distance(), c.heading(), c.pitch()};
+      c.centreIn(kViewport, glm::dvec4(0.0, 0.0, kViewport.x, kViewport.y));
+      EXPECT_DOUBLE_EQ(c.target().lon, placed.target.lon);
+      EXPECT_DOUBLE_EQ(c.target().lat, placed.target.lat);
+    }
+  }
+}
+
 TEST(GlobeCamera, OrbitKeepsTheTarget) {
   GlobeCameraController c(&hills());
   c.setPose(poseAt(20.0, 40.0, 5000.0, 0.3, 0.8));

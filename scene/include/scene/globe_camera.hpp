@@ -64,6 +64,11 @@ class GlobeCameraController {
   /// whole globe, its middle in the region's.
   void home(double west, double south, double east, double north, const glm::ivec2& viewport,
             const std::optional<glm::dvec4>& region = std::nullopt);
+  /// Slides the view over the ground (distance, heading and pitch kept) so that the ground point
+  /// now in the middle of the viewport (the target) is seen in the middle of `region` (pixels, as
+  /// home's): a camera its author placed, shown in the part of the window a panel leaves free.
+  /// Nothing moves where the region is the viewport, or the point cannot be brought there.
+  void centreIn(const glm::ivec2& viewport, const glm::dvec4& region);
   /// Turns around the target: heading += dHeading (clockwise seen from above), pitch += dPitch
   /// (positive looks more steeply down), pitch within [minPitch, π/2]. The target stays where it is on
   /// screen (the middle).
