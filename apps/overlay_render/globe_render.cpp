@@ -11,6 +11,7 @@
 #include "gfx/render_target.hpp"
 #include "globe/globe_renderer.hpp"
 #include "scene/camera.hpp"
+#include "scene/frame_readback.hpp"
 #include "scene/globe_scene.hpp"
 
 namespace gis::app {
@@ -50,7 +51,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
     view = *placed;
   }
   gfx::StateCache cache;
-  gfx::RenderTarget target(o.width, o.height, 0, true);
+  gfx::RenderTarget target(o.width, o.height, o.msaa, true);
   globe::GlobeRenderer renderer(loaded->heights);
   renderer.setImagery(loaded->imagery);
   std::vector<const globe::GlobeLayer*> layers;
@@ -75,20 +76,10 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
       drawGlobeAnalyses(o.analyses, cache, target, renderer, *loaded, view, out, analyses, analysisDiagnostics);
   if (analysisStatus == 2) return analysisStatus;  // a layer named that is not in the scene: nothing drawn
 
-  // mask.png: bit i for the scene file's layer i (as overlay_render's projected path).
-  const std::vector<std::uint32_t> bits = gfx::readMask(target);
-  std::vector<std::uint8_t> mask(bits.size(), 0);
-  for (std::size_t i = 0; i < bits.size(); ++i) {
-    for (std::size_t l = 0; l < loaded->layerFileIndex.size(); ++l) {
-      if ((bits[i] & (1U << l)) != 0 && loaded->layerFileIndex[l] < 8)
-        mask[i] |= static_cast<std::uint8_t>(1U << loaded->layerFileIndex[l]);
-    }
-  }
-  const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
-  std::vector<std::uint8_t> rgb;
-  rgb.reserve(rgba.size() / 4 * 3);
-  for (std::size_t i = 0; i < rgba.size(); i += 4) rgb.insert(rgb.end(), {rgba[i], rgba[i + 1], rgba[i + 2]});
-  bool ok = writeFrameImages(out, o.width, o.height, rgb, gfx::readDepth(target), mask);
+  // color.png, depth.tiff and mask.png (bit i for the scene file's layer i), read as the projected
+  // path reads them (resolved with MSAA, a layer's bit where half the samples have it).
+  const scene::FrameImages images = scene::readFrame(cache, target, loaded->layerFileIndex);
+  bool ok = writeFrameImages(out, o.width, o.height, images.rgb, images.depth, images.mask);
   const globe::Geodetic eye = globe::toGeodetic(view.eye), at = globe::toGeodetic(view.target);
   json camera = {{"width", o.width},
                  {"height", o.height},
@@ -103,12 +94,10 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
                  {"target", {{"lon", at.lon}, {"lat", at.lat}, {"h", at.h}}}};
   json layersJson = json::array();
   for (std::size_t l = 0; l < loaded->layers.size(); ++l) {
-    std::size_t pixels = 0;
-    for (const std::uint32_t b : bits) pixels += (b & (1U << l)) != 0 ? 1U : 0U;
     layersJson.push_back({{"name", loaded->layers[l].name()},
                           {"polygons", loaded->layers[l].polygons().size()},
                           {"mask_bit", loaded->layerFileIndex[l]},
-                          {"covered_pixels", pixels}});
+                          {"covered_pixels", l < images.coveredPixels.size() ? images.coveredPixels[l] : 0U}});
   }
   json diagnostics = json::array();
   for (const Diagnostic& m : loaded.diagnostics.items()) diagnostics.push_back(m.toString());
@@ -118,6 +107,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
             {"globe_reason", reason},
             {"width", o.width},
             {"height", o.height},
+            {"msaa", images.samples},
             {"load_seconds", loaded->loadSeconds},
             {"first_frame_seconds", runClock().firstFrameSeconds},
             {"cpu_peak_bytes", peakResidentBytes()},

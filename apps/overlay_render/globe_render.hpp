@@ -17,6 +17,7 @@ struct GlobeRenderOptions {
   std::string camera;             ///< --camera: a camera file (eye and target in lon/lat/h); empty: the scene's
   globe::GlobeTechnique technique = globe::GlobeTechnique::StencilTiles;  ///< --method
   std::string method = "stencil-tiles";                                   ///< its name
+  int msaa = 0;                                                           ///< --msaa: samples per pixel (0 or 1: none)
 };
 
 /// Loads and draws the scene on the globe (`reason` says why it is drawn there); the process's

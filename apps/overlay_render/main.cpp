@@ -599,10 +599,6 @@ int run(const Options& o) {
     o.applyCache(*description);
     Result<std::string> globe = scene::globeReason(*description);
     if (globe.ok() && !globe->empty()) {
-      if (o.msaa > 1) {
-        logError("the scene is drawn on the globe (" + *globe + "): --msaa is not available there yet");
-        return 2;
-      }
       // The globe draws with stencil-tiles, the deferred lookup or auto: another method asked for
       // is refused, never silently replaced.
       const std::optional<globe::GlobeTechnique> technique = scene::globeTechniqueNamed(o.technique->name);
@@ -621,7 +617,8 @@ int run(const Options& o) {
                                   {o.lasso, o.overlap, o.overlapOp, o.openVolumes},
                                   o.camera,
                                   *technique,
-                                  std::string(o.technique->name)});
+                                  std::string(o.technique->name),
+                                  o.msaa});
     }
   }
   const std::optional<Setup> setup = load(o, all);

@@ -1,6 +1,10 @@
 #include "scene/frame_readback.hpp"
 
+#include <algorithm>
+#include <optional>
+#include <span>
 #include <utility>
+#include <vector>
 
 #include "vector_overlay/selection_states.hpp"
 
@@ -114,55 +118,55 @@ OpenVolumePixels drawOpenVolumes(gfx::StateCache& cache, const gfx::RenderTarget
 namespace {
 
 constexpr std::size_t kMaskBits = 8;  // mask.png is 8-bit: the scene file's first 8 layers
+constexpr std::size_t kGpuBits = 32;  // the GPU mask's bits: one per drawn layer
 
-/// Per pixel and scene-file layer: 1 when some overlay layer of that scene layer covers the pixel
-/// in `bits` (a fill and an outline of one scene layer vote once).
-std::vector<int> sceneLayerVotes(const LoadedScene& scene, const SceneRenderer& renderer,
-                                 const std::vector<std::uint32_t>& bits, std::size_t pixels) {
-  std::vector<int> votes(pixels * kMaskBits, 0);
+/// Per pixel, the votes of one sample's GPU mask `bits`: per scene-file layer 1 when some drawn
+/// layer of it covers the pixel (a fill and an outline of one scene layer vote once), and per GPU
+/// bit 1 when its layer does.
+void addVotes(std::span<const std::size_t> fileIndexOfBit, const std::vector<std::uint32_t>& bits, std::size_t pixels,
+              std::vector<int>& layerVotes, std::vector<int>& bitVotes) {
+  const std::size_t used = std::min(fileIndexOfBit.size(), kGpuBits);
   for (std::size_t i = 0; i < pixels && i < bits.size(); ++i) {
-    for (std::size_t j = 0; j < renderer.overlaySources().size() && j < 32; ++j) {
-      const std::size_t layer = scene.layers[renderer.overlaySources()[j].first].description.fileIndex;
-      if (((bits[i] >> j) & 1u) != 0u && layer < kMaskBits) votes[i * kMaskBits + layer] = 1;
+    std::uint8_t layers = 0;
+    for (std::size_t j = 0; j < used; ++j) {
+      if (((bits[i] >> j) & 1U) == 0U) continue;
+      ++bitVotes[i * kGpuBits + j];
+      if (fileIndexOfBit[j] < kMaskBits) layers = static_cast<std::uint8_t>(layers | (1U << fileIndexOfBit[j]));
     }
+    for (std::size_t layer = 0; layer < kMaskBits; ++layer) layerVotes[i * kMaskBits + layer] += (layers >> layer) & 1;
   }
-  return votes;
-}
-
-std::vector<std::uint8_t> sceneLayerMask(gfx::StateCache& cache, const LoadedScene& scene,
-                                         const SceneRenderer& renderer, const gfx::RenderTarget& target,
-                                         gfx::RenderTarget* resolved) {
-  const std::size_t pixels = static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height());
-  std::vector<int> votes(pixels * kMaskBits, 0);
-  int samples = 1;
-  if (resolved != nullptr) {
-    samples = target.samples();
-    for (int k = 0; k < samples; ++k) {
-      target.copySampleInto(cache, *resolved, k);
-      const std::vector<int> sample = sceneLayerVotes(scene, renderer, gfx::readMask(*resolved), pixels);
-      for (std::size_t i = 0; i < votes.size(); ++i) votes[i] += sample[i];
-    }
-  } else {
-    votes = sceneLayerVotes(scene, renderer, gfx::readMask(target), pixels);
-  }
-  std::vector<std::uint8_t> mask(pixels, 0);
-  for (std::size_t i = 0; i < pixels; ++i) {
-    for (std::size_t layer = 0; layer < kMaskBits; ++layer) {
-      if (2 * votes[i * kMaskBits + layer] >= samples) mask[i] = static_cast<std::uint8_t>(mask[i] | (1u << layer));
-    }
-  }
-  return mask;
 }
 
 }  // namespace
 
-FrameImages readFrame(gfx::StateCache& cache, const LoadedScene& scene, const SceneRenderer& renderer,
-                      const gfx::RenderTarget& target) {
+FrameImages readFrame(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                      std::span<const std::size_t> fileIndexOfBit) {
   FrameImages frame;
   std::optional<gfx::RenderTarget> resolved;
   if (target.multisampled()) resolved.emplace(target.width(), target.height(), 0, true);
   frame.samples = target.samples();
-  frame.mask = sceneLayerMask(cache, scene, renderer, target, resolved ? &*resolved : nullptr);
+  const std::size_t pixels = static_cast<std::size_t>(target.width()) * static_cast<std::size_t>(target.height());
+  std::vector<int> layerVotes(pixels * kMaskBits, 0), bitVotes(pixels * kGpuBits, 0);
+  int samples = 1;
+  if (resolved) {
+    samples = target.samples();
+    for (int k = 0; k < samples; ++k) {
+      target.copySampleInto(cache, *resolved, k);
+      addVotes(fileIndexOfBit, gfx::readMask(*resolved), pixels, layerVotes, bitVotes);
+    }
+  } else {
+    addVotes(fileIndexOfBit, gfx::readMask(target), pixels, layerVotes, bitVotes);
+  }
+  frame.mask.assign(pixels, 0);
+  frame.coveredPixels.assign(std::min(fileIndexOfBit.size(), kGpuBits), 0);
+  for (std::size_t i = 0; i < pixels; ++i) {
+    for (std::size_t layer = 0; layer < kMaskBits; ++layer) {
+      if (2 * layerVotes[i * kMaskBits + layer] >= samples)
+        frame.mask[i] = static_cast<std::uint8_t>(frame.mask[i] | (1U << layer));
+    }
+    for (std::size_t j = 0; j < frame.coveredPixels.size(); ++j)
+      frame.coveredPixels[j] += bitVotes[i * kGpuBits + j] > 0 && 2 * bitVotes[i * kGpuBits + j] >= samples ? 1U : 0U;
+  }
   if (resolved) target.resolveInto(*resolved);
   const gfx::RenderTarget& readable = resolved ? *resolved : target;
   const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(readable);
@@ -172,6 +176,14 @@ FrameImages readFrame(gfx::StateCache& cache, const LoadedScene& scene, const Sc
     for (std::size_t c = 0; c < 3; ++c) frame.rgb[i * 3 + c] = rgba[i * 4 + c];
   }
   return frame;
+}
+
+FrameImages readFrame(gfx::StateCache& cache, const LoadedScene& scene, const SceneRenderer& renderer,
+                      const gfx::RenderTarget& target) {
+  std::vector<std::size_t> fileIndexOfBit;
+  for (const auto& source : renderer.overlaySources())
+    fileIndexOfBit.push_back(scene.layers[source.first].description.fileIndex);
+  return readFrame(cache, target, fileIndexOfBit);
 }
 
 }  // namespace gis::scene

@@ -1137,6 +1137,31 @@ TEST(OverlayRenderGlobe, TheDeferredLookupDrawsTheGlobesAreasAsItsPiecesDo) {
   EXPECT_GT(covered, 2000U);
   // Two exact ways of drawing differ at most on the tracts' borders (a pixel wide, either way).
   EXPECT_LT(differing, covered / 200) << differing << " of " << covered;
+  // With 4× MSAA, as a projected scene: read back as the projected path reads it (a layer's bit
+  // where half the samples have it), stats.json saying so; the same mask but at the borders.
+  const fs::path msaa = dir / "msaa";
+  ASSERT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
+                                 " --height " + std::to_string(kHeight) + " --method deferred --msaa 4 --out " +
+                                 msaa.string(),
+                             dir / "msaa.txt"),
+            0)
+      << readText(dir / "msaa.txt");
+  const json stats = json::parse(readText(msaa / "stats.json"));
+  EXPECT_EQ(stats["msaa"].get<int>(), 4);
+  const gfx::Image8 sampled = *gfx::readImage8((msaa / "mask.png").string());
+  ASSERT_EQ(sampled.pixels.size(), masks[1].pixels.size());
+  std::size_t coveredSampled = 0, differingSampled = 0;
+  for (std::size_t i = 0; i < sampled.pixels.size(); ++i) {
+    coveredSampled += sampled.pixels[i] != 0 ? 1U : 0U;
+    differingSampled += sampled.pixels[i] != masks[1].pixels[i] ? 1U : 0U;
+  }
+  EXPECT_EQ(stats["layers"][0]["covered_pixels"].get<std::size_t>(), coveredSampled);
+  EXPECT_LT(differingSampled, covered / 100) << differingSampled << " of " << covered;
+  // The analyses are single-sampled, in both frames.
+  EXPECT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --msaa 4 --open-volumes --out " +
+                                 (dir / "refused").string(),
+                             dir / "refused.txt"),
+            2);
 }
 
 TEST(OverlayRenderGlobe, APagedDemDrawsTheSameFrame) {

@@ -22,6 +22,7 @@
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_terrain.hpp"
 #include "globe_scene.hpp"
+#include "sample_positions.hpp"
 
 namespace gis::globe {
 namespace {
@@ -49,12 +50,12 @@ class GlobeOverlayGl : public test::GlTest {
   /// `settings`' budget); else by a new one.
   Outcome drawAndCompare(const GlobeView& view, const std::vector<const GlobeLayer*>& layers, const std::string& label,
                          GlobeOverlayRenderer* kept = nullptr, const GlobeOverlaySettings& settings = {},
-                         const std::shared_ptr<const GeoGrid>& heights = nullptr) {
+                         const std::shared_ptr<const GeoGrid>& heights = nullptr, int samples = 0) {
     const std::shared_ptr<const GeoGrid> ground = heights ? heights : grid();
     GlobeTerrain terrain(ground);
     GlobeOverlayRenderer own;
     GlobeOverlayRenderer& overlay = kept != nullptr ? *kept : own;
-    gfx::RenderTarget target(view.width, view.height, 0, true);
+    gfx::RenderTarget target(view.width, view.height, samples, true);
     const std::vector<DrawnTile> tiles = terrain.select(view);
     gfx::beginRenderPass(cache_, target, {glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), gfx::kReversedZFar, 0});
     gfx::enableMaskWrites(target.framebuffer(), false);
@@ -63,6 +64,39 @@ class GlobeOverlayGl : public test::GlTest {
     GlobeOverlaySettings drawn = settings;
     drawn.targetFramebuffer = target.framebuffer();
     overlay.draw(cache_, view, tiles, *ground, layers, drawn);
+    if (target.multisampled()) {
+      // Each sample against the reference at that sample (its position in the pixel).
+      gfx::RenderTarget single(view.width, view.height, 0, true);
+      Outcome all;
+      for (int k = 0; k < target.samples(); ++k) {
+        GLfloat position[2] = {0.5F, 0.5F};
+        glGetMultisamplefv(GL_SAMPLE_POSITION, static_cast<GLuint>(k), position);
+        target.copySampleInto(cache_, single, k);
+        const Outcome o = compareWithReference(
+            single, view, layers, overlay, label + " sample " + std::to_string(k),
+            test::overlay_test::atSample(view.eyeViewProj(), position[0], position[1], view.width, view.height));
+        all.covered += o.covered;
+        all.wrong += o.wrong;
+        all.edgeWrong += o.edgeWrong;
+        all.terrain += o.terrain;
+        all.expected.insert(all.expected.end(), o.expected.begin(), o.expected.end());
+      }
+      all.tiles = tiles.size();
+      all.pieces = overlay.stats().pieces;
+      return all;
+    }
+    Outcome o = compareWithReference(target, view, layers, overlay, label, view.eyeViewProj());
+    o.tiles = tiles.size();
+    o.pieces = overlay.stats().pieces;
+    o.zFail = overlay.stats().zFailPieces;
+    return o;
+  }
+
+  /// The mask in the single-sampled `target` against the reference on its depth, the image's
+  /// matrix `viewProj` (the view's, or one moved to a sample's position).
+  Outcome compareWithReference(const gfx::RenderTarget& target, const GlobeView& view,
+                               const std::vector<const GlobeLayer*>& layers, const GlobeOverlayRenderer& overlay,
+                               const std::string& label, const glm::dmat4& viewProj) {
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> gpu = gfx::readMask(target);
     std::filesystem::create_directories(STENCIL_GIS_TEST_OUTPUT_DIR);
@@ -71,10 +105,10 @@ class GlobeOverlayGl : public test::GlTest {
     const std::vector<std::uint8_t> rgba = gfx::readColorRgba8(target);
     (void)gfx::writeImage8(std::string(STENCIL_GIS_TEST_OUTPUT_DIR) + "/" + file + ".png", view.width, view.height, 4,
                            rgba);
-    const std::vector<std::uint32_t> expected =
-        overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers, depthImageOf(view, depth)));
-    std::vector<std::uint8_t> edges =
-        overlay::edgePixels(depthImageOf(view, depth), edgeLayersOf(layers, depthImageOf(view, depth)));
+    overlay::DepthImage image = depthImageOf(view, depth);
+    image.viewProj = viewProj;
+    const std::vector<std::uint32_t> expected = overlay::referenceMask(image, coverageOf(layers, image));
+    std::vector<std::uint8_t> edges = overlay::edgePixels(image, edgeLayersOf(layers, image));
     // A frame drawn coarser for the budget is exact only farther than its stated error from edges:
     // the band grown by the error beyond the half pixel the terrain's detail keeps.
     const int grow = static_cast<int>(std::ceil(overlay.stats().tiles.tileErrorPixels - 0.5));
@@ -90,9 +124,6 @@ class GlobeOverlayGl : public test::GlTest {
             }
     }
     Outcome o;
-    o.tiles = tiles.size();
-    o.pieces = overlay.stats().pieces;
-    o.zFail = overlay.stats().zFailPieces;
     int reported = 0;
     for (std::size_t i = 0; i < gpu.size(); ++i) {
       o.terrain += depth[i] > 0.0F ? 1U : 0U;
@@ -109,8 +140,9 @@ class GlobeOverlayGl : public test::GlTest {
                       << ", depth " << depth[i];
       }
     }
-    std::printf("%-28s tiles %4zu pieces %5zu (z-fail %3zu) terrain px %6zu covered %6zu wrong %zu edge-wrong %zu\n",
-                label.c_str(), o.tiles, o.pieces, o.zFail, o.terrain, o.covered, o.wrong, o.edgeWrong);
+    std::printf("%-28s pieces %5zu (z-fail %3zu) terrain px %6zu covered %6zu wrong %zu edge-wrong %zu\n",
+                label.c_str(), overlay.stats().pieces, overlay.stats().zFailPieces, o.terrain, o.covered, o.wrong,
+                o.edgeWrong);
     EXPECT_EQ(o.wrong, 0u) << label;
     o.depth = depth;
     o.expected = expected;
@@ -254,6 +286,44 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
     covered += o.covered;
   }
   EXPECT_GE(covered, 100000U);
+}
+
+TEST_F(GlobeOverlayGl, MsaaIsExactPerSampleWithThePiecesAndTheLookup) {
+  // 4× MSAA on the globe, as in a projected frame (overlay_gltest's MsaaIsExactPerSample): every
+  // sample of the mask against the reference evaluated at that sample's position, with the
+  // pieces and with the lookup (lines by their pieces, the areas after them by the lookup).
+  const Layers layers = makeLayers();
+  const std::vector<const GlobeLayer*> drawn{&layers.lines, &layers.outlines, &layers.all, &layers.boxes};
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+  };
+  const std::vector<Case> cases{{"msaa space", {-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}},
+                                {"msaa oblique 800 km", {-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}}};
+  for (const GlobeTechnique technique : {GlobeTechnique::StencilTiles, GlobeTechnique::Deferred}) {
+    GlobeOverlaySettings settings;
+    settings.technique = technique;
+    std::size_t covered = 0, edgeWrong = 0, mixed = 0;
+    for (const Case& c : cases) {
+      const std::string label = c.label + (technique == GlobeTechnique::Deferred ? " lookup" : " pieces");
+      const Outcome o = drawAndCompare(view(c.eye, c.target), drawn, label, nullptr, settings, nullptr, 4);
+      EXPECT_EQ(o.wrong, 0U) << label;
+      covered += o.covered;
+      edgeWrong += o.edgeWrong;
+      // The samples of a pixel see different ground where an edge passes: MSAA anti-aliases.
+      const std::size_t pixels = o.expected.size() / 4;
+      for (std::size_t i = 0; i < pixels; ++i) mixed += o.expected[i] != o.expected[pixels + i] ? 1U : 0U;
+    }
+    std::printf(
+        "MSAA 4x on the globe (%s): %zu covered samples, %zu differing on edges, %zu pixels with mixed "
+        "samples\n",
+        technique == GlobeTechnique::Deferred ? "lookup" : "pieces", covered, edgeWrong, mixed);
+    // Samples answered per pixel instead (the lookup reading one sample's depth, say) would
+    // differ from their reference on the hundreds of mixed pixels: far more than this.
+    EXPECT_GT(covered, 50000U);
+    EXPECT_LE(edgeWrong, covered / 1000);
+    EXPECT_GT(mixed, 100U);
+  }
 }
 
 TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {

@@ -11,6 +11,7 @@
 
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
+#include "sample_positions.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/terrain_engine.hpp"
 #include "vector_overlay/cpu_reference.hpp"
@@ -31,21 +32,6 @@ inline std::vector<overlay::ReferenceLayer> referenceLayers(const std::vector<co
   std::vector<overlay::ReferenceLayer> out;
   for (const overlay::OverlayLayer* l : layers) out.push_back(overlay::referenceLayerOf(*l));
   return out;
-}
-
-/// The matrix under which sample position (sx, sy) of each pixel (GL convention: from the
-/// pixel's lower-left corner, y up) projects to the pixel's centre: the reference unprojects
-/// pixel centres, so this makes it evaluate at the sample.
-inline glm::dmat4 atSample(const glm::dmat4& viewProj, double sx, double sy, int width, int height) {
-  // x' = x − 2(sx − ½)/W · w (and y alike): a clip-space shift proportional to w, i.e. rows 0
-  // and 1 of the matrix gain a multiple of row 3.
-  const double dx = -2.0 * (sx - 0.5) / width, dy = -2.0 * (sy - 0.5) / height;
-  glm::dmat4 r = viewProj;
-  for (int c = 0; c < 4; ++c) {
-    r[c][0] += dx * viewProj[c][3];
-    r[c][1] += dy * viewProj[c][3];
-  }
-  return r;
 }
 
 /// Reads the target back and compares it with the reference; with `failOnWrong` the first

@@ -99,12 +99,19 @@ struct FrameImages {
   std::vector<std::uint8_t> rgb;   ///< top row first
   std::vector<float> depth;        ///< as stored (reversed-Z)
   std::vector<std::uint8_t> mask;  ///< bit i: the scene file's layer i (fileIndex) covers the pixel
+  /// Per bit of the GPU mask (each drawn layer, fills and outlines apart): the pixels it covers
+  /// (with MSAA, at least half of whose samples it covers).
+  std::vector<std::size_t> coveredPixels;
 };
 
-/// Reads the frame in `target` back (resolving it first with MSAA). The GPU mask has a bit per
-/// overlay layer (fills and outlines); the returned mask a bit per layer of the scene file, by
-/// its place there (a layer that failed to load keeps its bit, unset). With MSAA a pixel has a
-/// layer's bit when at least half its samples do.
+/// Reads the frame in `target` back (resolving it first with MSAA), in either frame. The GPU
+/// mask has a bit per drawn layer (fills and outlines); bit j is the scene file's layer
+/// `fileIndexOfBit[j]` (its place there; a layer that failed to load keeps its bit, unset), and
+/// the returned mask has a bit per layer of the scene file. With MSAA a pixel has a layer's bit
+/// when at least half its samples do.
+FrameImages readFrame(gfx::StateCache& cache, const gfx::RenderTarget& target,
+                      std::span<const std::size_t> fileIndexOfBit);
+/// The same for a projected scene drawn by its renderer (its overlay layers' scene layers).
 FrameImages readFrame(gfx::StateCache& cache, const LoadedScene& scene, const SceneRenderer& renderer,
                       const gfx::RenderTarget& target);
 
