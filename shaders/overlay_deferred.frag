@@ -13,14 +13,14 @@
 const int kMaxLayers = 112;  // headers (deferred_pass.cpp's kMaxHeaders)
 struct Layer {
   uvec4 bases;  // nodes, entries (groups or items), edges, features: where the layer's arrays start
-  uvec2 kind;   // 1: polygons (0: lines); the finest level
+  uvec2 kind;   // 1: polygons, 0: lines, 2: lines in space (a face's); the finest level
   vec2 scale;   // mask bit, cell size at the finest level (metres)
   ivec2 eyeCell;  // the eye in cells of the finest level ...
   vec2 eyeRemainder;  // ... plus this (metres)
   uvec4 grid;  // where the layer's grid starts, its level, 1: widths in pixels, chart (0: plane, f + 1: face f)
   // A face: its middle direction, its x and y directions (the chart's), the eye relative to the
   // anchor (eyeCell and eyeRemainder are then the anchor's), the anchor's coordinates along the
-  // three directions and the chart's scale.
+  // three directions and the chart's scale; axis.w, east.w: the index's corner in the chart.
   vec4 axis;
   vec4 east;
   vec4 north;
@@ -123,6 +123,43 @@ bool itemCovers(Layer l, uint at, vec2 p, ivec2 leafCorner) {
   return true;
 }
 
+/// A leaf's point relative to its corner C on the ellipsoid, in space: F − C for the point F of
+/// the ellipsoid at chart offset p from the corner (the inverse gnomonic map written as a
+/// difference, every term a product of the small offset: precise near the eye, as p is), plus
+/// `up`, the ground point's height along its normal. With d(u) = a + (e u.x + n u.y) / s and
+/// t = 1 / sqrt(dᵀGd): F − C = t_F Δd + (t_F − t_C) d_C, t_F − t_C = t_F t_C (q_C − q_F) / (√q_C + √q_F).
+vec3 fromLeafCorner(Layer l, ivec2 corner, vec2 p, vec3 up) {
+  vec2 uC = vec2(l.axis.w, l.east.w) + vec2(corner) * l.scale.y;
+  float s = l.anchorDots.w;
+  vec3 g = 1.0 / (u_radii * u_radii);
+  vec3 dC = l.axis.xyz + (l.east.xyz * uC.x + l.north.xyz * uC.y) / s;
+  vec3 dd = (l.east.xyz * p.x + l.north.xyz * p.y) / s;
+  vec3 dF = dC + dd;
+  float qC = dot(dC * dC, g), qF = dot(dF * dF, g);
+  float tC = inversesqrt(qC), tF = inversesqrt(qF);
+  float qDiff = -dot((2.0 * dC + dd) * dd, g);  // q_C − q_F
+  float dt = tF * tC * qDiff / (sqrt(qC) + sqrt(qF));
+  return tF * dd + dt * dC + up;
+}
+
+/// Whether a primitive in space (deferred_index.hpp, WorldItem) covers the point d (relative to
+/// its leaf's corner): the globe reference's cylinder around a disc's normal, or its slab.
+bool worldItemCovers(uint at, vec3 d) {
+  vec4 p0 = items[4u * at];
+  uint kind = floatBitsToUint(p0.w) & 3u;
+  if (kind == 3u) return true;  // the whole leaf
+  vec4 p1 = items[4u * at + 1u];
+  vec3 v = d - p0.xyz;
+  if (kind == 2u) {  // disc: the cylinder around its normal
+    vec3 across = v - p1.xyz * dot(v, p1.xyz);
+    return dot(across, across) <= p1.w * p1.w;
+  }
+  vec4 p2 = items[4u * at + 2u], p3 = items[4u * at + 3u];
+  float t = dot(v, p1.xyz);
+  if (t < 0.0 || t > p1.w) return false;
+  return abs(dot(v, p2.xyz)) <= p2.w + (p3.x - p2.w) * (t / p1.w);
+}
+
 bool groupCovers(uint edgeBase, uvec4 g, vec2 p, float yc) {
   bool inside = g.y != 0u;
   for (uint k = 0u; k < g.w; ++k) {
@@ -142,8 +179,10 @@ bool groupCovers(uint edgeBase, uvec4 g, vec2 p, float yc) {
   return inside;
 }
 
-/// The first feature of layer l covering the point rel (relative to the eye), or -1.
-int coveringFeature(Layer l, vec2 rel) {
+/// The first feature of layer l covering the point rel (relative to the eye; on a face, its
+/// offset from the anchor), or -1. `up`: the point's height along its normal (a face's lines in
+/// space).
+int coveringFeature(Layer l, vec2 rel, vec3 up) {
   vec2 v = l.eyeRemainder + rel;
   vec2 k = floor(v / l.scale.y);
   int levels = int(l.kind.y);
@@ -165,6 +204,14 @@ int coveringFeature(Layer l, vec2 rel) {
   int shift = levels - level;
   ivec2 corner = (q >> shift) << shift;
   vec2 p = vec2(q - corner) * l.scale.y + r;
+  if (l.kind.x == 2u) {
+    vec3 d = fromLeafCorner(l, corner, p, up);
+    for (uint i = 0u; i < node.y; ++i) {
+      uint at = l.bases.y + node.x + i;
+      if (worldItemCovers(at, d)) return int(floatBitsToUint(items[4u * at].w) >> 5u);
+    }
+    return -1;
+  }
   for (uint i = 0u; i < node.y; ++i) {
     if (l.kind.x != 0u) {
       uvec4 g = groups[l.bases.y + node.x + i];
@@ -187,11 +234,8 @@ int faceOf(vec3 p) {
 /// ofGround): moved along the ellipsoid's normal by its height onto the ellipsoid, projected from
 /// the centre. Written from the anchor, with small numbers only near the eye: f is the foot
 /// relative to the anchor Q, and g(P) − g(Q) = s ((e·f)(a·Q) − (e·Q)(a·f)) / ((a·Q)(a·Q + a·f)).
-vec2 faceOffset(Layer l, vec3 rel, vec3 world) {
-  vec3 g = world / u_radii;
-  float h = length(world) * (1.0 - inversesqrt(dot(g, g)));
-  vec3 n = normalize(world / (u_radii * u_radii));
-  vec3 f = l.fromAnchor.xyz + rel - h * n;
+vec2 faceOffset(Layer l, vec3 rel, vec3 up) {
+  vec3 f = l.fromAnchor.xyz + rel - up;
   float aq = l.anchorDots.x;
   float af = dot(l.axis.xyz, f);
   vec2 num = vec2(dot(l.east.xyz, f), dot(l.north.xyz, f)) * aq - l.anchorDots.yz * af;
@@ -212,6 +256,9 @@ void main() {
   vec3 rel = h.xyz / h.w;
   vec3 world = u_eyeWorld + rel;
   int face = faceOf(world);
+  // The ground point's height along the ellipsoid's normal (the faces): its foot is world − up.
+  vec3 gw = world / u_radii;
+  vec3 up = length(world) * (1.0 - inversesqrt(dot(gw, gw))) * normalize(world / (u_radii * u_radii));
 
   vec4 color = vec4(0.0);  // premultiplied, the layers composited in order
   float mask = 0.0;
@@ -220,9 +267,9 @@ void main() {
     vec2 at = rel.xy;
     if (l.grid.w != 0u) {
       if (l.grid.w != uint(face + 1)) continue;
-      at = faceOffset(l, rel, world);
+      at = faceOffset(l, rel, up);
     }
-    int feature = coveringFeature(l, at);
+    int feature = coveringFeature(l, at, up);
     if (feature < 0) continue;
     vec4 c = features[2u * (l.bases.w + uint(feature))];
     color = vec4(c.rgb * c.a, c.a) + (1.0 - c.a) * color;

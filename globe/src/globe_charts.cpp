@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <glm/geometric.hpp>
 
 #include "globe/globe_overlay.hpp"
+#include "globe_detail.hpp"
 
 namespace gis::globe {
 
@@ -59,10 +61,118 @@ bool flat(const geo::Ring& ring) {
   });
 }
 
+/// A line layer's parts (deferredParts): its primitives in space, each in the faces it reaches.
+std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, double lowest, double highest,
+                                                    double heightRange) {
+  using overlay::DeferredChart;
+  using overlay::WorldLinePrimitive;
+  const glm::dvec3 radii(kSemiMajor, kSemiMajor, kSemiMinor);
+  const double limit = 1.0 + DeferredChart::kFaceMargin;
+  std::array<overlay::DeferredLayer::Part, 6> parts;
+  for (int face = 0; face < 6; ++face) {
+    overlay::DeferredLayer::Part& part = parts[static_cast<std::size_t>(face)];
+    part.chart = DeferredChart::cubeFace(face, radii);
+    part.region = {glm::dvec2(-limit * part.chart.scale), glm::dvec2(limit * part.chart.scale)};
+    part.lowest = lowest;
+    part.highest = highest;
+    part.heightRange = heightRange;
+    part.features.resize(layer.featureCount());
+  }
+  const double height = heightRange >= 0.0 ? heightRange : std::max(std::abs(lowest), std::abs(highest));
+  // A primitive's corners (on the ground), projected into each face they are in front of: the
+  // box of a planar quadrilateral's image. A ground point it covers has its foot within
+  // height · (its distance / R) of the quadrilateral's plane's (the normals tilt), and the
+  // ellipsoid falls away from the plane by (distance)² / 2R: the box is grown by both (in metres,
+  // three times in chart units: a face stretches a length by up to 3 at its corners).
+  const auto add = [&](const WorldLinePrimitive& primitive, const std::array<glm::dvec3, 4>& corners, double extent) {
+    const double grow =
+        3.0 * (height * extent / kMinCurvatureRadius + extent * extent / kMinCurvatureRadius + 1e-3 * extent + 1.0);
+    for (overlay::DeferredLayer::Part& part : parts) {
+      const DeferredChart& chart = part.chart;
+      glm::dvec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+      std::size_t inFront = 0;
+      for (const glm::dvec3& c : corners) {
+        if (glm::dot(chart.axis, c) <= 0.2 * glm::length(c)) continue;
+        ++inFront;
+        const glm::dvec2 at = chart.project(c);
+        lo = glm::min(lo, at);
+        hi = glm::max(hi, at);
+      }
+      if (inFront == 0) continue;
+      if (inFront < corners.size()) {
+        // Partly beyond 78° from the face's middle, far outside its region (56° at most) unless
+        // it is thousands of kilometres long: then all of the region (it cannot be told more
+        // closely).
+        if (extent < 2e6) continue;
+        lo = part.region[0];
+        hi = part.region[1];
+      }
+      lo -= glm::dvec2(grow);
+      hi += glm::dvec2(grow);
+      if (hi.x < part.region[0].x || lo.x > part.region[1].x || hi.y < part.region[0].y || lo.y > part.region[1].y)
+        continue;
+      WorldLinePrimitive p = primitive;
+      p.box = {lo, hi};
+      part.worldLines.push_back(p);
+    }
+  };
+  for (const GlobeLine& line : layer.lines()) {
+    const double r = line.halfWidth;
+    if (!(r > 0.0)) continue;
+    for (std::size_t k = 0; k < line.surface.size(); ++k) {
+      const glm::dvec3 c = line.surface[k];
+      // The reference's disc: the cylinder around the normal at the point (none at a pole, where
+      // a line closed along it runs).
+      if (!detail::isPole(line.points[k].y)) {
+        WorldLinePrimitive disc;
+        disc.kind = WorldLinePrimitive::Kind::Disc;
+        disc.feature = line.feature;
+        disc.a = c;
+        disc.normal = surfaceNormalAt(c);
+        disc.r0 = disc.r1 = r;
+        const glm::dvec3 any = std::abs(disc.normal.z) < 0.9 ? glm::dvec3(0.0, 0.0, 1.0) : glm::dvec3(1.0, 0.0, 0.0);
+        const glm::dvec3 e1 = glm::normalize(glm::cross(disc.normal, any)) * r;
+        const glm::dvec3 e2 = glm::cross(disc.normal, e1);
+        add(disc, {c + e1 + e2, c + e1 - e2, c - e1 - e2, c - e1 + e2}, 2.0 * r);
+      }
+      if (k + 1 == line.surface.size()) continue;
+      // The reference's band: the slab along the piece, between the planes through its ends.
+      const glm::dvec3 b = line.surface[k + 1], along = b - c;
+      const double length = glm::length(along);
+      if (!(length > 0.0)) continue;
+      WorldLinePrimitive band;
+      band.kind = WorldLinePrimitive::Kind::Band;
+      band.feature = line.feature;
+      band.a = c;
+      band.along = along / length;
+      band.length = length;
+      band.normal = glm::normalize(glm::cross(glm::normalize(surfaceNormalAt(c) + surfaceNormalAt(b)), along));
+      band.r0 = band.r1 = r;
+      const glm::dvec3 across = band.normal * r;
+      add(band, {c + across, b + across, b - across, c - across}, length + 2.0 * r);
+    }
+  }
+  std::vector<overlay::DeferredLayer::Part> out;
+  for (overlay::DeferredLayer::Part& part : parts) {
+    if (!part.worldLines.empty()) out.push_back(std::move(part));
+  }
+  return out;
+}
+
 }  // namespace
 
-std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest) {
+bool deferredDraws(const GlobeLayer& layer) {
+  if (!layer.hasLines()) return true;  // areas only
+  return layer.areaCount() == 0 && !(layer.lineWidthPixels() > 0.0) && layer.roundLines();
+}
+
+std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest,
+                                                        double heightRange) {
   using overlay::DeferredChart;
+  if (layer.hasLines()) {
+    return deferredDraws(layer) ? lineParts(layer, lowest, highest, heightRange)
+                                : std::vector<overlay::DeferredLayer::Part>{};
+  }
   const glm::dvec3 radii(kSemiMajor, kSemiMajor, kSemiMinor);
   const double limit = 1.0 + DeferredChart::kFaceMargin;
   std::vector<overlay::DeferredLayer::Part> parts;

@@ -173,7 +173,24 @@ struct GlobeOverlayRenderer::Gpu {
   std::vector<std::future<overlay::DeferredLayer>> retired;
   overlay::PlanChooser chooser;
   int plan = -1;  ///< -1: the last draw was not `auto`'s
+  /// Per line layer (its serial): its primitives in space, counted once (lookupFits).
+  std::unordered_map<std::uint64_t, std::size_t> linePrimitives;
 };
+
+bool GlobeOverlayRenderer::lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes) {
+  if (!layer.hasLines()) return true;  // areas: their indices are as large as their edges
+  auto counted = gpu_->linePrimitives.find(layer.serial());
+  if (counted == gpu_->linePrimitives.end()) {
+    std::size_t primitives = 0;
+    for (const GlobeLine& line : layer.lines()) primitives += 2 * line.points.size();
+    counted = gpu_->linePrimitives.emplace(layer.serial(), primitives).first;
+  }
+  // A primitive lands in a handful of leaves (a band of 1 km meets about six of 1 km): an index
+  // that would pass a quarter of the GPU budget (the rivers of GSHHG 800 m wide: 4.3 GB) is not
+  // built, and the layer keeps its pieces.
+  constexpr std::size_t kBytesPerPrimitive = 6 * 64;
+  return counted->second * kBytesPerPrimitive <= gpuBudgetBytes / 4;
+}
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
 GlobeOverlayRenderer::~GlobeOverlayRenderer() {
@@ -198,6 +215,7 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
   };
   // The lookup's indices are made again from the edited layer when next drawn.
   gpu_->deferred.erase(layer.serial());
+  gpu_->linePrimitives.erase(layer.serial());
   if (const auto building = gpu_->building.find(layer.serial()); building != gpu_->building.end()) {
     gpu_->retired.push_back(std::move(building->second));
     gpu_->building.erase(building);
@@ -318,7 +336,8 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   std::vector<const GlobeLayer*> drawn(
       layers.begin(), layers.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(layers.size(), 32)));
   const std::size_t n = drawn.size();
-  // The deferred lookup may draw the last layers that are areas only, from `lookedUp` on: those
+  // The deferred lookup may draw the last layers it can (deferredDraws: areas only, or lines in
+  // metres with round joins and caps), from `lookedUp` on: those
   // whose indices are built (on a thread of their own; a still waits for them with `deferred`)
   // and, with `auto`, fit a quarter of the GPU budget when the chooser takes the lookup.
   std::vector<const overlay::DeferredLayer*> indexed(n, nullptr);
@@ -340,7 +359,8 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
       });
     }
     std::size_t areas = n;
-    while (areas > 0 && !drawn[areas - 1]->hasLines()) --areas;
+    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes))
+      --areas;
     const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;
     for (std::size_t i = areas; i < n; ++i) indexed[i] = deferredOf(*drawn[i], heights, wait);
     std::size_t bytes = 0;
@@ -402,13 +422,21 @@ const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer&
     // coarsest tiles (the terrain's bounds contract at level 0).
     const double lowest = groundBounds(heights, LonLatRect{-180.0, -90.0, 180.0, 90.0}, 0).first;
     const double highest = heights.bounds(LonLatRect{-180.0, -90.0, 180.0, 90.0}).second;
+    // Lines in space: what their leaves allow for is the ground of tiles of level 3 and finer
+    // (docs/globe.md, "The deferred lookup"): the coarser tiles are drawn from so far that a pixel
+    // is wider than what their deeper ground moves a line's edge.
+    const double near = std::max(-groundBounds(heights, LonLatRect{-180.0, -90.0, 180.0, 90.0}, 3).first, highest);
     std::vector<glm::vec4> colors(layer.featureCount(), layer.color());
     const std::vector<glm::vec4>& groups = layer.colors();
     for (std::size_t k = 0; k < layer.areaCount(); ++k) {
       const GlobePolygon& p = layer.polygons()[k];
       if (p.feature < colors.size() && p.group < groups.size()) colors[p.feature] = groups[p.group];
     }
-    std::vector<overlay::DeferredLayer::Part> parts = deferredParts(layer, lowest, highest);
+    if (layer.hasLines()) {
+      for (const GlobeLine& l : layer.lines())
+        if (l.feature < colors.size() && l.group < groups.size()) colors[l.feature] = groups[l.group];
+    }
+    std::vector<overlay::DeferredLayer::Part> parts = deferredParts(layer, lowest, highest, near);
     building = gpu_->building
                    .emplace(layer.serial(), std::async(std::launch::async,
                                                        [parts = std::move(parts), colors = std::move(colors)] {

@@ -224,7 +224,7 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
   }
 }
 
-TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
+TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasAndLinesExactlyInEveryFaceOfTheCube) {
   const Layers layers = makeLayers();
   // The world north of a coast near 72° S, with a hole: a ring around the south pole closed along
   // the north one, whose inside the plane of a face sees the other way round (deferredParts).
@@ -239,8 +239,20 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
   }
   Result<GlobeLayer> world = GlobeLayer::build("north of the coast", {north}, glm::vec4(0.1F, 0.8F, 0.3F, 0.4F));
   ASSERT_TRUE(world.ok());
-  // Lines first (their pieces), then the areas (the lookup): every layer keeps its bit and order.
-  const std::vector<const GlobeLayer*> drawn{&layers.lines, &*world, &layers.all, &layers.boxes, &layers.field};
+  // Lines in pixels (their pieces: not the lookup's) first, then the areas and the lines in metres
+  // (the lookup: their primitives in space, lines 30 km, 20 km and 10 m wide): every layer keeps
+  // its bit and order.
+  GlobeLayerOptions pixels;
+  pixels.lineWidthPixels = 3.0;
+  pixels.lineWidthMetres = 0.0;
+  pixels.anchorGround = grid();
+  Result<GlobeLayer> routes =
+      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.6F, 0.1F, 0.8F), pixels);
+  ASSERT_TRUE(routes.ok());
+  EXPECT_FALSE(deferredDraws(*routes));
+  const std::vector<const GlobeLayer*> drawn{&*routes,      &*world,       &layers.all,  &layers.boxes,
+                                             &layers.field, &layers.lines, &layers.road, &layers.outlines};
+  for (std::size_t i = 1; i < drawn.size(); ++i) EXPECT_TRUE(deferredDraws(*drawn[i])) << drawn[i]->name();
   GlobeOverlaySettings settings;
   settings.technique = GlobeTechnique::Deferred;
   struct Case {
@@ -275,10 +287,10 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
                      {tlon, tlat, grid()->heightAt(tlon, tlat)}});
   }
   std::size_t covered = 0;
+  GlobeOverlayRenderer renderer;  // one for every view: the layers' indices are built once
   for (const Case& c : cases) {
-    GlobeOverlayRenderer renderer;
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), drawn, c.label, &renderer, settings);
-    EXPECT_EQ(renderer.stats().deferredLayers, 4U) << c.label << ": the four area layers are looked up";
+    EXPECT_EQ(renderer.stats().deferredLayers, 7U) << c.label << ": the area and line layers after the first";
     EXPECT_GT(renderer.stats().deferredBytes, 0U) << c.label;
     if (c.label.rfind("lookup random", 0) != 0) {
       EXPECT_GE(o.covered, 200U) << c.label << ": the view must show them";
@@ -291,7 +303,7 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasExactlyInEveryFaceOfTheCube) {
 TEST_F(GlobeOverlayGl, MsaaIsExactPerSampleWithThePiecesAndTheLookup) {
   // 4× MSAA on the globe, as in a projected frame (overlay_gltest's MsaaIsExactPerSample): every
   // sample of the mask against the reference evaluated at that sample's position, with the
-  // pieces and with the lookup (lines by their pieces, the areas after them by the lookup).
+  // pieces and with the lookup (areas, and lines by their primitives in space).
   const Layers layers = makeLayers();
   const std::vector<const GlobeLayer*> drawn{&layers.lines, &layers.outlines, &layers.all, &layers.boxes};
   struct Case {
@@ -331,7 +343,15 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
   // built, the lookup draws it. `auto` draws the pieces first, then the lookup once the pieces
   // are measured; every frame exact either way.
   const Layers layers = makeLayers();
-  std::vector<const GlobeLayer*> drawn{&layers.lines, &layers.all, &layers.boxes};
+  // Lines in pixels first (never the lookup's: their pieces), then two area layers.
+  GlobeLayerOptions pixels;
+  pixels.lineWidthPixels = 3.0;
+  pixels.lineWidthMetres = 0.0;
+  pixels.anchorGround = grid();
+  Result<GlobeLayer> routes =
+      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.6F, 0.1F, 0.8F), pixels);
+  ASSERT_TRUE(routes.ok());
+  std::vector<const GlobeLayer*> drawn{&*routes, &layers.all, &layers.boxes};
   const GlobeView v = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});
   GlobeTerrain terrain(grid());
   gfx::RenderTarget target(v.width, v.height, 0, true);

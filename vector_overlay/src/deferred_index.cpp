@@ -130,6 +130,33 @@ class Builder {
     }
   }
 
+  /// A frame's lines in space (buildWorld): binned by their chart boxes, written relative to the
+  /// ellipsoid's point at each leaf's corner.
+  Builder(std::span<const WorldLinePrimitive> world, const DeferredChart& chart, std::size_t featureCount,
+          std::span<const glm::vec4> colors, const BuildOptions& options, Index& out)
+      : options_(options), out_(out), world_(world), chart_(&chart) {
+    out_.kind = LayerKind::Line;
+    out_.world = true;
+    out_.features.resize(featureCount);
+    for (std::size_t i = 0; i < featureCount; ++i)
+      out_.features[i].color = i < colors.size() ? colors[i] : glm::vec4(1.0F);
+    for (const WorldLinePrimitive& p : world_) {
+      Box box;
+      box.add(p.box[0]);
+      box.add(p.box[1]);
+      box.padForRounding();
+      boxes_.push_back(box);
+    }
+    out_.primitives = world_.size();
+    sizeSplits_.assign(featureCount, 0);
+    seen_.assign(featureCount, 0);
+    sizeSplitBudget_.assign(featureCount, options_.maxSizeSplitsPerFeature);
+    for (std::uint32_t i = 0; i < boxes_.size(); ++i) {
+      std::uint32_t& budget = sizeSplitBudget_[featureOf(i)];
+      budget = budget > std::numeric_limits<std::uint32_t>::max() - 4 ? budget : budget + 4;
+    }
+  }
+
   void run() {
     Box all;
     for (const Box& b : boxes_) all.add(b);
@@ -225,6 +252,7 @@ class Builder {
 
   [[nodiscard]] bool meets(std::uint32_t item, const Box& box) const {
     if (!boxes_[item].intersects(box)) return false;
+    if (!world_.empty()) return worldMeets(world_[item], box);
     Box padded = box;
     padded.padForRounding();
     if (out_.kind == LayerKind::Polygon) return clipSegment(edges_[item].a, edges_[item].b, padded).has_value();
@@ -236,6 +264,7 @@ class Builder {
   /// Whether an item of a line layer in metres covers the whole box (then no later feature
   /// matters there).
   [[nodiscard]] bool coversBox(std::uint32_t item, const Box& box) const {
+    if (!world_.empty()) return worldCovers(world_[item], box);
     const SourcePrimitive& p = primitives_[item];
     if (out_.features[p.feature].width.x > 0.0F) return false;  // in pixels: its width changes
     const std::array<glm::dvec2, 4> corners{box.lo, glm::dvec2(box.hi.x, box.lo.y), box.hi,
@@ -244,6 +273,7 @@ class Builder {
   }
 
   [[nodiscard]] std::uint32_t featureOf(std::uint32_t item) const {
+    if (!world_.empty()) return world_[item].feature;
     return out_.kind == LayerKind::Polygon ? polygons_[edges_[item].polygon].feature : primitives_[item].feature;
   }
 
@@ -278,11 +308,11 @@ class Builder {
           std::find_if(items.begin(), items.end(), [&](std::uint32_t i) { return coversBox(i, box); });
       if (covering != items.end()) {
         const std::uint32_t cover = *covering;
-        const std::uint32_t feature = primitives_[cover].feature;
-        std::erase_if(items, [&](std::uint32_t i) { return primitives_[i].feature > feature; });
+        const std::uint32_t feature = featureOf(cover);
+        std::erase_if(items, [&](std::uint32_t i) { return featureOf(i) > feature; });
         // Nothing of an earlier feature here: the node is that feature's at every point, a leaf
         // holding one square of it, however large (a line 1e15 m wide covers the terrain so).
-        if (std::all_of(items.begin(), items.end(), [&](std::uint32_t i) { return primitives_[i].feature == feature; }))
+        if (std::all_of(items.begin(), items.end(), [&](std::uint32_t i) { return featureOf(i) == feature; }))
           coveredBy = cover;
       }
     }
@@ -459,6 +489,18 @@ class Builder {
       } else {
         n.first = static_cast<std::uint32_t>(out_.items.size());
         n.count = 0;
+        if (!world_.empty()) {
+          const glm::dvec3 corner = chart_->unproject(leaf.box.lo);
+          if (leaf.coveredBy) {
+            // The leaf is the feature's at every point (worldCovers).
+            Item all;
+            all.v[3] = floatOf(3U | (world_[*leaf.coveredBy].feature << kFeatureShift));
+            out_.items.push_back(all);
+          }
+          for (const std::uint32_t i : leaf.primitives) out_.items.push_back(worldItemOf(world_[i], corner));
+          n.count = static_cast<std::uint32_t>(leaf.primitives.size()) + (leaf.coveredBy ? 1U : 0U);
+          continue;
+        }
         if (leaf.coveredBy) {
           out_.items.push_back(squareItem(primitives_[*leaf.coveredBy].feature, leaf.box));
           ++n.count;
@@ -580,8 +622,86 @@ class Builder {
     return item;
   }
 
+  /// Whether a primitive in space covers every ground point whose foot lies in the chart box: its
+  /// test holds at the box's corners on the ellipsoid with a margin for what lies between them
+  /// (the ellipsoid sags from their plane by less than size² / R: the tests are convex) and for the
+  /// ground's heights (a point h above its foot leans from the primitive's axis by h · distance /
+  /// R), and for rounding.
+  [[nodiscard]] bool worldCovers(const WorldLinePrimitive& p, const Box& box) const {
+    const double size = std::max(box.hi.x - box.lo.x, box.hi.y - box.lo.y);
+    const std::array<glm::dvec2, 4> at{box.lo, glm::dvec2(box.hi.x, box.lo.y), box.hi, glm::dvec2(box.lo.x, box.hi.y)};
+    std::array<glm::dvec3, 4> corners{};
+    double far = 0.0;
+    for (std::size_t k = 0; k < 4; ++k) {
+      corners[k] = chart_->unproject(at[k]);
+      far = std::max(far, glm::length(corners[k] - p.a));
+    }
+    const double margin = worldMargin(size, far);
+    const double r = std::min(p.r0, p.r1) - margin;
+    if (!(r > 0.0)) return false;
+    return std::all_of(corners.begin(), corners.end(), [&](const glm::dvec3& c) {
+      const glm::dvec3 v = c - p.a;
+      if (p.kind == WorldLinePrimitive::Kind::Disc) {
+        const glm::dvec3 across = v - p.normal * glm::dot(v, p.normal);
+        return glm::dot(across, across) <= r * r;
+      }
+      const double t = glm::dot(v, p.along);
+      return t >= margin && t <= p.length - margin && std::abs(glm::dot(v, p.normal)) <= r;
+    });
+  }
+
+  /// The margin worldCovers allows for at corners `far` metres from a primitive in a box of
+  /// side `size`.
+  [[nodiscard]] double worldMargin(double size, double far) const {
+    constexpr double kRadius = 6.3e6;  // below the ellipsoid's least radius of curvature
+    return size * size / kRadius + options_.heightRange * (far + size) / kRadius + 1e-6 * far + 0.01;
+  }
+
+  /// Whether a primitive in space may cover a ground point whose foot lies in the chart box: the
+  /// box's middle on the ellipsoid lies in it grown by the box's half diagonal and the margin.
+  [[nodiscard]] bool worldMeets(const WorldLinePrimitive& p, const Box& box) const {
+    const double size = std::max(box.hi.x - box.lo.x, box.hi.y - box.lo.y);
+    const glm::dvec3 middle = chart_->unproject(0.5 * (box.lo + box.hi));
+    const double grow = 0.7072 * size + worldMargin(size, glm::length(middle - p.a) + size);
+    const glm::dvec3 v = middle - p.a;
+    const double r = std::max(p.r0, p.r1) + grow;
+    if (p.kind == WorldLinePrimitive::Kind::Disc) {
+      const glm::dvec3 across = v - p.normal * glm::dot(v, p.normal);
+      return glm::dot(across, across) <= r * r;
+    }
+    const double t = glm::dot(v, p.along);
+    return t >= -grow && t <= p.length + grow && std::abs(glm::dot(v, p.normal)) <= r;
+  }
+
+  /// A primitive in space relative to `corner` (WorldItem's layout, deferred_index.hpp).
+  [[nodiscard]] static Item worldItemOf(const WorldLinePrimitive& p, const glm::dvec3& corner) {
+    Item item;
+    auto& v = item.v;
+    const auto put = [&v](std::size_t at, const glm::dvec3& x) {
+      v[at] = static_cast<float>(x.x);
+      v[at + 1] = static_cast<float>(x.y);
+      v[at + 2] = static_cast<float>(x.z);
+    };
+    put(0, p.a - corner);
+    if (p.kind == WorldLinePrimitive::Kind::Band) {
+      put(4, p.along);
+      v[7] = static_cast<float>(p.length);
+      put(8, p.normal);
+      v[11] = static_cast<float>(p.r0);
+      v[12] = static_cast<float>(p.r1);
+    } else {
+      put(4, p.normal);
+      v[7] = static_cast<float>(p.r0);
+    }
+    const std::uint32_t kind = p.kind == WorldLinePrimitive::Kind::Band ? 1U : 2U;
+    v[3] = floatOf(kind | (p.feature << kFeatureShift));
+    return item;
+  }
+
   const BuildOptions& options_;
   Index& out_;
+  std::span<const WorldLinePrimitive> world_;
+  const DeferredChart* chart_ = nullptr;
   std::vector<SourceEdge> edges_;
   std::vector<SourcePolygon> polygons_;
   std::vector<SourcePrimitive> primitives_;
@@ -691,6 +811,14 @@ struct Eval {
 Index build(const ReferenceLayer& layer, std::span<const glm::vec4> colors, const BuildOptions& options) {
   Index index;
   Builder builder(layer, colors, options, index);
+  builder.run();
+  return index;
+}
+
+Index buildWorld(std::span<const WorldLinePrimitive> primitives, const DeferredChart& chart, std::size_t featureCount,
+                 std::span<const glm::vec4> colors, const BuildOptions& options) {
+  Index index;
+  Builder builder(primitives, chart, featureCount, colors, options, index);
   builder.run();
   return index;
 }

@@ -45,6 +45,7 @@
 #include <glm/vec4.hpp>
 
 #include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/deferred_lookup.hpp"
 #include "vector_overlay/footprints.hpp"
 
 namespace gis::overlay::deferred {
@@ -127,11 +128,17 @@ struct BuildOptions {
   /// wide, with no region — costs memory by its vertices, not by its extent. Far above what a
   /// feature within a frame takes (a polygon edge of 20,000 km takes about 30,000).
   std::uint32_t maxSizeSplitsPerFeature = 1U << 16;
+  /// Lines in space (buildWorld): the ground's heights lie within ± this of the ellipsoid (what a
+  /// leaf wholly inside a primitive must allow for).
+  double heightRange = 0.0;
 };
 
 struct Index {
   LayerKind kind = LayerKind::Polygon;
-  bool inPixels = false;      ///< some feature's widths are in pixels
+  bool inPixels = false;  ///< some feature's widths are in pixels
+  /// A line layer whose items are primitives in space (buildWorld): each leaf's relative to the
+  /// point of the ellipsoid at the leaf's corner (WorldItem).
+  bool world = false;
   glm::dvec2 origin{0.0};     ///< the root's corner (frame coordinates)
   double size = 0.0;          ///< the root's side (metres); 0: empty
   int depth = 0;              ///< the deepest leaf's level: integer coordinates are at this level
@@ -163,6 +170,16 @@ struct Index {
 /// Builds the index of a layer (its visible features; colours from `colors`, one per feature,
 /// straight alpha). Lines in pixels take their anchors' heights from the layer's shapes.
 Index build(const ReferenceLayer& layer, std::span<const glm::vec4> colors, const BuildOptions& options = {});
+
+/// A world primitive in a leaf (Index::world), relative to C, the leaf's corner on the ellipsoid
+/// (chart.unproject): kind (1 band, 2 disc, 3 the whole leaf) and feature in the header as
+/// Item's.
+///   Band: p0 = (a − C, header), p1 = (along, length), p2 = (normal, r0), p3.x = r1.
+///   Disc: p0 = (a − C, header), p1 = (normal, r0).
+/// Builds the index of a frame's lines in space in one chart (Part::worldLines): binned by their
+/// chart boxes; `featureCount` features coloured by `colors`.
+Index buildWorld(std::span<const WorldLinePrimitive> primitives, const DeferredChart& chart, std::size_t featureCount,
+                 std::span<const glm::vec4> colors, const BuildOptions& options = {});
 
 /// What the shader needs of the camera to find a ground point in the index (deferred::Frame in
 /// the shader's uniforms): the eye as integer cells at the finest level plus a remainder.

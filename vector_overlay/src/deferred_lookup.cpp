@@ -129,12 +129,20 @@ DeferredLayer DeferredLayer::build(std::span<const Part> parts, std::span<const 
   impl->serial = nextSerial();
   // The charts' indices are independent: built side by side.
   const auto buildPart = [&colors](const Part& part) {
-    ReferenceLayer reference;
-    reference.kind = LayerKind::Polygon;
-    reference.features = &part.features;
     deferred::BuildOptions options;
     options.region = part.region;
-    Impl::Chart chart{part.chart, deferred::build(reference, colors, options), {}};
+    options.heightRange =
+        part.heightRange >= 0.0 ? part.heightRange : std::max(std::abs(part.lowest), std::abs(part.highest));
+    Impl::Chart chart{part.chart, {}, {}};
+    if (!part.worldLines.empty()) {
+      chart.index = deferred::buildWorld(part.worldLines, part.chart, std::max(part.features.size(), colors.size()),
+                                         colors, options);
+    } else {
+      ReferenceLayer reference;
+      reference.kind = LayerKind::Polygon;
+      reference.features = &part.features;
+      chart.index = deferred::build(reference, colors, options);
+    }
     for (const auto& box : chart.index.cover)
       chart.cover.push_back(coverBox(part.chart, box[0], box[1], part.lowest, part.highest));
     return chart;

@@ -217,7 +217,7 @@ struct DeferredPass::State {
                                                                                   : it.size() / sizeof(deferred::Item));
         h.edgeBase = static_cast<std::uint32_t>(e.size() / sizeof(deferred::Edge));
         h.featureBase = static_cast<std::uint32_t>(f.size() / sizeof(deferred::FeatureParams));
-        h.polygons = index.kind == LayerKind::Polygon ? 1U : 0U;
+        h.polygons = index.kind == LayerKind::Polygon ? 1U : (index.world ? 2U : 0U);
         h.depth = static_cast<std::uint32_t>(index.depth);
         h.cellSize = static_cast<float>(index.cellSize());
         h.gridBase = static_cast<std::uint32_t>(gr.size() / sizeof(std::uint32_t));
@@ -294,8 +294,10 @@ void DeferredPass::draw(gfx::StateCache& cache, const DrawTarget& target, const 
       if (chart.chart.face >= 0) {
         const glm::dvec3 q = anchorOf(chart.chart, view.eye);
         anchor = glm::dvec3(chart.chart.project(q), 0.0);
-        h.axis = vec4Of(chart.chart.axis);
-        h.east = vec4Of(chart.chart.east);
+        // The index's corner in the chart (axis.w, east.w): where a leaf's corner lies, for lines
+        // in space (their items are relative to it).
+        h.axis = vec4Of(chart.chart.axis, chart.index.origin.x);
+        h.east = vec4Of(chart.chart.east, chart.index.origin.y);
         h.north = vec4Of(chart.chart.north);
         h.fromAnchor = vec4Of(view.eye - q);
         h.anchorDots =

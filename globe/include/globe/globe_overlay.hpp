@@ -234,6 +234,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] std::uint64_t serial() const { return serial_; }
   /// Lines in pixels: > 0 (GlobeLayerOptions::lineWidthPixels).
   [[nodiscard]] double lineWidthPixels() const { return widthPixels_; }
+  /// Whether its lines have round joins and caps (GlobeLayerOptions::join, cap).
+  [[nodiscard]] bool roundLines() const {
+    return options_.join == overlay::LineJoin::Round && options_.cap == overlay::LineCap::Round;
+  }
   /// The ground lines in pixels are anchored on (null: the ellipsoid).
   [[nodiscard]] const GeoGrid* anchorGround() const { return anchorGround_.get(); }
   /// The half width of line `line` at its point k as seen with `scale`.
@@ -326,14 +330,19 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 /// How the globe's layers reach the pixels (overlay_render --method; the registry's names):
 /// - StencilTiles (`stencil-tiles`): stencil polyhedra per drawn terrain tile.
 /// - Deferred (`deferred`): the deferred lookup of both frames (vector_overlay/deferred_lookup.hpp)
-///   in the six faces of the cube (deferredParts), for the last layers that are areas only; the
-///   layers before them (those with lines, and any below them) keep their stencil polyhedra. A
+///   in the six faces of the cube (deferredParts), for the last layers it can draw (deferredDraws:
+///   areas, or lines in metres with round joins and caps whose index would fit a quarter of the GPU
+///   budget); the layers before them keep their stencil polyhedra. A
 ///   layer's indices are built on a thread of their own: meanwhile (but in a still, which waits)
 ///   it is drawn by its pieces.
 /// - Auto (`auto`): per frame the cheaper of the two by their measured GPU times (the plan
 ///   chooser of both frames, vector_overlay/plan_chooser.hpp), the lookup only for layers whose
 ///   indices are built and fit a quarter of the GPU budget; the first frame draws the pieces.
 enum class GlobeTechnique { StencilTiles, Deferred, Auto };
+
+/// Whether the deferred lookup draws the layer (deferredParts): areas only, or lines only in
+/// metres with round joins and caps; others keep their stencil pieces.
+bool deferredDraws(const GlobeLayer& layer);
 
 /// The layer's areas in each face of the cube about the earth's centre
 /// (overlay::DeferredChart::cubeFace on WGS 84): what the deferred lookup indexes on the globe.
@@ -342,8 +351,15 @@ enum class GlobeTechnique { StencilTiles, Deferred, Auto };
 /// centre at one point) and projected from the centre. The plane's even-odd then differs from the
 /// reference's (a ring around a pole closed along it, a ring around the whole world) by a
 /// constant over the face, checked at one point of it and made good by the face's square. The
-/// cover boxes lie between `lowest` and `highest` (heights above the ellipsoid). Lines: not here.
-std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest);
+/// cover boxes lie between `lowest` and `highest` (heights above the ellipsoid).
+/// Or, for a layer of lines (deferredDraws), its lines' primitives in space as the reference tests
+/// them (overlay::WorldLinePrimitive: a cylinder around the normal at each point, a slab along each
+/// piece), each in the faces its chart box (its corners projected, grown by what heights between
+/// `lowest` and `highest` and the ellipsoid's curvature move their feet) meets; the leaves of its
+/// index decide what they hold for ground within ±`heightRange` of the ellipsoid (negative: the
+/// larger of |lowest| and |highest|).
+std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest,
+                                                        double heightRange = -1.0);
 
 struct GlobeOverlaySettings {
   GlobeTechnique technique = GlobeTechnique::StencilTiles;
@@ -457,6 +473,9 @@ class GlobeOverlayRenderer {
                                                                   const GlobeOverlaySettings& settings);
   /// The deferred lookup's pass (made on first use; null if its shaders do not build).
   overlay::DeferredPass* deferredPass();
+  /// Whether the lookup may index the layer within the budget: areas always; lines in space while
+  /// their primitives' estimated index is at most a quarter of it (else they keep their pieces).
+  bool lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes);
   /// The layer's deferred indices, kept per layer until an edit; null while they are being built
   /// (started by the first ask) unless `wait`.
   const overlay::DeferredLayer* deferredOf(const GlobeLayer& layer, const GeoGrid& heights, bool wait);

@@ -72,6 +72,24 @@ struct DeferredChart {
   [[nodiscard]] glm::dvec3 unproject(const glm::dvec2& chart) const;
 };
 
+/// A line's primitive in space, for a frame whose lines are not bands in its charts (the globe:
+/// a band of constant width in metres is none in a gnomonic face). The pass tests a pixel's
+/// ground point against it in space, relative to a corner of its leaf, as the globe's reference
+/// does: a disc is the cylinder of radius r0 around `normal` through `a`; a band the slab
+/// |(p − a)·normal| ≤ r0 + (r1 − r0) s / length between the planes s = (p − a)·along ∈ [0, length].
+struct WorldLinePrimitive {
+  enum class Kind : std::uint8_t { Band, Disc };
+  Kind kind = Kind::Disc;
+  std::uint32_t feature = 0;
+  glm::dvec3 a{0.0};       ///< frame coordinates: the band's start, the disc's centre
+  glm::dvec3 along{0.0};   ///< band: unit direction
+  double length = 0.0;     ///< band
+  glm::dvec3 normal{0.0};  ///< disc: its axis; band: the slab's normal
+  double r0 = 0.0, r1 = 0.0;
+  /// In the chart, holding the chart coordinates of every ground point it covers.
+  std::array<glm::dvec2, 2> box{glm::dvec2(0.0), glm::dvec2(0.0)};
+};
+
 /// A layer's per-pixel lookup: its index in each chart it is drawn in, with the boxes (frame
 /// coordinates, 3D) holding every ground point the index can colour.
 class DeferredLayer {
@@ -83,10 +101,17 @@ class DeferredLayer {
     /// polygons in chart coordinates (even-odd over each polygon's rings, a union over the
     /// feature's polygons, as the CPU reference draws them), or none.
     std::vector<geo::Feature> features;
+    /// Or (a frame's lines in space, WorldLinePrimitive): the primitives that reach the chart; the
+    /// part is then a line layer's, `features` unused.
+    std::vector<WorldLinePrimitive> worldLines;
     /// Where ground points can be, in chart coordinates (min, max): the index covers no more.
     std::array<glm::dvec2, 2> region{glm::dvec2(0.0), glm::dvec2(0.0)};
     /// The ground's heights there (the cover boxes' bottom and top).
     double lowest = -1e4, highest = 1e4;
+    /// Lines in space: the heights (±, above the ellipsoid) of the ground a leaf's content is
+    /// decided for (deferred::BuildOptions::heightRange); negative: the larger of |lowest| and
+    /// |highest|.
+    double heightRange = -1.0;
   };
 
   DeferredLayer();
@@ -94,8 +119,9 @@ class DeferredLayer {
   DeferredLayer(DeferredLayer&&) noexcept;
   DeferredLayer& operator=(DeferredLayer&&) noexcept;
 
-  /// A polygon layer's index in each part's chart (colours per feature, straight alpha). Lines:
-  /// the projected frame's technique builds its own (deferred_technique.cpp).
+  /// A layer's index in each part's chart (colours per feature, straight alpha): its polygons, or
+  /// its lines in space (Part::worldLines). The projected frame's technique builds its lines'
+  /// indices itself (deferred_technique.cpp).
   static DeferredLayer build(std::span<const Part> parts, std::span<const glm::vec4> colors);
 
   [[nodiscard]] bool empty() const;
