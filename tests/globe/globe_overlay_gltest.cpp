@@ -163,6 +163,16 @@ struct Layers {
 
 using test::globe_scene::lineFeature;
 
+/// The wide lines 3 pixels wide, anchored on `ground` (lines in pixels: never drawn by the lookup,
+/// always by pieces).
+Result<GlobeLayer> routesInPixels(std::shared_ptr<const GeoGrid> ground) {
+  GlobeLayerOptions pixels;
+  pixels.lineWidthPixels = 3.0;
+  pixels.lineWidthMetres = 0.0;
+  pixels.anchorGround = std::move(ground);
+  return GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.6F, 0.1F, 0.8F), pixels);
+}
+
 Layers makeLayers() {
   const auto features = test::globe_scene::features();
   std::vector<geo::Feature> large(features.begin(), features.end() - 1);
@@ -242,12 +252,7 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasAndLinesExactlyInEveryFaceOfTh
   // Lines in pixels (their pieces: not the lookup's) first, then the areas and the lines in metres
   // (the lookup: their primitives in space, lines 30 km, 20 km and 10 m wide): every layer keeps
   // its bit and order.
-  GlobeLayerOptions pixels;
-  pixels.lineWidthPixels = 3.0;
-  pixels.lineWidthMetres = 0.0;
-  pixels.anchorGround = grid();
-  Result<GlobeLayer> routes =
-      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.6F, 0.1F, 0.8F), pixels);
+  Result<GlobeLayer> routes = routesInPixels(grid());
   ASSERT_TRUE(routes.ok());
   EXPECT_FALSE(deferredDraws(*routes));
   const std::vector<const GlobeLayer*> drawn{&*routes,      &*world,       &layers.all,  &layers.boxes,
@@ -344,12 +349,7 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
   // are measured; every frame exact either way.
   const Layers layers = makeLayers();
   // Lines in pixels first (never the lookup's: their pieces), then two area layers.
-  GlobeLayerOptions pixels;
-  pixels.lineWidthPixels = 3.0;
-  pixels.lineWidthMetres = 0.0;
-  pixels.anchorGround = grid();
-  Result<GlobeLayer> routes =
-      GlobeLayer::build("routes 3 px", test::globe_scene::wideLines(), glm::vec4(0.9F, 0.6F, 0.1F, 0.8F), pixels);
+  Result<GlobeLayer> routes = routesInPixels(grid());
   ASSERT_TRUE(routes.ok());
   std::vector<const GlobeLayer*> drawn{&*routes, &layers.all, &layers.boxes};
   const GlobeView v = view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6});

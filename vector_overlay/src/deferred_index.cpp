@@ -120,10 +120,15 @@ class Builder {
     }
     out_.polygons = polygons_.size();
     out_.primitives = primitives_.size();
-    sizeSplits_.assign(n, 0);
-    seen_.assign(n, 0);
-    // What each feature may force: maxSizeSplitsPerFeature, and 4 more per entry of it.
-    sizeSplitBudget_.assign(n, options_.maxSizeSplitsPerFeature);
+    budgetSizeSplits(n);
+  }
+
+  /// What each of `features` features may force for size: maxSizeSplitsPerFeature, and 4 more
+  /// per entry of it (boxes_ made).
+  void budgetSizeSplits(std::size_t features) {
+    sizeSplits_.assign(features, 0);
+    seen_.assign(features, 0);
+    sizeSplitBudget_.assign(features, options_.maxSizeSplitsPerFeature);
     for (std::uint32_t i = 0; i < boxes_.size(); ++i) {
       std::uint32_t& budget = sizeSplitBudget_[featureOf(i)];
       budget = budget > std::numeric_limits<std::uint32_t>::max() - 4 ? budget : budget + 4;
@@ -148,13 +153,7 @@ class Builder {
       boxes_.push_back(box);
     }
     out_.primitives = world_.size();
-    sizeSplits_.assign(featureCount, 0);
-    seen_.assign(featureCount, 0);
-    sizeSplitBudget_.assign(featureCount, options_.maxSizeSplitsPerFeature);
-    for (std::uint32_t i = 0; i < boxes_.size(); ++i) {
-      std::uint32_t& budget = sizeSplitBudget_[featureOf(i)];
-      budget = budget > std::numeric_limits<std::uint32_t>::max() - 4 ? budget : budget + 4;
-    }
+    budgetSizeSplits(featureCount);
   }
 
   void run() {

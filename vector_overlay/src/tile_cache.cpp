@@ -159,6 +159,13 @@ std::shared_ptr<const geo::io::CheckedFile> openTile(const std::filesystem::path
   return checked;
 }
 
+/// A lean tile's GPU arrays, left in its file for the upload (ArraysInFile), read through a copy
+/// of the descriptor that was verified (null when it cannot be copied: then read whole).
+std::shared_ptr<ArraysInFile> arraysIn(const geo::io::CheckedFile& checked) {
+  const int fd = ::dup(checked.descriptor());
+  return fd >= 0 ? std::make_shared<ArraysInFile>(fd) : nullptr;
+}
+
 }  // namespace
 
 std::optional<std::size_t> tileBytes(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key) {
@@ -188,10 +195,7 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
   geo::io::SectionStream in(*checked, section);
   Reader r(in);
   if (lean) {
-    // The GPU arrays stay in the file for the upload (ArraysInFile), read through a copy of the
-    // descriptor that was verified.
-    const int fd = ::dup(checked->descriptor());
-    std::shared_ptr<ArraysInFile> arrays = fd >= 0 ? std::make_shared<ArraysInFile>(fd) : nullptr;
+    std::shared_ptr<ArraysInFile> arrays = arraysIn(*checked);
     std::vector<std::uint32_t> index;
     if (!r.array(index)) return damaged("its lean tile cannot be read");
     std::vector<FeatureStyle> styles(index.size());
@@ -243,8 +247,7 @@ std::optional<LayerTile> readWorldTile(const std::filesystem::path& file, std::u
   if (!checked->verify(1)) return damaged("its lean tile does not match its checksum");
   geo::io::SectionStream in(*checked, 1);
   Reader r(in);
-  const int fd = ::dup(checked->descriptor());
-  std::shared_ptr<ArraysInFile> arrays = fd >= 0 ? std::make_shared<ArraysInFile>(fd) : nullptr;
+  std::shared_ptr<ArraysInFile> arrays = arraysIn(*checked);
   std::vector<std::uint32_t> index;
   if (!r.array(index) || !index.empty()) return damaged("its lean tile cannot be read");
   std::vector<FeatureStyle> styles(groupColours.size());
