@@ -256,9 +256,10 @@ void main() {
   vec3 rel = h.xyz / h.w;
   vec3 world = u_eyeWorld + rel;
   int face = faceOf(world);
-  // The ground point's height along the ellipsoid's normal (the faces): its foot is world − up.
-  vec3 gw = world / u_radii;
-  vec3 up = length(world) * (1.0 - inversesqrt(dot(gw, gw))) * normalize(world / (u_radii * u_radii));
+  // The ground point's height along the ellipsoid's normal (the faces; found once, by the first
+  // layer in a face): its foot is world − up.
+  vec3 up = vec3(0.0);
+  bool haveUp = false;
 
   vec4 color = vec4(0.0);  // premultiplied, the layers composited in order
   float mask = 0.0;
@@ -267,6 +268,11 @@ void main() {
     vec2 at = rel.xy;
     if (l.grid.w != 0u) {
       if (l.grid.w != uint(face + 1)) continue;
+      if (!haveUp) {
+        vec3 gw = world / u_radii;
+        up = length(world) * (1.0 - inversesqrt(dot(gw, gw))) * normalize(world / (u_radii * u_radii));
+        haveUp = true;
+      }
       at = faceOffset(l, rel, up);
     }
     int feature = coveringFeature(l, at, up);
