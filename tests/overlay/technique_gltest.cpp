@@ -143,7 +143,8 @@ TEST_F(TechniqueGlTest, DrapeBuildsRestoreTheBoundTargetAndViewport) {
   // before (any viewport) is bound again after it, known to the cache or read back from GL.
   gfx::RenderTarget target(kWidth, kHeight, 0, true);
   const gfx::DrawTarget frameTarget{target.framebuffer(), {4, 2, 100, 50}};
-  const std::vector<const overlay::OverlayLayer*> none;
+  const std::vector<const overlay::OverlayLayer*> noLayers;
+  const overlay::FootprintDrapeSource none(noLayers);
   const overlay::DrapeExtent extent{glm::dvec2(0.0), glm::dvec2(100.0)};
   Result<overlay::TiledDrape> tiles = overlay::TiledDrape::create(32);
   ASSERT_TRUE(tiles.ok());

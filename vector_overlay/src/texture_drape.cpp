@@ -52,13 +52,12 @@ gfx::VertexArrayHandle drapeVertexArray() {
   return vao;
 }
 
-/// Clears the `size`² framebuffer `fbo` (colour, mask) and draws into it the visible footprints
-/// of `layers` that may meet `extent`: one layer after the other, the stencil cleared before
-/// each, so a texel blends each layer once. The footprints are taken at the largest width (lines
-/// in pixels cannot follow the view in a texture). A pass of its own: the target bound before
-/// (the frame's) is bound again after it. Returns the triangles.
+/// Clears the `size`² framebuffer `fbo` (colour, mask) and draws into it the triangles of
+/// `source` that may meet `extent`: one layer after the other, the stencil cleared before each, so
+/// a texel blends each layer once. A pass of its own: the target bound before (the frame's) is
+/// bound again after it. Returns the triangles.
 std::size_t drawLayers(gfx::StateCache& cache, gfx::Program& program, GLuint vao, GLuint fbo, int size,
-                       std::span<const OverlayLayer* const> layers, const DrapeExtent& extent) {
+                       const DrapeSource& source, const DrapeExtent& extent) {
   const gfx::RenderPass pass(cache, fbo, size, size);
   cache.apply(kDrapeLayer);
   const float zero[4] = {0.0F, 0.0F, 0.0F, 0.0F};
@@ -69,25 +68,18 @@ std::size_t drawLayers(gfx::StateCache& cache, gfx::Program& program, GLuint vao
   cache.bindVertexArray(vao);
   std::size_t triangles = 0;
   const glm::dvec2 lo = extent.origin, hi = extent.origin + extent.size;
-  for (std::size_t i = 0; i < layers.size(); ++i) {
-    const OverlayLayer* layer = layers[i];
-    if (layer == nullptr) continue;
-    std::vector<DrapeVertex> vertices;
-    const std::vector<FeatureStyle>& styles = layer->featureStyles();
-    for (std::size_t p = 0; p < layer->polyhedra().size(); ++p) {
-      if (!layer->slots()[p].live) continue;
-      const Polyhedron& piece = layer->polyhedra()[p];
-      if (piece.boxMax.x < lo.x || piece.boxMin.x > hi.x || piece.boxMax.y < lo.y || piece.boxMin.y > hi.y) continue;
-      const Footprint& f = piece.footprint;
-      if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
-      const glm::vec4 c = styles[f.feature].color;
-      for (const auto& t : f.triangles) {
-        for (const std::uint32_t k : t) {
-          const glm::dvec2 q = f.vertices[k] - extent.origin;
-          vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), c.x, c.y, c.z, c.w});
-        }
-      }
+  const glm::dvec2 texel = extent.size / static_cast<double>(size);
+  std::vector<DrapeVertex> vertices;
+  const DrapeSource::TriangleSink emit = [&](const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c,
+                                             const glm::vec4& colour) {
+    for (const glm::dvec2& p : {a, b, c}) {
+      const glm::dvec2 q = p - extent.origin;
+      vertices.push_back({static_cast<float>(q.x), static_cast<float>(q.y), colour.x, colour.y, colour.z, colour.w});
     }
+  };
+  for (std::size_t i = 0; i < source.layerCount(); ++i) {
+    vertices.clear();
+    source.triangles(i, lo, hi, texel, emit);
     if (vertices.empty()) continue;
     triangles += vertices.size() / 3;
     const gfx::BufferHandle buffer = gfx::createBufferWithData(vertices.data(), vertices.size() * sizeof(DrapeVertex));
@@ -102,8 +94,25 @@ std::size_t drawLayers(gfx::StateCache& cache, gfx::Program& program, GLuint vao
 
 }  // namespace
 
-Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
-                                         const DrapeExtent& extent, int size) {
+void FootprintDrapeSource::triangles(std::size_t layer, const glm::dvec2& lo, const glm::dvec2& hi,
+                                     const glm::dvec2& texel, const TriangleSink& emit) const {
+  (void)texel;
+  const OverlayLayer* drawn = layers_[layer];
+  if (drawn == nullptr) return;
+  const std::vector<FeatureStyle>& styles = drawn->featureStyles();
+  for (std::size_t p = 0; p < drawn->polyhedra().size(); ++p) {
+    if (!drawn->slots()[p].live) continue;
+    const Polyhedron& piece = drawn->polyhedra()[p];
+    if (piece.boxMax.x < lo.x || piece.boxMin.x > hi.x || piece.boxMax.y < lo.y || piece.boxMin.y > hi.y) continue;
+    const Footprint& f = piece.footprint;
+    if (f.feature >= styles.size() || !styles[f.feature].visible) continue;
+    const glm::vec4 c = styles[f.feature].color;
+    for (const auto& t : f.triangles) emit(f.vertices[t[0]], f.vertices[t[1]], f.vertices[t[2]], c);
+  }
+}
+
+Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, const DrapeSource& source, const DrapeExtent& extent,
+                                         int size) {
   GLint maxSize = 0;
   glGetIntegerv(GL_MAX_TEXTURE_SIZE, &maxSize);
   if (size < 1 || size > maxSize) {
@@ -148,7 +157,7 @@ Result<TextureDrape> TextureDrape::build(gfx::StateCache& cache, std::span<const
   }
 
   const gfx::VertexArrayHandle vao = drapeVertexArray();
-  drape.stats_.triangles = drawLayers(cache, *program, vao.id(), fbo.id(), size, layers, extent);
+  drape.stats_.triangles = drawLayers(cache, *program, vao.id(), fbo.id(), size, source, extent);
   glGenerateTextureMipmap(drape.color_.id());
   glFinish();
   drape.stats_.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -251,8 +260,8 @@ void TiledDrape::invalidate(const glm::dvec2& lo, const glm::dvec2& hi) {
   }
 }
 
-TiledDrape::Tile TiledDrape::tile(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
-                                  std::uint64_t key, const DrapeExtent& extent, FrameStats& stats) {
+TiledDrape::Tile TiledDrape::tile(gfx::StateCache& cache, const DrapeSource& source, std::uint64_t key,
+                                  const DrapeExtent& extent, FrameStats& stats) {
   if (const auto found = tiles_.find(key); found != tiles_.end()) {
     Entry& e = found->second;
     e.frame = frame_;
@@ -270,7 +279,7 @@ TiledDrape::Tile TiledDrape::tile(gfx::StateCache& cache, std::span<const Overla
   const int layer = freeLayers_.back();
   freeLayers_.pop_back();
   const auto start = std::chrono::steady_clock::now();
-  rasterise(cache, layers, layer, extent);
+  rasterise(cache, source, layer, extent);
   glFinish();
   stats.buildSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ++stats.tilesBuilt;
@@ -280,14 +289,13 @@ TiledDrape::Tile TiledDrape::tile(gfx::StateCache& cache, std::span<const Overla
   return {layer, extent};
 }
 
-void TiledDrape::rasterise(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, int layer,
-                           const DrapeExtent& extent) {
+void TiledDrape::rasterise(gfx::StateCache& cache, const DrapeSource& source, int layer, const DrapeExtent& extent) {
   glNamedFramebufferTextureLayer(fbo_.id(), GL_COLOR_ATTACHMENT0, color_.id(), 0, layer);
   glNamedFramebufferTextureLayer(fbo_.id(), GL_COLOR_ATTACHMENT1, mask_.id(), 0, layer);
   glNamedFramebufferRenderbuffer(fbo_.id(), GL_STENCIL_ATTACHMENT, GL_RENDERBUFFER, stencil_.id());
   const GLenum buffers[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
   glNamedFramebufferDrawBuffers(fbo_.id(), 2, buffers);
-  drawLayers(cache, program_, vao_.id(), fbo_.id(), tileSize_, layers, extent);
+  drawLayers(cache, program_, vao_.id(), fbo_.id(), tileSize_, source, extent);
 }
 
 }  // namespace gis::overlay

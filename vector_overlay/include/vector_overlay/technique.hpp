@@ -69,6 +69,9 @@ struct TechniqueFrame {
   /// The layers in draw order; layer i gets mask bit i. A null entry is hidden (its bit stays).
   std::span<const OverlayLayer* const> layers;
   std::span<const DrawnTile> tiles;  ///< the terrain tiles drawn in this frame
+  /// What a drape rasterises (texture techniques): null for the layers' footprints
+  /// (FootprintDrapeSource). The globe gives its own, in longitude and latitude, with no layers.
+  const DrapeSource* drapeSource = nullptr;
   OverlaySettings settings;
   /// A still image: wait for everything the view wants (tiles of the right detail) instead of
   /// drawing coarser parents while it builds (a flight).

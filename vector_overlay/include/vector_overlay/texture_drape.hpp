@@ -10,12 +10,14 @@
 // decides (GL's rasterisation rules), so a feature narrower than a texel may vanish.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <list>
 #include <span>
 #include <unordered_map>
 #include <vector>
 
 #include <glm/vec2.hpp>
+#include <glm/vec4.hpp>
 
 #include "core/diagnostics.hpp"
 #include "gfx/handles.hpp"
@@ -31,6 +33,41 @@ struct DrapeExtent {
   glm::dvec2 size{1.0};    ///< metres, both > 0
 };
 
+/// What a drape rasterises: its layers' triangles in the plane of the texture, each with its
+/// colour (straight alpha). The plane is a frame's: a projected frame's x and y in metres, or the
+/// globe's longitude and latitude in degrees (globe::GlobeDrapeSource), whose terrain tiles are
+/// linear in both; so one rasteriser, one texture cache and one terrain lookup serve both frames.
+class DrapeSource {
+ public:
+  using TriangleSink =
+      std::function<void(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c, const glm::vec4& colour)>;
+  virtual ~DrapeSource() = default;
+  DrapeSource() = default;
+  DrapeSource(const DrapeSource&) = delete;
+  DrapeSource& operator=(const DrapeSource&) = delete;
+
+  /// Layers in draw order: layer i writes mask bit i.
+  [[nodiscard]] virtual std::size_t layerCount() const = 0;
+  /// Layer i's visible triangles that may meet the box [lo, hi], into `emit` (others may come
+  /// too: the rasteriser clips). `texel` is the texture's texel there (plane units), what the
+  /// source may generalise by, and draw lines in pixels at.
+  virtual void triangles(std::size_t layer, const glm::dvec2& lo, const glm::dvec2& hi, const glm::dvec2& texel,
+                         const TriangleSink& emit) const = 0;
+};
+
+/// The projected frame's: the visible footprints of the layers' pieces (null entries are skipped,
+/// their bits stay), lines in pixels at their largest width (a texture cannot follow the view).
+class FootprintDrapeSource final : public DrapeSource {
+ public:
+  explicit FootprintDrapeSource(std::span<const OverlayLayer* const> layers) : layers_(layers) {}
+  [[nodiscard]] std::size_t layerCount() const override { return layers_.size(); }
+  void triangles(std::size_t layer, const glm::dvec2& lo, const glm::dvec2& hi, const glm::dvec2& texel,
+                 const TriangleSink& emit) const override;
+
+ private:
+  std::span<const OverlayLayer* const> layers_;
+};
+
 struct DrapeStats {
   int size = 0;               ///< texels per side
   std::size_t triangles = 0;  ///< rasterised
@@ -40,13 +77,12 @@ struct DrapeStats {
 
 class TextureDrape {
  public:
-  /// Rasterises the visible features of `layers` (null entries are skipped; bit i of the mask is
-  /// entry i) into a `size` × `size` colour texture (premultiplied RGBA8, mip-mapped, linear
-  /// filtering) and a mask texture (R32F, layer bits, nearest) over `extent`. Needs a current
-  /// GL context; `cache` is left consistent. Fails for a size outside [1, the GL maximum] or an
-  /// empty extent.
-  static Result<TextureDrape> build(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers,
-                                    const DrapeExtent& extent, int size);
+  /// Rasterises the triangles of `source` (bit i of the mask is its layer i) into a `size` ×
+  /// `size` colour texture (premultiplied RGBA8, mip-mapped, linear filtering) and a mask texture
+  /// (R32F, layer bits, nearest) over `extent`. Needs a current GL context; `cache` is left
+  /// consistent. Fails for a size outside [1, the GL maximum] or an empty extent.
+  static Result<TextureDrape> build(gfx::StateCache& cache, const DrapeSource& source, const DrapeExtent& extent,
+                                    int size);
 
   [[nodiscard]] GLuint colorTexture() const { return color_.id(); }
   [[nodiscard]] GLuint maskTexture() const { return mask_.id(); }
@@ -90,12 +126,11 @@ class TiledDrape {
   /// Marks the start of a frame that will ask for up to `tiles` tiles: tiles asked for from now on
   /// are this frame's, and the array grows first if it holds fewer (every tile is then rebuilt).
   void beginFrame(std::size_t tiles);
-  /// The tile of chunk `key` over `extent`, rasterised from the visible features of `layers` if
-  /// it is not resident (as TextureDrape::build), in place of the least recently used tile of an
-  /// earlier frame. `cache` is left consistent; the framebuffer binding is changed when a tile
-  /// is built.
-  Tile tile(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, std::uint64_t key,
-            const DrapeExtent& extent, FrameStats& stats);
+  /// The tile of chunk `key` over `extent`, rasterised from `source` if it is not resident (as
+  /// TextureDrape::build), in place of the least recently used tile of an earlier frame. `cache`
+  /// is left consistent; the framebuffer binding is changed when a tile is built.
+  Tile tile(gfx::StateCache& cache, const DrapeSource& source, std::uint64_t key, const DrapeExtent& extent,
+            FrameStats& stats);
   /// Drops every tile (after a change of the shown layers).
   void invalidate();
   /// Drops the tiles whose extent meets the box [lo, hi] (after an edit there).
@@ -109,8 +144,7 @@ class TiledDrape {
  private:
   TiledDrape() = default;
   void allocate(int capacity);
-  void rasterise(gfx::StateCache& cache, std::span<const OverlayLayer* const> layers, int layer,
-                 const DrapeExtent& extent);
+  void rasterise(gfx::StateCache& cache, const DrapeSource& source, int layer, const DrapeExtent& extent);
 
   struct Entry {
     int layer = 0;

@@ -15,7 +15,9 @@ class SingleDrape final : public OverlayTechnique {
   std::optional<SurfaceDrape> prepareFrame(gfx::StateCache& cache, const TechniqueFrame& frame,
                                            TechniqueFrameStats& stats) override {
     if (dirty_ || !drape_) {
-      Result<TextureDrape> built = TextureDrape::build(cache, frame.layers, extent_, size_);
+      const FootprintDrapeSource footprints(frame.layers);
+      Result<TextureDrape> built =
+          TextureDrape::build(cache, frame.drapeSource ? *frame.drapeSource : footprints, extent_, size_);
       drape_.reset();
       if (built) drape_ = std::move(*built);
       dirty_ = false;

@@ -19,8 +19,10 @@ class PerTileDrape final : public OverlayTechnique {
     tiles_.beginFrame(frame.tiles.size());
     TiledDrape::FrameStats tileStats;
     frameTiles_.clear();
+    const FootprintDrapeSource footprints(frame.layers);
+    const DrapeSource& source = frame.drapeSource ? *frame.drapeSource : footprints;
     for (const DrawnTile& t : frame.tiles) {
-      frameTiles_[t.key] = tiles_.tile(cache, frame.layers, t.key, DrapeExtent{t.lo, t.hi - t.lo}, tileStats);
+      frameTiles_[t.key] = tiles_.tile(cache, source, t.key, DrapeExtent{t.lo, t.hi - t.lo}, tileStats);
     }
     stats.texturesBuilt = tileStats.tilesBuilt;
     stats.textureSeconds = tileStats.buildSeconds;
