@@ -2,17 +2,27 @@
 // The globe's terrain: a hypsometric tint by height (blues below sea level; green, brown, then
 // white above) times a hillshade from the screen-space normal, lit from the north-west a little
 // off the local up; where the tile has imagery, the imagery (unshaded, as the projected frame's
-// orthophoto) over it by its coverage. Writes colour only: the terrain pass runs with the mask
-// attachment's writes off.
+// orthophoto) over it by its coverage; with a texture drape (the draping baseline, the projected
+// frame's drape over the tile's box or the data's), its layers blended over that and their bits
+// written to the mask attachment, whose writes are otherwise off in the terrain pass.
 in vec3 v_position;
 in vec3 v_up;
 in float v_height;
 in vec2 v_uv;
+in vec2 v_drapeUv;
 
 uniform sampler2D u_imagery;  // the tile's texels, row 0 at its south side
 uniform int u_hasImagery;
+uniform int u_hasDrape;
+uniform int u_drapeTiled;               // draping per tile: the tile's layer of the arrays
+uniform int u_drapeLayer;
+uniform sampler2D u_drape;              // premultiplied RGBA, mip-mapped
+uniform sampler2D u_drapeMask;          // R32F layer bits, read at the nearest texel
+uniform sampler2DArray u_drapeTiles;    // premultiplied RGBA
+uniform sampler2DArray u_drapeTileMask; // R32F layer bits
 
 layout(location = 0) out vec4 o_color;
+layout(location = 1) out vec4 o_mask;
 
 vec3 tint(float h) {
   if (h < 0.0) return mix(vec3(0.30, 0.50, 0.72), vec3(0.08, 0.16, 0.38), clamp(-h / 6000.0, 0.0, 1.0));
@@ -41,4 +51,22 @@ void main() {
     color = mix(color, photo.rgb, photo.a);
   }
   o_color = vec4(color, 1.0);
+  o_mask = vec4(0.0);
+  // A tile's own texture covers it whole (its border's uv may round to 1); a single drape, its box.
+  bool onDrape = u_drapeTiled != 0 ||
+                 (all(greaterThanEqual(v_drapeUv, vec2(0.0))) && all(lessThan(v_drapeUv, vec2(1.0))));
+  if (u_hasDrape != 0 && onDrape) {
+    vec4 layers;
+    if (u_drapeTiled != 0) {
+      layers = texture(u_drapeTiles, vec3(v_drapeUv, float(u_drapeLayer)));
+      ivec2 size = textureSize(u_drapeTileMask, 0).xy;
+      ivec2 texel = clamp(ivec2(floor(v_drapeUv * vec2(size))), ivec2(0), size - 1);
+      o_mask.r = texelFetch(u_drapeTileMask, ivec3(texel, u_drapeLayer), 0).r;
+    } else {
+      layers = texture(u_drape, v_drapeUv);
+      ivec2 size = textureSize(u_drapeMask, 0);
+      o_mask.r = texelFetch(u_drapeMask, ivec2(floor(v_drapeUv * vec2(size))), 0).r;
+    }
+    o_color.rgb = o_color.rgb * (1.0 - layers.a) + layers.rgb;
+  }
 }

@@ -13,6 +13,7 @@
 #include "scene/camera.hpp"
 #include "scene/frame_readback.hpp"
 #include "scene/globe_scene.hpp"
+#include "vector_overlay/texture_drape.hpp"
 
 namespace gis::app {
 
@@ -63,6 +64,7 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
   }
   globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
   overlaySettings.technique = o.technique;
+  overlaySettings.textureSize = o.textureSize;
   const globe::GlobeFrameStats stats =
       renderer.render(cache, {target.framebuffer(), o.width, o.height, true}, view, layers, true, overlaySettings);
   runClock().firstFrameDone();
@@ -152,7 +154,23 @@ int runGlobeRender(const scene::SceneDescription& description, const std::string
                 {"repaired", stats.overlay.repairedTiles},
                 {"evicted", stats.overlay.evictedTiles},
                 {"gpu_budget_bytes", overlaySettings.gpuBudgetBytes}});
-  s["tiles"] = tiles;
+  if (stats.overlay.draped || globe::drapes(o.technique)) {
+    // Draping: the textures (in longitude and latitude), as a projected scene's "drape" block.
+    json drape = {{"tiles_built", stats.overlay.texturesBuilt},
+                  {"gpu_bytes", stats.overlay.drapeGpuBytes},
+                  {"build_s", stats.overlay.textureSeconds}};
+    if (const overlay::TextureDrape* single = renderer.overlay().textureDrape()) {
+      drape.update(
+          {{"size", single->size()},
+           {"triangles", single->stats().triangles},
+           {"texel_deg", {single->extent().size.x / single->size(), single->extent().size.y / single->size()}}});
+    } else {
+      drape["tile_size"] = o.textureSize > 0 ? o.textureSize : 256;
+    }
+    s["drape"] = drape;
+  } else {
+    s["tiles"] = tiles;
+  }
   s.update(analyses);
   ok = writeJson(out / "camera.json", camera) && ok;
   ok = writeJson(out / "stats.json", s) && ok;

@@ -18,6 +18,7 @@ struct GlobeRenderOptions {
   globe::GlobeTechnique technique = globe::GlobeTechnique::StencilTiles;  ///< --method
   std::string method = "stencil-tiles";                                   ///< its name
   int msaa = 0;                                                           ///< --msaa: samples per pixel (0 or 1: none)
+  int textureSize = 0;  ///< --drape-size: texels a side of a drape's texture (0: the technique's default)
 };
 
 /// Loads and draws the scene on the globe (`reason` says why it is drawn there); the process's

@@ -201,6 +201,7 @@ void Viewer::drawGlobe() {
   g.overlaySettings.waitForTiles = script_.has_value();
   g.overlaySettings.technique =
       scene::globeTechniqueNamed(technique_->name).value_or(globe::GlobeTechnique::StencilTiles);
+  g.overlaySettings.textureSize = technique_->usesTextures() ? drapeSize_ : 0;
   const globe::GlobeFrameStats s =
       g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed, g.overlaySettings);
   if (timed) {
@@ -474,7 +475,7 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: draping, and the polyhedra of the whole layer (stencil, paper).");
+  ImGui::TextWrapped("Not on the globe yet: the polyhedra of the whole layer (stencil, paper).");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
@@ -487,6 +488,9 @@ void Viewer::drawGlobeHud() {
               g.stats.terrainGpuMilliseconds);
   if (!render_.overlays) {
     ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
+  } else if (g.stats.overlay.draped) {
+    ImGui::Text("overlays: draped by the terrain, %zu textures built, %.0f MB", g.stats.overlay.texturesBuilt,
+                static_cast<double>(g.stats.overlay.drapeGpuBytes) / 1048576.0);
   } else {
     ImGui::Text("overlays: GPU %.2f ms, %zu pieces, %zu z-fail", g.stats.overlayGpuMilliseconds, g.stats.overlay.pieces,
                 g.stats.overlay.zFailPieces);
@@ -611,7 +615,8 @@ json Viewer::globeState() const {
            {{"pieces", g.stats.overlay.pieces},
             {"z_fail_pieces", g.stats.overlay.zFailPieces},
             {"deferred_layers", g.stats.overlay.deferredLayers},
-            {"deferred_pending", g.stats.overlay.deferredPending}}},
+            {"deferred_pending", g.stats.overlay.deferredPending},
+            {"draped", g.stats.overlay.draped}}},
           {"view", {{"panel", settings_.showPanel}, {"hud", settings_.showHud}, {"fov", settings_.fovYDeg}}},
           {"ui_rects", rects},
           {"notice", notice_ ? json(notice_->text) : json()},

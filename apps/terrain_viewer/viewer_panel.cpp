@@ -129,9 +129,7 @@ void Viewer::drawOverlaySection() {
     if (!drawn && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("not on the globe yet");
   }
   if (technique_->usesTextures()) drawDrapeSize();
-  if (chosen != technique_ && globe_) {
-    technique_ = chosen;  // the globe's renderer takes it at the next frame: nothing to rebuild
-  } else if (chosen != technique_) {
+  if (chosen != technique_) {
     technique_ = chosen;
     // Keep the size where the new technique offers it, else its default (a single drape's size
     // would be far too much per tile).
@@ -139,7 +137,7 @@ void Viewer::drawOverlaySection() {
     if (technique_->usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
       drapeSize_ = technique_->defaultTextureSize;
     }
-    rebuildOverlays();
+    if (!globe_) rebuildOverlays();  // the globe's renderer takes both at the next frame
   }
   ImGui::Checkbox("debug: pieces", &debugPieces_);
   if (debugPieces_ && technique_->construction == overlay::PieceConstruction::Features) {
@@ -162,12 +160,20 @@ void Viewer::drawDrapeSize() {
     for (const int size : technique_->textureSizes) {
       if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_) {
         drapeSize_ = size;
-        rebuildOverlays();
+        if (!globe_) rebuildOverlays();
       }
     }
     ImGui::EndCombo();
   }
-  if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
+  if (globe_) {
+    // Texels in degrees: the globe's drapes lie in longitude and latitude.
+    if (const overlay::TextureDrape* drape = globe_->renderer->overlay().textureDrape()) {
+      ImGui::TextDisabled("%.4f° texels, %.0f MB, built in %.2f s", drape->extent().size.y / drape->size(),
+                          static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
+    } else {
+      ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(globe_->stats.overlay.drapeGpuBytes) / 1048576.0);
+    }
+  } else if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
     ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
                         static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
   } else {

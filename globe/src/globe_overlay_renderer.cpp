@@ -18,11 +18,13 @@
 #include <utility>
 
 #include "core/log.hpp"
+#include "globe/globe_drape.hpp"
 #include "globe/globe_overlay.hpp"
 #include "globe/globe_selection.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/plan_chooser.hpp"
+#include "vector_overlay/technique.hpp"
 #include "vector_overlay/tile_residency.hpp"
 #include "vector_overlay/tiled_layer.hpp"
 
@@ -175,7 +177,102 @@ struct GlobeOverlayRenderer::Gpu {
   int plan = -1;  ///< -1: the last draw was not `auto`'s
   /// Per line layer (its serial): its primitives in space, counted once (lookupFits).
   std::unordered_map<std::uint64_t, std::size_t> linePrimitives;
+  // Texture draping: the registry's technique, made for its name, texture size and extent; what
+  // it rasterises, for the layers (their serials) it was made for.
+  std::unique_ptr<overlay::OverlayTechnique> drape;
+  std::string drapeName;
+  int drapeSize = 0;
+  overlay::DrapeExtent drapeExtent;
+  bool drapeFailed = false;  ///< the technique could not be made for them (said once)
+  std::unique_ptr<GlobeDrapeSource> drapeSource;
+  std::vector<std::uint64_t> drapeSerials;
 };
+
+namespace {
+
+/// What a single drape covers: the layers' box, within the world (every longitude where it
+/// crosses ±180°).
+overlay::DrapeExtent drapeExtentOf(const std::vector<const GlobeLayer*>& layers) {
+  LonLatRect box{180.0, 90.0, -180.0, -90.0};
+  for (const GlobeLayer* layer : layers) {
+    const LonLatRect e = layer->extent();
+    if (e.empty()) continue;
+    box = {std::min(box.west, e.west), std::min(box.south, e.south), std::max(box.east, e.east),
+           std::max(box.north, e.north)};
+  }
+  if (box.empty()) return {glm::dvec2(-180.0, -90.0), glm::dvec2(360.0, 180.0)};
+  if (box.west < -180.0 || box.east > 180.0) box.west = -180.0, box.east = 180.0;
+  box.south = std::max(box.south, -90.0);
+  box.north = std::min(box.north, 90.0);
+  return {glm::dvec2(box.west, box.south), glm::dvec2(box.east - box.west, box.north - box.south)};
+}
+
+}  // namespace
+
+std::optional<overlay::SurfaceDrape> GlobeOverlayRenderer::prepareDrape(gfx::StateCache& cache, const GlobeView& view,
+                                                                        const std::vector<DrawnTile>& tiles,
+                                                                        const std::vector<const GlobeLayer*>& layers,
+                                                                        const GlobeOverlaySettings& settings) {
+  stats_ = {};
+  if (!drapes(settings.technique) || layers.empty()) return std::nullopt;
+  Gpu& g = *gpu_;
+  const std::string name = settings.technique == GlobeTechnique::Drape ? "drape" : "drape-tiles";
+  const overlay::TechniqueInfo* info = overlay::findTechnique(name);
+  if (info == nullptr) return std::nullopt;
+  const int size = settings.textureSize > 0 ? settings.textureSize : info->defaultTextureSize;
+  const overlay::DrapeExtent extent = drapeExtentOf(layers);
+  const bool sameExtent = settings.technique != GlobeTechnique::Drape ||
+                          (g.drapeExtent.origin == extent.origin && g.drapeExtent.size == extent.size);
+  if (!g.drape || g.drapeName != name || g.drapeSize != size || !sameExtent) {
+    const bool sameAsFailed = g.drapeFailed && g.drapeName == name && g.drapeSize == size && sameExtent;
+    g.drape.reset();
+    g.drapeName = name;
+    g.drapeSize = size;
+    g.drapeExtent = extent;
+    if (sameAsFailed) return std::nullopt;
+    overlay::TechniqueOptions options;
+    options.textureSize = size;
+    options.extent = extent;
+    Result<std::unique_ptr<overlay::OverlayTechnique>> made = info->create(options);
+    g.drapeFailed = !made.ok();
+    for (const Diagnostic& d : made.diagnostics.items()) logError(d.toString());
+    if (!made) return std::nullopt;
+    g.drape = std::move(*made);
+    g.drapeSerials.clear();
+  }
+  // Other layers (another set shown, another style: a new serial): every texture again.
+  std::vector<std::uint64_t> serials;
+  for (const GlobeLayer* layer : layers) serials.push_back(layer->serial());
+  if (serials != g.drapeSerials || !g.drapeSource) {
+    g.drapeSerials = serials;
+    g.drapeSource = std::make_unique<GlobeDrapeSource>(layers);
+    g.drape->invalidate();
+  }
+  std::vector<overlay::DrawnTile> drawn;
+  drawn.reserve(tiles.size());
+  for (const DrawnTile& t : tiles) {
+    const LonLatRect r = t.key.rect();
+    drawn.push_back({t.key.id(), glm::dvec2(r.west, r.south), glm::dvec2(r.east, r.north)});
+  }
+  overlay::TechniqueFrame frame;
+  frame.target = {settings.targetFramebuffer, view.width, view.height};
+  frame.view = overlayViewOf(view);
+  frame.tiles = drawn;
+  frame.drapeSource = g.drapeSource.get();
+  frame.settings = overlaySettingsOf(settings);
+  frame.waitForTiles = settings.waitForTiles;
+  overlay::TechniqueFrameStats techniqueStats;
+  std::optional<overlay::SurfaceDrape> surface = g.drape->prepare(cache, frame, techniqueStats);
+  stats_.draped = surface.has_value();
+  stats_.texturesBuilt = techniqueStats.texturesBuilt;
+  stats_.textureSeconds = techniqueStats.textureSeconds;
+  stats_.drapeGpuBytes = g.drape->gpuBytes();
+  return surface;
+}
+
+const overlay::TextureDrape* GlobeOverlayRenderer::textureDrape() const {
+  return gpu_->drape ? gpu_->drape->textureDrape() : nullptr;
+}
 
 bool GlobeOverlayRenderer::lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes) {
   if (!layer.hasLines()) return true;  // areas: their indices are as large as their edges
@@ -200,6 +297,17 @@ GlobeOverlayRenderer::~GlobeOverlayRenderer() {
 overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() { return madeOnFirstUse(gpu_->renderer, gpu_->failed); }
 
 std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes) {
+  // A drape rasterises the textures over the boxes again, from the areas triangulated again.
+  if (gpu_->drape &&
+      std::find(gpu_->drapeSerials.begin(), gpu_->drapeSerials.end(), layer.serial()) != gpu_->drapeSerials.end()) {
+    if (gpu_->drapeSource) gpu_->drapeSource->forget();
+    for (const LonLatRect& b : boxes) {
+      for (int turn = -1; turn <= 1; ++turn) {
+        const double shift = 360.0 * turn;
+        gpu_->drape->invalidate(glm::dvec2(b.west + shift, b.south), glm::dvec2(b.east + shift, b.north));
+      }
+    }
+  }
   if (!gpu_->residency) return 0;
   // A tile's pieces reach a little beyond it (the cells' margins): grown by a hundredth of it.
   const auto reaches = [&](const TileKey& key) {

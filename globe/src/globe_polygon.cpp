@@ -277,10 +277,9 @@ std::vector<glm::dvec2> prepareLine(const std::vector<glm::dvec2>& input, double
 /// turns so little that it lies within the chord tolerance of the bands is left out (its corners
 /// would nearly repeat the bands' and leave slivers for the caps' triangulation). No join or cap
 /// at a pole.
-std::vector<std::vector<glm::dvec2>> runRings(const GlobeLine& line, const std::vector<glm::dvec2>& points,
+std::vector<std::vector<glm::dvec2>> runRings(const GlobeLine& line, double h, const std::vector<glm::dvec2>& points,
                                               std::size_t first, std::size_t last, const std::vector<char>& given,
                                               double chordTolerance) {
-  const double h = line.halfWidth;
   const detail::GlobeStations st = detail::globeStations(points, first, last, given);
   const double tol = std::min(chordTolerance, 0.5 * h);
   const int chords = static_cast<int>(std::ceil(3.14159265358979323846 / std::acos(1.0 - tol / h)));
@@ -1167,7 +1166,7 @@ bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
   return widthClass > 0 && line.widthPixels > 0.0 && 0.5 * lineClassWidth(widthClass) > line.halfWidth;
 }
 
-std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass) const {
+std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass, double pixelMetres) const {
   std::vector<GlobePolygon> out;
   if (!hasLines_ || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
   const std::vector<GlobeLine>& all = lines();
@@ -1176,18 +1175,22 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
     const GlobeLine& line = all[j];
     // Lines the class scales are drawn by their own pieces (buildTilePieces); none is thinner.
     if (scalesLine(line, widthClass) || !(line.halfWidth > 0.0)) continue;
+    // A drape's lines in pixels: widthPixels of its texels, within the line's least and largest.
+    const double h = line.widthPixels > 0.0 && pixelMetres > 0.0
+                         ? std::max(std::min(0.5 * line.widthPixels * pixelMetres, line.maxHalfWidth), line.halfWidth)
+                         : line.halfWidth;
     const double tolerance = lineTolerance(line, key.level);
     const bool generalised = !centres[j].empty();
     const std::vector<glm::dvec2>& points = generalised ? centres[j] : line.points;
     // The runs of pieces that meet the tile widened by the shapes' reach (the pieces' clip
     // margins are less): a run's ends outside it (or the line's own ends).
-    for (const auto& [first, last] : lineRunsIn(j, key, line.halfWidth * line.shapeReach())) {
+    for (const auto& [first, last] : lineRunsIn(j, key, h * line.shapeReach())) {
       // Points the source gave get joins, and the line's ends caps; a run's ends where the window
       // cuts it get their joins (they lie beyond the tile's window by the line's reach).
       std::vector<GlobePolygon> made;
       const double arcTolerance = generalised ? std::max(chordTolerance_, 0.25 * tolerance) : chordTolerance_;
       std::vector<std::vector<glm::dvec2>> shapes =
-          runRings(line, points, first, last, generalised ? std::vector<char>{} : line.given, arcTolerance);
+          runRings(line, h, points, first, last, generalised ? std::vector<char>{} : line.given, arcTolerance);
       for (std::vector<glm::dvec2>& shape : shapes) {
         GlobePolygon p;
         p.feature = line.feature;

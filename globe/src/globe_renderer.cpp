@@ -32,21 +32,31 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
     terrainTimer.emplace();
     overlayTimer.emplace();
   }
-  if (target.hasMask) gfx::enableMaskWrites(target.framebuffer, false);
+  // Texture draping: the textures the frame's tiles lack, rasterised before the terrain, which
+  // then draws the layers (and their bits into the mask) itself.
+  const bool draped = !layers.empty() && drapes(settings.technique);
+  std::optional<overlay::SurfaceDrape> drape;
+  if (draped) {
+    GlobeOverlaySettings drawn = settings;
+    drawn.targetFramebuffer = target.framebuffer;
+    drape = overlay_.prepareDrape(cache, view, tiles, layers, drawn);
+    stats.overlay = overlay_.stats();
+  }
+  if (target.hasMask) gfx::enableMaskWrites(target.framebuffer, drape.has_value());
   std::optional<gfx::PipelineStatistics> terrainCounts;
   if (terrainTimer) {
     terrainTimer->begin();
     terrainCounts.emplace();
     terrainCounts->begin();
   }
-  terrain_.draw(cache, view, tiles);
+  terrain_.draw(cache, view, tiles, drape ? &*drape : nullptr);
   if (terrainTimer) {
     terrainCounts->end();
     terrainTimer->end();
     stats.terrainFragments = terrainCounts->result().fragmentShaderInvocations;
   }
   stats.terrain = terrain_.stats();
-  if (!layers.empty()) {
+  if (!layers.empty() && !draped) {
     if (target.hasMask) gfx::enableMaskWrites(target.framebuffer, true);
     if (overlayTimer) {
       overlayTimer->begin();
@@ -67,7 +77,7 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
     stats.overlay = overlay_.stats();
   }
   if (terrainTimer) stats.terrainGpuMilliseconds = static_cast<double>(terrainTimer->nanoseconds().value_or(0)) * 1e-6;
-  if (overlayTimer && !layers.empty()) {
+  if (overlayTimer && !layers.empty() && !draped) {
     stats.overlayGpuMilliseconds = static_cast<double>(overlayTimer->nanoseconds().value_or(0)) * 1e-6;
     overlay_.measured(stats.overlayGpuMilliseconds);
   }

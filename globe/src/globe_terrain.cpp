@@ -481,7 +481,8 @@ gfx::TextureHandle uploadTileImage(const TileImage& image) {
 
 GlobeTerrain::~GlobeTerrain() = default;
 
-void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles) {
+void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                        const overlay::SurfaceDrape* drape) {
   stats_ = {};
   if (!gpu_) {
     Result<gfx::Program> program = gfx::Program::build({{"globe_terrain.vert", {}}, {"globe_terrain.frag", {}}});
@@ -507,6 +508,27 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
   gpu.program.set("u_imagery", 0);
   bool imageryBound = false;
   gpu.program.set("u_hasImagery", 0);
+  // A texture drape: one texture over a box of longitude and latitude, or a layer of the arrays
+  // per tile; the tile's uv (linear in both) mapped into it.
+  gpu.program.set("u_drape", 1);
+  gpu.program.set("u_drapeMask", 2);
+  gpu.program.set("u_drapeTiles", 3);
+  gpu.program.set("u_drapeTileMask", 4);
+  const bool tiledDrape = drape != nullptr && drape->tileOf;
+  gpu.program.set("u_hasDrape", drape != nullptr ? 1 : 0);
+  gpu.program.set("u_drapeTiled", tiledDrape ? 1 : 0);
+  if (drape != nullptr && !tiledDrape) {
+    cache.bindTexture(1, drape->color);
+    cache.bindTexture(2, drape->mask);
+  } else if (tiledDrape) {
+    cache.bindTexture(3, drape->colorArray);
+    cache.bindTexture(4, drape->maskArray);
+  }
+  const auto drapeOver = [&](const TileKey& key, const glm::dvec2& origin, const glm::dvec2& size) {
+    const LonLatRect r = key.rect();
+    gpu.program.set("u_drapeUvBase", glm::vec2((glm::dvec2(r.west, r.south) - origin) / size));
+    gpu.program.set("u_drapeUvScale", glm::vec2(glm::dvec2(r.east - r.west, r.north - r.south) / size));
+  };
   const auto buildStart = std::chrono::steady_clock::now();
 
   for (const DrawnTile& tile : tiles) {
@@ -574,6 +596,17 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
       gpu.program.set("u_hasImagery", textured ? 1 : 0);
       imageryBound = textured;
     }
+    if (tiledDrape) {
+      const auto drawn = drape->tileOf(tile.key.id());
+      gpu.program.set("u_hasDrape", drawn ? 1 : 0);
+      if (drawn) {
+        const auto& [layer, origin, size] = *drawn;
+        gpu.program.set("u_drapeLayer", layer);
+        drapeOver(tile.key, origin, size);
+      }
+    } else if (drape != nullptr) {
+      drapeOver(tile.key, drape->origin, drape->size);
+    }
     const std::uint8_t mask = tile.stitch & 15U;
     glVertexArrayElementBuffer(found->second.vao.id(), gpu.indices[mask].id());
     cache.bindVertexArray(found->second.vao.id());
@@ -592,6 +625,9 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
     gpu.lru.pop_back();
   }
   if (stats_.imageryTiles > 0) cache.bindTexture(0, 0);
+  if (drape != nullptr) {
+    for (GLuint unit = 1; unit <= 4; ++unit) cache.bindTexture(unit, 0);
+  }
   stats_.resident = gpu.meshes.size();
   stats_.imageryBytes = gpu.textureBytes;
 }

@@ -87,6 +87,8 @@ std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name) 
   if (name == "stencil-tiles") return globe::GlobeTechnique::StencilTiles;
   if (name == "deferred") return globe::GlobeTechnique::Deferred;
   if (name == "auto") return globe::GlobeTechnique::Auto;
+  if (name == "drape") return globe::GlobeTechnique::Drape;
+  if (name == "drape-tiles") return globe::GlobeTechnique::DrapeTiles;
   return std::nullopt;
 }
 

@@ -1079,15 +1079,15 @@ TEST(OverlayRenderGlobe, AFailedExportIsInStatsAndTheExitStatus) {
 }
 
 TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
-  // --method paper (or drape, stencil, ...) on a globe scene: refused with exit status 2 and a
-  // message naming the method and what the globe draws, never silently drawn another way.
+  // --method paper or stencil on a globe scene: refused with exit status 2 and a message naming
+  // the method and what the globe draws, never silently drawn another way.
   const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_method_" + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   json description = olindaScene();
   description["frame"] = "globe";
   { std::ofstream(dir / "scene.json") << description.dump(1); }
-  for (const char* method : {"paper", "drape", "stencil"}) {
+  for (const char* method : {"paper", "stencil"}) {
     const fs::path log = dir / (std::string(method) + ".txt");
     EXPECT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 64 --height 48 --method " +
                                    method + " --out " + (dir / method).string(),
@@ -1097,6 +1097,49 @@ TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
     const std::string text = readText(log);
     EXPECT_NE(text.find(std::string("--method ") + method + " is not available"), std::string::npos) << text;
     EXPECT_FALSE(fs::exists(dir / method / "color.png"));
+  }
+}
+
+TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
+  // --method drape and drape-tiles on Olinda's tracts on the globe: drawn by the terrain from
+  // textures in longitude and latitude, stats.json names the method and its textures, and the
+  // tracts cover about what the stencil pieces cover (a texture is not exact: within 3 %).
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_drape_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json description = olindaScene();
+  description["frame"] = "globe";
+  json tracts = description["layers"][0];
+  tracts["style"].erase("outline_width_m");
+  description["layers"] = json::array({tracts});
+  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  std::map<std::string, std::size_t> covered;
+  for (const std::string method : {"stencil-tiles", "drape", "drape-tiles"}) {
+    const fs::path out = dir / method;
+    ASSERT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 160 --height 120 --method " +
+                                   method + (method == "drape" ? " --drape-size 1024" : "") + " --out " + out.string(),
+                               dir / (method + ".txt")),
+              0)
+        << readText(dir / (method + ".txt"));
+    const json stats = json::parse(readText(out / "stats.json"));
+    EXPECT_EQ(stats["method"], method) << stats.dump(1);
+    covered[method] = stats["layers"][0]["covered_pixels"].get<std::size_t>();
+    if (method == "stencil-tiles") {
+      EXPECT_FALSE(stats.contains("drape"));
+      continue;
+    }
+    ASSERT_TRUE(stats.contains("drape")) << stats.dump(1);
+    EXPECT_GT(stats["drape"]["tiles_built"].get<std::size_t>(), 0U) << stats.dump(1);
+    EXPECT_GT(stats["drape"]["gpu_bytes"].get<std::size_t>(), 0U) << stats.dump(1);
+    EXPECT_EQ(stats["overlay"]["pieces"].get<std::size_t>(), 0U) << stats.dump(1);
+    if (method == "drape") {
+      EXPECT_EQ(stats["drape"]["size"], 1024) << stats.dump(1);
+    }
+  }
+  ASSERT_GT(covered["stencil-tiles"], 1000U);
+  for (const char* method : {"drape", "drape-tiles"}) {
+    const double ratio = static_cast<double>(covered[method]) / static_cast<double>(covered["stencil-tiles"]);
+    EXPECT_NEAR(ratio, 1.0, 0.03) << method;
   }
 }
 

@@ -803,6 +803,12 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
                    {{"wait", 2}},
                    {{"action", "save_state"}, {"path", "blue_deferred.json"}},
                    {{"action", "screenshot"}, {"path", "blue_deferred.png"}, {"ui", false}},
+                   // And the drape per tile, its textures in longitude and latitude (inside and
+                   // outside the box alike: classify leaves a margin about its border).
+                   {{"action", "method"}, {"value", "drape-tiles"}},
+                   {{"wait", 2}},
+                   {{"action", "save_state"}, {"path", "blue_drape.json"}},
+                   {{"action", "screenshot"}, {"path", "blue_drape.png"}, {"ui", false}},
                    {{"action", "method"}, {"value", "stencil-tiles"}},
                    {{"action", "set_layer"}, {"layer", "fiji"}, {"color_attribute", "name"}},
                    {{"wait", 2}},
@@ -861,6 +867,9 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
   check("blue_deferred", {0.0, 0.0, 1.0}, 0.75);
   EXPECT_EQ(readJson("blue_deferred.json")["method"], "deferred");
   EXPECT_EQ(readJson("blue_deferred.json")["overlay"]["deferred_layers"], 1);
+  check("blue_drape", {0.0, 0.0, 1.0}, 0.75);
+  EXPECT_EQ(readJson("blue_drape.json")["method"], "drape-tiles");
+  EXPECT_EQ(readJson("blue_drape.json")["overlay"]["draped"], true);
   // One value ("Fiji box"): the first colour of the categories' palette.
   const json category = readJson("category.json");
   check("category", {0.12, 0.47, 0.71}, 0.75);

@@ -20,6 +20,7 @@
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
 #include "globe/globe_overlay.hpp"
+#include "globe/globe_renderer.hpp"
 #include "globe/globe_terrain.hpp"
 #include "globe_scene.hpp"
 #include "sample_positions.hpp"
@@ -865,6 +866,95 @@ TEST_F(GlobeOverlayGl, ColoursByFeatureAndWidthsByFeature) {
   for (const std::size_t n : seen) EXPECT_GT(n, 500u);
   EXPECT_GT(wide, 3 * narrow);
   EXPECT_GT(narrow, 20u);
+}
+
+TEST_F(GlobeOverlayGl, TheDrapesOfBothFramesLieInLongitudeAndLatitudeAndSharpenWithTheirTexels) {
+  // Texture draping on the globe (`drape`, `drape-tiles`: the projected frame's techniques, their
+  // textures in longitude and latitude): the baseline, not exact. What must hold:
+  // - the single drape: the GPU mask the terrain writes is the drape's texel under each pixel's
+  //   ground point, or one within a tenth of a texel of it (the terrain's uv is linear across a
+  //   flat triangle, the point's longitude and latitude nearly so: near the poles, on coarse
+  //   tiles seen from afar, they part by a few hundredths of a texel);
+  // - per tile: away from the reference's edge band, fewer pixels wrong with finer texels, and
+  //   few at 512² texels a tile;
+  // - the drape draws no pieces, and its layers keep their bits and order (mask bit i: layer i).
+  const Layers layers = makeLayers();
+  const std::vector<const GlobeLayer*> all{&layers.all, &layers.boxes, &layers.lines};
+  const std::vector<std::pair<Geodetic, Geodetic>> views{{{-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}},
+                                                         {{-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}},
+                                                         {{180.0, -14.0, 4e6}, {180.0, -14.0, 0.0}},
+                                                         {{0.0, 90.0, 3e6}, {0.0, 90.0, 0.0}}};
+  const auto draw = [&](GlobeRenderer& renderer, const GlobeView& v, GlobeTechnique technique, int size,
+                        gfx::RenderTarget& target) {
+    GlobeOverlaySettings settings;
+    settings.technique = technique;
+    settings.textureSize = size;
+    return renderer.render(cache_, {target.framebuffer(), v.width, v.height, true}, v, all, false, settings);
+  };
+  std::size_t unlike = 0, checked = 0;
+  std::array<std::size_t, 2> wrong{}, covered{};
+  const std::array<int, 2> tileSizes{64, 512};
+  for (std::size_t k = 0; k < views.size(); ++k) {
+    const GlobeView v = view(views[k].first, views[k].second);
+    gfx::RenderTarget target(v.width, v.height, 0, true);
+    {
+      GlobeRenderer renderer(grid());
+      const GlobeFrameStats s = draw(renderer, v, GlobeTechnique::Drape, 2048, target);
+      EXPECT_TRUE(s.overlay.draped);
+      EXPECT_EQ(s.overlay.pieces, 0U);
+      const overlay::TextureDrape* drape = renderer.overlay().textureDrape();
+      ASSERT_NE(drape, nullptr);
+      const std::vector<std::uint32_t> texels = drape->readMask();
+      const std::vector<float> depth = gfx::readDepth(target);
+      const std::vector<std::uint32_t> mask = gfx::readMask(target);
+      const overlay::DepthImage image = depthImageOf(v, depth);
+      for (int y = 0; y < v.height; ++y) {
+        for (int x = 0; x < v.width; ++x) {
+          const auto i = static_cast<std::size_t>(y * v.width + x);
+          if (!(depth[i] > 0.0F)) continue;
+          const std::optional<glm::dvec3> ground = overlay::unprojectDepth(image, x, y, depth[i]);
+          if (!ground) continue;
+          const Geodetic g = toGeodetic(*ground);
+          glm::dvec2 point(g.lon, g.lat);
+          if (point.x < drape->extent().origin.x) point.x += 360.0;
+          // The texel under the point, or one within a tenth of a texel of it.
+          const glm::dvec2 texel = drape->extent().size / double(drape->size());
+          bool agrees = false;
+          for (const glm::dvec2 by : {glm::dvec2(0.0), glm::dvec2(-0.1, -0.1), glm::dvec2(0.1, -0.1),
+                                      glm::dvec2(-0.1, 0.1), glm::dvec2(0.1, 0.1)})
+            agrees = agrees || drape->maskAt(texels, point + by * texel) == mask[i];
+          ++checked;
+          unlike += agrees ? 0U : 1U;
+        }
+      }
+    }
+    for (std::size_t s = 0; s < tileSizes.size(); ++s) {
+      GlobeRenderer renderer(grid());
+      const GlobeFrameStats stats = draw(renderer, v, GlobeTechnique::DrapeTiles, tileSizes[s], target);
+      EXPECT_TRUE(stats.overlay.draped);
+      EXPECT_EQ(stats.overlay.texturesBuilt, stats.selectedTiles);
+      const std::vector<float> depth = gfx::readDepth(target);
+      const std::vector<std::uint32_t> gpu = gfx::readMask(target);
+      const overlay::DepthImage image = depthImageOf(v, depth);
+      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, coverageOf(all, image));
+      const std::vector<std::uint8_t> edges = overlay::edgePixels(image, edgeLayersOf(all, image));
+      std::size_t w = 0, c = 0;
+      for (std::size_t i = 0; i < gpu.size(); ++i) {
+        c += expected[i] != 0 ? 1U : 0U;
+        w += gpu[i] != expected[i] && edges[i] == 0 ? 1U : 0U;
+      }
+      std::printf("drape tiles %d² view %zu: %zu tiles, %zu of %zu covered pixels wrong away from edges\n",
+                  tileSizes[s], k, stats.selectedTiles, w, c);
+      wrong[s] += w;
+      covered[s] += c;
+    }
+  }
+  std::printf("single drape 2048²: %zu of %zu pixels unlike their texel\n", unlike, checked);
+  EXPECT_GT(checked, 10000U);
+  EXPECT_EQ(unlike, 0U);
+  EXPECT_GT(covered[1], 5000U);
+  EXPECT_LT(wrong[1], wrong[0]) << "finer texels must draw fewer wrong pixels";
+  EXPECT_LE(wrong[1], covered[1] / 50) << "512² tiles: at most 2 % of the covered pixels wrong away from edges";
 }
 
 }  // namespace

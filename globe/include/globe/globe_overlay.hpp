@@ -197,8 +197,11 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// tolerance (Douglas–Peucker on its points on the ellipsoid; made once per level and kept),
   /// arcs within another quarter, rings simplified within the other half; elsewhere of the line's
   /// own points. Thread-safe.
-  /// Lines in pixels: the lines width class `widthClass` scales are left out (buildTilePieces).
-  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key, int widthClass = 0) const;
+  /// Lines in pixels: the lines width class `widthClass` scales are left out (buildTilePieces);
+  /// the others are drawn at their least width, or with `pixelMetres` > 0 (a drape's texel) at
+  /// widthPixels times that, within their least and largest widths.
+  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key, int widthClass = 0,
+                                                       double pixelMetres = 0.0) const;
   /// The points line j is drawn from in tiles of `level`: its centreline generalised for the
   /// level (lineShapesIn), or its own points.
   [[nodiscard]] const std::vector<glm::dvec2>& linePointsAt(std::size_t j, int level) const;
@@ -338,7 +341,15 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 /// - Auto (`auto`): per frame the cheaper of the two by their measured GPU times (the plan
 ///   chooser of both frames, vector_overlay/plan_chooser.hpp), the lookup only for layers whose
 ///   indices are built and fit a quarter of the GPU budget; the first frame draws the pieces.
-enum class GlobeTechnique { StencilTiles, Deferred, Auto };
+/// - Drape (`drape`) and DrapeTiles (`drape-tiles`): texture draping, the baseline of other
+///   viewers: the projected frame's techniques of the registry, whose textures lie in longitude
+///   and latitude here (GlobeDrapeSource, globe_drape.hpp): one over the layers' box, or one per
+///   drawn terrain tile. Not exact (the texel decides); what the benchmark compares against.
+enum class GlobeTechnique { StencilTiles, Deferred, Auto, Drape, DrapeTiles };
+/// Whether the technique drapes textures (the terrain draws the layers).
+inline bool drapes(GlobeTechnique technique) {
+  return technique == GlobeTechnique::Drape || technique == GlobeTechnique::DrapeTiles;
+}
 
 /// Whether the deferred lookup draws the layer (deferredParts): areas only, or lines only in
 /// metres with round joins and caps; others keep their stencil pieces.
@@ -387,6 +398,9 @@ struct GlobeOverlaySettings {
   /// tile that is still building is drawn by its nearest resident ancestor meanwhile (a flight),
   /// as the projected frame's tiles are.
   bool waitForTiles = true;
+  /// Texture draping: texels a side of the texture (Drape) or of a tile's (DrapeTiles); 0: the
+  /// technique's default (2048, 256).
+  int textureSize = 0;
 };
 
 /// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
@@ -417,6 +431,13 @@ struct GlobeOverlayStats {
   /// The bytes of every layer's indices held after the frame (those of layers no longer drawn
   /// leave once all pass a quarter of the GPU budget).
   std::size_t deferredHeldBytes = 0;
+  /// Texture draping (GlobeTechnique::Drape, DrapeTiles): the terrain drew the layers; textures
+  /// (or tiles of them) rasterised in this frame and the time that took, waited for; the GPU
+  /// bytes the textures hold.
+  bool draped = false;
+  std::size_t texturesBuilt = 0;
+  double textureSeconds = 0.0;
+  std::size_t drapeGpuBytes = 0;
   /// The tile residency's counts for the frame (the projected frame's: stats.json's "tiles" block
   /// in both frames). Its tileErrorPixels is 0.5 (the layers' generalisation follows the drawn
   /// terrain tiles), larger where the frame's tiles would not fit the GPU budget and coarser ones
@@ -455,6 +476,18 @@ class GlobeOverlayRenderer {
   /// context.
   std::vector<const overlay::OverlayLayer*> chunks(const GlobeView& view, const std::vector<DrawnTile>& tiles,
                                                    const GeoGrid& heights, const GlobeLayer& layer);
+  /// Texture draping (GlobeTechnique::Drape, DrapeTiles): before the terrain is drawn, the
+  /// registry's `drape` or `drape-tiles` rasterises what the frame's tiles lack from the layers
+  /// (GlobeDrapeSource: longitude and latitude; layer i → mask bit i), and the terrain samples
+  /// what this returns (GlobeTerrain::draw). Nothing for another technique, no layers, or a
+  /// technique that cannot be made (its message logged once). The target being drawn
+  /// (settings.targetFramebuffer, the view's size) is left bound.
+  std::optional<overlay::SurfaceDrape> prepareDrape(gfx::StateCache& cache, const GlobeView& view,
+                                                    const std::vector<DrawnTile>& tiles,
+                                                    const std::vector<const GlobeLayer*>& layers,
+                                                    const GlobeOverlaySettings& settings);
+  /// The single texture `drape` drew the last frame with (null for the others).
+  [[nodiscard]] const overlay::TextureDrape* textureDrape() const;
   /// The overlay renderer (made on first use; null if its shaders do not build).
   overlay::OverlayRenderer* renderer();
   /// The GPU time of the last draw, as its caller measured it (GlobeOverlaySettings::measure).

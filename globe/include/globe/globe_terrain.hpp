@@ -25,6 +25,7 @@
 #include "globe/globe_imagery.hpp"
 #include "globe/globe_view.hpp"
 #include "globe/tile.hpp"
+#include "vector_overlay/technique.hpp"
 
 namespace gis::globe {
 
@@ -95,9 +96,13 @@ class GlobeTerrain {
   /// view may see.
   [[nodiscard]] std::vector<DrawnTile> select(const GlobeView& view) const;
 
-  /// Draws the tiles into the bound target (depth and colour, mask writes must be off), building
-  /// and uploading the meshes it lacks. Needs a current GL 4.5 context.
-  void draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles);
+  /// Draws the tiles into the bound target (depth and colour, mask writes must be off unless
+  /// draped), building and uploading the meshes it lacks. With a texture drape (the projected
+  /// frame's, overlay::SurfaceDrape, whose plane is longitude and latitude here): its layers
+  /// blended over each tile it covers and their bits written to the mask. Needs a current GL 4.5
+  /// context.
+  void draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
+            const overlay::SurfaceDrape* drape = nullptr);
 
   [[nodiscard]] const TerrainStats& stats() const { return stats_; }
 
