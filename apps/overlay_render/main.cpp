@@ -83,7 +83,9 @@ std::string usage() {
   for (const overlay::TechniqueInfo& t : overlay::techniques()) {
     text += "  " + std::string(t.name) + ": " + std::string(t.description) + "\n";
   }
-  text += "--drape-size N: texels per side of a texture technique's texture (default 2048)\n";
+  text +=
+      "--drape-size N: texels per side of a texture technique's texture or tile (default: the technique's,\n"
+      "  drape 2048, drape-tiles 256)\n";
   return text;
 }
 
@@ -101,7 +103,7 @@ struct Options {
   double lodTolerance = 1.5;
   std::optional<double> exaggeration;
   const overlay::TechniqueInfo* technique = &overlay::defaultTechnique();
-  int drapeSize = 2048;
+  int drapeSize = 0;  ///< 0: the technique's own (TechniqueInfo::defaultTextureSize)
   bool overlays = true;
   std::string cacheDir;  ///< overrides the scene's
   bool noCache = false;
@@ -532,7 +534,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
     const overlay::TechniqueFrameStats& t = frame.overlayTiles;
     stats["tiles"] = app::tilesJson(t, d.renderer.techniqueGpuBytes());
   } else if (d.o.technique->usesTextures()) {
-    stats["drape"] = {{"tile_size", d.o.drapeSize},
+    stats["drape"] = {{"tile_size", d.o.drapeSize > 0 ? d.o.drapeSize : d.o.technique->defaultTextureSize},
                       {"tiles_built", frame.texturesBuilt},
                       {"gpu_bytes", d.renderer.techniqueGpuBytes()},
                       {"build_s", frame.textureSeconds}};
@@ -620,7 +622,7 @@ int run(const Options& o) {
                                   *technique,
                                   std::string(o.technique->name),
                                   o.msaa,
-                                  o.technique->usesTextures() ? o.drapeSize : 0});
+                                  o.drapeSize});
     }
   }
   const std::optional<Setup> setup = load(o, all);

@@ -1134,6 +1134,8 @@ TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
     EXPECT_EQ(stats["overlay"]["pieces"].get<std::size_t>(), 0U) << stats.dump(1);
     if (method == "drape") {
       EXPECT_EQ(stats["drape"]["size"], 1024) << stats.dump(1);
+    } else {
+      EXPECT_EQ(stats["drape"]["tile_size"], 256) << stats.dump(1);
     }
   }
   ASSERT_GT(covered["stencil-tiles"], 1000U);
