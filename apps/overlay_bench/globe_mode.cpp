@@ -6,7 +6,10 @@
 // the other (GPU timer queries): the ratio of the two is taken frame by frame, as the machine is
 // shared. Each frame's mask is compared with the CPU reference of the same depth buffer
 // (globe::coverageOf, edgePixels): wrong pixels away from edges are counted, and the run's exit
-// status is 3 when there are any. Writes bench.json and frames.csv.
+// status is 3 when there are any. The same frames by the deferred lookup (where it has layers to
+// draw) and, with --texture-sizes drape-tiles=N, by texture draping per tile at N² texels a tile
+// (the baseline of other viewers: its error is measured, not failed on). Writes bench.json and
+// frames.csv.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -199,6 +202,16 @@ int runGlobe(const Options& o) {
   globe::GlobeOverlaySettings lookupSettings = overlaySettings;
   lookupSettings.technique = globe::GlobeTechnique::Deferred;
   const bool lookup = !layers.empty() && !layers.back()->hasLines();
+  // Texture draping per tile on the same frames, when asked for: the error against run time of
+  // the baseline.
+  globe::GlobeOverlaySettings drapeSettings = overlaySettings;
+  drapeSettings.technique = globe::GlobeTechnique::DrapeTiles;
+  const auto drapeSizes = o.textureSizes.find("drape-tiles");
+  const bool drape = !layers.empty() && drapeSizes != o.textureSizes.end() && !drapeSizes->second.empty();
+  if (drape) drapeSettings.textureSize = drapeSizes->second.front();
+  std::vector<double> drapeRatios;
+  std::map<std::string, std::vector<double>> segmentDrapeRatios;
+  std::size_t drapeWrong = 0, drapeCovered = 0, drapeBytes = 0;
   double indexSeconds = 0.0;
   std::size_t indexBytes = 0;
   renderer.setImagery(loaded->imagery);
@@ -208,7 +221,8 @@ int runGlobe(const Options& o) {
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
   csv << "frame,segment,terrain_only_ms,terrain_ms,overlay_ms,ratio,tiles,terrain_triangles,pieces,z_fail_pieces,"
          "overlay_triangles,terrain_fragments,overlay_fragments,build_ms,covered_px,wrong_px,edge_px,"
-         "deferred_overlay_ms,deferred_ratio,deferred_fragments,deferred_wrong_px\n";
+         "deferred_overlay_ms,deferred_ratio,deferred_fragments,deferred_wrong_px,drape_ms,drape_ratio,drape_wrong_"
+         "px\n";
   std::vector<double> ratios, terrainOnly, withOverlay, lookupRatios;
   std::map<std::string, std::vector<double>> segmentLookupRatios;
   std::map<std::string, std::vector<double>> segmentRatios, segmentTerrain, segmentOverlay;
@@ -254,13 +268,31 @@ int runGlobe(const Options& o) {
       if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) lookupError = frameError(target, view, layers);
       wrongTotal += lookupError.wrong;
     }
+    // The same frame draped per tile (its textures rasterised first, untimed).
+    globe::GlobeFrameStats draped;
+    double drapeRatio = 0.0;
+    FrameError drapeError;
+    if (drape) {
+      (void)renderer.render(cache, frameTarget, view, layers, false, drapeSettings);
+      draped = renderer.render(cache, frameTarget, view, layers, true, drapeSettings);
+      drapeBytes = std::max(drapeBytes, draped.overlay.drapeGpuBytes);
+      drapeRatio = draped.terrainGpuMilliseconds / bare.terrainGpuMilliseconds;
+      drapeRatios.push_back(drapeRatio);
+      segmentDrapeRatios[f.segment].push_back(drapeRatio);
+      if (k % static_cast<std::size_t>(std::max(1, o.errorEvery)) == 0) {
+        drapeError = frameError(target, view, layers);
+        drapeWrong += drapeError.wrong;
+        drapeCovered += drapeError.covered;
+      }
+    }
     segmentWrong[f.segment] += static_cast<double>(wrong);
     csv << k << ',' << f.segment << ',' << bare.terrainGpuMilliseconds << ',' << full.terrainGpuMilliseconds << ','
         << full.overlayGpuMilliseconds << ',' << ratio << ',' << full.terrain.tiles << ',' << full.terrain.triangles
         << ',' << full.overlay.pieces << ',' << full.overlay.zFailPieces << ',' << full.overlay.triangles << ','
         << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << ',' << covered << ',' << wrong
         << ',' << edgeWrong << ',' << looked.overlayGpuMilliseconds << ',' << lookupRatio << ','
-        << looked.overlayFragments << ',' << lookupError.wrong << '\n';
+        << looked.overlayFragments << ',' << lookupError.wrong << ',' << draped.terrainGpuMilliseconds << ','
+        << drapeRatio << ',' << drapeError.wrong << '\n';
     ratios.push_back(ratio);
     terrainOnly.push_back(bare.terrainGpuMilliseconds);
     withOverlay.push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);
@@ -316,6 +348,7 @@ int runGlobe(const Options& o) {
                       {"overlay_triangles_mean", segmentTriangles[name] / static_cast<double>(r.size())},
                       {"wrong_pixels", segmentWrong[name]}};
     if (lookup) segments[name]["deferred_ratio_median"] = percentile(segmentLookupRatios[name], 50.0);
+    if (drape) segments[name]["drape_tiles_ratio_median"] = percentile(segmentDrapeRatios[name], 50.0);
   }
   const json result = {
       {"mode", "globe"},
@@ -335,6 +368,15 @@ int runGlobe(const Options& o) {
                                  {"index_bytes", indexBytes},
                                  {"index_first_frame_seconds", indexSeconds}}
                           : json()},
+      // Draping per tile (--texture-sizes drape-tiles=N): its time over the terrain alone, and the
+      // pixels it draws wrong away from edges (of those the reference covers), which the stencil
+      // methods draw right.
+      {"drape_tiles", drape ? json{{"tile_size", drapeSettings.textureSize},
+                                   {"ratio_median", percentile(drapeRatios, 50.0)},
+                                   {"wrong_pixels_away_from_edges", drapeWrong},
+                                   {"covered_pixels", drapeCovered},
+                                   {"gpu_bytes", drapeBytes}}
+                            : json()},
       {"edit", edit},
       {"memory_peak_bytes", processMemory("VmHWM")},
       {"wrong_pixels_away_from_edges", wrongTotal},
