@@ -50,13 +50,16 @@ void main() {
     o_color = vec4(hillshade, 1.0);
   }
   o_mask = vec4(0.0);
-  bool onDrape = all(greaterThanEqual(v_drapeUv, vec2(0.0))) && all(lessThan(v_drapeUv, vec2(1.0)));
+  // A chunk's own tile covers it whole (its border's uv may round to 1); a single drape, its extent.
+  bool onDrape = u_drapeTiled != 0 ||
+                 (all(greaterThanEqual(v_drapeUv, vec2(0.0))) && all(lessThan(v_drapeUv, vec2(1.0))));
   if (u_hasDrape != 0 && onDrape) {
     vec4 layers;
     if (u_drapeTiled != 0) {
       layers = texture(u_drapeTiles, vec3(v_drapeUv, float(u_drapeLayer)));
       ivec2 size = textureSize(u_drapeTileMask, 0).xy;
-      o_mask.r = texelFetch(u_drapeTileMask, ivec3(ivec2(floor(v_drapeUv * vec2(size))), u_drapeLayer), 0).r;
+      ivec2 texel = clamp(ivec2(floor(v_drapeUv * vec2(size))), ivec2(0), size - 1);
+      o_mask.r = texelFetch(u_drapeTileMask, ivec3(texel, u_drapeLayer), 0).r;
     } else {
       layers = texture(u_drape, v_drapeUv);
       ivec2 size = textureSize(u_drapeMask, 0);
