@@ -1100,11 +1100,10 @@ TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
   }
 }
 
-TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
-  // --method drape and drape-tiles on Olinda's tracts on the globe: drawn by the terrain from
-  // textures in longitude and latitude, stats.json names the method and its textures, and the
-  // tracts cover about what the stencil pieces cover (a texture is not exact: within 3 %).
-  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_drape_" + std::to_string(getpid()));
+/// A fresh folder `prefix`<pid> holding scene.json: Olinda's tracts alone, without their
+/// outline, on the globe.
+fs::path globeTractsScene(const std::string& prefix) {
+  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / (prefix + std::to_string(getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   json description = olindaScene();
@@ -1113,6 +1112,14 @@ TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
   tracts["style"].erase("outline_width_m");
   description["layers"] = json::array({tracts});
   { std::ofstream(dir / "scene.json") << description.dump(1); }
+  return dir;
+}
+
+TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
+  // --method drape and drape-tiles on Olinda's tracts on the globe: drawn by the terrain from
+  // textures in longitude and latitude, stats.json names the method and its textures, and the
+  // tracts cover about what the stencil pieces cover (a texture is not exact: within 3 %).
+  const fs::path dir = globeTractsScene("globe_drape_");
   std::map<std::string, std::size_t> covered;
   for (const std::string method : {"stencil-tiles", "drape", "drape-tiles"}) {
     const fs::path out = dir / method;
@@ -1148,15 +1155,7 @@ TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
 TEST(OverlayRenderGlobe, TheDeferredLookupDrawsTheGlobesAreasAsItsPiecesDo) {
   // --method deferred on Olinda's tracts on the globe (areas only): drawn by the lookup in the
   // cube's faces, stats.json says so, and its mask is the stencil pieces' but at edges.
-  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_deferred_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  json description = olindaScene();
-  description["frame"] = "globe";
-  json tracts = description["layers"][0];
-  tracts["style"].erase("outline_width_m");
-  description["layers"] = json::array({tracts});
-  { std::ofstream(dir / "scene.json") << description.dump(1); }
+  const fs::path dir = globeTractsScene("globe_deferred_");
   std::array<gfx::Image8, 2> masks;
   for (const std::string method : {"deferred", "stencil-tiles"}) {
     const fs::path out = dir / method;
