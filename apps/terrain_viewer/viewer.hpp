@@ -442,6 +442,10 @@ class Viewer {
   /// Whether the scene file's layer `sceneLayer` is drawn now, in either frame (the legend's).
   [[nodiscard]] bool sceneLayerShown(std::size_t sceneLayer) const;
   void rebuildOverlays();
+  /// Draws with `technique` from now on (the panel's method buttons, a script's method step):
+  /// a texture technique at `textureSize` texels a side, or (0) at the size in use where it offers
+  /// it, else at its own default (a single drape's size would be far too much per tile).
+  void useTechnique(const overlay::TechniqueInfo& technique, int textureSize = 0);
   /// On the globe: the layers built again with the description's styles (rebuildOverlays).
   void rebuildGlobeLayers();
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);

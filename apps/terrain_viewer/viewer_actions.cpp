@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <span>
 #include <string>
 #include <system_error>
 #include <utility>
@@ -80,6 +81,17 @@ void Viewer::setExaggeration(double exaggeration) {
 double Viewer::exaggeration() const {
   if (globe_) return globe_->scene.heights->exaggeration();
   return scene_ ? scene_->bounds->exaggeration() : 1.0;
+}
+
+void Viewer::useTechnique(const overlay::TechniqueInfo& technique, int textureSize) {
+  technique_ = &technique;
+  const std::span<const int> sizes = technique.textureSizes;
+  if (textureSize > 0) {
+    drapeSize_ = textureSize;
+  } else if (technique.usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
+    drapeSize_ = technique.defaultTextureSize;
+  }
+  if (!globe_) rebuildOverlays();  // the globe's renderer takes both at its next frame
 }
 
 void Viewer::rebuildOverlays() {

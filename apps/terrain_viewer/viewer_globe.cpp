@@ -611,6 +611,7 @@ json Viewer::globeState() const {
           {"scale_bar_m", scaleBarMetres_},
           {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
           {"method", technique_->name},
+          {"drape_size", technique_->usesTextures() ? json(drapeSize_) : json(nullptr)},
           {"overlay",
            {{"pieces", g.stats.overlay.pieces},
             {"z_fail_pieces", g.stats.overlay.zFailPieces},
@@ -768,7 +769,7 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
             notOnGlobe("The overlay method " + step.name);
             return true;
           }
-          technique_ = overlay::findTechnique(step.name);
+          useTechnique(*overlay::findTechnique(step.name), step.drapeSize);
           return true;
         } else if constexpr (std::is_same_v<Step, app::ExaggerationStep>) {
           setExaggeration(step.value);

@@ -129,16 +129,7 @@ void Viewer::drawOverlaySection() {
     if (!drawn && ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("not on the globe yet");
   }
   if (technique_->usesTextures()) drawDrapeSize();
-  if (chosen != technique_) {
-    technique_ = chosen;
-    // Keep the size where the new technique offers it, else its default (a single drape's size
-    // would be far too much per tile).
-    const std::span<const int> sizes = technique_->textureSizes;
-    if (technique_->usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
-      drapeSize_ = technique_->defaultTextureSize;
-    }
-    if (!globe_) rebuildOverlays();  // the globe's renderer takes both at the next frame
-  }
+  if (chosen != technique_) useTechnique(*chosen);
   ImGui::Checkbox("debug: pieces", &debugPieces_);
   if (debugPieces_ && technique_->construction == overlay::PieceConstruction::Features) {
     ImGui::TextWrapped("%s draws no pieces: nothing to show", std::string(technique_->label).c_str());

@@ -260,9 +260,7 @@ struct StepRunner {
   }
 
   bool operator()(const app::MethodStep& step) const {
-    v.technique_ = overlay::findTechnique(step.name);  // checked when the script was read
-    if (step.drapeSize > 0) v.drapeSize_ = step.drapeSize;
-    v.rebuildOverlays();
+    v.useTechnique(*overlay::findTechnique(step.name), step.drapeSize);  // checked when the script was read
     return true;
   }
 

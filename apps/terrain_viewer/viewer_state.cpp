@@ -227,6 +227,7 @@ nlohmann::json Viewer::state() const {
            : nlohmann::json()},
       {"overlays", render_.overlays},
       {"method", technique_->name},
+      {"drape_size", technique_->usesTextures() ? nlohmann::json(drapeSize_) : nlohmann::json(nullptr)},
       {"view",
        {{"wireframe", render_.wireframe},
         {"imagery", settings_.imagery},

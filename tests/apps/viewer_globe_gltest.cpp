@@ -870,6 +870,8 @@ TEST_F(ViewerGlobeTest, StylesCategoriesAndTheAttributeTableAsInAProjectedScene)
   check("blue_drape", {0.0, 0.0, 1.0}, 0.75);
   EXPECT_EQ(readJson("blue_drape.json")["method"], "drape-tiles");
   EXPECT_EQ(readJson("blue_drape.json")["overlay"]["draped"], true);
+  // Chosen without a size, a technique draws at its own (256² a tile, not the single drape's 2048²).
+  EXPECT_EQ(readJson("blue_drape.json")["drape_size"], 256);
   // One value ("Fiji box"): the first colour of the categories' palette.
   const json category = readJson("category.json");
   check("category", {0.12, 0.47, 0.71}, 0.75);
