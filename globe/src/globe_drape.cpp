@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <optional>
 
 namespace gis::globe {
 
@@ -93,8 +94,12 @@ void GlobeDrapeSource::triangles(std::size_t layer, const glm::dvec2& lo, const 
   for (int y = clampedRow(west.y, probe); y <= clampedRow(east.y, probe); ++y) {
     for (int x = clampedColumn(west.x, probe); x <= clampedColumn(east.x, probe); ++x) {
       for (const GlobePolygon& shape : drawn->lineShapesIn(TileKey{level, x, y}, 0, pixelMetres)) {
-        const overlay::Footprint f = triangulated(shape.rings);
-        forEachTurn(shape.box, lo, hi, [&](double shift) { emitFootprint(f, shift, colourOf(shape.group), emit); });
+        // Triangulated only when it meets the box (the tile's runs reach beyond it), once.
+        std::optional<overlay::Footprint> f;
+        forEachTurn(shape.box, lo, hi, [&](double shift) {
+          if (!f) f = triangulated(shape.rings);
+          emitFootprint(*f, shift, colourOf(shape.group), emit);
+        });
       }
     }
   }
