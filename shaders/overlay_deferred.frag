@@ -128,7 +128,8 @@ bool itemCovers(Layer l, uint at, vec2 p, ivec2 leafCorner) {
 /// difference, every term a product of the small offset: precise near the eye, as p is), plus
 /// `up`, the ground point's height along its normal. With d(u) = a + (e u.x + n u.y) / s and
 /// t = 1 / sqrt(dᵀGd): F − C = t_F Δd + (t_F − t_C) d_C, t_F − t_C = t_F t_C (q_C − q_F) / (√q_C + √q_F).
-vec3 fromLeafCorner(Layer l, ivec2 corner, vec2 p, vec3 up) {
+/// `corner` gets C itself (float: what the ellipsoid's normals near it are found from).
+vec3 fromLeafCorner(Layer l, ivec2 corner, vec2 p, vec3 up, out vec3 cornerPoint) {
   vec2 uC = vec2(l.axis.w, l.east.w) + vec2(corner) * l.scale.y;
   float s = l.anchorDots.w;
   vec3 g = 1.0 / (u_radii * u_radii);
@@ -139,25 +140,63 @@ vec3 fromLeafCorner(Layer l, ivec2 corner, vec2 p, vec3 up) {
   float tC = inversesqrt(qC), tF = inversesqrt(qF);
   float qDiff = -dot((2.0 * dC + dd) * dd, g);  // q_C − q_F
   float dt = tF * tC * qDiff / (sqrt(qC) + sqrt(qF));
+  cornerPoint = tC * dC;
   return tF * dd + dt * dC + up;
 }
 
-/// Whether a primitive in space (deferred_index.hpp, WorldItem) covers the point d (relative to
-/// its leaf's corner): the globe reference's cylinder around a disc's normal, or its slab.
-bool worldItemCovers(uint at, vec3 d) {
+/// A line in pixels' half width at its anchor (relative to the leaf's corner), the eye being at
+/// `eye` relative to it: its feature's rule (widthPixels / 2, least, largest), as in the plane.
+float worldHalfWidth(vec4 width, vec3 anchor, vec3 eye) {
+  return max(min(width.x * u_metresPerPixel * length(anchor - eye), width.z), width.y);
+}
+
+/// The ellipsoid's normal at a point near the leaf's corner (given relative to it).
+vec3 normalNear(vec3 cornerPoint, vec3 fromCorner) {
+  return normalize((cornerPoint + fromCorner) / (u_radii * u_radii));
+}
+
+/// Whether a primitive in space (deferred_index.hpp, buildWorld's layout) covers the point d
+/// (relative to its leaf's corner, as are `eye` and the corner itself, `cornerPoint`): the globe
+/// reference's cylinder around a disc's normal, its slab, or a join's prism; a line in pixels
+/// with its half widths at its anchors.
+bool worldItemCovers(Layer l, uint at, vec3 d, vec3 eye, vec3 cornerPoint) {
   vec4 p0 = items[4u * at];
-  uint kind = floatBitsToUint(p0.w) & 3u;
+  uint header = floatBitsToUint(p0.w);
+  uint kind = header & 3u;
   if (kind == 3u) return true;  // the whole leaf
-  vec4 p1 = items[4u * at + 1u];
+  bool pixels = (header & 4u) != 0u;
+  vec4 width = pixels ? features[2u * (l.bases.w + (header >> 5u)) + 1u] : vec4(0.0);
+  vec4 p1 = items[4u * at + 1u], p2 = items[4u * at + 2u];
   vec3 v = d - p0.xyz;
   if (kind == 2u) {  // disc: the cylinder around its normal
+    float r = pixels ? worldHalfWidth(width, p0.xyz + p1.xyz * p2.x, eye) : p1.w;
     vec3 across = v - p1.xyz * dot(v, p1.xyz);
-    return dot(across, across) <= p1.w * p1.w;
+    return dot(across, across) <= r * r;
   }
-  vec4 p2 = items[4u * at + 2u], p3 = items[4u * at + 3u];
-  float t = dot(v, p1.xyz);
-  if (t < 0.0 || t > p1.w) return false;
-  return abs(dot(v, p2.xyz)) <= p2.w + (p3.x - p2.w) * (t / p1.w);
+  vec4 p3 = items[4u * at + 3u];
+  if (kind == 1u) {  // band: the slab along its piece
+    float t = dot(v, p1.xyz);
+    if (t < 0.0 || t > p1.w) return false;
+    float r0 = p2.w, r1 = p3.x;
+    if (pixels) {
+      vec3 b = p0.xyz + p1.xyz * p1.w;
+      r0 = worldHalfWidth(width, p0.xyz + normalNear(cornerPoint, p0.xyz) * p3.y, eye);
+      r1 = worldHalfWidth(width, b + normalNear(cornerPoint, b) * p3.z, eye);
+    }
+    return abs(dot(v, p2.xyz)) <= r0 + (r1 - r0) * (t / p1.w);
+  }
+  // convex: the corners in half widths in the plane square to the normal, counter-clockwise
+  vec3 n = p1.xyz;
+  vec3 e1 = normalize(cross(n, (header & 8u) != 0u ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 0.0, 1.0)));
+  vec3 e2 = cross(n, e1);
+  float r = pixels ? worldHalfWidth(width, p0.xyz + n * p1.w, eye) : p1.w;
+  vec2 q = vec2(dot(v, e1), dot(v, e2));
+  vec2 o[4] = vec2[4](p2.xy * r, p2.zw * r, p3.xy * r, p3.zw * r);
+  for (uint k = 0u; k < 4u; ++k) {
+    vec2 c0 = o[k], c1 = o[(k + 1u) % 4u];
+    if (cross2(c1 - c0, q - c0) < 0.0) return false;
+  }
+  return true;
 }
 
 bool groupCovers(uint edgeBase, uvec4 g, vec2 p, float yc) {
@@ -179,10 +218,10 @@ bool groupCovers(uint edgeBase, uvec4 g, vec2 p, float yc) {
   return inside;
 }
 
-/// The first feature of layer l covering the point rel (relative to the eye; on a face, its
-/// offset from the anchor), or -1. `up`: the point's height along its normal (a face's lines in
-/// space).
-int coveringFeature(Layer l, vec2 rel, vec3 up) {
+/// The first feature of layer l covering the point at `rel` (relative to the eye; on a face, its
+/// offset from the anchor), or -1. `up`: the point's height along its normal, `fromEye` the point
+/// relative to the eye (a face's lines in space).
+int coveringFeature(Layer l, vec2 rel, vec3 up, vec3 fromEye) {
   vec2 v = l.eyeRemainder + rel;
   vec2 k = floor(v / l.scale.y);
   int levels = int(l.kind.y);
@@ -205,10 +244,14 @@ int coveringFeature(Layer l, vec2 rel, vec3 up) {
   ivec2 corner = (q >> shift) << shift;
   vec2 p = vec2(q - corner) * l.scale.y + r;
   if (l.kind.x == 2u) {
-    vec3 d = fromLeafCorner(l, corner, p, up);
+    vec3 cornerPoint;
+    vec3 d = fromLeafCorner(l, corner, p, up, cornerPoint);
+    // The eye relative to the corner: the point's offsets from both (the depth's error in the
+    // point is in both and leaves it).
+    vec3 eye = d - fromEye;
     for (uint i = 0u; i < node.y; ++i) {
       uint at = l.bases.y + node.x + i;
-      if (worldItemCovers(at, d)) return int(floatBitsToUint(items[4u * at].w) >> 5u);
+      if (worldItemCovers(l, at, d, eye, cornerPoint)) return int(floatBitsToUint(items[4u * at].w) >> 5u);
     }
     return -1;
   }
@@ -275,7 +318,7 @@ void main() {
       }
       at = faceOffset(l, rel, up);
     }
-    int feature = coveringFeature(l, at, up);
+    int feature = coveringFeature(l, at, up, rel);
     if (feature < 0) continue;
     vec4 c = features[2u * (l.bases.w + uint(feature))];
     color = vec4(c.rgb * c.a, c.a) + (1.0 - c.a) * color;

@@ -63,12 +63,17 @@ bool flat(const geo::Ring& ring) {
 
 /// A line layer's parts (deferredParts): its primitives in space, each in the faces it reaches.
 std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, double lowest, double highest,
-                                                    double heightRange) {
+                                                    double heightRange, double maxReach) {
   using overlay::DeferredChart;
   using overlay::WorldLinePrimitive;
   const glm::dvec3 radii(kSemiMajor, kSemiMajor, kSemiMinor);
   const double limit = 1.0 + DeferredChart::kFaceMargin;
   std::array<overlay::DeferredLayer::Part, 6> parts;
+  std::vector<glm::dvec3> widths(layer.featureCount(), glm::dvec3(0.0));
+  for (const GlobeLine& line : layer.lines()) {
+    if (line.widthPixels > 0.0 && line.feature < widths.size())
+      widths[line.feature] = {0.5 * line.widthPixels, line.halfWidth, line.maxHalfWidth};
+  }
   for (int face = 0; face < 6; ++face) {
     overlay::DeferredLayer::Part& part = parts[static_cast<std::size_t>(face)];
     part.chart = DeferredChart::cubeFace(face, radii);
@@ -77,6 +82,8 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
     part.highest = highest;
     part.heightRange = heightRange;
     part.features.resize(layer.featureCount());
+    part.lineWidths = widths;
+    part.maxReach = maxReach;
   }
   const double height = heightRange >= 0.0 ? heightRange : std::max(std::abs(lowest), std::abs(highest));
   // A primitive's corners (on the ground), projected into each face they are in front of: the
@@ -116,24 +123,51 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
       part.worldLines.push_back(p);
     }
   };
+  // A square of half side r around c across the normal n: what a shape within r of c covers.
+  const auto square = [](const glm::dvec3& c, const glm::dvec3& n, double r) {
+    const glm::dvec3 any = std::abs(n.z) < 0.9 ? glm::dvec3(0.0, 0.0, 1.0) : glm::dvec3(1.0, 0.0, 0.0);
+    const glm::dvec3 e1 = glm::normalize(glm::cross(n, any)) * r;
+    const glm::dvec3 e2 = glm::cross(n, e1);
+    return std::array<glm::dvec3, 4>{c + e1 + e2, c + e1 - e2, c - e1 - e2, c - e1 + e2};
+  };
   for (const GlobeLine& line : layer.lines()) {
-    const double r = line.halfWidth;
-    if (!(r > 0.0)) continue;
+    // A line in pixels is binned at the largest half width it takes within the reach (the pass
+    // finds its widths per frame at its anchors); a line in metres at its own.
+    const bool pixels = line.widthPixels > 0.0;
+    const double r = pixels ? std::max(line.halfWidth, std::min(line.maxHalfWidth, maxReach)) : line.halfWidth;
+    if (!(r > 0.0) || !std::isfinite(r)) continue;
+    const auto anchor = [&line, pixels](std::size_t k) {
+      return pixels && k < line.anchors.size() ? static_cast<double>(line.anchors[k]) : 0.0;
+    };
     for (std::size_t k = 0; k < line.surface.size(); ++k) {
       const glm::dvec3 c = line.surface[k];
-      // The reference's disc: the cylinder around the normal at the point (none at a pole, where
-      // a line closed along it runs).
-      if (!detail::isPole(line.points[k].y)) {
-        WorldLinePrimitive disc;
-        disc.kind = WorldLinePrimitive::Kind::Disc;
-        disc.feature = line.feature;
-        disc.a = c;
-        disc.normal = surfaceNormalAt(c);
-        disc.r0 = disc.r1 = r;
-        const glm::dvec3 any = std::abs(disc.normal.z) < 0.9 ? glm::dvec3(0.0, 0.0, 1.0) : glm::dvec3(1.0, 0.0, 0.0);
-        const glm::dvec3 e1 = glm::normalize(glm::cross(disc.normal, any)) * r;
-        const glm::dvec3 e2 = glm::cross(disc.normal, e1);
-        add(disc, {c + e1 + e2, c + e1 - e2, c - e1 - e2, c - e1 + e2}, 2.0 * r);
+      // The reference's shape at the point (GlobeLine::joins; a disc for round joins and caps):
+      // the cylinder around the normal there, or a join's or cap's polygon across it (none at a
+      // pole, where a line closed along it runs).
+      const detail::PointShape* shape =
+          line.joins && k < line.joins->at.size() ? &line.joins->at[k] : nullptr;
+      const bool disc = shape == nullptr ? !detail::isPole(line.points[k].y)
+                                         : shape->kind == detail::PointShape::Kind::Disc;
+      const bool polygon = shape != nullptr && shape->kind == detail::PointShape::Kind::Polygon &&
+                           shape->directions.size() >= 3 && shape->directions.size() <= 4;
+      if (disc || polygon) {
+        WorldLinePrimitive point;
+        point.kind = disc ? WorldLinePrimitive::Kind::Disc : WorldLinePrimitive::Kind::Convex;
+        point.pixels = pixels;
+        point.feature = line.feature;
+        point.a = c;
+        point.normal = surfaceNormalAt(c);
+        point.r0 = point.r1 = r;
+        point.anchor0 = anchor(k);
+        double far = 1.0;
+        if (polygon) {
+          point.count = static_cast<std::uint32_t>(shape->directions.size());
+          for (std::size_t i = 0; i < shape->directions.size(); ++i) {
+            point.corners[i] = shape->directions[i];
+            far = std::max(far, glm::length(shape->directions[i]));
+          }
+        }
+        add(point, square(c, point.normal, r * far), 2.0 * r * far);
       }
       if (k + 1 == line.surface.size()) continue;
       // The reference's band: the slab along the piece, between the planes through its ends.
@@ -142,12 +176,15 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
       if (!(length > 0.0)) continue;
       WorldLinePrimitive band;
       band.kind = WorldLinePrimitive::Kind::Band;
+      band.pixels = pixels;
       band.feature = line.feature;
       band.a = c;
       band.along = along / length;
       band.length = length;
       band.normal = glm::normalize(glm::cross(glm::normalize(surfaceNormalAt(c) + surfaceNormalAt(b)), along));
       band.r0 = band.r1 = r;
+      band.anchor0 = anchor(k);
+      band.anchor1 = anchor(k + 1);
       const glm::dvec3 across = band.normal * r;
       add(band, {c + across, b + across, b - across, c - across}, length + 2.0 * r);
     }
@@ -163,14 +200,18 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
 
 bool deferredDraws(const GlobeLayer& layer) {
   if (!layer.hasLines()) return true;  // areas only
-  return layer.areaCount() == 0 && !(layer.lineWidthPixels() > 0.0) && layer.roundLines();
+  // Joins and caps other than round stay pieces: the reference's polygon of a square cap or a
+  // miter lies in the tangent plane at its point, its band's end square to the chord, and a
+  // point a centimetre inside one and outside the other is found on either side of both in float
+  // (1 pixel of 30,000 in the joins' test; docs/frames.md).
+  return layer.areaCount() == 0 && layer.roundLines();
 }
 
 std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest,
-                                                        double heightRange) {
+                                                        double heightRange, double maxReach) {
   using overlay::DeferredChart;
   if (layer.hasLines()) {
-    return deferredDraws(layer) ? lineParts(layer, lowest, highest, heightRange)
+    return deferredDraws(layer) ? lineParts(layer, lowest, highest, heightRange, maxReach)
                                 : std::vector<overlay::DeferredLayer::Part>{};
   }
   const glm::dvec3 radii(kSemiMajor, kSemiMajor, kSemiMinor);

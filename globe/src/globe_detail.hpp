@@ -21,6 +21,20 @@
 namespace gis::globe::detail {
 
 inline bool isPole(double latDeg) { return std::abs(latDeg) >= 90.0; }
+
+/// How far from an eye the ground of a tile (within its heights) grown by a margin can be: what
+/// lines in pixels take their widths from there (lineWidthClass, and the lookup's reach class).
+class TileReach {
+ public:
+  TileReach(const TileKey& key, const GeoGrid& heights);
+  /// The farthest point of the tile grown by `margin` metres from `eye`, or farther.
+  [[nodiscard]] double farthest(const glm::dvec3& eye, double margin) const;
+
+ private:
+  LonLatRect rect_;
+  glm::dvec3 middle_{0.0};
+  double top_ = 0.0;
+};
 /// d in (−180, 180].
 double wrap180(double d);
 

@@ -6,11 +6,14 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <future>
+#include <limits>
+#include <map>
 #include <optional>
 #include <thread>
 #include <unordered_map>
@@ -31,6 +34,18 @@
 namespace gis::globe {
 
 namespace {
+
+/// A layer's lookup: its serial and the reach class its lines in pixels are binned at
+/// (GlobeOverlayRenderer::lookupReach; -1: their own widths).
+using LookupKey = std::pair<std::uint64_t, int>;
+constexpr int kNaturalReach = -1;
+constexpr int kLargestReachClass = 14;  ///< 8 m × 16384: 131 km (views from space see thousands)
+constexpr int kNoReach = 1000;
+/// Metres: the narrowest reach class's half width (the projected frame's, auto_technique.cpp).
+constexpr double kBaseReach = 8.0;
+double reachOfClass(int c) {
+  return c == kNaturalReach ? std::numeric_limits<double>::infinity() : std::ldexp(kBaseReach, c);
+}
 
 /// A globe layer's tiles as the residency asks for them: the drawn terrain tiles of the frame
 /// (setFrame), each at the width class its lines in pixels need from the view, or their
@@ -165,18 +180,21 @@ struct GlobeOverlayRenderer::Gpu {
   glm::dmat4 viewProj{0.0};
   const GeoGrid* heights = nullptr;
   GlobeOverlaySettings settings;
-  // The deferred lookup: its pass (made on first use), per layer (its serial) its indices, those
-  // being built, and builds for layers since edited (left to finish: a future from std::async
-  // waits for its thread when destroyed); `auto`'s chooser and the plan it last took.
+  // The deferred lookup: its pass (made on first use), per layer (its serial) and reach class its
+  // indices, those being built, and builds for layers since edited (left to finish: a future from
+  // std::async waits for its thread when destroyed); `auto`'s chooser and the plan it last took.
   std::optional<overlay::DeferredPass> pass;
   bool passFailed = false;
-  std::unordered_map<std::uint64_t, overlay::DeferredLayer> deferred;
-  std::unordered_map<std::uint64_t, std::future<overlay::DeferredLayer>> building;
+  std::map<LookupKey, overlay::DeferredLayer> deferred;
+  std::map<LookupKey, std::future<overlay::DeferredLayer>> building;
   std::vector<std::future<overlay::DeferredLayer>> retired;
   overlay::PlanChooser chooser;
   int plan = -1;  ///< -1: the last draw was not `auto`'s
   /// Per line layer (its serial): its primitives in space, counted once (lookupFits).
   std::unordered_map<std::uint64_t, std::size_t> linePrimitives;
+  /// Per line layer in pixels (its serial): the largest of its lines' widthPixels / 2, least and
+  /// largest half widths and shape reaches, found once (lookupReach).
+  std::unordered_map<std::uint64_t, glm::dvec4> pixelWidths;
   // Texture draping: the registry's technique, made for its name, texture size and extent; what
   // it rasterises, for the layers (their serials) it was made for.
   std::unique_ptr<overlay::OverlayTechnique> drape;
@@ -321,12 +339,17 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     }
     return false;
   };
-  // The lookup's indices are made again from the edited layer when next drawn.
-  gpu_->deferred.erase(layer.serial());
+  // The lookup's indices (every reach class) are made again from the edited layer when next drawn.
+  std::erase_if(gpu_->deferred, [&layer](const auto& entry) { return entry.first.first == layer.serial(); });
   gpu_->linePrimitives.erase(layer.serial());
-  if (const auto building = gpu_->building.find(layer.serial()); building != gpu_->building.end()) {
+  gpu_->pixelWidths.erase(layer.serial());
+  for (auto building = gpu_->building.begin(); building != gpu_->building.end();) {
+    if (building->first.first != layer.serial()) {
+      ++building;
+      continue;
+    }
     gpu_->retired.push_back(std::move(building->second));
-    gpu_->building.erase(building);
+    building = gpu_->building.erase(building);
   }
   const auto made = gpu_->tilings.find(layer.serial());
   if (made == gpu_->tilings.end()) return 0;
@@ -458,19 +481,25 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     // Indices of layers this frame does not draw (a layer built again for another style has a
     // new serial: the old one's are never drawn again) leave once all of them pass a quarter of
     // the GPU budget; those of a layer merely hidden stay below it.
+    // Per layer the reach class its lines in pixels need in this view (kNoReach: beyond every
+    // class, its pieces draw it).
+    std::vector<int> reach(n, kNaturalReach);
+    for (std::size_t i = 0; i < n; ++i) reach[i] = lookupReach(*drawn[i], view, tiles, heights);
     std::size_t held = 0;
-    for (const auto& [serial, index] : gpu_->deferred) held += index.bytes();
+    for (const auto& [key, index] : gpu_->deferred) held += index.bytes();
     if (held > settings.gpuBudgetBytes / 4) {
-      std::erase_if(gpu_->deferred, [&drawn](const auto& entry) {
-        return std::none_of(drawn.begin(), drawn.end(),
-                            [&entry](const GlobeLayer* l) { return l->serial() == entry.first; });
+      std::erase_if(gpu_->deferred, [&](const auto& entry) {
+        for (std::size_t i = 0; i < n; ++i)
+          if (LookupKey{drawn[i]->serial(), reach[i]} == entry.first) return false;
+        return true;
       });
     }
     std::size_t areas = n;
-    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes))
+    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && reach[areas - 1] != kNoReach &&
+           lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes))
       --areas;
     const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;
-    for (std::size_t i = areas; i < n; ++i) indexed[i] = deferredOf(*drawn[i], heights, wait);
+    for (std::size_t i = areas; i < n; ++i) indexed[i] = deferredOf(*drawn[i], heights, reach[i], wait);
     std::size_t bytes = 0;
     while (lookedUp > areas && indexed[lookedUp - 1] != nullptr) bytes += indexed[--lookedUp]->bytes();
     for (std::size_t i = areas; i < n; ++i) stats_.deferredPending += indexed[i] == nullptr ? 1U : 0U;
@@ -499,7 +528,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     stats_.zFailPieces += s.zFailPieces;
     stats_.culledPieces += s.culledPieces;
   }
-  for (const auto& [serial, index] : gpu_->deferred) stats_.deferredHeldBytes += index.bytes();
+  for (const auto& [key, index] : gpu_->deferred) stats_.deferredHeldBytes += index.bytes();
   if (lookedUp < n) {
     for (std::size_t i = 0; i < lookedUp; ++i) indexed[i] = nullptr;
     for (std::size_t i = lookedUp; i < n; ++i) stats_.deferredBytes += indexed[i]->bytes();
@@ -517,11 +546,54 @@ void GlobeOverlayRenderer::measured(double milliseconds) {
 
 overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() { return madeOnFirstUse(gpu_->pass, gpu_->passFailed); }
 
+int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& view,
+                                      const std::vector<DrawnTile>& tiles, const GeoGrid& heights) {
+  if (!layer.hasLines() || !(layer.lineWidthPixels() > 0.0)) return kNaturalReach;
+  auto found = gpu_->pixelWidths.find(layer.serial());
+  if (found == gpu_->pixelWidths.end()) {
+    glm::dvec4 w(0.0, 0.0, 0.0, 1.0);
+    for (const GlobeLine& line : layer.lines()) {
+      if (line.widthPixels > 0.0)
+        w = glm::max(w, glm::dvec4(0.5 * line.widthPixels, line.halfWidth, line.maxHalfWidth, line.shapeReach()));
+    }
+    found = gpu_->pixelWidths.emplace(layer.serial(), w).first;
+  }
+  const glm::dvec4 w = found->second;
+  if (w.z <= kBaseReach) return kNaturalReach;
+  // The farthest anchor that can colour a drawn pixel: on a drawn tile the layer's extent meets,
+  // grown by what its shapes reach at the class (lineWidthClass's bound, per tile). The tiles are
+  // those the extent grown by the widest class's reach meets.
+  const LonLatRect extent = layer.extent();
+  const double dLat = reachOfClass(kLargestReachClass) * w.w / 1.1e5;
+  const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
+  const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
+  std::vector<detail::TileReach> reached;
+  for (const DrawnTile& tile : tiles) {
+    const LonLatRect r = tile.key.rect().expanded(dLon, dLat);
+    bool meets = false;
+    for (int turn = -1; turn <= 1 && !meets; ++turn) {
+      const double shift = 360.0 * turn;
+      meets = extent.west + shift <= r.east && r.west <= extent.east + shift && extent.south <= r.north &&
+              r.south <= extent.north;
+    }
+    if (meets) reached.emplace_back(tile.key, heights);
+  }
+  const double perMetre = w.x * pixelScaleOf(view).metresPerPixel;
+  for (int c = 0; c <= kLargestReachClass; ++c) {
+    double far = 0.0;
+    for (const detail::TileReach& tile : reached) far = std::max(far, tile.farthest(view.eye, w.w * reachOfClass(c)));
+    const double widest = std::min(w.z, std::max(w.y, perMetre * far));
+    if (widest <= reachOfClass(c)) return c;
+  }
+  return kNoReach;
+}
+
 const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights,
-                                                               bool wait) {
-  const auto found = gpu_->deferred.find(layer.serial());
+                                                               int reachClass, bool wait) {
+  const LookupKey key{layer.serial(), reachClass};
+  const auto found = gpu_->deferred.find(key);
   if (found != gpu_->deferred.end()) return &found->second;
-  auto building = gpu_->building.find(layer.serial());
+  auto building = gpu_->building.find(key);
   if (building == gpu_->building.end()) {
     // The parts are made here (a fraction of a second: the rings clipped and projected, the
     // layer read while it is certain to live); the indices on a thread of their own (the
@@ -544,16 +616,17 @@ const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer&
       for (const GlobeLine& l : layer.lines())
         if (l.feature < colors.size() && l.group < groups.size()) colors[l.feature] = groups[l.group];
     }
-    std::vector<overlay::DeferredLayer::Part> parts = deferredParts(layer, lowest, highest, near);
+    std::vector<overlay::DeferredLayer::Part> parts =
+        deferredParts(layer, lowest, highest, near, reachOfClass(reachClass));
     building = gpu_->building
-                   .emplace(layer.serial(), std::async(std::launch::async,
+                   .emplace(key, std::async(std::launch::async,
                                                        [parts = std::move(parts), colors = std::move(colors)] {
                                                          return overlay::DeferredLayer::build(parts, colors);
                                                        }))
                    .first;
   }
   if (!wait && building->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return nullptr;
-  overlay::DeferredLayer& made = gpu_->deferred.emplace(layer.serial(), building->second.get()).first->second;
+  overlay::DeferredLayer& made = gpu_->deferred.emplace(key, building->second.get()).first->second;
   gpu_->building.erase(building);
   return &made;
 }

@@ -167,20 +167,30 @@ constexpr std::size_t kBandsPerPiece = 4;
 
 }  // namespace
 
+namespace detail {
+
+TileReach::TileReach(const TileKey& key, const GeoGrid& heights) : rect_(key.rect()) {
+  const auto [ground0, ground1] = heights.bounds(rect_);
+  middle_ = toEcef(0.5 * (rect_.west + rect_.east), 0.5 * (rect_.south + rect_.north), 0.0);
+  top_ = kSemiMajor + std::max({std::abs(ground0), std::abs(ground1), 0.0});
+}
+
+double TileReach::farthest(const glm::dvec3& eye, double margin) const {
+  // Within the chord from its middle to any point of it (an angle of at most half its sides, plus
+  // the margin), and the heights.
+  const double angle =
+      std::min(0.5 * (rect_.east - rect_.west + rect_.north - rect_.south) * kDegree + margin / kSemiMinor,
+               3.14159265358979323846);
+  return glm::length(eye - middle_) + 2.0 * top_ * std::sin(0.5 * angle) + top_ - kSemiMinor + 1.0;
+}
+
+}  // namespace detail
+
 int lineWidthClass(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
                    const overlay::PixelScale& scale) {
   if (!(layer.lineWidthPixels() > 0.0) || !(scale.metresPerPixel > 0.0) || !layer.hasLines()) return 0;
-  const LonLatRect rect = key.rect();
-  const auto [ground0, ground1] = heights.bounds(rect);
-  // The farthest point of the tile grown by m from the eye: within the chord from its middle to
-  // any point of it (an angle of at most half its sides, plus m), and the heights.
-  const glm::dvec3 middle = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
-  const double top = kSemiMajor + std::max({std::abs(ground0), std::abs(ground1), 0.0});
-  const auto farthest = [&](double m) {
-    const double angle = std::min(0.5 * (rect.east - rect.west + rect.north - rect.south) * kDegree + m / kSemiMinor,
-                                  3.14159265358979323846);
-    return glm::length(scale.eye - middle) + 2.0 * top * std::sin(0.5 * angle) + top - kSemiMinor + 1.0;
-  };
+  const detail::TileReach tile(key, heights);
+  const auto farthest = [&](double m) { return tile.farthest(scale.eye, m); };
   const double need = layer.lineWidthPixels() * scale.metresPerPixel * farthest(0.0);
   if (!(need > 2.0 * layer.leastLineHalfWidth())) return 0;  // every line is as wide in metres
   int c = std::clamp(static_cast<int>(std::ceil(std::log2(need))) + 8, 1, 60);

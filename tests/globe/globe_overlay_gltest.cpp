@@ -164,8 +164,8 @@ struct Layers {
 
 using test::globe_scene::lineFeature;
 
-/// The wide lines 3 pixels wide, anchored on `ground` (lines in pixels: never drawn by the lookup,
-/// always by pieces).
+/// The wide lines 3 pixels wide, anchored on `ground` (lines in pixels: drawn by the lookup in
+/// views that keep them within its widest reach class, else by pieces).
 Result<GlobeLayer> routesInPixels(std::shared_ptr<const GeoGrid> ground) {
   GlobeLayerOptions pixels;
   pixels.lineWidthPixels = 3.0;
@@ -250,15 +250,14 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasAndLinesExactlyInEveryFaceOfTh
   }
   Result<GlobeLayer> world = GlobeLayer::build("north of the coast", {north}, glm::vec4(0.1F, 0.8F, 0.3F, 0.4F));
   ASSERT_TRUE(world.ok());
-  // Lines in pixels (their pieces: not the lookup's) first, then the areas and the lines in metres
-  // (the lookup: their primitives in space, lines 30 km, 20 km and 10 m wide): every layer keeps
-  // its bit and order.
+  // Lines in pixels first (the lookup's where the view keeps their widths within its widest reach
+  // class, else their pieces'), then the areas and the lines in metres (the lookup: their
+  // primitives in space, lines 30 km, 20 km and 10 m wide): every layer keeps its bit and order.
   Result<GlobeLayer> routes = routesInPixels(grid());
   ASSERT_TRUE(routes.ok());
-  EXPECT_FALSE(deferredDraws(*routes));
   const std::vector<const GlobeLayer*> drawn{&*routes,      &*world,       &layers.all,  &layers.boxes,
                                              &layers.field, &layers.lines, &layers.road, &layers.outlines};
-  for (std::size_t i = 1; i < drawn.size(); ++i) EXPECT_TRUE(deferredDraws(*drawn[i])) << drawn[i]->name();
+  for (const GlobeLayer* layer : drawn) EXPECT_TRUE(deferredDraws(*layer)) << layer->name();
   GlobeOverlaySettings settings;
   settings.technique = GlobeTechnique::Deferred;
   struct Case {
@@ -292,11 +291,13 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasAndLinesExactlyInEveryFaceOfTh
                      {lon, lat, grid()->heightAt(lon, lat) + height},
                      {tlon, tlat, grid()->heightAt(tlon, tlat)}});
   }
-  std::size_t covered = 0;
+  std::size_t covered = 0, everyLayer = 0;
   GlobeOverlayRenderer renderer;  // one for every view: the layers' indices are built once
   for (const Case& c : cases) {
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), drawn, c.label, &renderer, settings);
-    EXPECT_EQ(renderer.stats().deferredLayers, 7U) << c.label << ": the area and line layers after the first";
+    const std::size_t lookedUp = renderer.stats().deferredLayers;
+    EXPECT_TRUE(lookedUp == 7U || lookedUp == 8U) << c.label << ": " << lookedUp << " layers looked up";
+    everyLayer += lookedUp == 8U ? 1U : 0U;
     EXPECT_GT(renderer.stats().deferredBytes, 0U) << c.label;
     if (c.label.rfind("lookup random", 0) != 0) {
       EXPECT_GE(o.covered, 200U) << c.label << ": the view must show them";
@@ -304,6 +305,8 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasAndLinesExactlyInEveryFaceOfTh
     covered += o.covered;
   }
   EXPECT_GE(covered, 100000U);
+  // The routes in pixels too from 800 km and nearer (7 of the fixed views at least).
+  EXPECT_GE(everyLayer, 7U);
 }
 
 TEST_F(GlobeOverlayGl, MsaaIsExactPerSampleWithThePiecesAndTheLookup) {
@@ -504,23 +507,41 @@ TEST_F(GlobeOverlayGl, LinesInPixelsKeepTheirWidthOnScreenFromSpaceToTheGround) 
       {"px road from 30 km", {8.55, 47.2, 30000.0}, {8.55, 47.4, field}, 45.0, 100},
       {"px road from 50 m", {8.5, 47.3035, field + 50.0}, {8.503, 47.30405, field}, 60.0, 300},
   };
-  GlobeOverlayRenderer overlay;
-  for (const Case& c : cases) {
-    const GlobeView v = view(c.eye, c.target, c.fov);
-    const Outcome o = drawAndCompare(v, layers, c.label, &overlay);
-    EXPECT_GE(o.covered, c.minCovered) << c.label << ": the lines must show, as wide as asked";
-  }
-  // Random views over the first route, from 20 km to 5,000 km, looking down or obliquely.
-  std::mt19937 random(41);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (int k = 0; k < 8; ++k) {
-    const double t = unit(random);
-    const Geodetic target{-75.0 + 20.0 * t, -5.0 - 20.0 * t, 0.0};
-    const double height = 2e4 * std::pow(250.0, unit(random));
-    const double away = height / 111000.0 * unit(random);  // up to 45° off the vertical
-    const double bearing = 6.283185307179586 * unit(random);
-    const Geodetic eye{target.lon + away * std::cos(bearing), target.lat + away * std::sin(bearing), height};
-    drawAndCompare(view(eye, target), layers, "px random " + std::to_string(k), &overlay);
+  // By their pieces, then by the lookup (the projected frame's widths in pixels, at their anchors,
+  // per pixel in space): the lookup draws both layers in every view but from space, where the
+  // widest 3 px would pass its widest reach class (the pieces draw them there).
+  for (const GlobeTechnique technique : {GlobeTechnique::StencilTiles, GlobeTechnique::Deferred}) {
+    const bool lookup = technique == GlobeTechnique::Deferred;
+    GlobeOverlaySettings settings;
+    settings.technique = technique;
+    GlobeOverlayRenderer overlay;
+    std::size_t lookedUp = 0;
+    const auto draw = [&](const GlobeView& v, const std::string& label) {
+      const Outcome o = drawAndCompare(v, layers, (lookup ? "lookup " : "") + label, &overlay, settings);
+      lookedUp += overlay.stats().deferredLayers == 2U ? 1U : 0U;
+      return o;
+    };
+    for (const Case& c : cases) {
+      const Outcome o = draw(view(c.eye, c.target, c.fov), c.label);
+      EXPECT_GE(o.covered, c.minCovered) << c.label << ": the lines must show, as wide as asked";
+    }
+    // Random views over the first route, from 20 km to 5,000 km, looking down or obliquely.
+    std::mt19937 random(41);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int k = 0; k < 8; ++k) {
+      const double t = unit(random);
+      const Geodetic target{-75.0 + 20.0 * t, -5.0 - 20.0 * t, 0.0};
+      const double height = 2e4 * std::pow(250.0, unit(random));
+      const double away = height / 111000.0 * unit(random);  // up to 45° off the vertical
+      const double bearing = 6.283185307179586 * unit(random);
+      const Geodetic eye{target.lon + away * std::cos(bearing), target.lat + away * std::sin(bearing), height};
+      draw(view(eye, target), "px random " + std::to_string(k));
+    }
+    if (lookup) {
+      EXPECT_GE(lookedUp, 10U) << "the lookup draws the lines in pixels in most views";
+    } else {
+      EXPECT_EQ(lookedUp, 0U);
+    }
   }
   // From space the routes are built for a width class that scales them, and nearly 3 px wide:
   // the reference's covered pixels over the route's length (about 4,000 km at 10,000 km: 130 px).
@@ -700,6 +721,9 @@ TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
                                 {"joins oblique", {-75.0, -35.0, 1.2e6}, {-62.0, -15.0, 0.0}},
                                 {"a miter close up", {-64.0, -24.5, 4e5}, {-64.0, -22.0, 0.0}},
                                 {"an end close up", {-47.0, -27.0, 3e5}, {-47.0, -24.0, 0.0}}};
+  // Their pieces draw them, with `deferred` too (the lookup takes round joins and caps only).
+  for (const GlobeLayer* layer : {&miterSquare, &bevelFlat, &miterFlatPx, &bevelSquarePx})
+    EXPECT_FALSE(deferredDraws(*layer)) << layer->name();
   GlobeOverlayRenderer overlay;
   for (const std::vector<const GlobeLayer*>& pair :
        std::vector<std::vector<const GlobeLayer*>>{{&miterSquare, &bevelFlat}, {&miterFlatPx, &bevelSquarePx}}) {

@@ -138,13 +138,24 @@ class Builder {
   /// A frame's lines in space (buildWorld): binned by their chart boxes, written relative to the
   /// ellipsoid's point at each leaf's corner.
   Builder(std::span<const WorldLinePrimitive> world, const DeferredChart& chart, std::size_t featureCount,
-          std::span<const glm::vec4> colors, const BuildOptions& options, Index& out)
+          std::span<const glm::vec4> colors, std::span<const glm::dvec3> widths, const BuildOptions& options,
+          Index& out)
       : options_(options), out_(out), world_(world), chart_(&chart) {
     out_.kind = LayerKind::Line;
     out_.world = true;
     out_.features.resize(featureCount);
-    for (std::size_t i = 0; i < featureCount; ++i)
-      out_.features[i].color = i < colors.size() ? colors[i] : glm::vec4(1.0F);
+    for (std::size_t i = 0; i < featureCount; ++i) {
+      FeatureParams& f = out_.features[i];
+      f.color = i < colors.size() ? colors[i] : glm::vec4(1.0F);
+      if (i >= widths.size() || !(widths[i].x > 0.0)) continue;
+      // Lines in pixels: their widths at their anchors per frame, the largest clamped to the
+      // reach they are binned at (as in the plane).
+      const double largest = std::min(widths[i].z, options_.maxReach);
+      f.width = glm::vec4(static_cast<float>(widths[i].x), static_cast<float>(widths[i].y),
+                          static_cast<float>(largest), 0.0F);
+      out_.inPixels = true;
+      out_.reach = std::max(out_.reach, largest);
+    }
     for (const WorldLinePrimitive& p : world_) {
       Box box;
       box.add(p.box[0]);
@@ -627,6 +638,8 @@ class Builder {
   /// ground's heights (a point h above its foot leans from the primitive's axis by h · distance /
   /// R), and for rounding.
   [[nodiscard]] bool worldCovers(const WorldLinePrimitive& p, const Box& box) const {
+    // A line in pixels changes its width with the view; a convex shape is left to its leaves.
+    if (p.pixels || p.kind == WorldLinePrimitive::Kind::Convex) return false;
     const double size = std::max(box.hi.x - box.lo.x, box.hi.y - box.lo.y);
     const std::array<glm::dvec2, 4> at{box.lo, glm::dvec2(box.hi.x, box.lo.y), box.hi, glm::dvec2(box.lo.x, box.hi.y)};
     std::array<glm::dvec3, 4> corners{};
@@ -663,8 +676,13 @@ class Builder {
     const glm::dvec3 middle = chart_->unproject(0.5 * (box.lo + box.hi));
     const double grow = 0.7072 * size + worldMargin(size, glm::length(middle - p.a) + size);
     const glm::dvec3 v = middle - p.a;
-    const double r = std::max(p.r0, p.r1) + grow;
-    if (p.kind == WorldLinePrimitive::Kind::Disc) {
+    double r = std::max(p.r0, p.r1) + grow;
+    if (p.kind == WorldLinePrimitive::Kind::Convex) {  // within its farthest corner's disc
+      double far = 0.0;
+      for (std::uint32_t k = 0; k < p.count && k < 4; ++k) far = std::max(far, glm::length(p.corners[k]));
+      r = p.r0 * far + grow;
+    }
+    if (p.kind != WorldLinePrimitive::Kind::Band) {
       const glm::dvec3 across = v - p.normal * glm::dot(v, p.normal);
       return glm::dot(across, across) <= r * r;
     }
@@ -672,7 +690,7 @@ class Builder {
     return t >= -grow && t <= p.length + grow && std::abs(glm::dot(v, p.normal)) <= r;
   }
 
-  /// A primitive in space relative to `corner` (WorldItem's layout, deferred_index.hpp).
+  /// A primitive in space relative to `corner` (buildWorld's layout, deferred_index.hpp).
   [[nodiscard]] static Item worldItemOf(const WorldLinePrimitive& p, const glm::dvec3& corner) {
     Item item;
     auto& v = item.v;
@@ -682,18 +700,46 @@ class Builder {
       v[at + 2] = static_cast<float>(x.z);
     };
     put(0, p.a - corner);
-    if (p.kind == WorldLinePrimitive::Kind::Band) {
-      put(4, p.along);
-      v[7] = static_cast<float>(p.length);
-      put(8, p.normal);
-      v[11] = static_cast<float>(p.r0);
-      v[12] = static_cast<float>(p.r1);
-    } else {
-      put(4, p.normal);
-      v[7] = static_cast<float>(p.r0);
+    std::uint32_t kind = 0, flags = p.pixels ? 4U : 0U;
+    switch (p.kind) {
+      case WorldLinePrimitive::Kind::Band:
+        kind = 1;
+        put(4, p.along);
+        v[7] = static_cast<float>(p.length);
+        put(8, p.normal);
+        v[11] = static_cast<float>(p.r0);
+        v[12] = static_cast<float>(p.r1);
+        v[13] = static_cast<float>(p.anchor0);
+        v[14] = static_cast<float>(p.anchor1);
+        break;
+      case WorldLinePrimitive::Kind::Disc:
+        kind = 2;
+        put(4, p.normal);
+        v[7] = static_cast<float>(p.r0);
+        v[8] = static_cast<float>(p.anchor0);
+        break;
+      case WorldLinePrimitive::Kind::Convex: {
+        kind = 0;
+        // The plane's basis from the normal as the shader has it (float), so that both pick the
+        // same axis to start from and the corners' coordinates are the shader's.
+        const glm::vec3 n(p.normal);
+        const bool fromX = !(std::abs(n.z) < 0.9F);
+        flags |= fromX ? 8U : 0U;
+        const glm::dvec3 nd(n);
+        const glm::dvec3 e1 = glm::normalize(glm::cross(nd, fromX ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 0, 1)));
+        const glm::dvec3 e2 = glm::cross(nd, e1);
+        put(4, p.normal);
+        v[7] = static_cast<float>(p.pixels ? p.anchor0 : p.r0);
+        const std::uint32_t count = std::clamp<std::uint32_t>(p.count, 1, 4);
+        for (std::uint32_t k = 0; k < 4; ++k) {
+          const glm::dvec3& c = p.corners[std::min(k, count - 1)];
+          v[8 + 2 * k] = static_cast<float>(glm::dot(c, e1));
+          v[9 + 2 * k] = static_cast<float>(glm::dot(c, e2));
+        }
+        break;
+      }
     }
-    const std::uint32_t kind = p.kind == WorldLinePrimitive::Kind::Band ? 1U : 2U;
-    v[3] = floatOf(kind | (p.feature << kFeatureShift));
+    v[3] = floatOf(kind | flags | (p.feature << kFeatureShift));
     return item;
   }
 
@@ -815,9 +861,9 @@ Index build(const ReferenceLayer& layer, std::span<const glm::vec4> colors, cons
 }
 
 Index buildWorld(std::span<const WorldLinePrimitive> primitives, const DeferredChart& chart, std::size_t featureCount,
-                 std::span<const glm::vec4> colors, const BuildOptions& options) {
+                 std::span<const glm::vec4> colors, std::span<const glm::dvec3> widths, const BuildOptions& options) {
   Index index;
-  Builder builder(primitives, chart, featureCount, colors, options, index);
+  Builder builder(primitives, chart, featureCount, colors, widths, options, index);
   builder.run();
   return index;
 }

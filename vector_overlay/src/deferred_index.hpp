@@ -172,14 +172,21 @@ struct Index {
 Index build(const ReferenceLayer& layer, std::span<const glm::vec4> colors, const BuildOptions& options = {});
 
 /// A world primitive in a leaf (Index::world), relative to C, the leaf's corner on the ellipsoid
-/// (chart.unproject): kind (1 band, 2 disc, 3 the whole leaf) and feature in the header as
-/// Item's.
-///   Band: p0 = (a − C, header), p1 = (along, length), p2 = (normal, r0), p3.x = r1.
-///   Disc: p0 = (a − C, header), p1 = (normal, r0).
+/// (chart.unproject). Header: kind in bits 0–1 (0 convex, 1 band, 2 disc, 3 the whole leaf), bit 2
+/// set for a line in pixels (its half widths from its feature's FeatureParams at its anchors),
+/// bit 3 set when a convex shape's plane basis starts from x (below), the feature from bit 5.
+///   Band:   p0 = (a − C, header), p1 = (along, length), p2 = (normal, r0), p3 = (r1, anchor0,
+///           anchor1): the anchors' heights along the ellipsoid's normal at a and at the end.
+///   Disc:   p0 = (a − C, header), p1 = (normal, r0), p2.x = anchor0.
+///   Convex: p0 = (a − C, header), p1 = (normal, r0, or anchor0 in pixels), p2 = (c0, c1),
+///           p3 = (c2, c3): the corners in half widths in the basis e1 = normalize(normal × z)
+///           (× x with bit 3), e2 = normal × e1, a triangle's last corner repeated.
 /// Builds the index of a frame's lines in space in one chart (Part::worldLines): binned by their
-/// chart boxes; `featureCount` features coloured by `colors`.
+/// chart boxes; `featureCount` features coloured by `colors`, lines in pixels by `widths`
+/// (Part::lineWidths), their largest half width clamped to options.maxReach.
 Index buildWorld(std::span<const WorldLinePrimitive> primitives, const DeferredChart& chart, std::size_t featureCount,
-                 std::span<const glm::vec4> colors, const BuildOptions& options = {});
+                 std::span<const glm::vec4> colors, std::span<const glm::dvec3> widths,
+                 const BuildOptions& options = {});
 
 /// What the shader needs of the camera to find a ground point in the index (deferred::Frame in
 /// the shader's uniforms): the eye as integer cells at the finest level plus a remainder.

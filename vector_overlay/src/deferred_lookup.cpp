@@ -135,8 +135,13 @@ DeferredLayer DeferredLayer::build(std::span<const Part> parts, std::span<const 
         part.heightRange >= 0.0 ? part.heightRange : std::max(std::abs(part.lowest), std::abs(part.highest));
     Impl::Chart chart{part.chart, {}, {}};
     if (!part.worldLines.empty()) {
+      options.maxReach = part.maxReach;
+      // Lines in pixels binned wide: leaves as large as a quarter of the reach (what a leaf's
+      // coordinates reach beyond it), not a kilometre: float keeps 2^-24 of both alike, and a
+      // primitive meets some 64 leaves instead of (reach / 1 km)².
+      if (std::isfinite(part.maxReach)) options.maxLeafSize = std::max(options.maxLeafSize, 0.25 * part.maxReach);
       chart.index = deferred::buildWorld(part.worldLines, part.chart, std::max(part.features.size(), colors.size()),
-                                         colors, options);
+                                         colors, part.lineWidths, options);
     } else {
       ReferenceLayer reference;
       reference.kind = LayerKind::Polygon;

@@ -18,6 +18,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -334,8 +335,9 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 /// - StencilTiles (`stencil-tiles`): stencil polyhedra per drawn terrain tile.
 /// - Deferred (`deferred`): the deferred lookup of both frames (vector_overlay/deferred_lookup.hpp)
 ///   in the six faces of the cube (deferredParts), for the last layers it can draw (deferredDraws:
-///   areas, or lines in metres with round joins and caps whose index would fit a quarter of the GPU
-///   budget); the layers before them keep their stencil polyhedra. A
+///   areas, or lines with round joins and caps whose index would fit a quarter of the GPU budget,
+///   lines in pixels while the view keeps them within the widest reach class: lookupReach); the
+///   layers before them keep their stencil polyhedra. A
 ///   layer's indices are built on a thread of their own: meanwhile (but in a still, which waits)
 ///   it is drawn by its pieces.
 /// - Auto (`auto`): per frame the cheaper of the two by their measured GPU times (the plan
@@ -351,8 +353,8 @@ inline bool drapes(GlobeTechnique technique) {
   return technique == GlobeTechnique::Drape || technique == GlobeTechnique::DrapeTiles;
 }
 
-/// Whether the deferred lookup draws the layer (deferredParts): areas only, or lines only in
-/// metres with round joins and caps; others keep their stencil pieces.
+/// Whether the deferred lookup draws the layer (deferredParts): areas only, or lines only (in
+/// metres or in pixels) with round joins and caps; others keep their stencil pieces.
 bool deferredDraws(const GlobeLayer& layer);
 
 /// The layer's areas in each face of the cube about the earth's centre
@@ -364,13 +366,17 @@ bool deferredDraws(const GlobeLayer& layer);
 /// constant over the face, checked at one point of it and made good by the face's square. The
 /// cover boxes lie between `lowest` and `highest` (heights above the ellipsoid).
 /// Or, for a layer of lines (deferredDraws), its lines' primitives in space as the reference tests
-/// them (overlay::WorldLinePrimitive: a cylinder around the normal at each point, a slab along each
-/// piece), each in the faces its chart box (its corners projected, grown by what heights between
-/// `lowest` and `highest` and the ellipsoid's curvature move their feet) meets; the leaves of its
-/// index decide what they hold for ground within ±`heightRange` of the ellipsoid (negative: the
-/// larger of |lowest| and |highest|).
-std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest,
-                                                        double heightRange = -1.0);
+/// them (overlay::WorldLinePrimitive: a cylinder around the normal at each point, or the polygon of
+/// a join or cap other than round across it, a slab along each piece), each in the faces its chart
+/// box (its corners projected, grown by what heights between `lowest` and `highest` and the
+/// ellipsoid's curvature move their feet) meets; the leaves of its index decide what they hold for
+/// ground within ±`heightRange` of the ellipsoid (negative: the larger of |lowest| and |highest|).
+/// Lines in pixels are binned at their largest half width within `maxReach` (metres) and take
+/// their widths per frame at their anchors (the index is exact while a view keeps them within
+/// it: GlobeOverlayRenderer picks the reach per view).
+std::vector<overlay::DeferredLayer::Part> deferredParts(
+    const GlobeLayer& layer, double lowest, double highest, double heightRange = -1.0,
+    double maxReach = std::numeric_limits<double>::infinity());
 
 struct GlobeOverlaySettings {
   GlobeTechnique technique = GlobeTechnique::StencilTiles;
@@ -509,9 +515,16 @@ class GlobeOverlayRenderer {
   /// Whether the lookup may index the layer within the budget: areas always; lines in space while
   /// their primitives' estimated index is at most a quarter of it (else they keep their pieces).
   bool lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes);
-  /// The layer's deferred indices, kept per layer until an edit; null while they are being built
-  /// (started by the first ask) unless `wait`.
-  const overlay::DeferredLayer* deferredOf(const GlobeLayer& layer, const GeoGrid& heights, bool wait);
+  /// The layer's deferred indices at a reach class (lookupReach), kept per layer and class until
+  /// an edit; null while they are being built (started by the first ask) unless `wait`.
+  const overlay::DeferredLayer* deferredOf(const GlobeLayer& layer, const GeoGrid& heights, int reachClass, bool wait);
+  /// The reach class whose index draws the layer exactly in this view: -1 for lines binned at
+  /// their own widths (areas, lines in metres, lines in pixels whose largest width is within the
+  /// narrowest class), the smallest class c (lines in pixels binned at 8 m × 2^c) holding the
+  /// widest half width any of them can take on the drawn tiles their extent meets, or beyond
+  /// every class a value above them (their pieces draw them).
+  int lookupReach(const GlobeLayer& layer, const GlobeView& view, const std::vector<DrawnTile>& tiles,
+                  const GeoGrid& heights);
   std::unique_ptr<Gpu> gpu_;
   GlobeOverlayStats stats_;
 };

@@ -22,6 +22,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -75,17 +76,28 @@ struct DeferredChart {
 /// A line's primitive in space, for a frame whose lines are not bands in its charts (the globe:
 /// a band of constant width in metres is none in a gnomonic face). The pass tests a pixel's
 /// ground point against it in space, relative to a corner of its leaf, as the globe's reference
-/// does: a disc is the cylinder of radius r0 around `normal` through `a`; a band the slab
-/// |(p − a)·normal| ≤ r0 + (r1 − r0) s / length between the planes s = (p − a)·along ∈ [0, length].
+/// does, across `normal` (the walls are vertical):
+/// - a disc is the cylinder of radius r0 around `normal` through `a`;
+/// - a band the slab |(p − a)·normal| ≤ r0 + (r1 − r0) s / length between the planes
+///   s = (p − a)·along ∈ [0, length] (`normal` is then the slab's);
+/// - a convex shape (a join other than round, a square cap) the prism over the polygon
+///   a + r0 · corners[k] (counter-clockwise about `normal`, in the plane square to it).
+/// A line in pixels (`pixels`) takes its half widths per frame from its feature's rule
+/// (Part::lineWidths) at its anchors: `a` (and a band's end) raised by anchor0 (anchor1) along the
+/// ellipsoid's normal there; r0 and r1 are then the largest it is binned at.
 struct WorldLinePrimitive {
-  enum class Kind : std::uint8_t { Band, Disc };
+  enum class Kind : std::uint8_t { Band, Disc, Convex };
   Kind kind = Kind::Disc;
+  bool pixels = false;
   std::uint32_t feature = 0;
-  glm::dvec3 a{0.0};       ///< frame coordinates: the band's start, the disc's centre
+  glm::dvec3 a{0.0};       ///< frame coordinates: the band's start, the disc's centre, the shape's point
   glm::dvec3 along{0.0};   ///< band: unit direction
   double length = 0.0;     ///< band
-  glm::dvec3 normal{0.0};  ///< disc: its axis; band: the slab's normal
+  glm::dvec3 normal{0.0};  ///< disc, convex: its axis; band: the slab's normal
   double r0 = 0.0, r1 = 0.0;
+  double anchor0 = 0.0, anchor1 = 0.0;     ///< pixels: the anchors' heights
+  std::array<glm::dvec3, 4> corners{};     ///< convex: in half widths from `a`
+  std::uint32_t count = 0;                 ///< convex: corners used (3 or 4)
   /// In the chart, holding the chart coordinates of every ground point it covers.
   std::array<glm::dvec2, 2> box{glm::dvec2(0.0), glm::dvec2(0.0)};
 };
@@ -104,6 +116,12 @@ class DeferredLayer {
     /// Or (a frame's lines in space, WorldLinePrimitive): the primitives that reach the chart; the
     /// part is then a line layer's, `features` unused.
     std::vector<WorldLinePrimitive> worldLines;
+    /// Lines in space, per feature: its rule for lines in pixels (widthPixels / 2, the least and
+    /// the largest half width in metres), or none (0, widths in metres); missing: none.
+    std::vector<glm::dvec3> lineWidths;
+    /// Lines in pixels are binned at most this wide (half width, metres; wider ones are drawn
+    /// this wide): what their chart boxes were grown by.
+    double maxReach = std::numeric_limits<double>::infinity();
     /// Where ground points can be, in chart coordinates (min, max): the index covers no more.
     std::array<glm::dvec2, 2> region{glm::dvec2(0.0), glm::dvec2(0.0)};
     /// The ground's heights there (the cover boxes' bottom and top).
