@@ -22,6 +22,14 @@ namespace gis::globe::detail {
 
 inline bool isPole(double latDeg) { return std::abs(latDeg) >= 90.0; }
 
+/// A line's band (direction u, slab normal m) ends at each of its points in the vertical plane
+/// (holding the normal n there) through its side there: the plane a join's or cap's edge at the
+/// point lies in (pointShape's bandSide). Its normal, pointing along the band (not unit).
+inline glm::dvec3 bandEndNormal(const glm::dvec3& u, const glm::dvec3& m, const glm::dvec3& n) {
+  const glm::dvec3 side = glm::normalize(m - n * glm::dot(n, m));
+  return u - side * glm::dot(side, u) - n * glm::dot(n, u);
+}
+
 /// How far from an eye the ground of a tile (within its heights) grown by a margin can be: what
 /// lines in pixels take their widths from there (lineWidthClass, and the lookup's reach class).
 class TileReach {

@@ -940,10 +940,14 @@ bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& 
     const glm::dvec3 along = b - a;
     const double length = glm::length(along);
     if (!(length > 0.0)) return false;
-    const double s = glm::dot(point - a, along / length);
-    if (s < 0.0 || s > length) return false;
-    const glm::dvec3 n = glm::normalize(surfaceNormalAt(a) + surfaceNormalAt(b));
-    const glm::dvec3 m = glm::normalize(glm::cross(n, along));
+    const glm::dvec3 u = along / length;
+    const glm::dvec3 na = surfaceNormalAt(a), nb = surfaceNormalAt(b);
+    const glm::dvec3 m = glm::normalize(glm::cross(glm::normalize(na + nb), along));
+    // Its ends: the vertical planes through its end points that hold its side there (the plane
+    // a join's or cap's edge at the point lies in: pointShape), so that band and shape meet.
+    if (glm::dot(point - a, bandEndNormal(u, m, na)) < 0.0 || glm::dot(point - b, bandEndNormal(u, m, nb)) > 0.0)
+      return false;
+    const double s = std::clamp(glm::dot(point - a, u), 0.0, length);
     return std::abs(glm::dot(point - a, m)) <= ra + (rb - ra) * (s / length);
   };
   const std::size_t n = line.buckets.size();
