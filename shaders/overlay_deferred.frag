@@ -155,6 +155,13 @@ vec3 normalNear(vec3 cornerPoint, vec3 fromCorner) {
   return normalize((cornerPoint + fromCorner) / (u_radii * u_radii));
 }
 
+/// A band's end at a point with normal n: the vertical plane through its side there (the globe
+/// reference's, globe_detail.hpp bandEndNormal): its normal, pointing along the band u.
+vec3 bandEndNormal(vec3 u, vec3 m, vec3 n) {
+  vec3 side = normalize(m - n * dot(n, m));
+  return u - side * dot(side, u) - n * dot(n, u);
+}
+
 /// Whether a primitive in space (deferred_index.hpp, buildWorld's layout) covers the point d
 /// (relative to its leaf's corner, as are `eye` and the corner itself, `cornerPoint`): the globe
 /// reference's cylinder around a disc's normal, its slab, or a join's prism; a line in pixels
@@ -174,14 +181,16 @@ bool worldItemCovers(Layer l, uint at, vec3 d, vec3 eye, vec3 cornerPoint) {
     return dot(across, across) <= r * r;
   }
   vec4 p3 = items[4u * at + 3u];
-  if (kind == 1u) {  // band: the slab along its piece
-    float t = dot(v, p1.xyz);
-    if (t < 0.0 || t > p1.w) return false;
+  if (kind == 1u) {  // band: the slab along its piece, between its ends' vertical planes
+    vec3 b = p0.xyz + p1.xyz * p1.w;
+    vec3 na = normalNear(cornerPoint, p0.xyz), nb = normalNear(cornerPoint, b);
+    if (dot(v, bandEndNormal(p1.xyz, p2.xyz, na)) < 0.0 || dot(d - b, bandEndNormal(p1.xyz, p2.xyz, nb)) > 0.0)
+      return false;
+    float t = clamp(dot(v, p1.xyz), 0.0, p1.w);
     float r0 = p2.w, r1 = p3.x;
     if (pixels) {
-      vec3 b = p0.xyz + p1.xyz * p1.w;
-      r0 = worldHalfWidth(width, p0.xyz + normalNear(cornerPoint, p0.xyz) * p3.y, eye);
-      r1 = worldHalfWidth(width, b + normalNear(cornerPoint, b) * p3.z, eye);
+      r0 = worldHalfWidth(width, p0.xyz + na * p3.y, eye);
+      r1 = worldHalfWidth(width, b + nb * p3.z, eye);
     }
     return abs(dot(v, p2.xyz)) <= r0 + (r1 - r0) * (t / p1.w);
   }

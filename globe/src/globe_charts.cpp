@@ -182,6 +182,8 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
       band.along = along / length;
       band.length = length;
       band.normal = glm::normalize(glm::cross(glm::normalize(surfaceNormalAt(c) + surfaceNormalAt(b)), along));
+      band.endA = glm::normalize(detail::bandEndNormal(band.along, band.normal, surfaceNormalAt(c)));
+      band.endB = glm::normalize(detail::bandEndNormal(band.along, band.normal, surfaceNormalAt(b)));
       band.r0 = band.r1 = r;
       band.anchor0 = anchor(k);
       band.anchor1 = anchor(k + 1);
@@ -200,11 +202,7 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
 
 bool deferredDraws(const GlobeLayer& layer) {
   if (!layer.hasLines()) return true;  // areas only
-  // Joins and caps other than round stay pieces: the reference's polygon of a square cap or a
-  // miter lies in the tangent plane at its point, its band's end square to the chord, and a
-  // point a centimetre inside one and outside the other is found on either side of both in float
-  // (1 pixel of 30,000 in the joins' test; docs/frames.md).
-  return layer.areaCount() == 0 && layer.roundLines();
+  return layer.areaCount() == 0;
 }
 
 std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest,

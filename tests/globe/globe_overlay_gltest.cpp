@@ -721,22 +721,28 @@ TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
                                 {"joins oblique", {-75.0, -35.0, 1.2e6}, {-62.0, -15.0, 0.0}},
                                 {"a miter close up", {-64.0, -24.5, 4e5}, {-64.0, -22.0, 0.0}},
                                 {"an end close up", {-47.0, -27.0, 3e5}, {-47.0, -24.0, 0.0}}};
-  // Their pieces draw them, with `deferred` too (the lookup takes round joins and caps only).
-  for (const GlobeLayer* layer : {&miterSquare, &bevelFlat, &miterFlatPx, &bevelSquarePx})
-    EXPECT_FALSE(deferredDraws(*layer)) << layer->name();
-  GlobeOverlayRenderer overlay;
-  for (const std::vector<const GlobeLayer*>& pair :
-       std::vector<std::vector<const GlobeLayer*>>{{&miterSquare, &bevelFlat}, {&miterFlatPx, &bevelSquarePx}}) {
-    for (const Case& c : cases) {
-      const Outcome o = drawAndCompare(view(c.eye, c.target), pair, c.label + " " + pair[0]->name(), &overlay);
-      std::size_t first = 0, second = 0;
-      for (const std::uint32_t m : o.expected) {
-        first += (m & 1U) != 0 ? 1U : 0U;
-        second += (m & 2U) != 0 ? 1U : 0U;
-      }
-      EXPECT_GT(first, 100U) << c.label;
-      if (pair[0] == &miterSquare) {
-        EXPECT_GT(first, second) << c.label << ": miters and square caps cover more";
+  // By their pieces and by the lookup (the joins' and caps' polygons in space, per pixel).
+  for (const GlobeTechnique technique : {GlobeTechnique::StencilTiles, GlobeTechnique::Deferred}) {
+    const bool lookup = technique == GlobeTechnique::Deferred;
+    GlobeOverlaySettings settings;
+    settings.technique = technique;
+    GlobeOverlayRenderer overlay;
+    for (const std::vector<const GlobeLayer*>& pair :
+         std::vector<std::vector<const GlobeLayer*>>{{&miterSquare, &bevelFlat}, {&miterFlatPx, &bevelSquarePx}}) {
+      for (const Case& c : cases) {
+        const Outcome o = drawAndCompare(view(c.eye, c.target), pair,
+                                         (lookup ? "lookup " : "") + c.label + " " + pair[0]->name(), &overlay,
+                                         settings);
+        EXPECT_EQ(overlay.stats().deferredLayers, lookup ? 2U : 0U) << c.label;
+        std::size_t first = 0, second = 0;
+        for (const std::uint32_t m : o.expected) {
+          first += (m & 1U) != 0 ? 1U : 0U;
+          second += (m & 2U) != 0 ? 1U : 0U;
+        }
+        EXPECT_GT(first, 100U) << c.label;
+        if (pair[0] == &miterSquare) {
+          EXPECT_GT(first, second) << c.label << ": miters and square caps cover more";
+        }
       }
     }
   }

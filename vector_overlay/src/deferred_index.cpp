@@ -657,8 +657,9 @@ class Builder {
         const glm::dvec3 across = v - p.normal * glm::dot(v, p.normal);
         return glm::dot(across, across) <= r * r;
       }
-      const double t = glm::dot(v, p.along);
-      return t >= margin && t <= p.length - margin && std::abs(glm::dot(v, p.normal)) <= r;
+      const glm::dvec3 b = p.a + p.along * p.length;
+      return glm::dot(v, p.endA) >= margin && glm::dot(c - b, p.endB) <= -margin &&
+             std::abs(glm::dot(v, p.normal)) <= r;
     });
   }
 
@@ -686,8 +687,8 @@ class Builder {
       const glm::dvec3 across = v - p.normal * glm::dot(v, p.normal);
       return glm::dot(across, across) <= r * r;
     }
-    const double t = glm::dot(v, p.along);
-    return t >= -grow && t <= p.length + grow && std::abs(glm::dot(v, p.normal)) <= r;
+    const glm::dvec3 b = p.a + p.along * p.length;
+    return glm::dot(v, p.endA) >= -grow && glm::dot(middle - b, p.endB) <= grow && std::abs(glm::dot(v, p.normal)) <= r;
   }
 
   /// A primitive in space relative to `corner` (buildWorld's layout, deferred_index.hpp).

@@ -78,8 +78,10 @@ struct DeferredChart {
 /// ground point against it in space, relative to a corner of its leaf, as the globe's reference
 /// does, across `normal` (the walls are vertical):
 /// - a disc is the cylinder of radius r0 around `normal` through `a`;
-/// - a band the slab |(p − a)·normal| ≤ r0 + (r1 − r0) s / length between the planes
-///   s = (p − a)·along ∈ [0, length] (`normal` is then the slab's);
+/// - a band the slab |(p − a)·normal| ≤ r0 + (r1 − r0) s / length, s = (p − a)·along clamped to
+///   [0, length] (`normal` is then the slab's), between its ends' planes: through a and through
+///   its end b, each holding the ellipsoid's normal there and the slab's side there (endA and endB
+///   their unit normals, pointing along the band; the pass finds them from the normals itself);
 /// - a convex shape (a join other than round, a square cap) the prism over the polygon
 ///   a + r0 · corners[k] (counter-clockwise about `normal`, in the plane square to it).
 /// A line in pixels (`pixels`) takes its half widths per frame from its feature's rule
@@ -96,6 +98,7 @@ struct WorldLinePrimitive {
   glm::dvec3 normal{0.0};  ///< disc, convex: its axis; band: the slab's normal
   double r0 = 0.0, r1 = 0.0;
   double anchor0 = 0.0, anchor1 = 0.0;     ///< pixels: the anchors' heights
+  glm::dvec3 endA{0.0}, endB{0.0};         ///< band: its ends' planes' normals (above)
   std::array<glm::dvec3, 4> corners{};     ///< convex: in half widths from `a`
   std::uint32_t count = 0;                 ///< convex: corners used (3 or 4)
   /// In the chart, holding the chart coordinates of every ground point it covers.
