@@ -34,7 +34,9 @@ inline glm::dvec3 bandEndNormal(const glm::dvec3& u, const glm::dvec3& m, const 
 /// lines in pixels take their widths from there (lineWidthClass, and the lookup's reach class).
 class TileReach {
  public:
-  TileReach(const TileKey& key, const GeoGrid& heights);
+  TileReach(const TileKey& key, const GeoGrid& heights) : TileReach(key.rect(), heights) {}
+  /// Any box of longitude and latitude (unwrapped), within the grid's heights over it.
+  TileReach(const LonLatRect& rect, const GeoGrid& heights);
   /// The farthest point of the tile grown by `margin` metres from `eye`, or farther.
   [[nodiscard]] double farthest(const glm::dvec3& eye, double margin) const;
 

@@ -14,6 +14,7 @@
 #include <future>
 #include <limits>
 #include <map>
+#include <set>
 #include <optional>
 #include <thread>
 #include <unordered_map>
@@ -187,6 +188,9 @@ struct GlobeOverlayRenderer::Gpu {
   bool passFailed = false;
   std::map<LookupKey, overlay::DeferredLayer> deferred;
   std::map<LookupKey, std::future<overlay::DeferredLayer>> building;
+  /// Indices that came out larger than a quarter of the GPU budget (their layers keep their
+  /// pieces at that class: the estimate of lookupFits was short).
+  std::set<LookupKey> tooLarge;
   std::vector<std::future<overlay::DeferredLayer>> retired;
   overlay::PlanChooser chooser;
   int plan = -1;  ///< -1: the last draw was not `auto`'s
@@ -341,6 +345,7 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
   };
   // The lookup's indices (every reach class) are made again from the edited layer when next drawn.
   std::erase_if(gpu_->deferred, [&layer](const auto& entry) { return entry.first.first == layer.serial(); });
+  std::erase_if(gpu_->tooLarge, [&layer](const LookupKey& key) { return key.first == layer.serial(); });
   gpu_->linePrimitives.erase(layer.serial());
   gpu_->pixelWidths.erase(layer.serial());
   for (auto building = gpu_->building.begin(); building != gpu_->building.end();) {
@@ -478,31 +483,36 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     std::erase_if(gpu_->retired, [](std::future<overlay::DeferredLayer>& f) {
       return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
     });
-    // Indices of layers this frame does not draw (a layer built again for another style has a
-    // new serial: the old one's are never drawn again) leave once all of them pass a quarter of
-    // the GPU budget; those of a layer merely hidden stay below it.
     // Per layer the reach class its lines in pixels need in this view (kNoReach: beyond every
     // class, its pieces draw it).
     std::vector<int> reach(n, kNaturalReach);
     for (std::size_t i = 0; i < n; ++i) reach[i] = lookupReach(*drawn[i], view, tiles, heights);
+    std::size_t areas = n;
+    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && reach[areas - 1] != kNoReach &&
+           lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes) &&
+           !gpu_->tooLarge.contains(LookupKey{drawn[areas - 1]->serial(), reach[areas - 1]}))
+      --areas;
+    const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;
+    for (std::size_t i = areas; i < n; ++i)
+      indexed[i] = deferredOf(*drawn[i], heights, reach[i], wait, settings.gpuBudgetBytes / 4);
+    // Indices this frame does not draw (a layer built again for another style has a new serial:
+    // the old one's are never drawn again; a reach class another view needed) leave once all of
+    // them pass a quarter of the GPU budget; those of a layer merely hidden stay below it.
     std::size_t held = 0;
     for (const auto& [key, index] : gpu_->deferred) held += index.bytes();
     if (held > settings.gpuBudgetBytes / 4) {
       std::erase_if(gpu_->deferred, [&](const auto& entry) {
-        for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t i = areas; i < n; ++i)
           if (LookupKey{drawn[i]->serial(), reach[i]} == entry.first) return false;
         return true;
       });
     }
-    std::size_t areas = n;
-    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && reach[areas - 1] != kNoReach &&
-           lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes))
-      --areas;
-    const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;
-    for (std::size_t i = areas; i < n; ++i) indexed[i] = deferredOf(*drawn[i], heights, reach[i], wait);
     std::size_t bytes = 0;
     while (lookedUp > areas && indexed[lookedUp - 1] != nullptr) bytes += indexed[--lookedUp]->bytes();
-    for (std::size_t i = areas; i < n; ++i) stats_.deferredPending += indexed[i] == nullptr ? 1U : 0U;
+    for (std::size_t i = areas; i < n; ++i) {
+      const bool pending = indexed[i] == nullptr && !gpu_->tooLarge.contains(LookupKey{drawn[i]->serial(), reach[i]});
+      stats_.deferredPending += pending ? 1U : 0U;
+    }
     if (settings.technique == GlobeTechnique::Auto) {
       const bool fits = bytes <= settings.gpuBudgetBytes / 4;
       const int plan = gpu_->chooser.choose(lookedUp < n && fits);
@@ -560,36 +570,37 @@ int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& 
   }
   const glm::dvec4 w = found->second;
   if (w.z <= kBaseReach) return kNaturalReach;
-  // The farthest anchor that can colour a drawn pixel: on a drawn tile the layer's extent meets,
-  // grown by what its shapes reach at the class (lineWidthClass's bound, per tile). The tiles are
-  // those the extent grown by the widest class's reach meets.
+  // The farthest anchor that can colour a drawn pixel: no farther than the layer's extent's
+  // farthest point (its anchors lie there), nor than the farthest point of a drawn tile the
+  // extent grown by what the class's shapes reach meets (lineWidthClass's bound, per tile). The
+  // first is tight for a small layer, the second for one over the world.
   const LonLatRect extent = layer.extent();
-  const double dLat = reachOfClass(kLargestReachClass) * w.w / 1.1e5;
-  const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
-  const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
-  std::vector<detail::TileReach> reached;
-  for (const DrawnTile& tile : tiles) {
-    const LonLatRect r = tile.key.rect().expanded(dLon, dLat);
-    bool meets = false;
-    for (int turn = -1; turn <= 1 && !meets; ++turn) {
-      const double shift = 360.0 * turn;
-      meets = extent.west + shift <= r.east && r.west <= extent.east + shift && extent.south <= r.north &&
-              r.south <= extent.north;
-    }
-    if (meets) reached.emplace_back(tile.key, heights);
-  }
+  const double within = detail::TileReach(extent, heights).farthest(view.eye, 0.0);
   const double perMetre = w.x * pixelScaleOf(view).metresPerPixel;
   for (int c = 0; c <= kLargestReachClass; ++c) {
+    const double reach = w.w * reachOfClass(c);
+    const double dLat = reach / 1.1e5;
+    const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
+    const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
     double far = 0.0;
-    for (const detail::TileReach& tile : reached) far = std::max(far, tile.farthest(view.eye, w.w * reachOfClass(c)));
-    const double widest = std::min(w.z, std::max(w.y, perMetre * far));
+    for (const DrawnTile& tile : tiles) {
+      const LonLatRect r = tile.key.rect().expanded(dLon, dLat);
+      bool meets = false;
+      for (int turn = -1; turn <= 1 && !meets; ++turn) {
+        const double shift = 360.0 * turn;
+        meets = extent.west + shift <= r.east && r.west <= extent.east + shift && extent.south <= r.north &&
+                r.south <= extent.north;
+      }
+      if (meets) far = std::max(far, detail::TileReach(tile.key, heights).farthest(view.eye, reach));
+    }
+    const double widest = std::min(w.z, std::max(w.y, perMetre * std::min(far, within)));
     if (widest <= reachOfClass(c)) return c;
   }
   return kNoReach;
 }
 
 const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights,
-                                                               int reachClass, bool wait) {
+                                                               int reachClass, bool wait, std::size_t maxBytes) {
   const LookupKey key{layer.serial(), reachClass};
   const auto found = gpu_->deferred.find(key);
   if (found != gpu_->deferred.end()) return &found->second;
@@ -628,6 +639,11 @@ const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer&
   if (!wait && building->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return nullptr;
   overlay::DeferredLayer& made = gpu_->deferred.emplace(key, building->second.get()).first->second;
   gpu_->building.erase(building);
+  if (made.bytes() > maxBytes) {  // the budget is a promise: its pieces draw it
+    gpu_->tooLarge.insert(key);
+    gpu_->deferred.erase(key);
+    return nullptr;
+  }
   return &made;
 }
 

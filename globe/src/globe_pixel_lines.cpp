@@ -169,7 +169,7 @@ constexpr std::size_t kBandsPerPiece = 4;
 
 namespace detail {
 
-TileReach::TileReach(const TileKey& key, const GeoGrid& heights) : rect_(key.rect()) {
+TileReach::TileReach(const LonLatRect& rect, const GeoGrid& heights) : rect_(rect) {
   const auto [ground0, ground1] = heights.bounds(rect_);
   middle_ = toEcef(0.5 * (rect_.west + rect_.east), 0.5 * (rect_.south + rect_.north), 0.0);
   top_ = kSemiMajor + std::max({std::abs(ground0), std::abs(ground1), 0.0});

@@ -352,7 +352,8 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
   // built, the lookup draws it. `auto` draws the pieces first, then the lookup once the pieces
   // are measured; every frame exact either way.
   const Layers layers = makeLayers();
-  // Lines in pixels first (never the lookup's: their pieces), then two area layers.
+  // Lines in pixels first (from 10,000 km beyond the lookup's widest reach class: their pieces),
+  // then two area layers.
   Result<GlobeLayer> routes = routesInPixels(grid());
   ASSERT_TRUE(routes.ok());
   std::vector<const GlobeLayer*> drawn{&*routes, &layers.all, &layers.boxes};
@@ -391,18 +392,27 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
     EXPECT_GE(o.covered, 2000U) << name;
   }
   // A layer no longer drawn (another style builds another layer) leaves its indices once they
-  // pass a quarter of the budget (none here): only the boxes' stay.
-  GlobeOverlaySettings none;
-  none.technique = GlobeTechnique::Deferred;
-  none.gpuBudgetBytes = 0;
+  // pass a quarter of the budget (here just the two area layers' indices): the boxes' leave.
+  GlobeOverlaySettings tight;
+  tight.technique = GlobeTechnique::Deferred;
+  GlobeOverlayRenderer probe;
+  tight.gpuBudgetBytes = 4 * frame(probe, tight).deferredBytes;
   GlobeOverlayRenderer renderer;
-  const GlobeOverlayStats both = frame(renderer, none);
+  const GlobeOverlayStats both = frame(renderer, tight);
+  EXPECT_EQ(both.deferredLayers, 2U);
   EXPECT_EQ(both.deferredHeldBytes, both.deferredBytes);
   drawn.pop_back();
   drawn.push_back(&layers.field);
-  const GlobeOverlayStats other = frame(renderer, none);
+  const GlobeOverlayStats other = frame(renderer, tight);
   EXPECT_EQ(other.deferredLayers, 2U);
   EXPECT_EQ(other.deferredHeldBytes, other.deferredBytes) << "the boxes' indices left";
+  // With no budget, no index is drawn (each would pass a quarter of it): the pieces draw all.
+  GlobeOverlaySettings none = tight;
+  none.gpuBudgetBytes = 0;
+  GlobeOverlayRenderer empty;
+  const GlobeOverlayStats nothing = frame(empty, none);
+  EXPECT_EQ(nothing.deferredLayers, 0U);
+  EXPECT_EQ(nothing.deferredHeldBytes, 0U);
 }
 
 TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {
@@ -539,6 +549,20 @@ TEST_F(GlobeOverlayGl, LinesInPixelsKeepTheirWidthOnScreenFromSpaceToTheGround) 
     }
     if (lookup) {
       EXPECT_GE(lookedUp, 10U) << "the lookup draws the lines in pixels in most views";
+      // The GPU budget is a promise: with a quarter of it just below the largest index the lookup
+      // drew, that layer (and those before it) are drawn by their pieces, still exactly.
+      const GlobeView v = view(cases[2].eye, cases[2].target, cases[2].fov);
+      GlobeOverlayRenderer fresh;
+      drawAndCompare(v, layers, "lookup budget full", &fresh, settings);
+      ASSERT_EQ(fresh.stats().deferredLayers, 2U);
+      const std::size_t largest = fresh.stats().deferredHeldBytes;  // both layers' indices at this view
+      GlobeOverlaySettings tight = settings;
+      tight.gpuBudgetBytes = 4 * (largest / 2);  // at least one of the two is larger than half of both
+      GlobeOverlayRenderer small;
+      drawAndCompare(v, layers, "lookup budget tight", &small, tight);
+      EXPECT_LT(small.stats().deferredLayers, 2U) << "an index over a quarter of the budget is not drawn";
+      EXPECT_LE(small.stats().deferredBytes, tight.gpuBudgetBytes / 4);
+      EXPECT_EQ(small.stats().deferredPending, 0U);
     } else {
       EXPECT_EQ(lookedUp, 0U);
     }
@@ -721,7 +745,11 @@ TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
                                 {"joins oblique", {-75.0, -35.0, 1.2e6}, {-62.0, -15.0, 0.0}},
                                 {"a miter close up", {-64.0, -24.5, 4e5}, {-64.0, -22.0, 0.0}},
                                 {"an end close up", {-47.0, -27.0, 3e5}, {-47.0, -24.0, 0.0}}};
-  // By their pieces and by the lookup (the joins' and caps' polygons in space, per pixel).
+  // By their pieces and by the lookup (the joins' and caps' polygons in space, per pixel). The
+  // lines 40 km wide in metres, densified every kilometre, would make indices of some 570 MB each
+  // (no primitive covers a leaf: bands 1 km long, bevels at the added points slivers): over a
+  // quarter of the GPU budget, so their pieces draw them in `deferred` too (the budget is a
+  // promise), and those in pixels are the lookup's.
   for (const GlobeTechnique technique : {GlobeTechnique::StencilTiles, GlobeTechnique::Deferred}) {
     const bool lookup = technique == GlobeTechnique::Deferred;
     GlobeOverlaySettings settings;
@@ -733,7 +761,13 @@ TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
         const Outcome o = drawAndCompare(view(c.eye, c.target), pair,
                                          (lookup ? "lookup " : "") + c.label + " " + pair[0]->name(), &overlay,
                                          settings);
-        EXPECT_EQ(overlay.stats().deferredLayers, lookup ? 2U : 0U) << c.label;
+        const bool inPixels = pair[0] == &miterFlatPx;
+        EXPECT_EQ(overlay.stats().deferredLayers, lookup && inPixels ? 2U : 0U) << c.label;
+        EXPECT_EQ(overlay.stats().deferredPending, 0U) << c.label;
+        // Held: within a quarter of the budget, or no more than this frame's.
+        EXPECT_LE(overlay.stats().deferredHeldBytes,
+                  std::max(settings.gpuBudgetBytes / 4, overlay.stats().deferredBytes))
+            << c.label;
         std::size_t first = 0, second = 0;
         for (const std::uint32_t m : o.expected) {
           first += (m & 1U) != 0 ? 1U : 0U;

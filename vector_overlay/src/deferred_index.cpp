@@ -156,6 +156,7 @@ class Builder {
       out_.inPixels = true;
       out_.reach = std::max(out_.reach, largest);
     }
+    if (std::isfinite(options_.maxReach)) smallestSplit_ = 4.0;
     for (const WorldLinePrimitive& p : world_) {
       Box box;
       box.add(p.box[0]);
@@ -349,7 +350,7 @@ class Builder {
       // shrinks around it), down to a sixteenth of the smallest item's extent (entries that all
       // meet every small cell, such as lines on top of each other, stop there).
       split = forSize ||
-              (static_cast<double>(sum) < 0.8 * 4.0 * static_cast<double>(items.size()) && side > smallest / 16.0);
+              (static_cast<double>(sum) < 0.8 * 4.0 * static_cast<double>(items.size()) && side > smallest / smallestSplit_);
     }
     if (level == options_.coverLevel || (!split && level < options_.coverLevel)) coverAt_.push_back({index, box});
     if (!split) {
@@ -744,6 +745,10 @@ class Builder {
     return item;
   }
 
+  /// Leaves split down to the smallest item's extent over this: a sixteenth, or for lines in space
+  /// binned at a reach class a quarter (their boxes are the reach, whatever the line: finer leaves
+  /// hold nearly as many of them and cost sixteen times the memory).
+  double smallestSplit_ = 16.0;
   const BuildOptions& options_;
   Index& out_;
   std::span<const WorldLinePrimitive> world_;

@@ -516,8 +516,11 @@ class GlobeOverlayRenderer {
   /// their primitives' estimated index is at most a quarter of it (else they keep their pieces).
   bool lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes);
   /// The layer's deferred indices at a reach class (lookupReach), kept per layer and class until
-  /// an edit; null while they are being built (started by the first ask) unless `wait`.
-  const overlay::DeferredLayer* deferredOf(const GlobeLayer& layer, const GeoGrid& heights, int reachClass, bool wait);
+  /// an edit; null while they are being built (started by the first ask) unless `wait`, or when
+  /// they came out larger than `maxBytes` (then dropped, and the layer drawn by its pieces at that
+  /// class until an edit).
+  const overlay::DeferredLayer* deferredOf(const GlobeLayer& layer, const GeoGrid& heights, int reachClass, bool wait,
+                                           std::size_t maxBytes);
   /// The reach class whose index draws the layer exactly in this view: -1 for lines binned at
   /// their own widths (areas, lines in metres, lines in pixels whose largest width is within the
   /// narrowest class), the smallest class c (lines in pixels binned at 8 m × 2^c) holding the
