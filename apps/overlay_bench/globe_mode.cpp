@@ -198,10 +198,12 @@ int runGlobe(const Options& o) {
   const globe::GlobeFrameTarget frameTarget{target.framebuffer(), o.width, o.height, true};
   globe::GlobeRenderer renderer(loaded->heights);
   const globe::GlobeOverlaySettings overlaySettings = scene::globeOverlaySettings(loaded->description);
-  // The deferred lookup on the same frames, where it has layers to draw (the last area layers).
+  // The deferred lookup on the same frames, where it has layers to draw (the last layers of areas
+  // or of lines: globe::deferredDraws; a layer whose index would not fit, or lines in pixels a
+  // view sees beyond the widest reach class, keep their pieces in it).
   globe::GlobeOverlaySettings lookupSettings = overlaySettings;
   lookupSettings.technique = globe::GlobeTechnique::Deferred;
-  const bool lookup = !layers.empty() && !layers.back()->hasLines();
+  const bool lookup = !layers.empty() && globe::deferredDraws(*layers.back());
   // Texture draping per tile on the same frames, when asked for: the error against run time of
   // the baseline.
   globe::GlobeOverlaySettings drapeSettings = overlaySettings;
@@ -221,8 +223,8 @@ int runGlobe(const Options& o) {
   std::ofstream csv(std::filesystem::path(o.out) / "frames.csv");
   csv << "frame,segment,terrain_only_ms,terrain_ms,overlay_ms,ratio,tiles,terrain_triangles,pieces,z_fail_pieces,"
          "overlay_triangles,terrain_fragments,overlay_fragments,build_ms,covered_px,wrong_px,edge_px,"
-         "deferred_overlay_ms,deferred_ratio,deferred_fragments,deferred_wrong_px,drape_ms,drape_ratio,drape_wrong_"
-         "px\n";
+         "deferred_overlay_ms,deferred_ratio,deferred_fragments,deferred_wrong_px,deferred_layers,drape_ms,drape_"
+         "ratio,drape_wrong_px\n";
   std::vector<double> ratios, terrainOnly, withOverlay, lookupRatios;
   std::map<std::string, std::vector<double>> segmentLookupRatios;
   std::map<std::string, std::vector<double>> segmentRatios, segmentTerrain, segmentOverlay;
@@ -291,7 +293,8 @@ int runGlobe(const Options& o) {
         << ',' << full.overlay.pieces << ',' << full.overlay.zFailPieces << ',' << full.overlay.triangles << ','
         << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << ',' << covered << ',' << wrong
         << ',' << edgeWrong << ',' << looked.overlayGpuMilliseconds << ',' << lookupRatio << ','
-        << looked.overlayFragments << ',' << lookupError.wrong << ',' << draped.terrainGpuMilliseconds << ','
+        << looked.overlayFragments << ',' << lookupError.wrong << ',' << looked.overlay.deferredLayers << ','
+        << draped.terrainGpuMilliseconds << ','
         << drapeRatio << ',' << drapeError.wrong << '\n';
     ratios.push_back(ratio);
     terrainOnly.push_back(bare.terrainGpuMilliseconds);
