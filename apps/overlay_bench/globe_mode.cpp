@@ -294,8 +294,7 @@ int runGlobe(const Options& o) {
         << bare.terrainFragments << ',' << full.overlayFragments << ',' << buildMs << ',' << covered << ',' << wrong
         << ',' << edgeWrong << ',' << looked.overlayGpuMilliseconds << ',' << lookupRatio << ','
         << looked.overlayFragments << ',' << lookupError.wrong << ',' << looked.overlay.deferredLayers << ','
-        << draped.terrainGpuMilliseconds << ','
-        << drapeRatio << ',' << drapeError.wrong << '\n';
+        << draped.terrainGpuMilliseconds << ',' << drapeRatio << ',' << drapeError.wrong << '\n';
     ratios.push_back(ratio);
     terrainOnly.push_back(bare.terrainGpuMilliseconds);
     withOverlay.push_back(full.terrainGpuMilliseconds + full.overlayGpuMilliseconds);

@@ -144,10 +144,9 @@ std::vector<overlay::DeferredLayer::Part> lineParts(const GlobeLayer& layer, dou
       // The reference's shape at the point (GlobeLine::joins; a disc for round joins and caps):
       // the cylinder around the normal there, or a join's or cap's polygon across it (none at a
       // pole, where a line closed along it runs).
-      const detail::PointShape* shape =
-          line.joins && k < line.joins->at.size() ? &line.joins->at[k] : nullptr;
-      const bool disc = shape == nullptr ? !detail::isPole(line.points[k].y)
-                                         : shape->kind == detail::PointShape::Kind::Disc;
+      const detail::PointShape* shape = line.joins && k < line.joins->at.size() ? &line.joins->at[k] : nullptr;
+      const bool disc =
+          shape == nullptr ? !detail::isPole(line.points[k].y) : shape->kind == detail::PointShape::Kind::Disc;
       const bool polygon = shape != nullptr && shape->kind == detail::PointShape::Kind::Polygon &&
                            shape->directions.size() >= 3 && shape->directions.size() <= 4;
       if (disc || polygon) {

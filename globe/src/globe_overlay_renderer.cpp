@@ -14,8 +14,8 @@
 #include <future>
 #include <limits>
 #include <map>
-#include <set>
 #include <optional>
+#include <set>
 #include <thread>
 #include <unordered_map>
 #include <unordered_set>
@@ -631,9 +631,9 @@ const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer&
         deferredParts(layer, lowest, highest, near, reachOfClass(reachClass));
     building = gpu_->building
                    .emplace(key, std::async(std::launch::async,
-                                                       [parts = std::move(parts), colors = std::move(colors)] {
-                                                         return overlay::DeferredLayer::build(parts, colors);
-                                                       }))
+                                            [parts = std::move(parts), colors = std::move(colors)] {
+                                              return overlay::DeferredLayer::build(parts, colors);
+                                            }))
                    .first;
   }
   if (!wait && building->second.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return nullptr;

@@ -758,9 +758,9 @@ TEST_F(GlobeOverlayGl, MiterAndBevelJoinsSquareAndFlatCapsInMetresAndPixels) {
     for (const std::vector<const GlobeLayer*>& pair :
          std::vector<std::vector<const GlobeLayer*>>{{&miterSquare, &bevelFlat}, {&miterFlatPx, &bevelSquarePx}}) {
       for (const Case& c : cases) {
-        const Outcome o = drawAndCompare(view(c.eye, c.target), pair,
-                                         (lookup ? "lookup " : "") + c.label + " " + pair[0]->name(), &overlay,
-                                         settings);
+        const Outcome o =
+            drawAndCompare(view(c.eye, c.target), pair, (lookup ? "lookup " : "") + c.label + " " + pair[0]->name(),
+                           &overlay, settings);
         const bool inPixels = pair[0] == &miterFlatPx;
         EXPECT_EQ(overlay.stats().deferredLayers, lookup && inPixels ? 2U : 0U) << c.label;
         EXPECT_EQ(overlay.stats().deferredPending, 0U) << c.label;

@@ -151,8 +151,8 @@ class Builder {
       // Lines in pixels: their widths at their anchors per frame, the largest clamped to the
       // reach they are binned at (as in the plane).
       const double largest = std::min(widths[i].z, options_.maxReach);
-      f.width = glm::vec4(static_cast<float>(widths[i].x), static_cast<float>(widths[i].y),
-                          static_cast<float>(largest), 0.0F);
+      f.width = glm::vec4(static_cast<float>(widths[i].x), static_cast<float>(widths[i].y), static_cast<float>(largest),
+                          0.0F);
       out_.inPixels = true;
       out_.reach = std::max(out_.reach, largest);
     }
@@ -349,8 +349,8 @@ class Builder {
       // Split where it pays: a point then tests fewer entries on average (a junction's leaf
       // shrinks around it), down to a sixteenth of the smallest item's extent (entries that all
       // meet every small cell, such as lines on top of each other, stop there).
-      split = forSize ||
-              (static_cast<double>(sum) < 0.8 * 4.0 * static_cast<double>(items.size()) && side > smallest / smallestSplit_);
+      split = forSize || (static_cast<double>(sum) < 0.8 * 4.0 * static_cast<double>(items.size()) &&
+                          side > smallest / smallestSplit_);
     }
     if (level == options_.coverLevel || (!split && level < options_.coverLevel)) coverAt_.push_back({index, box});
     if (!split) {

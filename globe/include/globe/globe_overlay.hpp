@@ -374,9 +374,9 @@ bool deferredDraws(const GlobeLayer& layer);
 /// Lines in pixels are binned at their largest half width within `maxReach` (metres) and take
 /// their widths per frame at their anchors (the index is exact while a view keeps them within
 /// it: GlobeOverlayRenderer picks the reach per view).
-std::vector<overlay::DeferredLayer::Part> deferredParts(
-    const GlobeLayer& layer, double lowest, double highest, double heightRange = -1.0,
-    double maxReach = std::numeric_limits<double>::infinity());
+std::vector<overlay::DeferredLayer::Part> deferredParts(const GlobeLayer& layer, double lowest, double highest,
+                                                        double heightRange = -1.0,
+                                                        double maxReach = std::numeric_limits<double>::infinity());
 
 struct GlobeOverlaySettings {
   GlobeTechnique technique = GlobeTechnique::StencilTiles;

@@ -97,10 +97,10 @@ struct WorldLinePrimitive {
   double length = 0.0;     ///< band
   glm::dvec3 normal{0.0};  ///< disc, convex: its axis; band: the slab's normal
   double r0 = 0.0, r1 = 0.0;
-  double anchor0 = 0.0, anchor1 = 0.0;     ///< pixels: the anchors' heights
-  glm::dvec3 endA{0.0}, endB{0.0};         ///< band: its ends' planes' normals (above)
-  std::array<glm::dvec3, 4> corners{};     ///< convex: in half widths from `a`
-  std::uint32_t count = 0;                 ///< convex: corners used (3 or 4)
+  double anchor0 = 0.0, anchor1 = 0.0;  ///< pixels: the anchors' heights
+  glm::dvec3 endA{0.0}, endB{0.0};      ///< band: its ends' planes' normals (above)
+  std::array<glm::dvec3, 4> corners{};  ///< convex: in half widths from `a`
+  std::uint32_t count = 0;              ///< convex: corners used (3 or 4)
   /// In the chart, holding the chart coordinates of every ground point it covers.
   std::array<glm::dvec2, 2> box{glm::dvec2(0.0), glm::dvec2(0.0)};
 };
