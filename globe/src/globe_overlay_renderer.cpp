@@ -37,16 +37,11 @@ namespace gis::globe {
 namespace {
 
 /// A layer's lookup: its serial and the reach class its lines in pixels are binned at
-/// (GlobeOverlayRenderer::lookupReach; -1: their own widths).
+/// (GlobeOverlayRenderer::lookupReach; ReachClasses::kNatural: their own widths).
 using LookupKey = std::pair<std::uint64_t, int>;
-constexpr int kNaturalReach = -1;
-constexpr int kLargestReachClass = 14;  ///< 8 m × 16384: 131 km (views from space see thousands)
-constexpr int kNoReach = 1000;
-/// Metres: the narrowest reach class's half width (the projected frame's, auto_technique.cpp).
-constexpr double kBaseReach = 8.0;
-double reachOfClass(int c) {
-  return c == kNaturalReach ? std::numeric_limits<double>::infinity() : std::ldexp(kBaseReach, c);
-}
+/// The lookup's reach classes on the globe (deferred_lookup.hpp): to 131 km, as views from space
+/// see thousands of kilometres.
+constexpr overlay::ReachClasses kReach{overlay::ReachClasses::kBaseReach, 14};
 
 /// A globe layer's tiles as the residency asks for them: the drawn terrain tiles of the frame
 /// (setFrame), each at the width class its lines in pixels need from the view, or their
@@ -196,9 +191,9 @@ struct GlobeOverlayRenderer::Gpu {
   int plan = -1;  ///< -1: the last draw was not `auto`'s
   /// Per line layer (its serial): its primitives in space, counted once (lookupFits).
   std::unordered_map<std::uint64_t, std::size_t> linePrimitives;
-  /// Per line layer in pixels (its serial): the largest of its lines' widthPixels / 2, least and
-  /// largest half widths and shape reaches, found once (lookupReach).
-  std::unordered_map<std::uint64_t, glm::dvec4> pixelWidths;
+  /// Per line layer in pixels (its serial): its lines' widths and the largest of their shape
+  /// reaches, found once (lookupReach).
+  std::unordered_map<std::uint64_t, std::pair<overlay::PixelLineWidths, double>> pixelWidths;
   // Texture draping: the registry's technique, made for its name, texture size and extent; what
   // it rasterises, for the layers (their serials) it was made for.
   std::unique_ptr<overlay::OverlayTechnique> drape;
@@ -483,12 +478,12 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     std::erase_if(gpu_->retired, [](std::future<overlay::DeferredLayer>& f) {
       return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
     });
-    // Per layer the reach class its lines in pixels need in this view (kNoReach: beyond every
+    // Per layer the reach class its lines in pixels need in this view (kBeyond: beyond every
     // class, its pieces draw it).
-    std::vector<int> reach(n, kNaturalReach);
+    std::vector<int> reach(n, overlay::ReachClasses::kNatural);
     for (std::size_t i = 0; i < n; ++i) reach[i] = lookupReach(*drawn[i], view, tiles, heights);
     std::size_t areas = n;
-    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && reach[areas - 1] != kNoReach &&
+    while (areas > 0 && deferredDraws(*drawn[areas - 1]) && reach[areas - 1] != overlay::ReachClasses::kBeyond &&
            lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes) &&
            !gpu_->tooLarge.contains(LookupKey{drawn[areas - 1]->serial(), reach[areas - 1]}))
       --areas;
@@ -558,27 +553,29 @@ overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() { return madeOnFirst
 
 int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& view,
                                       const std::vector<DrawnTile>& tiles, const GeoGrid& heights) {
-  if (!layer.hasLines() || !(layer.lineWidthPixels() > 0.0)) return kNaturalReach;
+  if (!layer.hasLines() || !(layer.lineWidthPixels() > 0.0)) return overlay::ReachClasses::kNatural;
   auto found = gpu_->pixelWidths.find(layer.serial());
   if (found == gpu_->pixelWidths.end()) {
-    glm::dvec4 w(0.0, 0.0, 0.0, 1.0);
+    overlay::PixelLineWidths w;
+    double shapeReach = 1.0;
     for (const GlobeLine& line : layer.lines()) {
-      if (line.widthPixels > 0.0)
-        w = glm::max(w, glm::dvec4(0.5 * line.widthPixels, line.halfWidth, line.maxHalfWidth, line.shapeReach()));
+      if (!(line.widthPixels > 0.0)) continue;
+      w.pixelsHalf = std::max(w.pixelsHalf, 0.5 * line.widthPixels);
+      w.leastHalf = std::max(w.leastHalf, line.halfWidth);
+      w.largestHalf = std::max(w.largestHalf, line.maxHalfWidth);
+      shapeReach = std::max(shapeReach, line.shapeReach());
     }
-    found = gpu_->pixelWidths.emplace(layer.serial(), w).first;
+    found = gpu_->pixelWidths.emplace(layer.serial(), std::make_pair(w, shapeReach)).first;
   }
-  const glm::dvec4 w = found->second;
-  if (w.z <= kBaseReach) return kNaturalReach;
+  const auto& [widths, shapeReach] = found->second;
   // The farthest anchor that can colour a drawn pixel: no farther than the layer's extent's
   // farthest point (its anchors lie there), nor than the farthest point of a drawn tile the
   // extent grown by what the class's shapes reach meets (lineWidthClass's bound, per tile). The
   // first is tight for a small layer, the second for one over the world.
   const LonLatRect extent = layer.extent();
   const double within = detail::TileReach(extent, heights).farthest(view.eye, 0.0);
-  const double perMetre = w.x * pixelScaleOf(view).metresPerPixel;
-  for (int c = 0; c <= kLargestReachClass; ++c) {
-    const double reach = w.w * reachOfClass(c);
+  return kReach.classFor(widths, pixelScaleOf(view).metresPerPixel, [&](double classReach) {
+    const double reach = shapeReach * classReach;
     const double dLat = reach / 1.1e5;
     const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
     const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
@@ -593,10 +590,8 @@ int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& 
       }
       if (meets) far = std::max(far, detail::TileReach(tile.key, heights).farthest(view.eye, reach));
     }
-    const double widest = std::min(w.z, std::max(w.y, perMetre * std::min(far, within)));
-    if (widest <= reachOfClass(c)) return c;
-  }
-  return kNoReach;
+    return std::min(far, within);
+  });
 }
 
 const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer& layer, const GeoGrid& heights,
@@ -628,7 +623,7 @@ const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer&
         if (l.feature < colors.size() && l.group < groups.size()) colors[l.feature] = groups[l.group];
     }
     std::vector<overlay::DeferredLayer::Part> parts =
-        deferredParts(layer, lowest, highest, near, reachOfClass(reachClass));
+        deferredParts(layer, lowest, highest, near, kReach.reach(reachClass));
     building = gpu_->building
                    .emplace(key, std::async(std::launch::async,
                                             [parts = std::move(parts), colors = std::move(colors)] {

@@ -106,6 +106,16 @@ glm::dvec3 DeferredChart::unproject(const glm::dvec2& chart) const {
   return d / std::sqrt(glm::dot(g, g));
 }
 
+int ReachClasses::classFor(const PixelLineWidths& w, double metresPerPixel,
+                           const std::function<double(double reach)>& farthest) const {
+  if (!std::isfinite(base) || !(w.pixelsHalf > 0.0) || w.largestHalf <= base) return kNatural;
+  for (int c = 0; c <= largest; ++c) {
+    const double r = reach(c);
+    if (w.widestAt(metresPerPixel, farthest(r)) <= r) return c;
+  }
+  return kBeyond;
+}
+
 DeferredLayer::DeferredLayer() : impl_(std::make_unique<Impl>()) {}
 DeferredLayer::DeferredLayer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 DeferredLayer::~DeferredLayer() = default;

@@ -19,9 +19,12 @@
 // On a face it is the point of the face nearest below the eye, and the ground point's offset
 // from it is found from quantities that are all small near the eye (the gnomonic map written
 // relative to the anchor), so its error grows with the distance from the eye, as the depth's.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <span>
@@ -71,6 +74,45 @@ struct DeferredChart {
   [[nodiscard]] glm::dvec2 ofGround(const glm::dvec3& world) const;
   /// The chart's point as a point of the ellipsoid (a face) or of the plane at height 0.
   [[nodiscard]] glm::dvec3 unproject(const glm::dvec2& chart) const;
+};
+
+/// Lines in pixels in the lookup, in either frame. A line w pixels wide is w/2 times the metres of
+/// a pixel at its anchor's distance from the eye wide each side, within its least and largest half
+/// widths, so how far it reaches follows the view. An index bins a layer's lines at a *reach*, the
+/// widest half width it draws them with exactly: the base reach × 2^c for a class c picked per
+/// view, the smallest holding the widest half width any of them can take there (each frame bounds
+/// its farthest anchor its own way); an index per class. A layer whose lines in pixels never pass
+/// the base reach (or that has none) is binned at its lines' own widths (kNatural); in a view wider
+/// than every class it is kBeyond (its pieces draw it).
+struct PixelLineWidths {
+  double pixelsHalf = 0.0;   ///< the largest widthPixels / 2 of the layer's lines in pixels
+  double leastHalf = 0.0;    ///< the largest least half width (metres) of those
+  double largestHalf = 0.0;  ///< the largest largest half width (metres) of those
+  /// The widest half width one of them takes with its anchor `distance` metres from the eye.
+  [[nodiscard]] double widestAt(double metresPerPixel, double distance) const {
+    return std::min(largestHalf, std::max(leastHalf, pixelsHalf * metresPerPixel * distance));
+  }
+};
+
+struct ReachClasses {
+  static constexpr double kBaseReach = 8.0;  ///< metres: the narrowest class's reach
+  static constexpr int kNatural = -1;        ///< binned at the lines' own widths
+  static constexpr int kBeyond = 1000;       ///< wider than every class
+  /// The narrowest class's reach; infinity: no classes (every layer kNatural).
+  double base = kBaseReach;
+  /// The widest class: the projected frame's views see tens of kilometres (12: 32 km), the
+  /// globe's from space thousands (14: 131 km; wider lines keep their pieces).
+  int largest = 12;
+
+  /// The reach class c bins lines at (kNatural: infinity, their own widths).
+  [[nodiscard]] double reach(int c) const {
+    return c == kNatural ? std::numeric_limits<double>::infinity() : std::ldexp(base, c);
+  }
+  /// The class a layer whose lines in pixels have widths `w` is drawn exactly with in a view whose
+  /// pixels are `metresPerPixel` wide a metre away: `farthest(reach)` bounds the distance from the
+  /// eye of every anchor that can colour a drawn pixel when the lines are binned at `reach`.
+  [[nodiscard]] int classFor(const PixelLineWidths& w, double metresPerPixel,
+                             const std::function<double(double reach)>& farthest) const;
 };
 
 /// A line's primitive in space, for a frame whose lines are not bands in its charts (the globe:

@@ -16,12 +16,11 @@
 #include <optional>
 
 #include "techniques/techniques.hpp"
+#include "vector_overlay/deferred_lookup.hpp"
 #include "vector_overlay/plan_chooser.hpp"
 
 namespace gis::overlay {
 namespace {
-
-constexpr double kBaseReach = 8.0;  ///< metres: the narrowest reach class of lines in pixels
 
 class AutoTechnique final : public OverlayTechnique {
  public:
@@ -107,7 +106,7 @@ class AutoTechnique final : public OverlayTechnique {
 Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
   Result<std::unique_ptr<OverlayTechnique>> result;
   Result<std::unique_ptr<OverlayTechnique>> stencil = kTiledStencilTechnique.create(options);
-  Result<std::unique_ptr<DeferredLookup>> deferred = createDeferredLookup(options, kBaseReach);
+  Result<std::unique_ptr<DeferredLookup>> deferred = createDeferredLookup(options, ReachClasses::kBaseReach);
   result.diagnostics = std::move(stencil.diagnostics);
   result.diagnostics.append(deferred.diagnostics);
   if (!stencil || !deferred) return result;

@@ -21,8 +21,9 @@
 namespace gis::overlay {
 namespace {
 
-/// A layer's index at a reach class: -1 for lines binned at their own largest width (or none in
-/// pixels), c ≥ 0 for lines in pixels binned at DeferredLookup's base reach × 2^c.
+/// A layer's index at a reach class (ReachClasses, deferred_lookup.hpp): kNatural for lines binned
+/// at their own largest width (or none in pixels), c ≥ 0 for lines in pixels binned at the base
+/// reach × 2^c.
 using IndexKey = std::pair<const OverlayLayer*, int>;
 
 struct IndexKeyHash {
@@ -31,15 +32,11 @@ struct IndexKeyHash {
   }
 };
 
-constexpr int kNaturalReach = -1;
-constexpr int kLargestReachClass = 12;  ///< base × 4096
-constexpr int kNoReach = 1000;          ///< wider than every class
-
 class DeferredTechnique final : public DeferredLookup {
  public:
   DeferredTechnique(DeferredPass pass, const HeightBoundsProvider* bounds, double maxReach,
                     std::optional<std::array<glm::dvec2, 2>> region)
-      : maxReach_(maxReach), region_(region), bounds_(bounds), pass_(std::move(pass)) {}
+      : classes_{maxReach, 12}, region_(region), bounds_(bounds), pass_(std::move(pass)) {}
 
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     stats.layers.assign(frame.layers.size(), LayerFrameStats{});
@@ -52,9 +49,9 @@ class DeferredTechnique final : public DeferredLookup {
       if (frame.layers[i] == nullptr) continue;
       // A view wider than every class (auto would not have chosen it) draws with the widest.
       const IndexKey key{frame.layers[i],
-                         std::min(reachClass(*frame.layers[i], view, frame.target.height), kLargestReachClass)};
+                         std::min(reachClass(*frame.layers[i], view, frame.target.height), classes_.largest)};
       auto built = layers_.find(key);
-      if (built == layers_.end()) built = layers_.emplace(key, indexOf(*key.first, reachOfClass(key.second))).first;
+      if (built == layers_.end()) built = layers_.emplace(key, indexOf(*key.first, classes_.reach(key.second))).first;
       drawn[i] = &built->second;
     }
     pass_.draw(cache, frame.target, view, drawn, frame.settings.measure, stats.layers);
@@ -79,7 +76,7 @@ class DeferredTechnique final : public DeferredLookup {
   [[nodiscard]] bool canDraw(const OverlayLayer& layer, const OverlayView& view, int height,
                              std::size_t maxIndexBytes) override {
     const int c = reachClass(layer, view, height);
-    if (c == kNoReach) return false;
+    if (c == ReachClasses::kBeyond) return false;
     const auto built = layers_.find({&layer, c});
     if (built != layers_.end()) return built->second.bytes() <= maxIndexBytes;
     return reachInfo(layer).estimatedBytes <= maxIndexBytes;
@@ -88,21 +85,18 @@ class DeferredTechnique final : public DeferredLookup {
  private:
   /// What canDraw needs of a layer, found once.
   struct LayerReach {
-    bool pixels = false;  ///< some line's widths are in pixels
-    double pixelsHalf = 0.0, leastHalf = 0.0, largestHalf = 0.0;
+    PixelLineWidths widths;       ///< of its lines in pixels (none: pixelsHalf 0)
     glm::dvec3 lo{0.0}, hi{0.0};  ///< the layer's extent, with the terrain's heights
     std::size_t estimatedBytes = 0;
 
-    /// The widest half width the layer's lines can take in this view: the farthest corner of its
-    /// extent bounds the distance of every vertex.
-    [[nodiscard]] double widestHalf(const OverlayView& view, int height) const {
+    /// The farthest corner of its extent from the eye: no anchor is farther.
+    [[nodiscard]] double farthest(const OverlayView& view) const {
       double far = 0.0;
       for (int k = 0; k < 8; ++k) {
         const glm::dvec3 c((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z);
         far = std::max(far, glm::length(c - view.eye));
       }
-      return std::min(largestHalf,
-                      std::max(leastHalf, pixelsHalf * pixelScaleOf(view.viewProj, height).metresPerPixel * far));
+      return far;
     }
   };
 
@@ -110,10 +104,10 @@ class DeferredTechnique final : public DeferredLookup {
     LayerReach r;
     for (const FeatureStyle& f : layer.featureStyles()) {
       if (layer.kind() != LayerKind::Line || !f.shape.inPixels()) continue;
-      r.pixels = true;
-      r.pixelsHalf = std::max(r.pixelsHalf, 0.5 * f.shape.widthPixels);
-      r.leastHalf = std::max(r.leastHalf, 0.5 * f.shape.minWidth);
-      r.largestHalf = std::max(r.largestHalf, 0.5 * f.shape.width);
+      PixelLineWidths& w = r.widths;
+      w.pixelsHalf = std::max(w.pixelsHalf, 0.5 * f.shape.widthPixels);
+      w.leastHalf = std::max(w.leastHalf, 0.5 * f.shape.minWidth);
+      w.largestHalf = std::max(w.largestHalf, 0.5 * f.shape.width);
     }
     const SharedFeatures& features = layer.sharedFeatures();
     glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
@@ -124,7 +118,7 @@ class DeferredTechnique final : public DeferredLookup {
       hi = glm::max(hi, b);
     }
     const HeightBounds h = bounds_ != nullptr ? bounds_->globalBounds() : HeightBounds{-1e4, 1e4};
-    const double grow = std::min(r.largestHalf, reachOfClass(kLargestReachClass));  // as the lines are binned
+    const double grow = std::min(r.widths.largestHalf, classes_.reach(classes_.largest));  // as the lines are binned
     r.lo = glm::dvec3(lo - glm::dvec2(grow), h.lo);
     r.hi = glm::dvec3(hi + glm::dvec2(grow), h.hi);
     // About 160 bytes a source vertex (entries, leaves and grid) on the samples measured.
@@ -138,23 +132,14 @@ class DeferredTechnique final : public DeferredLookup {
     return found->second;
   }
 
-  /// The reach a class bins lines in pixels at.
-  [[nodiscard]] double reachOfClass(int c) const {
-    if (c == kNaturalReach || !std::isfinite(maxReach_)) return maxReach_;
-    return std::ldexp(maxReach_, c);
-  }
-
-  /// The class whose index draws the layer exactly in this view: kNaturalReach when its lines
-  /// keep within the base reach (or it has no lines in pixels, or there is no base reach), the
-  /// smallest class holding the widest half width in view, or kNoReach beyond every class.
+  /// The class whose index draws the layer exactly in this view (ReachClasses::classFor): the
+  /// farthest corner of its extent bounds every anchor's distance.
   int reachClass(const OverlayLayer& layer, const OverlayView& view, int height) {
-    if (!std::isfinite(maxReach_)) return kNaturalReach;
+    if (!std::isfinite(classes_.base)) return ReachClasses::kNatural;
     const LayerReach& r = reachInfo(layer);
-    if (!r.pixels || r.largestHalf <= maxReach_) return kNaturalReach;
-    const double widest = r.widestHalf(view, height);
-    for (int c = 0; c <= kLargestReachClass; ++c)
-      if (widest <= reachOfClass(c)) return c;
-    return kNoReach;
+    const double far = r.farthest(view);
+    return classes_.classFor(r.widths, pixelScaleOf(view.viewProj, height).metresPerPixel,
+                             [far](double) { return far; });
   }
 
   void dropAll() {
@@ -185,7 +170,7 @@ class DeferredTechnique final : public DeferredLookup {
     return deferredLayerOf(DeferredChart::plane(), std::move(index), std::move(cover));
   }
 
-  double maxReach_;
+  ReachClasses classes_;
   /// The terrain's extent (the build's cell grid): ground points lie there, so the indices cover
   /// no more (deferred::BuildOptions::region).
   std::optional<std::array<glm::dvec2, 2>> region_;
