@@ -6,7 +6,8 @@
 //
 // Both frames draw with it (docs/frames.md): in a projected frame z is up and caps move along it;
 // on the globe (u_alongNormals) a_position holds ECEF metres relative to the tile's origin, and
-// caps move along the surface normal a_up.xyz.
+// caps move along the surface normal a_up.xyz, pieces built for the finer terrain only further by
+// u_capReach (OverlayLayer::capReach).
 //
 // Lines in pixels: (x, y) is the centre the vertex belongs to, a_scaling its direction, the
 // centre's anchor height and the least half width; the vertex lies at centre + direction · h
@@ -29,6 +30,7 @@ uniform float u_halfWidthPerMetre;
 uniform float u_maxHalfWidth;
 uniform vec4 u_debugColor;  // alpha > 0: every vertex takes this colour (the debug view of pieces)
 uniform bool u_alongNormals;  // caps padded along a_up (the globe), else along z
+uniform vec2 u_capReach;      // u_alongNormals: bottom caps move down by x, top caps up by y
 
 out vec4 v_color;
 
@@ -44,7 +46,7 @@ void main() {
   const float distance = length(p);
   const float pad = a_position.w * (u_padBase + (u_padPerMetre + u_padPerMetreSquared * distance) * distance);
   if (u_alongNormals) {
-    p += a_up.xyz * pad;
+    p += a_up.xyz * (pad + (a_position.w < 0.0 ? -u_capReach.x : u_capReach.y));
   } else {
     p.z += pad;
   }

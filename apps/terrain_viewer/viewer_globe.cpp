@@ -475,7 +475,7 @@ void Viewer::drawGlobePanel() {
   drawMeasureSection();
   drawCacheSection();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: the polyhedra of the whole layer (stencil, paper).");
+  ImGui::TextWrapped("Not on the globe yet: the seed paper's construction (paper).");
   ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();

@@ -153,6 +153,7 @@ struct TilePieces {
     std::uint32_t indexCount = 0;       ///< all: bottom cap, walls, top cap
     glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
     double lo = 0.0, hi = 0.0;          ///< heights of its caps
+    double ground = 0.0;                ///< the highest ground it holds (hi less its caps' sag)
     std::uint32_t group = 0;            ///< its polygon's colour (its vertices' colour when drawn)
   };
   glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)

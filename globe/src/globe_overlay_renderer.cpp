@@ -203,6 +203,15 @@ struct GlobeOverlayRenderer::Gpu {
   bool drapeFailed = false;  ///< the technique could not be made for them (said once)
   std::unique_ptr<GlobeDrapeSource> drapeSource;
   std::vector<std::uint64_t> drapeSerials;
+  /// `stencil`: per layer (its serial) its pieces built once for the grid, per tile (the tiles
+  /// without pieces left out), or refused (too large: its tiles draw it).
+  struct WholeLoad {
+    const GeoGrid* heights = nullptr;
+    bool refused = false;
+    std::vector<WholeLoadTile> tiles;  ///< their geometry moved into chunks
+    std::vector<overlay::OverlayLayer> chunks;
+  };
+  std::unordered_map<std::uint64_t, WholeLoad> wholeLoads;
 };
 
 namespace {
@@ -338,6 +347,8 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     }
     return false;
   };
+  // `stencil` builds the edited layer whole again when next drawn.
+  gpu_->wholeLoads.erase(layer.serial());
   // The lookup's indices (every reach class) are made again from the edited layer when next drawn.
   std::erase_if(gpu_->deferred, [&layer](const auto& entry) { return entry.first.first == layer.serial(); });
   std::erase_if(gpu_->tooLarge, [&layer](const LookupKey& key) { return key.first == layer.serial(); });
@@ -444,6 +455,13 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
                                                                        const std::vector<DrawnTile>& tiles,
                                                                        const GeoGrid& heights,
                                                                        const GlobeLayer& layer) {
+  if (gpu_->settings.technique == GlobeTechnique::Stencil && renderer() != nullptr) {
+    if (const std::vector<overlay::OverlayLayer>* whole = wholeLoadOf(layer, heights, tiles)) {
+      std::vector<const overlay::OverlayLayer*> out;
+      for (const overlay::OverlayLayer& chunk : *whole) out.push_back(&chunk);
+      return out;
+    }
+  }
   bool same = gpu_->heights == &heights && gpu_->viewProj == view.viewProj() && gpu_->tileIds.size() == tiles.size();
   for (std::size_t t = 0; same && t < tiles.size(); ++t) same = gpu_->tileIds[t] == tiles[t].key.id();
   std::vector<const GlobeLayer*> layers = same ? gpu_->layers : std::vector<const GlobeLayer*>{};
@@ -474,7 +492,8 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   std::vector<const overlay::DeferredLayer*> indexed(n, nullptr);
   std::size_t lookedUp = n;
   gpu_->plan = -1;  // not `auto`: its chooser takes no measurement of this frame
-  if (settings.technique != GlobeTechnique::StencilTiles && deferredPass() != nullptr) {
+  const bool lookup = settings.technique == GlobeTechnique::Deferred || settings.technique == GlobeTechnique::Auto;
+  if (lookup && deferredPass() != nullptr) {
     std::erase_if(gpu_->retired, [](std::future<overlay::DeferredLayer>& f) {
       return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
     });
@@ -517,7 +536,31 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     }
   }
   std::vector<const GlobeLayer*> pieced(drawn.begin(), drawn.begin() + static_cast<std::ptrdiff_t>(lookedUp));
+  // `stencil`: the layers' pieces built once; those too large for it drawn by their tiles.
+  std::vector<const std::vector<overlay::OverlayLayer>*> whole(pieced.size(), nullptr);
+  if (settings.technique == GlobeTechnique::Stencil) {
+    std::vector<const GlobeLayer*> tiled;
+    for (std::size_t i = 0; i < pieced.size(); ++i) {
+      whole[i] = wholeLoadOf(*pieced[i], heights, tiles);
+      if (whole[i] == nullptr) tiled.push_back(pieced[i]);
+    }
+    pieced = std::move(tiled);
+  }
   std::vector<std::vector<const overlay::OverlayLayer*>> chunked = tilesFor(view, tiles, heights, pieced, settings);
+  if (settings.technique == GlobeTechnique::Stencil) {
+    std::vector<std::vector<const overlay::OverlayLayer*>> all(whole.size());
+    std::size_t next = 0;
+    for (std::size_t i = 0; i < whole.size(); ++i) {
+      if (whole[i] == nullptr) {
+        all[i] = std::move(chunked[next++]);
+        continue;
+      }
+      for (const overlay::OverlayLayer& chunk : *whole[i]) all[i].push_back(&chunk);
+    }
+    chunked = std::move(all);
+    gpu_->chunks = chunked;
+    gpu_->layers.assign(drawn.begin(), drawn.begin() + static_cast<std::ptrdiff_t>(lookedUp));
+  }
   for (const auto& layer : chunked) {
     for (const overlay::OverlayLayer* chunk : layer) {
       stats_.triangles += chunk->stats().triangles;
@@ -550,6 +593,76 @@ void GlobeOverlayRenderer::measured(double milliseconds) {
 }
 
 overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() { return madeOnFirstUse(gpu_->pass, gpu_->passFailed); }
+
+const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(const GlobeLayer& layer,
+                                                                            const GeoGrid& heights,
+                                                                            const std::vector<DrawnTile>& tiles) {
+  Gpu::WholeLoad& w = gpu_->wholeLoads[layer.serial()];
+  if (w.heights != &heights) {
+    w = Gpu::WholeLoad{};
+    w.heights = &heights;
+    // The tiles of kWholeLoadLevel over the layer's extent, grown by what its lines' shapes reach
+    // and by a tile (the pieces' margins).
+    const LonLatRect extent = layer.extent();
+    std::vector<TileKey> keys;
+    if (!extent.empty()) {
+      double reach = 0.0;
+      if (layer.hasLines()) {
+        for (const GlobeLine& line : layer.lines()) reach = std::max(reach, line.halfWidth * line.shapeReach());
+      }
+      const TileKey probe{kWholeLoadLevel, 0, 0};
+      const double size = probe.size();
+      const double dLat = reach / 1.1e5 + size;
+      const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
+      const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
+      const auto x0 = static_cast<long long>(std::floor((extent.west - dLon + 180.0) / size));
+      auto x1 = static_cast<long long>(std::floor((extent.east + dLon + 180.0) / size));
+      x1 = std::min(x1, x0 + probe.columns() - 1);
+      const auto y0 = std::max(0LL, static_cast<long long>(std::floor((extent.south - dLat + 90.0) / size)));
+      const auto y1 = std::min<long long>(probe.rows() - 1,
+                                          static_cast<long long>(std::floor((extent.north + dLat + 90.0) / size)));
+      const auto count = static_cast<std::size_t>((x1 - x0 + 1) * std::max(0LL, y1 - y0 + 1));
+      if (count > kWholeLoadMaxTiles) {
+        w.refused = true;
+        logError("layer '" + layer.name() + "': stencil builds a layer whole over tiles of about 5 km, and it needs " +
+                 std::to_string(count) + " of them (at most " + std::to_string(kWholeLoadMaxTiles) +
+                 "): it is drawn by its view's tiles (stencil-tiles) instead");
+        return nullptr;
+      }
+      for (long long y = y0; y <= y1; ++y) {
+        for (long long x = x0; x <= x1; ++x) {
+          const long long columns = probe.columns();
+          keys.push_back({kWholeLoadLevel, static_cast<int>(((x % columns) + columns) % columns), static_cast<int>(y)});
+        }
+      }
+    }
+    // Built on every core, uploaded here.
+    std::vector<WholeLoadTile> built(keys.size());
+    std::atomic<std::size_t> next{0};
+    const auto work = [&] {
+      for (std::size_t k = next++; k < keys.size(); k = next++)
+        built[k] = buildWholeLoadPieces(layer, keys[k], heights);
+    };
+    std::vector<std::thread> workers;
+    const unsigned cores = std::max(1U, std::thread::hardware_concurrency());
+    for (unsigned t = 1; t < cores && t < keys.size(); ++t) workers.emplace_back(work);
+    work();
+    for (std::thread& t : workers) t.join();
+    for (WholeLoadTile& tile : built) {
+      if (tile.empty) continue;
+      w.chunks.push_back(overlay::OverlayLayer::upload(std::move(*tile.geometry)));
+      tile.geometry.reset();
+      w.tiles.push_back(std::move(tile));
+      ++stats_.builtTiles;
+    }
+  }
+  if (w.refused) return nullptr;
+  for (std::size_t k = 0; k < w.chunks.size(); ++k) {
+    const glm::dvec2 reach = wholeLoadCapReach(w.tiles[k], tiles, heights);
+    w.chunks[k].setCapReach(reach.x, reach.y);
+  }
+  return &w.chunks;
+}
 
 int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& view,
                                       const std::vector<DrawnTile>& tiles, const GeoGrid& heights) {

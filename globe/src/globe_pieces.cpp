@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <utility>
 
 #include "globe/globe_overlay.hpp"
@@ -274,8 +275,10 @@ class PlanePoints {
 /// inside it so that no cap triangle is longer than a few posts; each of its vertices is lifted
 /// to the bounds' heights along the ellipsoid's normal there, in the shared piece layout
 /// (overlay::appendPieceIndices).
+/// `finerLevels`: bounds for the terrain drawn at `level` or any finer one (a whole-load tile),
+/// else at `level`.
 void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
-              const GeoGrid& heights, double postStep, int level, bool united, std::uint32_t group) {
+              const GeoGrid& heights, double postStep, int level, bool united, std::uint32_t group, bool finerLevels) {
   const Gnomonic gnomonic(cell);
   PlanePoints plane(gnomonic);
   std::vector<glm::dvec2> capPoints;
@@ -320,7 +323,11 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   }
   box = {std::max(box.west, widened.west), std::max(box.south, widened.south), std::min(box.east, widened.east),
          std::min(box.north, widened.north)};
-  const std::pair<double, double> bounds = groundBounds(heights, box, level);
+  std::pair<double, double> bounds = groundBounds(heights, box, level);
+  for (int finer = level + 1; finerLevels && finer <= kMaxLevel; ++finer) {
+    const std::pair<double, double> b = groundBounds(heights, box, finer);
+    bounds = {std::min(bounds.first, b.first), std::max(bounds.second, b.second)};
+  }
   const double lo = bounds.first, ground1 = bounds.second;
   double longest = 0.0;
   for (const auto& t : f.triangles) {
@@ -338,6 +345,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   piece.group = group;
   piece.lo = lo;
   piece.hi = hi;
+  piece.ground = ground1;
   piece.boxLo = glm::dvec3(std::numeric_limits<double>::max());
   piece.boxHi = glm::dvec3(-std::numeric_limits<double>::max());
   for (const Pt& p : lonLat) {
@@ -383,10 +391,11 @@ overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces)
                                                layer.colors().empty() ? fallback : layer.colors(), std::move(lines));
 }
 
-}  // namespace
-
-overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
-                                       int widthClass) {
+/// A tile's pieces: for the terrain drawn at its level (generalised for it, lines in pixels of
+/// `widthClass` in the shader), or with `wholeLoad` at full detail, widths in metres, bounded for
+/// its level and every finer one.
+TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass,
+                    bool wholeLoad) {
   TilePieces out;
   const LonLatRect rect = key.rect();
   out.origin = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
@@ -448,21 +457,69 @@ overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& k
             for (Ring& r : inCell) united.push_back(std::move(r));
             continue;
           }
-          addPiece(out, inCell, cell, widened, heights, postStep, key.level, false, polygon.group);
+          addPiece(out, inCell, cell, widened, heights, postStep, key.level, false, polygon.group, wholeLoad);
         }
       }
     }
   };
   const std::vector<GlobePolygon>& polygons = layer.polygons();
-  for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], layer.areaRingsAt(k, key.level), false);
-  for (const GlobePolygon& polygon : layer.lineShapesIn(key, widthClass)) addPolygon(polygon, polygon.rings, true);
+  const int detail = wholeLoad ? kMaxLevel : key.level;
+  for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], layer.areaRingsAt(k, detail), false);
+  for (const GlobePolygon& polygon : layer.lineShapesIn(key, wholeLoad ? 0 : widthClass, 0.0, detail))
+    addPolygon(polygon, polygon.rings, true);
   for (const auto& [groupCell, rings] : lineCells) {
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
-    addPiece(out, rings, cell, widened, heights, postStep, key.level, true, groupCell.first);
+    addPiece(out, rings, cell, widened, heights, postStep, key.level, true, groupCell.first, wholeLoad);
   }
-  detail::addScalableLines(out, layer, key, heights, widthClass);
+  if (!wholeLoad) detail::addScalableLines(out, layer, key, heights, widthClass);
   if (!out.scaling.empty()) out.scaling.resize(out.vertices.size(), glm::vec4(0.0F));
-  return worldPiecesOf(layer, std::move(out));
+  return out;
+}
+
+}  // namespace
+
+overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                                       int widthClass) {
+  return worldPiecesOf(layer, piecesOf(layer, key, heights, widthClass, false));
+}
+
+WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights) {
+  TilePieces pieces = piecesOf(layer, key, heights, 0, true);
+  WholeLoadTile out;
+  out.key = key;
+  out.highestLow = -std::numeric_limits<double>::infinity();
+  out.lowestHigh = std::numeric_limits<double>::infinity();
+  for (const TilePieces::Piece& p : pieces.pieces) {
+    out.highestLow = std::max(out.highestLow, p.lo);
+    out.lowestHigh = std::min(out.lowestHigh, p.ground);
+  }
+  out.empty = pieces.pieces.empty();
+  out.geometry = worldPiecesOf(layer, std::move(pieces));
+  return out;
+}
+
+glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, const std::vector<DrawnTile>& drawn, const GeoGrid& heights) {
+  if (tile.empty) return glm::dvec2(0.0);
+  // The pieces reach a little beyond their tile (the cells' margins): grown by a hundredth of it.
+  const LonLatRect box = tile.key.rect().expanded(0.01 * tile.key.size(), 0.01 * tile.key.size());
+  glm::dvec2 reach(0.0);
+  std::set<int> levels;
+  for (const DrawnTile& d : drawn) {
+    if (d.key.level >= tile.key.level) continue;  // the pieces' own bounds hold it
+    const LonLatRect r = d.key.rect();
+    for (int turn = -1; turn <= 1; ++turn) {
+      const double shift = 360.0 * turn;
+      if (box.west + shift <= r.east && r.west <= box.east + shift && box.south <= r.north && r.south <= box.north)
+        levels.insert(d.key.level);
+    }
+  }
+  // The surface a drawn tile of level L lays over the box lies within groundBounds at L (the
+  // terrain's contract: the box lies within that tile and a strip of its neighbours).
+  for (const int level : levels) {
+    const std::pair<double, double> b = groundBounds(heights, box, level);
+    reach = glm::max(reach, glm::dvec2(tile.highestLow - b.first, b.second - tile.lowestHigh));
+  }
+  return reach;
 }
 
 }  // namespace gis::globe

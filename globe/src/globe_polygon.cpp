@@ -1123,8 +1123,8 @@ const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) con
   return levels_->centres[at];
 }
 
-std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::size_t j, const TileKey& key,
-                                                                        double reach) const {
+std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::size_t j, const TileKey& key, double reach,
+                                                                        int detailLevel) const {
   std::vector<std::pair<std::size_t, std::size_t>> runs;
   const std::vector<GlobeLine>& all = lines();
   if (j >= all.size() || !levels_ || key.level < 0 || key.level > kMaxLevel) return runs;
@@ -1148,7 +1148,7 @@ std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::siz
   };
   if (!meets(line.box.west, line.box.south - reach / 110000.0, line.box.east, line.box.north + reach / 110000.0))
     return runs;
-  const std::vector<glm::dvec2>& points = linePointsAt(j, key.level);
+  const std::vector<glm::dvec2>& points = linePointsAt(j, detailLevel < 0 ? key.level : detailLevel);
   for (std::size_t i = 0; i + 1 < points.size(); ++i) {
     const glm::dvec2 p = points[i], q = points[i + 1];
     if (!meets(std::min(p.x, q.x), std::min(p.y, q.y), std::max(p.x, q.x), std::max(p.y, q.y))) continue;
@@ -1170,11 +1170,13 @@ bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
   return widthClass > 0 && line.widthPixels > 0.0 && 0.5 * lineClassWidth(widthClass) > line.halfWidth;
 }
 
-std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass, double pixelMetres) const {
+std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass, double pixelMetres,
+                                                   int detailLevel) const {
   std::vector<GlobePolygon> out;
   if (!hasLines_ || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
+  const int level = detailLevel < 0 ? key.level : std::min(detailLevel, kMaxLevel);
   const std::vector<GlobeLine>& all = lines();
-  const std::vector<std::vector<glm::dvec2>>& centres = centresAt(key.level);
+  const std::vector<std::vector<glm::dvec2>>& centres = centresAt(level);
   for (std::size_t j = 0; j < all.size(); ++j) {
     const GlobeLine& line = all[j];
     // Lines the class scales are drawn by their own pieces (buildTilePieces); none is thinner.
@@ -1183,12 +1185,12 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
     const double h = line.widthPixels > 0.0 && pixelMetres > 0.0
                          ? std::max(std::min(0.5 * line.widthPixels * pixelMetres, line.maxHalfWidth), line.halfWidth)
                          : line.halfWidth;
-    const double tolerance = lineTolerance(line, key.level);
+    const double tolerance = lineTolerance(line, level);
     const bool generalised = !centres[j].empty();
     const std::vector<glm::dvec2>& points = generalised ? centres[j] : line.points;
     // The runs of pieces that meet the tile widened by the shapes' reach (the pieces' clip
     // margins are less): a run's ends outside it (or the line's own ends).
-    for (const auto& [first, last] : lineRunsIn(j, key, h * line.shapeReach())) {
+    for (const auto& [first, last] : lineRunsIn(j, key, h * line.shapeReach(), level)) {
       // Points the source gave get joins, and the line's ends caps; a run's ends where the window
       // cuts it get their joins (they lie beyond the tile's window by the line's reach).
       std::vector<GlobePolygon> made;
@@ -1211,8 +1213,8 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
           coverage[k].polygons.push_back({made[k].rings.front(), {}});
           pointers.push_back(&coverage[k]);
         }
-        const std::vector<geo::Feature> simplified = overlay::generaliseCoverage(
-            pointers, 0.5 * kLineGeneralisation * simplifyTolerance(key.level), ringDistance);
+        const std::vector<geo::Feature> simplified =
+            overlay::generaliseCoverage(pointers, 0.5 * kLineGeneralisation * simplifyTolerance(level), ringDistance);
         for (std::size_t k = 0; k < made.size(); ++k) {
           const geo::Ring& ring = simplified[k].polygons.front().outer;
           if (ring.size() >= 3) made[k].rings.front() = ring;

@@ -57,7 +57,7 @@ class GlobeOverlayGl : public test::GlTest {
     GlobeOverlayRenderer own;
     GlobeOverlayRenderer& overlay = kept != nullptr ? *kept : own;
     gfx::RenderTarget target(view.width, view.height, samples, true);
-    const std::vector<DrawnTile> tiles = terrain.select(view);
+    const std::vector<DrawnTile> tiles = drawnTiles(terrain, view);
     gfx::beginRenderPass(cache_, target, {glm::vec4(0.0F, 0.0F, 0.0F, 1.0F), gfx::kReversedZFar, 0});
     gfx::enableMaskWrites(target.framebuffer(), false);
     terrain.draw(cache_, view, tiles);
@@ -92,6 +92,24 @@ class GlobeOverlayGl : public test::GlTest {
     o.zFail = overlay.stats().zFailPieces;
     return o;
   }
+
+  /// The tiles the terrain draws for the view: its own choice, or with forcedLevel_ ≥ 0 those no
+  /// finer than that level (each tile's ancestor there; one level, so no edge is stitched).
+  std::vector<DrawnTile> drawnTiles(const GlobeTerrain& terrain, const GlobeView& view) const {
+    std::vector<DrawnTile> tiles = terrain.select(view);
+    if (forcedLevel_ < 0) return tiles;
+    std::vector<DrawnTile> forced;
+    for (const DrawnTile& t : tiles) {
+      TileKey k = t.key;
+      while (k.level > forcedLevel_) k = k.parent();
+      if (std::none_of(forced.begin(), forced.end(), [&](const DrawnTile& f) { return f.key.contains(k); })) {
+        std::erase_if(forced, [&](const DrawnTile& f) { return k.contains(f.key); });
+        forced.push_back({k, 0});
+      }
+    }
+    return forced;
+  }
+  int forcedLevel_ = -1;
 
   /// The mask in the single-sampled `target` against the reference on its depth, the image's
   /// matrix `viewProj` (the view's, or one moved to a sample's position).
@@ -413,6 +431,105 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
   const GlobeOverlayStats nothing = frame(empty, none);
   EXPECT_EQ(nothing.deferredLayers, 0U);
   EXPECT_EQ(nothing.deferredHeldBytes, 0U);
+}
+
+TEST_F(GlobeOverlayGl, StencilBuildsTheLayersOnceAndTheirCapsReachTheCoarserTerrainDrawnOverThem) {
+  // `stencil` on the globe: each layer's pieces built once (full detail, widths in metres, over
+  // tiles of about 5 km), for every view from space to 1 m above the ground, exact against the
+  // reference. Their bounds hold the terrain drawn at their tiles' level and finer; where coarser
+  // tiles are drawn over them (from afar, or forced by a coarse terrain: the bounds contract's
+  // test at forced coarse LODs) their caps move out in that frame, and only then.
+  const auto features = test::globe_scene::features();
+  std::vector<geo::Feature> region(1);
+  region[0].polygons.push_back(test::globe_scene::box(8.0, 47.0, 8.6, 47.4));
+  region[0].polygons[0].holes.push_back(test::globe_scene::box(8.2, 47.1, 8.3, 47.2).outer);
+  Result<GlobeLayer> areas = GlobeLayer::build("region", region, glm::vec4(0.2F, 0.5F, 0.9F, 0.6F));
+  Result<GlobeLayer> field = GlobeLayer::build("field", {features.back()}, glm::vec4(0.9F, 0.9F, 0.2F, 0.6F));
+  GlobeLayerOptions metres;
+  metres.lineWidthMetres = 300.0;
+  Result<GlobeLayer> roads =
+      GlobeLayer::build("roads",
+                        {lineFeature({{8.05, 47.05}, {8.25, 47.35}, {8.55, 47.1}}),
+                         lineFeature({{8.5 - 0.002, 47.3 + 0.004}, {8.5 + 0.01, 47.3 + 0.0041}})},
+                        glm::vec4(0.9F, 0.1F, 0.1F, 0.8F), metres);
+  ASSERT_TRUE(areas.ok() && field.ok() && roads.ok());
+  const std::vector<const GlobeLayer*> drawn{&*areas, &*field, &*roads};
+  // Rough ground under them (a regional grid of 200 m posts, the ellipsoid elsewhere): coarse
+  // terrain tiles lie hundreds of metres off what the finer ones draw there.
+  constexpr double kStep = 0.002;
+  constexpr int kColumns = 1000, kRows = 750;
+  std::vector<float> rough(static_cast<std::size_t>(kColumns) * kRows);
+  for (int r = 0; r < kRows; ++r) {
+    for (int col = 0; col < kColumns; ++col) {
+      const double lon = 7.5 + col * kStep, lat = 48.0 - r * kStep;
+      rough[static_cast<std::size_t>(r) * kColumns + static_cast<std::size_t>(col)] =
+          static_cast<float>(900.0 + 600.0 * std::sin(40.0 * lon) * std::cos(35.0 * lat) +
+                             150.0 * std::sin(700.0 * lon + 0.3) * std::sin(650.0 * lat));
+    }
+  }
+  const auto heights = std::make_shared<const GeoGrid>(kColumns, kRows, 7.5, 48.0, kStep, std::move(rough));
+  const auto at = [&](const Geodetic& eye, const Geodetic& target, double fov) {
+    return GlobeView::looking(toEcef(eye), toEcef(target), fov, 256, 256, heights->heightAt(eye.lon, eye.lat));
+  };
+  GlobeOverlaySettings settings;
+  settings.technique = GlobeTechnique::Stencil;
+  GlobeOverlayRenderer renderer;
+  struct Case {
+    std::string label;
+    Geodetic eye, target;
+    double fov = 45.0;
+    int forced = -1;  ///< the terrain drawn no finer than this level
+    std::size_t minCovered = 200;
+  };
+  const Geodetic nearEye{8.5, 47.30407, heights->heightAt(8.5, 47.30407) + 1.0},
+      nearTarget{8.5005, 47.304, heights->heightAt(8.5005, 47.304)};
+  const std::vector<Case> cases{
+      {"stencil space 10,000 km", {8.3, 47.2, 1e7}, {8.3, 47.2, -6e6}, 3.0},
+      {"stencil oblique 800 km", {6.0, 42.0, 8e5}, {8.3, 47.2, 0.0}, 10.0},
+      {"stencil 60 km", {8.3, 46.9, 6e4}, {8.3, 47.2, 0.0}},
+      {"stencil grazing 5 km", {8.1, 46.95, 5000.0}, {8.4, 47.3, 500.0}},
+      {"stencil 1 m above the ground", nearEye, nearTarget, 60.0},
+      {"stencil 60 km terrain at level 5", {8.3, 46.9, 6e4}, {8.3, 47.2, 0.0}, 45.0, 5},
+      {"stencil grazing 5 km terrain at level 7", {8.1, 46.95, 5000.0}, {8.4, 47.3, 500.0}, 45.0, 7},
+      {"stencil 1 m up terrain at level 10", nearEye, nearTarget, 60.0, 10},
+  };
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    const Case& c = cases[k];
+    const GlobeView v = at(c.eye, c.target, c.fov);
+    forcedLevel_ = c.forced;
+    const Outcome o = drawAndCompare(v, drawn, c.label, &renderer, settings, heights);
+    EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the layers";
+    // Built once, at the first frame.
+    EXPECT_EQ(renderer.stats().builtTiles > 0, k == 0) << c.label;
+    EXPECT_EQ(renderer.stats().tiles.tilesBuilt, 0U) << c.label << ": no layer may fall back to its tiles";
+    // The caps reach out only where coarser terrain is drawn over them: the field's (1 km).
+    const std::vector<DrawnTile> tiles = drawnTiles(GlobeTerrain(heights), v);
+    const LonLatRect fieldBox = field->extent().expanded(0.01, 0.01);
+    int coarsest = kMaxLevel;
+    for (const DrawnTile& t : tiles) {
+      const LonLatRect r = t.key.rect();
+      if (r.west <= fieldBox.east && fieldBox.west <= r.east && r.south <= fieldBox.north && fieldBox.south <= r.north)
+        coarsest = std::min(coarsest, t.key.level);
+    }
+    double reach = 0.0;
+    for (const overlay::OverlayLayer* chunk : renderer.chunks(v, tiles, *heights, *field))
+      reach = std::max({reach, chunk->capReach().x, chunk->capReach().y});
+    std::printf("%-40s the field under terrain of level %2d: caps reach %.1f m\n", c.label.c_str(), coarsest, reach);
+    if (coarsest >= kWholeLoadLevel) {
+      EXPECT_EQ(reach, 0.0) << c.label;
+    } else {
+      EXPECT_GT(reach, 0.0) << c.label;
+    }
+  }
+  forcedLevel_ = -1;
+  // A layer over more tiles than a whole build takes (boxes 20°–40° wide): drawn by its view's
+  // tiles instead, still exact, beside the layers built whole.
+  const Layers large = makeLayers();
+  const std::vector<const GlobeLayer*> mixed{&large.boxes, &*areas};
+  const Outcome o = drawAndCompare(view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}), mixed, "stencil too large: tiles",
+                                   &renderer, settings);
+  EXPECT_GE(o.covered, 2000U);
+  EXPECT_GT(renderer.stats().tiles.tilesBuilt, 0U) << "the boxes fall back to their tiles";
 }
 
 TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {

@@ -287,7 +287,8 @@ OverlayRenderer::Pieces OverlayRenderer::classify(const OverlayView& view, const
     const double diagonal = glm::length(p.boxMax - p.boxMin) + (p.hi - p.lo);
     const glm::dvec3 lo0(p.boxMin, p.lo), hi0(p.boxMax, p.hi);
     const double pad = padAt(settings, distanceToBox(view.eye, lo0, hi0) + diagonal);
-    const glm::dvec3 grow = world ? glm::dvec3(pad) : glm::dvec3(0.0, 0.0, pad);
+    const glm::dvec3 grow =
+        world ? glm::dvec3(pad + std::max(layer.capReach().x, layer.capReach().y)) : glm::dvec3(0.0, 0.0, pad);
     const glm::dvec3 lo = lo0 - grow, hi = hi0 + grow;
     if (settings.cullPieces && !gfx::boxInFrustum(planes, lo, hi, false)) {
       ++stats.culledPieces;
@@ -361,6 +362,7 @@ bool OverlayRenderer::bindLayer(const OverlayView& view, const OverlayLayer& lay
     glVertexArrayVertexBuffer(vao, 3, layer.normalBuffer(), 0, 4 * sizeof(float));
     glEnableVertexArrayAttrib(vao, 4);
     program_.set("u_alongNormals", 1);
+    program_.set("u_capReach", glm::vec2(layer.capReach()));
   }
   const bool inPixels = layer.widthPixels() > 0.0 && layer.scalingBuffer() != 0;
   if (inPixels) {

@@ -21,6 +21,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -200,16 +201,17 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// own points. Thread-safe.
   /// Lines in pixels: the lines width class `widthClass` scales are left out (buildTilePieces);
   /// the others are drawn at their least width, or with `pixelMetres` > 0 (a drape's texel) at
-  /// widthPixels times that, within their least and largest widths.
-  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key, int widthClass = 0,
-                                                       double pixelMetres = 0.0) const;
+  /// widthPixels times that, within their least and largest widths. `detailLevel` ≥ 0: generalised
+  /// as for tiles of that level instead of key.level (kMaxLevel: the lines' own points).
+  [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key, int widthClass = 0, double pixelMetres = 0.0,
+                                                       int detailLevel = -1) const;
   /// The points line j is drawn from in tiles of `level`: its centreline generalised for the
   /// level (lineShapesIn), or its own points.
   [[nodiscard]] const std::vector<glm::dvec2>& linePointsAt(std::size_t j, int level) const;
-  /// The runs [first, last] of linePointsAt(j, key.level) whose pieces meet tile `key` grown by
-  /// `reach` metres and a post. Thread-safe.
+  /// The runs [first, last] of linePointsAt(j, detailLevel) whose pieces meet tile `key` grown by
+  /// `reach` metres and a post (detailLevel < 0: key.level). Thread-safe.
   [[nodiscard]] std::vector<std::pair<std::size_t, std::size_t>> lineRunsIn(std::size_t j, const TileKey& key,
-                                                                            double reach) const;
+                                                                            double reach, int detailLevel = -1) const;
   /// The tolerance of line `line` at `level` (metres): lineShapesIn.
   static double lineTolerance(const GlobeLine& line, int level);
   /// Whether width class `widthClass` draws the line in pixels (else in metres: lineShapesIn).
@@ -322,6 +324,29 @@ class GlobeLayer final : public overlay::WorldCoverage {
 overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
                                        int widthClass = 0);
 
+/// The globe's `stencil` (GlobeTechnique::Stencil), built once for every view as the projected
+/// frame's is: the layer at full detail (its own points), widths in metres, over the tiles of
+/// kWholeLoadLevel (about 5 km: their pieces' floats, relative to the tile's middle, hold a
+/// quarter of a millimetre), bounded for the terrain drawn at that level and every finer one.
+/// Where a coarser terrain tile is drawn over one (a view from afar), its caps move out along the
+/// normals by wholeLoadCapReach in that frame (OverlayLayer::setCapReach): the bounds contract's
+/// dynamic scheme, so the pieces stay shallow for the near views that need their precision.
+inline constexpr int kWholeLoadLevel = 12;
+/// A layer whose extent meets more tiles of kWholeLoadLevel than this is not built whole (its
+/// tiles are drawn instead, and the renderer says so).
+inline constexpr std::size_t kWholeLoadMaxTiles = 16384;
+struct WholeLoadTile {
+  TileKey key;
+  std::optional<overlay::LayerGeometry> geometry;  ///< its pieces (none: not built)
+  bool empty = true;                               ///< no pieces
+  /// Of its pieces: the highest bottom, and the lowest ground its top caps hold (heights).
+  double highestLow = 0.0, lowestHigh = 0.0;
+};
+WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights);
+/// How far (below, above) the tile's bottom and top caps must move in a frame whose drawn terrain
+/// tiles are `drawn` (0 where none coarser than its level meets it).
+glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, const std::vector<DrawnTile>& drawn, const GeoGrid& heights);
+
 /// Lines in pixels: the width class a tile is drawn with from a view (the tiled technique's
 /// rule, tiled_layer.hpp): 0 where every line of the layer is at least as wide in metres as
 /// widthPixels at the tile's farthest point; else c > 0, whose pieces are at most
@@ -333,6 +358,10 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 
 /// How the globe's layers reach the pixels (overlay_render --method; the registry's names):
 /// - StencilTiles (`stencil-tiles`): stencil polyhedra per drawn terrain tile.
+/// - Stencil (`stencil`): stencil polyhedra built once for every view, at full detail with widths
+///   in metres, over the tiles of kWholeLoadLevel (buildWholeLoadPieces), as the projected frame's
+///   `stencil` builds its layers at load (for comparisons); a layer over more than
+///   kWholeLoadMaxTiles of them is drawn by its tiles instead (said once).
 /// - Deferred (`deferred`): the deferred lookup of both frames (vector_overlay/deferred_lookup.hpp)
 ///   in the six faces of the cube (deferredParts), for the last layers it can draw (deferredDraws:
 ///   areas, or lines with round joins and caps whose index would fit a quarter of the GPU budget,
@@ -347,7 +376,7 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 ///   viewers: the projected frame's techniques of the registry, whose textures lie in longitude
 ///   and latitude here (GlobeDrapeSource, globe_drape.hpp): one over the layers' box, or one per
 ///   drawn terrain tile. Not exact (the texel decides); what the benchmark compares against.
-enum class GlobeTechnique { StencilTiles, Deferred, Auto, Drape, DrapeTiles };
+enum class GlobeTechnique { StencilTiles, Stencil, Deferred, Auto, Drape, DrapeTiles };
 /// Whether the technique drapes textures (the terrain draws the layers).
 inline bool drapes(GlobeTechnique technique) {
   return technique == GlobeTechnique::Drape || technique == GlobeTechnique::DrapeTiles;
@@ -512,6 +541,11 @@ class GlobeOverlayRenderer {
                                                                   const GlobeOverlaySettings& settings);
   /// The deferred lookup's pass (made on first use; null if its shaders do not build).
   overlay::DeferredPass* deferredPass();
+  /// GlobeTechnique::Stencil: the layer's pieces built once (buildWholeLoadPieces, on every core)
+  /// and uploaded, their caps' reach set for the drawn tiles; null for a layer too large for it
+  /// (kWholeLoadMaxTiles: said once), whose tiles draw it.
+  const std::vector<overlay::OverlayLayer>* wholeLoadOf(const GlobeLayer& layer, const GeoGrid& heights,
+                                                        const std::vector<DrawnTile>& tiles);
   /// Whether the lookup may index the layer within the budget: areas always; lines in space while
   /// their primitives' estimated index is at most a quarter of it (else they keep their pieces).
   bool lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes);

@@ -82,6 +82,12 @@ class OverlayLayer {
   /// along; 0 for a layer in frame coordinates.
   [[nodiscard]] GLuint normalBuffer() const { return normals_.id(); }
   [[nodiscard]] bool alongNormals() const { return geometry_.alongNormals(); }
+  /// World pieces built once for the finer terrain only (the globe's `stencil`): how far (metres,
+  /// along the normals) the bottom caps move down and the top caps up in this frame, so that
+  /// they hold the coarser surface drawn over them now (the bounds contract's dynamic scheme,
+  /// docs/design.md §5). Set by their owner before each frame; 0 otherwise.
+  void setCapReach(double below, double above) { capReach_ = glm::dvec2(below, above); }
+  [[nodiscard]] glm::dvec2 capReach() const { return capReach_; }
   /// Uploaded from arrays left in a file (LayerGeometry::arraysInFile) that could not be read
   /// at upload: its buffers hold nothing to draw.
   [[nodiscard]] bool broken() const { return broken_; }
@@ -98,6 +104,7 @@ class OverlayLayer {
   gfx::BufferHandle vertices_, indices_, scaling_, normals_;
   std::size_t vertexCapacity_ = 0, indexCapacity_ = 0;
   std::size_t gpuBytes_ = 0;
+  glm::dvec2 capReach_{0.0};
   bool broken_ = false;
 };
 
