@@ -601,13 +601,12 @@ int run(const Options& o) {
     o.applyCache(*description);
     Result<std::string> globe = scene::globeReason(*description);
     if (globe.ok() && !globe->empty()) {
-      // The globe draws with stencil-tiles, stencil, the deferred lookup, auto and the drapes:
-      // another method asked for (paper) is refused, never silently replaced.
+      // The globe draws with every technique of the registry; one it could not draw would be
+      // refused, never silently replaced.
       const std::optional<globe::GlobeTechnique> technique = scene::globeTechniqueNamed(o.technique->name);
       if (!technique) {
         logError("the scene is drawn on the globe (" + *globe + "): --method " + std::string(o.technique->name) +
-                 " is not available there yet; the globe draws its layers with stencil-tiles, stencil, deferred, "
-                 "auto, drape or drape-tiles");
+                 " is not available there yet");
         return 2;
       }
       report(description.diagnostics);

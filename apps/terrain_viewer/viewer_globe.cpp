@@ -474,9 +474,6 @@ void Viewer::drawGlobePanel() {
   drawGlobeSelectionSection();
   drawMeasureSection();
   drawCacheSection();
-  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("Not on the globe yet: the seed paper's construction (paper).");
-  ImGui::PopStyleColor();
   drawMessagesSection();
   ImGui::End();
 }

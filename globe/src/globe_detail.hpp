@@ -154,6 +154,7 @@ struct TilePieces {
     glm::dvec3 boxLo{0.0}, boxHi{0.0};  ///< ECEF, unpadded
     double lo = 0.0, hi = 0.0;          ///< heights of its caps
     double ground = 0.0;                ///< the highest ground it holds (hi less its caps' sag)
+    std::uint32_t boxFirstIndex = 0;    ///< TilePieces::paper: its box's 36 indices
     std::uint32_t group = 0;            ///< its polygon's colour (its vertices' colour when drawn)
   };
   glm::dvec3 origin{0.0};  ///< ECEF: the vertices' positions are relative to it (the tile's middle)
@@ -164,6 +165,7 @@ struct TilePieces {
   double maxHalfWidth = 0.0;
   std::vector<std::uint32_t> indices;
   std::vector<Piece> pieces;
+  bool paper = false;  ///< the seed paper's construction: each piece with its box
 };
 
 /// Appends to `out` the pieces of the layer's lines that width class `widthClass` draws in

@@ -211,7 +211,7 @@ struct GlobeOverlayRenderer::Gpu {
     std::vector<WholeLoadTile> tiles;  ///< their geometry moved into chunks
     std::vector<overlay::OverlayLayer> chunks;
   };
-  std::unordered_map<std::uint64_t, WholeLoad> wholeLoads;
+  std::map<std::pair<std::uint64_t, bool>, WholeLoad> wholeLoads;  ///< by serial and paper
 };
 
 namespace {
@@ -348,7 +348,8 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     return false;
   };
   // `stencil` builds the edited layer whole again when next drawn.
-  gpu_->wholeLoads.erase(layer.serial());
+  gpu_->wholeLoads.erase({layer.serial(), false});
+  gpu_->wholeLoads.erase({layer.serial(), true});
   // The lookup's indices (every reach class) are made again from the edited layer when next drawn.
   std::erase_if(gpu_->deferred, [&layer](const auto& entry) { return entry.first.first == layer.serial(); });
   std::erase_if(gpu_->tooLarge, [&layer](const LookupKey& key) { return key.first == layer.serial(); });
@@ -455,8 +456,10 @@ std::vector<const overlay::OverlayLayer*> GlobeOverlayRenderer::chunks(const Glo
                                                                        const std::vector<DrawnTile>& tiles,
                                                                        const GeoGrid& heights,
                                                                        const GlobeLayer& layer) {
-  if (gpu_->settings.technique == GlobeTechnique::Stencil && renderer() != nullptr) {
-    if (const std::vector<overlay::OverlayLayer>* whole = wholeLoadOf(layer, heights, tiles)) {
+  const GlobeTechnique last = gpu_->settings.technique;
+  if ((last == GlobeTechnique::Stencil || last == GlobeTechnique::Paper) && renderer() != nullptr) {
+    if (const std::vector<overlay::OverlayLayer>* whole =
+            wholeLoadOf(layer, heights, tiles, last == GlobeTechnique::Paper)) {
       std::vector<const overlay::OverlayLayer*> out;
       for (const overlay::OverlayLayer& chunk : *whole) out.push_back(&chunk);
       return out;
@@ -538,16 +541,17 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
   std::vector<const GlobeLayer*> pieced(drawn.begin(), drawn.begin() + static_cast<std::ptrdiff_t>(lookedUp));
   // `stencil`: the layers' pieces built once; those too large for it drawn by their tiles.
   std::vector<const std::vector<overlay::OverlayLayer>*> whole(pieced.size(), nullptr);
-  if (settings.technique == GlobeTechnique::Stencil) {
+  const bool wholeLoad = settings.technique == GlobeTechnique::Stencil || settings.technique == GlobeTechnique::Paper;
+  if (wholeLoad) {
     std::vector<const GlobeLayer*> tiled;
     for (std::size_t i = 0; i < pieced.size(); ++i) {
-      whole[i] = wholeLoadOf(*pieced[i], heights, tiles);
+      whole[i] = wholeLoadOf(*pieced[i], heights, tiles, settings.technique == GlobeTechnique::Paper);
       if (whole[i] == nullptr) tiled.push_back(pieced[i]);
     }
     pieced = std::move(tiled);
   }
   std::vector<std::vector<const overlay::OverlayLayer*>> chunked = tilesFor(view, tiles, heights, pieced, settings);
-  if (settings.technique == GlobeTechnique::Stencil) {
+  if (wholeLoad) {
     std::vector<std::vector<const overlay::OverlayLayer*>> all(whole.size());
     std::size_t next = 0;
     for (std::size_t i = 0; i < whole.size(); ++i) {
@@ -596,8 +600,9 @@ overlay::DeferredPass* GlobeOverlayRenderer::deferredPass() { return madeOnFirst
 
 const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(const GlobeLayer& layer,
                                                                             const GeoGrid& heights,
-                                                                            const std::vector<DrawnTile>& tiles) {
-  Gpu::WholeLoad& w = gpu_->wholeLoads[layer.serial()];
+                                                                            const std::vector<DrawnTile>& tiles,
+                                                                            bool paper) {
+  Gpu::WholeLoad& w = gpu_->wholeLoads[{layer.serial(), paper}];
   if (w.heights != &heights) {
     w = Gpu::WholeLoad{};
     w.heights = &heights;
@@ -624,8 +629,9 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
       const auto count = static_cast<std::size_t>((x1 - x0 + 1) * std::max(0LL, y1 - y0 + 1));
       if (count > kWholeLoadMaxTiles) {
         w.refused = true;
-        logError("layer '" + layer.name() + "': stencil builds a layer whole over tiles of about 5 km, and it needs " +
-                 std::to_string(count) + " of them (at most " + std::to_string(kWholeLoadMaxTiles) +
+        logError("layer '" + layer.name() + "': " + (paper ? "paper" : "stencil") +
+                 " builds a layer whole over tiles of about 5 km, and it needs " + std::to_string(count) +
+                 " of them (at most " + std::to_string(kWholeLoadMaxTiles) +
                  "): it is drawn by its view's tiles (stencil-tiles) instead");
         return nullptr;
       }
@@ -641,7 +647,7 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
     std::atomic<std::size_t> next{0};
     const auto work = [&] {
       for (std::size_t k = next++; k < keys.size(); k = next++)
-        built[k] = buildWholeLoadPieces(layer, keys[k], heights);
+        built[k] = buildWholeLoadPieces(layer, keys[k], heights, paper);
     };
     std::vector<std::thread> workers;
     const unsigned cores = std::max(1U, std::thread::hardware_concurrency());
@@ -659,7 +665,9 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
   if (w.refused) return nullptr;
   for (std::size_t k = 0; k < w.chunks.size(); ++k) {
     const glm::dvec2 reach = wholeLoadCapReach(w.tiles[k], tiles, heights);
-    w.chunks[k].setCapReach(reach.x, reach.y);
+    // The paper's boxes move out with the top caps' reach: both caps reach as far.
+    const double both = std::max(reach.x, reach.y);
+    w.chunks[k].setCapReach(paper ? both : reach.x, paper ? both : reach.y);
   }
   return &w.chunks;
 }

@@ -7,6 +7,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <unordered_map>
 #include <utility>
 
 #include "globe/globe_overlay.hpp"
@@ -275,10 +276,24 @@ class PlanePoints {
 /// inside it so that no cap triangle is longer than a few posts; each of its vertices is lifted
 /// to the bounds' heights along the ellipsoid's normal there, in the shared piece layout
 /// (overlay::appendPieceIndices).
-/// `finerLevels`: bounds for the terrain drawn at `level` or any finer one (a whole-load tile),
-/// else at `level`.
+/// How a piece is bounded and covered (a tile's own, or a whole-load build's).
+struct PieceRule {
+  /// Bounds for the terrain drawn at the tile's level or any finer one (a whole-load tile), else
+  /// at its level.
+  bool finerLevels = false;
+  /// The seed paper's construction: these bounds (its feature's) instead of its own, and a box.
+  const std::pair<double, double>* featureBounds = nullptr;
+};
+
+/// The 36 indices of a box's faces, outward (corner k: bit 0 = +x, bit 1 = +y, bit 2 = +z), as
+/// the projected frame's paper variant lays them out.
+constexpr std::array<std::uint32_t, 36> kBoxFaces{0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                                  2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+
+/// `rule`: the piece's bounds, and with the seed paper's construction its covering box.
 void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
-              const GeoGrid& heights, double postStep, int level, bool united, std::uint32_t group, bool finerLevels) {
+              const GeoGrid& heights, double postStep, int level, bool united, std::uint32_t group,
+              const PieceRule& rule) {
   const Gnomonic gnomonic(cell);
   PlanePoints plane(gnomonic);
   std::vector<glm::dvec2> capPoints;
@@ -324,10 +339,11 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   box = {std::max(box.west, widened.west), std::max(box.south, widened.south), std::min(box.east, widened.east),
          std::min(box.north, widened.north)};
   std::pair<double, double> bounds = groundBounds(heights, box, level);
-  for (int finer = level + 1; finerLevels && finer <= kMaxLevel; ++finer) {
+  for (int finer = level + 1; rule.finerLevels && finer <= kMaxLevel; ++finer) {
     const std::pair<double, double> b = groundBounds(heights, box, finer);
     bounds = {std::min(bounds.first, b.first), std::max(bounds.second, b.second)};
   }
+  if (rule.featureBounds != nullptr) bounds = *rule.featureBounds;
   const double lo = bounds.first, ground1 = bounds.second;
   double longest = 0.0;
   for (const auto& t : f.triangles) {
@@ -362,6 +378,22 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
   piece.bottomCount = overlay::appendPieceIndices(f, out.indices);
   for (std::size_t k = piece.firstIndex; k < out.indices.size(); ++k) out.indices[k] += base;
   piece.indexCount = static_cast<std::uint32_t>(out.indices.size()) - piece.firstIndex;
+  if (rule.featureBounds != nullptr) {
+    // Its box, a little larger than the piece (the caps' pads grow with the distance from the
+    // eye), whose corners move out along their diagonals with the pads and the caps' reach.
+    const double margin = 0.05 + 1e-4 * glm::length(piece.boxHi - piece.boxLo);
+    const auto boxBase = static_cast<std::uint32_t>(out.vertices.size());
+    for (std::uint32_t k = 0; k < 8; ++k) {
+      const glm::dvec3 sign((k & 1U) != 0 ? 1.0 : -1.0, (k & 2U) != 0 ? 1.0 : -1.0, (k & 4U) != 0 ? 1.0 : -1.0);
+      const glm::dvec3 corner((k & 1U) != 0 ? piece.boxHi.x : piece.boxLo.x,
+                              (k & 2U) != 0 ? piece.boxHi.y : piece.boxLo.y,
+                              (k & 4U) != 0 ? piece.boxHi.z : piece.boxLo.z);
+      out.vertices.push_back(PieceVertex{glm::vec4(glm::vec3(corner + sign * margin - out.origin), 1.0F),
+                                         glm::vec4(glm::vec3(sign), 0.0F)});
+    }
+    piece.boxFirstIndex = static_cast<std::uint32_t>(out.indices.size());
+    for (const std::uint32_t k : kBoxFaces) out.indices.push_back(boxBase + k);
+  }
   out.pieces.push_back(piece);
 }
 
@@ -378,7 +410,7 @@ overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces)
   std::vector<overlay::LayerGeometry::WorldPiece> world;
   world.reserve(pieces.pieces.size());
   for (const TilePieces::Piece& p : pieces.pieces)
-    world.push_back({p.firstIndex, p.bottomCount, p.indexCount, p.boxLo, p.boxHi, p.group});
+    world.push_back({p.firstIndex, p.bottomCount, p.indexCount, p.boxLo, p.boxHi, p.group, p.boxFirstIndex});
   overlay::LayerGeometry::WorldLines lines;
   if (!pieces.scaling.empty()) {
     lines.scaling = std::move(pieces.scaling);
@@ -386,17 +418,69 @@ overlay::LayerGeometry worldPiecesOf(const GlobeLayer& layer, TilePieces pieces)
     lines.maxWidth = 2.0 * pieces.maxHalfWidth;
   }
   const std::vector<glm::vec4> fallback{layer.color()};
-  return overlay::LayerGeometry::ofWorldPieces(layer.name(), pieces.origin, std::move(vertices), std::move(normals),
-                                               std::move(pieces.indices), world,
-                                               layer.colors().empty() ? fallback : layer.colors(), std::move(lines));
+  return overlay::LayerGeometry::ofWorldPieces(
+      layer.name(), pieces.origin, std::move(vertices), std::move(normals), std::move(pieces.indices), world,
+      layer.colors().empty() ? fallback : layer.colors(), std::move(lines), pieces.paper);
 }
 
-/// A tile's pieces: for the terrain drawn at its level (generalised for it, lines in pixels of
-/// `widthClass` in the shader), or with `wholeLoad` at full detail, widths in metres, bounded for
-/// its level and every finer one.
-TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass,
-                    bool wholeLoad) {
+/// How a tile's pieces are built.
+enum class Build {
+  Tile,   ///< for the terrain drawn at its level: generalised for it, lines in pixels of a class
+  Whole,  ///< at full detail, widths in metres, bounded for its level and every finer one
+  Paper,  ///< as Whole, the seed paper's way: a bound pair per feature, a piece per line shape, boxes
+};
+
+/// Per feature of the layer, its box (unwrapped longitudes): its areas' and its lines' grown by
+/// what their shapes reach.
+std::unordered_map<std::uint32_t, LonLatRect> featureBoxes(const GlobeLayer& layer) {
+  std::unordered_map<std::uint32_t, LonLatRect> boxes;
+  const auto add = [&](std::uint32_t feature, const LonLatRect& box) {
+    const auto [at, made] = boxes.try_emplace(feature, box);
+    if (!made) {
+      LonLatRect& b = at->second;
+      b = {std::min(b.west, box.west), std::min(b.south, box.south), std::max(b.east, box.east),
+           std::max(b.north, box.north)};
+    }
+  };
+  for (std::size_t k = 0; k < layer.areaCount(); ++k) add(layer.polygons()[k].feature, layer.polygons()[k].box);
+  if (layer.hasLines()) {
+    for (const GlobeLine& line : layer.lines()) {
+      const double dLat = line.halfWidth * line.shapeReach() / 1.1e5;
+      const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)) + dLat);
+      add(line.feature, line.box.expanded(dLat / std::cos(high * 3.14159265358979323846 / 180.0), dLat));
+    }
+  }
+  return boxes;
+}
+
+/// A tile's pieces, built as `build` says.
+TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, int widthClass, Build build) {
+  const bool wholeLoad = build != Build::Tile;
+  const bool paper = build == Build::Paper;
+  // The seed paper's bound pair per feature: the terrain drawn over the feature's box at the
+  // tile's level and every finer one (made as the tile meets the feature).
+  std::unordered_map<std::uint32_t, LonLatRect> boxes;
+  if (paper) boxes = featureBoxes(layer);
+  std::unordered_map<std::uint32_t, std::pair<double, double>> featureBounds;
+  const auto ruleFor = [&](std::uint32_t feature) {
+    PieceRule rule;
+    rule.finerLevels = wholeLoad;
+    if (!paper) return rule;
+    auto found = featureBounds.find(feature);
+    if (found == featureBounds.end()) {
+      const LonLatRect box = boxes.at(feature);
+      std::pair<double, double> b = groundBounds(heights, box, key.level);
+      for (int finer = key.level + 1; finer <= kMaxLevel; ++finer) {
+        const std::pair<double, double> f = groundBounds(heights, box, finer);
+        b = {std::min(b.first, f.first), std::max(b.second, f.second)};
+      }
+      found = featureBounds.emplace(feature, b).first;
+    }
+    rule.featureBounds = &found->second;
+    return rule;
+  };
   TilePieces out;
+  out.paper = paper;
   const LonLatRect rect = key.rect();
   out.origin = toEcef(0.5 * (rect.west + rect.east), 0.5 * (rect.south + rect.north), 0.0);
   const double postStep = key.postStep();
@@ -452,12 +536,13 @@ TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& 
             inCell.push_back(std::move(clipped));
           }
           if (inCell.empty()) continue;
-          if (line) {
+          if (line && !paper) {
             std::vector<Ring>& united = lineCells[{polygon.group, cy * kCellsPerSide + cx}];
             for (Ring& r : inCell) united.push_back(std::move(r));
             continue;
           }
-          addPiece(out, inCell, cell, widened, heights, postStep, key.level, false, polygon.group, wholeLoad);
+          addPiece(out, inCell, cell, widened, heights, postStep, key.level, false, polygon.group,
+                   ruleFor(polygon.feature));
         }
       }
     }
@@ -469,7 +554,7 @@ TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& 
     addPolygon(polygon, polygon.rings, true);
   for (const auto& [groupCell, rings] : lineCells) {
     const auto [cell, widened] = cellRects(groupCell.second % kCellsPerSide, groupCell.second / kCellsPerSide);
-    addPiece(out, rings, cell, widened, heights, postStep, key.level, true, groupCell.first, wholeLoad);
+    addPiece(out, rings, cell, widened, heights, postStep, key.level, true, groupCell.first, ruleFor(0));
   }
   if (!wholeLoad) detail::addScalableLines(out, layer, key, heights, widthClass);
   if (!out.scaling.empty()) out.scaling.resize(out.vertices.size(), glm::vec4(0.0F));
@@ -480,11 +565,11 @@ TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& 
 
 overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
                                        int widthClass) {
-  return worldPiecesOf(layer, piecesOf(layer, key, heights, widthClass, false));
+  return worldPiecesOf(layer, piecesOf(layer, key, heights, widthClass, Build::Tile));
 }
 
-WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights) {
-  TilePieces pieces = piecesOf(layer, key, heights, 0, true);
+WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights, bool paper) {
+  TilePieces pieces = piecesOf(layer, key, heights, 0, paper ? Build::Paper : Build::Whole);
   WholeLoadTile out;
   out.key = key;
   out.highestLow = -std::numeric_limits<double>::infinity();

@@ -86,6 +86,7 @@ Result<std::string> globeReason(const SceneDescription& description) {
 std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name) {
   if (name == "stencil-tiles") return globe::GlobeTechnique::StencilTiles;
   if (name == "stencil") return globe::GlobeTechnique::Stencil;
+  if (name == "paper") return globe::GlobeTechnique::Paper;
   if (name == "deferred") return globe::GlobeTechnique::Deferred;
   if (name == "auto") return globe::GlobeTechnique::Auto;
   if (name == "drape") return globe::GlobeTechnique::Drape;

@@ -1078,28 +1078,6 @@ TEST(OverlayRenderGlobe, AFailedExportIsInStatsAndTheExitStatus) {
   EXPECT_GE(named, 1u) << stats["diagnostics"].dump(1);
 }
 
-TEST(OverlayRenderGlobe, AMethodTheGlobeDoesNotDrawIsRefused) {
-  // --method paper on a globe scene: refused with exit status 2 and a message naming the method
-  // and what the globe draws, never silently drawn another way.
-  const fs::path dir = fs::path(STENCIL_GIS_TEST_OUTPUT_DIR) / ("globe_method_" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  json description = olindaScene();
-  description["frame"] = "globe";
-  { std::ofstream(dir / "scene.json") << description.dump(1); }
-  for (const char* method : {"paper"}) {
-    const fs::path log = dir / (std::string(method) + ".txt");
-    EXPECT_EQ(runOverlayRender("--scene " + (dir / "scene.json").string() + " --width 64 --height 48 --method " +
-                                   method + " --out " + (dir / method).string(),
-                               log),
-              2)
-        << readText(log);
-    const std::string text = readText(log);
-    EXPECT_NE(text.find(std::string("--method ") + method + " is not available"), std::string::npos) << text;
-    EXPECT_FALSE(fs::exists(dir / method / "color.png"));
-  }
-}
-
 /// A fresh folder `prefix`<pid> holding scene.json: Olinda's tracts alone, without their
 /// outline, on the globe.
 fs::path globeTractsScene(const std::string& prefix) {
@@ -1154,11 +1132,12 @@ TEST(OverlayRenderGlobe, TheDrapesDrawOnTheGlobeAndStatsSaySo) {
 
 TEST(OverlayRenderGlobe, TheDeferredLookupDrawsTheGlobesAreasAsItsPiecesDo) {
   // --method deferred on Olinda's tracts on the globe (areas only): drawn by the lookup in the
-  // cube's faces, stats.json says so, and its mask is the stencil pieces' but at edges. So is
-  // --method stencil's (the pieces built once for every view).
+  // cube's faces, stats.json says so, and its mask is the stencil pieces' but at edges. So are
+  // --method stencil's and paper's (the pieces built once for every view; every method of the
+  // registry draws on the globe, none is replaced by another).
   const fs::path dir = globeTractsScene("globe_deferred_");
-  std::array<gfx::Image8, 3> masks;
-  for (const std::string method : {"deferred", "stencil-tiles", "stencil"}) {
+  std::array<gfx::Image8, 4> masks;
+  for (const std::string method : {"deferred", "stencil-tiles", "stencil", "paper"}) {
     const fs::path out = dir / method;
     ASSERT_EQ(
         runOverlayRender("--scene " + (dir / "scene.json").string() + " --width " + std::to_string(kWidth) +
@@ -1172,9 +1151,12 @@ TEST(OverlayRenderGlobe, TheDeferredLookupDrawsTheGlobesAreasAsItsPiecesDo) {
     EXPECT_EQ(stats["overlay"]["deferred_layers"].get<std::size_t>(), deferred ? 1U : 0U) << stats.dump(1);
     EXPECT_EQ(stats["overlay"]["deferred_index_bytes"].get<std::size_t>() > 0, deferred) << stats.dump(1);
     EXPECT_EQ(stats["overlay"]["pieces"].get<std::size_t>() > 0, !deferred) << stats.dump(1);
-    masks[deferred ? 0 : method == "stencil-tiles" ? 1 : 2] = *gfx::readImage8((out / "mask.png").string());
+    masks[deferred                    ? 0
+          : method == "stencil-tiles" ? 1
+          : method == "stencil"       ? 2
+                                      : 3] = *gfx::readImage8((out / "mask.png").string());
   }
-  for (const std::size_t other : {0U, 2U}) {
+  for (const std::size_t other : {0U, 2U, 3U}) {
     ASSERT_EQ(masks[other].pixels.size(), masks[1].pixels.size());
     std::size_t covered = 0, differing = 0;
     for (std::size_t i = 0; i < masks[other].pixels.size(); ++i) {

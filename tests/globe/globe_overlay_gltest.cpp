@@ -433,8 +433,9 @@ TEST_F(GlobeOverlayGl, TheLookupsIndicesBuildAsideAndAutoMeasuresBothWays) {
   EXPECT_EQ(nothing.deferredHeldBytes, 0U);
 }
 
-TEST_F(GlobeOverlayGl, StencilBuildsTheLayersOnceAndTheirCapsReachTheCoarserTerrainDrawnOverThem) {
-  // `stencil` on the globe: each layer's pieces built once (full detail, widths in metres, over
+TEST_F(GlobeOverlayGl, StencilAndPaperBuildTheLayersOnceAndTheirCapsReachTheCoarserTerrainDrawnOverThem) {
+  // `stencil` and `paper` (the seed paper's construction, covered by the pieces' boxes) on the
+  // globe: each layer's pieces built once (full detail, widths in metres, over
   // tiles of about 5 km), for every view from space to 1 m above the ground, exact against the
   // reference. Their bounds hold the terrain drawn at their tiles' level and finer; where coarser
   // tiles are drawn over them (from afar, or forced by a coarse terrain: the bounds contract's
@@ -471,9 +472,6 @@ TEST_F(GlobeOverlayGl, StencilBuildsTheLayersOnceAndTheirCapsReachTheCoarserTerr
   const auto at = [&](const Geodetic& eye, const Geodetic& target, double fov) {
     return GlobeView::looking(toEcef(eye), toEcef(target), fov, 256, 256, heights->heightAt(eye.lon, eye.lat));
   };
-  GlobeOverlaySettings settings;
-  settings.technique = GlobeTechnique::Stencil;
-  GlobeOverlayRenderer renderer;
   struct Case {
     std::string label;
     Geodetic eye, target;
@@ -493,43 +491,52 @@ TEST_F(GlobeOverlayGl, StencilBuildsTheLayersOnceAndTheirCapsReachTheCoarserTerr
       {"stencil grazing 5 km terrain at level 7", {8.1, 46.95, 5000.0}, {8.4, 47.3, 500.0}, 45.0, 7},
       {"stencil 1 m up terrain at level 10", nearEye, nearTarget, 60.0, 10},
   };
-  for (std::size_t k = 0; k < cases.size(); ++k) {
-    const Case& c = cases[k];
-    const GlobeView v = at(c.eye, c.target, c.fov);
-    forcedLevel_ = c.forced;
-    const Outcome o = drawAndCompare(v, drawn, c.label, &renderer, settings, heights);
-    EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the layers";
-    // Built once, at the first frame.
-    EXPECT_EQ(renderer.stats().builtTiles > 0, k == 0) << c.label;
-    EXPECT_EQ(renderer.stats().tiles.tilesBuilt, 0U) << c.label << ": no layer may fall back to its tiles";
-    // The caps reach out only where coarser terrain is drawn over them: the field's (1 km).
-    const std::vector<DrawnTile> tiles = drawnTiles(GlobeTerrain(heights), v);
-    const LonLatRect fieldBox = field->extent().expanded(0.01, 0.01);
-    int coarsest = kMaxLevel;
-    for (const DrawnTile& t : tiles) {
-      const LonLatRect r = t.key.rect();
-      if (r.west <= fieldBox.east && fieldBox.west <= r.east && r.south <= fieldBox.north && fieldBox.south <= r.north)
-        coarsest = std::min(coarsest, t.key.level);
+  for (const GlobeTechnique technique : {GlobeTechnique::Stencil, GlobeTechnique::Paper}) {
+    const std::string name = technique == GlobeTechnique::Paper ? "paper" : "stencil";
+    GlobeOverlaySettings settings;
+    settings.technique = technique;
+    GlobeOverlayRenderer renderer;
+    for (std::size_t k = 0; k < cases.size(); ++k) {
+      const Case& c = cases[k];
+      const GlobeView v = at(c.eye, c.target, c.fov);
+      forcedLevel_ = c.forced;
+      const Outcome o = drawAndCompare(v, drawn, name + c.label.substr(7), &renderer, settings, heights);
+      EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the layers";
+      // Built once, at the first frame.
+      EXPECT_EQ(renderer.stats().builtTiles > 0, k == 0) << c.label;
+      EXPECT_EQ(renderer.stats().tiles.tilesBuilt, 0U) << c.label << ": no layer may fall back to its tiles";
+      // The caps reach out only where coarser terrain is drawn over them: the field's (1 km).
+      const std::vector<DrawnTile> tiles = drawnTiles(GlobeTerrain(heights), v);
+      const LonLatRect fieldBox = field->extent().expanded(0.01, 0.01);
+      int coarsest = kMaxLevel;
+      for (const DrawnTile& t : tiles) {
+        const LonLatRect r = t.key.rect();
+        if (r.west <= fieldBox.east && fieldBox.west <= r.east && r.south <= fieldBox.north &&
+            fieldBox.south <= r.north)
+          coarsest = std::min(coarsest, t.key.level);
+      }
+      double reach = 0.0;
+      for (const overlay::OverlayLayer* chunk : renderer.chunks(v, tiles, *heights, *field)) {
+        reach = std::max({reach, chunk->capReach().x, chunk->capReach().y});
+        EXPECT_EQ(chunk->paperVariant(), technique == GlobeTechnique::Paper) << c.label;
+      }
+      std::printf("%-40s the field under terrain of level %2d: caps reach %.1f m\n", c.label.c_str(), coarsest, reach);
+      if (coarsest >= kWholeLoadLevel) {
+        EXPECT_EQ(reach, 0.0) << c.label;
+      } else {
+        EXPECT_GT(reach, 0.0) << c.label;
+      }
     }
-    double reach = 0.0;
-    for (const overlay::OverlayLayer* chunk : renderer.chunks(v, tiles, *heights, *field))
-      reach = std::max({reach, chunk->capReach().x, chunk->capReach().y});
-    std::printf("%-40s the field under terrain of level %2d: caps reach %.1f m\n", c.label.c_str(), coarsest, reach);
-    if (coarsest >= kWholeLoadLevel) {
-      EXPECT_EQ(reach, 0.0) << c.label;
-    } else {
-      EXPECT_GT(reach, 0.0) << c.label;
-    }
+    forcedLevel_ = -1;
+    // A layer over more tiles than a whole build takes (boxes 20°–40° wide): drawn by its view's
+    // tiles instead, still exact, beside the layers built whole.
+    const Layers large = makeLayers();
+    const std::vector<const GlobeLayer*> mixed{&large.boxes, &*areas};
+    const Outcome o = drawAndCompare(view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}), mixed, name + " too large: tiles",
+                                     &renderer, settings);
+    EXPECT_GE(o.covered, 2000U);
+    EXPECT_GT(renderer.stats().tiles.tilesBuilt, 0U) << "the boxes fall back to their tiles";
   }
-  forcedLevel_ = -1;
-  // A layer over more tiles than a whole build takes (boxes 20°–40° wide): drawn by its view's
-  // tiles instead, still exact, beside the layers built whole.
-  const Layers large = makeLayers();
-  const std::vector<const GlobeLayer*> mixed{&large.boxes, &*areas};
-  const Outcome o = drawAndCompare(view({-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}), mixed, "stencil too large: tiles",
-                                   &renderer, settings);
-  EXPECT_GE(o.covered, 2000U);
-  EXPECT_GT(renderer.stats().tiles.tilesBuilt, 0U) << "the boxes fall back to their tiles";
 }
 
 TEST_F(GlobeOverlayGl, TheTilesStayUnderTheGpuBudgetAndEveryFrameStaysExact) {

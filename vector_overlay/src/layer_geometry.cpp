@@ -1073,7 +1073,8 @@ LayerGeometry LayerGeometry::assemble(std::string name, LayerKind kind, const La
 LayerGeometry LayerGeometry::ofWorldPieces(std::string name, const glm::dvec3& origin, std::vector<Vertex> vertices,
                                            std::vector<glm::vec4> normals, std::vector<std::uint32_t> indices,
                                            const std::vector<WorldPiece>& pieces,
-                                           std::span<const glm::vec4> groupColours, WorldLines lines) {
+                                           std::span<const glm::vec4> groupColours, WorldLines lines,
+                                           bool paperVariant) {
   // The colour groups as the layer's features: no geometry, their colours as their styles.
   std::vector<geo::Feature> groups(groupColours.size());
   std::vector<FeatureStyle> styles(groupColours.size());
@@ -1084,6 +1085,7 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, const glm::dvec3& o
   LayerGeometry layer =
       empty(std::move(name), LayerKind::Polygon, {}, std::move(groups), std::move(styles), nullptr, {});
   layer.worldOrigins_.push_back(origin);
+  layer.options_.paperVariant = paperVariant;
   layer.featureSlots_.resize(groupColours.size());
   layer.slots_.reserve(pieces.size());
   layer.polyhedra_.reserve(pieces.size());
@@ -1095,11 +1097,14 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, const glm::dvec3& o
     s.firstIndex = piece.firstIndex;
     s.bottomCount = piece.bottomCount;
     s.indexCount = piece.indexCount;
+    s.boxFirstIndex = piece.boxFirstIndex;
     s.live = true;
     if (group < layer.featureSlots_.size()) {
       layer.featureSlots_[group].push_back(static_cast<std::uint32_t>(layer.slots_.size()));
       const std::array<std::uint8_t, 4> rgba = rgba8(groupColours[group]);
       for (std::uint32_t k = piece.firstIndex; k < piece.firstIndex + piece.indexCount; ++k)
+        std::copy(rgba.begin(), rgba.end(), vertices[indices[k]].rgba);
+      for (std::uint32_t k = piece.boxFirstIndex; paperVariant && k < piece.boxFirstIndex + kBoxIndices; ++k)
         std::copy(rgba.begin(), rgba.end(), vertices[indices[k]].rgba);
     }
     layer.slots_.push_back(s);

@@ -497,24 +497,34 @@ void OverlayRenderer::drawLayer(gfx::StateCache& cache, const OverlayView& view,
   beginMeasure(settings);
   program_.set("u_maskBit", maskBit);
   if (paper) {
-    // The seed paper's construction: one chunk, marked with its own states, covered by boxes.
-    const OverlayLayer& layer = *chunks.front();
-    const Pieces& p = pieces.front();
-    const bool inPixels = bindLayer(view, layer, scale);
-    cache.apply(kPaperMarkZPassFront);
-    multiDraw(cache, p.zPass);
-    cache.apply(kPaperMarkZPassBack);
-    multiDraw(cache, p.zPass);
-    cache.apply(kPaperMarkZFailBack);
-    multiDraw(cache, p.zFail);
-    cache.apply(kPaperMarkZFailFront);
-    multiDraw(cache, p.zFail);
+    // The seed paper's construction: marked with its own states, covered by the pieces' boxes
+    // (one chunk in a projected frame, the tiles of a globe layer), every chunk marked before any
+    // is covered.
+    for (std::size_t c = 0; c < chunks.size(); ++c) {
+      const Pieces& p = pieces[c];
+      if (p.order.empty()) continue;
+      const bool inPixels = bindLayer(view, *chunks[c], scale);
+      cache.apply(kPaperMarkZPassFront);
+      multiDraw(cache, p.zPass);
+      cache.apply(kPaperMarkZPassBack);
+      multiDraw(cache, p.zPass);
+      cache.apply(kPaperMarkZFailBack);
+      multiDraw(cache, p.zFail);
+      cache.apply(kPaperMarkZFailFront);
+      multiDraw(cache, p.zFail);
+      endLayer(inPixels);
+    }
     switchToCover(settings);
-    cache.apply(kPaperCoverZPass);
-    multiDraw(cache, p.coverZPass);
-    cache.apply(kPaperCoverZFail);
-    multiDraw(cache, p.coverZFail);
-    endLayer(inPixels);
+    for (std::size_t c = 0; c < chunks.size(); ++c) {
+      const Pieces& p = pieces[c];
+      if (p.order.empty()) continue;
+      const bool inPixels = bindLayer(view, *chunks[c], scale);
+      cache.apply(kPaperCoverZPass);
+      multiDraw(cache, p.coverZPass);
+      cache.apply(kPaperCoverZFail);
+      multiDraw(cache, p.coverZFail);
+      endLayer(inPixels);
+    }
   } else {
     // Mark every chunk (in groups into the flag when the counts could reach 256).
     for (std::size_t c = 0; c < chunks.size(); ++c) {

@@ -342,7 +342,10 @@ struct WholeLoadTile {
   /// Of its pieces: the highest bottom, and the lowest ground its top caps hold (heights).
   double highestLow = 0.0, lowestHigh = 0.0;
 };
-WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights);
+/// `paper`: the seed paper's construction (GlobeTechnique::Paper): one bound pair per feature (the
+/// terrain over its whole box), a piece per line shape (not united), each covered by its box.
+WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
+                                   bool paper = false);
 /// How far (below, above) the tile's bottom and top caps must move in a frame whose drawn terrain
 /// tiles are `drawn` (0 where none coarser than its level meets it).
 glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, const std::vector<DrawnTile>& drawn, const GeoGrid& heights);
@@ -362,6 +365,9 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 ///   in metres, over the tiles of kWholeLoadLevel (buildWholeLoadPieces), as the projected frame's
 ///   `stencil` builds its layers at load (for comparisons); a layer over more than
 ///   kWholeLoadMaxTiles of them is drawn by its tiles instead (said once).
+/// - Paper (`paper`): the seed paper's construction built once as `stencil` is: a bound pair per
+///   feature, a piece per line shape, marked with the paper's states and covered by the pieces'
+///   boxes (the projected frame's paper variant, overlay_renderer.hpp).
 /// - Deferred (`deferred`): the deferred lookup of both frames (vector_overlay/deferred_lookup.hpp)
 ///   in the six faces of the cube (deferredParts), for the last layers it can draw (deferredDraws:
 ///   areas, or lines with round joins and caps whose index would fit a quarter of the GPU budget,
@@ -376,7 +382,7 @@ inline double lineClassWidth(int widthClass) { return std::ldexp(1.0, widthClass
 ///   viewers: the projected frame's techniques of the registry, whose textures lie in longitude
 ///   and latitude here (GlobeDrapeSource, globe_drape.hpp): one over the layers' box, or one per
 ///   drawn terrain tile. Not exact (the texel decides); what the benchmark compares against.
-enum class GlobeTechnique { StencilTiles, Stencil, Deferred, Auto, Drape, DrapeTiles };
+enum class GlobeTechnique { StencilTiles, Stencil, Paper, Deferred, Auto, Drape, DrapeTiles };
 /// Whether the technique drapes textures (the terrain draws the layers).
 inline bool drapes(GlobeTechnique technique) {
   return technique == GlobeTechnique::Drape || technique == GlobeTechnique::DrapeTiles;
@@ -544,8 +550,9 @@ class GlobeOverlayRenderer {
   /// GlobeTechnique::Stencil: the layer's pieces built once (buildWholeLoadPieces, on every core)
   /// and uploaded, their caps' reach set for the drawn tiles; null for a layer too large for it
   /// (kWholeLoadMaxTiles: said once), whose tiles draw it.
+  /// GlobeTechnique::Paper (`paper`): the seed paper's construction, built the same way.
   const std::vector<overlay::OverlayLayer>* wholeLoadOf(const GlobeLayer& layer, const GeoGrid& heights,
-                                                        const std::vector<DrawnTile>& tiles);
+                                                        const std::vector<DrawnTile>& tiles, bool paper);
   /// Whether the lookup may index the layer within the budget: areas always; lines in space while
   /// their primitives' estimated index is at most a quarter of it (else they keep their pieces).
   bool lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes);

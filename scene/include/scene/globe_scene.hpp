@@ -68,8 +68,8 @@ Result<LoadedGlobeScene> loadGlobeScene(const SceneDescription& description);
 void buildGlobeLayers(LoadedGlobeScene& scene, Diagnostics& diagnostics);
 
 /// The globe's way of drawing for a technique of the registry (overlay_render --method, the
-/// viewer's methods): `stencil-tiles`, `stencil`, `deferred`, `auto`, `drape` and `drape-tiles`
-/// (globe_overlay.hpp, GlobeTechnique); none for `paper`, not drawn on the globe yet.
+/// viewer's methods): every technique of the registry (globe_overlay.hpp, GlobeTechnique); none
+/// for a name that is not one.
 std::optional<globe::GlobeTechnique> globeTechniqueNamed(std::string_view name);
 
 /// How the scene's layers are drawn on the globe: the overlay's GPU budget is the scene's

@@ -362,6 +362,9 @@ class LayerGeometry {
     std::uint32_t indexCount = 0;
     glm::dvec3 boxLo{0.0}, boxHi{0.0};
     std::uint32_t group = 0;  ///< its colour group (< groupColours.size())
+    /// The seed paper's construction (ofWorldPieces' paperVariant): the first of the 36 indices
+    /// of the box that covers it.
+    std::uint32_t boxFirstIndex = 0;
   };
   /// Lines in pixels among world pieces (LineShape's rule on the globe): `scaling` per vertex
   /// holds its direction (x, y, z: ECEF, in the tangent plane at its centre) and its least half
@@ -376,7 +379,7 @@ class LayerGeometry {
   static LayerGeometry ofWorldPieces(std::string name, const glm::dvec3& origin, std::vector<Vertex> vertices,
                                      std::vector<glm::vec4> normals, std::vector<std::uint32_t> indices,
                                      const std::vector<WorldPiece>& pieces, std::span<const glm::vec4> groupColours,
-                                     WorldLines lines);
+                                     WorldLines lines, bool paperVariant = false);
 
   [[nodiscard]] const std::vector<PieceSlot>& slots() const { return slots_; }
   [[nodiscard]] const std::vector<Polyhedron>& polyhedra() const { return polyhedra_; }
