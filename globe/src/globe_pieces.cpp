@@ -285,11 +285,6 @@ struct PieceRule {
   const std::pair<double, double>* featureBounds = nullptr;
 };
 
-/// The 36 indices of a box's faces, outward (corner k: bit 0 = +x, bit 1 = +y, bit 2 = +z), as
-/// the projected frame's paper variant lays them out.
-constexpr std::array<std::uint32_t, 36> kBoxFaces{0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
-                                                  2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
-
 /// `rule`: the piece's bounds, and with the seed paper's construction its covering box.
 void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect& cell, const LonLatRect& widened,
               const GeoGrid& heights, double postStep, int level, bool united, std::uint32_t group,
@@ -392,7 +387,7 @@ void addPiece(TilePieces& out, const std::vector<Ring>& rings, const LonLatRect&
                                          glm::vec4(glm::vec3(sign), 0.0F)});
     }
     piece.boxFirstIndex = static_cast<std::uint32_t>(out.indices.size());
-    for (const std::uint32_t k : kBoxFaces) out.indices.push_back(boxBase + k);
+    for (const std::uint32_t k : overlay::kBoxFaces) out.indices.push_back(boxBase + k);
   }
   out.pieces.push_back(piece);
 }

@@ -1203,10 +1203,8 @@ void LayerGeometry::addPieces(std::uint32_t feature, std::vector<Polyhedron> pie
     }
     s.boxFirstIndex = static_cast<std::uint32_t>(idx.size());
     // Box faces, outward (vertex k: bit 0 = +x, bit 1 = +y, bit 2 = top).
-    constexpr std::uint32_t kBox[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
-                                        2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
     if (options_.paperVariant) {
-      for (std::uint32_t k : kBox) idx.push_back(boxBase + k);
+      for (const std::uint32_t k : kBoxFaces) idx.push_back(boxBase + k);
     }
     if (widthPixels() > 0.0) scaling.resize(v.size(), glm::vec4(0.0F));  // the box does not scale
     stats_.pieces += 1;

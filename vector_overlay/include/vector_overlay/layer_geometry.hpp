@@ -105,6 +105,11 @@ struct LayerBuildOptions {
 /// A colour (straight alpha) as a vertex holds it: 8 bits a channel, rounded.
 std::array<std::uint8_t, 4> rgba8(const glm::vec4& colour);
 
+/// The seed paper's construction covers each piece by its box: the box's 12 triangles as indices
+/// of its 8 corners (corner k: bit 0 = +x, bit 1 = +y, bit 2 = top), wound outward.
+inline constexpr std::array<std::uint32_t, 36> kBoxFaces{0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                                         2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+
 /// Lines in pixels: sets the shape's anchor heights (LineShape) to the middle of the bounds at
 /// each vertex of the feature. Other styles are left alone.
 void assignAnchorHeights(FeatureStyle& style, const geo::Feature& feature, const HeightBoundsProvider& bounds);
