@@ -348,8 +348,8 @@ std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const 
     return false;
   };
   // `stencil` builds the edited layer whole again when next drawn.
-  gpu_->wholeLoads.erase({layer.serial(), false});
-  gpu_->wholeLoads.erase({layer.serial(), true});
+  if (gpu_->wholeLoads.erase({layer.serial(), false}) + gpu_->wholeLoads.erase({layer.serial(), true}) > 0)
+    gpu_->chunks.clear();  // the last frame's chunks may be gone
   // The lookup's indices (every reach class) are made again from the edited layer when next drawn.
   std::erase_if(gpu_->deferred, [&layer](const auto& entry) { return entry.first.first == layer.serial(); });
   std::erase_if(gpu_->tooLarge, [&layer](const LookupKey& key) { return key.first == layer.serial(); });

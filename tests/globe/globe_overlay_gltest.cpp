@@ -528,6 +528,19 @@ TEST_F(GlobeOverlayGl, StencilAndPaperBuildTheLayersOnceAndTheirCapsReachTheCoar
       }
     }
     forcedLevel_ = -1;
+    // An edit (the region's hole closed, then opened again): the edited layer is built whole
+    // again at the next frame, exact.
+    geo::Feature edited = region[0];
+    if (technique == GlobeTechnique::Stencil) edited.polygons[0].holes.clear();
+    Result<std::vector<LonLatRect>> changed = areas->replaceFeature(0, edited);
+    ASSERT_TRUE(changed.ok() && !changed.diagnostics.hasErrors());
+    renderer.featureChanged(*areas, *changed);
+    const Outcome afterEdit = drawAndCompare(at(cases[2].eye, cases[2].target, cases[2].fov), drawn,
+                                             name + " 60 km after an edit", &renderer, settings, heights);
+    EXPECT_GT(renderer.stats().builtTiles, 0U) << name;
+    const double holeLon = 8.25, holeLat = 47.15;
+    EXPECT_EQ(areas->contains(toEcef(holeLon, holeLat, 0.0), holeLon, holeLat), technique == GlobeTechnique::Stencil);
+    EXPECT_GT(afterEdit.covered, 10000U);
     // A layer over more tiles than a whole build takes (boxes 20°–40° wide): drawn by its view's
     // tiles instead, still exact, beside the layers built whole.
     const Layers large = makeLayers();
