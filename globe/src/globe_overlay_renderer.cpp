@@ -606,41 +606,51 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
   if (w.heights != &heights) {
     w = Gpu::WholeLoad{};
     w.heights = &heights;
-    // The tiles of kWholeLoadLevel over the layer's extent, grown by what its lines' shapes reach
-    // and by a tile (the pieces' margins).
-    const LonLatRect extent = layer.extent();
+    // The tiles of kWholeLoadLevel the layer's features meet: each feature's box grown by what
+    // its shapes reach and by a tile (the pieces' margins), so that a layer of a few features far
+    // apart builds the tiles around them only.
+    const TileKey probe{kWholeLoadLevel, 0, 0};
+    const double size = probe.size();
+    const long long columns = probe.columns();
+    std::unordered_set<std::uint64_t> ids;
     std::vector<TileKey> keys;
-    if (!extent.empty()) {
-      double reach = 0.0;
-      if (layer.hasLines()) {
-        for (const GlobeLine& line : layer.lines()) reach = std::max(reach, line.halfWidth * line.shapeReach());
-      }
-      const TileKey probe{kWholeLoadLevel, 0, 0};
-      const double size = probe.size();
+    std::size_t count = 0;
+    const auto addBox = [&](const LonLatRect& box, double reach) {
+      if (box.empty() || count > kWholeLoadMaxTiles) return;
       const double dLat = reach / 1.1e5 + size;
-      const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
+      const double high = std::min(89.0, std::max(std::abs(box.south), std::abs(box.north)) + dLat);
       const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
-      const auto x0 = static_cast<long long>(std::floor((extent.west - dLon + 180.0) / size));
-      auto x1 = static_cast<long long>(std::floor((extent.east + dLon + 180.0) / size));
-      x1 = std::min(x1, x0 + probe.columns() - 1);
-      const auto y0 = std::max(0LL, static_cast<long long>(std::floor((extent.south - dLat + 90.0) / size)));
-      const auto y1 = std::min<long long>(probe.rows() - 1,
-                                          static_cast<long long>(std::floor((extent.north + dLat + 90.0) / size)));
-      const auto count = static_cast<std::size_t>((x1 - x0 + 1) * std::max(0LL, y1 - y0 + 1));
-      if (count > kWholeLoadMaxTiles) {
-        w.refused = true;
-        logError("layer '" + layer.name() + "': " + (paper ? "paper" : "stencil") +
-                 " builds a layer whole over tiles of about 5 km, and it needs " + std::to_string(count) +
-                 " of them (at most " + std::to_string(kWholeLoadMaxTiles) +
-                 "): it is drawn by its view's tiles (stencil-tiles) instead");
-        return nullptr;
+      const auto x0 = static_cast<long long>(std::floor((box.west - dLon + 180.0) / size));
+      const long long x1 =
+          std::min(static_cast<long long>(std::floor((box.east + dLon + 180.0) / size)), x0 + columns - 1);
+      const auto y0 = std::max(0LL, static_cast<long long>(std::floor((box.south - dLat + 90.0) / size)));
+      const auto y1 =
+          std::min<long long>(probe.rows() - 1, static_cast<long long>(std::floor((box.north + dLat + 90.0) / size)));
+      if (static_cast<double>(x1 - x0 + 1) * static_cast<double>(y1 - y0 + 1) >
+          static_cast<double>(kWholeLoadMaxTiles)) {
+        count = kWholeLoadMaxTiles + 1;
+        return;
       }
       for (long long y = y0; y <= y1; ++y) {
         for (long long x = x0; x <= x1; ++x) {
-          const long long columns = probe.columns();
-          keys.push_back({kWholeLoadLevel, static_cast<int>(((x % columns) + columns) % columns), static_cast<int>(y)});
+          const TileKey key{kWholeLoadLevel, static_cast<int>(((x % columns) + columns) % columns),
+                            static_cast<int>(y)};
+          if (ids.insert(key.id()).second) keys.push_back(key);
         }
       }
+      count = keys.size();
+    };
+    for (std::size_t k = 0; k < layer.areaCount(); ++k) addBox(layer.polygons()[k].box, 0.0);
+    if (layer.hasLines()) {
+      for (const GlobeLine& line : layer.lines()) addBox(line.box, line.halfWidth * line.shapeReach());
+    }
+    if (count > kWholeLoadMaxTiles) {
+      w.refused = true;
+      logError("layer '" + layer.name() + "': " + (paper ? "paper" : "stencil") +
+               " builds a layer whole over tiles of about 5 km, and its features need more than " +
+               std::to_string(kWholeLoadMaxTiles) +
+               " of them: it is drawn by its view's tiles (stencil-tiles) instead");
+      return nullptr;
     }
     // Built on every core, uploaded here.
     std::vector<WholeLoadTile> built(keys.size());

@@ -549,6 +549,16 @@ TEST_F(GlobeOverlayGl, StencilAndPaperBuildTheLayersOnceAndTheirCapsReachTheCoar
                                      &renderer, settings);
     EXPECT_GE(o.covered, 2000U);
     EXPECT_GT(renderer.stats().tiles.tilesBuilt, 0U) << "the boxes fall back to their tiles";
+    // Two small features a continent apart: built whole around each, not over the box of both.
+    std::vector<geo::Feature> apart(2);
+    apart[0].polygons.push_back(test::globe_scene::box(-60.5, -20.5, -59.5, -19.5));
+    apart[1].polygons.push_back(test::globe_scene::box(-35.5, -8.5, -34.5, -7.5));
+    Result<GlobeLayer> two = GlobeLayer::build("two squares", apart, glm::vec4(0.9F, 0.4F, 0.1F, 0.5F));
+    ASSERT_TRUE(two.ok());
+    const Outcome both = drawAndCompare(view({-48.0, -14.0, 4e6}, {-48.0, -14.0, 0.0}), {&*two},
+                                        name + " two squares apart", &renderer, settings);
+    EXPECT_GE(both.covered, 100U);
+    EXPECT_EQ(renderer.stats().tiles.tilesBuilt, 0U) << "built whole, not by tiles";
   }
 }
 

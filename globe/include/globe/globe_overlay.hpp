@@ -332,8 +332,8 @@ overlay::LayerGeometry buildTilePieces(const GlobeLayer& layer, const TileKey& k
 /// normals by wholeLoadCapReach in that frame (OverlayLayer::setCapReach): the bounds contract's
 /// dynamic scheme, so the pieces stay shallow for the near views that need their precision.
 inline constexpr int kWholeLoadLevel = 12;
-/// A layer whose extent meets more tiles of kWholeLoadLevel than this is not built whole (its
-/// tiles are drawn instead, and the renderer says so).
+/// A layer whose features (each one's box grown by its reach) meet more tiles of kWholeLoadLevel
+/// than this is not built whole (its view's tiles are drawn instead, and the renderer says so).
 inline constexpr std::size_t kWholeLoadMaxTiles = 16384;
 struct WholeLoadTile {
   TileKey key;
