@@ -698,7 +698,9 @@ int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& 
     }
     found = gpu_->pixelWidths.emplace(layer.serial(), std::make_pair(w, shapeReach)).first;
   }
-  const auto& [widths, shapeReach] = found->second;
+  // (Plain names: clang 14 cannot capture a structured binding in the lambda below.)
+  const overlay::PixelLineWidths widths = found->second.first;
+  const double shapeReach = found->second.second;
   // The farthest anchor that can colour a drawn pixel: no farther than the layer's extent's
   // farthest point (its anchors lie there), nor than the farthest point of a drawn tile the
   // extent grown by what the class's shapes reach meets (lineWidthClass's bound, per tile). The
