@@ -48,6 +48,15 @@ class TileReach {
 /// d in (−180, 180].
 double wrap180(double d);
 
+/// How far (degrees of longitude, latitude) `metres` and `extraDegrees` of latitude reach around
+/// `box`: the latitude by metres / 1.1e5 plus the extra, the longitude by that over the cosine of
+/// the highest latitude it reaches (to 89°), at most 360°.
+inline glm::dvec2 degreesAround(const LonLatRect& box, double metres, double extraDegrees = 0.0) {
+  const double dLat = metres / 1.1e5 + extraDegrees;
+  const double high = std::min(89.0, std::max(std::abs(box.south), std::abs(box.north)) + dLat);
+  return {std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0)), dLat};
+}
+
 /// The plane an edge is drawn in: through a (its first end on the ellipsoid), holding the mean
 /// normal n of its ends; m = n × (b − a) points north of an eastward edge.
 struct EdgePlane {

@@ -617,9 +617,8 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
     std::size_t count = 0;
     const auto addBox = [&](const LonLatRect& box, double reach) {
       if (box.empty() || count > kWholeLoadMaxTiles) return;
-      const double dLat = reach / 1.1e5 + size;
-      const double high = std::min(89.0, std::max(std::abs(box.south), std::abs(box.north)) + dLat);
-      const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
+      const glm::dvec2 grow = detail::degreesAround(box, reach, size);
+      const double dLon = grow.x, dLat = grow.y;
       const auto x0 = static_cast<long long>(std::floor((box.west - dLon + 180.0) / size));
       const long long x1 =
           std::min(static_cast<long long>(std::floor((box.east + dLon + 180.0) / size)), x0 + columns - 1);
@@ -707,21 +706,23 @@ int GlobeOverlayRenderer::lookupReach(const GlobeLayer& layer, const GlobeView& 
   // first is tight for a small layer, the second for one over the world.
   const LonLatRect extent = layer.extent();
   const double within = detail::TileReach(extent, heights).farthest(view.eye, 0.0);
+  // Each drawn tile's reach, found once for every class that meets it.
+  std::vector<std::optional<detail::TileReach>> reached(tiles.size());
   return kReach.classFor(widths, pixelScaleOf(view).metresPerPixel, [&](double classReach) {
     const double reach = shapeReach * classReach;
-    const double dLat = reach / 1.1e5;
-    const double high = std::min(89.0, std::max(std::abs(extent.south), std::abs(extent.north)) + dLat);
-    const double dLon = std::min(360.0, dLat / std::cos(high * 3.14159265358979323846 / 180.0));
+    const glm::dvec2 grow = detail::degreesAround(extent, reach);
     double far = 0.0;
-    for (const DrawnTile& tile : tiles) {
-      const LonLatRect r = tile.key.rect().expanded(dLon, dLat);
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+      const LonLatRect r = tiles[t].key.rect().expanded(grow.x, grow.y);
       bool meets = false;
       for (int turn = -1; turn <= 1 && !meets; ++turn) {
         const double shift = 360.0 * turn;
         meets = extent.west + shift <= r.east && r.west <= extent.east + shift && extent.south <= r.north &&
                 r.south <= extent.north;
       }
-      if (meets) far = std::max(far, detail::TileReach(tile.key, heights).farthest(view.eye, reach));
+      if (!meets) continue;
+      if (!reached[t]) reached[t].emplace(tiles[t].key, heights);
+      far = std::max(far, reached[t]->farthest(view.eye, reach));
     }
     return std::min(far, within);
   });

@@ -440,9 +440,8 @@ std::unordered_map<std::uint32_t, LonLatRect> featureBoxes(const GlobeLayer& lay
   for (std::size_t k = 0; k < layer.areaCount(); ++k) add(layer.polygons()[k].feature, layer.polygons()[k].box);
   if (layer.hasLines()) {
     for (const GlobeLine& line : layer.lines()) {
-      const double dLat = line.halfWidth * line.shapeReach() / 1.1e5;
-      const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)) + dLat);
-      add(line.feature, line.box.expanded(dLat / std::cos(high * 3.14159265358979323846 / 180.0), dLat));
+      const glm::dvec2 grow = detail::degreesAround(line.box, line.halfWidth * line.shapeReach());
+      add(line.feature, line.box.expanded(grow.x, grow.y));
     }
   }
   return boxes;
