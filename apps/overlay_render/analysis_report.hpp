@@ -1,6 +1,6 @@
 #pragma once
-// What overlay_render reports of a layer-overlap analysis, in either frame (projected: main.cpp;
-// globe: globe_analysis.cpp): the GPU's flags against the CPU reference's bits on the same depth.
+// What overlay_render reports of a layer-overlap analysis and of open volumes, in either frame:
+// the GPU's flags against the CPU reference's bits on the same depth.
 #include <cstddef>
 #include <cstdint>
 #include <string>

@@ -43,12 +43,4 @@ std::size_t peakResidentBytes() {
   return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // kilobytes on Linux
 }
 
-nlohmann::json tilesJson(const overlay::TechniqueFrameStats& t, std::size_t gpuBytes) {
-  return {{"drawn", t.tilesDrawn},      {"wanted", t.tilesWanted},           {"culled", t.tilesCulled},
-          {"built", t.tilesBuilt},      {"read_from_disk", t.tilesFromDisk}, {"resident", t.tilesResident},
-          {"lean", t.tilesLean},        {"finest_level", t.finestTileLevel}, {"error_px", t.tileErrorPixels},
-          {"drawn_bytes", t.tileBytes}, {"peak_bytes", t.tilePeakBytes},     {"host_peak_bytes", t.tileHostPeakBytes},
-          {"gpu_bytes", gpuBytes}};
-}
-
 }  // namespace gis::app

@@ -9,8 +9,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "vector_overlay/technique.hpp"
-
 namespace gis::app {
 
 /// Writes `j` (scene::jsonText) and a newline; false when the file cannot be written.
@@ -20,10 +18,6 @@ bool writeJson(const std::filesystem::path& path, const nlohmann::json& j);
 /// scene file's layer i) in `out`; each failure is reported (it names the file). False if any failed.
 bool writeFrameImages(const std::filesystem::path& out, int width, int height, const std::vector<std::uint8_t>& rgb,
                       const std::vector<float>& depth, const std::vector<std::uint8_t>& mask);
-
-/// stats.json's "tiles" block of a frame drawn in view-dependent tiles (overlay::TileResidency, in
-/// both frames): what was drawn, wanted, built, read and kept, and `gpuBytes` resident.
-nlohmann::json tilesJson(const overlay::TechniqueFrameStats& t, std::size_t gpuBytes);
 
 /// When the run started (options read), and how long it took to the first frame read back:
 /// stats.json's first_frame_seconds in both frames.

@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -27,16 +28,15 @@
 #include "gfx/context.hpp"
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
-#include "globe_render.hpp"
 #include "scene/camera.hpp"
 #include "scene/frame_readback.hpp"
-#include "scene/globe_scene.hpp"
+#include "scene/frame_renderer.hpp"
+#include "scene/frame_scene.hpp"
 #include "scene/json_file.hpp"
 #include "scene/lasso_file.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
-#include "scene/scene_renderer.hpp"
-#include "scene/scene_selection.hpp"
+#include "scene/selection_export.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/logical_selection.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
@@ -160,22 +160,11 @@ json diagnosticsJson(const Diagnostics& diagnostics) {
   return a;
 }
 
-json countsJson(const gfx::PipelineCounts& c) {
-  return {{"vertices_submitted", c.verticesSubmitted},
-          {"primitives_submitted", c.primitivesSubmitted},
-          {"vertex_shader_invocations", c.vertexShaderInvocations},
-          {"clipping_input_primitives", c.clippingInputPrimitives},
-          {"clipping_output_primitives", c.clippingOutputPrimitives},
-          {"fragment_shader_invocations", c.fragmentShaderInvocations},
-          {"samples_passed", c.samplesPassed}};
-}
-
 /// The scene and the camera it is drawn from (no GL yet).
 struct Setup {
   scene::SceneDescription description;
-  scene::LoadedScene scene;
-  double exaggeration = 1.0;
-  scene::Camera camera;
+  scene::Scene scene;
+  scene::FrameCamera camera;
   std::optional<scene::SelectionRequest> lasso;
 };
 
@@ -183,12 +172,11 @@ struct Setup {
 /// the context is current).
 struct Gpu {
   std::unique_ptr<gfx::Context> context;
-  std::optional<scene::SceneRenderer> renderer;
+  std::unique_ptr<scene::FrameRenderer> renderer;
 };
 
 /// The frame drawn, with the analyses drawn over it, and read back.
 struct Frame {
-  scene::FrameStats stats;
   overlay::OverlayView view;
   std::optional<scene::SelectionPixels> selection;
   std::optional<scene::OverlapPixels> overlap;
@@ -200,7 +188,7 @@ struct Frame {
 struct Drawn {
   const Options& o;
   const Setup& setup;
-  const scene::SceneRenderer& renderer;
+  const scene::FrameRenderer& renderer;
   const Frame& frame;
 };
 
@@ -209,46 +197,45 @@ struct Drawn {
 bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostics& all, json& stats) {
   const scene::SelectionPixels& selection = *d.frame.selection;
   const scene::SelectionRequest& request = *d.setup.lasso;
-  const scene::LoadedScene& scene = d.setup.scene;
-  const scene::SceneRenderer& renderer = d.renderer;
-  const scene::Camera& camera = d.setup.camera;
   const int width = d.o.width, height = d.o.height;
   bool ok = true;
   const Result<bool> png = gfx::writeImage8((out / "selection.png").string(), width, height, 1, selection.pixels);
   report(png.diagnostics);
   ok = ok && png.ok();
   const std::span<const overlay::SelectionStep> steps(request.steps);
-  // The CPU twin on the same depth buffer.
-  const double aspect = static_cast<double>(width) / height;
-  const overlay::DepthImage image{width, height, d.frame.images.depth, camera.projection(aspect) * camera.view()};
+  // The CPU twin on the same depth buffer, and its edge band: where its answer changes within a
+  // pixel's neighbours.
+  const overlay::DepthImage image = scene::Scene::depthImageOf(d.setup.camera, width, height, d.frame.images.depth);
   const std::vector<std::uint8_t> twin = overlay::selectionMask(image, steps);
-  std::size_t selectedPixels = 0, disagreeing = 0;
+  const std::vector<std::uint32_t> twinBits(twin.begin(), twin.end());
+  const std::vector<std::uint8_t> edges = overlay::maskEdges(twinBits, image);
+  std::size_t selectedPixels = 0, disagreeing = 0, awayFromEdges = 0;
   for (std::size_t i = 0; i < twin.size() && i < selection.pixels.size(); ++i) {
-    selectedPixels += selection.pixels[i] != 0 ? 1u : 0u;
-    disagreeing += (selection.pixels[i] != 0) != (twin[i] != 0) ? 1u : 0u;
+    const bool gpu = selection.pixels[i] != 0, cpu = twin[i] != 0;
+    selectedPixels += gpu ? 1U : 0U;
+    disagreeing += gpu != cpu ? 1U : 0U;
+    awayFromEdges += gpu != cpu && edges[i] == 0 ? 1U : 0U;
   }
-  const auto logicalStart = std::chrono::steady_clock::now();
-  const scene::SceneSelection chosen =
-      scene::selectInScene(scene, renderer, steps, camera, width, height, request.sampleSpacing);
-  const double logicalSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - logicalStart).count();
+  const scene::SelectedFeatures chosen =
+      d.renderer.selectFeatures(steps, d.setup.camera, width, height, request.sampleSpacing);
   json layers = json::array();
-  for (const scene::LayerSelection& l : chosen.layers) {
-    const overlay::OverlayLayer& drawn = renderer.overlayLayers()[l.overlayLayer];
+  for (const scene::SelectedFeatures::Layer& l : chosen.layers) {
     json features = json::array();
-    for (const overlay::FeatureSelection& f : l.features) {
-      features.push_back({{"fid", drawn.features()[f.feature].fid},
+    for (std::size_t k = 0; k < l.features.size(); ++k) {
+      const overlay::FeatureSelection& f = l.features[k];
+      features.push_back({{"fid", l.fids[k]},
                           {"fully_inside", f.fullyInside},
                           {"samples", f.samples},
-                          {"selected_samples", f.selectedSamples}});
+                          {"selected_samples", f.selectedSamples},
+                          {"spacing_m", f.spacing}});
     }
-    const std::string& name = scene.layers[l.sceneLayer].description.name;
-    layers.push_back({{"name", name},
+    layers.push_back({{"name", l.name},
                       {"selected", l.features.size()},
                       {"fully_inside", l.fullyInside},
-                      {"file", "selected_" + scene::layerSlug(name) + ".geojson"},
+                      {"file", scene::selectedLayerFileName(l.name)},
                       {"features", features}});
   }
-  const Diagnostics exported = scene::exportSelection(scene, renderer, chosen, out / "selected_features.json", out);
+  const Diagnostics exported = d.renderer.exportSelection(chosen, out / "selected_features.json", out);
   report(exported);
   all.append(exported);
   ok = ok && !exported.hasErrors();
@@ -263,8 +250,9 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
                         {"fragments", selection.stats.fragments},
                         {"selected_pixels", selectedPixels},
                         {"pixels_differing_from_cpu_twin", disagreeing},
+                        {"differing_away_from_edges", awayFromEdges},
                         {"sample_spacing_m", chosen.sampleSpacing},
-                        {"logical_seconds", logicalSeconds},
+                        {"logical_seconds", chosen.seconds},
                         {"tested_samples", chosen.testedSamples},
                         {"layers", layers},
                         {"dem_posts", posts}};
@@ -275,25 +263,21 @@ bool writeSelection(const std::filesystem::path& out, const Drawn& d, Diagnostic
 bool writeOverlap(const std::filesystem::path& out, const Drawn& d, json& stats) {
   const scene::OverlapPixels& overlap = *d.frame.overlap;
   const overlay::OverlapOp op = d.o.overlapOp;
-  const scene::SceneRenderer& renderer = d.renderer;
   const int width = d.o.width, height = d.o.height;
-  const std::vector<overlay::ReferenceLayer> ref{overlay::referenceLayerOf(renderer.overlayLayers()[overlap.a]),
-                                                 overlay::referenceLayerOf(renderer.overlayLayers()[overlap.b])};
-  const overlay::DepthImage image{width, height, d.frame.images.depth, d.frame.view.viewProj};
-  const std::vector<std::uint32_t> expected = overlay::referenceMask(image, ref);
-  const std::vector<std::uint8_t> edges = overlay::edgePixels(image, ref);
-  const app::OverlapCounts counts = app::countOverlap(overlap.flags, expected, edges, op);
+  const overlay::DepthImage image = scene::Scene::depthImageOf(d.setup.camera, width, height, d.frame.images.depth);
+  const std::array<std::size_t, 2> pair{overlap.a, overlap.b};
+  const scene::ReferenceAnswer reference = d.renderer.referenceOf(pair, image);
+  const app::OverlapCounts counts = app::countOverlap(overlap.flags, reference.expected, reference.edges, op);
   const Result<bool> png = gfx::writeImage8((out / "overlap.png").string(), width, height, 1, counts.pixels);
   report(png.diagnostics);
-  const auto nameOf = [&](std::size_t j) {
-    return d.setup.scene.layers[renderer.overlaySources()[j].first].description.name;
-  };
-  stats["overlap"] = app::overlapJson(counts, nameOf(overlap.a), nameOf(overlap.b), op, overlap.marks);
+  const std::size_t comma = d.o.overlap.find(',');
+  stats["overlap"] =
+      app::overlapJson(counts, d.o.overlap.substr(0, comma), d.o.overlap.substr(comma + 1), op, overlap.marks);
   return png.ok();
 }
 
-/// Reads the scene file, loads the scene, places the camera and reads the lasso file; nothing, with
-/// the problems reported, when one of them fails.
+/// Reads the scene file, loads the scene in its frame, places the camera and reads the lasso
+/// file; nothing, with the problems reported, when one of them fails.
 std::optional<Setup> load(const Options& o, Diagnostics& all) {
   Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene);
   report(description.diagnostics);
@@ -303,22 +287,19 @@ std::optional<Setup> load(const Options& o, Diagnostics& all) {
   // Left out before loading, so that nothing of them counts in the time or the memory.
   if (!o.overlays) description->layers.clear();
 
-  Result<scene::LoadedScene> scene = scene::loadScene(*description);
+  Result<scene::Scene> scene = scene::Scene::load(*description, {}, o.exaggeration);
   report(scene.diagnostics);
   all.append(scene.diagnostics);
   if (!scene) return std::nullopt;
 
-  Setup s{std::move(*description), std::move(*scene), 1.0, {}, std::nullopt};
-  s.exaggeration = o.exaggeration.value_or(s.description.verticalExaggeration);
-  s.scene.bounds->setExaggeration(s.exaggeration);
-  Result<scene::Camera> camera = scene::stillCamera(o.camera, s.description, o.scene, s.scene);
+  Result<scene::FrameCamera> camera = scene->stillCamera(o.camera, o.scene, o.width, o.height);
   report(camera.diagnostics);
   all.append(camera.diagnostics);
   if (!camera) return std::nullopt;
-  s.camera = *camera;
+  Setup s{std::move(*description), std::move(*scene), std::move(*camera), std::nullopt};
 
   if (!o.lasso.empty()) {
-    Result<scene::SelectionRequest> request = scene::loadLassoFile(o.lasso, s.scene.frame, s.camera, o.width, o.height);
+    Result<scene::SelectionRequest> request = s.scene.loadLasso(o.lasso, s.camera, o.width, o.height);
     report(request.diagnostics);
     all.append(request.diagnostics);
     if (!request) return std::nullopt;
@@ -329,34 +310,36 @@ std::optional<Setup> load(const Options& o, Diagnostics& all) {
 
 /// The headless context and the scene's renderer; nothing, with the problems reported, if either
 /// cannot be made.
-std::optional<Gpu> makeGpu(const Options& o, const Setup& s, Diagnostics& all) {
+std::optional<Gpu> makeGpu(const Options& o, Setup& s, Diagnostics& all) {
   Result<std::unique_ptr<gfx::Context>> context = gfx::createHeadlessContext({});
   report(context.diagnostics);
   if (!context) return std::nullopt;
-  Gpu gpu{std::move(*context), std::nullopt};
-  scene::OverlayBuildSettings build;
-  build.technique = o.technique;
-  build.textureSize = o.drapeSize;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(s.scene, build);
+  Gpu gpu{std::move(*context), nullptr};
+  scene::StillSettings settings;
+  settings.technique = o.technique;
+  settings.textureSize = o.drapeSize;
+  settings.lodTolerancePixels = o.lodTolerance;
+  settings.tileProgress = scene::consoleProgress("vector tiles");
+  Result<std::unique_ptr<scene::FrameRenderer>> renderer = scene::FrameRenderer::create(s.scene, settings);
   report(renderer.diagnostics);
   all.append(renderer.diagnostics);
   if (!renderer) return std::nullopt;
-  gpu.renderer.emplace(std::move(*renderer));
+  gpu.renderer = std::move(*renderer);
   return gpu;
 }
 
-/// The fill overlay layers --overlap names, into `layers`; false, with the scene's layers listed,
-/// when one of them is not drawn.
-bool findOverlapLayers(const Options& o, const Setup& s, const scene::SceneRenderer& renderer,
+/// The fill layers --overlap names, into `layers`; false, with the scene's layers listed, when one
+/// of them is not drawn.
+bool findOverlapLayers(const Options& o, const Setup& s, const scene::FrameRenderer& renderer,
                        std::optional<std::pair<std::size_t, std::size_t>>& layers) {
   if (o.overlap.empty()) return true;
   const std::size_t comma = o.overlap.find(',');
   const std::string nameA = o.overlap.substr(0, comma), nameB = o.overlap.substr(comma + 1);
-  const std::optional<std::size_t> a = scene::fillLayerNamed(s.scene, renderer, nameA);
-  const std::optional<std::size_t> b = scene::fillLayerNamed(s.scene, renderer, nameB);
+  const std::optional<std::size_t> a = renderer.fillLayerNamed(nameA);
+  const std::optional<std::size_t> b = renderer.fillLayerNamed(nameB);
   if (!a || !b) {
     std::string names;
-    for (const scene::LoadedLayer& l : s.scene.layers) names += (names.empty() ? "" : ", ") + l.description.name;
+    for (const scene::LoadedLayer& l : s.scene.layers()) names += (names.empty() ? "" : ", ") + l.description.name;
     logError(o.scene + ": --overlap: no drawn layer named '" + (a ? nameB : nameA) + "' (layers: " + names + ")");
     return false;
   }
@@ -366,32 +349,36 @@ bool findOverlapLayers(const Options& o, const Setup& s, const scene::SceneRende
 
 /// Draws the scene, then the selection and the analyses asked for over it, and reads the frame
 /// back; nothing when the selection cannot be drawn.
-std::optional<Frame> drawFrame(const Options& o, const Setup& s, scene::SceneRenderer& renderer,
+std::optional<Frame> drawFrame(const Options& o, const Setup& s, scene::FrameRenderer& renderer,
                                const std::optional<std::pair<std::size_t, std::size_t>>& overlapLayers,
                                Diagnostics& all) {
   gfx::StateCache cache;
   gfx::RenderTarget target(o.width, o.height, o.msaa, true);
-  scene::RenderSettings settings;
-  settings.lodTolerancePixels = o.lodTolerance;
-  settings.measure = true;
-  settings.waitForTiles = true;  // a still image: every tile the view needs
-  settings.tileProgress = scene::consoleProgress("vector tiles");
   Frame frame;
-  frame.stats = renderer.render(cache, target.framebuffer(), o.width, o.height, s.camera, settings);
+  renderer.drawStill(cache, target, s.camera);
+  frame.view = scene::Scene::overlayViewOf(s.camera, o.width, o.height);
   if (s.lasso) {
-    Result<scene::SelectionPixels> selection = scene::drawSelection(cache, target, *s.lasso, s.camera);
+    Result<scene::SelectionPixels> selection = scene::drawSelection(cache, target, *s.lasso, frame.view);
     report(selection.diagnostics);
     all.append(selection.diagnostics);
     if (!selection) return std::nullopt;
     frame.selection = std::move(*selection);
   }
-  frame.view = scene::overlayViewOf(s.camera, static_cast<double>(o.width) / o.height);
-  if (overlapLayers) {
-    frame.overlap = scene::drawOverlap(cache, target, renderer, overlapLayers->first, overlapLayers->second,
-                                       o.overlapOp, frame.view);
+  overlay::OverlayRenderer* passes = renderer.analysisPasses();
+  if (overlapLayers && passes != nullptr) {
+    const auto a = renderer.chunksOf(overlapLayers->first, s.camera);
+    const auto b = renderer.chunksOf(overlapLayers->second, s.camera);
+    frame.overlap = scene::drawOverlap(cache, target, *passes, a, b, o.overlapOp, frame.view);
+    frame.overlap->a = overlapLayers->first;
+    frame.overlap->b = overlapLayers->second;
   }
-  if (o.openVolumes) frame.open = scene::drawOpenVolumes(cache, target, renderer, frame.view);
-  frame.images = scene::readFrame(cache, s.scene, renderer, target);
+  if (o.openVolumes && passes != nullptr) {
+    std::vector<scene::ChunkedLayer> layers;
+    for (std::size_t j = 0; j < renderer.drawnLayerCount(); ++j)
+      layers.push_back({renderer.drawnLayerName(j), renderer.chunksOf(j, s.camera)});
+    frame.open = scene::drawOpenVolumes(cache, target, *passes, layers, frame.view);
+  }
+  frame.images = renderer.readFrame(cache, target);
   // What the technique said while drawing (a tile's problems, a damaged tile file): logged as it
   // came, kept in stats.json with the load's messages.
   all.append(renderer.techniqueDiagnostics());
@@ -403,142 +390,31 @@ bool writeImages(const std::filesystem::path& out, const Options& o, const Frame
   return app::writeFrameImages(out, o.width, o.height, frame.images.rgb, frame.images.depth, frame.images.mask);
 }
 
-/// stats.json's "passes" of scene layer `i`: each overlay layer built from it, with this frame's
-/// figures.
-json passesJson(const Drawn& d, std::size_t i) {
-  json passes = json::array();
-  for (std::size_t j = 0; j < d.renderer.overlaySources().size(); ++j) {
-    if (d.renderer.overlaySources()[j].first != i) continue;
-    const overlay::OverlayLayer& built = d.renderer.overlayLayers()[j];
-    const overlay::LayerFrameStats f =
-        j < d.frame.stats.layers.size() ? d.frame.stats.layers[j] : overlay::LayerFrameStats{};
-    // What drew the layer: the layer itself, or the tiles a tiled technique drew for it.
-    overlay::LayerStats drawn;
-    for (const overlay::OverlayLayer* chunk : d.renderer.drawnChunks(j)) {
-      drawn.pieces += chunk->stats().pieces;
-      drawn.triangles += chunk->stats().triangles;
-      drawn.gpuBytes += chunk->stats().gpuBytes;
-    }
-    passes.push_back({{"name", built.name()},
-                      {"pieces", drawn.pieces},
-                      {"triangles", drawn.triangles},
-                      {"gpu_bytes", drawn.gpuBytes},
-                      {"build_seconds", built.stats().buildSeconds},
-                      {"z_pass_pieces", f.zPassPieces},
-                      {"z_fail_pieces", f.zFailPieces},
-                      {"culled_pieces", f.culledPieces},
-                      {"cover", f.rectangleCover ? "rectangle" : "pieces"},
-                      {"gpu_ms", f.gpuMilliseconds},
-                      {"mark_fragments", f.markFragments},
-                      {"cover_fragments", f.coverFragments}});
-  }
-  return passes;
-}
-
-/// stats.json's "layers": one per layer of the scene file.
-json layersJson(const Drawn& d) {
-  const scene::LoadedScene& scene = d.setup.scene;
-  json layers = json::array();
-  for (std::size_t i = 0; i < scene.layers.size(); ++i) {
-    const scene::LoadedLayer& layer = scene.layers[i];
-    const std::size_t bit = layer.description.fileIndex;
-    std::size_t coveredPixels = 0;
-    for (std::uint8_t m : d.frame.images.mask) {
-      coveredPixels += bit < 8 && ((static_cast<unsigned>(m) >> bit) & 1u) != 0u ? 1u : 0u;
-    }
-    const scene::LayerSummary summary = d.renderer.layerSummary(scene, i);
-    layers.push_back({{"name", layer.description.name},
-                      {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
-                      {"source", layer.description.source},
-                      {"features", summary.features},
-                      {"vertices", layer.vertexCount()},
-                      {"skipped_features", summary.skipped()},
-                      {"skipped_when_read", summary.skippedReading},
-                      {"skipped_when_built", summary.skippedBuilding},
-                      {"features_with_nothing_to_draw", summary.nothingToDraw},
-                      {"drawn_features", summary.drawnFeatures},
-                      {"drawn", summary.built},
-                      {"mask_bit", bit < 8 ? json(bit) : json(nullptr)},
-                      {"covered_pixels", coveredPixels},
-                      {"passes", passesJson(d, i)}});
-  }
-  return layers;
-}
-
-/// stats.json's "terrain": the DEM, its quadtree and this frame's LOD.
-json terrainJson(const Drawn& d) {
-  const scene::LoadedScene& scene = d.setup.scene;
-  const scene::FrameStats& frame = d.frame.stats;
-  const terrain::TerrainQuadtree& tree = *scene.quadtree;
-  const terrain::TerrainGrid& grid = tree.grid();
-  const terrain::NodeInfo& rootInfo = tree.info(tree.root());
-  std::size_t terrainPixels = 0;
-  for (float depth : d.frame.images.depth) terrainPixels += depth > 0.0F ? 1 : 0;
-  return {{"posts", static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height)},
-          {"paged", tree.paged()},
-          {"dem_size", {grid.width, grid.height}},
-          {"nodata_posts", scene.nodataPosts},
-          {"quadtree_levels", tree.rootLevel() + 1},
-          {"chunk_cells", tree.chunkCells()},
-          {"lod_tolerance_px", d.o.lodTolerance},
-          {"vertical_exaggeration", d.setup.exaggeration},
-          {"chunks", frame.terrainDraw.chunks},
-          {"chunks_culled", frame.terrainCulled},
-          {"finest_level", frame.finestLevel},
-          {"coarsest_level", frame.coarsestLevel},
-          {"triangles", frame.terrainDraw.triangles},
-          {"select_ms", frame.selectMilliseconds},
-          {"gpu_bytes", d.renderer.terrainEngine().gpuBytes()},
-          {"min_height", rootInfo.minHeight},
-          {"max_height", rootInfo.maxHeight},
-          {"imagery", scene.orthophoto.has_value()},
-          {"pixels", terrainPixels}};
-}
-
-/// stats.json without the analyses' blocks (they add theirs as they are written).
+/// stats.json without the analyses' blocks (they add theirs as they are written): what both
+/// frames report alike, then the frame's own blocks (FrameRenderer::reportStill).
 json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
-  const scene::FrameStats& frame = d.frame.stats;
-  json stats = {
-      {"scene", d.o.scene},
-      {"width", d.o.width},
-      {"height", d.o.height},
-      {"msaa", d.frame.images.samples},
-      {"gl", {{"renderer", context.info().renderer}, {"version", context.info().version}}},
-      {"load_seconds", d.setup.scene.loadSeconds},
-      // From the start of the run (options read) to the frame read back: loading, building
-      // every layer, drawing. And the process's peak resident memory by then (with Mesa's
-      // software rasteriser, GPU buffers live in it too).
-      {"first_frame_seconds", runClock().firstFrameSeconds},
-      {"cpu_peak_bytes", peakResidentBytes()},
-      {"terrain", terrainJson(d)},
-      {"layers", layersJson(d)},
-      {"method", d.o.technique->name},
-      {"passes",
-       {{"terrain", {{"gpu_ms", frame.terrain.gpuMilliseconds}, {"pipeline", countsJson(frame.terrain.counts)}}}}},
-      // The cache: where, and what checking its files cost this run (geo/checked_file.hpp).
-      {"cache",
-       {{"directory", scene::cacheDirectoryFor(d.setup.description)},
-        {"verified_bytes", geo::io::verifiedSoFar().bytes},
-        {"verify_seconds", geo::io::verifiedSoFar().seconds}}},
-      {"errors", all.count(Severity::Error)},
-      {"warnings", all.count(Severity::Warning)},
-      {"diagnostics", diagnosticsJson(all)},
-      {"gl_errors", context.debug().errorCount()}};
-  if (const overlay::TextureDrape* drape = d.renderer.textureDrape()) {
-    stats["drape"] = {{"size", drape->stats().size},
-                      {"triangles", drape->stats().triangles},
-                      {"gpu_bytes", drape->stats().gpuBytes},
-                      {"build_s", drape->stats().buildSeconds},
-                      {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
-  } else if (d.o.technique->construction == overlay::PieceConstruction::Tiled) {
-    const overlay::TechniqueFrameStats& t = frame.overlayTiles;
-    stats["tiles"] = app::tilesJson(t, d.renderer.techniqueGpuBytes());
-  } else if (d.o.technique->usesTextures()) {
-    stats["drape"] = {{"tile_size", d.o.drapeSize > 0 ? d.o.drapeSize : d.o.technique->defaultTextureSize},
-                      {"tiles_built", frame.texturesBuilt},
-                      {"gpu_bytes", d.renderer.techniqueGpuBytes()},
-                      {"build_s", frame.textureSeconds}};
-  }
+  json stats = {{"scene", d.o.scene},
+                {"width", d.o.width},
+                {"height", d.o.height},
+                {"msaa", d.frame.images.samples},
+                {"gl", {{"renderer", context.info().renderer}, {"version", context.info().version}}},
+                {"load_seconds", d.setup.scene.loadSeconds()},
+                // From the start of the run (options read) to the frame read back: loading, building
+                // every layer, drawing. And the process's peak resident memory by then (with Mesa's
+                // software rasteriser, GPU buffers live in it too).
+                {"first_frame_seconds", runClock().firstFrameSeconds},
+                {"cpu_peak_bytes", peakResidentBytes()},
+                {"method", d.o.technique->name},
+                // The cache: where, and what checking its files cost this run (geo/checked_file.hpp).
+                {"cache",
+                 {{"directory", scene::cacheDirectoryFor(d.setup.description)},
+                  {"verified_bytes", geo::io::verifiedSoFar().bytes},
+                  {"verify_seconds", geo::io::verifiedSoFar().seconds}}},
+                {"errors", all.count(Severity::Error)},
+                {"warnings", all.count(Severity::Warning)},
+                {"diagnostics", diagnosticsJson(all)},
+                {"gl_errors", context.debug().errorCount()}};
+  d.renderer.reportStill(d.frame.images, stats);
   return stats;
 }
 
@@ -574,9 +450,7 @@ bool writeOutputs(const Drawn& d, gfx::Context& context, Diagnostics& all) {
   bool ok = writeImages(out, d.o, d.frame);
   json stats = statsJson(d, context, all);
   ok = writeAnalyses(out, d, all, stats) && ok;
-  ok =
-      writeJson(out / "camera.json", scene::cameraToJson(d.setup.camera, d.setup.scene.frame, d.o.width, d.o.height)) &&
-      ok;
+  ok = writeJson(out / "camera.json", d.setup.scene.cameraJson(d.setup.camera, d.o.width, d.o.height)) && ok;
   ok = writeJson(out / "stats.json", stats) && ok;
   if (!ok) return false;
   std::printf("%s\n", (std::filesystem::absolute(out) / "color.png").string().c_str());
@@ -596,35 +470,7 @@ int run(const Options& o) {
              std::string(o.technique->name) + " draws none: use stencil-tiles, stencil or paper");
     return 2;
   }
-  // A scene drawn on the globe (docs/globe.md) takes its own path.
-  if (Result<scene::SceneDescription> description = scene::loadSceneFile(o.scene); description.ok()) {
-    o.applyCache(*description);
-    Result<std::string> globe = scene::globeReason(*description);
-    if (globe.ok() && !globe->empty()) {
-      // The globe draws with every technique of the registry; one it could not draw would be
-      // refused, never silently replaced.
-      const std::optional<globe::GlobeTechnique> technique = scene::globeTechniqueNamed(o.technique->name);
-      if (!technique) {
-        logError("the scene is drawn on the globe (" + *globe + "): --method " + std::string(o.technique->name) +
-                 " is not available there yet");
-        return 2;
-      }
-      report(description.diagnostics);
-      if (o.exaggeration) description->verticalExaggeration = *o.exaggeration;
-      return app::runGlobeRender(*description, *globe,
-                                 {o.out,
-                                  o.width,
-                                  o.height,
-                                  o.overlays,
-                                  {o.lasso, o.overlap, o.overlapOp, o.openVolumes},
-                                  o.camera,
-                                  *technique,
-                                  std::string(o.technique->name),
-                                  o.msaa,
-                                  o.drapeSize});
-    }
-  }
-  const std::optional<Setup> setup = load(o, all);
+  std::optional<Setup> setup = load(o, all);
   if (!setup) return 1;
   std::optional<Gpu> gpu = makeGpu(o, *setup, all);
   if (!gpu) return 1;

@@ -99,6 +99,7 @@ TEST_F(OverlayRenderTest, WritesEveryOutput) {
   }
   EXPECT_NE(readText(out_ / "log.txt").find("color.png"), std::string::npos) << "prints where the PNG is";
   const json stats = json::parse(readText(out_ / "stats.json"));
+  EXPECT_EQ(stats["frame"], "projected");
   EXPECT_EQ(stats["gl_errors"].get<int>(), 0);
   // The shipped sample loads clean (its broken lines are test data: tests/data).
   EXPECT_EQ(stats["errors"].get<int>(), 0) << stats["diagnostics"].dump(2);
@@ -737,6 +738,7 @@ TEST(OverlayRenderLasso, SelectionImageFeaturesAndExportsAgreeWithTheTwin) {
   EXPECT_EQ(stats["gl_errors"].get<int>(), 0);
   EXPECT_EQ(s["steps"].get<int>(), 4);  // the collinear lasso is a step that selects nothing
   EXPECT_EQ(s["pixels_differing_from_cpu_twin"].get<std::size_t>(), wrong);
+  EXPECT_EQ(s["differing_away_from_edges"].get<std::size_t>(), 0u) << s.dump(1);
   EXPECT_GT(s["dem_posts"]["selected"].get<int>(), 0);
   // Every feature the stats list is exported, in its layer's file (original CRS) and in the
   // combined RFC 7946 file, with its attributes.
@@ -1001,6 +1003,11 @@ TEST(OverlayRenderGlobe, LassoAndOverlapOnTheGlobeAgreeWithTheirTwins) {
   const json stats = json::parse(readText(out / "stats.json"));
   ASSERT_EQ(stats["frame"], "globe") << stats.dump(1);
   EXPECT_EQ(stats["method"], "stencil-tiles");
+  // One program for both frames: the blocks every frame reports, with the globe's own.
+  EXPECT_EQ(stats["gl_errors"].get<int>(), 0);
+  EXPECT_EQ(stats["errors"].get<int>(), 0) << stats["diagnostics"].dump(1);
+  EXPECT_FALSE(stats["gl"]["renderer"].get<std::string>().empty());
+  EXPECT_FALSE(stats["globe_reason"].get<std::string>().empty());
   // The layers' tiles under the scene's GPU budget (terrain.gpu_budget_mb, 512 MiB by default).
   const json& tiles = stats["tiles"];
   EXPECT_GT(tiles["drawn"].get<std::size_t>(), 0u) << tiles.dump(1);

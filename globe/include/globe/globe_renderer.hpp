@@ -47,6 +47,7 @@ class GlobeRenderer {
   [[nodiscard]] GlobeTerrain& terrain() { return terrain_; }
   /// The layers' renderer, for analyses over the last frame (GlobeOverlayRenderer::markOverlap).
   [[nodiscard]] GlobeOverlayRenderer& overlay() { return overlay_; }
+  [[nodiscard]] const GlobeOverlayRenderer& overlay() const { return overlay_; }
   /// The tiles the last frame drew.
   [[nodiscard]] const std::vector<DrawnTile>& tiles() const { return tiles_; }
   [[nodiscard]] const GeoGrid& heights() const { return *heights_; }

@@ -1,0 +1,117 @@
+#pragma once
+// Draws a Scene in its frame, behind one interface (docs/frames.md, "One scene, one set of
+// programs"): a projected scene through SceneRenderer, a globe scene through globe::GlobeRenderer.
+// What a program does with a frame — draw a still, read it back, mark two layers' overlap or the
+// open volumes, select features with a lasso and export them, report what was drawn — it does
+// once, through this; only what differs between the frames is behind it.
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "core/diagnostics.hpp"
+#include "gfx/render_target.hpp"
+#include "gfx/state_cache.hpp"
+#include "scene/frame_readback.hpp"
+#include "scene/frame_scene.hpp"
+#include "scene/globe_selection.hpp"
+#include "scene/scene_selection.hpp"
+#include "vector_overlay/logical_selection.hpp"
+#include "vector_overlay/technique.hpp"
+
+namespace gis::scene {
+
+struct StillSettings {
+  /// How the vector layers are drawn (overlay::techniques()); every technique draws in both frames.
+  const overlay::TechniqueInfo* technique = &overlay::defaultTechnique();
+  int textureSize = 0;                       ///< texture techniques: texels per side (0: the technique's default)
+  double lodTolerancePixels = 1.5;           ///< the projected terrain's largest error in pixels
+  std::function<void(double)> tileProgress;  ///< while a still waits for a tiled technique's tiles
+};
+
+/// What a lasso selects, in either frame: per layer of the scene file that has selected features.
+struct SelectedFeatures {
+  struct Layer {
+    std::string name;  ///< the scene file's
+    std::vector<overlay::FeatureSelection> features;
+    std::vector<std::int64_t> fids;  ///< per feature: its FID in the source (−1 if unknown)
+    std::size_t fullyInside = 0;
+  };
+  std::vector<Layer> layers;
+  double sampleSpacing = 0.0;     ///< metres
+  std::size_t testedSamples = 0;  ///< over every feature, selected or not
+  double seconds = 0.0;           ///< what finding them took
+  /// Selected DEM posts (a projected scene's DEM held in memory only).
+  std::optional<overlay::PostSelection> posts;
+  /// The frame's own answer, for the export.
+  std::variant<SceneSelection, GlobeSelection> selection;
+};
+
+/// The CPU reference's answer for some drawn layers over a depth buffer: bit k of `expected` for
+/// the k-th layer asked for, and 1 in `edges` where the answer may change within the pixel.
+struct ReferenceAnswer {
+  std::vector<std::uint32_t> expected;
+  std::vector<std::uint8_t> edges;
+};
+
+class FrameRenderer {
+ public:
+  /// Uploads `scene` to the current GL context, the layers built for `settings.technique`. The
+  /// scene must outlive the renderer.
+  static Result<std::unique_ptr<FrameRenderer>> create(Scene& scene, const StillSettings& settings);
+  virtual ~FrameRenderer() = default;
+  FrameRenderer(const FrameRenderer&) = delete;
+  FrameRenderer& operator=(const FrameRenderer&) = delete;
+
+  /// Clears `target` and draws a still from `camera`: the terrain and the layers, timed, after
+  /// waiting for every tile (terrain, imagery, a tiled technique's) the view needs.
+  virtual void drawStill(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera) = 0;
+
+  /// The drawn layers: a bit of the mask each, a polygon layer's fill and outline apart.
+  [[nodiscard]] virtual std::size_t drawnLayerCount() const = 0;
+  [[nodiscard]] virtual std::string drawnLayerName(std::size_t drawn) const = 0;
+  /// The drawn layer of the fill (not the outline) of the scene file's layer named `name`.
+  [[nodiscard]] virtual std::optional<std::size_t> fillLayerNamed(std::string_view name) const = 0;
+  /// The stencil passes for the analyses over the last still (null if the technique has none).
+  [[nodiscard]] virtual overlay::OverlayRenderer* analysisPasses() = 0;
+  /// What drew drawn layer `drawn` in the last still (the layer, or the tiles drawn for it).
+  [[nodiscard]] virtual std::vector<const overlay::OverlayLayer*> chunksOf(std::size_t drawn,
+                                                                           const FrameCamera& camera) = 0;
+  /// The CPU reference of the source geometry for these drawn layers over `image`.
+  [[nodiscard]] virtual ReferenceAnswer referenceOf(std::span<const std::size_t> drawn,
+                                                    const overlay::DepthImage& image) const = 0;
+
+  /// Reads the still back: colour, depth, and the mask with a bit per layer of the scene file.
+  [[nodiscard]] virtual FrameImages readFrame(gfx::StateCache& cache, const gfx::RenderTarget& target) const = 0;
+
+  /// The features the steps select (the lasso's logical twin), at `sampleSpacing` metres (by
+  /// default half a pixel's footprint at the camera's target).
+  [[nodiscard]] virtual SelectedFeatures selectFeatures(std::span<const overlay::SelectionStep> steps,
+                                                        const FrameCamera& camera, int width, int height,
+                                                        std::optional<double> sampleSpacing) const = 0;
+  /// Their GeoJSON export (selection_export.hpp): one RFC 7946 file at `combined`, and one per
+  /// layer in `perLayerDir` in the source's CRS.
+  [[nodiscard]] virtual Diagnostics exportSelection(const SelectedFeatures& selected,
+                                                    const std::filesystem::path& combined,
+                                                    const std::filesystem::path& perLayerDir) const = 0;
+
+  /// What the technique said while drawing so far, each message once.
+  [[nodiscard]] virtual Diagnostics techniqueDiagnostics() const = 0;
+  /// The frame's own blocks of stats.json for the last still read back as `images`: the ground
+  /// ("terrain", and the globe's "dem"), the layers, the overlay's passes, its tiles or drape.
+  virtual void reportStill(const FrameImages& images, nlohmann::json& stats) const = 0;
+
+ protected:
+  FrameRenderer() = default;
+};
+
+}  // namespace gis::scene

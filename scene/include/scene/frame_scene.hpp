@@ -1,0 +1,73 @@
+#pragma once
+// A loaded scene in either frame (docs/frames.md, "One scene, one set of programs"): the one type
+// the programs hold. Its ground is a projected quadtree (LoadedScene: the DEM's chunks, their
+// height bounds, the orthophoto) or the globe's grid (LoadedGlobeScene: heights in longitude and
+// latitude, the imagery); the source layers are read the same way in both. The camera is a
+// variant as well: a projected Camera or a globe::GlobeView.
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "core/diagnostics.hpp"
+#include "globe/globe_view.hpp"
+#include "scene/camera.hpp"
+#include "scene/globe_scene.hpp"
+#include "scene/lasso_file.hpp"
+#include "scene/scene.hpp"
+#include "scene/scene_loader.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/overlay_renderer.hpp"
+
+namespace gis::scene {
+
+/// Where a frame is seen from: a camera in the scene's frame, or a view of the globe (ECEF).
+using FrameCamera = std::variant<Camera, globe::GlobeView>;
+
+class Scene {
+ public:
+  /// Loads what `description` names in the frame globeReason chooses. `exaggeration` overrides
+  /// the scene's vertical exaggeration (description.verticalExaggeration).
+  static Result<Scene> load(SceneDescription description, const LoadOptions& options = {},
+                            std::optional<double> exaggeration = std::nullopt);
+
+  [[nodiscard]] bool onGlobe() const { return std::holds_alternative<LoadedGlobeScene>(ground_); }
+  /// Why the scene is drawn on the globe (globeReason's); empty in a projected frame.
+  [[nodiscard]] const std::string& globeReason() const;
+  [[nodiscard]] const SceneDescription& description() const;
+  /// The scene file's layers as read (those that could not be read are left out), in its order.
+  [[nodiscard]] const std::vector<LoadedLayer>& layers() const;
+  [[nodiscard]] double loadSeconds() const;
+  [[nodiscard]] double exaggeration() const { return exaggeration_; }
+
+  /// The frame's own ground; the one the scene is not in is a caller error (throws).
+  [[nodiscard]] LoadedScene& projected() { return std::get<LoadedScene>(ground_); }
+  [[nodiscard]] const LoadedScene& projected() const { return std::get<LoadedScene>(ground_); }
+  [[nodiscard]] LoadedGlobeScene& globe() { return std::get<LoadedGlobeScene>(ground_); }
+  [[nodiscard]] const LoadedGlobeScene& globe() const { return std::get<LoadedGlobeScene>(ground_); }
+
+  /// The camera a still image is drawn from: the camera file's when `cameraFile` is not empty,
+  /// else the scene file's (read from `sceneFile`), else one that frames the data.
+  [[nodiscard]] Result<FrameCamera> stillCamera(const std::string& cameraFile, const std::string& sceneFile, int width,
+                                                int height) const;
+  /// Reads a lasso file (lasso_file.hpp) for a frame seen from `camera`.
+  [[nodiscard]] Result<SelectionRequest> loadLasso(const std::string& path, const FrameCamera& camera, int width,
+                                                   int height) const;
+  /// The overlay passes' view of `camera` in a target of this size.
+  [[nodiscard]] static overlay::OverlayView overlayViewOf(const FrameCamera& camera, int width, int height);
+  /// The CPU reference's view of a depth buffer drawn from `camera` (top row first).
+  [[nodiscard]] static overlay::DepthImage depthImageOf(const FrameCamera& camera, int width, int height,
+                                                        std::span<const float> depth);
+  /// camera.json: the matrices the frame was drawn with and where it was drawn from.
+  [[nodiscard]] nlohmann::json cameraJson(const FrameCamera& camera, int width, int height) const;
+
+ private:
+  explicit Scene(std::variant<LoadedScene, LoadedGlobeScene> ground, double exaggeration)
+      : ground_(std::move(ground)), exaggeration_(exaggeration) {}
+  std::variant<LoadedScene, LoadedGlobeScene> ground_;
+  double exaggeration_ = 1.0;
+};
+
+}  // namespace gis::scene

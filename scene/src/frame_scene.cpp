@@ -1,0 +1,123 @@
+#include "scene/frame_scene.hpp"
+
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "globe/globe_overlay.hpp"
+#include "globe/globe_selection.hpp"
+#include "scene/scene_renderer.hpp"
+
+namespace gis::scene {
+
+namespace {
+
+using nlohmann::json;
+
+json matrixJson(const glm::dmat4& m) {
+  json out = json::array();
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) out.push_back(m[c][r]);
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<Scene> Scene::load(SceneDescription description, const LoadOptions& options,
+                          std::optional<double> exaggeration) {
+  Result<std::string> reason = scene::globeReason(description);
+  Result<Scene> out;
+  out.diagnostics = std::move(reason.diagnostics);
+  if (!reason) return out;
+  if (!reason->empty()) {
+    // The globe's heights are exaggerated as they are read (globe::GeoGrid).
+    if (exaggeration) description.verticalExaggeration = *exaggeration;
+    Result<LoadedGlobeScene> globe = loadGlobeScene(description);
+    out.diagnostics.append(globe.diagnostics);
+    if (!globe) return out;
+    globe->reason = *reason;
+    const double x = globe->heights->exaggeration();
+    out.value.emplace(Scene(std::move(*globe), x));
+    return out;
+  }
+  Result<LoadedScene> projected = loadScene(description, options);
+  out.diagnostics.append(projected.diagnostics);
+  if (!projected) return out;
+  // The projected terrain is exaggerated as it is drawn: its bounds own the factor.
+  const double x = exaggeration.value_or(projected->description.verticalExaggeration);
+  projected->bounds->setExaggeration(x);
+  out.value.emplace(Scene(std::move(*projected), x));
+  return out;
+}
+
+const std::string& Scene::globeReason() const {
+  static const std::string kNone;
+  return onGlobe() ? globe().reason : kNone;
+}
+
+const SceneDescription& Scene::description() const { return onGlobe() ? globe().description : projected().description; }
+
+const std::vector<LoadedLayer>& Scene::layers() const { return onGlobe() ? globe().sourceLayers : projected().layers; }
+
+double Scene::loadSeconds() const { return onGlobe() ? globe().loadSeconds : projected().loadSeconds; }
+
+Result<FrameCamera> Scene::stillCamera(const std::string& cameraFile, const std::string& sceneFile, int width,
+                                       int height) const {
+  Result<FrameCamera> out;
+  if (!onGlobe()) {
+    Result<Camera> camera = scene::stillCamera(cameraFile, description(), sceneFile, projected());
+    out.diagnostics = std::move(camera.diagnostics);
+    if (camera) out.value.emplace(*camera);
+    return out;
+  }
+  if (cameraFile.empty()) {
+    out.value.emplace(globeStillView(globe(), width, height));
+    return out;
+  }
+  Result<CameraSpec> spec = loadCameraFile(cameraFile);
+  out.diagnostics = std::move(spec.diagnostics);
+  if (!spec) return out;
+  Result<globe::GlobeView> placed = globeViewOf(*spec, *globe().heights, width, height, cameraFile);
+  out.diagnostics.append(placed.diagnostics);
+  if (placed) out.value.emplace(*placed);
+  return out;
+}
+
+Result<SelectionRequest> Scene::loadLasso(const std::string& path, const FrameCamera& camera, int width,
+                                          int height) const {
+  if (onGlobe()) return loadGlobeLassoFile(path, std::get<globe::GlobeView>(camera), *globe().heights);
+  return loadLassoFile(path, projected().frame, std::get<Camera>(camera), width, height);
+}
+
+overlay::OverlayView Scene::overlayViewOf(const FrameCamera& camera, int width, int height) {
+  if (const auto* view = std::get_if<globe::GlobeView>(&camera)) return globe::overlayViewOf(*view);
+  return scene::overlayViewOf(std::get<Camera>(camera), static_cast<double>(width) / height);
+}
+
+overlay::DepthImage Scene::depthImageOf(const FrameCamera& camera, int width, int height,
+                                        std::span<const float> depth) {
+  if (const auto* view = std::get_if<globe::GlobeView>(&camera)) return globe::depthImageOf(*view, depth);
+  const Camera& c = std::get<Camera>(camera);
+  const double aspect = static_cast<double>(width) / height;
+  return {width, height, depth, c.projection(aspect) * c.view()};
+}
+
+json Scene::cameraJson(const FrameCamera& camera, int width, int height) const {
+  if (!onGlobe()) return cameraToJson(std::get<Camera>(camera), projected().frame, width, height);
+  const globe::GlobeView& view = std::get<globe::GlobeView>(camera);
+  const globe::Geodetic eye = globe::toGeodetic(view.eye), at = globe::toGeodetic(view.target);
+  return {{"width", width},
+          {"height", height},
+          {"frame", "globe"},
+          {"crs", "EPSG:4978 (WGS 84 earth-centred, metres)"},
+          {"view_proj_ecef", matrixJson(view.viewProj())},
+          {"eye_ecef", {view.eye.x, view.eye.y, view.eye.z}},
+          {"depth", "reversed-Z: near / distance along the view axis, 0 = background"},
+          {"near", view.near},
+          {"fov_y_deg", view.fovYDeg},
+          {"eye", {{"lon", eye.lon}, {"lat", eye.lat}, {"h", eye.h}}},
+          {"target", {{"lon", at.lon}, {"lat", at.lat}, {"h", at.h}}}};
+}
+
+}  // namespace gis::scene

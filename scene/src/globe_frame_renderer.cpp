@@ -1,0 +1,186 @@
+// FrameRenderer on the globe: globe::GlobeRenderer's tiles of the geographic quadtree and its
+// overlay (docs/globe.md).
+#include <chrono>
+
+#include "frame_renderers.hpp"
+#include "globe/globe_renderer.hpp"
+#include "globe/globe_selection.hpp"
+#include "vector_overlay/texture_drape.hpp"
+
+namespace gis::scene::detail {
+
+namespace {
+
+using nlohmann::json;
+
+class GlobeFrameRenderer final : public FrameRenderer {
+ public:
+  GlobeFrameRenderer(LoadedGlobeScene& scene, globe::GlobeTechnique technique, const StillSettings& settings)
+      : scene_(scene), renderer_(scene.heights), settings_(settings) {
+    renderer_.setImagery(scene.imagery);
+    overlaySettings_ = globeOverlaySettings(scene.description);
+    overlaySettings_.technique = technique;
+    overlaySettings_.textureSize = settings.textureSize;
+    for (const globe::GlobeLayer& l : scene.layers) layers_.push_back(&l);
+  }
+
+  void drawStill(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera) override {
+    const globe::GlobeView& view = std::get<globe::GlobeView>(camera);
+    const globe::GlobeFrameTarget into{target.framebuffer(), target.width(), target.height(), true};
+    // A still waits for every drawn tile's imagery (built a few tiles a frame).
+    for (int k = 0; k < 4096 && scene_.imagery; ++k) {
+      if (renderer_.render(cache, into, view, {}).terrain.imageryPending == 0) break;
+    }
+    stats_ = renderer_.render(cache, into, view, layers_, true, overlaySettings_);
+  }
+
+  [[nodiscard]] std::size_t drawnLayerCount() const override { return scene_.layers.size(); }
+  [[nodiscard]] std::string drawnLayerName(std::size_t drawn) const override { return scene_.layers.at(drawn).name(); }
+  [[nodiscard]] std::optional<std::size_t> fillLayerNamed(std::string_view name) const override {
+    // A fill has its scene layer's name; its outline is named "<name> (outline)".
+    for (std::size_t l = 0; l < scene_.layers.size(); ++l) {
+      if (scene_.layers[l].name() == name) return l;
+    }
+    return std::nullopt;
+  }
+  [[nodiscard]] overlay::OverlayRenderer* analysisPasses() override { return renderer_.overlay().renderer(); }
+  [[nodiscard]] std::vector<const overlay::OverlayLayer*> chunksOf(std::size_t drawn,
+                                                                   const FrameCamera& camera) override {
+    return renderer_.overlay().chunks(std::get<globe::GlobeView>(camera), renderer_.tiles(), renderer_.heights(),
+                                      scene_.layers.at(drawn));
+  }
+  [[nodiscard]] ReferenceAnswer referenceOf(std::span<const std::size_t> drawn,
+                                            const overlay::DepthImage& image) const override {
+    std::vector<const globe::GlobeLayer*> layers;
+    for (const std::size_t j : drawn) layers.push_back(&scene_.layers.at(j));
+    return {overlay::referenceMask(image, globe::coverageOf(layers, image)),
+            overlay::edgePixels(image, globe::edgeLayersOf(layers, image))};
+  }
+
+  [[nodiscard]] FrameImages readFrame(gfx::StateCache& cache, const gfx::RenderTarget& target) const override {
+    return scene::readFrame(cache, target, scene_.layerFileIndex);
+  }
+
+  [[nodiscard]] SelectedFeatures selectFeatures(std::span<const overlay::SelectionStep> steps,
+                                                const FrameCamera& camera, int /*width*/, int /*height*/,
+                                                std::optional<double> sampleSpacing) const override {
+    const auto start = std::chrono::steady_clock::now();
+    GlobeSelection chosen = selectOnGlobe(scene_, steps, std::get<globe::GlobeView>(camera), sampleSpacing);
+    SelectedFeatures out;
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (const GlobeLayerSelection& l : chosen.layers) {
+      const overlay::SharedFeatures* features =
+          l.layer < scene_.layerFeatures.size() ? &scene_.layerFeatures[l.layer] : nullptr;
+      // The scene file's name for the layer, as the export's files and properties have it.
+      const LayerDescription* described = sceneLayerOf(scene_, l.layer);
+      SelectedFeatures::Layer layer{
+          described != nullptr ? described->name : scene_.layers[l.layer].name(), l.features, {}, l.fullyInside};
+      for (const overlay::FeatureSelection& f : l.features) {
+        layer.fids.push_back(features != nullptr && f.feature < features->size() ? features->get(f.feature)->fid : -1);
+      }
+      out.layers.push_back(std::move(layer));
+    }
+    out.sampleSpacing = chosen.sampleSpacing;
+    out.testedSamples = chosen.testedSamples;
+    out.selection = std::move(chosen);
+    return out;
+  }
+  [[nodiscard]] Diagnostics exportSelection(const SelectedFeatures& selected, const std::filesystem::path& combined,
+                                            const std::filesystem::path& perLayerDir) const override {
+    return exportGlobeSelection(scene_, std::get<GlobeSelection>(selected.selection), combined, perLayerDir);
+  }
+
+  [[nodiscard]] Diagnostics techniqueDiagnostics() const override { return {}; }
+
+  void reportStill(const FrameImages& images, json& stats) const override {
+    const globe::GeoGrid& heights = *scene_.heights;
+    stats["frame"] = "globe";
+    stats["globe_reason"] = scene_.reason;
+    stats["dem"] = {{"width", heights.width()},
+                    {"height", heights.height()},
+                    {"step_deg", heights.step()},
+                    {"vertical_datum", heights.verticalSource()},
+                    {"vertical_exaggeration", heights.exaggeration()},
+                    {"paged", heights.paged()},
+                    {"resident_bytes", heights.residentBytes()},
+                    {"blocks_read", heights.blocksRead()},
+                    {"posts_read", heights.postsRead()}};
+    stats["terrain"] = {{"tiles", stats_.terrain.tiles},
+                        {"triangles", stats_.terrain.triangles},
+                        {"select_ms", stats_.selectMilliseconds},
+                        {"gpu_ms", stats_.terrainGpuMilliseconds},
+                        {"fragments", stats_.terrainFragments},
+                        {"imagery_source_pixels_read", scene_.imagery ? scene_.imagery->sourcePixelsRead() : 0U}};
+    const globe::GlobeOverlayStats& o = stats_.overlay;
+    stats["overlay"] = {{"pieces", o.pieces},
+                        {"z_fail_pieces", o.zFailPieces},
+                        {"culled_pieces", o.culledPieces},
+                        {"triangles", o.triangles},
+                        {"tiles_built", o.builtTiles},
+                        {"deferred_layers", o.deferredLayers},
+                        {"deferred_index_bytes", o.deferredBytes},
+                        {"deferred_pending", o.deferredPending},
+                        {"gpu_ms", stats_.overlayGpuMilliseconds},
+                        {"fragments", stats_.overlayFragments},
+                        {"primitives", stats_.overlayPrimitives}};
+    json layers = json::array();
+    for (std::size_t l = 0; l < scene_.layers.size(); ++l) {
+      layers.push_back({{"name", scene_.layers[l].name()},
+                        {"polygons", scene_.layers[l].polygons().size()},
+                        {"mask_bit", scene_.layerFileIndex[l]},
+                        {"covered_pixels", l < images.coveredPixels.size() ? images.coveredPixels[l] : 0U}});
+    }
+    stats["layers"] = layers;
+    if (o.draped || globe::drapes(overlaySettings_.technique)) {
+      // Draping: the textures (in longitude and latitude), as a projected scene's "drape" block.
+      json drape = {{"tiles_built", o.texturesBuilt}, {"gpu_bytes", o.drapeGpuBytes}, {"build_s", o.textureSeconds}};
+      if (const overlay::TextureDrape* single = renderer_.overlay().textureDrape()) {
+        drape.update(
+            {{"size", single->size()},
+             {"triangles", single->stats().triangles},
+             {"texel_deg", {single->extent().size.x / single->size(), single->extent().size.y / single->size()}}});
+      } else {
+        drape["tile_size"] = settings_.textureSize > 0 ? settings_.textureSize : 256;
+      }
+      stats["drape"] = drape;
+      return;
+    }
+    // The layers' tiles (over the terrain's drawn tiles), as a projected scene's "tiles" block, and
+    // what the globe's disk cache did.
+    json tiles = tilesJson(o.tiles, o.residentBytes);
+    tiles.update({{"missing", o.missingTiles},
+                  {"built_anew", o.builtTiles},
+                  {"written_to_disk", o.writtenTiles},
+                  {"repaired", o.repairedTiles},
+                  {"evicted", o.evictedTiles},
+                  {"gpu_budget_bytes", overlaySettings_.gpuBudgetBytes}});
+    stats["tiles"] = tiles;
+  }
+
+ private:
+  LoadedGlobeScene& scene_;
+  globe::GlobeRenderer renderer_;
+  StillSettings settings_;
+  globe::GlobeOverlaySettings overlaySettings_;
+  std::vector<const globe::GlobeLayer*> layers_;
+  globe::GlobeFrameStats stats_;
+};
+
+}  // namespace
+
+Result<std::unique_ptr<FrameRenderer>> makeGlobeRenderer(LoadedGlobeScene& scene, const StillSettings& settings) {
+  Result<std::unique_ptr<FrameRenderer>> out;
+  // Every technique of the registry draws on the globe; one it could not draw is refused, never
+  // silently replaced by another.
+  const std::optional<globe::GlobeTechnique> technique = globeTechniqueNamed(settings.technique->name);
+  if (!technique) {
+    out.diagnostics.add({Severity::Error, scene.description.path, "", "",
+                         "the scene is drawn on the globe (" + scene.reason + "): method '" +
+                             std::string(settings.technique->name) + "' is not available there"});
+    return out;
+  }
+  out.value.emplace(std::make_unique<GlobeFrameRenderer>(scene, *technique, settings));
+  return out;
+}
+
+}  // namespace gis::scene::detail

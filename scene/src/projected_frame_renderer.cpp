@@ -1,0 +1,221 @@
+// FrameRenderer in a projected frame: SceneRenderer's terrain quadtree and overlay technique.
+#include <chrono>
+
+#include "frame_renderers.hpp"
+#include "scene/scene_renderer.hpp"
+#include "scene/selection_export.hpp"
+#include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/texture_drape.hpp"
+
+namespace gis::scene::detail {
+
+namespace {
+
+using nlohmann::json;
+
+json countsJson(const gfx::PipelineCounts& c) {
+  return {{"vertices_submitted", c.verticesSubmitted},
+          {"primitives_submitted", c.primitivesSubmitted},
+          {"vertex_shader_invocations", c.vertexShaderInvocations},
+          {"clipping_input_primitives", c.clippingInputPrimitives},
+          {"clipping_output_primitives", c.clippingOutputPrimitives},
+          {"fragment_shader_invocations", c.fragmentShaderInvocations},
+          {"samples_passed", c.samplesPassed}};
+}
+
+class ProjectedFrameRenderer final : public FrameRenderer {
+ public:
+  ProjectedFrameRenderer(LoadedScene& scene, SceneRenderer renderer, const StillSettings& settings)
+      : scene_(scene), renderer_(std::move(renderer)), settings_(settings) {}
+
+  void drawStill(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera) override {
+    RenderSettings settings;
+    settings.lodTolerancePixels = settings_.lodTolerancePixels;
+    settings.measure = true;
+    settings.waitForTiles = true;  // a still image: every tile the view needs
+    settings.tileProgress = settings_.tileProgress;
+    stats_ = renderer_.render(cache, target.framebuffer(), target.width(), target.height(), std::get<Camera>(camera),
+                              settings);
+  }
+
+  [[nodiscard]] std::size_t drawnLayerCount() const override { return renderer_.overlayLayers().size(); }
+  [[nodiscard]] std::string drawnLayerName(std::size_t drawn) const override {
+    return renderer_.overlayLayers().at(drawn).name();
+  }
+  [[nodiscard]] std::optional<std::size_t> fillLayerNamed(std::string_view name) const override {
+    return scene::fillLayerNamed(scene_, renderer_, name);
+  }
+  [[nodiscard]] overlay::OverlayRenderer* analysisPasses() override { return &renderer_.overlayRenderer(); }
+  [[nodiscard]] std::vector<const overlay::OverlayLayer*> chunksOf(std::size_t drawn, const FrameCamera&) override {
+    return renderer_.drawnChunks(drawn);
+  }
+  [[nodiscard]] ReferenceAnswer referenceOf(std::span<const std::size_t> drawn,
+                                            const overlay::DepthImage& image) const override {
+    std::vector<overlay::ReferenceLayer> layers;
+    for (const std::size_t j : drawn) layers.push_back(overlay::referenceLayerOf(renderer_.overlayLayers().at(j)));
+    return {overlay::referenceMask(image, layers), overlay::edgePixels(image, layers)};
+  }
+
+  [[nodiscard]] FrameImages readFrame(gfx::StateCache& cache, const gfx::RenderTarget& target) const override {
+    return scene::readFrame(cache, scene_, renderer_, target);
+  }
+
+  [[nodiscard]] SelectedFeatures selectFeatures(std::span<const overlay::SelectionStep> steps,
+                                                const FrameCamera& camera, int width, int height,
+                                                std::optional<double> sampleSpacing) const override {
+    const auto start = std::chrono::steady_clock::now();
+    SceneSelection chosen =
+        selectInScene(scene_, renderer_, steps, std::get<Camera>(camera), width, height, sampleSpacing);
+    SelectedFeatures out;
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (const LayerSelection& l : chosen.layers) {
+      const overlay::OverlayLayer& drawn = renderer_.overlayLayers()[l.overlayLayer];
+      SelectedFeatures::Layer layer{scene_.layers[l.sceneLayer].description.name, l.features, {}, l.fullyInside};
+      for (const overlay::FeatureSelection& f : l.features) layer.fids.push_back(drawn.features()[f.feature].fid);
+      out.layers.push_back(std::move(layer));
+    }
+    out.sampleSpacing = chosen.sampleSpacing;
+    out.testedSamples = chosen.testedSamples;
+    out.posts = chosen.posts;
+    out.selection = std::move(chosen);
+    return out;
+  }
+  [[nodiscard]] Diagnostics exportSelection(const SelectedFeatures& selected, const std::filesystem::path& combined,
+                                            const std::filesystem::path& perLayerDir) const override {
+    return scene::exportSelection(scene_, renderer_, std::get<SceneSelection>(selected.selection), combined,
+                                  perLayerDir);
+  }
+
+  [[nodiscard]] Diagnostics techniqueDiagnostics() const override { return renderer_.techniqueDiagnostics(); }
+
+  void reportStill(const FrameImages& images, json& stats) const override {
+    stats["frame"] = "projected";
+    stats["terrain"] = terrainJson(images);
+    stats["layers"] = layersJson(images);
+    stats["passes"] = {
+        {"terrain", {{"gpu_ms", stats_.terrain.gpuMilliseconds}, {"pipeline", countsJson(stats_.terrain.counts)}}}};
+    const overlay::TechniqueInfo& technique = *settings_.technique;
+    if (const overlay::TextureDrape* drape = renderer_.textureDrape()) {
+      stats["drape"] = {{"size", drape->stats().size},
+                        {"triangles", drape->stats().triangles},
+                        {"gpu_bytes", drape->stats().gpuBytes},
+                        {"build_s", drape->stats().buildSeconds},
+                        {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
+    } else if (technique.construction == overlay::PieceConstruction::Tiled) {
+      stats["tiles"] = tilesJson(stats_.overlayTiles, renderer_.techniqueGpuBytes());
+    } else if (technique.usesTextures()) {
+      stats["drape"] = {{"tile_size", settings_.textureSize > 0 ? settings_.textureSize : technique.defaultTextureSize},
+                        {"tiles_built", stats_.texturesBuilt},
+                        {"gpu_bytes", renderer_.techniqueGpuBytes()},
+                        {"build_s", stats_.textureSeconds}};
+    }
+  }
+
+ private:
+  LoadedScene& scene_;
+  SceneRenderer renderer_;
+  StillSettings settings_;
+  FrameStats stats_;
+
+  /// stats.json's "terrain": the DEM, its quadtree and this frame's LOD.
+  [[nodiscard]] json terrainJson(const FrameImages& images) const {
+    const terrain::TerrainQuadtree& tree = *scene_.quadtree;
+    const terrain::TerrainGrid& grid = tree.grid();
+    const terrain::NodeInfo& rootInfo = tree.info(tree.root());
+    std::size_t terrainPixels = 0;
+    for (const float depth : images.depth) terrainPixels += depth > 0.0F ? 1 : 0;
+    return {{"posts", static_cast<std::size_t>(grid.width) * static_cast<std::size_t>(grid.height)},
+            {"paged", tree.paged()},
+            {"dem_size", {grid.width, grid.height}},
+            {"nodata_posts", scene_.nodataPosts},
+            {"quadtree_levels", tree.rootLevel() + 1},
+            {"chunk_cells", tree.chunkCells()},
+            {"lod_tolerance_px", settings_.lodTolerancePixels},
+            {"vertical_exaggeration", scene_.bounds->exaggeration()},
+            {"chunks", stats_.terrainDraw.chunks},
+            {"chunks_culled", stats_.terrainCulled},
+            {"finest_level", stats_.finestLevel},
+            {"coarsest_level", stats_.coarsestLevel},
+            {"triangles", stats_.terrainDraw.triangles},
+            {"select_ms", stats_.selectMilliseconds},
+            {"gpu_bytes", renderer_.terrainEngine().gpuBytes()},
+            {"min_height", rootInfo.minHeight},
+            {"max_height", rootInfo.maxHeight},
+            {"imagery", scene_.orthophoto.has_value()},
+            {"pixels", terrainPixels}};
+  }
+
+  /// A "passes" entry per overlay layer built from scene layer `i`, with this frame's figures.
+  [[nodiscard]] json passesJson(std::size_t i) const {
+    json passes = json::array();
+    for (std::size_t j = 0; j < renderer_.overlaySources().size(); ++j) {
+      if (renderer_.overlaySources()[j].first != i) continue;
+      const overlay::OverlayLayer& built = renderer_.overlayLayers()[j];
+      const overlay::LayerFrameStats f = j < stats_.layers.size() ? stats_.layers[j] : overlay::LayerFrameStats{};
+      // What drew the layer: the layer itself, or the tiles a tiled technique drew for it.
+      overlay::LayerStats drawn;
+      for (const overlay::OverlayLayer* chunk : renderer_.drawnChunks(j)) {
+        drawn.pieces += chunk->stats().pieces;
+        drawn.triangles += chunk->stats().triangles;
+        drawn.gpuBytes += chunk->stats().gpuBytes;
+      }
+      passes.push_back({{"name", built.name()},
+                        {"pieces", drawn.pieces},
+                        {"triangles", drawn.triangles},
+                        {"gpu_bytes", drawn.gpuBytes},
+                        {"build_seconds", built.stats().buildSeconds},
+                        {"z_pass_pieces", f.zPassPieces},
+                        {"z_fail_pieces", f.zFailPieces},
+                        {"culled_pieces", f.culledPieces},
+                        {"cover", f.rectangleCover ? "rectangle" : "pieces"},
+                        {"gpu_ms", f.gpuMilliseconds},
+                        {"mark_fragments", f.markFragments},
+                        {"cover_fragments", f.coverFragments}});
+    }
+    return passes;
+  }
+
+  /// stats.json's "layers": one per layer of the scene file.
+  [[nodiscard]] json layersJson(const FrameImages& images) const {
+    json layers = json::array();
+    for (std::size_t i = 0; i < scene_.layers.size(); ++i) {
+      const LoadedLayer& layer = scene_.layers[i];
+      const std::size_t bit = layer.description.fileIndex;
+      std::size_t coveredPixels = 0;
+      for (const std::uint8_t m : images.mask) {
+        coveredPixels += bit < 8 && ((static_cast<unsigned>(m) >> bit) & 1U) != 0U ? 1U : 0U;
+      }
+      const LayerSummary summary = renderer_.layerSummary(scene_, i);
+      layers.push_back({{"name", layer.description.name},
+                        {"kind", layer.description.kind == overlay::LayerKind::Polygon ? "polygon" : "line"},
+                        {"source", layer.description.source},
+                        {"features", summary.features},
+                        {"vertices", layer.vertexCount()},
+                        {"skipped_features", summary.skipped()},
+                        {"skipped_when_read", summary.skippedReading},
+                        {"skipped_when_built", summary.skippedBuilding},
+                        {"features_with_nothing_to_draw", summary.nothingToDraw},
+                        {"drawn_features", summary.drawnFeatures},
+                        {"drawn", summary.built},
+                        {"mask_bit", bit < 8 ? json(bit) : json(nullptr)},
+                        {"covered_pixels", coveredPixels},
+                        {"passes", passesJson(i)}});
+    }
+    return layers;
+  }
+};
+
+}  // namespace
+
+Result<std::unique_ptr<FrameRenderer>> makeProjectedRenderer(LoadedScene& scene, const StillSettings& settings) {
+  OverlayBuildSettings build;
+  build.technique = settings.technique;
+  build.textureSize = settings.textureSize;
+  Result<SceneRenderer> renderer = SceneRenderer::create(scene, build);
+  Result<std::unique_ptr<FrameRenderer>> out;
+  out.diagnostics = std::move(renderer.diagnostics);
+  if (renderer) out.value.emplace(std::make_unique<ProjectedFrameRenderer>(scene, std::move(*renderer), settings));
+  return out;
+}
+
+}  // namespace gis::scene::detail
