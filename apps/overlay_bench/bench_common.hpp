@@ -18,6 +18,7 @@
 #include "app/cli.hpp"
 #include "gfx/context.hpp"
 #include "scene/camera_path.hpp"
+#include "scene/frame_scene.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
@@ -59,7 +60,7 @@ int finish(const Options& o, const nlohmann::json& result, gfx::Context& context
 /// Renderers made after it go before it (their GL objects need the context).
 struct BenchSetup {
   scene::SceneDescription description;
-  scene::LoadedScene scene;
+  scene::Scene scene;  ///< in its frame: projected, or on the globe
   std::unique_ptr<gfx::Context> context;
   double loadSeconds = 0.0;  ///< reading the scene file and loading the scene
 };
@@ -67,6 +68,10 @@ struct BenchSetup {
 /// Loads `o.scene` (without its vector layers unless `withLayers`) and makes the context; nothing,
 /// with the problems reported, if either fails.
 std::optional<BenchSetup> setUp(const Options& o, bool withLayers);
+
+/// True for a projected scene; false, said on stderr, for one on the globe, which mode o.mode does
+/// not draw (yet: --mode methods draws both).
+bool projectedOnly(const Options& o, const BenchSetup& setup);
 
 /// The render settings under which several methods draw the same frames: the options' LOD
 /// tolerance and every tile waited for, so the terrain is the same (the exaggeration is the
@@ -84,9 +89,19 @@ double msSince(std::chrono::steady_clock::time_point start);
 /// from the scene's layers (deterministic). Eyes inside a piece make the frame's pieces z-fail.
 std::vector<scene::PathFrame> closeUpPath(const BenchSetup& setup, int frames);
 
-/// The methods' path: the fly-through (o.frames) and o.frames / 3 close-up frames, keeping the
-/// segments of `o.segments` (all when empty).
-std::vector<scene::PathFrame> methodsPath(const Options& o, const BenchSetup& setup);
+/// A frame of a path in either frame, and the segment it belongs to.
+struct BenchFrame {
+  scene::FrameCamera camera;
+  std::string segment;
+};
+
+/// The methods' path (bench_paths.cpp). A projected scene: the fly-through (o.frames) and
+/// o.frames / 3 close-up frames, keeping the segments of `o.segments` (all when empty). A scene
+/// on the globe: o.frames frames from space down to a few kilometres (the data's middle from
+/// 9,000 km, the continent from 3,000 km and 500 km, low over its edge, across the antimeridian,
+/// over the south pole); data smaller than 200 km along a path of its own: above it, obliquely,
+/// low over an edge, 100 m up.
+std::vector<BenchFrame> methodsPath(const Options& o, const BenchSetup& setup);
 
 /// Mode "terrain": the fly-through, terrain only (terrain_mode.cpp).
 int runTerrain(const Options& o);
@@ -104,8 +119,5 @@ int runAblation(const Options& o);
 int runScaling(const Options& o);
 /// Mode "lasso": the time of lasso selection against the number of volumes (lasso_mode.cpp).
 int runLasso(const Options& o);
-/// Mode "globe": a scene on the globe along a path from space to a few kilometres, terrain only
-/// and with its overlays on each frame (globe_mode.cpp).
-int runGlobe(const Options& o);
 
 }  // namespace gis::bench

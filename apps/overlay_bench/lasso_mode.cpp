@@ -248,7 +248,7 @@ LassoBench::LassoBench(const Options& options, const BenchSetup& setup, scene::S
                        gfx::Program& program)
     : o(options), passProgram(program), target(options.width, options.height) {
   glm::dvec3 lo, hi;
-  scene::terrainBox(setup.scene, setup.description.verticalExaggeration, lo, hi);
+  scene::terrainBox(setup.scene.projected(), setup.description.verticalExaggeration, lo, hi);
   const std::vector<scene::PathFrame> path = scene::flyThrough(lo, hi, 3);
   camera =
       std::find_if(path.begin(), path.end(), [](const scene::PathFrame& f) { return f.segment == "oblique"; })->camera;
@@ -507,8 +507,9 @@ int runLasso(const Options& o) {
   // The volumes select terrain; the layers are not drawn.
   std::optional<BenchSetup> setup = setUp(o, false);
   if (!setup) return 1;
+  if (!projectedOnly(o, *setup)) return 2;
   gfx::Context& context = *setup->context;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene.projected());
   app::report(renderer.diagnostics);
   Result<gfx::Program> passProgram = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
   app::report(passProgram.diagnostics);

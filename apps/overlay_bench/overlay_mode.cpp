@@ -221,12 +221,13 @@ json fragmentsPerPixelJson(OverlayFrames& f) {
 int runOverlay(const Options& o) {
   std::optional<BenchSetup> setup = setUp(o, true);
   if (!setup) return 1;
+  if (!projectedOnly(o, *setup)) return 2;
   // Two renderers: ours and the paper's construction (the terrain is the same).
   scene::OverlayBuildSettings ours, paper;
   paper.technique = overlay::findTechnique("paper");
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene, ours);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene.projected(), ours);
   app::report(renderer.diagnostics);
-  Result<scene::SceneRenderer> paperRenderer = scene::SceneRenderer::create(setup->scene, paper);
+  Result<scene::SceneRenderer> paperRenderer = scene::SceneRenderer::create(setup->scene.projected(), paper);
   if (!renderer || !paperRenderer) return 1;
 
   const std::vector<scene::PathFrame> path = flyThroughOf(o, *setup);

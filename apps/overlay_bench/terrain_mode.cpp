@@ -65,7 +65,7 @@ TerrainFrames drawPath(const Options& o, scene::SceneRenderer& renderer, const s
 
 json resultJson(const Options& o, const BenchSetup& setup, const scene::SceneRenderer& renderer, std::size_t frames,
                 const TerrainFrames& f) {
-  const scene::LoadedScene& scene = setup.scene;
+  const scene::LoadedScene& scene = setup.scene.projected();
   const terrain::TerrainGrid& grid = scene.quadtree->grid();
   json segments;
   for (const auto& [name, v] : f.bySegment) {
@@ -102,7 +102,8 @@ json resultJson(const Options& o, const BenchSetup& setup, const scene::SceneRen
 int runTerrain(const Options& o) {
   std::optional<BenchSetup> setup = setUp(o, false /* terrain mode */);
   if (!setup) return 1;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene);
+  if (!projectedOnly(o, *setup)) return 2;
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene.projected());
   app::report(renderer.diagnostics);
   if (!renderer) return 1;
   const std::vector<scene::PathFrame> path = flyThroughOf(o, *setup);

@@ -4,12 +4,13 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "bench_common.hpp"
-#include "scene/scene_renderer.hpp"
+#include "scene/frame_renderer.hpp"
 
 namespace gis::bench {
 
@@ -48,20 +49,20 @@ struct Method {
   bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
   bool uniteLines = false;    ///< a line feature's shapes united per cell (the ablation's comparison)
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
-  std::optional<scene::SceneRenderer> renderer;           ///< its own, or empty when it shares another's
-  scene::SceneRenderer* shared = nullptr;                 ///< the renderer it draws with
+  std::unique_ptr<scene::FrameRenderer> renderer;         ///< its own, or null when it shares another's
+  scene::FrameRenderer* shared = nullptr;                 ///< the renderer it draws with
   Tally all;
   std::map<std::string, Tally> segments;
   std::size_t gpuBytes = 0;
   std::size_t triangles = 0;   ///< of the built polyhedra
   double buildSeconds = 0.0;   ///< polyhedra or drape build; for tiles, all tiles of the path
   std::size_t tilesBuilt = 0;  ///< DrapeTiles: tiles rasterised over the path
-  bool indexed = false;        ///< PieceConstruction::Features: the first frame (its index build) was drawn
+  bool firstDrawn = false;     ///< layers built by the first frame (an index, the globe's pieces): it was drawn
   double editMs = 0.0;         ///< a one-feature edit: pieces rebuilt, and the drape (tiles) again
 };
 
-/// Draws every variant on the methods path of o.scene, prints and writes the tables and plots
-/// (stem.json, .csv, .md, _error*_vs_time.svg); the result JSON also into `result` if given.
+/// Draws every variant on the methods path of o.scene (in its frame: projected or on the globe), prints and writes the
+/// tables and plots (stem.json, .csv, .md, _error*_vs_time.svg); the result JSON also into `result` if given.
 /// variants[0] is terrain only and variants[1] ours, the base of the ratios.
 int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem, json* result = nullptr);
 

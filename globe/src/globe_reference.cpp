@@ -46,8 +46,10 @@ overlay::PixelScale pixelScaleOf(const GlobeView& view) {
   return scale;
 }
 
-LayerCoverage::LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
-  const overlay::PixelScale scale = pixelScaleOf(image);
+LayerCoverage::LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image)
+    : LayerCoverage(layers, pixelScaleOf(image)) {}
+
+LayerCoverage::LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale) {
   held_.reserve(layers.size());
   for (const GlobeLayer* layer : layers) held_.emplace_back(*layer, scale);
   for (const GlobeCoverage& c : held_) pointers_.push_back(&c);
@@ -329,7 +331,10 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
 }  // namespace
 
 overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
-  const overlay::PixelScale scale = pixelScaleOf(image);
+  return edgeLayersOf(layers, pixelScaleOf(image));
+}
+
+overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale) {
   return [layers, scale](const glm::dvec3& lo, const glm::dvec3& hi) -> std::unique_ptr<overlay::EdgeLayers> {
     (void)lo;  // the borders are few beside the pixels: indexed whole
     (void)hi;

@@ -1,6 +1,8 @@
 // FrameRenderer on the globe: globe::GlobeRenderer's tiles of the geographic quadtree and its
 // overlay (docs/globe.md).
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "frame_renderers.hpp"
 #include "globe/globe_renderer.hpp"
@@ -34,6 +36,51 @@ class GlobeFrameRenderer final : public FrameRenderer {
     stats_ = renderer_.render(cache, into, view, layers_, true, overlaySettings_);
   }
 
+  FrameFigures drawFrame(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera,
+                         const FrameOptions& options) override {
+    const globe::GlobeFrameTarget into{target.framebuffer(), target.width(), target.height(), true};
+    const std::vector<const globe::GlobeLayer*> none;
+    const globe::GlobeFrameStats stats =
+        renderer_.render(cache, into, std::get<globe::GlobeView>(camera), options.overlays ? layers_ : none,
+                         options.measure, overlaySettings_);
+    // The globe times and counts its layers' passes together (one query around them).
+    FrameFigures f;
+    f.passesApart = false;
+    f.terrainGpuMs = stats.terrainGpuMilliseconds;
+    f.markGpuMs = stats.overlayGpuMilliseconds;
+    f.markFragments = stats.overlayFragments;
+    f.markTriangles = stats.overlayPrimitives;
+    f.zFailPieces = stats.overlay.zFailPieces;
+    f.drawnPieces = stats.overlay.pieces;
+    f.tilesBuilt = stats.overlay.builtTiles;
+    f.texturesBuilt = stats.overlay.texturesBuilt;
+    f.textureSeconds = stats.overlay.textureSeconds;
+    // What the GPU holds for the layers: the tiles' pieces, the drape's textures, the lookup's
+    // indices, and a layer built whole (all of whose chunks every frame draws).
+    lastResidentBytes_ = stats.overlay.residentBytes + stats.overlay.drapeGpuBytes + stats.overlay.deferredHeldBytes +
+                         (wholeLoad() && options.overlays ? stats.overlay.drawnBytes : 0);
+    return f;
+  }
+  [[nodiscard]] LayersBuilt layersBuilt() const override { return {}; }  // built by the frames, in tiles
+  [[nodiscard]] std::size_t techniqueGpuBytes() const override { return lastResidentBytes_; }
+  [[nodiscard]] bool drapesOneTexture() const override { return renderer_.overlay().textureDrape() != nullptr; }
+  [[nodiscard]] int referenceKind() const override { return wholeLoad() ? 1 : 0; }
+  std::optional<double> editFirstFeature() override {
+    if (scene_.layers.empty() || scene_.layerFeatures.empty() || scene_.layerFeatures[0].size() == 0)
+      return std::nullopt;
+    globe::GlobeLayer& layer = scene_.layers[0];
+    geo::Feature feature = *scene_.layerFeatures[0].get(0);
+    glm::dvec2* first = !feature.polygons.empty() && !feature.polygons[0].outer.empty() ? &feature.polygons[0].outer[0]
+                        : !feature.lines.empty() && !feature.lines[0].empty()           ? &feature.lines[0][0]
+                                                                                        : nullptr;
+    if (first == nullptr) return std::nullopt;
+    first->x += 10.0 / (111320.0 * std::max(std::cos(first->y * 3.14159265358979323846 / 180.0), 1e-6));
+    const auto start = std::chrono::steady_clock::now();
+    const Result<std::vector<globe::LonLatRect>> boxes = layer.replaceFeature(0, feature);
+    if (boxes) (void)renderer_.overlay().featureChanged(layer, *boxes);
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
+
   [[nodiscard]] std::size_t drawnLayerCount() const override { return scene_.layers.size(); }
   [[nodiscard]] std::string drawnLayerName(std::size_t drawn) const override { return scene_.layers.at(drawn).name(); }
   [[nodiscard]] std::optional<std::size_t> fillLayerNamed(std::string_view name) const override {
@@ -53,6 +100,12 @@ class GlobeFrameRenderer final : public FrameRenderer {
                                             const overlay::DepthImage& image) const override {
     std::vector<const globe::GlobeLayer*> layers;
     for (const std::size_t j : drawn) layers.push_back(&scene_.layers.at(j));
+    if (wholeLoad()) {
+      // Built whole, lines in pixels are drawn at their least widths (in metres).
+      const overlay::PixelScale least;
+      return {overlay::referenceMask(image, globe::LayerCoverage(layers, least)),
+              overlay::edgePixels(image, globe::edgeLayersOf(layers, least))};
+    }
     return {overlay::referenceMask(image, globe::coverageOf(layers, image)),
             overlay::edgePixels(image, globe::edgeLayersOf(layers, image))};
   }
@@ -164,6 +217,13 @@ class GlobeFrameRenderer final : public FrameRenderer {
   globe::GlobeOverlaySettings overlaySettings_;
   std::vector<const globe::GlobeLayer*> layers_;
   globe::GlobeFrameStats stats_;
+  std::size_t lastResidentBytes_ = 0;
+
+  /// The layers are built whole, once (lines in pixels at their least widths in metres).
+  [[nodiscard]] bool wholeLoad() const {
+    return overlaySettings_.technique == globe::GlobeTechnique::Stencil ||
+           overlaySettings_.technique == globe::GlobeTechnique::Paper;
+  }
 };
 
 }  // namespace

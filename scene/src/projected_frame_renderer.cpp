@@ -1,5 +1,6 @@
 // FrameRenderer in a projected frame: SceneRenderer's terrain quadtree and overlay technique.
 #include <chrono>
+#include <limits>
 
 #include "frame_renderers.hpp"
 #include "scene/scene_renderer.hpp"
@@ -36,6 +37,77 @@ class ProjectedFrameRenderer final : public FrameRenderer {
     settings.tileProgress = settings_.tileProgress;
     stats_ = renderer_.render(cache, target.framebuffer(), target.width(), target.height(), std::get<Camera>(camera),
                               settings);
+  }
+
+  FrameFigures drawFrame(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera,
+                         const FrameOptions& options) override {
+    RenderSettings settings;
+    settings.lodTolerancePixels = settings_.lodTolerancePixels;
+    settings.waitForTiles = true;  // the same terrain, and every tile, for every method compared
+    settings.overlays = options.overlays;
+    settings.measure = options.measure;
+    settings.overlay = options.overlay;
+    const FrameStats stats = renderer_.render(cache, target.framebuffer(), target.width(), target.height(),
+                                              std::get<Camera>(camera), settings);
+    FrameFigures f;
+    f.terrainGpuMs = stats.terrain.gpuMilliseconds;
+    for (const overlay::LayerFrameStats& l : stats.layers) {
+      f.markFragments += l.markFragments;
+      f.coverFragments += l.coverFragments;
+      f.markTriangles += l.markTriangles;
+      f.coverTriangles += l.coverTriangles;
+      f.zFailPieces += l.zFailPieces;
+      f.drawnPieces += l.zPassPieces + l.zFailPieces;
+      f.markGpuMs += l.markMilliseconds;
+      f.coverGpuMs += l.coverMilliseconds;
+    }
+    f.tilesBuilt = stats.overlayTiles.tilesBuilt;
+    f.texturesBuilt = stats.texturesBuilt;
+    f.textureSeconds = stats.textureSeconds;
+    return f;
+  }
+  [[nodiscard]] LayersBuilt layersBuilt() const override {
+    LayersBuilt built;
+    if (settings_.technique->usesTextures()) return built;  // the layers are rasterised, not drawn
+    for (const overlay::OverlayLayer& l : renderer_.overlayLayers()) {
+      built.gpuBytes += l.stats().gpuBytes;
+      built.buildSeconds += l.stats().buildSeconds;
+      built.triangles += l.stats().triangles;
+    }
+    return built;
+  }
+  [[nodiscard]] std::size_t techniqueGpuBytes() const override { return renderer_.techniqueGpuBytes(); }
+  [[nodiscard]] bool drapesOneTexture() const override { return renderer_.textureDrape() != nullptr; }
+  [[nodiscard]] int referenceKind() const override {
+    // A tiled technique draws lines in pixels at the view's widths; the techniques that build at
+    // load draw them at widths in metres.
+    return settings_.technique->construction == overlay::PieceConstruction::Tiled ? 0 : 1;
+  }
+  std::optional<double> editFirstFeature() override {
+    if (renderer_.overlayLayers().empty() || renderer_.overlayLayers()[0].features().empty()) return std::nullopt;
+    overlay::OverlayLayer& layer = renderer_.overlayLayer(0);
+    geo::Feature feature = layer.features().front();
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    const auto extend = [&](const std::vector<glm::dvec2>& points) {
+      for (const glm::dvec2& p : points) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+      }
+    };
+    if (!feature.polygons.empty() && !feature.polygons.front().outer.empty()) {
+      feature.polygons.front().outer.front() += glm::dvec2(10.0, 0.0);
+      for (const geo::Polygon& p : feature.polygons) extend(p.outer);
+    } else if (!feature.lines.empty() && !feature.lines.front().empty()) {
+      feature.lines.front().front() += glm::dvec2(10.0, 0.0);
+      for (const geo::LineString& l : feature.lines) extend(l);
+    } else {
+      return std::nullopt;
+    }
+    const double margin = 2.0 * layer.style().maxWidthMetres + 20.0;  // widths and outlines
+    const auto start = std::chrono::steady_clock::now();
+    (void)layer.replaceFeature(0, feature);
+    renderer_.featureChanged(0, 0, lo - margin, hi + margin);
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   }
 
   [[nodiscard]] std::size_t drawnLayerCount() const override { return renderer_.overlayLayers().size(); }
@@ -211,6 +283,9 @@ Result<std::unique_ptr<FrameRenderer>> makeProjectedRenderer(LoadedScene& scene,
   OverlayBuildSettings build;
   build.technique = settings.technique;
   build.textureSize = settings.textureSize;
+  build.cellPosts = settings.cellPosts;
+  build.adaptiveSplit = settings.adaptiveSplit;
+  build.uniteLines = settings.uniteLines;
   Result<SceneRenderer> renderer = SceneRenderer::create(scene, build);
   Result<std::unique_ptr<FrameRenderer>> out;
   out.diagnostics = std::move(renderer.diagnostics);

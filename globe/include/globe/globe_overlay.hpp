@@ -594,6 +594,9 @@ class GlobeCoverage final : public overlay::WorldCoverage {
 class LayerCoverage {
  public:
   LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image);
+  /// At a pixel scale of one's own: PixelScale{} for lines in pixels at their least widths, as
+  /// the layers built whole draw them (GlobeTechnique::Stencil, Paper).
+  LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale);
   LayerCoverage(const LayerCoverage&) = delete;
   LayerCoverage& operator=(const LayerCoverage&) = delete;
   // NOLINTNEXTLINE(google-explicit-constructor): passed where a span of coverages is asked for
@@ -617,6 +620,8 @@ overlay::PixelScale pixelScaleOf(const GlobeView& view);
 /// narrower than a pixel has its band too). Drawn shapes generalised by a fraction of a pixel
 /// (simplifyTolerance, lineShapesIn) stay inside it.
 overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image);
+/// The same at a pixel scale of one's own (LayerCoverage's).
+overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale);
 
 }  // namespace gis::globe
 

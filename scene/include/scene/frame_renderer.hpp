@@ -36,6 +36,43 @@ struct StillSettings {
   int textureSize = 0;                       ///< texture techniques: texels per side (0: the technique's default)
   double lodTolerancePixels = 1.5;           ///< the projected terrain's largest error in pixels
   std::function<void(double)> tileProgress;  ///< while a still waits for a tiled technique's tiles
+  /// How a projected frame splits its pieces (scene::OverlayBuildSettings; the ablation's
+  /// switches). The globe's tiles split at their own cells.
+  int cellPosts = 16;
+  bool adaptiveSplit = true;
+  bool uniteLines = false;
+};
+
+/// How one frame of a flight is drawn (FrameRenderer::drawFrame). Every tile the view needs is
+/// waited for, so that methods compared on a frame draw the same terrain.
+struct FrameOptions {
+  bool overlays = true;  ///< off: the terrain alone
+  bool measure = false;  ///< GPU timer and pipeline statistics queries around the passes (they wait)
+  /// The stencil passes' switches (docs/design.md §9, the ablation's); a projected frame's.
+  overlay::OverlaySettings overlay;
+};
+
+/// What one frame drew and cost; GPU times and counts with FrameOptions::measure.
+struct FrameFigures {
+  double terrainGpuMs = 0.0;
+  /// The layers' passes: marking the stencil and covering the marked pixels. A frame that times
+  /// and counts them only together (the globe's) says so in passesApart; its figures are then
+  /// the mark's.
+  bool passesApart = true;
+  double markGpuMs = 0.0, coverGpuMs = 0.0;
+  std::uint64_t markFragments = 0, coverFragments = 0;
+  std::uint64_t markTriangles = 0, coverTriangles = 0;
+  std::size_t zFailPieces = 0, drawnPieces = 0;
+  std::size_t tilesBuilt = 0;     ///< a tiled technique's tiles built in this frame
+  std::size_t texturesBuilt = 0;  ///< draping: textures (or tiles of them) rasterised in this frame
+  double textureSeconds = 0.0;    ///< and the time that took
+};
+
+/// What was built for the layers before any frame (a projected scene's layers, built at load).
+struct LayersBuilt {
+  std::size_t gpuBytes = 0;
+  std::size_t triangles = 0;
+  double buildSeconds = 0.0;
 };
 
 /// What a lasso selects, in either frame: per layer of the scene file that has selected features.
@@ -75,6 +112,23 @@ class FrameRenderer {
   /// Clears `target` and draws a still from `camera`: the terrain and the layers, timed, after
   /// waiting for every tile (terrain, imagery, a tiled technique's) the view needs.
   virtual void drawStill(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera) = 0;
+
+  /// One frame of a flight into `target` from `camera` (cleared first).
+  virtual FrameFigures drawFrame(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera,
+                                 const FrameOptions& options) = 0;
+  /// What the layers' build made before the first frame (zero where they are built by frames).
+  [[nodiscard]] virtual LayersBuilt layersBuilt() const = 0;
+  /// GPU bytes the technique holds beyond what layersBuilt counts (tiles, textures, indices).
+  [[nodiscard]] virtual std::size_t techniqueGpuBytes() const = 0;
+  /// The technique drapes one texture over the whole terrain (built at its first frame).
+  [[nodiscard]] virtual bool drapesOneTexture() const = 0;
+  /// Which CPU reference judges this renderer's frames: renderers of one scene with the same kind
+  /// build their layers alike (widths in pixels or in metres), so one reference serves them all.
+  [[nodiscard]] virtual int referenceKind() const = 0;
+  /// A one-feature edit, as a user's: the first point of the first layer's first feature moved
+  /// 10 m east, its pieces (and what the technique derived from it) made again by the next
+  /// frame. Milliseconds it took; nothing when that feature has no point.
+  virtual std::optional<double> editFirstFeature() = 0;
 
   /// The drawn layers: a bit of the mask each, a polygon layer's fill and outline apart.
   [[nodiscard]] virtual std::size_t drawnLayerCount() const = 0;
