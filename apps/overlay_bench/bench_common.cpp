@@ -55,7 +55,8 @@ scene::RenderSettings comparisonSettings(const Options& o) {
 bool projectedOnly(const Options& o, const BenchSetup& setup) {
   if (!setup.scene.onGlobe()) return true;
   std::fprintf(stderr,
-               "overlay_bench: --mode %s draws a projected scene; %s is drawn on the globe (%s): use --mode methods\n",
+               "overlay_bench: --mode %s draws a projected scene; %s is drawn on the globe (%s): use --mode methods or "
+               "overlay\n",
                o.mode.c_str(), o.scene.c_str(), setup.scene.globeReason().c_str());
   return false;
 }

@@ -70,7 +70,7 @@ struct BenchSetup {
 std::optional<BenchSetup> setUp(const Options& o, bool withLayers);
 
 /// True for a projected scene; false, said on stderr, for one on the globe, which mode o.mode does
-/// not draw (yet: --mode methods draws both).
+/// not draw (yet: --mode methods and overlay draw both).
 bool projectedOnly(const Options& o, const BenchSetup& setup);
 
 /// The render settings under which several methods draw the same frames: the options' LOD
@@ -95,6 +95,10 @@ struct BenchFrame {
   std::string segment;
 };
 
+/// A flight over the scene in its frame (bench_paths.cpp): the fly-through of a projected scene
+/// (flyThroughOf), or the globe's path (methodsPath).
+std::vector<BenchFrame> flightPath(const Options& o, const BenchSetup& setup);
+
 /// The methods' path (bench_paths.cpp). A projected scene: the fly-through (o.frames) and
 /// o.frames / 3 close-up frames, keeping the segments of `o.segments` (all when empty). A scene
 /// on the globe: o.frames frames from space down to a few kilometres (the data's middle from
@@ -105,8 +109,8 @@ std::vector<BenchFrame> methodsPath(const Options& o, const BenchSetup& setup);
 
 /// Mode "terrain": the fly-through, terrain only (terrain_mode.cpp).
 int runTerrain(const Options& o);
-/// Mode "overlay": terrain only, ours and the paper's on each frame of the fly-through
-/// (overlay_mode.cpp).
+/// Mode "overlay": terrain only, ours and the paper's on each frame of the flight (flightPath;
+/// overlay_mode.cpp), in either frame.
 int runOverlay(const Options& o);
 /// Mode "methods": every method on the same frames, with frame time, memory, build time and the
 /// error against the CPU reference (methods_mode.cpp).

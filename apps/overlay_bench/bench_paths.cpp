@@ -179,7 +179,7 @@ std::vector<scene::PathFrame> closeUpPath(const BenchSetup& setup, int frames) {
   return path;
 }
 
-std::vector<BenchFrame> methodsPath(const Options& o, const BenchSetup& setup) {
+std::vector<BenchFrame> flightPath(const Options& o, const BenchSetup& setup) {
   std::vector<BenchFrame> all;
   if (setup.scene.onGlobe()) {
     const scene::LoadedGlobeScene& s = setup.scene.globe();
@@ -189,9 +189,15 @@ std::vector<BenchFrame> methodsPath(const Options& o, const BenchSetup& setup) {
           {globe::GlobeView::looking(globe::toEcef(f.eye), globe::toEcef(f.target), 45.0, o.width, o.height, ground),
            f.segment});
     }
-    return all;  // the globe's segments are its own (the projected --segments do not apply)
+    return all;
   }
   for (scene::PathFrame& f : flyThroughOf(o, setup)) all.push_back({f.camera, f.segment});
+  return all;
+}
+
+std::vector<BenchFrame> methodsPath(const Options& o, const BenchSetup& setup) {
+  std::vector<BenchFrame> all = flightPath(o, setup);
+  if (setup.scene.onGlobe()) return all;  // the globe's segments are its own (--segments is the fly-through's)
   for (scene::PathFrame& f : closeUpPath(setup, std::max(o.frames / 3, 1))) all.push_back({f.camera, f.segment});
   if (o.segments.empty()) return all;
   std::vector<BenchFrame> kept;

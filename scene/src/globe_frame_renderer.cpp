@@ -83,6 +83,13 @@ class GlobeFrameRenderer final : public FrameRenderer {
 
   [[nodiscard]] std::size_t drawnLayerCount() const override { return scene_.layers.size(); }
   [[nodiscard]] std::string drawnLayerName(std::size_t drawn) const override { return scene_.layers.at(drawn).name(); }
+  [[nodiscard]] DrawnLayerBuilt drawnLayerBuilt(std::size_t drawn) const override {
+    // Its pieces are built by the frames, per tile (or once, whole, at the first).
+    DrawnLayerBuilt built;
+    built.name = scene_.layers.at(drawn).name();
+    built.features = drawn < scene_.layerFeatures.size() ? scene_.layerFeatures[drawn].size() : 0;
+    return built;
+  }
   [[nodiscard]] std::optional<std::size_t> fillLayerNamed(std::string_view name) const override {
     // A fill has its scene layer's name; its outline is named "<name> (outline)".
     for (std::size_t l = 0; l < scene_.layers.size(); ++l) {

@@ -52,6 +52,7 @@ class ProjectedFrameRenderer final : public FrameRenderer {
     FrameFigures f;
     f.terrainGpuMs = stats.terrain.gpuMilliseconds;
     for (const overlay::LayerFrameStats& l : stats.layers) {
+      f.layers.push_back({l.markFragments, l.coverFragments});
       f.markFragments += l.markFragments;
       f.coverFragments += l.coverFragments;
       f.markTriangles += l.markTriangles;
@@ -113,6 +114,11 @@ class ProjectedFrameRenderer final : public FrameRenderer {
   [[nodiscard]] std::size_t drawnLayerCount() const override { return renderer_.overlayLayers().size(); }
   [[nodiscard]] std::string drawnLayerName(std::size_t drawn) const override {
     return renderer_.overlayLayers().at(drawn).name();
+  }
+  [[nodiscard]] DrawnLayerBuilt drawnLayerBuilt(std::size_t drawn) const override {
+    const overlay::OverlayLayer& l = renderer_.overlayLayers().at(drawn);
+    const overlay::LayerStats& s = l.stats();
+    return {l.name(), s.features, s.skippedFeatures, s.pieces, s.triangles, s.gpuBytes, s.buildSeconds};
   }
   [[nodiscard]] std::optional<std::size_t> fillLayerNamed(std::string_view name) const override {
     return scene::fillLayerNamed(scene_, renderer_, name);

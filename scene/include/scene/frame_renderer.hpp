@@ -63,6 +63,12 @@ struct FrameFigures {
   std::uint64_t markFragments = 0, coverFragments = 0;
   std::uint64_t markTriangles = 0, coverTriangles = 0;
   std::size_t zFailPieces = 0, drawnPieces = 0;
+  /// Per drawn layer (FrameRenderer::drawnLayerCount), where the passes are counted apart: the
+  /// fragments of its mark and its cover.
+  struct LayerPasses {
+    std::uint64_t markFragments = 0, coverFragments = 0;
+  };
+  std::vector<LayerPasses> layers;
   std::size_t tilesBuilt = 0;     ///< a tiled technique's tiles built in this frame
   std::size_t texturesBuilt = 0;  ///< draping: textures (or tiles of them) rasterised in this frame
   double textureSeconds = 0.0;    ///< and the time that took
@@ -72,6 +78,15 @@ struct FrameFigures {
 struct LayersBuilt {
   std::size_t gpuBytes = 0;
   std::size_t triangles = 0;
+  double buildSeconds = 0.0;
+};
+
+/// One drawn layer as built (FrameRenderer::drawnLayerBuilt): its features, and what was built
+/// for it before any frame (zero where frames build its pieces).
+struct DrawnLayerBuilt {
+  std::string name;
+  std::size_t features = 0, skippedFeatures = 0;
+  std::size_t pieces = 0, triangles = 0, gpuBytes = 0;
   double buildSeconds = 0.0;
 };
 
@@ -133,6 +148,7 @@ class FrameRenderer {
   /// The drawn layers: a bit of the mask each, a polygon layer's fill and outline apart.
   [[nodiscard]] virtual std::size_t drawnLayerCount() const = 0;
   [[nodiscard]] virtual std::string drawnLayerName(std::size_t drawn) const = 0;
+  [[nodiscard]] virtual DrawnLayerBuilt drawnLayerBuilt(std::size_t drawn) const = 0;
   /// The drawn layer of the fill (not the outline) of the scene file's layer named `name`.
   [[nodiscard]] virtual std::optional<std::size_t> fillLayerNamed(std::string_view name) const = 0;
   /// The stencil passes for the analyses over the last still (null if the technique has none).
