@@ -218,18 +218,11 @@ bool Viewer::useScene(scene::SceneDescription description) {
   load->progress = std::make_shared<std::atomic<double>>(-1.0);
   load->started = glfwGetTime();
   load->label = description.name.empty() ? description.path : description.name;
-  // A scene its data's extent puts on the globe (scene::globeReason) is read for the globe;
-  // any other keeps the projected path (a reason that cannot be found: the projected load says why).
-  const Result<std::string> reason = scene::globeReason(description);
-  if (reason.ok() && !reason->empty()) {
-    load->globeJob = std::async(std::launch::async, [description] { return scene::loadGlobeScene(description); });
-    load->description = std::move(description);
-    loading_ = std::move(load);
-    return true;
-  }
+  // Read in the frame its data's extent asks for (scene::globeReason): projected, or on the globe.
   scene::LoadOptions options;
   options.progress = [progress = load->progress](double fraction) { progress->store(fraction); };
-  load->job = std::async(std::launch::async, [description, options] { return scene::loadScene(description, options); });
+  load->job =
+      std::async(std::launch::async, [description, options] { return scene::Scene::load(description, options); });
   load->description = std::move(description);
   loading_ = std::move(load);
   return true;
@@ -238,15 +231,15 @@ bool Viewer::useScene(scene::SceneDescription description) {
 void Viewer::finishLoad(bool wait) {
   if (!loading_ || (!wait && !loading_->ready())) return;
   const std::unique_ptr<PendingLoad> load = std::move(loading_);
-  if (load->globeJob.valid()) {
-    lastLoadProgress_ = load->progress->load();
-    useGlobeScene(load->globeJob.get(), load->description);
+  Result<scene::Scene> loaded = load->job.get();
+  lastLoadProgress_ = load->progress->load();
+  message(loaded.diagnostics);
+  if (!loaded) return;
+  if (loaded->onGlobe()) {
+    useGlobeScene(std::move(loaded->globe()), load->description);
     return;
   }
-  Result<scene::LoadedScene> scene = load->job.get();
-  lastLoadProgress_ = load->progress->load();
-  message(scene.diagnostics);
-  if (!scene) return;
+  scene::LoadedScene* scene = &loaded->projected();
   finishSelection();  // its job reads the scene about to go
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();

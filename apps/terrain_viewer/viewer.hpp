@@ -34,6 +34,7 @@
 #include "gfx/state_cache.hpp"
 #include "globe/globe_renderer.hpp"
 #include "scene/camera_controller.hpp"
+#include "scene/frame_scene.hpp"
 #include "scene/globe_camera.hpp"
 #include "scene/globe_scene.hpp"
 #include "scene/globe_selection.hpp"
@@ -120,20 +121,14 @@ double niceLength(double most);
 /// A window listing keys and what they do (the help, ?), centred when it appears.
 void drawKeysWindow(const char* title, bool* open, std::span<const std::array<const char*, 2>> rows);
 
-/// A scene being read on a worker thread: a projected scene (`job`) or one on the globe
-/// (`globeJob`, when scene::globeReason says so); one of the two is valid.
+/// A scene being read on a worker thread, in the frame scene::globeReason chooses (scene::Scene).
 struct PendingLoad {
-  std::future<Result<scene::LoadedScene>> job;
-  std::future<Result<scene::LoadedGlobeScene>> globeJob;
+  std::future<Result<scene::Scene>> job;
   [[nodiscard]] bool ready() const {
-    const auto done = [](const auto& f) {
-      return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
-    };
-    return done(job) || done(globeJob);
+    return job.valid() && job.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
   }
   void wait() const {
     if (job.valid()) job.wait();
-    if (globeJob.valid()) globeJob.wait();
   }
   scene::SceneDescription description;
   std::shared_ptr<std::atomic<double>> progress;  ///< a tile pyramid's build, 0…1; negative: none reported
@@ -487,7 +482,7 @@ class Viewer {
 
   // The globe (viewer_globe.cpp).
   /// Makes a globe scene current (renderer, camera at home); on failure the old scene stays.
-  void useGlobeScene(Result<scene::LoadedGlobeScene> loaded, const scene::SceneDescription& description);
+  void useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description);
   /// Home on the globe: the scene's camera, else its data's extent framed.
   void globeHome();
   void drawGlobe();
@@ -514,8 +509,6 @@ class Viewer {
   std::optional<GlobeIdentified> identifyOnGlobe(const glm::dvec2& pixel);
   [[nodiscard]] std::optional<double> globeMetresPerPixelAtCentre() const;
   [[nodiscard]] nlohmann::json globeState() const;
-  /// The last frame's camera as overlay_render's globe camera.json has it.
-  [[nodiscard]] nlohmann::json globeCameraJson() const;
   /// A script step on the globe: its result, or none when the projected runner does it (input,
   /// waits, screenshots, the window: what needs no projected scene).
   std::optional<bool> runGlobeStep(const app::ScriptAction& action, const std::string& where);

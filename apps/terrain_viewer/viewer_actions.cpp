@@ -16,6 +16,7 @@
 
 #include "gfx/image_io.hpp"
 #include "globe/globe_selection.hpp"
+#include "scene/frame_scene.hpp"
 #include "scene/json_file.hpp"
 #include "scene/scene.hpp"
 #include "viewer.hpp"
@@ -330,7 +331,7 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
     std::ofstream(stem.string() + "_camera.json")
-        << scene::jsonText(globe_ ? globeCameraJson()
+        << scene::jsonText(globe_ ? scene::globeCameraJson(globe_->view)
                                   : scene::cameraToJson(camera(), scene_->frame, target_->width(), target_->height()))
         << "\n";
   }

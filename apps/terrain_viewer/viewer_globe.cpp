@@ -26,6 +26,7 @@
 #include <nlohmann/json.hpp>
 
 #include "globe/globe_selection.hpp"
+#include "scene/frame_scene.hpp"
 #include "scene/json_file.hpp"
 #include "viewer.hpp"
 
@@ -60,14 +61,6 @@ scene::GlobePose poseLooking(const glm::dvec3& eye, const glm::dvec3& target) {
 }
 
 json geodeticJson(const globe::Geodetic& g) { return {{"lon", g.lon}, {"lat", g.lat}, {"h", g.h}}; }
-
-json matrixJson(const glm::dmat4& m) {
-  json out = json::array();
-  for (int c = 0; c < 4; ++c) {
-    for (int r = 0; r < 4; ++r) out.push_back(m[c][r]);
-  }
-  return out;
-}
 
 /// The keys and mouse on the globe (?).
 void drawGlobeHelp(bool* open) {
@@ -114,16 +107,14 @@ json GlobeIdentified::toJson() const {
           {"features", features}};
 }
 
-void Viewer::useGlobeScene(Result<scene::LoadedGlobeScene> loaded, const scene::SceneDescription& description) {
-  message(loaded.diagnostics);
-  if (!loaded) return;
+void Viewer::useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description) {
   finishSelection();  // its job reads the scene about to go
   // One scene on the GPU at a time.
   renderer_.reset();
   scene_.reset();
   globe_.reset();
   auto g = std::make_unique<GlobeMode>();
-  g->scene = std::move(*loaded);
+  g->scene = std::move(loaded);
   g->renderer = std::make_unique<globe::GlobeRenderer>(g->scene.heights);
   g->overlaySettings = scene::globeOverlaySettings(g->scene.description);
   scene::GlobeCameraSettings camera;
@@ -531,21 +522,6 @@ void Viewer::drawGlobeIdentify() {
   if (!open) globe_->identified.reset();
 }
 
-json Viewer::globeCameraJson() const {
-  const globe::GlobeView& v = globe_->view;
-  return {{"width", v.width},
-          {"height", v.height},
-          {"frame", "globe"},
-          {"crs", "EPSG:4978 (WGS 84 earth-centred, metres)"},
-          {"view_proj_ecef", matrixJson(v.viewProj())},
-          {"eye_ecef", {v.eye.x, v.eye.y, v.eye.z}},
-          {"depth", "reversed-Z: near / distance along the view axis, 0 = background"},
-          {"near", v.near},
-          {"fov_y_deg", v.fovYDeg},
-          {"eye", geodeticJson(globe::toGeodetic(v.eye))},
-          {"target", geodeticJson(globe::toGeodetic(v.target))}};
-}
-
 json Viewer::globeState() const {
   const GlobeMode& g = *globe_;
   const glm::ivec2 fb = framebufferSize();
@@ -596,7 +572,7 @@ json Viewer::globeState() const {
             {"eye_height_above_ground", g.controller->heightAboveGround()},
             {"exaggeration", g.scene.heights->exaggeration()},
             {"extent", {g.scene.extent[0], g.scene.extent[1], g.scene.extent[2], g.scene.extent[3]}},
-            {"camera", globeCameraJson()}}},
+            {"camera", scene::globeCameraJson(g.view)}}},
           {"framebuffer", {fb.x, fb.y}},
           {"window", {window.x, window.y}},
           {"free_region", {free.x, free.y, free.z, free.w}},

@@ -26,11 +26,11 @@ json matrixJson(const glm::dmat4& m) {
 
 Result<Scene> Scene::load(SceneDescription description, const LoadOptions& options,
                           std::optional<double> exaggeration) {
-  Result<std::string> reason = scene::globeReason(description);
+  // A reason that cannot be found (a folder of tiles, a VRT the inspection cannot read) keeps the
+  // projected frame, whose loader reads such DEMs, or says why it cannot.
+  const Result<std::string> reason = scene::globeReason(description);
   Result<Scene> out;
-  out.diagnostics = std::move(reason.diagnostics);
-  if (!reason) return out;
-  if (!reason->empty()) {
+  if (reason.ok() && !reason->empty()) {
     // The globe's heights are exaggerated as they are read (globe::GeoGrid).
     if (exaggeration) description.verticalExaggeration = *exaggeration;
     Result<LoadedGlobeScene> globe = loadGlobeScene(description);
@@ -103,12 +103,10 @@ overlay::DepthImage Scene::depthImageOf(const FrameCamera& camera, int width, in
   return {width, height, depth, c.projection(aspect) * c.view()};
 }
 
-json Scene::cameraJson(const FrameCamera& camera, int width, int height) const {
-  if (!onGlobe()) return cameraToJson(std::get<Camera>(camera), projected().frame, width, height);
-  const globe::GlobeView& view = std::get<globe::GlobeView>(camera);
+json globeCameraJson(const globe::GlobeView& view) {
   const globe::Geodetic eye = globe::toGeodetic(view.eye), at = globe::toGeodetic(view.target);
-  return {{"width", width},
-          {"height", height},
+  return {{"width", view.width},
+          {"height", view.height},
           {"frame", "globe"},
           {"crs", "EPSG:4978 (WGS 84 earth-centred, metres)"},
           {"view_proj_ecef", matrixJson(view.viewProj())},
@@ -118,6 +116,11 @@ json Scene::cameraJson(const FrameCamera& camera, int width, int height) const {
           {"fov_y_deg", view.fovYDeg},
           {"eye", {{"lon", eye.lon}, {"lat", eye.lat}, {"h", eye.h}}},
           {"target", {{"lon", at.lon}, {"lat", at.lat}, {"h", at.h}}}};
+}
+
+json Scene::cameraJson(const FrameCamera& camera, int width, int height) const {
+  if (!onGlobe()) return cameraToJson(std::get<Camera>(camera), projected().frame, width, height);
+  return globeCameraJson(std::get<globe::GlobeView>(camera));
 }
 
 }  // namespace gis::scene

@@ -26,9 +26,14 @@ namespace gis::scene {
 /// Where a frame is seen from: a camera in the scene's frame, or a view of the globe (ECEF).
 using FrameCamera = std::variant<Camera, globe::GlobeView>;
 
+/// camera.json of a frame drawn on the globe (overlay_render's, the viewer's screenshots): the
+/// view-projection in ECEF, the eye, the target, the near plane and the field of view.
+nlohmann::json globeCameraJson(const globe::GlobeView& view);
+
 class Scene {
  public:
-  /// Loads what `description` names in the frame globeReason chooses. `exaggeration` overrides
+  /// Loads what `description` names in the frame globeReason chooses (projected when it cannot
+  /// tell: the projected loader then reads the DEM or says why not). `exaggeration` overrides
   /// the scene's vertical exaggeration (description.verticalExaggeration).
   static Result<Scene> load(SceneDescription description, const LoadOptions& options = {},
                             std::optional<double> exaggeration = std::nullopt);
