@@ -70,7 +70,7 @@ struct BenchSetup {
 std::optional<BenchSetup> setUp(const Options& o, bool withLayers);
 
 /// True for a projected scene; false, said on stderr, for one on the globe, which mode o.mode does
-/// not draw (yet: --mode methods and overlay draw both).
+/// not draw (yet: --mode methods, overlay and ablation draw both).
 bool projectedOnly(const Options& o, const BenchSetup& setup);
 
 /// The render settings under which several methods draw the same frames: the options' LOD

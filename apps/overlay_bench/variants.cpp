@@ -383,10 +383,19 @@ json resultJson(const Options& o, const BenchSetup& setup, const std::vector<Met
 int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem, json* summary) {
   std::optional<BenchSetup> setup = setUp(o, true);
   if (!setup) return 1;
-  // The ablation's switches and the scaling's scenes are a projected frame's.
-  if (o.mode != "methods" && !projectedOnly(o, *setup)) return 2;
+  // The scaling's scenes are a projected frame's.
+  if (o.mode == "scaling" && !projectedOnly(o, *setup)) return 2;
   // Declared after the context, so that their GL objects go while it is current.
   std::vector<Method> methods = std::move(variants);
+  if (setup->scene.onGlobe()) {
+    // How a projected frame builds its pieces means nothing to the globe's tiles.
+    const auto projectedBuild = [](const Method& m) { return m.projectedBuild; };
+    for (const Method& m : methods) {
+      if (m.projectedBuild)
+        std::printf("left out on the globe (its tiles split at their own cells): %s\n", m.name.c_str());
+    }
+    methods.erase(std::remove_if(methods.begin(), methods.end(), projectedBuild), methods.end());
+  }
   if (!buildRenderers(o, setup->scene, methods)) return 1;
   const std::vector<BenchFrame> path = methodsPath(o, *setup);
   if (path.empty()) {

@@ -48,6 +48,9 @@ struct Method {
   int cellPosts = 16;         ///< pieces split at cells of this many DEM posts (the ablation turns it off)
   bool adaptiveSplit = true;  ///< the split kept only where it pays (the ablation splits everywhere)
   bool uniteLines = false;    ///< a line feature's shapes united per cell (the ablation's comparison)
+  /// It changes how a projected frame builds its pieces (cellPosts, adaptiveSplit, uniteLines):
+  /// left out on the globe, whose tiles split at their own cells.
+  bool projectedBuild = false;
   std::function<void(overlay::OverlaySettings&)> adjust;  ///< the ablation's switch, if any
   std::unique_ptr<scene::FrameRenderer> renderer;         ///< its own, or null when it shares another's
   scene::FrameRenderer* shared = nullptr;                 ///< the renderer it draws with

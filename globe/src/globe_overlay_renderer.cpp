@@ -154,7 +154,8 @@ T* madeOnFirstUse(std::optional<T>& held, bool& failed) {
 }  // namespace
 
 overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings) {
-  overlay::OverlaySettings s;
+  overlay::OverlaySettings s = settings.passes;
+  s.measure = false;  // the globe's renderer times its passes together
   s.padBase = settings.padBase;
   s.padPerMetre = settings.padPerMetre;
   return s;

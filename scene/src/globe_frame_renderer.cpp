@@ -29,6 +29,7 @@ class GlobeFrameRenderer final : public FrameRenderer {
   void drawStill(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera) override {
     const globe::GlobeView& view = std::get<globe::GlobeView>(camera);
     const globe::GlobeFrameTarget into{target.framebuffer(), target.width(), target.height(), true};
+    overlaySettings_.passes = {};  // every saving on
     // A still waits for every drawn tile's imagery (built a few tiles a frame).
     for (int k = 0; k < 4096 && scene_.imagery; ++k) {
       if (renderer_.render(cache, into, view, {}).terrain.imageryPending == 0) break;
@@ -40,6 +41,7 @@ class GlobeFrameRenderer final : public FrameRenderer {
                          const FrameOptions& options) override {
     const globe::GlobeFrameTarget into{target.framebuffer(), target.width(), target.height(), true};
     const std::vector<const globe::GlobeLayer*> none;
+    overlaySettings_.passes = options.overlay;  // the savings as asked (the ablation's switches)
     const globe::GlobeFrameStats stats =
         renderer_.render(cache, into, std::get<globe::GlobeView>(camera), options.overlays ? layers_ : none,
                          options.measure, overlaySettings_);

@@ -442,6 +442,11 @@ struct GlobeOverlaySettings {
   /// Texture draping: texels a side of the texture (Drape) or of a tile's (DrapeTiles); 0: the
   /// technique's default (2048, 256).
   int textureSize = 0;
+  /// The stencil passes' savings (overlay::OverlaySettings: culling, the cover rectangle and its
+  /// screen tiles, z-pass without bottom caps), as both frames' passes have them; the benchmark
+  /// switches them off one at a time (overlay_bench --mode ablation). Its pads are padBase and
+  /// padPerMetre above.
+  overlay::OverlaySettings passes;
 };
 
 /// The overlay renderer's settings (vector_overlay/overlay_renderer.hpp) for the globe's.
