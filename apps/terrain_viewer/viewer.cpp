@@ -437,11 +437,11 @@ void Viewer::frame(double seconds) {
   drawLoading();
   expireNotice();
   drawFileBrowser();
-  if (globe_) {
-    drawGlobeUi();
-  } else if (!scene_) {
+  if (!scene_ && !globe_) {
     if (!loading_) drawNoScene();
   } else {
+    // The same tools in both frames; the panel's view section, the HUD, the help and identify
+    // show their frame's own contents.
     drawHighlights();
     drawMeasure();
     if (showLabels_) drawLabels();
@@ -454,7 +454,7 @@ void Viewer::frame(double seconds) {
     if (settings_.showPanel) drawPanel();
     if (settings_.showHud) drawHud();
     if (showHelp_) drawHelp();
-    if (identified_) drawIdentify();
+    if (identified_ || (globe_ && globe_->identified)) drawIdentify();
     drawLassoOutline();
   }
   ImGui::Render();

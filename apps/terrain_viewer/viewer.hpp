@@ -490,13 +490,14 @@ class Viewer {
   void globeKeyPressed(int key, const app::Modifiers& modifiers);
   /// Says once that a projected-only tool is not on the globe yet; nothing else happens.
   void notOnGlobe(const std::string& tool);
-  /// The panel, HUD, status bar, compass, scale bar, identify and help of the globe.
-  void drawGlobeUi();
-  void drawGlobePanel();
+  /// The globe's own contents of the tools both frames draw (drawPanel's view and selection
+  /// sections, drawHud, drawHelp, drawIdentify).
+  void drawGlobeView();
   void drawGlobeHud();
+  void drawGlobeHelp();
   void drawGlobeIdentify();
-  /// The panel's selection section on the globe: the lasso controls and the selected features.
-  void drawGlobeSelectionSection();
+  /// The selection section's contents on the globe: the lasso controls and the selected features.
+  void drawGlobeSelectedFeatures();
   /// The lasso's selection marked and highlighted over the globe frame in the target.
   void drawGlobeSelection();
   /// Starts scene::selectOnGlobe on a worker for the current steps.

@@ -63,7 +63,7 @@ scene::GlobePose poseLooking(const glm::dvec3& eye, const glm::dvec3& target) {
 json geodeticJson(const globe::Geodetic& g) { return {{"lon", g.lon}, {"lat", g.lat}, {"h", g.h}}; }
 
 /// The keys and mouse on the globe (?).
-void drawGlobeHelp(bool* open) {
+void drawGlobeHelpWindow(bool* open) {
   static const std::array<const char*, 2> kRows[] = {
       {"left drag", "grab the globe: it spins from space, pans near the ground"},
       {"right / middle drag, Ctrl+left drag", "orbit about the target: heading and pitch"},
@@ -405,68 +405,18 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
   }
 }
 
-void Viewer::drawGlobeUi() {
-  drawHighlights();
-  if (showLabels_) drawLabels();  // clear of the windows as last drawn
-  windowRects_.clear();
-  drawScaleBar();
-  drawCompass();
-  drawStatusBar();
-  drawLegend();
-  drawAttributeTable();
-  if (settings_.showPanel) drawGlobePanel();
-  if (settings_.showHud) drawGlobeHud();
-  if (showHelp_) drawGlobeHelp(&showHelp_);
-  if (globe_->identified) drawGlobeIdentify();
-  drawMeasure();
-  drawLassoOutline();
-}
+void Viewer::drawGlobeHelp() { drawGlobeHelpWindow(&showHelp_); }
 
-void Viewer::drawGlobePanel() {
+void Viewer::drawGlobeView() {
   GlobeMode& g = *globe_;
-  const ImGuiViewport* viewport = ImGui::GetMainViewport();
-  const float font = ImGui::GetFontSize();
-  const float statusBar = ImGui::GetFrameHeight();
-  ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + 10.0F, viewport->WorkPos.y + 10.0F), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(
-      ImVec2(std::min(26.0F * font, viewport->WorkSize.x * 0.6F), viewport->WorkSize.y - 20.0F - statusBar),
-      ImGuiCond_FirstUseEver);
-  ImGui::Begin("stencil-gis");
-  panelRight_ = ImGui::GetWindowPos().x + ImGui::GetWindowSize().x;
-  rememberWindow("panel");
-  panelFont_ = font;
-  ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
-  if (ImGui::Button("Open… (Ctrl+O)")) openFileBrowser();
-  ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("On the globe: %s. ? lists the keys.", g.scene.reason.c_str());
-  ImGui::PopStyleColor();
-  if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) {
-    if (ImGui::Button("Home (H)")) globeHome();
-    rememberRect("globe_home");
-    ImGui::SameLine();
-    if (ImGui::Button("North up (N)")) northUp();
-    const scene::GlobePose& pose = g.controller->pose();
-    ImGui::Text("heading %.1f°, pitch %.1f°", pose.heading / kRadiansPerDegree, pose.pitch / kRadiansPerDegree);
-    ImGui::Text("%s to the target", formatMetres(pose.distance).c_str());
-    drawExaggerationSlider();
-  }
-  drawOverlaySection();
-  if (ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) {
-    ImGui::Checkbox("legend", &showLegend_);
-    if (!labelSets_.empty()) {
-      ImGui::SameLine();
-      ImGui::Checkbox("labels", &showLabels_);
-    }
-    // Each scene layer as in a projected scene: shown, style, categories, labels, its table.
-    bool rebuild = false;
-    for (std::size_t i = 0; i < description_->layers.size(); ++i) rebuild = drawLayer(i) || rebuild;
-    if (rebuild) rebuildOverlays();
-  }
-  drawGlobeSelectionSection();
-  drawMeasureSection();
-  drawCacheSection();
-  drawMessagesSection();
-  ImGui::End();
+  if (ImGui::Button("Home (H)")) globeHome();
+  rememberRect("globe_home");
+  ImGui::SameLine();
+  if (ImGui::Button("North up (N)")) northUp();
+  const scene::GlobePose& pose = g.controller->pose();
+  ImGui::Text("heading %.1f°, pitch %.1f°", pose.heading / kRadiansPerDegree, pose.pitch / kRadiansPerDegree);
+  ImGui::Text("%s to the target", formatMetres(pose.distance).c_str());
+  drawExaggerationSlider();
 }
 
 void Viewer::drawGlobeHud() {
@@ -673,8 +623,7 @@ void Viewer::startGlobeSelection() {
   });
 }
 
-void Viewer::drawGlobeSelectionSection() {
-  if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
+void Viewer::drawGlobeSelectedFeatures() {
   drawLassoControls();
   const GlobeMode& g = *globe_;
   if (!steps_.empty() && !g.selected) ImGui::TextDisabled("finding the selected features…");

@@ -73,7 +73,11 @@ void Viewer::drawPanel() {
   ImGui::TextUnformatted(description_->name.empty() ? description_->path.c_str() : description_->name.c_str());
   if (ImGui::Button("Open… (Ctrl+O)")) openFileBrowser();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
-  ImGui::TextWrapped("or drop a scene, DEM or vector file on the window. ? lists the keys.");
+  if (globe_) {
+    ImGui::TextWrapped("On the globe: %s. ? lists the keys.", globe_->scene.reason.c_str());
+  } else {
+    ImGui::TextWrapped("or drop a scene, DEM or vector file on the window. ? lists the keys.");
+  }
   ImGui::PopStyleColor();
 
   drawViewSection();
@@ -89,6 +93,10 @@ void Viewer::drawPanel() {
 
 void Viewer::drawViewSection() {
   if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (globe_) {
+    drawGlobeView();
+    return;
+  }
   if (ImGui::Button("Home (H)")) goHome();
   ImGui::SameLine();
   bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
@@ -174,8 +182,18 @@ void Viewer::drawDrapeSize() {
 
 void Viewer::drawLayersSection() {
   if (!ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (globe_) {
+    // The globe's view section has no room for these (heading, pitch and distance are there).
+    ImGui::Checkbox("legend", &showLegend_);
+    if (!labelSets_.empty()) {
+      ImGui::SameLine();
+      ImGui::Checkbox("labels", &showLabels_);
+    }
+  }
+  // Each scene layer alike in both frames: shown, style, categories, labels, its table.
+  const std::size_t layers = globe_ ? description_->layers.size() : scene_->layers.size();
   bool rebuild = false;
-  for (std::size_t i = 0; i < scene_->layers.size(); ++i) rebuild = drawLayer(i) || rebuild;
+  for (std::size_t i = 0; i < layers; ++i) rebuild = drawLayer(i) || rebuild;
   if (rebuild) rebuildOverlays();
 }
 
@@ -316,6 +334,10 @@ void Viewer::drawLabelChoice(std::size_t i) {
 
 void Viewer::drawSelectionSection() {
   if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
+  if (globe_) {
+    drawGlobeSelectedFeatures();
+    return;
+  }
   drawLassoControls();
   if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
   if (selected_) {
@@ -454,6 +476,10 @@ void Viewer::beginHud() {
 }
 
 void Viewer::drawHud() {
+  if (globe_) {
+    drawGlobeHud();
+    return;
+  }
   beginHud();
   ImGui::Text("terrain: %zu triangles, %zu chunks, GPU %.2f ms", stats_.terrainDraw.triangles,
               stats_.terrainDraw.chunks, stats_.terrain.gpuMilliseconds);
@@ -522,6 +548,10 @@ void drawKeysWindow(const char* title, bool* open, std::span<const std::array<co
 }
 
 void Viewer::drawHelp() {
+  if (globe_) {
+    drawGlobeHelp();
+    return;
+  }
   static const std::array<const char*, 2> kRows[] = {
       {"left drag", "orbit around the point in view (fly mode: look)"},
       {"right / middle drag", "pan: the ground under the cursor follows it"},
@@ -546,6 +576,10 @@ void Viewer::drawHelp() {
 }
 
 void Viewer::drawIdentify() {
+  if (globe_) {
+    if (globe_->identified) drawGlobeIdentify();
+    return;
+  }
   bool open = true;
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   // Above the compass and the status bar.
