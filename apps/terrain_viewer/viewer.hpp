@@ -491,11 +491,10 @@ class Viewer {
   /// Says once that a projected-only tool is not on the globe yet; nothing else happens.
   void notOnGlobe(const std::string& tool);
   /// The globe's own contents of the tools both frames draw (drawPanel's view and selection
-  /// sections, drawHud, drawHelp, drawIdentify).
+  /// sections, drawHud, drawHelp).
   void drawGlobeView();
   void drawGlobeHud();
   void drawGlobeHelp();
-  void drawGlobeIdentify();
   /// The selection section's contents on the globe: the lasso controls and the selected features.
   void drawGlobeSelectedFeatures();
   /// The lasso's selection marked and highlighted over the globe frame in the target.

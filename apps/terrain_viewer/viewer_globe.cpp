@@ -448,30 +448,6 @@ void Viewer::drawGlobeHud() {
   ImGui::End();
 }
 
-void Viewer::drawGlobeIdentify() {
-  bool open = true;
-  const ImGuiViewport* viewport = ImGui::GetMainViewport();
-  const float above = ImGui::GetFrameHeight() + 6.5F * ImGui::GetFontSize() + 10.0F;
-  ImGui::SetNextWindowPos(
-      ImVec2(viewport->WorkPos.x + viewport->WorkSize.x - 10.0F, viewport->WorkPos.y + viewport->WorkSize.y - above),
-      ImGuiCond_FirstUseEver, ImVec2(1.0F, 1.0F));
-  ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
-  rememberWindow("identify");
-  const GlobeIdentified& id = *globe_->identified;
-  ImGui::TextUnformatted(formatLonLat(glm::dvec3(id.point.lon, id.point.lat, id.point.h)).c_str());
-  ImGui::Text("height %.2f m above the ellipsoid (terrain %.2f m)", id.point.h, id.terrainHeight);
-  if (id.hits.empty()) ImGui::TextDisabled("no feature here");
-  for (const Identified::Hit& h : id.hits) {
-    if (ImGui::TreeNodeEx(&h, ImGuiTreeNodeFlags_DefaultOpen, "%s: fid %lld", h.layer.c_str(),
-                          static_cast<long long>(h.fid))) {
-      for (const auto& [k, v] : h.attributes) ImGui::BulletText("%s: %s", k.c_str(), v.c_str());
-      ImGui::TreePop();
-    }
-  }
-  ImGui::End();
-  if (!open) globe_->identified.reset();
-}
-
 json Viewer::globeState() const {
   const GlobeMode& g = *globe_;
   const glm::ivec2 fb = framebufferSize();

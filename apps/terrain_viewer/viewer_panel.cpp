@@ -576,10 +576,7 @@ void Viewer::drawHelp() {
 }
 
 void Viewer::drawIdentify() {
-  if (globe_) {
-    if (globe_->identified) drawGlobeIdentify();
-    return;
-  }
+  if (globe_ && !globe_->identified) return;
   bool open = true;
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   // Above the compass and the status bar.
@@ -589,12 +586,22 @@ void Viewer::drawIdentify() {
       ImGuiCond_FirstUseEver, ImVec2(1.0F, 1.0F));
   ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
   rememberWindow("identify");
-  const Identified& id = *identified_;
-  if (id.point.lonLatH) ImGui::TextUnformatted(formatLonLat(*id.point.lonLatH).c_str());
-  ImGui::Text("%s: E %.2f, N %.2f", crsName().c_str(), id.point.projected.x, id.point.projected.y);
-  ImGui::Text("height %.2f m (terrain %.2f m)", id.point.projected.z, id.terrainHeight);
-  if (id.hits.empty()) ImGui::TextDisabled("no feature here");
-  for (const Identified::Hit& h : id.hits) {
+  // Where: in each frame's own terms (the globe has no projected coordinates); then the features.
+  const std::vector<Identified::Hit>* hits = nullptr;
+  if (globe_) {
+    const GlobeIdentified& id = *globe_->identified;
+    ImGui::TextUnformatted(formatLonLat(glm::dvec3(id.point.lon, id.point.lat, id.point.h)).c_str());
+    ImGui::Text("height %.2f m above the ellipsoid (terrain %.2f m)", id.point.h, id.terrainHeight);
+    hits = &id.hits;
+  } else {
+    const Identified& id = *identified_;
+    if (id.point.lonLatH) ImGui::TextUnformatted(formatLonLat(*id.point.lonLatH).c_str());
+    ImGui::Text("%s: E %.2f, N %.2f", crsName().c_str(), id.point.projected.x, id.point.projected.y);
+    ImGui::Text("height %.2f m (terrain %.2f m)", id.point.projected.z, id.terrainHeight);
+    hits = &id.hits;
+  }
+  if (hits->empty()) ImGui::TextDisabled("no feature here");
+  for (const Identified::Hit& h : *hits) {
     if (ImGui::TreeNodeEx(&h, ImGuiTreeNodeFlags_DefaultOpen, "%s: fid %lld", h.layer.c_str(),
                           static_cast<long long>(h.fid))) {
       for (const auto& [k, v] : h.attributes) ImGui::BulletText("%s: %s", k.c_str(), v.c_str());
@@ -602,7 +609,9 @@ void Viewer::drawIdentify() {
     }
   }
   ImGui::End();
-  if (!open) identified_.reset();
+  if (open) return;
+  identified_.reset();
+  if (globe_) globe_->identified.reset();
 }
 
 void Viewer::drawLassoOutline() {
