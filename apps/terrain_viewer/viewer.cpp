@@ -421,7 +421,7 @@ void Viewer::frame(double seconds) {
   } else if (globe_) {
     moving_ = false;  // the globe's camera jumps: no motion to settle
     if (animating_) animating_ = false;
-    drawGlobe();
+    drawScene();
   } else {
     moving_ = false;
     busy_ = false;
@@ -472,10 +472,36 @@ void Viewer::frame(double seconds) {
 void Viewer::drawScene() {
   const glm::ivec2 fb = framebufferSize();
   if (fb.x <= 0 || fb.y <= 0) return;
-  if (!target_ || target_->width() != fb.x || target_->height() != fb.y || target_->hasMask()) {
-    target_.emplace(fb.x, fb.y, 0, false);
+  // The globe's layers write their bits into a mask attachment; a projected frame draws without.
+  const bool mask = globe_ != nullptr;
+  if (!target_ || target_->hasMask() != mask || target_->width() != fb.x || target_->height() != fb.y) {
+    target_.emplace(fb.x, fb.y, 0, mask);
     if (!steps_.empty()) selectionChanged();  // the lassos' pixel viewport is the target's
   }
+  // The frame's terrain and layers; then, alike in both frames, the selection over them, the
+  // pieces' debug view, and the copy into the window.
+  std::vector<ShownChunks> shown;
+  const overlay::OverlayView view = globe_ ? drawGlobe(fb, shown) : drawProjected(fb, shown);
+  if (!steps_.empty()) {
+    // The lassos' volumes marked into the stencil the layers left 0, then the highlight blended
+    // over the selected ground; a mask attachment keeps what the layers wrote.
+    cache_.bindDrawTarget(target_->framebuffer(), target_->width(), target_->height());
+    if (mask) gfx::enableMaskWrites(target_->framebuffer(), false);
+    selectionRenderer_->select(cache_, view);
+    selectionRenderer_->highlight(cache_, highlight_);
+    if (mask) gfx::enableMaskWrites(target_->framebuffer(), true);
+  }
+  if (debugPieces_ && render_.overlays) {
+    for (const ShownChunks& layer : shown)
+      layer.passes->drawPieces(cache_, view, layer.chunks, kZPassPieceColour, kZFailPieceColour);
+  }
+  // Into the window: the panel is drawn over this copy.
+  glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
+                         GL_NEAREST);
+  cache_.bindDrawTarget(0, fb.x, fb.y);
+}
+
+overlay::OverlayView Viewer::drawProjected(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
   render_.measure = frameIndex_ % 30 == 1 || script_.has_value();  // queries wait for the GPU: sample them
   render_.lodTolerancePixels = settings_.lodTolerancePixels;
   render_.imagery = settings_.imagery;
@@ -495,22 +521,12 @@ void Viewer::drawScene() {
     stats_.tilesMissing = s.tilesMissing;
     stats_.pager = s.pager;
   }
-  const overlay::OverlayView view = scene::overlayViewOf(c, aspect());
-  if (!steps_.empty()) {
-    selectionRenderer_->select(cache_, view);
-    selectionRenderer_->highlight(cache_, highlight_);
-  }
   if (debugPieces_ && render_.overlays) {
     for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-      if (!renderer_->shown(j)) continue;
-      renderer_->overlayRenderer().drawPieces(cache_, view, renderer_->drawnChunks(j), kZPassPieceColour,
-                                              kZFailPieceColour);
+      if (renderer_->shown(j)) shown.push_back({&renderer_->overlayRenderer(), renderer_->drawnChunks(j)});
     }
   }
-  // Into the window: the panel is drawn over this copy.
-  glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
-                         GL_NEAREST);
-  cache_.bindDrawTarget(0, fb.x, fb.y);
+  return scene::overlayViewOf(c, aspect());
 }
 
 }  // namespace gis::viewer

@@ -295,7 +295,17 @@ class Viewer {
   [[nodiscard]] nlohmann::json tableJson() const;
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
+  /// A shown layer's chunks and the passes that draw them (the pieces' debug view).
+  struct ShownChunks {
+    overlay::OverlayRenderer* passes = nullptr;
+    std::vector<const overlay::OverlayLayer*> chunks;
+  };
+  /// The frame into the target and the window, in either frame: the frame's own terrain and
+  /// layers (drawProjected, drawGlobe), then the selection, the pieces' debug view and the copy.
   void drawScene();
+  /// A projected frame's terrain and layers into the target; its overlay view. With the debug
+  /// view of pieces, the shown layers' chunks into `shown`.
+  overlay::OverlayView drawProjected(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
 
   // The panel, a function per section (viewer_panel.cpp).
   void drawPanel();
@@ -485,7 +495,9 @@ class Viewer {
   void useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description);
   /// Home on the globe: the scene's camera, else its data's extent framed.
   void globeHome();
-  void drawGlobe();
+  /// The globe's terrain and layers into the target (and the point under the cursor); its
+  /// overlay view. With the debug view of pieces, the shown layers' chunks into `shown`.
+  overlay::OverlayView drawGlobe(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
   void handleGlobeInput(double seconds, const InputFrame& in);
   void globeKeyPressed(int key, const app::Modifiers& modifiers);
   /// Says once that a projected-only tool is not on the globe yet; nothing else happens.
@@ -497,8 +509,6 @@ class Viewer {
   void drawGlobeHelp();
   /// The selection section's contents on the globe: the lasso controls and the selected features.
   void drawGlobeSelectedFeatures();
-  /// The lasso's selection marked and highlighted over the globe frame in the target.
-  void drawGlobeSelection();
   /// Starts scene::selectOnGlobe on a worker for the current steps.
   void startGlobeSelection();
   /// The selection's steps (operators) and lasso outlines, as the state has them.

@@ -170,13 +170,7 @@ void Viewer::notOnGlobe(const std::string& tool) {
   if (globe_->saidNotAvailable.insert(tool).second) message(tool + " is not available on the globe yet");
 }
 
-void Viewer::drawGlobe() {
-  const glm::ivec2 fb = framebufferSize();
-  if (fb.x <= 0 || fb.y <= 0) return;
-  // The globe's layers write their bits into a mask attachment.
-  if (!target_ || !target_->hasMask() || target_->width() != fb.x || target_->height() != fb.y) {
-    target_.emplace(fb.x, fb.y, 0, true);
-  }
+overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
   GlobeMode& g = *globe_;
   g.view = g.controller->view(fb.x, fb.y);
   std::vector<const globe::GlobeLayer*> layers;
@@ -207,19 +201,14 @@ void Viewer::drawGlobe() {
     // The same debug view of pieces as in a projected frame, on the tiles' chunks.
     if (overlay::OverlayRenderer* overlays = g.renderer->overlay().renderer()) {
       for (const globe::GlobeLayer* layer : layers) {
-        overlays->drawPieces(cache_, globe::overlayViewOf(g.view),
-                             g.renderer->overlay().chunks(g.view, g.renderer->tiles(), g.renderer->heights(), *layer),
-                             kZPassPieceColour, kZFailPieceColour);
+        shown.push_back(
+            {overlays, g.renderer->overlay().chunks(g.view, g.renderer->tiles(), g.renderer->heights(), *layer)});
       }
     }
   }
-  if (!steps_.empty()) drawGlobeSelection();
   // The globe builds the meshes a frame needs in that frame; the layers' tiles come from the
   // workers and imagery a few tiles a frame: draw again until it is all there.
   busy_ = s.terrain.imageryPending > 0 || s.overlay.missingTiles > 0;
-  glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
-                         GL_NEAREST);
-  cache_.bindDrawTarget(0, fb.x, fb.y);
   // The coordinates under the cursor, unless the panel has it.
   g.cursor.reset();
   if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) {
@@ -228,6 +217,7 @@ void Viewer::drawGlobe() {
       g.cursor->h /= g.scene.heights->exaggeration();  // the true height
     }
   }
+  return globe::overlayViewOf(g.view);
 }
 
 std::optional<glm::dvec3> Viewer::globePointAt(const glm::dvec2& pixel) const {
@@ -569,18 +559,6 @@ json Viewer::globeSelectionJson() const {
   out["sample_spacing_m"] = g.selected->sampleSpacing;
   out["tested_samples"] = g.selected->testedSamples;
   return out;
-}
-
-void Viewer::drawGlobeSelection() {
-  // As a projected frame does it (drawScene): the lassos' volumes marked into the stencil the
-  // globe's layers left 0, then the highlight blended over the selected ground. The layers' mask
-  // attachment keeps what the layers wrote.
-  const GlobeMode& g = *globe_;
-  cache_.bindDrawTarget(target_->framebuffer(), target_->width(), target_->height());
-  gfx::enableMaskWrites(target_->framebuffer(), false);
-  selectionRenderer_->select(cache_, globe::overlayViewOf(g.view));
-  selectionRenderer_->highlight(cache_, highlight_);
-  gfx::enableMaskWrites(target_->framebuffer(), true);
 }
 
 void Viewer::startGlobeSelection() {
