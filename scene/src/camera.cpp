@@ -42,14 +42,14 @@ std::optional<glm::dvec3> readXyz(const json& j, const std::string& key, const s
   }
 }
 
+}  // namespace
+
 json matrixToJson(const glm::dmat4& m) {
   json a = json::array();
   const double* v = glm::value_ptr(m);
   for (int i = 0; i < 16; ++i) a.push_back(v[i]);
   return a;
 }
-
-}  // namespace
 
 glm::dmat4 Camera::view() const { return gfx::lookAt(eye, target, up); }
 

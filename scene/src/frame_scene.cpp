@@ -10,19 +10,7 @@
 
 namespace gis::scene {
 
-namespace {
-
 using nlohmann::json;
-
-json matrixJson(const glm::dmat4& m) {
-  json out = json::array();
-  for (int c = 0; c < 4; ++c) {
-    for (int r = 0; r < 4; ++r) out.push_back(m[c][r]);
-  }
-  return out;
-}
-
-}  // namespace
 
 Result<Scene> Scene::load(SceneDescription description, const LoadOptions& options,
                           std::optional<double> exaggeration) {
@@ -109,7 +97,7 @@ json globeCameraJson(const globe::GlobeView& view) {
           {"height", view.height},
           {"frame", "globe"},
           {"crs", "EPSG:4978 (WGS 84 earth-centred, metres)"},
-          {"view_proj_ecef", matrixJson(view.viewProj())},
+          {"view_proj_ecef", matrixToJson(view.viewProj())},
           {"eye_ecef", {view.eye.x, view.eye.y, view.eye.z}},
           {"depth", "reversed-Z: near / distance along the view axis, 0 = background"},
           {"near", view.near},

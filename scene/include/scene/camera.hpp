@@ -62,4 +62,7 @@ Camera frameBoxInRegion(const Camera& camera, const glm::dvec3& boxMin, const gl
 /// convention, frame (crs, origin) and the camera itself in both forms (readable as --camera).
 nlohmann::json cameraToJson(const Camera& camera, const geo::SceneFrame& frame, int width, int height);
 
+/// A 4 × 4 matrix as camera.json writes it: 16 numbers, column-major (both frames' camera.json).
+nlohmann::json matrixToJson(const glm::dmat4& m);
+
 }  // namespace gis::scene
