@@ -69,7 +69,6 @@ bool isVectorFile(const std::string& path) {
 
 Viewer::~Viewer() {
   if (selectionJob_.valid()) selectionJob_.wait();  // it reads the scene and the layers
-  if (globeSelectionJob_.valid()) globeSelectionJob_.wait();
   if (loading_) loading_->wait();
   if (imgui_) {
     ImGui_ImplOpenGL3_Shutdown();

@@ -42,6 +42,7 @@
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
 #include "scene/scene_selection.hpp"
+#include "scene/selected_features.hpp"
 #include "vector_overlay/selection_renderer.hpp"
 
 namespace gis::viewer {
@@ -199,8 +200,6 @@ struct GlobeMode {
   /// The DEM's highest height above the ellipsoid: how far a lasso's volume reaches
   /// (globe::lassoIn).
   double maxGroundHeight = 9000.0;
-  /// The features the lassos select (scene::selectOnGlobe), once its job is done.
-  std::optional<scene::GlobeSelection> selected;
 };
 
 /// The open-file dialog's state (viewer_file_browser.cpp).
@@ -344,6 +343,9 @@ class Viewer {
   /// A scene layer's features as drawn, in either frame: a projected scene's fill layer's, the
   /// globe's source layer's (scene::LoadedLayer in both); none when the layer is not built.
   [[nodiscard]] const std::vector<geo::Feature>* featuresOf(std::size_t sceneLayer) const;
+  /// Feature `feature` of scene layer `sceneLayer` alone (a globe layer's may be on disk); null
+  /// when there is none.
+  [[nodiscard]] std::shared_ptr<const geo::Feature> featureAt(std::size_t sceneLayer, std::size_t feature) const;
   /// On the globe: the globe layers (fill, outline) drawing scene layer `sceneLayer`.
   [[nodiscard]] std::vector<std::size_t> globeLayersOf(std::size_t sceneLayer) const;
   [[nodiscard]] std::vector<std::string> attributeNames(std::size_t sceneLayer) const;
@@ -507,13 +509,9 @@ class Viewer {
   void drawGlobeView();
   void drawGlobeHud();
   void drawGlobeHelp();
-  /// The selection section's contents on the globe: the lasso controls and the selected features.
-  void drawGlobeSelectedFeatures();
-  /// Starts scene::selectOnGlobe on a worker for the current steps.
-  void startGlobeSelection();
-  /// The selection's steps (operators) and lasso outlines, as the state has them.
-  [[nodiscard]] nlohmann::json selectionStepsJson() const;
-  [[nodiscard]] nlohmann::json globeSelectionJson() const;
+  /// The selection as state() has it in both frames: the steps, the lassos and the selected
+  /// features per layer.
+  [[nodiscard]] nlohmann::json selectionJson() const;
   /// The ECEF point the last frame drew at a pixel's centre; none on background.
   [[nodiscard]] std::optional<glm::dvec3> globePointAt(const glm::dvec2& pixel) const;
   std::optional<GlobeIdentified> identifyOnGlobe(const glm::dvec2& pixel);
@@ -569,13 +567,11 @@ class Viewer {
 
   // Selection.
   std::vector<overlay::SelectionStep> steps_;
-  std::vector<std::vector<overlay::SelectionStep>> undo_, redo_;        ///< the steps before (after) each change
-  std::optional<scene::SceneSelection> selected_;                       ///< the logical selection, once its job is done
-  std::future<std::pair<scene::SceneSelection, double>> selectionJob_;  ///< and its wall time, ms
-  /// On the globe: scene::selectOnGlobe on a worker, and its wall time, ms.
-  std::future<std::pair<scene::GlobeSelection, double>> globeSelectionJob_;
-  std::size_t selectionGeneration_ = 0;  ///< counts changes of the lassos
-  std::size_t jobGeneration_ = 0;        ///< the lassos the running job selects with
+  std::vector<std::vector<overlay::SelectionStep>> undo_, redo_;  ///< the steps before (after) each change
+  std::optional<scene::SelectedFeatures> selected_;               ///< the logical selection, once its job is done
+  std::future<scene::SelectedFeatures> selectionJob_;             ///< the frame's selection on a worker
+  std::size_t selectionGeneration_ = 0;                           ///< counts changes of the lassos
+  std::size_t jobGeneration_ = 0;                                 ///< the lassos the running job selects with
   overlay::SelectionStyle highlight_;
   bool lassoTool_ = false;
   std::vector<glm::dvec2> lassoPoints_;  ///< being drawn, framebuffer pixels

@@ -212,30 +212,37 @@ void Viewer::selectionChanged() {
   const Diagnostics diagnostics = selectionRenderer_->setSteps(steps_);
   message(diagnostics, {}, true);
   selected_.reset();
-  if (globe_) globe_->selected.reset();
   ++selectionGeneration_;
   // Else restarted when the running job ends.
-  if (!selectionJob_.valid() && !globeSelectionJob_.valid()) startSelection();
+  if (!selectionJob_.valid()) startSelection();
 }
 
 void Viewer::startSelection() {
-  if (globe_) {
-    startGlobeSelection();
-    return;
-  }
-  if (steps_.empty() || !scene_ || !renderer_) return;
+  if (steps_.empty() || (!globe_ && (!scene_ || !renderer_))) return;
   const glm::ivec2 fb = framebufferSize();
   const std::vector<overlay::SelectionStep> steps = steps_;
-  const scene::Camera c = camera();
-  const int width = std::max(fb.x, 1), height = std::max(fb.y, 1);
   jobGeneration_ = selectionGeneration_;
   // Reads the scene and the layers only; whatever changes them waits for it first
-  // (finishSelection). A paged scene loads tiles while it draws, so it selects in this thread.
+  // (finishSelection). Features are sampled at half a pixel's footprint at the view's target.
+  if (globe_) {
+    const globe::GlobeView view = globe_->view;
+    const scene::LoadedGlobeScene* scene = &globe_->scene;
+    selectionJob_ = std::async(std::launch::async, [scene, steps, view] {
+      const auto start = std::chrono::steady_clock::now();
+      scene::GlobeSelection chosen = scene::selectOnGlobe(*scene, steps, view);
+      return scene::selectedFeaturesOf(*scene, std::move(chosen),
+                                       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    });
+    return;
+  }
+  const scene::Camera c = camera();
+  const int width = std::max(fb.x, 1), height = std::max(fb.y, 1);
+  // A paged scene loads tiles while it draws, so it selects in this thread.
   const auto job = [this, steps, c, width, height] {
     const auto start = std::chrono::steady_clock::now();
-    scene::SceneSelection result = scene::selectInScene(*scene_, *renderer_, steps, c, width, height);
-    return std::make_pair(std::move(result),
-                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    scene::SceneSelection chosen = scene::selectInScene(*scene_, *renderer_, steps, c, width, height);
+    return scene::selectedFeaturesOf(*scene_, *renderer_, std::move(chosen),
+                                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   };
   selectionJob_ = std::async(scene_->paged() ? std::launch::deferred : std::launch::async, job);
 }
@@ -243,30 +250,19 @@ void Viewer::startSelection() {
 void Viewer::pollSelection(bool wait) {
   while (selectionJob_.valid()) {
     if (!wait && selectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) break;
-    auto [result, ms] = selectionJob_.get();
+    scene::SelectedFeatures result = selectionJob_.get();
     if (jobGeneration_ == selectionGeneration_) {
       selected_ = std::move(result);
-      selectionMs_ = ms;
+      selectionMs_ = selected_->seconds * 1000.0;
       char text[160];
-      std::snprintf(text, sizeof(text), "selection: %zu features, %zu DEM posts (%.0f ms)", selected_->featureCount(),
-                    selected_->posts ? selected_->posts->selected : std::size_t{0}, selectionMs_);
+      if (selected_->posts) {
+        std::snprintf(text, sizeof(text), "selection: %zu features, %zu DEM posts (%.0f ms)", selected_->featureCount(),
+                      selected_->posts->selected, selectionMs_);
+      } else {
+        std::snprintf(text, sizeof(text), "selection: %zu features (%.0f ms)", selected_->featureCount(), selectionMs_);
+      }
       message(text);
       break;
-    }
-    startSelection();  // the lassos changed while it ran
-  }
-  while (globeSelectionJob_.valid()) {
-    if (!wait && globeSelectionJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
-    auto [result, ms] = globeSelectionJob_.get();
-    if (jobGeneration_ == selectionGeneration_ && globe_) {
-      std::size_t features = 0;
-      for (const scene::GlobeLayerSelection& l : result.layers) features += l.features.size();
-      globe_->selected = std::move(result);
-      selectionMs_ = ms;
-      char text[160];
-      std::snprintf(text, sizeof(text), "selection: %zu features (%.0f ms)", features, selectionMs_);
-      message(text);
-      return;
     }
     startSelection();  // the lassos changed while it ran
   }
@@ -276,29 +272,24 @@ void Viewer::finishSelection() { pollSelection(true); }
 
 bool Viewer::exportSelection(const std::filesystem::path& path) {
   finishSelection();
-  std::size_t count = 0;
-  if (globe_) {
-    if (globe_->selected) {
-      for (const scene::GlobeLayerSelection& l : globe_->selected->layers) count += l.features.size();
-    }
-  } else if (selected_) {
-    count = selected_->featureCount();
-  }
-  if (count == 0) {
+  if (!selected_ || selected_->featureCount() == 0) {
     notify(path.string() + ": nothing selected to export", true);
     return false;
   }
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
   const std::filesystem::path beside = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
-  const Diagnostics d = globe_ ? scene::exportGlobeSelection(globe_->scene, *globe_->selected, path, beside)
-                               : scene::exportSelection(*scene_, *renderer_, *selected_, path, beside);
+  const Diagnostics d =
+      globe_ ? scene::exportGlobeSelection(globe_->scene, std::get<scene::GlobeSelection>(selected_->selection), path,
+                                           beside)
+             : scene::exportSelection(*scene_, *renderer_, std::get<scene::SceneSelection>(selected_->selection), path,
+                                      beside);
   message(d);
   if (d.hasErrors()) {
     notify("Export to " + path.string() + " failed: see Messages", true);
     return false;
   }
-  notify("Exported " + std::to_string(count) + " features to " +
+  notify("Exported " + std::to_string(selected_->featureCount()) + " features to " +
          std::filesystem::absolute(path, ec).lexically_normal().string());
   return true;
 }

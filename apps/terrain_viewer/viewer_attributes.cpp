@@ -85,6 +85,19 @@ const std::vector<geo::Feature>* Viewer::featuresOf(std::size_t sceneLayer) cons
   return fill ? &renderer_->overlayLayers()[*fill].features() : nullptr;
 }
 
+std::shared_ptr<const geo::Feature> Viewer::featureAt(std::size_t sceneLayer, std::size_t feature) const {
+  if (globe_) {
+    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
+    if (drawn.empty() || drawn.front() >= globe_->scene.layerFeatures.size()) return nullptr;
+    const overlay::SharedFeatures& features = globe_->scene.layerFeatures[drawn.front()];
+    return feature < features.size() ? features.get(feature) : nullptr;
+  }
+  const std::vector<geo::Feature>* features = featuresOf(sceneLayer);
+  if (features == nullptr || feature >= features->size()) return nullptr;
+  // The renderer's layer owns it: a shared pointer that does not.
+  return {std::shared_ptr<const geo::Feature>(), &(*features)[feature]};
+}
+
 std::vector<std::size_t> Viewer::globeLayersOf(std::size_t sceneLayer) const {
   std::vector<std::size_t> out;
   if (!globe_ || !description_ || sceneLayer >= description_->layers.size()) return out;
@@ -274,20 +287,9 @@ void Viewer::refreshTableRows() {
 
 std::set<std::size_t> Viewer::selectedFeatureSet(std::size_t sceneLayer) const {
   std::set<std::size_t> out;
-  if (globe_) {
-    // Its fill's and its outline's selections, united (they index the same features).
-    if (!globe_->selected) return out;
-    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
-    for (const scene::GlobeLayerSelection& l : globe_->selected->layers) {
-      if (std::find(drawn.begin(), drawn.end(), l.layer) == drawn.end()) continue;
-      for (const overlay::FeatureSelection& f : l.features) out.insert(f.feature);
-    }
-    return out;
-  }
-  const std::optional<std::size_t> overlayLayer = fillLayerOf(sceneLayer);
-  if (!selected_ || !overlayLayer) return out;
-  for (const scene::LayerSelection& l : selected_->layers) {
-    if (l.overlayLayer != *overlayLayer) continue;
+  if (!selected_) return out;
+  for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
+    if (l.sceneLayer != sceneLayer) continue;
     for (const overlay::FeatureSelection& f : l.features) out.insert(f.feature);
   }
   return out;
@@ -492,8 +494,8 @@ std::set<std::pair<std::size_t, std::size_t>> Viewer::highlightedFeatures() cons
     }
   }
   if (selected_) {
-    for (const scene::LayerSelection& l : selected_->layers) {
-      for (const overlay::FeatureSelection& f : l.features) out.emplace(l.overlayLayer, f.feature);
+    for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
+      for (const overlay::FeatureSelection& f : l.features) out.emplace(l.drawnLayer, f.feature);
     }
   }
   if (table_ && !globe_) {
@@ -615,11 +617,6 @@ void Viewer::drawGlobeHighlights() {
   // its rings along geodesics on the ground (kept per scene layer and feature).
   const GlobeMode& g = *globe_;
   std::set<std::pair<std::size_t, std::size_t>> features, identified;
-  const auto sceneLayerOfFile = [&](std::size_t fileIndex) -> std::optional<std::size_t> {
-    for (std::size_t i = 0; i < description_->layers.size(); ++i)
-      if (description_->layers[i].fileIndex == fileIndex) return i;
-    return std::nullopt;
-  };
   if (g.identified) {
     for (const Identified::Hit& hit : g.identified->hits) {
       for (std::size_t i = 0; i < description_->layers.size(); ++i) {
@@ -629,12 +626,9 @@ void Viewer::drawGlobeHighlights() {
       }
     }
   }
-  if (g.selected) {
-    for (const scene::GlobeLayerSelection& l : g.selected->layers) {
-      const std::optional<std::size_t> i =
-          l.layer < g.scene.layerFileIndex.size() ? sceneLayerOfFile(g.scene.layerFileIndex[l.layer]) : std::nullopt;
-      if (!i) continue;
-      for (const overlay::FeatureSelection& f : l.features) features.emplace(*i, f.feature);
+  if (selected_) {
+    for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
+      for (const overlay::FeatureSelection& f : l.features) features.emplace(l.sceneLayer, f.feature);
     }
   }
   if (table_) {

@@ -197,8 +197,8 @@ void Viewer::idleTick() {
     return job.valid() && job.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
   };
   std::error_code ec;
-  if ((loading_ && loading_->ready()) || ready(selectionJob_) || ready(globeSelectionJob_) ||
-      (notice_ && glfwGetTime() > notice_->until) || (live_ && std::filesystem::exists(live_->first, ec))) {
+  if ((loading_ && loading_->ready()) || ready(selectionJob_) || (notice_ && glfwGetTime() > notice_->until) ||
+      (live_ && std::filesystem::exists(live_->first, ec))) {
     redrawFrames_ = std::max(redrawFrames_, 1);
   }
 }
@@ -208,8 +208,7 @@ double Viewer::idleWait() const {
   double wait = std::numeric_limits<double>::infinity();
   // Look again soon for work on other threads (a scene being read, a selection being found);
   // a notice disappears when its time is up.
-  if (loading_ || selectionJob_.valid() || globeSelectionJob_.valid() || live_)
-    wait = 0.1;  // a live step looks for its file
+  if (loading_ || selectionJob_.valid() || live_) wait = 0.1;  // a live step looks for its file
   if (notice_) wait = std::min(wait, std::max(notice_->until - glfwGetTime(), 0.01));
   return wait;
 }

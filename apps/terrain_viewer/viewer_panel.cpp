@@ -334,14 +334,10 @@ void Viewer::drawLabelChoice(std::size_t i) {
 
 void Viewer::drawSelectionSection() {
   if (!ImGui::CollapsingHeader("Selection", ImGuiTreeNodeFlags_DefaultOpen)) return;
-  if (globe_) {
-    drawGlobeSelectedFeatures();
-    return;
-  }
   drawLassoControls();
   if (!steps_.empty() && !selected_) ImGui::TextDisabled("finding the selected features…");
   if (selected_) {
-    ImGui::Text("%zu features selected", selected_->featureCount());
+    ImGui::Text("%zu features selected (%.0f ms)", selected_->featureCount(), selectionMs_);
     if (selected_->posts) ImGui::Text("%zu DEM posts selected", selected_->posts->selected);
     drawSelectedFeatures();
     drawExportControls();
@@ -387,26 +383,16 @@ void Viewer::drawLassoControls() {
 }
 
 void Viewer::drawSelectedFeatures() {
-  for (const scene::LayerSelection& l : selected_->layers) {
-    const overlay::OverlayLayer& drawn = renderer_->overlayLayers()[l.overlayLayer];
-    if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", scene_->layers[l.sceneLayer].description.name.c_str(),
-                         l.features.size(), l.fullyInside)) {
-      continue;
-    }
+  for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
+    if (!ImGui::TreeNode(&l, "%s: %zu (%zu fully inside)", l.name.c_str(), l.features.size(), l.fullyInside)) continue;
     const std::size_t shown = std::min<std::size_t>(l.features.size(), 200);
     for (std::size_t k = 0; k < shown; ++k) {
-      const geo::Feature& f = drawn.features()[l.features[k].feature];
-      if (ImGui::TreeNode(&l.features[k], "fid %lld%s", static_cast<long long>(f.fid),
-                          l.features[k].fullyInside ? " (inside)" : "")) {
-        for (const auto& [key, value] : f.attributes) {
-          std::string text;
-          if (const auto* s = std::get_if<std::string>(&value))
-            text = *s;
-          else if (const auto* n = std::get_if<std::int64_t>(&value))
-            text = std::to_string(*n);
-          else if (const auto* d = std::get_if<double>(&value))
-            text = std::to_string(*d);
-          ImGui::BulletText("%s: %s", key.c_str(), text.c_str());
+      const overlay::FeatureSelection& f = l.features[k];
+      if (ImGui::TreeNode(&f, "fid %lld%s", static_cast<long long>(l.fids[k]), f.fullyInside ? " (inside)" : "")) {
+        // Read when opened: a layer's features may be on disk.
+        if (const std::shared_ptr<const geo::Feature> feature = featureAt(l.sceneLayer, f.feature)) {
+          for (const auto& [key, value] : feature->attributes)
+            ImGui::BulletText("%s: %s", key.c_str(), attributeText(value).c_str());
         }
         ImGui::TreePop();
       }

@@ -135,7 +135,8 @@ nlohmann::json Viewer::keysDownJson() const {
   return keys;
 }
 
-nlohmann::json Viewer::selectionStepsJson() const {
+nlohmann::json Viewer::selectionJson() const {
+  // Per layer, the features as overlay_render's stats.json lists them in its selection block.
   nlohmann::json steps = nlohmann::json::array(), lassos = nlohmann::json::array();
   for (const overlay::SelectionStep& st : steps_) {
     steps.push_back(overlay::selectionOpName(st.op));
@@ -143,7 +144,29 @@ nlohmann::json Viewer::selectionStepsJson() const {
     for (const glm::dvec2& p : st.lasso.points) points.push_back({p.x, p.y});
     lassos.push_back(points);
   }
-  return {{"steps", steps}, {"lassos", lassos}};
+  nlohmann::json out = {{"steps", steps}, {"lassos", lassos},     {"selection_ms", selectionMs_},
+                        {"features", 0},  {"dem_posts", nullptr}, {"layers", nlohmann::json::array()}};
+  if (!selected_) return out;
+  nlohmann::json layers = nlohmann::json::array();
+  for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
+    nlohmann::json list = nlohmann::json::array();
+    for (std::size_t k = 0; k < l.features.size(); ++k) {
+      const overlay::FeatureSelection& f = l.features[k];
+      list.push_back({{"fid", l.fids[k]},
+                      {"feature", f.feature},
+                      {"fully_inside", f.fullyInside},
+                      {"samples", f.samples},
+                      {"selected_samples", f.selectedSamples}});
+    }
+    layers.push_back(
+        {{"name", l.name}, {"selected", l.features.size()}, {"fully_inside", l.fullyInside}, {"features", list}});
+  }
+  out["features"] = selected_->featureCount();
+  out["dem_posts"] = selected_->posts ? nlohmann::json(selected_->posts->selected) : nlohmann::json();
+  out["layers"] = layers;
+  out["sample_spacing_m"] = selected_->sampleSpacing;
+  out["tested_samples"] = selected_->testedSamples;
+  return out;
 }
 
 nlohmann::json Viewer::state() const {
@@ -177,10 +200,6 @@ nlohmann::json Viewer::state() const {
          {"features_with_nothing_to_draw", summary.nothingToDraw},
          {"drawn_features", summary.drawnFeatures}});
   }
-  nlohmann::json selection = selectionStepsJson();
-  selection["features"] = selected_ ? selected_->featureCount() : 0;
-  selection["dem_posts"] =
-      selected_ && selected_->posts ? nlohmann::json(selected_->posts->selected) : nlohmann::json();
   nlohmann::json j = {
       {"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
       {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
@@ -245,7 +264,7 @@ nlohmann::json Viewer::state() const {
       {"messages", messages_},
       {"lasso_tool", lassoTool_},
       {"layers", layers},
-      {"selection", selection},
+      {"selection", selectionJson()},
       {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
   return j;
 }

@@ -128,24 +128,8 @@ class GlobeFrameRenderer final : public FrameRenderer {
                                                 std::optional<double> sampleSpacing) const override {
     const auto start = std::chrono::steady_clock::now();
     GlobeSelection chosen = selectOnGlobe(scene_, steps, std::get<globe::GlobeView>(camera), sampleSpacing);
-    SelectedFeatures out;
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    for (const GlobeLayerSelection& l : chosen.layers) {
-      const overlay::SharedFeatures* features =
-          l.layer < scene_.layerFeatures.size() ? &scene_.layerFeatures[l.layer] : nullptr;
-      // The scene file's name for the layer, as the export's files and properties have it.
-      const LayerDescription* described = sceneLayerOf(scene_, l.layer);
-      SelectedFeatures::Layer layer{
-          described != nullptr ? described->name : scene_.layers[l.layer].name(), l.features, {}, l.fullyInside};
-      for (const overlay::FeatureSelection& f : l.features) {
-        layer.fids.push_back(features != nullptr && f.feature < features->size() ? features->get(f.feature)->fid : -1);
-      }
-      out.layers.push_back(std::move(layer));
-    }
-    out.sampleSpacing = chosen.sampleSpacing;
-    out.testedSamples = chosen.testedSamples;
-    out.selection = std::move(chosen);
-    return out;
+    return selectedFeaturesOf(scene_, std::move(chosen),
+                              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
   [[nodiscard]] Diagnostics exportSelection(const SelectedFeatures& selected, const std::filesystem::path& combined,
                                             const std::filesystem::path& perLayerDir) const override {

@@ -144,19 +144,8 @@ class ProjectedFrameRenderer final : public FrameRenderer {
     const auto start = std::chrono::steady_clock::now();
     SceneSelection chosen =
         selectInScene(scene_, renderer_, steps, std::get<Camera>(camera), width, height, sampleSpacing);
-    SelectedFeatures out;
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    for (const LayerSelection& l : chosen.layers) {
-      const overlay::OverlayLayer& drawn = renderer_.overlayLayers()[l.overlayLayer];
-      SelectedFeatures::Layer layer{scene_.layers[l.sceneLayer].description.name, l.features, {}, l.fullyInside};
-      for (const overlay::FeatureSelection& f : l.features) layer.fids.push_back(drawn.features()[f.feature].fid);
-      out.layers.push_back(std::move(layer));
-    }
-    out.sampleSpacing = chosen.sampleSpacing;
-    out.testedSamples = chosen.testedSamples;
-    out.posts = chosen.posts;
-    out.selection = std::move(chosen);
-    return out;
+    return selectedFeaturesOf(scene_, renderer_, std::move(chosen),
+                              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
   [[nodiscard]] Diagnostics exportSelection(const SelectedFeatures& selected, const std::filesystem::path& combined,
                                             const std::filesystem::path& perLayerDir) const override {

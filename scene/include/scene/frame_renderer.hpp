@@ -23,8 +23,7 @@
 #include "gfx/state_cache.hpp"
 #include "scene/frame_readback.hpp"
 #include "scene/frame_scene.hpp"
-#include "scene/globe_selection.hpp"
-#include "scene/scene_selection.hpp"
+#include "scene/selected_features.hpp"
 #include "vector_overlay/logical_selection.hpp"
 #include "vector_overlay/technique.hpp"
 
@@ -88,24 +87,6 @@ struct DrawnLayerBuilt {
   std::size_t features = 0, skippedFeatures = 0;
   std::size_t pieces = 0, triangles = 0, gpuBytes = 0;
   double buildSeconds = 0.0;
-};
-
-/// What a lasso selects, in either frame: per layer of the scene file that has selected features.
-struct SelectedFeatures {
-  struct Layer {
-    std::string name;  ///< the scene file's
-    std::vector<overlay::FeatureSelection> features;
-    std::vector<std::int64_t> fids;  ///< per feature: its FID in the source (−1 if unknown)
-    std::size_t fullyInside = 0;
-  };
-  std::vector<Layer> layers;
-  double sampleSpacing = 0.0;     ///< metres
-  std::size_t testedSamples = 0;  ///< over every feature, selected or not
-  double seconds = 0.0;           ///< what finding them took
-  /// Selected DEM posts (a projected scene's DEM held in memory only).
-  std::optional<overlay::PostSelection> posts;
-  /// The frame's own answer, for the export.
-  std::variant<SceneSelection, GlobeSelection> selection;
 };
 
 /// The CPU reference's answer for some drawn layers over a depth buffer: bit k of `expected` for
