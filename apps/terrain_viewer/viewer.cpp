@@ -414,14 +414,16 @@ void Viewer::frame(double seconds) {
         controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
     if (animating_ && !moving_) animating_ = false;
     drawScene();
-    // The coordinates under the cursor, unless the panel has it.
-    cursorGround_.reset();
-    if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) cursorGround_ = groundAt(lastPixel_);
   } else if (globe_) {
     moving_ = false;  // the globe's camera jumps: no motion to settle
     if (animating_) animating_ = false;
     drawScene();
-  } else {
+  }
+  // The coordinates under the cursor, unless the panel has it.
+  cursorGround_.reset();
+  if ((scene_ || globe_) && cursorInside_ && !ImGui::GetIO().WantCaptureMouse)
+    cursorGround_ = groundAt(lastPixel_);
+  else {
     moving_ = false;
     busy_ = false;
     animating_ = false;
@@ -453,7 +455,7 @@ void Viewer::frame(double seconds) {
     if (settings_.showPanel) drawPanel();
     if (settings_.showHud) drawHud();
     if (showHelp_) drawHelp();
-    if (identified_ || (globe_ && globe_->identified)) drawIdentify();
+    if (identified_) drawIdentify();
     drawLassoOutline();
   }
   ImGui::Render();

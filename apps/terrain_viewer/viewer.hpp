@@ -52,15 +52,18 @@ struct ViewerOptions {
   std::optional<std::string> script;  ///< scripted run: settings neither read nor written
 };
 
-/// A point drawn at a pixel, in the coordinates a person reads: heights are true (above the DEM's
-/// datum), never exaggerated.
+/// A point drawn at a pixel, in either frame, in the coordinates a person reads: heights are true
+/// (above the DEM's datum, or on the globe the ellipsoid), never exaggerated.
 struct GroundPoint {
-  glm::dvec3 drawn{0.0};              ///< frame coordinates as drawn (z exaggerated)
-  glm::dvec3 projected{0.0};          ///< the DEM's (scene's) CRS: easting, northing, height
-  std::optional<glm::dvec3> lonLatH;  ///< degrees on the CRS's datum, and the height
+  glm::dvec3 drawn{0.0};  ///< as drawn: frame coordinates (z exaggerated), or ECEF on the globe
+  /// The DEM's (scene's) CRS: easting, northing, height (a projected scene).
+  std::optional<glm::dvec3> projected;
+  std::optional<glm::dvec3> lonLatH;  ///< degrees on the CRS's datum (on the globe WGS 84), and the height
+  double height = 0.0;
+  bool onGlobe = false;
 };
 
-/// What is under a pixel: the terrain point and every feature that covers it.
+/// What is under a pixel: the terrain point and every feature of a shown layer that covers it.
 struct Identified {
   GroundPoint point;
   double terrainHeight = 0.0;  ///< the DEM's height there (full resolution), true
@@ -73,6 +76,9 @@ struct Identified {
   std::vector<Hit> hits;
   [[nodiscard]] nlohmann::json toJson() const;
 };
+
+/// A ground point as the state and identify write it.
+nlohmann::json groundPointJson(const GroundPoint& point);
 
 /// A window event as GLFW reported it. Events are queued in order by GLFW's callbacks and taken
 /// a frame at a time (Viewer::takeInput), so none is lost at any frame rate.
@@ -173,15 +179,6 @@ struct LabelSet {
   double exaggeration = 0.0;    ///< 0: heights not looked up yet
 };
 
-/// What is under a pixel on the globe: the ground point and every feature of a shown layer there.
-struct GlobeIdentified {
-  globe::Geodetic point;       ///< degrees, metres above the ellipsoid
-  glm::dvec3 ecef{0.0};        ///< the same point, ECEF metres
-  double terrainHeight = 0.0;  ///< the DEM's height there, above the ellipsoid
-  std::vector<Identified::Hit> hits;
-  [[nodiscard]] nlohmann::json toJson() const;
-};
-
 /// A scene on the globe (viewer_globe.cpp, docs/viewer.md "On the globe"): its layers, renderer
 /// and camera, and what the globe's HUD, status bar and identify show. The projected scene's
 /// members (Viewer::scene_ and the rest) are empty while it is shown.
@@ -193,10 +190,8 @@ struct GlobeMode {
   std::vector<char> shown;                                   ///< per layer of `scene`
   globe::GlobeView view;                                     ///< the last frame's
   globe::GlobeFrameStats stats;                              ///< the last measured frame's
-  std::optional<GlobeIdentified> identified;
-  std::optional<globe::Geodetic> cursor;   ///< under the cursor in the last frame
-  std::set<std::string> saidNotAvailable;  ///< projected-only tools asked for (said once each)
-  bool fly = false;                        ///< fly mode (F): WASD/QE move the eye, drags turn the view about it
+  std::set<std::string> saidNotAvailable;                    ///< projected-only tools asked for (said once each)
+  bool fly = false;  ///< fly mode (F): WASD/QE move the eye, drags turn the view about it
   /// The DEM's highest height above the ellipsoid: how far a lasso's volume reaches
   /// (globe::lassoIn).
   double maxGroundHeight = 9000.0;
@@ -478,7 +473,10 @@ class Viewer {
   std::optional<Identified> identify(const glm::dvec2& pixel);
   /// Depth of the last frame at pixel (x, y), top-left origin; none where nothing was drawn.
   [[nodiscard]] std::optional<float> depthAt(int x, int y) const;
-  /// The frame point drawn at a pixel's centre in the last frame; none where nothing was drawn.
+  /// The camera of the frame shown: a projected camera, or the globe's view.
+  [[nodiscard]] scene::FrameCamera frameCamera() const;
+  /// The point drawn at a pixel's centre in the last frame (frame coordinates, or ECEF on the
+  /// globe); none where nothing was drawn.
   [[nodiscard]] std::optional<glm::dvec3> pointAt(const glm::dvec2& pixel) const;
   /// pointAt in the coordinates a person reads.
   [[nodiscard]] std::optional<GroundPoint> groundAt(const glm::dvec2& pixel) const;
@@ -513,9 +511,8 @@ class Viewer {
   /// features per layer.
   [[nodiscard]] nlohmann::json selectionJson() const;
   /// The ECEF point the last frame drew at a pixel's centre; none on background.
-  [[nodiscard]] std::optional<glm::dvec3> globePointAt(const glm::dvec2& pixel) const;
-  std::optional<GlobeIdentified> identifyOnGlobe(const glm::dvec2& pixel);
-  [[nodiscard]] std::optional<double> globeMetresPerPixelAtCentre() const;
+  /// The features of the shown layers at a ground point (the globe's layers, for identify).
+  [[nodiscard]] std::vector<Identified::Hit> globeFeaturesAt(const GroundPoint& point) const;
   [[nodiscard]] nlohmann::json globeState() const;
   /// A script step on the globe: its result, or none when the projected runner does it (input,
   /// waits, screenshots, the window: what needs no projected scene).

@@ -141,7 +141,7 @@ void Viewer::rebuildGlobeLayers() {
   g.shown.assign(g.scene.layers.size(), static_cast<char>(1));
   for (std::size_t j = 0; j < g.scene.layers.size(); ++j)
     if (hidden.contains(g.scene.layerFileIndex[j])) g.shown[j] = 0;
-  g.identified.reset();  // its hits index the old layers
+  identified_.reset();  // its hits index the old layers
   outlines_.clear();
   if (table_) table_->dirty = true;
   selectionChanged();

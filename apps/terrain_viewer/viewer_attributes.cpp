@@ -615,10 +615,9 @@ void Viewer::drawGlobeHighlights() {
   // As in a projected scene (drawHighlights): the identified features in cyan, the lasso's and
   // the table's in the highlight colour, each outline as wide as the feature is large on screen,
   // its rings along geodesics on the ground (kept per scene layer and feature).
-  const GlobeMode& g = *globe_;
   std::set<std::pair<std::size_t, std::size_t>> features, identified;
-  if (g.identified) {
-    for (const Identified::Hit& hit : g.identified->hits) {
+  if (identified_) {
+    for (const Identified::Hit& hit : identified_->hits) {
       for (std::size_t i = 0; i < description_->layers.size(); ++i) {
         if (description_->layers[i].name != hit.layer) continue;
         features.emplace(i, hit.feature);

@@ -92,21 +92,6 @@ void drawGlobeHelpWindow(bool* open) {
 
 }  // namespace
 
-json GlobeIdentified::toJson() const {
-  json features = json::array();
-  for (const Identified::Hit& h : hits) {
-    json attributes = json::object();
-    for (const auto& [k, v] : h.attributes) attributes[k] = v;
-    features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"feature", h.feature}, {"attributes", attributes}});
-  }
-  return {{"frame", "globe"},
-          {"lon_lat_h", {point.lon, point.lat, point.h}},
-          {"ecef", {ecef.x, ecef.y, ecef.z}},
-          {"height", point.h},
-          {"terrain_height", terrainHeight},
-          {"features", features}};
-}
-
 void Viewer::useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description) {
   finishSelection();  // its job reads the scene about to go
   // One scene on the GPU at a time.
@@ -209,66 +194,32 @@ overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownCh
   // The globe builds the meshes a frame needs in that frame; the layers' tiles come from the
   // workers and imagery a few tiles a frame: draw again until it is all there.
   busy_ = s.terrain.imageryPending > 0 || s.overlay.missingTiles > 0;
-  // The coordinates under the cursor, unless the panel has it.
-  g.cursor.reset();
-  if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) {
-    if (const std::optional<glm::dvec3> p = globePointAt(lastPixel_)) {
-      g.cursor = globe::toGeodetic(*p);
-      g.cursor->h /= g.scene.heights->exaggeration();  // the true height
-    }
-  }
   return globe::overlayViewOf(g.view);
 }
 
-std::optional<glm::dvec3> Viewer::globePointAt(const glm::dvec2& pixel) const {
-  const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
-  const std::optional<float> depth = depthAt(x, y);
-  if (!depth || !globe_) return std::nullopt;
-  return overlay::unprojectDepth(globe::depthImageOf(globe_->view, {}), x, y, *depth);
-}
-
-std::optional<double> Viewer::globeMetresPerPixelAtCentre() const {
-  const glm::ivec2 fb = framebufferSize();
-  const std::optional<glm::dvec3> centre = globePointAt(glm::dvec2(fb) * 0.5);
-  if (!centre) return std::nullopt;
-  const globe::GlobeView& v = globe_->view;
-  const double depth = glm::dot(*centre - v.eye, glm::normalize(v.target - v.eye));
-  return v.pixelSizeAt(depth);
-}
-
-std::optional<GlobeIdentified> Viewer::identifyOnGlobe(const glm::dvec2& pixel) {
-  const std::optional<glm::dvec3> p = globePointAt(pixel);
-  if (!p) return std::nullopt;
+std::vector<Identified::Hit> Viewer::globeFeaturesAt(const GroundPoint& point) const {
   const GlobeMode& g = *globe_;
-  GlobeIdentified id;
-  id.ecef = *p;
-  id.point = globe::toGeodetic(*p);
-  // Heights as a person reads them: true ones, not exaggerated.
-  id.point.h /= g.scene.heights->exaggeration();
-  id.terrainHeight = g.scene.heights->unexaggerated().heightAt(id.point.lon, id.point.lat);
+  std::vector<Identified::Hit> hits;
   std::set<std::pair<std::size_t, std::uint32_t>> seen;  // a fill and its outline name a feature once
   for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
     if (g.shown[i] == 0) continue;
     const std::size_t fileIndex = g.scene.layerFileIndex[i];
-    std::string name = g.scene.layers[i].name();
-    for (const scene::LayerDescription& l : g.scene.description.layers) {
-      if (l.fileIndex == fileIndex) name = l.name;
-    }
-    for (const std::uint32_t f :
-         globe::featuresAt(g.scene.layers[i], id.ecef, id.point.lon, id.point.lat, globe::pixelScaleOf(g.view))) {
+    const scene::LayerDescription* described = scene::sceneLayerOf(g.scene, i);
+    for (const std::uint32_t f : globe::featuresAt(g.scene.layers[i], point.drawn, point.lonLatH->x, point.lonLatH->y,
+                                                   globe::pixelScaleOf(g.view))) {
       if (!seen.insert({fileIndex, f}).second) continue;
       Identified::Hit hit;
-      hit.layer = name;
+      hit.layer = described != nullptr ? described->name : g.scene.layers[i].name();
       hit.feature = f;
       if (i < g.scene.layerFeatures.size() && f < g.scene.layerFeatures[i].size()) {
         const std::shared_ptr<const geo::Feature> feature = g.scene.layerFeatures[i].get(f);
         hit.fid = feature->fid;
         for (const auto& [k, v] : feature->attributes) hit.attributes.emplace_back(k, attributeText(v));
       }
-      id.hits.push_back(std::move(hit));
+      hits.push_back(std::move(hit));
     }
   }
-  return id;
+  return hits;
 }
 
 void Viewer::handleGlobeInput(double seconds, const InputFrame& in) {
@@ -317,7 +268,7 @@ void Viewer::handleGlobeInput(double seconds, const InputFrame& in) {
       } else if (!dragged_ && measureTool_) {
         if (const std::optional<glm::dvec2> ground = measurePointAt(pixel)) addMeasurePoint(*ground);
       } else if (!dragged_) {
-        g.identified = identifyOnGlobe(pixel);
+        identified_ = identify(pixel);
       }
       lassoPoints_.clear();
     }
@@ -356,8 +307,8 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
         measureTool_ = false;
       } else if (showHelp_) {
         showHelp_ = false;
-      } else if (g.identified) {
-        g.identified.reset();
+      } else if (identified_) {
+        identified_.reset();
       }
       break;
     case GLFW_KEY_H:
@@ -494,8 +445,8 @@ json Viewer::globeState() const {
           {"free_region", {free.x, free.y, free.z, free.w}},
           {"overlays", render_.overlays},
           {"layers", layers},
-          {"cursor", g.cursor ? geodeticJson(*g.cursor) : json()},
-          {"identified", g.identified ? g.identified->toJson() : json()},
+          {"cursor", cursorGround_ ? groundPointJson(*cursorGround_) : json()},
+          {"identified", identified_ ? identified_->toJson() : json()},
           {"compass_angle", compassAngle_},
           {"scale_bar_m", scaleBarMetres_},
           {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
@@ -544,10 +495,10 @@ std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const 
           animating_ = true;
           return true;
         } else if constexpr (std::is_same_v<Step, app::IdentifyStep>) {
-          globe_->identified = identifyOnGlobe(step.at);
+          identified_ = identify(step.at);
           if (step.out.empty()) return true;
           std::ofstream out(step.out);
-          out << scene::jsonText(globe_->identified ? globe_->identified->toJson() : json(nullptr)) << "\n";
+          out << scene::jsonText(identified_ ? identified_->toJson() : json(nullptr)) << "\n";
           if (!out) message(where + ": cannot write " + step.out, true);
           return static_cast<bool>(out);
         } else if constexpr (std::is_same_v<Step, app::MethodStep>) {

@@ -65,15 +65,14 @@ double niceLength(double most) {
 }
 
 std::optional<double> Viewer::metresPerPixelAtCentre() const {
-  if (globe_) return globeMetresPerPixelAtCentre();
   const glm::ivec2 fb = framebufferSize();
   const std::optional<glm::dvec3> centre = pointAt(glm::dvec2(fb) * 0.5);
   if (!centre || fb.y <= 0) return std::nullopt;
-  const scene::Camera c = camera();
-  const glm::dvec3 view = glm::normalize(c.target - c.eye);
-  // Along the view axis: the pixel's size at that depth (horizontal lengths are not exaggerated).
-  const double depth = glm::dot(*centre - c.eye, view);
-  return depth * 2.0 * std::tan(c.fovYDeg * std::numbers::pi / 360.0) / fb.y;
+  const overlay::OverlayView v = scene::Scene::overlayViewOf(frameCamera(), fb.x, fb.y);
+  // The pixel's size at the centre's distance along the view axis (clip w), in either frame
+  // (horizontal lengths are not exaggerated).
+  const double depth = (v.viewProj * glm::dvec4(*centre, 1.0)).w;
+  return depth * 2.0 * std::tan(0.5 * v.fovYRadians) / fb.y;
 }
 
 std::optional<double> Viewer::northYaw() const {
@@ -155,18 +154,18 @@ void Viewer::drawStatusBar() {
     } else {
       ImGui::TextUnformatted(text.c_str());
     }
-  } else if (globe_ && globe_->cursor) {
-    const globe::Geodetic& g = *globe_->cursor;
-    ImGui::Text("%s   height %.2f m (WGS 84 ellipsoid)", formatLonLat(glm::dvec3(g.lon, g.lat, g.h)).c_str(), g.h);
-  } else if (globe_) {
-    ImGui::TextDisabled("move the cursor over the globe for its coordinates");
   } else if (cursorGround_) {
     const GroundPoint& g = *cursorGround_;
     const std::string ll = g.lonLatH ? formatLonLat(*g.lonLatH) + "   " : std::string();
-    ImGui::Text("%s%s E %.1f, N %.1f   height %.2f m", ll.c_str(), crsName().c_str(), g.projected.x, g.projected.y,
-                g.projected.z);
+    if (g.projected) {
+      ImGui::Text("%s%s E %.1f, N %.1f   height %.2f m", ll.c_str(), crsName().c_str(), g.projected->x, g.projected->y,
+                  g.height);
+    } else {
+      ImGui::Text("%sheight %.2f m (WGS 84 ellipsoid)", ll.c_str(), g.height);
+    }
   } else {
-    ImGui::TextDisabled("move the cursor over the terrain for its coordinates");
+    ImGui::TextDisabled(globe_ ? "move the cursor over the globe for its coordinates"
+                               : "move the cursor over the terrain for its coordinates");
   }
   ImGui::End();
   ImGui::PopStyleVar(2);

@@ -77,7 +77,7 @@ bool Viewer::measureAtPixels(const std::vector<glm::dvec2>& pixels, bool closed)
 
 std::optional<glm::dvec2> Viewer::measurePointAt(const glm::dvec2& pixel) const {
   if (globe_) {
-    const std::optional<glm::dvec3> p = globePointAt(pixel);
+    const std::optional<glm::dvec3> p = pointAt(pixel);
     if (!p) return std::nullopt;
     const globe::Geodetic g = globe::toGeodetic(*p);
     return glm::dvec2(g.lon, g.lat);
@@ -98,7 +98,7 @@ void Viewer::drawMeasure() {
   const bool ring = measureClosed_ && measurePoints_.size() >= 3;
   if (globe_) {
     // Along the geodesics, in pieces of a few pixels where the view looks (at most 4,096 a segment).
-    const double step = std::max(4.0 * globeMetresPerPixelAtCentre().value_or(1000.0), 0.5);
+    const double step = std::max(4.0 * metresPerPixelAtCentre().value_or(1000.0), 0.5);
     std::vector<glm::dvec3> path;
     for (const glm::dvec2& p : scene::geodesicPath(measurePoints_, ring, step)) path.push_back(measurePointPosition(p));
     if (target_ && path.size() >= 2) drawLifted(path, colour, 2.5F);

@@ -562,7 +562,7 @@ void Viewer::drawHelp() {
 }
 
 void Viewer::drawIdentify() {
-  if (globe_ && !globe_->identified) return;
+  if (!identified_) return;
   bool open = true;
   const ImGuiViewport* viewport = ImGui::GetMainViewport();
   // Above the compass and the status bar.
@@ -573,21 +573,14 @@ void Viewer::drawIdentify() {
   ImGui::Begin("Identify", &open, ImGuiWindowFlags_AlwaysAutoResize);
   rememberWindow("identify");
   // Where: in each frame's own terms (the globe has no projected coordinates); then the features.
-  const std::vector<Identified::Hit>* hits = nullptr;
-  if (globe_) {
-    const GlobeIdentified& id = *globe_->identified;
-    ImGui::TextUnformatted(formatLonLat(glm::dvec3(id.point.lon, id.point.lat, id.point.h)).c_str());
-    ImGui::Text("height %.2f m above the ellipsoid (terrain %.2f m)", id.point.h, id.terrainHeight);
-    hits = &id.hits;
-  } else {
-    const Identified& id = *identified_;
-    if (id.point.lonLatH) ImGui::TextUnformatted(formatLonLat(*id.point.lonLatH).c_str());
-    ImGui::Text("%s: E %.2f, N %.2f", crsName().c_str(), id.point.projected.x, id.point.projected.y);
-    ImGui::Text("height %.2f m (terrain %.2f m)", id.point.projected.z, id.terrainHeight);
-    hits = &id.hits;
-  }
-  if (hits->empty()) ImGui::TextDisabled("no feature here");
-  for (const Identified::Hit& h : *hits) {
+  const Identified& id = *identified_;
+  if (id.point.lonLatH) ImGui::TextUnformatted(formatLonLat(*id.point.lonLatH).c_str());
+  if (id.point.projected)
+    ImGui::Text("%s: E %.2f, N %.2f", crsName().c_str(), id.point.projected->x, id.point.projected->y);
+  ImGui::Text("height %.2f m%s (terrain %.2f m)", id.point.height, id.point.onGlobe ? " above the ellipsoid" : "",
+              id.terrainHeight);
+  if (id.hits.empty()) ImGui::TextDisabled("no feature here");
+  for (const Identified::Hit& h : id.hits) {
     if (ImGui::TreeNodeEx(&h, ImGuiTreeNodeFlags_DefaultOpen, "%s: fid %lld", h.layer.c_str(),
                           static_cast<long long>(h.fid))) {
       for (const auto& [k, v] : h.attributes) ImGui::BulletText("%s: %s", k.c_str(), v.c_str());
@@ -597,7 +590,6 @@ void Viewer::drawIdentify() {
   ImGui::End();
   if (open) return;
   identified_.reset();
-  if (globe_) globe_->identified.reset();
 }
 
 void Viewer::drawLassoOutline() {

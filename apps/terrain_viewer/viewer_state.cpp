@@ -24,15 +24,20 @@ nlohmann::json Identified::toJson() const {
   for (const Hit& h : hits) {
     nlohmann::json attributes = nlohmann::json::object();
     for (const auto& [k, v] : h.attributes) attributes[k] = v;
-    features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"attributes", attributes}});
+    features.push_back({{"layer", h.layer}, {"fid", h.fid}, {"feature", h.feature}, {"attributes", attributes}});
   }
+  nlohmann::json j = groundPointJson(point);
+  j["terrain_height"] = terrainHeight;
+  j["features"] = features;
+  return j;
+}
+
+nlohmann::json groundPointJson(const GroundPoint& point) {
   const glm::dvec3& f = point.drawn;
-  const glm::dvec3& p = point.projected;
-  nlohmann::json j = {{"frame", {f.x, f.y, f.z}},
-                      {"crs_xyz", {p.x, p.y, p.z}},
-                      {"height", p.z},
-                      {"terrain_height", terrainHeight},
-                      {"features", features}};
+  // As drawn: frame coordinates in a projected scene, ECEF on the globe.
+  nlohmann::json j = {{point.onGlobe ? "ecef" : "frame", {f.x, f.y, f.z}}, {"height", point.height}};
+  if (point.onGlobe) j["frame"] = "globe";
+  if (point.projected) j["crs_xyz"] = {point.projected->x, point.projected->y, point.projected->z};
   if (point.lonLatH) j["lon_lat_h"] = {point.lonLatH->x, point.lonLatH->y, point.lonLatH->z};
   return j;
 }
@@ -46,16 +51,18 @@ std::optional<float> Viewer::depthAt(int x, int y) const {
   return depth;
 }
 
+scene::FrameCamera Viewer::frameCamera() const {
+  if (globe_) return globe_->view;
+  return camera();
+}
+
 std::optional<glm::dvec3> Viewer::pointAt(const glm::dvec2& pixel) const {
   const int x = static_cast<int>(std::floor(pixel.x)), y = static_cast<int>(std::floor(pixel.y));
   const std::optional<float> depth = depthAt(x, y);
   if (!depth) return std::nullopt;
-  const scene::Camera c = camera();
-  const glm::dvec4 ndc(2.0 * (x + 0.5) / target_->width() - 1.0, 1.0 - 2.0 * (y + 0.5) / target_->height(),
-                       static_cast<double>(*depth), 1.0);
-  const glm::dvec4 p = glm::inverse(c.projection(aspect()) * c.view()) * ndc;
-  if (p.w == 0.0) return std::nullopt;
-  return glm::dvec3(p) / p.w;
+  // The image's camera without its depths: the sample read here is its depth.
+  return overlay::unprojectDepth(scene::Scene::depthImageOf(frameCamera(), target_->width(), target_->height(), {}), x,
+                                 y, *depth);
 }
 
 std::optional<GroundPoint> Viewer::groundAt(const glm::dvec2& pixel) const {
@@ -63,9 +70,18 @@ std::optional<GroundPoint> Viewer::groundAt(const glm::dvec2& pixel) const {
   if (!world) return std::nullopt;
   GroundPoint g;
   g.drawn = *world;
+  if (globe_) {
+    globe::Geodetic at = globe::toGeodetic(*world);
+    at.h /= globe_->scene.heights->exaggeration();
+    g.onGlobe = true;
+    g.lonLatH = glm::dvec3(at.lon, at.lat, at.h);
+    g.height = at.h;
+    return g;
+  }
   const glm::dvec3 unexaggerated = *world / glm::dvec3(1.0, 1.0, scene_->bounds->exaggeration());
   g.projected = scene_->frame.frameToProjected(unexaggerated);
   g.lonLatH = scene_->frame.toLonLat(unexaggerated);
+  g.height = g.projected->z;
   return g;
 }
 
@@ -82,6 +98,11 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
   Identified id;
   id.point = *ground;
+  if (globe_) {
+    id.terrainHeight = globe_->scene.heights->unexaggerated().heightAt(ground->lonLatH->x, ground->lonLatH->y);
+    id.hits = globeFeaturesAt(*ground);
+    return id;
+  }
   const double exaggeration = scene_->bounds->exaggeration();
   id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(world)) / exaggeration;
   const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
@@ -200,72 +221,63 @@ nlohmann::json Viewer::state() const {
          {"features_with_nothing_to_draw", summary.nothingToDraw},
          {"drawn_features", summary.drawnFeatures}});
   }
-  nlohmann::json j = {
-      {"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
-      {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
-      {"pose",
-       {{"target", {pose.target.x, pose.target.y, pose.target.z}},
-        {"yaw", pose.yaw},
-        {"pitch", pose.pitch},
-        {"distance", pose.distance}}},
-      {"framebuffer", {fb.x, fb.y}},
-      {"window", {window.x, window.y}},
-      {"free_region", {free.x, free.y, free.z, free.w}},
-      {"exaggeration", scene_->bounds->exaggeration()},
-      {"ui_rects", rects},
-      {"windows", windowsJson()},
-      {"notice", notice_ ? nlohmann::json(notice_->text) : nlohmann::json()},
-      {"keys_down", keysDownJson()},
-      {"undo_steps", undo_.size()},
-      {"highlighted_features", highlightedCount_},
-      {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
-      {"font", font_},
-      {"elevation_ramp", render_.elevationRamp
-                             ? nlohmann::json({render_.elevationRamp->first, render_.elevationRamp->second})
-                             : nlohmann::json()},
-      {"file_dialog",
-       {{"open", browser_.open},
-        {"directory", browser_.directory.string()},
-        {"path", std::string(browser_.path.data())},
-        {"error", browser_.error}}},
-      {"labels_placed", labelsPlaced_},
-      {"measure", measureJson()},
-      {"legend", showLegend_},
-      {"table", tableJson()},
-      {"redo_steps", redo_.size()},
-      {"compass_angle", compassAngle_},
-      {"scale_bar_m", scaleBarMetres_},
-      {"cursor",
-       cursorGround_
-           ? nlohmann::json(
-                 {{"crs_xyz", {cursorGround_->projected.x, cursorGround_->projected.y, cursorGround_->projected.z}},
-                  {"lon_lat_h", cursorGround_->lonLatH
-                                    ? nlohmann::json({cursorGround_->lonLatH->x, cursorGround_->lonLatH->y,
-                                                      cursorGround_->lonLatH->z})
-                                    : nlohmann::json()}})
-           : nlohmann::json()},
-      {"overlays", render_.overlays},
-      {"method", technique_->name},
-      {"drape_size", technique_->usesTextures() ? nlohmann::json(drapeSize_) : nlohmann::json(nullptr)},
-      {"view",
-       {{"wireframe", render_.wireframe},
-        {"imagery", settings_.imagery},
-        {"debug_pieces", debugPieces_},
-        {"panel", settings_.showPanel},
-        {"hud", settings_.showHud},
-        {"lod_tolerance", settings_.lodTolerancePixels},
-        {"fov", settings_.fovYDeg}}},
-      {"scene", description_->path},
-      {"frame",
-       {{"ms", frameMs_},  // smoothed wall time per frame
-        {"terrain_triangles", stats_.terrainDraw.triangles},
-        {"overlay_fragments", overlayFragments()},
-        {"selection_ms", selectionMs_}}},  // the CPU twin's logical selection, last run
-      {"messages", messages_},
-      {"lasso_tool", lassoTool_},
-      {"layers", layers},
-      {"selection", selectionJson()},
-      {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
+  nlohmann::json j = {{"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
+                      {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
+                      {"pose",
+                       {{"target", {pose.target.x, pose.target.y, pose.target.z}},
+                        {"yaw", pose.yaw},
+                        {"pitch", pose.pitch},
+                        {"distance", pose.distance}}},
+                      {"framebuffer", {fb.x, fb.y}},
+                      {"window", {window.x, window.y}},
+                      {"free_region", {free.x, free.y, free.z, free.w}},
+                      {"exaggeration", scene_->bounds->exaggeration()},
+                      {"ui_rects", rects},
+                      {"windows", windowsJson()},
+                      {"notice", notice_ ? nlohmann::json(notice_->text) : nlohmann::json()},
+                      {"keys_down", keysDownJson()},
+                      {"undo_steps", undo_.size()},
+                      {"highlighted_features", highlightedCount_},
+                      {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
+                      {"font", font_},
+                      {"elevation_ramp", render_.elevationRamp ? nlohmann::json({render_.elevationRamp->first,
+                                                                                 render_.elevationRamp->second})
+                                                               : nlohmann::json()},
+                      {"file_dialog",
+                       {{"open", browser_.open},
+                        {"directory", browser_.directory.string()},
+                        {"path", std::string(browser_.path.data())},
+                        {"error", browser_.error}}},
+                      {"labels_placed", labelsPlaced_},
+                      {"measure", measureJson()},
+                      {"legend", showLegend_},
+                      {"table", tableJson()},
+                      {"redo_steps", redo_.size()},
+                      {"compass_angle", compassAngle_},
+                      {"scale_bar_m", scaleBarMetres_},
+                      {"cursor", cursorGround_ ? groundPointJson(*cursorGround_) : nlohmann::json()},
+                      {"overlays", render_.overlays},
+                      {"method", technique_->name},
+                      {"drape_size", technique_->usesTextures() ? nlohmann::json(drapeSize_) : nlohmann::json(nullptr)},
+                      {"view",
+                       {{"wireframe", render_.wireframe},
+                        {"imagery", settings_.imagery},
+                        {"debug_pieces", debugPieces_},
+                        {"panel", settings_.showPanel},
+                        {"hud", settings_.showHud},
+                        {"lod_tolerance", settings_.lodTolerancePixels},
+                        {"fov", settings_.fovYDeg}}},
+                      {"scene", description_->path},
+                      {"frame",
+                       {{"ms", frameMs_},  // smoothed wall time per frame
+                        {"terrain_triangles", stats_.terrainDraw.triangles},
+                        {"overlay_fragments", overlayFragments()},
+                        {"selection_ms", selectionMs_}}},  // the CPU twin's logical selection, last run
+                      {"messages", messages_},
+                      {"lasso_tool", lassoTool_},
+                      {"layers", layers},
+                      {"selection", selectionJson()},
+                      {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
   return j;
 }
 
