@@ -281,6 +281,11 @@ class Viewer {
 
   /// What a test of the viewer checks: camera and pose, window, selection, identify, layers.
   [[nodiscard]] nlohmann::json state() const;
+  /// The frame's own keys of a scene layer's entry in state() (its feature counts).
+  [[nodiscard]] nlohmann::json frameLayerJson(std::size_t sceneLayer) const;
+  /// The frame's own keys of state(): its camera ("camera_mode", a projected "camera" and "pose",
+  /// the globe's "globe") and what the last frame drew ("drawn").
+  [[nodiscard]] nlohmann::json frameStateJson() const;
   /// The GLFW keys held down as the queue has them (a stuck key shows here).
   [[nodiscard]] nlohmann::json keysDownJson() const;
   [[nodiscard]] nlohmann::json measureJson() const;
@@ -513,7 +518,8 @@ class Viewer {
   /// The ECEF point the last frame drew at a pixel's centre; none on background.
   /// The features of the shown layers at a ground point (the globe's layers, for identify).
   [[nodiscard]] std::vector<Identified::Hit> globeFeaturesAt(const GroundPoint& point) const;
-  [[nodiscard]] nlohmann::json globeState() const;
+  /// The globe's camera and what it drew, for state() (frameStateJson).
+  [[nodiscard]] nlohmann::json globeStateJson() const;
   /// A script step on the globe: its result, or none when the projected runner does it (input,
   /// waits, screenshots, the window: what needs no projected scene).
   std::optional<bool> runGlobeStep(const app::ScriptAction& action, const std::string& where);

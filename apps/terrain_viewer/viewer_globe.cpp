@@ -389,44 +389,11 @@ void Viewer::drawGlobeHud() {
   ImGui::End();
 }
 
-json Viewer::globeState() const {
+json Viewer::globeStateJson() const {
   const GlobeMode& g = *globe_;
-  const glm::ivec2 fb = framebufferSize();
-  glm::ivec2 window(0);
-  glfwGetWindowSize(context_->window(), &window.x, &window.y);
-  const glm::dvec4 free = freeRegion();
   const scene::GlobePose& pose = g.controller->pose();
   const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
-  json layers = json::array();
-  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-    const globe::GlobeLayer& l = g.scene.layers[i];
-    const glm::vec4& c = l.color();
-    // Labels are kept per scene layer (the description's).
-    std::optional<std::string> labels;
-    for (std::size_t d = 0; d < description_->layers.size(); ++d) {
-      const auto set = labelSets_.find(d);
-      if (description_->layers[d].fileIndex == g.scene.layerFileIndex[i] && set != labelSets_.end())
-        labels = set->second.attribute;
-    }
-    layers.push_back({{"name", l.name()},
-                      {"shown", g.shown[i] != 0},
-                      {"color", {c.x, c.y, c.z, c.w}},
-                      {"mask_bit", g.scene.layerFileIndex[i]},
-                      {"labels", labels ? json(*labels) : json()},
-                      {"polygons", l.polygons().size()},
-                      {"lines", l.lines().size()},
-                      {"features", i < g.scene.layerFeatures.size() ? g.scene.layerFeatures[i].size() : 0U}});
-  }
-  nlohmann::json rects = nlohmann::json::object();
-  for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
-  return {{"scene", description_->path},
-          {"windows", windowsJson()},
-          {"legend", showLegend_},
-          {"table", tableJson()},
-          {"highlighted_features", highlightedCount_},
-          {"mode", "globe"},
-          {"camera_mode", g.fly ? "fly" : "orbit"},
-          {"frame", "globe"},
+  return {{"camera_mode", g.fly ? "fly" : "orbit"},
           {"globe_reason", g.scene.reason},
           {"globe",
            {{"target", geodeticJson(pose.target)},
@@ -440,37 +407,18 @@ json Viewer::globeState() const {
             {"exaggeration", g.scene.heights->exaggeration()},
             {"extent", {g.scene.extent[0], g.scene.extent[1], g.scene.extent[2], g.scene.extent[3]}},
             {"camera", scene::globeCameraJson(g.view)}}},
-          {"framebuffer", {fb.x, fb.y}},
-          {"window", {window.x, window.y}},
-          {"free_region", {free.x, free.y, free.z, free.w}},
-          {"overlays", render_.overlays},
-          {"layers", layers},
-          {"cursor", cursorGround_ ? groundPointJson(*cursorGround_) : json()},
-          {"identified", identified_ ? identified_->toJson() : json()},
-          {"compass_angle", compassAngle_},
-          {"scale_bar_m", scaleBarMetres_},
+          {"drawn",
+           {{"ms", frameMs_},
+            {"terrain_triangles", g.stats.terrain.triangles},
+            {"overlay_fragments", g.stats.overlayFragments},
+            {"selection_ms", selectionMs_}}},
           {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
-          {"method", technique_->name},
-          {"drape_size", technique_->usesTextures() ? json(drapeSize_) : json(nullptr)},
           {"overlay",
            {{"pieces", g.stats.overlay.pieces},
             {"z_fail_pieces", g.stats.overlay.zFailPieces},
             {"deferred_layers", g.stats.overlay.deferredLayers},
             {"deferred_pending", g.stats.overlay.deferredPending},
-            {"draped", g.stats.overlay.draped}}},
-          {"view", {{"panel", settings_.showPanel}, {"hud", settings_.showHud}, {"fov", settings_.fovYDeg}}},
-          {"ui_rects", rects},
-          {"notice", notice_ ? json(notice_->text) : json()},
-          {"keys_down", keysDownJson()},
-          {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
-          {"labels_placed", labelsPlaced_},
-          {"lasso_tool", lassoTool_},
-          {"measure_tool", measureTool_},
-          {"measure", measureJson()},
-          {"undo_steps", undo_.size()},
-          {"redo_steps", redo_.size()},
-          {"selection", selectionJson()},
-          {"messages", messages_}};
+            {"draped", g.stats.overlay.draped}}}};
 }
 
 std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const std::string& where) {

@@ -194,49 +194,42 @@ nlohmann::json Viewer::state() const {
   const glm::ivec2 fb = framebufferSize();
   glm::ivec2 window(0);
   glfwGetWindowSize(context_->window(), &window.x, &window.y);
-  if (globe_) return globeState();
-  if (!scene_) {
+  if (!scene_ && !globe_) {
     return {
         {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
   }
-  const scene::OrbitPose& pose = controller_->shownPose();
   const glm::dvec4 free = freeRegion();
   nlohmann::json rects = nlohmann::json::object();
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
+  // Per layer of the scene file, as the panel lists them in both frames.
   nlohmann::json layers = nlohmann::json::array();
-  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-    const scene::LayerSummary summary = renderer_->layerSummary(*scene_, i);
+  for (std::size_t i = 0; i < description_->layers.size() && (globe_ || i < scene_->layers.size()); ++i) {
     const overlay::LayerStyle& style = description_->layers[i].style;
     nlohmann::json categories = nlohmann::json::object();
     for (const auto& [value, c] : style.categories) categories[value] = {c.x, c.y, c.z};
-    layers.push_back(
-        {{"name", scene_->layers[i].description.name},
-         {"color", {style.color.x, style.color.y, style.color.z}},
-         {"color_attribute", style.colorAttribute},
-         {"categories", categories},
-         {"labels", labelSets_.contains(i) ? nlohmann::json(labelSets_.at(i).attribute) : nlohmann::json()},
-         {"shown", layerShown(i).value_or(false)},
-         {"features", summary.features},
-         {"skipped_features", summary.skipped()},
-         {"features_with_nothing_to_draw", summary.nothingToDraw},
-         {"drawn_features", summary.drawnFeatures}});
+    nlohmann::json layer = {
+        {"name", description_->layers[i].name},
+        {"color", {style.color.x, style.color.y, style.color.z}},
+        {"color_attribute", style.colorAttribute},
+        {"categories", categories},
+        {"labels", labelSets_.contains(i) ? nlohmann::json(labelSets_.at(i).attribute) : nlohmann::json()},
+        {"shown", layerShown(i).value_or(false)},
+        {"mask_bit", description_->layers[i].fileIndex}};
+    layer.update(frameLayerJson(i));
+    layers.push_back(std::move(layer));
   }
-  nlohmann::json j = {{"mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
-                      {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
-                      {"pose",
-                       {{"target", {pose.target.x, pose.target.y, pose.target.z}},
-                        {"yaw", pose.yaw},
-                        {"pitch", pose.pitch},
-                        {"distance", pose.distance}}},
+  nlohmann::json j = {{"scene", description_->path},
+                      {"frame", globe_ ? "globe" : "projected"},
                       {"framebuffer", {fb.x, fb.y}},
                       {"window", {window.x, window.y}},
                       {"free_region", {free.x, free.y, free.z, free.w}},
-                      {"exaggeration", scene_->bounds->exaggeration()},
+                      {"exaggeration", exaggeration()},
                       {"ui_rects", rects},
                       {"windows", windowsJson()},
                       {"notice", notice_ ? nlohmann::json(notice_->text) : nlohmann::json()},
                       {"keys_down", keysDownJson()},
                       {"undo_steps", undo_.size()},
+                      {"redo_steps", redo_.size()},
                       {"highlighted_features", highlightedCount_},
                       {"loading", {{"frames_shown", loadingFramesShown_}, {"last_progress", lastLoadProgress_}}},
                       {"font", font_},
@@ -249,10 +242,10 @@ nlohmann::json Viewer::state() const {
                         {"path", std::string(browser_.path.data())},
                         {"error", browser_.error}}},
                       {"labels_placed", labelsPlaced_},
+                      {"measure_tool", measureTool_},
                       {"measure", measureJson()},
                       {"legend", showLegend_},
                       {"table", tableJson()},
-                      {"redo_steps", redo_.size()},
                       {"compass_angle", compassAngle_},
                       {"scale_bar_m", scaleBarMetres_},
                       {"cursor", cursorGround_ ? groundPointJson(*cursorGround_) : nlohmann::json()},
@@ -267,18 +260,51 @@ nlohmann::json Viewer::state() const {
                         {"hud", settings_.showHud},
                         {"lod_tolerance", settings_.lodTolerancePixels},
                         {"fov", settings_.fovYDeg}}},
-                      {"scene", description_->path},
-                      {"frame",
-                       {{"ms", frameMs_},  // smoothed wall time per frame
-                        {"terrain_triangles", stats_.terrainDraw.triangles},
-                        {"overlay_fragments", overlayFragments()},
-                        {"selection_ms", selectionMs_}}},  // the CPU twin's logical selection, last run
                       {"messages", messages_},
                       {"lasso_tool", lassoTool_},
                       {"layers", layers},
                       {"selection", selectionJson()},
                       {"identified", identified_ ? identified_->toJson() : nlohmann::json()}};
+  // The frame's camera and what it drew.
+  j.update(frameStateJson());
   return j;
+}
+
+nlohmann::json Viewer::frameLayerJson(std::size_t sceneLayer) const {
+  if (globe_) {
+    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
+    std::size_t polygons = 0, lines = 0, features = 0;
+    for (const std::size_t d : drawn) {
+      polygons += globe_->scene.layers[d].polygons().size();
+      lines += globe_->scene.layers[d].lines().size();
+    }
+    if (!drawn.empty() && drawn.front() < globe_->scene.layerFeatures.size())
+      features = globe_->scene.layerFeatures[drawn.front()].size();
+    return {{"features", features}, {"polygons", polygons}, {"lines", lines}};
+  }
+  const scene::LayerSummary summary = renderer_->layerSummary(*scene_, sceneLayer);
+  return {{"features", summary.features},
+          {"skipped_features", summary.skipped()},
+          {"features_with_nothing_to_draw", summary.nothingToDraw},
+          {"drawn_features", summary.drawnFeatures}};
+}
+
+nlohmann::json Viewer::frameStateJson() const {
+  if (globe_) return globeStateJson();
+  const glm::ivec2 fb = framebufferSize();
+  const scene::OrbitPose& pose = controller_->shownPose();
+  return {{"camera_mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
+          {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
+          {"pose",
+           {{"target", {pose.target.x, pose.target.y, pose.target.z}},
+            {"yaw", pose.yaw},
+            {"pitch", pose.pitch},
+            {"distance", pose.distance}}},
+          {"drawn",
+           {{"ms", frameMs_},  // smoothed wall time per frame
+            {"terrain_triangles", stats_.terrainDraw.triangles},
+            {"overlay_fragments", overlayFragments()},
+            {"selection_ms", selectionMs_}}}};  // the CPU twin's logical selection, last run
 }
 
 }  // namespace gis::viewer

@@ -193,7 +193,7 @@ TEST_F(ViewerGlobeTest, LoadsDrawsNavigatesAndIdentifiesOnTheGlobe) {
                                              {{"action", "overlays"}, {"on", true}},
                                              {{"action", "screenshot"}, {"path", "window.png"}, {"ui", true}}})));
   const json home = readJson("home_state.json");
-  ASSERT_EQ(home["mode"], "globe") << home.dump(1);
+  ASSERT_EQ(home["frame"], "globe") << home.dump(1);
   EXPECT_FALSE(home["globe_reason"].get<std::string>().empty());
   ASSERT_EQ(home["layers"].size(), 1U);
   EXPECT_EQ(home["layers"][0]["features"], 1);
@@ -745,7 +745,7 @@ TEST_F(ViewerGlobeTest, AVectorFileDroppedOnTheGlobeBecomesALayer) {
   const json before = readJson("before_drop.json"), after = readJson("after_drop.json");
   ASSERT_EQ(before["layers"].size(), 1U);
   ASSERT_EQ(after["layers"].size(), 2U) << after["messages"].dump(1);
-  EXPECT_EQ(after["mode"], "globe");
+  EXPECT_EQ(after["frame"], "globe");
   EXPECT_NE(after["layers"][1]["name"].get<std::string>().find("dropped"), std::string::npos) << after["layers"];
   EXPECT_TRUE(after["layers"][1]["shown"].get<bool>());
   for (const json& m : after["messages"])

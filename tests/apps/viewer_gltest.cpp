@@ -505,7 +505,7 @@ TEST_F(ViewerScriptTest, MouseAndKeysFlyLassoAndIdentify) {
   EXPECT_EQ(s5["selection"]["steps"].size(), 2u) << "a click must not change the selection";
 
   // Fly: F, then W held moves the eye forward along the view direction.
-  EXPECT_EQ(s6["mode"], "fly");
+  EXPECT_EQ(s6["camera_mode"], "fly");
   const glm::dvec3 eye5 = vec3Of(s5["camera"]["eye_xyz"]), eye6 = vec3Of(s6["camera"]["eye_xyz"]);
   const glm::dvec3 forward = glm::normalize(vec3Of(s5["camera"]["target_xyz"]) - eye5);
   const glm::dvec3 moved = eye6 - eye5;
@@ -1341,7 +1341,7 @@ TEST_F(ViewerScriptTest, FirstContactNeverEndsInNothing) {
   const RegionCount alone = terrainInFreeRegion(dv / "home_depth.tiff", sv);
   EXPECT_GT(alone.inside, alone.regionPixels / 8);
   EXPECT_EQ(alone.outside, 0u);
-  EXPECT_GT(sv["frame"]["overlay_fragments"].get<double>(), 0.0) << "the layer is drawn";
+  EXPECT_GT(sv["drawn"]["overlay_fragments"].get<double>(), 0.0) << "the layer is drawn";
 
   // Nothing that opens: the window stays, says why, and takes a DEM dropped on it.
   const std::string missing = (dir / "missing.tif").string();
