@@ -344,6 +344,10 @@ scene::Camera Viewer::homeCamera() const {
 }
 
 void Viewer::goHome() {
+  if (globe_) {
+    globeHome();
+    return;
+  }
   controller_->setHome(homeCamera());
   controller_->goHome();
 }

@@ -190,7 +190,6 @@ struct GlobeMode {
   std::vector<char> shown;                                   ///< per layer of `scene`
   globe::GlobeView view;                                     ///< the last frame's
   globe::GlobeFrameStats stats;                              ///< the last measured frame's
-  std::set<std::string> saidNotAvailable;                    ///< projected-only tools asked for (said once each)
   bool fly = false;  ///< fly mode (F): WASD/QE move the eye, drags turn the view about it
   /// The DEM's highest height above the ellipsoid: how far a lasso's volume reaches
   /// (globe::lassoIn).
@@ -505,8 +504,6 @@ class Viewer {
   overlay::OverlayView drawGlobe(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
   void handleGlobeInput(double seconds, const InputFrame& in);
   void globeKeyPressed(int key, const app::Modifiers& modifiers);
-  /// Says once that a projected-only tool is not on the globe yet; nothing else happens.
-  void notOnGlobe(const std::string& tool);
   /// The globe's own contents of the tools both frames draw (drawPanel's view and selection
   /// sections, drawHud, drawHelp).
   void drawGlobeView();
@@ -520,9 +517,6 @@ class Viewer {
   [[nodiscard]] std::vector<Identified::Hit> globeFeaturesAt(const GroundPoint& point) const;
   /// The globe's camera and what it drew, for state() (frameStateJson).
   [[nodiscard]] nlohmann::json globeStateJson() const;
-  /// A script step on the globe: its result, or none when the projected runner does it (input,
-  /// waits, screenshots, the window: what needs no projected scene).
-  std::optional<bool> runGlobeStep(const app::ScriptAction& action, const std::string& where);
 
   // Script (viewer_script_runner.cpp).
   /// This frame's part of the script: played input, a live step (`window`: the window's input),

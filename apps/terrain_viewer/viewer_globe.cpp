@@ -8,13 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <numbers>
 #include <set>
 #include <string>
-#include <type_traits>
 #include <utility>
-#include <variant>
 
 #include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
 
@@ -27,7 +24,6 @@
 
 #include "globe/globe_selection.hpp"
 #include "scene/frame_scene.hpp"
-#include "scene/json_file.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {
@@ -112,7 +108,7 @@ void Viewer::useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDes
   globe_ = std::move(g);
   description_ = description;
   message("on the globe: " + globe_->scene.reason);
-  globeHome();
+  goHome();
   // The tools start empty again.
   steps_.clear();
   undo_.clear();
@@ -149,10 +145,6 @@ void Viewer::globeHome() {
   const std::array<double, 4>& e = g.scene.extent;
   // Framed in the part of the window the panel leaves free, as in a projected frame.
   g.controller->home(e[0], e[1], e[2], e[3], glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
-}
-
-void Viewer::notOnGlobe(const std::string& tool) {
-  if (globe_->saidNotAvailable.insert(tool).second) message(tool + " is not available on the globe yet");
 }
 
 overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
@@ -313,7 +305,7 @@ void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
       break;
     case GLFW_KEY_H:
     case GLFW_KEY_HOME:
-      globeHome();
+      goHome();
       break;
     case GLFW_KEY_N:
       northUp();
@@ -350,7 +342,7 @@ void Viewer::drawGlobeHelp() { drawGlobeHelpWindow(&showHelp_); }
 
 void Viewer::drawGlobeView() {
   GlobeMode& g = *globe_;
-  if (ImGui::Button("Home (H)")) globeHome();
+  if (ImGui::Button("Home (H)")) goHome();
   rememberRect("globe_home");
   ImGui::SameLine();
   if (ImGui::Button("North up (N)")) northUp();
@@ -419,53 +411,6 @@ json Viewer::globeStateJson() const {
             {"deferred_layers", g.stats.overlay.deferredLayers},
             {"deferred_pending", g.stats.overlay.deferredPending},
             {"draped", g.stats.overlay.draped}}}};
-}
-
-std::optional<bool> Viewer::runGlobeStep(const app::ScriptAction& action, const std::string& where) {
-  return std::visit(
-      [this, &where](const auto& step) -> std::optional<bool> {
-        using Step = std::decay_t<decltype(step)>;
-        if constexpr (std::is_same_v<Step, app::GlobeCameraStep>) {
-          scene::GlobePose p;
-          p.target.lon = step.lon;
-          p.target.lat = step.lat;
-          p.distance = step.distance;
-          p.heading = std::remainder(step.heading * kRadiansPerDegree, 2.0 * std::numbers::pi);
-          p.pitch = step.pitch * kRadiansPerDegree;
-          globe_->controller->setPose(p);
-          animating_ = true;  // the next steps see a frame drawn from it
-          return true;
-        } else if constexpr (std::is_same_v<Step, app::CameraStep>) {
-          message(where + ": a projected camera on the globe: use {\"globe_camera\": {...}}", true);
-          return false;
-        } else if constexpr (std::is_same_v<Step, app::HomeStep>) {
-          globeHome();
-          animating_ = true;
-          return true;
-        } else if constexpr (std::is_same_v<Step, app::IdentifyStep>) {
-          identified_ = identify(step.at);
-          if (step.out.empty()) return true;
-          std::ofstream out(step.out);
-          out << scene::jsonText(identified_ ? identified_->toJson() : json(nullptr)) << "\n";
-          if (!out) message(where + ": cannot write " + step.out, true);
-          return static_cast<bool>(out);
-        } else if constexpr (std::is_same_v<Step, app::MethodStep>) {
-          if (!scene::globeTechniqueNamed(step.name)) {
-            notOnGlobe("The overlay method " + step.name);
-            return true;
-          }
-          useTechnique(*overlay::findTechnique(step.name), step.drapeSize);
-          return true;
-        } else if constexpr (std::is_same_v<Step, app::ExaggerationStep>) {
-          setExaggeration(step.value);
-          return true;
-        } else if constexpr (std::is_same_v<Step, app::ExportStep>) {
-          return exportSelection(step.path);
-        } else {
-          return std::nullopt;  // needs no projected scene: the common runner
-        }
-      },
-      action);
 }
 
 }  // namespace gis::viewer

@@ -1,8 +1,10 @@
 // A viewer script, run frame by frame: each step's action on the viewer (app/viewer_script.hpp).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <system_error>
@@ -131,6 +133,10 @@ struct StepRunner {
   }
 
   bool operator()(const app::CameraStep& step) const {
+    if (v.globe_) {
+      v.message(where + ": a projected camera on the globe: use {\"globe_camera\": {...}}", true);
+      return false;
+    }
     Result<scene::CameraSpec> spec = scene::parseCameraSpec(step.camera, step.cameraFile);
     v.message(spec.diagnostics, where, true);
     if (!spec) return false;
@@ -378,9 +384,20 @@ struct StepRunner {
     return write(step.path, v.state());
   }
 
-  bool operator()(const app::GlobeCameraStep&) const {
-    v.message(where + ": a globe camera needs a scene on the globe (this one is projected: use \"camera\")", true);
-    return false;
+  bool operator()(const app::GlobeCameraStep& step) const {
+    if (!v.globe_) {
+      v.message(where + ": a globe camera needs a scene on the globe (this one is projected: use \"camera\")", true);
+      return false;
+    }
+    scene::GlobePose p;
+    p.target.lon = step.lon;
+    p.target.lat = step.lat;
+    p.distance = step.distance;
+    p.heading = std::remainder(step.heading * std::numbers::pi / 180.0, 2.0 * std::numbers::pi);
+    p.pitch = step.pitch * std::numbers::pi / 180.0;
+    v.globe_->controller->setPose(p);
+    v.animating_ = true;  // the next steps see a frame drawn from it
+    return true;
   }
 
   bool operator()(const app::QuitStep&) const {
@@ -394,9 +411,6 @@ bool Viewer::runStep(const app::ScriptStep& step) {
   if (!scene_ && !globe_ && needsScene(step.action)) {
     message(where + ": no scene is loaded", true);
     return false;
-  }
-  if (globe_) {
-    if (const std::optional<bool> done = runGlobeStep(step.action, where)) return *done;
   }
   return std::visit(StepRunner{*this, where}, step.action);
 }
