@@ -269,6 +269,15 @@ class Viewer {
   }
   void handleInput(double seconds, const InputFrame& in);
   void handleMouse(const InputFrame& in);
+  /// The camera's part of the mouse, in the frame's way (viewer_navigation.cpp): `pressed` the
+  /// left button went down in this frame, `dragStarts` its drag began.
+  void navigate(const InputFrame& in, bool pressed, bool dragStarts);
+  /// Fly mode (F): W A S D and Q E move the eye, drags turn the view about it.
+  [[nodiscard]] bool flying() const;
+  void setFlying(bool fly);
+  void flyBy(const glm::dvec3& move, double seconds);
+  /// A camera key of the frame's own (the globe's arrows and Page Up / Down); false if not one.
+  bool navigationKey(int key);
   /// A key pressed (edge-triggered): the viewer's key commands. `fly`: the camera mode when the
   /// frame's input began (F toggles from it).
   void keyPressed(int key, bool fly, const app::Modifiers& modifiers);
@@ -502,8 +511,6 @@ class Viewer {
   /// The globe's terrain and layers into the target (and the point under the cursor); its
   /// overlay view. With the debug view of pieces, the shown layers' chunks into `shown`.
   overlay::OverlayView drawGlobe(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
-  void handleGlobeInput(double seconds, const InputFrame& in);
-  void globeKeyPressed(int key, const app::Modifiers& modifiers);
   /// The globe's own contents of the tools both frames draw (drawPanel's view and selection
   /// sections, drawHud, drawHelp).
   void drawGlobeView();

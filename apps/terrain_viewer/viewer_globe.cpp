@@ -32,29 +32,6 @@ namespace {
 using nlohmann::json;
 
 constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
-/// Orbit (right drag, Ctrl+left drag): radians of heading and pitch per pixel.
-constexpr double kOrbitPerPixel = 0.005;
-constexpr double kLookPerPixel = 0.003;  ///< fly: radians the view turns per pixel dragged (a projected frame's)
-/// Arrow keys: heading and pitch steps, radians.
-constexpr double kArrowHeading = 10.0 * kRadiansPerDegree;
-constexpr double kArrowPitch = 5.0 * kRadiansPerDegree;
-
-/// The pose that looks at `target` from `eye` (ECEF): its distance, and heading and pitch in the
-/// target's east-north-up frame (scene::GlobePose).
-scene::GlobePose poseLooking(const glm::dvec3& eye, const glm::dvec3& target) {
-  scene::GlobePose p;
-  p.target = globe::toGeodetic(target);
-  const glm::dvec3 d = eye - target;
-  p.distance = glm::length(d);
-  if (!(p.distance > 0.0)) return p;
-  const glm::dmat3 enu = globe::enuBasis(p.target.lon, p.target.lat);
-  const glm::dvec3 local(glm::dot(d, enu[0]), glm::dot(d, enu[1]), glm::dot(d, enu[2]));
-  p.pitch = std::asin(std::clamp(local.z / p.distance, -1.0, 1.0));
-  // The view looks along −d: its heading is that of (−east, −north). Looking straight down (within
-  // the rounding of the ECEF points) it has none: north up.
-  p.heading = std::hypot(local.x, local.y) <= 1e-9 * p.distance ? 0.0 : std::atan2(-local.x, -local.y);
-  return p;
-}
 
 json geodeticJson(const globe::Geodetic& g) { return {{"lon", g.lon}, {"lat", g.lat}, {"h", g.h}}; }
 
@@ -130,23 +107,6 @@ void Viewer::useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDes
           .c_str());
 }
 
-void Viewer::globeHome() {
-  GlobeMode& g = *globe_;
-  const glm::ivec2 fb = framebufferSize();
-  const std::optional<scene::CameraSpec>& spec = g.scene.description.camera;
-  if (spec && spec->eyeLonLatH && spec->targetLonLatH) {
-    // The scene's own camera, as its author placed it, seen in the part of the window the panel
-    // leaves free.
-    const globe::GlobeView v = scene::globeStillView(g.scene, std::max(fb.x, 1), std::max(fb.y, 1));
-    g.controller->setPose(poseLooking(v.eye, v.target));
-    g.controller->centreIn(glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
-    return;
-  }
-  const std::array<double, 4>& e = g.scene.extent;
-  // Framed in the part of the window the panel leaves free, as in a projected frame.
-  g.controller->home(e[0], e[1], e[2], e[3], glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
-}
-
 overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
   GlobeMode& g = *globe_;
   g.view = g.controller->view(fb.x, fb.y);
@@ -212,130 +172,6 @@ std::vector<Identified::Hit> Viewer::globeFeaturesAt(const GroundPoint& point) c
     }
   }
   return hits;
-}
-
-void Viewer::handleGlobeInput(double seconds, const InputFrame& in) {
-  GlobeMode& g = *globe_;
-  scene::GlobeCameraController& c = *g.controller;
-  const glm::ivec2 fb = framebufferSize();
-  if (!in.uiMouse) {
-    const glm::dvec2 pixel = in.cursor, last = lastPixel_;
-    if (in.left && !leftDown_) {
-      pressCursor_ = pixel;
-      dragged_ = false;
-      if (lassoTool_) lassoPoints_.assign(1, pixel);
-    }
-    // With the lasso tool a left drag draws the lasso (as in a projected scene): every cursor
-    // position taken in the frame, so a fast drag keeps its shape.
-    const bool lassoing = lassoTool_ && in.left && !lassoPoints_.empty();
-    if (lassoing) {
-      if (glm::length(pixel - pressCursor_) > 3.0) dragged_ = true;
-      for (const glm::dvec2& p : in.cursorPath) {
-        if (glm::length(p - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(p);
-      }
-      if (glm::length(pixel - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(pixel);
-    }
-    // A drag starts once the cursor is 3 px from the press; the globe then follows it from there.
-    const bool leftDrags = in.left && leftDown_ && !lassoTool_;
-    const bool dragStarts = leftDrags && !dragged_ && glm::length(pixel - pressCursor_) > 3.0;
-    if (dragStarts) dragged_ = true;
-    const bool orbit =
-        (in.right && rightDown_) || (in.middle && middleDown_) || (leftDrags && dragged_ && in.modifiers.ctrl);
-    if (g.fly && (orbit || (leftDrags && dragged_))) {
-      // Fly: every drag turns the view about the eye (as a projected frame's fly does).
-      const glm::dvec2 move = dragStarts ? pixel - pressCursor_ : pixel - last;
-      if (move != glm::dvec2(0.0)) c.look(move.x * kLookPerPixel, move.y * kLookPerPixel);
-    } else if (orbit) {
-      const glm::dvec2 move = dragStarts ? pixel - pressCursor_ : pixel - last;
-      if (move != glm::dvec2(0.0)) c.orbit(move.x * kOrbitPerPixel, move.y * kOrbitPerPixel);
-    } else if (leftDrags && dragged_) {
-      const glm::dvec2 from = dragStarts ? pressCursor_ : last;
-      if (from != pixel) c.grab(from, pixel, fb);
-    }
-    if (!in.left && leftDown_) {
-      if (lassoTool_ && lassoPoints_.size() >= 3) {
-        overlay::SelectionOp op = lassoOpOf(in.modifiers);
-        if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
-        addLasso(op, std::exchange(lassoPoints_, {}));
-      } else if (!dragged_ && measureTool_) {
-        if (const std::optional<glm::dvec2> ground = measurePointAt(pixel)) addMeasurePoint(*ground);
-      } else if (!dragged_) {
-        identified_ = identify(pixel);
-      }
-      lassoPoints_.clear();
-    }
-    if (in.scroll != 0.0) c.zoomToCursor(in.scroll, pixel, fb);
-  }
-  leftDown_ = in.left;
-  rightDown_ = in.right;
-  middleDown_ = in.middle;
-  lastPixel_ = in.cursor;
-  if (!in.uiKeyboard && g.fly) {
-    // The keys of a projected frame's fly: WASD over the ground, Q and E down and up, Shift faster.
-    auto key = [&](int k) { return std::find(in.held.begin(), in.held.end(), k) != in.held.end() ? 1.0 : 0.0; };
-    const glm::dvec3 move(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_W) - key(GLFW_KEY_S),
-                          key(GLFW_KEY_E) - key(GLFW_KEY_Q));
-    if (move != glm::dvec3(0.0)) c.fly(move * (in.modifiers.shift ? 4.0 : 1.0), seconds);
-  }
-  if (!in.uiKeyboard) {
-    for (const InputFrame::KeyPress& k : in.pressed) globeKeyPressed(k.key, k.modifiers);
-  }
-}
-
-void Viewer::globeKeyPressed(int key, const app::Modifiers& modifiers) {
-  GlobeMode& g = *globe_;
-  scene::GlobeCameraController& c = *g.controller;
-  const glm::ivec2 fb = framebufferSize();
-  switch (key) {
-    case GLFW_KEY_ESCAPE:
-      // Backs out of one thing at a time, as in a projected scene.
-      if (!lassoPoints_.empty()) {
-        lassoPoints_.clear();
-      } else if (lassoTool_) {
-        lassoTool_ = false;
-      } else if (!measurePoints_.empty()) {
-        clearMeasure();
-      } else if (measureTool_) {
-        measureTool_ = false;
-      } else if (showHelp_) {
-        showHelp_ = false;
-      } else if (identified_) {
-        identified_.reset();
-      }
-      break;
-    case GLFW_KEY_H:
-    case GLFW_KEY_HOME:
-      goHome();
-      break;
-    case GLFW_KEY_N:
-      northUp();
-      break;
-    case GLFW_KEY_LEFT:
-      c.orbit(-kArrowHeading, 0.0);
-      break;
-    case GLFW_KEY_RIGHT:
-      c.orbit(kArrowHeading, 0.0);
-      break;
-    case GLFW_KEY_UP:
-      c.orbit(0.0, -kArrowPitch);
-      break;
-    case GLFW_KEY_DOWN:
-      c.orbit(0.0, kArrowPitch);
-      break;
-    case GLFW_KEY_PAGE_UP:
-      c.zoomToCursor(1.0, glm::dvec2(fb) * 0.5, fb);
-      break;
-    case GLFW_KEY_PAGE_DOWN:
-      c.zoomToCursor(-1.0, glm::dvec2(fb) * 0.5, fb);
-      break;
-    case GLFW_KEY_F:
-      g.fly = !g.fly;
-      message(g.fly ? "fly: W A S D move, Q E down and up, Shift faster, drag to look" : "orbit");
-      break;
-    default:
-      sharedKeyPressed(key, modifiers);
-      break;
-  }
 }
 
 void Viewer::drawGlobeHelp() { drawGlobeHelpWindow(&showHelp_); }

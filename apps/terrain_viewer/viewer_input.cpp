@@ -241,22 +241,18 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
   // A notice lasts until the next click or key (or its few seconds), in both frames.
   if ((in.left && !leftDown_) || (in.right && !rightDown_) || (in.middle && !middleDown_) || !in.pressed.empty())
     notice_.reset();
-  if (globe_) {
-    handleGlobeInput(seconds, in);
-    return;
-  }
-  const bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
+  const bool fly = flying();
   if (!in.uiMouse) handleMouse(in);
   leftDown_ = in.left;
   rightDown_ = in.right;
   middleDown_ = in.middle;
   lastPixel_ = in.cursor;
-
   if (!in.uiKeyboard && fly) {
+    // W A S D over the ground, Q and E down and up, Shift faster.
     auto key = [&](int k) { return std::find(in.held.begin(), in.held.end(), k) != in.held.end() ? 1.0 : 0.0; };
     const glm::dvec3 move(key(GLFW_KEY_D) - key(GLFW_KEY_A), key(GLFW_KEY_W) - key(GLFW_KEY_S),
                           key(GLFW_KEY_E) - key(GLFW_KEY_Q));
-    if (move != glm::dvec3(0.0)) controller_->fly(move * (in.modifiers.shift ? 4.0 : 1.0), seconds);
+    if (move != glm::dvec3(0.0)) flyBy(move * (in.modifiers.shift ? 4.0 : 1.0), seconds);
   }
   if (!in.uiKeyboard) {
     for (const InputFrame::KeyPress& k : in.pressed) keyPressed(k.key, fly, k.modifiers);
@@ -264,43 +260,28 @@ void Viewer::handleInput(double seconds, const InputFrame& in) {
 }
 
 void Viewer::handleMouse(const InputFrame& in) {
-  const glm::dvec2 pixel = in.cursor, lastPixel = lastPixel_;
-  const glm::ivec2 fb = framebufferSize();
-  const bool left = in.left, right = in.right, middle = in.middle;
-  const bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
-
-  if (left && !leftDown_) {
+  // The tools (lasso, measure, identify) are the same in both frames; the camera follows the rest
+  // of the mouse in its frame's way (navigate).
+  const glm::dvec2 pixel = in.cursor;
+  const bool pressed = in.left && !leftDown_;
+  if (pressed) {
     pressCursor_ = pixel;
     dragged_ = false;
     if (lassoTool_) lassoPoints_.assign(1, pixel);
-    // Orbit about the terrain at the centre of the view: reversed-Z depth is near / distance
-    // along the view axis.
-    if (!lassoTool_ && !fly) {
-      if (const std::optional<float> depth = depthAt(fb.x / 2, fb.y / 2)) {
-        controller_->pivotAt(camera().nearPlane / static_cast<double>(*depth));
-      }
-    }
   }
-  if (left && glm::length(pixel - pressCursor_) > 3.0) dragged_ = true;
-  if (left && lassoTool_) {
+  // A drag starts once the cursor is 3 px from the press.
+  const bool dragStarts = in.left && !dragged_ && glm::length(pixel - pressCursor_) > 3.0;
+  if (dragStarts) dragged_ = true;
+  if (in.left && lassoTool_ && !lassoPoints_.empty()) {
+    // A left drag draws the lasso: every cursor position taken in the frame, so a fast drag keeps
+    // its shape.
     for (const glm::dvec2& p : in.cursorPath) {
       if (glm::length(p - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(p);
     }
     if (glm::length(pixel - lassoPoints_.back()) >= 2.0) lassoPoints_.push_back(pixel);
-  } else if (left && leftDown_ && dragged_) {
-    if (fly) {
-      controller_->look(pixel - lastPixel);
-    } else {
-      controller_->orbit(pixel - lastPixel);
-    }
-  } else if ((right && rightDown_) || (middle && middleDown_)) {
-    if (fly) {
-      controller_->look(pixel - lastPixel);
-    } else {
-      controller_->pan(lastPixel, pixel, fb);
-    }
   }
-  if (!left && leftDown_) {
+  navigate(in, pressed, dragStarts);
+  if (!in.left && leftDown_) {
     if (lassoTool_ && lassoPoints_.size() >= 3) {
       overlay::SelectionOp op = lassoOpOf(in.modifiers);
       if (steps_.empty() && op != overlay::SelectionOp::Single) op = overlay::SelectionOp::Single;
@@ -312,12 +293,10 @@ void Viewer::handleMouse(const InputFrame& in) {
     }
     lassoPoints_.clear();
   }
-  if (in.scroll != 0.0) {
-    controller_->zoomAt(in.scroll, pixel, fb, pointAt(pixel));
-  }
 }
 
 void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
+  if (navigationKey(key)) return;  // the frame's own camera keys
   switch (key) {
     case GLFW_KEY_ESCAPE:
       // Backs out of one thing at a time, and never quits: nothing is lost to a stray key.
@@ -336,13 +315,14 @@ void Viewer::keyPressed(int key, bool fly, const app::Modifiers& modifiers) {
       }
       break;
     case GLFW_KEY_H:
+    case GLFW_KEY_HOME:
       goHome();
       break;
     case GLFW_KEY_N:
       northUp();
       break;
     case GLFW_KEY_F:
-      controller_->setMode(fly ? scene::CameraController::Mode::Orbit : scene::CameraController::Mode::Fly);
+      setFlying(!fly);
       break;
     default:
       sharedKeyPressed(key, modifiers);
