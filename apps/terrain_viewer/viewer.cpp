@@ -234,28 +234,50 @@ void Viewer::finishLoad(bool wait) {
   lastLoadProgress_ = load->progress->load();
   message(loaded.diagnostics);
   if (!loaded) return;
-  if (loaded->onGlobe()) {
-    useGlobeScene(std::move(loaded->globe()), load->description);
-    return;
-  }
-  scene::LoadedScene* scene = &loaded->projected();
   finishSelection();  // its job reads the scene about to go
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();
   globe_.reset();
+  if (loaded->onGlobe()) {
+    showGlobeScene(std::move(loaded->globe()), load->description);
+  } else if (!showProjectedScene(std::move(loaded->projected()), load->description)) {
+    return;
+  }
+  // The tools start empty again.
+  steps_.clear();
+  undo_.clear();
+  redo_.clear();
+  selectionChanged();
+  lassoTool_ = false;
+  lassoPoints_.clear();
+  measureTool_ = false;
+  clearMeasure();
+  measureEllipsoid_.reset();
+  table_.reset();
+  outlines_.clear();
+  labelSets_.clear();
+  labelPlacer_.forget();
+  identified_.reset();
+  glfwSetWindowTitle(context_->window(),
+                     ("terrain_viewer — " + (description_->name.empty() ? description_->path : description_->name) +
+                      (globe_ ? " (globe)" : ""))
+                         .c_str());
+}
+
+bool Viewer::showProjectedScene(scene::LoadedScene loaded, const scene::SceneDescription& description) {
   scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*scene, build);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(loaded, build);
   message(renderer.diagnostics);
   if (!renderer) {
     scene_.reset();  // the old one has no renderer any more
     description_.reset();
-    return;
+    return false;
   }
-  scene_ = std::move(*scene);
+  scene_ = std::move(loaded);
   renderer_ = std::move(*renderer);
-  description_ = load->description;
+  description_ = description;
   scene_->bounds->setExaggeration(description_->verticalExaggeration);
   const scene::Camera home = homeCamera();
   if (controller_) {
@@ -264,20 +286,28 @@ void Viewer::finishLoad(bool wait) {
   } else {
     controller_.emplace(home);
   }
-  undo_.clear();
-  redo_.clear();
   demRange_ = terrain::demHeightRange(*scene_->quadtree);
-  table_.reset();
-  outlines_.clear();
-  labelSets_.clear();
-  labelPlacer_.forget();
-  clearMeasure();
-  measureEllipsoid_.reset();
-  clearSelection();
-  identified_.reset();
-  glfwSetWindowTitle(
-      context_->window(),
-      ("terrain_viewer — " + (description_->name.empty() ? description_->path : description_->name)).c_str());
+  return true;
+}
+
+void Viewer::showGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description) {
+  scene_.reset();
+  auto g = std::make_unique<GlobeMode>();
+  g->scene = std::move(loaded);
+  g->renderer = std::make_unique<globe::GlobeRenderer>(g->scene.heights);
+  g->overlaySettings = scene::globeOverlaySettings(g->scene.description);
+  scene::GlobeCameraSettings camera;
+  camera.fovYDeg = settings_.fovYDeg;
+  g->controller = std::make_unique<scene::GlobeCameraController>(g->scene.heights.get(), camera);
+  g->shown.assign(g->scene.layers.size(), static_cast<char>(1));
+  // The DEM's highest post: no ground a lasso's eye sees lies beyond its horizon reach.
+  g->maxGroundHeight = std::max(g->scene.heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
+  if (g->scene.imagery) g->renderer->setImagery(g->scene.imagery);
+  globe_ = std::move(g);
+  description_ = description;
+  message("on the globe: " + globe_->scene.reason);
+  goHome();
+  demRange_.reset();
 }
 
 void Viewer::notify(const std::string& text, bool error) {
@@ -532,6 +562,48 @@ overlay::OverlayView Viewer::drawProjected(const glm::ivec2& fb, std::vector<Sho
     }
   }
   return scene::overlayViewOf(c, aspect());
+}
+
+overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
+  GlobeMode& g = *globe_;
+  g.view = g.controller->view(fb.x, fb.y);
+  std::vector<const globe::GlobeLayer*> layers;
+  if (render_.overlays) {
+    for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+      if (g.shown[i] != 0) layers.push_back(&g.scene.layers[i]);
+    }
+  }
+  // GPU timer queries wait for the GPU: sample them (every frame in a script).
+  const bool timed = frameIndex_ % 30 == 1 || script_.has_value();
+  // Tiles still building are drawn by their nearest ancestor meanwhile, as in a projected frame;
+  // scripted screenshots show the finished view.
+  g.overlaySettings.waitForTiles = script_.has_value();
+  g.overlaySettings.technique =
+      scene::globeTechniqueNamed(technique_->name).value_or(globe::GlobeTechnique::StencilTiles);
+  g.overlaySettings.textureSize = technique_->usesTextures() ? drapeSize_ : 0;
+  const globe::GlobeFrameStats s =
+      g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed, g.overlaySettings);
+  if (timed) {
+    g.stats = s;
+  } else {
+    const double terrainMs = g.stats.terrainGpuMilliseconds, overlayMs = g.stats.overlayGpuMilliseconds;
+    g.stats = s;
+    g.stats.terrainGpuMilliseconds = terrainMs;
+    g.stats.overlayGpuMilliseconds = overlayMs;
+  }
+  if (debugPieces_ && render_.overlays) {
+    // The same debug view of pieces as in a projected frame, on the tiles' chunks.
+    if (overlay::OverlayRenderer* overlays = g.renderer->overlay().renderer()) {
+      for (const globe::GlobeLayer* layer : layers) {
+        shown.push_back(
+            {overlays, g.renderer->overlay().chunks(g.view, g.renderer->tiles(), g.renderer->heights(), *layer)});
+      }
+    }
+  }
+  // The globe builds the meshes a frame needs in that frame; the layers' tiles come from the
+  // workers and imagery a few tiles a frame: draw again until it is all there.
+  busy_ = s.terrain.imageryPending > 0 || s.overlay.missingTiles > 0;
+  return scene::Scene::overlayViewOf(g.view, fb.x, fb.y);
 }
 
 }  // namespace gis::viewer

@@ -179,7 +179,7 @@ struct LabelSet {
   double exaggeration = 0.0;    ///< 0: heights not looked up yet
 };
 
-/// A scene on the globe (viewer_globe.cpp, docs/viewer.md "On the globe"): its layers, renderer
+/// A scene on the globe (docs/viewer.md "On the globe"): its layers, renderer
 /// and camera, and what the globe's HUD, status bar and identify show. The projected scene's
 /// members (Viewer::scene_ and the rest) are empty while it is shown.
 struct GlobeMode {
@@ -503,9 +503,11 @@ class Viewer {
   /// whole window as shown.
   bool screenshot(const std::filesystem::path& path, bool ui);
 
-  // The globe (viewer_globe.cpp).
-  /// Makes a globe scene current (renderer, camera at home); on failure the old scene stays.
-  void useGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description);
+  // The frames (viewer.cpp, viewer_navigation.cpp).
+  /// Makes a loaded scene current in its frame (its renderer, the camera at home); a projected
+  /// scene whose renderer fails leaves no scene (false).
+  bool showProjectedScene(scene::LoadedScene loaded, const scene::SceneDescription& description);
+  void showGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description);
   /// Home on the globe: the scene's camera, else its data's extent framed.
   void globeHome();
   /// The globe's terrain and layers into the target (and the point under the cursor); its
@@ -513,9 +515,9 @@ class Viewer {
   overlay::OverlayView drawGlobe(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
   /// The globe's own contents of the tools both frames draw (drawPanel's view and selection
   /// sections, drawHud, drawHelp).
-  void drawGlobeView();
+  /// The HUD's lines of each frame's renderer (drawHud).
+  void drawProjectedHud();
   void drawGlobeHud();
-  void drawGlobeHelp();
   /// The selection as state() has it in both frames: the steps, the lassos and the selected
   /// features per layer.
   [[nodiscard]] nlohmann::json selectionJson() const;

@@ -2,8 +2,11 @@
 // the HUD, the key help, identify results and the lasso being drawn.
 #include <algorithm>
 #include <cstdio>
+#include <iterator>
+#include <numbers>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "gfx/gl.hpp"
 
@@ -93,31 +96,39 @@ void Viewer::drawPanel() {
 
 void Viewer::drawViewSection() {
   if (!ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) return;
-  if (globe_) {
-    drawGlobeView();
-    return;
-  }
   if (ImGui::Button("Home (H)")) goHome();
   ImGui::SameLine();
-  bool fly = controller_->mode() == scene::CameraController::Mode::Fly;
-  if (ImGui::Checkbox("fly (F)", &fly)) {
-    controller_->setMode(fly ? scene::CameraController::Mode::Fly : scene::CameraController::Mode::Orbit);
-  }
-  float fov = static_cast<float>(settings_.fovYDeg);
-  if (valueSlider("field of view", &fov, 10.0F, 90.0F, "%.0f°").changed) settings_.fovYDeg = fov;
-  float tolerance = static_cast<float>(settings_.lodTolerancePixels);
-  if (valueSlider("px LOD tolerance", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic).changed) {
-    settings_.lodTolerancePixels = tolerance;
+  if (ImGui::Button("North up (N)")) northUp();
+  ImGui::SameLine();
+  bool fly = flying();
+  if (ImGui::Checkbox("fly (F)", &fly)) setFlying(fly);
+  if (globe_) {
+    // Where the camera is about its target.
+    const scene::GlobePose& pose = globe_->controller->pose();
+    ImGui::Text("heading %.1f°, pitch %.1f°", pose.heading * 180.0 / std::numbers::pi,
+                pose.pitch * 180.0 / std::numbers::pi);
+    ImGui::Text("%s to the target", formatMetres(pose.distance).c_str());
+  } else {
+    // The projected camera's field of view and the terrain's level of detail (the globe's
+    // tiles are chosen by their own error bound).
+    float fov = static_cast<float>(settings_.fovYDeg);
+    if (valueSlider("field of view", &fov, 10.0F, 90.0F, "%.0f°").changed) settings_.fovYDeg = fov;
+    float tolerance = static_cast<float>(settings_.lodTolerancePixels);
+    if (valueSlider("px LOD tolerance", &tolerance, 0.25F, 16.0F, "%.2f", ImGuiSliderFlags_Logarithmic).changed) {
+      settings_.lodTolerancePixels = tolerance;
+    }
   }
   drawExaggerationSlider();
   ImGui::Checkbox("legend", &showLegend_);
   ImGui::SameLine();
   ImGui::Checkbox("labels", &showLabels_);
-  ImGui::SameLine();
-  ImGui::Checkbox("wireframe", &render_.wireframe);
-  if (renderer_->terrainEngine().hasImagery()) {
+  if (!globe_) {
     ImGui::SameLine();
-    ImGui::Checkbox("imagery", &settings_.imagery);
+    ImGui::Checkbox("wireframe", &render_.wireframe);
+    if (renderer_->terrainEngine().hasImagery()) {
+      ImGui::SameLine();
+      ImGui::Checkbox("imagery", &settings_.imagery);
+    }
   }
 }
 
@@ -462,11 +473,17 @@ void Viewer::beginHud() {
 }
 
 void Viewer::drawHud() {
+  beginHud();
+  // What the frame drew and cost, in its renderer's figures; then where the eye is.
   if (globe_) {
     drawGlobeHud();
-    return;
+  } else {
+    drawProjectedHud();
   }
-  beginHud();
+  ImGui::End();
+}
+
+void Viewer::drawProjectedHud() {
   ImGui::Text("terrain: %zu triangles, %zu chunks, GPU %.2f ms", stats_.terrainDraw.triangles,
               stats_.terrainDraw.chunks, stats_.terrain.gpuMilliseconds);
   if (!render_.overlays) {
@@ -495,7 +512,33 @@ void Viewer::drawHud() {
           scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, scene_->bounds->exaggeration()))) {
     ImGui::Text("eye: %s, height %.0f m", formatLonLat(*ll).c_str(), ll->z);
   }
-  ImGui::End();
+}
+
+void Viewer::drawGlobeHud() {
+  const GlobeMode& g = *globe_;
+  ImGui::Text("globe terrain: %zu triangles, %zu tiles, GPU %.2f ms", g.stats.terrain.triangles, g.stats.terrain.tiles,
+              g.stats.terrainGpuMilliseconds);
+  if (!render_.overlays) {
+    ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
+  } else if (g.stats.overlay.draped) {
+    ImGui::Text("overlays: draped by the terrain, %zu textures built, %.0f MB", g.stats.overlay.texturesBuilt,
+                static_cast<double>(g.stats.overlay.drapeGpuBytes) / 1048576.0);
+  } else {
+    ImGui::Text("overlays: GPU %.2f ms, %zu pieces, %zu z-fail", g.stats.overlayGpuMilliseconds, g.stats.overlay.pieces,
+                g.stats.overlay.zFailPieces);
+    if (g.stats.overlay.deferredPending > 0) {
+      ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "deferred lookup: %zu index%s building (drawn as pieces)",
+                         g.stats.overlay.deferredPending, g.stats.overlay.deferredPending == 1 ? "" : "es");
+    }
+    if (g.stats.overlay.deferredLayers > 0) {
+      ImGui::Text("deferred lookup: %zu layer%s, %.0f MB of indices", g.stats.overlay.deferredLayers,
+                  g.stats.overlay.deferredLayers == 1 ? "" : "s",
+                  static_cast<double>(g.stats.overlay.deferredBytes) / 1048576.0);
+    }
+  }
+  const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
+  ImGui::Text("eye: lon %.6f°, lat %.6f°, height %s above ground, %s above the ellipsoid", eye.lon, eye.lat,
+              formatMetres(g.controller->heightAboveGround()).c_str(), formatMetres(eye.h).c_str());
 }
 
 void Viewer::drawNoScene() {
@@ -534,31 +577,46 @@ void drawKeysWindow(const char* title, bool* open, std::span<const std::array<co
 }
 
 void Viewer::drawHelp() {
-  if (globe_) {
-    drawGlobeHelp();
-    return;
-  }
-  static const std::array<const char*, 2> kRows[] = {
+  // The camera's rows are the frame's (a projected scene orbits and pans, the globe is grabbed);
+  // the tools' are the same in both.
+  static const std::array<const char*, 2> kProjected[] = {
       {"left drag", "orbit around the point in view (fly mode: look)"},
       {"right / middle drag", "pan: the ground under the cursor follows it"},
       {"wheel", "zoom to the point under the cursor"},
+  };
+  static const std::array<const char*, 2> kGlobe[] = {
+      {"left drag", "grab the globe: it spins from space, pans near the ground (fly mode: look)"},
+      {"right / middle drag, Ctrl+left drag", "orbit about the target: heading and pitch"},
+      {"wheel", "zoom to the point under the cursor (space to 1 m above the ground)"},
+      {"arrows", "turn (left, right) and tilt (up, down)"},
+      {"Page Up / Page Down", "zoom in / out at the centre"},
+  };
+  static const std::array<const char*, 2> kTools[] = {
       {"click", "identify: features, coordinates and height under the cursor"},
-      {"F", "fly mode: W A S D move, Q E down/up, Shift faster"},
-      {"H", "home view"},
+      {"F", "fly mode: W A S D move, Q E down/up, Shift faster, drag to look"},
+      {"H / Home", "home view"},
       {"N", "north up (or click the compass)"},
       {"L", "lasso tool: drag to draw; Shift or, Ctrl subtract, Ctrl+Shift and, Alt xor"},
       {"I / C", "invert / clear the selection"},
-      {"M", "measure tool: click points; Backspace removes the last, Esc clears"},
+      {"M", "measure tool: click points (geodesic and surface lengths; the area with the ring closed)"},
+      {"Backspace", "remove the last measured point"},
       {"Ctrl+Z / Ctrl+Y", "undo / redo a step of the selection"},
       {"O", "all vector layers on/off (compare frame rate)"},
       {"P / U", "panel / HUD on/off"},
       {"Ctrl+O", "open a scene, DEM or vector file"},
       {"F12", "screenshot (PNG, working directory)"},
       {"?", "this help"},
-      {"Esc", "cancel the lasso being drawn, leave the lasso tool, close help or identify"},
+      {"Esc", "drop the lasso being drawn, the lasso tool, the measured points, the measure tool, help or identify"},
       {"Ctrl+Q", "quit"},
   };
-  drawKeysWindow("Keys and mouse (?)", &showHelp_, kRows);
+  std::vector<std::array<const char*, 2>> rows;
+  if (globe_) {
+    rows.assign(std::begin(kGlobe), std::end(kGlobe));
+  } else {
+    rows.assign(std::begin(kProjected), std::end(kProjected));
+  }
+  rows.insert(rows.end(), std::begin(kTools), std::end(kTools));
+  drawKeysWindow("Keys and mouse (?)", &showHelp_, rows);
 }
 
 void Viewer::drawIdentify() {

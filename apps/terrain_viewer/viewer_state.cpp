@@ -1,9 +1,15 @@
 // What a test of the viewer reads: what is under a pixel (identify) and the viewer's state
 // (save_state), as JSON.
 #include <cmath>
+#include <cstdint>
+#include <memory>
+#include <numbers>
+#include <set>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <variant>
+#include <vector>
 
 #include "gfx/gl.hpp"  // before GLFW: libepoxy provides the GL declarations
 
@@ -19,6 +25,12 @@
 #include "viewer.hpp"
 
 namespace gis::viewer {
+namespace {
+
+nlohmann::json geodeticJson(const globe::Geodetic& g) { return {{"lon", g.lon}, {"lat", g.lat}, {"h", g.h}}; }
+
+}  // namespace
+
 nlohmann::json Identified::toJson() const {
   nlohmann::json features = nlohmann::json::array();
   for (const Hit& h : hits) {
@@ -305,6 +317,63 @@ nlohmann::json Viewer::frameStateJson() const {
             {"terrain_triangles", stats_.terrainDraw.triangles},
             {"overlay_fragments", overlayFragments()},
             {"selection_ms", selectionMs_}}}};  // the CPU twin's logical selection, last run
+}
+
+std::vector<Identified::Hit> Viewer::globeFeaturesAt(const GroundPoint& point) const {
+  const GlobeMode& g = *globe_;
+  std::vector<Identified::Hit> hits;
+  std::set<std::pair<std::size_t, std::uint32_t>> seen;  // a fill and its outline name a feature once
+  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+    if (g.shown[i] == 0) continue;
+    const std::size_t fileIndex = g.scene.layerFileIndex[i];
+    const scene::LayerDescription* described = scene::sceneLayerOf(g.scene, i);
+    for (const std::uint32_t f : globe::featuresAt(g.scene.layers[i], point.drawn, point.lonLatH->x, point.lonLatH->y,
+                                                   globe::pixelScaleOf(g.view))) {
+      if (!seen.insert({fileIndex, f}).second) continue;
+      Identified::Hit hit;
+      hit.layer = described != nullptr ? described->name : g.scene.layers[i].name();
+      hit.feature = f;
+      if (i < g.scene.layerFeatures.size() && f < g.scene.layerFeatures[i].size()) {
+        const std::shared_ptr<const geo::Feature> feature = g.scene.layerFeatures[i].get(f);
+        hit.fid = feature->fid;
+        for (const auto& [k, v] : feature->attributes) hit.attributes.emplace_back(k, attributeText(v));
+      }
+      hits.push_back(std::move(hit));
+    }
+  }
+  return hits;
+}
+
+nlohmann::json Viewer::globeStateJson() const {
+  const GlobeMode& g = *globe_;
+  const scene::GlobePose& pose = g.controller->pose();
+  const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
+  return {{"camera_mode", g.fly ? "fly" : "orbit"},
+          {"globe_reason", g.scene.reason},
+          {"globe",
+           {{"target", geodeticJson(pose.target)},
+            {"distance", pose.distance},
+            {"heading", pose.heading},
+            {"pitch", pose.pitch},
+            {"heading_deg", pose.heading * 180.0 / std::numbers::pi},
+            {"pitch_deg", pose.pitch * 180.0 / std::numbers::pi},
+            {"eye", geodeticJson(eye)},
+            {"eye_height_above_ground", g.controller->heightAboveGround()},
+            {"exaggeration", g.scene.heights->exaggeration()},
+            {"extent", {g.scene.extent[0], g.scene.extent[1], g.scene.extent[2], g.scene.extent[3]}},
+            {"camera", scene::globeCameraJson(g.view)}}},
+          {"drawn",
+           {{"ms", frameMs_},
+            {"terrain_triangles", g.stats.terrain.triangles},
+            {"overlay_fragments", g.stats.overlayFragments},
+            {"selection_ms", selectionMs_}}},
+          {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
+          {"overlay",
+           {{"pieces", g.stats.overlay.pieces},
+            {"z_fail_pieces", g.stats.overlay.zFailPieces},
+            {"deferred_layers", g.stats.overlay.deferredLayers},
+            {"deferred_pending", g.stats.overlay.deferredPending},
+            {"draped", g.stats.overlay.draped}}}};
 }
 
 }  // namespace gis::viewer
