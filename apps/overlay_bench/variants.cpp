@@ -370,8 +370,6 @@ json resultJson(const Options& o, const BenchSetup& setup, const std::vector<Met
           {"error_every", o.errorEvery},
           {"vector_vertices", vectorVertices(setup.scene)},
           {"dem_posts", posts},
-          // The globe times and counts its layers' passes together: its "mark" figures are both.
-          {"mark_and_cover_apart", !setup.scene.onGlobe()},
           {"methods", table},
           {"exact_methods_wrong_pixels_away_from_edges", exactWrong},
           {"renderer", setup.context->info().renderer},

@@ -155,7 +155,7 @@ T* madeOnFirstUse(std::optional<T>& held, bool& failed) {
 
 overlay::OverlaySettings overlaySettingsOf(const GlobeOverlaySettings& settings) {
   overlay::OverlaySettings s = settings.passes;
-  s.measure = false;  // the globe's renderer times its passes together
+  s.measure = settings.measure;  // per layer, its mark and cover apart (as in a projected frame)
   s.padBase = settings.padBase;
   s.padPerMetre = settings.padPerMetre;
   return s;
@@ -574,7 +574,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     stats_.drawnTiles += layer.size();
   }
   chunked.resize(n);  // the looked-up layers have no pieces (their bits stay theirs)
-  const std::vector<overlay::LayerFrameStats> drawnStats =
+  std::vector<overlay::LayerFrameStats> drawnStats =
       overlays->draw(cache, overlayViewOf(view), chunked, overlaySettingsOf(settings));
   for (const overlay::LayerFrameStats& s : drawnStats) {
     stats_.pieces += s.zPassPieces + s.zFailPieces;
@@ -586,10 +586,10 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     for (std::size_t i = 0; i < lookedUp; ++i) indexed[i] = nullptr;
     for (std::size_t i = lookedUp; i < n; ++i) stats_.deferredBytes += indexed[i]->bytes();
     stats_.deferredLayers = n - lookedUp;
-    std::vector<overlay::LayerFrameStats> lookupStats;
     deferredPass()->draw(cache, {settings.targetFramebuffer, view.width, view.height}, overlayViewOf(view), indexed,
-                         false, lookupStats);
+                         settings.measure, drawnStats);
   }
+  stats_.layers = std::move(drawnStats);
   if (settings.technique == GlobeTechnique::Auto && !settings.measure && deferredPass() != nullptr) gpu_->chooser.end();
 }
 

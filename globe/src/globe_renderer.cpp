@@ -26,12 +26,8 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
   gfx::enableReversedZ();
   gfx::beginRenderPass(cache, target.framebuffer, target.width, target.height,
                        {target.clearColor, gfx::kReversedZFar, 0});
-  std::optional<gfx::GpuTimer> terrainTimer, overlayTimer;
-  std::optional<gfx::PipelineStatistics> counts;
-  if (timed) {
-    terrainTimer.emplace();
-    overlayTimer.emplace();
-  }
+  std::optional<gfx::GpuTimer> terrainTimer;
+  if (timed) terrainTimer.emplace();
   // Texture draping: the textures the frame's tiles lack, rasterised before the terrain, which
   // then draws the layers (and their bits into the mask) itself.
   const bool draped = !layers.empty() && drapes(settings.technique);
@@ -58,29 +54,23 @@ GlobeFrameStats GlobeRenderer::render(gfx::StateCache& cache, const GlobeFrameTa
   stats.terrain = terrain_.stats();
   if (!layers.empty() && !draped) {
     if (target.hasMask) gfx::enableMaskWrites(target.framebuffer, true);
-    if (overlayTimer) {
-      overlayTimer->begin();
-      counts.emplace();
-      counts->begin();
-    }
+    // Timed, each layer's mark and cover are measured apart by the stencil core (and the lookup),
+    // as in a projected frame; the frame's figures are their sums.
     GlobeOverlaySettings drawn = settings;
     drawn.targetFramebuffer = target.framebuffer;
-    drawn.measure = overlayTimer.has_value();
+    drawn.measure = timed;
     overlay_.draw(cache, view, tiles, *heights_, layers, drawn);
-    if (overlayTimer) {
-      counts->end();
-      overlayTimer->end();
-      const gfx::PipelineCounts c = counts->result();
-      stats.overlayFragments = c.fragmentShaderInvocations;
-      stats.overlayPrimitives = c.clippingInputPrimitives;
-    }
     stats.overlay = overlay_.stats();
+    if (timed) {
+      for (const overlay::LayerFrameStats& l : stats.overlay.layers) {
+        stats.overlayGpuMilliseconds += l.gpuMilliseconds;
+        stats.overlayFragments += l.markFragments + l.coverFragments;
+        stats.overlayPrimitives += l.markTriangles + l.coverTriangles;
+      }
+      overlay_.measured(stats.overlayGpuMilliseconds);
+    }
   }
   if (terrainTimer) stats.terrainGpuMilliseconds = static_cast<double>(terrainTimer->nanoseconds().value_or(0)) * 1e-6;
-  if (overlayTimer && !layers.empty() && !draped) {
-    stats.overlayGpuMilliseconds = static_cast<double>(overlayTimer->nanoseconds().value_or(0)) * 1e-6;
-    overlay_.measured(stats.overlayGpuMilliseconds);
-  }
   return stats;
 }
 

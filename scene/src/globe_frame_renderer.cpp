@@ -45,13 +45,18 @@ class GlobeFrameRenderer final : public FrameRenderer {
     const globe::GlobeFrameStats stats =
         renderer_.render(cache, into, std::get<globe::GlobeView>(camera), options.overlays ? layers_ : none,
                          options.measure, overlaySettings_);
-    // The globe times and counts its layers' passes together (one query around them).
+    // Each layer's mark and cover counted apart, as in a projected frame.
     FrameFigures f;
-    f.passesApart = false;
     f.terrainGpuMs = stats.terrainGpuMilliseconds;
-    f.markGpuMs = stats.overlayGpuMilliseconds;
-    f.markFragments = stats.overlayFragments;
-    f.markTriangles = stats.overlayPrimitives;
+    for (const overlay::LayerFrameStats& l : stats.overlay.layers) {
+      f.layers.push_back({l.markFragments, l.coverFragments});
+      f.markFragments += l.markFragments;
+      f.coverFragments += l.coverFragments;
+      f.markTriangles += l.markTriangles;
+      f.coverTriangles += l.coverTriangles;
+      f.markGpuMs += l.markMilliseconds;
+      f.coverGpuMs += l.coverMilliseconds;
+    }
     f.zFailPieces = stats.overlay.zFailPieces;
     f.drawnPieces = stats.overlay.pieces;
     f.tilesBuilt = stats.overlay.builtTiles;

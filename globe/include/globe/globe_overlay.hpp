@@ -490,6 +490,9 @@ struct GlobeOverlayStats {
   /// were drawn (a level up per doubling; such a frame is exact only farther than that from
   /// edges); finestTileLevel the finest level drawn.
   overlay::TechniqueFrameStats tiles;
+  /// Per drawn layer (in the order given, at most 32): its passes, as the projected frame counts
+  /// them (overlay::OverlayRenderer's and the lookup's per-layer queries, when measured).
+  std::vector<overlay::LayerFrameStats> layers;
 };
 
 /// The globe's layers over the drawn terrain tiles, drawn by the overlay renderer of both frames

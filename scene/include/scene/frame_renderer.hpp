@@ -54,16 +54,14 @@ struct FrameOptions {
 /// What one frame drew and cost; GPU times and counts with FrameOptions::measure.
 struct FrameFigures {
   double terrainGpuMs = 0.0;
-  /// The layers' passes: marking the stencil and covering the marked pixels. A frame that times
-  /// and counts them only together (the globe's) says so in passesApart; its figures are then
-  /// the mark's.
-  bool passesApart = true;
+  /// The layers' passes: marking the stencil and covering the marked pixels (each layer's apart,
+  /// in both frames).
   double markGpuMs = 0.0, coverGpuMs = 0.0;
   std::uint64_t markFragments = 0, coverFragments = 0;
   std::uint64_t markTriangles = 0, coverTriangles = 0;
   std::size_t zFailPieces = 0, drawnPieces = 0;
-  /// Per drawn layer (FrameRenderer::drawnLayerCount), where the passes are counted apart: the
-  /// fragments of its mark and its cover.
+  /// Per drawn layer (FrameRenderer::drawnLayerCount; on the globe the shown ones, at most 32):
+  /// the fragments of its mark and its cover.
   struct LayerPasses {
     std::uint64_t markFragments = 0, coverFragments = 0;
   };
