@@ -42,11 +42,17 @@ class GlobeFrameRenderer final : public FrameRenderer {
     const globe::GlobeFrameTarget into{target.framebuffer(), target.width(), target.height(), true};
     const std::vector<const globe::GlobeLayer*> none;
     overlaySettings_.passes = options.overlay;  // the savings as asked (the ablation's switches)
+    overlaySettings_.waitForTiles = options.waitForTiles;
     const globe::GlobeFrameStats stats =
         renderer_.render(cache, into, std::get<globe::GlobeView>(camera), options.overlays ? layers_ : none,
                          options.measure, overlaySettings_);
     // Each layer's mark and cover counted apart, as in a projected frame.
     FrameFigures f;
+    f.terrain.tiles = stats.terrain.tiles;
+    f.terrain.triangles = stats.terrain.triangles;
+    f.terrain.built = stats.terrain.uploads;
+    f.terrain.selectMs = stats.selectMilliseconds;
+    f.terrain.fragments = stats.terrainFragments;
     f.terrainGpuMs = stats.terrainGpuMilliseconds;
     for (const overlay::LayerFrameStats& l : stats.overlay.layers) {
       f.layers.push_back({l.markFragments, l.coverFragments});
@@ -67,6 +73,15 @@ class GlobeFrameRenderer final : public FrameRenderer {
     lastResidentBytes_ = stats.overlay.residentBytes + stats.overlay.drapeGpuBytes + stats.overlay.deferredHeldBytes +
                          (wholeLoad() && options.overlays ? stats.overlay.drawnBytes : 0);
     return f;
+  }
+  [[nodiscard]] json terrainJson() const override {
+    const globe::GeoGrid& heights = *scene_.heights;
+    return {{"dem_size", {heights.width(), heights.height()}},
+            {"step_deg", heights.step()},
+            {"paged", heights.paged()},
+            {"resident_bytes", heights.residentBytes()},
+            {"meshes_on_gpu", renderer_.terrain().stats().resident},
+            {"imagery_bytes", renderer_.terrain().stats().imageryBytes}};
   }
   [[nodiscard]] LayersBuilt layersBuilt() const override { return {}; }  // built by the frames, in tiles
   [[nodiscard]] std::size_t techniqueGpuBytes() const override { return lastResidentBytes_; }

@@ -43,13 +43,22 @@ class ProjectedFrameRenderer final : public FrameRenderer {
                          const FrameOptions& options) override {
     RenderSettings settings;
     settings.lodTolerancePixels = settings_.lodTolerancePixels;
-    settings.waitForTiles = true;  // the same terrain, and every tile, for every method compared
+    settings.waitForTiles = options.waitForTiles;
     settings.overlays = options.overlays;
     settings.measure = options.measure;
     settings.overlay = options.overlay;
     const FrameStats stats = renderer_.render(cache, target.framebuffer(), target.width(), target.height(),
                                               std::get<Camera>(camera), settings);
     FrameFigures f;
+    f.terrain = {stats.terrainDraw.chunks,
+                 stats.terrainDraw.triangles,
+                 stats.terrainDraw.chunksBuilt,
+                 stats.selectMilliseconds,
+                 options.measure ? stats.terrain.counts.fragmentShaderInvocations : 0,
+                 stats.finestLevel,
+                 stats.tilesMissing,
+                 stats.tilesArrived,
+                 stats.pager.residentBytes + stats.pager.pinnedBytes};
     f.terrainGpuMs = stats.terrain.gpuMilliseconds;
     for (const overlay::LayerFrameStats& l : stats.layers) {
       f.layers.push_back({l.markFragments, l.coverFragments});
@@ -66,6 +75,14 @@ class ProjectedFrameRenderer final : public FrameRenderer {
     f.texturesBuilt = stats.texturesBuilt;
     f.textureSeconds = stats.textureSeconds;
     return f;
+  }
+  [[nodiscard]] json terrainJson() const override {
+    const terrain::TerrainGrid& grid = scene_.quadtree->grid();
+    return {{"dem_size", {grid.width, grid.height}},
+            {"gpu_bytes", renderer_.terrainEngine().gpuBytes()},
+            {"paged", scene_.paged()},
+            {"pyramid_build_seconds", scene_.pyramidBuild ? json(scene_.pyramidBuild->seconds) : json(nullptr)},
+            {"tile_cache_budget_bytes", scene_.paged() ? scene_.quadtree->pager()->budgetBytes() : std::size_t{0}}};
   }
   [[nodiscard]] LayersBuilt layersBuilt() const override {
     LayersBuilt built;

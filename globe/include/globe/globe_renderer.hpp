@@ -45,6 +45,7 @@ class GlobeRenderer {
   void setImagery(std::shared_ptr<const GlobeImagery> imagery) { terrain_.setImagery(std::move(imagery)); }
 
   [[nodiscard]] GlobeTerrain& terrain() { return terrain_; }
+  [[nodiscard]] const GlobeTerrain& terrain() const { return terrain_; }
   /// The layers' renderer, for analyses over the last frame (GlobeOverlayRenderer::markOverlap).
   [[nodiscard]] GlobeOverlayRenderer& overlay() { return overlay_; }
   [[nodiscard]] const GlobeOverlayRenderer& overlay() const { return overlay_; }

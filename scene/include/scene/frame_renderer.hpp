@@ -46,6 +46,10 @@ struct StillSettings {
 /// waited for, so that methods compared on a frame draw the same terrain.
 struct FrameOptions {
   bool overlays = true;  ///< off: the terrain alone
+  /// Wait for every tile the view needs (the same terrain for every method compared); off, a
+  /// flight's frame draws what is there (a paged projected terrain draws the parents of tiles
+  /// still loading).
+  bool waitForTiles = true;
   bool measure = false;  ///< GPU timer and pipeline statistics queries around the passes (they wait)
   /// The stencil passes' switches (docs/design.md §9, the ablation's); a projected frame's.
   overlay::OverlaySettings overlay;
@@ -53,6 +57,17 @@ struct FrameOptions {
 
 /// What one frame drew and cost; GPU times and counts with FrameOptions::measure.
 struct FrameFigures {
+  /// The terrain as drawn: its tiles (a projected frame's chunks), triangles, tiles built in this
+  /// frame, the level of detail's selection time, and the fragments (measured frames only).
+  struct Terrain {
+    std::size_t tiles = 0, triangles = 0, built = 0;
+    double selectMs = 0.0;
+    std::uint64_t fragments = 0;
+    int finestLevel = -1;  ///< a projected frame's
+    /// A paged projected terrain: tiles wanted but not loaded (parents drawn), tiles arrived in
+    /// this frame, and the bytes its tile cache holds.
+    std::size_t tilesMissing = 0, tilesArrived = 0, tileBytes = 0;
+  } terrain;
   double terrainGpuMs = 0.0;
   /// The layers' passes: marking the stencil and covering the marked pixels (each layer's apart,
   /// in both frames).
@@ -112,6 +127,9 @@ class FrameRenderer {
                                  const FrameOptions& options) = 0;
   /// What the layers' build made before the first frame (zero where they are built by frames).
   [[nodiscard]] virtual LayersBuilt layersBuilt() const = 0;
+  /// The frame's own description of its terrain for a benchmark (the DEM's size, GPU bytes,
+  /// paging).
+  [[nodiscard]] virtual nlohmann::json terrainJson() const = 0;
   /// GPU bytes the technique holds beyond what layersBuilt counts (tiles, textures, indices).
   [[nodiscard]] virtual std::size_t techniqueGpuBytes() const = 0;
   /// The technique drapes one texture over the whole terrain (built at its first frame).
