@@ -1,7 +1,9 @@
 // overlay_bench --mode lasso: one camera, the terrain drawn once, then the GPU time of lasso
 // selection for 1–500 random volumes (mixed operators, and Or only), interleaved with the time of
 // one full-screen pass, so every figure is a ratio to that pass; a least-squares line through time
-// against volumes gives the time per volume. Writes lasso.json and lasso.csv.
+// against volumes gives the time per volume. In either frame: a projected scene's volumes reach to
+// infinity, the globe's to the eye's horizon (scene::Scene::lassoIn). Writes lasso.json and
+// lasso.csv.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -26,6 +28,7 @@
 #include "gfx/program.hpp"
 #include "gfx/queries.hpp"
 #include "gfx/render_target.hpp"
+#include "scene/frame_renderer.hpp"
 #include "scene/json_file.hpp"
 #include "vector_overlay/lasso.hpp"
 #include "vector_overlay/selection_renderer.hpp"
@@ -220,19 +223,20 @@ struct PassTimes {
 /// The camera, the terrain drawn once under it, and what the selections are timed with.
 struct LassoBench {
   const Options& o;
+  const scene::Scene& scene;
   gfx::Program& passProgram;
-  scene::Camera camera;
-  glm::dmat4 viewProj{1.0};
+  scene::FrameCamera camera;
+  std::string cameraKind;
   overlay::OverlayView view;
   gfx::StateCache cache;
   gfx::RenderTarget target;
-  scene::FrameStats terrainFrame;
+  scene::FrameFigures terrainFrame;
   std::size_t terrainPixels = 0;
   gfx::GpuTimer timer;
   gfx::PipelineStatistics statistics;
   gfx::VertexArrayHandle emptyVao = gfx::createVertexArray();
 
-  LassoBench(const Options& options, const BenchSetup& setup, scene::SceneRenderer& renderer, gfx::Program& program);
+  LassoBench(const Options& options, const BenchSetup& setup, scene::FrameRenderer& renderer, gfx::Program& program);
   [[nodiscard]] std::vector<overlay::SelectionStep> stepsFor(const Lassos& l, const LassoSeries& s,
                                                              std::size_t n) const;
   Sample fullScreenPass();
@@ -242,24 +246,24 @@ struct LassoBench {
   PassTimes measure(Lassos& l);
 };
 
-/// One camera, the fly-through's first oblique frame (from the south, 40° down: terrain fills
-/// the view), and the terrain drawn once: the selection reads its depth.
-LassoBench::LassoBench(const Options& options, const BenchSetup& setup, scene::SceneRenderer& renderer,
+/// One camera, the flight's first oblique frame (a projected scene's from the south, 40° down;
+/// on the globe its path's first oblique frame: terrain fills the view), and the terrain drawn
+/// once: the selection reads its depth.
+LassoBench::LassoBench(const Options& options, const BenchSetup& setup, scene::FrameRenderer& renderer,
                        gfx::Program& program)
-    : o(options), passProgram(program), target(options.width, options.height) {
-  glm::dvec3 lo, hi;
-  scene::terrainBox(setup.scene.projected(), setup.description.verticalExaggeration, lo, hi);
-  const std::vector<scene::PathFrame> path = scene::flyThrough(lo, hi, 3);
-  camera =
-      std::find_if(path.begin(), path.end(), [](const scene::PathFrame& f) { return f.segment == "oblique"; })->camera;
-  const double aspect = static_cast<double>(o.width) / static_cast<double>(o.height);
-  viewProj = camera.projection(aspect) * camera.view();
-  scene::RenderSettings settings;
-  settings.lodTolerancePixels = o.lodTolerance;
-  settings.waitForTiles = true;
-  settings.overlays = false;
-  terrainFrame = renderer.render(cache, target.framebuffer(), o.width, o.height, camera, settings);
-  view = scene::overlayViewOf(camera, aspect);
+    : o(options), scene(setup.scene), passProgram(program), target(options.width, options.height) {
+  Options three = options;
+  three.frames = 3;
+  const std::vector<BenchFrame> path = flightPath(three, setup);
+  const auto oblique = std::find_if(path.begin(), path.end(),
+                                    [](const BenchFrame& f) { return f.segment.find("oblique") != std::string::npos; });
+  const BenchFrame& chosen = oblique != path.end() ? *oblique : path[path.size() / 2];
+  camera = chosen.camera;
+  cameraKind = "the first \"" + chosen.segment + "\" frame of the flight";
+  scene::FrameOptions drawn;
+  drawn.overlays = false;
+  terrainFrame = renderer.drawFrame(cache, target, camera, drawn);
+  view = scene::Scene::overlayViewOf(camera, o.width, o.height);
   for (float d : gfx::readDepth(target)) terrainPixels += d > 0.0F ? 1u : 0u;
 }
 
@@ -267,7 +271,7 @@ std::vector<overlay::SelectionStep> LassoBench::stepsFor(const Lassos& l, const 
   std::vector<overlay::SelectionStep> steps(n);
   for (std::size_t i = 0; i < n; ++i) {
     steps[i].op = s.ops[i];
-    steps[i].lasso = {l.polygons[i], viewProj, o.width, o.height, std::numeric_limits<double>::infinity(), {}, {}};
+    steps[i].lasso = scene.lassoIn(camera, l.polygons[i], o.width, o.height);
   }
   return steps;
 }
@@ -447,19 +451,27 @@ json seriesJson(const LassoSeries& s, const Lassos& l, const Units& u, std::ofst
 
 /// Medians over the repeats, as ratios to the median full-screen pass of the whole run: printed,
 /// into lasso.csv, and the series for lasso.json.
-json report(const Options& o, const Lassos& l, const PassTimes& p, const Units& u, const std::string& rendererName) {
+json report(const Options& o, const Lassos& l, const PassTimes& p, const Units& u, const std::string& rendererName,
+            bool onGlobe) {
   std::filesystem::create_directories(o.out);
   std::ofstream csv(std::filesystem::path(o.out) / "lasso.csv");
   csv << "series,volumes,gpu_ms,cpu_ms,wall_ms,gpu_passes,cpu_passes,wall_passes,ratio_to_one_volume,ms_per_volume,"
          "fragments,fragment_passes,mark_draws,screen_passes,triangles\n";
-  std::printf("lasso selection, %dx%d, %s; times are %s ms (process CPU time on llvmpipe, else GPU timer)\n", o.width,
-              o.height, rendererName.c_str(), kClockNames[u.headline]);
+  std::printf("lasso selection (%s frame), %dx%d, %s; times are %s ms (process CPU time on llvmpipe, else GPU timer)\n",
+              onGlobe ? "globe" : "projected", o.width, o.height, rendererName.c_str(), kClockNames[u.headline]);
   std::printf("one full-screen pass: %.3f ms %s (gpu %.3f, cpu %.3f, wall %.3f ms), %llu fragments\n",
               u.pass[u.headline], kClockNames[u.headline], u.pass[kGpu], u.pass[kCpu], u.pass[kWall],
               static_cast<unsigned long long>(p.passFragments));
   json series = json::array();
   for (const LassoSeries& s : l.series) series.push_back(seriesJson(s, l, u, csv));
   return series;
+}
+
+/// Where the volumes are seen from: a projected camera's eye and target, or the globe's camera.json.
+json cameraOf(const LassoBench& b) {
+  json c = b.scene.cameraJson(b.camera, b.o.width, b.o.height);
+  c["kind"] = b.cameraKind;
+  return c;
 }
 
 json resultJson(const Options& o, const LassoBench& b, const Lassos& l, const PassTimes& p, const Units& u, json series,
@@ -477,13 +489,10 @@ json resultJson(const Options& o, const LassoBench& b, const Lassos& l, const Pa
           {"scene", o.scene},
           {"width", o.width},
           {"height", o.height},
-          {"camera",
-           {{"kind", "first oblique frame of the fly-through"},
-            {"eye_xyz", {b.camera.eye.x, b.camera.eye.y, b.camera.eye.z}},
-            {"target_xyz", {b.camera.target.x, b.camera.target.y, b.camera.target.z}},
-            {"fov_y_deg", b.camera.fovYDeg}}},
+          {"frame", b.scene.onGlobe() ? "globe" : "projected"},
+          {"camera", cameraOf(b)},
           {"terrain_pixels_fraction", static_cast<double>(b.terrainPixels) / screenPixels},
-          {"terrain_triangles", b.terrainFrame.terrainDraw.triangles},
+          {"terrain_triangles", b.terrainFrame.terrain.triangles},
           {"scheme", "runs"},
           {"seed", kLassoSeed},
           {"repeats", o.repeats},
@@ -507,16 +516,17 @@ int runLasso(const Options& o) {
   // The volumes select terrain; the layers are not drawn.
   std::optional<BenchSetup> setup = setUp(o, false);
   if (!setup) return 1;
-  if (!projectedOnly(o, *setup)) return 2;
   gfx::Context& context = *setup->context;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(setup->scene.projected());
+  scene::StillSettings settings;
+  settings.lodTolerancePixels = o.lodTolerance;
+  Result<std::unique_ptr<scene::FrameRenderer>> renderer = scene::FrameRenderer::create(setup->scene, settings);
   app::report(renderer.diagnostics);
   Result<gfx::Program> passProgram = gfx::Program::build({{"overlay_cover.vert", {}}, {"overlay_volume.frag", {}}});
   app::report(passProgram.diagnostics);
   if (!renderer || !passProgram) return 1;
   const std::string rendererName = context.info().renderer;
 
-  LassoBench bench(o, *setup, *renderer, *passProgram);
+  LassoBench bench(o, *setup, **renderer, *passProgram);
   Lassos lassos = makeLassos(o);
   if (!bench.buildRows(lassos)) return 1;
   const PassTimes passes = bench.measure(lassos);
@@ -525,7 +535,7 @@ int runLasso(const Options& o) {
   units.headline = rendererName.find("llvmpipe") != std::string::npos ? kCpu : kGpu;
   for (std::size_t c = 0; c < kClocks; ++c) units.pass[c] = percentile(passes.passMs[c], 50);
   units.passFragments = static_cast<double>(std::max<std::uint64_t>(passes.passFragments, 1));
-  json series = report(o, lassos, passes, units, rendererName);
+  json series = report(o, lassos, passes, units, rendererName, setup->scene.onGlobe());
   const json result = resultJson(o, bench, lassos, passes, units, std::move(series), context);
   std::ofstream(std::filesystem::path(o.out) / "lasso.json") << scene::jsonText(result) << '\n';
   std::printf("\ngl_errors: %zu; wrote %s\n", context.debug().errorCount(),

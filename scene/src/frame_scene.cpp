@@ -1,5 +1,6 @@
 #include "scene/frame_scene.hpp"
 
+#include <algorithm>
 #include <utility>
 
 #include <nlohmann/json.hpp>
@@ -76,6 +77,20 @@ Result<SelectionRequest> Scene::loadLasso(const std::string& path, const FrameCa
                                           int height) const {
   if (onGlobe()) return loadGlobeLassoFile(path, std::get<globe::GlobeView>(camera), *globe().heights);
   return loadLassoFile(path, projected().frame, std::get<Camera>(camera), width, height);
+}
+
+overlay::Lasso Scene::lassoIn(const FrameCamera& camera, std::vector<glm::dvec2> points, int width, int height) const {
+  if (const auto* view = std::get_if<globe::GlobeView>(&camera)) {
+    const double highest = std::max(globe().heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
+    return globe::lassoIn(*view, std::move(points), highest);
+  }
+  const Camera& c = std::get<Camera>(camera);
+  overlay::Lasso lasso;
+  lasso.points = std::move(points);
+  lasso.viewProj = c.projection(static_cast<double>(width) / height) * c.view();
+  lasso.width = width;
+  lasso.height = height;
+  return lasso;
 }
 
 overlay::OverlayView Scene::overlayViewOf(const FrameCamera& camera, int width, int height) {

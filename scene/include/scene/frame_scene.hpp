@@ -19,6 +19,7 @@
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/lasso.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 
 namespace gis::scene {
@@ -60,6 +61,11 @@ class Scene {
   /// Reads a lasso file (lasso_file.hpp) for a frame seen from `camera`.
   [[nodiscard]] Result<SelectionRequest> loadLasso(const std::string& path, const FrameCamera& camera, int width,
                                                    int height) const;
+  /// A lasso drawn on screen (pixels, y down) in a target of this size seen from `camera`: its
+  /// volume reaches to infinity in a projected frame, to the eye's horizon over the DEM's highest
+  /// post on the globe (not through the earth to its far side).
+  [[nodiscard]] overlay::Lasso lassoIn(const FrameCamera& camera, std::vector<glm::dvec2> points, int width,
+                                       int height) const;
   /// The overlay passes' view of `camera` in a target of this size.
   [[nodiscard]] static overlay::OverlayView overlayViewOf(const FrameCamera& camera, int width, int height);
   /// The CPU reference's view of a depth buffer drawn from `camera` (top row first).
