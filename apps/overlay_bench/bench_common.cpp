@@ -52,15 +52,6 @@ scene::RenderSettings comparisonSettings(const Options& o) {
   return settings;
 }
 
-bool projectedOnly(const Options& o, const BenchSetup& setup) {
-  if (!setup.scene.onGlobe()) return true;
-  std::fprintf(stderr,
-               "overlay_bench: --mode %s draws a projected scene; %s is drawn on the globe (%s): use --mode methods or "
-               "overlay\n",
-               o.mode.c_str(), o.scene.c_str(), setup.scene.globeReason().c_str());
-  return false;
-}
-
 std::vector<scene::PathFrame> flyThroughOf(const Options& o, const BenchSetup& setup) {
   glm::dvec3 lo, hi;
   scene::terrainBox(setup.scene.projected(), setup.description.verticalExaggeration, lo, hi);

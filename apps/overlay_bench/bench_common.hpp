@@ -69,10 +69,6 @@ struct BenchSetup {
 /// with the problems reported, if either fails.
 std::optional<BenchSetup> setUp(const Options& o, bool withLayers);
 
-/// True for a projected scene; false, said on stderr, for one on the globe, which mode o.mode does
-/// not draw (yet: --mode methods, overlay and ablation draw both).
-bool projectedOnly(const Options& o, const BenchSetup& setup);
-
 /// The render settings under which several methods draw the same frames: the options' LOD
 /// tolerance and every tile waited for, so the terrain is the same (the exaggeration is the
 /// scene's, held by its bounds).

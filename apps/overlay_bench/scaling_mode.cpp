@@ -49,7 +49,7 @@ namespace fs = std::filesystem;
 constexpr const char* kTerrainOnly = "terrain only";
 constexpr const char* kTerrainColour = "#7f7f7f";
 constexpr const char* kTooBig = "not run: whole-load at this size needs more memory than the machine has";
-/// The segments of the methods path, in the order it flies them.
+/// The segments of a projected scene's methods path, in the order it flies them.
 constexpr const char* kSegments[] = {"top-down", "oblique", "horizon", "close-up"};
 
 struct ScalingMethod {
@@ -210,8 +210,9 @@ void readStats(const json& stats, StillRun& run) {
   run.terrainGpuBytes = terrain.value("gpu_bytes", std::size_t{0});
   run.demPosts = terrain.value("posts", std::size_t{0});
   run.terrainGpuMs = stats.value("passes", json::object()).value("terrain", json::object()).value("gpu_ms", 0.0);
+  // The same keys in both frames (overlay_render's stats.json).
+  run.vectorVertices = stats.value("vector_vertices", std::size_t{0});
   for (const json& layer : stats.value("layers", json::array())) {
-    run.vectorVertices += layer.value("vertices", std::size_t{0});
     for (const json& pass : layer.value("passes", json::array())) {
       run.overlayGpuBytes += pass.value("gpu_bytes", std::size_t{0});
       run.overlayGpuMs += pass.value("gpu_ms", 0.0);
@@ -337,6 +338,22 @@ std::optional<std::pair<double, double>> segmentFigures(const json& frames, cons
   return std::make_pair(t.value("median_ms", 0.0), t.value("over_terrain_median", 0.0));
 }
 
+/// The segments the methods flew over a scene (methods.json): a projected scene's in the order of
+/// its path, then any other (the globe's path has segments of its own), by name.
+std::vector<std::string> segmentsOf(const json& frames) {
+  std::vector<std::string> out;
+  const json* terrain = framesOf(frames, kTerrainOnly);
+  if (terrain == nullptr) return out;
+  const json segments = terrain->value("segments", json::object());
+  for (const char* known : kSegments) {
+    if (segments.contains(known)) out.emplace_back(known);
+  }
+  for (const auto& [name, figures] : segments.items()) {
+    if (std::find(out.begin(), out.end(), name) == out.end()) out.push_back(name);
+  }
+  return out;
+}
+
 /// The figures of one run in scaling.json.
 json stillJson(const StillRun& r) {
   if (!r.ok()) return {{"problem", r.problem}, {"seconds", r.seconds}};
@@ -364,7 +381,7 @@ json sceneJson(const SceneResult& r) {
     start.push_back(e);
   }
   json segments = json::object();
-  for (const char* segment : kSegments) {
+  for (const std::string& segment : segmentsOf(r.frames)) {
     for (const StartFigures& f : r.start) {
       if (const auto s = segmentFigures(r.frames, f.method.name, segment)) {
         segments[segment][f.method.name] = {{"median_ms", s->first}, {"over_terrain_median", s->second}};
@@ -436,7 +453,7 @@ std::string framesTable(const std::vector<SceneResult>& results) {
             " | — | failed (see the output) |" + std::string(2 * (methods.size() - 1), '|') + "\n";
       continue;
     }
-    for (const char* segment : kSegments) {
+    for (const std::string& segment : segmentsOf(r.frames)) {
       const auto terrain = segmentFigures(r.frames, kTerrainOnly, segment);
       if (!terrain) continue;  // not on the path (--segments), or no timed frame on it
       md += "| " + r.stem + " | " + (r.vectorVertices ? std::to_string(*r.vectorVertices) : "?") + " | " + segment +

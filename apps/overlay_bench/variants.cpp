@@ -381,8 +381,6 @@ json resultJson(const Options& o, const BenchSetup& setup, const std::vector<Met
 int runVariants(const Options& o, std::vector<Method> variants, const std::string& stem, json* summary) {
   std::optional<BenchSetup> setup = setUp(o, true);
   if (!setup) return 1;
-  // The scaling's scenes are a projected frame's.
-  if (o.mode == "scaling" && !projectedOnly(o, *setup)) return 2;
   // Declared after the context, so that their GL objects go while it is current.
   std::vector<Method> methods = std::move(variants);
   if (setup->scene.onGlobe()) {

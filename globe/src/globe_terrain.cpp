@@ -629,6 +629,7 @@ void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std
     for (GLuint unit = 1; unit <= 4; ++unit) cache.bindTexture(unit, 0);
   }
   stats_.resident = gpu.meshes.size();
+  stats_.meshBytes = gpu.meshes.size() * kTilePosts * kTilePosts * sizeof(TileVertex);
   stats_.imageryBytes = gpu.textureBytes;
 }
 

@@ -35,6 +35,18 @@ class GlobeFrameRenderer final : public FrameRenderer {
       if (renderer_.render(cache, into, view, {}).terrain.imageryPending == 0) break;
     }
     stats_ = renderer_.render(cache, into, view, layers_, true, overlaySettings_);
+    // What drew each layer with pieces (its tiles in view, or its pieces built whole): their GPU
+    // bytes. Not the layers the lookup or a drape drew (asking for their chunks would build them).
+    stillLayerBytes_.assign(scene_.layers.size(), 0);
+    const std::size_t pieced =
+        stats_.overlay.draped || layers_.size() != scene_.layers.size()
+            ? 0
+            : scene_.layers.size() - std::min(stats_.overlay.deferredLayers, scene_.layers.size());
+    for (std::size_t l = 0; l < pieced; ++l) {
+      for (const overlay::OverlayLayer* chunk :
+           renderer_.overlay().chunks(view, renderer_.tiles(), renderer_.heights(), scene_.layers[l]))
+        stillLayerBytes_[l] += chunk->stats().gpuBytes;
+    }
   }
 
   FrameFigures drawFrame(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera,
@@ -171,12 +183,17 @@ class GlobeFrameRenderer final : public FrameRenderer {
                     {"resident_bytes", heights.residentBytes()},
                     {"blocks_read", heights.blocksRead()},
                     {"posts_read", heights.postsRead()}};
-    stats["terrain"] = {{"tiles", stats_.terrain.tiles},
-                        {"triangles", stats_.terrain.triangles},
-                        {"select_ms", stats_.selectMilliseconds},
-                        {"gpu_ms", stats_.terrainGpuMilliseconds},
-                        {"fragments", stats_.terrainFragments},
-                        {"imagery_source_pixels_read", scene_.imagery ? scene_.imagery->sourcePixelsRead() : 0U}};
+    stats["terrain"] = {
+        {"posts", static_cast<std::size_t>(heights.width()) * static_cast<std::size_t>(heights.height())},
+        {"gpu_bytes", stats_.terrain.meshBytes + stats_.terrain.imageryBytes},
+        {"tiles", stats_.terrain.tiles},
+        {"triangles", stats_.terrain.triangles},
+        {"select_ms", stats_.selectMilliseconds},
+        {"gpu_ms", stats_.terrainGpuMilliseconds},
+        {"fragments", stats_.terrainFragments},
+        {"imagery_source_pixels_read", scene_.imagery ? scene_.imagery->sourcePixelsRead() : 0U}};
+    stats["passes"] = {
+        {"terrain", {{"gpu_ms", stats_.terrainGpuMilliseconds}, {"fragments", stats_.terrainFragments}}}};
     const globe::GlobeOverlayStats& o = stats_.overlay;
     stats["overlay"] = {{"pieces", o.pieces},
                         {"z_fail_pieces", o.zFailPieces},
@@ -191,10 +208,21 @@ class GlobeFrameRenderer final : public FrameRenderer {
                         {"primitives", stats_.overlayPrimitives}};
     json layers = json::array();
     for (std::size_t l = 0; l < scene_.layers.size(); ++l) {
+      // Its passes in this frame, as a projected layer's "passes" entry.
+      const overlay::LayerFrameStats f = l < o.layers.size() ? o.layers[l] : overlay::LayerFrameStats{};
+      const json passes = json::array({{{"name", scene_.layers[l].name()},
+                                        {"gpu_bytes", l < stillLayerBytes_.size() ? stillLayerBytes_[l] : 0U},
+                                        {"z_pass_pieces", f.zPassPieces},
+                                        {"z_fail_pieces", f.zFailPieces},
+                                        {"culled_pieces", f.culledPieces},
+                                        {"gpu_ms", f.gpuMilliseconds},
+                                        {"mark_fragments", f.markFragments},
+                                        {"cover_fragments", f.coverFragments}}});
       layers.push_back({{"name", scene_.layers[l].name()},
                         {"polygons", scene_.layers[l].polygons().size()},
                         {"mask_bit", scene_.layerFileIndex[l]},
-                        {"covered_pixels", l < images.coveredPixels.size() ? images.coveredPixels[l] : 0U}});
+                        {"covered_pixels", l < images.coveredPixels.size() ? images.coveredPixels[l] : 0U},
+                        {"passes", passes}});
     }
     stats["layers"] = layers;
     if (o.draped || globe::drapes(overlaySettings_.technique)) {
@@ -231,6 +259,7 @@ class GlobeFrameRenderer final : public FrameRenderer {
   std::vector<const globe::GlobeLayer*> layers_;
   globe::GlobeFrameStats stats_;
   std::size_t lastResidentBytes_ = 0;
+  std::vector<std::size_t> stillLayerBytes_;  ///< per layer: the GPU bytes of what drew it in the last still
 
   /// The layers are built whole, once (lines in pixels at their least widths in metres).
   [[nodiscard]] bool wholeLoad() const {

@@ -58,6 +58,7 @@ struct TerrainStats {
   std::size_t triangles = 0;       ///< drawn in the last frame
   std::size_t uploads = 0;         ///< meshes built and uploaded in the last frame
   std::size_t resident = 0;        ///< meshes on the GPU
+  std::size_t meshBytes = 0;       ///< and their vertex buffers' bytes
   std::size_t imageryTiles = 0;    ///< drawn with their imagery texture in the last frame
   std::size_t imageryBuilt = 0;    ///< imagery textures built in the last frame
   std::size_t imageryPending = 0;  ///< drawn tiles the imagery reaches whose texture is not built yet
