@@ -193,14 +193,6 @@ void Viewer::drawDrapeSize() {
 
 void Viewer::drawLayersSection() {
   if (!ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) return;
-  if (globe_) {
-    // The globe's view section has no room for these (heading, pitch and distance are there).
-    ImGui::Checkbox("legend", &showLegend_);
-    if (!labelSets_.empty()) {
-      ImGui::SameLine();
-      ImGui::Checkbox("labels", &showLabels_);
-    }
-  }
   // Each scene layer alike in both frames: shown, style, categories, labels, its table.
   const std::size_t layers = globe_ ? description_->layers.size() : scene_->layers.size();
   bool rebuild = false;
@@ -537,8 +529,9 @@ void Viewer::drawGlobeHud() {
     }
   }
   const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
-  ImGui::Text("eye: lon %.6f°, lat %.6f°, height %s above ground, %s above the ellipsoid", eye.lon, eye.lat,
-              formatMetres(g.controller->heightAboveGround()).c_str(), formatMetres(eye.h).c_str());
+  ImGui::Text("eye: lon %.6f°, lat %.6f°", eye.lon, eye.lat);
+  ImGui::Text("     %s above ground, %s above the ellipsoid", formatMetres(g.controller->heightAboveGround()).c_str(),
+              formatMetres(eye.h).c_str());
 }
 
 void Viewer::drawNoScene() {
