@@ -4,6 +4,16 @@
 
 namespace gis::scene {
 
+void FrameFigures::addLayerPasses(const overlay::LayerFrameStats& passes) {
+  layers.push_back({passes.markFragments, passes.coverFragments});
+  markFragments += passes.markFragments;
+  coverFragments += passes.coverFragments;
+  markTriangles += passes.markTriangles;
+  coverTriangles += passes.coverTriangles;
+  markGpuMs += passes.markMilliseconds;
+  coverGpuMs += passes.coverMilliseconds;
+}
+
 Result<std::unique_ptr<FrameRenderer>> FrameRenderer::create(Scene& scene, const StillSettings& settings) {
   if (scene.onGlobe()) return detail::makeGlobeRenderer(scene.globe(), settings);
   return detail::makeProjectedRenderer(scene.projected(), settings);

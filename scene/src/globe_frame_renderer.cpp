@@ -66,15 +66,7 @@ class GlobeFrameRenderer final : public FrameRenderer {
     f.terrain.selectMs = stats.selectMilliseconds;
     f.terrain.fragments = stats.terrainFragments;
     f.terrainGpuMs = stats.terrainGpuMilliseconds;
-    for (const overlay::LayerFrameStats& l : stats.overlay.layers) {
-      f.layers.push_back({l.markFragments, l.coverFragments});
-      f.markFragments += l.markFragments;
-      f.coverFragments += l.coverFragments;
-      f.markTriangles += l.markTriangles;
-      f.coverTriangles += l.coverTriangles;
-      f.markGpuMs += l.markMilliseconds;
-      f.coverGpuMs += l.coverMilliseconds;
-    }
+    for (const overlay::LayerFrameStats& l : stats.overlay.layers) f.addLayerPasses(l);
     f.zFailPieces = stats.overlay.zFailPieces;
     f.drawnPieces = stats.overlay.pieces;
     f.tilesBuilt = stats.overlay.builtTiles;

@@ -61,15 +61,9 @@ class ProjectedFrameRenderer final : public FrameRenderer {
                  stats.pager.residentBytes + stats.pager.pinnedBytes};
     f.terrainGpuMs = stats.terrain.gpuMilliseconds;
     for (const overlay::LayerFrameStats& l : stats.layers) {
-      f.layers.push_back({l.markFragments, l.coverFragments});
-      f.markFragments += l.markFragments;
-      f.coverFragments += l.coverFragments;
-      f.markTriangles += l.markTriangles;
-      f.coverTriangles += l.coverTriangles;
+      f.addLayerPasses(l);
       f.zFailPieces += l.zFailPieces;
       f.drawnPieces += l.zPassPieces + l.zFailPieces;
-      f.markGpuMs += l.markMilliseconds;
-      f.coverGpuMs += l.coverMilliseconds;
     }
     f.tilesBuilt = stats.overlayTiles.tilesBuilt;
     f.texturesBuilt = stats.texturesBuilt;

@@ -81,6 +81,8 @@ struct FrameFigures {
     std::uint64_t markFragments = 0, coverFragments = 0;
   };
   std::vector<LayerPasses> layers;
+  /// Adds one drawn layer's measured passes (its entry in `layers`, and to the sums above).
+  void addLayerPasses(const overlay::LayerFrameStats& passes);
   std::size_t tilesBuilt = 0;     ///< a tiled technique's tiles built in this frame
   std::size_t texturesBuilt = 0;  ///< draping: textures (or tiles of them) rasterised in this frame
   double textureSeconds = 0.0;    ///< and the time that took
