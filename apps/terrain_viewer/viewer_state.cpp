@@ -105,9 +105,6 @@ std::string Viewer::crsName() const {
 std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   const std::optional<GroundPoint> ground = groundAt(pixel);
   if (!ground) return std::nullopt;
-  const glm::dvec3 world = ground->drawn;
-  const scene::Camera c = camera();
-  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
   Identified id;
   id.point = *ground;
   if (globe_) {
@@ -115,6 +112,9 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
     id.hits = globeFeaturesAt(*ground);
     return id;
   }
+  const glm::dvec3 world = ground->drawn;
+  const scene::Camera c = camera();
+  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
   const double exaggeration = scene_->bounds->exaggeration();
   id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(world)) / exaggeration;
   const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
