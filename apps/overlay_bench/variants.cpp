@@ -68,12 +68,6 @@ json tallyJson(const Tally& t, const Tally& ours, bool overlays) {
 
 namespace {
 
-std::size_t vectorVertices(const scene::Scene& scene) {
-  std::size_t n = 0;
-  for (const scene::LoadedLayer& l : scene.layers()) n += l.vertexCount();
-  return n;
-}
-
 /// Makes each method's renderer; methods that build the same polyhedra (terrain only, ours and the
 /// ablation's switches at draw time) share one: the same terrain, and the memory of one copy. False
 /// when one cannot be made.
@@ -368,7 +362,7 @@ json resultJson(const Options& o, const BenchSetup& setup, const std::vector<Met
           {"msaa", samples},
           {"frames", frames},
           {"error_every", o.errorEvery},
-          {"vector_vertices", vectorVertices(setup.scene)},
+          {"vector_vertices", setup.scene.vectorVertices()},
           {"dem_posts", posts},
           {"methods", table},
           {"exact_methods_wrong_pixels_away_from_edges", exactWrong},

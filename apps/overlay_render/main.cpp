@@ -392,12 +392,6 @@ bool writeImages(const std::filesystem::path& out, const Options& o, const Frame
 
 /// stats.json without the analyses' blocks (they add theirs as they are written): what both
 /// frames report alike, then the frame's own blocks (FrameRenderer::reportStill).
-std::size_t vectorVertices(const scene::Scene& scene) {
-  std::size_t n = 0;
-  for (const scene::LoadedLayer& l : scene.layers()) n += l.vertexCount();
-  return n;
-}
-
 json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
   json stats = {{"scene", d.o.scene},
                 {"width", d.o.width},
@@ -412,7 +406,7 @@ json statsJson(const Drawn& d, gfx::Context& context, const Diagnostics& all) {
                 {"cpu_peak_bytes", peakResidentBytes()},
                 {"method", d.o.technique->name},
                 // The scene's source vertices, every layer's (as read, before any generalisation).
-                {"vector_vertices", vectorVertices(d.setup.scene)},
+                {"vector_vertices", d.setup.scene.vectorVertices()},
                 // The cache: where, and what checking its files cost this run (geo/checked_file.hpp).
                 {"cache",
                  {{"directory", scene::cacheDirectoryFor(d.setup.description)},

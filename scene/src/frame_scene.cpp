@@ -49,6 +49,12 @@ const SceneDescription& Scene::description() const { return onGlobe() ? globe().
 
 const std::vector<LoadedLayer>& Scene::layers() const { return onGlobe() ? globe().sourceLayers : projected().layers; }
 
+std::size_t Scene::vectorVertices() const {
+  std::size_t n = 0;
+  for (const LoadedLayer& l : layers()) n += l.vertexCount();
+  return n;
+}
+
 double Scene::loadSeconds() const { return onGlobe() ? globe().loadSeconds : projected().loadSeconds; }
 
 Result<FrameCamera> Scene::stillCamera(const std::string& cameraFile, const std::string& sceneFile, int width,

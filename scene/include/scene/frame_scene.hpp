@@ -45,6 +45,8 @@ class Scene {
   [[nodiscard]] const SceneDescription& description() const;
   /// The scene file's layers as read (those that could not be read are left out), in its order.
   [[nodiscard]] const std::vector<LoadedLayer>& layers() const;
+  /// Every source vertex of the layers, as read (before any generalisation).
+  [[nodiscard]] std::size_t vectorVertices() const;
   [[nodiscard]] double loadSeconds() const;
   [[nodiscard]] double exaggeration() const { return exaggeration_; }
 
