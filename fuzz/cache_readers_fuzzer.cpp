@@ -70,6 +70,7 @@
 #include "layer_cache.hpp"
 #include "tile_cache.hpp"
 #include "vector_overlay/layer_geometry.hpp"
+#include "vector_overlay/near_clip.hpp"
 #include "vector_overlay/tiled_layer.hpp"
 #include "vector_overlay/validation.hpp"
 
@@ -565,6 +566,41 @@ const std::vector<glm::vec4>& worldGroupColours() {
   return colours;
 }
 
+/// The file read as a tile of world pieces (the globe's, overlay::detail::readWorldTile) with its
+/// arrays in memory, as a tile near the eye is: refused and named damaged, or its pieces clipped
+/// at the near plane from those arrays (every index they read checked when it was read).
+void checkWorldTileInMemory(const fs::path& file) {
+  std::string damage;
+  const std::optional<LayerTile> tile =
+      gis::overlay::detail::readWorldTile(file, kFingerprint, kTileKey, "world", worldGroupColours(), false, &damage);
+  if (!tile) {
+    require(!damage.empty() || !fs::exists(file), "a world tile file that is there and refused is named damaged");
+    return;
+  }
+  const LayerGeometry& g = tile->geometry;
+  require(!g.footprintsReleased() && g.normals().size() == g.vertices().size(),
+          "world tile in memory: clippable, a normal per vertex");
+  // An eye inside the tile's box, looking down: every piece through the clip.
+  const auto [lo, hi] = g.box3();
+  gis::overlay::OverlayView view;
+  view.eye = 0.5 * (lo + hi);
+  if (!std::isfinite(view.eye.x) || !std::isfinite(view.eye.y) || !std::isfinite(view.eye.z))
+    view.eye = glm::dvec3(0.0);
+  view.viewProj = glm::dmat4(1.0);
+  view.viewProj[2][3] = -1.0;  // w = −z
+  view.viewProj[3][3] = view.eye.z;
+  std::vector<std::size_t> slots;
+  for (std::size_t k = 0; k < g.slots().size(); ++k)
+    if (g.slots()[k].live) slots.push_back(k);
+  gis::overlay::PixelScale scale;
+  scale.eye = view.eye;
+  scale.metresPerPixel = 1e-3;
+  const std::vector<gis::overlay::ClippedVertex> clipped =
+      gis::overlay::clipAtNearPlane(view, g, slots, {}, scale, true);
+  require(clipped.size() % 3 == 0, "world tile: the clip gives whole triangles");
+  say("world tile clipped: " + std::to_string(clipped.size() / 3) + " triangles");
+}
+
 /// The file read as a tile of world pieces (the globe's, overlay::detail::readWorldTile): refused
 /// and named damaged, or read with its arrays left in the file, every index checked there within
 /// its slot's vertices, a normal per vertex (a scaling per vertex for lines in pixels, none
@@ -572,7 +608,8 @@ const std::vector<glm::vec4>& worldGroupColours() {
 bool checkWorldTile(const fs::path& file) {
   std::string damage;
   const std::optional<LayerTile> tile =
-      gis::overlay::detail::readWorldTile(file, kFingerprint, kTileKey, "world", worldGroupColours(), &damage);
+      gis::overlay::detail::readWorldTile(file, kFingerprint, kTileKey, "world", worldGroupColours(), true, &damage);
+  checkWorldTileInMemory(file);
   if (!tile) {
     say("world tile refused: " + damage);
     require(!damage.empty() || !fs::exists(file), "a world tile file that is there and refused is named damaged");

@@ -99,23 +99,31 @@ class GlobeTiling final : public overlay::TileSource {
   /// within half of one) follows the terrain's posts.
   [[nodiscard]] double errorPixels() const override { return 0.5; }
   [[nodiscard]] int finestLevel() const override { return kMaxLevel; }
-  /// Tile `key` from the disk cache of both frames (overlay::WorldTileCache), else built.
+  /// Tile `key` from the disk cache of both frames (overlay::WorldTileCache), else built; `lean`
+  /// (far from the eye): its arrays left in the file.
   [[nodiscard]] Result<overlay::LayerTile> build(const overlay::TileKey& key, const std::atomic<bool>* cancel,
                                                  bool lean) const override {
     (void)cancel;
-    (void)lean;  // world pieces are lean as built
     const TileKey tile{key.level, key.x, key.y};
     const std::vector<glm::vec4> fallback{layer_->color()};
-    return cache_.fetch(key, layer_->name(), layer_->colors().empty() ? fallback : layer_->colors(),
-                        [&] { return buildTilePieces(*layer_, tile, *heights_, key.width); });
+    return cache_.fetch(
+        key, layer_->name(), layer_->colors().empty() ? fallback : layer_->colors(),
+        [&] { return buildTilePieces(*layer_, tile, *heights_, key.width); }, lean);
   }
   [[nodiscard]] std::optional<std::size_t> cachedBytes(const overlay::TileKey& key) const override {
     return cache_.cachedBytes(key);
   }
   [[nodiscard]] const std::string& cacheFolder() const override { return cache_.folder(); }
+  /// The tile's box of longitude and latitude grown by a hundredth (its cells' margins), between
+  /// the bounds of the ground its pieces stand on, their caps' sag included. Lines in pixels may
+  /// reach further: a tile read lean that a piece of which is then drawn z-fail is read again
+  /// with its arrays (TileResidency::gather).
   [[nodiscard]] std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const overlay::TileKey& key) const override {
-    (void)key;
-    return std::nullopt;
+    const TileKey tile{key.level, key.x, key.y};
+    const LonLatRect rect = tile.rect().expanded(0.01 * tile.size(), 0.01 * tile.size());
+    const auto [lo, hi] = groundBounds(*heights_, rect, key.level);
+    const double diagonal = tile.size() * 1.6e5;  // metres: more than the tile's (and a cap edge's)
+    return ecefBoxOf(rect, lo - 1.0, hi + triangleSag(diagonal) + 1.0);
   }
   [[nodiscard]] bool worldPieces() const override { return true; }
 

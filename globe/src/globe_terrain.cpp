@@ -87,6 +87,15 @@ struct Box {
   }
 };
 
+/// How far (metres) the surface up to height `hi` bulges out of points sampled `step` degrees
+/// apart in longitude and latitude.
+double bulgeBetween(double step, double hi) {
+  const double theta = step * kRadiansPerDegree;
+  const double top = std::max(hi, 0.0);
+  const double arc = theta * std::tan(0.5 * theta) * 0.5;
+  return ((kMaxCurvatureRadius + top) * arc + (kSemiMajor + top) * arc) * 1.05 + 0.01;
+}
+
 /// The tile's boxes over [lo, hi] (its surface: the level of detail's distance) and over
 /// [min(lo, occluder), hi] (culling: down to the horizon test's ellipsoid).
 std::pair<Box, Box> tileBoxes(const TileKey& key, double lo, double hi, double occluder) {
@@ -103,10 +112,7 @@ std::pair<Box, Box> tileBoxes(const TileKey& key, double lo, double hi, double o
       if (occluder < lo) reach.add(toEcef(lon, lat, occluder));
     }
   }
-  const double theta = step * kRadiansPerDegree;
-  const double top = std::max(hi, 0.0);
-  const double arc = theta * std::tan(0.5 * theta) * 0.5;
-  const double bulge = ((kMaxCurvatureRadius + top) * arc + (kSemiMajor + top) * arc) * 1.05 + 0.01;
+  const double bulge = bulgeBetween(step, hi);
   surface.lo -= glm::dvec3(bulge);
   surface.hi += glm::dvec3(bulge);
   reach.lo = glm::min(reach.lo - glm::dvec3(bulge), surface.lo);
@@ -177,6 +183,22 @@ std::pair<double, double> groundBounds(const GeoGrid& heights, const LonLatRect&
 
 std::pair<double, double> terrainBounds(const GeoGrid& heights, const TileKey& key) {
   return groundBounds(heights, key.rect(), key.level);
+}
+
+std::pair<glm::dvec3, glm::dvec3> ecefBoxOf(const LonLatRect& box, double lo, double hi) {
+  constexpr int kSamples = 9;
+  const double south = std::clamp(box.south, -90.0, 90.0), north = std::clamp(box.north, -90.0, 90.0);
+  const double width = std::min(box.east - box.west, 360.0);
+  const double dLon = width / (kSamples - 1), dLat = (north - south) / (kSamples - 1);
+  Box out;
+  for (int j = 0; j < kSamples; ++j) {
+    for (int i = 0; i < kSamples; ++i) {
+      out.add(toEcef(box.west + i * dLon, south + j * dLat, lo));
+      out.add(toEcef(box.west + i * dLon, south + j * dLat, hi));
+    }
+  }
+  const double bulge = bulgeBetween(std::max(dLon, dLat), hi);
+  return {out.lo - glm::dvec3(bulge), out.hi + glm::dvec3(bulge)};
 }
 
 std::vector<glm::dvec3> tilePostPositions(const GeoGrid& heights, const TileKey& key) {

@@ -68,6 +68,12 @@ std::vector<Case> views() {
       {"north pole from above", {0.0, 90.0, 3e6}, {0.0, 90.0, 0.0}},
       {"south pole low", {45.0, -86.0, 20000.0}, {-135.0, -89.0, 0.0}},
       {"1 m above the ground", {8.5, 47.30407, eyeHeight + 1.0}, {8.5005, 47.304, fieldHeight}, 60.0},
+      // Inside the 70 stacked strips: their pieces hold the eye (drawn z-fail, clipped at the
+      // near plane and closed there for the open faces' count).
+      {"inside the strips, 1 m up",
+       {8.5005, 47.305, test::globe_scene::syntheticGrid(0.5)->heightAt(8.5005, 47.305) + 1.0},
+       {8.5005, 47.3085, fieldHeight},
+       60.0},
   };
 }
 
@@ -159,8 +165,8 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     EXPECT_EQ(left, 0U) << c.label << ": the cover leaves the stencil 0";
     EXPECT_GE(marks.a.groups + marks.b.groups, 2U) << c.label;
     EXPECT_GT(both, 100U) << c.label << ": the view must show the layers overlapping";
-    // Every piece closed: front and back faces cancel on every pixel (pieces drawn z-fail, which
-    // may hold the eye, are left out of the count).
+    // Every piece closed: front and back faces cancel on every pixel, the pieces drawn z-fail
+    // (which may hold the eye) clipped at the near plane and closed there, none left out.
     for (const GlobeLayer* layer : {&layers.a, &layers.b}) {
       const overlay::AnalysisMarks counted =
           overlays.countOpenFaces(cache_, overlayViewOf(v), overlay.chunks(v, tiles, *grid(), *layer), settings);
@@ -170,6 +176,10 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
       for (const std::uint8_t n : counts) open += n != 0 ? 1U : 0U;
       EXPECT_EQ(open, 0U) << c.label << " " << layer->name() << ": open volumes";
       EXPECT_GT(counted.a.zPassPieces, 0U) << c.label;
+      EXPECT_EQ(counted.uncountedPieces, 0U) << c.label << " " << layer->name() << ": pieces left out of the count";
+      if (c.label.starts_with("inside") && layer == &layers.b) {
+        EXPECT_GE(counted.a.zFailPieces, 70U) << c.label << ": the strips hold the eye";
+      }
       const std::vector<std::uint8_t> cleared = gfx::readStencil(target);
       EXPECT_EQ(std::count(cleared.begin(), cleared.end(), std::uint8_t{0}),
                 static_cast<std::ptrdiff_t>(cleared.size()));

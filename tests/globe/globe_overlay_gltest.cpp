@@ -232,6 +232,7 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
     Geodetic eye, target;
     double fov = 45.0;
     std::size_t minCovered = 200;
+    bool eyeInside = false;  ///< in pieces of the field and the road: drawn z-fail, clipped at the near plane
   };
   const double field = grid()->heightAt(8.5, 47.3);
   const std::vector<Case> cases{
@@ -246,10 +247,19 @@ TEST_F(GlobeOverlayGl, ExactFromSpaceObliqueGrazingAntimeridianPolesAndTheGround
       {"south pole from above", {0.0, -90.0, 6e6}, {0.0, -90.0, 0.0}},
       {"south pole low", {45.0, -86.0, 20000.0}, {-135.0, -89.0, 0.0}},
       {"1 m above the ground", {8.5, 47.30407, grid()->heightAt(8.5, 47.30407) + 1.0}, {8.5005, 47.304, field}, 60.0},
+      {"in the road, 0.5 m up",
+       {8.505, 47.30406, grid()->heightAt(8.505, 47.30406) + 0.5},
+       {8.509, 47.30409, field},
+       60.0,
+       200,
+       true},
   };
   for (const Case& c : cases) {
     const Outcome o = drawAndCompare(view(c.eye, c.target, c.fov), all, c.label);
     EXPECT_GE(o.covered, c.minCovered) << c.label << ": the view must show the features";
+    if (c.eyeInside) {
+      EXPECT_GT(o.zFail, 0U) << c.label << ": pieces hold the eye";
+    }
   }
 }
 

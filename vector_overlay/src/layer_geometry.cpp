@@ -427,6 +427,9 @@ void LayerGeometry::releaseArrays() {
   normals_ = {};
   changes_ = GeometryChange{};
   arraysReleased_ = true;
+  // World pieces are clipped at the near plane from these arrays: without them, as without a
+  // projected frame's footprints, the layer's pieces cannot be drawn z-fail.
+  if (alongNormals()) footprintsReleased_ = true;
 }
 
 void LayerGeometry::releaseFootprints() {
@@ -861,7 +864,9 @@ bool LayerGeometry::readLeanInto(geo::io::Reader& r, LayerGeometry& layer, bool 
   }
   layer.wastedIndices_ = static_cast<std::size_t>(wasted);
   layer.changes_ = GeometryChange{};  // everything is new: the first upload takes it all
-  layer.footprintsReleased_ = true;
+  // World pieces read with their arrays can be clipped at the near plane from them; a plane's
+  // lean pieces have no footprints.
+  layer.footprintsReleased_ = !world || layer.arraysInFile_ != nullptr;
   return true;
 }
 
@@ -1134,7 +1139,7 @@ LayerGeometry LayerGeometry::ofWorldPieces(std::string name, const glm::dvec3& o
     layer.scaling_.resize(layer.vertices_.size(), glm::vec4(0.0F));
   }
   layer.indices_ = std::move(indices);
-  layer.footprintsReleased_ = true;  // none to clip at the near plane: z-fail pieces are drawn whole
+  layer.footprintsReleased_ = false;  // clipped at the near plane from its arrays (clipAtNearPlane)
   layer.changes_ = GeometryChange{};
   return layer;
 }

@@ -95,8 +95,8 @@ AnalysisMarks OverlayRenderer::countOpenFaces(gfx::StateCache& cache, const Over
     const bool inPixels = bindLayer(view, layer, scale);
     cache.apply(kCountFaces);
     multiDraw(cache, pieces.zPass);
-    // Pieces near the eye are closed on the clip plane; a layer with no footprints to clip (world
-    // pieces) leaves them out of the count (marks.a.zFailPieces says how many).
+    // Pieces near the eye are closed on the clip plane; a layer with nothing left to clip from (a
+    // lean tile) leaves them out of the count (marks.uncountedPieces says how many).
     if (!layer.geometry().footprintsReleased()) {
       drawClipped(cache, layer, uploadClippedPieces(view, layer, pieces.zFailSlots, settings, scale, true), inPixels);
     } else {

@@ -185,7 +185,7 @@ GLsizei OverlayRenderer::uploadClippedPieces(const OverlayView& view, const Over
                                              const std::vector<std::size_t>& slots, const OverlaySettings& settings,
                                              const PixelScale& scale, bool capped) {
   if (slots.empty()) return 0;
-  const CapPadding padding{settings.padBase, settings.padPerMetre, padPerMetreSquared_};
+  const CapPadding padding{settings.padBase, settings.padPerMetre, padPerMetreSquared_, layer.capReach()};
   const std::vector<ClippedVertex> out = clipAtNearPlane(view, layer.geometry(), slots, padding, scale, capped);
   const std::size_t bytes = out.size() * sizeof(ClippedVertex);
   if (bytes == 0) return 0;
@@ -390,8 +390,12 @@ void OverlayRenderer::drawClipped(gfx::StateCache& cache, const OverlayLayer& la
   cache.bindVertexArray(vao);
   glVertexArrayVertexBuffer(vao, 0, clipped_.id(), 0, 20);
   if (inPixels) glDisableVertexArrayAttrib(vao, 3);  // already at this frame's width
+  // World pieces' caps are already padded along their normals and moved by their reach: the
+  // normal reads (0, 0, 0, 1) and moves nothing.
+  if (boundAlongNormals_) glDisableVertexArrayAttrib(vao, 4);
   const auto zeroOrigin = static_cast<GLuint>(layer.origins().size() + layer.geometry().worldOrigins().size());
   glDrawArraysInstancedBaseInstance(GL_TRIANGLES, 0, vertices, 1, zeroOrigin);
+  if (boundAlongNormals_) glEnableVertexArrayAttrib(vao, 4);
   if (inPixels) glEnableVertexArrayAttrib(vao, 3);
   glVertexArrayVertexBuffer(vao, 0, layer.vertexBuffer(), 0, 20);
 }

@@ -235,7 +235,7 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
 }
 
 std::optional<LayerTile> readWorldTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
-                                       const std::string& name, std::span<const glm::vec4> groupColours,
+                                       const std::string& name, std::span<const glm::vec4> groupColours, bool lean,
                                        std::string* damage) {
   double error = 0.0;
   const std::shared_ptr<const geo::io::CheckedFile> checked = openTile(file, fingerprint, key, error, damage);
@@ -247,7 +247,7 @@ std::optional<LayerTile> readWorldTile(const std::filesystem::path& file, std::u
   if (!checked->verify(1)) return damaged("its lean tile does not match its checksum");
   geo::io::SectionStream in(*checked, 1);
   Reader r(in);
-  std::shared_ptr<ArraysInFile> arrays = arraysIn(*checked);
+  std::shared_ptr<ArraysInFile> arrays = lean ? arraysIn(*checked) : nullptr;
   std::vector<std::uint32_t> index;
   if (!r.array(index) || !index.empty()) return damaged("its lean tile cannot be read");
   std::vector<FeatureStyle> styles(groupColours.size());

@@ -43,10 +43,11 @@ std::optional<LayerTile> readTile(const std::filesystem::path& file, std::uint64
                                   std::string* damage = nullptr);
 
 /// A tile of world pieces (another frame's tiles: the globe's) in `file`, if it holds this
-/// fingerprint and key: read lean (LayerGeometry::readWorldLean), its GPU arrays left in the file
-/// for the upload, named `name`, its colour groups drawn in `groupColours`. `damage` as readTile.
+/// fingerprint and key (LayerGeometry::readWorldLean), named `name`, its colour groups drawn in
+/// `groupColours`. `lean`: its GPU arrays left in the file for the upload (no pieces to clip at
+/// the near plane); else read (a tile near the eye). `damage` as readTile.
 std::optional<LayerTile> readWorldTile(const std::filesystem::path& file, std::uint64_t fingerprint, const TileKey& key,
-                                       const std::string& name, std::span<const glm::vec4> groupColours,
+                                       const std::string& name, std::span<const glm::vec4> groupColours, bool lean,
                                        std::string* damage = nullptr);
 
 }  // namespace gis::overlay::detail

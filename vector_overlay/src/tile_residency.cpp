@@ -317,7 +317,6 @@ std::vector<std::vector<const OverlayLayer*>> TileResidency::frame(const Techniq
   stats.tilesEvicted += evict(tiling_.gpuBudgetBytes);
   for (const LayerState& l : layers_) {
     stats.tilesResident += l.tiles.size();
-    if (l.source != nullptr && l.source->worldPieces()) continue;  // lean only as coarse tiles are
     for (const auto& [key, t] : l.tiles)
       stats.tilesLean += t.layer && t.layer->geometry().footprintsReleased() ? 1U : 0U;
   }
@@ -405,10 +404,10 @@ bool TileResidency::farFrom(const TileSource& source, const TileKey& key, const 
   return !renderer_->mayDrawZFail(frame.view, frame.settings, box->first - size, box->second + size);
 }
 
-/// Whether a resident tile can be drawn in this frame: one whose footprints were released
-/// only where none of its pieces could be drawn z-fail (world pieces have none: drawn whole).
-bool TileResidency::drawable(const TileSource& source, const Resident& r, const TechniqueFrame& frame) const {
-  return !r.layer || source.worldPieces() || !r.layer->geometry().footprintsReleased() ||
+/// Whether a resident tile can be drawn in this frame: one whose footprints (world pieces: their
+/// arrays) were released only where none of its pieces could be drawn z-fail.
+bool TileResidency::drawable(const Resident& r, const TechniqueFrame& frame) const {
+  return !r.layer || !r.layer->geometry().footprintsReleased() ||
          !renderer_->mayDrawZFail(frame.view, frame.settings, r.box.first, r.box.second);
 }
 
@@ -447,18 +446,17 @@ std::size_t TileResidency::collect(const TechniqueFrame& frame) {
         continue;
       }
       r.box = r.layer->geometry().box3();
-      if (source.worldPieces()) {
-        r.layer->releaseCpuArrays();  // drawn from the GPU's copy only (never edited; z-fail drawn whole)
-      } else if (d.key.level < source.finestLevel()) {
-        // Coarse tiles are built again after an edit (rarely drawn while editing close up):
-        // the GPU holds their arrays, the CPU need not. Their footprints go too while the eye
-        // is farther than their size from any piece that could be drawn z-fail (a tile drawn
-        // where one could is built again with them, drawable).
+      if (d.key.level < source.finestLevel() || source.worldPieces()) {
+        // Coarse tiles are built again after an edit (rarely drawn while editing close up), and
+        // world pieces never edited: the GPU holds their arrays, the CPU need not. Their
+        // footprints go too while the eye is farther than their size from any piece that could
+        // be drawn z-fail (a tile drawn where one could is built again with them, drawable).
+        // World pieces are clipped from their arrays: those are their footprints.
         const glm::dvec3 size = r.box.second - r.box.first;
         if (!renderer_->mayDrawZFail(frame.view, frame.settings, r.box.first - size, r.box.second + size)) {
           r.layer->releaseFootprints();
           released = true;
-        } else {
+        } else if (!source.worldPieces()) {
           r.layer->releaseCpuArrays();
         }
       }
@@ -501,9 +499,11 @@ bool TileResidency::gather(const TechniqueFrame& frame, std::vector<std::vector<
       wanted_.insert({i, key.packed()});
       wantedFinestLevel_ = std::max(wantedFinestLevel_, key.level);
       auto here = l.tiles.find(key.packed());
-      if (here != l.tiles.end() && !drawable(source, here->second, frame)) {
+      bool near = false;  // its footprints are wanted whatever leanBox says (it may not hold all)
+      if (here != l.tiles.end() && !drawable(here->second, frame)) {
         l.tiles.erase(here);  // built again with its footprints (near the eye now)
         here = l.tiles.end();
+        near = true;
       }
       if (here != l.tiles.end() && here->second.key.width >= key.width) {
         // A wider class is exact too (its pieces shrink in the shader), only looser.
@@ -512,12 +512,12 @@ bool TileResidency::gather(const TechniqueFrame& frame, std::vector<std::vector<
         continue;
       }
       ++stats.tilesMissing;
-      jobs.push_back({i, &source, key, farFrom(source, key, frame)});
+      jobs.push_back({i, &source, key, !near && farFrom(source, key, frame)});
       bool found = here != l.tiles.end();  // too narrow for a still, fine in a flight
       if (found) use(here->second);
       for (TileKey a = key; a.level > 0 && !found;) {
         a = a.parent();
-        if (auto it = l.tiles.find(a.packed()); it != l.tiles.end() && drawable(source, it->second, frame)) {
+        if (auto it = l.tiles.find(a.packed()); it != l.tiles.end() && drawable(it->second, frame)) {
           use(it->second);
           found = true;
         }

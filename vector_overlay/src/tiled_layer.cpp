@@ -450,7 +450,7 @@ Result<LayerTile> LayerTiling::build(const TileKey& key, const std::atomic<bool>
 
 Result<LayerTile> WorldTileCache::fetch(const TileKey& key, const std::string& layerName,
                                         std::span<const glm::vec4> groupColours,
-                                        const std::function<LayerGeometry()>& build) const {
+                                        const std::function<LayerGeometry()>& build, bool lean) const {
   Result<LayerTile> out;
   if (folder_.empty()) {
     out.value = LayerTile{key, build(), {}, 0.0, false};
@@ -459,7 +459,7 @@ Result<LayerTile> WorldTileCache::fetch(const TileKey& key, const std::string& l
   const std::filesystem::path file = detail::tileFileIn(folder_, key);
   std::string damage;
   if (std::optional<LayerTile> tile =
-          detail::readWorldTile(file, fingerprint_, key, layerName, groupColours, &damage)) {
+          detail::readWorldTile(file, fingerprint_, key, layerName, groupColours, lean, &damage)) {
     ++read_;
     out.value = std::move(*tile);
     return out;
@@ -477,8 +477,10 @@ Result<LayerTile> WorldTileCache::fetch(const TileKey& key, const std::string& l
   std::filesystem::create_directories(folder_, error);
   if (!error && detail::writeTile(file, fingerprint_, *out.value)) {
     ++written_;
-    // Read back lean: the built arrays go now, and the upload takes them from the file.
-    if (std::optional<LayerTile> tile = detail::readWorldTile(file, fingerprint_, key, layerName, groupColours)) {
+    // Read back lean: the built arrays go now, and the upload takes them from the file. (Near
+    // the eye the built arrays are kept: its pieces are clipped from them.)
+    if (std::optional<LayerTile> tile =
+            lean ? detail::readWorldTile(file, fingerprint_, key, layerName, groupColours, true) : std::nullopt) {
       tile->fromDisk = false;  // built here
       out.value = std::move(*tile);
     }

@@ -71,6 +71,11 @@ std::pair<double, double> groundBounds(const GeoGrid& heights, const LonLatRect&
 /// groundBounds of a tile's own box.
 std::pair<double, double> terrainBounds(const GeoGrid& heights, const TileKey& key);
 
+/// A box in ECEF metres holding every point of `box` (longitude and latitude, latitudes clamped
+/// to ±90) between heights lo and hi above the ellipsoid: its points sampled 9 × 9, grown by
+/// how far the surface between samples bulges out of them.
+std::pair<glm::dvec3, glm::dvec3> ecefBoxOf(const LonLatRect& box, double lo, double hi);
+
 /// A tile's mesh as drawn, without GL (for tests and CPU references): the ECEF positions of its
 /// kTilePosts² posts, row j (from the south) by column i (from the west): index j · kTilePosts + i.
 std::vector<glm::dvec3> tilePostPositions(const GeoGrid& heights, const TileKey& key);

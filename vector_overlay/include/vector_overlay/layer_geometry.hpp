@@ -358,9 +358,11 @@ class LayerGeometry {
   /// here); `normals` (one per vertex) is the direction each cap is padded along. Such a piece's
   /// Polyhedron has no footprint: its boxMin/boxMax are the x and y of its world box, lo and hi
   /// its z (box3() is the world box), and it is never over drawn surface (z-pass keeps its
-  /// bottom cap). With no footprint to cut, the renderer draws its z-fail pieces whole. The
-  /// layer's features are its colour groups (no geometry; fid: the group's number), group g
-  /// drawn in `groupColours[g]`: one colour for all, and the renderer covers with rectangles.
+  /// bottom cap). Its z-fail pieces are clipped at the near plane from the arrays, as the GPU
+  /// draws them (clipAtNearPlane): once the arrays are released (releaseArrays, a lean read)
+  /// footprintsReleased() holds, as for a projected frame's lean tile. The layer's features are its colour groups (no
+  /// geometry; fid: the group's number), group g drawn in `groupColours[g]`: one colour for all, and the renderer
+  /// covers with rectangles.
   struct WorldPiece {
     std::uint32_t firstIndex = 0;
     std::uint32_t bottomCount = 0;

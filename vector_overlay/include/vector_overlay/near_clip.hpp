@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "vector_overlay/footprints.hpp"
@@ -26,11 +27,13 @@ struct OverlayView {
 };
 
 /// How far caps are moved out at a distance from the eye, as the volume shader does it:
-/// base + perMetre · d + perMetreSquared · d² (OverlaySettings, and the depth format's term).
+/// base + perMetre · d + perMetreSquared · d² (OverlaySettings, and the depth format's term);
+/// world pieces' caps further by their layer's reach (OverlayLayer::capReach: x below, y above).
 struct CapPadding {
   double base = 0.05;
   double perMetre = 2e-6;
   double perMetreSquared = 0.0;
+  glm::dvec2 reach{0.0};
   [[nodiscard]] double at(double distance) const {
     return base + perMetre * distance + perMetreSquared * distance * distance;
   }
@@ -47,6 +50,11 @@ struct ClippedVertex {
 /// at `scale` and caps padded by `padding`, clipped at half the near distance; faces seen edge
 /// on from the eye are left out. With `capped`, each clipped piece is closed on the plane by a
 /// fan over its cut edges (its section counts 1 inside, 0 outside).
+///
+/// Both frames: a projected frame's pieces are cut from their footprints and bounds; world
+/// pieces (the globe's, LayerGeometry::alongNormals) from the triangles the GPU draws, placed as
+/// the volume shader places them (caps along the normals, lines in pixels at this frame's
+/// width). Either needs the layer's CPU copy (not footprintsReleased()).
 std::vector<ClippedVertex> clipAtNearPlane(const OverlayView& view, const LayerGeometry& layer,
                                            std::span<const std::size_t> slots, const CapPadding& padding,
                                            const PixelScale& scale, bool capped);

@@ -120,8 +120,9 @@ struct AnalysisMarks {
   LayerFrameStats a, b;          ///< the layers' pieces as drawn (b unused by countOpenFaces)
   double gpuMilliseconds = 0.0;  ///< marking, when measured
   std::uint64_t fragments = 0;
-  /// countOpenFaces: pieces near the eye that have no footprints to clip and cap (world pieces,
-  /// lean tiles), left out of the count; the rest of a.zFailPieces were clipped and capped.
+  /// countOpenFaces: pieces near the eye that have nothing left to clip and cap from (lean
+  /// tiles: LayerGeometry::footprintsReleased), left out of the count; the rest of
+  /// a.zFailPieces were clipped and capped.
   std::size_t uncountedPieces = 0;
 };
 
@@ -245,7 +246,7 @@ class OverlayRenderer {
                               const OverlaySettings& settings, const PixelScale& scale, bool capped = false);
   /// Draws the bound layer's z-fail pieces `entries` (indices into pieces.zFail and
   /// pieces.zFailSlots) in `state`: clipped at the near plane (uploadClippedPieces), or whole for
-  /// a layer with no footprints to clip (world pieces: LayerGeometry::ofWorldPieces).
+  /// a layer with nothing left to clip from (LayerGeometry::footprintsReleased).
   void drawZFail(gfx::StateCache& cache, const OverlayView& view, const OverlayLayer& layer, const Pieces& pieces,
                  std::span<const std::size_t> entries, const gfx::PipelineState& state, const OverlaySettings& settings,
                  const PixelScale& scale, bool inPixels);

@@ -102,7 +102,7 @@ class TileResidency {
   [[nodiscard]] std::size_t knownBytes(const std::vector<Job>& jobs) const;
   [[nodiscard]] bool canCoarsen() const { return errorScale_ < kMaxErrorScale && wantedFinestLevel_ > 0; }
   [[nodiscard]] bool farFrom(const TileSource& source, const TileKey& key, const TechniqueFrame& frame) const;
-  [[nodiscard]] bool drawable(const TileSource& source, const Resident& r, const TechniqueFrame& frame) const;
+  [[nodiscard]] bool drawable(const Resident& r, const TechniqueFrame& frame) const;
   std::size_t collect(const TechniqueFrame& frame);
   bool gather(const TechniqueFrame& frame, std::vector<std::vector<const OverlayLayer*>>& chunks,
               std::vector<Job>& jobs, TechniqueFrameStats& stats);

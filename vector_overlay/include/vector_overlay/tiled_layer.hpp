@@ -166,8 +166,9 @@ class TileSource {
   /// A box (the view's world coordinates) holding every piece tile `key` can have, where the tile
   /// may come lean when the eye is far from it; none where it may not.
   [[nodiscard]] virtual std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const TileKey& key) const = 0;
-  /// Tiles of world pieces (LayerGeometry::ofWorldPieces: drawn whole, never edited): their host
-  /// arrays go once uploaded.
+  /// Tiles of world pieces (LayerGeometry::ofWorldPieces: never edited): their host arrays are
+  /// what their pieces near the eye are clipped from, kept where a piece may be drawn z-fail and
+  /// let go elsewhere once uploaded (the coarse tiles' rule at every level).
   [[nodiscard]] virtual bool worldPieces() const { return false; }
 };
 
@@ -180,14 +181,15 @@ class WorldTileCache {
   /// `folder`: the layer's (empty: no cache); `fingerprint`: of everything its pieces depend on.
   WorldTileCache(std::string folder, std::uint64_t fingerprint)
       : folder_(std::move(folder)), fingerprint_(fingerprint) {}
-  /// Tile `key` from the cache, else built by `build` and written there. A tile read comes with
-  /// its GPU arrays left in its file (the upload copies them from there a slice at a time), and
-  /// so does one built and written, read back (its built arrays freed before the upload). Its
-  /// colour groups are drawn in `groupColours` (the fingerprint holds them where they differ:
-  /// coloursFingerprint).
+  /// Tile `key` from the cache, else built by `build` and written there. `lean` (a tile far from
+  /// the eye, TileSource::build): a tile read comes with its GPU arrays left in its file (the
+  /// upload copies them from there a slice at a time), and so does one built and written, read
+  /// back (its built arrays freed before the upload); else with its arrays, for clipping its
+  /// pieces at the near plane. Its colour groups are drawn in `groupColours` (the fingerprint
+  /// holds them where they differ: coloursFingerprint).
   [[nodiscard]] Result<LayerTile> fetch(const TileKey& key, const std::string& layerName,
                                         std::span<const glm::vec4> groupColours,
-                                        const std::function<LayerGeometry()>& build) const;
+                                        const std::function<LayerGeometry()>& build, bool lean = true) const;
   /// The GPU bytes of tile `key` as the cache holds it (LayerTiling::cachedBytes), or none.
   [[nodiscard]] std::optional<std::size_t> cachedBytes(const TileKey& key) const;
   [[nodiscard]] const std::string& folder() const { return folder_; }
