@@ -126,6 +126,7 @@ class GlobeTiling final : public overlay::TileSource {
     return ecefBoxOf(rect, lo - 1.0, hi + triangleSag(diagonal) + 1.0);
   }
   [[nodiscard]] bool worldPieces() const override { return true; }
+  [[nodiscard]] double leanDistance() const override { return 0.125; }
 
   /// Tiles written to the disk cache, and found damaged there, so far.
   [[nodiscard]] std::size_t written() const { return cache_.written(); }

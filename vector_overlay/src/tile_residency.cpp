@@ -394,14 +394,14 @@ std::size_t TileResidency::knownBytes(const std::vector<Job>& jobs) const {
   return bytes;
 }
 
-/// Whether the eye is farther than its size from any piece of tile `key` that could be drawn
-/// z-fail (as collect() decides to release a tile's footprints), by a box that holds every
-/// piece the tile can have: then it may come lean from the disk cache.
+/// Whether the eye is farther than its size (times TileSource::leanDistance) from any piece of tile `key` that could be
+/// drawn z-fail (as collect() decides to release a tile's footprints), by a box that holds every piece the tile can
+/// have: then it may come lean from the disk cache.
 bool TileResidency::farFrom(const TileSource& source, const TileKey& key, const TechniqueFrame& frame) const {
   const std::optional<std::pair<glm::dvec3, glm::dvec3>> box = source.leanBox(key);
   if (!box) return false;
-  const glm::dvec3 size = box->second - box->first;
-  return !renderer_->mayDrawZFail(frame.view, frame.settings, box->first - size, box->second + size);
+  const glm::dvec3 grow = (box->second - box->first) * source.leanDistance();
+  return !renderer_->mayDrawZFail(frame.view, frame.settings, box->first - grow, box->second + grow);
 }
 
 /// Whether a resident tile can be drawn in this frame: one whose footprints (world pieces: their
@@ -449,11 +449,12 @@ std::size_t TileResidency::collect(const TechniqueFrame& frame) {
       if (d.key.level < source.finestLevel() || source.worldPieces()) {
         // Coarse tiles are built again after an edit (rarely drawn while editing close up), and
         // world pieces never edited: the GPU holds their arrays, the CPU need not. Their
-        // footprints go too while the eye is farther than their size from any piece that could
-        // be drawn z-fail (a tile drawn where one could is built again with them, drawable).
+        // footprints go too while the eye is farther than their size (times leanDistance) from
+        // any piece that could be drawn z-fail (a tile drawn where one could is built again with
+        // them, drawable).
         // World pieces are clipped from their arrays: those are their footprints.
-        const glm::dvec3 size = r.box.second - r.box.first;
-        if (!renderer_->mayDrawZFail(frame.view, frame.settings, r.box.first - size, r.box.second + size)) {
+        const glm::dvec3 grow = (r.box.second - r.box.first) * source.leanDistance();
+        if (!renderer_->mayDrawZFail(frame.view, frame.settings, r.box.first - grow, r.box.second + grow)) {
           r.layer->releaseFootprints();
           released = true;
         } else if (!source.worldPieces()) {

@@ -166,6 +166,12 @@ class TileSource {
   /// A box (the view's world coordinates) holding every piece tile `key` can have, where the tile
   /// may come lean when the eye is far from it; none where it may not.
   [[nodiscard]] virtual std::optional<std::pair<glm::dvec3, glm::dvec3>> leanBox(const TileKey& key) const = 0;
+  /// How far from a tile's box, in its sizes, the eye must be for the tile to go lean (read lean,
+  /// or its footprints released once uploaded): a margin so that a tile is not read again each
+  /// time the eye moves a little. A projected frame's tiles: their size. The globe's tiles are
+  /// drawn from about their size and their boxes bulge with the earth's curvature, so that
+  /// margin would keep most of a view from space whole: an eighth.
+  [[nodiscard]] virtual double leanDistance() const { return 1.0; }
   /// Tiles of world pieces (LayerGeometry::ofWorldPieces: never edited): their host arrays are
   /// what their pieces near the eye are clipped from, kept where a piece may be drawn z-fail and
   /// let go elsewhere once uploaded (the coarse tiles' rule at every level).
