@@ -212,14 +212,18 @@ void readStats(const json& stats, StillRun& run) {
   run.terrainGpuMs = stats.value("passes", json::object()).value("terrain", json::object()).value("gpu_ms", 0.0);
   // The same keys in both frames (overlay_render's stats.json).
   run.vectorVertices = stats.value("vector_vertices", std::size_t{0});
+  std::size_t passBytes = 0;
   for (const json& layer : stats.value("layers", json::array())) {
     for (const json& pass : layer.value("passes", json::array())) {
-      run.overlayGpuBytes += pass.value("gpu_bytes", std::size_t{0});
+      passBytes += pass.value("gpu_bytes", std::size_t{0});
       run.overlayGpuMs += pass.value("gpu_ms", 0.0);
     }
   }
-  // What the technique holds beyond the layers' own buffers: the tiles in view, or a drape.
-  for (const char* block : {"tiles", "drape"}) {
+  // A tiled technique's passes count the tiles that drew them, which its "tiles" block holds
+  // among every resident tile: those once (before 2026-11-30 they were counted twice). Then what
+  // the technique holds beyond them: a drape, the lookup's indices.
+  run.overlayGpuBytes = std::max(passBytes, stats.value("tiles", json::object()).value("gpu_bytes", std::size_t{0}));
+  for (const char* block : {"drape", "deferred"}) {
     run.overlayGpuBytes += stats.value(block, json::object()).value("gpu_bytes", std::size_t{0});
   }
 }
@@ -558,7 +562,8 @@ void writeMarkdown(const Options& o, const ScalingOptions& s, const std::vector<
         "the start of the process to the frame read back; peak "
         "RSS: the larger of the two runs (with a software rasteriser such as llvmpipe, GPU buffers are in it too); "
         "overlay GPU MB: the layers' "
-        "buffers and the technique's tiles in view. Techniques that build every piece at load (whole-load) are run "
+        "buffers or the technique's resident tiles (once), a drape's textures and the lookup's indices. Techniques "
+        "that build every piece at load (whole-load) are run "
         "up to "
      << s.wholeLoadMaxVertices << " vector vertices.\n\n"
      << startTable(results) << "\nFrame time per path segment: " << o.frames

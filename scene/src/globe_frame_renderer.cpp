@@ -217,6 +217,10 @@ class GlobeFrameRenderer final : public FrameRenderer {
                         {"passes", passes}});
     }
     stats["layers"] = layers;
+    // The deferred lookup, as a projected scene's "deferred" block.
+    if (o.deferredLayers > 0 || o.deferredBytes > 0)
+      stats["deferred"] = {
+          {"layers", o.deferredLayers}, {"gpu_bytes", o.deferredBytes}, {"pending", o.deferredPending}};
     if (o.draped || globe::drapes(overlaySettings_.technique)) {
       // Draping: the textures (in longitude and latitude), as a projected scene's "drape" block.
       json drape = {{"tiles_built", o.texturesBuilt}, {"gpu_bytes", o.drapeGpuBytes}, {"build_s", o.textureSeconds}};

@@ -180,13 +180,19 @@ class ProjectedFrameRenderer final : public FrameRenderer {
                         {"build_s", drape->stats().buildSeconds},
                         {"texel_m", {drape->extent().size.x / drape->size(), drape->extent().size.y / drape->size()}}};
     } else if (technique.construction == overlay::PieceConstruction::Tiled) {
-      stats["tiles"] = tilesJson(stats_.overlayTiles, renderer_.techniqueGpuBytes());
+      // The tiles' own bytes (`auto` holds the lookup's indices too: in "deferred").
+      const std::size_t bytes = renderer_.techniqueGpuBytes();
+      stats["tiles"] = tilesJson(stats_.overlayTiles, bytes - std::min(bytes, stats_.overlayTiles.deferredBytes));
     } else if (technique.usesTextures()) {
       stats["drape"] = {{"tile_size", settings_.textureSize > 0 ? settings_.textureSize : technique.defaultTextureSize},
                         {"tiles_built", stats_.texturesBuilt},
                         {"gpu_bytes", renderer_.techniqueGpuBytes()},
                         {"build_s", stats_.textureSeconds}};
     }
+    // The deferred lookup (`deferred`, `auto`): the layers it drew and its indices' bytes.
+    const overlay::TechniqueFrameStats& t = stats_.overlayTiles;
+    if (t.deferredLayers > 0 || t.deferredBytes > 0)
+      stats["deferred"] = {{"layers", t.deferredLayers}, {"gpu_bytes", t.deferredBytes}};
   }
 
  private:

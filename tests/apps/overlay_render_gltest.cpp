@@ -851,6 +851,15 @@ TEST(OverlayRenderLasso, TheDeferredLookupLeavesTheSelectionAsItIs) {
   for (const char* method : {"stencil", "deferred", "stencil-tiles", "auto"}) {
     ASSERT_EQ(runOverlayRender(args + " --method " + method + " --out " + (dir / method).string(), dir / "log.txt"), 0)
         << method << ": " << readText(dir / "log.txt");
+    // The lookup's block says what it drew and holds (both frames write it: the globe's test
+    // below); the others have none.
+    const json stats = json::parse(readText(dir / method / "stats.json"));
+    if (std::string(method) == "deferred") {
+      EXPECT_EQ(stats["deferred"]["layers"].get<std::size_t>(), 3U) << stats.dump(1);
+      EXPECT_GT(stats["deferred"]["gpu_bytes"].get<std::size_t>(), 1'000'000U) << stats.dump(1);
+    } else if (std::string(method) != "auto") {
+      EXPECT_FALSE(stats.contains("deferred")) << method;
+    }
   }
   for (const auto& [a, b] : {std::pair{"stencil", "deferred"}, std::pair{"stencil-tiles", "auto"}}) {
     SCOPED_TRACE(std::string(a) + " against " + b);
@@ -1157,6 +1166,11 @@ TEST(OverlayRenderGlobe, TheDeferredLookupDrawsTheGlobesAreasAsItsPiecesDo) {
     const bool deferred = method == "deferred";
     EXPECT_EQ(stats["overlay"]["deferred_layers"].get<std::size_t>(), deferred ? 1U : 0U) << stats.dump(1);
     EXPECT_EQ(stats["overlay"]["deferred_index_bytes"].get<std::size_t>() > 0, deferred) << stats.dump(1);
+    EXPECT_EQ(stats.contains("deferred"), deferred) << stats.dump(1);  // the block of both frames
+    if (deferred) {
+      EXPECT_EQ(stats["deferred"]["layers"], 1) << stats.dump(1);
+      EXPECT_EQ(stats["deferred"]["gpu_bytes"], stats["overlay"]["deferred_index_bytes"]) << stats.dump(1);
+    }
     EXPECT_EQ(stats["overlay"]["pieces"].get<std::size_t>() > 0, !deferred) << stats.dump(1);
     masks[deferred                    ? 0
           : method == "stencil-tiles" ? 1

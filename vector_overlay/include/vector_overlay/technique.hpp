@@ -113,9 +113,11 @@ struct TechniqueFrameStats {
   /// largest tile alone), and the largest such tile (as its file says).
   std::size_t tileHostPeakBytes = 0;
   std::size_t tileLargestReadBytes = 0;
-  /// `auto`: the layers the deferred lookup drew in this frame (the last ones; the others were
-  /// drawn by the stencil polyhedra).
+  /// `deferred` and `auto`: the layers the deferred lookup drew in this frame (with `auto` the
+  /// last ones; the others were drawn by the stencil polyhedra), and the GPU bytes its indices
+  /// hold after it (every layer and reach class built so far).
   std::size_t deferredLayers = 0;
+  std::size_t deferredBytes = 0;
 };
 
 /// How a technique wants the layers' pieces built (OverlayLayer::build).

@@ -63,6 +63,7 @@ class AutoTechnique final : public OverlayTechnique {
         stats.deferredLayers += frame.layers[i] != nullptr ? 1U : 0U;
       }
     }
+    stats.deferredBytes = deferred_->gpuBytes();  // its indices stay built whichever plan drew
     if (ownTimer) {
       chooser_.end();
     } else {

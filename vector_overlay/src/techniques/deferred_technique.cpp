@@ -55,6 +55,9 @@ class DeferredTechnique final : public DeferredLookup {
       drawn[i] = &built->second;
     }
     pass_.draw(cache, frame.target, view, drawn, frame.settings.measure, stats.layers);
+    stats.deferredLayers = static_cast<std::size_t>(
+        std::count_if(drawn.begin(), drawn.end(), [](const DeferredLayer* d) { return d != nullptr; }));
+    stats.deferredBytes = pass_.gpuBytes();
   }
 
   void invalidate() override { dropAll(); }
