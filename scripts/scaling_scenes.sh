@@ -2,8 +2,10 @@
 # Writes the scenes of overlay_bench --mode scaling into OUTDIR: one synthetic DEM (dem.tif, 4097²
 # posts at 80 m, the seed paper's 327.7 km square) and per scale K a scene xK.json with K times the
 # seed paper's vector load (K x 8 areas, K x 144 roads of 18,800 points per 144) over it, as
-# xK_areas.gpkg and xK_roads.gpkg. The DEM is written once, with the first scale; the other scales
-# only add their vectors (--vectors-only). 1000x is 18.8 M road points and about 650 MB of disk.
+# xK_areas.gpkg and xK_roads.gpkg, and xK_globe.json: the same DEM and layers drawn on the globe
+# (the DEM in UTM 33N, warped to longitude and latitude as the globe reads any CRS). The DEM is
+# written once, with the first scale; the other scales only add their vectors (--vectors-only).
+# 1000x is 18.8 M road points and about 650 MB of disk.
 #
 # Usage: scripts/scaling_scenes.sh OUTDIR [SCALES...]   (default scales: 1 10 100 1000)
 # Environment:
@@ -13,6 +15,7 @@
 #   TERRAIN_SYNTH=PATH  the generator (default: BUILD_DIR/samples/synth/terrain_synth)
 #   BUILD_DIR=DIR       the build directory to find it in (default: build/ of this repository)
 # Then: overlay_bench --mode scaling --scenes OUTDIR/x1.json,OUTDIR/x10.json,... --out DIR
+#       (or OUTDIR/x1_globe.json,... for the same loads on the globe)
 set -euo pipefail
 
 if [[ $# -lt 1 || "$1" == "-h" || "$1" == "--help" ]]; then
@@ -57,11 +60,13 @@ for k in "${scales[@]}"; do
   else
     "$synth" "${common[@]}" --scene "$scene" --vector-scale "$k" --vectors-only
   fi
+  # The same scene on the globe: its frame said, its name told apart.
+  sed -e '1a\  "frame": "globe",' -e 's/\("name": ".*\)",$/\1, on the globe",/' "$scene" > "$out/x${k}_globe.json"
 done
 
 echo "DEM: $dem ($size x $size posts, $spacing m)"
 ls -l "$dem"
 for k in "${scales[@]}"; do
-  echo "scene x$k: $out/x$k.json"
-  ls -l "$out/x$k.json" "$out/x${k}"_*.gpkg
+  echo "scene x$k: $out/x$k.json (on the globe: $out/x${k}_globe.json)"
+  ls -l "$out/x$k.json" "$out/x${k}_globe.json" "$out/x${k}"_*.gpkg
 done
