@@ -113,18 +113,13 @@ class NearClipper {
   std::vector<std::array<glm::dvec3, 2>> cuts_;
 };
 
-std::array<std::uint8_t, 4> rgbaOf(const glm::vec4& colour) {
-  const auto unorm = [](float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0F, 1.0F) * 255.0F)); };
-  return {unorm(colour.x), unorm(colour.y), unorm(colour.z), unorm(colour.w)};
-}
-
 /// A projected frame's pieces: their footprints extruded between their bounds.
 void clipFootprints(NearClipper& clipper, const OverlayView& view, const LayerGeometry& layer,
                     std::span<const std::size_t> slots, const CapPadding& padding, const PixelScale& scale) {
   for (std::size_t slot : slots) {
     const Polyhedron& p = layer.polyhedra()[slot];
     const FeatureStyle& style = layer.featureStyles()[p.footprint.feature];
-    clipper.begin(rgbaOf(style.color).data());
+    clipper.begin(rgba8(style.color).data());
     const Footprint& f = p.footprint;
     // Vertices relative to the eye, lines in pixels at this frame's width and caps padded as
     // the shader does it.
