@@ -298,6 +298,9 @@ TEST_F(GlobeOverlayGl, TheDeferredLookupDrawsAreasAndLinesExactlyInEveryFaceOfTh
       {"lookup space 10,000 km", {-60.0, -20.0, 1e7}, {-60.0, -20.0, -6e6}},
       {"lookup space 20,000 km", {150.0, 10.0, 2e7}, {150.0, 10.0, -6e6}},
       {"lookup face corner", {45.0, 35.26, 4e6}, {45.0, 35.26, 0.0}},
+      // Close over the edge between faces 3 (−y) and 5 (−z), which the 20 km outline of the
+      // boxes' south side crosses near 57° W: a face's index reaches a thousandth beyond it.
+      {"lookup face edge 40 km", {-57.0, -40.1, 40000.0}, {-57.0, -40.0, 0.0}},
       {"lookup oblique 800 km", {-30.0, -45.0, 8e5}, {-45.0, -20.0, 0.0}},
       {"lookup grazing 3 km", {-37.5, -8.0, 3000.0}, {-33.0, -6.0, 1500.0}},
       {"lookup antimeridian", {165.0, -40.0, 6e5}, {-178.0, -21.0, 0.0}},

@@ -62,8 +62,13 @@ struct DeferredChart {
   /// The face (0–5) a point lies in: its largest coordinate's axis and sign (ties: the first).
   static int faceOf(const glm::dvec3& point);
   /// How far (in gnomonic units, 1 being the face's edge) a face's index reaches beyond the face:
-  /// a ground point found in the face next door by float rounding is still inside.
-  static constexpr double kFaceMargin = 0.05;
+  /// a ground point found in the face next door by float rounding (the pass picks the face from
+  /// its float position: half a metre) or by its height (its foot lies along the ellipsoid's
+  /// normal, which leans from the centre's ray by 0.2° at most: 30 m below a summit) is still
+  /// inside. 6.4 km, far above both; every primitive within it is indexed in both faces, so a
+  /// wide margin costs memory where data lies along a face's edge (a twentieth was 319 km:
+  /// central Europe twice over).
+  static constexpr double kFaceMargin = 1e-3;
 
   /// A point's chart coordinates by central projection (a face), or its (x, y) (the plane). A
   /// point of the ellipsoid, or a point along a chord between two of its points (on the chord's
