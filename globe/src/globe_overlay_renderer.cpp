@@ -310,7 +310,7 @@ const overlay::TextureDrape* GlobeOverlayRenderer::textureDrape() const {
   return gpu_->drape ? gpu_->drape->textureDrape() : nullptr;
 }
 
-bool GlobeOverlayRenderer::lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes) {
+bool GlobeOverlayRenderer::lookupFits(const GlobeLayer& layer, int reachClass, std::size_t gpuBudgetBytes) {
   if (!layer.hasLines()) return true;  // areas: their indices are as large as their edges
   auto counted = gpu_->linePrimitives.find(layer.serial());
   if (counted == gpu_->linePrimitives.end()) {
@@ -318,11 +318,9 @@ bool GlobeOverlayRenderer::lookupFits(const GlobeLayer& layer, std::size_t gpuBu
     for (const GlobeLine& line : layer.lines()) primitives += 2 * line.points.size();
     counted = gpu_->linePrimitives.emplace(layer.serial(), primitives).first;
   }
-  // A primitive lands in a handful of leaves (a band of 1 km meets about six of 1 km): an index
-  // that would pass a quarter of the GPU budget (the rivers of GSHHG 800 m wide: 4.3 GB) is not
-  // built, and the layer keeps its pieces.
-  constexpr std::size_t kBytesPerPrimitive = 6 * 64;
-  return counted->second * kBytesPerPrimitive <= gpuBudgetBytes / 4;
+  // An index that would pass a quarter of the GPU budget (the rivers of GSHHG 800 m wide: 4.3 GB)
+  // is not built, and the layer keeps its pieces.
+  return kReach.lineIndexBytes(counted->second, reachClass) <= static_cast<double>(gpuBudgetBytes / 4);
 }
 
 GlobeOverlayRenderer::GlobeOverlayRenderer() : gpu_(std::make_unique<Gpu>()) {}
@@ -516,7 +514,7 @@ void GlobeOverlayRenderer::draw(gfx::StateCache& cache, const GlobeView& view, c
     for (std::size_t i = 0; i < n; ++i) reach[i] = lookupReach(*drawn[i], view, tiles, heights);
     std::size_t areas = n;
     while (areas > 0 && deferredDraws(*drawn[areas - 1]) && reach[areas - 1] != overlay::ReachClasses::kBeyond &&
-           lookupFits(*drawn[areas - 1], settings.gpuBudgetBytes) &&
+           lookupFits(*drawn[areas - 1], reach[areas - 1], settings.gpuBudgetBytes) &&
            !gpu_->tooLarge.contains(LookupKey{drawn[areas - 1]->serial(), reach[areas - 1]}))
       --areas;
     const bool wait = settings.technique == GlobeTechnique::Deferred && settings.waitForTiles;

@@ -14,6 +14,7 @@
 #include "extreme_cases.hpp"
 #include "random_features.hpp"
 #include "vector_overlay/cpu_reference.hpp"
+#include "vector_overlay/deferred_lookup.hpp"
 
 namespace gis::test {
 namespace {
@@ -220,6 +221,39 @@ TEST(DeferredIndexTest, ALineAsWideAsTheWidestAcceptedCostsAFewLeavesAndStaysExa
     // and the roads' own.
     EXPECT_LT(unbounded.nodes.size(), 4u * (1U << 16) + 20000u);
     EXPECT_LT(unbounded.bytes(), std::size_t{200} << 20);
+  }
+}
+
+TEST(DeferredIndexTest, TheEstimateOfALineIndexHoldsItsSizeAtEveryReach) {
+  // Both frames' lookups decide with ReachClasses::lineIndexBytes whether to build a line layer's
+  // index within their budget (an index built and then refused costs its build, and memory for
+  // a while). Roads 10 m wide in metres, and at least a pixel wide binned at reach classes 3
+  // (64 m) and 7 (1 km): the estimate within a factor of two of what is built.
+  const glm::dvec2 lo(0.0), hi(40000.0);
+  std::mt19937 rng(41);
+  const std::vector<geo::Feature> features = randomLines(rng, lo, hi, 400);
+  std::size_t vertices = 0;
+  for (const geo::Feature& f : features)
+    for (const geo::LineString& l : f.lines) vertices += l.size();
+  const overlay::ReachClasses classes;
+  for (const int c : {overlay::ReachClasses::kNatural, 3, 7}) {
+    ReferenceLayer layer = layerOf("roads", LayerKind::Line, features);
+    overlay::deferred::BuildOptions options;
+    for (overlay::LineShape& shape : layer.shapes) {
+      shape.width = 10.0;
+      if (c == overlay::ReachClasses::kNatural) continue;
+      shape.widthPixels = 1.0;  // at least a pixel: binned at the class's reach
+      shape.minWidth = 10.0;
+      shape.width = 1e7;
+      options.maxReach = classes.reach(c);
+    }
+    std::vector<glm::vec4> colors(features.size(), glm::vec4(1.0F));
+    const overlay::deferred::Index index = overlay::deferred::build(layer, colors, options);
+    const double estimate = classes.lineIndexBytes(2 * vertices, c);
+    std::printf("class %d: %zu items for %zu vertices, %.1f MB, estimated %.1f MB\n", c, index.items.size(), vertices,
+                static_cast<double>(index.bytes()) / 1e6, estimate / 1e6);
+    EXPECT_LE(static_cast<double>(index.bytes()), 2.0 * estimate) << "class " << c;
+    EXPECT_GE(2.0 * static_cast<double>(index.bytes()), estimate) << "class " << c;
   }
 }
 

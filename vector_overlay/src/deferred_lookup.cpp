@@ -145,12 +145,7 @@ DeferredLayer DeferredLayer::build(std::span<const Part> parts, std::span<const 
         part.heightRange >= 0.0 ? part.heightRange : std::max(std::abs(part.lowest), std::abs(part.highest));
     Impl::Chart chart{part.chart, {}, {}};
     if (!part.worldLines.empty()) {
-      options.maxReach = part.maxReach;
-      // Lines in pixels binned wide: leaves as large as half the reach (what a leaf's coordinates
-      // reach beyond it anyway), not a kilometre, so that a primitive meets some 36 leaves instead
-      // of (reach / 1 km)². Leaves as large as the reach showed one wrong pixel in the joins'
-      // test (not understood yet); half of it none.
-      if (std::isfinite(part.maxReach)) options.maxLeafSize = std::max(options.maxLeafSize, 0.5 * part.maxReach);
+      options.maxReach = part.maxReach;  // lines in pixels binned at it (deferred::binnedAtReach)
       chart.index = deferred::buildWorld(part.worldLines, part.chart, std::max(part.features.size(), colors.size()),
                                          colors, part.lineWidths, options);
     } else {

@@ -562,8 +562,9 @@ class GlobeOverlayRenderer {
   const std::vector<overlay::OverlayLayer>* wholeLoadOf(const GlobeLayer& layer, const GeoGrid& heights,
                                                         const std::vector<DrawnTile>& tiles, bool paper);
   /// Whether the lookup may index the layer within the budget: areas always; lines in space while
-  /// their primitives' estimated index is at most a quarter of it (else they keep their pieces).
-  bool lookupFits(const GlobeLayer& layer, std::size_t gpuBudgetBytes);
+  /// their primitives' estimated index at the reach class (overlay::ReachClasses::lineIndexBytes)
+  /// is at most a quarter of it (else they keep their pieces).
+  bool lookupFits(const GlobeLayer& layer, int reachClass, std::size_t gpuBudgetBytes);
   /// The layer's deferred indices at a reach class (lookupReach), kept per layer and class until
   /// an edit; null while they are being built (started by the first ask) unless `wait`, or when
   /// they came out larger than `maxBytes` (then dropped, and the layer drawn by its pieces at that

@@ -82,7 +82,10 @@ class DeferredTechnique final : public DeferredLookup {
     if (c == ReachClasses::kBeyond) return false;
     const auto built = layers_.find({&layer, c});
     if (built != layers_.end()) return built->second.bytes() <= maxIndexBytes;
-    return reachInfo(layer).estimatedBytes <= maxIndexBytes;
+    const LayerReach& r = reachInfo(layer);
+    // Lines binned at a reach meet many more leaves than at their own widths.
+    const double binned = c == ReachClasses::kNatural ? 0.0 : classes_.lineIndexBytes(r.primitives, c);
+    return std::max(static_cast<double>(r.estimatedBytes), binned) <= static_cast<double>(maxIndexBytes);
   }
 
  private:
@@ -91,6 +94,7 @@ class DeferredTechnique final : public DeferredLookup {
     PixelLineWidths widths;       ///< of its lines in pixels (none: pixelsHalf 0)
     glm::dvec3 lo{0.0}, hi{0.0};  ///< the layer's extent, with the terrain's heights
     std::size_t estimatedBytes = 0;
+    std::size_t primitives = 0;  ///< of a line layer: a disc and a band per vertex, about
 
     /// The farthest corner of its extent from the eye: no anchor is farther.
     [[nodiscard]] double farthest(const OverlayView& view) const {
@@ -126,6 +130,7 @@ class DeferredTechnique final : public DeferredLookup {
     r.hi = glm::dvec3(hi + glm::dvec2(grow), h.hi);
     // About 160 bytes a source vertex (entries, leaves and grid) on the samples measured.
     r.estimatedBytes = features.vertexCount() * 160;
+    if (layer.kind() == LayerKind::Line) r.primitives = 2 * features.vertexCount();
     return r;
   }
 
