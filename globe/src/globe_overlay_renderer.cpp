@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <future>
 #include <limits>
@@ -220,6 +221,8 @@ struct GlobeOverlayRenderer::Gpu {
     bool refused = false;
     std::vector<WholeLoadTile> tiles;  ///< their geometry moved into chunks
     std::vector<overlay::OverlayLayer> chunks;
+    /// Per chunk: the coarser drawn levels its caps' reach was last set for (none yet: ~0).
+    std::vector<std::uint32_t> reachLevels;
   };
   std::map<std::pair<std::uint64_t, bool>, WholeLoad> wholeLoads;  ///< by serial and paper
 };
@@ -680,8 +683,15 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
     }
   }
   if (w.refused) return nullptr;
+  // A chunk's reach changes only with the coarser levels drawn over it: found by key, and the
+  // ground's bounds read again only where those changed (a view from afar draws a few levels).
+  const CoarseDrawnTiles coarse(tiles);
+  w.reachLevels.resize(w.chunks.size(), ~0U);
   for (std::size_t k = 0; k < w.chunks.size(); ++k) {
-    const glm::dvec2 reach = wholeLoadCapReach(w.tiles[k], tiles, heights);
+    const std::uint32_t levels = coarserLevelsOver(w.tiles[k], coarse);
+    if (levels == w.reachLevels[k]) continue;
+    w.reachLevels[k] = levels;
+    const glm::dvec2 reach = wholeLoadCapReach(w.tiles[k], levels, heights);
     // The paper's boxes move out with the top caps' reach: both caps reach as far.
     const double both = std::max(reach.x, reach.y);
     w.chunks[k].setCapReach(paper ? both : reach.x, paper ? both : reach.y);

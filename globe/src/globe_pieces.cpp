@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <set>
 #include <unordered_map>
 #include <utility>
 
@@ -577,24 +576,60 @@ WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, 
   return out;
 }
 
-glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, const std::vector<DrawnTile>& drawn, const GeoGrid& heights) {
-  if (tile.empty) return glm::dvec2(0.0);
+CoarseDrawnTiles::CoarseDrawnTiles(const std::vector<DrawnTile>& drawn) {
+  for (const DrawnTile& d : drawn) {
+    if (d.key.level >= kWholeLoadLevel) continue;  // the pieces' own bounds hold it
+    keys_.insert(d.key);
+    levels_ |= 1U << static_cast<unsigned>(d.key.level);
+  }
+}
+
+std::uint32_t CoarseDrawnTiles::levelsMeeting(const LonLatRect& box, int level) const {
+  std::uint32_t found = 0;
+  for (int l = 0; l < std::min(level, kWholeLoadLevel); ++l) {
+    if ((levels_ & (1U << static_cast<unsigned>(l))) == 0) continue;
+    const TileKey any{l, 0, 0};
+    const double s = any.size();
+    bool meets = false;
+    for (int turn = -1; turn <= 1 && !meets; ++turn) {
+      const double shift = 360.0 * turn;
+      const double west = box.west + shift, east = box.east + shift;
+      if (east < -180.0 || west > 180.0) continue;
+      // The tiles whose closed rectangles can meet the box: one more each side than its own
+      // columns and rows (rounding), each tested as the rectangles are, then looked up.
+      const int x0 = std::max(0, static_cast<int>(std::floor((west + 180.0) / s)) - 1);
+      const int x1 = std::min(any.columns() - 1, static_cast<int>(std::floor((east + 180.0) / s)) + 1);
+      const int y0 = std::max(0, static_cast<int>(std::floor((box.south + 90.0) / s)) - 1);
+      const int y1 = std::min(any.rows() - 1, static_cast<int>(std::floor((box.north + 90.0) / s)) + 1);
+      for (int y = y0; y <= y1 && !meets; ++y) {
+        for (int x = x0; x <= x1 && !meets; ++x) {
+          const TileKey key{l, x, y};
+          const LonLatRect r = key.rect();
+          meets =
+              west <= r.east && r.west <= east && box.south <= r.north && r.south <= box.north && keys_.contains(key);
+        }
+      }
+    }
+    if (meets) found |= 1U << static_cast<unsigned>(l);
+  }
+  return found;
+}
+
+std::uint32_t coarserLevelsOver(const WholeLoadTile& tile, const CoarseDrawnTiles& drawn) {
+  if (tile.empty) return 0;
   // The pieces reach a little beyond their tile (the cells' margins): grown by a hundredth of it.
   const LonLatRect box = tile.key.rect().expanded(0.01 * tile.key.size(), 0.01 * tile.key.size());
+  return drawn.levelsMeeting(box, tile.key.level);
+}
+
+glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, std::uint32_t levels, const GeoGrid& heights) {
   glm::dvec2 reach(0.0);
-  std::set<int> levels;
-  for (const DrawnTile& d : drawn) {
-    if (d.key.level >= tile.key.level) continue;  // the pieces' own bounds hold it
-    const LonLatRect r = d.key.rect();
-    for (int turn = -1; turn <= 1; ++turn) {
-      const double shift = 360.0 * turn;
-      if (box.west + shift <= r.east && r.west <= box.east + shift && box.south <= r.north && r.south <= box.north)
-        levels.insert(d.key.level);
-    }
-  }
+  if (tile.empty) return reach;
+  const LonLatRect box = tile.key.rect().expanded(0.01 * tile.key.size(), 0.01 * tile.key.size());
   // The surface a drawn tile of level L lays over the box lies within groundBounds at L (the
   // terrain's contract: the box lies within that tile and a strip of its neighbours).
-  for (const int level : levels) {
+  for (int level = 0; level < 32; ++level) {
+    if ((levels & (1U << static_cast<unsigned>(level))) == 0) continue;
     const std::pair<double, double> b = groundBounds(heights, box, level);
     reach = glm::max(reach, glm::dvec2(tile.highestLow - b.first, b.second - tile.lowestHigh));
   }

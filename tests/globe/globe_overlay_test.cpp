@@ -605,5 +605,75 @@ TEST(GlobeLines, ALongGeodesicFromAfarStaysClosedAndHoldsItsGround) {
   EXPECT_GT(insideCount, 0u);
 }
 
+TEST(WholeLoad, TheCoarserDrawnLevelsOverATileAreFoundByKeyAsByEveryRectangle) {
+  // `stencil` sets its tiles' caps each frame from the levels of the coarser terrain tiles drawn
+  // over them (coarserLevelsOver: a few lookups by key per tile, not a pass over every drawn
+  // tile). Against that pass, the rectangles' closed test a turn east and west included: random
+  // cuts of the quadtree (split at random, as views split it), every tile of kWholeLoadLevel
+  // under a few of their tiles, and tiles along ±180° and the poles.
+  std::mt19937 random(20261130);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto bruteForce = [](const LonLatRect& box, int level, const std::vector<DrawnTile>& drawn) {
+    std::uint32_t found = 0;
+    for (const DrawnTile& d : drawn) {
+      if (d.key.level >= std::min(level, kWholeLoadLevel)) continue;
+      const LonLatRect r = d.key.rect();
+      for (int turn = -1; turn <= 1; ++turn) {
+        const double shift = 360.0 * turn;
+        if (box.west + shift <= r.east && r.west <= box.east + shift && box.south <= r.north && r.south <= box.north)
+          found |= 1U << static_cast<unsigned>(d.key.level);
+      }
+    }
+    return found;
+  };
+  std::size_t compared = 0, withLevels = 0;
+  for (int cut = 0; cut < 12; ++cut) {
+    // A cut: split each tile while a random draw says so, deeper near a random point.
+    const double lon = -180.0 + 360.0 * unit(random), lat = -90.0 + 180.0 * unit(random);
+    std::vector<DrawnTile> drawn;
+    std::vector<TileKey> open{TileKey{0, 0, 0}, TileKey{0, 1, 0}};
+    while (!open.empty()) {
+      const TileKey k = open.back();
+      open.pop_back();
+      const LonLatRect r = k.rect();
+      const bool near = r.west <= lon && lon <= r.east && r.south <= lat && lat <= r.north;
+      if (k.level < 14 && (near || (k.level < 3 && unit(random) < 0.6))) {
+        for (const TileKey& c : k.children()) open.push_back(c);
+      } else {
+        drawn.push_back({k, 0});
+      }
+    }
+    const CoarseDrawnTiles coarse(drawn);
+    std::vector<TileKey> probes;
+    for (int k = 0; k < 200; ++k) {
+      const TileKey any{kWholeLoadLevel, 0, 0};
+      const double plon = k < 100 ? lon + (unit(random) - 0.5) * 40.0 : -180.0 + 360.0 * unit(random);
+      const double plat =
+          std::clamp(k < 100 ? lat + (unit(random) - 0.5) * 20.0 : -90.0 + 180.0 * unit(random), -89.999, 89.999);
+      const int x = std::clamp(static_cast<int>(std::floor((std::remainder(plon, 360.0) + 180.0) / any.size())), 0,
+                               any.columns() - 1);
+      const int y = std::clamp(static_cast<int>(std::floor((plat + 90.0) / any.size())), 0, any.rows() - 1);
+      probes.push_back({kWholeLoadLevel, x, y});
+    }
+    const TileKey last{kWholeLoadLevel, 0, 0};
+    probes.push_back({kWholeLoadLevel, 0, 3000});                   // at −180°
+    probes.push_back({kWholeLoadLevel, last.columns() - 1, 1000});  // at +180°
+    probes.push_back({kWholeLoadLevel, 17, 0});                     // at the south pole
+    probes.push_back({kWholeLoadLevel, 4000, last.rows() - 1});     // at the north pole
+    for (const TileKey& key : probes) {
+      WholeLoadTile tile;
+      tile.key = key;
+      tile.empty = false;
+      const LonLatRect box = key.rect().expanded(0.01 * key.size(), 0.01 * key.size());
+      const std::uint32_t expected = bruteForce(box, key.level, drawn);
+      EXPECT_EQ(coarserLevelsOver(tile, coarse), expected) << "cut " << cut << ", tile " << key.x << ", " << key.y;
+      ++compared;
+      withLevels += expected != 0 ? 1U : 0U;
+    }
+  }
+  EXPECT_EQ(compared, 12U * 204U);
+  EXPECT_GT(withLevels, compared / 4);  // the cuts draw coarse tiles over many of them
+}
+
 }  // namespace
 }  // namespace gis::globe

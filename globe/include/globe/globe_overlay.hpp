@@ -25,6 +25,7 @@
 #include <span>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -346,9 +347,26 @@ struct WholeLoadTile {
 /// terrain over its whole box), a piece per line shape (not united), each covered by its box.
 WholeLoadTile buildWholeLoadPieces(const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
                                    bool paper = false);
+/// One frame's drawn terrain tiles coarser than kWholeLoadLevel, found by key: what the tiles
+/// built whole ask of them each frame (a few lookups per tile, not a pass over every drawn tile).
+class CoarseDrawnTiles {
+ public:
+  explicit CoarseDrawnTiles(const std::vector<DrawnTile>& drawn);
+  /// The levels (bit L: level L) of those coarser than `level` that meet `box` (unwrapped: a tile
+  /// meets it a turn east or west too), boundaries included.
+  [[nodiscard]] std::uint32_t levelsMeeting(const LonLatRect& box, int level) const;
+
+ private:
+  std::unordered_set<TileKey, TileKeyHash> keys_;
+  std::uint32_t levels_ = 0;
+};
+/// The levels of the drawn terrain tiles coarser than the tile's that meet it (its box grown by a
+/// hundredth: its pieces reach a little beyond it): all that its caps' reach depends on.
+std::uint32_t coarserLevelsOver(const WholeLoadTile& tile, const CoarseDrawnTiles& drawn);
 /// How far (below, above) the tile's bottom and top caps must move in a frame whose drawn terrain
-/// tiles are `drawn` (0 where none coarser than its level meets it).
-glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, const std::vector<DrawnTile>& drawn, const GeoGrid& heights);
+/// tiles coarser than its level that meet it are of `levels` (coarserLevelsOver; 0: none, no
+/// reach).
+glm::dvec2 wholeLoadCapReach(const WholeLoadTile& tile, std::uint32_t levels, const GeoGrid& heights);
 
 /// Lines in pixels: the width class a tile is drawn with from a view (the tiled technique's
 /// rule, tiled_layer.hpp): 0 where every line of the layer is at least as wide in metres as
