@@ -134,8 +134,29 @@ struct PointShape {
   enum class Kind { None, Disc, Polygon } kind = Kind::None;
   std::vector<glm::dvec3> directions;
   std::vector<char> border;
+  /// How far it reaches from its point, in half widths: 1 for a disc, 0 for none.
+  double reach = 0.0;
 };
 PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given);
+/// A layer's lines by their boxes (GlobeLine::box), for the reference: a grid of cells over the
+/// boxes' union, each holding the lines whose box meets it; a line meeting more than a quarter
+/// of the cells is in `everywhere` instead.
+struct LineGrid {
+  LonLatRect box{0.0, 0.0, -1.0, -1.0};
+  std::size_t columns = 0, rows = 0;
+  double cellWidth = 1.0, cellHeight = 1.0;
+  std::vector<std::vector<std::uint32_t>> cells;
+  std::vector<std::uint32_t> everywhere;
+  /// The most any line may reach beyond its box for a scale (reachBeyond's bound over them).
+  double widthPixels = 0.0, maxHalfWidth = 0.0, leastHalfWidth = 0.0, reach = 1.0;
+  static LineGrid of(const std::vector<GlobeLine>& lines);
+  /// Calls visit(line index) for every line whose box widened by `extra` metres may hold the
+  /// point (a line may be visited more than once); stops when visit returns true, and returns
+  /// whether it did.
+  template <typename Visit>
+  bool visit(double lonDeg, double latDeg, double extra, Visit&& visit) const;
+};
+
 /// A line's shapes at its points (GlobeLine::joins).
 struct LineJoins {
   std::vector<PointShape> at;
@@ -183,5 +204,37 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
                       int widthClass);
 /// How much further than its least half width a line in pixels may reach a point seen with `scale`.
 double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, const glm::dvec3& point);
+
+template <typename Visit>
+bool LineGrid::visit(double lonDeg, double latDeg, double extra, Visit&& visit) const {
+  for (const std::uint32_t j : everywhere) {
+    if (visit(j)) return true;
+  }
+  if (cells.empty()) return false;
+  const double dLat = extra / 110000.0;
+  if (latDeg < box.south - dLat || latDeg > box.north + dLat) return false;
+  const double high = std::abs(latDeg) + dLat;
+  const double dLon = high >= 89.9 ? 360.0 : dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+  const auto index = [](double at, double from, double size, std::size_t count) {
+    return static_cast<std::size_t>(std::clamp(std::floor((at - from) / size), 0.0, static_cast<double>(count - 1)));
+  };
+  const std::size_t r0 = index(latDeg - dLat, box.south, cellHeight, rows),
+                    r1 = index(latDeg + dLat, box.south, cellHeight, rows);
+  // The point's longitude in every turn the boxes span (they are unwrapped).
+  for (double lon = lonDeg - 360.0 * std::ceil((lonDeg - box.west + dLon) / 360.0); lon <= box.east + dLon;
+       lon += 360.0) {
+    if (lon + dLon < box.west) continue;
+    const std::size_t c0 = index(lon - dLon, box.west, cellWidth, columns),
+                      c1 = index(lon + dLon, box.west, cellWidth, columns);
+    for (std::size_t r = r0; r <= r1; ++r) {
+      for (std::size_t c = c0; c <= c1; ++c) {
+        for (const std::uint32_t j : cells[r * columns + c]) {
+          if (visit(j)) return true;
+        }
+      }
+    }
+  }
+  return false;
+}
 
 }  // namespace gis::globe::detail

@@ -105,7 +105,9 @@ overlay::LineShapeRules globeShapeRules(const GlobeLine& line, double halfWidth,
   return rules;
 }
 
-PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given) {
+namespace {
+
+PointShape shapeAt(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given) {
   PointShape shape;
   if (k >= points.size() || isPole(points[k].y)) return shape;
   if (line.round()) {
@@ -173,6 +175,15 @@ PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& poin
     shape.directions = {-u, u};
     shape.border = {1, 0};
   }
+  return shape;
+}
+
+}  // namespace
+
+PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given) {
+  PointShape shape = shapeAt(line, points, k, given);
+  shape.reach = shape.kind == PointShape::Kind::Disc ? 1.0 : 0.0;
+  for (const glm::dvec3& d : shape.directions) shape.reach = std::max(shape.reach, glm::length(d));
   return shape;
 }
 

@@ -569,7 +569,7 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
       joins->at.reserve(line.size());
       for (std::size_t i = 0; i < line.size(); ++i) {
         joins->at.push_back(detail::pointShape(g, line, i, given[i] != 0));
-        for (const glm::dvec3& d : joins->at.back().directions) g.reach = std::max(g.reach, glm::length(d));
+        g.reach = std::max(g.reach, joins->at.back().reach);
       }
       g.joins = std::move(joins);
     }
@@ -579,18 +579,35 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
     const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
     g.box = g.box.expanded(g.box.north + dLat >= 90.0 || g.box.south - dLat <= -90.0 ? 360.0 : dLon, dLat);
     {
-      // Pieces by longitude for the reference.
+      // Pieces in a grid of about a quarter as many cells as points, as square in degrees as
+      // the box allows, for the reference.
       const std::size_t n = std::clamp<std::size_t>(line.size() / 4, 1, 4096);
-      g.bucketWidth = std::max(g.box.east - g.box.west, 1e-9) / static_cast<double>(n);
-      g.buckets.assign(n, {});
-      const auto bucketOf = [&](double lon) {
-        return static_cast<std::size_t>(
-            std::clamp(std::floor((lon - g.box.west) / g.bucketWidth), 0.0, static_cast<double>(n - 1)));
-      };
+      const double width = std::max(g.box.east - g.box.west, 1e-9), height = std::max(g.box.north - g.box.south, 1e-9);
+      g.bucketColumns = std::clamp<std::size_t>(
+          static_cast<std::size_t>(std::lround(std::sqrt(static_cast<double>(n) * width / height))), 1, n);
+      const std::size_t rows = std::max<std::size_t>(1, n / g.bucketColumns);
+      g.bucketWidth = width / static_cast<double>(g.bucketColumns);
+      g.bucketHeight = height / static_cast<double>(rows);
+      g.buckets.assign(g.bucketColumns * rows, {});
       for (std::size_t i = 0; i + 1 < line.size(); ++i) {
-        const double lo = std::min(line[i].x, line[i + 1].x) - dLon, hi = std::max(line[i].x, line[i + 1].x) + dLon;
-        for (std::size_t b = bucketOf(lo); b <= bucketOf(hi); ++b)
-          g.buckets[b].push_back(static_cast<std::uint32_t>(i));
+        // Widened by the farther reach of its two points' shapes.
+        const double share = g.joins ? std::max({1.0, g.joins->at[i].reach, g.joins->at[i + 1].reach}) / g.reach : 1.0;
+        const double dLatHere = dLat * share, dLonHere = dLon * share;
+        const std::size_t c0 = g.bucketColumn(std::min(line[i].x, line[i + 1].x) - dLonHere),
+                          c1 = g.bucketColumn(std::max(line[i].x, line[i + 1].x) + dLonHere);
+        // A geodesic bulges poleward of its ends by up to (L/2)² tan φ / 2R (twice that here);
+        // pieces near a pole are in every row.
+        const double poleward = std::max(std::abs(line[i].y), std::abs(line[i + 1].y));
+        const glm::dvec3 chord = g.surface[i + 1] - g.surface[i];
+        const double bulge = poleward >= 89.0 ? 180.0
+                                              : glm::dot(chord, chord) / (4.0 * kMinCurvatureRadius) *
+                                                    std::tan(poleward * 3.14159265358979323846 / 180.0) / 110000.0;
+        const std::size_t r0 = g.bucketRow(std::min(line[i].y, line[i + 1].y) - dLatHere - bulge),
+                          r1 = g.bucketRow(std::max(line[i].y, line[i + 1].y) + dLatHere + bulge);
+        for (std::size_t r = r0; r <= r1; ++r) {
+          for (std::size_t c = c0; c <= c1; ++c)
+            g.buckets[r * g.bucketColumns + c].push_back(static_cast<std::uint32_t>(i));
+        }
       }
     }
     g.points = std::move(line);
@@ -745,6 +762,63 @@ const std::vector<GlobeLine>& GlobeLayer::lines() const {
   if (!lines_->lines) lines_->lines = std::make_shared<const std::vector<GlobeLine>>(prepareLines());
   return *lines_->lines;
 }
+
+const detail::LineGrid& GlobeLayer::lineGrid() const {
+  const std::vector<GlobeLine>& all = lines();
+  const std::lock_guard<std::mutex> lock(lines_->mutex);
+  if (!lines_->grid) lines_->grid = std::make_shared<const detail::LineGrid>(detail::LineGrid::of(all));
+  return *lines_->grid;
+}
+
+namespace detail {
+
+LineGrid LineGrid::of(const std::vector<GlobeLine>& lines) {
+  LineGrid grid;
+  bool first = true;
+  for (const GlobeLine& line : lines) {
+    if (line.buckets.empty()) continue;
+    grid.box = first ? line.box
+                     : LonLatRect{std::min(grid.box.west, line.box.west), std::min(grid.box.south, line.box.south),
+                                  std::max(grid.box.east, line.box.east), std::max(grid.box.north, line.box.north)};
+    grid.widthPixels = std::max(grid.widthPixels, line.widthPixels);
+    grid.maxHalfWidth = std::max(grid.maxHalfWidth, line.maxHalfWidth);
+    grid.leastHalfWidth = first ? line.halfWidth : std::min(grid.leastHalfWidth, line.halfWidth);
+    grid.reach = std::max(grid.reach, line.reach);
+    first = false;
+  }
+  if (first) return grid;
+  // About as many cells as lines, as square in degrees as the union allows.
+  const std::size_t n = std::clamp<std::size_t>(lines.size(), 1, 1 << 16);
+  const double width = std::max(grid.box.east - grid.box.west, 1e-9);
+  const double height = std::max(grid.box.north - grid.box.south, 1e-9);
+  grid.columns = std::clamp<std::size_t>(
+      static_cast<std::size_t>(std::lround(std::sqrt(static_cast<double>(n) * width / height))), 1, n);
+  grid.rows = std::max<std::size_t>(1, n / grid.columns);
+  grid.cellWidth = width / static_cast<double>(grid.columns);
+  grid.cellHeight = height / static_cast<double>(grid.rows);
+  grid.cells.assign(grid.columns * grid.rows, {});
+  const auto index = [](double at, double from, double size, std::size_t count) {
+    return static_cast<std::size_t>(std::clamp(std::floor((at - from) / size), 0.0, static_cast<double>(count - 1)));
+  };
+  for (std::size_t j = 0; j < lines.size(); ++j) {
+    const LonLatRect& b = lines[j].box;
+    if (lines[j].buckets.empty()) continue;
+    const std::size_t c0 = index(b.west, grid.box.west, grid.cellWidth, grid.columns),
+                      c1 = index(b.east, grid.box.west, grid.cellWidth, grid.columns);
+    const std::size_t r0 = index(b.south, grid.box.south, grid.cellHeight, grid.rows),
+                      r1 = index(b.north, grid.box.south, grid.cellHeight, grid.rows);
+    if ((c1 - c0 + 1) * (r1 - r0 + 1) * 4 > grid.cells.size()) {
+      grid.everywhere.push_back(static_cast<std::uint32_t>(j));
+      continue;
+    }
+    for (std::size_t r = r0; r <= r1; ++r) {
+      for (std::size_t c = c0; c <= c1; ++c) grid.cells[r * grid.columns + c].push_back(static_cast<std::uint32_t>(j));
+    }
+  }
+  return grid;
+}
+
+}  // namespace detail
 
 std::vector<GlobeLine> GlobeLayer::prepareLines() const {
   std::vector<GlobeLine> out;
@@ -919,19 +993,26 @@ bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& 
     const glm::dvec3 n = surfaceNormalAt(line.surface[k]);
     const glm::dvec3 d = point - line.surface[k];
     if (!line.joins || k >= line.joins->at.size()) return glm::length(d - n * glm::dot(d, n)) <= r;
-    if (glm::length(d - n * glm::dot(d, n)) > r * line.reach) return false;
+    if (glm::length(d - n * glm::dot(d, n)) > r * line.joins->at[k].reach) return false;
     return inPointShape(line.joins->at[k], line.surface[k], n, r, point);
   };
   // No shape of a piece reaches further than this across the normals (in 3D also the chord's sag
-  // and the point's height).
-  const double farthest = (line.halfWidth + extra) * line.reach + 1.0;
+  // and the point's height, which is its distance to the ellipsoid along the normal).
+  const double height = glm::length(point - toEcef(lonDeg, latDeg, 0.0)) * (1.0 + 1e-9) + 1.0;
+  const auto farthest = [&](std::size_t k) {
+    if (!line.joins) return (line.halfWidth + extra) + height;
+    const std::vector<detail::PointShape>& at = line.joins->at;
+    const double reach =
+        std::max({1.0, k < at.size() ? at[k].reach : line.reach, k + 1 < at.size() ? at[k + 1].reach : line.reach});
+    return (line.halfWidth + extra) * reach + height;
+  };
   const auto nearPiece = [&](std::size_t k) {
     {
       const glm::dvec3 a = line.surface[k], ab = line.surface[k + 1] - a;
       const double l2 = glm::dot(ab, ab);
       const double t = l2 > 0.0 ? std::clamp(glm::dot(point - a, ab) / l2, 0.0, 1.0) : 0.0;
       const glm::dvec3 off = point - a - ab * t;
-      const double slack = farthest + l2 / (8.0 * kMinCurvatureRadius) + 2e4;  // heights within ±20 km
+      const double slack = farthest(k) + l2 / (8.0 * kMinCurvatureRadius);
       if (glm::dot(off, off) > slack * slack) return false;
     }
     const double ra = radius(k), rb = radius(k + 1);
@@ -950,18 +1031,17 @@ bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& 
     const double s = std::clamp(glm::dot(point - a, u), 0.0, length);
     return std::abs(glm::dot(point - a, m)) <= ra + (rb - ra) * (s / length);
   };
-  const std::size_t n = line.buckets.size();
   const double west = line.box.west - dLon, east = line.box.east + dLon;
+  const std::size_t r0 = line.bucketRow(latDeg - dLat), r1 = line.bucketRow(latDeg + dLat);
   for (double lon = lonDeg - 360.0 * std::ceil((lonDeg - west) / 360.0); lon <= east; lon += 360.0) {
     if (lon < west) continue;
-    const auto bucket = [&](double x) {
-      return static_cast<std::size_t>(
-          std::clamp(std::floor((x - line.box.west) / line.bucketWidth), 0.0, static_cast<double>(n - 1)));
-    };
-    const std::size_t b0 = bucket(lon - dLon), b1 = bucket(lon + dLon);
-    for (std::size_t b = b0; b <= b1; ++b) {
-      for (const std::uint32_t k : line.buckets[b]) {  // a piece in several buckets is tried again
-        if (nearPiece(k)) return true;
+    const std::size_t c0 = line.bucketColumn(lon - dLon), c1 = line.bucketColumn(lon + dLon);
+    for (std::size_t r = r0; r <= r1; ++r) {
+      for (std::size_t c = c0; c <= c1; ++c) {
+        for (const std::uint32_t k :
+             line.buckets[r * line.bucketColumns + c]) {  // a piece in several buckets is tried again
+          if (nearPiece(k)) return true;
+        }
       }
     }
   }
@@ -1226,6 +1306,16 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
   return out;
 }
 
+std::size_t GlobeLine::bucketColumn(double lon) const {
+  const double last = static_cast<double>(bucketColumns - 1);
+  return static_cast<std::size_t>(std::clamp(std::floor((lon - box.west) / bucketWidth), 0.0, last));
+}
+
+std::size_t GlobeLine::bucketRow(double lat) const {
+  const double last = static_cast<double>(buckets.size() / bucketColumns - 1);
+  return static_cast<std::size_t>(std::clamp(std::floor((lat - box.south) / bucketHeight), 0.0, last));
+}
+
 bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
                           const overlay::PixelScale& scale) const {
   for (std::size_t k = 0; k < areaPolygons_; ++k) {
@@ -1233,8 +1323,16 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
   }
   if (!hasLines_) return false;
   const std::vector<GlobeLine>& all = lines();
-  return std::any_of(all.begin(), all.end(),
-                     [&](const GlobeLine& l) { return detail::nearLine(*this, l, point, lonDeg, latDeg, scale); });
+  const detail::LineGrid& grid = lineGrid();
+  // The farthest any line may reach beyond its box here (as reachBeyond, at the layer's bounds).
+  GlobeLine bound;
+  bound.widthPixels = grid.widthPixels;
+  bound.maxHalfWidth = grid.maxHalfWidth;
+  bound.halfWidth = grid.leastHalfWidth;
+  bound.reach = grid.reach;
+  const double extra = detail::reachBeyond(bound, scale, point) * (1.0 + 1e-9) + 1.0;
+  return grid.visit(lonDeg, latDeg, extra,
+                    [&](std::uint32_t j) { return detail::nearLine(*this, all[j], point, lonDeg, latDeg, scale); });
 }
 
 std::uint64_t GlobeLayer::digestForCache() const {

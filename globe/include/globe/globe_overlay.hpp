@@ -57,6 +57,7 @@ struct PolygonIndex;
 struct LineLevels;
 struct AreaLevels;
 struct LineJoins;
+struct LineGrid;
 }  // namespace detail
 
 /// One polygon of a feature, prepared: its rings (the first the outer one) unwrapped, densified,
@@ -150,10 +151,16 @@ struct GlobeLine {
   std::vector<char> given;          ///< per point, 1 where the source gave it (0: added along a geodesic)
   std::vector<glm::dvec3> surface;  ///< the points on the ellipsoid (ECEF)
   LonLatRect box;                   ///< of the points, widened by the half width
-  /// Its pieces (i: points i, i + 1) by longitude, widened by the half width: buckets of
-  /// bucketWidth degrees from box.west.
-  double bucketWidth = 360.0;
+  /// Its pieces (i: points i, i + 1) in a grid over its box, each widened by the half width:
+  /// bucketColumns of bucketWidth degrees from box.west by rows of bucketHeight degrees from
+  /// box.south, row by row.
+  double bucketWidth = 360.0, bucketHeight = 180.0;
+  std::size_t bucketColumns = 1;
   std::vector<std::vector<std::uint32_t>> buckets;
+  /// The buckets' column and row a point's longitude (unwrapped into the box) and latitude fall
+  /// in, clamped to the grid.
+  [[nodiscard]] std::size_t bucketColumn(double lon) const;
+  [[nodiscard]] std::size_t bucketRow(double lat) const;
 };
 
 class GlobeLayer final : public overlay::WorldCoverage {
@@ -295,7 +302,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   struct LazyLines {
     std::mutex mutex;
     std::shared_ptr<const std::vector<GlobeLine>> lines;
+    std::shared_ptr<const detail::LineGrid> grid;  ///< the lines by their boxes, for the reference
   };
+  /// The lines' grid (made with them).
+  [[nodiscard]] const detail::LineGrid& lineGrid() const;
   std::shared_ptr<LazyLines> lines_ = std::make_shared<LazyLines>();
   overlay::SharedFeatures features_;        ///< what the lines are prepared from
   std::vector<std::uint64_t> lineDigests_;  ///< per feature: checkLines' digest
