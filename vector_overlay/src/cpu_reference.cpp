@@ -553,7 +553,8 @@ bool featureCovers(const ReferenceLayer& layer, std::size_t i, const glm::dvec2&
   const LineShape shape = featureShape(layer, i);
   if (!reference::shapeUsable(shape)) return false;
   for (std::size_t k = 0; k < feature.lines.size(); ++k)
-    if (reference::forEachLinePrimitive(feature.lines[k], k, shape, scale,
+    if (reference::lineMayReach(feature.lines[k], shape, p) &&
+        reference::forEachLinePrimitive(feature.lines[k], k, shape, scale,
                                         [&p](const LinePrimitive& prim) { return prim.contains(p); }))
       return true;
   return false;

@@ -427,6 +427,21 @@ inline bool lineWithinRange(const geo::LineString& line, std::size_t lineIndex, 
   });
 }
 
+/// Whether line `line` drawn with `shape` may reach `p`: false when `p` lies beyond the line's
+/// bounding box widened by the farthest any piece reaches (a miter's tip, a square cap's corner),
+/// so a test of a point against many lines need not make their pieces.
+inline bool lineMayReach(const geo::LineString& line, const LineShape& shape, const glm::dvec2& p) {
+  if (line.empty()) return false;
+  glm::dvec2 lo = line.front(), hi = line.front();
+  for (const glm::dvec2& q : line) {
+    lo = glm::min(lo, q);
+    hi = glm::max(hi, q);
+  }
+  const double miter = shape.join == LineJoin::Miter ? shape.miterLimit : 0.0;
+  const double reach = 0.5 * std::max(shape.width, shape.minWidth) * std::max(2.0, miter) * (1.0 + 1e-9) + 1e-9;
+  return !(p.x < lo.x - reach || p.x > hi.x + reach || p.y < lo.y - reach || p.y > hi.y + reach);
+}
+
 /// Calls emit(LinePrimitive) for every piece of line `lineIndex` of a feature drawn with
 /// `shape` (whose width must be usable): after dropping consecutive repeated points, the
 /// segments' rectangles, the joins at interior vertices and the caps at both ends
