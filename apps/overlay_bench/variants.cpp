@@ -206,12 +206,16 @@ MethodFrame VariantBench::drawFrame(Method& m, std::size_t k, const scene::Frame
     // Tiles are built on worker threads while parents stand in; here the frame first waits for
     // them (untimed, counted as build time), so that the timed frame draws what a flight draws
     // once they have arrived.
+    // The lookup's indices are made at the first frame that draws by it: that frame is build
+    // time too.
     scene::FrameFigures built;
     const double ms = untimed(m, camera, &built);
     m.tilesBuilt += built.tilesBuilt;
-    m.buildSeconds += built.tilesBuilt > 0 ? 1e-3 * ms : 0.0;
+    const bool indexed = m.technique->looksUp && !m.firstDrawn;
+    m.firstDrawn = true;
+    m.buildSeconds += built.tilesBuilt > 0 || indexed ? 1e-3 * ms : 0.0;
   } else if (m.overlays && !m.firstDrawn && !m.technique->usesTextures() &&
-             (construction == overlay::PieceConstruction::Features || m.shared->layersBuilt().buildSeconds == 0.0)) {
+             m.shared->layersBuilt().buildSeconds == 0.0) {
     // The technique builds its layers at its first frame (the lookup's index; the globe's pieces
     // built once): that frame is its build time.
     m.buildSeconds += 1e-3 * untimed(m, camera);
@@ -314,8 +318,7 @@ void VariantBench::edit(Method& m, const scene::FrameCamera& camera) {
   // Draped textures and tiles built again in that frame count as the edit's.
   m.editMs += 1e3 * after.textureSeconds;
   // Tiles built again, or an index made again, in that frame count as the edit's.
-  if ((m.technique->construction == overlay::PieceConstruction::Tiled && after.tilesBuilt > 0) ||
-      m.technique->construction == overlay::PieceConstruction::Features)
+  if ((m.technique->construction == overlay::PieceConstruction::Tiled && after.tilesBuilt > 0) || m.technique->looksUp)
     m.editMs += frameMs;
 }
 

@@ -467,9 +467,9 @@ int run(const Options& o) {
              ": selection and analysis are drawn single-sampled only");
     return 2;
   }
-  if ((!o.overlap.empty() || o.openVolumes) && o.technique->construction == overlay::PieceConstruction::Features) {
+  if ((!o.overlap.empty() || o.openVolumes) && o.technique->looksUp) {
     logError("--overlap and --open-volumes mark the layers' stencil polyhedra, and --method " +
-             std::string(o.technique->name) + " draws none: use stencil-tiles, stencil or paper");
+             std::string(o.technique->name) + " looks the layers up instead: use stencil-tiles, stencil or paper");
     return 2;
   }
   std::optional<Setup> setup = load(o, all);

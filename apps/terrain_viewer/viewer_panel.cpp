@@ -150,9 +150,7 @@ void Viewer::drawOverlaySection() {
   if (technique_->usesTextures()) drawDrapeSize();
   if (chosen != technique_) useTechnique(*chosen);
   ImGui::Checkbox("debug: pieces", &debugPieces_);
-  if (debugPieces_ && technique_->construction == overlay::PieceConstruction::Features) {
-    ImGui::TextWrapped("%s draws no pieces: nothing to show", std::string(technique_->label).c_str());
-  } else if (debugPieces_) {
+  if (debugPieces_) {
     ImGui::SameLine();
     ImGui::TextColored(ImVec4(0.1F, 0.8F, 0.2F, 1.0F), "z-pass");
     ImGui::SameLine();

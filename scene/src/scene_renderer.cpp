@@ -56,7 +56,6 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
   techniqueInfo_ = settings.technique != nullptr ? settings.technique : &overlay::defaultTechnique();
   options.paperVariant = techniqueInfo_->construction == overlay::PieceConstruction::Paper;
   const bool tiled = techniqueInfo_->construction == overlay::PieceConstruction::Tiled;
-  const bool noPieces = tiled || techniqueInfo_->construction == overlay::PieceConstruction::Features;
   options.adaptiveSplit = settings.adaptiveSplit;
   // The terrain's bounds may be read from several threads at once.
   options.threads = std::max(1U, std::thread::hardware_concurrency());
@@ -85,10 +84,11 @@ Diagnostics SceneRenderer::buildOverlays(const LoadedScene& scene, const Overlay
     techniqueOptions.tiling.cacheKey = terrainCacheKey(scene);
     techniqueOptions.tiling.cacheRevision = scene.bounds->revision();
   }
-  // A tiled technique builds the pieces per tile, the deferred one none: the layers keep their
-  // features only, checked at load (or as checked last time, with the cache).
-  options.deferPieces = noPieces;
-  if (noPieces && !cacheDirectory.empty())
+  // A tiled technique builds the pieces per tile (`deferred` and `auto` only for the layers they
+  // do not look up): the layers keep their features only, checked at load (or as checked last
+  // time, with the cache).
+  options.deferPieces = tiled;
+  if (tiled && !cacheDirectory.empty())
     options.checkCacheDirectory = (std::filesystem::path(cacheDirectory) / "vector-checks").string();
   // It also draws lines at least LayerStyle::minWidthPixels wide (each tile at the widths its
   // view needs); the whole-load techniques draw the widths in metres.

@@ -183,16 +183,19 @@ Terrain makeTerrain(int posts, std::uint32_t seed) {
   return t;
 }
 
-/// Draws the layers from (eye, at) with the technique and compares them with the reference.
+/// Draws the layers from (eye, at) with the technique and compares them with the reference; every
+/// layer is looked up (none left to the pieces).
 Comparison drawAndCompare(gfx::StateCache& cache, gfx::RenderTarget& target, Terrain& t,
                           overlay::OverlayTechnique& technique, const std::vector<const overlay::OverlayLayer*>& layers,
                           const glm::dvec3& eye, const glm::dvec3& at, const std::string& label) {
   const double fov = glm::radians(45.0), aspect = static_cast<double>(kWidth) / kHeight;
   const glm::dmat4 viewProj =
       gfx::reversedInfinitePerspective(fov, aspect, 0.5) * gfx::lookAt(eye, at, glm::dvec3(0, 0, 1));
+  overlay::TechniqueFrameStats stats;
   drawTerrainAndTechnique(cache, target, *t.engine, technique,
                           terrain::selectLod(*t.tree, {eye, viewProj, kHeight, fov}), {viewProj, eye, 0.5, fov, aspect},
-                          layers);
+                          layers, {}, 1.0, &stats);
+  EXPECT_EQ(stats.deferredLayers, layers.size()) << label;
   return compare(target, viewProj, layers, label);
 }
 

@@ -49,7 +49,11 @@ TEST(TechniqueRegistry, OursIsTheDefaultAndNamesAreListedForMessages) {
   EXPECT_EQ(overlay::findTechnique("raster"), nullptr);
   EXPECT_EQ(overlay::findTechnique(""), nullptr);
   ASSERT_NE(overlay::findTechnique("deferred"), nullptr);
-  EXPECT_EQ(overlay::findTechnique("deferred")->construction, overlay::PieceConstruction::Features);
+  // The lookup wherever it can, pieces in view tiles for the rest (as `auto` when it takes the
+  // lookup): lines at their widths in pixels, as the tiles draw them.
+  EXPECT_EQ(overlay::findTechnique("deferred")->construction, overlay::PieceConstruction::Tiled);
+  EXPECT_TRUE(overlay::findTechnique("deferred")->looksUp);
+  EXPECT_FALSE(overlay::findTechnique("auto")->looksUp);
   EXPECT_EQ(overlay::techniqueNameList(), "stencil-tiles, stencil, paper, drape, drape-tiles, deferred or auto");
 }
 

@@ -78,13 +78,14 @@ inline std::vector<overlay::LayerFrameStats> drawTerrainAndLayers(
   return overlays.draw(cache, view, layers, settings);
 }
 
-/// The same with a technique (technique.hpp) drawing the layers instead of the renderer; the
-/// terrain's tiles are not given (no technique that needs them is drawn this way).
+/// The same with a technique (technique.hpp) drawing the layers instead of the renderer, as a
+/// still (a tiled technique waits for its tiles); the terrain's tiles are not given (no
+/// technique that needs them is drawn this way). `frameStats`: what the technique did.
 inline std::vector<overlay::LayerFrameStats> drawTerrainAndTechnique(
     gfx::StateCache& cache, gfx::RenderTarget& target, terrain::TerrainEngine& engine,
     overlay::OverlayTechnique& technique, const terrain::LodSelection& selection, const overlay::OverlayView& view,
     const std::vector<const overlay::OverlayLayer*>& layers, const overlay::OverlaySettings& settings = {},
-    double exaggeration = 1.0) {
+    double exaggeration = 1.0, overlay::TechniqueFrameStats* frameStats = nullptr) {
   gfx::enableReversedZ();
   gfx::beginRenderPass(cache, target, {glm::vec4(0.1F, 0.1F, 0.1F, 1.0F), gfx::kReversedZFar, 0});
   gfx::enableMaskWrites(target.framebuffer(), false);
@@ -95,8 +96,10 @@ inline std::vector<overlay::LayerFrameStats> drawTerrainAndTechnique(
   frame.view = view;
   frame.layers = layers;
   frame.settings = settings;
+  frame.waitForTiles = true;
   overlay::TechniqueFrameStats stats;
   technique.draw(cache, frame, stats);
+  if (frameStats != nullptr) *frameStats = stats;
   return stats.layers;
 }
 

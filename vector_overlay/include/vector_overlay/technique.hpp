@@ -124,10 +124,10 @@ struct TechniqueFrameStats {
 enum class PieceConstruction {
   Ours,   ///< split at cells where that pays, tight bounds per piece (docs/design.md §5)
   Paper,  ///< the seed paper's: one bound pair per feature, covered by bounding boxes
-  Tiled,  ///< none at load (LayerBuildOptions::deferPieces): the technique builds them per tile
-  /// None at all (LayerBuildOptions::deferPieces): the technique reads the features (the
-  /// deferred per-pixel lookup). Widths in metres, as the whole-load techniques draw them.
-  Features,
+  /// None at load (LayerBuildOptions::deferPieces): the technique builds them per tile where it
+  /// draws by pieces (`auto` and `deferred` look the others up in the features). Lines at least
+  /// LayerStyle::minWidthPixels wide, each tile at the widths its view needs.
+  Tiled,
 };
 
 class OverlayTechnique {
@@ -217,6 +217,9 @@ struct TechniqueInfo {
   /// Makes the technique; needs a current GL 4.5 context. Fails with a message naming the
   /// technique (a shader that does not compile, a texture size out of range).
   Result<std::unique_ptr<OverlayTechnique>> (*create)(const TechniqueOptions& options) = nullptr;
+  /// Draws every layer it can by the deferred per-pixel lookup, which makes no stencil volumes
+  /// (`deferred`): the analyses that mark the layers' volumes cannot run on it.
+  bool looksUp = false;
 
   [[nodiscard]] bool usesTextures() const { return defaultTextureSize > 0; }
 };

@@ -11,6 +11,9 @@
 //   With no such k below n, there is nothing to choose.
 // - Which of the two draws a frame: the plan chooser both frames share (plan_chooser.hpp: their
 //   measured GPU times, the dearer measured again one frame in 24).
+// `deferred` is the same split without the choice: the lookup draws every layer from k on, and
+// the stencil polyhedra in view tiles the layers before k (those it cannot draw exactly in this
+// view or within its budget), as on the globe.
 #include <algorithm>
 #include <array>
 #include <optional>
@@ -24,9 +27,10 @@ namespace {
 
 class AutoTechnique final : public OverlayTechnique {
  public:
+  /// `choose`: `auto` (the chooser takes the plan); else `deferred` (the lookup wherever it can).
   AutoTechnique(std::unique_ptr<OverlayTechnique> stencil, std::unique_ptr<DeferredLookup> deferred,
-                std::size_t gpuBudget)
-      : stencil_(std::move(stencil)), deferred_(std::move(deferred)), indexBudget_(gpuBudget / 4) {}
+                std::size_t gpuBudget, bool choose)
+      : stencil_(std::move(stencil)), deferred_(std::move(deferred)), indexBudget_(gpuBudget / 4), choose_(choose) {}
 
   void drawFrame(gfx::StateCache& cache, const TechniqueFrame& frame, TechniqueFrameStats& stats) override {
     const std::size_t n = frame.layers.size();
@@ -41,7 +45,7 @@ class AutoTechnique final : public OverlayTechnique {
                                          [](const OverlayLayer* l) { return l != nullptr; });
     if (!anyDeferred) split = n;
     // 0: all stencil; 1: deferred from `split` on.
-    const int plan = chooser_.choose(split < n);
+    const int plan = choose_ ? chooser_.choose(split < n) : (split < n ? 1 : 0);
     lastSplit_ = plan == 1 ? split : n;
 
     std::vector<const OverlayLayer*> first(frame.layers.begin(), frame.layers.end());
@@ -49,7 +53,7 @@ class AutoTechnique final : public OverlayTechnique {
     for (std::size_t i = lastSplit_; i < n; ++i) std::swap(first[i], second[i]);
     TechniqueFrame part = frame;
     // Measured passes time themselves (one timer query may run at a time).
-    const bool ownTimer = !frame.settings.measure;
+    const bool ownTimer = choose_ && !frame.settings.measure;
     if (ownTimer) chooser_.begin(plan);
     part.layers = first;
     stencil_->draw(cache, part, stats);
@@ -66,7 +70,7 @@ class AutoTechnique final : public OverlayTechnique {
     stats.deferredBytes = deferred_->gpuBytes();  // its indices stay built whichever plan drew
     if (ownTimer) {
       chooser_.end();
-    } else {
+    } else if (choose_) {
       double ms = 0.0;
       for (const LayerFrameStats& s : stats.layers) ms += s.gpuMilliseconds;
       chooser_.record(plan, ms);
@@ -100,11 +104,12 @@ class AutoTechnique final : public OverlayTechnique {
   std::unique_ptr<OverlayTechnique> stencil_;
   std::unique_ptr<DeferredLookup> deferred_;
   std::size_t indexBudget_;
+  bool choose_;
   PlanChooser chooser_;
   std::size_t lastSplit_ = 0;
 };
 
-Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
+Result<std::unique_ptr<OverlayTechnique>> make(const TechniqueOptions& options, bool choose) {
   Result<std::unique_ptr<OverlayTechnique>> result;
   Result<std::unique_ptr<OverlayTechnique>> stencil = kTiledStencilTechnique.create(options);
   Result<std::unique_ptr<DeferredLookup>> deferred = createDeferredLookup(options, ReachClasses::kBaseReach);
@@ -112,8 +117,13 @@ Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options
   result.diagnostics.append(deferred.diagnostics);
   if (!stencil || !deferred) return result;
   result.value =
-      std::make_unique<AutoTechnique>(std::move(*stencil), std::move(*deferred), options.tiling.gpuBudgetBytes);
+      std::make_unique<AutoTechnique>(std::move(*stencil), std::move(*deferred), options.tiling.gpuBudgetBytes, choose);
   return result;
+}
+
+Result<std::unique_ptr<OverlayTechnique>> createAuto(const TechniqueOptions& options) { return make(options, true); }
+Result<std::unique_ptr<OverlayTechnique>> createDeferred(const TechniqueOptions& options) {
+  return make(options, false);
 }
 
 }  // namespace
@@ -126,6 +136,18 @@ const TechniqueInfo kAutoTechnique{
     PieceConstruction::Tiled,
     0,
     {},
-    &create};
+    &createAuto};
+
+const TechniqueInfo kDeferredTechnique{
+    "deferred",
+    "deferred per-pixel lookup",
+    "per pixel, the ground point from the depth buffer tested against a quadtree of the layer's edges and lines; "
+    "the layers it cannot draw in a view by their pieces in view tiles",
+    "#8c564b",
+    PieceConstruction::Tiled,
+    0,
+    {},
+    &createDeferred,
+    true};
 
 }  // namespace gis::overlay

@@ -206,14 +206,6 @@ Result<std::unique_ptr<DeferredTechnique>> make(const TechniqueOptions& options,
   return result;
 }
 
-Result<std::unique_ptr<OverlayTechnique>> create(const TechniqueOptions& options) {
-  Result<std::unique_ptr<DeferredTechnique>> made = make(options, std::numeric_limits<double>::infinity());
-  Result<std::unique_ptr<OverlayTechnique>> result;
-  result.diagnostics = std::move(made.diagnostics);
-  if (made) result.value = std::move(*made);
-  return result;
-}
-
 }  // namespace
 
 Result<std::unique_ptr<DeferredLookup>> createDeferredLookup(const TechniqueOptions& options, double maxReach) {
@@ -223,15 +215,5 @@ Result<std::unique_ptr<DeferredLookup>> createDeferredLookup(const TechniqueOpti
   if (made) result.value = std::move(*made);
   return result;
 }
-
-const TechniqueInfo kDeferredTechnique{
-    "deferred",
-    "deferred per-pixel lookup",
-    "per pixel, the ground point from the depth buffer tested against a quadtree of the layer's edges and lines",
-    "#8c564b",
-    PieceConstruction::Features,
-    0,
-    {},
-    &create};
 
 }  // namespace gis::overlay
