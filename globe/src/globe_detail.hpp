@@ -138,17 +138,45 @@ struct PointShape {
   double reach = 0.0;
 };
 PointShape pointShape(const GlobeLine& line, const std::vector<glm::dvec2>& points, std::size_t k, bool given);
+/// A grid of about `n` cells over `width` × `height` degrees, as square in degrees as they allow
+/// (the reference's buckets of a line's pieces and of a layer's lines).
+struct GridShape {
+  std::size_t columns = 1, rows = 1;
+  double cellWidth = 1.0, cellHeight = 1.0;
+};
+inline GridShape gridShape(std::size_t n, double width, double height) {
+  width = std::max(width, 1e-9);
+  height = std::max(height, 1e-9);
+  GridShape g;
+  g.columns =
+      std::clamp<std::size_t>(static_cast<std::size_t>(std::lround(std::sqrt(static_cast<double>(n) * width / height))),
+                              1, std::max<std::size_t>(n, 1));
+  g.rows = std::max<std::size_t>(1, n / g.columns);
+  g.cellWidth = width / static_cast<double>(g.columns);
+  g.cellHeight = height / static_cast<double>(g.rows);
+  return g;
+}
+/// The cell of `count` cells of `size` from `from` that `at` falls in, clamped to them.
+inline std::size_t cellIndex(double at, double from, double size, std::size_t count) {
+  return static_cast<std::size_t>(std::clamp(std::floor((at - from) / size), 0.0, static_cast<double>(count - 1)));
+}
+
+/// What reachBeyond reads of a line, or the bound over a layer's lines (LineGrid::widths): widths
+/// in pixels, the largest and least half widths, how far its shapes reach in half widths.
+struct LineReach {
+  double widthPixels = 0.0, maxHalfWidth = 0.0, halfWidth = 0.0, reach = 1.0;
+};
+
 /// A layer's lines by their boxes (GlobeLine::box), for the reference: a grid of cells over the
 /// boxes' union, each holding the lines whose box meets it; a line meeting more than a quarter
 /// of the cells is in `everywhere` instead.
 struct LineGrid {
   LonLatRect box{0.0, 0.0, -1.0, -1.0};
-  std::size_t columns = 0, rows = 0;
-  double cellWidth = 1.0, cellHeight = 1.0;
+  GridShape shape;
   std::vector<std::vector<std::uint32_t>> cells;
   std::vector<std::uint32_t> everywhere;
   /// The most any line may reach beyond its box for a scale (reachBeyond's bound over them).
-  double widthPixels = 0.0, maxHalfWidth = 0.0, leastHalfWidth = 0.0, reach = 1.0;
+  LineReach widths;
   static LineGrid of(const std::vector<GlobeLine>& lines);
   /// Calls visit(line index) for every line whose box widened by `extra` metres may hold the
   /// point (a line may be visited more than once); stops when visit returns true, and returns
@@ -203,7 +231,10 @@ struct TilePieces {
 void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& key, const GeoGrid& heights,
                       int widthClass);
 /// How much further than its least half width a line in pixels may reach a point seen with `scale`.
-double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, const glm::dvec3& point);
+double reachBeyond(const LineReach& line, const overlay::PixelScale& scale, const glm::dvec3& point);
+inline double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, const glm::dvec3& point) {
+  return reachBeyond(LineReach{line.widthPixels, line.maxHalfWidth, line.halfWidth, line.reach}, scale, point);
+}
 
 template <typename Visit>
 bool LineGrid::visit(double lonDeg, double latDeg, double extra, Visit&& visit) const {
@@ -215,20 +246,17 @@ bool LineGrid::visit(double lonDeg, double latDeg, double extra, Visit&& visit) 
   if (latDeg < box.south - dLat || latDeg > box.north + dLat) return false;
   const double high = std::abs(latDeg) + dLat;
   const double dLon = high >= 89.9 ? 360.0 : dLat / std::cos(high * 3.14159265358979323846 / 180.0);
-  const auto index = [](double at, double from, double size, std::size_t count) {
-    return static_cast<std::size_t>(std::clamp(std::floor((at - from) / size), 0.0, static_cast<double>(count - 1)));
-  };
-  const std::size_t r0 = index(latDeg - dLat, box.south, cellHeight, rows),
-                    r1 = index(latDeg + dLat, box.south, cellHeight, rows);
+  const std::size_t r0 = cellIndex(latDeg - dLat, box.south, shape.cellHeight, shape.rows),
+                    r1 = cellIndex(latDeg + dLat, box.south, shape.cellHeight, shape.rows);
   // The point's longitude in every turn the boxes span (they are unwrapped).
   for (double lon = lonDeg - 360.0 * std::ceil((lonDeg - box.west + dLon) / 360.0); lon <= box.east + dLon;
        lon += 360.0) {
     if (lon + dLon < box.west) continue;
-    const std::size_t c0 = index(lon - dLon, box.west, cellWidth, columns),
-                      c1 = index(lon + dLon, box.west, cellWidth, columns);
+    const std::size_t c0 = cellIndex(lon - dLon, box.west, shape.cellWidth, shape.columns),
+                      c1 = cellIndex(lon + dLon, box.west, shape.cellWidth, shape.columns);
     for (std::size_t r = r0; r <= r1; ++r) {
       for (std::size_t c = c0; c <= c1; ++c) {
-        for (const std::uint32_t j : cells[r * columns + c]) {
+        for (const std::uint32_t j : cells[r * shape.columns + c]) {
           if (visit(j)) return true;
         }
       }

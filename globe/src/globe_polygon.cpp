@@ -581,14 +581,12 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
     {
       // Pieces in a grid of about a quarter as many cells as points, as square in degrees as
       // the box allows, for the reference.
-      const std::size_t n = std::clamp<std::size_t>(line.size() / 4, 1, 4096);
-      const double width = std::max(g.box.east - g.box.west, 1e-9), height = std::max(g.box.north - g.box.south, 1e-9);
-      g.bucketColumns = std::clamp<std::size_t>(
-          static_cast<std::size_t>(std::lround(std::sqrt(static_cast<double>(n) * width / height))), 1, n);
-      const std::size_t rows = std::max<std::size_t>(1, n / g.bucketColumns);
-      g.bucketWidth = width / static_cast<double>(g.bucketColumns);
-      g.bucketHeight = height / static_cast<double>(rows);
-      g.buckets.assign(g.bucketColumns * rows, {});
+      const detail::GridShape grid = detail::gridShape(std::clamp<std::size_t>(line.size() / 4, 1, 4096),
+                                                       g.box.east - g.box.west, g.box.north - g.box.south);
+      g.bucketColumns = grid.columns;
+      g.bucketWidth = grid.cellWidth;
+      g.bucketHeight = grid.cellHeight;
+      g.buckets.assign(grid.columns * grid.rows, {});
       for (std::size_t i = 0; i + 1 < line.size(); ++i) {
         // Widened by the farther reach of its two points' shapes.
         const double share = g.joins ? std::max({1.0, g.joins->at[i].reach, g.joins->at[i + 1].reach}) / g.reach : 1.0;
@@ -780,39 +778,31 @@ LineGrid LineGrid::of(const std::vector<GlobeLine>& lines) {
     grid.box = first ? line.box
                      : LonLatRect{std::min(grid.box.west, line.box.west), std::min(grid.box.south, line.box.south),
                                   std::max(grid.box.east, line.box.east), std::max(grid.box.north, line.box.north)};
-    grid.widthPixels = std::max(grid.widthPixels, line.widthPixels);
-    grid.maxHalfWidth = std::max(grid.maxHalfWidth, line.maxHalfWidth);
-    grid.leastHalfWidth = first ? line.halfWidth : std::min(grid.leastHalfWidth, line.halfWidth);
-    grid.reach = std::max(grid.reach, line.reach);
+    LineReach& w = grid.widths;
+    w.widthPixels = std::max(w.widthPixels, line.widthPixels);
+    w.maxHalfWidth = std::max(w.maxHalfWidth, line.maxHalfWidth);
+    w.halfWidth = first ? line.halfWidth : std::min(w.halfWidth, line.halfWidth);
+    w.reach = std::max(w.reach, line.reach);
     first = false;
   }
   if (first) return grid;
-  // About as many cells as lines, as square in degrees as the union allows.
-  const std::size_t n = std::clamp<std::size_t>(lines.size(), 1, 1 << 16);
-  const double width = std::max(grid.box.east - grid.box.west, 1e-9);
-  const double height = std::max(grid.box.north - grid.box.south, 1e-9);
-  grid.columns = std::clamp<std::size_t>(
-      static_cast<std::size_t>(std::lround(std::sqrt(static_cast<double>(n) * width / height))), 1, n);
-  grid.rows = std::max<std::size_t>(1, n / grid.columns);
-  grid.cellWidth = width / static_cast<double>(grid.columns);
-  grid.cellHeight = height / static_cast<double>(grid.rows);
-  grid.cells.assign(grid.columns * grid.rows, {});
-  const auto index = [](double at, double from, double size, std::size_t count) {
-    return static_cast<std::size_t>(std::clamp(std::floor((at - from) / size), 0.0, static_cast<double>(count - 1)));
-  };
+  // About as many cells as lines.
+  const GridShape& s = grid.shape = gridShape(std::min<std::size_t>(lines.size(), 1 << 16),
+                                              grid.box.east - grid.box.west, grid.box.north - grid.box.south);
+  grid.cells.assign(s.columns * s.rows, {});
   for (std::size_t j = 0; j < lines.size(); ++j) {
     const LonLatRect& b = lines[j].box;
     if (lines[j].buckets.empty()) continue;
-    const std::size_t c0 = index(b.west, grid.box.west, grid.cellWidth, grid.columns),
-                      c1 = index(b.east, grid.box.west, grid.cellWidth, grid.columns);
-    const std::size_t r0 = index(b.south, grid.box.south, grid.cellHeight, grid.rows),
-                      r1 = index(b.north, grid.box.south, grid.cellHeight, grid.rows);
+    const std::size_t c0 = cellIndex(b.west, grid.box.west, s.cellWidth, s.columns),
+                      c1 = cellIndex(b.east, grid.box.west, s.cellWidth, s.columns);
+    const std::size_t r0 = cellIndex(b.south, grid.box.south, s.cellHeight, s.rows),
+                      r1 = cellIndex(b.north, grid.box.south, s.cellHeight, s.rows);
     if ((c1 - c0 + 1) * (r1 - r0 + 1) * 4 > grid.cells.size()) {
       grid.everywhere.push_back(static_cast<std::uint32_t>(j));
       continue;
     }
     for (std::size_t r = r0; r <= r1; ++r) {
-      for (std::size_t c = c0; c <= c1; ++c) grid.cells[r * grid.columns + c].push_back(static_cast<std::uint32_t>(j));
+      for (std::size_t c = c0; c <= c1; ++c) grid.cells[r * s.columns + c].push_back(static_cast<std::uint32_t>(j));
     }
   }
   return grid;
@@ -961,7 +951,7 @@ std::shared_ptr<const PolygonIndex> buildIndex(const GlobePolygon& polygon) {
   return index;
 }
 
-double reachBeyond(const GlobeLine& line, const overlay::PixelScale& scale, const glm::dvec3& point) {
+double reachBeyond(const LineReach& line, const overlay::PixelScale& scale, const glm::dvec3& point) {
   if (!(line.widthPixels > 0.0 && scale.metresPerPixel > 0.0)) return 0.0;
   // A point within r of an anchor at most 20 km above or below it: r ≤ c · (D + r + 20 km) with
   // c the half width per metre of distance and D the point's distance to the eye.
@@ -1307,13 +1297,11 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
 }
 
 std::size_t GlobeLine::bucketColumn(double lon) const {
-  const double last = static_cast<double>(bucketColumns - 1);
-  return static_cast<std::size_t>(std::clamp(std::floor((lon - box.west) / bucketWidth), 0.0, last));
+  return detail::cellIndex(lon, box.west, bucketWidth, bucketColumns);
 }
 
 std::size_t GlobeLine::bucketRow(double lat) const {
-  const double last = static_cast<double>(buckets.size() / bucketColumns - 1);
-  return static_cast<std::size_t>(std::clamp(std::floor((lat - box.south) / bucketHeight), 0.0, last));
+  return detail::cellIndex(lat, box.south, bucketHeight, buckets.size() / bucketColumns);
 }
 
 bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
@@ -1324,13 +1312,8 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
   if (!hasLines_) return false;
   const std::vector<GlobeLine>& all = lines();
   const detail::LineGrid& grid = lineGrid();
-  // The farthest any line may reach beyond its box here (as reachBeyond, at the layer's bounds).
-  GlobeLine bound;
-  bound.widthPixels = grid.widthPixels;
-  bound.maxHalfWidth = grid.maxHalfWidth;
-  bound.halfWidth = grid.leastHalfWidth;
-  bound.reach = grid.reach;
-  const double extra = detail::reachBeyond(bound, scale, point) * (1.0 + 1e-9) + 1.0;
+  // The farthest any line may reach beyond its box here (at the bounds over the layer's lines).
+  const double extra = detail::reachBeyond(grid.widths, scale, point) * (1.0 + 1e-9) + 1.0;
   return grid.visit(lonDeg, latDeg, extra,
                     [&](std::uint32_t j) { return detail::nearLine(*this, all[j], point, lonDeg, latDeg, scale); });
 }
