@@ -15,10 +15,10 @@
 #include <nlohmann/json.hpp>
 
 #include "gfx/image_io.hpp"
-#include "globe/globe_selection.hpp"
 #include "scene/frame_scene.hpp"
 #include "scene/json_file.hpp"
 #include "scene/scene.hpp"
+#include "vector_overlay/globe_selection.hpp"
 #include "viewer.hpp"
 
 namespace gis::viewer {

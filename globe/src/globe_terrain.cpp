@@ -504,7 +504,7 @@ gfx::TextureHandle uploadTileImage(const TileImage& image) {
 GlobeTerrain::~GlobeTerrain() = default;
 
 void GlobeTerrain::draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
-                        const overlay::SurfaceDrape* drape) {
+                        const gfx::SurfaceDrape* drape) {
   stats_ = {};
   if (!gpu_) {
     Result<gfx::Program> program = gfx::Program::build({{"globe_terrain.vert", {}}, {"globe_terrain.frag", {}}});

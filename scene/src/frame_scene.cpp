@@ -5,9 +5,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "globe/globe_overlay.hpp"
-#include "globe/globe_selection.hpp"
 #include "scene/scene_renderer.hpp"
+#include "vector_overlay/globe_overlay.hpp"
+#include "vector_overlay/globe_selection.hpp"
 
 namespace gis::scene {
 

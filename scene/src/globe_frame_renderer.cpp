@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "frame_renderers.hpp"
-#include "globe/globe_renderer.hpp"
-#include "globe/globe_selection.hpp"
+#include "scene/globe_renderer.hpp"
+#include "vector_overlay/globe_selection.hpp"
 #include "vector_overlay/texture_drape.hpp"
 
 namespace gis::scene::detail {

@@ -6,9 +6,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "globe/globe_selection.hpp"
 #include "scene/globe_scene.hpp"
 #include "scene/json_file.hpp"
+#include "vector_overlay/globe_selection.hpp"
 #include "vector_overlay/style.hpp"
 
 namespace gis::scene {

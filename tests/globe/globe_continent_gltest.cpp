@@ -12,7 +12,7 @@
 
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
-#include "globe/globe_renderer.hpp"
+#include "scene/globe_renderer.hpp"
 #include "scene/globe_scene.hpp"
 
 namespace gis::globe {

@@ -24,8 +24,8 @@
 #include "gl_test.hpp"
 #include "globe/ellipsoid.hpp"
 #include "globe/globe_imagery.hpp"
-#include "globe/globe_overlay.hpp"
 #include "globe/globe_terrain.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {
 namespace {

@@ -19,11 +19,11 @@
 #include "gfx/image_io.hpp"
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
-#include "globe/globe_overlay.hpp"
-#include "globe/globe_renderer.hpp"
 #include "globe/globe_terrain.hpp"
 #include "globe_scene.hpp"
 #include "sample_positions.hpp"
+#include "scene/globe_renderer.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {
 namespace {

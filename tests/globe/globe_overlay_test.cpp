@@ -12,9 +12,9 @@
 #include <glm/matrix.hpp>
 
 #include "globe/ellipsoid.hpp"
-#include "globe/globe_overlay.hpp"
 #include "globe/globe_terrain.hpp"
 #include "globe_scene.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {
 namespace {

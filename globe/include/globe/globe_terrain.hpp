@@ -21,11 +21,11 @@
 #include <vector>
 
 #include "gfx/state_cache.hpp"
+#include "gfx/surface_drape.hpp"
 #include "globe/geo_grid.hpp"
 #include "globe/globe_imagery.hpp"
 #include "globe/globe_view.hpp"
 #include "globe/tile.hpp"
-#include "vector_overlay/technique.hpp"
 
 namespace gis::globe {
 
@@ -104,11 +104,11 @@ class GlobeTerrain {
 
   /// Draws the tiles into the bound target (depth and colour, mask writes must be off unless
   /// draped), building and uploading the meshes it lacks. With a texture drape (the projected
-  /// frame's, overlay::SurfaceDrape, whose plane is longitude and latitude here): its layers
+  /// frame's, gfx::SurfaceDrape, whose plane is longitude and latitude here): its layers
   /// blended over each tile it covers and their bits written to the mask. Needs a current GL 4.5
   /// context.
   void draw(gfx::StateCache& cache, const GlobeView& view, const std::vector<DrawnTile>& tiles,
-            const overlay::SurfaceDrape* drape = nullptr);
+            const gfx::SurfaceDrape* drape = nullptr);
 
   [[nodiscard]] const TerrainStats& stats() const { return stats_; }
 

@@ -13,10 +13,10 @@
 #include "core/diagnostics.hpp"
 #include "globe/geo_grid.hpp"
 #include "globe/globe_imagery.hpp"
-#include "globe/globe_overlay.hpp"
 #include "globe/globe_view.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 #include "vector_overlay/shared_features.hpp"
 
 namespace gis::scene {

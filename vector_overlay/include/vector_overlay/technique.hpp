@@ -27,6 +27,7 @@
 #include "core/diagnostics.hpp"
 #include "gfx/gl.hpp"
 #include "gfx/state_cache.hpp"
+#include "gfx/surface_drape.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"
 #include "vector_overlay/texture_drape.hpp"
@@ -48,19 +49,8 @@ struct DrawnTile {
   glm::dvec2 hi{0.0};
 };
 
-/// What the terrain shader samples when a technique drapes: one texture over an extent, or a
-/// texture array with a layer per drawn tile.
-struct SurfaceDrape {
-  GLuint color = 0;        ///< premultiplied RGBA, mip-mapped
-  GLuint mask = 0;         ///< R32F layer bits
-  glm::dvec2 origin{0.0};  ///< the extent's minimum corner, frame coordinates
-  glm::dvec2 size{1.0};    ///< metres
-  /// Per tile: texture arrays, and for each drawn tile its array layer and extent (origin,
-  /// size); a tile without one is drawn undraped. Then color, mask, origin and size are unused.
-  GLuint colorArray = 0;
-  GLuint maskArray = 0;
-  std::function<std::optional<std::tuple<int, glm::dvec2, glm::dvec2>>(std::uint64_t tileKey)> tileOf;
-};
+/// What the terrain shader samples when a technique drapes (gfx/surface_drape.hpp).
+using SurfaceDrape = gfx::SurfaceDrape;
 
 /// One frame as a technique sees it.
 struct TechniqueFrame {

@@ -23,10 +23,10 @@
 #include <utility>
 
 #include "core/log.hpp"
-#include "globe/globe_drape.hpp"
-#include "globe/globe_overlay.hpp"
-#include "globe/globe_selection.hpp"
 #include "globe_detail.hpp"
+#include "vector_overlay/globe_drape.hpp"
+#include "vector_overlay/globe_overlay.hpp"
+#include "vector_overlay/globe_selection.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/plan_chooser.hpp"
 #include "vector_overlay/technique.hpp"

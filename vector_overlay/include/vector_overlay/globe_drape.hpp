@@ -8,8 +8,8 @@
 #include <tuple>
 #include <vector>
 
-#include "globe/globe_overlay.hpp"
 #include "vector_overlay/footprints.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 #include "vector_overlay/texture_drape.hpp"
 
 namespace gis::globe {

@@ -1,4 +1,4 @@
-#include "globe/globe_renderer.hpp"
+#include "scene/globe_renderer.hpp"
 
 #include <chrono>
 #include <optional>

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "gfx/state_cache.hpp"
-#include "globe/globe_overlay.hpp"
 #include "globe/globe_terrain.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {
 

@@ -1,4 +1,4 @@
-#include "globe/globe_drape.hpp"
+#include "vector_overlay/globe_drape.hpp"
 
 #include <algorithm>
 #include <array>

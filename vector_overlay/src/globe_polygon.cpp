@@ -16,10 +16,10 @@
 #include <GeographicLib/GeodesicLine.hpp>
 
 #include "geo/checked_file.hpp"
-#include "globe/globe_overlay.hpp"
 #include "globe/tile.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/generalise.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {
 

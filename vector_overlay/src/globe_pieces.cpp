@@ -9,9 +9,9 @@
 #include <unordered_map>
 #include <utility>
 
-#include "globe/globe_overlay.hpp"
 #include "globe_detail.hpp"
 #include "vector_overlay/footprints.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 #include "vector_overlay/validation.hpp"
 
 namespace gis::globe {

@@ -8,9 +8,9 @@
 #include <limits>
 #include <numeric>
 
-#include "globe/globe_overlay.hpp"
-#include "globe/globe_selection.hpp"
 #include "globe_detail.hpp"
+#include "vector_overlay/globe_overlay.hpp"
+#include "vector_overlay/globe_selection.hpp"
 
 namespace gis::globe {
 

@@ -15,7 +15,7 @@
 #include <glm/vec3.hpp>
 
 #include "globe/ellipsoid.hpp"
-#include "globe/globe_overlay.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 #include "vector_overlay/line_shapes.hpp"
 
 namespace gis::globe::detail {

@@ -8,8 +8,8 @@
 
 #include <glm/geometric.hpp>
 
-#include "globe/globe_overlay.hpp"
 #include "globe_detail.hpp"
+#include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {
 
