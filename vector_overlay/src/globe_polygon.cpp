@@ -10,6 +10,7 @@
 #include <mutex>
 #include <span>
 #include <string>
+#include <string_view>
 #include <thread>
 
 #include <GeographicLib/Geodesic.hpp>
@@ -20,6 +21,7 @@
 #include "globe_detail.hpp"
 #include "vector_overlay/generalise.hpp"
 #include "vector_overlay/globe_overlay.hpp"
+#include "vector_overlay/pieces_fingerprint.hpp"
 
 namespace gis::globe {
 
@@ -1319,9 +1321,10 @@ bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
 }
 
 std::uint64_t GlobeLayer::digestForCache() const {
-  // The builders' version: raise it whenever what a tile's pieces are changes.
-  constexpr std::uint64_t kBuilderVersion = 7;
-  std::vector<std::uint64_t> parts{kBuilderVersion};
+  // The code that builds the pieces (the sources of vector_overlay and the globe's grid, as for a
+  // projected layer's tiles: LayerTiling::fingerprint), not a version raised by hand.
+  const std::string_view code(STENCIL_GIS_PIECES_FINGERPRINT);
+  std::vector<std::uint64_t> parts{geo::io::digest(code.data(), code.size())};
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};
   add(numbers.data(), sizeof(numbers));
