@@ -8,6 +8,8 @@
 #include <cmath>
 #include <optional>
 #include <unordered_map>
+#include <utility>
+#include <vector>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -143,16 +145,42 @@ struct LayerHeader {
 static_assert(sizeof(LayerHeader) == 144);
 static_assert(kMaxHeaders * sizeof(LayerHeader) <= 16384);
 
-template <typename T>
-void append(std::vector<std::uint8_t>& out, const std::vector<T>& data) {
-  const auto* p = reinterpret_cast<const std::uint8_t*>(data.data());
-  out.insert(out.end(), p, p + data.size() * sizeof(T));
-}
+/// One array of the arena: the charts' arrays of one kind end to end in one buffer, copied from
+/// the indices straight into it (no array of the whole arena on the CPU). A change of the drawn
+/// layers (a view needing another reach class) lays the arena out again: the buffer is kept when
+/// it holds the new part and is not more than twice its size, so such a change allocates (and the
+/// driver clears) no new storage.
+class ArenaPart {
+ public:
+  /// Places `data` after what is placed; returns where it starts, in elements of T (each part
+  /// holds one type).
+  template <typename T>
+  std::uint32_t place(const std::vector<T>& data) {
+    const auto base = static_cast<std::uint32_t>(bytes_ / sizeof(T));
+    pieces_.emplace_back(data.data(), data.size() * sizeof(T));
+    bytes_ += data.size() * sizeof(T);
+    return base;
+  }
+  [[nodiscard]] std::size_t bytes() const { return bytes_; }
+  /// Into `buffer` of `capacity` bytes (made again, and `capacity` set, when it must be).
+  void upload(gfx::BufferHandle& buffer, std::size_t& capacity) const {
+    const std::size_t wanted = std::max<std::size_t>(bytes_, 16);  // binding a zero-sized range is an error
+    if (capacity < wanted || capacity > 2 * wanted) {
+      buffer = gfx::createBuffer();
+      glNamedBufferData(buffer.id(), static_cast<GLsizeiptr>(wanted), nullptr, GL_STATIC_DRAW);
+      capacity = wanted;
+    }
+    GLintptr at = 0;
+    for (const auto& [data, size] : pieces_) {
+      if (size > 0) glNamedBufferSubData(buffer.id(), at, static_cast<GLsizeiptr>(size), data);
+      at += static_cast<GLintptr>(size);
+    }
+  }
 
-gfx::BufferHandle bufferOf(std::vector<std::uint8_t> bytes) {
-  bytes.resize(std::max<std::size_t>(bytes.size(), 16), 0);  // binding a zero-sized range is an error
-  return gfx::createBufferWithData(bytes.data(), bytes.size());
-}
+ private:
+  std::vector<std::pair<const void*, std::size_t>> pieces_;
+  std::size_t bytes_ = 0;
+};
 
 void upload(gfx::BufferHandle& buffer, std::size_t& capacity, const void* data, std::size_t bytes) {
   if (capacity < bytes) {
@@ -192,7 +220,8 @@ struct DeferredPass::State {
   std::unordered_map<std::uint64_t, std::size_t> firstHeader;  ///< per layer: its first chart's header
   std::vector<LayerHeader> headerTemplate;                     ///< per chart: its offsets
   gfx::BufferHandle nodes, groups, edges, items, features, grid;
-  std::size_t bytes = 0;
+  std::array<std::size_t, 6> capacities{};  ///< of nodes, groups, edges, items, features and grid
+  std::size_t bytes = 0;                    ///< their sum
   gfx::GpuTimer timer;
   gfx::PipelineStatistics statistics;
 
@@ -205,41 +234,36 @@ struct DeferredPass::State {
     if (wanted == layers) return;
     firstHeader.clear();
     headerTemplate.clear();
-    std::vector<std::uint8_t> n, g, e, it, f, gr;
+    ArenaPart n, g, e, it, f, gr;
     for (const DeferredLayer* layer : drawn) {
       if (layer == nullptr || firstHeader.contains(layer->serial())) continue;
       firstHeader[layer->serial()] = headerTemplate.size();
       for (const DeferredLayer::Impl::Chart& chart : layer->impl().charts) {
         const deferred::Index& index = chart.index;
         LayerHeader h;
-        h.nodeBase = static_cast<std::uint32_t>(n.size() / sizeof(deferred::Node));
-        h.entryBase = static_cast<std::uint32_t>(index.kind == LayerKind::Polygon ? g.size() / sizeof(deferred::Group)
-                                                                                  : it.size() / sizeof(deferred::Item));
-        h.edgeBase = static_cast<std::uint32_t>(e.size() / sizeof(deferred::Edge));
-        h.featureBase = static_cast<std::uint32_t>(f.size() / sizeof(deferred::FeatureParams));
+        h.nodeBase = n.place(index.nodes);
+        const std::uint32_t groupBase = g.place(index.groups), itemBase = it.place(index.items);
+        h.entryBase = index.kind == LayerKind::Polygon ? groupBase : itemBase;
+        h.edgeBase = e.place(index.edges);
+        h.featureBase = f.place(index.features);
+        h.gridBase = gr.place(index.grid);
         h.polygons = index.kind == LayerKind::Polygon ? 1U : (index.world ? 2U : 0U);
         h.depth = static_cast<std::uint32_t>(index.depth);
         h.cellSize = static_cast<float>(index.cellSize());
-        h.gridBase = static_cast<std::uint32_t>(gr.size() / sizeof(std::uint32_t));
         h.gridLevel = static_cast<std::uint32_t>(index.gridLevel);
         h.inPixels = index.inPixels ? 1U : 0U;
         h.face = chart.chart.face < 0 ? 0U : static_cast<std::uint32_t>(chart.chart.face + 1);
-        append(gr, index.grid);
-        append(n, index.nodes);
-        append(g, index.groups);
-        append(e, index.edges);
-        append(it, index.items);
-        append(f, index.features);
         headerTemplate.push_back(h);
       }
     }
-    bytes = n.size() + g.size() + e.size() + it.size() + f.size() + gr.size();
-    grid = bufferOf(std::move(gr));
-    nodes = bufferOf(std::move(n));
-    groups = bufferOf(std::move(g));
-    edges = bufferOf(std::move(e));
-    items = bufferOf(std::move(it));
-    features = bufferOf(std::move(f));
+    n.upload(nodes, capacities[0]);
+    g.upload(groups, capacities[1]);
+    e.upload(edges, capacities[2]);
+    it.upload(items, capacities[3]);
+    f.upload(features, capacities[4]);
+    gr.upload(grid, capacities[5]);
+    bytes = 0;
+    for (const std::size_t c : capacities) bytes += c;
     layers = std::move(wanted);
   }
 };
