@@ -26,10 +26,12 @@ namespace gis::viewer {
 void Viewer::advanceScript(double seconds, const InputFrame& window) {
   if (loading_) return;  // the next steps act on the scene being read
   if (live_) {
-    // The real mouse and keys, as without a script, until the test says it is done.
+    // The real mouse and keys, as without a script, until the test says it is done and every
+    // event that came before is handled (they are taken a frame at a time, and slow frames may
+    // still hold some when the file appears).
     handleInput(seconds, window);
     std::error_code ec;
-    if (std::filesystem::exists(live_->first, ec)) {
+    if (events_.empty() && std::filesystem::exists(live_->first, ec)) {
       live_.reset();
       animating_ = true;
     } else if (--live_->second < 0) {
