@@ -758,15 +758,19 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
 }
 
 const std::vector<GlobeLine>& GlobeLayer::lines() const {
+  if (const std::vector<GlobeLine>* made = lines_->linesMade.load(std::memory_order_acquire)) return *made;
   const std::lock_guard<std::mutex> lock(lines_->mutex);
   if (!lines_->lines) lines_->lines = std::make_shared<const std::vector<GlobeLine>>(prepareLines());
+  lines_->linesMade.store(lines_->lines.get(), std::memory_order_release);
   return *lines_->lines;
 }
 
 const detail::LineGrid& GlobeLayer::lineGrid() const {
+  if (const detail::LineGrid* made = lines_->gridMade.load(std::memory_order_acquire)) return *made;
   const std::vector<GlobeLine>& all = lines();
   const std::lock_guard<std::mutex> lock(lines_->mutex);
   if (!lines_->grid) lines_->grid = std::make_shared<const detail::LineGrid>(detail::LineGrid::of(all));
+  lines_->gridMade.store(lines_->grid.get(), std::memory_order_release);
   return *lines_->grid;
 }
 
@@ -900,6 +904,7 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   replace(edited, part.lines);
   lines_ = std::make_shared<LazyLines>();
   lines_->lines = std::make_shared<const std::vector<GlobeLine>>(std::move(edited));
+  lines_->linesMade.store(lines_->lines.get(), std::memory_order_release);
   const std::vector<GlobeLine>& now = *lines_->lines;
   areaPolygons_ = polygons_.size();
   if (widthPixels_ > 0.0) {

@@ -16,6 +16,7 @@
 //   along the normals between the ground's bounds there (the terrain's bounds contract).
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -299,10 +300,14 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::vector<GlobePolygon> polygons_;
   std::size_t areaPolygons_ = 0;  ///< polygons_.size()
   /// The lines once prepared (lines()): shared by copies, replaced (never changed) by an edit.
+  /// Made under the mutex, then read through the atomic pointers without it (the reference asks
+  /// for both at every point it tests).
   struct LazyLines {
     std::mutex mutex;
     std::shared_ptr<const std::vector<GlobeLine>> lines;
     std::shared_ptr<const detail::LineGrid> grid;  ///< the lines by their boxes, for the reference
+    std::atomic<const std::vector<GlobeLine>*> linesMade{nullptr};
+    std::atomic<const detail::LineGrid*> gridMade{nullptr};
   };
   /// The lines' grid (made with them).
   [[nodiscard]] const detail::LineGrid& lineGrid() const;
