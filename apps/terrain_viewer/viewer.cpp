@@ -194,7 +194,7 @@ bool Viewer::loadPath(const std::string& path) {
     // After every layer of the scene, those its file left out included.
     std::size_t next = description_->layers.size();
     for (const scene::LayerDescription& l : description_->layers) next = std::max(next, l.fileIndex + 1);
-    const geo::SceneFrame frame = globe_ ? geo::SceneFrame::wgs84LonLat() : scene_->frame;
+    const geo::SceneFrame frame = globe_ ? geo::SceneFrame::wgs84LonLat() : projected().frame;
     Result<std::vector<scene::LayerDescription>> layers = scene::layersForVectorFile(path, frame, next);
     message(layers.diagnostics);
     if (!layers) return false;
@@ -239,8 +239,8 @@ void Viewer::finishLoad(bool wait) {
   renderer_.reset();
   globe_.reset();
   if (loaded->onGlobe()) {
-    showGlobeScene(std::move(loaded->globe()), load->description);
-  } else if (!showProjectedScene(std::move(loaded->projected()), load->description)) {
+    showGlobeScene(std::move(*loaded), load->description);
+  } else if (!showProjectedScene(std::move(*loaded), load->description)) {
     return;
   }
   // The tools start empty again.
@@ -264,11 +264,11 @@ void Viewer::finishLoad(bool wait) {
                          .c_str());
 }
 
-bool Viewer::showProjectedScene(scene::LoadedScene loaded, const scene::SceneDescription& description) {
+bool Viewer::showProjectedScene(scene::Scene loaded, const scene::SceneDescription& description) {
   scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(loaded, build);
+  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(loaded.projected(), build);
   message(renderer.diagnostics);
   if (!renderer) {
     scene_.reset();  // the old one has no renderer any more
@@ -278,7 +278,7 @@ bool Viewer::showProjectedScene(scene::LoadedScene loaded, const scene::SceneDes
   scene_ = std::move(loaded);
   renderer_ = std::move(*renderer);
   description_ = description;
-  scene_->bounds->setExaggeration(description_->verticalExaggeration);
+  projected().bounds->setExaggeration(description_->verticalExaggeration);
   const scene::Camera home = homeCamera();
   if (controller_) {
     controller_->setHome(home);
@@ -286,26 +286,25 @@ bool Viewer::showProjectedScene(scene::LoadedScene loaded, const scene::SceneDes
   } else {
     controller_.emplace(home);
   }
-  demRange_ = terrain::demHeightRange(*scene_->quadtree);
+  demRange_ = terrain::demHeightRange(*projected().quadtree);
   return true;
 }
 
-void Viewer::showGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description) {
-  scene_.reset();
+void Viewer::showGlobeScene(scene::Scene loaded, const scene::SceneDescription& description) {
+  scene_ = std::move(loaded);
   auto g = std::make_unique<GlobeMode>();
-  g->scene = std::move(loaded);
-  g->renderer = std::make_unique<globe::GlobeRenderer>(g->scene.heights);
-  g->overlaySettings = scene::globeOverlaySettings(g->scene.description);
+  g->renderer = std::make_unique<globe::GlobeRenderer>(globeScene().heights);
+  g->overlaySettings = scene::globeOverlaySettings(globeScene().description);
   scene::GlobeCameraSettings camera;
   camera.fovYDeg = settings_.fovYDeg;
-  g->controller = std::make_unique<scene::GlobeCameraController>(g->scene.heights.get(), camera);
-  g->shown.assign(g->scene.layers.size(), static_cast<char>(1));
+  g->controller = std::make_unique<scene::GlobeCameraController>(globeScene().heights.get(), camera);
+  g->shown.assign(globeScene().layers.size(), static_cast<char>(1));
   // The DEM's highest post: no ground a lasso's eye sees lies beyond its horizon reach.
-  g->maxGroundHeight = std::max(g->scene.heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
-  if (g->scene.imagery) g->renderer->setImagery(g->scene.imagery);
+  g->maxGroundHeight = std::max(globeScene().heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
+  if (globeScene().imagery) g->renderer->setImagery(globeScene().imagery);
   globe_ = std::move(g);
   description_ = description;
-  message("on the globe: " + globe_->scene.reason);
+  message("on the globe: " + globeScene().reason);
   goHome();
   demRange_.reset();
 }
@@ -364,11 +363,11 @@ scene::Camera Viewer::homeCamera() const {
   // The scene's own camera as its author placed it; otherwise the terrain framed in the part of
   // the window the panel leaves free.
   if (description_->camera) {
-    Result<scene::Camera> placed = scene::placeCamera(*description_->camera, scene_->frame, description_->path);
+    Result<scene::Camera> placed = scene::placeCamera(*description_->camera, projected().frame, description_->path);
     if (placed) return *placed;
   }
   glm::dvec3 lo, hi;
-  scene::terrainBox(*scene_, scene_->bounds->exaggeration(), lo, hi);
+  scene::terrainBox(projected(), projected().bounds->exaggeration(), lo, hi);
   const scene::Camera overview = scene::overviewCamera(lo, hi, settings_.fovYDeg);
   return scene::frameBoxInRegion(overview, lo, hi, framebufferSize(), freeRegion());
 }
@@ -435,7 +434,7 @@ void Viewer::frame(double seconds) {
   const InputFrame in = takeInput();  // always: the panel takes its part of the events
   if (script_ && !quit_) {
     advanceScript(seconds, in);
-  } else if (scene_ || globe_) {
+  } else if (scene_) {
     handleInput(seconds, in);
   } else if (!in.uiKeyboard) {
     // Nothing to steer: only opening a file.
@@ -443,9 +442,9 @@ void Viewer::frame(double seconds) {
       if (k.key == GLFW_KEY_O && k.modifiers.ctrl) openFileBrowser();
     }
   }
-  if (scene_) {
-    moving_ =
-        controller_->update(seconds, [this](const glm::dvec2& p) { return scene_->bounds->fullResolutionHeightAt(p); });
+  if (scene_ && !globe_) {
+    moving_ = controller_->update(
+        seconds, [this](const glm::dvec2& p) { return projected().bounds->fullResolutionHeightAt(p); });
     if (animating_ && !moving_) animating_ = false;
     drawScene();
   } else if (globe_) {
@@ -455,7 +454,7 @@ void Viewer::frame(double seconds) {
   }
   // The coordinates under the cursor, unless the panel has it.
   cursorGround_.reset();
-  if ((scene_ || globe_) && cursorInside_ && !ImGui::GetIO().WantCaptureMouse)
+  if (scene_ && cursorInside_ && !ImGui::GetIO().WantCaptureMouse)
     cursorGround_ = groundAt(lastPixel_);
   else {
     moving_ = false;
@@ -472,7 +471,7 @@ void Viewer::frame(double seconds) {
   drawLoading();
   expireNotice();
   drawFileBrowser();
-  if (!scene_ && !globe_) {
+  if (!scene_) {
     if (!loading_) drawNoScene();
   } else {
     // The same tools in both frames; the panel's view section, the HUD, the help and identify
@@ -569,8 +568,8 @@ overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownCh
   g.view = g.controller->view(fb.x, fb.y);
   std::vector<const globe::GlobeLayer*> layers;
   if (render_.overlays) {
-    for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-      if (g.shown[i] != 0) layers.push_back(&g.scene.layers[i]);
+    for (std::size_t i = 0; i < globeScene().layers.size(); ++i) {
+      if (g.shown[i] != 0) layers.push_back(&globeScene().layers[i]);
     }
   }
   // GPU timer queries wait for the GPU: sample them (every frame in a script).

@@ -179,15 +179,14 @@ struct LabelSet {
   double exaggeration = 0.0;    ///< 0: heights not looked up yet
 };
 
-/// A scene on the globe (docs/viewer.md "On the globe"): its layers, renderer
-/// and camera, and what the globe's HUD, status bar and identify show. The projected scene's
-/// members (Viewer::scene_ and the rest) are empty while it is shown.
+/// A scene on the globe (docs/viewer.md "On the globe"): its renderer and camera, and what the
+/// globe's HUD, status bar and identify show (the scene itself is Viewer::scene_). The projected
+/// frame's renderer and camera are empty while it is shown.
 struct GlobeMode {
-  scene::LoadedGlobeScene scene;
   std::unique_ptr<globe::GlobeRenderer> renderer;  ///< GL objects: made and dropped on the GL thread
   globe::GlobeOverlaySettings overlaySettings;     ///< the scene's (budget, cache directory), found once at load
-  std::unique_ptr<scene::GlobeCameraController> controller;  ///< reads scene.heights
-  std::vector<char> shown;                                   ///< per layer of `scene`
+  std::unique_ptr<scene::GlobeCameraController> controller;  ///< reads the scene's heights
+  std::vector<char> shown;                                   ///< per globe layer of the scene
   globe::GlobeView view;                                     ///< the last frame's
   globe::GlobeFrameStats stats;                              ///< the last measured frame's
   bool fly = false;  ///< fly mode (F): WASD/QE move the eye, drags turn the view about it
@@ -506,8 +505,14 @@ class Viewer {
   // The frames (viewer.cpp, viewer_navigation.cpp).
   /// Makes a loaded scene current in its frame (its renderer, the camera at home); a projected
   /// scene whose renderer fails leaves no scene (false).
-  bool showProjectedScene(scene::LoadedScene loaded, const scene::SceneDescription& description);
-  void showGlobeScene(scene::LoadedGlobeScene loaded, const scene::SceneDescription& description);
+  bool showProjectedScene(scene::Scene loaded, const scene::SceneDescription& description);
+  void showGlobeScene(scene::Scene loaded, const scene::SceneDescription& description);
+  /// The scene's ground in its frame (scene::Scene::projected, globe): the frame it is not in is a
+  /// caller error.
+  [[nodiscard]] scene::LoadedScene& projected() { return scene_->projected(); }
+  [[nodiscard]] const scene::LoadedScene& projected() const { return scene_->projected(); }
+  [[nodiscard]] scene::LoadedGlobeScene& globeScene() { return scene_->globe(); }
+  [[nodiscard]] const scene::LoadedGlobeScene& globeScene() const { return scene_->globe(); }
   /// Home on the globe: the scene's camera, else its data's extent framed.
   void globeHome();
   /// The globe's terrain and layers into the target (and the point under the cursor); its
@@ -558,8 +563,8 @@ class Viewer {
   double lastLoadProgress_ = -1.0;      ///< the last load's last reported fraction (-1: none)
   /// The DEM's lowest and highest post (true heights): the elevation tint's range.
   std::optional<std::pair<double, double>> demRange_;
-  std::optional<scene::LoadedScene> scene_;
-  std::unique_ptr<GlobeMode> globe_;  ///< a scene on the globe (then scene_ is empty)
+  std::optional<scene::Scene> scene_;  ///< the scene shown, in either frame
+  std::unique_ptr<GlobeMode> globe_;   ///< the globe's renderer and camera, when scene_ is on the globe
   std::optional<scene::SceneRenderer> renderer_;
   std::optional<scene::CameraController> controller_;
   std::optional<overlay::SelectionRenderer> selectionRenderer_;

@@ -61,27 +61,27 @@ void Viewer::setExaggeration(double exaggeration) {
     // The globe's heights own it: its terrain, the layers' tiles (their bounds, and the anchors of
     // lines in pixels) and the camera's ground are made again from the exaggerated heights.
     GlobeMode& g = *globe_;
-    if (exaggeration == g.scene.heights->exaggeration()) return;
-    g.scene.heights = globe::GeoGrid::exaggerated(g.scene.heights, exaggeration);
-    g.renderer = std::make_unique<globe::GlobeRenderer>(g.scene.heights);
-    if (g.scene.imagery) g.renderer->setImagery(g.scene.imagery);
+    if (exaggeration == globeScene().heights->exaggeration()) return;
+    globeScene().heights = globe::GeoGrid::exaggerated(globeScene().heights, exaggeration);
+    g.renderer = std::make_unique<globe::GlobeRenderer>(globeScene().heights);
+    if (globeScene().imagery) g.renderer->setImagery(globeScene().imagery);
     const scene::GlobePose pose = g.controller->pose();
-    g.controller->setGround(g.scene.heights.get());
+    g.controller->setGround(globeScene().heights.get());
     g.controller->setPose(pose);
-    g.maxGroundHeight = std::max(g.scene.heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
+    g.maxGroundHeight = std::max(globeScene().heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
     rebuildGlobeLayers();
     selectionChanged();
     return;
   }
   // The bounds own it; the renderer refreshes the pieces' heights at the next frame (no
   // rebuild of the footprints).
-  scene_->bounds->setExaggeration(exaggeration);
+  projected().bounds->setExaggeration(exaggeration);
   selectionChanged();
 }
 
 double Viewer::exaggeration() const {
-  if (globe_) return globe_->scene.heights->exaggeration();
-  return scene_ ? scene_->bounds->exaggeration() : 1.0;
+  if (globe_) return globeScene().heights->exaggeration();
+  return scene_ ? projected().bounds->exaggeration() : 1.0;
 }
 
 void Viewer::useTechnique(const overlay::TechniqueInfo& technique, int textureSize) {
@@ -103,17 +103,17 @@ void Viewer::rebuildOverlays() {
     rebuildGlobeLayers();
     return;
   }
-  std::vector<bool> hidden(scene_->layers.size(), false);
+  std::vector<bool> hidden(projected().layers.size(), false);
   for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
     if (!renderer_->shown(j)) hidden[renderer_->overlaySources()[j].first] = true;
   }
-  for (std::size_t i = 0; i < scene_->layers.size(); ++i) {
-    scene_->layers[i].description = description_->layers[i];
+  for (std::size_t i = 0; i < projected().layers.size(); ++i) {
+    projected().layers[i].description = description_->layers[i];
   }
   scene::OverlayBuildSettings build;
   build.technique = technique_;
   build.textureSize = drapeSize_;
-  message(renderer_->buildOverlays(*scene_, build));
+  message(renderer_->buildOverlays(projected(), build));
   for (std::size_t i = 0; i < hidden.size(); ++i) {
     if (hidden[i]) setLayerShown(i, false);
   }
@@ -128,19 +128,19 @@ void Viewer::rebuildGlobeLayers() {
   // renderer (GlobeLayer::serial): its tiles are built again, in the new colours and widths.
   GlobeMode& g = *globe_;
   std::set<std::size_t> hidden;
-  for (std::size_t j = 0; j < g.scene.layers.size(); ++j)
-    if (g.shown[j] == 0) hidden.insert(g.scene.layerFileIndex[j]);
-  for (scene::LoadedLayer& source : g.scene.sourceLayers) {
+  for (std::size_t j = 0; j < globeScene().layers.size(); ++j)
+    if (g.shown[j] == 0) hidden.insert(globeScene().layerFileIndex[j]);
+  for (scene::LoadedLayer& source : globeScene().sourceLayers) {
     for (const scene::LayerDescription& d : description_->layers)
       if (d.fileIndex == source.description.fileIndex) source.description = d;
   }
-  g.scene.description.layers = description_->layers;
+  globeScene().description.layers = description_->layers;
   Diagnostics diagnostics;
-  scene::buildGlobeLayers(g.scene, diagnostics);
+  scene::buildGlobeLayers(globeScene(), diagnostics);
   message(diagnostics);
-  g.shown.assign(g.scene.layers.size(), static_cast<char>(1));
-  for (std::size_t j = 0; j < g.scene.layers.size(); ++j)
-    if (hidden.contains(g.scene.layerFileIndex[j])) g.shown[j] = 0;
+  g.shown.assign(globeScene().layers.size(), static_cast<char>(1));
+  for (std::size_t j = 0; j < globeScene().layers.size(); ++j)
+    if (hidden.contains(globeScene().layerFileIndex[j])) g.shown[j] = 0;
   identified_.reset();  // its hits index the old layers
   outlines_.clear();
   if (table_) table_->dirty = true;
@@ -226,7 +226,7 @@ void Viewer::startSelection() {
   // (finishSelection). Features are sampled at half a pixel's footprint at the view's target.
   if (globe_) {
     const globe::GlobeView view = globe_->view;
-    const scene::LoadedGlobeScene* scene = &globe_->scene;
+    const scene::LoadedGlobeScene* scene = &globeScene();
     selectionJob_ = std::async(std::launch::async, [scene, steps, view] {
       const auto start = std::chrono::steady_clock::now();
       scene::GlobeSelection chosen = scene::selectOnGlobe(*scene, steps, view);
@@ -240,11 +240,11 @@ void Viewer::startSelection() {
   // A paged scene loads tiles while it draws, so it selects in this thread.
   const auto job = [this, steps, c, width, height] {
     const auto start = std::chrono::steady_clock::now();
-    scene::SceneSelection chosen = scene::selectInScene(*scene_, *renderer_, steps, c, width, height);
-    return scene::selectedFeaturesOf(*scene_, *renderer_, std::move(chosen),
+    scene::SceneSelection chosen = scene::selectInScene(projected(), *renderer_, steps, c, width, height);
+    return scene::selectedFeaturesOf(projected(), *renderer_, std::move(chosen),
                                      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   };
-  selectionJob_ = std::async(scene_->paged() ? std::launch::deferred : std::launch::async, job);
+  selectionJob_ = std::async(projected().paged() ? std::launch::deferred : std::launch::async, job);
 }
 
 void Viewer::pollSelection(bool wait) {
@@ -280,10 +280,10 @@ bool Viewer::exportSelection(const std::filesystem::path& path) {
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
   const std::filesystem::path beside = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   const Diagnostics d =
-      globe_ ? scene::exportGlobeSelection(globe_->scene, std::get<scene::GlobeSelection>(selected_->selection), path,
+      globe_ ? scene::exportGlobeSelection(globeScene(), std::get<scene::GlobeSelection>(selected_->selection), path,
                                            beside)
-             : scene::exportSelection(*scene_, *renderer_, std::get<scene::SceneSelection>(selected_->selection), path,
-                                      beside);
+             : scene::exportSelection(projected(), *renderer_, std::get<scene::SceneSelection>(selected_->selection),
+                                      path, beside);
   message(d);
   if (d.hasErrors()) {
     notify("Export to " + path.string() + " failed: see Messages", true);
@@ -322,8 +322,9 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
     std::ofstream(stem.string() + "_camera.json")
-        << scene::jsonText(globe_ ? scene::globeCameraJson(globe_->view)
-                                  : scene::cameraToJson(camera(), scene_->frame, target_->width(), target_->height()))
+        << scene::jsonText(globe_
+                               ? scene::globeCameraJson(globe_->view)
+                               : scene::cameraToJson(camera(), projected().frame, target_->width(), target_->height()))
         << "\n";
   }
   const Result<bool> png =

@@ -79,7 +79,7 @@ const std::vector<geo::Feature>* Viewer::featuresOf(std::size_t sceneLayer) cons
     // The features every globe layer of this scene layer was built from (one list, shared).
     const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
     if (drawn.empty()) return nullptr;
-    return &globe_->scene.layerFeatures[drawn.front()].all();
+    return &globeScene().layerFeatures[drawn.front()].all();
   }
   const std::optional<std::size_t> fill = fillLayerOf(sceneLayer);
   return fill ? &renderer_->overlayLayers()[*fill].features() : nullptr;
@@ -88,8 +88,8 @@ const std::vector<geo::Feature>* Viewer::featuresOf(std::size_t sceneLayer) cons
 std::shared_ptr<const geo::Feature> Viewer::featureAt(std::size_t sceneLayer, std::size_t feature) const {
   if (globe_) {
     const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
-    if (drawn.empty() || drawn.front() >= globe_->scene.layerFeatures.size()) return nullptr;
-    const overlay::SharedFeatures& features = globe_->scene.layerFeatures[drawn.front()];
+    if (drawn.empty() || drawn.front() >= globeScene().layerFeatures.size()) return nullptr;
+    const overlay::SharedFeatures& features = globeScene().layerFeatures[drawn.front()];
     return feature < features.size() ? features.get(feature) : nullptr;
   }
   const std::vector<geo::Feature>* features = featuresOf(sceneLayer);
@@ -102,8 +102,8 @@ std::vector<std::size_t> Viewer::globeLayersOf(std::size_t sceneLayer) const {
   std::vector<std::size_t> out;
   if (!globe_ || !description_ || sceneLayer >= description_->layers.size()) return out;
   const std::size_t fileIndex = description_->layers[sceneLayer].fileIndex;
-  for (std::size_t j = 0; j < globe_->scene.layerFileIndex.size(); ++j)
-    if (globe_->scene.layerFileIndex[j] == fileIndex) out.push_back(j);
+  for (std::size_t j = 0; j < globeScene().layerFileIndex.size(); ++j)
+    if (globeScene().layerFileIndex[j] == fileIndex) out.push_back(j);
   return out;
 }
 
@@ -122,8 +122,8 @@ void Viewer::zoomToBox(glm::dvec3 lo, glm::dvec3 hi) {
   double zLo = std::numeric_limits<double>::infinity(), zHi = -zLo;
   for (int i = 0; i <= 8; ++i) {
     for (int k = 0; k <= 8; ++k) {
-      const double h = scene_->bounds->fullResolutionHeightAt(glm::dvec2(lo) + (glm::dvec2(hi) - glm::dvec2(lo)) *
-                                                                                   glm::dvec2(i / 8.0, k / 8.0));
+      const double h = projected().bounds->fullResolutionHeightAt(glm::dvec2(lo) + (glm::dvec2(hi) - glm::dvec2(lo)) *
+                                                                                       glm::dvec2(i / 8.0, k / 8.0));
       if (std::isfinite(h)) {
         zLo = std::min(zLo, h);
         zHi = std::max(zHi, h);
@@ -487,7 +487,7 @@ std::set<std::pair<std::size_t, std::size_t>> Viewer::highlightedFeatures() cons
     for (const Identified::Hit& h : identified_->hits) {
       for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
         if (!renderer_->overlaySources()[j].second &&
-            scene_->layers[renderer_->overlaySources()[j].first].description.name == h.layer) {
+            projected().layers[renderer_->overlaySources()[j].first].description.name == h.layer) {
           out.emplace(j, h.feature);
         }
       }
@@ -583,13 +583,13 @@ std::vector<glm::dvec3> Viewer::liftPath(const std::vector<glm::dvec2>& points, 
     // Longitude and latitude: along geodesics, at half the DEM's post spacing (at least 10 m),
     // on the ground.
     const double step =
-        std::max(10.0, 0.5 * (globe_->scene.heights ? globe_->scene.heights->step() : 0.01) * kMetresPerDegree);
+        std::max(10.0, 0.5 * (globeScene().heights ? globeScene().heights->step() : 0.01) * kMetresPerDegree);
     std::vector<glm::dvec3> path;
     for (const glm::dvec2& p : scene::geodesicPath(points, closed, step)) path.push_back(measurePointPosition(p));
     return path;
   }
   // Densified to half the DEM's post spacing, so the path follows the relief as drawn.
-  const terrain::TerrainGrid& grid = scene_->quadtree->grid();
+  const terrain::TerrainGrid& grid = projected().quadtree->grid();
   const double step = grid.width > 0 ? 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y)) : 15.0;
   std::vector<glm::dvec3> path;
   const std::size_t n = points.size();
@@ -598,10 +598,10 @@ std::vector<glm::dvec3> Viewer::liftPath(const std::vector<glm::dvec2>& points, 
     const int pieces = std::clamp(static_cast<int>(std::ceil(glm::length(b - a) / step)), 1, 4096);
     for (int k = 0; k < pieces; ++k) {
       const glm::dvec2 p = a + (b - a) * (static_cast<double>(k) / pieces);
-      path.emplace_back(p, scene_->bounds->fullResolutionHeightAt(p));
+      path.emplace_back(p, projected().bounds->fullResolutionHeightAt(p));
     }
   }
-  if (!closed && n > 0) path.emplace_back(points.back(), scene_->bounds->fullResolutionHeightAt(points.back()));
+  if (!closed && n > 0) path.emplace_back(points.back(), projected().bounds->fullResolutionHeightAt(points.back()));
   if (closed && !path.empty()) path.push_back(path.front());
   return path;
 }
@@ -690,9 +690,9 @@ void Viewer::drawHighlights() {
   const std::set<std::pair<std::size_t, std::size_t>> features = highlightedFeatures();
   highlightedCount_ = features.size();
   if (features.empty() || !target_) return;
-  if (outlinesExaggeration_ != scene_->bounds->exaggeration()) {
+  if (outlinesExaggeration_ != projected().bounds->exaggeration()) {
     outlines_.clear();  // lifted at another exaggeration
-    outlinesExaggeration_ = scene_->bounds->exaggeration();
+    outlinesExaggeration_ = projected().bounds->exaggeration();
   }
   const ImU32 identifiedColour = IM_COL32(40, 230, 255, 255);
   const ImU32 selectedColour =
@@ -702,7 +702,7 @@ void Viewer::drawHighlights() {
     for (const auto& f : features) {
       for (const Identified::Hit& hit : identified_->hits) {
         if (hit.feature == f.second &&
-            scene_->layers[renderer_->overlaySources()[f.first].first].description.name == hit.layer) {
+            projected().layers[renderer_->overlaySources()[f.first].first].description.name == hit.layer) {
           identified.insert(f);
         }
       }

@@ -38,13 +38,12 @@ struct LocalPlane {
 }  // namespace
 
 LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute) const {
-  const GlobeMode& g = *globe_;
   LabelSet set;
   set.attribute = attribute;
-  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
-    if (g.scene.layerFileIndex[i] != fileIndex || i >= g.scene.layerFeatures.size()) continue;
-    const globe::GlobeLayer& layer = g.scene.layers[i];
-    const std::vector<geo::Feature>& features = g.scene.layerFeatures[i].all();
+  for (std::size_t i = 0; i < globeScene().layers.size(); ++i) {
+    if (globeScene().layerFileIndex[i] != fileIndex || i >= globeScene().layerFeatures.size()) continue;
+    const globe::GlobeLayer& layer = globeScene().layers[i];
+    const std::vector<geo::Feature>& features = globeScene().layerFeatures[i].all();
     // Each feature's geometry as drawn: its areas (the fill layer, holes included), else its lines.
     std::vector<std::vector<const std::vector<std::vector<glm::dvec2>>*>> areas(features.size());
     std::vector<std::vector<const std::vector<glm::dvec2>*>> lines(features.size());
@@ -88,11 +87,12 @@ LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute
       if (!anchor) continue;
       anchor->point = plane.back(anchor->point);
       set.labels.push_back({f, features[f].fid, std::move(*text), *anchor});
-      set.heights.push_back(g.scene.heights ? g.scene.heights->heightAt(anchor->point.x, anchor->point.y) : 0.0);
+      set.heights.push_back(globeScene().heights ? globeScene().heights->heightAt(anchor->point.x, anchor->point.y)
+                                                 : 0.0);
     }
     break;  // the fill (or the line layer) labels the scene layer
   }
-  set.exaggeration = g.scene.heights ? g.scene.heights->exaggeration() : 1.0;
+  set.exaggeration = globeScene().heights ? globeScene().heights->exaggeration() : 1.0;
   return set;
 }
 
@@ -135,7 +135,8 @@ void Viewer::drawLabels() {
       set.heights.resize(set.labels.size());
       for (std::size_t k = 0; k < set.labels.size(); ++k) {
         const glm::dvec2& p = set.labels[k].anchor.point;
-        set.heights[k] = globe_ ? globe_->scene.heights->heightAt(p.x, p.y) : scene_->bounds->fullResolutionHeightAt(p);
+        set.heights[k] =
+            globe_ ? globeScene().heights->heightAt(p.x, p.y) : projected().bounds->fullResolutionHeightAt(p);
       }
       set.exaggeration = exaggeration;
     }

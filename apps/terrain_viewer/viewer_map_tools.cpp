@@ -79,9 +79,9 @@ std::optional<double> Viewer::northYaw() const {
   // True north at the view's centre (grid north differs by the meridian convergence).
   const scene::Camera c = camera();
   const glm::dvec3 at(c.target.x, c.target.y, 0.0);
-  const std::optional<glm::dvec3> ll = scene_->frame.toLonLat(at);
+  const std::optional<glm::dvec3> ll = projected().frame.toLonLat(at);
   if (!ll) return std::nullopt;
-  const std::optional<glm::dvec3> north = scene_->frame.fromLonLat(ll->x, std::min(ll->y + 0.001, 89.999), 0.0);
+  const std::optional<glm::dvec3> north = projected().frame.fromLonLat(ll->x, std::min(ll->y + 0.001, 89.999), 0.0);
   if (!north) return std::nullopt;
   const glm::dvec2 n = glm::dvec2(*north) - glm::dvec2(at);
   if (glm::length(n) <= 0.0) return std::nullopt;

@@ -33,7 +33,7 @@ void Viewer::remeasure() {
   if (measurePoints_.size() < 2) return;
   if (globe_) {
     // On the globe the points are lon/lat, the segments geodesics on WGS 84.
-    const std::shared_ptr<const globe::GeoGrid> heights = globe_->scene.heights;
+    const std::shared_ptr<const globe::GeoGrid> heights = globeScene().heights;
     scene::MeasureOptions options;
     if (heights && heights->width() > 0) options.sampleStepMetres = 0.5 * heights->step() * kMetresPerDegree;
     const auto height = [heights](double lon, double lat) {  // true heights, not exaggerated
@@ -45,17 +45,17 @@ void Viewer::remeasure() {
     if (m) measurement_ = std::move(*m);
     return;
   }
-  const double exaggeration = scene_->bounds->exaggeration();
+  const double exaggeration = projected().bounds->exaggeration();
   const auto height = [this, exaggeration](const glm::dvec2& p) {
-    return scene_->bounds->fullResolutionHeightAt(p) / exaggeration;
+    return projected().bounds->fullResolutionHeightAt(p) / exaggeration;
   };
   scene::MeasureOptions options;
-  const terrain::TerrainGrid& grid = scene_->quadtree->grid();
+  const terrain::TerrainGrid& grid = projected().quadtree->grid();
   if (grid.width > 0) options.sampleStepMetres = 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y));
-  if (!measureEllipsoid_) measureEllipsoid_ = scene::ellipsoidOf(scene_->frame);
+  if (!measureEllipsoid_) measureEllipsoid_ = scene::ellipsoidOf(projected().frame);
   options.ellipsoid = measureEllipsoid_;
   Result<scene::Measurement> m =
-      scene::measure(scene_->frame, measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
+      scene::measure(projected().frame, measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
   message(m.diagnostics);
   if (m) measurement_ = std::move(*m);
 }
@@ -87,8 +87,8 @@ std::optional<glm::dvec2> Viewer::measurePointAt(const glm::dvec2& pixel) const 
 }
 
 glm::dvec3 Viewer::measurePointPosition(const glm::dvec2& p) const {
-  if (!globe_) return {p, scene_->bounds->fullResolutionHeightAt(p)};
-  const std::shared_ptr<const globe::GeoGrid>& heights = globe_->scene.heights;
+  if (!globe_) return {p, projected().bounds->fullResolutionHeightAt(p)};
+  const std::shared_ptr<const globe::GeoGrid>& heights = globeScene().heights;
   return globe::toEcef(p.x, p.y, heights ? heights->heightAt(p.x, p.y) : 0.0);
 }
 

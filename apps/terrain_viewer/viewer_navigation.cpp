@@ -148,16 +148,16 @@ bool Viewer::navigationKey(int key) {
 void Viewer::globeHome() {
   GlobeMode& g = *globe_;
   const glm::ivec2 fb = framebufferSize();
-  const std::optional<scene::CameraSpec>& spec = g.scene.description.camera;
+  const std::optional<scene::CameraSpec>& spec = globeScene().description.camera;
   if (spec && spec->eyeLonLatH && spec->targetLonLatH) {
     // The scene's own camera, as its author placed it, seen in the part of the window the panel
     // leaves free.
-    const globe::GlobeView v = scene::globeStillView(g.scene, std::max(fb.x, 1), std::max(fb.y, 1));
+    const globe::GlobeView v = scene::globeStillView(globeScene(), std::max(fb.x, 1), std::max(fb.y, 1));
     g.controller->setPose(poseLooking(v.eye, v.target));
     g.controller->centreIn(glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
     return;
   }
-  const std::array<double, 4>& e = g.scene.extent;
+  const std::array<double, 4>& e = globeScene().extent;
   // Framed in the part of the window the panel leaves free, as in a projected frame.
   g.controller->home(e[0], e[1], e[2], e[3], glm::ivec2(std::max(fb.x, 1), std::max(fb.y, 1)), freeRegion());
 }

@@ -77,7 +77,7 @@ void Viewer::drawPanel() {
   if (ImGui::Button("Open… (Ctrl+O)")) openFileBrowser();
   ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
   if (globe_) {
-    ImGui::TextWrapped("On the globe: %s. ? lists the keys.", globe_->scene.reason.c_str());
+    ImGui::TextWrapped("On the globe: %s. ? lists the keys.", globeScene().reason.c_str());
   } else {
     ImGui::TextWrapped("or drop a scene, DEM or vector file on the window. ? lists the keys.");
   }
@@ -192,7 +192,7 @@ void Viewer::drawDrapeSize() {
 void Viewer::drawLayersSection() {
   if (!ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) return;
   // Each scene layer alike in both frames: shown, style, categories, labels, its table.
-  const std::size_t layers = globe_ ? description_->layers.size() : scene_->layers.size();
+  const std::size_t layers = globe_ ? description_->layers.size() : projected().layers.size();
   bool rebuild = false;
   for (std::size_t i = 0; i < layers; ++i) rebuild = drawLayer(i) || rebuild;
   if (rebuild) rebuildOverlays();
@@ -212,13 +212,13 @@ bool Viewer::drawLayer(std::size_t i) {
   scene::LayerSummary summary;
   if (globe_) {
     // On the globe: what was read (the same LoadedLayer as a projected scene's).
-    for (const scene::LoadedLayer& source : globe_->scene.sourceLayers) {
+    for (const scene::LoadedLayer& source : globeScene().sourceLayers) {
       if (source.description.fileIndex != layer.fileIndex) continue;
       summary.features = source.features.size() + source.skippedFeatures;
       summary.skippedReading = source.skippedFeatures;
     }
   } else {
-    summary = renderer_->layerSummary(*scene_, i);
+    summary = renderer_->layerSummary(projected(), i);
   }
   const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
   if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
@@ -494,12 +494,12 @@ void Viewer::drawProjectedHud() {
                           l.zPassPieces + l.zFailPieces);
     }
   }
-  if (scene_->paged()) {
+  if (projected().paged()) {
     ImGui::Text("tiles: %zu resident, %zu loading", stats_.pager.residentTiles, stats_.pager.pending);
   }
   const scene::Camera c = camera();
   if (const std::optional<glm::dvec3> ll =
-          scene_->frame.toLonLat(c.eye / glm::dvec3(1, 1, scene_->bounds->exaggeration()))) {
+          projected().frame.toLonLat(c.eye / glm::dvec3(1, 1, projected().bounds->exaggeration()))) {
     ImGui::Text("eye: %s, height %.0f m", formatLonLat(*ll).c_str(), ll->z);
   }
 }

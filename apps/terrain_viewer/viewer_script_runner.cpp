@@ -142,7 +142,7 @@ struct StepRunner {
     Result<scene::CameraSpec> spec = scene::parseCameraSpec(step.camera, step.cameraFile);
     v.message(spec.diagnostics, where, true);
     if (!spec) return false;
-    Result<scene::Camera> placed = scene::placeCamera(*spec, v.scene_->frame, where);
+    Result<scene::Camera> placed = scene::placeCamera(*spec, v.projected().frame, where);
     v.message(placed.diagnostics, where, true);
     if (!placed) return false;
     v.settings_.fovYDeg = spec->fovYDeg;
@@ -410,7 +410,7 @@ struct StepRunner {
 
 bool Viewer::runStep(const app::ScriptStep& step) {
   const std::string where = script_->file + ": step " + std::to_string(step.index);
-  if (!scene_ && !globe_ && needsScene(step.action)) {
+  if (!scene_ && needsScene(step.action)) {
     message(where + ": no scene is loaded", true);
     return false;
   }

@@ -84,21 +84,21 @@ std::optional<GroundPoint> Viewer::groundAt(const glm::dvec2& pixel) const {
   g.drawn = *world;
   if (globe_) {
     globe::Geodetic at = globe::toGeodetic(*world);
-    at.h /= globe_->scene.heights->exaggeration();
+    at.h /= globeScene().heights->exaggeration();
     g.onGlobe = true;
     g.lonLatH = glm::dvec3(at.lon, at.lat, at.h);
     g.height = at.h;
     return g;
   }
-  const glm::dvec3 unexaggerated = *world / glm::dvec3(1.0, 1.0, scene_->bounds->exaggeration());
-  g.projected = scene_->frame.frameToProjected(unexaggerated);
-  g.lonLatH = scene_->frame.toLonLat(unexaggerated);
+  const glm::dvec3 unexaggerated = *world / glm::dvec3(1.0, 1.0, projected().bounds->exaggeration());
+  g.projected = projected().frame.frameToProjected(unexaggerated);
+  g.lonLatH = projected().frame.toLonLat(unexaggerated);
   g.height = g.projected->z;
   return g;
 }
 
 std::string Viewer::crsName() const {
-  const std::optional<int> code = scene_->frame.epsg();
+  const std::optional<int> code = projected().frame.epsg();
   return code ? "EPSG:" + std::to_string(*code) : std::string("CRS");
 }
 
@@ -108,15 +108,15 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   Identified id;
   id.point = *ground;
   if (globe_) {
-    id.terrainHeight = globe_->scene.heights->unexaggerated().heightAt(ground->lonLatH->x, ground->lonLatH->y);
+    id.terrainHeight = globeScene().heights->unexaggerated().heightAt(ground->lonLatH->x, ground->lonLatH->y);
     id.hits = globeFeaturesAt(*ground);
     return id;
   }
   const glm::dvec3 world = ground->drawn;
   const scene::Camera c = camera();
   const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
-  const double exaggeration = scene_->bounds->exaggeration();
-  id.terrainHeight = scene_->bounds->fullResolutionHeightAt(glm::dvec2(world)) / exaggeration;
+  const double exaggeration = projected().bounds->exaggeration();
+  id.terrainHeight = projected().bounds->fullResolutionHeightAt(glm::dvec2(world)) / exaggeration;
   const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
   for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
     if (renderer_->overlaySources()[j].second || !renderer_->shown(j)) continue;
@@ -125,7 +125,7 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
     for (std::size_t f = 0; f < layer.features().size(); ++f) {
       if (!overlay::featureCovers(ref, f, glm::dvec2(world), scale)) continue;
       Identified::Hit hit;
-      hit.layer = scene_->layers[renderer_->overlaySources()[j].first].description.name;
+      hit.layer = projected().layers[renderer_->overlaySources()[j].first].description.name;
       hit.feature = f;
       hit.fid = layer.features()[f].fid;
       for (const auto& [k, v] : layer.features()[f].attributes) hit.attributes.emplace_back(k, attributeText(v));
@@ -206,7 +206,7 @@ nlohmann::json Viewer::state() const {
   const glm::ivec2 fb = framebufferSize();
   glm::ivec2 window(0);
   glfwGetWindowSize(context_->window(), &window.x, &window.y);
-  if (!scene_ && !globe_) {
+  if (!scene_) {
     return {
         {"scene", nullptr}, {"framebuffer", {fb.x, fb.y}}, {"window", {window.x, window.y}}, {"messages", messages_}};
   }
@@ -215,7 +215,7 @@ nlohmann::json Viewer::state() const {
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
   // Per layer of the scene file, as the panel lists them in both frames.
   nlohmann::json layers = nlohmann::json::array();
-  for (std::size_t i = 0; i < description_->layers.size() && (globe_ || i < scene_->layers.size()); ++i) {
+  for (std::size_t i = 0; i < description_->layers.size() && (globe_ || i < projected().layers.size()); ++i) {
     const overlay::LayerStyle& style = description_->layers[i].style;
     nlohmann::json categories = nlohmann::json::object();
     for (const auto& [value, c] : style.categories) categories[value] = {c.x, c.y, c.z};
@@ -287,14 +287,14 @@ nlohmann::json Viewer::frameLayerJson(std::size_t sceneLayer) const {
     const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
     std::size_t polygons = 0, lines = 0, features = 0;
     for (const std::size_t d : drawn) {
-      polygons += globe_->scene.layers[d].polygons().size();
-      lines += globe_->scene.layers[d].lines().size();
+      polygons += globeScene().layers[d].polygons().size();
+      lines += globeScene().layers[d].lines().size();
     }
-    if (!drawn.empty() && drawn.front() < globe_->scene.layerFeatures.size())
-      features = globe_->scene.layerFeatures[drawn.front()].size();
+    if (!drawn.empty() && drawn.front() < globeScene().layerFeatures.size())
+      features = globeScene().layerFeatures[drawn.front()].size();
     return {{"features", features}, {"polygons", polygons}, {"lines", lines}};
   }
-  const scene::LayerSummary summary = renderer_->layerSummary(*scene_, sceneLayer);
+  const scene::LayerSummary summary = renderer_->layerSummary(projected(), sceneLayer);
   return {{"features", summary.features},
           {"skipped_features", summary.skipped()},
           {"features_with_nothing_to_draw", summary.nothingToDraw},
@@ -306,7 +306,7 @@ nlohmann::json Viewer::frameStateJson() const {
   const glm::ivec2 fb = framebufferSize();
   const scene::OrbitPose& pose = controller_->shownPose();
   return {{"camera_mode", controller_->mode() == scene::CameraController::Mode::Fly ? "fly" : "orbit"},
-          {"camera", scene::cameraToJson(camera(), scene_->frame, fb.x, fb.y)},
+          {"camera", scene::cameraToJson(camera(), projected().frame, fb.x, fb.y)},
           {"pose",
            {{"target", {pose.target.x, pose.target.y, pose.target.z}},
             {"yaw", pose.yaw},
@@ -323,18 +323,18 @@ std::vector<Identified::Hit> Viewer::globeFeaturesAt(const GroundPoint& point) c
   const GlobeMode& g = *globe_;
   std::vector<Identified::Hit> hits;
   std::set<std::pair<std::size_t, std::uint32_t>> seen;  // a fill and its outline name a feature once
-  for (std::size_t i = 0; i < g.scene.layers.size(); ++i) {
+  for (std::size_t i = 0; i < globeScene().layers.size(); ++i) {
     if (g.shown[i] == 0) continue;
-    const std::size_t fileIndex = g.scene.layerFileIndex[i];
-    const scene::LayerDescription* described = scene::sceneLayerOf(g.scene, i);
-    for (const std::uint32_t f : globe::featuresAt(g.scene.layers[i], point.drawn, point.lonLatH->x, point.lonLatH->y,
-                                                   globe::pixelScaleOf(g.view))) {
+    const std::size_t fileIndex = globeScene().layerFileIndex[i];
+    const scene::LayerDescription* described = scene::sceneLayerOf(globeScene(), i);
+    for (const std::uint32_t f : globe::featuresAt(globeScene().layers[i], point.drawn, point.lonLatH->x,
+                                                   point.lonLatH->y, globe::pixelScaleOf(g.view))) {
       if (!seen.insert({fileIndex, f}).second) continue;
       Identified::Hit hit;
-      hit.layer = described != nullptr ? described->name : g.scene.layers[i].name();
+      hit.layer = described != nullptr ? described->name : globeScene().layers[i].name();
       hit.feature = f;
-      if (i < g.scene.layerFeatures.size() && f < g.scene.layerFeatures[i].size()) {
-        const std::shared_ptr<const geo::Feature> feature = g.scene.layerFeatures[i].get(f);
+      if (i < globeScene().layerFeatures.size() && f < globeScene().layerFeatures[i].size()) {
+        const std::shared_ptr<const geo::Feature> feature = globeScene().layerFeatures[i].get(f);
         hit.fid = feature->fid;
         for (const auto& [k, v] : feature->attributes) hit.attributes.emplace_back(k, attributeText(v));
       }
@@ -348,32 +348,33 @@ nlohmann::json Viewer::globeStateJson() const {
   const GlobeMode& g = *globe_;
   const scene::GlobePose& pose = g.controller->pose();
   const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
-  return {{"camera_mode", g.fly ? "fly" : "orbit"},
-          {"globe_reason", g.scene.reason},
-          {"globe",
-           {{"target", geodeticJson(pose.target)},
-            {"distance", pose.distance},
-            {"heading", pose.heading},
-            {"pitch", pose.pitch},
-            {"heading_deg", pose.heading * 180.0 / std::numbers::pi},
-            {"pitch_deg", pose.pitch * 180.0 / std::numbers::pi},
-            {"eye", geodeticJson(eye)},
-            {"eye_height_above_ground", g.controller->heightAboveGround()},
-            {"exaggeration", g.scene.heights->exaggeration()},
-            {"extent", {g.scene.extent[0], g.scene.extent[1], g.scene.extent[2], g.scene.extent[3]}},
-            {"camera", scene::globeCameraJson(g.view)}}},
-          {"drawn",
-           {{"ms", frameMs_},
-            {"terrain_triangles", g.stats.terrain.triangles},
-            {"overlay_fragments", g.stats.overlayFragments},
-            {"selection_ms", selectionMs_}}},
-          {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
-          {"overlay",
-           {{"pieces", g.stats.overlay.pieces},
-            {"z_fail_pieces", g.stats.overlay.zFailPieces},
-            {"deferred_layers", g.stats.overlay.deferredLayers},
-            {"deferred_pending", g.stats.overlay.deferredPending},
-            {"draped", g.stats.overlay.draped}}}};
+  return {
+      {"camera_mode", g.fly ? "fly" : "orbit"},
+      {"globe_reason", globeScene().reason},
+      {"globe",
+       {{"target", geodeticJson(pose.target)},
+        {"distance", pose.distance},
+        {"heading", pose.heading},
+        {"pitch", pose.pitch},
+        {"heading_deg", pose.heading * 180.0 / std::numbers::pi},
+        {"pitch_deg", pose.pitch * 180.0 / std::numbers::pi},
+        {"eye", geodeticJson(eye)},
+        {"eye_height_above_ground", g.controller->heightAboveGround()},
+        {"exaggeration", globeScene().heights->exaggeration()},
+        {"extent", {globeScene().extent[0], globeScene().extent[1], globeScene().extent[2], globeScene().extent[3]}},
+        {"camera", scene::globeCameraJson(g.view)}}},
+      {"drawn",
+       {{"ms", frameMs_},
+        {"terrain_triangles", g.stats.terrain.triangles},
+        {"overlay_fragments", g.stats.overlayFragments},
+        {"selection_ms", selectionMs_}}},
+      {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
+      {"overlay",
+       {{"pieces", g.stats.overlay.pieces},
+        {"z_fail_pieces", g.stats.overlay.zFailPieces},
+        {"deferred_layers", g.stats.overlay.deferredLayers},
+        {"deferred_pending", g.stats.overlay.deferredPending},
+        {"draped", g.stats.overlay.draped}}}};
 }
 
 }  // namespace gis::viewer
