@@ -442,21 +442,19 @@ void Viewer::frame(double seconds) {
       if (k.key == GLFW_KEY_O && k.modifiers.ctrl) openFileBrowser();
     }
   }
-  if (scene_ && !globe_) {
-    moving_ = controller_->update(
-        seconds, [this](const glm::dvec2& p) { return projected().bounds->fullResolutionHeightAt(p); });
+  cursorGround_.reset();
+  if (scene_) {
+    if (globe_) {
+      moving_ = false;  // the globe's camera jumps: no motion to settle
+    } else {
+      moving_ = controller_->update(
+          seconds, [this](const glm::dvec2& p) { return projected().bounds->fullResolutionHeightAt(p); });
+    }
     if (animating_ && !moving_) animating_ = false;
     drawScene();
-  } else if (globe_) {
-    moving_ = false;  // the globe's camera jumps: no motion to settle
-    if (animating_) animating_ = false;
-    drawScene();
-  }
-  // The coordinates under the cursor, unless the panel has it.
-  cursorGround_.reset();
-  if (scene_ && cursorInside_ && !ImGui::GetIO().WantCaptureMouse)
-    cursorGround_ = groundAt(lastPixel_);
-  else {
+    // The coordinates under the cursor, unless the panel has it.
+    if (cursorInside_ && !ImGui::GetIO().WantCaptureMouse) cursorGround_ = groundAt(lastPixel_);
+  } else {
     moving_ = false;
     busy_ = false;
     animating_ = false;
