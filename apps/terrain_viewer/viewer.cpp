@@ -174,9 +174,9 @@ bool Viewer::open(const ViewerOptions& options) {
   app::report(selection.diagnostics);
   if (!selection) return false;
   selectionRenderer_ = std::move(*selection);
-  render_.lodTolerancePixels = settings_.lodTolerancePixels;
-  render_.waitForTiles = script_.has_value();  // scripted screenshots show the finished view
-  render_.sky = true;
+  // Tiles still building are drawn by their nearest ancestor meanwhile; scripted screenshots show
+  // the finished view.
+  render_.waitForTiles = script_.has_value();
   // A scene that does not load leaves the window open with the messages, ready for another.
   loadPath(options.scene);
   return true;
@@ -238,11 +238,7 @@ void Viewer::finishLoad(bool wait) {
   // Drop the old renderer before building the new one: GPU memory for one scene at a time.
   renderer_.reset();
   globe_.reset();
-  if (loaded->onGlobe()) {
-    showGlobeScene(std::move(*loaded), load->description);
-  } else if (!showProjectedScene(std::move(*loaded), load->description)) {
-    return;
-  }
+  if (!showScene(std::move(*loaded), load->description)) return;
   // The tools start empty again.
   steps_.clear();
   undo_.clear();
@@ -264,20 +260,35 @@ void Viewer::finishLoad(bool wait) {
                          .c_str());
 }
 
-bool Viewer::showProjectedScene(scene::Scene loaded, const scene::SceneDescription& description) {
-  scene::OverlayBuildSettings build;
-  build.technique = technique_;
-  build.textureSize = drapeSize_;
-  Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(loaded.projected(), build);
+bool Viewer::showScene(scene::Scene loaded, const scene::SceneDescription& description) {
+  // The scene first, in its place: its renderer keeps a reference to it.
+  scene_ = std::move(loaded);
+  scene::StillSettings settings;
+  settings.technique = technique_;
+  settings.textureSize = drapeSize_;
+  settings.lodTolerancePixels = settings_.lodTolerancePixels;
+  Result<std::unique_ptr<scene::FrameRenderer>> renderer = scene::FrameRenderer::create(*scene_, settings);
   message(renderer.diagnostics);
   if (!renderer) {
-    scene_.reset();  // the old one has no renderer any more
+    scene_.reset();  // no renderer for it
     description_.reset();
     return false;
   }
-  scene_ = std::move(loaded);
   renderer_ = std::move(*renderer);
   description_ = description;
+  figures_ = {};
+  if (scene_->onGlobe()) {
+    // The globe's camera (its own controller: the globe turns under the eye).
+    auto g = std::make_unique<GlobeMode>();
+    scene::GlobeCameraSettings camera;
+    camera.fovYDeg = settings_.fovYDeg;
+    g->controller = std::make_unique<scene::GlobeCameraController>(globeScene().heights.get(), camera);
+    globe_ = std::move(g);
+    message("on the globe: " + globeScene().reason);
+    goHome();
+    demRange_.reset();
+    return true;
+  }
   projected().bounds->setExaggeration(description_->verticalExaggeration);
   const scene::Camera home = homeCamera();
   if (controller_) {
@@ -288,25 +299,6 @@ bool Viewer::showProjectedScene(scene::Scene loaded, const scene::SceneDescripti
   }
   demRange_ = terrain::demHeightRange(*projected().quadtree);
   return true;
-}
-
-void Viewer::showGlobeScene(scene::Scene loaded, const scene::SceneDescription& description) {
-  scene_ = std::move(loaded);
-  auto g = std::make_unique<GlobeMode>();
-  g->renderer = std::make_unique<globe::GlobeRenderer>(globeScene().heights);
-  g->overlaySettings = scene::globeOverlaySettings(globeScene().description);
-  scene::GlobeCameraSettings camera;
-  camera.fovYDeg = settings_.fovYDeg;
-  g->controller = std::make_unique<scene::GlobeCameraController>(globeScene().heights.get(), camera);
-  g->shown.assign(globeScene().layers.size(), static_cast<char>(1));
-  // The DEM's highest post: no ground a lasso's eye sees lies beyond its horizon reach.
-  g->maxGroundHeight = std::max(globeScene().heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
-  if (globeScene().imagery) g->renderer->setImagery(globeScene().imagery);
-  globe_ = std::move(g);
-  description_ = description;
-  message("on the globe: " + globeScene().reason);
-  goHome();
-  demRange_.reset();
 }
 
 void Viewer::notify(const std::string& text, bool error) {
@@ -512,8 +504,35 @@ void Viewer::drawScene() {
   }
   // The frame's terrain and layers; then, alike in both frames, the selection over them, the
   // pieces' debug view, and the copy into the window.
-  std::vector<ShownChunks> shown;
-  const overlay::OverlayView view = globe_ ? drawGlobe(fb, shown) : drawProjected(fb, shown);
+  if (globe_) globe_->view = globe_->controller->view(fb.x, fb.y);
+  const scene::FrameCamera camera = frameCamera();
+  // GPU timer queries wait for the GPU: sample them (every frame in a script).
+  render_.measure = frameIndex_ % 30 == 1 || script_.has_value();
+  render_.lodTolerancePixels = settings_.lodTolerancePixels;
+  render_.imagery = settings_.imagery;
+  // Without imagery shown, the terrain is tinted by height (with its legend).
+  render_.elevationRamp.reset();
+  if (!settings_.imagery || !renderer_->hasImagery()) render_.elevationRamp = demRange_;
+  // The projected frame draws a sky behind the terrain; the globe's mask attachment keeps its
+  // layers' bits (the sky would write colour alone).
+  render_.sky = !mask;
+  const scene::FrameFigures f = renderer_->drawFrame(cache_, *target_, camera, render_);
+  // Work arriving: draw again until it has (tiles built or paged in, imagery, a selection).
+  busy_ = f.terrain.tilesMissing > 0 || f.terrainPending > 0 || f.tilesMissing > 0;
+  if (render_.measure) {
+    figures_ = f;
+  } else {
+    // The times and counts of the last measured frame stay; what was drawn is this frame's.
+    const scene::FrameFigures measured = figures_;
+    figures_ = f;
+    figures_.terrainGpuMs = measured.terrainGpuMs;
+    figures_.overlayGpuMs = measured.overlayGpuMs;
+    figures_.markFragments = measured.markFragments;
+    figures_.coverFragments = measured.coverFragments;
+    figures_.terrain.fragments = measured.terrain.fragments;
+    figures_.layers = measured.layers;
+  }
+  const overlay::OverlayView view = scene::Scene::overlayViewOf(camera, fb.x, fb.y);
   if (!steps_.empty()) {
     // The lassos' volumes marked into the stencil the layers left 0, then the highlight blended
     // over the selected ground; a mask attachment keeps what the layers wrote.
@@ -523,84 +542,17 @@ void Viewer::drawScene() {
     selectionRenderer_->highlight(cache_, highlight_);
     if (mask) gfx::enableMaskWrites(target_->framebuffer(), true);
   }
-  if (debugPieces_ && render_.overlays) {
-    for (const ShownChunks& layer : shown)
-      layer.passes->drawPieces(cache_, view, layer.chunks, kZPassPieceColour, kZFailPieceColour);
+  overlay::OverlayRenderer* passes = renderer_->analysisPasses();
+  if (debugPieces_ && render_.overlays && passes != nullptr) {
+    for (std::size_t j = 0; j < renderer_->drawnLayerCount(); ++j) {
+      if (renderer_->drawnLayerShown(j))
+        passes->drawPieces(cache_, view, renderer_->chunksOf(j, camera), kZPassPieceColour, kZFailPieceColour);
+    }
   }
   // Into the window: the panel is drawn over this copy.
   glBlitNamedFramebuffer(target_->framebuffer(), 0, 0, 0, fb.x, fb.y, 0, 0, fb.x, fb.y, GL_COLOR_BUFFER_BIT,
                          GL_NEAREST);
   cache_.bindDrawTarget(0, fb.x, fb.y);
-}
-
-overlay::OverlayView Viewer::drawProjected(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
-  render_.measure = frameIndex_ % 30 == 1 || script_.has_value();  // queries wait for the GPU: sample them
-  render_.lodTolerancePixels = settings_.lodTolerancePixels;
-  render_.imagery = settings_.imagery;
-  // Without imagery shown, the terrain is tinted by height (with its legend).
-  render_.elevationRamp.reset();
-  if (!settings_.imagery || !renderer_->terrainEngine().hasImagery()) render_.elevationRamp = demRange_;
-  const scene::Camera c = camera();
-  const scene::FrameStats s = renderer_->render(cache_, target_->framebuffer(), fb.x, fb.y, c, render_);
-  // Work arriving: draw again until it has (tiles built or paged in, a selection found).
-  busy_ = s.tilesMissing > 0 || s.pager.pending > 0 || s.overlayTiles.tilesMissing > 0;
-  if (render_.measure) {
-    stats_ = s;
-  } else {
-    stats_.terrainDraw = s.terrainDraw;
-    stats_.finestLevel = s.finestLevel;
-    stats_.coarsestLevel = s.coarsestLevel;
-    stats_.tilesMissing = s.tilesMissing;
-    stats_.pager = s.pager;
-  }
-  if (debugPieces_ && render_.overlays) {
-    for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-      if (renderer_->shown(j)) shown.push_back({&renderer_->overlayRenderer(), renderer_->drawnChunks(j)});
-    }
-  }
-  return scene::overlayViewOf(c, aspect());
-}
-
-overlay::OverlayView Viewer::drawGlobe(const glm::ivec2& fb, std::vector<ShownChunks>& shown) {
-  GlobeMode& g = *globe_;
-  g.view = g.controller->view(fb.x, fb.y);
-  std::vector<const globe::GlobeLayer*> layers;
-  if (render_.overlays) {
-    for (std::size_t i = 0; i < globeScene().layers.size(); ++i) {
-      if (g.shown[i] != 0) layers.push_back(&globeScene().layers[i]);
-    }
-  }
-  // GPU timer queries wait for the GPU: sample them (every frame in a script).
-  const bool timed = frameIndex_ % 30 == 1 || script_.has_value();
-  // Tiles still building are drawn by their nearest ancestor meanwhile, as in a projected frame;
-  // scripted screenshots show the finished view.
-  g.overlaySettings.waitForTiles = script_.has_value();
-  g.overlaySettings.technique =
-      scene::globeTechniqueNamed(technique_->name).value_or(globe::GlobeTechnique::StencilTiles);
-  g.overlaySettings.textureSize = technique_->usesTextures() ? drapeSize_ : 0;
-  const globe::GlobeFrameStats s =
-      g.renderer->render(cache_, {target_->framebuffer(), fb.x, fb.y, true}, g.view, layers, timed, g.overlaySettings);
-  if (timed) {
-    g.stats = s;
-  } else {
-    const double terrainMs = g.stats.terrainGpuMilliseconds, overlayMs = g.stats.overlayGpuMilliseconds;
-    g.stats = s;
-    g.stats.terrainGpuMilliseconds = terrainMs;
-    g.stats.overlayGpuMilliseconds = overlayMs;
-  }
-  if (debugPieces_ && render_.overlays) {
-    // The same debug view of pieces as in a projected frame, on the tiles' chunks.
-    if (overlay::OverlayRenderer* overlays = g.renderer->overlay().renderer()) {
-      for (const globe::GlobeLayer* layer : layers) {
-        shown.push_back(
-            {overlays, g.renderer->overlay().chunks(g.view, g.renderer->tiles(), g.renderer->heights(), *layer)});
-      }
-    }
-  }
-  // The globe builds the meshes a frame needs in that frame; the layers' tiles come from the
-  // workers and imagery a few tiles a frame: draw again until it is all there.
-  busy_ = s.terrain.imageryPending > 0 || s.overlay.missingTiles > 0;
-  return scene::Scene::overlayViewOf(g.view, fb.x, fb.y);
 }
 
 }  // namespace gis::viewer

@@ -33,9 +33,9 @@
 #include "gfx/render_target.hpp"
 #include "gfx/state_cache.hpp"
 #include "scene/camera_controller.hpp"
+#include "scene/frame_renderer.hpp"
 #include "scene/frame_scene.hpp"
 #include "scene/globe_camera.hpp"
-#include "scene/globe_renderer.hpp"
 #include "scene/globe_scene.hpp"
 #include "scene/globe_selection.hpp"
 #include "scene/measure.hpp"
@@ -179,20 +179,13 @@ struct LabelSet {
   double exaggeration = 0.0;    ///< 0: heights not looked up yet
 };
 
-/// A scene on the globe (docs/viewer.md "On the globe"): its renderer and camera, and what the
-/// globe's HUD, status bar and identify show (the scene itself is Viewer::scene_). The projected
-/// frame's renderer and camera are empty while it is shown.
+/// The globe's navigation (docs/viewer.md "On the globe"): its camera controller, the view it
+/// gave the last frame, and fly mode. The scene and its renderer are the
+/// viewer's, as in a projected frame; the projected camera controller is empty while it is shown.
 struct GlobeMode {
-  std::unique_ptr<globe::GlobeRenderer> renderer;  ///< GL objects: made and dropped on the GL thread
-  globe::GlobeOverlaySettings overlaySettings;     ///< the scene's (budget, cache directory), found once at load
   std::unique_ptr<scene::GlobeCameraController> controller;  ///< reads the scene's heights
-  std::vector<char> shown;                                   ///< per globe layer of the scene
   globe::GlobeView view;                                     ///< the last frame's
-  globe::GlobeFrameStats stats;                              ///< the last measured frame's
   bool fly = false;  ///< fly mode (F): WASD/QE move the eye, drags turn the view about it
-  /// The DEM's highest height above the ellipsoid: how far a lasso's volume reaches
-  /// (globe::lassoIn).
-  double maxGroundHeight = 9000.0;
 };
 
 /// The open-file dialog's state (viewer_file_browser.cpp).
@@ -301,17 +294,9 @@ class Viewer {
   [[nodiscard]] nlohmann::json tableJson() const;
   /// Mark and cover fragments of the overlay layers in the last measured frame.
   [[nodiscard]] std::uint64_t overlayFragments() const;
-  /// A shown layer's chunks and the passes that draw them (the pieces' debug view).
-  struct ShownChunks {
-    overlay::OverlayRenderer* passes = nullptr;
-    std::vector<const overlay::OverlayLayer*> chunks;
-  };
-  /// The frame into the target and the window, in either frame: the frame's own terrain and
-  /// layers (drawProjected, drawGlobe), then the selection, the pieces' debug view and the copy.
+  /// The frame into the target and the window, in either frame: the terrain and layers through
+  /// the scene's FrameRenderer, then the selection, the pieces' debug view and the copy.
   void drawScene();
-  /// A projected frame's terrain and layers into the target; its overlay view. With the debug
-  /// view of pieces, the shown layers' chunks into `shown`.
-  overlay::OverlayView drawProjected(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
 
   // The panel, a function per section (viewer_panel.cpp).
   void drawPanel();
@@ -353,8 +338,10 @@ class Viewer {
   /// Feature `feature` of scene layer `sceneLayer` alone (a globe layer's may be on disk); null
   /// when there is none.
   [[nodiscard]] std::shared_ptr<const geo::Feature> featureAt(std::size_t sceneLayer, std::size_t feature) const;
-  /// On the globe: the globe layers (fill, outline) drawing scene layer `sceneLayer`.
-  [[nodiscard]] std::vector<std::size_t> globeLayersOf(std::size_t sceneLayer) const;
+  /// The renderer's drawn layers (fill, then outline) of scene layer `sceneLayer`, in either frame.
+  [[nodiscard]] std::vector<std::size_t> drawnLayersOf(std::size_t sceneLayer) const;
+  /// The name of the scene layer a drawn layer draws (what identify's hits and the state name).
+  [[nodiscard]] std::string sceneLayerNameOf(std::size_t drawn) const;
   [[nodiscard]] std::vector<std::string> attributeNames(std::size_t sceneLayer) const;
   /// Moves the camera (animated) to frame a box in the free part of the window, keeping the heading.
   void zoomToBox(glm::dvec3 lo, glm::dvec3 hi);
@@ -456,12 +443,13 @@ class Viewer {
   /// Whether the scene file's layer `sceneLayer` is drawn now, in either frame (the legend's).
   [[nodiscard]] bool sceneLayerShown(std::size_t sceneLayer) const;
   void rebuildOverlays();
+  /// After the layers were built again (styles, technique, exaggeration): what indexed them —
+  /// identify's hits, outlines, the table's rows, the selection — is made again.
+  void layersRebuilt();
   /// Draws with `technique` from now on (the panel's method buttons, a script's method step):
   /// a texture technique at `textureSize` texels a side, or (0) at the size in use where it offers
   /// it, else at its own default (a single drape's size would be far too much per tile).
   void useTechnique(const overlay::TechniqueInfo& technique, int textureSize = 0);
-  /// On the globe: the layers built again with the description's styles (rebuildOverlays).
-  void rebuildGlobeLayers();
   void addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points);
   /// Before a change of the selection's steps: the steps as they were, for undo.
   void rememberSelection();
@@ -505,8 +493,7 @@ class Viewer {
   // The frames (viewer.cpp, viewer_navigation.cpp).
   /// Makes a loaded scene current in its frame (its renderer, the camera at home); a projected
   /// scene whose renderer fails leaves no scene (false).
-  bool showProjectedScene(scene::Scene loaded, const scene::SceneDescription& description);
-  void showGlobeScene(scene::Scene loaded, const scene::SceneDescription& description);
+  bool showScene(scene::Scene loaded, const scene::SceneDescription& description);
   /// The scene's ground in its frame (scene::Scene::projected, globe): the frame it is not in is a
   /// caller error.
   [[nodiscard]] scene::LoadedScene& projected() { return scene_->projected(); }
@@ -515,20 +502,9 @@ class Viewer {
   [[nodiscard]] const scene::LoadedGlobeScene& globeScene() const { return scene_->globe(); }
   /// Home on the globe: the scene's camera, else its data's extent framed.
   void globeHome();
-  /// The globe's terrain and layers into the target (and the point under the cursor); its
-  /// overlay view. With the debug view of pieces, the shown layers' chunks into `shown`.
-  overlay::OverlayView drawGlobe(const glm::ivec2& framebuffer, std::vector<ShownChunks>& shown);
-  /// The globe's own contents of the tools both frames draw (drawPanel's view and selection
-  /// sections, drawHud, drawHelp).
-  /// The HUD's lines of each frame's renderer (drawHud).
-  void drawProjectedHud();
-  void drawGlobeHud();
   /// The selection as state() has it in both frames: the steps, the lassos and the selected
   /// features per layer.
   [[nodiscard]] nlohmann::json selectionJson() const;
-  /// The ECEF point the last frame drew at a pixel's centre; none on background.
-  /// The features of the shown layers at a ground point (the globe's layers, for identify).
-  [[nodiscard]] std::vector<Identified::Hit> globeFeaturesAt(const GroundPoint& point) const;
   /// The globe's camera and what it drew, for state() (frameStateJson).
   [[nodiscard]] nlohmann::json globeStateJson() const;
 
@@ -563,14 +539,14 @@ class Viewer {
   double lastLoadProgress_ = -1.0;      ///< the last load's last reported fraction (-1: none)
   /// The DEM's lowest and highest post (true heights): the elevation tint's range.
   std::optional<std::pair<double, double>> demRange_;
-  std::optional<scene::Scene> scene_;  ///< the scene shown, in either frame
-  std::unique_ptr<GlobeMode> globe_;   ///< the globe's renderer and camera, when scene_ is on the globe
-  std::optional<scene::SceneRenderer> renderer_;
+  std::optional<scene::Scene> scene_;               ///< the scene shown, in either frame
+  std::unique_ptr<GlobeMode> globe_;                ///< the globe's renderer and camera, when scene_ is on the globe
+  std::unique_ptr<scene::FrameRenderer> renderer_;  ///< draws scene_ in its frame (GL objects: the GL thread's)
   std::optional<scene::CameraController> controller_;
   std::optional<overlay::SelectionRenderer> selectionRenderer_;
   std::optional<gfx::RenderTarget> target_;
   gfx::StateCache cache_;
-  scene::RenderSettings render_;
+  scene::FrameOptions render_;  ///< how the frames are drawn (the panel's switches)
   const overlay::TechniqueInfo* technique_ = &overlay::defaultTechnique();
   int drapeSize_ = 2048;  ///< texture techniques: texels per side
   bool imgui_ = false;
@@ -622,8 +598,7 @@ class Viewer {
   float panelFont_ = 0.0F;                   ///< the panel's font size, window units (0: not yet)
   double scaleBarMetres_ = 0.0;              ///< the scale bar's length as last drawn (0: none)
   double compassAngle_ = 0.0;                ///< north on screen, radians clockwise from up, as last drawn
-  scene::FrameStats stats_;
-  std::vector<overlay::LayerFrameStats> measured_;
+  scene::FrameFigures figures_;              ///< the last frame's (GPU times and fragments: the last measured one's)
   double frameMs_ = 16.0;
   double selectionMs_ = 0.0;  ///< wall time of the last logical selection (features and posts)
   std::size_t frameIndex_ = 0;

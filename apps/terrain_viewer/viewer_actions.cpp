@@ -25,123 +25,70 @@ namespace gis::viewer {
 
 std::optional<bool> Viewer::layerShown(std::size_t sceneLayer) const {
   std::optional<bool> shown;
-  if (globe_) {
-    for (const std::size_t j : globeLayersOf(sceneLayer)) shown = shown.value_or(false) || globe_->shown[j] != 0;
-    return shown;
-  }
-  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-    if (renderer_->overlaySources()[j].first == sceneLayer) shown = shown.value_or(false) || renderer_->shown(j);
-  }
+  for (const std::size_t j : drawnLayersOf(sceneLayer)) shown = shown.value_or(false) || renderer_->drawnLayerShown(j);
   return shown;
 }
 
 bool Viewer::sceneLayerShown(std::size_t sceneLayer) const {
-  if (globe_) {
-    // On the globe a scene layer may be drawn as an area and an outline: shown if either is.
-    for (const std::size_t j : globeLayersOf(sceneLayer))
-      if (j < globe_->shown.size() && globe_->shown[j] != 0) return true;
-    return false;
-  }
+  // A scene layer may be drawn as an area and an outline: shown if either is.
   return scene_ && layerShown(sceneLayer).value_or(false);
 }
 
 void Viewer::setLayerShown(std::size_t sceneLayer, bool shown) {
-  if (globe_) {
-    for (const std::size_t j : globeLayersOf(sceneLayer)) globe_->shown[j] = static_cast<char>(shown);
-    return;
-  }
-  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-    if (renderer_->overlaySources()[j].first == sceneLayer) renderer_->setShown(j, shown);
-  }
+  for (const std::size_t j : drawnLayersOf(sceneLayer)) renderer_->setDrawnLayerShown(j, shown);
 }
 
 void Viewer::setExaggeration(double exaggeration) {
   finishSelection();  // the selection job reads the heights
+  if (exaggeration == this->exaggeration()) return;
+  // The frame's heights own it (a projected scene's bounds: the pieces' heights are refreshed at
+  // the next frame; the globe's grid: its terrain and the layers' tiles are made again).
+  renderer_->setExaggeration(exaggeration);
   if (globe_) {
-    // The globe's heights own it: its terrain, the layers' tiles (their bounds, and the anchors of
-    // lines in pixels) and the camera's ground are made again from the exaggerated heights.
+    // The camera's ground is the new grid.
     GlobeMode& g = *globe_;
-    if (exaggeration == globeScene().heights->exaggeration()) return;
-    globeScene().heights = globe::GeoGrid::exaggerated(globeScene().heights, exaggeration);
-    g.renderer = std::make_unique<globe::GlobeRenderer>(globeScene().heights);
-    if (globeScene().imagery) g.renderer->setImagery(globeScene().imagery);
     const scene::GlobePose pose = g.controller->pose();
     g.controller->setGround(globeScene().heights.get());
     g.controller->setPose(pose);
-    g.maxGroundHeight = std::max(globeScene().heights->bounds({-180.0, -90.0, 180.0, 90.0}).second, 0.0);
-    rebuildGlobeLayers();
-    selectionChanged();
-    return;
+    layersRebuilt();
   }
-  // The bounds own it; the renderer refreshes the pieces' heights at the next frame (no
-  // rebuild of the footprints).
-  projected().bounds->setExaggeration(exaggeration);
   selectionChanged();
 }
 
 double Viewer::exaggeration() const {
-  if (globe_) return globeScene().heights->exaggeration();
-  return scene_ ? projected().bounds->exaggeration() : 1.0;
+  if (!scene_) return 1.0;
+  return globe_ ? globeScene().heights->exaggeration() : projected().bounds->exaggeration();
 }
 
 void Viewer::useTechnique(const overlay::TechniqueInfo& technique, int textureSize) {
-  technique_ = &technique;
   const std::span<const int> sizes = technique.textureSizes;
+  int size = drapeSize_;
   if (textureSize > 0) {
-    drapeSize_ = textureSize;
-  } else if (technique.usesTextures() && std::find(sizes.begin(), sizes.end(), drapeSize_) == sizes.end()) {
-    drapeSize_ = technique.defaultTextureSize;
+    size = textureSize;
+  } else if (technique.usesTextures() && std::find(sizes.begin(), sizes.end(), size) == sizes.end()) {
+    size = technique.defaultTextureSize;
   }
-  if (!globe_) rebuildOverlays();  // the globe's renderer takes both at its next frame
+  if (renderer_) {
+    finishSelection();  // the selection job reads the layers
+    Diagnostics d;
+    const bool drawn = renderer_->setTechnique(technique, size, d);
+    message(d);
+    if (!drawn) return;
+    layersRebuilt();
+  }
+  technique_ = &technique;
+  drapeSize_ = size;
 }
 
 void Viewer::rebuildOverlays() {
   // Styles, order and the method are baked into the pieces: rebuild (Olinda: a fraction of a
   // second), keeping which layers are hidden.
   finishSelection();  // the selection job reads the layers
-  if (globe_) {
-    rebuildGlobeLayers();
-    return;
-  }
-  std::vector<bool> hidden(projected().layers.size(), false);
-  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-    if (!renderer_->shown(j)) hidden[renderer_->overlaySources()[j].first] = true;
-  }
-  for (std::size_t i = 0; i < projected().layers.size(); ++i) {
-    projected().layers[i].description = description_->layers[i];
-  }
-  scene::OverlayBuildSettings build;
-  build.technique = technique_;
-  build.textureSize = drapeSize_;
-  message(renderer_->buildOverlays(projected(), build));
-  for (std::size_t i = 0; i < hidden.size(); ++i) {
-    if (hidden[i]) setLayerShown(i, false);
-  }
-  outlines_.clear();
-  if (table_) table_->dirty = true;
-  selectionChanged();
+  message(renderer_->restyle(description_->layers));
+  layersRebuilt();
 }
 
-void Viewer::rebuildGlobeLayers() {
-  // The globe layers again from the features as read (shared, not read again), each source layer
-  // with its style as edited; which scene layers are hidden stays. Each build is new to the
-  // renderer (GlobeLayer::serial): its tiles are built again, in the new colours and widths.
-  GlobeMode& g = *globe_;
-  std::set<std::size_t> hidden;
-  for (std::size_t j = 0; j < globeScene().layers.size(); ++j)
-    if (g.shown[j] == 0) hidden.insert(globeScene().layerFileIndex[j]);
-  for (scene::LoadedLayer& source : globeScene().sourceLayers) {
-    for (const scene::LayerDescription& d : description_->layers)
-      if (d.fileIndex == source.description.fileIndex) source.description = d;
-  }
-  globeScene().description.layers = description_->layers;
-  Diagnostics diagnostics;
-  scene::buildGlobeLayers(globeScene(), diagnostics);
-  message(diagnostics);
-  g.shown.assign(globeScene().layers.size(), static_cast<char>(1));
-  for (std::size_t j = 0; j < globeScene().layers.size(); ++j)
-    if (hidden.contains(globeScene().layerFileIndex[j])) g.shown[j] = 0;
-  identified_.reset();  // its hits index the old layers
+void Viewer::layersRebuilt() {
   outlines_.clear();
   if (table_) table_->dirty = true;
   selectionChanged();
@@ -151,17 +98,9 @@ void Viewer::addLasso(overlay::SelectionOp op, std::vector<glm::dvec2> points) {
   const glm::ivec2 fb = framebufferSize();
   overlay::SelectionStep step;
   step.op = op;
-  if (globe_) {
-    // In the view the lasso was drawn in (the last frame's), reaching that eye's horizon: not
-    // through the globe to its other side.
-    step.lasso = globe::lassoIn(globe_->view, std::move(points), globe_->maxGroundHeight);
-  } else {
-    step.lasso.points = std::move(points);
-    const scene::Camera c = camera();
-    step.lasso.viewProj = c.projection(aspect()) * c.view();
-    step.lasso.width = fb.x;
-    step.lasso.height = fb.y;
-  }
+  // In the view the lasso was drawn in (the last frame's); on the globe it reaches that eye's
+  // horizon, not through the globe to its other side.
+  step.lasso = scene_->lassoIn(frameCamera(), std::move(points), fb.x, fb.y);
   rememberSelection();
   // A plain click-drag replaces the selection (Single starts a new chain).
   if (op == overlay::SelectionOp::Single) steps_.clear();
@@ -218,33 +157,21 @@ void Viewer::selectionChanged() {
 }
 
 void Viewer::startSelection() {
-  if (steps_.empty() || (!globe_ && (!scene_ || !renderer_))) return;
+  if (steps_.empty() || !scene_ || !renderer_) return;
   const glm::ivec2 fb = framebufferSize();
   const std::vector<overlay::SelectionStep> steps = steps_;
   jobGeneration_ = selectionGeneration_;
   // Reads the scene and the layers only; whatever changes them waits for it first
   // (finishSelection). Features are sampled at half a pixel's footprint at the view's target.
-  if (globe_) {
-    const globe::GlobeView view = globe_->view;
-    const scene::LoadedGlobeScene* scene = &globeScene();
-    selectionJob_ = std::async(std::launch::async, [scene, steps, view] {
-      const auto start = std::chrono::steady_clock::now();
-      scene::GlobeSelection chosen = scene::selectOnGlobe(*scene, steps, view);
-      return scene::selectedFeaturesOf(*scene, std::move(chosen),
-                                       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    });
-    return;
-  }
-  const scene::Camera c = camera();
+  const scene::FrameCamera camera = frameCamera();
   const int width = std::max(fb.x, 1), height = std::max(fb.y, 1);
-  // A paged scene loads tiles while it draws, so it selects in this thread.
-  const auto job = [this, steps, c, width, height] {
-    const auto start = std::chrono::steady_clock::now();
-    scene::SceneSelection chosen = scene::selectInScene(projected(), *renderer_, steps, c, width, height);
-    return scene::selectedFeaturesOf(projected(), *renderer_, std::move(chosen),
-                                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  const scene::FrameRenderer* renderer = renderer_.get();
+  const auto job = [renderer, steps, camera, width, height] {
+    return renderer->selectFeatures(steps, camera, width, height, std::nullopt);
   };
-  selectionJob_ = std::async(projected().paged() ? std::launch::deferred : std::launch::async, job);
+  // A paged projected scene loads tiles while it draws, so it selects in this thread.
+  const bool paged = !globe_ && projected().paged();
+  selectionJob_ = std::async(paged ? std::launch::deferred : std::launch::async, job);
 }
 
 void Viewer::pollSelection(bool wait) {
@@ -279,11 +206,7 @@ bool Viewer::exportSelection(const std::filesystem::path& path) {
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
   const std::filesystem::path beside = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
-  const Diagnostics d =
-      globe_ ? scene::exportGlobeSelection(globeScene(), std::get<scene::GlobeSelection>(selected_->selection), path,
-                                           beside)
-             : scene::exportSelection(projected(), *renderer_, std::get<scene::SceneSelection>(selected_->selection),
-                                      path, beside);
+  const Diagnostics d = renderer_->exportSelection(*selected_, path, beside);
   message(d);
   if (d.hasErrors()) {
     notify("Export to " + path.string() + " failed: see Messages", true);

@@ -68,43 +68,38 @@ std::string attributeText(const geo::AttributeValue& value) {
 }
 
 std::optional<std::size_t> Viewer::fillLayerOf(std::size_t sceneLayer) const {
-  for (std::size_t j = 0; j < renderer_->overlaySources().size(); ++j) {
-    if (renderer_->overlaySources()[j] == std::make_pair(sceneLayer, false)) return j;
+  for (const std::size_t j : drawnLayersOf(sceneLayer)) {
+    if (!renderer_->drawnLayerSource(j).outline) return j;
   }
   return std::nullopt;
 }
 
 const std::vector<geo::Feature>* Viewer::featuresOf(std::size_t sceneLayer) const {
-  if (globe_) {
-    // The features every globe layer of this scene layer was built from (one list, shared).
-    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
-    if (drawn.empty()) return nullptr;
-    return &globeScene().layerFeatures[drawn.front()].all();
-  }
-  const std::optional<std::size_t> fill = fillLayerOf(sceneLayer);
-  return fill ? &renderer_->overlayLayers()[*fill].features() : nullptr;
+  // The features every drawn layer of this scene layer was built from (a fill and its outline
+  // share them).
+  const std::vector<std::size_t> drawn = drawnLayersOf(sceneLayer);
+  return drawn.empty() ? nullptr : renderer_->drawnLayerFeatures(drawn.front());
 }
 
 std::shared_ptr<const geo::Feature> Viewer::featureAt(std::size_t sceneLayer, std::size_t feature) const {
-  if (globe_) {
-    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
-    if (drawn.empty() || drawn.front() >= globeScene().layerFeatures.size()) return nullptr;
-    const overlay::SharedFeatures& features = globeScene().layerFeatures[drawn.front()];
-    return feature < features.size() ? features.get(feature) : nullptr;
-  }
-  const std::vector<geo::Feature>* features = featuresOf(sceneLayer);
-  if (features == nullptr || feature >= features->size()) return nullptr;
-  // The renderer's layer owns it: a shared pointer that does not.
-  return {std::shared_ptr<const geo::Feature>(), &(*features)[feature]};
+  const std::vector<std::size_t> drawn = drawnLayersOf(sceneLayer);
+  return drawn.empty() ? nullptr : renderer_->drawnLayerFeature(drawn.front(), feature);
 }
 
-std::vector<std::size_t> Viewer::globeLayersOf(std::size_t sceneLayer) const {
+std::vector<std::size_t> Viewer::drawnLayersOf(std::size_t sceneLayer) const {
   std::vector<std::size_t> out;
-  if (!globe_ || !description_ || sceneLayer >= description_->layers.size()) return out;
+  if (!renderer_ || !description_ || sceneLayer >= description_->layers.size()) return out;
   const std::size_t fileIndex = description_->layers[sceneLayer].fileIndex;
-  for (std::size_t j = 0; j < globeScene().layerFileIndex.size(); ++j)
-    if (globeScene().layerFileIndex[j] == fileIndex) out.push_back(j);
+  for (std::size_t j = 0; j < renderer_->drawnLayerCount(); ++j)
+    if (renderer_->drawnLayerSource(j).fileIndex == fileIndex) out.push_back(j);
   return out;
+}
+
+std::string Viewer::sceneLayerNameOf(std::size_t drawn) const {
+  const std::size_t fileIndex = renderer_->drawnLayerSource(drawn).fileIndex;
+  for (const scene::LayerDescription& d : description_->layers)
+    if (d.fileIndex == fileIndex) return d.name;
+  return renderer_->drawnLayerName(drawn);
 }
 
 std::vector<std::string> Viewer::attributeNames(std::size_t sceneLayer) const {
@@ -244,7 +239,7 @@ void Viewer::openTable(std::size_t sceneLayer) {
   }
   table_ = AttributeTable{};
   table_->sceneLayer = sceneLayer;
-  table_->overlayLayer = globe_ ? 0 : *fillLayerOf(sceneLayer);
+  table_->overlayLayer = fillLayerOf(sceneLayer).value_or(0);
   table_->columns = attributeNames(sceneLayer);
   table_->dirty = true;
 }
@@ -485,11 +480,8 @@ std::set<std::pair<std::size_t, std::size_t>> Viewer::highlightedFeatures() cons
   std::set<std::pair<std::size_t, std::size_t>> out;
   if (identified_) {
     for (const Identified::Hit& h : identified_->hits) {
-      for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-        if (!renderer_->overlaySources()[j].second &&
-            projected().layers[renderer_->overlaySources()[j].first].description.name == h.layer) {
-          out.emplace(j, h.feature);
-        }
+      for (std::size_t j = 0; j < renderer_->drawnLayerCount(); ++j) {
+        if (!renderer_->drawnLayerSource(j).outline && sceneLayerNameOf(j) == h.layer) out.emplace(j, h.feature);
       }
     }
   }
@@ -509,10 +501,8 @@ const std::vector<std::vector<glm::dvec3>>& Viewer::outlineOf(std::size_t overla
   const auto cached = outlines_.find(key);
   if (cached != outlines_.end()) return cached->second;
   // The feature's boundary (rings, or the centre line) lifted onto the full-resolution terrain.
-  const std::vector<geo::Feature>& features = renderer_->overlayLayers()[overlayLayer].features();
-  return outlines_
-      .emplace(key,
-               feature < features.size() ? liftedBoundary(features[feature]) : std::vector<std::vector<glm::dvec3>>())
+  const std::shared_ptr<const geo::Feature> source = renderer_->drawnLayerFeature(overlayLayer, feature);
+  return outlines_.emplace(key, source ? liftedBoundary(*source) : std::vector<std::vector<glm::dvec3>>())
       .first->second;
 }
 
@@ -701,8 +691,7 @@ void Viewer::drawHighlights() {
   if (identified_) {
     for (const auto& f : features) {
       for (const Identified::Hit& hit : identified_->hits) {
-        if (hit.feature == f.second &&
-            projected().layers[renderer_->overlaySources()[f.first].first].description.name == hit.layer) {
+        if (hit.feature == f.second && sceneLayerNameOf(f.first) == hit.layer) {
           identified.insert(f);
         }
       }

@@ -109,7 +109,7 @@ void Viewer::setLabels(std::size_t sceneLayer, const std::string& attribute) {
   if (!fill) return;
   LabelSet set;
   set.attribute = attribute;
-  set.labels = app::layerLabels(renderer_->overlayLayers()[*fill].features(), attribute);
+  set.labels = app::layerLabels(*renderer_->drawnLayerFeatures(*fill), attribute);
   labelSets_[sceneLayer] = std::move(set);
   showLabels_ = true;
 }

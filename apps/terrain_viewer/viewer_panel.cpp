@@ -125,7 +125,7 @@ void Viewer::drawViewSection() {
   if (!globe_) {
     ImGui::SameLine();
     ImGui::Checkbox("wireframe", &render_.wireframe);
-    if (renderer_->terrainEngine().hasImagery()) {
+    if (renderer_->hasImagery()) {
       ImGui::SameLine();
       ImGui::Checkbox("imagery", &settings_.imagery);
     }
@@ -166,24 +166,20 @@ void Viewer::drawDrapeSize() {
   ImGui::SetNextItemWidth(6.0F * ImGui::GetFontSize());
   if (ImGui::BeginCombo("##drape size", current.c_str())) {
     for (const int size : technique_->textureSizes) {
-      if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_) {
-        drapeSize_ = size;
-        if (!globe_) rebuildOverlays();
-      }
+      if (ImGui::Selectable((std::to_string(size) + "²").c_str(), size == drapeSize_) && size != drapeSize_)
+        useTechnique(*technique_, size);
     }
     ImGui::EndCombo();
   }
-  if (globe_) {
-    // Texels in degrees: the globe's drapes lie in longitude and latitude.
-    if (const overlay::TextureDrape* drape = globe_->renderer->overlay().textureDrape()) {
+  if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
+    // Texels in metres, or on the globe in degrees (its drapes lie in longitude and latitude).
+    if (globe_) {
       ImGui::TextDisabled("%.4f° texels, %.0f MB, built in %.2f s", drape->extent().size.y / drape->size(),
                           static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
     } else {
-      ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(globe_->stats.overlay.drapeGpuBytes) / 1048576.0);
+      ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
+                          static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
     }
-  } else if (const overlay::TextureDrape* drape = renderer_->textureDrape()) {
-    ImGui::TextDisabled("%.1f m texels, %.0f MB, built in %.2f s", drape->extent().size.x / drape->size(),
-                        static_cast<double>(drape->stats().gpuBytes) / 1048576.0, drape->stats().buildSeconds);
   } else {
     ImGui::TextDisabled("%.0f MB of tiles", static_cast<double>(renderer_->techniqueGpuBytes()) / 1048576.0);
   }
@@ -192,7 +188,7 @@ void Viewer::drawDrapeSize() {
 void Viewer::drawLayersSection() {
   if (!ImGui::CollapsingHeader("Layers", ImGuiTreeNodeFlags_DefaultOpen)) return;
   // Each scene layer alike in both frames: shown, style, categories, labels, its table.
-  const std::size_t layers = globe_ ? description_->layers.size() : projected().layers.size();
+  const std::size_t layers = description_->layers.size();
   bool rebuild = false;
   for (std::size_t i = 0; i < layers; ++i) rebuild = drawLayer(i) || rebuild;
   if (rebuild) rebuildOverlays();
@@ -209,17 +205,7 @@ bool Viewer::drawLayer(std::size_t i) {
   if (ImGui::Checkbox("##shown", &shown)) setLayerShown(i, shown);
   if (!built) ImGui::EndDisabled();
   ImGui::SameLine();
-  scene::LayerSummary summary;
-  if (globe_) {
-    // On the globe: what was read (the same LoadedLayer as a projected scene's).
-    for (const scene::LoadedLayer& source : globeScene().sourceLayers) {
-      if (source.description.fileIndex != layer.fileIndex) continue;
-      summary.features = source.features.size() + source.skippedFeatures;
-      summary.skippedReading = source.skippedFeatures;
-    }
-  } else {
-    summary = renderer_->layerSummary(projected(), i);
-  }
+  const scene::LayerSummary summary = renderer_->layerSummary(layer.fileIndex);
   const bool open = ImGui::TreeNode("layer", "%s (%zu features)", layer.name.c_str(), summary.features);
   if (summary.skipped() > 0 || summary.nothingToDraw > 0) {
     // Nothing is lost silently: the counts here, each feature named under Messages.
@@ -440,7 +426,7 @@ void Viewer::drawMessagesSection() {
 
 std::uint64_t Viewer::overlayFragments() const {
   std::uint64_t fragments = 0;
-  for (const overlay::LayerFrameStats& l : stats_.layers) fragments += l.markFragments + l.coverFragments;
+  for (const scene::FrameFigures::LayerPasses& l : figures_.layers) fragments += l.markFragments + l.coverFragments;
   return fragments;
 }
 
@@ -464,72 +450,50 @@ void Viewer::beginHud() {
 
 void Viewer::drawHud() {
   beginHud();
-  // What the frame drew and cost, in its renderer's figures; then where the eye is.
-  if (globe_) {
-    drawGlobeHud();
+  // What the frame drew and cost, in its renderer's figures (the same in both frames); then where
+  // the eye is.
+  const scene::FrameFigures& f = figures_;
+  ImGui::Text("terrain: %zu triangles, %zu %s, GPU %.2f ms", f.terrain.triangles, f.terrain.tiles,
+              globe_ ? "tiles" : "chunks", f.terrainGpuMs);
+  if (!render_.overlays) {
+    ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
+  } else if (f.draped) {
+    ImGui::Text("overlays: draped by the terrain, %zu textures built, %.0f MB", f.texturesBuilt,
+                static_cast<double>(f.drapeBytes) / 1048576.0);
   } else {
-    drawProjectedHud();
+    ImGui::Text("overlays: GPU %.2f ms, %.2f M fragments, %zu pieces, %zu z-fail", f.overlayGpuMs,
+                static_cast<double>(overlayFragments()) * 1e-6, f.drawnPieces, f.zFailPieces);
+    // Each shown layer's passes.
+    for (std::size_t j = 0; j < renderer_->drawnLayerCount() && j < f.layers.size(); ++j) {
+      if (!renderer_->drawnLayerShown(j)) continue;
+      const scene::FrameFigures::LayerPasses& l = f.layers[j];
+      ImGui::TextDisabled("  %s: %.2f ms, %zu pieces", renderer_->drawnLayerName(j).c_str(), l.gpuMs, l.pieces);
+    }
+    if (f.deferredPending > 0) {
+      ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "deferred lookup: %zu index%s building (drawn as pieces)",
+                         f.deferredPending, f.deferredPending == 1 ? "" : "es");
+    }
+    if (f.deferredLayers > 0) {
+      ImGui::Text("deferred lookup: %zu layer%s, %.0f MB of indices", f.deferredLayers,
+                  f.deferredLayers == 1 ? "" : "s", static_cast<double>(f.deferredBytes) / 1048576.0);
+    }
+  }
+  if (globe_) {
+    const globe::Geodetic eye = globe::toGeodetic(globe_->controller->eye());
+    ImGui::Text("eye: lon %.6f°, lat %.6f°", eye.lon, eye.lat);
+    ImGui::Text("     %s above ground, %s above the ellipsoid",
+                formatMetres(globe_->controller->heightAboveGround()).c_str(), formatMetres(eye.h).c_str());
+  } else {
+    if (projected().paged()) {
+      ImGui::Text("tiles: %zu resident, %zu loading", f.terrainResidentTiles, f.terrainPending);
+    }
+    const scene::Camera c = camera();
+    if (const std::optional<glm::dvec3> ll =
+            projected().frame.toLonLat(c.eye / glm::dvec3(1, 1, projected().bounds->exaggeration()))) {
+      ImGui::Text("eye: %s, height %.0f m", formatLonLat(*ll).c_str(), ll->z);
+    }
   }
   ImGui::End();
-}
-
-void Viewer::drawProjectedHud() {
-  ImGui::Text("terrain: %zu triangles, %zu chunks, GPU %.2f ms", stats_.terrainDraw.triangles,
-              stats_.terrainDraw.chunks, stats_.terrain.gpuMilliseconds);
-  if (!render_.overlays) {
-    ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
-  } else {
-    double overlayMs = 0.0;
-    const std::uint64_t fragments = overlayFragments();
-    std::size_t zFail = 0;
-    for (const overlay::LayerFrameStats& l : stats_.layers) {
-      overlayMs += l.gpuMilliseconds;
-      zFail += l.zFailPieces;
-    }
-    ImGui::Text("overlays: GPU %.2f ms, %.2f M fragments, %zu z-fail pieces", overlayMs,
-                static_cast<double>(fragments) * 1e-6, zFail);
-    for (std::size_t j = 0; j < stats_.layers.size() && j < renderer_->overlayLayers().size(); ++j) {
-      const overlay::LayerFrameStats& l = stats_.layers[j];
-      ImGui::TextDisabled("  %s: %.2f ms, %zu pieces", renderer_->overlayLayers()[j].name().c_str(), l.gpuMilliseconds,
-                          l.zPassPieces + l.zFailPieces);
-    }
-  }
-  if (projected().paged()) {
-    ImGui::Text("tiles: %zu resident, %zu loading", stats_.pager.residentTiles, stats_.pager.pending);
-  }
-  const scene::Camera c = camera();
-  if (const std::optional<glm::dvec3> ll =
-          projected().frame.toLonLat(c.eye / glm::dvec3(1, 1, projected().bounds->exaggeration()))) {
-    ImGui::Text("eye: %s, height %.0f m", formatLonLat(*ll).c_str(), ll->z);
-  }
-}
-
-void Viewer::drawGlobeHud() {
-  const GlobeMode& g = *globe_;
-  ImGui::Text("globe terrain: %zu triangles, %zu tiles, GPU %.2f ms", g.stats.terrain.triangles, g.stats.terrain.tiles,
-              g.stats.terrainGpuMilliseconds);
-  if (!render_.overlays) {
-    ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "overlays off (O)");
-  } else if (g.stats.overlay.draped) {
-    ImGui::Text("overlays: draped by the terrain, %zu textures built, %.0f MB", g.stats.overlay.texturesBuilt,
-                static_cast<double>(g.stats.overlay.drapeGpuBytes) / 1048576.0);
-  } else {
-    ImGui::Text("overlays: GPU %.2f ms, %zu pieces, %zu z-fail", g.stats.overlayGpuMilliseconds, g.stats.overlay.pieces,
-                g.stats.overlay.zFailPieces);
-    if (g.stats.overlay.deferredPending > 0) {
-      ImGui::TextColored(ImVec4(1.0F, 0.8F, 0.2F, 1.0F), "deferred lookup: %zu index%s building (drawn as pieces)",
-                         g.stats.overlay.deferredPending, g.stats.overlay.deferredPending == 1 ? "" : "es");
-    }
-    if (g.stats.overlay.deferredLayers > 0) {
-      ImGui::Text("deferred lookup: %zu layer%s, %.0f MB of indices", g.stats.overlay.deferredLayers,
-                  g.stats.overlay.deferredLayers == 1 ? "" : "s",
-                  static_cast<double>(g.stats.overlay.deferredBytes) / 1048576.0);
-    }
-  }
-  const globe::Geodetic eye = globe::toGeodetic(g.controller->eye());
-  ImGui::Text("eye: lon %.6f°, lat %.6f°", eye.lon, eye.lat);
-  ImGui::Text("     %s above ground, %s above the ellipsoid", formatMetres(g.controller->heightAboveGround()).c_str(),
-              formatMetres(eye.h).c_str());
 }
 
 void Viewer::drawNoScene() {

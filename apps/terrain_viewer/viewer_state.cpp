@@ -109,26 +109,26 @@ std::optional<Identified> Viewer::identify(const glm::dvec2& pixel) {
   id.point = *ground;
   if (globe_) {
     id.terrainHeight = globeScene().heights->unexaggerated().heightAt(ground->lonLatH->x, ground->lonLatH->y);
-    id.hits = globeFeaturesAt(*ground);
-    return id;
+  } else {
+    id.terrainHeight =
+        projected().bounds->fullResolutionHeightAt(glm::dvec2(ground->drawn)) / projected().bounds->exaggeration();
   }
-  const glm::dvec3 world = ground->drawn;
-  const scene::Camera c = camera();
-  const glm::dmat4 viewProj = c.projection(aspect()) * c.view();
-  const double exaggeration = projected().bounds->exaggeration();
-  id.terrainHeight = projected().bounds->fullResolutionHeightAt(glm::dvec2(world)) / exaggeration;
-  const overlay::PixelScale scale = overlay::pixelScaleOf(viewProj, target_->height());
-  for (std::size_t j = 0; j < renderer_->overlayLayers().size(); ++j) {
-    if (renderer_->overlaySources()[j].second || !renderer_->shown(j)) continue;
-    const overlay::OverlayLayer& layer = renderer_->overlayLayers()[j];
-    const overlay::ReferenceLayer ref = overlay::referenceLayerOf(layer);
-    for (std::size_t f = 0; f < layer.features().size(); ++f) {
-      if (!overlay::featureCovers(ref, f, glm::dvec2(world), scale)) continue;
+  // Every shown drawn layer's features there, a fill's and its outline's: each feature once.
+  const scene::FrameCamera camera = frameCamera();
+  const glm::ivec2 size(target_->width(), target_->height());
+  std::set<std::pair<std::size_t, std::size_t>> seen;
+  for (std::size_t j = 0; j < renderer_->drawnLayerCount(); ++j) {
+    if (!renderer_->drawnLayerShown(j)) continue;
+    const std::size_t fileIndex = renderer_->drawnLayerSource(j).fileIndex;
+    for (const std::size_t f : renderer_->featuresAt(j, ground->drawn, camera, size.x, size.y)) {
+      if (!seen.insert({fileIndex, f}).second) continue;
       Identified::Hit hit;
-      hit.layer = projected().layers[renderer_->overlaySources()[j].first].description.name;
+      hit.layer = sceneLayerNameOf(j);
       hit.feature = f;
-      hit.fid = layer.features()[f].fid;
-      for (const auto& [k, v] : layer.features()[f].attributes) hit.attributes.emplace_back(k, attributeText(v));
+      if (const std::shared_ptr<const geo::Feature> feature = renderer_->drawnLayerFeature(j, f)) {
+        hit.fid = feature->fid;
+        for (const auto& [k, v] : feature->attributes) hit.attributes.emplace_back(k, attributeText(v));
+      }
       id.hits.push_back(std::move(hit));
     }
   }
@@ -215,7 +215,7 @@ nlohmann::json Viewer::state() const {
   for (const auto& [name, r] : uiRects_) rects[name] = {r.x, r.y, r.z, r.w};
   // Per layer of the scene file, as the panel lists them in both frames.
   nlohmann::json layers = nlohmann::json::array();
-  for (std::size_t i = 0; i < description_->layers.size() && (globe_ || i < projected().layers.size()); ++i) {
+  for (std::size_t i = 0; i < description_->layers.size(); ++i) {
     const overlay::LayerStyle& style = description_->layers[i].style;
     nlohmann::json categories = nlohmann::json::object();
     for (const auto& [value, c] : style.categories) categories[value] = {c.x, c.y, c.z};
@@ -283,22 +283,22 @@ nlohmann::json Viewer::state() const {
 }
 
 nlohmann::json Viewer::frameLayerJson(std::size_t sceneLayer) const {
+  const scene::LayerSummary summary = renderer_->layerSummary(description_->layers[sceneLayer].fileIndex);
+  nlohmann::json j = {{"features", summary.features}};
   if (globe_) {
-    const std::vector<std::size_t> drawn = globeLayersOf(sceneLayer);
-    std::size_t polygons = 0, lines = 0, features = 0;
-    for (const std::size_t d : drawn) {
+    // The globe builds by tiles: what its layers hold (areas and lines) instead of what was drawn.
+    std::size_t polygons = 0, lines = 0;
+    for (const std::size_t d : drawnLayersOf(sceneLayer)) {
       polygons += globeScene().layers[d].polygons().size();
       lines += globeScene().layers[d].lines().size();
     }
-    if (!drawn.empty() && drawn.front() < globeScene().layerFeatures.size())
-      features = globeScene().layerFeatures[drawn.front()].size();
-    return {{"features", features}, {"polygons", polygons}, {"lines", lines}};
+    j.update({{"polygons", polygons}, {"lines", lines}});
+    return j;
   }
-  const scene::LayerSummary summary = renderer_->layerSummary(projected(), sceneLayer);
-  return {{"features", summary.features},
-          {"skipped_features", summary.skipped()},
-          {"features_with_nothing_to_draw", summary.nothingToDraw},
-          {"drawn_features", summary.drawnFeatures}};
+  j.update({{"skipped_features", summary.skipped()},
+            {"features_with_nothing_to_draw", summary.nothingToDraw},
+            {"drawn_features", summary.drawnFeatures}});
+  return j;
 }
 
 nlohmann::json Viewer::frameStateJson() const {
@@ -314,34 +314,9 @@ nlohmann::json Viewer::frameStateJson() const {
             {"distance", pose.distance}}},
           {"drawn",
            {{"ms", frameMs_},  // smoothed wall time per frame
-            {"terrain_triangles", stats_.terrainDraw.triangles},
+            {"terrain_triangles", figures_.terrain.triangles},
             {"overlay_fragments", overlayFragments()},
             {"selection_ms", selectionMs_}}}};  // the CPU twin's logical selection, last run
-}
-
-std::vector<Identified::Hit> Viewer::globeFeaturesAt(const GroundPoint& point) const {
-  const GlobeMode& g = *globe_;
-  std::vector<Identified::Hit> hits;
-  std::set<std::pair<std::size_t, std::uint32_t>> seen;  // a fill and its outline name a feature once
-  for (std::size_t i = 0; i < globeScene().layers.size(); ++i) {
-    if (g.shown[i] == 0) continue;
-    const std::size_t fileIndex = globeScene().layerFileIndex[i];
-    const scene::LayerDescription* described = scene::sceneLayerOf(globeScene(), i);
-    for (const std::uint32_t f : globe::featuresAt(globeScene().layers[i], point.drawn, point.lonLatH->x,
-                                                   point.lonLatH->y, globe::pixelScaleOf(g.view))) {
-      if (!seen.insert({fileIndex, f}).second) continue;
-      Identified::Hit hit;
-      hit.layer = described != nullptr ? described->name : globeScene().layers[i].name();
-      hit.feature = f;
-      if (i < globeScene().layerFeatures.size() && f < globeScene().layerFeatures[i].size()) {
-        const std::shared_ptr<const geo::Feature> feature = globeScene().layerFeatures[i].get(f);
-        hit.fid = feature->fid;
-        for (const auto& [k, v] : feature->attributes) hit.attributes.emplace_back(k, attributeText(v));
-      }
-      hits.push_back(std::move(hit));
-    }
-  }
-  return hits;
 }
 
 nlohmann::json Viewer::globeStateJson() const {
@@ -365,16 +340,16 @@ nlohmann::json Viewer::globeStateJson() const {
         {"camera", scene::globeCameraJson(g.view)}}},
       {"drawn",
        {{"ms", frameMs_},
-        {"terrain_triangles", g.stats.terrain.triangles},
-        {"overlay_fragments", g.stats.overlayFragments},
+        {"terrain_triangles", figures_.terrain.triangles},
+        {"overlay_fragments", overlayFragments()},
         {"selection_ms", selectionMs_}}},
-      {"terrain", {{"tiles", g.stats.terrain.tiles}, {"triangles", g.stats.terrain.triangles}}},
+      {"terrain", {{"tiles", figures_.terrain.tiles}, {"triangles", figures_.terrain.triangles}}},
       {"overlay",
-       {{"pieces", g.stats.overlay.pieces},
-        {"z_fail_pieces", g.stats.overlay.zFailPieces},
-        {"deferred_layers", g.stats.overlay.deferredLayers},
-        {"deferred_pending", g.stats.overlay.deferredPending},
-        {"draped", g.stats.overlay.draped}}}};
+       {{"pieces", figures_.drawnPieces},
+        {"z_fail_pieces", figures_.zFailPieces},
+        {"deferred_layers", figures_.deferredLayers},
+        {"deferred_pending", figures_.deferredPending},
+        {"draped", figures_.draped}}}};
 }
 
 }  // namespace gis::viewer

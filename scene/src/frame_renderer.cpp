@@ -5,7 +5,9 @@
 namespace gis::scene {
 
 void FrameFigures::addLayerPasses(const overlay::LayerFrameStats& passes) {
-  layers.push_back({passes.markFragments, passes.coverFragments});
+  layers.push_back({passes.markFragments, passes.coverFragments, passes.gpuMilliseconds,
+                    passes.zPassPieces + passes.zFailPieces, passes.zFailPieces});
+  overlayGpuMs += passes.gpuMilliseconds;
   markFragments += passes.markFragments;
   coverFragments += passes.coverFragments;
   markTriangles += passes.markTriangles;

@@ -1,4 +1,5 @@
 // FrameRenderer in a projected frame: SceneRenderer's terrain quadtree and overlay technique.
+#include <algorithm>
 #include <chrono>
 #include <limits>
 
@@ -24,6 +25,16 @@ json countsJson(const gfx::PipelineCounts& c) {
           {"samples_passed", c.samplesPassed}};
 }
 
+OverlayBuildSettings buildSettings(const StillSettings& settings) {
+  OverlayBuildSettings build;
+  build.technique = settings.technique;
+  build.textureSize = settings.textureSize;
+  build.cellPosts = settings.cellPosts;
+  build.adaptiveSplit = settings.adaptiveSplit;
+  build.uniteLines = settings.uniteLines;
+  return build;
+}
+
 class ProjectedFrameRenderer final : public FrameRenderer {
  public:
   ProjectedFrameRenderer(LoadedScene& scene, SceneRenderer renderer, const StillSettings& settings)
@@ -42,11 +53,16 @@ class ProjectedFrameRenderer final : public FrameRenderer {
   FrameFigures drawFrame(gfx::StateCache& cache, const gfx::RenderTarget& target, const FrameCamera& camera,
                          const FrameOptions& options) override {
     RenderSettings settings;
-    settings.lodTolerancePixels = settings_.lodTolerancePixels;
+    settings.lodTolerancePixels =
+        options.lodTolerancePixels > 0.0 ? options.lodTolerancePixels : settings_.lodTolerancePixels;
     settings.waitForTiles = options.waitForTiles;
     settings.overlays = options.overlays;
     settings.measure = options.measure;
     settings.overlay = options.overlay;
+    settings.imagery = options.imagery;
+    settings.elevationRamp = options.elevationRamp;
+    settings.sky = options.sky;
+    settings.wireframe = options.wireframe;
     const FrameStats stats = renderer_.render(cache, target.framebuffer(), target.width(), target.height(),
                                               std::get<Camera>(camera), settings);
     FrameFigures f;
@@ -68,8 +84,74 @@ class ProjectedFrameRenderer final : public FrameRenderer {
     f.tilesBuilt = stats.overlayTiles.tilesBuilt;
     f.texturesBuilt = stats.texturesBuilt;
     f.textureSeconds = stats.textureSeconds;
+    f.tilesMissing = stats.overlayTiles.tilesMissing;
+    f.terrainPending = stats.pager.pending;
+    f.terrainResidentTiles = stats.pager.residentTiles;
+    f.deferredLayers = stats.overlayTiles.deferredLayers;
+    f.deferredBytes = stats.overlayTiles.deferredBytes;
+    f.draped = stats.draped;
+    if (stats.draped) f.drapeBytes = renderer_.techniqueGpuBytes();
     return f;
   }
+
+  [[nodiscard]] bool hasImagery() const override { return renderer_.terrainEngine().hasImagery(); }
+  bool setTechnique(const overlay::TechniqueInfo& technique, int textureSize, Diagnostics& diagnostics) override {
+    settings_.technique = &technique;
+    settings_.textureSize = textureSize;
+    diagnostics.append(rebuild());
+    return true;
+  }
+  Diagnostics restyle(std::span<const LayerDescription> layers) override {
+    for (LoadedLayer& layer : scene_.layers) {
+      for (const LayerDescription& d : layers)
+        if (d.fileIndex == layer.description.fileIndex) layer.description = d;
+    }
+    return rebuild();
+  }
+  void setExaggeration(double exaggeration) override {
+    // The bounds own it; the renderer refreshes the pieces' heights at the next frame (no
+    // rebuild of the footprints).
+    scene_.bounds->setExaggeration(exaggeration);
+  }
+  [[nodiscard]] DrawnLayerSource drawnLayerSource(std::size_t drawn) const override {
+    const auto& [layer, outline] = renderer_.overlaySources().at(drawn);
+    return {scene_.layers.at(layer).description.fileIndex, outline};
+  }
+  [[nodiscard]] bool drawnLayerShown(std::size_t drawn) const override { return renderer_.shown(drawn); }
+  void setDrawnLayerShown(std::size_t drawn, bool shown) override { renderer_.setShown(drawn, shown); }
+  [[nodiscard]] std::size_t drawnLayerFeatureCount(std::size_t drawn) const override {
+    return renderer_.overlayLayers().at(drawn).features().size();
+  }
+  [[nodiscard]] std::shared_ptr<const geo::Feature> drawnLayerFeature(std::size_t drawn,
+                                                                      std::size_t feature) const override {
+    const std::vector<geo::Feature>& features = renderer_.overlayLayers().at(drawn).features();
+    if (feature >= features.size()) return nullptr;
+    // The renderer's layer owns it: a shared pointer that does not.
+    return {std::shared_ptr<const geo::Feature>(), &features[feature]};
+  }
+  [[nodiscard]] const std::vector<geo::Feature>* drawnLayerFeatures(std::size_t drawn) const override {
+    return &renderer_.overlayLayers().at(drawn).features();
+  }
+  [[nodiscard]] std::vector<std::size_t> featuresAt(std::size_t drawn, const glm::dvec3& world,
+                                                    const FrameCamera& camera, int width, int height) const override {
+    const Camera& c = std::get<Camera>(camera);
+    const overlay::OverlayLayer& layer = renderer_.overlayLayers().at(drawn);
+    const overlay::PixelScale scale =
+        overlay::pixelScaleOf(c.projection(static_cast<double>(width) / height) * c.view(), height);
+    const overlay::ReferenceLayer ref = overlay::referenceLayerOf(layer);
+    std::vector<std::size_t> out;
+    for (std::size_t f = 0; f < layer.features().size(); ++f) {
+      if (overlay::featureCovers(ref, f, glm::dvec2(world), scale)) out.push_back(f);
+    }
+    return out;
+  }
+  [[nodiscard]] LayerSummary layerSummary(std::size_t fileIndex) const override {
+    for (std::size_t i = 0; i < scene_.layers.size(); ++i) {
+      if (scene_.layers[i].description.fileIndex == fileIndex) return renderer_.layerSummary(scene_, i);
+    }
+    return {};
+  }
+  [[nodiscard]] const overlay::TextureDrape* textureDrape() const override { return renderer_.textureDrape(); }
   [[nodiscard]] json terrainJson() const override {
     const terrain::TerrainGrid& grid = scene_.quadtree->grid();
     return {{"dem_size", {grid.width, grid.height}},
@@ -201,6 +283,19 @@ class ProjectedFrameRenderer final : public FrameRenderer {
   StillSettings settings_;
   FrameStats stats_;
 
+  /// The layers built again (another technique, or their styles), which are hidden kept.
+  Diagnostics rebuild() {
+    std::vector<std::pair<std::size_t, bool>> hidden;
+    for (std::size_t j = 0; j < renderer_.overlaySources().size(); ++j)
+      if (!renderer_.shown(j)) hidden.push_back(renderer_.overlaySources()[j]);
+    Diagnostics d = renderer_.buildOverlays(scene_, buildSettings(settings_));
+    for (std::size_t j = 0; j < renderer_.overlaySources().size(); ++j) {
+      if (std::find(hidden.begin(), hidden.end(), renderer_.overlaySources()[j]) != hidden.end())
+        renderer_.setShown(j, false);
+    }
+    return d;
+  }
+
   /// stats.json's "terrain": the DEM, its quadtree and this frame's LOD.
   [[nodiscard]] json terrainJson(const FrameImages& images) const {
     const terrain::TerrainQuadtree& tree = *scene_.quadtree;
@@ -292,13 +387,7 @@ class ProjectedFrameRenderer final : public FrameRenderer {
 }  // namespace
 
 Result<std::unique_ptr<FrameRenderer>> makeProjectedRenderer(LoadedScene& scene, const StillSettings& settings) {
-  OverlayBuildSettings build;
-  build.technique = settings.technique;
-  build.textureSize = settings.textureSize;
-  build.cellPosts = settings.cellPosts;
-  build.adaptiveSplit = settings.adaptiveSplit;
-  build.uniteLines = settings.uniteLines;
-  Result<SceneRenderer> renderer = SceneRenderer::create(scene, build);
+  Result<SceneRenderer> renderer = SceneRenderer::create(scene, buildSettings(settings));
   Result<std::unique_ptr<FrameRenderer>> out;
   out.diagnostics = std::move(renderer.diagnostics);
   if (renderer) out.value.emplace(std::make_unique<ProjectedFrameRenderer>(scene, std::move(*renderer), settings));

@@ -13,6 +13,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "gfx/state_cache.hpp"
 #include "scene/frame_readback.hpp"
 #include "scene/frame_scene.hpp"
+#include "scene/scene_renderer.hpp"
 #include "scene/selected_features.hpp"
 #include "vector_overlay/logical_selection.hpp"
 #include "vector_overlay/technique.hpp"
@@ -53,6 +55,14 @@ struct FrameOptions {
   bool measure = false;  ///< GPU timer and pipeline statistics queries around the passes (they wait)
   /// The stencil passes' switches (docs/design.md §9, the ablation's); a projected frame's.
   overlay::OverlaySettings overlay;
+  // How the ground looks (the viewer's switches); a frame ignores what it has no use for.
+  bool imagery = true;  ///< off: the hillshade instead of the scene's imagery (a projected frame's)
+  /// Where no imagery is shown, the terrain tinted by these true heights (low, high) on the
+  /// hypsometric ramp; none: grey hillshade (a projected frame's; the globe tints by height).
+  std::optional<std::pair<double, double>> elevationRamp;
+  bool sky = false;                 ///< a sky behind the terrain (a projected frame's; the globe draws space)
+  bool wireframe = false;           ///< the projected terrain's triangles as lines
+  double lodTolerancePixels = 0.0;  ///< the projected terrain's largest error in pixels; 0: the renderer's
 };
 
 /// What one frame drew and cost; GPU times and counts with FrameOptions::measure.
@@ -79,11 +89,23 @@ struct FrameFigures {
   /// the fragments of its mark and its cover.
   struct LayerPasses {
     std::uint64_t markFragments = 0, coverFragments = 0;
+    double gpuMs = 0.0;  ///< its passes' GPU time
+    std::size_t pieces = 0, zFailPieces = 0;
   };
   std::vector<LayerPasses> layers;
   /// Adds one drawn layer's measured passes (its entry in `layers`, and to the sums above).
   void addLayerPasses(const overlay::LayerFrameStats& passes);
-  std::size_t tilesBuilt = 0;     ///< a tiled technique's tiles built in this frame
+  double overlayGpuMs = 0.0;   ///< the layers' passes (measured frames only)
+  std::size_t tilesBuilt = 0;  ///< a tiled technique's tiles built in this frame
+  /// Work still arriving: the layers' tiles still building (ancestors drawn meanwhile), the
+  /// terrain's tiles still loading or its imagery still to come. The frame is not final.
+  std::size_t tilesMissing = 0, terrainPending = 0;
+  std::size_t terrainResidentTiles = 0;  ///< a paged terrain's tiles in memory
+  /// The deferred lookup: layers it drew, layers whose indices are still building (drawn by
+  /// pieces meanwhile), and its indices' bytes.
+  std::size_t deferredLayers = 0, deferredPending = 0, deferredBytes = 0;
+  bool draped = false;            ///< the terrain drew the layers from textures
+  std::size_t drapeBytes = 0;     ///< and the textures' GPU bytes
   std::size_t texturesBuilt = 0;  ///< draping: textures (or tiles of them) rasterised in this frame
   double textureSeconds = 0.0;    ///< and the time that took
 };
@@ -102,6 +124,13 @@ struct DrawnLayerBuilt {
   std::size_t features = 0, skippedFeatures = 0;
   std::size_t pieces = 0, triangles = 0, gpuBytes = 0;
   double buildSeconds = 0.0;
+};
+
+/// Which layer of the scene file a drawn layer draws (LayerDescription::fileIndex), and whether it
+/// is that layer's outline rather than its fill.
+struct DrawnLayerSource {
+  std::size_t fileIndex = 0;
+  bool outline = false;
 };
 
 /// The CPU reference's answer for some drawn layers over a depth buffer: bit k of `expected` for
@@ -172,6 +201,39 @@ class FrameRenderer {
   [[nodiscard]] virtual Diagnostics exportSelection(const SelectedFeatures& selected,
                                                     const std::filesystem::path& combined,
                                                     const std::filesystem::path& perLayerDir) const = 0;
+
+  // What an interactive program changes between frames (the viewer's panel).
+  /// The ground has imagery to show (FrameOptions::imagery).
+  [[nodiscard]] virtual bool hasImagery() const = 0;
+  /// Draws with `technique` from the next frame on, a texture technique at `textureSize` texels a
+  /// side (0: its default); what the layers' build said into `diagnostics`. False: the frame
+  /// cannot draw it (said as an error; nothing changed).
+  virtual bool setTechnique(const overlay::TechniqueInfo& technique, int textureSize, Diagnostics& diagnostics) = 0;
+  /// The layers built again with these descriptions (their styles edited; matched by fileIndex).
+  /// Layers hidden stay hidden.
+  virtual Diagnostics restyle(std::span<const LayerDescription> layers) = 0;
+  /// The vertical exaggeration: the frame's heights own it (a projected scene's bounds, the globe's
+  /// grid of heights). The layers follow by the next frame.
+  virtual void setExaggeration(double exaggeration) = 0;
+  [[nodiscard]] virtual DrawnLayerSource drawnLayerSource(std::size_t drawn) const = 0;
+  [[nodiscard]] virtual bool drawnLayerShown(std::size_t drawn) const = 0;
+  virtual void setDrawnLayerShown(std::size_t drawn, bool shown) = 0;
+  /// The features drawn layer `drawn` was built from, in the scene's frame (the source layer's as
+  /// read); feature i alone, which may be read from disk.
+  [[nodiscard]] virtual std::size_t drawnLayerFeatureCount(std::size_t drawn) const = 0;
+  [[nodiscard]] virtual std::shared_ptr<const geo::Feature> drawnLayerFeature(std::size_t drawn,
+                                                                              std::size_t feature) const = 0;
+  /// Every feature of drawn layer `drawn` at once (read into memory where they were on disk).
+  [[nodiscard]] virtual const std::vector<geo::Feature>* drawnLayerFeatures(std::size_t drawn) const = 0;
+  /// The features of drawn layer `drawn` that cover `world` (a point the frame drew: frame
+  /// coordinates, or ECEF on the globe) as the CPU reference has them, lines at their widths seen
+  /// from `camera` in a target of this size (identify).
+  [[nodiscard]] virtual std::vector<std::size_t> featuresAt(std::size_t drawn, const glm::dvec3& world,
+                                                            const FrameCamera& camera, int width, int height) const = 0;
+  /// What became of the scene file's layer `fileIndex`'s features: read, skipped, drawn.
+  [[nodiscard]] virtual LayerSummary layerSummary(std::size_t fileIndex) const = 0;
+  /// The one texture the layers are draped with (`drape`), or null.
+  [[nodiscard]] virtual const overlay::TextureDrape* textureDrape() const = 0;
 
   /// What the technique said while drawing so far, each message once.
   [[nodiscard]] virtual Diagnostics techniqueDiagnostics() const = 0;
