@@ -153,7 +153,6 @@ std::string attributeText(const geo::AttributeValue& value);
 /// The attribute table of one layer (viewer_attributes.cpp).
 struct AttributeTable {
   std::size_t sceneLayer = 0;
-  std::size_t overlayLayer = 0;      ///< its fill: the features
   std::vector<std::string> columns;  ///< every attribute name of the layer (after fid)
   std::array<char, 128> search{};
   int searchColumn = -1;  ///< -1: every column
@@ -364,15 +363,9 @@ class Viewer {
   void drawLegend();
   /// The DEM's colour ramp in the legend, when the terrain is tinted by height.
   void drawElevationLegend();
-  /// Identified, lasso-selected and table-selected features: (overlay layer, feature).
-  [[nodiscard]] std::set<std::pair<std::size_t, std::size_t>> highlightedFeatures() const;
-  /// A feature's boundary lifted onto the terrain as drawn (cached).
-  const std::vector<std::vector<glm::dvec3>>& outlineOf(std::size_t overlayLayer, std::size_t feature);
-  /// The highlighted features' own outlines over the scene, hidden parts left out.
+  /// The identified, lasso-selected and table-selected features' own outlines over the scene,
+  /// hidden parts left out (outlines_ keeps them per scene layer and feature).
   void drawHighlights();
-  /// On the globe: the identified, lasso-selected and table-selected features' outlines
-  /// (outlines_ is then kept per scene layer and feature).
-  void drawGlobeHighlights();
   /// A feature's boundary (rings, or its lines) lifted onto the ground as drawn, in either frame.
   [[nodiscard]] std::vector<std::vector<glm::dvec3>> liftedBoundary(const geo::Feature& feature) const;
   /// Lifted paths drawn over the scene, as wide as the feature is large on screen (none under
@@ -590,7 +583,8 @@ class Viewer {
   std::vector<float> frameDepth_;
   std::size_t depthFrame_ = 0;  ///< the frame frameDepth_ was read in (0: none)
   bool showLegend_ = true;
-  std::map<std::pair<std::size_t, std::size_t>, std::vector<std::vector<glm::dvec3>>> outlines_;
+  std::map<std::pair<std::size_t, std::size_t>, std::vector<std::vector<glm::dvec3>>>
+      outlines_;  ///< by scene layer and feature
   double outlinesExaggeration_ = 0.0;
   std::size_t highlightedCount_ = 0;         ///< features outlined in the last frame
   std::optional<GroundPoint> cursorGround_;  ///< under the cursor in the last frame

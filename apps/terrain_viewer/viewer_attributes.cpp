@@ -239,7 +239,6 @@ void Viewer::openTable(std::size_t sceneLayer) {
   }
   table_ = AttributeTable{};
   table_->sceneLayer = sceneLayer;
-  table_->overlayLayer = fillLayerOf(sceneLayer).value_or(0);
   table_->columns = attributeNames(sceneLayer);
   table_->dirty = true;
 }
@@ -476,36 +475,6 @@ void Viewer::drawLegend() {
   ImGui::End();
 }
 
-std::set<std::pair<std::size_t, std::size_t>> Viewer::highlightedFeatures() const {
-  std::set<std::pair<std::size_t, std::size_t>> out;
-  if (identified_) {
-    for (const Identified::Hit& h : identified_->hits) {
-      for (std::size_t j = 0; j < renderer_->drawnLayerCount(); ++j) {
-        if (!renderer_->drawnLayerSource(j).outline && sceneLayerNameOf(j) == h.layer) out.emplace(j, h.feature);
-      }
-    }
-  }
-  if (selected_) {
-    for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
-      for (const overlay::FeatureSelection& f : l.features) out.emplace(l.drawnLayer, f.feature);
-    }
-  }
-  if (table_ && !globe_) {
-    for (const std::size_t f : table_->selectedRows) out.emplace(table_->overlayLayer, f);
-  }
-  return out;
-}
-
-const std::vector<std::vector<glm::dvec3>>& Viewer::outlineOf(std::size_t overlayLayer, std::size_t feature) {
-  const auto key = std::make_pair(overlayLayer, feature);
-  const auto cached = outlines_.find(key);
-  if (cached != outlines_.end()) return cached->second;
-  // The feature's boundary (rings, or the centre line) lifted onto the full-resolution terrain.
-  const std::shared_ptr<const geo::Feature> source = renderer_->drawnLayerFeature(overlayLayer, feature);
-  return outlines_.emplace(key, source ? liftedBoundary(*source) : std::vector<std::vector<glm::dvec3>>())
-      .first->second;
-}
-
 const std::vector<float>& Viewer::frameDepth() {
   // Read once per frame, by whatever draws on the ground first.
   if (depthFrame_ != frameIndex_) {
@@ -601,46 +570,6 @@ void Viewer::drawGroundPath(const std::vector<glm::dvec2>& points, ImU32 colour,
   drawLifted(liftPath(points, false), colour, width);
 }
 
-void Viewer::drawGlobeHighlights() {
-  // As in a projected scene (drawHighlights): the identified features in cyan, the lasso's and
-  // the table's in the highlight colour, each outline as wide as the feature is large on screen,
-  // its rings along geodesics on the ground (kept per scene layer and feature).
-  std::set<std::pair<std::size_t, std::size_t>> features, identified;
-  if (identified_) {
-    for (const Identified::Hit& hit : identified_->hits) {
-      for (std::size_t i = 0; i < description_->layers.size(); ++i) {
-        if (description_->layers[i].name != hit.layer) continue;
-        features.emplace(i, hit.feature);
-        identified.emplace(i, hit.feature);
-      }
-    }
-  }
-  if (selected_) {
-    for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
-      for (const overlay::FeatureSelection& f : l.features) features.emplace(l.sceneLayer, f.feature);
-    }
-  }
-  if (table_) {
-    for (const std::size_t f : table_->selectedRows) features.emplace(table_->sceneLayer, f);
-  }
-  highlightedCount_ = features.size();
-  if (features.empty() || !target_) return;
-  const ImU32 identifiedColour = IM_COL32(40, 230, 255, 255);
-  const ImU32 selectedColour =
-      ImGui::ColorConvertFloat4ToU32(ImVec4(highlight_.color.x, highlight_.color.y, highlight_.color.z, 1.0F));
-  for (const auto& f : features) {
-    auto cached = outlines_.find(f);
-    if (cached == outlines_.end()) {
-      const std::vector<geo::Feature>* all = featuresOf(f.first);
-      cached = outlines_
-                   .emplace(f, all != nullptr && f.second < all->size() ? liftedBoundary((*all)[f.second])
-                                                                        : std::vector<std::vector<glm::dvec3>>())
-                   .first;
-    }
-    drawOutline(cached->second, identified.contains(f) ? identifiedColour : selectedColour);
-  }
-}
-
 std::vector<std::vector<glm::dvec3>> Viewer::liftedBoundary(const geo::Feature& feature) const {
   std::vector<std::vector<glm::dvec3>> paths;
   for (const geo::Polygon& p : feature.polygons) {
@@ -673,32 +602,44 @@ void Viewer::drawOutline(const std::vector<std::vector<glm::dvec3>>& paths, ImU3
 }
 
 void Viewer::drawHighlights() {
-  if (globe_) {
-    drawGlobeHighlights();
-    return;
+  // The identified features in cyan, the lasso's and the table's in the highlight colour, each
+  // outline as wide as the feature is large on screen, its rings on the ground as drawn (along
+  // geodesics on the globe), kept per scene layer and feature.
+  std::set<std::pair<std::size_t, std::size_t>> features, identified;
+  if (identified_) {
+    for (const Identified::Hit& hit : identified_->hits) {
+      for (std::size_t i = 0; i < description_->layers.size(); ++i) {
+        if (description_->layers[i].name != hit.layer) continue;
+        features.emplace(i, hit.feature);
+        identified.emplace(i, hit.feature);
+      }
+    }
   }
-  const std::set<std::pair<std::size_t, std::size_t>> features = highlightedFeatures();
+  if (selected_) {
+    for (const scene::SelectedFeatures::Layer& l : selected_->layers) {
+      for (const overlay::FeatureSelection& f : l.features) features.emplace(l.sceneLayer, f.feature);
+    }
+  }
+  if (table_) {
+    for (const std::size_t f : table_->selectedRows) features.emplace(table_->sceneLayer, f);
+  }
   highlightedCount_ = features.size();
   if (features.empty() || !target_) return;
-  if (outlinesExaggeration_ != projected().bounds->exaggeration()) {
+  if (outlinesExaggeration_ != exaggeration()) {
     outlines_.clear();  // lifted at another exaggeration
-    outlinesExaggeration_ = projected().bounds->exaggeration();
+    outlinesExaggeration_ = exaggeration();
   }
   const ImU32 identifiedColour = IM_COL32(40, 230, 255, 255);
   const ImU32 selectedColour =
       ImGui::ColorConvertFloat4ToU32(ImVec4(highlight_.color.x, highlight_.color.y, highlight_.color.z, 1.0F));
-  std::set<std::pair<std::size_t, std::size_t>> identified;
-  if (identified_) {
-    for (const auto& f : features) {
-      for (const Identified::Hit& hit : identified_->hits) {
-        if (hit.feature == f.second && sceneLayerNameOf(f.first) == hit.layer) {
-          identified.insert(f);
-        }
-      }
+  for (const auto& f : features) {
+    auto cached = outlines_.find(f);
+    if (cached == outlines_.end()) {
+      const std::shared_ptr<const geo::Feature> feature = featureAt(f.first, f.second);
+      cached = outlines_.emplace(f, feature ? liftedBoundary(*feature) : std::vector<std::vector<glm::dvec3>>()).first;
     }
+    drawOutline(cached->second, identified.contains(f) ? identifiedColour : selectedColour);
   }
-  for (const auto& f : features)
-    drawOutline(outlineOf(f.first, f.second), identified.contains(f) ? identifiedColour : selectedColour);
 }
 
 }  // namespace gis::viewer
