@@ -55,10 +55,7 @@ void Viewer::setExaggeration(double exaggeration) {
   selectionChanged();
 }
 
-double Viewer::exaggeration() const {
-  if (!scene_) return 1.0;
-  return globe_ ? globeScene().heights->exaggeration() : projected().bounds->exaggeration();
-}
+double Viewer::exaggeration() const { return scene_ ? scene_->exaggeration() : 1.0; }
 
 void Viewer::useTechnique(const overlay::TechniqueInfo& technique, int textureSize) {
   const std::span<const int> sizes = technique.textureSizes;
@@ -245,10 +242,7 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
     std::ofstream(stem.string() + "_camera.json")
-        << scene::jsonText(globe_
-                               ? scene::globeCameraJson(globe_->view)
-                               : scene::cameraToJson(camera(), projected().frame, target_->width(), target_->height()))
-        << "\n";
+        << scene::jsonText(scene_->cameraJson(frameCamera(), target_->width(), target_->height())) << "\n";
   }
   const Result<bool> png =
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);

@@ -538,31 +538,7 @@ void Viewer::drawLifted(const std::vector<glm::dvec3>& path, ImU32 colour, float
 }
 
 std::vector<glm::dvec3> Viewer::liftPath(const std::vector<glm::dvec2>& points, bool closed) const {
-  if (globe_) {
-    // Longitude and latitude: along geodesics, at half the DEM's post spacing (at least 10 m),
-    // on the ground.
-    const double step =
-        std::max(10.0, 0.5 * (globeScene().heights ? globeScene().heights->step() : 0.01) * kMetresPerDegree);
-    std::vector<glm::dvec3> path;
-    for (const glm::dvec2& p : scene::geodesicPath(points, closed, step)) path.push_back(measurePointPosition(p));
-    return path;
-  }
-  // Densified to half the DEM's post spacing, so the path follows the relief as drawn.
-  const terrain::TerrainGrid& grid = projected().quadtree->grid();
-  const double step = grid.width > 0 ? 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y)) : 15.0;
-  std::vector<glm::dvec3> path;
-  const std::size_t n = points.size();
-  for (std::size_t i = 0; i + (closed ? 0 : 1) < n; ++i) {
-    const glm::dvec2 a = points[i], b = points[(i + 1) % n];
-    const int pieces = std::clamp(static_cast<int>(std::ceil(glm::length(b - a) / step)), 1, 4096);
-    for (int k = 0; k < pieces; ++k) {
-      const glm::dvec2 p = a + (b - a) * (static_cast<double>(k) / pieces);
-      path.emplace_back(p, projected().bounds->fullResolutionHeightAt(p));
-    }
-  }
-  if (!closed && n > 0) path.emplace_back(points.back(), projected().bounds->fullResolutionHeightAt(points.back()));
-  if (closed && !path.empty()) path.push_back(path.front());
-  return path;
+  return scene_->groundPath(points, closed);
 }
 
 void Viewer::drawGroundPath(const std::vector<glm::dvec2>& points, ImU32 colour, float width) {

@@ -87,12 +87,11 @@ LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute
       if (!anchor) continue;
       anchor->point = plane.back(anchor->point);
       set.labels.push_back({f, features[f].fid, std::move(*text), *anchor});
-      set.heights.push_back(globeScene().heights ? globeScene().heights->heightAt(anchor->point.x, anchor->point.y)
-                                                 : 0.0);
+      set.heights.push_back(scene_->heightAt(anchor->point));
     }
     break;  // the fill (or the line layer) labels the scene layer
   }
-  set.exaggeration = globeScene().heights ? globeScene().heights->exaggeration() : 1.0;
+  set.exaggeration = scene_->exaggeration();
   return set;
 }
 
@@ -135,16 +134,14 @@ void Viewer::drawLabels() {
       set.heights.resize(set.labels.size());
       for (std::size_t k = 0; k < set.labels.size(); ++k) {
         const glm::dvec2& p = set.labels[k].anchor.point;
-        set.heights[k] =
-            globe_ ? globeScene().heights->heightAt(p.x, p.y) : projected().bounds->fullResolutionHeightAt(p);
+        set.heights[k] = scene_->heightAt(p);
       }
       set.exaggeration = exaggeration;
     }
     for (std::size_t k = 0; k < set.labels.size(); ++k) {
       const app::FeatureLabel& label = set.labels[k];
       if (!std::isfinite(set.heights[k])) continue;
-      const glm::dvec3 at = globe_ ? globe::toEcef(label.anchor.point.x, label.anchor.point.y, set.heights[k])
-                                   : glm::dvec3(label.anchor.point, set.heights[k]);
+      const glm::dvec3 at = scene_->worldPoint(label.anchor.point, set.heights[k]);
       const glm::dvec4 clip = viewProj * glm::dvec4(at, 1.0);
       if (!(clip.w > 0.0)) continue;
       const glm::dvec3 ndc = glm::dvec3(clip) / clip.w;

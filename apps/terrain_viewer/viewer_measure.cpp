@@ -76,20 +76,12 @@ bool Viewer::measureAtPixels(const std::vector<glm::dvec2>& pixels, bool closed)
 }
 
 std::optional<glm::dvec2> Viewer::measurePointAt(const glm::dvec2& pixel) const {
-  if (globe_) {
-    const std::optional<glm::dvec3> p = pointAt(pixel);
-    if (!p) return std::nullopt;
-    const globe::Geodetic g = globe::toGeodetic(*p);
-    return glm::dvec2(g.lon, g.lat);
-  }
-  const std::optional<glm::dvec3> ground = pointAt(pixel);
-  return ground ? std::optional<glm::dvec2>(glm::dvec2(*ground)) : std::nullopt;
+  const std::optional<glm::dvec3> p = pointAt(pixel);
+  return p ? std::optional<glm::dvec2>(scene_->mapPoint(*p)) : std::nullopt;
 }
 
 glm::dvec3 Viewer::measurePointPosition(const glm::dvec2& p) const {
-  if (!globe_) return {p, projected().bounds->fullResolutionHeightAt(p)};
-  const std::shared_ptr<const globe::GeoGrid>& heights = globeScene().heights;
-  return globe::toEcef(p.x, p.y, heights ? heights->heightAt(p.x, p.y) : 0.0);
+  return scene_->worldPoint(p, scene_->heightAt(p));
 }
 
 void Viewer::drawMeasure() {

@@ -1,10 +1,15 @@
 #include "scene/frame_scene.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
+
+#include <glm/geometric.hpp>
 
 #include <nlohmann/json.hpp>
 
+#include "globe/ellipsoid.hpp"
+#include "scene/measure.hpp"
 #include "scene/scene_renderer.hpp"
 #include "vector_overlay/globe_overlay.hpp"
 #include "vector_overlay/globe_selection.hpp"
@@ -26,8 +31,7 @@ Result<Scene> Scene::load(SceneDescription description, const LoadOptions& optio
     out.diagnostics.append(globe.diagnostics);
     if (!globe) return out;
     globe->reason = *reason;
-    const double x = globe->heights->exaggeration();
-    out.value.emplace(Scene(std::move(*globe), x));
+    out.value.emplace(Scene(std::move(*globe)));
     return out;
   }
   Result<LoadedScene> projected = loadScene(description, options);
@@ -36,8 +40,50 @@ Result<Scene> Scene::load(SceneDescription description, const LoadOptions& optio
   // The projected terrain is exaggerated as it is drawn: its bounds own the factor.
   const double x = exaggeration.value_or(projected->description.verticalExaggeration);
   projected->bounds->setExaggeration(x);
-  out.value.emplace(Scene(std::move(*projected), x));
+  out.value.emplace(Scene(std::move(*projected)));
   return out;
+}
+
+double Scene::exaggeration() const {
+  return onGlobe() ? globe().heights->exaggeration() : projected().bounds->exaggeration();
+}
+
+double Scene::heightAt(const glm::dvec2& map) const {
+  return onGlobe() ? globe().heights->heightAt(map.x, map.y) : projected().bounds->fullResolutionHeightAt(map);
+}
+
+glm::dvec3 Scene::worldPoint(const glm::dvec2& map, double drawnHeight) const {
+  return onGlobe() ? globe::toEcef(map.x, map.y, drawnHeight) : glm::dvec3(map, drawnHeight);
+}
+
+glm::dvec2 Scene::mapPoint(const glm::dvec3& world) const {
+  if (!onGlobe()) return glm::dvec2(world);
+  const globe::Geodetic g = globe::toGeodetic(world);
+  return {g.lon, g.lat};
+}
+
+std::vector<glm::dvec3> Scene::groundPath(std::span<const glm::dvec2> points, bool closed) const {
+  std::vector<glm::dvec3> path;
+  if (onGlobe()) {
+    constexpr double kMetresPerDegree = 111'320.0;
+    const double step = std::max(10.0, 0.5 * globe().heights->step() * kMetresPerDegree);
+    for (const glm::dvec2& p : geodesicPath(points, closed, step)) path.push_back(worldPoint(p, heightAt(p)));
+    return path;
+  }
+  const terrain::TerrainGrid& grid = projected().quadtree->grid();
+  const double step = grid.width > 0 ? 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y)) : 15.0;
+  const std::size_t n = points.size();
+  for (std::size_t i = 0; i + (closed ? 0 : 1) < n; ++i) {
+    const glm::dvec2 a = points[i], b = points[(i + 1) % n];
+    const int pieces = std::clamp(static_cast<int>(std::ceil(glm::length(b - a) / step)), 1, 4096);
+    for (int k = 0; k < pieces; ++k) {
+      const glm::dvec2 p = a + (b - a) * (static_cast<double>(k) / pieces);
+      path.push_back(worldPoint(p, heightAt(p)));
+    }
+  }
+  if (!closed && n > 0) path.push_back(worldPoint(points.back(), heightAt(points.back())));
+  if (closed && !path.empty()) path.push_back(path.front());
+  return path;
 }
 
 const std::string& Scene::globeReason() const {

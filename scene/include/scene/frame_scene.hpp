@@ -5,6 +5,7 @@
 // latitude, the imagery); the source layers are read the same way in both. The camera is a
 // variant as well: a projected Camera or a globe::GlobeView.
 #include <optional>
+#include <span>
 #include <string>
 #include <variant>
 #include <vector>
@@ -48,7 +49,21 @@ class Scene {
   /// Every source vertex of the layers, as read (before any generalisation).
   [[nodiscard]] std::size_t vectorVertices() const;
   [[nodiscard]] double loadSeconds() const;
-  [[nodiscard]] double exaggeration() const { return exaggeration_; }
+  /// The vertical exaggeration the ground is drawn at now (its own: a projected scene's height
+  /// bounds, the globe's grid of heights; FrameRenderer::setExaggeration changes it).
+  [[nodiscard]] double exaggeration() const;
+
+  // The frame's geometry for the tools that draw on the ground and measure it. A map point is a
+  // point of the frame's map: frame x/y, or longitude and latitude (degrees) on the globe.
+  /// The ground's height as drawn (exaggerated) at a map point, at the DEM's full resolution.
+  [[nodiscard]] double heightAt(const glm::dvec2& map) const;
+  /// A map point at a height as drawn, in the frame's world: frame coordinates, or ECEF.
+  [[nodiscard]] glm::dvec3 worldPoint(const glm::dvec2& map, double drawnHeight) const;
+  /// The map point of a world point (the inverse of worldPoint, heights aside).
+  [[nodiscard]] glm::dvec2 mapPoint(const glm::dvec3& world) const;
+  /// A path through map points on the ground as drawn: densified to half the DEM's post spacing,
+  /// straight in a projected frame, along geodesics on the globe (at least 10 m apart there).
+  [[nodiscard]] std::vector<glm::dvec3> groundPath(std::span<const glm::dvec2> points, bool closed) const;
 
   /// The frame's own ground; the one the scene is not in is a caller error (throws).
   [[nodiscard]] LoadedScene& projected() { return std::get<LoadedScene>(ground_); }
@@ -77,10 +92,8 @@ class Scene {
   [[nodiscard]] nlohmann::json cameraJson(const FrameCamera& camera, int width, int height) const;
 
  private:
-  explicit Scene(std::variant<LoadedScene, LoadedGlobeScene> ground, double exaggeration)
-      : ground_(std::move(ground)), exaggeration_(exaggeration) {}
+  explicit Scene(std::variant<LoadedScene, LoadedGlobeScene> ground) : ground_(std::move(ground)) {}
   std::variant<LoadedScene, LoadedGlobeScene> ground_;
-  double exaggeration_ = 1.0;
 };
 
 }  // namespace gis::scene
