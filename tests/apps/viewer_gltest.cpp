@@ -779,6 +779,8 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
                                             saveStep("orbit.json"),
                                             liveStep("go"),
                                             saveStep("after.json"),
+                                            liveStep("hovered"),
+                                            {{"action", "screenshot"}, {"path", "hover.png"}, {"ui", true}},
                                             {{"action", "quit"}}})}});
   ASSERT_TRUE(viewer.started());
   // The viewer is ready once it wrote ready.json; then a person's gestures, slowly enough that
@@ -794,6 +796,9 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
   if (ready && viewer.waitFor("orbit.json"))
     viewer.gesture("xdotool click 4 && sleep 0.5 && xdotool click 4 && sleep 1 && xdotool key o && sleep 1");
   viewer.release("go");
+  // The cursor over the panel, which then takes the mouse.
+  if (ready && viewer.waitFor("after.json")) viewer.gesture("xdotool mousemove --window $W 60 200 && sleep 1");
+  viewer.release("hovered");
   ASSERT_EQ(viewer.finish(), 0) << readText(dir / "log.txt");
   ASSERT_TRUE(ready) << "the viewer did not start:\n" << readText(dir / "log.txt");
 
@@ -811,6 +816,21 @@ TEST_F(ViewerScriptTest, RealMouseAndKeysFromTheWindowSystem) {
   EXPECT_NEAR(ratio, 0.85 * 0.85, 1e-9);  // two wheel steps of zoomPerWheelStep
   EXPECT_EQ(before["overlays"], true);
   EXPECT_EQ(after["overlays"], false);
+
+  // With the cursor over the panel the scene stays drawn: beside the panel (the middle of the
+  // right edge) no pixel has the colour of an empty window.
+  const gfx::Image8 hover = *gfx::readImage8((dir / "hover.png").string());
+  const glm::dvec3 emptyWindow(std::lround(0.11 * 255.0), std::lround(0.12 * 255.0), std::lround(0.14 * 255.0));
+  std::size_t beside = 0, empty = 0;
+  for (int y = hover.height / 4; y < 3 * hover.height / 4; ++y) {
+    for (int x = hover.width - 60; x < hover.width - 10; ++x) {
+      const std::size_t i =
+          static_cast<std::size_t>(y) * static_cast<std::size_t>(hover.width) + static_cast<std::size_t>(x);
+      ++beside;
+      empty += maxDifference(rgbAt(hover, i), emptyWindow) < 1.5 ? 1u : 0u;
+    }
+  }
+  EXPECT_EQ(empty, 0u) << "of " << beside << " pixels beside the panel, with the cursor over it";
 }
 
 // Issue 25: no input is lost at any frame rate. xdotool's events come faster than any frame:
