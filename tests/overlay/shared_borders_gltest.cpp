@@ -7,25 +7,28 @@
 // tracts together (generaliseCoverage), so every technique draws 0 wrong pixels away from edges.
 // The same tracts and the same views on the globe (the scene's "frame": "globe"; each camera
 // moved from the scene's frame to longitude, latitude and height) draw 0 wrong pixels away from
-// edges against the globe's geodetic reference: both frames, one set of views.
+// edges against the globe's geodetic reference: both frames, one set of views, one test (the
+// scene drawn through scene::FrameRenderer and judged by its reference, frame_accuracy.hpp), with
+// stencil-tiles, auto and stencil in each.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "gfx/render_target.hpp"
+#include "frame_accuracy.hpp"
 #include "gl_test.hpp"
 #include "globe/ellipsoid.hpp"
-#include "overlay_compare.hpp"
-#include "scene/globe_renderer.hpp"
-#include "scene/globe_scene.hpp"
+#include "scene/frame_renderer.hpp"
+#include "scene/frame_scene.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
-#include "scene/scene_renderer.hpp"
 #include "vector_files.hpp"
 #include "vector_overlay/technique.hpp"
 
@@ -40,7 +43,8 @@ const std::string kSamples = std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/";
 std::string firstFortyTracts() {
   const std::filesystem::path dir(STENCIL_GIS_TEST_OUTPUT_DIR);
   std::filesystem::create_directories(dir);
-  const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  std::replace(test.begin(), test.end(), '/', '_');  // a parameterised test's name
   const std::string out = (dir / ("tracts_40_" + test + ".geojson")).string();
   translateVector(kSamples + "olinda1.shp", out, {"-f", "GeoJSON", "-sql", "SELECT * FROM olinda1 WHERE FID < 40"});
   return out;
@@ -117,88 +121,59 @@ std::vector<View> fortyTractViews(const scene::LoadedScene& loaded) {
   return views;
 }
 
-class SharedBordersGlTest : public GlTest {};
-
-TEST_F(SharedBordersGlTest, NeighbouringTractsWithoutOutlinesLeaveNoCracks) {
-  Result<scene::LoadedScene> loaded = scene::loadScene(fortyTractsScene(scene::FrameKind::Projected));
-  ASSERT_TRUE(loaded.ok());
-  const std::vector<View> views = fortyTractViews(*loaded);
-
-  for (const char* method : {"stencil-tiles", "auto", "stencil"}) {
-    SCOPED_TRACE(method);
-    scene::OverlayBuildSettings build;
-    build.technique = overlay::findTechnique(method);
-    ASSERT_NE(build.technique, nullptr);
-    build.tileCache = false;
-    Result<scene::SceneRenderer> renderer = scene::SceneRenderer::create(*loaded, build);
-    ASSERT_TRUE(renderer.ok());
-    std::vector<const overlay::OverlayLayer*> layers;
-    for (const overlay::OverlayLayer& l : renderer->overlayLayers()) layers.push_back(&l);
-    scene::RenderSettings settings;
-    settings.waitForTiles = true;
-    std::size_t covered = 0, wrong = 0, edgeWrong = 0;
-    for (const View& v : views) {
-      gfx::RenderTarget target(v.width, v.height, 0, true);
-      renderer->render(cache_, target.framebuffer(), v.width, v.height, v.camera, settings);
-      const double aspect = static_cast<double>(v.width) / v.height;
-      const overlay_test::Comparison c = overlay_test::compare(target, v.camera.projection(aspect) * v.camera.view(),
-                                                               layers, std::string(method) + ", " + v.label);
-      covered += c.covered;
-      wrong += c.wrong;
-      edgeWrong += c.edgeWrong;
-    }
-    std::printf("%s: %zu views, %zu covered pixels, %zu wrong away from edges, %zu on edges\n", method, views.size(),
-                covered, wrong, edgeWrong);
-    EXPECT_EQ(wrong, 0U);
-    EXPECT_LE(edgeWrong, covered / 100);
-    EXPECT_GT(covered, 300000U);
-  }
+/// A view of the tests in the frame of `scene`: the camera itself in the projected frame; on the
+/// globe its eye and target moved from the projected scene's frame to longitude, latitude and
+/// height.
+scene::FrameCamera cameraIn(const scene::Scene& scene, const scene::LoadedScene& projected, const View& v) {
+  if (!scene.onGlobe()) return v.camera;
+  const std::optional<glm::dvec3> eye = projected.frame.toLonLat(v.camera.eye);
+  const std::optional<glm::dvec3> target = projected.frame.toLonLat(v.camera.target);
+  EXPECT_TRUE(eye && target) << v.label;
+  if (!eye || !target) return globe::GlobeView{};
+  return globe::GlobeView::looking(globe::toEcef(eye->x, eye->y, eye->z),
+                                   globe::toEcef(target->x, target->y, target->z), v.camera.fovYDeg, v.width, v.height,
+                                   scene.globe().heights->heightAt(eye->x, eye->y));
 }
 
-TEST_F(SharedBordersGlTest, OnTheGlobeTheSameTractsAndViewsLeaveNoCracks) {
+class SharedBordersGlTest : public GlTest, public ::testing::WithParamInterface<scene::FrameKind> {};
+
+TEST_P(SharedBordersGlTest, NeighbouringTractsWithoutOutlinesLeaveNoCracks) {
+  // The views, from the projected scene; the scene drawn in the frame under test.
   Result<scene::LoadedScene> projected = scene::loadScene(fortyTractsScene(scene::FrameKind::Projected));
   ASSERT_TRUE(projected.ok());
   const std::vector<View> views = fortyTractViews(*projected);
-  Result<scene::LoadedGlobeScene> onGlobe = scene::loadGlobeScene(fortyTractsScene(scene::FrameKind::Globe));
-  ASSERT_TRUE(onGlobe.ok());
-  ASSERT_EQ(onGlobe->layers.size(), 1U);  // no outline layer
-  const std::vector<const globe::GlobeLayer*> layers{&onGlobe->layers[0]};
-  globe::GlobeRenderer renderer(onGlobe->heights);
-  std::size_t covered = 0, wrong = 0, edgeWrong = 0;
-  for (const View& v : views) {
-    // The camera on the globe: its eye and target moved from the scene's frame.
-    const std::optional<glm::dvec3> eye = projected->frame.toLonLat(v.camera.eye);
-    const std::optional<glm::dvec3> target = projected->frame.toLonLat(v.camera.target);
-    ASSERT_TRUE(eye && target) << v.label;
-    const globe::GlobeView view =
-        globe::GlobeView::looking(globe::toEcef(eye->x, eye->y, eye->z), globe::toEcef(target->x, target->y, target->z),
-                                  v.camera.fovYDeg, v.width, v.height, onGlobe->heights->heightAt(eye->x, eye->y));
-    gfx::RenderTarget frame(v.width, v.height, 0, true);
-    renderer.render(cache_, {frame.framebuffer(), v.width, v.height, true}, view, layers);
-    const std::vector<float> depth = gfx::readDepth(frame);
-    const std::vector<std::uint32_t> gpu = gfx::readMask(frame);
-    const overlay::DepthImage image = globe::depthImageOf(view, depth);
-    const std::vector<std::uint32_t> expected = overlay::referenceMask(image, globe::coverageOf(layers, image));
-    const std::vector<std::uint8_t> edges = overlay::edgePixels(image, globe::edgeLayersOf(layers, image));
-    std::size_t viewWrong = 0;
-    for (std::size_t i = 0; i < gpu.size(); ++i) {
-      covered += expected[i] != 0 ? 1U : 0U;
-      if (gpu[i] == expected[i]) continue;
-      if (edges[i] != 0) {
-        ++edgeWrong;
-      } else if (viewWrong++ < 3) {
-        ADD_FAILURE() << v.label << ": pixel (" << i % static_cast<std::size_t>(v.width) << ", "
-                      << i / static_cast<std::size_t>(v.width) << ") drawn " << gpu[i] << ", reference " << expected[i];
-      }
+  Result<scene::Scene> loaded = scene::Scene::load(fortyTractsScene(GetParam()));
+  ASSERT_TRUE(loaded.ok());
+  ASSERT_EQ(loaded->onGlobe(), GetParam() == scene::FrameKind::Globe);
+  const char* frame = loaded->onGlobe() ? "globe" : "projected";
+
+  for (const char* method : {"stencil-tiles", "auto", "stencil"}) {
+    SCOPED_TRACE(method);
+    scene::StillSettings settings;
+    settings.technique = overlay::findTechnique(method);
+    ASSERT_NE(settings.technique, nullptr);
+    Result<std::unique_ptr<scene::FrameRenderer>> renderer = scene::FrameRenderer::create(*loaded, settings);
+    ASSERT_TRUE(renderer.ok());
+    ASSERT_EQ((*renderer)->drawnLayerCount(), 1U);  // no outline layer
+    FrameAccuracy total;
+    for (const View& v : views) {
+      total += judgeStill(cache_, **renderer, cameraIn(*loaded, *projected, v), v.width, v.height,
+                          std::string(frame) + ", " + method + ", " + v.label);
     }
-    wrong += viewWrong;
+    std::printf("%s, %s: %zu views, %zu covered pixels, %zu wrong away from edges, %zu on edges\n", frame, method,
+                views.size(), total.covered, total.wrong, total.edgeWrong);
+    EXPECT_EQ(total.wrong, 0U);
+    EXPECT_LE(total.edgeWrong, total.covered / 100);
+    EXPECT_GT(total.covered, 300000U);
   }
-  std::printf("globe: %zu views, %zu covered pixels, %zu wrong away from edges, %zu on edges\n", views.size(), covered,
-              wrong, edgeWrong);
-  EXPECT_EQ(wrong, 0U);
-  EXPECT_LE(edgeWrong, covered / 100);
-  EXPECT_GT(covered, 300000U);
 }
+
+INSTANTIATE_TEST_SUITE_P(BothFrames, SharedBordersGlTest,
+                         ::testing::Values(scene::FrameKind::Projected, scene::FrameKind::Globe),
+                         [](const ::testing::TestParamInfo<scene::FrameKind>& param) {
+                           return param.param == scene::FrameKind::Globe ? std::string("Globe")
+                                                                         : std::string("Projected");
+                         });
 
 }  // namespace
 }  // namespace gis::test
