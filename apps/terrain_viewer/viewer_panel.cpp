@@ -123,12 +123,13 @@ void Viewer::drawViewSection() {
   ImGui::SameLine();
   ImGui::Checkbox("labels", &showLabels_);
   if (!globe_) {
+    // The projected terrain's triangles (the globe's terrain has no wireframe).
     ImGui::SameLine();
     ImGui::Checkbox("wireframe", &render_.wireframe);
-    if (renderer_->hasImagery()) {
-      ImGui::SameLine();
-      ImGui::Checkbox("imagery", &settings_.imagery);
-    }
+  }
+  if (renderer_->hasImagery()) {
+    ImGui::SameLine();
+    ImGui::Checkbox("imagery", &settings_.imagery);
   }
 }
 

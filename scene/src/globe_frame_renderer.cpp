@@ -57,6 +57,12 @@ class GlobeFrameRenderer final : public FrameRenderer {
     for (std::size_t l = 0; l < layers_.size() && options.overlays; ++l) {
       if (shown_[l] != 0) shown.push_back(layers_[l]);
     }
+    if (options.imagery != imageryShown_) {
+      // The imagery switched off: the terrain tinted by height (its textures let go); on again:
+      // read anew, a few tiles a frame.
+      imageryShown_ = options.imagery;
+      renderer_->setImagery(imageryShown_ ? scene_.imagery : nullptr);
+    }
     overlaySettings_.passes = options.overlay;  // the savings as asked (the ablation's switches)
     overlaySettings_.waitForTiles = options.waitForTiles;
     const globe::GlobeFrameStats stats =
@@ -157,7 +163,7 @@ class GlobeFrameRenderer final : public FrameRenderer {
     if (exaggeration == scene_.heights->exaggeration()) return;
     scene_.heights = globe::GeoGrid::exaggerated(scene_.heights, exaggeration);
     renderer_ = std::make_unique<globe::GlobeRenderer>(scene_.heights);
-    renderer_->setImagery(scene_.imagery);
+    renderer_->setImagery(imageryShown_ ? scene_.imagery : nullptr);
     (void)rebuildLayers();  // said when the layers were first built
   }
   [[nodiscard]] DrawnLayerSource drawnLayerSource(std::size_t drawn) const override {
@@ -348,7 +354,8 @@ class GlobeFrameRenderer final : public FrameRenderer {
   StillSettings settings_;
   globe::GlobeOverlaySettings overlaySettings_;
   std::vector<const globe::GlobeLayer*> layers_;
-  std::vector<char> shown_;  ///< per layer
+  std::vector<char> shown_;   ///< per layer
+  bool imageryShown_ = true;  ///< FrameOptions::imagery as the last frame had it
   globe::GlobeFrameStats stats_;
   std::size_t lastResidentBytes_ = 0;
   std::vector<std::size_t> stillLayerBytes_;  ///< per layer: the GPU bytes of what drew it in the last still

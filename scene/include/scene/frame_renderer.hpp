@@ -56,7 +56,7 @@ struct FrameOptions {
   /// The stencil passes' switches (docs/design.md §9, the ablation's); a projected frame's.
   overlay::OverlaySettings overlay;
   // How the ground looks (the viewer's switches); a frame ignores what it has no use for.
-  bool imagery = true;  ///< off: the hillshade instead of the scene's imagery (a projected frame's)
+  bool imagery = true;  ///< off: the terrain shaded (and tinted by height) instead of the scene's imagery
   /// Where no imagery is shown, the terrain tinted by these true heights (low, high) on the
   /// hypsometric ramp; none: grey hillshade (a projected frame's; the globe tints by height).
   std::optional<std::pair<double, double>> elevationRamp;
@@ -216,6 +216,9 @@ class FrameRenderer {
   /// grid of heights). The layers follow by the next frame.
   virtual void setExaggeration(double exaggeration) = 0;
   [[nodiscard]] virtual DrawnLayerSource drawnLayerSource(std::size_t drawn) const = 0;
+  /// Whether frames draw a layer (stills draw every layer). On the globe the mask bits of the
+  /// layers after a hidden one move down by one (its renderer is given the shown layers only); no
+  /// program reads the mask of a frame with hidden layers.
   [[nodiscard]] virtual bool drawnLayerShown(std::size_t drawn) const = 0;
   virtual void setDrawnLayerShown(std::size_t drawn, bool shown) = 0;
   /// The features drawn layer `drawn` was built from, in the scene's frame (the source layer's as
