@@ -407,9 +407,6 @@ class Viewer {
   // Labels (viewer_labels.cpp).
   /// Labels a layer with an attribute's values ("" removes its labels).
   void setLabels(std::size_t sceneLayer, const std::string& attribute);
-  /// On the globe: each feature of the scene file's layer `fileIndex` that has the attribute,
-  /// anchored as in a projected scene, in a plane about the feature's middle.
-  [[nodiscard]] LabelSet globeLabels(std::size_t fileIndex, const std::string& attribute) const;
   void drawLabels();
   /// The current ImGui window's rectangle, which labels keep clear of in the next frame.
   void rememberWindow(const std::string& name);

@@ -1,7 +1,7 @@
 // Labels from an attribute (per layer): anchors on the ground computed once (app/labels.hpp),
 // projected every frame, hidden ones left out, and placed on screen without overlap, clear of the
-// panel, the HUD and the status bar. On the globe the anchors are found in a plane about each
-// feature's middle and kept in lon/lat.
+// panel, the HUD and the status bar. Both frames anchor the scene layer's features as read; on
+// the globe each is anchored in a plane about its middle and kept in lon/lat.
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -37,79 +37,62 @@ struct LocalPlane {
 
 }  // namespace
 
-LabelSet Viewer::globeLabels(std::size_t fileIndex, const std::string& attribute) const {
-  LabelSet set;
-  set.attribute = attribute;
-  for (std::size_t i = 0; i < globeScene().layers.size(); ++i) {
-    if (globeScene().layerFileIndex[i] != fileIndex || i >= globeScene().layerFeatures.size()) continue;
-    const globe::GlobeLayer& layer = globeScene().layers[i];
-    const std::vector<geo::Feature>& features = globeScene().layerFeatures[i].all();
-    // Each feature's geometry as drawn: its areas (the fill layer, holes included), else its lines.
-    std::vector<std::vector<const std::vector<std::vector<glm::dvec2>>*>> areas(features.size());
-    std::vector<std::vector<const std::vector<glm::dvec2>*>> lines(features.size());
-    for (std::size_t k = 0; k < layer.areaCount(); ++k) {
-      const globe::GlobePolygon& p = layer.polygons()[k];
-      if (p.feature < features.size() && !p.rings.empty()) areas[p.feature].push_back(&p.rings);
-    }
-    for (const globe::GlobeLine& l : layer.lines()) {
-      if (l.feature < features.size() && areas[l.feature].empty()) lines[l.feature].push_back(&l.points);
-    }
-    for (std::size_t f = 0; f < features.size(); ++f) {
-      if (areas[f].empty() && lines[f].empty()) continue;
-      std::optional<std::string> text = app::labelText(features[f], attribute);
-      if (!text) continue;
-      glm::dvec2 sum(0.0);
-      std::size_t n = 0;
-      const auto add = [&](const std::vector<glm::dvec2>& points) {
-        for (const glm::dvec2& p : points) sum += p;
-        n += points.size();
-      };
-      for (const auto* rings : areas[f]) add(rings->front());
-      for (const auto* line : lines[f]) add(*line);
-      LocalPlane plane;
-      plane.lon0 = sum.x / static_cast<double>(n);
-      plane.lat0 = std::clamp(sum.y / static_cast<double>(n), -89.0, 89.0);
-      plane.east = kMetresPerDegree * std::cos(glm::radians(plane.lat0));
-      const auto flatten = [&plane](const std::vector<glm::dvec2>& points) {
-        std::vector<glm::dvec2> xy;
-        xy.reserve(points.size());
-        for (const glm::dvec2& p : points) xy.push_back(plane.forward(p));
-        return xy;
-      };
-      geo::Feature flat;
-      for (const auto* rings : areas[f]) {
-        geo::Polygon polygon{flatten(rings->front()), {}};
-        for (std::size_t r = 1; r < rings->size(); ++r) polygon.holes.push_back(flatten((*rings)[r]));
-        flat.polygons.push_back(std::move(polygon));
-      }
-      for (const auto* line : lines[f]) flat.lines.push_back(flatten(*line));
-      std::optional<app::LabelAnchor> anchor = app::featureLabelAnchor(flat);
-      if (!anchor) continue;
-      anchor->point = plane.back(anchor->point);
-      set.labels.push_back({f, features[f].fid, std::move(*text), *anchor});
-      set.heights.push_back(scene_->heightAt(anchor->point));
-    }
-    break;  // the fill (or the line layer) labels the scene layer
-  }
-  set.exaggeration = scene_->exaggeration();
-  return set;
-}
-
 void Viewer::setLabels(std::size_t sceneLayer, const std::string& attribute) {
   labelSets_.erase(sceneLayer);
   labelPlacer_.forget();
   if (attribute.empty()) return;
-  if (globe_) {
-    labelSets_[sceneLayer] = globeLabels(description_->layers[sceneLayer].fileIndex, attribute);
-    showLabels_ = true;
-    return;
-  }
-  const std::optional<std::size_t> fill = fillLayerOf(sceneLayer);
-  if (!fill) return;
+  const std::vector<geo::Feature>* features = featuresOf(sceneLayer);
+  if (features == nullptr) return;
   LabelSet set;
   set.attribute = attribute;
-  set.labels = app::layerLabels(*renderer_->drawnLayerFeatures(*fill), attribute);
-  labelSets_[sceneLayer] = std::move(set);
+  if (!globe_) {
+    set.labels = app::layerLabels(*features, attribute);
+  } else {
+    // Longitude and latitude: each feature anchored in a plane about its middle (its longitudes
+    // unwrapped about its first point, across ±180°), the anchor taken back to lon/lat.
+    for (std::size_t f = 0; f < features->size(); ++f) {
+      const geo::Feature& feature = (*features)[f];
+      std::optional<std::string> text = app::labelText(feature, attribute);
+      if (!text) continue;
+      std::optional<double> reference;
+      glm::dvec2 sum(0.0);
+      std::size_t n = 0;
+      const auto unwrap = [&](std::vector<glm::dvec2> points) {
+        for (glm::dvec2& p : points) {
+          if (!reference) reference = p.x;
+          p.x += 360.0 * std::round((*reference - p.x) / 360.0);
+          sum += p;
+          ++n;
+        }
+        return points;
+      };
+      geo::Feature flat;
+      for (const geo::Polygon& polygon : feature.polygons) {
+        geo::Polygon unwrapped{unwrap(polygon.outer), {}};
+        for (const geo::Ring& hole : polygon.holes) unwrapped.holes.push_back(unwrap(hole));
+        flat.polygons.push_back(std::move(unwrapped));
+      }
+      for (const geo::LineString& line : feature.lines) flat.lines.push_back(unwrap(line));
+      if (n == 0) continue;
+      LocalPlane plane;
+      plane.lon0 = sum.x / static_cast<double>(n);
+      plane.lat0 = std::clamp(sum.y / static_cast<double>(n), -89.0, 89.0);
+      plane.east = kMetresPerDegree * std::cos(glm::radians(plane.lat0));
+      const auto flatten = [&plane](std::vector<glm::dvec2>& points) {
+        for (glm::dvec2& p : points) p = plane.forward(p);
+      };
+      for (geo::Polygon& polygon : flat.polygons) {
+        flatten(polygon.outer);
+        for (geo::Ring& hole : polygon.holes) flatten(hole);
+      }
+      for (geo::LineString& line : flat.lines) flatten(line);
+      std::optional<app::LabelAnchor> anchor = app::featureLabelAnchor(flat);
+      if (!anchor) continue;
+      anchor->point = plane.back(anchor->point);
+      set.labels.push_back({f, feature.fid, std::move(*text), *anchor});
+    }
+  }
+  labelSets_[sceneLayer] = std::move(set);  // the anchors' heights are looked up as drawn
   showLabels_ = true;
 }
 
