@@ -248,7 +248,6 @@ void Viewer::finishLoad(bool wait) {
   lassoPoints_.clear();
   measureTool_ = false;
   clearMeasure();
-  measureEllipsoid_.reset();
   table_.reset();
   outlines_.clear();
   labelSets_.clear();

@@ -576,7 +576,6 @@ class Viewer {
   bool measureClosed_ = false;
   std::vector<glm::dvec2> measurePoints_;  ///< frame x/y (on the globe lon/lat), in order
   std::optional<scene::Measurement> measurement_;
-  std::optional<scene::Ellipsoid> measureEllipsoid_;  ///< the scene frame's, looked up once
   std::vector<float> frameDepth_;
   std::size_t depthFrame_ = 0;  ///< the frame frameDepth_ was read in (0: none)
   bool showLegend_ = true;

@@ -31,31 +31,8 @@ void Viewer::clearMeasure() {
 void Viewer::remeasure() {
   measurement_.reset();
   if (measurePoints_.size() < 2) return;
-  if (globe_) {
-    // On the globe the points are lon/lat, the segments geodesics on WGS 84.
-    const std::shared_ptr<const globe::GeoGrid> heights = globeScene().heights;
-    scene::MeasureOptions options;
-    if (heights && heights->width() > 0) options.sampleStepMetres = 0.5 * heights->step() * kMetresPerDegree;
-    const auto height = [heights](double lon, double lat) {  // true heights, not exaggerated
-      return heights ? heights->unexaggerated().heightAt(lon, lat) : 0.0;
-    };
-    Result<scene::Measurement> m =
-        scene::measureOnGlobe(measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
-    message(m.diagnostics);
-    if (m) measurement_ = std::move(*m);
-    return;
-  }
-  const double exaggeration = projected().bounds->exaggeration();
-  const auto height = [this, exaggeration](const glm::dvec2& p) {
-    return projected().bounds->fullResolutionHeightAt(p) / exaggeration;
-  };
-  scene::MeasureOptions options;
-  const terrain::TerrainGrid& grid = projected().quadtree->grid();
-  if (grid.width > 0) options.sampleStepMetres = 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y));
-  if (!measureEllipsoid_) measureEllipsoid_ = scene::ellipsoidOf(projected().frame);
-  options.ellipsoid = measureEllipsoid_;
-  Result<scene::Measurement> m =
-      scene::measure(projected().frame, measurePoints_, measureClosed_ && measurePoints_.size() >= 3, height, options);
+  // Map points: frame x/y, or on the globe lon/lat (its segments geodesics on WGS 84).
+  Result<scene::Measurement> m = scene_->measure(measurePoints_, measureClosed_ && measurePoints_.size() >= 3);
   message(m.diagnostics);
   if (m) measurement_ = std::move(*m);
 }

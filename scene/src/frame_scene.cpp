@@ -86,6 +86,26 @@ std::vector<glm::dvec3> Scene::groundPath(std::span<const glm::dvec2> points, bo
   return path;
 }
 
+Result<Measurement> Scene::measure(std::span<const glm::dvec2> points, bool closed) const {
+  MeasureOptions options;
+  if (onGlobe()) {
+    // Longitude and latitude, the segments geodesics on WGS 84.
+    constexpr double kMetresPerDegree = 111'320.0;
+    const std::shared_ptr<const globe::GeoGrid> heights = globe().heights;
+    if (heights->width() > 0) options.sampleStepMetres = 0.5 * heights->step() * kMetresPerDegree;
+    const auto height = [heights](double lon, double lat) { return heights->unexaggerated().heightAt(lon, lat); };
+    return measureOnGlobe(points, closed, height, options);
+  }
+  const LoadedScene& p = projected();
+  const double exaggeration = p.bounds->exaggeration();
+  const auto height = [&p, exaggeration](const glm::dvec2& at) {
+    return p.bounds->fullResolutionHeightAt(at) / exaggeration;  // true heights
+  };
+  const terrain::TerrainGrid& grid = p.quadtree->grid();
+  if (grid.width > 0) options.sampleStepMetres = 0.5 * std::min(std::abs(grid.step.x), std::abs(grid.step.y));
+  return scene::measure(p.frame, points, closed, height, options);
+}
+
 const std::string& Scene::globeReason() const {
   static const std::string kNone;
   return onGlobe() ? globe().reason : kNone;

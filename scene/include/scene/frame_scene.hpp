@@ -17,6 +17,7 @@
 #include "scene/camera.hpp"
 #include "scene/globe_scene.hpp"
 #include "scene/lasso_file.hpp"
+#include "scene/measure.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "vector_overlay/cpu_reference.hpp"
@@ -64,6 +65,10 @@ class Scene {
   /// A path through map points on the ground as drawn: densified to half the DEM's post spacing,
   /// straight in a projected frame, along geodesics on the globe (at least 10 m apart there).
   [[nodiscard]] std::vector<glm::dvec3> groundPath(std::span<const glm::dvec2> points, bool closed) const;
+  /// Lengths and areas through map points (a ring when `closed`): geodesic, on the DEM's surface
+  /// (true heights, sampled at half its post spacing), and planar (in the scene's CRS, or the
+  /// chords on the globe): scene::measure, or scene::measureOnGlobe.
+  [[nodiscard]] Result<Measurement> measure(std::span<const glm::dvec2> points, bool closed) const;
 
   /// The frame's own ground; the one the scene is not in is a caller error (throws).
   [[nodiscard]] LoadedScene& projected() { return std::get<LoadedScene>(ground_); }
