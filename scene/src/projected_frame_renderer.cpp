@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <set>
 
 #include "frame_renderers.hpp"
 #include "scene/scene_renderer.hpp"
@@ -283,15 +284,15 @@ class ProjectedFrameRenderer final : public FrameRenderer {
   StillSettings settings_;
   FrameStats stats_;
 
-  /// The layers built again (another technique, or their styles), which are hidden kept.
+  /// The layers built again (another technique, or their styles). A scene layer with a hidden
+  /// drawn layer stays hidden, all of it (an outline a restyle adds included), as on the globe.
   Diagnostics rebuild() {
-    std::vector<std::pair<std::size_t, bool>> hidden;
+    std::set<std::size_t> hidden;
     for (std::size_t j = 0; j < renderer_.overlaySources().size(); ++j)
-      if (!renderer_.shown(j)) hidden.push_back(renderer_.overlaySources()[j]);
+      if (!renderer_.shown(j)) hidden.insert(renderer_.overlaySources()[j].first);
     Diagnostics d = renderer_.buildOverlays(scene_, buildSettings(settings_));
     for (std::size_t j = 0; j < renderer_.overlaySources().size(); ++j) {
-      if (std::find(hidden.begin(), hidden.end(), renderer_.overlaySources()[j]) != hidden.end())
-        renderer_.setShown(j, false);
+      if (hidden.contains(renderer_.overlaySources()[j].first)) renderer_.setShown(j, false);
     }
     return d;
   }
