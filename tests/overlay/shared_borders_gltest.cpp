@@ -168,12 +168,7 @@ TEST_P(SharedBordersGlTest, NeighbouringTractsWithoutOutlinesLeaveNoCracks) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(BothFrames, SharedBordersGlTest,
-                         ::testing::Values(scene::FrameKind::Projected, scene::FrameKind::Globe),
-                         [](const ::testing::TestParamInfo<scene::FrameKind>& param) {
-                           return param.param == scene::FrameKind::Globe ? std::string("Globe")
-                                                                         : std::string("Projected");
-                         });
+INSTANTIATE_TEST_SUITE_P(BothFrames, SharedBordersGlTest, kBothFrames, frameName);
 
 }  // namespace
 }  // namespace gis::test

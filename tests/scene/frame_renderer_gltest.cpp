@@ -159,12 +159,7 @@ TEST_P(FrameRendererGlTest, TheViewersSwitchesInEitherFrame) {
   EXPECT_GT(changed, layerPixels * 9 / 10) << frame;
 }
 
-INSTANTIATE_TEST_SUITE_P(BothFrames, FrameRendererGlTest,
-                         ::testing::Values(scene::FrameKind::Projected, scene::FrameKind::Globe),
-                         [](const ::testing::TestParamInfo<scene::FrameKind>& param) {
-                           return param.param == scene::FrameKind::Globe ? std::string("Globe")
-                                                                         : std::string("Projected");
-                         });
+INSTANTIATE_TEST_SUITE_P(BothFrames, FrameRendererGlTest, kBothFrames, frameName);
 
 }  // namespace
 }  // namespace gis::test

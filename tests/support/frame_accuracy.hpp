@@ -16,6 +16,7 @@
 #include "gfx/state_cache.hpp"
 #include "scene/frame_renderer.hpp"
 #include "scene/frame_scene.hpp"
+#include "scene/scene.hpp"
 
 namespace gis::test {
 
@@ -30,6 +31,13 @@ struct FrameAccuracy {
     return *this;
   }
 };
+
+/// The frames a test runs in, named (INSTANTIATE_TEST_SUITE_P(BothFrames, Suite, kBothFrames,
+/// frameName)).
+inline const auto kBothFrames = ::testing::Values(scene::FrameKind::Projected, scene::FrameKind::Globe);
+inline std::string frameName(const ::testing::TestParamInfo<scene::FrameKind>& param) {
+  return param.param == scene::FrameKind::Globe ? "Globe" : "Projected";
+}
 
 /// Draws a still from `camera` into a target of this size and compares every drawn layer with
 /// the reference; the first pixels wrong away from edges are test failures naming `label`.
