@@ -173,9 +173,6 @@ class GlobeFrameRenderer final : public FrameRenderer {
   }
   [[nodiscard]] bool drawnLayerShown(std::size_t drawn) const override { return shown_.at(drawn) != 0; }
   void setDrawnLayerShown(std::size_t drawn, bool shown) override { shown_.at(drawn) = static_cast<char>(shown); }
-  [[nodiscard]] std::size_t drawnLayerFeatureCount(std::size_t drawn) const override {
-    return drawn < scene_.layerFeatures.size() ? scene_.layerFeatures[drawn].size() : 0;
-  }
   [[nodiscard]] std::shared_ptr<const geo::Feature> drawnLayerFeature(std::size_t drawn,
                                                                       std::size_t feature) const override {
     if (drawn >= scene_.layerFeatures.size() || feature >= scene_.layerFeatures[drawn].size()) return nullptr;

@@ -120,9 +120,6 @@ class ProjectedFrameRenderer final : public FrameRenderer {
   }
   [[nodiscard]] bool drawnLayerShown(std::size_t drawn) const override { return renderer_.shown(drawn); }
   void setDrawnLayerShown(std::size_t drawn, bool shown) override { renderer_.setShown(drawn, shown); }
-  [[nodiscard]] std::size_t drawnLayerFeatureCount(std::size_t drawn) const override {
-    return renderer_.overlayLayers().at(drawn).features().size();
-  }
   [[nodiscard]] std::shared_ptr<const geo::Feature> drawnLayerFeature(std::size_t drawn,
                                                                       std::size_t feature) const override {
     const std::vector<geo::Feature>& features = renderer_.overlayLayers().at(drawn).features();

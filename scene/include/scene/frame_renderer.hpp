@@ -221,9 +221,8 @@ class FrameRenderer {
   /// program reads the mask of a frame with hidden layers.
   [[nodiscard]] virtual bool drawnLayerShown(std::size_t drawn) const = 0;
   virtual void setDrawnLayerShown(std::size_t drawn, bool shown) = 0;
-  /// The features drawn layer `drawn` was built from, in the scene's frame (the source layer's as
-  /// read); feature i alone, which may be read from disk.
-  [[nodiscard]] virtual std::size_t drawnLayerFeatureCount(std::size_t drawn) const = 0;
+  /// Feature `feature` of those drawn layer `drawn` was built from, in the scene's frame (the
+  /// source layer's as read), alone: it may be read from disk.
   [[nodiscard]] virtual std::shared_ptr<const geo::Feature> drawnLayerFeature(std::size_t drawn,
                                                                               std::size_t feature) const = 0;
   /// Every feature of drawn layer `drawn` at once (read into memory where they were on disk).
