@@ -50,7 +50,8 @@ void Viewer::setExaggeration(double exaggeration) {
     const scene::GlobePose pose = g.controller->pose();
     g.controller->setGround(globeScene().heights.get());
     g.controller->setPose(pose);
-    layersRebuilt();
+    layersRebuilt();  // the layers were built again: their outlines, table and selection too
+    return;
   }
   selectionChanged();
 }
