@@ -32,8 +32,8 @@ globe::Geodetic edgeNear(const scene::LoadedGlobeScene& s, const globe::Geodetic
   globe::Geodetic best = focus;
   double nearest = std::numeric_limits<double>::max();
   const glm::dvec3 f = globe::toEcef(focus);
-  for (const globe::GlobeLayer& layer : s.layers) {
-    for (const globe::GlobePolygon& p : layer.polygons()) {
+  const auto nearestOf = [&](const std::vector<globe::GlobePolygon>& polygons) {
+    for (const globe::GlobePolygon& p : polygons) {
       for (const auto& ring : p.rings) {
         for (std::size_t k = 0; k < ring.size(); k += 16) {
           const double d = glm::length(globe::toEcef(ring[k].x, ring[k].y, 0.0) - f);
@@ -44,6 +44,13 @@ globe::Geodetic edgeNear(const scene::LoadedGlobeScene& s, const globe::Geodetic
         }
       }
     }
+  };
+  // The areas within a few degrees of the focus, read for this; every area only if none is.
+  const globe::LonLatRect near{focus.lon - 5.0, std::max(-90.0, focus.lat - 5.0), focus.lon + 5.0,
+                               std::min(90.0, focus.lat + 5.0)};
+  for (const globe::GlobeLayer& layer : s.layers) nearestOf(layer.areasIn(near, globe::kMaxLevel));
+  if (nearest == std::numeric_limits<double>::max()) {
+    for (const globe::GlobeLayer& layer : s.layers) nearestOf(layer.polygons());
   }
   return best;
 }

@@ -289,7 +289,7 @@ nlohmann::json Viewer::frameLayerJson(std::size_t sceneLayer) const {
     // The globe builds by tiles: what its layers hold (areas and lines) instead of what was drawn.
     std::size_t polygons = 0, lines = 0;
     for (const std::size_t d : drawnLayersOf(sceneLayer)) {
-      polygons += globeScene().layers[d].polygons().size();
+      polygons += globeScene().layers[d].areaCount();
       lines += globeScene().layers[d].lines().size();
     }
     j.update({{"polygons", polygons}, {"lines", lines}});

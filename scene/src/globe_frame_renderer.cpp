@@ -309,7 +309,7 @@ class GlobeFrameRenderer final : public FrameRenderer {
                                         {"mark_fragments", f.markFragments},
                                         {"cover_fragments", f.coverFragments}}});
       layers.push_back({{"name", scene_.layers[l].name()},
-                        {"polygons", scene_.layers[l].polygons().size()},
+                        {"polygons", scene_.layers[l].areaCount()},
                         {"mask_bit", scene_.layerFileIndex[l]},
                         {"covered_pixels", l < images.coveredPixels.size() ? images.coveredPixels[l] : 0U},
                         {"passes", passes}});

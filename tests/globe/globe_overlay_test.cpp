@@ -111,15 +111,23 @@ TEST(GlobePolygons, NeighboursShareTheirBorderAtEveryLevel) {
   const std::vector<glm::dvec2> full = onBorder(layer->polygons()[0].rings);
   EXPECT_EQ(full, onBorder(layer->polygons()[1].rings)) << "densified from the same end in both rings";
   EXPECT_GT(full.size(), 1000u);
+  // What a tile draws: the areas meeting it generalised together, over the whole world and over
+  // a small box on the border alike.
+  const LonLatRect world{-180.0, -90.0, 180.0, 90.0}, onTheBorder{-0.5, 4.0, 0.5, 5.0};
   int simplifiedLevels = 0;
   for (int level = 0; level < 8; ++level) {
-    const std::vector<glm::dvec2> a = onBorder(layer->areaRingsAt(0, level));
-    EXPECT_EQ(a, onBorder(layer->areaRingsAt(1, level))) << "level " << level;
-    simplifiedLevels += a.size() < full.size() ? 1 : 0;
+    for (const LonLatRect& rect : {world, onTheBorder}) {
+      const std::vector<GlobePolygon> areas = layer->areasIn(rect, level);
+      ASSERT_EQ(areas.size(), 2u) << "level " << level;
+      const std::vector<glm::dvec2> a = onBorder(areas[0].rings);
+      EXPECT_EQ(a, onBorder(areas[1].rings)) << "level " << level;
+      simplifiedLevels += a.size() < full.size() && rect.west == world.west ? 1 : 0;
+    }
   }
   EXPECT_GT(simplifiedLevels, 3) << "the shared border is simplified at the coarse levels, not kept whole";
+  EXPECT_TRUE(layer->areasIn(LonLatRect{20.0, 4.0, 21.0, 5.0}, 0).empty()) << "a box neither area meets";
   // Within the level's tolerance: every kept border point is one of the full border's.
-  for (const glm::dvec2& p : onBorder(layer->areaRingsAt(0, 0)))
+  for (const glm::dvec2& p : onBorder(layer->areasIn(world, 0).front().rings))
     EXPECT_NE(std::find(full.begin(), full.end(), p), full.end());
 }
 

@@ -352,6 +352,18 @@ TEST(SceneLoader, OnTheGlobeLayersAreReadByTheSameLoaderAndCache) {
   EXPECT_EQ(second->layersFromCache, 1u);
   EXPECT_TRUE(second->sourceLayers[0].features.onDisk()) << "read one at a time, never all at once";
   ASSERT_EQ(second->layers.size(), first->layers.size());
+  // A tile is built from the features that reach it, read for it: the fill's areas are not all
+  // prepared (only their boxes are kept), and the features stay on disk.
+  const globe::GlobeLayer& fill = second->layers[0];
+  ASSERT_EQ(fill.areaCount(), 2u);
+  constexpr int kLevel = 12;
+  const double size = globe::TileKey{kLevel, 0, 0}.size();
+  const globe::TileKey key{kLevel, static_cast<int>(std::floor((-34.86 + 180.0) / size)),
+                           static_cast<int>(std::floor((-8.05 + 90.0) / size))};
+  const overlay::LayerGeometry pieces = globe::buildTilePieces(fill, key, *second->heights, 0);
+  EXPECT_GT(pieces.indexCount(), 0u);
+  EXPECT_FALSE(fill.allAreasPrepared()) << "a tile prepares the areas that reach it, not the layer's";
+  EXPECT_TRUE(second->sourceLayers[0].features.onDisk());
   for (std::size_t l = 0; l < first->layers.size(); ++l) {
     EXPECT_EQ(second->layers[l].fingerprint(), first->layers[l].fingerprint()) << l;
     EXPECT_EQ(second->layers[l].polygons().size(), first->layers[l].polygons().size()) << l;

@@ -185,6 +185,20 @@ struct LineGrid {
   bool visit(double lonDeg, double latDeg, double extra, Visit&& visit) const;
 };
 
+/// Boxes (unwrapped lon/lat) in a grid over their union, for the boxes meeting a rectangle
+/// (GlobeLayer::areasIn): each cell holds the boxes meeting it; a box meeting more than a quarter
+/// of the cells is in `everywhere` instead.
+struct BoxGrid {
+  LonLatRect box{0.0, 0.0, -1.0, -1.0};
+  GridShape shape;
+  std::vector<std::vector<std::uint32_t>> cells;
+  std::vector<std::uint32_t> everywhere;
+  static BoxGrid of(const std::vector<LonLatRect>& boxes);
+  /// The boxes that may meet `rect` or `rect` moved 360° east or west (a superset: test them),
+  /// each once, in increasing order.
+  [[nodiscard]] std::vector<std::uint32_t> meeting(const LonLatRect& rect) const;
+};
+
 /// A line's shapes at its points (GlobeLine::joins).
 struct LineJoins {
   std::vector<PointShape> at;

@@ -62,13 +62,12 @@ void GlobeDrapeSource::triangles(std::size_t layer, const glm::dvec2& lo, const 
   int level = drapeLevel(texel.y);
   const std::vector<glm::vec4>& colours = drawn->colors();
   const auto colourOf = [&](std::uint32_t group) { return group < colours.size() ? colours[group] : drawn->color(); };
-  for (std::size_t k = 0; k < drawn->areaCount(); ++k) {
-    const GlobePolygon& area = drawn->polygons()[k];
+  // The areas that meet the box, generalised together for the level (as a tile of it draws them).
+  for (const GlobePolygon& area : drawn->areasIn(LonLatRect{lo.x, lo.y, hi.x, hi.y}, level)) {
+    std::optional<overlay::Footprint> f;
     forEachTurn(area.box, lo, hi, [&](double shift) {
-      auto found = areas_.find({layer, k, level});
-      if (found == areas_.end())
-        found = areas_.emplace(std::tuple{layer, k, level}, triangulated(drawn->areaRingsAt(k, level))).first;
-      emitFootprint(found->second, shift, colourOf(area.group), emit);
+      if (!f) f = triangulated(area.rings);
+      emitFootprint(*f, shift, colourOf(area.group), emit);
     });
   }
   if (!drawn->hasLines()) return;

@@ -334,10 +334,9 @@ GlobeOverlayRenderer::~GlobeOverlayRenderer() {
 overlay::OverlayRenderer* GlobeOverlayRenderer::renderer() { return madeOnFirstUse(gpu_->renderer, gpu_->failed); }
 
 std::size_t GlobeOverlayRenderer::featureChanged(const GlobeLayer& layer, const std::vector<LonLatRect>& boxes) {
-  // A drape rasterises the textures over the boxes again, from the areas triangulated again.
+  // A drape rasterises the textures over the boxes again (the areas are read and triangulated per texture).
   if (gpu_->drape &&
       std::find(gpu_->drapeSerials.begin(), gpu_->drapeSerials.end(), layer.serial()) != gpu_->drapeSerials.end()) {
-    if (gpu_->drapeSource) gpu_->drapeSource->forget();
     for (const LonLatRect& b : boxes) {
       for (int turn = -1; turn <= 1; ++turn) {
         const double shift = 360.0 * turn;
@@ -650,7 +649,7 @@ const std::vector<overlay::OverlayLayer>* GlobeOverlayRenderer::wholeLoadOf(cons
       }
       count = keys.size();
     };
-    for (std::size_t k = 0; k < layer.areaCount(); ++k) addBox(layer.polygons()[k].box, 0.0);
+    for (std::size_t k = 0; k < layer.areaCount(); ++k) addBox(layer.area(k).box, 0.0);
     if (layer.hasLines()) {
       for (const GlobeLine& line : layer.lines()) addBox(line.box, line.halfWidth * line.shapeReach());
     }
@@ -767,8 +766,8 @@ const overlay::DeferredLayer* GlobeOverlayRenderer::deferredOf(const GlobeLayer&
     std::vector<glm::vec4> colors(layer.featureCount(), layer.color());
     const std::vector<glm::vec4>& groups = layer.colors();
     for (std::size_t k = 0; k < layer.areaCount(); ++k) {
-      const GlobePolygon& p = layer.polygons()[k];
-      if (p.feature < colors.size() && p.group < groups.size()) colors[p.feature] = groups[p.group];
+      const GlobeLayer::Area& a = layer.area(k);
+      if (a.feature < colors.size() && a.group < groups.size()) colors[a.feature] = groups[a.group];
     }
     if (layer.hasLines()) {
       for (const GlobeLine& l : layer.lines())

@@ -436,7 +436,7 @@ std::unordered_map<std::uint32_t, LonLatRect> featureBoxes(const GlobeLayer& lay
            std::max(b.north, box.north)};
     }
   };
-  for (std::size_t k = 0; k < layer.areaCount(); ++k) add(layer.polygons()[k].feature, layer.polygons()[k].box);
+  for (std::size_t k = 0; k < layer.areaCount(); ++k) add(layer.area(k).feature, layer.area(k).box);
   if (layer.hasLines()) {
     for (const GlobeLine& line : layer.lines()) {
       const glm::dvec2 grow = detail::degreesAround(line.box, line.halfWidth * line.shapeReach());
@@ -540,9 +540,10 @@ TilePieces piecesOf(const GlobeLayer& layer, const TileKey& key, const GeoGrid& 
       }
     }
   };
-  const std::vector<GlobePolygon>& polygons = layer.polygons();
   const int detail = wholeLoad ? kMaxLevel : key.level;
-  for (std::size_t k = 0; k < layer.areaCount(); ++k) addPolygon(polygons[k], layer.areaRingsAt(k, detail), false);
+  // The areas that reach the tile, read and generalised for it now.
+  for (const GlobePolygon& area : layer.areasIn(rect.expanded(lonMargin, latMargin), detail))
+    addPolygon(area, area.rings, false);
   for (const GlobePolygon& polygon : layer.lineShapesIn(key, wholeLoad ? 0 : widthClass, 0.0, detail))
     addPolygon(polygon, polygon.rings, true);
   for (const auto& [groupCell, rings] : lineCells) {

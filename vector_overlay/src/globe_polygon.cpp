@@ -53,6 +53,40 @@ namespace {
 using detail::isPole;
 using detail::wrap180;
 
+/// How many runs of consecutive features `count` features are prepared in (forRuns).
+std::size_t runCount(std::size_t count) {
+  const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
+  return std::max<std::size_t>(1, std::min(count, 8 * cores));
+}
+
+/// Calls work(run, f) for the features [0, count) in `runs` runs of consecutive ones, the runs on
+/// every core: what the runs make, joined in their order, is in the features' order and the same
+/// on any number of cores.
+template <typename Work>
+void forRuns(std::size_t count, std::size_t runs, const Work& work) {
+  std::atomic<std::size_t> next{0};
+  const auto worker = [&] {
+    for (std::size_t r = next++; r < runs; r = next++) {
+      for (std::size_t f = r * count / runs; f < (r + 1) * count / runs; ++f) work(r, f);
+    }
+  };
+  const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
+  std::vector<std::thread> helpers;
+  for (std::size_t h = 1; h < std::min(cores, runs); ++h) helpers.emplace_back(worker);
+  worker();
+  for (std::thread& t : helpers) t.join();
+}
+
+/// A digest of a feature's areas as prepared: their colour group and rings.
+std::uint64_t areasDigest(std::span<const GlobePolygon> polygons) {
+  std::vector<std::uint64_t> parts;
+  for (const GlobePolygon& p : polygons) {
+    parts.push_back(geo::io::digest(&p.group, sizeof(p.group)));
+    for (const auto& ring : p.rings) parts.push_back(geo::io::digest(ring.data(), ring.size() * sizeof(glm::dvec2)));
+  }
+  return parts.empty() ? 0 : geo::io::digest(parts.data(), parts.size() * sizeof(std::uint64_t));
+}
+
 /// False, with `problem` set, for a point that is not a longitude and latitude.
 bool usablePoint(const glm::dvec2& p, std::string& problem) {
   if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
@@ -520,7 +554,7 @@ std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& featur
 }
 
 void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
-                                bool areas) const {
+                                bool areas, bool indexed) const {
   const GlobeLayerOptions& options = options_;
   const bool inPixels = widthPixels_ > 0.0;
   const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
@@ -619,6 +653,7 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
       GlobePolygon prepared;
       prepared.feature = static_cast<std::uint32_t>(f);
       prepared.group = group;
+      prepared.source = static_cast<std::uint32_t>(k);
       std::string problem;
       if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
         part.diagnostics.add({Severity::Error,
@@ -628,7 +663,7 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
                               "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
         continue;
       }
-      prepared.index = detail::buildIndex(prepared);
+      if (indexed) prepared.index = detail::buildIndex(prepared);
       part.polygons.push_back(std::move(prepared));
     }
   }
@@ -644,7 +679,6 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   layer.maxSegment_ = options.maxSegmentMetres;
   layer.options_ = options;
   layer.levels_ = std::make_shared<detail::LineLevels>();
-  layer.areaLevels_ = std::make_shared<detail::AreaLevels>();
   const bool inPixels = options.lineWidthPixels > 0.0 && std::isfinite(options.lineWidthPixels);
   if (inPixels) {
     layer.widthPixels_ = options.lineWidthPixels;
@@ -687,46 +721,39 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     return out;
   }
   // The features in runs, on every core (features on disk are read one at a time, and only those
-  // being checked are resident): the areas prepared, the lines checked (prepared when first
+  // being checked are resident): the areas prepared to be checked and to know their boxes and
+  // digest (their rings are not kept: areasIn, polygons()), the lines checked (prepared when first
   // asked for: lines()); the runs' areas, boxes and messages are joined in the features' order,
   // so the layer is the same on any number of cores.
-  const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
-  const std::size_t runs = std::max<std::size_t>(1, std::min(features.size(), 8 * cores));
+  const std::size_t runs = runCount(features.size());
   struct Run {
     FeatureParts part;
+    std::vector<Area> areas;
     LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
     bool any = false;
   };
   std::vector<Run> parts(runs);
   layer.lineDigests_.assign(features.size(), 0);
-  const auto prepare = [&](std::size_t f, Run& run) {
+  layer.areaDigests_.assign(features.size(), 0);
+  forRuns(features.size(), runs, [&](std::size_t r, std::size_t f) {
+    Run& run = parts[r];
     const std::shared_ptr<const geo::Feature> feature = features.get(f);
     const auto index = static_cast<std::uint32_t>(f);
     if (drawLines) layer.lineDigests_[f] = layer.checkLines(index, *feature, groupOf[f], run.part, run.box, run.any);
-    layer.prepareFeature(index, *feature, groupOf[f], run.part, true);
-  };
-  {
-    std::atomic<std::size_t> next{0};
-    const auto work = [&] {
-      for (std::size_t r = next++; r < runs; r = next++) {
-        for (std::size_t f = r * features.size() / runs; f < (r + 1) * features.size() / runs; ++f)
-          prepare(f, parts[r]);
-      }
-    };
-    std::vector<std::thread> helpers;
-    for (std::size_t h = 1; h < std::min(cores, runs); ++h) helpers.emplace_back(work);
-    work();
-    for (std::thread& t : helpers) t.join();
-  }
+    layer.prepareFeature(index, *feature, groupOf[f], run.part, true, false);
+    layer.areaDigests_[f] = areasDigest(run.part.polygons);
+    for (const GlobePolygon& p : run.part.polygons) run.areas.push_back({p.feature, p.group, p.source, p.box});
+    run.part.polygons.clear();
+  });
   LonLatRect extent{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
   const auto widen = [&extent](const LonLatRect& r) {
     extent = {std::min(extent.west, r.west), std::min(extent.south, r.south), std::max(extent.east, r.east),
               std::max(extent.north, r.north)};
   };
   for (Run& run : parts) {
-    for (GlobePolygon& p : run.part.polygons) {
-      widen(p.box);
-      layer.polygons_.push_back(std::move(p));
+    for (const Area& a : run.areas) {
+      widen(a.box);
+      layer.areas_.push_back(a);
     }
     if (run.any) {
       layer.hasLines_ = true;
@@ -734,6 +761,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     }
     out.diagnostics.append(run.part.diagnostics);
   }
+  layer.indexAreas();
   if (extent.west <= extent.east) layer.extent_ = extent;
   // Of the lines in pixels, the least width in metres and the greatest largest one (what a frame's
   // width classes are chosen by), from the options: each line's widths are its feature's.
@@ -749,7 +777,6 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     if (options.anchorGround) layer.anchorDigest_ = options.anchorGround->contentDigest().value_or(1);
   }
   layer.features_ = features;
-  layer.areaPolygons_ = layer.polygons_.size();
   layer.featureGroups_ = std::move(groupOf);
   layer.fingerprint_ = layer.digestForCache();
   layer.serial_ = ++detail::layerBuilds;
@@ -814,40 +841,180 @@ LineGrid LineGrid::of(const std::vector<GlobeLine>& lines) {
   return grid;
 }
 
+BoxGrid BoxGrid::of(const std::vector<LonLatRect>& boxes) {
+  BoxGrid grid;
+  if (boxes.empty()) return grid;
+  grid.box = boxes.front();
+  for (const LonLatRect& b : boxes)
+    grid.box = {std::min(grid.box.west, b.west), std::min(grid.box.south, b.south), std::max(grid.box.east, b.east),
+                std::max(grid.box.north, b.north)};
+  // About as many cells as boxes.
+  const GridShape& s = grid.shape = gridShape(std::min<std::size_t>(boxes.size(), 1 << 16),
+                                              grid.box.east - grid.box.west, grid.box.north - grid.box.south);
+  grid.cells.assign(s.columns * s.rows, {});
+  for (std::size_t j = 0; j < boxes.size(); ++j) {
+    const LonLatRect& b = boxes[j];
+    const std::size_t c0 = cellIndex(b.west, grid.box.west, s.cellWidth, s.columns),
+                      c1 = cellIndex(b.east, grid.box.west, s.cellWidth, s.columns);
+    const std::size_t r0 = cellIndex(b.south, grid.box.south, s.cellHeight, s.rows),
+                      r1 = cellIndex(b.north, grid.box.south, s.cellHeight, s.rows);
+    if ((c1 - c0 + 1) * (r1 - r0 + 1) * 4 > grid.cells.size()) {
+      grid.everywhere.push_back(static_cast<std::uint32_t>(j));
+      continue;
+    }
+    for (std::size_t r = r0; r <= r1; ++r) {
+      for (std::size_t c = c0; c <= c1; ++c) grid.cells[r * s.columns + c].push_back(static_cast<std::uint32_t>(j));
+    }
+  }
+  return grid;
+}
+
+std::vector<std::uint32_t> BoxGrid::meeting(const LonLatRect& rect) const {
+  std::vector<std::uint32_t> out = everywhere;
+  if (!cells.empty() && rect.south <= box.north && rect.north >= box.south) {
+    const std::size_t r0 = cellIndex(rect.south, box.south, shape.cellHeight, shape.rows),
+                      r1 = cellIndex(rect.north, box.south, shape.cellHeight, shape.rows);
+    for (int turn = -1; turn <= 1; ++turn) {
+      const double west = rect.west + 360.0 * turn, east = rect.east + 360.0 * turn;
+      if (east < box.west || west > box.east) continue;
+      const std::size_t c0 = cellIndex(west, box.west, shape.cellWidth, shape.columns),
+                        c1 = cellIndex(east, box.west, shape.cellWidth, shape.columns);
+      for (std::size_t r = r0; r <= r1; ++r) {
+        for (std::size_t c = c0; c <= c1; ++c) {
+          const std::vector<std::uint32_t>& cell = cells[r * shape.columns + c];
+          out.insert(out.end(), cell.begin(), cell.end());
+        }
+      }
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 }  // namespace detail
 
 std::vector<GlobeLine> GlobeLayer::prepareLines() const {
   std::vector<GlobeLine> out;
   if (!hasLines_) return out;
-  // As build runs its features: in runs on every core, joined in order (their messages were said
-  // at build).
-  const std::size_t count = std::min(features_.size(), lineDigests_.size());
-  const std::size_t cores = std::max(1U, std::thread::hardware_concurrency());
-  const std::size_t runs = std::max<std::size_t>(1, std::min(count, 8 * cores));
-  std::vector<FeatureParts> parts(runs);
-  std::atomic<std::size_t> next{0};
-  const auto work = [&] {
-    for (std::size_t r = next++; r < runs; r = next++) {
-      for (std::size_t f = r * count / runs; f < (r + 1) * count / runs; ++f) {
-        if (lineDigests_[f] == 0) continue;  // no usable line
-        prepareFeature(static_cast<std::uint32_t>(f), *features_.get(f), featureGroups_[f], parts[r], false);
-      }
-    }
-  };
-  std::vector<std::thread> helpers;
-  for (std::size_t h = 1; h < std::min(cores, runs); ++h) helpers.emplace_back(work);
-  work();
-  for (std::thread& t : helpers) t.join();
+  // As build runs its features (their messages were said at build).
+  const std::size_t count = std::min(featureGroups_.size(), lineDigests_.size());
+  std::vector<FeatureParts> parts(runCount(count));
+  forRuns(count, parts.size(), [&](std::size_t r, std::size_t f) {
+    if (lineDigests_[f] == 0) return;  // no usable line
+    const auto index = static_cast<std::uint32_t>(f);
+    prepareFeature(index, *featureAt(index), featureGroups_[f], parts[r], false);
+  });
   for (FeatureParts& part : parts) {
     for (GlobeLine& g : part.lines) out.push_back(std::move(g));
   }
   return out;
 }
 
+std::vector<GlobePolygon> GlobeLayer::prepareAreas() const {
+  std::vector<GlobePolygon> out;
+  out.reserve(areas_.size());
+  const std::size_t count = std::min(featureGroups_.size(), areaDigests_.size());
+  std::vector<FeatureParts> parts(runCount(count));
+  forRuns(count, parts.size(), [&](std::size_t r, std::size_t f) {
+    if (areaDigests_[f] == 0) return;  // no usable area
+    const auto index = static_cast<std::uint32_t>(f);
+    prepareFeature(index, *featureAt(index), featureGroups_[f], parts[r], true);
+  });
+  for (FeatureParts& part : parts) {
+    for (GlobePolygon& p : part.polygons) out.push_back(std::move(p));
+  }
+  return out;
+}
+
+const std::vector<GlobePolygon>& GlobeLayer::polygons() const {
+  if (const std::vector<GlobePolygon>* made = allAreas_->made.load(std::memory_order_acquire)) return *made;
+  const std::lock_guard<std::mutex> lock(allAreas_->mutex);
+  if (!allAreas_->polygons) allAreas_->polygons = std::make_shared<const std::vector<GlobePolygon>>(prepareAreas());
+  allAreas_->made.store(allAreas_->polygons.get(), std::memory_order_release);
+  return *allAreas_->polygons;
+}
+
+bool GlobeLayer::allAreasPrepared() const { return allAreas_->made.load(std::memory_order_acquire) != nullptr; }
+
+std::shared_ptr<const geo::Feature> GlobeLayer::featureAt(std::uint32_t f) const {
+  if (edited_) {
+    const auto found = edited_->find(f);
+    if (found != edited_->end()) return found->second;
+  }
+  return features_.get(f);
+}
+
+void GlobeLayer::indexAreas() {
+  std::vector<LonLatRect> boxes;
+  boxes.reserve(areas_.size());
+  for (const Area& a : areas_) boxes.push_back(a.box);
+  areaGrid_ = std::make_shared<const detail::BoxGrid>(detail::BoxGrid::of(boxes));
+}
+
+std::vector<GlobePolygon> GlobeLayer::areasIn(const LonLatRect& rect, int level) const {
+  std::vector<GlobePolygon> out;
+  if (!areaGrid_) return out;
+  const auto meets = [&rect](const LonLatRect& box) {
+    if (box.south > rect.north || box.north < rect.south) return false;
+    for (int turn = -1; turn <= 1; ++turn) {
+      if (box.west + 360.0 * turn <= rect.east && box.east + 360.0 * turn >= rect.west) return true;
+    }
+    return false;
+  };
+  // Each feature read once (its areas are consecutive), only the polygons that meet prepared.
+  std::shared_ptr<const geo::Feature> feature;
+  for (const std::uint32_t k : areaGrid_->meeting(rect)) {
+    const Area& a = areas_[k];
+    if (!meets(a.box)) continue;
+    if (!feature || out.empty() || out.back().feature != a.feature) feature = featureAt(a.feature);
+    if (a.source >= feature->polygons.size()) continue;
+    GlobePolygon p;
+    p.feature = a.feature;
+    p.group = a.group;
+    p.source = a.source;
+    std::string problem;
+    if (preparePolygon(feature->polygons[a.source], maxSegment_, p, problem)) out.push_back(std::move(p));
+  }
+  if (out.empty() || level < 0 || level >= kMaxLevel) return out;
+  // Generalised together: shared borders have the same points in both areas (prepareRing
+  // densifies them from the same end), found once and simplified once.
+  std::vector<geo::Feature> coverage(out.size());
+  std::vector<const geo::Feature*> pointers;
+  pointers.reserve(out.size());
+  for (std::size_t a = 0; a < out.size(); ++a) {
+    geo::Polygon polygon;
+    for (std::size_t r = 0; r < out[a].rings.size(); ++r)
+      (r == 0 ? polygon.outer : polygon.holes.emplace_back()) = out[a].rings[r];
+    coverage[a].polygons.push_back(std::move(polygon));
+    pointers.push_back(&coverage[a]);
+  }
+  // Islands within the tolerance of one chord are left out of the level.
+  const std::vector<geo::Feature> generalised =
+      overlay::CoverageGeneraliser(pointers, ringDistance).at(simplifyTolerance(level), nullptr, true);
+  std::vector<GlobePolygon> kept;
+  kept.reserve(out.size());
+  for (std::size_t a = 0; a < out.size(); ++a) {
+    const geo::Polygon& g = generalised[a].polygons.front();
+    std::size_t points = 0, left = 0;
+    for (const auto& ring : out[a].rings) points += ring.size();
+    std::vector<std::vector<glm::dvec2>> rings;
+    for (std::size_t r = 0; r <= g.holes.size(); ++r) {
+      const geo::Ring& ring = r == 0 ? g.outer : g.holes[r - 1];
+      left += ring.size();
+      if (ring.size() >= 3) rings.push_back(ring);
+    }
+    // Nearly nothing left out: drawn from its own rings.
+    if (left * 10 < points * 9) out[a].rings = std::move(rings);
+    if (!out[a].rings.empty()) kept.push_back(std::move(out[a]));
+  }
+  return kept;
+}
+
 std::vector<LonLatRect> GlobeLayer::featureBoxes(std::uint32_t f) const {
   std::vector<LonLatRect> boxes;
-  for (std::size_t k = 0; k < areaPolygons_; ++k) {
-    if (polygons_[k].feature == f) boxes.push_back(polygons_[k].box);
+  for (const Area& a : areas_) {
+    if (a.feature == f) boxes.push_back(a.box);
   }
   for (const GlobeLine& line : lines()) {
     if (line.feature != f) continue;
@@ -883,6 +1050,11 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   prepareFeature(index, feature, featureGroups_[f], part, false);
   prepareFeature(index, feature, featureGroups_[f], part, true);
   out.diagnostics.append(part.diagnostics);
+  // The feature as edited, for what is prepared from now on (areasIn, polygons(), lines()).
+  using Edited = std::map<std::uint32_t, std::shared_ptr<const geo::Feature>>;
+  auto editedFeatures = edited_ ? std::make_shared<Edited>(*edited_) : std::make_shared<Edited>();
+  (*editedFeatures)[index] = std::make_shared<const geo::Feature>(feature);
+  edited_ = std::move(editedFeatures);
   {
     FeatureParts unused;
     LonLatRect box{};
@@ -898,7 +1070,22 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
     const auto at = std::find_if(items.begin(), items.end(), [&](const auto& item) { return item.feature > index; });
     items.insert(at, std::make_move_iterator(fresh.begin()), std::make_move_iterator(fresh.end()));
   };
-  replace(polygons_, part.polygons);
+  // Its areas' entries, in the features' order; the prepared areas edited if they were made.
+  if (f >= areaDigests_.size()) areaDigests_.resize(f + 1, 0);
+  areaDigests_[f] = areasDigest(part.polygons);
+  std::vector<Area> fresh;
+  for (const GlobePolygon& p : part.polygons) fresh.push_back({p.feature, p.group, p.source, p.box});
+  replace(areas_, fresh);
+  indexAreas();
+  if (allAreasPrepared()) {
+    std::vector<GlobePolygon> all = polygons();
+    replace(all, part.polygons);
+    allAreas_ = std::make_shared<LazyAreas>();
+    allAreas_->polygons = std::make_shared<const std::vector<GlobePolygon>>(std::move(all));
+    allAreas_->made.store(allAreas_->polygons.get(), std::memory_order_release);
+  } else {
+    allAreas_ = std::make_shared<LazyAreas>();
+  }
   // The edited lines are a new list (copies of the layer keep theirs).
   std::vector<GlobeLine> edited = lines();
   replace(edited, part.lines);
@@ -906,7 +1093,6 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   lines_->lines = std::make_shared<const std::vector<GlobeLine>>(std::move(edited));
   lines_->linesMade.store(lines_->lines.get(), std::memory_order_release);
   const std::vector<GlobeLine>& now = *lines_->lines;
-  areaPolygons_ = polygons_.size();
   if (widthPixels_ > 0.0) {
     leastHalfWidth_ = widestHalfWidth_ = 0.0;
     for (std::size_t j = 0; j < now.size(); ++j) {
@@ -916,7 +1102,6 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   }
   // What was made from the old geometry is made again as tiles ask.
   levels_ = std::make_shared<detail::LineLevels>();
-  areaLevels_ = std::make_shared<detail::AreaLevels>();
   fingerprint_ = digestForCache();
   const std::vector<LonLatRect> reached = featureBoxes(index);
   boxes.insert(boxes.end(), reached.begin(), reached.end());
@@ -1080,20 +1265,6 @@ struct LineLevels {
   std::array<bool, kMaxLevel + 1> made{};
 };
 
-/// The areas' generalised rings (GlobeLayer::areaRingsAt), made a level at a time as tiles ask.
-struct AreaLevels {
-  std::mutex mutex;
-  /// The areas as the generaliser reads them (one feature per area), and the shared borders it
-  /// found in them: made at the first level asked for.
-  std::vector<geo::Feature> coverage;
-  std::vector<const geo::Feature*> pointers;
-  std::unique_ptr<overlay::CoverageGeneraliser> generaliser;
-  /// Per level, per area: its rings there, unless `own` says it is drawn from its own rings.
-  std::array<std::vector<std::vector<std::vector<glm::dvec2>>>, kMaxLevel + 1> rings;
-  std::array<std::vector<char>, kMaxLevel + 1> own;
-  std::array<bool, kMaxLevel + 1> made{};
-};
-
 }  // namespace detail
 
 namespace {
@@ -1134,49 +1305,6 @@ double GlobeLayer::lineTolerance(const GlobeLine& line, int level) {
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
   const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
   return kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
-}
-
-const std::vector<std::vector<glm::dvec2>>& GlobeLayer::areaRingsAt(std::size_t k, int level) const {
-  if (k >= areaPolygons_ || !areaLevels_ || level < 0 || level >= kMaxLevel) return polygons_.at(k).rings;
-  detail::AreaLevels& levels = *areaLevels_;
-  const auto at = static_cast<std::size_t>(level);
-  const std::lock_guard<std::mutex> lock(levels.mutex);
-  if (!levels.made[at]) {
-    levels.made[at] = true;
-    if (!levels.generaliser) {
-      // The shared borders, found once: a border two areas share has the same points in both
-      // (prepareRing densifies it from the same end).
-      levels.coverage.resize(areaPolygons_);
-      for (std::size_t a = 0; a < areaPolygons_; ++a) {
-        geo::Polygon polygon;
-        for (std::size_t r = 0; r < polygons_[a].rings.size(); ++r)
-          (r == 0 ? polygon.outer : polygon.holes.emplace_back()) = polygons_[a].rings[r];
-        levels.coverage[a].polygons.push_back(std::move(polygon));
-        levels.pointers.push_back(&levels.coverage[a]);
-      }
-      levels.generaliser = std::make_unique<overlay::CoverageGeneraliser>(levels.pointers, ringDistance);
-    }
-    // Islands within the tolerance of one chord are left out of the level.
-    const std::vector<geo::Feature> generalised = levels.generaliser->at(simplifyTolerance(level), nullptr, true);
-    levels.rings[at].resize(areaPolygons_);
-    levels.own[at].assign(areaPolygons_, 0);
-    for (std::size_t a = 0; a < areaPolygons_; ++a) {
-      const geo::Polygon& g = generalised[a].polygons.front();
-      std::size_t kept = 0, points = 0;
-      for (const auto& ring : polygons_[a].rings) points += ring.size();
-      std::vector<std::vector<glm::dvec2>>& rings = levels.rings[at][a];
-      for (std::size_t r = 0; r <= g.holes.size(); ++r) {
-        const geo::Ring& ring = r == 0 ? g.outer : g.holes[r - 1];
-        kept += ring.size();
-        if (ring.size() >= 3) rings.push_back(ring);
-      }
-      if (kept * 10 >= points * 9) {
-        levels.own[at][a] = 1;  // nearly nothing left out: drawn from its own rings
-        std::vector<std::vector<glm::dvec2>>().swap(rings);
-      }
-    }
-  }
-  return levels.own[at][k] != 0 ? polygons_[k].rings : levels.rings[at][k];
 }
 
 const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) const {
@@ -1313,8 +1441,10 @@ std::size_t GlobeLine::bucketRow(double lat) const {
 
 bool GlobeLayer::contains(const glm::dvec3& point, double lonDeg, double latDeg,
                           const overlay::PixelScale& scale) const {
-  for (std::size_t k = 0; k < areaPolygons_; ++k) {
-    if (globe::contains(polygons_[k], point, lonDeg, latDeg)) return true;
+  if (!areas_.empty()) {
+    for (const GlobePolygon& p : polygons()) {
+      if (globe::contains(p, point, lonDeg, latDeg)) return true;
+    }
   }
   if (!hasLines_) return false;
   const std::vector<GlobeLine>& all = lines();
@@ -1333,10 +1463,8 @@ std::uint64_t GlobeLayer::digestForCache() const {
   const auto add = [&parts](const void* data, std::size_t bytes) { parts.push_back(geo::io::digest(data, bytes)); };
   const std::array<double, 3> numbers{chordTolerance_, maxSegment_, widthPixels_};
   add(numbers.data(), sizeof(numbers));
-  for (const GlobePolygon& p : polygons_) {
-    add(&p.group, sizeof(p.group));
-    for (const auto& ring : p.rings) add(ring.data(), ring.size() * sizeof(glm::dvec2));
-  }
+  // The areas as prepared (areasDigest, per feature).
+  parts.insert(parts.end(), areaDigests_.begin(), areaDigests_.end());
   // The lines as their features give them (checkLines: points, widths, joins, caps, colour
   // group; the densified points, anchors and buckets follow from these, the options and the anchor
   // ground), so the lines need not be prepared to know it.

@@ -4,8 +4,6 @@
 // tiles are linear in both (tile.hpp), so a texture over a tile's box, or over the data's, is
 // sampled by the terrain as a projected chunk samples its own.
 #include <cstdint>
-#include <map>
-#include <tuple>
 #include <vector>
 
 #include "vector_overlay/footprints.hpp"
@@ -20,9 +18,9 @@ namespace gis::globe {
 int drapeLevel(double texelDegrees);
 
 /// `layers` (layer i writes mask bit i; null entries draw nothing) as a drape draws them:
-/// - the areas: their rings at drapeLevel (areaRingsAt: shared borders stay shared),
-///   triangulated even-odd in the plane of longitude and latitude (overlay::evenOddFootprint),
-///   kept per area and level until forget();
+/// - the areas that meet the box: their rings at drapeLevel, generalised together
+///   (GlobeLayer::areasIn: shared borders stay shared), triangulated even-odd in the plane of
+///   longitude and latitude (overlay::evenOddFootprint);
 /// - the lines: the shapes (lineShapesIn) of the level's tiles that meet the box, lines in pixels
 ///   as wide as widthPixels texels (within their least and largest widths: a texture cannot
 ///   follow the view);
@@ -39,13 +37,9 @@ class GlobeDrapeSource final : public overlay::DrapeSource {
 
   /// The layers drawn (in order).
   [[nodiscard]] const std::vector<const GlobeLayer*>& layers() const { return layers_; }
-  /// The areas' triangulations are made again as asked for (after an edit of a layer).
-  void forget() { areas_.clear(); }
 
  private:
   std::vector<const GlobeLayer*> layers_;
-  /// Per (layer, area, level): the area's triangulation there.
-  mutable std::map<std::tuple<std::size_t, std::size_t, int>, overlay::Footprint> areas_;
 };
 
 }  // namespace gis::globe

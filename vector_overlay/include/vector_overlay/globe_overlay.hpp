@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -56,7 +57,7 @@ namespace gis::globe {
 namespace detail {
 struct PolygonIndex;
 struct LineLevels;
-struct AreaLevels;
+struct BoxGrid;
 struct LineJoins;
 struct LineGrid;
 }  // namespace detail
@@ -65,7 +66,8 @@ struct LineGrid;
 /// closed along a pole where they wind around one. Points are (lon, lat) degrees.
 struct GlobePolygon {
   std::uint32_t feature = 0;
-  std::uint32_t group = 0;  ///< its colour: GlobeLayer::colors()[group]
+  std::uint32_t group = 0;   ///< its colour: GlobeLayer::colors()[group]
+  std::uint32_t source = 0;  ///< which of its feature's polygons it is
   std::vector<std::vector<glm::dvec2>> rings;
   LonLatRect box;                                     ///< of the rings, in their unwrapped longitudes
   std::shared_ptr<const detail::PolygonIndex> index;  ///< for contains()
@@ -177,8 +179,13 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] const glm::vec4& color() const { return color_; }
   /// The colours its features are drawn in (GlobePolygon::group), the layer's colour first.
   [[nodiscard]] const std::vector<glm::vec4>& colors() const { return colors_; }
-  /// What is drawn: the areas, and the lines (lineShapesIn).
-  [[nodiscard]] const std::vector<GlobePolygon>& polygons() const { return polygons_; }
+  /// Every area as prepared (the CPU reference, identify, the lookup, `stencil` and `paper` ask
+  /// for them): prepared the first time asked (thread-safe) from the features, on disk or edited,
+  /// and kept. What a tile draws never makes them (areasIn), so a view's tiles keep only the
+  /// areas' boxes resident.
+  [[nodiscard]] const std::vector<GlobePolygon>& polygons() const;
+  /// Whether polygons() has been made.
+  [[nodiscard]] bool allAreasPrepared() const;
   /// The lines as prepared (densified along geodesics, put on the ellipsoid, anchored, bucketed
   /// for the reference). Prepared the first time anything asks (a tile to build, the reference,
   /// an edit; thread-safe), not at build: a warm start whose tiles come from disk never needs
@@ -189,16 +196,24 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The box (unwrapped lon/lat) of its areas and of its lines' given points widened by their
   /// reach; empty (west > east) without either. Known at build.
   [[nodiscard]] LonLatRect extent() const { return extent_; }
-  /// The areas: every polygon (lines are drawn from lineShapesIn).
-  [[nodiscard]] std::size_t areaCount() const { return areaPolygons_; }
-  /// The rings area k is drawn from in tiles of `level`: the layer's areas generalised within
-  /// simplifyTolerance(level) as one coverage (overlay::CoverageGeneraliser, as a projected tile's
-  /// polygons are: a border two areas share is simplified once, so they meet exactly at every
-  /// level), an island within the tolerance of one chord left out; its own rings where the
-  /// level would leave out less than a tenth of its points. A level is made the first time a tile
-  /// of it asks (the shared borders are found then, once), and kept: the levels no view draws
-  /// cost nothing. Thread-safe.
-  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& areaRingsAt(std::size_t k, int level) const;
+  /// An area as build found it (polygons()[k] has the same feature, group, source and box).
+  struct Area {
+    std::uint32_t feature = 0, group = 0, source = 0;
+    LonLatRect box;  ///< of its prepared rings, in their unwrapped longitudes
+  };
+  /// The areas: every polygon (lines are drawn from lineShapesIn), in polygons()' order.
+  [[nodiscard]] std::size_t areaCount() const { return areas_.size(); }
+  [[nodiscard]] const Area& area(std::size_t k) const { return areas_[k]; }
+  /// What a tile of `level` draws of the areas whose boxes meet `rect` (unwrapped longitudes;
+  /// an area 360° east or west of it too): their features read (from disk, or as edited) and
+  /// prepared now, and generalised together within simplifyTolerance(level)
+  /// (overlay::CoverageGeneraliser, as a projected tile's polygons are: a border two areas share
+  /// is simplified once, so they meet exactly), an island within the tolerance of one chord left
+  /// out; an area's own rings where the level would leave out less than a tenth of its points.
+  /// `level` outside [0, kMaxLevel): their own rings. Each in its own unwrapped longitudes (its
+  /// box is area(k).box), in polygons()' order; no point index (contains() does not take them).
+  /// Nothing is kept: what is resident follows the tiles drawn. Thread-safe.
+  [[nodiscard]] std::vector<GlobePolygon> areasIn(const LonLatRect& rect, int level) const;
   /// What tile `key` draws of the lines (docs/globe.md, "Lines"): the shapes (bands, joins,
   /// caps) of each line's runs that reach the tile widened by its half width, made for this tile
   /// only, so that nothing resident grows with lines no drawn tile reaches. A run cut at the
@@ -278,9 +293,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
     std::vector<GlobePolygon> polygons;
     Diagnostics diagnostics;
   };
-  /// Prepares feature f's areas (`areas`) or lines (`!areas`) into `part`.
-  void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
-                      bool areas) const;
+  /// Prepares feature f's areas (`areas`; `indexed`: with the index contains() takes) or lines
+  /// (`!areas`) into `part`.
+  void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part, bool areas,
+                      bool indexed = true) const;
   /// Checks feature f's lines as prepareFeature would use them (problems into `part`), and returns
   /// a digest of them and of what their pieces take from the options; widens `box` by them and
   /// sets `any` when one is usable.
@@ -297,8 +313,26 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::string name_;
   glm::vec4 color_{1.0F};
   std::vector<glm::vec4> colors_;
-  std::vector<GlobePolygon> polygons_;
-  std::size_t areaPolygons_ = 0;  ///< polygons_.size()
+  /// The areas as build found them (boxes, not rings: areasIn prepares what a tile draws), and
+  /// by their boxes.
+  std::vector<Area> areas_;
+  std::shared_ptr<const detail::BoxGrid> areaGrid_;
+  std::vector<std::uint64_t> areaDigests_;  ///< per feature: a digest of its areas as prepared
+  /// Every area once prepared (polygons()), as the lines are: shared by copies, replaced by an edit.
+  struct LazyAreas {
+    std::mutex mutex;
+    std::shared_ptr<const std::vector<GlobePolygon>> polygons;
+    std::atomic<const std::vector<GlobePolygon>*> made{nullptr};
+  };
+  std::shared_ptr<LazyAreas> allAreas_ = std::make_shared<LazyAreas>();
+  /// Features an edit replaced or appended (a new map per edit: copies keep theirs).
+  std::shared_ptr<const std::map<std::uint32_t, std::shared_ptr<const geo::Feature>>> edited_;
+  /// Feature f as the layer has it: as edited, else from the features it was built from.
+  [[nodiscard]] std::shared_ptr<const geo::Feature> featureAt(std::uint32_t f) const;
+  /// Every feature's areas, prepared (polygons()).
+  [[nodiscard]] std::vector<GlobePolygon> prepareAreas() const;
+  /// The areas' grid (areaGrid_) made again from areas_.
+  void indexAreas();
   /// The lines once prepared (lines()): shared by copies, replaced (never changed) by an edit.
   /// Made under the mutex, then read through the atomic pointers without it (the reference asks
   /// for both at every point it tests).
@@ -312,7 +346,7 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The lines' grid (made with them).
   [[nodiscard]] const detail::LineGrid& lineGrid() const;
   std::shared_ptr<LazyLines> lines_ = std::make_shared<LazyLines>();
-  overlay::SharedFeatures features_;        ///< what the lines are prepared from
+  overlay::SharedFeatures features_;        ///< what the areas and lines are prepared from
   std::vector<std::uint64_t> lineDigests_;  ///< per feature: checkLines' digest
   std::uint64_t anchorDigest_ = 0;          ///< of the anchor ground's posts
   bool hasLines_ = false;
@@ -323,8 +357,7 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::uint64_t fingerprint_ = 0;
   std::uint64_t serial_ = 0;
   std::shared_ptr<const GeoGrid> anchorGround_;
-  std::shared_ptr<detail::LineLevels> levels_;      ///< lineShapesIn's generalised centrelines, made as asked for
-  std::shared_ptr<detail::AreaLevels> areaLevels_;  ///< areaRingsAt's levels, made as asked for
+  std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
   [[nodiscard]] std::uint64_t digestForCache() const;
   /// Per line, its centreline generalised for the level (empty: its own points): made once.
   [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
