@@ -32,10 +32,13 @@ globe::Geodetic edgeNear(const scene::LoadedGlobeScene& s, const globe::Geodetic
   globe::Geodetic best = focus;
   double nearest = std::numeric_limits<double>::max();
   const glm::dvec3 f = globe::toEcef(focus);
-  const auto nearestOf = [&](const std::vector<globe::GlobePolygon>& polygons) {
+  const auto nearestOf = [&](const std::vector<globe::GlobePolygon>& polygons, const globe::LonLatRect& within) {
     for (const globe::GlobePolygon& p : polygons) {
       for (const auto& ring : p.rings) {
         for (std::size_t k = 0; k < ring.size(); k += 16) {
+          if (ring[k].x < within.west || ring[k].x > within.east || ring[k].y < within.south ||
+              ring[k].y > within.north)
+            continue;  // a point the cut added
           const double d = glm::length(globe::toEcef(ring[k].x, ring[k].y, 0.0) - f);
           if (d < nearest) {
             nearest = d;
@@ -45,12 +48,14 @@ globe::Geodetic edgeNear(const scene::LoadedGlobeScene& s, const globe::Geodetic
       }
     }
   };
-  // The areas within a few degrees of the focus, read for this; every area only if none is.
+  // The areas within a few degrees of the focus, read for this (cut there); every area only if
+  // none is.
   const globe::LonLatRect near{focus.lon - 5.0, std::max(-90.0, focus.lat - 5.0), focus.lon + 5.0,
                                std::min(90.0, focus.lat + 5.0)};
-  for (const globe::GlobeLayer& layer : s.layers) nearestOf(layer.areasIn(near, globe::kMaxLevel));
+  for (const globe::GlobeLayer& layer : s.layers) nearestOf(layer.areasIn(near, globe::kMaxLevel), near);
   if (nearest == std::numeric_limits<double>::max()) {
-    for (const globe::GlobeLayer& layer : s.layers) nearestOf(layer.polygons());
+    for (const globe::GlobeLayer& layer : s.layers)
+      nearestOf(layer.polygons(), globe::LonLatRect{-1e9, -90.0, 1e9, 90.0});
   }
   return best;
 }

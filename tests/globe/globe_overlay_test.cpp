@@ -126,6 +126,13 @@ TEST(GlobePolygons, NeighboursShareTheirBorderAtEveryLevel) {
   }
   EXPECT_GT(simplifiedLevels, 3) << "the shared border is simplified at the coarse levels, not kept whole";
   EXPECT_TRUE(layer->areasIn(LonLatRect{20.0, 4.0, 21.0, 5.0}, 0).empty()) << "a box neither area meets";
+  // A small box's areas are cut near it (what a tile reads follows the tile, not the areas' size).
+  for (const GlobePolygon& a : layer->areasIn(onTheBorder, 10)) {
+    EXPECT_GE(a.box.west, onTheBorder.west - 0.1);
+    EXPECT_LE(a.box.east, onTheBorder.east + 0.1);
+    EXPECT_GE(a.box.south, onTheBorder.south - 0.1);
+    EXPECT_LE(a.box.north, onTheBorder.north + 0.1);
+  }
   // Within the level's tolerance: every kept border point is one of the full border's.
   for (const glm::dvec2& p : onBorder(layer->areasIn(world, 0).front().rings))
     EXPECT_NE(std::find(full.begin(), full.end(), p), full.end());

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <list>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -12,6 +13,8 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <tuple>
+#include <unordered_map>
 
 #include <GeographicLib/Geodesic.hpp>
 #include <GeographicLib/GeodesicLine.hpp>
@@ -40,6 +43,17 @@ EdgePlane edgePlane(const glm::dvec2& p, const glm::dvec2& q) {
   e.m = glm::cross(e.n, b - e.a);
   return e;
 }
+
+/// GlobeLayer::prepared_: areas prepared for tiles, by area index, the least recently asked for
+/// leaving first beyond kBytes.
+struct PreparedAreas {
+  static constexpr std::size_t kBytes = std::size_t{64} << 20;
+  std::mutex mutex;
+  std::list<std::size_t> recent;  ///< most recent first
+  std::unordered_map<std::size_t, std::pair<std::shared_ptr<const GlobePolygon>, std::list<std::size_t>::iterator>>
+      byArea;
+  std::size_t bytes = 0;
+};
 
 }  // namespace detail
 
@@ -679,6 +693,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   layer.maxSegment_ = options.maxSegmentMetres;
   layer.options_ = options;
   layer.levels_ = std::make_shared<detail::LineLevels>();
+  layer.prepared_ = std::make_shared<detail::PreparedAreas>();
   const bool inPixels = options.lineWidthPixels > 0.0 && std::isfinite(options.lineWidthPixels);
   if (inPixels) {
     layer.widthPixels_ = options.lineWidthPixels;
@@ -952,31 +967,137 @@ void GlobeLayer::indexAreas() {
   areaGrid_ = std::make_shared<const detail::BoxGrid>(detail::BoxGrid::of(boxes));
 }
 
+namespace {
+
+std::size_t bytesOf(const GlobePolygon& p) {
+  std::size_t bytes = sizeof(GlobePolygon);
+  for (const auto& ring : p.rings) bytes += ring.size() * sizeof(glm::dvec2) + sizeof(ring);
+  return bytes;
+}
+
+/// Where edge p → q crosses the line coordinate[axis] = c, straight in longitude and latitude:
+/// the same point whichever way the edge runs (a border two rings share runs both ways).
+glm::dvec2 cutAt(const glm::dvec2& p, const glm::dvec2& q, int axis, double c) {
+  const bool swap = q.x < p.x || (q.x == p.x && q.y < p.y);
+  const glm::dvec2 a = swap ? q : p, b = swap ? p : q;
+  glm::dvec2 at = a + (b - a) * ((c - a[axis]) / (b[axis] - a[axis]));
+  at[axis] = c;
+  return at;
+}
+
+/// A ring cut to a rectangle (Sutherland–Hodgman, side by side), repeated points left out.
+std::vector<glm::dvec2> cutRing(const std::vector<glm::dvec2>& ring, const LonLatRect& r) {
+  std::vector<glm::dvec2> out = ring;
+  const std::array<std::tuple<int, double, bool>, 4> sides{
+      {{0, r.west, true}, {0, r.east, false}, {1, r.south, true}, {1, r.north, false}}};
+  for (const auto& [axis, c, above] : sides) {
+    if (out.empty()) break;
+    const auto inside = [&](const glm::dvec2& p) { return above ? p[axis] >= c : p[axis] <= c; };
+    std::vector<glm::dvec2> next;
+    glm::dvec2 s = out.back();
+    for (const glm::dvec2& e : out) {
+      if (inside(e)) {
+        if (!inside(s)) next.push_back(cutAt(s, e, axis, c));
+        next.push_back(e);
+      } else if (inside(s)) {
+        next.push_back(cutAt(s, e, axis, c));
+      }
+      s = e;
+    }
+    out = std::move(next);
+  }
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  while (out.size() > 1 && out.front() == out.back()) out.pop_back();
+  if (out.size() < 3) out.clear();
+  return out;
+}
+
+}  // namespace
+
+std::shared_ptr<const GlobePolygon> GlobeLayer::preparedArea(std::size_t k) const {
+  if (allAreasPrepared()) {
+    const std::shared_ptr<const std::vector<GlobePolygon>>& all = allAreas_->polygons;
+    return k < all->size() ? std::shared_ptr<const GlobePolygon>(all, &(*all)[k]) : nullptr;
+  }
+  detail::PreparedAreas& cache = *prepared_;
+  {
+    const std::lock_guard<std::mutex> lock(cache.mutex);
+    const auto found = cache.byArea.find(k);
+    if (found != cache.byArea.end()) {
+      cache.recent.splice(cache.recent.begin(), cache.recent, found->second.second);
+      return found->second.first;
+    }
+  }
+  const Area& a = areas_[k];
+  const std::shared_ptr<const geo::Feature> feature = featureAt(a.feature);
+  if (a.source >= feature->polygons.size()) return nullptr;
+  auto p = std::make_shared<GlobePolygon>();
+  p->feature = a.feature;
+  p->group = a.group;
+  p->source = a.source;
+  std::string problem;
+  if (!preparePolygon(feature->polygons[a.source], maxSegment_, *p, problem)) return nullptr;
+  const std::lock_guard<std::mutex> lock(cache.mutex);
+  const auto [at, made] = cache.byArea.try_emplace(k);
+  if (!made) return at->second.first;  // another thread prepared it meanwhile
+  cache.recent.push_front(k);
+  at->second = {p, cache.recent.begin()};
+  cache.bytes += bytesOf(*p);
+  while (cache.bytes > detail::PreparedAreas::kBytes && cache.recent.size() > 1) {
+    const auto last = cache.byArea.find(cache.recent.back());
+    cache.bytes -= bytesOf(*last->second.first);
+    cache.byArea.erase(last);
+    cache.recent.pop_back();
+  }
+  return p;
+}
+
 std::vector<GlobePolygon> GlobeLayer::areasIn(const LonLatRect& rect, int level) const {
   std::vector<GlobePolygon> out;
   if (!areaGrid_) return out;
-  const auto meets = [&rect](const LonLatRect& box) {
-    if (box.south > rect.north || box.north < rect.south) return false;
-    for (int turn = -1; turn <= 1; ++turn) {
-      if (box.west + 360.0 * turn <= rect.east && box.east + 360.0 * turn >= rect.west) return true;
-    }
-    return false;
-  };
-  // Each feature read once (its areas are consecutive), only the polygons that meet prepared.
-  std::shared_ptr<const geo::Feature> feature;
+  const bool generalise = level >= 0 && level < kMaxLevel;
+  // The cut's margin: what it adds (its edges along the cut) stays farther from `rect` than
+  // the generalisation may move an edge, so that what is drawn in `rect` is the areas' own.
+  const double dLat = generalise ? std::max(TileKey{level, 0, 0}.postStep(), 4.0 * simplifyTolerance(level))
+                                 : 0.01 * std::max(rect.north - rect.south, rect.east - rect.west) + 1e-6;
+  const double high = std::max(std::abs(rect.south), std::abs(rect.north)) + dLat;
+  const double dLon = high >= 89.0 ? 360.0 : dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+  const LonLatRect cut{rect.west - dLon, rect.south - dLat, rect.east + dLon, rect.north + dLat};
   for (const std::uint32_t k : areaGrid_->meeting(rect)) {
-    const Area& a = areas_[k];
-    if (!meets(a.box)) continue;
-    if (!feature || out.empty() || out.back().feature != a.feature) feature = featureAt(a.feature);
-    if (a.source >= feature->polygons.size()) continue;
-    GlobePolygon p;
-    p.feature = a.feature;
-    p.group = a.group;
-    p.source = a.source;
-    std::string problem;
-    if (preparePolygon(feature->polygons[a.source], maxSegment_, p, problem)) out.push_back(std::move(p));
+    const LonLatRect& box = areas_[k].box;
+    if (box.south > rect.north || box.north < rect.south) continue;
+    std::shared_ptr<const GlobePolygon> area;
+    for (int turn = -1; turn <= 1; ++turn) {
+      const double shift = 360.0 * turn;
+      if (box.west > rect.east + shift || box.east < rect.west + shift) continue;
+      if (!area) area = preparedArea(k);
+      if (!area) break;
+      GlobePolygon p;
+      p.feature = area->feature;
+      p.group = area->group;
+      p.source = area->source;
+      if (dLon >= 180.0 && cut.south <= box.south && cut.north >= box.north) {
+        p.rings = area->rings;  // nothing to cut
+      } else {
+        const LonLatRect shifted{dLon >= 180.0 ? -1e9 : cut.west + shift, cut.south,
+                                 dLon >= 180.0 ? 1e9 : cut.east + shift, cut.north};
+        for (const auto& ring : area->rings) {
+          std::vector<glm::dvec2> r = cutRing(ring, shifted);
+          if (!r.empty()) p.rings.push_back(std::move(r));
+        }
+      }
+      if (p.rings.empty()) continue;
+      p.box = {std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+      for (const auto& ring : p.rings) {
+        for (const glm::dvec2& q : ring)
+          p.box = {std::min(p.box.west, q.x), std::min(p.box.south, q.y), std::max(p.box.east, q.x),
+                   std::max(p.box.north, q.y)};
+      }
+      out.push_back(std::move(p));
+      if (dLon >= 180.0) break;  // uncut in longitude: one turn holds it
+    }
   }
-  if (out.empty() || level < 0 || level >= kMaxLevel) return out;
+  if (out.empty() || !generalise) return out;
   // Generalised together: shared borders have the same points in both areas (prepareRing
   // densifies them from the same end), found once and simplified once.
   std::vector<geo::Feature> coverage(out.size());
@@ -1077,6 +1198,7 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   for (const GlobePolygon& p : part.polygons) fresh.push_back({p.feature, p.group, p.source, p.box});
   replace(areas_, fresh);
   indexAreas();
+  prepared_ = std::make_shared<detail::PreparedAreas>();
   if (allAreasPrepared()) {
     std::vector<GlobePolygon> all = polygons();
     replace(all, part.polygons);

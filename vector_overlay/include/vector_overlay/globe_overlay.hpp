@@ -58,6 +58,7 @@ namespace detail {
 struct PolygonIndex;
 struct LineLevels;
 struct BoxGrid;
+struct PreparedAreas;
 struct LineJoins;
 struct LineGrid;
 }  // namespace detail
@@ -206,13 +207,17 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] const Area& area(std::size_t k) const { return areas_[k]; }
   /// What a tile of `level` draws of the areas whose boxes meet `rect` (unwrapped longitudes;
   /// an area 360° east or west of it too): their features read (from disk, or as edited) and
-  /// prepared now, and generalised together within simplifyTolerance(level)
+  /// prepared (a few recent ones kept), cut to `rect` grown by a margin (a post of the level,
+  /// and more than four times its tolerance: what the cut adds lies outside `rect`; where a
+  /// border two areas share crosses it, both are cut at the same point), and generalised
+  /// together within simplifyTolerance(level)
   /// (overlay::CoverageGeneraliser, as a projected tile's polygons are: a border two areas share
   /// is simplified once, so they meet exactly), an island within the tolerance of one chord left
   /// out; an area's own rings where the level would leave out less than a tenth of its points.
-  /// `level` outside [0, kMaxLevel): their own rings. Each in its own unwrapped longitudes (its
-  /// box is area(k).box), in polygons()' order; no point index (contains() does not take them).
-  /// Nothing is kept: what is resident follows the tiles drawn. Thread-safe.
+  /// `level` outside [0, kMaxLevel): their own rings (cut with a margin of a hundredth of `rect`).
+  /// Each in its own unwrapped longitudes (an area reaching `rect` in two turns is given once per
+  /// turn), in polygons()' order, boxed as cut; no point index (contains() does not take them).
+  /// What is resident follows the tiles drawn. Thread-safe.
   [[nodiscard]] std::vector<GlobePolygon> areasIn(const LonLatRect& rect, int level) const;
   /// What tile `key` draws of the lines (docs/globe.md, "Lines"): the shapes (bands, joins,
   /// caps) of each line's runs that reach the tile widened by its half width, made for this tile
@@ -325,6 +330,11 @@ class GlobeLayer final : public overlay::WorldCoverage {
     std::atomic<const std::vector<GlobePolygon>*> made{nullptr};
   };
   std::shared_ptr<LazyAreas> allAreas_ = std::make_shared<LazyAreas>();
+  /// The areas tiles asked for lately, as prepared (areasIn: a large area reaches many tiles),
+  /// under a byte bound; made again by an edit.
+  std::shared_ptr<detail::PreparedAreas> prepared_;
+  /// Area k as prepared (from polygons() once made, else through prepared_); null if it cannot be.
+  [[nodiscard]] std::shared_ptr<const GlobePolygon> preparedArea(std::size_t k) const;
   /// Features an edit replaced or appended (a new map per edit: copies keep theirs).
   std::shared_ptr<const std::map<std::uint32_t, std::shared_ptr<const geo::Feature>>> edited_;
   /// Feature f as the layer has it: as edited, else from the features it was built from.
