@@ -116,7 +116,8 @@ bool usablePoint(const glm::dvec2& p, std::string& problem) {
 
 /// The ring's points with geodesic points added, unwrapped, closed along a pole if it winds
 /// around one; empty with `problem` set when it cannot be used.
-std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem) {
+std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double maxSegment, std::string& problem,
+                                    bool densify = true) {
   std::vector<glm::dvec2> ring;
   for (const glm::dvec2& p : input) {
     if (!usablePoint(p, problem)) return {};
@@ -140,7 +141,8 @@ std::vector<glm::dvec2> prepareRing(const std::vector<glm::dvec2>& input, double
   const GeographicLib::Geodesic& geod = GeographicLib::Geodesic::WGS84();
   std::vector<glm::dvec2> dense;
   const std::size_t n = ring.size();
-  for (std::size_t i = 0; i < n; ++i) {
+  if (!densify) dense = ring;
+  for (std::size_t i = 0; i < n && densify; ++i) {
     const glm::dvec2 p = ring[i], q = ring[(i + 1) % n];
     dense.push_back(p);
     if (isPole(p.y) && isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole: no length
@@ -435,12 +437,13 @@ std::vector<std::vector<glm::dvec2>> runRings(const GlobeLine& line, double h, c
 /// A polygon's rings prepared (prepareRing), the outer one's west end in [−180, 180) and the
 /// holes moved by whole turns to lie nearest its middle, and its box. False, with `problem`
 /// naming the ring, when a ring cannot be used.
-bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon& prepared, std::string& problem) {
+bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon& prepared, std::string& problem,
+                    bool densify = true) {
   std::vector<const geo::Ring*> rings{&polygon.outer};
   for (const geo::Ring& hole : polygon.holes) rings.push_back(&hole);
   prepared.rings.clear();
   for (std::size_t r = 0; r < rings.size(); ++r) {
-    std::vector<glm::dvec2> ring = prepareRing(*rings[r], maxSegment, problem);
+    std::vector<glm::dvec2> ring = prepareRing(*rings[r], maxSegment, problem, densify);
     if (ring.empty()) {
       problem = (r == 0 ? "outer ring: " : "hole " + std::to_string(r) + ": ") + problem;
       return false;
@@ -476,6 +479,33 @@ bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon
     }
   }
   prepared.box = box;
+  return true;
+}
+
+/// What preparePolygon says of a polygon, without the geodesic points (GlobeLayer::build checks
+/// every area but keeps only its box): the rings as given, unwrapped as preparePolygon unwraps
+/// them, and a box that holds the prepared rings (each edge's geodesic bulges poleward of its
+/// ends by at most (L/2)² tan φ / 2R; twice that is added). Where that bound is not small (long
+/// edges, points near a pole) or the rings as given would not do, the polygon is prepared.
+bool checkPolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon& checked, std::string& problem) {
+  if (!preparePolygon(polygon, maxSegment, checked, problem, false))
+    return preparePolygon(polygon, maxSegment, checked, problem);
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  double bulge = 0.0;  // degrees of latitude
+  for (const auto& ring : checked.rings) {
+    for (std::size_t i = 0; i < ring.size(); ++i) {
+      const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
+      const double poleward = std::max(std::abs(p.y), std::abs(q.y));
+      if (poleward > 80.0 || std::abs(q.x - p.x) > 5.0 || std::abs(q.y - p.y) > 5.0)
+        return preparePolygon(polygon, maxSegment, checked, problem);
+      const glm::dvec3 chord = toEcef(q.x, q.y, 0.0) - toEcef(p.x, p.y, 0.0);
+      bulge = std::max(bulge, glm::dot(chord, chord) / (4.0 * kMinCurvatureRadius) * std::tan(poleward * kDegree) /
+                                  (kMinCurvatureRadius * kDegree));
+    }
+  }
+  const double grow = 2.0 * bulge + 1e-9;
+  checked.box = {checked.box.west - 1e-9, std::max(-90.0, checked.box.south - grow), checked.box.east + 1e-9,
+                 std::min(90.0, checked.box.north + grow)};
   return true;
 }
 
@@ -568,7 +598,7 @@ std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& featur
 }
 
 void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
-                                bool areas, bool indexed) const {
+                                bool areas, bool checkOnly) const {
   const GlobeLayerOptions& options = options_;
   const bool inPixels = widthPixels_ > 0.0;
   const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
@@ -669,7 +699,8 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
       prepared.group = group;
       prepared.source = static_cast<std::uint32_t>(k);
       std::string problem;
-      if (!preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)) {
+      if (!(checkOnly ? checkPolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem)
+                      : preparePolygon(feature.polygons[k], options.maxSegmentMetres, prepared, problem))) {
         part.diagnostics.add({Severity::Error,
                               {},
                               name_,
@@ -677,7 +708,7 @@ void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, st
                               "polygon " + std::to_string(k) + ", " + problem + "; the polygon is left out"});
         continue;
       }
-      if (indexed) prepared.index = detail::buildIndex(prepared);
+      if (!checkOnly) prepared.index = detail::buildIndex(prepared);
       part.polygons.push_back(std::move(prepared));
     }
   }
@@ -736,8 +767,8 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     return out;
   }
   // The features in runs, on every core (features on disk are read one at a time, and only those
-  // being checked are resident): the areas prepared to be checked and to know their boxes and
-  // digest (their rings are not kept: areasIn, polygons()), the lines checked (prepared when first
+  // being checked are resident): the areas checked, for their boxes and digest (checkPolygon:
+  // their rings are prepared as tiles ask, areasIn, or all at once, polygons()), the lines checked (prepared when first
   // asked for: lines()); the runs' areas, boxes and messages are joined in the features' order,
   // so the layer is the same on any number of cores.
   const std::size_t runs = runCount(features.size());
@@ -755,7 +786,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     const std::shared_ptr<const geo::Feature> feature = features.get(f);
     const auto index = static_cast<std::uint32_t>(f);
     if (drawLines) layer.lineDigests_[f] = layer.checkLines(index, *feature, groupOf[f], run.part, run.box, run.any);
-    layer.prepareFeature(index, *feature, groupOf[f], run.part, true, false);
+    layer.prepareFeature(index, *feature, groupOf[f], run.part, true, true);
     layer.areaDigests_[f] = areasDigest(run.part.polygons);
     for (const GlobePolygon& p : run.part.polygons) run.areas.push_back({p.feature, p.group, p.source, p.box});
     run.part.polygons.clear();
@@ -1167,9 +1198,10 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   const auto index = static_cast<std::uint32_t>(f);
   if (f == featureGroups_.size()) featureGroups_.push_back(0);  // appended: the layer's colour
   std::vector<LonLatRect> boxes = featureBoxes(index);          // the lines prepared, from the features as built
+  // Its lines prepared, its areas checked (as build checks them: their entries and digest).
   FeatureParts part;
   prepareFeature(index, feature, featureGroups_[f], part, false);
-  prepareFeature(index, feature, featureGroups_[f], part, true);
+  prepareFeature(index, feature, featureGroups_[f], part, true, true);
   out.diagnostics.append(part.diagnostics);
   // The feature as edited, for what is prepared from now on (areasIn, polygons(), lines()).
   using Edited = std::map<std::uint32_t, std::shared_ptr<const geo::Feature>>;
@@ -1200,8 +1232,10 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   indexAreas();
   prepared_ = std::make_shared<detail::PreparedAreas>();
   if (allAreasPrepared()) {
+    FeatureParts prepared;
+    prepareFeature(index, feature, featureGroups_[f], prepared, true);
     std::vector<GlobePolygon> all = polygons();
-    replace(all, part.polygons);
+    replace(all, prepared.polygons);
     allAreas_ = std::make_shared<LazyAreas>();
     allAreas_->polygons = std::make_shared<const std::vector<GlobePolygon>>(std::move(all));
     allAreas_->made.store(allAreas_->polygons.get(), std::memory_order_release);

@@ -197,10 +197,10 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The box (unwrapped lon/lat) of its areas and of its lines' given points widened by their
   /// reach; empty (west > east) without either. Known at build.
   [[nodiscard]] LonLatRect extent() const { return extent_; }
-  /// An area as build found it (polygons()[k] has the same feature, group, source and box).
+  /// An area as build found it (polygons()[k] has the same feature, group and source).
   struct Area {
     std::uint32_t feature = 0, group = 0, source = 0;
-    LonLatRect box;  ///< of its prepared rings, in their unwrapped longitudes
+    LonLatRect box;  ///< holds its prepared rings, in their unwrapped longitudes (from its points as given)
   };
   /// The areas: every polygon (lines are drawn from lineShapesIn), in polygons()' order.
   [[nodiscard]] std::size_t areaCount() const { return areas_.size(); }
@@ -298,10 +298,11 @@ class GlobeLayer final : public overlay::WorldCoverage {
     std::vector<GlobePolygon> polygons;
     Diagnostics diagnostics;
   };
-  /// Prepares feature f's areas (`areas`; `indexed`: with the index contains() takes) or lines
-  /// (`!areas`) into `part`.
+  /// Prepares feature f's areas (`areas`; with the index contains() takes, or with `checkOnly`
+  /// only checked: their rings as given, unwrapped, and a box that holds them as prepared) or
+  /// lines (`!areas`) into `part`.
   void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part, bool areas,
-                      bool indexed = true) const;
+                      bool checkOnly = false) const;
   /// Checks feature f's lines as prepareFeature would use them (problems into `part`), and returns
   /// a digest of them and of what their pieces take from the options; widens `box` by them and
   /// sets `any` when one is usable.
