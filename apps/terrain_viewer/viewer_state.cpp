@@ -290,7 +290,7 @@ nlohmann::json Viewer::frameLayerJson(std::size_t sceneLayer) const {
     std::size_t polygons = 0, lines = 0;
     for (const std::size_t d : drawnLayersOf(sceneLayer)) {
       polygons += globeScene().layers[d].areaCount();
-      lines += globeScene().layers[d].lines().size();
+      lines += globeScene().layers[d].lineCount();
     }
     j.update({{"polygons", polygons}, {"lines", lines}});
     return j;

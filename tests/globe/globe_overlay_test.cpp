@@ -487,12 +487,16 @@ TEST(GlobeLines, TilesAroundAPoleDrawOnlyTheLinesNearThem) {
   for (int x = 0; x < 8; ++x) {
     const TileKey key{2, x, 3};
     for (std::size_t j = 0; j < 3; ++j) {
-      if (!layer->lineRunsIn(j, key, 5000.0).empty()) ++tiles[j];
+      if (!GlobeLayer::lineRunsIn(layer->lineAt(j, key.level), key, 5000.0).empty()) ++tiles[j];
     }
     // Siberia lies in the tile of 90°–135° E only, Alaska in that of 180°–135° W.
     const LonLatRect r = key.rect();
-    EXPECT_EQ(!layer->lineRunsIn(0, key, 5000.0).empty(), r.west <= 100.0 && 101.0 <= r.east) << x;
-    EXPECT_EQ(!layer->lineRunsIn(1, key, 5000.0).empty(), r.west <= -150.0 && -149.5 <= r.east) << x;
+    EXPECT_EQ(!GlobeLayer::lineRunsIn(layer->lineAt(0, key.level), key, 5000.0).empty(),
+              r.west <= 100.0 && 101.0 <= r.east)
+        << x;
+    EXPECT_EQ(!GlobeLayer::lineRunsIn(layer->lineAt(1, key.level), key, 5000.0).empty(),
+              r.west <= -150.0 && -149.5 <= r.east)
+        << x;
   }
   EXPECT_EQ(tiles[0], 1);
   EXPECT_EQ(tiles[1], 1);

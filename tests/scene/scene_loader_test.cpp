@@ -353,7 +353,7 @@ TEST(SceneLoader, OnTheGlobeLayersAreReadByTheSameLoaderAndCache) {
   EXPECT_TRUE(second->sourceLayers[0].features.onDisk()) << "read one at a time, never all at once";
   ASSERT_EQ(second->layers.size(), first->layers.size());
   // A tile is built from the features that reach it, read for it: the fill's areas are not all
-  // prepared (only their boxes are kept), and the features stay on disk.
+  // prepared (only their boxes are kept), nor the outline's lines, and the features stay on disk.
   const globe::GlobeLayer& fill = second->layers[0];
   ASSERT_EQ(fill.areaCount(), 2u);
   constexpr int kLevel = 12;
@@ -363,6 +363,11 @@ TEST(SceneLoader, OnTheGlobeLayersAreReadByTheSameLoaderAndCache) {
   const overlay::LayerGeometry pieces = globe::buildTilePieces(fill, key, *second->heights, 0);
   EXPECT_GT(pieces.indexCount(), 0u);
   EXPECT_FALSE(fill.allAreasPrepared()) << "a tile prepares the areas that reach it, not the layer's";
+  // The same for the outline's lines.
+  const globe::GlobeLayer& outline = second->layers[1];
+  ASSERT_EQ(outline.lineCount(), 2u);
+  EXPECT_GT(globe::buildTilePieces(outline, key, *second->heights, 0).indexCount(), 0u);
+  EXPECT_FALSE(outline.allLinesPrepared()) << "a tile prepares the lines that reach it, not the layer's";
   EXPECT_TRUE(second->sourceLayers[0].features.onDisk());
   for (std::size_t l = 0; l < first->layers.size(); ++l) {
     EXPECT_EQ(second->layers[l].fingerprint(), first->layers[l].fingerprint()) << l;

@@ -5,9 +5,13 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <list>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <glm/geometric.hpp>
@@ -183,6 +187,60 @@ struct LineGrid {
   /// whether it did.
   template <typename Visit>
   bool visit(double lonDeg, double latDeg, double extra, Visit&& visit) const;
+};
+
+/// What tiles asked for lately (GlobeLayer's prepared areas and lines, the lines' generalised
+/// centrelines), by key, the least recently asked for leaving first beyond a byte bound.
+/// Thread-safe.
+template <typename Value>
+class RecentlyUsed {
+ public:
+  explicit RecentlyUsed(std::size_t bytes) : budget_(bytes) {}
+  /// The value kept for `key` (now the most recent), or null.
+  std::shared_ptr<const Value> find(std::uint64_t key) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const auto found = byKey_.find(key);
+    if (found == byKey_.end()) return nullptr;
+    recent_.splice(recent_.begin(), recent_, found->second.at);
+    return found->second.value;
+  }
+  /// Keeps `value` (`bytes` large) for `key` and returns it, or the value another thread kept
+  /// for it meanwhile.
+  std::shared_ptr<const Value> keep(std::uint64_t key, std::shared_ptr<const Value> value, std::size_t bytes) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    const auto [at, made] = byKey_.try_emplace(key);
+    if (!made) return at->second.value;
+    recent_.push_front(key);
+    at->second = {std::move(value), bytes, recent_.begin()};
+    bytes_ += bytes;
+    while (bytes_ > budget_ && recent_.size() > 1) {
+      const auto last = byKey_.find(recent_.back());
+      bytes_ -= last->second.bytes;
+      byKey_.erase(last);
+      recent_.pop_back();
+    }
+    return at->second.value;
+  }
+
+ private:
+  struct Entry {
+    std::shared_ptr<const Value> value;
+    std::size_t bytes = 0;
+    std::list<std::uint64_t>::iterator at;
+  };
+  std::size_t budget_;
+  std::mutex mutex_;
+  std::list<std::uint64_t> recent_;  ///< most recent first
+  std::unordered_map<std::uint64_t, Entry> byKey_;
+  std::size_t bytes_ = 0;
+};
+
+/// GlobeLayer::prepared_: the areas, lines and centrelines its tiles asked for lately.
+struct Prepared {
+  RecentlyUsed<GlobePolygon> areas{std::size_t{64} << 20};
+  RecentlyUsed<GlobeLine> lines{std::size_t{64} << 20};
+  /// Keyed line × (kMaxLevel + 1) + level.
+  RecentlyUsed<std::vector<glm::dvec2>> centres{std::size_t{32} << 20};
 };
 
 /// Boxes (unwrapped lon/lat) in a grid over their union, for the boxes meeting a rectangle

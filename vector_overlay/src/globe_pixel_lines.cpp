@@ -207,20 +207,23 @@ void addScalableLines(TilePieces& out, const GlobeLayer& layer, const TileKey& k
   if (widthClass <= 0) return;
   const GeoGrid* anchor = layer.anchorGround();
   if (!layer.hasLines()) return;
-  const std::vector<GlobeLine>& lines = layer.lines();
-  for (std::size_t j = 0; j < lines.size(); ++j) {
-    const GlobeLine& line = lines[j];
+  // The lines near the tile at the class's width, read and prepared as asked for.
+  const double classReach = 0.5 * lineClassWidth(widthClass) * layer.lineShapeReach();
+  for (const std::uint32_t j : layer.linesNear(key, classReach)) {
+    const GlobeLayer::TileLine tileLine = layer.lineAt(j, key.level);
+    if (!tileLine.line) continue;
+    const GlobeLine& line = *tileLine.line;
     if (!GlobeLayer::scalesLine(line, widthClass)) continue;
     const double capHalf = std::min(0.5 * lineClassWidth(widthClass), line.maxHalfWidth);
     out.maxHalfWidth = std::max(out.maxHalfWidth, capHalf);
-    const std::vector<glm::dvec2>& all = layer.linePointsAt(j, key.level);
-    const bool generalised = &all != &line.points;
+    const std::vector<glm::dvec2>& all = *tileLine.points;
+    const bool generalised = tileLine.generalised;
     ArcTolerance tolerance;
     if (generalised) tolerance.metres = std::max(tolerance.metres, 0.25 * GlobeLayer::lineTolerance(line, key.level));
     const overlay::LineShapeRules rules =
         globeShapeRules(line, capHalf, tolerance.sides(line), line.widthPixels > kWedgeWidthPixels);
     PieceWriter writer(out, line, key, heights, capHalf);
-    for (const auto& [first, last] : layer.lineRunsIn(j, key, capHalf * line.shapeReach())) {
+    for (const auto& [first, last] : GlobeLayer::lineRunsIn(tileLine, key, capHalf * line.shapeReach())) {
       const GlobeStations st = globeStations(all, first, last, generalised ? std::vector<char>{} : line.given);
       const std::size_t n = st.stations.size();
       std::vector<glm::dvec2> points(n);

@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -43,17 +44,6 @@ EdgePlane edgePlane(const glm::dvec2& p, const glm::dvec2& q) {
   e.m = glm::cross(e.n, b - e.a);
   return e;
 }
-
-/// GlobeLayer::prepared_: areas prepared for tiles, by area index, the least recently asked for
-/// leaving first beyond kBytes.
-struct PreparedAreas {
-  static constexpr std::size_t kBytes = std::size_t{64} << 20;
-  std::mutex mutex;
-  std::list<std::size_t> recent;  ///< most recent first
-  std::unordered_map<std::size_t, std::pair<std::shared_ptr<const GlobePolygon>, std::list<std::size_t>::iterator>>
-      byArea;
-  std::size_t bytes = 0;
-};
 
 }  // namespace detail
 
@@ -482,6 +472,24 @@ bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon
   return true;
 }
 
+/// How far (degrees of latitude) the geodesic from p to q (longitudes unwrapped) may stray
+/// poleward of its ends: twice the bound (L/2)² tan φ / 2R. None where the bound is not small: a
+/// piece longer than 5° or a point beyond 80°.
+std::optional<double> geodesicBulge(const glm::dvec2& p, const glm::dvec2& q) {
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  const double poleward = std::max(std::abs(p.y), std::abs(q.y));
+  if (poleward > 80.0 || std::abs(q.x - p.x) > 5.0 || std::abs(q.y - p.y) > 5.0) return std::nullopt;
+  // The piece's length bounded from above without trigonometry per point: its longitude span
+  // along the parallel nearer the equator (cos ≤ 1 - x²/2 + x⁴/24), its latitude span, on a
+  // sphere larger than any radius of curvature of WGS 84 (6,399,594 m at the poles).
+  constexpr double kRadius = 6.4e6;
+  const double x = std::min(std::abs(p.y), std::abs(q.y)) * kDegree, x2 = x * x;
+  const double along = std::abs(q.x - p.x) * kDegree * (1.0 - x2 / 2.0 + x2 * x2 / 24.0) * kRadius;
+  const double across = std::abs(q.y - p.y) * kDegree * kRadius;
+  const double length2 = along * along + across * across;
+  return length2 / (4.0 * kMinCurvatureRadius) * std::tan(poleward * kDegree) / (kMinCurvatureRadius * kDegree);
+}
+
 /// What preparePolygon says of a polygon, without the geodesic points (GlobeLayer::build checks
 /// every area but keeps only its box): the rings as given, unwrapped as preparePolygon unwraps
 /// them, and a box that holds the prepared rings (each edge's geodesic bulges poleward of its
@@ -490,17 +498,12 @@ bool preparePolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon
 bool checkPolygon(const geo::Polygon& polygon, double maxSegment, GlobePolygon& checked, std::string& problem) {
   if (!preparePolygon(polygon, maxSegment, checked, problem, false))
     return preparePolygon(polygon, maxSegment, checked, problem);
-  constexpr double kDegree = 3.14159265358979323846 / 180.0;
   double bulge = 0.0;  // degrees of latitude
   for (const auto& ring : checked.rings) {
     for (std::size_t i = 0; i < ring.size(); ++i) {
-      const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
-      const double poleward = std::max(std::abs(p.y), std::abs(q.y));
-      if (poleward > 80.0 || std::abs(q.x - p.x) > 5.0 || std::abs(q.y - p.y) > 5.0)
-        return preparePolygon(polygon, maxSegment, checked, problem);
-      const glm::dvec3 chord = toEcef(q.x, q.y, 0.0) - toEcef(p.x, p.y, 0.0);
-      bulge = std::max(bulge, glm::dot(chord, chord) / (4.0 * kMinCurvatureRadius) * std::tan(poleward * kDegree) /
-                                  (kMinCurvatureRadius * kDegree));
+      const std::optional<double> b = geodesicBulge(ring[i], ring[(i + 1) % ring.size()]);
+      if (!b) return preparePolygon(polygon, maxSegment, checked, problem);
+      bulge = std::max(bulge, *b);
     }
   }
   const double grow = 2.0 * bulge + 1e-9;
@@ -543,7 +546,8 @@ double GlobeLayer::featureHalfWidth(std::uint32_t f) const {
 }
 
 std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& feature, std::uint32_t group,
-                                     FeatureParts& part, LonLatRect& box, bool& any) const {
+                                     FeatureParts& part, LonLatRect& box, bool& any,
+                                     std::vector<LineEntry>& entries) const {
   const std::vector<std::vector<glm::dvec2>> lines = featureLines(feature, options_.outlines);
   const double halfWidth = featureHalfWidth(f);
   const bool inPixels = widthPixels_ > 0.0;
@@ -572,6 +576,32 @@ std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& featur
       b.south = std::min(b.south, p.y);
       b.north = std::max(b.north, p.y);
     }
+    // Room for the geodesics' bulge poleward of their ends (as checkPolygon); a line with a piece
+    // longer than 5° or a point beyond 80° is prepared to be boxed.
+    double bulge = 0.0;
+    bool exact = false;
+    for (std::size_t i = 0; i + 1 < lines[k].size() && !exact; ++i) {
+      const glm::dvec2 p = lines[k][i], q = lines[k][i + 1];
+      const std::optional<double> by = geodesicBulge(p, {p.x + wrap180(q.x - p.x), q.y});
+      exact = !by;
+      bulge = std::max(bulge, by.value_or(0.0));
+    }
+    if (exact) {
+      std::string unused;
+      std::vector<char> given;
+      std::vector<glm::dvec3> surface;
+      std::vector<glm::dvec2> prepared = prepareLine(lines[k], options_.maxSegmentMetres, unused, given, surface);
+      const double by = prepared.empty() ? 0.0 : -360.0 * std::floor((prepared.front().x + 180.0) / 360.0);
+      for (const glm::dvec2& p : prepared) {
+        b.west = std::min(b.west, p.x + by);
+        b.east = std::max(b.east, p.x + by);
+        b.south = std::min(b.south, p.y);
+        b.north = std::max(b.north, p.y);
+      }
+    } else {
+      b.south = std::max(-90.0, b.south - 2.0 * bulge - 1e-9);
+      b.north = std::min(90.0, b.north + 2.0 * bulge + 1e-9);
+    }
     GlobeLine shape;
     shape.join = options_.join;
     shape.cap = options_.cap;
@@ -584,6 +614,7 @@ std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& featur
                    dLat);
     box = {std::min(box.west, b.west), std::min(box.south, b.south), std::max(box.east, b.east),
            std::max(box.north, b.north)};
+    entries.push_back({f, group, static_cast<std::uint32_t>(k), b});
   }
   if (parts.empty()) return 0;
   const std::array<double, 7> shape{halfWidth,
@@ -598,13 +629,14 @@ std::uint64_t GlobeLayer::checkLines(std::uint32_t f, const geo::Feature& featur
 }
 
 void GlobeLayer::prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
-                                bool areas, bool checkOnly) const {
+                                bool areas, bool checkOnly, std::size_t onlyLine) const {
   const GlobeLayerOptions& options = options_;
   const bool inPixels = widthPixels_ > 0.0;
   const double maxHalfWidth = 0.5 * options.lineMaxWidthMetres;
   const std::vector<std::vector<glm::dvec2>> lines =
       areas ? std::vector<std::vector<glm::dvec2>>{} : featureLines(feature, options.outlines);
   for (std::size_t k = 0; k < lines.size(); ++k) {
+    if (onlyLine != kAllLines && k != onlyLine) continue;
     std::string problem;
     std::vector<char> given;
     std::vector<glm::dvec3> surface;
@@ -723,8 +755,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   layer.chordTolerance_ = options.chordTolerance;
   layer.maxSegment_ = options.maxSegmentMetres;
   layer.options_ = options;
-  layer.levels_ = std::make_shared<detail::LineLevels>();
-  layer.prepared_ = std::make_shared<detail::PreparedAreas>();
+  layer.prepared_ = std::make_shared<detail::Prepared>();
   const bool inPixels = options.lineWidthPixels > 0.0 && std::isfinite(options.lineWidthPixels);
   if (inPixels) {
     layer.widthPixels_ = options.lineWidthPixels;
@@ -775,6 +806,7 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
   struct Run {
     FeatureParts part;
     std::vector<Area> areas;
+    std::vector<LineEntry> lines;
     LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
     bool any = false;
   };
@@ -785,7 +817,8 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     Run& run = parts[r];
     const std::shared_ptr<const geo::Feature> feature = features.get(f);
     const auto index = static_cast<std::uint32_t>(f);
-    if (drawLines) layer.lineDigests_[f] = layer.checkLines(index, *feature, groupOf[f], run.part, run.box, run.any);
+    if (drawLines)
+      layer.lineDigests_[f] = layer.checkLines(index, *feature, groupOf[f], run.part, run.box, run.any, run.lines);
     layer.prepareFeature(index, *feature, groupOf[f], run.part, true, true);
     layer.areaDigests_[f] = areasDigest(run.part.polygons);
     for (const GlobePolygon& p : run.part.polygons) run.areas.push_back({p.feature, p.group, p.source, p.box});
@@ -805,9 +838,11 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
       layer.hasLines_ = true;
       widen(run.box);
     }
+    layer.lineEntries_.insert(layer.lineEntries_.end(), run.lines.begin(), run.lines.end());
     out.diagnostics.append(run.part.diagnostics);
   }
   layer.indexAreas();
+  layer.indexLines();
   if (extent.west <= extent.east) layer.extent_ = extent;
   // Of the lines in pixels, the least width in metres and the greatest largest one (what a frame's
   // width classes are chosen by), from the options: each line's widths are its feature's.
@@ -981,6 +1016,8 @@ const std::vector<GlobePolygon>& GlobeLayer::polygons() const {
   return *allAreas_->polygons;
 }
 
+bool GlobeLayer::allLinesPrepared() const { return lines_->linesMade.load(std::memory_order_acquire) != nullptr; }
+
 bool GlobeLayer::allAreasPrepared() const { return allAreas_->made.load(std::memory_order_acquire) != nullptr; }
 
 std::shared_ptr<const geo::Feature> GlobeLayer::featureAt(std::uint32_t f) const {
@@ -1050,15 +1087,7 @@ std::shared_ptr<const GlobePolygon> GlobeLayer::preparedArea(std::size_t k) cons
     const std::shared_ptr<const std::vector<GlobePolygon>>& all = allAreas_->polygons;
     return k < all->size() ? std::shared_ptr<const GlobePolygon>(all, &(*all)[k]) : nullptr;
   }
-  detail::PreparedAreas& cache = *prepared_;
-  {
-    const std::lock_guard<std::mutex> lock(cache.mutex);
-    const auto found = cache.byArea.find(k);
-    if (found != cache.byArea.end()) {
-      cache.recent.splice(cache.recent.begin(), cache.recent, found->second.second);
-      return found->second.first;
-    }
-  }
+  if (const std::shared_ptr<const GlobePolygon> kept = prepared_->areas.find(k)) return kept;
   const Area& a = areas_[k];
   const std::shared_ptr<const geo::Feature> feature = featureAt(a.feature);
   if (a.source >= feature->polygons.size()) return nullptr;
@@ -1068,19 +1097,8 @@ std::shared_ptr<const GlobePolygon> GlobeLayer::preparedArea(std::size_t k) cons
   p->source = a.source;
   std::string problem;
   if (!preparePolygon(feature->polygons[a.source], maxSegment_, *p, problem)) return nullptr;
-  const std::lock_guard<std::mutex> lock(cache.mutex);
-  const auto [at, made] = cache.byArea.try_emplace(k);
-  if (!made) return at->second.first;  // another thread prepared it meanwhile
-  cache.recent.push_front(k);
-  at->second = {p, cache.recent.begin()};
-  cache.bytes += bytesOf(*p);
-  while (cache.bytes > detail::PreparedAreas::kBytes && cache.recent.size() > 1) {
-    const auto last = cache.byArea.find(cache.recent.back());
-    cache.bytes -= bytesOf(*last->second.first);
-    cache.byArea.erase(last);
-    cache.recent.pop_back();
-  }
-  return p;
+  const std::size_t bytes = bytesOf(*p);
+  return prepared_->areas.keep(k, std::move(p), bytes);
 }
 
 std::vector<GlobePolygon> GlobeLayer::areasIn(const LonLatRect& rect, int level) const {
@@ -1168,11 +1186,12 @@ std::vector<LonLatRect> GlobeLayer::featureBoxes(std::uint32_t f) const {
   for (const Area& a : areas_) {
     if (a.feature == f) boxes.push_back(a.box);
   }
-  for (const GlobeLine& line : lines()) {
+  const double maxHalfWidth = widthPixels_ > 0.0 ? 0.5 * options_.lineMaxWidthMetres : 0.0;
+  for (const LineEntry& line : lineEntries_) {
     if (line.feature != f) continue;
-    // The box holds the line grown by its least half width; its pieces in a width class reach
-    // as far as the widest it is drawn, its joins and caps shapeReach half widths.
-    const double reach = std::max(line.halfWidth * line.shapeReach(), line.maxHalfWidth) * 1.01 + 1.0;
+    // The box holds the line's shapes at its least half width; its pieces in a width class reach
+    // as far as the widest it is drawn, its joins and caps lineShapeReach() half widths.
+    const double reach = std::max(featureHalfWidth(f), maxHalfWidth) * lineShapeReach() * 1.01 + 1.0;
     const double dLat = reach / 110000.0;
     const double high = std::min(89.9, std::max(std::abs(line.box.south), std::abs(line.box.north)) + dLat);
     const double dLon = dLat / std::cos(high * 3.14159265358979323846 / 180.0);
@@ -1197,10 +1216,17 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   }
   const auto index = static_cast<std::uint32_t>(f);
   if (f == featureGroups_.size()) featureGroups_.push_back(0);  // appended: the layer's colour
-  std::vector<LonLatRect> boxes = featureBoxes(index);          // the lines prepared, from the features as built
-  // Its lines prepared, its areas checked (as build checks them: their entries and digest).
+  std::vector<LonLatRect> boxes = featureBoxes(index);          // from the features as built
+  // Its lines and areas checked as build checks them (their entries, digests and messages).
   FeatureParts part;
-  prepareFeature(index, feature, featureGroups_[f], part, false);
+  std::vector<LineEntry> freshLines;
+  {
+    LonLatRect box{std::numeric_limits<double>::max(), 90.0, -std::numeric_limits<double>::max(), -90.0};
+    bool any = false;
+    if (f >= lineDigests_.size()) lineDigests_.resize(f + 1, 0);
+    lineDigests_[f] = checkLines(index, feature, featureGroups_[f], part, box, any, freshLines);
+    hasLines_ = hasLines_ || any;
+  }
   prepareFeature(index, feature, featureGroups_[f], part, true, true);
   out.diagnostics.append(part.diagnostics);
   // The feature as edited, for what is prepared from now on (areasIn, polygons(), lines()).
@@ -1208,14 +1234,6 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   auto editedFeatures = edited_ ? std::make_shared<Edited>(*edited_) : std::make_shared<Edited>();
   (*editedFeatures)[index] = std::make_shared<const geo::Feature>(feature);
   edited_ = std::move(editedFeatures);
-  {
-    FeatureParts unused;
-    LonLatRect box{};
-    bool any = false;
-    if (f >= lineDigests_.size()) lineDigests_.resize(f + 1, 0);
-    lineDigests_[f] = checkLines(index, feature, featureGroups_[f], unused, box, any);
-    hasLines_ = hasLines_ || any;
-  }
   // In the features' order, as build joins them: the layer is the one built from the edited features.
   const auto replace = [index](auto& items, auto& fresh) {
     items.erase(std::remove_if(items.begin(), items.end(), [&](const auto& item) { return item.feature == index; }),
@@ -1230,7 +1248,7 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   for (const GlobePolygon& p : part.polygons) fresh.push_back({p.feature, p.group, p.source, p.box});
   replace(areas_, fresh);
   indexAreas();
-  prepared_ = std::make_shared<detail::PreparedAreas>();
+  prepared_ = std::make_shared<detail::Prepared>();
   if (allAreasPrepared()) {
     FeatureParts prepared;
     prepareFeature(index, feature, featureGroups_[f], prepared, true);
@@ -1242,22 +1260,34 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   } else {
     allAreas_ = std::make_shared<LazyAreas>();
   }
-  // The edited lines are a new list (copies of the layer keep theirs).
-  std::vector<GlobeLine> edited = lines();
-  replace(edited, part.lines);
-  lines_ = std::make_shared<LazyLines>();
-  lines_->lines = std::make_shared<const std::vector<GlobeLine>>(std::move(edited));
-  lines_->linesMade.store(lines_->lines.get(), std::memory_order_release);
-  const std::vector<GlobeLine>& now = *lines_->lines;
+  // Its lines' entries likewise; the prepared lines edited if they were made (a new list: copies
+  // of the layer keep theirs).
+  replace(lineEntries_, freshLines);
+  indexLines();
+  if (lines_->linesMade.load(std::memory_order_acquire) != nullptr) {
+    FeatureParts prepared;
+    prepareFeature(index, feature, featureGroups_[f], prepared, false);
+    std::vector<GlobeLine> edited = lines();
+    replace(edited, prepared.lines);
+    lines_ = std::make_shared<LazyLines>();
+    lines_->lines = std::make_shared<const std::vector<GlobeLine>>(std::move(edited));
+    lines_->linesMade.store(lines_->lines.get(), std::memory_order_release);
+  } else {
+    lines_ = std::make_shared<LazyLines>();
+  }
   if (widthPixels_ > 0.0) {
+    // As build finds them: each line's widths are its feature's.
+    const double maxHalfWidth = 0.5 * options_.lineMaxWidthMetres;
+    bool first = true;
     leastHalfWidth_ = widestHalfWidth_ = 0.0;
-    for (std::size_t j = 0; j < now.size(); ++j) {
-      leastHalfWidth_ = j == 0 ? now[j].halfWidth : std::min(leastHalfWidth_, now[j].halfWidth);
-      widestHalfWidth_ = std::max(widestHalfWidth_, now[j].maxHalfWidth);
+    for (std::size_t g = 0; g < lineDigests_.size(); ++g) {
+      if (lineDigests_[g] == 0) continue;
+      const double h = featureHalfWidth(static_cast<std::uint32_t>(g));
+      leastHalfWidth_ = first ? h : std::min(leastHalfWidth_, h);
+      widestHalfWidth_ = std::max(widestHalfWidth_, std::max(maxHalfWidth, h));
+      first = false;
     }
   }
-  // What was made from the old geometry is made again as tiles ask.
-  levels_ = std::make_shared<detail::LineLevels>();
   fingerprint_ = digestForCache();
   const std::vector<LonLatRect> reached = featureBoxes(index);
   boxes.insert(boxes.end(), reached.begin(), reached.end());
@@ -1411,18 +1441,6 @@ bool contains(const GlobePolygon& polygon, const glm::dvec3& point, double lonDe
   return (crossings & 1) != 0;
 }
 
-namespace detail {
-
-struct LineLevels {
-  std::mutex mutex;
-  /// Per level, per line: its centreline generalised for the level, or empty where it is drawn
-  /// from its own points there (GlobeLayer::lineShapesIn).
-  std::array<std::vector<std::vector<glm::dvec2>>, kMaxLevel + 1> centres;
-  std::array<bool, kMaxLevel + 1> made{};
-};
-
-}  // namespace detail
-
 namespace {
 
 /// The line's points Douglas–Peucker keeps for `tolerance` metres: each left-out point lies within
@@ -1463,34 +1481,81 @@ double GlobeLayer::lineTolerance(const GlobeLine& line, int level) {
   return kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
 }
 
-const std::vector<std::vector<glm::dvec2>>& GlobeLayer::centresAt(int level) const {
-  const std::lock_guard<std::mutex> lock(levels_->mutex);
-  const auto at = static_cast<std::size_t>(level);
-  if (!levels_->made[at]) {
-    levels_->made[at] = true;
-    std::vector<std::vector<glm::dvec2>>& centres = levels_->centres[at];
-    const std::vector<GlobeLine>& all = lines();
-    centres.resize(all.size());
-    for (std::size_t j = 0; j < all.size(); ++j) {
-      const double tolerance = lineTolerance(all[j], level);
-      // Lines in metres: a quarter of the tolerance for the centreline (a quarter for the arcs,
-      // half for the rings). Lines in pixels: three quarters (a quarter for the arcs; their rings,
-      // where a tile draws them in metres, are not simplified again), as a projected tile's lines
-      // (tiled_layer.hpp): within half a pixel in all.
-      const double share = all[j].widthPixels > 0.0 ? 0.75 : 0.25;
-      if (tolerance > 4.0 * chordTolerance_) centres[j] = generalisedCentreline(all[j], share * tolerance);
-    }
-  }
-  return levels_->centres[at];
+void GlobeLayer::indexLines() {
+  std::vector<LonLatRect> boxes;
+  boxes.reserve(lineEntries_.size());
+  for (const LineEntry& e : lineEntries_) boxes.push_back(e.box);
+  lineBoxes_ = std::make_shared<const detail::BoxGrid>(detail::BoxGrid::of(boxes));
 }
 
-std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::size_t j, const TileKey& key, double reach,
-                                                                        int detailLevel) const {
+std::vector<std::uint32_t> GlobeLayer::linesNear(const TileKey& key, double reach) const {
+  std::vector<std::uint32_t> out;
+  if (!lineBoxes_ || key.level < 0 || key.level > kMaxLevel) return out;
+  // The tile grown as lineRunsIn grows it, in longitude at the highest latitude within reach.
+  const LonLatRect rect = key.rect();
+  const double dLat = (reach + 1.0) / 110000.0 + key.postStep();
+  const double high = std::max(std::abs(rect.south), std::abs(rect.north)) + dLat;
+  const double dLon = high >= 89.9 ? 360.0 : dLat / std::cos(high * 3.14159265358979323846 / 180.0);
+  const LonLatRect near = rect.expanded(dLon, dLat);
+  for (const std::uint32_t j : lineBoxes_->meeting(near)) {
+    const LonLatRect& b = lineEntries_[j].box;
+    if (b.south > near.north || b.north < near.south) continue;
+    for (int turn = -1; turn <= 1; ++turn) {
+      if (b.west <= near.east + 360.0 * turn && b.east >= near.west + 360.0 * turn) {
+        out.push_back(j);
+        break;
+      }
+    }
+  }
+  return out;
+}
+
+GlobeLayer::TileLine GlobeLayer::lineAt(std::size_t j, int level) const {
+  TileLine t;
+  if (j >= lineEntries_.size()) return t;
+  if (const std::vector<GlobeLine>* all = lines_->linesMade.load(std::memory_order_acquire)) {
+    if (j < all->size()) t.line = std::shared_ptr<const GlobeLine>(lines_->lines, &(*all)[j]);
+  } else if (!(t.line = prepared_->lines.find(j))) {
+    // Read and prepared now: this line of its feature only.
+    const LineEntry& e = lineEntries_[j];
+    FeatureParts part;
+    prepareFeature(e.feature, *featureAt(e.feature), e.group, part, false, false, e.source);
+    if (part.lines.size() != 1) return t;
+    const GlobeLine& g = part.lines.front();
+    std::size_t bytes = sizeof(GlobeLine) + g.points.size() * (sizeof(glm::dvec2) + sizeof(glm::dvec3) + 1) +
+                        g.anchors.size() * sizeof(float);
+    for (const auto& bucket : g.buckets) bytes += bucket.size() * sizeof(std::uint32_t) + sizeof(bucket);
+    t.line = prepared_->lines.keep(j, std::make_shared<const GlobeLine>(std::move(part.lines.front())), bytes);
+  }
+  if (!t.line) return t;
+  const int at = std::clamp(level, 0, kMaxLevel);
+  const double tolerance = lineTolerance(*t.line, at);
+  if (tolerance > 4.0 * chordTolerance_) {
+    // Lines in metres: a quarter of the tolerance for the centreline (a quarter for the arcs,
+    // half for the rings). Lines in pixels: three quarters (a quarter for the arcs; their rings,
+    // where a tile draws them in metres, are not simplified again), as a projected tile's lines
+    // (tiled_layer.hpp): within half a pixel in all.
+    const std::uint64_t key = static_cast<std::uint64_t>(j) * (kMaxLevel + 1) + static_cast<std::uint64_t>(at);
+    t.points = prepared_->centres.find(key);
+    if (!t.points) {
+      const double share = t.line->widthPixels > 0.0 ? 0.75 : 0.25;
+      auto made = std::make_shared<const std::vector<glm::dvec2>>(generalisedCentreline(*t.line, share * tolerance));
+      const std::size_t bytes = made->size() * sizeof(glm::dvec2) + sizeof(*made);
+      t.points = prepared_->centres.keep(key, std::move(made), bytes);
+    }
+    t.generalised = true;
+  } else {
+    t.points = std::shared_ptr<const std::vector<glm::dvec2>>(t.line, &t.line->points);
+  }
+  return t;
+}
+
+std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(const TileLine& tileLine, const TileKey& key,
+                                                                        double reach) {
   std::vector<std::pair<std::size_t, std::size_t>> runs;
-  const std::vector<GlobeLine>& all = lines();
-  if (j >= all.size() || !levels_ || key.level < 0 || key.level > kMaxLevel) return runs;
+  if (!tileLine.line || !tileLine.points || key.level < 0 || key.level > kMaxLevel) return runs;
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
-  const GlobeLine& line = all[j];
+  const GlobeLine& line = *tileLine.line;
   const LonLatRect rect = key.rect();
   // A box of points widened by the reach and a post, in longitude by the parallel's length at the
   // highest latitude a point within reach can have: the box's own, not the tile's. (Widened by the
@@ -1509,7 +1574,7 @@ std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::siz
   };
   if (!meets(line.box.west, line.box.south - reach / 110000.0, line.box.east, line.box.north + reach / 110000.0))
     return runs;
-  const std::vector<glm::dvec2>& points = linePointsAt(j, detailLevel < 0 ? key.level : detailLevel);
+  const std::vector<glm::dvec2>& points = *tileLine.points;
   for (std::size_t i = 0; i + 1 < points.size(); ++i) {
     const glm::dvec2 p = points[i], q = points[i + 1];
     if (!meets(std::min(p.x, q.x), std::min(p.y, q.y), std::max(p.x, q.x), std::max(p.y, q.y))) continue;
@@ -1522,11 +1587,6 @@ std::vector<std::pair<std::size_t, std::size_t>> GlobeLayer::lineRunsIn(std::siz
   return runs;
 }
 
-const std::vector<glm::dvec2>& GlobeLayer::linePointsAt(std::size_t j, int level) const {
-  const std::vector<std::vector<glm::dvec2>>& centres = centresAt(std::clamp(level, 0, kMaxLevel));
-  return centres[j].empty() ? lines()[j].points : centres[j];
-}
-
 bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
   return widthClass > 0 && line.widthPixels > 0.0 && 0.5 * lineClassWidth(widthClass) > line.halfWidth;
 }
@@ -1534,12 +1594,17 @@ bool GlobeLayer::scalesLine(const GlobeLine& line, int widthClass) {
 std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int widthClass, double pixelMetres,
                                                    int detailLevel) const {
   std::vector<GlobePolygon> out;
-  if (!hasLines_ || !levels_ || key.level < 0 || key.level > kMaxLevel) return out;
+  if (!hasLines_ || key.level < 0 || key.level > kMaxLevel) return out;
   const int level = detailLevel < 0 ? key.level : std::min(detailLevel, kMaxLevel);
-  const std::vector<GlobeLine>& all = lines();
-  const std::vector<std::vector<glm::dvec2>>& centres = centresAt(level);
-  for (std::size_t j = 0; j < all.size(); ++j) {
-    const GlobeLine& line = all[j];
+  // The lines near the tile (their boxes hold their shapes at their least widths; a drape's
+  // lines in pixels may be wider), read and prepared as asked for.
+  const double wider = widthPixels_ > 0.0 && pixelMetres > 0.0
+                           ? std::min(0.5 * widthPixels_ * pixelMetres, widestHalfWidth_) * lineShapeReach()
+                           : 0.0;
+  for (const std::uint32_t j : linesNear(key, wider)) {
+    const TileLine tileLine = lineAt(j, level);
+    if (!tileLine.line) continue;
+    const GlobeLine& line = *tileLine.line;
     // Lines the class scales are drawn by their own pieces (buildTilePieces); none is thinner.
     if (scalesLine(line, widthClass) || !(line.halfWidth > 0.0)) continue;
     // A drape's lines in pixels: widthPixels of its texels, within the line's least and largest.
@@ -1547,11 +1612,11 @@ std::vector<GlobePolygon> GlobeLayer::lineShapesIn(const TileKey& key, int width
                          ? std::max(std::min(0.5 * line.widthPixels * pixelMetres, line.maxHalfWidth), line.halfWidth)
                          : line.halfWidth;
     const double tolerance = lineTolerance(line, level);
-    const bool generalised = !centres[j].empty();
-    const std::vector<glm::dvec2>& points = generalised ? centres[j] : line.points;
+    const bool generalised = tileLine.generalised;
+    const std::vector<glm::dvec2>& points = *tileLine.points;
     // The runs of pieces that meet the tile widened by the shapes' reach (the pieces' clip
     // margins are less): a run's ends outside it (or the line's own ends).
-    for (const auto& [first, last] : lineRunsIn(j, key, h * line.shapeReach(), level)) {
+    for (const auto& [first, last] : lineRunsIn(tileLine, key, h * line.shapeReach())) {
       // Points the source gave get joins, and the line's ends caps; a run's ends where the window
       // cuts it get their joins (they lie beyond the tile's window by the line's reach).
       std::vector<GlobePolygon> made;

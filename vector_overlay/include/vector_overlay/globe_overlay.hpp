@@ -56,9 +56,8 @@ namespace gis::globe {
 
 namespace detail {
 struct PolygonIndex;
-struct LineLevels;
 struct BoxGrid;
-struct PreparedAreas;
+struct Prepared;
 struct LineJoins;
 struct LineGrid;
 }  // namespace detail
@@ -192,6 +191,8 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// an edit; thread-safe), not at build: a warm start whose tiles come from disk never needs
   /// them. Their problems were named at build.
   [[nodiscard]] const std::vector<GlobeLine>& lines() const;
+  /// Whether lines() has been made.
+  [[nodiscard]] bool allLinesPrepared() const;
   /// Whether the layer has a line to draw (known at build, without preparing them).
   [[nodiscard]] bool hasLines() const { return hasLines_; }
   /// The box (unwrapped lon/lat) of its areas and of its lines' given points widened by their
@@ -225,7 +226,7 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// tile's window gets a cap there, outside the window. Where the level's tolerance (kLineGeneralisation ×
   /// simplifyTolerance, in metres at the line's highest latitude) is more than four times the
   /// chord tolerance, the shapes are those of the centreline generalised to a quarter of that
-  /// tolerance (Douglas–Peucker on its points on the ellipsoid; made once per level and kept),
+  /// tolerance (Douglas–Peucker on its points on the ellipsoid; the last 32 MB made are kept),
   /// arcs within another quarter, rings simplified within the other half; elsewhere of the line's
   /// own points. Thread-safe.
   /// Lines in pixels: the lines width class `widthClass` scales are left out (buildTilePieces);
@@ -234,13 +235,34 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// as for tiles of that level instead of key.level (kMaxLevel: the lines' own points).
   [[nodiscard]] std::vector<GlobePolygon> lineShapesIn(const TileKey& key, int widthClass = 0, double pixelMetres = 0.0,
                                                        int detailLevel = -1) const;
-  /// The points line j is drawn from in tiles of `level`: its centreline generalised for the
-  /// level (lineShapesIn), or its own points.
-  [[nodiscard]] const std::vector<glm::dvec2>& linePointsAt(std::size_t j, int level) const;
-  /// The runs [first, last] of linePointsAt(j, detailLevel) whose pieces meet tile `key` grown by
-  /// `reach` metres and a post (detailLevel < 0: key.level). Thread-safe.
-  [[nodiscard]] std::vector<std::pair<std::size_t, std::size_t>> lineRunsIn(std::size_t j, const TileKey& key,
-                                                                            double reach, int detailLevel = -1) const;
+  /// A line as build found it (lines()[j] has the same feature, group and source): its feature,
+  /// colour group, which of its feature's lines it is (a polygon's rings for an outline layer),
+  /// and a box that holds its prepared points grown by its half width times its shapes' reach.
+  struct LineEntry {
+    std::uint32_t feature = 0, group = 0, source = 0;
+    LonLatRect box;
+  };
+  /// The lines (what lines() holds once made).
+  [[nodiscard]] std::size_t lineCount() const { return lineEntries_.size(); }
+  [[nodiscard]] const LineEntry& lineEntry(std::size_t j) const { return lineEntries_[j]; }
+  /// The lines whose boxes, grown by `reach` metres more and a post, may meet tile `key` (a
+  /// superset: lineRunsIn says which do), in order. (A box holds its line's shapes at its least
+  /// width; a wider one, in pixels, asks for the difference times lineShapeReach().)
+  [[nodiscard]] std::vector<std::uint32_t> linesNear(const TileKey& key, double reach) const;
+  /// A line as a tile draws it: as prepared (from lines() once made; else read from its feature
+  /// and prepared now, the last 64 MB kept), and its points at a level: its centreline
+  /// generalised for it (lineShapesIn), or its own points.
+  struct TileLine {
+    std::shared_ptr<const GlobeLine> line;
+    std::shared_ptr<const std::vector<glm::dvec2>> points;
+    bool generalised = false;
+  };
+  /// Line j at `level` (null line if it cannot be prepared). Thread-safe.
+  [[nodiscard]] TileLine lineAt(std::size_t j, int level) const;
+  /// The runs [first, last] of `line`'s points whose pieces meet tile `key` grown by `reach`
+  /// metres and a post.
+  [[nodiscard]] static std::vector<std::pair<std::size_t, std::size_t>> lineRunsIn(const TileLine& line,
+                                                                                   const TileKey& key, double reach);
   /// The tolerance of line `line` at `level` (metres): lineShapesIn.
   static double lineTolerance(const GlobeLine& line, int level);
   /// Whether width class `widthClass` draws the line in pixels (else in metres: lineShapesIn).
@@ -269,6 +291,8 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] std::uint64_t serial() const { return serial_; }
   /// Lines in pixels: > 0 (GlobeLayerOptions::lineWidthPixels).
   [[nodiscard]] double lineWidthPixels() const { return widthPixels_; }
+  /// How far its lines' joins and caps reach from their points, in half widths (GlobeLine::shapeReach).
+  [[nodiscard]] double lineShapeReach() const { return roundLines() ? 1.0 : std::max(options_.miterLimit, 1.5); }
   /// Whether its lines have round joins and caps (GlobeLayerOptions::join, cap).
   [[nodiscard]] bool roundLines() const {
     return options_.join == overlay::LineJoin::Round && options_.cap == overlay::LineCap::Round;
@@ -298,16 +322,18 @@ class GlobeLayer final : public overlay::WorldCoverage {
     std::vector<GlobePolygon> polygons;
     Diagnostics diagnostics;
   };
+  static constexpr std::size_t kAllLines = std::numeric_limits<std::size_t>::max();
   /// Prepares feature f's areas (`areas`; with the index contains() takes, or with `checkOnly`
   /// only checked: their rings as given, unwrapped, and a box that holds them as prepared) or
-  /// lines (`!areas`) into `part`.
+  /// lines (`!areas`; all, or its line `onlyLine` alone) into `part`.
   void prepareFeature(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part, bool areas,
-                      bool checkOnly = false) const;
+                      bool checkOnly = false, std::size_t onlyLine = kAllLines) const;
   /// Checks feature f's lines as prepareFeature would use them (problems into `part`), and returns
   /// a digest of them and of what their pieces take from the options; widens `box` by them and
   /// sets `any` when one is usable.
+  /// Each usable line's entry is appended to `entries`.
   std::uint64_t checkLines(std::uint32_t f, const geo::Feature& feature, std::uint32_t group, FeatureParts& part,
-                           LonLatRect& box, bool& any) const;
+                           LonLatRect& box, bool& any, std::vector<LineEntry>& entries) const;
   /// Feature f's half width in metres (its own, else the layer's).
   [[nodiscard]] double featureHalfWidth(std::uint32_t f) const;
   /// Every feature's lines, prepared (lines()).
@@ -331,9 +357,9 @@ class GlobeLayer final : public overlay::WorldCoverage {
     std::atomic<const std::vector<GlobePolygon>*> made{nullptr};
   };
   std::shared_ptr<LazyAreas> allAreas_ = std::make_shared<LazyAreas>();
-  /// The areas tiles asked for lately, as prepared (areasIn: a large area reaches many tiles),
-  /// under a byte bound; made again by an edit.
-  std::shared_ptr<detail::PreparedAreas> prepared_;
+  /// The areas and lines tiles asked for lately, as prepared (areasIn, lineAt: a large feature
+  /// reaches many tiles), under byte bounds; made again by an edit.
+  std::shared_ptr<detail::Prepared> prepared_;
   /// Area k as prepared (from polygons() once made, else through prepared_); null if it cannot be.
   [[nodiscard]] std::shared_ptr<const GlobePolygon> preparedArea(std::size_t k) const;
   /// Features an edit replaced or appended (a new map per edit: copies keep theirs).
@@ -368,10 +394,12 @@ class GlobeLayer final : public overlay::WorldCoverage {
   std::uint64_t fingerprint_ = 0;
   std::uint64_t serial_ = 0;
   std::shared_ptr<const GeoGrid> anchorGround_;
-  std::shared_ptr<detail::LineLevels> levels_;  ///< lineShapesIn's generalised centrelines, made as asked for
+  /// The lines as build found them, and by their boxes (linesNear).
+  std::vector<LineEntry> lineEntries_;
+  std::shared_ptr<const detail::BoxGrid> lineBoxes_;
+  /// lineBoxes_ made again from lineEntries_.
+  void indexLines();
   [[nodiscard]] std::uint64_t digestForCache() const;
-  /// Per line, its centreline generalised for the level (empty: its own points): made once.
-  [[nodiscard]] const std::vector<std::vector<glm::dvec2>>& centresAt(int level) const;
 };
 
 /// The pieces of `layer` over tile `key`, bounded by the ground of `heights` (heights contract:
