@@ -171,14 +171,23 @@ struct LineReach {
   double widthPixels = 0.0, maxHalfWidth = 0.0, halfWidth = 0.0, reach = 1.0;
 };
 
-/// A layer's lines by their boxes (GlobeLine::box), for the reference: a grid of cells over the
-/// boxes' union, each holding the lines whose box meets it; a line meeting more than a quarter
-/// of the cells is in `everywhere` instead.
-struct LineGrid {
+/// Boxes (unwrapped lon/lat) in a grid over their union, for the boxes meeting a rectangle
+/// (GlobeLayer::areasIn, linesNear): each cell holds the boxes meeting it; a box meeting more
+/// than a quarter of the cells is in `everywhere` instead; an empty box (west > east) in none.
+struct BoxGrid {
   LonLatRect box{0.0, 0.0, -1.0, -1.0};
   GridShape shape;
   std::vector<std::vector<std::uint32_t>> cells;
   std::vector<std::uint32_t> everywhere;
+  static BoxGrid of(const std::vector<LonLatRect>& boxes);
+  /// The boxes that may meet `rect` or `rect` moved 360° east or west (a superset: test them),
+  /// each once, in increasing order.
+  [[nodiscard]] std::vector<std::uint32_t> meeting(const LonLatRect& rect) const;
+};
+
+/// A layer's lines by their boxes (GlobeLine::box), for the reference (a line without buckets in
+/// no cell).
+struct LineGrid : BoxGrid {
   /// The most any line may reach beyond its box for a scale (reachBeyond's bound over them).
   LineReach widths;
   static LineGrid of(const std::vector<GlobeLine>& lines);
@@ -241,20 +250,6 @@ struct Prepared {
   RecentlyUsed<GlobeLine> lines{std::size_t{64} << 20};
   /// Keyed line × (kMaxLevel + 1) + level.
   RecentlyUsed<std::vector<glm::dvec2>> centres{std::size_t{32} << 20};
-};
-
-/// Boxes (unwrapped lon/lat) in a grid over their union, for the boxes meeting a rectangle
-/// (GlobeLayer::areasIn): each cell holds the boxes meeting it; a box meeting more than a quarter
-/// of the cells is in `everywhere` instead.
-struct BoxGrid {
-  LonLatRect box{0.0, 0.0, -1.0, -1.0};
-  GridShape shape;
-  std::vector<std::vector<std::uint32_t>> cells;
-  std::vector<std::uint32_t> everywhere;
-  static BoxGrid of(const std::vector<LonLatRect>& boxes);
-  /// The boxes that may meet `rect` or `rect` moved 360° east or west (a superset: test them),
-  /// each once, in increasing order.
-  [[nodiscard]] std::vector<std::uint32_t> meeting(const LonLatRect& rect) const;
 };
 
 /// A line's shapes at its points (GlobeLine::joins).

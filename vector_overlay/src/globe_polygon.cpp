@@ -887,11 +887,11 @@ namespace detail {
 LineGrid LineGrid::of(const std::vector<GlobeLine>& lines) {
   LineGrid grid;
   bool first = true;
-  for (const GlobeLine& line : lines) {
+  std::vector<LonLatRect> boxes(lines.size(), LonLatRect{0.0, 0.0, -1.0, -1.0});
+  for (std::size_t j = 0; j < lines.size(); ++j) {
+    const GlobeLine& line = lines[j];
     if (line.buckets.empty()) continue;
-    grid.box = first ? line.box
-                     : LonLatRect{std::min(grid.box.west, line.box.west), std::min(grid.box.south, line.box.south),
-                                  std::max(grid.box.east, line.box.east), std::max(grid.box.north, line.box.north)};
+    boxes[j] = line.box;
     LineReach& w = grid.widths;
     w.widthPixels = std::max(w.widthPixels, line.widthPixels);
     w.maxHalfWidth = std::max(w.maxHalfWidth, line.maxHalfWidth);
@@ -899,42 +899,28 @@ LineGrid LineGrid::of(const std::vector<GlobeLine>& lines) {
     w.reach = std::max(w.reach, line.reach);
     first = false;
   }
-  if (first) return grid;
-  // About as many cells as lines.
-  const GridShape& s = grid.shape = gridShape(std::min<std::size_t>(lines.size(), 1 << 16),
-                                              grid.box.east - grid.box.west, grid.box.north - grid.box.south);
-  grid.cells.assign(s.columns * s.rows, {});
-  for (std::size_t j = 0; j < lines.size(); ++j) {
-    const LonLatRect& b = lines[j].box;
-    if (lines[j].buckets.empty()) continue;
-    const std::size_t c0 = cellIndex(b.west, grid.box.west, s.cellWidth, s.columns),
-                      c1 = cellIndex(b.east, grid.box.west, s.cellWidth, s.columns);
-    const std::size_t r0 = cellIndex(b.south, grid.box.south, s.cellHeight, s.rows),
-                      r1 = cellIndex(b.north, grid.box.south, s.cellHeight, s.rows);
-    if ((c1 - c0 + 1) * (r1 - r0 + 1) * 4 > grid.cells.size()) {
-      grid.everywhere.push_back(static_cast<std::uint32_t>(j));
-      continue;
-    }
-    for (std::size_t r = r0; r <= r1; ++r) {
-      for (std::size_t c = c0; c <= c1; ++c) grid.cells[r * s.columns + c].push_back(static_cast<std::uint32_t>(j));
-    }
-  }
+  static_cast<BoxGrid&>(grid) = BoxGrid::of(boxes);
   return grid;
 }
 
 BoxGrid BoxGrid::of(const std::vector<LonLatRect>& boxes) {
   BoxGrid grid;
-  if (boxes.empty()) return grid;
-  grid.box = boxes.front();
-  for (const LonLatRect& b : boxes)
-    grid.box = {std::min(grid.box.west, b.west), std::min(grid.box.south, b.south), std::max(grid.box.east, b.east),
-                std::max(grid.box.north, b.north)};
+  bool first = true;
+  for (const LonLatRect& b : boxes) {
+    if (b.west > b.east) continue;
+    grid.box = first ? b
+                     : LonLatRect{std::min(grid.box.west, b.west), std::min(grid.box.south, b.south),
+                                  std::max(grid.box.east, b.east), std::max(grid.box.north, b.north)};
+    first = false;
+  }
+  if (first) return grid;
   // About as many cells as boxes.
   const GridShape& s = grid.shape = gridShape(std::min<std::size_t>(boxes.size(), 1 << 16),
                                               grid.box.east - grid.box.west, grid.box.north - grid.box.south);
   grid.cells.assign(s.columns * s.rows, {});
   for (std::size_t j = 0; j < boxes.size(); ++j) {
     const LonLatRect& b = boxes[j];
+    if (b.west > b.east) continue;
     const std::size_t c0 = cellIndex(b.west, grid.box.west, s.cellWidth, s.columns),
                       c1 = cellIndex(b.east, grid.box.west, s.cellWidth, s.columns);
     const std::size_t r0 = cellIndex(b.south, grid.box.south, s.cellHeight, s.rows),
