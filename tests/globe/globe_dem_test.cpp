@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include <gdal_priv.h>
@@ -24,10 +25,21 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// This process's scratch folder, removed when it ends (ctest runs each test in a process of
+/// its own: they were left behind in the temporary folder, hundreds of them).
 fs::path scratch() {
-  const fs::path dir = fs::temp_directory_path() / ("globe_dem_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
+  struct Scratch {
+    fs::path dir = fs::temp_directory_path() / ("globe_dem_test_" + std::to_string(::getpid()));
+    Scratch() { fs::create_directories(dir); }
+    Scratch(const Scratch&) = delete;
+    Scratch& operator=(const Scratch&) = delete;
+    ~Scratch() {
+      std::error_code ignored;
+      fs::remove_all(dir, ignored);
+    }
+  };
+  static const Scratch scratch;
+  return scratch.dir;
 }
 
 /// A north-up Float32 GeoTIFF: `width` × `height` cells of `step` from (west, north), in `crs`,
