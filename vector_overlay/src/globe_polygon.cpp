@@ -81,6 +81,15 @@ void forRuns(std::size_t count, std::size_t runs, const Work& work) {
   for (std::thread& t : helpers) t.join();
 }
 
+/// The grid of the items' boxes (GlobeLayer's areas or lines).
+template <typename Item>
+std::shared_ptr<const detail::BoxGrid> gridOfBoxes(const std::vector<Item>& items) {
+  std::vector<LonLatRect> boxes;
+  boxes.reserve(items.size());
+  for (const Item& item : items) boxes.push_back(item.box);
+  return std::make_shared<const detail::BoxGrid>(detail::BoxGrid::of(boxes));
+}
+
 /// A digest of a feature's areas as prepared: their colour group and rings.
 std::uint64_t areasDigest(std::span<const GlobePolygon> polygons) {
   std::vector<std::uint64_t> parts;
@@ -841,8 +850,8 @@ Result<GlobeLayer> GlobeLayer::build(std::string name, const overlay::SharedFeat
     layer.lineEntries_.insert(layer.lineEntries_.end(), run.lines.begin(), run.lines.end());
     out.diagnostics.append(run.part.diagnostics);
   }
-  layer.indexAreas();
-  layer.indexLines();
+  layer.areaGrid_ = gridOfBoxes(layer.areas_);
+  layer.lineBoxes_ = gridOfBoxes(layer.lineEntries_);
   if (extent.west <= extent.east) layer.extent_ = extent;
   // Of the lines in pixels, the least width in metres and the greatest largest one (what a frame's
   // width classes are chosen by), from the options: each line's widths are its feature's.
@@ -1012,13 +1021,6 @@ std::shared_ptr<const geo::Feature> GlobeLayer::featureAt(std::uint32_t f) const
     if (found != edited_->end()) return found->second;
   }
   return features_.get(f);
-}
-
-void GlobeLayer::indexAreas() {
-  std::vector<LonLatRect> boxes;
-  boxes.reserve(areas_.size());
-  for (const Area& a : areas_) boxes.push_back(a.box);
-  areaGrid_ = std::make_shared<const detail::BoxGrid>(detail::BoxGrid::of(boxes));
 }
 
 namespace {
@@ -1233,7 +1235,7 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   std::vector<Area> fresh;
   for (const GlobePolygon& p : part.polygons) fresh.push_back({p.feature, p.group, p.source, p.box});
   replace(areas_, fresh);
-  indexAreas();
+  areaGrid_ = gridOfBoxes(areas_);
   prepared_ = std::make_shared<detail::Prepared>();
   if (allAreasPrepared()) {
     FeatureParts prepared;
@@ -1249,7 +1251,7 @@ Result<std::vector<LonLatRect>> GlobeLayer::replaceFeature(std::size_t f, const 
   // Its lines' entries likewise; the prepared lines edited if they were made (a new list: copies
   // of the layer keep theirs).
   replace(lineEntries_, freshLines);
-  indexLines();
+  lineBoxes_ = gridOfBoxes(lineEntries_);
   if (lines_->linesMade.load(std::memory_order_acquire) != nullptr) {
     FeatureParts prepared;
     prepareFeature(index, feature, featureGroups_[f], prepared, false);
@@ -1465,13 +1467,6 @@ double GlobeLayer::lineTolerance(const GlobeLine& line, int level) {
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
   const double high = std::min(89.0, std::max(std::abs(line.box.south), std::abs(line.box.north)));
   return kLineGeneralisation * simplifyTolerance(level) * kDegree * kSemiMajor * std::cos(high * kDegree);
-}
-
-void GlobeLayer::indexLines() {
-  std::vector<LonLatRect> boxes;
-  boxes.reserve(lineEntries_.size());
-  for (const LineEntry& e : lineEntries_) boxes.push_back(e.box);
-  lineBoxes_ = std::make_shared<const detail::BoxGrid>(detail::BoxGrid::of(boxes));
 }
 
 std::vector<std::uint32_t> GlobeLayer::linesNear(const TileKey& key, double reach) const {

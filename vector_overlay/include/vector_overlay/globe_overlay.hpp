@@ -368,8 +368,6 @@ class GlobeLayer final : public overlay::WorldCoverage {
   [[nodiscard]] std::shared_ptr<const geo::Feature> featureAt(std::uint32_t f) const;
   /// Every feature's areas, prepared (polygons()).
   [[nodiscard]] std::vector<GlobePolygon> prepareAreas() const;
-  /// The areas' grid (areaGrid_) made again from areas_.
-  void indexAreas();
   /// The lines once prepared (lines()): shared by copies, replaced (never changed) by an edit.
   /// Made under the mutex, then read through the atomic pointers without it (the reference asks
   /// for both at every point it tests).
@@ -397,8 +395,6 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// The lines as build found them, and by their boxes (linesNear).
   std::vector<LineEntry> lineEntries_;
   std::shared_ptr<const detail::BoxGrid> lineBoxes_;
-  /// lineBoxes_ made again from lineEntries_.
-  void indexLines();
   [[nodiscard]] std::uint64_t digestForCache() const;
 };
 
