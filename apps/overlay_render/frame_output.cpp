@@ -2,19 +2,10 @@
 
 #include <sys/resource.h>
 
-#include <fstream>
-
 #include "app/cli.hpp"
 #include "gfx/image_io.hpp"
-#include "scene/json_file.hpp"
 
 namespace gis::app {
-
-bool writeJson(const std::filesystem::path& path, const nlohmann::json& j) {
-  std::ofstream out(path);
-  out << scene::jsonText(j) << "\n";
-  return static_cast<bool>(out);
-}
 
 bool writeFrameImages(const std::filesystem::path& out, int width, int height, const std::vector<std::uint8_t>& rgb,
                       const std::vector<float>& depth, const std::vector<std::uint8_t>& mask) {

@@ -1,18 +1,13 @@
 #pragma once
 // What overlay_render writes for a frame, the same in both frames (docs/frames.md): color.png,
-// depth.tiff and mask.png, the JSON files, the run's clock and its peak memory.
+// depth.tiff and mask.png, the run's clock and its peak memory.
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 namespace gis::app {
-
-/// Writes `j` (scene::jsonText) and a newline; false when the file cannot be written.
-bool writeJson(const std::filesystem::path& path, const nlohmann::json& j);
 
 /// color.png (RGB, top row first), depth.tiff (float depth as stored) and mask.png (bit i: the
 /// scene file's layer i) in `out`; each failure is reported (it names the file). False if any failed.

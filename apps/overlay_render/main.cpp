@@ -51,7 +51,6 @@ using namespace gis;
 using app::peakResidentBytes;
 using app::report;
 using app::runClock;
-using app::writeJson;
 
 constexpr const char* kUsage =
     "usage: overlay_render --scene S.json [--camera C.json] [--width W --height H] [--msaa N]\n"
@@ -452,8 +451,10 @@ bool writeOutputs(const Drawn& d, gfx::Context& context, Diagnostics& all) {
   bool ok = writeImages(out, d.o, d.frame);
   json stats = statsJson(d, context, all);
   ok = writeAnalyses(out, d, all, stats) && ok;
-  ok = writeJson(out / "camera.json", d.setup.scene.cameraJson(d.setup.camera, d.o.width, d.o.height)) && ok;
-  ok = writeJson(out / "stats.json", stats) && ok;
+  ok = scene::writeJsonFile((out / "camera.json").string(),
+                            d.setup.scene.cameraJson(d.setup.camera, d.o.width, d.o.height)) &&
+       ok;
+  ok = scene::writeJsonFile((out / "stats.json").string(), stats) && ok;
   if (!ok) return false;
   std::printf("%s\n", (std::filesystem::absolute(out) / "color.png").string().c_str());
   return true;

@@ -242,8 +242,9 @@ bool Viewer::screenshot(const std::filesystem::path& path, bool ui) {
     const Result<bool> depth = gfx::writeImageFloat(stem.string() + "_depth.tiff", target_->width(), target_->height(),
                                                     gfx::readDepth(*target_));
     ok = ok && depth.ok();
-    std::ofstream(stem.string() + "_camera.json")
-        << scene::jsonText(scene_->cameraJson(frameCamera(), target_->width(), target_->height())) << "\n";
+    ok = scene::writeJsonFile(stem.string() + "_camera.json",
+                              scene_->cameraJson(frameCamera(), target_->width(), target_->height())) &&
+         ok;
   }
   const Result<bool> png =
       gfx::writeImage8(path.string(), ui ? fb.x : target_->width(), ui ? fb.y : target_->height(), 3, rgb);

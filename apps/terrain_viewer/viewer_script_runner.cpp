@@ -89,10 +89,9 @@ struct StepRunner {
 
   /// Writes `j` to `path`; false (reported) when it cannot.
   bool write(const std::string& path, const nlohmann::json& j) const {
-    std::ofstream out(path);
-    out << scene::jsonText(j) << "\n";
-    if (!out) v.message(where + ": cannot write " + path, true);
-    return static_cast<bool>(out);
+    const bool written = scene::writeJsonFile(path, j);
+    if (!written) v.message(where + ": cannot write " + path, true);
+    return written;
   }
 
   /// The GLFW keys of key names; none when the viewer lacks one (reported).

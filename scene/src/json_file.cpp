@@ -7,6 +7,25 @@
 
 namespace gis::scene {
 
+bool writeJsonFile(const std::string& path, const nlohmann::json& j) {
+  const std::string partial = path + ".part";
+  {
+    std::ofstream out(partial);
+    out << jsonText(j) << "\n";
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      std::filesystem::remove(partial, ec);
+      return false;
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(partial, path, ec);
+  if (!ec) return true;
+  std::filesystem::remove(partial, ec);
+  return false;
+}
+
 std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics& d) {
   // A folder opens as a stream on Linux, and reading it throws: say what it is instead.
   std::error_code ec;

@@ -95,9 +95,8 @@ Diagnostics saveViewerSettings(const ViewerSettings& s, const std::filesystem::p
                             {"show_panel", s.showPanel},
                             {"imagery", s.imagery},
                             {"export_path", s.exportPath}};
-  std::ofstream out(path);
-  out << scene::jsonText(j) << "\n";
-  if (!out) d.add({Severity::Warning, path.string(), "", "", "cannot write the viewer settings"});
+  if (!scene::writeJsonFile(path.string(), j))
+    d.add({Severity::Warning, path.string(), "", "", "cannot write the viewer settings"});
   return d;
 }
 

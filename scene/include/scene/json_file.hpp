@@ -21,6 +21,11 @@ inline std::string jsonText(const nlohmann::json& j, int indent = 2) {
   return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+/// Writes `j` (jsonText, a line end after it) to `path` whole or not at all: into a sibling file
+/// that is then renamed over `path`, so a program polling for the file never reads half of it.
+/// False when it cannot be written (the partial sibling is removed).
+bool writeJsonFile(const std::string& path, const nlohmann::json& j);
+
 /// The file's JSON; nothing, with an error naming the file, if it cannot be opened or is not JSON.
 std::optional<nlohmann::json> readJsonFile(const std::string& path, Diagnostics& d);
 
