@@ -1046,8 +1046,12 @@ std::vector<glm::dvec2> cutRing(const std::vector<glm::dvec2>& ring, const LonLa
   std::vector<glm::dvec2> out = ring;
   const std::array<std::tuple<int, double, bool>, 4> sides{
       {{0, r.west, true}, {0, r.east, false}, {1, r.south, true}, {1, r.north, false}}};
-  for (const auto& [axis, c, above] : sides) {
+  for (const auto& side : sides) {
     if (out.empty()) break;
+    // Named copies: clang 14 cannot capture structured bindings in a lambda (it came in clang 16).
+    const int axis = std::get<0>(side);
+    const double c = std::get<1>(side);
+    const bool above = std::get<2>(side);
     const auto inside = [&](const glm::dvec2& p) { return above ? p[axis] >= c : p[axis] <= c; };
     std::vector<glm::dvec2> next;
     glm::dvec2 s = out.back();
