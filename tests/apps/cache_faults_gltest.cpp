@@ -27,6 +27,7 @@
 
 #include "gfx/image_io.hpp"
 #include "program_output.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

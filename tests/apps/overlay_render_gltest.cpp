@@ -28,6 +28,7 @@
 #include "geo/raster.hpp"
 #include "gfx/image_io.hpp"
 #include "program_output.hpp"
+#include "test_paths.hpp"
 #include "vector_files.hpp"
 #include "vector_overlay/lasso.hpp"
 

@@ -42,6 +42,7 @@
 #include "globe/ellipsoid.hpp"
 #include "program_output.hpp"
 #include "scene/measure.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

@@ -35,6 +35,7 @@
 #include "scene/measure.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/lasso.hpp"
 
@@ -701,7 +702,8 @@ class LiveViewer {
       const std::string log = (dir / "log.txt").string();
       if (std::freopen(log.c_str(), "w", stdout) == nullptr || std::freopen(log.c_str(), "a", stderr) == nullptr)
         _exit(126);
-      execl(TERRAIN_VIEWER_EXE, TERRAIN_VIEWER_EXE, STENCIL_GIS_SAMPLES_DIR "/olinda/scene.json", "--script",
+      execl(TERRAIN_VIEWER_EXE, TERRAIN_VIEWER_EXE,
+            (std::string(STENCIL_GIS_SAMPLES_DIR) + "/olinda/scene.json").c_str(), "--script",
             (dir / "script.json").c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }

@@ -10,6 +10,7 @@
 #include "gfx/window_context.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

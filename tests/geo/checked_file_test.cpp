@@ -11,6 +11,7 @@
 
 #include "geo/binary_io.hpp"
 #include "geo/checked_file.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

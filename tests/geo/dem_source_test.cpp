@@ -21,6 +21,7 @@
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
 #include "synth/synthetic_dem.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

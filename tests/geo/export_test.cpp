@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "geo/export.hpp"
+#include "test_paths.hpp"
 
 namespace {
 

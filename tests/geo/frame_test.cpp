@@ -18,6 +18,7 @@
 
 #include "geo/frame.hpp"
 #include "geo/raster.hpp"
+#include "test_paths.hpp"
 
 namespace {
 

@@ -23,6 +23,7 @@
 #include "geo/frame.hpp"
 #include "geo/vector.hpp"
 #include "many_holes.hpp"
+#include "test_paths.hpp"
 
 namespace {
 

@@ -13,6 +13,7 @@
 #include <ogr_spatialref.h>
 
 #include "geo/raster.hpp"
+#include "test_paths.hpp"
 
 namespace {
 

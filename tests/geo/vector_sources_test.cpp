@@ -21,6 +21,7 @@
 #include "geo/raster.hpp"
 #include "geo/vector.hpp"
 #include "source_checks.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

@@ -23,6 +23,7 @@
 
 #include "geo/raster.hpp"
 #include "geo/vector.hpp"
+#include "test_paths.hpp"
 #include "vector_files.hpp"
 
 namespace {

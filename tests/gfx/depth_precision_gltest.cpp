@@ -40,6 +40,7 @@
 #include "terrain/lod.hpp"
 #include "terrain/quadtree.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "test_paths.hpp"
 #include "test_terrain.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/overlay_layer.hpp"

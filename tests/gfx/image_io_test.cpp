@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "gfx/image_io.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

@@ -14,6 +14,7 @@
 #include "gl_test.hpp"
 #include "scene/globe_renderer.hpp"
 #include "scene/globe_scene.hpp"
+#include "test_paths.hpp"
 
 namespace gis::globe {
 namespace {

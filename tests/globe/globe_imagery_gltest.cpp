@@ -25,6 +25,7 @@
 #include "globe/ellipsoid.hpp"
 #include "globe/globe_imagery.hpp"
 #include "globe/globe_terrain.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {

@@ -27,6 +27,7 @@
 #include <unistd.h>
 
 #include "globe/globe_imagery.hpp"
+#include "test_paths.hpp"
 
 namespace gis::globe {
 namespace {

@@ -23,6 +23,7 @@
 #include "globe_scene.hpp"
 #include "sample_positions.hpp"
 #include "scene/globe_renderer.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/globe_overlay.hpp"
 
 namespace gis::globe {

@@ -15,6 +15,7 @@
 #include "scene/globe_renderer.hpp"
 #include "scene/globe_scene.hpp"
 #include "scene/scene_loader.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::globe {

@@ -18,6 +18,7 @@
 #include "gfx/render_target.hpp"
 #include "gl_test.hpp"
 #include "globe/globe_terrain.hpp"
+#include "test_paths.hpp"
 
 namespace gis::globe {
 namespace {

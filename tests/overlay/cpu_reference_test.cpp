@@ -24,6 +24,7 @@
 #include "geo/raster.hpp"
 #include "geo/vector.hpp"
 #include "gfx/camera.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace {

@@ -30,6 +30,7 @@
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "test_paths.hpp"
 #include "test_terrain.hpp"
 #include "vector_overlay/lasso.hpp"
 #include "vector_overlay/selection_renderer.hpp"

@@ -29,6 +29,7 @@
 #include "scene/frame_scene.hpp"
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
+#include "test_paths.hpp"
 #include "vector_files.hpp"
 #include "vector_overlay/technique.hpp"
 

@@ -35,6 +35,7 @@
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "test_paths.hpp"
 #include "test_terrain.hpp"
 #include "vector_overlay/overlay_layer.hpp"
 #include "vector_overlay/overlay_renderer.hpp"

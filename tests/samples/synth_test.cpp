@@ -25,6 +25,7 @@
 #include "geo/raster.hpp"
 #include "synth/synthetic_dem.hpp"
 #include "synth/synthetic_vectors.hpp"
+#include "test_paths.hpp"
 
 namespace {
 

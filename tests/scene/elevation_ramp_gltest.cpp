@@ -32,6 +32,7 @@
 #include "terrain/elevation_ramp.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

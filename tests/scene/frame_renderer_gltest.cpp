@@ -22,6 +22,7 @@
 #include "scene/frame_renderer.hpp"
 #include "scene/frame_scene.hpp"
 #include "scene/scene.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 #include "vector_overlay/technique.hpp"
 

@@ -33,6 +33,7 @@
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
 #include "synth/synthetic_dem.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::test {

@@ -25,6 +25,7 @@
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/cpu_reference.hpp"
 
 namespace gis::test {

@@ -13,6 +13,7 @@
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
 #include "terrain/tile_pager.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

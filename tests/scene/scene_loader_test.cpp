@@ -24,6 +24,7 @@
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "terrain/terrain_grid.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

@@ -14,6 +14,7 @@
 #include "scene/globe_selection.hpp"
 #include "scene/json_file.hpp"
 #include "scene/scene.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {
@@ -188,7 +189,7 @@ TEST(SceneFile, EntriesOfTheWrongTypeAreErrorsNamingThem) {
 TEST(SceneFile, EverySceneFileOfTheSamplesAndTestDataHasNoUnknownKey) {
   // Every JSON file under samples/ and tests/data that is a scene file (it has a "terrain").
   std::size_t scenes = 0;
-  for (const std::string& root : {kSamples, std::string(STENCIL_GIS_SAMPLES_DIR "/../tests/data")}) {
+  for (const std::string& root : {kSamples, std::string(STENCIL_GIS_TEST_DATA_DIR)}) {
     for (const auto& entry : std::filesystem::recursive_directory_iterator(root)) {
       if (entry.path().extension() != ".json") continue;
       std::ifstream in(entry.path());

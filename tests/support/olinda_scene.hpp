@@ -9,6 +9,7 @@
 #include "scene/scene.hpp"
 #include "scene/scene_loader.hpp"
 #include "scene/scene_renderer.hpp"
+#include "test_paths.hpp"
 #include "vector_overlay/technique.hpp"
 
 namespace gis::test {

@@ -14,6 +14,7 @@
 #include "paged_terrain.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/lod.hpp"
+#include "test_paths.hpp"
 #include "test_terrain.hpp"
 
 namespace gis::test {

@@ -8,6 +8,7 @@
 #include "geo/raster.hpp"
 #include "terrain/height_bounds.hpp"
 #include "terrain/terrain_grid.hpp"
+#include "test_paths.hpp"
 
 namespace gis::test {
 namespace {

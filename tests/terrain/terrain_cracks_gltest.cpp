@@ -13,6 +13,7 @@
 #include "gl_test.hpp"
 #include "paged_terrain.hpp"
 #include "terrain/terrain_engine.hpp"
+#include "test_paths.hpp"
 #include "test_terrain.hpp"
 
 namespace gis::test {

@@ -16,6 +16,7 @@
 #include "gfx/camera.hpp"
 #include "paged_terrain.hpp"
 #include "terrain/lod.hpp"
+#include "test_paths.hpp"
 #include "test_terrain.hpp"
 
 namespace gis::test {
