@@ -58,5 +58,6 @@ static int viewerMain(int argc, char** argv) {
 }
 
 int main(int argc, char** argv) {
+  gis::keepFreedHeapForFrames();
   return gis::app::guardedMain("terrain_viewer", [&] { return viewerMain(argc, argv); });
 }

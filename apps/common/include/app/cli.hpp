@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "core/diagnostics.hpp"
+#include "core/heap.hpp"
 #include "core/log.hpp"
 
 namespace gis::app {
@@ -55,9 +56,10 @@ inline int guardedMain(const char* name, const std::function<int()>& body) {
 
 /// The common shape of our programs' main(): --help prints the usage; `parse` returns an error
 /// message (printed with the usage, exit status 2) or an empty string; then `run` decides. Both
-/// run inside guardedMain.
+/// run inside guardedMain, with freed heap kept for the next frame (keepFreedHeapForFrames).
 inline int programMain(int argc, char** argv, const char* name, const char* usage,
                        const std::function<std::string(int, char**)>& parse, const std::function<int()>& run) {
+  keepFreedHeapForFrames();
   return guardedMain(name, [&] {
     if (argc == 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
       std::fputs(usage, stdout);
