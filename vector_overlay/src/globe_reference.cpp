@@ -24,13 +24,31 @@ overlay::DepthImage depthImageOf(const GlobeView& view, std::span<const float> d
   return image;
 }
 
+namespace {
+
+/// A world point's geodetic coordinates, kept for the last point asked on this thread: the
+/// reference asks each layer in turn about the same pixel's point (referenceMask, the edge band's
+/// probes), which took one conversion per layer and point (a quarter of a globe accuracy test's
+/// time with eight layers).
+Geodetic geodeticOf(const glm::dvec3& world) {
+  thread_local glm::dvec3 last(std::numeric_limits<double>::quiet_NaN());  // never equal to a point
+  thread_local Geodetic kept;
+  if (world != last) {
+    kept = toGeodetic(world);
+    last = world;
+  }
+  return kept;
+}
+
+}  // namespace
+
 bool GlobeLayer::covers(const glm::dvec3& world) const {
-  const Geodetic g = toGeodetic(world);
+  const Geodetic g = geodeticOf(world);
   return contains(world, g.lon, g.lat);
 }
 
 bool GlobeCoverage::covers(const glm::dvec3& world) const {
-  const Geodetic g = toGeodetic(world);
+  const Geodetic g = geodeticOf(world);
   return layer_->contains(world, g.lon, g.lat, scale_);
 }
 
