@@ -482,6 +482,17 @@ class Builder {
   }
 
   void flatten() {
+    // The arrays' sizes first: each is allocated once (growing them a push at a time copied and
+    // faulted in the items about twice over: a sixth of the globe's joins-and-caps test).
+    std::size_t items = 0, groups = 0, edges = 0;
+    for (const LeafContent& leaf : leaves_) {
+      items += leaf.primitives.size() + (leaf.coveredBy ? 1U : 0U);
+      groups += leaf.polygons.size();
+      for (const LeafContent::PolygonEntry& e : leaf.polygons) edges += e.edges.size();
+    }
+    out_.items.reserve(out_.items.size() + items);
+    out_.groups.reserve(out_.groups.size() + groups);
+    out_.edges.reserve(out_.edges.size() + edges);
     for (LeafContent& leaf : leaves_) {
       Node& n = out_.nodes[leaf.node];
       n.x = bitsOf(static_cast<float>(leaf.reference.x - leaf.box.lo.x));
