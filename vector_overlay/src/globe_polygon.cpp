@@ -1362,18 +1362,24 @@ bool nearLine(const GlobeLayer& layer, const GlobeLine& line, const glm::dvec3& 
   const auto farthest = [&](std::size_t k) {
     if (!line.joins) return (line.halfWidth + extra) + height;
     const std::vector<detail::PointShape>& at = line.joins->at;
-    const double reach =
-        std::max({1.0, k < at.size() ? at[k].reach : line.reach, k + 1 < at.size() ? at[k + 1].reach : line.reach});
+    const double reach = std::max(std::max(1.0, k < at.size() ? at[k].reach : line.reach),
+                                  k + 1 < at.size() ? at[k + 1].reach : line.reach);
     return (line.halfWidth + extra) * reach + height;
   };
   const auto nearPiece = [&](std::size_t k) {
     {
-      const glm::dvec3 a = line.surface[k], ab = line.surface[k + 1] - a;
-      const double l2 = glm::dot(ab, ab);
-      const double t = l2 > 0.0 ? std::clamp(glm::dot(point - a, ab) / l2, 0.0, 1.0) : 0.0;
-      const glm::dvec3 off = point - a - ab * t;
+      // Most pieces a point is asked about are far from it: this test, in scalars (under the
+      // sanitizers each vector temporary is a poisoned stack object; this was a fifth of a globe
+      // accuracy test there).
+      const glm::dvec3& a = line.surface[k];
+      const glm::dvec3& b = line.surface[k + 1];
+      const double abx = b.x - a.x, aby = b.y - a.y, abz = b.z - a.z;
+      const double px = point.x - a.x, py = point.y - a.y, pz = point.z - a.z;
+      const double l2 = abx * abx + aby * aby + abz * abz;
+      const double t = l2 > 0.0 ? std::clamp((px * abx + py * aby + pz * abz) / l2, 0.0, 1.0) : 0.0;
+      const double ox = px - abx * t, oy = py - aby * t, oz = pz - abz * t;
       const double slack = farthest(k) + l2 / (8.0 * kMinCurvatureRadius);
-      if (glm::dot(off, off) > slack * slack) return false;
+      if (ox * ox + oy * oy + oz * oz > slack * slack) return false;
     }
     const double ra = radius(k), rb = radius(k + 1);
     if (nearPoint(k, ra) || nearPoint(k + 1, rb)) return true;
