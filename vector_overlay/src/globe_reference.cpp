@@ -142,6 +142,7 @@ class BorderIndex {
   explicit BorderIndex(std::vector<BorderPiece> pieces) : pieces_(std::move(pieces)) {
     order_.resize(pieces_.size());
     std::iota(order_.begin(), order_.end(), 0U);
+    nodes_.reserve(2 * pieces_.size());  // leaves of at least one piece: fewer than 2n nodes
     if (!pieces_.empty()) build(0, order_.size());
   }
   /// Calls visit(piece) for every piece whose box lies within `radius` of the point.
@@ -264,8 +265,10 @@ namespace {
 /// narrower than a pixel, which the probes may not see, has its band too).
 class GlobeEdgeLayers final : public overlay::EdgeLayers {
  public:
-  GlobeEdgeLayers(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale)
-      : index_(bordersOf(layers, scale)), layerCount_(std::min<std::size_t>(layers.size(), 32)) {
+  /// `lo`, `hi`: the box of every point and probe the edge band will ask about.
+  GlobeEdgeLayers(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale, const glm::dvec3& lo,
+                  const glm::dvec3& hi)
+      : index_(bordersOf(layers, scale, Region(lo, hi))), layerCount_(std::min<std::size_t>(layers.size(), 32)) {
     for (std::size_t l = 0; l < layerCount_; ++l) coverage_.emplace_back(*layers[l], scale);
   }
   [[nodiscard]] std::uint32_t bits(const glm::dvec3& world) const override {
@@ -299,11 +302,39 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
   }
 
  private:
-  /// Every border of the layers: areas' rings, lines' sides and the edges of joins and caps
-  /// other than round, with the lines' half widths in this view.
+  /// Where straddles() can look: a piece is visited when its box lies within reach + |h| + 1 m
+  /// of a footprint's middle, which lies in the box; its reach (to a corner, also in the box)
+  /// is at most the box's diagonal, and its height at most a corner's plus the diagonal (the
+  /// height above the ellipsoid is the distance to it). A piece whose box lies farther from the
+  /// box than that is never visited: the region indexes only what the view can reach.
+  struct Region {
+    Region(const glm::dvec3& boxLo, const glm::dvec3& boxHi) : lo(boxLo), hi(boxHi) {
+      const double diagonal = glm::length(hi - lo);
+      double height = 0.0;
+      for (int corner = 0; corner < 8; ++corner) {
+        const glm::dvec3 p((corner & 1) != 0 ? hi.x : lo.x, (corner & 2) != 0 ? hi.y : lo.y,
+                           (corner & 4) != 0 ? hi.z : lo.z);
+        height = std::max(height, std::abs(toGeodetic(p).h));
+      }
+      // A metre more than straddles() adds, and a millionth for the rounding of ECEF sums.
+      reach = 2.0 * diagonal + height + 2.0 + 1e-6 * glm::length(glm::max(glm::abs(lo), glm::abs(hi)));
+    }
+    [[nodiscard]] bool reaches(const BorderPiece& piece) const {
+      const glm::dvec3 gap = glm::max(glm::max(lo - piece.hi, piece.lo - hi), glm::dvec3(0.0));
+      return glm::length(gap) <= reach;
+    }
+    glm::dvec3 lo, hi;
+    double reach = 0.0;
+  };
+
+  /// Every border of the layers that the region reaches: areas' rings, lines' sides and the
+  /// edges of joins and caps other than round, with the lines' half widths in this view.
   static std::vector<BorderPiece> bordersOf(const std::vector<const GlobeLayer*>& layers,
-                                            const overlay::PixelScale& scale) {
+                                            const overlay::PixelScale& scale, const Region& region) {
     std::vector<BorderPiece> pieces;
+    const auto add = [&](const BorderPiece& piece) {
+      if (region.reaches(piece)) pieces.push_back(piece);
+    };
     for (std::size_t l = 0; l < layers.size() && l < 32; ++l) {
       const auto layer = static_cast<std::uint32_t>(l);
       for (std::size_t k = 0; k < layers[l]->areaCount(); ++k) {
@@ -311,7 +342,7 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
           for (std::size_t i = 0; i < ring.size(); ++i) {
             const glm::dvec2 p = ring[i], q = ring[(i + 1) % ring.size()];
             if (detail::isPole(p.y) && detail::isPole(q.y) && (p.y > 0) == (q.y > 0)) continue;  // along a pole
-            pieces.push_back(borderPiece(p, q, 0.0, layer));
+            add(borderPiece(p, q, 0.0, layer));
           }
         }
       }
@@ -322,7 +353,7 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
           for (std::size_t i = 0; i < widths.size(); ++i) widths[i] = layers[l]->halfWidthAt(line, i, scale);
         }
         for (std::size_t i = 0; i + 1 < line.points.size(); ++i)
-          pieces.push_back(borderPiece(line.points[i], line.points[i + 1], widths[i], layer, widths[i + 1]));
+          add(borderPiece(line.points[i], line.points[i + 1], widths[i], layer, widths[i + 1]));
         if (line.round()) continue;
         // Joins and caps other than round: their edges that bound the line.
         for (std::size_t k = 0; k < line.points.size(); ++k) {
@@ -332,8 +363,8 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
           const std::size_t count = shape.directions.size();
           for (std::size_t e = 0; e < shape.border.size(); ++e) {
             if (shape.border[e] == 0) continue;
-            pieces.push_back(borderPiece(line.surface[k] + widths[k] * shape.directions[e],
-                                         line.surface[k] + widths[k] * shape.directions[(e + 1) % count], n, layer));
+            add(borderPiece(line.surface[k] + widths[k] * shape.directions[e],
+                            line.surface[k] + widths[k] * shape.directions[(e + 1) % count], n, layer));
           }
         }
       }
@@ -354,9 +385,7 @@ overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& laye
 
 overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale) {
   return [layers, scale](const glm::dvec3& lo, const glm::dvec3& hi) -> std::unique_ptr<overlay::EdgeLayers> {
-    (void)lo;  // the borders are few beside the pixels: indexed whole
-    (void)hi;
-    return std::make_unique<GlobeEdgeLayers>(layers, scale);
+    return std::make_unique<GlobeEdgeLayers>(layers, scale, lo, hi);
   };
 }
 
