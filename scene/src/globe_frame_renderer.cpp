@@ -231,14 +231,10 @@ class GlobeFrameRenderer final : public FrameRenderer {
                                             const overlay::DepthImage& image) const override {
     std::vector<const globe::GlobeLayer*> layers;
     for (const std::size_t j : drawn) layers.push_back(&scene_.layers.at(j));
-    if (wholeLoad()) {
-      // Built whole, lines in pixels are drawn at their least widths (in metres).
-      const overlay::PixelScale least;
-      return {overlay::referenceMask(image, globe::LayerCoverage(layers, least)),
-              overlay::edgePixels(image, globe::edgeLayersOf(layers, least))};
-    }
-    return {overlay::referenceMask(image, globe::coverageOf(layers, image)),
-            overlay::edgePixels(image, globe::edgeLayersOf(layers, image))};
+    // Built whole, lines in pixels are drawn at their least widths (in metres).
+    const overlay::FrameLayersMaker reference =
+        wholeLoad() ? globe::referenceLayersOf(layers, overlay::PixelScale{}) : globe::referenceLayersOf(layers, image);
+    return {overlay::referenceMask(image, reference), overlay::edgePixels(image, reference)};
   }
 
   [[nodiscard]] FrameImages readFrame(gfx::StateCache& cache, const gfx::RenderTarget& target) const override {

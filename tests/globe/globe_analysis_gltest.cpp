@@ -115,10 +115,10 @@ TEST_F(GlobeAnalysisGl, OverlapOfTwoLayersMatchesTheReferenceForEveryOperator) {
     gfx::RenderTarget target(v.width, v.height, 0, true);
     const std::vector<DrawnTile> tiles = drawTerrain(terrain, target, v);
     const std::vector<float> depth = gfx::readDepth(target);
-    const std::vector<std::uint32_t> expected =
-        overlay::referenceMask(depthImageOf(v, depth), coverageOf({&layers.a, &layers.b}, depthImageOf(v, depth)));
+    const std::vector<std::uint32_t> expected = overlay::referenceMask(
+        depthImageOf(v, depth), referenceLayersOf({&layers.a, &layers.b}, depthImageOf(v, depth)));
     const std::vector<std::uint8_t> edges =
-        overlay::edgePixels(depthImageOf(v, depth), edgeLayersOf({&layers.a, &layers.b}, depthImageOf(v, depth)));
+        overlay::edgePixels(depthImageOf(v, depth), referenceLayersOf({&layers.a, &layers.b}, depthImageOf(v, depth)));
     std::size_t both = 0;
     for (const std::uint32_t e : expected) both += e == 3U ? 1U : 0U;
     // One operator per view (each in more than one view), marked anew each time: the cover zeroes.

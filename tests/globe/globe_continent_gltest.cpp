@@ -68,9 +68,9 @@ TEST_F(GlobeContinentGl, ExactOverRealBordersFromSpaceToTheCoast) {
     const std::vector<float> depth = gfx::readDepth(target);
     const std::vector<std::uint32_t> gpu = gfx::readMask(target);
     const std::vector<std::uint32_t> expected =
-        overlay::referenceMask(depthImageOf(view, depth), coverageOf(layers, depthImageOf(view, depth)));
+        overlay::referenceMask(depthImageOf(view, depth), referenceLayersOf(layers, depthImageOf(view, depth)));
     const std::vector<std::uint8_t> edges =
-        overlay::edgePixels(depthImageOf(view, depth), edgeLayersOf(layers, depthImageOf(view, depth)));
+        overlay::edgePixels(depthImageOf(view, depth), referenceLayersOf(layers, depthImageOf(view, depth)));
     std::size_t covered = 0, wrong = 0, edgeWrong = 0;
     for (std::size_t i = 0; i < gpu.size(); ++i) {
       covered += expected[i] != 0 ? 1U : 0U;

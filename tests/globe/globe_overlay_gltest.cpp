@@ -127,8 +127,8 @@ class GlobeOverlayGl : public test::GlTest {
                            rgba);
     overlay::DepthImage image = depthImageOf(view, depth);
     image.viewProj = viewProj;
-    const std::vector<std::uint32_t> expected = overlay::referenceMask(image, coverageOf(layers, image));
-    std::vector<std::uint8_t> edges = overlay::edgePixels(image, edgeLayersOf(layers, image));
+    const std::vector<std::uint32_t> expected = overlay::referenceMask(image, referenceLayersOf(layers, image));
+    std::vector<std::uint8_t> edges = overlay::edgePixels(image, referenceLayersOf(layers, image));
     // A frame drawn coarser for the budget is exact only farther than its stated error from edges:
     // the band grown by the error beyond the half pixel the terrain's detail keeps.
     const int grow = static_cast<int>(std::ceil(overlay.stats().tiles.tileErrorPixels - 0.5));
@@ -1161,8 +1161,8 @@ TEST_F(GlobeOverlayGl, TheDrapesOfBothFramesLieInLongitudeAndLatitudeAndSharpenW
       const std::vector<float> depth = gfx::readDepth(target);
       const std::vector<std::uint32_t> gpu = gfx::readMask(target);
       const overlay::DepthImage image = depthImageOf(v, depth);
-      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, coverageOf(all, image));
-      const std::vector<std::uint8_t> edges = overlay::edgePixels(image, edgeLayersOf(all, image));
+      const std::vector<std::uint32_t> expected = overlay::referenceMask(image, referenceLayersOf(all, image));
+      const std::vector<std::uint8_t> edges = overlay::edgePixels(image, referenceLayersOf(all, image));
       std::size_t w = 0, c = 0;
       for (std::size_t i = 0; i < gpu.size(); ++i) {
         c += expected[i] != 0 ? 1U : 0U;

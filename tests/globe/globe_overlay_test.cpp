@@ -547,10 +547,10 @@ TEST(GlobeEdgeBand, HoldsLinesNarrowerThanAPixelAndNothingFarFromEdges) {
   const double pixel = view.pixelSizeAt(2000.0);
   for (const GlobeLayer* layer : {&*road, &*fields}) {
     const std::vector<std::uint32_t> mask =
-        overlay::referenceMask(depthImageOf(view, depth), coverageOf({layer}, depthImageOf(view, depth)));
+        overlay::referenceMask(depthImageOf(view, depth), referenceLayersOf({layer}, depthImageOf(view, depth)));
     const std::vector<std::uint8_t> byMask = overlay::maskEdges(mask, depthImageOf(view, depth));
     const std::vector<std::uint8_t> band =
-        overlay::edgePixels(depthImageOf(view, depth), edgeLayersOf({layer}, depthImageOf(view, depth)));
+        overlay::edgePixels(depthImageOf(view, depth), referenceLayersOf({layer}, depthImageOf(view, depth)));
     std::size_t near = 0, far = 0, bandCount = 0, maskCount = 0;
     for (int row = 1; row + 1 < view.height; ++row) {
       for (int col = 1; col + 1 < view.width; ++col) {

@@ -773,7 +773,7 @@ TEST(ReferenceMask, IndexAgreesWithUnindexedCoverage) {
 TEST(ReferenceMask, AnImageRelativeToAnOriginIsTheSameImage) {
   // The globe's depth images are eye-relative (DepthImage::origin): the same camera made relative
   // to a far origin (1,000 km away) unprojects every pixel to the same point within 1 µm of the
-  // distance, gives the same mask through WorldCoverage layers as through ReferenceLayer, and
+  // distance, gives the same mask through a frame's own FrameLayers as through ReferenceLayer, and
   // maskEdges marks exactly where the mask or ground changes within a pixel's neighbours.
   const Camera camera = makeCamera({30, -40, 60}, {0, 0, 0}, radians(60.0), 48, 32);
   const Rendered r = render(camera, planeScene({0.1, 0.05, 1}, 2.0));
@@ -801,16 +801,25 @@ TEST(ReferenceMask, AnImageRelativeToAnOriginIsTheSameImage) {
 
   const std::vector<Feature> features{polygonFeature({Polygon{rect(-20, -15, 10, 25), {}}})};
   const std::vector<ReferenceLayer> layers{polygonLayer(features)};
-  struct ThroughTheLayer final : ov::WorldCoverage {
+  // A frame's layers of one's own, asked point by point (no index): the reference's per-pixel
+  // core calls them with the far image's world points.
+  struct ThroughTheLayer final : ov::FrameLayers {
     const ReferenceLayer* layer = nullptr;
-    [[nodiscard]] bool covers(const dvec3& world) const override {
-      return ov::coveringFeature(*layer, glm::dvec2(world)).has_value();
+    [[nodiscard]] std::uint32_t bits(const dvec3& world) const override {
+      return ov::coveringFeature(*layer, glm::dvec2(world)).has_value() ? 1U : 0U;
     }
-  } coverage;
-  coverage.layer = &layers[0];
-  const std::vector<const ov::WorldCoverage*> tests{&coverage};
+    [[nodiscard]] bool straddles(const std::array<dvec3, 4>& /*footprint*/,
+                                 std::uint32_t /*centreBits*/) const override {
+      return true;
+    }
+  };
+  const ov::FrameLayersMaker throughTheLayer = [&layers](const dvec3&, const dvec3&) {
+    auto made = std::make_unique<ThroughTheLayer>();
+    made->layer = &layers[0];
+    return std::unique_ptr<ov::FrameLayers>(std::move(made));
+  };
   const std::vector<std::uint32_t> byLayer = ov::referenceMask(plain, layers);
-  const std::vector<std::uint32_t> byCoverage = ov::referenceMask(far, tests);
+  const std::vector<std::uint32_t> byCoverage = ov::referenceMask(far, throughTheLayer);
   std::size_t differing = 0, covered = 0;
   for (std::size_t i = 0; i < byLayer.size(); ++i) {
     differing += byLayer[i] != byCoverage[i] ? 1U : 0U;

@@ -480,13 +480,6 @@ class PixelSquares {
   const Unprojector& unprojector_;
 };
 
-Box regionOf(const std::vector<glm::dvec3>& points, const std::vector<std::uint8_t>& valid) {
-  Box box;
-  for (std::size_t i = 0; i < points.size(); ++i)
-    if (valid[i] != 0) box.add(glm::dvec2(points[i]));
-  return box;
-}
-
 }  // namespace
 
 std::optional<glm::dvec3> unprojectPixel(const DepthImage& image, int x, int y) {
@@ -514,12 +507,20 @@ void forEachGroundPixel(const DepthImage& image, const std::function<void(std::s
   }
 }
 
-std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const WorldCoverage* const> layers) {
-  std::vector<std::uint32_t> mask(image.depth.size(), 0);
-  forEachGroundPixel(image, [&](std::size_t i, const glm::dvec3& point) {
-    for (std::size_t l = 0; l < layers.size() && l < 32; ++l)
-      if (layers[l]->covers(point)) mask[i] |= 1U << l;
-  });
+std::vector<std::uint32_t> referenceMask(const DepthImage& image, const FrameLayersMaker& make) {
+  if (!validImage(image)) return {};
+  const PixelPoints points = unprojectAll(image, Unprojector(image));
+  std::vector<std::uint32_t> mask(points.point.size(), 0);
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < mask.size(); ++i) {
+    if (points.valid[i] == 0) continue;
+    lo = glm::min(lo, points.point[i]);
+    hi = glm::max(hi, points.point[i]);
+  }
+  if (!(lo.x <= hi.x)) return mask;  // no ground
+  const std::unique_ptr<FrameLayers> layers = make(lo, hi);
+  for (std::size_t i = 0; i < mask.size(); ++i)
+    if (points.valid[i] != 0) mask[i] = layers->bits(points.point[i]);
   return mask;
 }
 
@@ -579,24 +580,12 @@ std::optional<std::size_t> coveringFeature(const ReferenceLayer& layer, const gl
   return std::nullopt;
 }
 
-std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const ReferenceLayer> layers) {
-  if (!validImage(image)) return {};
-  const PixelPoints points = unprojectAll(image, Unprojector(image));
-  std::vector<std::uint32_t> mask(points.point.size(), 0);
-  const Box region = regionOf(points.point, points.valid);
-  if (region.empty()) return mask;
-  const MaskIndex index(layers, region, pixelScaleOf(image.viewProj, image.height));
-  for (std::size_t i = 0; i < mask.size(); ++i)
-    if (points.valid[i] != 0) mask[i] = index.bits(glm::dvec2(points.point[i]));
-  return mask;
-}
-
 namespace {
 
-/// The projected frame's layers for the edge band: their index over the region, in the plane.
-class PlaneEdgeLayers final : public EdgeLayers {
+/// The projected frame's layers for the reference: their index over the region, in the plane.
+class PlaneLayers final : public FrameLayers {
  public:
-  PlaneEdgeLayers(std::span<const ReferenceLayer> layers, const Box& region, const PixelScale& scale)
+  PlaneLayers(std::span<const ReferenceLayer> layers, const Box& region, const PixelScale& scale)
       : index_(layers, region, scale) {}
   [[nodiscard]] std::uint32_t bits(const glm::dvec3& world) const override { return index_.bits(glm::dvec2(world)); }
   [[nodiscard]] bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const override {
@@ -611,17 +600,24 @@ class PlaneEdgeLayers final : public EdgeLayers {
 
 }  // namespace
 
-std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const ReferenceLayer> layers) {
-  const PixelScale scale = pixelScaleOf(image.viewProj, image.height);
-  return edgePixels(image, [&](const glm::dvec3& lo, const glm::dvec3& hi) {
+FrameLayersMaker planeLayersOf(std::span<const ReferenceLayer> layers, const PixelScale& scale) {
+  return [layers, scale](const glm::dvec3& lo, const glm::dvec3& hi) -> std::unique_ptr<FrameLayers> {
     Box region;
     region.add(glm::dvec2(lo));
     region.add(glm::dvec2(hi));
-    return std::make_unique<PlaneEdgeLayers>(layers, region, scale);
-  });
+    return std::make_unique<PlaneLayers>(layers, region, scale);
+  };
 }
 
-std::vector<std::uint8_t> edgePixels(const DepthImage& image, const EdgeLayersMaker& make) {
+std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const ReferenceLayer> layers) {
+  return referenceMask(image, planeLayersOf(layers, pixelScaleOf(image.viewProj, image.height)));
+}
+
+std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const ReferenceLayer> layers) {
+  return edgePixels(image, planeLayersOf(layers, pixelScaleOf(image.viewProj, image.height)));
+}
+
+std::vector<std::uint8_t> edgePixels(const DepthImage& image, const FrameLayersMaker& make) {
   if (!validImage(image)) return {};
   const Unprojector unprojector(image);
   const PixelPoints points = unprojectAll(image, unprojector);
@@ -655,7 +651,7 @@ std::vector<std::uint8_t> edgePixels(const DepthImage& image, const EdgeLayersMa
   }
   if (!(lo.x <= hi.x && lo.y <= hi.y)) return edge;
 
-  const std::unique_ptr<EdgeLayers> index = make(lo, hi);
+  const std::unique_ptr<FrameLayers> index = make(lo, hi);
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * width + static_cast<std::size_t>(x);

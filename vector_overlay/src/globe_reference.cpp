@@ -6,7 +6,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <numeric>
+#include <optional>
 
 #include "globe_detail.hpp"
 #include "vector_overlay/globe_overlay.hpp"
@@ -42,16 +45,6 @@ Geodetic geodeticOf(const glm::dvec3& world) {
 
 }  // namespace
 
-bool GlobeLayer::covers(const glm::dvec3& world) const {
-  const Geodetic g = geodeticOf(world);
-  return contains(world, g.lon, g.lat);
-}
-
-bool GlobeCoverage::covers(const glm::dvec3& world) const {
-  const Geodetic g = geodeticOf(world);
-  return layer_->contains(world, g.lon, g.lat, scale_);
-}
-
 overlay::PixelScale pixelScaleOf(const overlay::DepthImage& image) {
   overlay::PixelScale scale = overlay::pixelScaleOf(image.viewProj, image.height);
   scale.eye += image.origin;  // the matrix is relative to it
@@ -62,15 +55,6 @@ overlay::PixelScale pixelScaleOf(const GlobeView& view) {
   overlay::PixelScale scale = overlay::pixelScaleOf(view.eyeViewProj(), view.height);
   scale.eye += view.eye;
   return scale;
-}
-
-LayerCoverage::LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image)
-    : LayerCoverage(layers, pixelScaleOf(image)) {}
-
-LayerCoverage::LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale) {
-  held_.reserve(layers.size());
-  for (const GlobeLayer* layer : layers) held_.emplace_back(*layer, scale);
-  for (const GlobeCoverage& c : held_) pointers_.push_back(&c);
 }
 
 overlay::OverlayView overlayViewOf(const GlobeView& view) {
@@ -258,27 +242,30 @@ BorderPiece borderPiece(const glm::dvec2& p, const glm::dvec2& q, double halfWid
 
 namespace {
 
-/// The globe's layers for the edge band of both frames (overlay::edgePixels): their coverage as
-/// the view sees it, and their borders on the ellipsoid, indexed once. A footprint straddles a
-/// layer where an area's border passes within its reach (the farthest of its corners from its
-/// middle) or a line's border does (|distance to the line − half width| ≤ reach, so a line
-/// narrower than a pixel, which the probes may not see, has its band too).
-class GlobeEdgeLayers final : public overlay::EdgeLayers {
+/// The globe's layers for the CPU reference of both frames (overlay::FrameLayers): their
+/// coverage as the view sees it (GlobeLayer::contains at its pixel scale), and for the edge band
+/// their borders on the ellipsoid, indexed when it first asks. A footprint straddles a layer
+/// where an area's border passes within its reach (the farthest of its corners from its middle)
+/// or a line's border does (|distance to the line − half width| ≤ reach, so a line narrower than
+/// a pixel, which the probes may not see, has its band too).
+class GlobeReferenceLayers final : public overlay::FrameLayers {
  public:
-  /// `lo`, `hi`: the box of every point and probe the edge band will ask about.
-  GlobeEdgeLayers(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale, const glm::dvec3& lo,
-                  const glm::dvec3& hi)
-      : index_(bordersOf(layers, scale, Region(lo, hi))), layerCount_(std::min<std::size_t>(layers.size(), 32)) {
-    for (std::size_t l = 0; l < layerCount_; ++l) coverage_.emplace_back(*layers[l], scale);
-  }
+  /// `lo`, `hi`: the box of every point and probe the reference will ask about.
+  GlobeReferenceLayers(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale,
+                       const glm::dvec3& lo, const glm::dvec3& hi)
+      : layers_(layers.begin(), layers.begin() + static_cast<std::ptrdiff_t>(std::min<std::size_t>(layers.size(), 32))),
+        scale_(scale),
+        region_(lo, hi) {}
   [[nodiscard]] std::uint32_t bits(const glm::dvec3& world) const override {
+    const Geodetic g = geodeticOf(world);
     std::uint32_t out = 0;
-    for (std::size_t l = 0; l < coverage_.size(); ++l)
-      if (coverage_[l].covers(world)) out |= 1U << l;
+    for (std::size_t l = 0; l < layers_.size(); ++l)
+      if (layers_[l]->contains(world, g.lon, g.lat, scale_)) out |= 1U << l;
     return out;
   }
   [[nodiscard]] bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const override {
     (void)centreBits;
+    std::call_once(indexed_, [this] { index_.emplace(bordersOf(layers_, scale_, region_)); });
     const glm::dvec3 middle = 0.25 * (footprint[0] + footprint[1] + footprint[2] + footprint[3]);
     double reach = 0.0;
     for (const glm::dvec3& corner : footprint) reach = std::max(reach, glm::length(corner - middle));
@@ -287,7 +274,7 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
     const Geodetic g = toGeodetic(middle);
     std::array<char, 32> outer{}, inner{};  // per layer (at most the mask's 32): no allocation per pixel
     bool edge = false;
-    index_.near(middle, reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
+    index_->near(middle, reach + std::abs(g.h) + 1.0, [&](const BorderPiece& piece) {
       if (edge) return;
       const double d = acrossDistance(piece, middle);
       if (piece.halfWidth == 0.0 && piece.halfWidthB == 0.0) {
@@ -297,7 +284,7 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
         inner[piece.layer] |= static_cast<char>(d <= std::min(piece.halfWidth, piece.halfWidthB) - reach);
       }
     });
-    for (std::size_t l = 0; l < layerCount_ && !edge; ++l) edge = outer[l] != 0 && inner[l] == 0;
+    for (std::size_t l = 0; l < layers_.size() && !edge; ++l) edge = outer[l] != 0 && inner[l] == 0;
     return edge;
   }
 
@@ -372,20 +359,24 @@ class GlobeEdgeLayers final : public overlay::EdgeLayers {
     return pieces;
   }
 
-  BorderIndex index_;
-  std::size_t layerCount_;
-  std::vector<GlobeCoverage> coverage_;
+  std::vector<const GlobeLayer*> layers_;  ///< the first 32 (the mask's bits)
+  overlay::PixelScale scale_;
+  Region region_;
+  mutable std::once_flag indexed_;
+  mutable std::optional<BorderIndex> index_;
 };
 
 }  // namespace
 
-overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
-  return edgeLayersOf(layers, pixelScaleOf(image));
+overlay::FrameLayersMaker referenceLayersOf(const std::vector<const GlobeLayer*>& layers,
+                                            const overlay::DepthImage& image) {
+  return referenceLayersOf(layers, pixelScaleOf(image));
 }
 
-overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale) {
-  return [layers, scale](const glm::dvec3& lo, const glm::dvec3& hi) -> std::unique_ptr<overlay::EdgeLayers> {
-    return std::make_unique<GlobeEdgeLayers>(layers, scale, lo, hi);
+overlay::FrameLayersMaker referenceLayersOf(const std::vector<const GlobeLayer*>& layers,
+                                            const overlay::PixelScale& scale) {
+  return [layers, scale](const glm::dvec3& lo, const glm::dvec3& hi) -> std::unique_ptr<overlay::FrameLayers> {
+    return std::make_unique<GlobeReferenceLayers>(layers, scale, lo, hi);
   };
 }
 

@@ -74,23 +74,29 @@ std::optional<glm::dvec3> unprojectDepth(const DepthImage& camera, int x, int y,
 /// ground, with its world point (unprojectPixel).
 void forEachGroundPixel(const DepthImage& image, const std::function<void(std::size_t, const glm::dvec3&)>& visit);
 
-/// What the reference asks of a layer in any frame: whether it covers a world point (a pixel's
-/// ground point). The projected frame's layers answer through ReferenceLayer below; the globe's
-/// (globe::GlobeLayer) with their rules on the ellipsoid.
-class WorldCoverage {
+/// What the reference asks of a frame's layers, in any frame: the one seam between the reference's
+/// per-pixel core (referenceMask, edgePixels) and a frame's coverage rules. The projected frame
+/// answers in its plane from ReferenceLayers (planeLayersOf), the globe on the ellipsoid
+/// (globe::referenceLayersOf).
+class FrameLayers {
  public:
-  virtual ~WorldCoverage() = default;
-  WorldCoverage() = default;
-  WorldCoverage(const WorldCoverage&) = default;
-  WorldCoverage& operator=(const WorldCoverage&) = default;
-  WorldCoverage(WorldCoverage&&) = default;
-  WorldCoverage& operator=(WorldCoverage&&) = default;
-  [[nodiscard]] virtual bool covers(const glm::dvec3& world) const = 0;
+  virtual ~FrameLayers() = default;
+  FrameLayers() = default;
+  FrameLayers(const FrameLayers&) = delete;
+  FrameLayers& operator=(const FrameLayers&) = delete;
+  /// The layers' mask bits at a world point (bit i: layer i covers it; i < 32).
+  [[nodiscard]] virtual std::uint32_t bits(const glm::dvec3& world) const = 0;
+  /// Whether the bits may not be the same all over a pixel's footprint (its corner probes on the
+  /// ground, in order round it) whose centre has `centreBits` (true where unsure).
+  [[nodiscard]] virtual bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const = 0;
 };
+/// Makes a frame's layers for the world box [lo, hi] that every point the reference will ask
+/// about lies in (an index need hold only what reaches it).
+using FrameLayersMaker = std::function<std::unique_ptr<FrameLayers>(const glm::dvec3& lo, const glm::dvec3& hi)>;
 
-/// Per pixel (row 0 = top), bit i set when layers[i] (i < 32) covers the pixel's ground point;
-/// 0 on background.
-std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const WorldCoverage* const> layers);
+/// Per pixel (row 0 = top), the bits of the layers `make` gives at the pixel's ground point
+/// (unprojectPixel); 0 on background, empty for an image that is not valid.
+std::vector<std::uint32_t> referenceMask(const DepthImage& image, const FrameLayersMaker& make);
 
 /// Per pixel, 1 where the mask differs within its 3 × 3 neighbourhood or ground meets background
 /// there: the edge band a mask alone shows (a selection's, or the start of a layer's).
@@ -108,8 +114,14 @@ struct ReferenceLayer {
   std::vector<bool> visible;
 };
 
+/// The projected frame's layers as the reference asks them (FrameLayers): indexed over the
+/// region it is given, in the frame's plane, lines in pixels at `scale`. The layers must outlive
+/// what the maker makes.
+FrameLayersMaker planeLayersOf(std::span<const ReferenceLayer> layers, const PixelScale& scale);
+
 /// Per pixel (row 0 = top), bit i set when layer i (i < 32) covers the pixel's terrain point;
-/// layers from the 33rd on are ignored. 0 on background.
+/// layers from the 33rd on are ignored. 0 on background. (referenceMask of planeLayersOf at the
+/// image's pixel scale.)
 std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<const ReferenceLayer> layers);
 
 /// Per pixel, 1 where the pixel's footprint straddles a feature edge: the mask bits at the
@@ -133,28 +145,10 @@ std::vector<std::uint32_t> referenceMask(const DepthImage& image, std::span<cons
 /// than it for the GPU to agree exactly elsewhere.
 std::vector<std::uint8_t> edgePixels(const DepthImage& image, std::span<const ReferenceLayer> layers);
 
-/// What the edge band asks of a frame's layers (edgePixels below): the projected frame's answer
-/// in its plane (ReferenceLayer), the globe's on the ellipsoid (globe::edgeLayersOf).
-class EdgeLayers {
- public:
-  virtual ~EdgeLayers() = default;
-  EdgeLayers() = default;
-  EdgeLayers(const EdgeLayers&) = delete;
-  EdgeLayers& operator=(const EdgeLayers&) = delete;
-  /// The layers' mask bits at a world point (bit i: layer i covers it).
-  [[nodiscard]] virtual std::uint32_t bits(const glm::dvec3& world) const = 0;
-  /// Whether the bits may not be the same all over a pixel's footprint (its corner probes on the
-  /// ground, in order round it) whose centre has `centreBits` (true where unsure).
-  [[nodiscard]] virtual bool straddles(const std::array<glm::dvec3, 4>& footprint, std::uint32_t centreBits) const = 0;
-};
-/// Makes a frame's EdgeLayers for the world box [lo, hi] that the probes of an image span.
-using EdgeLayersMaker = std::function<std::unique_ptr<EdgeLayers>(const glm::dvec3& lo, const glm::dvec3& hi)>;
-
 /// The edge band of the layers `make` gives, in any frame: the rules of edgePixels above (depth
 /// discontinuities, probes beyond the local plane's horizon, probes whose bits differ from the
-/// centre's, footprints the layers straddle). The edgePixels above is this with the
-/// ReferenceLayers' answers.
-std::vector<std::uint8_t> edgePixels(const DepthImage& image, const EdgeLayersMaker& make);
+/// centre's, footprints the layers straddle). The edgePixels above is this with planeLayersOf.
+std::vector<std::uint8_t> edgePixels(const DepthImage& image, const FrameLayersMaker& make);
 
 struct PickedFeature {
   std::size_t layer = 0;

@@ -166,7 +166,7 @@ struct GlobeLine {
   [[nodiscard]] std::size_t bucketRow(double lat) const;
 };
 
-class GlobeLayer final : public overlay::WorldCoverage {
+class GlobeLayer final {
  public:
   /// Features with polygons or lines in (lon, lat) degrees on WGS 84, in memory or on disk (read
   /// one at a time: the scene's layers as loadLayers read them, shared with both frames). A
@@ -277,9 +277,6 @@ class GlobeLayer final : public overlay::WorldCoverage {
   /// (the view's; with none, their least widths).
   [[nodiscard]] bool contains(const glm::dvec3& point, double lonDeg, double latDeg,
                               const overlay::PixelScale& scale = {}) const;
-  /// The same for an ECEF point alone (overlay::referenceMask asks so), lines in pixels at their
-  /// least widths: coverageOf gives the layer as a view sees it.
-  [[nodiscard]] bool covers(const glm::dvec3& world) const override;
   /// A digest of everything its tiles' pieces are made from (areas as prepared; lines as their
   /// features give them, with their widths, joins, caps and colour groups; the anchor ground's
   /// posts, tolerances, and the builder's version): what the tile cache on disk is keyed by, known
@@ -685,53 +682,28 @@ class GlobeOverlayRenderer {
 
 /// The globe's depth buffer as the CPU reference reads it (overlay::DepthImage): eye-relative
 /// (origin the eye, viewProj view.eyeViewProj()), so every reference function of
-/// vector_overlay/cpu_reference.hpp works on it: unprojectPixel, referenceMask (GlobeLayer is an
-/// overlay::WorldCoverage), maskEdges, and the lasso's selectionMask.
+/// vector_overlay/cpu_reference.hpp works on it: unprojectPixel, referenceMask and edgePixels (with
+/// referenceLayersOf), maskEdges, and the lasso's selectionMask.
 overlay::DepthImage depthImageOf(const GlobeView& view, std::span<const float> depth);
 
-/// A layer as a view sees it (lines in pixels take their widths from its pixel scale).
-class GlobeCoverage final : public overlay::WorldCoverage {
- public:
-  GlobeCoverage(const GlobeLayer& layer, const overlay::PixelScale& scale) : layer_(&layer), scale_(scale) {}
-  [[nodiscard]] bool covers(const glm::dvec3& world) const override;
-
- private:
-  const GlobeLayer* layer_;
-  overlay::PixelScale scale_;
-};
-
-/// The layers as overlay::referenceMask takes them for `image` (its camera's pixel scale).
-class LayerCoverage {
- public:
-  LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image);
-  /// At a pixel scale of one's own: PixelScale{} for lines in pixels at their least widths, as
-  /// the layers built whole draw them (GlobeTechnique::Stencil, Paper).
-  LayerCoverage(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale);
-  LayerCoverage(const LayerCoverage&) = delete;
-  LayerCoverage& operator=(const LayerCoverage&) = delete;
-  // NOLINTNEXTLINE(google-explicit-constructor): passed where a span of coverages is asked for
-  operator std::span<const overlay::WorldCoverage* const>() const { return pointers_; }
-
- private:
-  std::vector<GlobeCoverage> held_;
-  std::vector<const overlay::WorldCoverage*> pointers_;
-};
-inline LayerCoverage coverageOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image) {
-  return {layers, image};
-}
 /// The pixel scale of the camera that drew `image`, or of a view (lines in pixels), ECEF.
 overlay::PixelScale pixelScaleOf(const overlay::DepthImage& image);
 overlay::PixelScale pixelScaleOf(const GlobeView& view);
 
-/// The layers as the edge band of both frames asks for them (overlay::edgePixels(image,
-/// edgeLayersOf(layers, image))): their coverage as the image's camera sees it (lines in pixels
+/// The layers as the CPU reference of both frames asks for them (overlay::FrameLayers: the mask,
+/// overlay::referenceMask(image, referenceLayersOf(layers, image)), and the edge band,
+/// overlay::edgePixels): their coverage as the image's camera sees it (contains, lines in pixels
 /// at its widths), and a footprint straddles a layer where one of its borders passes within the
 /// footprint's reach: an area's ring, or the border of a line's union of capsules (so a line
 /// narrower than a pixel has its band too). Drawn shapes generalised by a fraction of a pixel
-/// (simplifyTolerance, lineShapesIn) stay inside it.
-overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::DepthImage& image);
-/// The same at a pixel scale of one's own (LayerCoverage's).
-overlay::EdgeLayersMaker edgeLayersOf(const std::vector<const GlobeLayer*>& layers, const overlay::PixelScale& scale);
+/// (simplifyTolerance, lineShapesIn) stay inside it. The borders are indexed when the edge band
+/// first asks.
+overlay::FrameLayersMaker referenceLayersOf(const std::vector<const GlobeLayer*>& layers,
+                                            const overlay::DepthImage& image);
+/// The same at a pixel scale of one's own: PixelScale{} for lines in pixels at their least
+/// widths, as the layers built whole draw them (GlobeTechnique::Stencil, Paper).
+overlay::FrameLayersMaker referenceLayersOf(const std::vector<const GlobeLayer*>& layers,
+                                            const overlay::PixelScale& scale);
 
 }  // namespace gis::globe
 
